@@ -1,0 +1,76 @@
+//! World frame, body frame, units and sign conventions — the single place
+//! they are defined.
+//!
+//! * **World frame: NED.** x points north, y east, z **down**, origin at a
+//!   fixed point on the ground. Altitude is `-z`. Gravity is `+GRAVITY` along
+//!   z. This is the frame of the paper's model (eq. 1), of PX4 and of MAVLink's
+//!   `LOCAL_POSITION_NED` / `ODOMETRY`.
+//! * **Body frame: FRD.** x forward, y right, z down. Positive roll (φ) lowers
+//!   the right side, positive pitch (θ) raises the nose, positive yaw (ψ) turns
+//!   clockwise seen from above (north → east). Attitude is the rotation
+//!   body → world, Euler ZYX (yaw, then pitch, then roll).
+//! * **Thrust** acts along body −z (upwards when level); collective thrust `T`
+//!   is a positive magnitude in newtons.
+//! * **Units:** SI — metres, seconds, kilograms, newtons, radians, rad/s.
+//! * **Files and plots (scenes, paths, trajectories):** ENU — x east, y north,
+//!   z **up** (height above ground). Convert only at that boundary.
+
+use crate::Vec3;
+
+/// Standard gravity, m/s², acting along world +z (down).
+pub const GRAVITY: f32 = 9.81;
+
+/// ENU (x east, y north, z up; files and plots) → NED (internal world frame).
+#[inline]
+pub fn enu_to_ned(v: Vec3) -> Vec3 {
+    Vec3::new(v.y, v.x, -v.z)
+}
+
+/// NED (internal world frame) → ENU (x east, y north, z up; files and plots).
+#[inline]
+pub fn ned_to_enu(v: Vec3) -> Vec3 {
+    Vec3::new(v.y, v.x, -v.z)
+}
+
+/// `true` when all three components are finite.
+#[inline]
+pub fn is_finite3(v: &Vec3) -> bool {
+    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+}
+
+/// Wrap an angle to (−π, π], rad. Non-finite input is returned unchanged
+/// (callers check finiteness themselves).
+#[inline]
+pub fn wrap_pi(a: f32) -> f32 {
+    use core::f32::consts::PI;
+    if !a.is_finite() {
+        return a;
+    }
+    let mut x = libm::remainderf(a, 2.0 * PI);
+    if x <= -PI {
+        x += 2.0 * PI;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn enu_ned_round_trip_and_up_is_minus_z() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(ned_to_enu(enu_to_ned(p)), p);
+        // 3 m above ground is z = -3 in NED; east (x_enu) becomes y_ned.
+        assert_eq!(enu_to_ned(p), Vec3::new(2.0, 1.0, -3.0));
+    }
+
+    #[test]
+    fn wrap_pi_range() {
+        use core::f32::consts::PI;
+        assert!((wrap_pi(3.0 * PI) - PI).abs() < 1e-5);
+        assert!((wrap_pi(-0.5) + 0.5).abs() < 1e-6);
+        assert!((wrap_pi(2.0 * PI + 0.25) - 0.25).abs() < 1e-5);
+        assert!(wrap_pi(-PI) > 0.0);
+    }
+}

@@ -1,0 +1,30 @@
+//! # parapet-core
+//!
+//! The hardware-independent heart of Parapet: a `#![no_std]`, allocation-free
+//! flight-control library in `f32`. The same code runs on the STM32F405 and in
+//! the host simulator.
+//!
+//! ## Frame, units and signs (stated once for the whole project)
+//! See [`frame`]: the world frame is **NED** (x north, y east, z down), the
+//! body frame is **FRD** (x forward, y right, z down), SI units everywhere
+//! (m, s, kg, N, rad). Scene files and plots use ENU (z up); they are converted
+//! at the boundary with [`frame::enu_to_ned`] / [`frame::ned_to_enu`].
+//!
+//! ## Modules
+//! - [`obstacle`]: obstacle geometry (closest surface point, signed distance)
+//!   and the fixed-capacity [`obstacle::ObstacleSet`] the filter reads.
+//! - [`cbf`]: the closed-form Control Barrier Function safety filter
+//!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
+//! - [`tracking`]: PD position tracking (eq. 2).
+//! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod frame;
+pub mod obstacle;
+
+pub use nalgebra;
+
+/// 3-vector in `f32` (world NED unless a doc comment says otherwise).
+pub type Vec3 = nalgebra::Vector3<f32>;

@@ -1,0 +1,1 @@
+//! parapet-sim: 6-DOF quadrotor simulator, scenes, planner and the `parapet` CLI.
