@@ -21,6 +21,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod airframe;
 pub mod frame;
 pub mod obstacle;
 
