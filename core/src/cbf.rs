@@ -1,0 +1,567 @@
+//! The closed-form Control Barrier Function safety filter (paper eq. 7-14)
+//! and its two extensions (relative velocity for moving obstacles; several
+//! barriers at once). Derivations: `docs/filter.md`.
+//!
+//! The translational dynamics are treated as a double integrator `p̈ = u`
+//! (world NED, m/s², gravity excluded). For an obstacle point `p̄` with
+//! velocity `v̄`, `d = p − p̄`, `ḋ = ṗ − v̄` (the paper's variants use `ḋ = ṗ`):
+//!
+//! * barrier `h = |d|² + μ dᵀḋ`, `h̄ = h − δ`, safe set `h̄ ≥ 0`;
+//! * sufficient condition for `ḣ ≥ 0` (eq. 8): `2dᵀḋ + μ dᵀ(u − ā) ≥ 0`;
+//!   with unit normal `n = d/|d|` and `|ā| ≤ A` unknown this is the half-space
+//!   `nᵀu ≥ c`, `c = −(2/μ) nᵀḋ + A` (`A = 0` in the paper's variants);
+//! * regions: `D_δ1 = {h > δ1}` (far), `D_u* = {nᵀu* > c}` (nominal safe),
+//!   `D_⊥` otherwise, where the law (12) is `u = −(2/μ)Πḋ + Π⊥u* + A n`,
+//!   i.e. the minimum-norm correction of `u*` onto the half-space.
+//!
+//! Variants ([`FilterVariant`]): `Paper` (eq. 12 + closest-active eq. 14, own
+//! velocity), `Relative` (closest-active, relative velocity, robust term),
+//! `Multi` (every near barrier at once, own velocity: exact min-norm QP),
+//! `MultiRelative` (both; the default).
+
+use crate::frame::is_finite3;
+use crate::obstacle::ObstaclePoint;
+use crate::qp3::{self, HalfSpace};
+use crate::Vec3;
+
+/// Magnitude beyond which an input is treated as corrupt (m, m/s or m/s²).
+pub const INPUT_LIMIT: f32 = 1.0e5;
+
+/// Squared distance (m²) below which the obstacle direction is undefined.
+pub const MIN_DISTANCE_SQ: f32 = 1.0e-10;
+
+/// Number of barriers the multi-barrier variants enforce at once (the `K`
+/// most critical, smallest h̄). Others near the vehicle are reported in
+/// [`FilterDiagnostics::n_near`] but not enforced.
+pub const MAX_ACTIVE_BARRIERS: usize = 4;
+
+/// Invalid filter parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CbfError {
+    /// μ must be finite and > 0.
+    MuNotPositive,
+    /// δ must be finite and > 0.
+    DeltaNotPositive,
+    /// δ1 must be finite and > δ.
+    Delta1NotAboveDelta,
+    /// The obstacle acceleration bound A must be finite and ≥ 0.
+    AccelBoundNegative,
+    /// u_max must be finite and > 0.
+    UMaxNotPositive,
+}
+
+impl core::fmt::Display for CbfError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            CbfError::MuNotPositive => "mu must be finite and > 0",
+            CbfError::DeltaNotPositive => "delta must be finite and > 0",
+            CbfError::Delta1NotAboveDelta => "delta1 must be finite and > delta",
+            CbfError::AccelBoundNegative => "accel_bound must be finite and >= 0",
+            CbfError::UMaxNotPositive => "u_max must be finite and > 0",
+        })
+    }
+}
+
+/// Parameters of the safety filter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CbfParams {
+    /// μ, s: weight of the velocity term in the barrier. Default 1.4 (paper, office).
+    pub mu: f32,
+    /// δ, m²: squared hull radius; the safe set is `h ≥ δ`. Default 0.05 (r ≈ 0.224 m).
+    pub delta: f32,
+    /// δ1, m² (> δ): the filter engages when `h ≤ δ1`. Default 0.1.
+    pub delta1: f32,
+    /// A, m/s²: bound on unknown obstacle acceleration (relative variants only). Default 0.
+    pub accel_bound: f32,
+    /// u_max, m/s²: acceleration the vehicle can achieve; a constraint needing more
+    /// along its normal raises [`FilterDiagnostics::unavoidable`]. Default 6.0
+    /// (≈ g·tan 31°, below the thrust mapping's 35° tilt limit).
+    pub u_max: f32,
+}
+
+impl Default for CbfParams {
+    fn default() -> Self {
+        CbfParams { mu: 1.4, delta: 0.05, delta1: 0.1, accel_bound: 0.0, u_max: 6.0 }
+    }
+}
+
+impl CbfParams {
+    /// Parameters with the given μ (s), δ (m²), δ1 (m²) and the other defaults; validated.
+    pub fn new(mu: f32, delta: f32, delta1: f32) -> Result<Self, CbfError> {
+        let p = CbfParams { mu, delta, delta1, ..CbfParams::default() };
+        p.validate().map(|_| p)
+    }
+
+    /// Check μ > 0, δ > 0, δ1 > δ, A ≥ 0, u_max > 0 (all finite).
+    pub fn validate(&self) -> Result<(), CbfError> {
+        if !(self.mu.is_finite() && self.mu > 0.0) {
+            return Err(CbfError::MuNotPositive);
+        }
+        if !(self.delta.is_finite() && self.delta > 0.0) {
+            return Err(CbfError::DeltaNotPositive);
+        }
+        if !(self.delta1.is_finite() && self.delta1 > self.delta) {
+            return Err(CbfError::Delta1NotAboveDelta);
+        }
+        if !(self.accel_bound.is_finite() && self.accel_bound >= 0.0) {
+            return Err(CbfError::AccelBoundNegative);
+        }
+        if !(self.u_max.is_finite() && self.u_max > 0.0) {
+            return Err(CbfError::UMaxNotPositive);
+        }
+        Ok(())
+    }
+}
+
+/// Which filter law to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FilterVariant {
+    /// Paper eq. 12 on the closest obstacle (eq. 14), vehicle velocity only.
+    Paper,
+    /// Closest obstacle, relative velocity `ṗ − v̄` and robust term for |ā| ≤ A.
+    Relative,
+    /// Every near barrier at once (exact min-norm QP over the K most critical), vehicle velocity.
+    Multi,
+    /// Every near barrier at once with relative velocity. The default.
+    #[default]
+    MultiRelative,
+}
+
+impl FilterVariant {
+    /// All variants, in documentation order.
+    pub const ALL: [FilterVariant; 4] =
+        [FilterVariant::Paper, FilterVariant::Relative, FilterVariant::Multi, FilterVariant::MultiRelative];
+
+    /// Name used on the command line and in reports.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            FilterVariant::Paper => "paper",
+            FilterVariant::Relative => "relative",
+            FilterVariant::Multi => "multi",
+            FilterVariant::MultiRelative => "multi-relative",
+        }
+    }
+    /// `true` for the variants that use the obstacle's velocity.
+    pub fn uses_relative_velocity(&self) -> bool {
+        matches!(self, FilterVariant::Relative | FilterVariant::MultiRelative)
+    }
+    /// `true` for the variants that enforce several barriers at once.
+    pub fn is_multi(&self) -> bool {
+        matches!(self, FilterVariant::Multi | FilterVariant::MultiRelative)
+    }
+}
+
+impl core::str::FromStr for FilterVariant {
+    type Err = ();
+    fn from_str(s: &str) -> Result<Self, ()> {
+        FilterVariant::ALL.into_iter().find(|v| v.as_str() == s).ok_or(())
+    }
+}
+
+/// The region of the state space the filter found the vehicle in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Region {
+    /// No obstacle given: `u = u*`.
+    NoObstacle,
+    /// `D_δ1`: every considered barrier has `h > δ1`: `u = u*`.
+    Far,
+    /// `D_u*`: the nominal input already satisfies every near constraint: `u = u*`.
+    NominalSafe,
+    /// `D_⊥`: the filter corrected `u*`.
+    Perpendicular,
+    /// Bad input: a bounded braking command was returned (see [`FilterFault`]).
+    Fault,
+}
+
+impl Region {
+    /// Small integer code for logs and telemetry (0..=4 in declaration order).
+    pub fn code(&self) -> u8 {
+        *self as u8
+    }
+}
+
+/// Why the filter returned its braking command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FilterFault {
+    /// Vehicle position or velocity non-finite or beyond [`INPUT_LIMIT`].
+    BadState,
+    /// Nominal acceleration non-finite or beyond [`INPUT_LIMIT`].
+    BadNominal,
+    /// An obstacle point or velocity non-finite or beyond [`INPUT_LIMIT`].
+    BadObstacle,
+    /// The vehicle's centre is at an obstacle point: the direction `Π` is undefined.
+    ZeroDistance,
+}
+
+/// What the filter did in one step (for logs, telemetry and tests).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FilterDiagnostics {
+    /// Region of the decision.
+    pub region: Region,
+    /// Id of the deciding obstacle: the closest (single-barrier variants) or the
+    /// most critical enforced one (multi variants); `None` when none.
+    pub active_id: Option<u16>,
+    /// Smallest `h̄ = h − δ` over all given obstacles, m²; `+∞` with none.
+    pub h_bar: f32,
+    /// `true` when the output differs from the nominal input.
+    pub intervened: bool,
+    /// Number of barriers enforced this step (0 ..= [`MAX_ACTIVE_BARRIERS`]).
+    pub n_constraints: u8,
+    /// Number of barriers with `h ≤ δ1` (may exceed `n_constraints`).
+    pub n_near: u8,
+    /// An enforced constraint needs more than `u_max` along its normal: the
+    /// vehicle cannot keep `ḣ ≥ 0` with the acceleration it has.
+    pub unavoidable: bool,
+    /// The enforced constraints have no common solution (possible only with
+    /// relative velocity); the least-violation answer was returned.
+    pub infeasible: bool,
+    /// Set when the output is the braking fallback.
+    pub fault: Option<FilterFault>,
+}
+
+impl FilterDiagnostics {
+    fn new(region: Region) -> Self {
+        FilterDiagnostics {
+            region,
+            active_id: None,
+            h_bar: f32::INFINITY,
+            intervened: false,
+            n_constraints: 0,
+            n_near: 0,
+            unavoidable: false,
+            infeasible: false,
+            fault: None,
+        }
+    }
+}
+
+/// One obstacle's barrier evaluated at the current state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Barrier {
+    /// `h = |d|² + μ dᵀḋ`, m².
+    pub h: f32,
+    /// `|d|²`, m².
+    pub dist_sq: f32,
+    /// The constraint `nᵀu ≥ c` that keeps `ḣ ≥ 0`.
+    pub constraint: HalfSpace,
+}
+
+/// Barrier value `h = |d|² + μ dᵀḋ` (eq. 7), m².
+#[inline]
+pub fn barrier_value(mu: f32, d: &Vec3, d_dot: &Vec3) -> f32 {
+    d.norm_squared() + mu * d.dot(d_dot)
+}
+
+#[inline]
+fn within_limits(v: &Vec3) -> bool {
+    is_finite3(v) && v.amax() <= INPUT_LIMIT
+}
+
+/// The closed-form CBF safety filter. Stateless, `Copy`, bounded time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SafetyFilter {
+    /// Validated parameters.
+    pub params: CbfParams,
+    /// Law in use.
+    pub variant: FilterVariant,
+}
+
+impl SafetyFilter {
+    /// A filter with validated parameters.
+    pub fn new(params: CbfParams, variant: FilterVariant) -> Result<Self, CbfError> {
+        params.validate()?;
+        Ok(SafetyFilter { params, variant })
+    }
+
+    /// Evaluate the barrier of obstacle `o` at vehicle position `p` and velocity `v`
+    /// (NED), using the variant's notion of velocity. `None` at zero distance.
+    pub fn barrier(&self, p: &Vec3, v: &Vec3, o: &ObstaclePoint) -> Option<Barrier> {
+        let d = p - o.point;
+        let dist_sq = d.norm_squared();
+        if dist_sq.is_nan() || dist_sq <= MIN_DISTANCE_SQ {
+            return None;
+        }
+        let (d_dot, a_bound) = if self.variant.uses_relative_velocity() {
+            (v - o.velocity.unwrap_or_else(Vec3::zeros), self.params.accel_bound)
+        } else {
+            (*v, 0.0)
+        };
+        let n = d / libm::sqrtf(dist_sq);
+        let mu = self.params.mu;
+        let c = -(2.0 / mu) * n.dot(&d_dot) + a_bound;
+        Some(Barrier { h: barrier_value(mu, &d, &d_dot), dist_sq, constraint: HalfSpace { n, c } })
+    }
+
+    /// Bounded braking command `u = −(2/μ)·ṗ`, saturated to `u_max` (zero if `ṗ` is bad).
+    pub fn brake(&self, v: &Vec3) -> Vec3 {
+        if !within_limits(v) {
+            return Vec3::zeros();
+        }
+        let u = v * (-2.0 / self.params.mu);
+        let n = u.norm();
+        if n > self.params.u_max {
+            u * (self.params.u_max / n)
+        } else {
+            u
+        }
+    }
+
+    fn fault(&self, v: &Vec3, fault: FilterFault) -> (Vec3, FilterDiagnostics) {
+        let mut diag = FilterDiagnostics::new(Region::Fault);
+        diag.fault = Some(fault);
+        diag.intervened = true;
+        (self.brake(v), diag)
+    }
+
+    /// Filter the nominal acceleration `u_nom` (NED, m/s², `p̈ = u`) for a vehicle at
+    /// `p` (m) moving at `v` (m/s) among `obstacles`. Returns the safe acceleration
+    /// and what was decided. Never panics; the output is always finite.
+    /// Cost: O(len) plus, for the multi variants, a fixed ≤ 15-candidate enumeration.
+    pub fn apply(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        u_nom: &Vec3,
+        obstacles: &[ObstaclePoint],
+    ) -> (Vec3, FilterDiagnostics) {
+        if !within_limits(p) || !within_limits(v) {
+            return self.fault(v, FilterFault::BadState);
+        }
+        if !within_limits(u_nom) {
+            return self.fault(v, FilterFault::BadNominal);
+        }
+        if obstacles.is_empty() {
+            return (*u_nom, FilterDiagnostics::new(Region::NoObstacle));
+        }
+        let mut diag = FilterDiagnostics::new(Region::Far);
+        // Closest obstacle (single-barrier variants) and the K most critical near ones (multi).
+        let mut closest: Option<(Barrier, u16)> = None;
+        let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
+        let delta = self.params.delta;
+        for o in obstacles {
+            if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
+                return self.fault(v, FilterFault::BadObstacle);
+            }
+            let Some(b) = self.barrier(p, v, o) else {
+                return self.fault(v, FilterFault::ZeroDistance);
+            };
+            diag.h_bar = diag.h_bar.min(b.h - delta);
+            if closest.is_none_or(|(c, _)| b.dist_sq < c.dist_sq) {
+                closest = Some((b, o.id));
+            }
+            if b.h <= self.params.delta1 {
+                diag.n_near = diag.n_near.saturating_add(1);
+                // Keep the K smallest h: replace the largest when full.
+                if let Err(item) = near.push((b, o.id)) {
+                    let mut worst = 0;
+                    for (i, (nb, _)) in near.iter().enumerate() {
+                        if nb.h > near[worst].0.h {
+                            worst = i;
+                        }
+                    }
+                    if item.0.h < near[worst].0.h {
+                        near[worst] = item;
+                    }
+                }
+            }
+        }
+
+        let u_max = self.params.u_max;
+        if !self.variant.is_multi() {
+            // Eq. 14: only the closest obstacle's barrier is active; eq. 12 on it.
+            let Some((b, id)) = closest else { return (*u_nom, diag) };
+            diag.active_id = Some(id);
+            if b.h > self.params.delta1 {
+                return (*u_nom, diag); // D_δ1
+            }
+            let HalfSpace { n, c } = b.constraint;
+            diag.n_constraints = 1;
+            diag.unavoidable = c > u_max;
+            if n.dot(u_nom) > c {
+                diag.region = Region::NominalSafe; // D_u*
+                return (*u_nom, diag);
+            }
+            // D_⊥: u = Π⊥u* + Π(−(2/μ)ḋ) + A n = u* + (c − nᵀu*) n.
+            diag.region = Region::Perpendicular;
+            diag.intervened = true;
+            return (u_nom + n * (c - n.dot(u_nom)), diag);
+        }
+
+        if near.is_empty() {
+            diag.active_id = closest.map(|(_, id)| id);
+            return (*u_nom, diag);
+        }
+        let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
+        let mut most_critical = (f32::INFINITY, 0u16);
+        for (slot, (b, id)) in cons.iter_mut().zip(near.iter()) {
+            *slot = b.constraint;
+            diag.unavoidable |= b.constraint.c > u_max;
+            if b.h < most_critical.0 {
+                most_critical = (b.h, *id);
+            }
+        }
+        let cons = &cons[..near.len()];
+        diag.n_constraints = near.len() as u8;
+        diag.active_id = Some(most_critical.1);
+        if cons.iter().all(|h| h.n.dot(u_nom) >= h.c) {
+            diag.region = Region::NominalSafe;
+            return (*u_nom, diag);
+        }
+        let sol = qp3::project(u_nom, cons);
+        diag.region = Region::Perpendicular;
+        diag.intervened = true;
+        diag.infeasible = !sol.feasible;
+        (sol.u, diag)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    fn filt(variant: FilterVariant) -> SafetyFilter {
+        SafetyFilter::new(CbfParams::new(0.9, 0.05, 0.08).unwrap(), variant).unwrap()
+    }
+
+    #[test]
+    fn params_are_validated() {
+        assert_eq!(CbfParams::new(0.0, 0.05, 0.1), Err(CbfError::MuNotPositive));
+        assert_eq!(CbfParams::new(1.0, -0.1, 0.1), Err(CbfError::DeltaNotPositive));
+        assert_eq!(CbfParams::new(1.0, 0.05, 0.05), Err(CbfError::Delta1NotAboveDelta));
+        assert_eq!(CbfParams::new(f32::NAN, 0.05, 0.1), Err(CbfError::MuNotPositive));
+        let bad = CbfParams { accel_bound: -1.0, ..CbfParams::default() };
+        assert_eq!(SafetyFilter::new(bad, FilterVariant::Paper), Err(CbfError::AccelBoundNegative));
+    }
+
+    #[test]
+    fn barrier_value_hand_computed() {
+        // d = (0.3, 0, 0), ṗ = (−0.2, 0.1, 0), μ = 0.9: h = 0.09 + 0.9·(−0.06) = 0.036.
+        let h = barrier_value(0.9, &Vec3::new(0.3, 0.0, 0.0), &Vec3::new(-0.2, 0.1, 0.0));
+        assert!((h - 0.036).abs() < 1e-6);
+    }
+
+    #[test]
+    fn law_12_matches_projection_matrices_and_zeroes_constraint() {
+        let f = filt(FilterVariant::Paper);
+        let p = Vec3::new(0.25, 0.05, -1.0);
+        let v = Vec3::new(-0.3, 0.1, 0.0);
+        let u_star = Vec3::new(-0.5, 0.2, 0.1);
+        let obs = [ObstaclePoint::fixed(Vec3::new(0.0, 0.0, -1.0), 7)];
+        let (u, diag) = f.apply(&p, &v, &u_star, &obs);
+        assert_eq!(diag.region, Region::Perpendicular);
+        assert_eq!(diag.active_id, Some(7));
+        // Eq. 10-12 written with the projection matrices.
+        let d = p - obs[0].point;
+        let pi = d * d.transpose() / d.dot(&d);
+        let pi_perp = Matrix3::identity() - pi;
+        let expected = -(2.0 / 0.9) * pi * v + pi_perp * u_star;
+        assert!((u - expected).norm() < 1e-5, "{u} vs {expected}");
+        // In D_⊥: 2dᵀṗ + μdᵀu = 0.
+        assert!((2.0 * d.dot(&v) + 0.9 * d.dot(&u)).abs() < 1e-5);
+    }
+
+    #[test]
+    fn regions_far_and_nominal_safe() {
+        let f = filt(FilterVariant::Paper);
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1)];
+        // Far: |d|² = 1 > δ1.
+        let (u, d) = f.apply(&Vec3::new(1.0, 0.0, 0.0), &Vec3::zeros(), &Vec3::new(-1.0, 0.0, 0.0), &obs);
+        assert_eq!((d.region, u), (Region::Far, Vec3::new(-1.0, 0.0, 0.0)));
+        // Near but moving away with the nominal pushing away: D_u*.
+        let (u, d) =
+            f.apply(&Vec3::new(0.22, 0.0, 0.0), &Vec3::new(0.1, 0.0, 0.0), &Vec3::new(0.2, 0.3, 0.0), &obs);
+        assert_eq!(d.region, Region::NominalSafe);
+        assert_eq!(u, Vec3::new(0.2, 0.3, 0.0));
+        assert!(!d.intervened);
+    }
+
+    #[test]
+    fn bad_inputs_brake_with_finite_output() {
+        let f = filt(FilterVariant::MultiRelative);
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1)];
+        let v = Vec3::new(1.0, 0.0, 0.0);
+        for (p, u, o, fault) in [
+            (Vec3::new(f32::NAN, 0.0, 0.0), Vec3::zeros(), obs[0], FilterFault::BadState),
+            (Vec3::new(1.0, 0.0, 0.0), Vec3::new(f32::INFINITY, 0.0, 0.0), obs[0], FilterFault::BadNominal),
+            (
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::zeros(),
+                ObstaclePoint::fixed(Vec3::new(1e30, 0.0, 0.0), 1),
+                FilterFault::BadObstacle,
+            ),
+            (Vec3::zeros(), Vec3::zeros(), obs[0], FilterFault::ZeroDistance),
+        ] {
+            let (out, d) = f.apply(&p, &v, &u, &[o]);
+            assert_eq!(d.fault, Some(fault));
+            assert_eq!(d.region, Region::Fault);
+            assert!(out.iter().all(|x| x.is_finite()));
+            // Braking opposes the velocity and is bounded.
+            assert!(out.dot(&v) < 0.0 && out.norm() <= f.params.u_max + 1e-6);
+        }
+        let (out, _) = f.apply(&Vec3::zeros(), &Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::zeros(), &obs);
+        assert_eq!(out, Vec3::zeros());
+    }
+
+    #[test]
+    fn relative_equals_paper_for_static_obstacles() {
+        let p = Vec3::new(0.2, 0.1, 0.0);
+        let v = Vec3::new(-0.4, 0.0, 0.1);
+        let u = Vec3::new(-1.0, 0.5, 0.0);
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1), ObstaclePoint::fixed(Vec3::new(2.0, 0.0, 0.0), 2)];
+        assert_eq!(
+            filt(FilterVariant::Paper).apply(&p, &v, &u, &obs),
+            filt(FilterVariant::Relative).apply(&p, &v, &u, &obs)
+        );
+    }
+
+    #[test]
+    fn relative_backs_away_from_approaching_obstacle() {
+        // Vehicle at rest, obstacle 0.3 m away moving towards it at 0.5 m/s.
+        let p = Vec3::new(0.3, 0.0, 0.0);
+        let o = [ObstaclePoint { point: Vec3::zeros(), velocity: Some(Vec3::new(0.5, 0.0, 0.0)), id: 3 }];
+        let (u_paper, _) = filt(FilterVariant::Paper).apply(&p, &Vec3::zeros(), &Vec3::zeros(), &o);
+        let (u_rel, d) = filt(FilterVariant::Relative).apply(&p, &Vec3::zeros(), &Vec3::zeros(), &o);
+        assert_eq!(u_paper, Vec3::zeros()); // the paper's law sees nothing to do
+        assert_eq!(d.region, Region::Perpendicular);
+        assert!((u_rel.x - 2.0 * 0.5 / 0.9).abs() < 1e-5); // retreats along +x
+    }
+
+    #[test]
+    fn multi_with_one_obstacle_equals_paper() {
+        let p = Vec3::new(0.22, 0.05, 0.0);
+        let v = Vec3::new(-0.3, 0.2, 0.0);
+        let u = Vec3::new(-0.8, 0.1, 0.3);
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1)];
+        let (a, da) = filt(FilterVariant::Paper).apply(&p, &v, &u, &obs);
+        let (b, db) = filt(FilterVariant::Multi).apply(&p, &v, &u, &obs);
+        assert!((a - b).norm() < 1e-5);
+        assert_eq!(da.region, db.region);
+    }
+
+    #[test]
+    fn multi_satisfies_both_walls_of_a_corridor() {
+        // Walls at y = ±0.25 m, vehicle drifting towards +y, nominal pushes +y harder.
+        let p = Vec3::new(0.0, 0.05, 0.0);
+        let v = Vec3::new(0.3, 0.1, 0.0);
+        let u = Vec3::new(0.0, 2.0, 0.0);
+        let obs = [
+            ObstaclePoint::fixed(Vec3::new(0.0, 0.25, 0.0), 1),
+            ObstaclePoint::fixed(Vec3::new(0.0, -0.25, 0.0), 2),
+        ];
+        let f = filt(FilterVariant::Multi);
+        let (out, d) = f.apply(&p, &v, &u, &obs);
+        assert!(d.intervened && !d.infeasible);
+        for o in &obs {
+            let b = f.barrier(&p, &v, o).unwrap();
+            assert!(b.constraint.n.dot(&out) >= b.constraint.c - 1e-5);
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! Nominal PD position tracking (paper eq. 2) with feed-forward acceleration,
+//! an optional vertical integral term and output limits.
+//!
+//! `u* = p̈_d + K_d (ṗ_d − ṗ) + K_p (p_d − p) + e_z ∫ k_i (z_d − z) dt`, world NED, m/s².
+
+use crate::frame::is_finite3;
+use crate::Vec3;
+
+/// Tracking gains and limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TrackingParams {
+    /// Position gain per NED axis, 1/s². Default 0.5 (paper, office experiment).
+    pub kp: [f32; 3],
+    /// Velocity gain per NED axis, 1/s. Default 0.8 (paper, office experiment).
+    pub kd: [f32; 3],
+    /// Integral gain on the vertical axis, 1/s³ (0 disables). Default 0.3.
+    pub ki_z: f32,
+    /// Bound on the vertical integral's contribution, m/s². Default 1.0.
+    pub integral_limit_z: f32,
+    /// Bound on the horizontal acceleration norm, m/s². Default 4.0.
+    pub accel_max_xy: f32,
+    /// Bound on upward acceleration (−z), m/s². Default 4.0.
+    pub accel_max_up: f32,
+    /// Bound on downward acceleration (+z), m/s². Default 3.0.
+    pub accel_max_down: f32,
+}
+
+impl Default for TrackingParams {
+    fn default() -> Self {
+        TrackingParams {
+            kp: [0.5; 3],
+            kd: [0.8; 3],
+            ki_z: 0.3,
+            integral_limit_z: 1.0,
+            accel_max_xy: 4.0,
+            accel_max_up: 4.0,
+            accel_max_down: 3.0,
+        }
+    }
+}
+
+impl TrackingParams {
+    /// The paper's setting: the same `kp`, `kd` on every axis, defaults otherwise.
+    pub fn uniform(kp: f32, kd: f32) -> Self {
+        TrackingParams { kp: [kp; 3], kd: [kd; 3], ..Self::default() }
+    }
+}
+
+/// Desired trajectory sample, world NED.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Reference {
+    /// p_d, m.
+    pub position: Vec3,
+    /// ṗ_d, m/s.
+    pub velocity: Vec3,
+    /// p̈_d, m/s².
+    pub acceleration: Vec3,
+    /// Yaw reference, rad (FRD ZYX, 0 = north, positive towards east).
+    pub yaw: f32,
+}
+
+/// PD tracker with vertical integral. Owns only the integrator state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PdTracker {
+    /// Gains and limits.
+    pub params: TrackingParams,
+    integral_z: f32,
+    input_fault: bool,
+}
+
+impl PdTracker {
+    /// A tracker with zero integrator.
+    pub fn new(params: TrackingParams) -> Self {
+        PdTracker { params, integral_z: 0.0, input_fault: false }
+    }
+
+    /// Zero the integrator.
+    pub fn reset(&mut self) {
+        self.integral_z = 0.0;
+    }
+
+    /// Current vertical integral contribution, m/s² (NED: negative pushes up).
+    pub fn integral_z(&self) -> f32 {
+        self.integral_z
+    }
+
+    /// `true` when the last [`update`](Self::update) got non-finite input and returned zero.
+    pub fn input_fault(&self) -> bool {
+        self.input_fault
+    }
+
+    /// Nominal acceleration `u*` (NED, m/s²) for position `pos` (m) and velocity
+    /// `vel` (m/s), after `dt_s` seconds since the last call (the integrator only
+    /// advances for `0 < dt_s ≤ 0.1`). Non-finite input returns zero acceleration
+    /// (hover) and sets [`input_fault`](Self::input_fault).
+    pub fn update(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32) -> Vec3 {
+        let ok = [r.position, r.velocity, r.acceleration, *pos, *vel].iter().all(is_finite3);
+        self.input_fault = !ok;
+        if !ok {
+            return Vec3::zeros();
+        }
+        let p = &self.params;
+        let kp = Vec3::from(p.kp);
+        let kd = Vec3::from(p.kd);
+        let e = r.position - pos;
+        let mut u = r.acceleration + kd.component_mul(&(r.velocity - vel)) + kp.component_mul(&e);
+        u.z += self.integral_z;
+
+        // Output limits: horizontal norm, then vertical interval.
+        let (z_lo, z_hi) = (-p.accel_max_up.abs(), p.accel_max_down.abs());
+        let z_sat = u.z < z_lo || u.z > z_hi;
+        u.z = u.z.clamp(z_lo, z_hi);
+        let xy = libm::hypotf(u.x, u.y);
+        let xy_max = p.accel_max_xy.abs();
+        if xy > xy_max && xy > 0.0 {
+            u.x *= xy_max / xy;
+            u.y *= xy_max / xy;
+        }
+
+        // Conditional integration (anti-windup): hold while saturated in the error's direction.
+        if p.ki_z > 0.0 && dt_s.is_finite() && dt_s > 0.0 && dt_s <= 0.1 {
+            let pushing_further = z_sat && (e.z > 0.0) == (u.z >= z_hi);
+            if !pushing_further {
+                let lim = p.integral_limit_z.abs();
+                self.integral_z = (self.integral_z + p.ki_z * e.z * dt_s).clamp(-lim, lim);
+            }
+        }
+        if !u.iter().all(|x| x.is_finite()) {
+            self.input_fault = true;
+            return Vec3::zeros();
+        }
+        u
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pd_law_hand_computed() {
+        let mut t = PdTracker::new(TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.32, 0.5) });
+        let r = Reference {
+            position: Vec3::new(1.0, 0.0, -1.0),
+            velocity: Vec3::new(0.3, 0.0, 0.0),
+            acceleration: Vec3::new(0.1, 0.0, 0.0),
+            yaw: 0.0,
+        };
+        let u = t.update(&r, &Vec3::new(0.5, 0.2, -1.0), &Vec3::new(0.1, 0.0, 0.0), 0.01);
+        // x: 0.1 + 0.5·0.2 + 0.32·0.5 = 0.36; y: 0.32·(−0.2) = −0.064.
+        assert!((u - Vec3::new(0.36, -0.064, 0.0)).norm() < 1e-6);
+    }
+
+    #[test]
+    fn limits_and_nan() {
+        let mut t = PdTracker::new(TrackingParams::uniform(10.0, 0.0));
+        let r = Reference { position: Vec3::new(10.0, 10.0, -10.0), ..Reference::default() };
+        let u = t.update(&r, &Vec3::zeros(), &Vec3::zeros(), 0.01);
+        assert!((libm::hypotf(u.x, u.y) - 4.0).abs() < 1e-5);
+        assert!((u.z + 4.0).abs() < 1e-6);
+        let u = t.update(&r, &Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::zeros(), 0.01);
+        assert_eq!(u, Vec3::zeros());
+        assert!(t.input_fault());
+    }
+
+    #[test]
+    fn integrator_removes_vertical_bias_and_does_not_wind_up() {
+        let mut t = PdTracker::new(TrackingParams::default());
+        let r = Reference { position: Vec3::new(0.0, 0.0, -1.0), ..Reference::default() };
+        // Vehicle 0.1 m low (z = −0.9): integral pushes up (negative), bounded.
+        for _ in 0..10_000 {
+            t.update(&r, &Vec3::new(0.0, 0.0, -0.9), &Vec3::zeros(), 0.01);
+        }
+        assert!(t.integral_z() < 0.0);
+        assert!(t.integral_z() >= -1.0 - 1e-6);
+    }
+}
