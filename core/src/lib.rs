@@ -24,6 +24,7 @@
 pub mod airframe;
 pub mod frame;
 pub mod obstacle;
+pub mod waypoint;
 
 pub use nalgebra;
 
