@@ -22,9 +22,12 @@
 #![warn(missing_docs)]
 
 pub mod airframe;
+pub mod cbf;
 pub mod frame;
 pub mod obstacle;
-pub mod waypoint;
+pub mod qp3;
+pub mod thrust;
+pub mod tracking;
 
 pub use nalgebra;
 
