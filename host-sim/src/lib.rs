@@ -1,1 +1,10 @@
 //! parapet-sim: 6-DOF quadrotor simulator, scenes, planner and the `parapet` CLI.
+//!
+//! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz.
+//! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
+//! * [`scene`]: scene files (TOML, ENU z-up) → NED obstacles, mission, overrides.
+//! * [`replay`]: open-loop replay of rotor speeds from a CSV.
+pub mod plant;
+pub mod replay;
+pub mod scene;
+pub mod sensors;

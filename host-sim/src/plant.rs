@@ -1,0 +1,565 @@
+//! Full rigid-body 6-DOF quadrotor plant, integrated with fixed-step RK4.
+//!
+//! ## Frames and units
+//! World frame **NED** (x north, y east, z down), body frame **FRD**, SI units,
+//! exactly as [`parapet_core::frame`]. The attitude quaternion `q` rotates body
+//! vectors into the world frame (`v_world = q * v_body`). Body rates `ω_b`
+//! (p, q, r) are in FRD, rad/s. The plant integrates in `f64`; the controller
+//! works in `f32`.
+//!
+//! ## Model
+//! * Rotor `i` (layout and spin directions from [`parapet_core::airframe`],
+//!   rotors 1..4 = index 0..4: front-right CCW, rear-left CCW, front-left CW,
+//!   rear-right CW) produces thrust `f_i = k_f ω_i²` along body −z and a
+//!   reaction (drag) torque `ROTOR_YAW_SIGN[i] · k_m ω_i²` about body z.
+//! * Rotor speed follows its command with first-order lag:
+//!   `ω̇_i = (ω_cmd,i − ω_i) / τ_motor`, the command clamped to
+//!   `[omega_min, omega_max]`.
+//! * Translation: `m v̇ = R (F_thrust + F_drag) + m g e_z`, with linear body
+//!   drag `F_drag = −diag(drag) · (Rᵀ v)` (air at rest).
+//! * Rotation: Euler's equations with the gyroscopic term,
+//!   `I ω̇ = τ − ω × (I ω)`; `q̇ = ½ q ⊗ (0, ω)`. Rotor inertia (the rotors' own
+//!   gyroscopic and spin-up reaction torques) is neglected.
+//! * **Ground contact**: the ground is the plane z = 0 (NED; z > 0 is below
+//!   ground). After each step, if the vehicle is at or below the ground and the
+//!   net vertical force does not lift it (world z-acceleration ≥ 0, i.e. not
+//!   upwards), it is put back on the ground at rest (z = 0, v = 0, ω = 0,
+//!   attitude unchanged): a perfectly inelastic, no-slip, no-tipping contact.
+//!   A vehicle producing lift leaves the ground normally.
+//! * Integration: classic fixed-step RK4 of the 17-dimensional state
+//!   (p, v, q, ω_b, rotor speeds), the quaternion renormalised after each step.
+//!   The step (default 1 ms, 1 kHz) is a parameter of [`Plant::step`].
+
+use nalgebra::{SVector, UnitQuaternion, Vector3};
+use parapet_core::airframe::{Airframe, ROTOR_XY_UNIT, ROTOR_YAW_SIGN};
+use serde::{Deserialize, Serialize};
+
+/// Standard gravity, m/s² (world +z, NED).
+pub const GRAVITY: f64 = parapet_core::frame::GRAVITY as f64;
+
+/// Vehicle parameters of the plant. Loadable from a scene's `[vehicle]` table
+/// or a vehicle TOML file (same keys); missing keys take the defaults below,
+/// unknown keys are errors.
+///
+/// Defaults: the paper's vehicle (m = 0.5 kg, I = diag(0.0019, 0.0019, 0.0033))
+/// with plausible values for its size (0.35 × 0.30 m frame): arm 0.13 m,
+/// ω_max = 1200 rad/s, `k_f` such that one rotor gives 3.07 N at ω_max
+/// (thrust-to-weight ≈ 2.5, [`Airframe::default`]), `k_m = 0.016 k_f`,
+/// motor time constant 0.02 s, linear drag 0.1 N·s/m per body axis, hull
+/// (bounding-sphere) radius √0.05 = 0.2236 m.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VehicleParams {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Principal moments of inertia (Ix, Iy, Iz) about the FRD body axes, kg·m².
+    pub inertia: [f64; 3],
+    /// Distance from the centre of mass to each rotor axis, m.
+    pub arm_length: f64,
+    /// Maximum rotor speed, rad/s (throttle 1).
+    pub omega_max: f64,
+    /// Minimum rotor speed the ESC holds when armed, rad/s (commands below are raised to it).
+    pub omega_min: f64,
+    /// Rotor thrust coefficient, N/(rad/s)²: `f = k_f ω²`.
+    pub k_f: f64,
+    /// Rotor drag-torque coefficient, N·m/(rad/s)²: `τ = k_m ω²`.
+    pub k_m: f64,
+    /// First-order motor time constant, s.
+    pub motor_tau: f64,
+    /// Linear body drag coefficients along the FRD body axes, N/(m/s).
+    pub drag: [f64; 3],
+    /// Radius of the sphere bounding the vehicle (collision hull), m.
+    pub hull_radius: f64,
+}
+
+impl Default for VehicleParams {
+    fn default() -> Self {
+        let af = Airframe::default();
+        let omega_max = 1200.0;
+        let k_f = af.rotor_thrust_max as f64 / (omega_max * omega_max);
+        VehicleParams {
+            mass: 0.5,
+            inertia: [0.0019, 0.0019, 0.0033],
+            arm_length: 0.13,
+            omega_max,
+            omega_min: 0.0,
+            k_f,
+            k_m: 0.016 * k_f,
+            motor_tau: 0.02,
+            drag: [0.1, 0.1, 0.1],
+            hull_radius: 0.05f64.sqrt(),
+        }
+    }
+}
+
+/// An invalid vehicle parameter: the field name and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("vehicle field `{field}`: {reason}")]
+pub struct ParamError {
+    /// Name of the offending field (as in the TOML table).
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+impl VehicleParams {
+    /// Check every value is finite and in range; names the first bad field.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let pos = |field: &'static str, x: f64| {
+            if x.is_finite() && x > 0.0 {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason: format!("must be finite and > 0, got {x}") })
+            }
+        };
+        let nonneg = |field: &'static str, x: f64| {
+            if x.is_finite() && x >= 0.0 {
+                Ok(())
+            } else {
+                Err(ParamError { field, reason: format!("must be finite and >= 0, got {x}") })
+            }
+        };
+        pos("mass", self.mass)?;
+        for &i in &self.inertia {
+            pos("inertia", i)?;
+        }
+        pos("arm_length", self.arm_length)?;
+        pos("omega_max", self.omega_max)?;
+        nonneg("omega_min", self.omega_min)?;
+        if self.omega_min >= self.omega_max {
+            return Err(ParamError { field: "omega_min", reason: "must be < omega_max".into() });
+        }
+        pos("k_f", self.k_f)?;
+        nonneg("k_m", self.k_m)?;
+        pos("motor_tau", self.motor_tau)?;
+        for &d in &self.drag {
+            nonneg("drag", d)?;
+        }
+        pos("hull_radius", self.hull_radius)?;
+        let t_max = 4.0 * self.k_f * self.omega_max * self.omega_max;
+        if t_max <= self.mass * GRAVITY {
+            return Err(ParamError {
+                field: "k_f",
+                reason: format!(
+                    "the four rotors give at most {t_max:.3} N, not more than the weight {:.3} N",
+                    self.mass * GRAVITY
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Thrust of one rotor at `omega_max`, N.
+    pub fn rotor_thrust_max(&self) -> f64 {
+        self.k_f * self.omega_max * self.omega_max
+    }
+
+    /// Rotor speed at which the four rotors together carry the weight, rad/s.
+    pub fn hover_omega(&self) -> f64 {
+        (self.mass * GRAVITY / (4.0 * self.k_f)).sqrt()
+    }
+
+    /// Rotor positions in the body FRD x-y plane, m (index 0..4 = rotors 1..4).
+    pub fn rotor_positions(&self) -> [[f64; 2]; 4] {
+        let a = self.arm_length / 2f64.sqrt();
+        ROTOR_XY_UNIT.map(|[x, y]| [x as f64 * a, y as f64 * a])
+    }
+
+    /// The airframe description the controller needs (f32).
+    pub fn airframe(&self) -> Airframe {
+        Airframe {
+            mass: self.mass as f32,
+            inertia: self.inertia.map(|x| x as f32),
+            arm_length: self.arm_length as f32,
+            rotor_thrust_max: self.rotor_thrust_max() as f32,
+            torque_to_thrust: (self.k_m / self.k_f) as f32,
+        }
+    }
+}
+
+/// Plant state. Position/velocity world NED (m, m/s); `att` body FRD → world NED;
+/// `rates` body FRD (rad/s); `rotor` rotor speeds (rad/s, index 0..4 = rotors 1..4).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantState {
+    /// Position of the centre of mass, NED, m.
+    pub pos: Vector3<f64>,
+    /// Velocity, NED, m/s.
+    pub vel: Vector3<f64>,
+    /// Attitude, rotation body FRD → world NED.
+    pub att: UnitQuaternion<f64>,
+    /// Body rates (p, q, r), FRD, rad/s.
+    pub rates: Vector3<f64>,
+    /// Rotor speeds, rad/s.
+    pub rotor: [f64; 4],
+}
+
+impl Default for PlantState {
+    fn default() -> Self {
+        PlantState {
+            pos: Vector3::zeros(),
+            vel: Vector3::zeros(),
+            att: UnitQuaternion::identity(),
+            rates: Vector3::zeros(),
+            rotor: [0.0; 4],
+        }
+    }
+}
+
+type X = SVector<f64, 17>;
+
+impl PlantState {
+    fn to_x(&self) -> X {
+        let q = self.att.quaternion();
+        let mut x = X::zeros();
+        x.fixed_rows_mut::<3>(0).copy_from(&self.pos);
+        x.fixed_rows_mut::<3>(3).copy_from(&self.vel);
+        x[6] = q.w;
+        x[7] = q.i;
+        x[8] = q.j;
+        x[9] = q.k;
+        x.fixed_rows_mut::<3>(10).copy_from(&self.rates);
+        for i in 0..4 {
+            x[13 + i] = self.rotor[i];
+        }
+        x
+    }
+    fn from_x(x: &X) -> Self {
+        let q = nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]);
+        PlantState {
+            pos: x.fixed_rows::<3>(0).into_owned(),
+            vel: x.fixed_rows::<3>(3).into_owned(),
+            att: UnitQuaternion::from_quaternion(q),
+            rates: x.fixed_rows::<3>(10).into_owned(),
+            rotor: [x[13], x[14], x[15], x[16]],
+        }
+    }
+
+    /// Roll, pitch, yaw (rad; FRD, Euler ZYX body → world).
+    pub fn euler(&self) -> (f64, f64, f64) {
+        self.att.euler_angles()
+    }
+}
+
+/// The quadrotor plant: parameters, state, motor commands.
+#[derive(Clone, Debug)]
+pub struct Plant {
+    params: VehicleParams,
+    /// Current state.
+    pub state: PlantState,
+    omega_cmd: [f64; 4],
+    /// Whether the ground plane z = 0 is simulated (default true).
+    pub ground: bool,
+    accel: Vector3<f64>,
+}
+
+impl Plant {
+    /// A plant at rest at the origin, level, rotors stopped. Fails on invalid parameters.
+    pub fn new(params: VehicleParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        let mut p = Plant {
+            params,
+            state: PlantState::default(),
+            omega_cmd: [0.0; 4],
+            ground: true,
+            accel: Vector3::zeros(),
+        };
+        p.accel = p.derivative(&p.state.to_x()).fixed_rows::<3>(3).into_owned();
+        Ok(p)
+    }
+
+    /// The vehicle parameters.
+    pub fn params(&self) -> &VehicleParams {
+        &self.params
+    }
+
+    /// Put the vehicle at `pos` (NED, m) with yaw `yaw` (rad), level, at rest,
+    /// rotors spinning at (and commanded to) the hover speed.
+    pub fn set_hover(&mut self, pos: Vector3<f64>, yaw: f64) {
+        let w = self.params.hover_omega();
+        self.state = PlantState {
+            pos,
+            vel: Vector3::zeros(),
+            att: UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+            rates: Vector3::zeros(),
+            rotor: [w; 4],
+        };
+        self.omega_cmd = [w; 4];
+        self.accel = Vector3::zeros();
+    }
+
+    /// Motor commands ("throttles", `c ∈ [0, 1]`, see airframe.rs "Motor
+    /// command"): `ω_cmd = c · ω_max`. Non-finite commands count as 0.
+    pub fn set_throttles(&mut self, throttle: [f32; 4]) {
+        for (cmd, c) in self.omega_cmd.iter_mut().zip(throttle) {
+            let c = if c.is_finite() { (c as f64).clamp(0.0, 1.0) } else { 0.0 };
+            *cmd = c * self.params.omega_max;
+        }
+    }
+
+    /// Rotor-speed commands, rad/s (clamped to `[omega_min, omega_max]` when integrated).
+    pub fn set_rotor_speed_commands(&mut self, omega: [f64; 4]) {
+        self.omega_cmd = omega.map(|w| if w.is_finite() { w } else { 0.0 });
+    }
+
+    /// Impose the rotor speeds directly (state and command), bypassing the motor lag
+    /// for the following steps (used by open-loop replay).
+    pub fn set_rotor_speeds(&mut self, omega: [f64; 4]) {
+        let w = omega.map(|w| if w.is_finite() { w.clamp(0.0, self.params.omega_max) } else { 0.0 });
+        self.state.rotor = w;
+        self.omega_cmd = w;
+    }
+
+    fn derivative(&self, x: &X) -> X {
+        let p = &self.params;
+        let s = PlantState::from_x(x);
+        let r = s.att.to_rotation_matrix();
+        let mut thrust = 0.0;
+        let mut tau = Vector3::zeros();
+        let pos = p.rotor_positions();
+        let mut xd = X::zeros();
+        for i in 0..4 {
+            let w = s.rotor[i];
+            let f = p.k_f * w * w;
+            thrust += f;
+            tau.x += -pos[i][1] * f;
+            tau.y += pos[i][0] * f;
+            tau.z += ROTOR_YAW_SIGN[i] as f64 * p.k_m * w * w;
+            let cmd = self.omega_cmd[i].clamp(p.omega_min, p.omega_max);
+            xd[13 + i] = (cmd - w) / p.motor_tau;
+        }
+        let v_body = r.transpose() * s.vel;
+        let f_body =
+            Vector3::new(-p.drag[0] * v_body.x, -p.drag[1] * v_body.y, -p.drag[2] * v_body.z - thrust);
+        let acc = r * f_body / p.mass + Vector3::new(0.0, 0.0, GRAVITY);
+        let inertia = Vector3::from(p.inertia);
+        let iw = inertia.component_mul(&s.rates);
+        let wdot = (tau - s.rates.cross(&iw)).component_div(&inertia);
+        // q̇ = ½ q ⊗ (0, ω), on the raw (not re-normalised) quaternion of x.
+        let q = nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]);
+        let qd = q * nalgebra::Quaternion::new(0.0, s.rates.x, s.rates.y, s.rates.z) * 0.5;
+        xd.fixed_rows_mut::<3>(0).copy_from(&s.vel);
+        xd.fixed_rows_mut::<3>(3).copy_from(&acc);
+        xd[6] = qd.w;
+        xd[7] = qd.i;
+        xd[8] = qd.j;
+        xd[9] = qd.k;
+        xd.fixed_rows_mut::<3>(10).copy_from(&wdot);
+        xd
+    }
+
+    /// Advance by `dt` seconds with one RK4 step, then apply ground contact.
+    pub fn step(&mut self, dt: f64) {
+        let x = self.state.to_x();
+        let k1 = self.derivative(&x);
+        let k2 = self.derivative(&(x + k1 * (dt / 2.0)));
+        let k3 = self.derivative(&(x + k2 * (dt / 2.0)));
+        let k4 = self.derivative(&(x + k3 * dt));
+        let xn = x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0);
+        let mut s = PlantState::from_x(&xn);
+        for w in &mut s.rotor {
+            *w = w.clamp(0.0, self.params.omega_max);
+        }
+        self.state = s;
+        let acc: Vector3<f64> = self.derivative(&self.state.to_x()).fixed_rows::<3>(3).into_owned();
+        self.accel = acc;
+        if self.ground && self.state.pos.z >= 0.0 && acc.z >= 0.0 {
+            self.state.pos.z = 0.0;
+            self.state.vel = Vector3::zeros();
+            self.state.rates = Vector3::zeros();
+            self.accel = Vector3::zeros();
+        }
+    }
+
+    /// Acceleration of the centre of mass at the current state, NED, m/s²
+    /// (zero while resting on the ground).
+    pub fn acceleration(&self) -> Vector3<f64> {
+        self.accel
+    }
+
+    /// Specific force (what an ideal accelerometer measures), body FRD, m/s²:
+    /// `Rᵀ (a − g e_z)`. Level hover reads (0, 0, −g).
+    pub fn specific_force_body(&self) -> Vector3<f64> {
+        self.state.att.inverse_transform_vector(&(self.accel - Vector3::new(0.0, 0.0, GRAVITY)))
+    }
+
+    /// Total mechanical energy of the rigid body, J: translational + rotational
+    /// kinetic energy + potential energy (height −z above the ground).
+    pub fn energy(&self) -> f64 {
+        let s = &self.state;
+        let i = Vector3::from(self.params.inertia);
+        0.5 * self.params.mass * s.vel.norm_squared() + 0.5 * s.rates.component_mul(&s.rates).dot(&i)
+            - self.params.mass * GRAVITY * s.pos.z
+    }
+
+    /// Angular momentum of the rigid body in the world frame, kg·m²/s.
+    pub fn angular_momentum_world(&self) -> Vector3<f64> {
+        let i = Vector3::from(self.params.inertia);
+        self.state.att * i.component_mul(&self.state.rates)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plant_no_ground() -> Plant {
+        let mut p = Plant::new(VehicleParams::default()).unwrap();
+        p.ground = false;
+        p
+    }
+
+    #[test]
+    fn defaults_match_airframe() {
+        let v = VehicleParams::default();
+        let af = v.airframe();
+        let def = Airframe::default();
+        assert!((af.rotor_thrust_max - def.rotor_thrust_max).abs() < 1e-4);
+        assert!((af.torque_to_thrust - def.torque_to_thrust).abs() < 1e-6);
+        assert_eq!(af.arm_length, def.arm_length);
+        v.validate().unwrap();
+    }
+
+    #[test]
+    fn free_fall_matches_closed_form() {
+        let mut p = plant_no_ground();
+        p.params.drag = [0.0; 3];
+        p.state.pos = Vector3::new(0.0, 0.0, -100.0);
+        for _ in 0..1000 {
+            p.step(0.001);
+        }
+        // z(t) = z0 + g t²/2 after 1 s, rotors stopped, no drag.
+        assert!((p.state.pos.z - (-100.0 + 0.5 * GRAVITY)).abs() < 1e-9);
+        assert!((p.state.vel.z - GRAVITY).abs() < 1e-9);
+        // An accelerometer in free fall reads zero.
+        assert!(p.specific_force_body().norm() < 1e-9);
+    }
+
+    #[test]
+    fn hover_at_hover_speed_stays_put() {
+        let mut p = plant_no_ground();
+        p.set_hover(Vector3::new(1.0, 2.0, -3.0), 0.7);
+        for _ in 0..5000 {
+            p.step(0.001);
+        }
+        assert!((p.state.pos - Vector3::new(1.0, 2.0, -3.0)).norm() < 1e-9);
+        assert!(p.state.rates.norm() < 1e-12);
+        let f = p.specific_force_body();
+        assert!((f - Vector3::new(0.0, 0.0, -GRAVITY)).norm() < 1e-9);
+        // Hover rotor speed is below max and gives thrust = weight.
+        let w = p.params().hover_omega();
+        assert!((4.0 * p.params().k_f * w * w - 0.5 * GRAVITY).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ground_holds_a_vehicle_without_lift_and_releases_with_lift() {
+        let mut p = Plant::new(VehicleParams::default()).unwrap();
+        for _ in 0..500 {
+            p.step(0.001);
+        }
+        assert_eq!(p.state.pos.z, 0.0);
+        assert_eq!(p.state.vel, Vector3::zeros());
+        p.set_throttles([0.8; 4]);
+        for _ in 0..500 {
+            p.step(0.001);
+        }
+        assert!(p.state.pos.z < -0.05, "took off: z = {}", p.state.pos.z);
+    }
+
+    #[test]
+    fn pure_yaw_torque_spins_about_z_only() {
+        let mut p = plant_no_ground();
+        let par = p.params().clone();
+        let w0 = par.hover_omega();
+        // Speed up the CCW rotors (1, 2), slow the CW ones (3, 4), same total thrust.
+        let dw = 50.0;
+        let (wa, wb) = (w0 + dw, (2.0 * w0 * w0 - (w0 + dw).powi(2)).sqrt());
+        p.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        p.set_rotor_speeds([wa, wa, wb, wb]);
+        let tau_z = 2.0 * par.k_m * (wa * wa - wb * wb);
+        for _ in 0..500 {
+            p.step(0.001);
+        }
+        let r_expected = tau_z / par.inertia[2] * 0.5;
+        assert!(tau_z > 0.0);
+        assert!((p.state.rates.z - r_expected).abs() < 1e-9, "{} vs {}", p.state.rates.z, r_expected);
+        assert!(p.state.rates.xy().norm() < 1e-12);
+        assert!((p.state.pos - Vector3::new(0.0, 0.0, -5.0)).norm() < 1e-9);
+        // Positive yaw (FRD) = clockwise from above: north turns east.
+        let yaw = p.state.euler().2;
+        assert!((yaw - 0.5 * r_expected * 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn roll_and_pitch_torque_signs() {
+        // More thrust on the left rotors (3: front-left, 2: rear-left) → positive roll (right side down).
+        let mut p = plant_no_ground();
+        let w0 = p.params().hover_omega();
+        p.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        p.set_rotor_speeds([w0, w0 + 10.0, w0 + 10.0, w0]);
+        p.step(0.001);
+        assert!(p.state.rates.x > 0.0);
+        assert!(p.state.rates.y.abs() < 1e-9);
+        // More thrust on the front rotors (1, 3) → positive pitch (nose up).
+        p.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        p.set_rotor_speeds([w0 + 10.0, w0, w0 + 10.0, w0]);
+        p.step(0.001);
+        assert!(p.state.rates.y > 0.0);
+        assert!(p.state.rates.x.abs() < 1e-9);
+    }
+
+    #[test]
+    fn torque_free_rotation_conserves_energy_and_angular_momentum() {
+        let mut p = plant_no_ground();
+        p.params.drag = [0.0; 3];
+        p.params.inertia = [0.0019, 0.0025, 0.0033];
+        p.state.pos = Vector3::new(0.0, 0.0, -1000.0);
+        p.state.vel = Vector3::new(1.0, -2.0, 0.5);
+        p.state.rates = Vector3::new(3.0, 0.2, -1.0); // tumbling, gyroscopic term active
+        let i = Vector3::from(p.params.inertia);
+        let e_rot = |p: &Plant| 0.5 * p.state.rates.component_mul(&p.state.rates).dot(&i);
+        let (e0, l0, r0) = (p.energy(), p.angular_momentum_world(), e_rot(&p));
+        for _ in 0..3000 {
+            p.step(0.001);
+        }
+        let (e1, l1, r1) = (p.energy(), p.angular_momentum_world(), e_rot(&p));
+        assert!((e1 - e0).abs() / e0.abs() < 1e-8, "energy drift {}", e1 - e0);
+        assert!((r1 - r0).abs() / r0 < 1e-7, "rotational energy drift {}", r1 - r0);
+        assert!((l1 - l0).norm() / l0.norm() < 1e-8, "momentum drift {}", (l1 - l0).norm());
+        // The tumble did exchange rate between axes (the gyroscopic term is there).
+        assert!((p.state.rates - Vector3::new(3.0, 0.2, -1.0)).norm() > 0.1);
+    }
+
+    #[test]
+    fn rk4_converges_when_halving_dt() {
+        // A manoeuvring flight: unequal rotor speeds through the motor lag.
+        let run = |dt: f64| {
+            let mut p = plant_no_ground();
+            p.set_hover(Vector3::new(0.0, 0.0, -10.0), 0.0);
+            p.set_rotor_speed_commands([700.0, 690.0, 720.0, 705.0]);
+            let n = (1.0 / dt).round() as usize;
+            for _ in 0..n {
+                p.step(dt);
+            }
+            p.state
+        };
+        let a = run(0.002);
+        let b = run(0.001);
+        let c = run(0.0005);
+        let e1 = (a.pos - b.pos).norm();
+        let e2 = (b.pos - c.pos).norm();
+        // Stated bound: halving the 1 ms step moves the position after 1 s by < 1 µm,
+        // and the error shrinks at least 8× per halving (4th order ⇒ ~16×).
+        assert!(e2 < 1e-6, "e2 = {e2}");
+        assert!(e1 / e2 > 8.0, "ratio {}", e1 / e2);
+        assert!((b.rates - c.rates).norm() < 1e-6);
+    }
+
+    #[test]
+    fn invalid_params_name_the_field() {
+        let v = VehicleParams { mass: -1.0, ..Default::default() };
+        assert_eq!(v.validate().unwrap_err().field, "mass");
+        let v = VehicleParams { k_f: 1e-9, ..Default::default() };
+        assert_eq!(v.validate().unwrap_err().field, "k_f");
+        assert!(Plant::new(VehicleParams { motor_tau: f64::NAN, ..Default::default() }).is_err());
+    }
+}

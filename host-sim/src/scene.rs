@@ -1,0 +1,650 @@
+//! Scene files: obstacles, bounds, mission and optional vehicle / controller /
+//! sensor / simulation overrides, in TOML.
+//!
+//! Files are written **ENU, z up** (x east, y north, z = height above ground,
+//! metres); [`Scene`] holds everything converted to the internal **NED** frame
+//! with [`parapet_core::frame::enu_to_ned`]. The format (see `scenes/README.md`):
+//!
+//! ```toml
+//! name = "office"
+//! description = "optional text"
+//! [bounds]     min = [x, y, z]   max = [x, y, z]
+//! [mission]    start = [x, y, z]   goal = [x, y, z]   speed = 0.25
+//! [vehicle]    hull_radius = 0.2236          # optional; any VehicleParams key
+//! [controller] mu = 1.4  delta = 0.05  delta1 = 0.1  kp = 0.5  kd = 0.8  filter = "multi-relative"
+//! [sensors]    noise = false                 # optional; any SensorParams key
+//! [sim]        sensing_range = 3.0  duration = 120.0  dt = 0.001
+//! [[obstacles]] kind = "sphere"   center = [x, y, z]  radius = r
+//! [[obstacles]] kind = "box"      min = [x, y, z]     max = [x, y, z]
+//! [[obstacles]] kind = "cylinder" base = [x, y, z]    radius = r  height = h
+//! # any obstacle may move: velocity = [vx, vy, vz], or
+//! #   waypoints = [[t, x, y, z], ...]  (piecewise linear in time)
+//! ```
+//!
+//! Unknown keys and invalid values are errors naming the file, the table
+//! (`obstacles[i]` with a 0-based index) and the field.
+
+use std::path::Path;
+
+use nalgebra::Vector3;
+use parapet_core::obstacle::Shape;
+use parapet_core::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::plant::VehicleParams;
+use crate::sensors::SensorParams;
+
+/// A scene file that could not be read or is invalid. `Display` gives
+/// `"<file>: <where>: <what>"`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}: {message}")]
+pub struct SceneError {
+    /// The file (or label) the scene came from.
+    pub file: String,
+    /// What is wrong and where (table, obstacle index, field).
+    pub message: String,
+}
+
+/// The filter variant names accepted in `[controller] filter`.
+pub const FILTER_NAMES: [&str; 4] = ["paper", "relative", "multi", "multi-relative"];
+
+/// Optional controller overrides (`[controller]` table). Missing values keep
+/// the controller defaults (or the command-line values, which win over the scene).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerOverrides {
+    /// Barrier velocity weight μ, s.
+    pub mu: Option<f64>,
+    /// Safety level δ, m² (the hull radius squared).
+    pub delta: Option<f64>,
+    /// Engagement level δ1 > δ, m².
+    pub delta1: Option<f64>,
+    /// PD position gain k_p, 1/s² (all axes).
+    pub kp: Option<f64>,
+    /// PD velocity gain k_d, 1/s (all axes).
+    pub kd: Option<f64>,
+    /// Filter variant: one of [`FILTER_NAMES`].
+    pub filter: Option<String>,
+    /// Bound A on the unknown obstacle acceleration, m/s² (relative variants).
+    pub accel_bound: Option<f64>,
+}
+
+/// Optional simulation settings (`[sim]` table).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimSettings {
+    /// Range of the proximity sensor, m: obstacles farther than this (surface
+    /// distance from the centre of mass) are not reported to the controller. Default 3.
+    pub sensing_range: Option<f64>,
+    /// Duration limit of a run, s. Default: 1.5 × path length / speed + 15 s.
+    pub duration: Option<f64>,
+    /// Plant integration step, s. Default 0.001 (1 kHz).
+    pub dt: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    #[serde(default)]
+    description: Option<String>,
+    bounds: RawBounds,
+    mission: RawMission,
+    #[serde(default)]
+    vehicle: Option<VehicleParams>,
+    #[serde(default)]
+    controller: Option<ControllerOverrides>,
+    #[serde(default)]
+    sensors: Option<SensorParams>,
+    #[serde(default)]
+    sim: Option<SimSettings>,
+    #[serde(default)]
+    obstacles: Vec<RawObstacle>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBounds {
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMission {
+    start: [f64; 3],
+    goal: [f64; 3],
+    speed: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObstacle {
+    kind: String,
+    #[serde(default)]
+    name: Option<String>,
+    center: Option<[f64; 3]>,
+    radius: Option<f64>,
+    min: Option<[f64; 3]>,
+    max: Option<[f64; 3]>,
+    base: Option<[f64; 3]>,
+    height: Option<f64>,
+    velocity: Option<[f64; 3]>,
+    waypoints: Option<Vec<[f64; 4]>>,
+}
+
+/// How an obstacle moves. Positions/velocities NED.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Motion {
+    /// Does not move.
+    Static,
+    /// Constant velocity from t = 0, m/s.
+    Velocity(Vector3<f64>),
+    /// Piecewise-linear trajectory of the reference point: `(t s, position m)`,
+    /// times strictly increasing; held at the first/last point outside the range.
+    Waypoints(Vec<(f64, Vector3<f64>)>),
+}
+
+/// One obstacle of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneObstacle {
+    /// Optional name from the file.
+    pub name: Option<String>,
+    /// Geometry as written in the file (converted to NED), i.e. at t = 0 for
+    /// `Velocity` motion; for `Waypoints` the reference point is moved along the waypoints.
+    pub shape: Shape,
+    /// Motion.
+    pub motion: Motion,
+}
+
+fn v3(a: &[f32; 3]) -> Vector3<f64> {
+    Vector3::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}
+
+/// Reference point of a shape (NED): sphere/point centre, box centre,
+/// cylinder bottom-disc centre. Waypoints move this point.
+pub fn reference_point(shape: &Shape) -> Vector3<f64> {
+    match shape {
+        Shape::Point { center } | Shape::Sphere { center, .. } => v3(center),
+        Shape::Box { min, max } => (v3(min) + v3(max)) * 0.5,
+        Shape::Cylinder { base, .. } => v3(base),
+    }
+}
+
+impl SceneObstacle {
+    /// `true` when the obstacle never moves.
+    pub fn is_static(&self) -> bool {
+        match &self.motion {
+            Motion::Static => true,
+            Motion::Velocity(v) => v.norm() == 0.0,
+            Motion::Waypoints(w) => w.len() < 2 || w.windows(2).all(|p| p[0].1 == p[1].1),
+        }
+    }
+
+    /// The obstacle's shape (NED) and velocity (NED, m/s) at time `t` (s).
+    pub fn at(&self, t: f64) -> (Shape, Vector3<f64>) {
+        match &self.motion {
+            Motion::Static => (self.shape, Vector3::zeros()),
+            Motion::Velocity(v) => (self.shape.translated(to_f32(&(v * t))), *v),
+            Motion::Waypoints(w) => {
+                let (p, v) = interpolate(w, t);
+                let off = p - reference_point(&self.shape);
+                (self.shape.translated(to_f32(&off)), v)
+            }
+        }
+    }
+}
+
+fn interpolate(w: &[(f64, Vector3<f64>)], t: f64) -> (Vector3<f64>, Vector3<f64>) {
+    let (first, last) = (w[0], w[w.len() - 1]);
+    if t <= first.0 || w.len() == 1 {
+        return (first.1, Vector3::zeros());
+    }
+    if t >= last.0 {
+        return (last.1, Vector3::zeros());
+    }
+    for seg in w.windows(2) {
+        let ((t0, p0), (t1, p1)) = (seg[0], seg[1]);
+        if t >= t0 && t < t1 {
+            let v = (p1 - p0) / (t1 - t0);
+            return (p0 + v * (t - t0), v);
+        }
+    }
+    (last.1, Vector3::zeros())
+}
+
+/// f64 NED vector → core `Vec3` (f32).
+pub fn to_f32(v: &Vector3<f64>) -> Vec3 {
+    Vec3::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// core `Vec3` (f32) → f64.
+pub fn to_f64(v: &Vec3) -> Vector3<f64> {
+    Vector3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+/// ENU array (file) → NED vector: the `f64` twin of
+/// [`parapet_core::frame::enu_to_ned`] (same axis mapping, checked in the tests).
+pub fn enu_arr_to_ned(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[1], a[0], -a[2])
+}
+
+/// NED vector → ENU array (file, plots): the `f64` twin of
+/// [`parapet_core::frame::ned_to_enu`].
+pub fn ned_to_enu_arr(v: &Vector3<f64>) -> [f64; 3] {
+    [v.y, v.x, -v.z]
+}
+
+/// A validated scene, internal frame NED.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Scene name.
+    pub name: String,
+    /// Optional description.
+    pub description: Option<String>,
+    /// Where it was loaded from (label used in error messages).
+    pub source: String,
+    /// Bounds of the flight volume as written (ENU, m): (min, max).
+    pub bounds_enu: ([f64; 3], [f64; 3]),
+    /// Mission start, NED, m.
+    pub start: Vector3<f64>,
+    /// Mission goal, NED, m.
+    pub goal: Vector3<f64>,
+    /// Reference speed along the path, m/s.
+    pub speed: f64,
+    /// Vehicle parameters (defaults overridden by `[vehicle]`).
+    pub vehicle: VehicleParams,
+    /// Controller overrides from `[controller]`.
+    pub controller: ControllerOverrides,
+    /// Sensor parameters from `[sensors]`, if the table is present.
+    pub sensors: Option<SensorParams>,
+    /// Simulation settings from `[sim]`.
+    pub sim: SimSettings,
+    /// Obstacles (index = position in the file, 0-based).
+    pub obstacles: Vec<SceneObstacle>,
+}
+
+impl Scene {
+    /// Read and validate a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let file = path.display().to_string();
+        let src = std::fs::read_to_string(path)
+            .map_err(|e| SceneError { file: file.clone(), message: format!("cannot read the file: {e}") })?;
+        Scene::parse(&src, &file)
+    }
+
+    /// Parse and validate scene TOML text; `file` labels error messages.
+    pub fn parse(src: &str, file: &str) -> Result<Scene, SceneError> {
+        let err = |message: String| SceneError { file: file.to_string(), message };
+        let raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
+        let finite3 = |table: &str, field: &str, a: [f64; 3]| -> Result<(), SceneError> {
+            if a.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(err(format!("{table}: field `{field}`: values must be finite, got {a:?}")))
+            }
+        };
+        finite3("[bounds]", "min", raw.bounds.min)?;
+        finite3("[bounds]", "max", raw.bounds.max)?;
+        for i in 0..3 {
+            if raw.bounds.min[i] >= raw.bounds.max[i] {
+                return Err(err(format!(
+                    "[bounds]: field `max`: must exceed `min` in every coordinate (min {:?}, max {:?})",
+                    raw.bounds.min, raw.bounds.max
+                )));
+            }
+        }
+        let inside = |a: [f64; 3]| (0..3).all(|i| a[i] >= raw.bounds.min[i] && a[i] <= raw.bounds.max[i]);
+        for (field, a) in [("start", raw.mission.start), ("goal", raw.mission.goal)] {
+            finite3("[mission]", field, a)?;
+            if !inside(a) {
+                return Err(err(format!("[mission]: field `{field}`: {a:?} is outside the bounds")));
+            }
+        }
+        if !(raw.mission.speed.is_finite() && raw.mission.speed > 0.0) {
+            return Err(err(format!("[mission]: field `speed`: must be > 0, got {}", raw.mission.speed)));
+        }
+        let vehicle = raw.vehicle.unwrap_or_default();
+        vehicle.validate().map_err(|e| err(format!("[vehicle]: field `{}`: {}", e.field, e.reason)))?;
+        let controller = raw.controller.unwrap_or_default();
+        validate_controller(&controller).map_err(|m| err(format!("[controller]: {m}")))?;
+        let sim = raw.sim.unwrap_or_default();
+        for (field, x) in [("sensing_range", sim.sensing_range), ("duration", sim.duration), ("dt", sim.dt)] {
+            if let Some(x) = x {
+                if !(x.is_finite() && x > 0.0) {
+                    return Err(err(format!("[sim]: field `{field}`: must be > 0, got {x}")));
+                }
+            }
+        }
+        if let Some(s) = &raw.sensors {
+            validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
+        }
+        let mut obstacles = Vec::with_capacity(raw.obstacles.len());
+        for (i, o) in raw.obstacles.into_iter().enumerate() {
+            obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
+        }
+        Ok(Scene {
+            name: raw.name,
+            description: raw.description,
+            source: file.to_string(),
+            bounds_enu: (raw.bounds.min, raw.bounds.max),
+            start: enu_arr_to_ned(raw.mission.start),
+            goal: enu_arr_to_ned(raw.mission.goal),
+            speed: raw.mission.speed,
+            vehicle,
+            controller,
+            sensors: raw.sensors,
+            sim,
+            obstacles,
+        })
+    }
+
+    /// Bounds of the flight volume, NED, m: (min, max) component-wise.
+    pub fn bounds_ned(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let a = enu_arr_to_ned(self.bounds_enu.0);
+        let b = enu_arr_to_ned(self.bounds_enu.1);
+        (a.inf(&b), a.sup(&b))
+    }
+
+    /// Shapes of the static obstacles (NED), what an offline planner knows.
+    pub fn static_shapes(&self) -> Vec<Shape> {
+        self.obstacles.iter().filter(|o| o.is_static()).map(|o| o.shape).collect()
+    }
+
+    /// Every obstacle's shape and velocity at time `t` (s), NED.
+    pub fn obstacles_at(&self, t: f64) -> Vec<(Shape, Vector3<f64>)> {
+        self.obstacles.iter().map(|o| o.at(t)).collect()
+    }
+
+    /// Signed distance (m) from `p` (NED) to the nearest obstacle surface at
+    /// time `t`, and the index of that obstacle; `(inf, None)` with no obstacles.
+    pub fn nearest(&self, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
+        let pf = to_f32(p);
+        let mut best = (f64::INFINITY, None);
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let d = o.at(t).0.signed_distance(&pf) as f64;
+            if d < best.0 {
+                best = (d, Some(i));
+            }
+        }
+        best
+    }
+}
+
+fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
+    for (field, x) in [("mu", c.mu), ("delta", c.delta), ("delta1", c.delta1), ("kp", c.kp), ("kd", c.kd)] {
+        if let Some(x) = x {
+            if !(x.is_finite() && x > 0.0) {
+                return Err(format!("field `{field}`: must be finite and > 0, got {x}"));
+            }
+        }
+    }
+    if let Some(a) = c.accel_bound {
+        if !(a.is_finite() && a >= 0.0) {
+            return Err(format!("field `accel_bound`: must be finite and >= 0, got {a}"));
+        }
+    }
+    if let (Some(d), Some(d1)) = (c.delta, c.delta1) {
+        if d1 <= d {
+            return Err(format!("field `delta1`: must exceed delta ({d}), got {d1}"));
+        }
+    }
+    if let Some(f) = &c.filter {
+        if !FILTER_NAMES.contains(&f.as_str()) {
+            return Err(format!("field `filter`: unknown variant {f:?}, expected one of {FILTER_NAMES:?}"));
+        }
+    }
+    Ok(())
+}
+
+fn validate_sensors(s: &SensorParams) -> Result<(), String> {
+    for (field, x) in [
+        ("gyro_noise", s.gyro_noise),
+        ("gyro_bias", s.gyro_bias),
+        ("accel_noise", s.accel_noise),
+        ("accel_bias", s.accel_bias),
+        ("position_noise", s.position_noise),
+        ("velocity_noise", s.velocity_noise),
+        ("position_latency", s.position_latency),
+    ] {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(format!("field `{field}`: must be finite and >= 0, got {x}"));
+        }
+    }
+    Ok(())
+}
+
+fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
+    let finite3 = |field: &str, a: [f64; 3]| {
+        if a.iter().all(|x| x.is_finite()) {
+            Ok(enu_arr_to_ned(a))
+        } else {
+            Err(format!("field `{field}`: values must be finite, got {a:?}"))
+        }
+    };
+    let positive = |field: &str, x: f64| {
+        if x.is_finite() && x > 0.0 {
+            Ok(x as f32)
+        } else {
+            Err(format!("field `{field}`: must be finite and > 0, got {x}"))
+        }
+    };
+    let need = |field: &str, present: bool| {
+        if present {
+            Ok(())
+        } else {
+            Err(format!("field `{field}` is missing (required for kind = {:?})", o.kind))
+        }
+    };
+    let forbid = |field: &str, present: bool| {
+        if present {
+            Err(format!("field `{field}` is not allowed for kind = {:?}", o.kind))
+        } else {
+            Ok(())
+        }
+    };
+    let shape = match o.kind.as_str() {
+        "sphere" => {
+            forbid("min", o.min.is_some())?;
+            forbid("max", o.max.is_some())?;
+            forbid("base", o.base.is_some())?;
+            forbid("height", o.height.is_some())?;
+            need("center", o.center.is_some())?;
+            need("radius", o.radius.is_some())?;
+            let c = finite3("center", o.center.unwrap_or_default())?;
+            Shape::sphere(to_f32(&c), positive("radius", o.radius.unwrap_or_default())?)
+        }
+        "box" => {
+            forbid("center", o.center.is_some())?;
+            forbid("radius", o.radius.is_some())?;
+            forbid("base", o.base.is_some())?;
+            forbid("height", o.height.is_some())?;
+            need("min", o.min.is_some())?;
+            need("max", o.max.is_some())?;
+            let (mn, mx) = (o.min.unwrap_or_default(), o.max.unwrap_or_default());
+            let (a, b) = (finite3("min", mn)?, finite3("max", mx)?);
+            if (0..3).any(|i| mn[i] >= mx[i]) {
+                return Err(format!(
+                    "field `max`: must exceed `min` in every coordinate (min {mn:?}, max {mx:?})"
+                ));
+            }
+            Shape::aabb(to_f32(&a), to_f32(&b))
+        }
+        "cylinder" => {
+            forbid("center", o.center.is_some())?;
+            forbid("min", o.min.is_some())?;
+            forbid("max", o.max.is_some())?;
+            need("base", o.base.is_some())?;
+            need("radius", o.radius.is_some())?;
+            need("height", o.height.is_some())?;
+            let b = finite3("base", o.base.unwrap_or_default())?;
+            let r = positive("radius", o.radius.unwrap_or_default())?;
+            let h = positive("height", o.height.unwrap_or_default())?;
+            Shape::cylinder(to_f32(&b), r, h)
+        }
+        other => {
+            return Err(format!(
+                "field `kind`: unknown kind {other:?}, expected \"sphere\", \"box\" or \"cylinder\""
+            ))
+        }
+    };
+    let motion = match (o.velocity, o.waypoints) {
+        (Some(_), Some(_)) => {
+            return Err("field `waypoints`: give either `velocity` or `waypoints`, not both".into())
+        }
+        (Some(v), None) => Motion::Velocity(finite3("velocity", v)?),
+        (None, Some(w)) => {
+            if w.is_empty() {
+                return Err("field `waypoints`: needs at least one [t, x, y, z] entry".into());
+            }
+            let mut out = Vec::with_capacity(w.len());
+            for (k, e) in w.iter().enumerate() {
+                if !e.iter().all(|x| x.is_finite()) {
+                    return Err(format!("field `waypoints`: entry {k} must be finite, got {e:?}"));
+                }
+                if let Some((t_prev, _)) = out.last() {
+                    if e[0] <= *t_prev {
+                        return Err(format!("field `waypoints`: times must increase strictly (entry {k})"));
+                    }
+                }
+                out.push((e[0], enu_arr_to_ned([e[1], e[2], e[3]])));
+            }
+            Motion::Waypoints(out)
+        }
+        (None, None) => Motion::Static,
+    };
+    Ok(SceneObstacle { name: o.name, shape, motion })
+}
+
+/// Turn a TOML/serde error into "line N, <table>, field `k`: message".
+fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().trim().to_string();
+    let Some(span) = e.span() else {
+        return msg;
+    };
+    let start = span.start.min(src.len());
+    let before = &src[..start];
+    let line_no = before.matches('\n').count() + 1;
+    let line = src.lines().nth(line_no - 1).unwrap_or("");
+    // The table the offending line belongs to.
+    let mut table = String::from("top level");
+    let mut n_obstacles = 0usize;
+    for l in before.lines() {
+        let t = l.trim();
+        if t.starts_with("[[obstacles]]") {
+            n_obstacles += 1;
+            table = format!("obstacles[{}]", n_obstacles - 1);
+        } else if t.starts_with('[') {
+            table = t.split(']').next().map(|s| format!("{s}]")).unwrap_or_default();
+        }
+    }
+    let mut out = format!("line {line_no}, {table}");
+    if let Some((key, _)) = line.split_once('=') {
+        let key = key.trim();
+        if !key.is_empty() && !key.starts_with('[') && !msg.contains(&format!("`{key}`")) {
+            out.push_str(&format!(", field `{key}`"));
+        }
+    }
+    out.push_str(": ");
+    out.push_str(&msg);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parapet_core::frame::{enu_to_ned, ned_to_enu};
+
+    const OK: &str = r#"
+name = "t"
+[bounds]
+min = [-1, -1, 0]
+max = [10, 5, 3]
+[mission]
+start = [0, 0, 1]
+goal = [8, 0, 1]
+speed = 0.3
+[controller]
+mu = 1.4
+filter = "paper"
+[[obstacles]]
+kind = "sphere"
+center = [4, 0, 1]
+radius = 0.3
+[[obstacles]]
+kind = "cylinder"
+base = [6, 2, 0]
+radius = 0.25
+height = 1.8
+velocity = [0, -0.5, 0]
+[[obstacles]]
+kind = "box"
+min = [1, 1, 0]
+max = [2, 2, 2]
+waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
+"#;
+
+    #[test]
+    fn f64_conversions_match_core() {
+        let a = [1.0, 2.0, 3.0];
+        let core = enu_to_ned(Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(to_f32(&enu_arr_to_ned(a)), core);
+        assert_eq!(ned_to_enu_arr(&enu_arr_to_ned(a)), a);
+        assert_eq!(to_f32(&Vector3::from(ned_to_enu_arr(&to_f64(&core)))), ned_to_enu(core));
+    }
+
+    #[test]
+    fn parses_and_converts_to_ned() {
+        let s = Scene::parse(OK, "ok.toml").unwrap();
+        assert_eq!(s.start, Vector3::new(0.0, 0.0, -1.0));
+        assert_eq!(s.goal, Vector3::new(0.0, 8.0, -1.0));
+        assert_eq!(s.obstacles.len(), 3);
+        // Sphere at east 4, up 1 → NED (0, 4, -1).
+        let (d, i) = s.nearest(&Vector3::new(0.0, 3.0, -1.0), 0.0);
+        assert_eq!(i, Some(0));
+        assert!((d - 0.7).abs() < 1e-6);
+        // Cylinder moving south (ENU y = -0.5 → NED x = -0.5) at 2 s: base (NED 2, 6, 0) moved 1 m south.
+        let (shape, v) = s.obstacles[1].at(2.0);
+        assert_eq!(v, Vector3::new(-0.5, 0.0, 0.0));
+        assert_eq!(shape, Shape::cylinder(Vec3::new(1.0, 6.0, 0.0), 0.25, 1.8));
+        // Box centre follows the waypoints: at t = 1 it is at ENU (1.5, 2.5, 1).
+        let (shape, v) = s.obstacles[2].at(1.0);
+        assert!((reference_point(&shape) - Vector3::new(2.5, 1.5, -1.0)).norm() < 1e-6);
+        assert!((v - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-12);
+        assert!(s.obstacles[0].is_static() && !s.obstacles[1].is_static());
+        assert_eq!(s.static_shapes().len(), 1);
+    }
+
+    fn err_of(src: &str) -> String {
+        Scene::parse(src, "bad.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn errors_name_file_obstacle_and_field() {
+        let e = err_of(&OK.replace("radius = 0.3", "radus = 0.3"));
+        assert!(e.starts_with("bad.toml:"), "{e}");
+        assert!(e.contains("obstacles[0]") && e.contains("radus"), "{e}");
+        let e = err_of(&OK.replace("radius = 0.25", "radius = -0.25"));
+        assert!(e.contains("obstacles[1]") && e.contains("`radius`"), "{e}");
+        let e = err_of(&OK.replace("radius = 0.25", "radius = \"big\""));
+        assert!(e.contains("obstacles[1]") && e.contains("radius"), "{e}");
+        let e = err_of(&OK.replace("kind = \"box\"", "kind = \"cone\""));
+        assert!(e.contains("obstacles[2]") && e.contains("`kind`"), "{e}");
+        let e = err_of(&OK.replace("min = [1, 1, 0]", "min = [3, 1, 0]"));
+        assert!(e.contains("obstacles[2]") && e.contains("`max`"), "{e}");
+        let e = err_of(&OK.replace("[2, 1.5", "[0, 1.5"));
+        assert!(e.contains("obstacles[2]") && e.contains("`waypoints`"), "{e}");
+        let e = err_of(&OK.replace("speed = 0.3", "speed = 0.3\nsped = 1"));
+        assert!(e.contains("[mission]") && e.contains("sped"), "{e}");
+        let e = err_of(&OK.replace("mu = 1.4", "mu = 0"));
+        assert!(e.contains("[controller]") && e.contains("`mu`"), "{e}");
+        let e = err_of(&OK.replace("\"paper\"", "\"fancy\""));
+        assert!(e.contains("`filter`"), "{e}");
+        let e = err_of(&OK.replace("goal = [8, 0, 1]", "goal = [80, 0, 1]"));
+        assert!(e.contains("`goal`") && e.contains("outside"), "{e}");
+        let e = err_of(&OK.replace("[controller]", "[vehicle]\nmass = -2\n[controller]"));
+        assert!(e.contains("[vehicle]") && e.contains("`mass`"), "{e}");
+        let e = err_of(&OK.replace("[controller]", "[vehicle]\nmas = 2\n[controller]"));
+        assert!(e.contains("mas"), "{e}");
+    }
+}
