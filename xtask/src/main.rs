@@ -1,1 +1,177 @@
-fn main() {}
+//! `cargo xtask <command>`: project automation that does its own set-up.
+//!
+//! * `cargo xtask test` — the README's test command: installs what it needs
+//!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
+//!   apt-get when missing and root), runs every host test, builds
+//!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
+//!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight.
+//! * `cargo xtask size` — print the firmware's flash and static-RAM use.
+//!
+//! Environment: `PARAPET_PROPTEST_CASES` (default 10000 here) sets the number of
+//! cases of each safety-invariant property.
+
+mod elf;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+const TARGET: &str = "thumbv7em-none-eabihf";
+/// Flash budget of the release firmware, bytes (issue: ≤ 128 KiB).
+const FLASH_BUDGET: u64 = 128 * 1024;
+/// Static RAM budget (.data + .bss), bytes (issue: ≤ 32 KiB).
+const RAM_BUDGET: u64 = 32 * 1024;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("test") => test(),
+        Some("size") => size().map(|_| ()),
+        _ => {
+            eprintln!("usage: cargo xtask <test|size>");
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+fn run(what: &str, cmd: &mut Command) -> Result<(), String> {
+    eprintln!("\n== xtask: {what}\n   $ {cmd:?}");
+    let status = cmd.current_dir(root()).status().map_err(|e| format!("{what}: cannot start: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{what} failed ({status})"))
+    }
+}
+
+fn cargo() -> Command {
+    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+fn ensure_target() -> Result<(), String> {
+    let out = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_err(|e| format!("rustup not found ({e}); install the {TARGET} target by hand"))?;
+    if String::from_utf8_lossy(&out.stdout).lines().any(|l| l.trim() == TARGET) {
+        return Ok(());
+    }
+    run("install the Cortex-M4F target", Command::new("rustup").args(["target", "add", TARGET]))
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
+}
+
+/// Make sure `qemu-system-arm` is on PATH: apt-get install it when root, else stop
+/// with the exact command to run.
+fn ensure_qemu() -> Result<(), String> {
+    let have = || Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    if have() {
+        return Ok(());
+    }
+    if !is_root() {
+        return Err(
+            "qemu-system-arm is missing; run: sudo apt-get update && sudo apt-get install -y qemu-system-arm"
+                .into(),
+        );
+    }
+    run("apt-get update", Command::new("apt-get").args(["update", "-qq"]))?;
+    run(
+        "install qemu-system-arm",
+        Command::new("apt-get")
+            .args(["install", "-y", "-qq", "--no-install-recommends", "qemu-system-arm"])
+            .env("DEBIAN_FRONTEND", "noninteractive"),
+    )?;
+    if have() {
+        Ok(())
+    } else {
+        Err("qemu-system-arm still not runnable after apt-get install".into())
+    }
+}
+
+fn firmware_elf(features: Option<&str>) -> PathBuf {
+    let target_dir =
+        std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"));
+    let name = if features == Some("board-qemu") { "parapet-firmware-qemu" } else { "parapet-firmware" };
+    target_dir.join(TARGET).join("release").join(name)
+}
+
+fn build_firmware() -> Result<PathBuf, String> {
+    run(
+        "build the firmware (release, STM32F405)",
+        cargo().args([
+            "build",
+            "--release",
+            "-p",
+            "parapet-firmware",
+            "--target",
+            TARGET,
+            "--bin",
+            "parapet-firmware",
+        ]),
+    )?;
+    Ok(firmware_elf(None))
+}
+
+fn size() -> Result<(u64, u64), String> {
+    ensure_target()?;
+    let elf = build_firmware()?;
+    let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let s = elf::sizes(&bytes).map_err(|e| format!("{}: {e}", elf.display()))?;
+    println!(
+        "firmware {}: flash {} B ({:.1} KiB of {} KiB), static RAM {} B ({:.1} KiB of {} KiB; .data {} + .bss {})",
+        elf.display(),
+        s.flash,
+        s.flash as f64 / 1024.0,
+        FLASH_BUDGET / 1024,
+        s.ram(),
+        s.ram() as f64 / 1024.0,
+        RAM_BUDGET / 1024,
+        s.data,
+        s.bss
+    );
+    Ok((s.flash, s.ram()))
+}
+
+fn test() -> Result<(), String> {
+    ensure_target()?;
+    let cases = std::env::var("PARAPET_PROPTEST_CASES").unwrap_or_else(|_| "10000".into());
+    run(
+        "host tests (workspace)",
+        cargo()
+            .args(["test", "--workspace", "--exclude", "parapet-firmware"])
+            .env("PARAPET_PROPTEST_CASES", &cases),
+    )?;
+    run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
+    run(
+        "build parapet-core for Cortex-M4F",
+        cargo().args(["build", "--release", "-p", "parapet-core", "--target", TARGET]),
+    )?;
+    let (flash, ram) = size()?;
+    if flash > FLASH_BUDGET || ram > RAM_BUDGET {
+        return Err(format!(
+            "firmware over budget: flash {flash} B (max {FLASH_BUDGET}), RAM {ram} B (max {RAM_BUDGET})"
+        ));
+    }
+    ensure_qemu()?;
+    eprintln!("\nxtask: all checks passed");
+    Ok(())
+}
