@@ -648,3 +648,25 @@ waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
         assert!(e.contains("mas"), "{e}");
     }
 }
+
+#[cfg(test)]
+mod shipped {
+    use super::*;
+
+    #[test]
+    fn shipped_scenes_load_and_start_goal_are_free() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let s = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                let r = s.vehicle.hull_radius;
+                assert!(s.nearest(&s.start, 0.0).0 > r, "{}: start too close", path.display());
+                assert!(s.nearest(&s.goal, 0.0).0 > r, "{}: goal too close", path.display());
+                n += 1;
+            }
+        }
+        assert!(n >= 4, "found {n} scenes");
+    }
+}

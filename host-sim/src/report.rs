@@ -1,0 +1,455 @@
+//! Run report: `summary.json`, `trajectory.csv`, plots (SVG and PNG) and a
+//! short summary table on stdout.
+//!
+//! Everything written here is in the file/plot frame **ENU** (x east, y
+//! north, z up, m); attitude angles are the vehicle's roll/pitch/yaw of FRD
+//! relative to NED (rad), as the controller sees them.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context, Result};
+use nalgebra::Vector3;
+use parapet_core::obstacle::Shape;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::scene::{ned_to_enu_arr, to_f64, Scene};
+
+/// Controller parameters of a run, as flown.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunParams {
+    /// Barrier velocity weight μ, s.
+    pub mu: f64,
+    /// Safety level δ, m².
+    pub delta: f64,
+    /// Engagement level δ1, m².
+    pub delta1: f64,
+    /// PD position gain, 1/s².
+    pub kp: f64,
+    /// PD velocity gain, 1/s.
+    pub kd: f64,
+    /// Reference speed along the path, m/s.
+    pub speed: f64,
+}
+
+/// The machine-readable summary of a run (`summary.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// Scene name.
+    pub scene: String,
+    /// Scene file.
+    pub scene_file: String,
+    /// Filter variant name, or `"none"` with `--no-cbf`.
+    pub filter: String,
+    /// Whether the safety filter was on.
+    pub cbf_enabled: bool,
+    /// The hull sphere intersected an obstacle.
+    pub collided: bool,
+    /// Time of the first collision, s (null if none).
+    pub first_collision_time_s: Option<f64>,
+    /// Index (0-based, scene file order) of the obstacle hit first (null if none).
+    pub collision_obstacle: Option<usize>,
+    /// Minimum over the flight of (distance from the centre of mass to the
+    /// nearest obstacle surface − hull radius), m. Negative = collision.
+    pub min_clearance_m: f64,
+    /// Minimum over the flight and over all obstacles of the barrier
+    /// `h̄ = |d|² + μ dᵀḋ − δ` (m²) on the true state, with the filter's notion of ḋ.
+    pub min_h_bar: f64,
+    /// Goal reached (within the tolerance and slow) before the end.
+    pub reached_goal: bool,
+    /// Time from mission start to reaching the goal, s (null if not reached).
+    pub time_to_goal_s: Option<f64>,
+    /// RMS of |actual − reference position| over the flight, m.
+    pub tracking_rms_m: f64,
+    /// Share of outer-loop steps where the filter changed the nominal input.
+    pub filter_active_fraction: f64,
+    /// Why the run ended: "goal", "collision" or "duration".
+    pub end_reason: String,
+    /// Simulated time, s.
+    pub sim_time_s: f64,
+    /// Wall-clock time of the simulation (without planning and report), s.
+    pub wall_time_s: f64,
+    /// Plant integration steps.
+    pub steps: u64,
+    /// Planning time, ms (null when the path came from a file or was a straight line).
+    pub planning_time_ms: Option<f64>,
+    /// Length of the planned path (start → goal), m.
+    pub path_length_m: f64,
+    /// Where the path came from: "planner", "file" or "straight".
+    pub path_source: String,
+    /// Number of waypoints of the path.
+    pub path_waypoints: usize,
+    /// Controller parameters.
+    pub params: RunParams,
+    /// Random seed (sensor noise; planner).
+    pub seed: u64,
+    /// Whether sensor noise was on.
+    pub noise: bool,
+}
+
+/// One recorded sample (outer-loop rate). Vectors NED.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Time since mission start, s.
+    pub t: f64,
+    /// Reference position, NED, m.
+    pub ref_pos: Vector3<f64>,
+    /// True position, NED, m.
+    pub pos: Vector3<f64>,
+    /// True velocity, NED, m/s.
+    pub vel: Vector3<f64>,
+    /// Roll, pitch, yaw (FRD w.r.t. NED), rad.
+    pub rpy: [f64; 3],
+    /// Filter region name.
+    pub region: &'static str,
+    /// Filter region code (see `parapet_core::cbf::Region::code`), or 255 with no filter.
+    pub region_code: u8,
+    /// Obstacle id the filter acted on.
+    pub active_obstacle: Option<u16>,
+    /// The filter changed the nominal input in this step.
+    pub filter_active: bool,
+    /// True clearance (distance to nearest surface − hull radius), m.
+    pub clearance: f64,
+    /// Clearance of the reference position, m.
+    pub ref_clearance: f64,
+    /// Min h̄ over all obstacles on the true state, m².
+    pub h_bar: f64,
+}
+
+/// Everything the report needs.
+pub struct RunRecord<'a> {
+    /// The scene flown.
+    pub scene: &'a Scene,
+    /// Planned path, NED, start first.
+    pub path: &'a [Vector3<f64>],
+    /// Flown samples.
+    pub samples: &'a [Sample],
+    /// The summary.
+    pub summary: &'a Summary,
+}
+
+/// Write `summary.json`, `trajectory.csv` and the plots into `dir` (created if
+/// needed). Returns the files written; a plot that fails (e.g. no usable font)
+/// is reported in the returned warnings instead of failing the run.
+pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<String>)> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut files = Vec::new();
+    let summary_path = dir.join("summary.json");
+    let json = serde_json::to_string_pretty(rec.summary)? + "\n";
+    std::fs::write(&summary_path, json)
+        .with_context(|| format!("cannot write {}", summary_path.display()))?;
+    files.push(summary_path);
+    let csv_path = dir.join("trajectory.csv");
+    std::fs::write(&csv_path, trajectory_csv(rec.samples))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    files.push(csv_path);
+    let mut warnings = Vec::new();
+    for name in ["top_view", "clearance", "filter_activity"] {
+        match plot_both(dir, name, rec) {
+            Ok(mut v) => files.append(&mut v),
+            Err(e) => warnings.push(format!("plot {name}: {e:#}")),
+        }
+    }
+    Ok((files, warnings))
+}
+
+/// The trajectory CSV text (ENU).
+pub fn trajectory_csv(samples: &[Sample]) -> String {
+    let mut s = String::from(
+        "t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar\n",
+    );
+    for k in samples {
+        let r = ned_to_enu_arr(&k.ref_pos);
+        let p = ned_to_enu_arr(&k.pos);
+        let v = ned_to_enu_arr(&k.vel);
+        let active = k.active_obstacle.map(|i| i.to_string()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{},{},{},{:.4},{:.5}",
+            k.t,
+            r[0],
+            r[1],
+            r[2],
+            p[0],
+            p[1],
+            p[2],
+            v[0],
+            v[1],
+            v[2],
+            k.rpy[0],
+            k.rpy[1],
+            k.rpy[2],
+            k.region,
+            active,
+            u8::from(k.filter_active),
+            k.clearance,
+            k.h_bar
+        );
+    }
+    s
+}
+
+/// The short summary table printed after a run.
+pub fn summary_table(s: &Summary) -> String {
+    let opt = |x: Option<f64>, unit: &str| x.map(|v| format!("{v:.2} {unit}")).unwrap_or_else(|| "-".into());
+    let rows: Vec<(&str, String)> = vec![
+        ("scene", format!("{} ({})", s.scene, s.scene_file)),
+        ("filter", s.filter.clone()),
+        (
+            "params",
+            format!(
+                "mu {} delta {} delta1 {} kp {} kd {} speed {} m/s",
+                s.params.mu, s.params.delta, s.params.delta1, s.params.kp, s.params.kd, s.params.speed
+            ),
+        ),
+        (
+            "path",
+            format!(
+                "{} : {} waypoints, {:.2} m, planning {}",
+                s.path_source,
+                s.path_waypoints,
+                s.path_length_m,
+                opt(s.planning_time_ms, "ms")
+            ),
+        ),
+        ("end", s.end_reason.clone()),
+        ("reached goal", format!("{} (t = {})", s.reached_goal, opt(s.time_to_goal_s, "s"))),
+        ("collided", format!("{} (t = {})", s.collided, opt(s.first_collision_time_s, "s"))),
+        ("min clearance", format!("{:.3} m", s.min_clearance_m)),
+        ("min h_bar", format!("{:.4} m²", s.min_h_bar)),
+        ("tracking RMS", format!("{:.3} m", s.tracking_rms_m)),
+        ("filter active", format!("{:.1} % of outer steps", 100.0 * s.filter_active_fraction)),
+        ("simulated", format!("{:.2} s in {:.2} s wall, {} steps", s.sim_time_s, s.wall_time_s, s.steps)),
+    ];
+    let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+    let mut out = String::new();
+    for (k, v) in rows {
+        let _ = writeln!(out, "  {k:<w$}  {v}");
+    }
+    out
+}
+
+fn plot_both(dir: &Path, name: &str, rec: &RunRecord) -> Result<Vec<PathBuf>> {
+    let (w, h) = plot_size(name, rec);
+    let svg = dir.join(format!("{name}.svg"));
+    {
+        let root = SVGBackend::new(&svg, (w, h)).into_drawing_area();
+        draw_any(name, &root, rec)?;
+        root.present().map_err(e)?;
+    }
+    let png = dir.join(format!("{name}.png"));
+    {
+        let root = BitMapBackend::new(&png, (w, h)).into_drawing_area();
+        draw_any(name, &root, rec)?;
+        root.present().map_err(e)?;
+    }
+    Ok(vec![svg, png])
+}
+
+fn draw_any<DB: DrawingBackend>(name: &str, root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    match name {
+        "top_view" => draw_top_view_any(root, rec),
+        "clearance" => draw_clearance_any(root, rec),
+        _ => draw_filter_activity_any(root, rec),
+    }
+}
+
+fn plot_size(name: &str, rec: &RunRecord) -> (u32, u32) {
+    if name == "top_view" {
+        let (mn, mx) = rec.scene.bounds_enu;
+        let (dx, dy) = ((mx[0] - mn[0]).max(0.1), (mx[1] - mn[1]).max(0.1));
+        let w = 1000.0;
+        let h = (w * dy / dx).clamp(300.0, 1400.0) + 60.0;
+        (w as u32, h as u32)
+    } else {
+        (1000, 400)
+    }
+}
+
+fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
+    anyhow!("{err}")
+}
+
+/// Outline of a shape's top view (ENU x, y), closed polygon.
+fn outline(shape: &Shape) -> Vec<(f64, f64)> {
+    let circle = |c: Vector3<f64>, r: f64| -> Vec<(f64, f64)> {
+        let c = ned_to_enu_arr(&c);
+        (0..=48)
+            .map(|k| {
+                let a = k as f64 / 48.0 * std::f64::consts::TAU;
+                (c[0] + r * a.cos(), c[1] + r * a.sin())
+            })
+            .collect()
+    };
+    match shape {
+        Shape::Point { center } => circle(to_f64(&(*center).into()), 0.02),
+        Shape::Sphere { center, radius } => circle(to_f64(&(*center).into()), *radius as f64),
+        Shape::Cylinder { base, radius, .. } => circle(to_f64(&(*base).into()), *radius as f64),
+        Shape::Box { min, max } => {
+            let a = ned_to_enu_arr(&to_f64(&(*min).into()));
+            let b = ned_to_enu_arr(&to_f64(&(*max).into()));
+            let (x0, x1) = (a[0].min(b[0]), a[0].max(b[0]));
+            let (y0, y1) = (a[1].min(b[1]), a[1].max(b[1]));
+            vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+        }
+    }
+}
+
+fn draw_top_view_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let (mn, mx) = rec.scene.bounds_enu;
+    let title = format!(
+        "{} — {} (planned green, flown blue{})",
+        rec.summary.scene,
+        rec.summary.filter,
+        if rec.summary.collided { ", collision ×" } else { "" }
+    );
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(45)
+        .build_cartesian_2d(mn[0]..mx[0], mn[1]..mx[1])
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("east x [m]")
+        .y_desc("north y [m]")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(e)?;
+    let t_end = rec.samples.last().map(|s| s.t).unwrap_or(0.0);
+    for o in &rec.scene.obstacles {
+        let moving = !o.is_static();
+        let fill = if moving { RGBColor(230, 160, 160) } else { RGBColor(170, 170, 170) };
+        if moving {
+            // Start pose light, end pose darker, and the track of its reference point.
+            let track: Vec<(f64, f64)> = (0..=50)
+                .map(|k| {
+                    let c = crate::scene::reference_point(&o.at(t_end * k as f64 / 50.0).0);
+                    let a = ned_to_enu_arr(&c);
+                    (a[0], a[1])
+                })
+                .collect();
+            chart.draw_series(std::iter::once(PathElement::new(track, fill.stroke_width(1)))).map_err(e)?;
+            let start = outline(&o.at(0.0).0);
+            chart.draw_series(std::iter::once(Polygon::new(start, fill.mix(0.35).filled()))).map_err(e)?;
+            let end = outline(&o.at(t_end).0);
+            chart.draw_series(std::iter::once(Polygon::new(end, fill.filled()))).map_err(e)?;
+        } else {
+            chart.draw_series(std::iter::once(Polygon::new(outline(&o.shape), fill.filled()))).map_err(e)?;
+        }
+    }
+    let to2 = |v: &Vector3<f64>| {
+        let a = ned_to_enu_arr(v);
+        (a[0], a[1])
+    };
+    let green = RGBColor(0, 160, 0);
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            rec.path.iter().map(to2).collect::<Vec<_>>(),
+            green.stroke_width(2),
+        )))
+        .map_err(e)?;
+    chart.draw_series(rec.path.iter().map(|p| Circle::new(to2(p), 3, green.filled()))).map_err(e)?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            rec.samples.iter().map(|s| to2(&s.pos)).collect::<Vec<_>>(),
+            BLUE.stroke_width(2),
+        )))
+        .map_err(e)?;
+    if let Some(t) = rec.summary.first_collision_time_s {
+        if let Some(s) = rec.samples.iter().find(|s| s.t >= t).or(rec.samples.last()) {
+            chart.draw_series(std::iter::once(Cross::new(to2(&s.pos), 8, RED.stroke_width(3)))).map_err(e)?;
+        }
+    }
+    let (s, g) = (to2(&rec.scene.start), to2(&rec.scene.goal));
+    chart.draw_series(std::iter::once(TriangleMarker::new(s, 8, BLACK.filled()))).map_err(e)?;
+    chart.draw_series(std::iter::once(Circle::new(g, 8, BLACK.stroke_width(2)))).map_err(e)?;
+    Ok(())
+}
+
+fn time_range(rec: &RunRecord) -> std::ops::Range<f64> {
+    0.0..rec.samples.last().map(|s| s.t).unwrap_or(1.0).max(1e-3)
+}
+
+fn draw_clearance_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let finite = |x: f64| if x.is_finite() { x } else { 5.0 };
+    let ymax = rec
+        .samples
+        .iter()
+        .map(|s| finite(s.clearance).max(finite(s.ref_clearance)))
+        .fold(0.5f64, f64::max)
+        .min(5.0);
+    let ymin = rec.samples.iter().map(|s| finite(s.clearance)).fold(-0.05f64, f64::min);
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Clearance (distance to nearest surface − hull radius): flown blue, planned green; bound 0 red",
+            ("sans-serif", 16),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(50)
+        .build_cartesian_2d(time_range(rec), ymin..ymax * 1.05)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("clearance [m]").draw().map_err(e)?;
+    let tr = time_range(rec);
+    chart
+        .draw_series(LineSeries::new(vec![(tr.start, 0.0), (tr.end, 0.0)], RED.stroke_width(2)))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            rec.samples.iter().map(|s| (s.t, finite(s.ref_clearance).min(ymax * 1.05))),
+            RGBColor(0, 160, 0),
+        ))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            rec.samples.iter().map(|s| (s.t, finite(s.clearance).min(ymax * 1.05))),
+            BLUE.stroke_width(2),
+        ))
+        .map_err(e)?;
+    Ok(())
+}
+
+fn draw_filter_activity_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Filter activity: region (0 none, 1 far D_δ1, 2 nominal safe D_u*, 3 filtering D_⊥, 4 fault); red = intervened",
+            ("sans-serif", 15),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(40)
+        .build_cartesian_2d(time_range(rec), -0.5f64..4.5f64)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("region").draw().map_err(e)?;
+    let pts: Vec<(f64, f64)> =
+        rec.samples.iter().filter(|s| s.region_code != 255).map(|s| (s.t, s.region_code as f64)).collect();
+    chart.draw_series(LineSeries::new(pts, BLUE)).map_err(e)?;
+    chart
+        .draw_series(
+            rec.samples
+                .iter()
+                .filter(|s| s.filter_active)
+                .map(|s| Rectangle::new([(s.t, -0.45), (s.t + 0.004, -0.1)], RED.filled())),
+        )
+        .map_err(e)?;
+    Ok(())
+}
