@@ -24,6 +24,7 @@
 pub mod airframe;
 pub mod cbf;
 pub mod frame;
+pub mod mixer;
 pub mod obstacle;
 pub mod qp3;
 pub mod thrust;
