@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod airframe;
+pub mod attitude;
 pub mod cbf;
 pub mod frame;
 pub mod mixer;
