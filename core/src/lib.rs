@@ -24,6 +24,7 @@
 pub mod airframe;
 pub mod attitude;
 pub mod cbf;
+pub mod estimator;
 pub mod frame;
 pub mod mixer;
 pub mod obstacle;

@@ -1,0 +1,414 @@
+//! Attitude estimator: Mahony complementary filter on SO(3) from a 3-axis gyro
+//! and accelerometer, with gyro-bias estimation and an optional external yaw.
+//!
+//! (The `ahrs` crate was considered; its current release depends on nalgebra
+//! 0.34, not the workspace's 0.35, so the filter is written here — it is short.)
+//!
+//! ## Filter
+//! Attitude `q` is the rotation body FRD → world NED. Each step, with gyro `ω_m`
+//! (rad/s, FRD) and accelerometer specific force `f` (m/s², FRD; `(0, 0, −g)`
+//! at rest and level):
+//!
+//! ```text
+//! v_meas = −f/|f|                                   measured "down" in body axes
+//! v_est  = R(q)ᵀ (g e₃ − a_w) / |g e₃ − a_w|        predicted "down" (a_w: known world accel.)
+//! e      = v_meas × v_est                           tilt error, rad (small angle)
+//! e_ψ    = wrap_pi(ψ_ext − ψ) · R(q)ᵀ e₃            external-yaw error about world down
+//! ω      = ω_m − b + k_p e + k_ψ e_ψ
+//! b     ← clamp(b − (k_i e + k_iψ e_ψ) dt, ±bias_max)
+//! q     ← q ⊗ exp(ω dt / 2)
+//! ```
+//!
+//! `a_w` (world NED acceleration, m/s²) is optional: without it the filter
+//! assumes the vehicle is not accelerating, which in sustained accelerated
+//! flight pulls the tilt estimate towards level (the accelerometer of a
+//! multirotor mostly sees the thrust direction). The
+//! [`crate::controller::FlightController`] passes the acceleration obtained
+//! from the external velocity fixes. The accelerometer is ignored (gyro and bias
+//! integration only) when `|f|` is outside `g·(1 ± accel_gate)`.
+//!
+//! Position and velocity are **not** estimated here: they come from outside
+//! (motion capture, VIO or the simulator) as a position fix.
+//!
+//! ## Bad samples
+//! A sample with a NaN/Inf component is rejected: the state is kept, the
+//! rejection counted and reported in the returned [`ImuStatus`]. A time step
+//! that is not finite, ≤ 0 or above `dt_max` is not integrated (the
+//! accelerometer/yaw correction is still not applied; state kept).
+
+use crate::attitude::Euler;
+use crate::frame::{is_finite3, wrap_pi, GRAVITY};
+use crate::Vec3;
+use nalgebra::{UnitQuaternion, Vector3};
+
+/// One inertial measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample {
+    /// Angular rate, rad/s, body FRD.
+    pub gyro: Vec3,
+    /// Specific force (acceleration minus gravity), m/s², body FRD; `(0, 0, −9.81)` at rest and level.
+    pub accel: Vec3,
+}
+
+/// Estimator gains and limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EstimatorParams {
+    /// Proportional tilt-correction gain, rad/s per rad. Default 1.0 (time constant ≈ 1 s).
+    pub kp: f32,
+    /// Integral (gyro-bias) gain for the tilt error, rad/s² per rad. Default 0.05.
+    pub ki: f32,
+    /// Proportional external-yaw gain, rad/s per rad. Default 1.0.
+    pub kp_yaw: f32,
+    /// Integral external-yaw (z-bias) gain, rad/s² per rad. Default 0.05.
+    pub ki_yaw: f32,
+    /// The accelerometer is used only when `|f|` is within `g·(1 ± accel_gate)`. Default 0.25.
+    pub accel_gate: f32,
+    /// Clamp of each gyro-bias component, rad/s. Default 0.2.
+    pub bias_max: f32,
+    /// Largest time step integrated, s. Default 0.02.
+    pub dt_max: f32,
+}
+
+impl Default for EstimatorParams {
+    fn default() -> Self {
+        EstimatorParams {
+            kp: 1.0,
+            ki: 0.05,
+            kp_yaw: 1.0,
+            ki_yaw: 0.05,
+            accel_gate: 0.25,
+            bias_max: 0.2,
+            dt_max: 0.02,
+        }
+    }
+}
+
+/// Why estimator parameters were rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EstimatorError {
+    /// A gain is negative or not finite, or `accel_gate`, `bias_max`, `dt_max` not > 0.
+    BadParams,
+}
+
+impl EstimatorParams {
+    /// Check every field.
+    pub fn validate(&self) -> Result<(), EstimatorError> {
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let pos = |x: f32| x.is_finite() && x > 0.0;
+        if nonneg(self.kp)
+            && nonneg(self.ki)
+            && nonneg(self.kp_yaw)
+            && nonneg(self.ki_yaw)
+            && pos(self.accel_gate)
+            && pos(self.bias_max)
+            && pos(self.dt_max)
+        {
+            Ok(())
+        } else {
+            Err(EstimatorError::BadParams)
+        }
+    }
+}
+
+/// What the estimator did with a sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ImuStatus {
+    /// Integrated, accelerometer correction applied.
+    Ok,
+    /// Integrated; accelerometer outside the gate, so gyro only.
+    AccelIgnored,
+    /// First valid sample: attitude initialised from the accelerometer (and external yaw).
+    Initialised,
+    /// Time step not finite, ≤ 0 or above `dt_max`: nothing integrated.
+    BadDt,
+    /// NaN/Inf in the sample (or in the acceleration/yaw aids): rejected, state kept.
+    RejectedNonFinite,
+}
+
+/// Mahony attitude estimator (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct AttitudeEstimator {
+    params: EstimatorParams,
+    q: UnitQuaternion<f32>,
+    bias: Vec3,
+    rate: Vec3,
+    initialised: bool,
+    rejected: u32,
+    last: ImuStatus,
+}
+
+impl AttitudeEstimator {
+    /// New estimator (level, zero bias, not initialised); errors on invalid parameters.
+    pub fn new(params: EstimatorParams) -> Result<Self, EstimatorError> {
+        params.validate()?;
+        Ok(AttitudeEstimator {
+            params,
+            q: UnitQuaternion::identity(),
+            bias: Vec3::zeros(),
+            rate: Vec3::zeros(),
+            initialised: false,
+            rejected: 0,
+            last: ImuStatus::BadDt,
+        })
+    }
+
+    /// Forget the attitude and bias (next valid sample re-initialises).
+    pub fn reset(&mut self) {
+        self.q = UnitQuaternion::identity();
+        self.bias = Vec3::zeros();
+        self.rate = Vec3::zeros();
+        self.initialised = false;
+    }
+
+    /// Attitude quaternion, body FRD → world NED.
+    pub fn quaternion(&self) -> UnitQuaternion<f32> {
+        self.q
+    }
+
+    /// Attitude as Euler ZYX angles, rad.
+    pub fn euler(&self) -> Euler {
+        let (roll, pitch, yaw) = self.q.euler_angles();
+        Euler { roll, pitch, yaw }
+    }
+
+    /// Tilt: angle between body z and world z (down), rad, in [0, π].
+    pub fn tilt(&self) -> f32 {
+        let r22 = self.q.to_rotation_matrix().matrix()[(2, 2)];
+        libm::acosf(r22.clamp(-1.0, 1.0))
+    }
+
+    /// Bias-corrected body rate of the last accepted sample, rad/s FRD.
+    pub fn rate(&self) -> Vec3 {
+        self.rate
+    }
+
+    /// Estimated gyro bias, rad/s FRD.
+    pub fn gyro_bias(&self) -> Vec3 {
+        self.bias
+    }
+
+    /// `true` after the first valid sample.
+    pub fn is_initialised(&self) -> bool {
+        self.initialised
+    }
+
+    /// Number of samples rejected as non-finite since creation.
+    pub fn rejected_count(&self) -> u32 {
+        self.rejected
+    }
+
+    /// Status of the last [`update`](Self::update).
+    pub fn last_status(&self) -> ImuStatus {
+        self.last
+    }
+
+    /// Set the attitude directly (e.g. a test or a ground alignment), keeping the bias.
+    pub fn set_attitude(&mut self, q: UnitQuaternion<f32>) {
+        if q.coords.iter().all(|c| c.is_finite()) {
+            self.q = q;
+            self.initialised = true;
+        }
+    }
+
+    fn accel_usable(&self, f: &Vec3) -> bool {
+        let n = f.norm();
+        (n - GRAVITY).abs() <= self.params.accel_gate * GRAVITY
+    }
+
+    /// Process one sample taken `dt_s` seconds after the previous one.
+    /// `accel_world`: known world NED acceleration of the vehicle (m/s²) to
+    /// compensate, if any; `yaw_ext`: external yaw measurement (rad), if any.
+    pub fn update(
+        &mut self,
+        imu: &ImuSample,
+        dt_s: f32,
+        accel_world: Option<Vec3>,
+        yaw_ext: Option<f32>,
+    ) -> ImuStatus {
+        let status = self.update_inner(imu, dt_s, accel_world, yaw_ext);
+        if status == ImuStatus::RejectedNonFinite {
+            self.rejected = self.rejected.saturating_add(1);
+        }
+        self.last = status;
+        status
+    }
+
+    fn update_inner(
+        &mut self,
+        imu: &ImuSample,
+        dt_s: f32,
+        accel_world: Option<Vec3>,
+        yaw_ext: Option<f32>,
+    ) -> ImuStatus {
+        if !is_finite3(&imu.gyro) || !is_finite3(&imu.accel) {
+            return ImuStatus::RejectedNonFinite;
+        }
+        // Non-finite aids are ignored rather than rejecting a good IMU sample.
+        let a_w = accel_world.filter(is_finite3).unwrap_or_else(Vec3::zeros);
+        let yaw_ext = yaw_ext.filter(|y| y.is_finite());
+        let p = self.params;
+        if !self.initialised {
+            if !self.accel_usable(&imu.accel) {
+                // Cannot level yet: keep identity and wait for a usable sample.
+                self.rate = imu.gyro;
+                return ImuStatus::AccelIgnored;
+            }
+            let f = imu.accel;
+            let pitch = libm::atan2f(f.x, libm::sqrtf(f.y * f.y + f.z * f.z));
+            let roll = libm::atan2f(-f.y, -f.z);
+            self.q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_ext.unwrap_or(0.0));
+            self.rate = imu.gyro - self.bias;
+            self.initialised = true;
+            return ImuStatus::Initialised;
+        }
+        if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= p.dt_max) {
+            return ImuStatus::BadDt;
+        }
+        let r_t = self.q.to_rotation_matrix().matrix().transpose();
+        let e3 = Vector3::new(0.0, 0.0, 1.0);
+        let mut corr = Vec3::zeros();
+        let mut bias_dot = Vec3::zeros();
+        let use_acc = self.accel_usable(&imu.accel);
+        if use_acc {
+            let v_meas = -imu.accel / imu.accel.norm();
+            let g_w = e3 * GRAVITY - a_w;
+            let n = g_w.norm();
+            // A compensation that cancels gravity would leave no reference: fall back to level.
+            let v_est = if n > 0.5 * GRAVITY { r_t * (g_w / n) } else { r_t * e3 };
+            let e = v_meas.cross(&v_est);
+            corr += e * p.kp;
+            bias_dot -= e * p.ki;
+        }
+        if let Some(psi) = yaw_ext {
+            let e_psi = wrap_pi(psi - self.euler().yaw);
+            let axis = r_t * e3;
+            corr += axis * (p.kp_yaw * e_psi);
+            bias_dot -= axis * (p.ki_yaw * e_psi);
+        }
+        self.bias += bias_dot * dt_s;
+        let bm = p.bias_max;
+        self.bias = self.bias.map(|b| b.clamp(-bm, bm));
+        self.rate = imu.gyro - self.bias;
+        let omega = self.rate + corr;
+        let dq = UnitQuaternion::from_scaled_axis(omega * dt_s);
+        let q = self.q * dq;
+        // Renormalise (from_scaled_axis and the product keep unit norm up to rounding).
+        let q = UnitQuaternion::new_normalize(q.into_inner());
+        if q.coords.iter().all(|c| c.is_finite()) {
+            self.q = q;
+        }
+        if use_acc {
+            ImuStatus::Ok
+        } else {
+            ImuStatus::AccelIgnored
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Specific force seen at rest with attitude q.
+    fn at_rest(q: &UnitQuaternion<f32>) -> Vec3 {
+        q.inverse() * Vec3::new(0.0, 0.0, -GRAVITY)
+    }
+
+    fn est() -> AttitudeEstimator {
+        AttitudeEstimator::new(EstimatorParams::default()).unwrap()
+    }
+
+    #[test]
+    fn initialises_roll_pitch_from_accelerometer() {
+        let mut e = est();
+        let q = UnitQuaternion::from_euler_angles(0.2, -0.3, 1.0);
+        let s = e.update(&ImuSample { gyro: Vec3::zeros(), accel: at_rest(&q) }, 0.001, None, Some(1.0));
+        assert_eq!(s, ImuStatus::Initialised);
+        let a = e.euler();
+        assert!((a.roll - 0.2).abs() < 1e-5 && (a.pitch + 0.3).abs() < 1e-5 && (a.yaw - 1.0).abs() < 1e-5);
+        assert!((e.tilt() - libm::acosf(0.2f32.cos() * 0.3f32.cos())).abs() < 1e-4);
+    }
+
+    #[test]
+    fn converges_from_wrong_attitude_and_learns_gyro_bias() {
+        let mut e = est();
+        let truth = UnitQuaternion::from_euler_angles(0.1, 0.05, 0.5);
+        let bias = Vec3::new(0.02, -0.015, 0.01);
+        e.set_attitude(UnitQuaternion::from_euler_angles(-0.2, 0.2, 0.0));
+        let dt = 0.001;
+        for _ in 0..120_000 {
+            let imu = ImuSample { gyro: bias, accel: at_rest(&truth) };
+            assert_eq!(e.update(&imu, dt, None, Some(0.5)), ImuStatus::Ok);
+        }
+        let a = e.euler();
+        assert!((a.roll - 0.1).abs() < 2e-3 && (a.pitch - 0.05).abs() < 2e-3, "{a:?}");
+        assert!(wrap_pi(a.yaw - 0.5).abs() < 2e-3, "{a:?}");
+        assert!((e.gyro_bias() - bias).norm() < 2e-3, "bias {:?}", e.gyro_bias());
+        assert!(e.rate().norm() < 2e-3);
+    }
+
+    #[test]
+    fn tracks_rotation_from_gyro() {
+        let mut e = est();
+        e.set_attitude(UnitQuaternion::identity());
+        // Pure roll at 1 rad/s for 0.3 s, accelerometer consistent with the motion at rest.
+        let dt = 0.001;
+        let mut truth = UnitQuaternion::identity();
+        let w = Vec3::new(1.0, 0.0, 0.0);
+        for _ in 0..300 {
+            truth *= UnitQuaternion::from_scaled_axis(w * dt);
+            e.update(&ImuSample { gyro: w, accel: at_rest(&truth) }, dt, None, None);
+        }
+        assert!((e.euler().roll - 0.3).abs() < 1e-3, "{:?}", e.euler());
+    }
+
+    #[test]
+    fn acceleration_compensation_keeps_tilt_in_accelerated_flight() {
+        // Vehicle tilted 0.2 rad in pitch, accelerating north at g·tan(0.2) with thrust along body −z.
+        let truth = UnitQuaternion::from_euler_angles(0.0, -0.2, 0.0);
+        let a_w = Vec3::new(GRAVITY * 0.2f32.tan(), 0.0, 0.0);
+        let f = truth.inverse() * (a_w - Vec3::new(0.0, 0.0, GRAVITY));
+        assert!(f.x.abs() < 1e-4, "specific force along body z only");
+        let run = |comp: Option<Vec3>| {
+            let mut e = est();
+            e.set_attitude(truth);
+            for _ in 0..5000 {
+                e.update(&ImuSample { gyro: Vec3::zeros(), accel: f }, 0.001, comp, None);
+            }
+            e.euler().pitch
+        };
+        assert!((run(Some(a_w)) + 0.2).abs() < 1e-3);
+        assert!(run(None) > -0.15, "without compensation the estimate drifts towards level");
+    }
+
+    #[test]
+    fn rejects_non_finite_and_bad_dt_keeping_state() {
+        let mut e = est();
+        let q = UnitQuaternion::from_euler_angles(0.1, 0.0, 0.0);
+        e.update(&ImuSample { gyro: Vec3::zeros(), accel: at_rest(&q) }, 0.001, None, None);
+        let before = e.quaternion();
+        for bad in [
+            ImuSample { gyro: Vec3::new(f32::NAN, 0.0, 0.0), accel: at_rest(&q) },
+            ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, f32::INFINITY, 0.0) },
+        ] {
+            assert_eq!(e.update(&bad, 0.001, None, None), ImuStatus::RejectedNonFinite);
+        }
+        assert_eq!(e.quaternion(), before);
+        assert_eq!(e.rejected_count(), 2);
+        let good = ImuSample { gyro: Vec3::new(1.0, 0.0, 0.0), accel: at_rest(&q) };
+        for dt in [0.0, -1.0, f32::NAN, 10.0] {
+            assert_eq!(e.update(&good, dt, None, None), ImuStatus::BadDt);
+        }
+        assert_eq!(e.quaternion(), before);
+        // Non-finite aids are ignored, the sample still used.
+        let s = e.update(&good, 0.001, Some(Vec3::new(f32::NAN, 0.0, 0.0)), Some(f32::INFINITY));
+        assert_eq!(s, ImuStatus::Ok);
+        // Free fall (|f| ≈ 0): accelerometer ignored.
+        let s = e.update(&ImuSample { gyro: Vec3::zeros(), accel: Vec3::zeros() }, 0.001, None, None);
+        assert_eq!(s, ImuStatus::AccelIgnored);
+        assert!(AttitudeEstimator::new(EstimatorParams { kp: -1.0, ..Default::default() }).is_err());
+    }
+}
