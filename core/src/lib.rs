@@ -25,6 +25,7 @@ pub mod airframe;
 pub mod attitude;
 pub mod cbf;
 pub mod estimator;
+pub mod failsafe;
 pub mod frame;
 pub mod mixer;
 pub mod obstacle;

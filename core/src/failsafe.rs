@@ -1,0 +1,461 @@
+//! Failsafe state machine: arming, data-loss braking, landing, crash cut-off.
+//!
+//! ```text
+//!              arm (checks pass)                   stale position / stale obstacles / NaN-Inf input
+//!  Disarmed ───────────────────────▶ Armed ─────────────────────────────────────────────▶ Brake
+//!     ▲  ▲                             │  land command                                     │
+//!     │  │ landed                      ▼                      brake timeout or land cmd    │
+//!     │  └──────────────────────────  Land ◀───────────────────────────────────────────────┘
+//!     │ disarm command (from any state)
+//!     └─────────────────────────────  MotorsOff ◀── tilt > limit (from Armed, Brake or Land)
+//! ```
+//!
+//! * **Armed** is nominal operation (on the ground, taking off, holding, flying the mission).
+//! * **Brake**: hold position at the last good position with zero velocity
+//!   (or, without a fresh position fix, level attitude at hover thrust). There is
+//!   **no automatic return** to Armed when the data comes back: a data loss always
+//!   ends in a landing unless the operator lands/disarms first.
+//! * **Land**: descend at a fixed rate; without a position fix, level attitude and
+//!   thrust slightly below hover. Ends in Disarmed when landing is detected.
+//! * **MotorsOff** (crash): motors stop and stay off until a disarm command.
+//! * A disarm command is accepted in every state (operator kill switch).
+//!
+//! Every transition is returned as a [`Transition`] (from, to, reason, time) and
+//! the last one is kept for telemetry. The machine itself only decides; the
+//! [`crate::controller::FlightController`] measures ages, tilt and landing.
+
+/// Failsafe state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FailsafeState {
+    /// Motors off, commands other than arm ignored.
+    #[default]
+    Disarmed,
+    /// Nominal operation.
+    Armed,
+    /// Data lost or corrupted: brake and hold.
+    Brake,
+    /// Descending to land.
+    Land,
+    /// Crash detected: motors off until disarmed.
+    MotorsOff,
+}
+
+impl FailsafeState {
+    /// `true` when the motors may spin (Armed, Brake, Land).
+    pub fn motors_enabled(&self) -> bool {
+        matches!(self, FailsafeState::Armed | FailsafeState::Brake | FailsafeState::Land)
+    }
+    /// Short name for logs.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            FailsafeState::Disarmed => "disarmed",
+            FailsafeState::Armed => "armed",
+            FailsafeState::Brake => "brake",
+            FailsafeState::Land => "land",
+            FailsafeState::MotorsOff => "motors-off",
+        }
+    }
+}
+
+/// Why a transition happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TransitionReason {
+    /// Operator arm command (pre-arm checks passed).
+    ArmCommand,
+    /// Operator disarm command.
+    DisarmCommand,
+    /// Operator land command.
+    LandCommand,
+    /// The position fix is older than the limit.
+    PositionStale,
+    /// The obstacle data is older than the limit.
+    ObstacleStale,
+    /// A NaN/Inf (or otherwise invalid) value arrived in an input.
+    NonFiniteInput,
+    /// Braked for longer than the brake timeout.
+    BrakeTimeout,
+    /// Landing detected.
+    Landed,
+    /// Tilt beyond the crash limit.
+    TiltLimit,
+}
+
+impl TransitionReason {
+    /// Short name for logs.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            TransitionReason::ArmCommand => "arm-command",
+            TransitionReason::DisarmCommand => "disarm-command",
+            TransitionReason::LandCommand => "land-command",
+            TransitionReason::PositionStale => "position-stale",
+            TransitionReason::ObstacleStale => "obstacle-stale",
+            TransitionReason::NonFiniteInput => "non-finite-input",
+            TransitionReason::BrakeTimeout => "brake-timeout",
+            TransitionReason::Landed => "landed",
+            TransitionReason::TiltLimit => "tilt-limit",
+        }
+    }
+}
+
+/// One state change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Transition {
+    /// State before.
+    pub from: FailsafeState,
+    /// State after.
+    pub to: FailsafeState,
+    /// Cause.
+    pub reason: TransitionReason,
+    /// Time of the change, µs (controller clock).
+    pub t_us: u64,
+}
+
+/// Limits of the failsafe machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FailsafeParams {
+    /// A position fix older than this is stale, µs. Default 200 000 (0.2 s).
+    pub position_timeout_us: u64,
+    /// Obstacle data older than this is stale, µs. Default 500 000 (0.5 s).
+    pub obstacle_timeout_us: u64,
+    /// Time in Brake before landing, µs. Default 3 000 000 (3 s).
+    pub brake_timeout_us: u64,
+    /// Tilt (angle between body z and world z) that means a crash, rad. Default 1.05 (60°).
+    pub tilt_limit: f32,
+}
+
+impl Default for FailsafeParams {
+    fn default() -> Self {
+        FailsafeParams {
+            position_timeout_us: 200_000,
+            obstacle_timeout_us: 500_000,
+            brake_timeout_us: 3_000_000,
+            tilt_limit: 1.05,
+        }
+    }
+}
+
+impl FailsafeParams {
+    /// `true` when the timeouts are > 0 and the tilt limit is finite in (0, π].
+    pub fn is_valid(&self) -> bool {
+        self.position_timeout_us > 0
+            && self.obstacle_timeout_us > 0
+            && self.tilt_limit.is_finite()
+            && self.tilt_limit > 0.0
+            && self.tilt_limit <= core::f32::consts::PI
+    }
+}
+
+/// Health of the inputs as measured by the controller for one check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DataHealth {
+    /// Age of the last valid position fix, µs (`None`: never received).
+    pub position_age_us: Option<u64>,
+    /// Age of the last valid obstacle update, µs (`None`: never received).
+    pub obstacle_age_us: Option<u64>,
+    /// A NaN/Inf input was seen since the last check.
+    pub non_finite: bool,
+}
+
+/// The failsafe state machine (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct Failsafe {
+    params: FailsafeParams,
+    state: FailsafeState,
+    since_us: u64,
+    last: Option<Transition>,
+    count: u32,
+}
+
+/// Why an arm command was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ArmRefusal {
+    /// Not in Disarmed (already armed, or MotorsOff awaiting a disarm).
+    NotDisarmed,
+    /// No position fix, or the last one is stale.
+    NoFreshPosition,
+    /// No obstacle update, or the last one is stale.
+    NoFreshObstacles,
+    /// A NaN/Inf input was seen.
+    NonFiniteInput,
+    /// The attitude estimate is not initialised or the tilt is beyond the limit.
+    AttitudeNotReady,
+}
+
+impl Failsafe {
+    /// New machine in Disarmed.
+    pub fn new(params: FailsafeParams) -> Self {
+        Failsafe { params, state: FailsafeState::Disarmed, since_us: 0, last: None, count: 0 }
+    }
+
+    /// Parameters in use.
+    pub fn params(&self) -> &FailsafeParams {
+        &self.params
+    }
+
+    /// Current state.
+    pub fn state(&self) -> FailsafeState {
+        self.state
+    }
+
+    /// Time of entry into the current state, µs.
+    pub fn since_us(&self) -> u64 {
+        self.since_us
+    }
+
+    /// Last transition, if any.
+    pub fn last_transition(&self) -> Option<Transition> {
+        self.last
+    }
+
+    /// Number of transitions so far (saturating).
+    pub fn transition_count(&self) -> u32 {
+        self.count
+    }
+
+    fn go(&mut self, to: FailsafeState, reason: TransitionReason, t_us: u64) -> Transition {
+        let tr = Transition { from: self.state, to, reason, t_us };
+        self.state = to;
+        self.since_us = t_us;
+        self.last = Some(tr);
+        self.count = self.count.saturating_add(1);
+        tr
+    }
+
+    fn fresh(age: Option<u64>, limit: u64) -> bool {
+        age.is_some_and(|a| a <= limit)
+    }
+
+    /// Arm command: accepted only in Disarmed with fresh position and obstacle data,
+    /// no NaN/Inf input and an initialised attitude within the tilt limit.
+    pub fn arm(
+        &mut self,
+        t_us: u64,
+        health: &DataHealth,
+        attitude_ok: bool,
+        tilt: f32,
+    ) -> Result<Transition, ArmRefusal> {
+        if self.state != FailsafeState::Disarmed {
+            return Err(ArmRefusal::NotDisarmed);
+        }
+        if health.non_finite {
+            return Err(ArmRefusal::NonFiniteInput);
+        }
+        if !Self::fresh(health.position_age_us, self.params.position_timeout_us) {
+            return Err(ArmRefusal::NoFreshPosition);
+        }
+        if !Self::fresh(health.obstacle_age_us, self.params.obstacle_timeout_us) {
+            return Err(ArmRefusal::NoFreshObstacles);
+        }
+        if !attitude_ok || !tilt.is_finite() || tilt > self.params.tilt_limit {
+            return Err(ArmRefusal::AttitudeNotReady);
+        }
+        Ok(self.go(FailsafeState::Armed, TransitionReason::ArmCommand, t_us))
+    }
+
+    /// Disarm command: accepted in every state except Disarmed.
+    pub fn disarm(&mut self, t_us: u64) -> Option<Transition> {
+        if self.state == FailsafeState::Disarmed {
+            return None;
+        }
+        Some(self.go(FailsafeState::Disarmed, TransitionReason::DisarmCommand, t_us))
+    }
+
+    /// Land command: from Armed or Brake.
+    pub fn land(&mut self, t_us: u64) -> Option<Transition> {
+        match self.state {
+            FailsafeState::Armed | FailsafeState::Brake => {
+                Some(self.go(FailsafeState::Land, TransitionReason::LandCommand, t_us))
+            }
+            _ => None,
+        }
+    }
+
+    /// Crash check (call at the inner-loop rate): tilt above the limit (or not
+    /// finite) while the motors are enabled → MotorsOff.
+    pub fn check_tilt(&mut self, t_us: u64, tilt: f32) -> Option<Transition> {
+        let crashed = !tilt.is_finite() || tilt > self.params.tilt_limit;
+        if self.state.motors_enabled() && crashed {
+            return Some(self.go(FailsafeState::MotorsOff, TransitionReason::TiltLimit, t_us));
+        }
+        None
+    }
+
+    /// Data check (call at the outer-loop rate): stale/invalid data in Armed →
+    /// Brake; Brake longer than the timeout → Land; Land with `landed` → Disarmed.
+    /// At most one transition per call.
+    pub fn check_data(&mut self, t_us: u64, health: &DataHealth, landed: bool) -> Option<Transition> {
+        match self.state {
+            FailsafeState::Armed => {
+                let reason = if health.non_finite {
+                    Some(TransitionReason::NonFiniteInput)
+                } else if !Self::fresh(health.position_age_us, self.params.position_timeout_us) {
+                    Some(TransitionReason::PositionStale)
+                } else if !Self::fresh(health.obstacle_age_us, self.params.obstacle_timeout_us) {
+                    Some(TransitionReason::ObstacleStale)
+                } else {
+                    None
+                };
+                reason.map(|r| self.go(FailsafeState::Brake, r, t_us))
+            }
+            FailsafeState::Brake => {
+                if t_us.saturating_sub(self.since_us) >= self.params.brake_timeout_us {
+                    Some(self.go(FailsafeState::Land, TransitionReason::BrakeTimeout, t_us))
+                } else {
+                    None
+                }
+            }
+            FailsafeState::Land if landed => {
+                Some(self.go(FailsafeState::Disarmed, TransitionReason::Landed, t_us))
+            }
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use FailsafeState as S;
+    use TransitionReason as R;
+
+    fn good() -> DataHealth {
+        DataHealth { position_age_us: Some(1_000), obstacle_age_us: Some(1_000), non_finite: false }
+    }
+
+    fn armed() -> Failsafe {
+        let mut f = Failsafe::new(FailsafeParams::default());
+        f.arm(10, &good(), true, 0.0).unwrap();
+        f
+    }
+
+    fn check(tr: Option<Transition>, from: S, to: S, reason: R) {
+        let tr = tr.expect("a transition");
+        assert_eq!((tr.from, tr.to, tr.reason), (from, to, reason));
+    }
+
+    #[test]
+    fn arm_checks_and_refusals() {
+        let mut f = Failsafe::new(FailsafeParams::default());
+        let stale = FailsafeParams::default().position_timeout_us + 1;
+        assert_eq!(
+            f.arm(0, &DataHealth { position_age_us: None, ..good() }, true, 0.0),
+            Err(ArmRefusal::NoFreshPosition)
+        );
+        assert_eq!(
+            f.arm(0, &DataHealth { position_age_us: Some(stale), ..good() }, true, 0.0),
+            Err(ArmRefusal::NoFreshPosition)
+        );
+        assert_eq!(
+            f.arm(0, &DataHealth { obstacle_age_us: None, ..good() }, true, 0.0),
+            Err(ArmRefusal::NoFreshObstacles)
+        );
+        assert_eq!(
+            f.arm(0, &DataHealth { non_finite: true, ..good() }, true, 0.0),
+            Err(ArmRefusal::NonFiniteInput)
+        );
+        assert_eq!(f.arm(0, &good(), false, 0.0), Err(ArmRefusal::AttitudeNotReady));
+        assert_eq!(f.arm(0, &good(), true, f32::NAN), Err(ArmRefusal::AttitudeNotReady));
+        assert_eq!(f.arm(0, &good(), true, 1.2), Err(ArmRefusal::AttitudeNotReady));
+        assert_eq!(f.state(), S::Disarmed);
+        assert_eq!(f.transition_count(), 0);
+        let tr = f.arm(5, &good(), true, 0.0).unwrap();
+        assert_eq!((tr.from, tr.to, tr.reason, tr.t_us), (S::Disarmed, S::Armed, R::ArmCommand, 5));
+        assert_eq!(f.arm(6, &good(), true, 0.0), Err(ArmRefusal::NotDisarmed));
+        assert_eq!(f.last_transition(), Some(tr));
+    }
+
+    #[test]
+    fn armed_stays_armed_with_good_data() {
+        let mut f = armed();
+        assert!(f.check_data(100, &good(), false).is_none());
+        assert!(f.check_tilt(100, 0.5).is_none());
+        assert_eq!(f.state(), S::Armed);
+    }
+
+    #[test]
+    fn stale_position_brakes_then_lands_then_disarms() {
+        let mut f = armed();
+        let h = DataHealth { position_age_us: Some(300_000), ..good() };
+        check(f.check_data(1_000, &h, false), S::Armed, S::Brake, R::PositionStale);
+        // Still braking before the timeout, even if the data comes back.
+        assert!(f.check_data(1_000 + 2_999_999, &good(), false).is_none());
+        check(f.check_data(1_000 + 3_000_000, &good(), false), S::Brake, S::Land, R::BrakeTimeout);
+        assert!(f.check_data(5_000_000, &good(), false).is_none(), "not landed yet");
+        check(f.check_data(6_000_000, &good(), true), S::Land, S::Disarmed, R::Landed);
+        assert_eq!(f.transition_count(), 4);
+    }
+
+    #[test]
+    fn stale_or_missing_obstacles_brake() {
+        let mut f = armed();
+        let h = DataHealth { obstacle_age_us: Some(600_000), ..good() };
+        check(f.check_data(1, &h, false), S::Armed, S::Brake, R::ObstacleStale);
+        let mut f = armed();
+        let h = DataHealth { obstacle_age_us: None, ..good() };
+        check(f.check_data(1, &h, false), S::Armed, S::Brake, R::ObstacleStale);
+    }
+
+    #[test]
+    fn non_finite_input_brakes() {
+        let mut f = armed();
+        let h = DataHealth { non_finite: true, ..good() };
+        check(f.check_data(1, &h, false), S::Armed, S::Brake, R::NonFiniteInput);
+    }
+
+    #[test]
+    fn land_command_from_armed_and_brake() {
+        let mut f = armed();
+        check(f.land(20), S::Armed, S::Land, R::LandCommand);
+        assert!(f.land(21).is_none(), "already landing");
+        let mut f = armed();
+        f.check_data(1, &DataHealth { non_finite: true, ..good() }, false);
+        check(f.land(30), S::Brake, S::Land, R::LandCommand);
+        let mut f = Failsafe::new(FailsafeParams::default());
+        assert!(f.land(0).is_none(), "no landing while disarmed");
+    }
+
+    #[test]
+    fn tilt_cuts_motors_in_every_flying_state_until_disarm() {
+        for setup in 0..3 {
+            let mut f = armed();
+            if setup >= 1 {
+                f.check_data(1, &DataHealth { non_finite: true, ..good() }, false);
+            }
+            if setup == 2 {
+                f.land(2);
+            }
+            let from = f.state();
+            assert!(f.check_tilt(3, 1.0).is_none());
+            check(f.check_tilt(4, 1.1), from, S::MotorsOff, R::TiltLimit);
+            assert!(!f.state().motors_enabled());
+            // MotorsOff is latched: no data, land or arm command leaves it.
+            assert!(f.check_data(5, &good(), true).is_none());
+            assert!(f.land(6).is_none());
+            assert_eq!(f.arm(7, &good(), true, 0.0), Err(ArmRefusal::NotDisarmed));
+            check(f.disarm(8), S::MotorsOff, S::Disarmed, R::DisarmCommand);
+        }
+        let mut f = armed();
+        check(f.check_tilt(1, f32::NAN), S::Armed, S::MotorsOff, R::TiltLimit);
+        let mut f = Failsafe::new(FailsafeParams::default());
+        assert!(f.check_tilt(1, 3.0).is_none(), "no crash detection while disarmed");
+    }
+
+    #[test]
+    fn disarm_from_any_armed_state() {
+        let mut f = armed();
+        check(f.disarm(1), S::Armed, S::Disarmed, R::DisarmCommand);
+        assert!(f.disarm(2).is_none());
+        let mut f = armed();
+        f.land(1);
+        check(f.disarm(2), S::Land, S::Disarmed, R::DisarmCommand);
+        let mut f = armed();
+        f.check_data(1, &DataHealth { non_finite: true, ..good() }, false);
+        check(f.disarm(2), S::Brake, S::Disarmed, R::DisarmCommand);
+    }
+}
