@@ -32,6 +32,7 @@ pub mod obstacle;
 pub mod qp3;
 pub mod thrust;
 pub mod tracking;
+pub mod waypoint;
 
 pub use nalgebra;
 
