@@ -4,6 +4,10 @@
 //! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
 //! * [`scene`]: scene files (TOML, ENU z-up) → NED obstacles, mission, overrides.
 //! * [`replay`]: open-loop replay of rotor speeds from a CSV.
+//! * [`planner`]: offline RRT-Connect + shortcutting planner (static obstacles, NED).
+//! * [`pathfile`]: path files (JSON, ENU z-up) written by `parapet plan`.
+pub mod pathfile;
+pub mod planner;
 pub mod plant;
 pub mod replay;
 pub mod scene;

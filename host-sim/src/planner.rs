@@ -1,0 +1,822 @@
+//! Offline path planner: bidirectional RRT-Connect on the vehicle's bounding
+//! sphere, followed by path shortcutting (paper §Planner; issue 5).
+//!
+//! # API
+//! ```ignore
+//! use parapet_sim::planner::{plan, PlanProblem, PlannerParams, PlanError};
+//! let problem = PlanProblem { bounds_min, bounds_max, obstacles, start, goal, hull_radius }; // NED, m
+//! let params = PlannerParams { seed: 7, ..PlannerParams::default() };
+//! match plan(&problem, &params) {
+//!     Ok(path) => { /* path.waypoints: NED, m, start first, goal last */ }
+//!     Err(e) => std::process::exit(e.exit_code()), // 2: bad start/goal/input, 3: no path
+//! }
+//! ```
+//! * [`PlanProblem`]: the scene in the **world NED frame** (m): bounds of the
+//!   centre of mass, the **static** obstacles, start, goal and the hull radius.
+//!   Moving obstacles are deliberately *not* part of the problem: the planner
+//!   plans against what is known at planning time, and the CBF safety filter
+//!   handles obstacles that move (the caller drops them, or passes only the
+//!   static ones).
+//! * [`PlannerParams`]: margin, seed, budgets, goal bias, waypoint capacity.
+//! * [`plan`] returns a [`PlannedPath`] (waypoints NED, start first, goal
+//!   last, at most `max_waypoints` of them) or a [`PlanError`] whose
+//!   [`PlanError::exit_code`] is the CLI's exit code.
+//! * [`path_is_valid`] checks any waypoint list (e.g. one read from a path file
+//!   with [`crate::pathfile`]) against a problem with the same segment test.
+//!
+//! # Configuration space and validity
+//! The configuration is the centre of mass. A position `p` is **valid** when it
+//! lies inside `[bounds_min, bounds_max]` (component-wise) and its clearance —
+//! the signed distance to the nearest obstacle surface, from
+//! [`Shape::closest_point`] — is at least `required = hull_radius + margin`.
+//! Start or goal closer than `required` to an obstacle counts as "in
+//! collision" (the margin is part of the planner's notion of free space).
+//!
+//! A **segment** is valid when every point on it is. The bounds box is convex,
+//! so a segment between two in-bounds points stays in bounds. Obstacles are
+//! checked by *clearance-based stepping along the segment*, never by a fixed
+//! sampling step (which can jump over a thin obstacle):
+//!
+//! * At arc length `s`, obstacle `i` has clearance `c = |p − q|` to its closest
+//!   point `q`, outward normal `n = (p − q)/c`. Every shape here (point,
+//!   sphere, box, vertical cylinder) is **convex**, so the whole obstacle lies
+//!   behind the supporting plane through `q` with normal `n`. Along the ray
+//!   `p + t·d` (`|d| = 1`) the distance to the obstacle is therefore at least
+//!   the distance to that plane, `c + t·(d·n)`. This stays `≥ required` for
+//!   `t ≤ (c − required)/(−d·n)` when `d·n < 0`, and for every `t` when
+//!   `d·n ≥ 0` (moving away from or parallel to the plane). Since
+//!   `c + t·(d·n) ≥ c − t`, this step is never shorter than the plain
+//!   Lipschitz step `c − required` and is exact for a planar face hit head-on.
+//! * Each obstacle keeps the arc length up to which it is certified; only
+//!   obstacles whose certificate has run out are re-evaluated, so a segment
+//!   check usually costs one distance evaluation per obstacle.
+//! * **Why conservative:** every accepted piece of the segment is covered by a
+//!   certificate that is a true lower bound on the distance to each obstacle,
+//!   evaluated with a small extra tolerance ([`CERT_EPS_M`]) against f32
+//!   rounding. The check can only err towards rejecting a valid segment.
+//! * **Near the limit:** where `c − required` is tiny and the segment heads
+//!   into the obstacle, certified steps shrink (a segment grazing a curved
+//!   surface at exactly the required clearance would need infinitely many).
+//!   A certified step shorter than `PlannerParams::min_step_m` (default 1 mm)
+//!   declares the segment blocked at that point, and the loop is also capped at
+//!   [`MAX_SEGMENT_STEPS`] evaluations. Both only reject, never accept; the
+//!   effect is that segments may not approach an obstacle more closely than
+//!   about `required` plus a fraction of a millimetre while heading into it.
+//!
+//! # Algorithm
+//! 1. Validate the input; check start and goal (named errors).
+//! 2. Try the straight segment start → goal; if valid, done (0 iterations).
+//! 3. RRT-Connect (Kuffner & LaValle 2000): two trees rooted at start and
+//!    goal, nearest neighbours from a `kiddo` k-d tree per tree, uniform
+//!    samples in the bounds with goal bias (with probability `goal_bias` the
+//!    sample is the other tree's root). Each iteration extends one tree by at
+//!    most `range_m` towards the sample (keeping the certified-free part of a
+//!    blocked extension when it is long enough), then greedily connects the
+//!    other tree towards the new node; the trees swap roles every iteration.
+//!    Stops at the first connection, after `max_iterations` iterations or
+//!    after `time_budget_ms`.
+//! 4. Shortcutting: random vertex-to-vertex shortcuts, random shortcuts
+//!    between points anywhere on the path, then a final greedy pass (from each
+//!    kept waypoint jump to the farthest waypoint reachable by a valid
+//!    segment) and removal of collinear waypoints.
+//! 5. If the result has more than `max_waypoints` waypoints (start and goal
+//!    included), that is an error ([`PlanError::TooManyWaypoints`]); the path
+//!    is never truncated.
+//!
+//! # Determinism
+//! All randomness comes from a `ChaCha8Rng` seeded with `PlannerParams::seed`;
+//! shortcutting uses counts, not time. The same problem, parameters and seed
+//! give the same path, bit for bit, whenever the search ends by finding a
+//! path or by the iteration budget. Only a search cut short by the wall-clock
+//! `time_budget_ms` depends on the machine's speed.
+
+use std::time::Instant;
+
+use kiddo::{KdTree, SquaredEuclidean};
+use parapet_core::obstacle::Shape;
+use parapet_core::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use thiserror::Error;
+
+/// Default planning margin added to the hull radius, m.
+pub const DEFAULT_MARGIN_M: f32 = 0.05;
+
+/// Default waypoint capacity (start and goal included): the firmware's path
+/// capacity.
+pub const DEFAULT_MAX_WAYPOINTS: usize = 64;
+
+/// Hard cap on clearance evaluations per segment check (the check rejects
+/// the rest of the segment when it is reached; only relevant for a segment
+/// that grazes curved surfaces at the limit over a long stretch).
+pub const MAX_SEGMENT_STEPS: usize = 4096;
+
+/// Tolerance (m) subtracted from every certified clearance against f32
+/// rounding, so that certificates stay true lower bounds.
+pub const CERT_EPS_M: f32 = 1e-5;
+
+/// A planning problem in the world **NED** frame (m). Static obstacles only:
+/// the planner ignores moving obstacles (the safety filter handles them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanProblem {
+    /// Lower corner of the box the centre of mass must stay in, NED, m.
+    pub bounds_min: Vec3,
+    /// Upper corner of that box, NED, m (≥ `bounds_min` component-wise).
+    pub bounds_max: Vec3,
+    /// Static obstacles, NED, m.
+    pub obstacles: Vec<Shape>,
+    /// Start position of the centre of mass, NED, m.
+    pub start: Vec3,
+    /// Goal position of the centre of mass, NED, m.
+    pub goal: Vec3,
+    /// Radius of the vehicle's bounding sphere, m (≥ 0).
+    pub hull_radius: f32,
+}
+
+/// Planner tuning. `Default` gives the documented defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannerParams {
+    /// Extra clearance beyond the hull radius, m (≥ 0; default 0.05).
+    pub margin: f32,
+    /// RNG seed; same seed, same path (see the module docs).
+    pub seed: u64,
+    /// RRT-Connect iteration budget (≥ 1; default 100 000).
+    pub max_iterations: u32,
+    /// Wall-clock budget for the tree search, ms (> 0; default 1000).
+    pub time_budget_ms: f64,
+    /// Probability in [0, 1] that a sample is the other tree's root (default 0.05).
+    pub goal_bias: f32,
+    /// Maximum number of waypoints, start and goal included (≥ 2; default 64).
+    pub max_waypoints: usize,
+    /// Maximum extension length per tree step, m; `None` = 20 % of the
+    /// largest bounds extent (OMPL's default range), at least 0.1 m.
+    pub range_m: Option<f32>,
+    /// Shortest certified step of the segment check, m (> 0; default 0.001).
+    pub min_step_m: f32,
+    /// Number of random shortcut attempts between arbitrary path points
+    /// (default 100; 0 disables them, the greedy pass still runs).
+    pub shortcut_attempts: u32,
+}
+
+impl Default for PlannerParams {
+    fn default() -> Self {
+        PlannerParams {
+            margin: DEFAULT_MARGIN_M,
+            seed: 0,
+            max_iterations: 100_000,
+            time_budget_ms: 1000.0,
+            goal_bias: 0.05,
+            max_waypoints: DEFAULT_MAX_WAYPOINTS,
+            range_m: None,
+            min_step_m: 0.001,
+            shortcut_attempts: 100,
+        }
+    }
+}
+
+/// A collision-free piecewise-linear path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedPath {
+    /// Waypoints, NED, m; the first is the start and the last the goal.
+    pub waypoints: Vec<Vec3>,
+    /// Total length of the polyline, m.
+    pub length_m: f32,
+    /// Wall-clock time of the whole `plan` call (search + shortcutting), ms.
+    pub planning_time_ms: f64,
+    /// RRT-Connect iterations used (0 when the straight line was free).
+    pub iterations: u32,
+    /// The seed that produced this path.
+    pub seed: u64,
+}
+
+/// Why planning failed.
+#[derive(Clone, Debug, PartialEq, Error)]
+pub enum PlanError {
+    /// The start is closer than hull radius + margin to an obstacle (or inside one).
+    #[error("start position is in collision (closer than hull radius + margin to an obstacle)")]
+    StartInCollision,
+    /// The goal is closer than hull radius + margin to an obstacle (or inside one).
+    #[error("goal position is in collision (closer than hull radius + margin to an obstacle)")]
+    GoalInCollision,
+    /// The start is outside the scene bounds.
+    #[error("start position is outside the scene bounds")]
+    StartOutOfBounds,
+    /// The goal is outside the scene bounds.
+    #[error("goal position is outside the scene bounds")]
+    GoalOutOfBounds,
+    /// The search budget ran out without connecting start and goal.
+    #[error("no path found after {iterations} iterations in {elapsed_ms:.1} ms")]
+    NoPathFound {
+        /// Iterations performed.
+        iterations: u32,
+        /// Time spent, ms.
+        elapsed_ms: f64,
+    },
+    /// The simplified path needs more waypoints than the firmware can hold.
+    #[error("the path needs {n} waypoints but at most {max} fit the firmware's path capacity")]
+    TooManyWaypoints {
+        /// Waypoints of the simplified path.
+        n: usize,
+        /// Capacity (`PlannerParams::max_waypoints`).
+        max: usize,
+    },
+    /// A number in the problem or the parameters is not finite or out of range.
+    #[error("invalid planner input: {0}")]
+    InvalidInput(String),
+}
+
+impl PlanError {
+    /// Process exit code for the CLI: 2 for bad input, start or goal
+    /// (in collision, out of bounds); 3 when no usable path was found
+    /// (search budget exhausted, or too many waypoints).
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            PlanError::NoPathFound { .. } | PlanError::TooManyWaypoints { .. } => 3,
+            _ => 2,
+        }
+    }
+}
+
+/// Segment and point validity against one problem (see the module docs).
+struct Space<'a> {
+    obstacles: &'a [Shape],
+    lo: Vec3,
+    hi: Vec3,
+    /// hull radius + margin, m.
+    required: f32,
+    min_step: f32,
+    /// Per-obstacle certified arc length (scratch for `free_prefix`).
+    cert: Vec<f32>,
+    /// Segment checks performed (for diagnostics/benchmarks).
+    checks: u64,
+}
+
+impl<'a> Space<'a> {
+    fn new(problem: &'a PlanProblem, required: f32, min_step: f32) -> Self {
+        Space {
+            obstacles: &problem.obstacles,
+            lo: problem.bounds_min,
+            hi: problem.bounds_max,
+            required,
+            min_step,
+            cert: vec![0.0; problem.obstacles.len()],
+            checks: 0,
+        }
+    }
+
+    fn in_bounds(&self, p: &Vec3) -> bool {
+        (0..3).all(|i| p[i] >= self.lo[i] && p[i] <= self.hi[i])
+    }
+
+    fn point_valid(&self, p: &Vec3) -> bool {
+        self.in_bounds(p) && self.obstacles.iter().all(|o| o.signed_distance(p) >= self.required)
+    }
+
+    /// Length of the prefix of segment `a → b` certified valid (m). Returns
+    /// `|b − a|` when the whole segment is valid, 0 when `a` itself is not
+    /// certified. `a` and `b` must be in bounds (the caller guarantees it).
+    fn free_prefix(&mut self, a: &Vec3, b: &Vec3) -> f32 {
+        self.checks += 1;
+        let delta = b - a;
+        let len = delta.norm();
+        if len.is_nan() || len <= 0.0 {
+            return if self.point_valid(a) { len.max(0.0) } else { 0.0 };
+        }
+        let dir = delta / len;
+        for c in self.cert.iter_mut() {
+            *c = f32::NEG_INFINITY;
+        }
+        let mut s = 0.0f32;
+        for _ in 0..MAX_SEGMENT_STEPS {
+            let p = a + dir * s;
+            let mut s_next = f32::INFINITY;
+            for (i, shape) in self.obstacles.iter().enumerate() {
+                if self.cert[i] > s {
+                    s_next = s_next.min(self.cert[i]);
+                    continue;
+                }
+                let (q, c) = shape.closest_point(&p);
+                let excess = c - self.required - CERT_EPS_M;
+                if excess.is_nan() || excess < 0.0 {
+                    return s;
+                }
+                let step = if c > 1e-4 {
+                    let dn = dir.dot(&(p - q)) / c;
+                    if dn >= 0.0 {
+                        f32::INFINITY
+                    } else {
+                        excess / -dn
+                    }
+                } else {
+                    excess
+                };
+                if step < self.min_step {
+                    return s;
+                }
+                self.cert[i] = s + step;
+                s_next = s_next.min(self.cert[i]);
+            }
+            if s_next >= len {
+                return len;
+            }
+            s = s_next;
+        }
+        s
+    }
+
+    fn segment_valid(&mut self, a: &Vec3, b: &Vec3) -> bool {
+        let len = (b - a).norm();
+        self.free_prefix(a, b) >= len
+    }
+}
+
+/// One RRT tree: node positions, parent indices and a k-d tree over them.
+struct Tree {
+    nodes: Vec<Vec3>,
+    parent: Vec<u32>,
+    kd: KdTree<f32, 3>,
+}
+
+impl Tree {
+    fn new(root: Vec3) -> Self {
+        let mut t =
+            Tree { nodes: Vec::with_capacity(256), parent: Vec::with_capacity(256), kd: KdTree::new() };
+        t.add(root, u32::MAX);
+        t
+    }
+
+    fn add(&mut self, p: Vec3, parent: u32) -> u32 {
+        let idx = self.nodes.len() as u32;
+        self.kd.add(&[p.x, p.y, p.z], idx as u64);
+        self.nodes.push(p);
+        self.parent.push(parent);
+        idx
+    }
+
+    fn nearest(&self, p: &Vec3) -> u32 {
+        self.kd.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z]).item as u32
+    }
+
+    /// Positions from node `i` back to the root (root last).
+    fn branch(&self, mut i: u32) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        while i != u32::MAX {
+            out.push(self.nodes[i as usize]);
+            i = self.parent[i as usize];
+        }
+        out
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Extend {
+    /// Blocked immediately; nothing added.
+    Trapped,
+    /// A full step was added, target not reached.
+    Advanced(u32),
+    /// Only the certified-free part of the step was added (blocked beyond it).
+    Partial(u32),
+    /// The target itself was added.
+    Reached(u32),
+}
+
+/// Extend `tree` by at most `range` towards `target`.
+fn extend(space: &mut Space, tree: &mut Tree, target: &Vec3, range: f32, min_ext: f32) -> Extend {
+    let near_i = tree.nearest(target);
+    let near = tree.nodes[near_i as usize];
+    let delta = target - near;
+    let dist = delta.norm();
+    if dist.is_nan() || dist <= 0.0 {
+        // The target is already a node of this tree.
+        return Extend::Reached(near_i);
+    }
+    let (q, full) = if dist <= range { (*target, true) } else { (near + delta * (range / dist), false) };
+    let step = (q - near).norm();
+    let free = space.free_prefix(&near, &q);
+    if free >= step {
+        let i = tree.add(q, near_i);
+        if full {
+            Extend::Reached(i)
+        } else {
+            Extend::Advanced(i)
+        }
+    } else if free >= min_ext {
+        let i = tree.add(near + delta * (free / dist), near_i);
+        Extend::Partial(i)
+    } else {
+        Extend::Trapped
+    }
+}
+
+fn check_vec(name: &str, v: &Vec3) -> Result<(), PlanError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(PlanError::InvalidInput(format!("{name} is not finite: {v:?}")))
+    }
+}
+
+fn validate(problem: &PlanProblem, params: &PlannerParams) -> Result<(), PlanError> {
+    let bad = |m: String| Err(PlanError::InvalidInput(m));
+    check_vec("bounds_min", &problem.bounds_min)?;
+    check_vec("bounds_max", &problem.bounds_max)?;
+    check_vec("start", &problem.start)?;
+    check_vec("goal", &problem.goal)?;
+    if (0..3).any(|i| problem.bounds_min[i] > problem.bounds_max[i]) {
+        return bad(format!(
+            "bounds_min {:?} exceeds bounds_max {:?}",
+            problem.bounds_min, problem.bounds_max
+        ));
+    }
+    if !(problem.hull_radius.is_finite() && problem.hull_radius >= 0.0) {
+        return bad(format!("hull_radius must be finite and >= 0 m, got {}", problem.hull_radius));
+    }
+    for (i, o) in problem.obstacles.iter().enumerate() {
+        if !o.is_valid() {
+            return bad(format!("obstacle {i} has a non-finite or negative size: {o:?}"));
+        }
+    }
+    if !(params.margin.is_finite() && params.margin >= 0.0) {
+        return bad(format!("margin must be finite and >= 0 m, got {}", params.margin));
+    }
+    if problem.hull_radius + params.margin <= 0.0 {
+        return bad("hull_radius + margin must be > 0 m".into());
+    }
+    if params.max_iterations == 0 {
+        return bad("max_iterations must be >= 1".into());
+    }
+    if !(params.time_budget_ms.is_finite() && params.time_budget_ms > 0.0) {
+        return bad(format!("time_budget_ms must be finite and > 0, got {}", params.time_budget_ms));
+    }
+    if !(0.0..=1.0).contains(&params.goal_bias) {
+        return bad(format!("goal_bias must be in [0, 1], got {}", params.goal_bias));
+    }
+    if params.max_waypoints < 2 {
+        return bad(format!("max_waypoints must be >= 2, got {}", params.max_waypoints));
+    }
+    if let Some(r) = params.range_m {
+        if !(r.is_finite() && r > 0.0) {
+            return bad(format!("range_m must be finite and > 0 m, got {r}"));
+        }
+    }
+    if !(params.min_step_m.is_finite() && params.min_step_m > 0.0) {
+        return bad(format!("min_step_m must be finite and > 0 m, got {}", params.min_step_m));
+    }
+    Ok(())
+}
+
+/// Total length of a polyline, m.
+pub fn path_length(waypoints: &[Vec3]) -> f32 {
+    waypoints.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// `true` when every waypoint is valid and every segment between consecutive
+/// waypoints passes the planner's (conservative) segment check for the
+/// problem's bounds, static obstacles and `hull_radius + margin`.
+pub fn path_is_valid(problem: &PlanProblem, margin: f32, waypoints: &[Vec3]) -> bool {
+    let mut space = Space::new(problem, problem.hull_radius + margin, PlannerParams::default().min_step_m);
+    if waypoints.is_empty() || !waypoints.iter().all(|p| space.point_valid(p)) {
+        return false;
+    }
+    waypoints.windows(2).all(|w| space.segment_valid(&w[0], &w[1]))
+}
+
+/// Plan a collision-free path from `problem.start` to `problem.goal`.
+///
+/// Errors: invalid numbers → [`PlanError::InvalidInput`]; start/goal outside
+/// the bounds or closer than `hull_radius + margin` to an obstacle → the named
+/// variant; budget exhausted → [`PlanError::NoPathFound`]; simplified path
+/// longer than `max_waypoints` → [`PlanError::TooManyWaypoints`].
+pub fn plan(problem: &PlanProblem, params: &PlannerParams) -> Result<PlannedPath, PlanError> {
+    let t0 = Instant::now();
+    validate(problem, params)?;
+    let mut space = Space::new(problem, problem.hull_radius + params.margin, params.min_step_m);
+    let (start, goal) = (problem.start, problem.goal);
+    if !space.in_bounds(&start) {
+        return Err(PlanError::StartOutOfBounds);
+    }
+    if !space.point_valid(&start) {
+        return Err(PlanError::StartInCollision);
+    }
+    if !space.in_bounds(&goal) {
+        return Err(PlanError::GoalOutOfBounds);
+    }
+    if !space.point_valid(&goal) {
+        return Err(PlanError::GoalInCollision);
+    }
+
+    let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+    let (raw, iterations) = if space.segment_valid(&start, &goal) {
+        (vec![start, goal], 0)
+    } else {
+        search(&mut space, problem, params, &mut rng, &t0)?
+    };
+    let waypoints = simplify(&mut space, raw, params.shortcut_attempts, &mut rng);
+    if waypoints.len() > params.max_waypoints {
+        return Err(PlanError::TooManyWaypoints { n: waypoints.len(), max: params.max_waypoints });
+    }
+    Ok(PlannedPath {
+        length_m: path_length(&waypoints),
+        waypoints,
+        planning_time_ms: t0.elapsed().as_secs_f64() * 1e3,
+        iterations,
+        seed: params.seed,
+    })
+}
+
+/// RRT-Connect search; returns the raw path (start first) and the iterations used.
+fn search(
+    space: &mut Space,
+    problem: &PlanProblem,
+    params: &PlannerParams,
+    rng: &mut ChaCha8Rng,
+    t0: &Instant,
+) -> Result<(Vec<Vec3>, u32), PlanError> {
+    let (lo, hi) = (problem.bounds_min, problem.bounds_max);
+    let extent = hi - lo;
+    let range = params.range_m.unwrap_or_else(|| (0.2 * extent.max()).max(0.1));
+    // A blocked extension keeps its certified-free part only if it is at
+    // least this long (avoids piling up nodes against an obstacle).
+    let min_ext = (0.05 * range).max(10.0 * params.min_step_m);
+    let mut trees = [Tree::new(problem.start), Tree::new(problem.goal)];
+    // trees[a] grows towards the sample this iteration; trees[1 - a] connects.
+    let mut a = 0usize;
+    for it in 1..=params.max_iterations {
+        if it % 16 == 0 && t0.elapsed().as_secs_f64() * 1e3 > params.time_budget_ms {
+            return Err(PlanError::NoPathFound {
+                iterations: it - 1,
+                elapsed_ms: t0.elapsed().as_secs_f64() * 1e3,
+            });
+        }
+        let b = 1 - a;
+        let sample = if rng.random::<f32>() < params.goal_bias {
+            trees[b].nodes[0]
+        } else {
+            Vec3::new(
+                lo.x + extent.x * rng.random::<f32>(),
+                lo.y + extent.y * rng.random::<f32>(),
+                lo.z + extent.z * rng.random::<f32>(),
+            )
+        };
+        let (ta, tb) = if a == 0 {
+            let (x, y) = trees.split_at_mut(1);
+            (&mut x[0], &mut y[0])
+        } else {
+            let (x, y) = trees.split_at_mut(1);
+            (&mut y[0], &mut x[0])
+        };
+        let new_a = match extend(space, ta, &sample, range, min_ext) {
+            Extend::Trapped => {
+                a = b;
+                continue;
+            }
+            Extend::Advanced(i) | Extend::Partial(i) | Extend::Reached(i) => i,
+        };
+        let target = ta.nodes[new_a as usize];
+        // Connect: grow tb towards the new node until reached or blocked.
+        loop {
+            match extend(space, tb, &target, range, min_ext) {
+                Extend::Advanced(_) => continue,
+                Extend::Trapped | Extend::Partial(_) => break,
+                Extend::Reached(new_b) => {
+                    let mut from_a = ta.branch(new_a);
+                    let mut from_b = tb.branch(new_b);
+                    // Both branches end at their roots and start at the same point.
+                    from_b.remove(0);
+                    let path = if a == 0 {
+                        from_a.reverse();
+                        from_a.extend(from_b);
+                        from_a
+                    } else {
+                        from_b.reverse();
+                        from_b.extend(from_a);
+                        from_b
+                    };
+                    return Ok((path, it));
+                }
+            }
+        }
+        a = b;
+    }
+    Err(PlanError::NoPathFound {
+        iterations: params.max_iterations,
+        elapsed_ms: t0.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// Point at arc length `t` on the polyline, with the index of its segment.
+fn point_at(path: &[Vec3], cum: &[f32], t: f32) -> (usize, Vec3) {
+    let seg = match cum.binary_search_by(|c| c.total_cmp(&t)) {
+        Ok(i) => i.min(path.len() - 2),
+        Err(i) => i.saturating_sub(1).min(path.len() - 2),
+    };
+    let l = cum[seg + 1] - cum[seg];
+    let u = if l > 0.0 { ((t - cum[seg]) / l).clamp(0.0, 1.0) } else { 0.0 };
+    (seg, path[seg] + (path[seg + 1] - path[seg]) * u)
+}
+
+fn cumulative(path: &[Vec3]) -> Vec<f32> {
+    let mut cum = Vec::with_capacity(path.len());
+    let mut acc = 0.0;
+    cum.push(0.0);
+    for w in path.windows(2) {
+        acc += (w[1] - w[0]).norm();
+        cum.push(acc);
+    }
+    cum
+}
+
+/// Shortcut a valid path (start first, goal last) into a shorter valid path
+/// with few waypoints. Every replacement segment is checked, so validity is
+/// preserved.
+fn simplify(space: &mut Space, mut path: Vec<Vec3>, attempts: u32, rng: &mut ChaCha8Rng) -> Vec<Vec3> {
+    // 1. Random vertex-to-vertex shortcuts until a run of failures.
+    let mut failures = 0;
+    while path.len() > 2 && failures < 2 * path.len() {
+        let n = path.len();
+        let i = rng.random_range(0..n);
+        let j = rng.random_range(0..n);
+        let (i, j) = (i.min(j), i.max(j));
+        if j < i + 2 {
+            failures += 1;
+            continue;
+        }
+        if space.segment_valid(&path[i], &path[j]) {
+            path.drain(i + 1..j);
+            failures = 0;
+        } else {
+            failures += 1;
+        }
+    }
+    // 2. Random shortcuts between points anywhere on the path.
+    for _ in 0..attempts {
+        if path.len() < 3 {
+            break;
+        }
+        let cum = cumulative(&path);
+        let total = cum[cum.len() - 1];
+        if total.is_nan() || total <= 0.0 {
+            break;
+        }
+        let t1 = rng.random::<f32>() * total;
+        let t2 = rng.random::<f32>() * total;
+        let (t1, t2) = (t1.min(t2), t1.max(t2));
+        let (s1, p1) = point_at(&path, &cum, t1);
+        let (s2, p2) = point_at(&path, &cum, t2);
+        if s1 == s2 {
+            continue;
+        }
+        // Only worth it if it removes length: the polyline p1 → … → p2 is
+        // longer than the chord whenever a vertex lies strictly between.
+        if (t2 - t1) - (p2 - p1).norm() < 1e-4 {
+            continue;
+        }
+        if space.segment_valid(&p1, &p2) {
+            let mut next = Vec::with_capacity(path.len());
+            next.extend_from_slice(&path[..=s1]);
+            if (p1 - path[s1]).norm() > 1e-6 {
+                next.push(p1);
+            }
+            if (p2 - path[s2 + 1]).norm() > 1e-6 {
+                next.push(p2);
+            }
+            next.extend_from_slice(&path[s2 + 1..]);
+            path = next;
+        }
+    }
+    // 3. Greedy pass: from each kept waypoint, jump to the farthest reachable one.
+    let mut out = vec![path[0]];
+    let mut i = 0;
+    while i + 1 < path.len() {
+        let mut j = path.len() - 1;
+        while j > i + 1 && !space.segment_valid(&path[i], &path[j]) {
+            j -= 1;
+        }
+        out.push(path[j]);
+        i = j;
+    }
+    // 4. Drop waypoints that lie on the segment between their neighbours.
+    let mut k = 1;
+    while k + 1 < out.len() {
+        let (a, b, c) = (out[k - 1], out[k], out[k + 1]);
+        let ab = (b - a).norm();
+        let bc = (c - b).norm();
+        if ab + bc - (c - a).norm() < 1e-6 * (ab + bc).max(1.0) || ab < 1e-6 || bc < 1e-6 {
+            out.remove(k);
+        } else {
+            k += 1;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problem(obstacles: Vec<Shape>) -> PlanProblem {
+        PlanProblem {
+            bounds_min: Vec3::new(-1.0, -1.0, -3.0),
+            bounds_max: Vec3::new(11.0, 5.0, 0.0),
+            obstacles,
+            start: Vec3::new(0.0, 2.0, -1.5),
+            goal: Vec3::new(10.0, 2.0, -1.5),
+            hull_radius: 0.2236,
+        }
+    }
+
+    #[test]
+    fn straight_line_when_free() {
+        let p = problem(vec![Shape::sphere(Vec3::new(5.0, -0.5, -1.5), 0.5)]);
+        let path = plan(&p, &PlannerParams::default()).unwrap();
+        assert_eq!(path.waypoints, vec![p.start, p.goal]);
+        assert_eq!(path.iterations, 0);
+        assert!((path.length_m - 10.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn thin_wall_is_not_jumped() {
+        // A 1 mm thick wall across the straight line, with a gap at one side.
+        let wall = Shape::aabb(Vec3::new(5.0, -1.0, -3.0), Vec3::new(5.001, 4.0, 0.0));
+        let p = problem(vec![wall]);
+        let mut space = Space::new(&p, p.hull_radius + 0.05, 0.001);
+        assert!(!space.segment_valid(&p.start, &p.goal));
+        let path = plan(&p, &PlannerParams::default()).unwrap();
+        assert!(path.waypoints.len() >= 3);
+        // The path passes through the gap y in (4.0 + r, 5].
+        assert!(path.waypoints.iter().any(|w| w.y > 4.0 + p.hull_radius));
+    }
+
+    #[test]
+    fn free_prefix_stops_before_obstacle() {
+        let p = problem(vec![Shape::aabb(Vec3::new(5.0, -1.0, -3.0), Vec3::new(6.0, 5.0, 0.0))]);
+        let req = p.hull_radius + 0.05;
+        let mut space = Space::new(&p, req, 0.001);
+        let free = space.free_prefix(&p.start, &p.goal);
+        // Head-on against a face: exact up to the tolerance.
+        assert!((free - (5.0 - req)).abs() < 1e-3, "free = {free}");
+    }
+
+    #[test]
+    fn grazing_sphere_at_limit_is_bounded() {
+        // Segment tangent to the inflated sphere: terminates (bounded loop) and
+        // never accepts a point inside the required clearance.
+        let req = 0.2736;
+        let s = Shape::sphere(Vec3::new(5.0, 2.0 + 0.5 + req, -1.5), 0.5);
+        let p = problem(vec![s]);
+        let mut space = Space::new(&p, req, 0.001);
+        let free = space.free_prefix(&p.start, &p.goal);
+        let q = p.start + Vec3::x() * free;
+        assert!(s.signed_distance(&q) >= req - 1e-4);
+        assert!(free < 10.0);
+    }
+
+    #[test]
+    fn invalid_inputs_are_named() {
+        let mut p = problem(vec![]);
+        p.start.x = f32::NAN;
+        let e = plan(&p, &PlannerParams::default()).unwrap_err();
+        assert!(matches!(e, PlanError::InvalidInput(ref m) if m.contains("start")), "{e}");
+        let p = problem(vec![]);
+        let e = plan(&p, &PlannerParams { goal_bias: 2.0, ..Default::default() }).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        let mut p = problem(vec![]);
+        p.goal.z = 1.0;
+        assert_eq!(plan(&p, &PlannerParams::default()), Err(PlanError::GoalOutOfBounds));
+        let mut p = problem(vec![]);
+        p.start.y = -2.0;
+        assert_eq!(plan(&p, &PlannerParams::default()), Err(PlanError::StartOutOfBounds));
+        let p = problem(vec![Shape::sphere(Vec3::new(10.0, 2.3, -1.5), 0.1)]);
+        assert_eq!(plan(&p, &PlannerParams::default()), Err(PlanError::GoalInCollision));
+    }
+
+    #[test]
+    fn too_many_waypoints_is_an_error() {
+        // A slalom of walls needs more than 2 waypoints.
+        let mut obs = Vec::new();
+        for k in 0..4 {
+            let x = 2.0 + 2.0 * k as f32;
+            let (y0, y1) = if k % 2 == 0 { (-1.0, 3.5) } else { (0.5, 5.0) };
+            obs.push(Shape::aabb(Vec3::new(x, y0, -3.0), Vec3::new(x + 0.2, y1, 0.0)));
+        }
+        let p = problem(obs);
+        let ok = plan(&p, &PlannerParams::default()).unwrap();
+        assert!(ok.waypoints.len() > 3);
+        let e = plan(&p, &PlannerParams { max_waypoints: 3, ..Default::default() }).unwrap_err();
+        assert_eq!(e, PlanError::TooManyWaypoints { n: ok.waypoints.len(), max: 3 });
+        assert_eq!(e.exit_code(), 3);
+    }
+
+    #[test]
+    fn point_at_walks_the_polyline() {
+        let path = vec![Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 0.0)];
+        let cum = cumulative(&path);
+        assert_eq!(cum, vec![0.0, 1.0, 3.0]);
+        let (s, p) = point_at(&path, &cum, 2.0);
+        assert_eq!(s, 1);
+        assert!((p - Vec3::new(1.0, 1.0, 0.0)).norm() < 1e-6);
+        let (s, p) = point_at(&path, &cum, 3.0);
+        assert_eq!(s, 1);
+        assert!((p - path[2]).norm() < 1e-6);
+    }
+}
