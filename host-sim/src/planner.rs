@@ -21,6 +21,8 @@
 //! * [`plan`] returns a [`PlannedPath`] (waypoints NED, start first, goal
 //!   last, at most `max_waypoints` of them) or a [`PlanError`] whose
 //!   [`PlanError::exit_code`] is the CLI's exit code.
+//! * [`PlanProblem::from_scene`] builds the problem from a loaded
+//!   [`crate::scene::Scene`].
 //! * [`path_is_valid`] checks any waypoint list (e.g. one read from a path file
 //!   with [`crate::pathfile`]) against a problem with the same segment test.
 //!
@@ -131,6 +133,23 @@ pub struct PlanProblem {
     pub goal: Vec3,
     /// Radius of the vehicle's bounding sphere, m (≥ 0).
     pub hull_radius: f32,
+}
+
+impl PlanProblem {
+    /// The planning problem of a loaded scene: its NED bounds, its **static**
+    /// obstacles only (moving ones are left to the safety filter), mission
+    /// start and goal, and the vehicle's hull radius.
+    pub fn from_scene(scene: &crate::scene::Scene) -> Self {
+        let (lo, hi) = scene.bounds_ned();
+        PlanProblem {
+            bounds_min: crate::scene::to_f32(&lo),
+            bounds_max: crate::scene::to_f32(&hi),
+            obstacles: scene.static_shapes(),
+            start: crate::scene::to_f32(&scene.start),
+            goal: crate::scene::to_f32(&scene.goal),
+            hull_radius: scene.vehicle.hull_radius as f32,
+        }
+    }
 }
 
 /// Planner tuning. `Default` gives the documented defaults.
