@@ -24,6 +24,7 @@
 pub mod airframe;
 pub mod attitude;
 pub mod cbf;
+pub mod controller;
 pub mod estimator;
 pub mod failsafe;
 pub mod frame;
