@@ -1,0 +1,306 @@
+//! The boundary between the firmware's tasks and the flight-control cascade.
+//!
+//! Tasks talk to the cascade only through [`Autopilot`], so the task logic (link dispatch, loop
+//! scheduling, lockstep) is tested on the host against a test double, and the real cascade
+//! (`parapet_core::controller::FlightController`) plugs in through one adapter
+//! ([`crate::cascade`]).
+//!
+//! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
+
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::Vec3;
+
+/// One IMU sample in the body FRD frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample {
+    /// Angular rate, body FRD, rad/s.
+    pub gyro_frd: Vec3,
+    /// Specific force (what an accelerometer measures: at rest ≈ (0, 0, −9.81)), body FRD, m/s².
+    pub accel_frd: Vec3,
+}
+
+impl ImuSample {
+    /// `true` when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.gyro_frd.iter().chain(self.accel_frd.iter()).all(|x| x.is_finite())
+    }
+}
+
+/// External position/velocity estimate (motion capture, VIO, simulator).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionFix {
+    /// Measurement time on the firmware's clock, µs.
+    pub t_us: u64,
+    /// Position, world NED, m.
+    pub position_ned: Vec3,
+    /// Velocity, world NED, m/s.
+    pub velocity_ned: Vec3,
+}
+
+/// Motor command for the four rotors (order and spin directions: `parapet_core::airframe`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotorCommand {
+    /// Normalised throttle per rotor, 0..1 (rotor speed ω = throttle · ω_max).
+    pub throttle: [f32; 4],
+    /// `false`: motors must be stopped (disarmed or motors-off failsafe).
+    pub armed: bool,
+}
+
+impl MotorCommand {
+    /// Motors stopped.
+    pub const OFF: Self = Self { throttle: [0.0; 4], armed: false };
+
+    /// The command the motor driver may output: disarmed → all zero; each throttle clamped to
+    /// 0..1; a non-finite throttle stops every motor (disarmed) because the mixer is broken.
+    pub fn sanitized(self) -> Self {
+        if !self.armed || self.throttle.iter().any(|t| !t.is_finite()) {
+            return Self::OFF;
+        }
+        Self { throttle: self.throttle.map(|t| t.clamp(0.0, 1.0)), armed: true }
+    }
+}
+
+/// Commands from COMMAND_LONG (see [`crate::command`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VehicleCommand {
+    /// Arm the motors (idle on the ground).
+    Arm,
+    /// Disarm; `force` disarms even in flight (MAVLink magic 21196).
+    Disarm {
+        /// Disarm in flight.
+        force: bool,
+    },
+    /// Take off to `height_m` above the current position (m, positive up); `None`: cascade default.
+    Takeoff {
+        /// Climb height, m, > 0.
+        height_m: Option<f32>,
+    },
+    /// Land at the current horizontal position.
+    Land,
+    /// Fly the uploaded waypoint path.
+    StartMission,
+}
+
+/// A command the cascade refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CommandRejected {
+    /// Not possible in the current state (e.g. takeoff while disarmed): MAV_RESULT_TEMPORARILY_REJECTED.
+    NotNow,
+    /// Parameters out of range: MAV_RESULT_DENIED.
+    Invalid,
+}
+
+/// A waypoint path the cascade refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathRejected {
+    /// More waypoints than the cascade stores.
+    TooLong,
+    /// A waypoint is not finite or otherwise invalid.
+    Invalid,
+}
+
+/// Safety-filter region, as reported on the link (`DEBUG_VECT "CBF".y`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum FilterRegion {
+    /// No obstacle known.
+    NoObstacle = 0,
+    /// D_δ1: far from every obstacle.
+    Far = 1,
+    /// D_u*: the nominal command already satisfies the barrier condition.
+    NominalSafe = 2,
+    /// D_⊥: the filter replaced the nominal command.
+    Perpendicular = 3,
+    /// The filter could not evaluate (bad input); the safe fallback was used.
+    Fault = 4,
+}
+
+/// The safety filter's diagnostics of the last outer step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterReport {
+    /// Region of the active barrier.
+    pub region: FilterRegion,
+    /// Id of the active (closest) obstacle.
+    pub active_id: Option<u16>,
+    /// min over obstacles of h̄ = h − δ (m²); +∞ without obstacles.
+    pub h_bar: f32,
+    /// The filter changed the nominal command.
+    pub intervened: bool,
+    /// The obstacle cannot be avoided with the available acceleration.
+    pub unavoidable: bool,
+    /// The multi-barrier problem had no feasible solution.
+    pub infeasible: bool,
+    /// Barrier constraints active in the last step.
+    pub n_constraints: u8,
+}
+
+impl FilterReport {
+    /// Report before the first outer step.
+    pub const IDLE: Self = Self {
+        region: FilterRegion::NoObstacle,
+        active_id: None,
+        h_bar: f32::INFINITY,
+        intervened: false,
+        unavoidable: false,
+        infeasible: false,
+        n_constraints: 0,
+    };
+}
+
+/// Flight phase, reported as HEARTBEAT `custom_mode`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum FlightPhase {
+    /// Motors off.
+    Disarmed = 0,
+    /// Armed on the ground, motors idle.
+    Idle = 1,
+    /// Climbing to the takeoff height.
+    Takeoff = 2,
+    /// Holding position.
+    Hover = 3,
+    /// Flying the waypoint path.
+    Mission = 4,
+    /// Descending to land.
+    Landing = 5,
+    /// A failsafe owns the vehicle.
+    Failsafe = 6,
+}
+
+/// A failsafe state (reported in STATUSTEXT on every transition).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Failsafe {
+    /// Stable numeric code (`NAMED_VALUE_INT "failsafe"`).
+    pub code: u8,
+    /// Short human-readable reason (≤ 50 bytes for STATUSTEXT).
+    pub reason: &'static str,
+}
+
+/// What the link reports about the cascade.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TelemetrySnapshot {
+    /// Motors enabled.
+    pub armed: bool,
+    /// Current phase.
+    pub phase: FlightPhase,
+    /// Active failsafe, if any.
+    pub failsafe: Option<Failsafe>,
+    /// Estimated roll, pitch, yaw (ZYX Euler, FRD w.r.t. NED), rad.
+    pub attitude_rpy: Vec3,
+    /// Estimated body rates, FRD, rad/s.
+    pub body_rates_frd: Vec3,
+    /// Position estimate, NED, m.
+    pub position_ned: Vec3,
+    /// Velocity estimate, NED, m/s.
+    pub velocity_ned: Vec3,
+    /// Safety filter diagnostics.
+    pub filter: FilterReport,
+}
+
+/// The flight-control cascade as the tasks see it. Every method is bounded in time and never
+/// panics; bad inputs get the cascade's defined safe response.
+pub trait Autopilot {
+    /// Inner loop: estimator + attitude + rate control + mixer. `now_us`: firmware clock, µs.
+    fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
+    /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
+    fn step_outer(&mut self, now_us: u64);
+    /// New position/velocity estimate.
+    fn update_position(&mut self, fix: &PositionFix);
+    /// Replaces the obstacle points (world NED) seen at `now_us`.
+    fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
+    /// Replaces the waypoint path (world NED, m).
+    fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected>;
+    /// Executes a vehicle command.
+    fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
+    /// Current telemetry.
+    fn telemetry(&self) -> TelemetrySnapshot;
+}
+
+#[cfg(test)]
+pub(crate) mod test_double {
+    //! A recording [`Autopilot`] for the task-logic tests.
+    use super::*;
+    use std::vec::Vec;
+
+    /// Records every call; behaves like a trivial vehicle.
+    #[derive(Default)]
+    pub struct RecordingAutopilot {
+        pub inner_steps: Vec<u64>,
+        pub outer_steps: Vec<u64>,
+        pub fixes: Vec<PositionFix>,
+        pub obstacle_batches: Vec<Vec<ObstaclePoint>>,
+        pub paths: Vec<Vec<Vec3>>,
+        pub commands: Vec<VehicleCommand>,
+        pub armed: bool,
+        pub failsafe: Option<Failsafe>,
+        pub max_path: usize,
+    }
+
+    impl RecordingAutopilot {
+        pub fn new() -> Self {
+            Self { max_path: 16, ..Default::default() }
+        }
+    }
+
+    impl Autopilot for RecordingAutopilot {
+        fn step_inner(&mut self, now_us: u64, _imu: &ImuSample) -> MotorCommand {
+            self.inner_steps.push(now_us);
+            MotorCommand { throttle: [0.5; 4], armed: self.armed }
+        }
+        fn step_outer(&mut self, now_us: u64) {
+            self.outer_steps.push(now_us);
+        }
+        fn update_position(&mut self, fix: &PositionFix) {
+            self.fixes.push(*fix);
+        }
+        fn update_obstacles(&mut self, _now_us: u64, obstacles: &[ObstaclePoint]) {
+            self.obstacle_batches.push(obstacles.to_vec());
+        }
+        fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
+            if waypoints_ned.len() > self.max_path {
+                return Err(PathRejected::TooLong);
+            }
+            self.paths.push(waypoints_ned.to_vec());
+            Ok(())
+        }
+        fn command(&mut self, _now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
+            self.commands.push(cmd);
+            match cmd {
+                VehicleCommand::Arm => self.armed = true,
+                VehicleCommand::Disarm { .. } => self.armed = false,
+                VehicleCommand::Takeoff { .. } if !self.armed => return Err(CommandRejected::NotNow),
+                VehicleCommand::StartMission if self.paths.is_empty() => return Err(CommandRejected::NotNow),
+                _ => {}
+            }
+            Ok(())
+        }
+        fn telemetry(&self) -> TelemetrySnapshot {
+            TelemetrySnapshot {
+                armed: self.armed,
+                phase: if self.armed { FlightPhase::Idle } else { FlightPhase::Disarmed },
+                failsafe: self.failsafe,
+                attitude_rpy: Vec3::new(0.1, -0.2, 0.3),
+                body_rates_frd: Vec3::zeros(),
+                position_ned: Vec3::new(1.0, 2.0, -3.0),
+                velocity_ned: Vec3::zeros(),
+                filter: FilterReport::IDLE,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sanitized_motor_command() {
+        let c = MotorCommand { throttle: [0.5, 1.5, -0.2, 0.0], armed: true }.sanitized();
+        assert_eq!(c.throttle, [0.5, 1.0, 0.0, 0.0]);
+        assert!(c.armed);
+        let c = MotorCommand { throttle: [0.5, f32::NAN, 0.1, 0.0], armed: true }.sanitized();
+        assert_eq!(c, MotorCommand::OFF);
+        let c = MotorCommand { throttle: [0.5; 4], armed: false }.sanitized();
+        assert_eq!(c, MotorCommand::OFF);
+    }
+}

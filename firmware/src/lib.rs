@@ -1,0 +1,37 @@
+//! # parapet-firmware
+//!
+//! Embassy flight-control firmware for STM32F405 flight controllers, plus a `board-qemu` build
+//! that runs the same application on QEMU's `netduinoplus2` for processor-in-the-loop tests.
+//!
+//! The library part is hardware-independent and host-tested: the MAVLink link
+//! ([`link`], [`frame_parser`], [`messages`], [`outbound`], [`wire`]), the mission protocol
+//! ([`mission`]), commands ([`command`]), obstacle decoding ([`obstacle_link`]), telemetry
+//! ([`telemetry`]), loop timing ([`loop_timing`]), the lockstep PIL step ([`lockstep`]), DShot
+//! framing ([`dshot`]) and the IMU driver ([`mpu6000`]). Tasks reach the flight-control cascade
+//! only through [`autopilot::Autopilot`].
+//!
+//! Board code (`src/board/*.rs`) and the executors live in the binaries (`src/main.rs`,
+//! `src/bin/parapet-firmware-qemu.rs`) and build only for `target_os = "none"`.
+//!
+//! Frames: world NED, body FRD, SI units; see `firmware/README.md` for the wire protocol.
+#![cfg_attr(not(test), no_std)]
+#![warn(missing_docs)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod autopilot;
+pub mod command;
+pub mod dshot;
+pub mod frame_parser;
+pub mod link;
+pub mod lockstep;
+pub mod loop_timing;
+pub mod messages;
+pub mod mission;
+pub mod mpu6000;
+pub mod obstacle_link;
+pub mod outbound;
+pub mod telemetry;
+pub mod wire;
+
+#[cfg(test)]
+extern crate std;

@@ -1,0 +1,213 @@
+//! Lockstep processor-in-the-loop step: one HIL_SENSOR in → one HIL_ACTUATOR_CONTROLS out.
+//!
+//! For each HIL_SENSOR with simulated time `t` (µs), the firmware
+//! 1. closes the open obstacle batch (`update_obstacles(t, …)`, see [`crate::obstacle_link`]),
+//! 2. runs the inner loop `step_inner(t, imu)` (estimator, attitude, rate control, mixer),
+//! 3. runs the outer loop `step_outer(t)` when it is due by simulated time: at the first sample,
+//!    then whenever `t ≥ next_outer`, with `next_outer += outer period` (or `t + period` when more
+//!    than one period was skipped),
+//! 4. answers HIL_ACTUATOR_CONTROLS with `time_usec = t`, `controls[0..4]` = rotor throttles
+//!    0..1 (rotor order of `parapet_core::airframe`), `controls[4..16] = 0`,
+//!    `mode` = HIL_ENABLED (+ SAFETY_ARMED when armed), `flags` = LOCKSTEP.
+//!
+//! Simulated time only advances when the host got the answer, so results do not depend on how
+//! fast QEMU runs. The instruction count of steps 1-3 is measured with SysTick under
+//! `qemu -icount shift=0` and calibrated with [`InstructionCalibration`].
+
+use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
+
+use crate::autopilot::{Autopilot, MotorCommand};
+use crate::link::{HilSample, Link};
+
+/// Outer-loop period by simulated time, µs (250 Hz).
+pub const OUTER_PERIOD_US: u64 = 4_000;
+
+/// Counters of the lockstep scheduler (saturating).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LockstepStats {
+    /// Control steps run.
+    pub steps: u32,
+    /// Outer steps run.
+    pub outer_steps: u32,
+    /// Samples whose time did not increase (answered anyway; the outer schedule restarts).
+    pub non_monotonic: u32,
+}
+
+/// Outer-loop scheduling by simulated time.
+#[derive(Clone, Debug)]
+pub struct LockstepScheduler {
+    outer_period_us: u64,
+    next_outer_us: Option<u64>,
+    last_t_us: Option<u64>,
+    stats: LockstepStats,
+}
+
+impl Default for LockstepScheduler {
+    fn default() -> Self {
+        Self::new(OUTER_PERIOD_US)
+    }
+}
+
+/// The answer of one step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepOutcome {
+    /// The HIL_ACTUATOR_CONTROLS to send.
+    pub controls: HIL_ACTUATOR_CONTROLS_DATA,
+    /// The sanitised motor command behind it.
+    pub motors: MotorCommand,
+    /// The outer loop ran in this step.
+    pub ran_outer: bool,
+}
+
+/// HIL_ACTUATOR_CONTROLS for `motors` at simulated time `t_us`.
+pub fn actuator_controls(t_us: u64, motors: &MotorCommand) -> HIL_ACTUATOR_CONTROLS_DATA {
+    let mut controls = [0.0f32; 16];
+    controls[..4].copy_from_slice(&motors.throttle);
+    let mut mode = MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED;
+    if motors.armed {
+        mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    HIL_ACTUATOR_CONTROLS_DATA {
+        time_usec: t_us,
+        flags: HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP,
+        controls,
+        mode,
+    }
+}
+
+impl LockstepScheduler {
+    /// Outer loop every `outer_period_us` of simulated time.
+    pub const fn new(outer_period_us: u64) -> Self {
+        Self {
+            outer_period_us,
+            next_outer_us: None,
+            last_t_us: None,
+            stats: LockstepStats { steps: 0, outer_steps: 0, non_monotonic: 0 },
+        }
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> LockstepStats {
+        self.stats
+    }
+
+    /// Runs one control step for `sample` (see the module docs).
+    pub fn step<A: Autopilot>(&mut self, sample: &HilSample, link: &mut Link, ap: &mut A) -> StepOutcome {
+        let t = sample.time_usec;
+        if self.last_t_us.is_some_and(|last| t <= last) {
+            self.stats.non_monotonic = self.stats.non_monotonic.saturating_add(1);
+            self.next_outer_us = None;
+        }
+        self.last_t_us = Some(t);
+        link.flush_obstacles(t, ap);
+        let motors = ap.step_inner(t, &sample.imu).sanitized();
+        let ran_outer = self.next_outer_us.is_none_or(|n| t >= n);
+        if ran_outer {
+            ap.step_outer(t);
+            self.stats.outer_steps = self.stats.outer_steps.saturating_add(1);
+            self.next_outer_us = Some(match self.next_outer_us {
+                Some(n) if t - n < self.outer_period_us => n + self.outer_period_us,
+                _ => t + self.outer_period_us,
+            });
+        }
+        self.stats.steps = self.stats.steps.saturating_add(1);
+        StepOutcome { controls: actuator_controls(t, &motors), motors, ran_outer }
+    }
+}
+
+/// Ticks elapsed on SysTick (a 24-bit *down*-counter reloading to `reload`) from `start` to `end`,
+/// assuming less than one wrap in between.
+pub fn systick_elapsed(start: u32, end: u32, reload: u32) -> u32 {
+    let (start, end) = (start & 0x00FF_FFFF, end & 0x00FF_FFFF);
+    if start >= end {
+        start - end
+    } else {
+        start + (reload & 0x00FF_FFFF) + 1 - end
+    }
+}
+
+/// SysTick ticks measured for a loop of a known instruction count (`qemu -icount shift=0`:
+/// one instruction = 1 ns of virtual time; SysTick counts virtual time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InstructionCalibration {
+    /// Instructions executed by the calibration loop.
+    pub instructions: u32,
+    /// SysTick ticks it took.
+    pub ticks: u32,
+}
+
+impl InstructionCalibration {
+    /// Instructions corresponding to `ticks` (rounded); 0 when the calibration is degenerate.
+    pub fn instructions_for(&self, ticks: u32) -> u32 {
+        if self.ticks == 0 {
+            return 0;
+        }
+        let v = (u64::from(ticks) * u64::from(self.instructions) + u64::from(self.ticks) / 2)
+            / u64::from(self.ticks);
+        v.min(u64::from(u32::MAX)) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::autopilot::test_double::RecordingAutopilot;
+    use crate::link::FixClock;
+    use parapet_core::Vec3;
+
+    fn sample(t: u64) -> HilSample {
+        HilSample {
+            time_usec: t,
+            imu: crate::autopilot::ImuSample {
+                gyro_frd: Vec3::zeros(),
+                accel_frd: Vec3::new(0.0, 0.0, -9.81),
+            },
+        }
+    }
+
+    #[test]
+    fn outer_loop_runs_every_fourth_millisecond_by_simulated_time() {
+        let mut ap = RecordingAutopilot::new();
+        let mut link = Link::new(1, FixClock::Message);
+        let mut s = LockstepScheduler::new(4000);
+        for k in 0..20u64 {
+            let o = s.step(&sample(1_000_000 + k * 1000), &mut link, &mut ap);
+            assert_eq!(o.controls.time_usec, 1_000_000 + k * 1000);
+            assert_eq!(o.ran_outer, k % 4 == 0, "step {k}");
+        }
+        assert_eq!(ap.inner_steps.len(), 20);
+        assert_eq!(ap.outer_steps.len(), 5);
+        // A jump of 10 ms restarts the phase instead of running a burst of outer steps.
+        let o = s.step(&sample(1_030_000), &mut link, &mut ap);
+        assert!(o.ran_outer);
+        assert!(!s.step(&sample(1_031_000), &mut link, &mut ap).ran_outer);
+        assert!(s.step(&sample(1_034_000), &mut link, &mut ap).ran_outer);
+        // Time going backwards is answered and counted.
+        assert!(s.step(&sample(10), &mut link, &mut ap).ran_outer);
+        assert_eq!(s.stats().non_monotonic, 1);
+    }
+
+    #[test]
+    fn controls_carry_throttles_and_arming() {
+        let mut ap = RecordingAutopilot::new();
+        let mut link = Link::new(1, FixClock::Message);
+        let mut s = LockstepScheduler::default();
+        let o = s.step(&sample(5), &mut link, &mut ap);
+        assert_eq!(o.controls.controls, [0.0; 16]);
+        assert!(!o.controls.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+        ap.armed = true;
+        let o = s.step(&sample(6), &mut link, &mut ap);
+        assert_eq!(&o.controls.controls[..5], &[0.5, 0.5, 0.5, 0.5, 0.0]);
+        assert!(o.controls.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+        assert!(o.controls.flags.contains(HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP));
+    }
+
+    #[test]
+    fn systick_arithmetic() {
+        assert_eq!(systick_elapsed(1000, 400, 0xFF_FFFF), 600);
+        assert_eq!(systick_elapsed(100, 0xFF_FF00, 0xFF_FFFF), 100 + 0x100);
+        let cal = InstructionCalibration { instructions: 200_000, ticks: 33_600 };
+        assert_eq!(cal.instructions_for(168), 1000);
+        assert_eq!(InstructionCalibration { instructions: 1, ticks: 0 }.instructions_for(5), 0);
+    }
+}
