@@ -26,7 +26,8 @@
 //!
 //! ## Capacity
 //! At most `N` waypoints (const generic, default [`DEFAULT_PATH_CAPACITY`] = 64).
-//! A longer path is **rejected** with [`PathError::TooMany`] — never truncated.
+//! A longer path is **rejected** with [`PathError::TooMany`] — never truncated;
+//! NaN/Inf coordinates and coordinates beyond ±[`COORDINATE_LIMIT`] are rejected too.
 //! Every query is O(N).
 
 use crate::frame::is_finite3;
@@ -34,6 +35,13 @@ use crate::Vec3;
 
 /// Default maximum number of waypoints in a path.
 pub const DEFAULT_PATH_CAPACITY: usize = 64;
+
+/// Largest accepted waypoint/origin coordinate magnitude, m. Larger values are
+/// rejected ([`PathError::OutOfRange`]) so that lengths and times stay finite.
+pub const COORDINATE_LIMIT: f32 = 1.0e5;
+
+/// Largest accepted cruise speed (m/s) and corner radius (m).
+pub const PARAM_LIMIT: f32 = 100.0;
 
 /// Why a path or a parameter set was rejected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,9 +59,14 @@ pub enum PathError {
         /// Index of the offending waypoint in the given slice.
         index: usize,
     },
-    /// Cruise speed not finite and positive, or corner radius not finite and ≥ 0.
+    /// Waypoint `index` has a coordinate beyond ±[`COORDINATE_LIMIT`].
+    OutOfRange {
+        /// Index of the offending waypoint in the given slice.
+        index: usize,
+    },
+    /// Cruise speed not in (0, [`PARAM_LIMIT`]] m/s, or corner radius not in [0, [`PARAM_LIMIT`]] m.
     BadParams,
-    /// The origin given to [`WaypointFollower::start`] is not finite.
+    /// The origin given to [`WaypointFollower::start`] is not finite or beyond ±[`COORDINATE_LIMIT`].
     BadOrigin,
     /// [`WaypointFollower::start`] was called with no path set.
     NoPath,
@@ -77,12 +90,12 @@ impl Default for WaypointParams {
 }
 
 impl WaypointParams {
-    /// Check the parameters (speed finite and > 0, radius finite and ≥ 0).
+    /// Check the parameters (speed in (0, 100] m/s, radius in [0, 100] m).
     pub fn validate(&self) -> Result<(), PathError> {
-        let ok = self.cruise_speed.is_finite()
-            && self.cruise_speed > 0.0
-            && self.corner_radius.is_finite()
-            && self.corner_radius >= 0.0;
+        let ok = self.cruise_speed > 0.0
+            && self.cruise_speed <= PARAM_LIMIT
+            && self.corner_radius >= 0.0
+            && self.corner_radius <= PARAM_LIMIT;
         if ok {
             Ok(())
         } else {
@@ -115,6 +128,10 @@ pub struct Progress {
     pub fraction: f32,
     /// `true` once the goal has been reached (the reference hovers at the goal).
     pub done: bool,
+}
+
+fn in_range(w: &Vec3) -> bool {
+    w.amax() <= COORDINATE_LIMIT
 }
 
 /// Constant-speed follower of a path of at most `N` waypoints (default 64).
@@ -165,6 +182,9 @@ impl<const N: usize> WaypointFollower<N> {
         if let Some(index) = waypoints.iter().position(|w| !is_finite3(w)) {
             return Err(PathError::NonFinite { index });
         }
+        if let Some(index) = waypoints.iter().position(|w| !in_range(w)) {
+            return Err(PathError::OutOfRange { index });
+        }
         self.points.clear();
         self.cum.clear();
         for w in waypoints {
@@ -201,7 +221,7 @@ impl<const N: usize> WaypointFollower<N> {
         if self.points.is_empty() {
             return Err(PathError::NoPath);
         }
-        if !is_finite3(&origin) {
+        if !is_finite3(&origin) || !in_range(&origin) {
             return Err(PathError::BadOrigin);
         }
         self.origin = origin;
@@ -426,6 +446,8 @@ mod tests {
         assert_eq!(f.set_path(&bad), Err(PathError::NonFinite { index: 1 }));
         let bad = [Vec3::new(0.0, f32::INFINITY, 0.0)];
         assert_eq!(f.set_path(&bad), Err(PathError::NonFinite { index: 0 }));
+        let bad = [Vec3::zeros(), Vec3::zeros(), Vec3::new(0.0, 0.0, -2.0e5)];
+        assert_eq!(f.set_path(&bad), Err(PathError::OutOfRange { index: 2 }));
         // Exactly at capacity is accepted.
         assert!(f.set_path(&[Vec3::zeros(); 8]).is_ok());
         assert_eq!(f.start(Vec3::new(f32::NAN, 0.0, 0.0)), Err(PathError::BadOrigin));
@@ -438,6 +460,12 @@ mod tests {
         );
         assert!(WaypointFollower::<4>::new(WaypointParams { cruise_speed: f32::NAN, corner_radius: 0.0 })
             .is_err());
+        assert!(WaypointFollower::<4>::new(WaypointParams { cruise_speed: 1e3, corner_radius: 0.0 }).is_err());
+        assert!(WaypointFollower::<4>::new(WaypointParams {
+            cruise_speed: 1.0,
+            corner_radius: f32::INFINITY
+        })
+        .is_err());
     }
 
     #[test]
@@ -490,5 +518,59 @@ mod tests {
         assert!(s.progress.done);
         assert_eq!(s.position, p);
         assert_eq!(f.sample(f32::NAN).position, p);
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn wild() -> impl Strategy<Value = f32> {
+            prop_oneof![
+                6 => -50.0f32..50.0,
+                1 => Just(f32::NAN),
+                1 => Just(f32::INFINITY),
+                1 => Just(f32::NEG_INFINITY),
+                1 => Just(1e30f32),
+                1 => Just(-1e30f32),
+                1 => Just(0.0f32),
+                1 => any::<f32>(),
+            ]
+        }
+
+        fn wild3() -> impl Strategy<Value = Vec3> {
+            (wild(), wild(), wild()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(1000))]
+            /// No path, parameter, origin or time makes the follower panic; an accepted
+            /// path always gives a finite reference at the cruise speed at most.
+            #[test]
+            fn never_panics_and_accepted_paths_give_finite_references(
+                speed in prop_oneof![0.01f32..5.0, wild()],
+                radius in prop_oneof![0.0f32..1.0, wild()],
+                path in proptest::collection::vec(wild3(), 0..12),
+                origin in wild3(),
+                times in proptest::collection::vec(wild(), 1..8),
+            ) {
+                let params = WaypointParams { cruise_speed: speed, corner_radius: radius };
+                let Ok(mut f) = WaypointFollower::<8>::new(params) else {
+                    return Ok(());
+                };
+                let accepted = f.set_path(&path).is_ok();
+                let valid = !path.is_empty() && path.len() <= 8 && path.iter().all(|w| is_finite3(w) && in_range(w));
+                prop_assert_eq!(accepted, valid);
+                let started = f.start(origin).is_ok();
+                for t in times {
+                    let s = f.sample(t);
+                    if started {
+                        prop_assert!(is_finite3(&s.position) && is_finite3(&s.velocity));
+                        prop_assert!(is_finite3(&s.acceleration));
+                        prop_assert!(s.velocity.norm() <= speed * 1.001 + 1e-5);
+                        prop_assert!(s.progress.fraction >= 0.0 && s.progress.fraction <= 1.0);
+                    }
+                }
+            }
+        }
     }
 }
