@@ -6,9 +6,16 @@
 //! * [`replay`]: open-loop replay of rotor speeds from a CSV.
 //! * [`planner`]: offline RRT-Connect + shortcutting planner (static obstacles, NED).
 //! * [`pathfile`]: path files (JSON, ENU z-up) written by `parapet plan`.
+//! * [`runner`]: the closed loop plant → sensors → controller, metrics.
+//! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
+//! * [`report`]: summary.json, trajectory.csv, plots, summary table.
+pub mod cli;
+pub mod control;
 pub mod pathfile;
 pub mod planner;
 pub mod plant;
 pub mod replay;
+pub mod report;
+pub mod runner;
 pub mod scene;
 pub mod sensors;

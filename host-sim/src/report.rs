@@ -83,6 +83,8 @@ pub struct Summary {
     pub path_waypoints: usize,
     /// Controller parameters.
     pub params: RunParams,
+    /// Failsafe state of the controller at the end of the run (normally "Armed").
+    pub final_controller_state: String,
     /// Random seed (sensor noise; planner).
     pub seed: u64,
     /// Whether sensor noise was on.

@@ -79,6 +79,8 @@ pub struct PositionReading {
     pub position: Vector3<f64>,
     /// Velocity, m/s.
     pub velocity: Vector3<f64>,
+    /// Heading (yaw, FRD ZYX w.r.t. NED), rad, as motion capture measures it (no noise).
+    pub yaw: f64,
 }
 
 /// The sensor suite of one run.
@@ -130,7 +132,12 @@ impl Sensors {
     /// newest measurement whose latency has elapsed at `t`, if any. Call at the
     /// measurement rate; with zero latency the measurement of `t` itself is returned.
     pub fn position(&mut self, t: f64, plant: &Plant) -> Option<PositionReading> {
-        let mut r = PositionReading { t_measured: t, position: plant.state.pos, velocity: plant.state.vel };
+        let mut r = PositionReading {
+            t_measured: t,
+            position: plant.state.pos,
+            velocity: plant.state.vel,
+            yaw: plant.state.euler().2,
+        };
         if self.params.noise {
             r.position += normal3(&mut self.rng, self.params.position_noise);
             r.velocity += normal3(&mut self.rng, self.params.velocity_noise);

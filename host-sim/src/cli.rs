@@ -1,0 +1,396 @@
+//! The `parapet` command line: `run`, `plan`, `replay`.
+//!
+//! Exit codes: 0 success, 1 internal failure, 2 bad input (a file, field or
+//! option named in the message), 3 no path found by the planner.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::anyhow;
+use clap::{Args, Parser, Subcommand};
+use nalgebra::Vector3;
+use parapet_core::cbf::FilterVariant;
+
+use crate::pathfile::PathFile;
+use crate::planner::{plan, PlanProblem, PlannedPath, PlannerParams};
+use crate::plant::VehicleParams;
+use crate::replay::{parse_rotor_csv, replay, ReplayOptions};
+use crate::report::{summary_table, write_report, RunRecord};
+use crate::runner::{path_length, run, RunConfig};
+use crate::scene::{to_f32, to_f64, Scene};
+
+/// Default scene of `parapet run` and `parapet plan`.
+pub const DEFAULT_SCENE: &str = "scenes/office.toml";
+
+/// Parapet: quadrotor flight with a closed-form CBF safety filter — simulator and tools.
+#[derive(Debug, Parser)]
+#[command(name = "parapet", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
+    /// simulator; write summary.json, trajectory.csv and plots.
+    Run(RunArgs),
+    /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
+    Plan(PlanArgs),
+    /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
+    /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
+    Replay(ReplayArgs),
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// Scene file (TOML, ENU z-up).
+    #[arg(long, default_value = DEFAULT_SCENE)]
+    scene: PathBuf,
+    /// Fly this path file (JSON from `parapet plan`) instead of planning.
+    #[arg(long)]
+    path: Option<PathBuf>,
+    /// Fly the straight line start → goal instead of planning (for tests and demos).
+    #[arg(long, conflicts_with = "path")]
+    straight: bool,
+    /// Disable the CBF safety filter (nominal PD tracking only).
+    #[arg(long)]
+    no_cbf: bool,
+    /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
+    #[arg(long, value_parser = parse_variant)]
+    filter: Option<FilterVariant>,
+    /// Barrier velocity weight μ, s.
+    #[arg(long, allow_negative_numbers = true)]
+    mu: Option<f64>,
+    /// Safety level δ, m² (hull radius squared).
+    #[arg(long, allow_negative_numbers = true)]
+    delta: Option<f64>,
+    /// Engagement level δ1 (> δ), m².
+    #[arg(long, allow_negative_numbers = true)]
+    delta1: Option<f64>,
+    /// PD position gain k_p, 1/s².
+    #[arg(long, allow_negative_numbers = true)]
+    kp: Option<f64>,
+    /// PD velocity gain k_d, 1/s.
+    #[arg(long, allow_negative_numbers = true)]
+    kd: Option<f64>,
+    /// Reference speed along the path, m/s.
+    #[arg(long, allow_negative_numbers = true)]
+    speed: Option<f64>,
+    /// Random seed (sensor noise and planner).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Duration limit, s (default: the scene's, else 1.5 × path time + 15 s).
+    #[arg(long, allow_negative_numbers = true)]
+    duration: Option<f64>,
+    /// Sensor noise on (default, unless the scene's [sensors] table says otherwise).
+    #[arg(long, conflicts_with = "no_noise")]
+    noise: bool,
+    /// Sensor noise off.
+    #[arg(long)]
+    no_noise: bool,
+    /// Proximity-sensor range, m (default: the scene's, else 3).
+    #[arg(long, allow_negative_numbers = true)]
+    sensing_range: Option<f64>,
+    /// Output directory.
+    #[arg(long, default_value = "out/run")]
+    out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct PlanArgs {
+    /// Scene file (TOML, ENU z-up).
+    #[arg(long, default_value = DEFAULT_SCENE)]
+    scene: PathBuf,
+    /// Planner seed (same seed, same path).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output path file (JSON, ENU z-up).
+    #[arg(long, default_value = "out/path.json")]
+    out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct ReplayArgs {
+    /// Vehicle parameters: a TOML file with VehicleParams keys at the top level or in a
+    /// [vehicle] table (a scene file works). Default: the built-in vehicle.
+    #[arg(long)]
+    vehicle: Option<PathBuf>,
+    /// Input CSV: header t,w1,w2,w3,w4 (s, rad/s; rotor order 1..4 = FR, RL, FL, RR).
+    #[arg(long)]
+    inputs: PathBuf,
+    /// Output CSV of states (NED position/velocity, quaternion FRD→NED, FRD body rates).
+    #[arg(long)]
+    out: PathBuf,
+    /// Integration step, s.
+    #[arg(long, default_value_t = 0.001)]
+    dt: f64,
+    /// Start position, NED, m, as x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.0, 0.0, 0.0])]
+    start: Vec<f64>,
+    /// Treat the speeds as commands through the first-order motor model (default: imposed directly).
+    #[arg(long)]
+    motor_lag: bool,
+    /// Simulate the ground plane z = 0 (default off: free space).
+    #[arg(long)]
+    ground: bool,
+}
+
+fn parse_variant(s: &str) -> Result<FilterVariant, String> {
+    s.parse().map_err(|_| format!("unknown filter {s:?}: expected paper, relative, multi or multi-relative"))
+}
+
+/// A failure with its exit code.
+#[derive(Debug)]
+pub enum CliError {
+    /// Bad input (exit code 2): the message names the file / field / option.
+    BadInput(String),
+    /// No path found (exit code 3).
+    NoPath(String),
+    /// Anything else (exit code 1).
+    Failed(anyhow::Error),
+}
+
+impl CliError {
+    /// Process exit code.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CliError::BadInput(_) => 2,
+            CliError::NoPath(_) => 3,
+            CliError::Failed(_) => 1,
+        }
+    }
+}
+
+impl std::fmt::Display for CliError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CliError::BadInput(m) | CliError::NoPath(m) => f.write_str(m),
+            CliError::Failed(e) => write!(f, "{e:#}"),
+        }
+    }
+}
+
+impl From<anyhow::Error> for CliError {
+    fn from(e: anyhow::Error) -> Self {
+        CliError::Failed(e)
+    }
+}
+
+/// Parse the process arguments, run, print errors; returns the exit code.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+fn dispatch(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Run(a) => cmd_run(a),
+        Command::Plan(a) => cmd_plan(a),
+        Command::Replay(a) => cmd_replay(a),
+    }
+}
+
+/// Resolve a scene path: as given, else (for the default scene only) relative
+/// to the source tree this binary was built from.
+fn resolve_scene(p: &Path) -> PathBuf {
+    if !p.exists() && p == Path::new(DEFAULT_SCENE) {
+        let alt = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SCENE);
+        if alt.exists() {
+            return alt;
+        }
+    }
+    p.to_path_buf()
+}
+
+fn load_scene(p: &Path) -> Result<Scene, CliError> {
+    Scene::load(&resolve_scene(p)).map_err(|e| CliError::BadInput(e.to_string()))
+}
+
+fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
+    let (mn, mx) = scene.bounds_ned();
+    let problem = PlanProblem {
+        bounds_min: to_f32(&mn),
+        bounds_max: to_f32(&mx),
+        obstacles: scene.static_shapes(),
+        start: to_f32(&scene.start),
+        goal: to_f32(&scene.goal),
+        hull_radius: scene.vehicle.hull_radius as f32,
+    };
+    let params = PlannerParams { seed, ..PlannerParams::default() };
+    plan(&problem, &params).map_err(|e| {
+        let msg = format!("{}: planning failed: {e}", scene.source);
+        if e.exit_code() == 3 {
+            CliError::NoPath(msg)
+        } else {
+            CliError::BadInput(msg)
+        }
+    })
+}
+
+fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
+    match x {
+        Some(v) if !(v.is_finite() && v > 0.0) => {
+            Err(CliError::BadInput(format!("option --{name}: must be finite and > 0, got {v}")))
+        }
+        other => Ok(other),
+    }
+}
+
+fn cmd_run(a: RunArgs) -> Result<(), CliError> {
+    let mut scene = load_scene(&a.scene)?;
+    if let Some(s) = positive("speed", a.speed)? {
+        scene.speed = s;
+    }
+    let (path, source, planning_ms) = if let Some(p) = &a.path {
+        let f = PathFile::read(p).map_err(|e| CliError::BadInput(e.to_string()))?;
+        let wps: Vec<Vector3<f64>> = f.waypoints_ned().iter().map(to_f64).collect();
+        if wps.is_empty() {
+            return Err(CliError::BadInput(format!("{}: field `waypoints`: empty", p.display())));
+        }
+        (wps, "file", None)
+    } else if a.straight {
+        (vec![scene.start, scene.goal], "straight", None)
+    } else {
+        let planned = plan_scene(&scene, a.seed)?;
+        let wps = planned.waypoints.iter().map(to_f64).collect();
+        (wps, "planner", Some(planned.planning_time_ms))
+    };
+    let mut cfg = RunConfig::for_scene(&scene, path)
+        .map_err(|e| CliError::BadInput(format!("{}: {e}", scene.source)))?;
+    cfg.path_source = source.into();
+    cfg.planning_time_ms = planning_ms;
+    cfg.cbf = !a.no_cbf;
+    if let Some(v) = a.filter {
+        cfg.variant = v;
+    }
+    if let Some(x) = positive("mu", a.mu)? {
+        cfg.params.mu = x;
+    }
+    if let Some(x) = positive("delta", a.delta)? {
+        cfg.params.delta = x;
+    }
+    if let Some(x) = positive("delta1", a.delta1)? {
+        cfg.params.delta1 = x;
+    }
+    if let Some(x) = positive("kp", a.kp)? {
+        cfg.params.kp = x;
+    }
+    if let Some(x) = positive("kd", a.kd)? {
+        cfg.params.kd = x;
+    }
+    if let Some(x) = positive("duration", a.duration)? {
+        cfg.duration = x;
+    } else if scene.sim.duration.is_none() {
+        cfg.duration = 1.5 * path_length(&cfg.path) / cfg.params.speed + 15.0;
+    }
+    if let Some(x) = positive("sensing-range", a.sensing_range)? {
+        cfg.sensing_range = x;
+    }
+    if a.no_noise {
+        cfg.sensors.noise = false;
+    } else if a.noise {
+        cfg.sensors.noise = true;
+    }
+    cfg.seed = a.seed;
+    cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
+
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let pb = indicatif::ProgressBar::new((cfg.duration * 10.0).ceil() as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} sim {msg} [{bar:40}] {elapsed_precise}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb
+    });
+    let mut on_progress = |t: f64| {
+        if let Some(pb) = &bar {
+            pb.set_position((t * 10.0) as u64);
+            pb.set_message(format!("{t:6.1} s"));
+        }
+    };
+    let out = run(&scene, &cfg, &mut on_progress)?;
+    if let Some(pb) = bar {
+        pb.finish_and_clear();
+    }
+    let rec = RunRecord { scene: &scene, path: &cfg.path, samples: &out.samples, summary: &out.summary };
+    let (files, warnings) = write_report(&a.out, &rec)?;
+    print!("{}", summary_table(&out.summary));
+    println!("  report: {}", a.out.display());
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    let _ = files;
+    Ok(())
+}
+
+fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
+    let scene = load_scene(&a.scene)?;
+    let planned = plan_scene(&scene, a.seed)?;
+    let file = PathFile::from_planned(&scene.name, &planned);
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    file.write(&a.out).map_err(|e| anyhow!("{e}"))?;
+    println!(
+        "{}: {} waypoints, {:.2} m, {:.2} ms, {} iterations, seed {} -> {}",
+        scene.name,
+        planned.waypoints.len(),
+        planned.length_m,
+        planned.planning_time_ms,
+        planned.iterations,
+        planned.seed,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// Load vehicle parameters from a TOML file: top-level keys, or a `[vehicle]` table.
+pub fn load_vehicle(path: &Path) -> Result<VehicleParams, String> {
+    let file = path.display();
+    let src = std::fs::read_to_string(path).map_err(|e| format!("{file}: cannot read the file: {e}"))?;
+    let value: toml::Table = toml::from_str(&src).map_err(|e| format!("{file}: {}", e.message()))?;
+    let table = match value.get("vehicle") {
+        Some(toml::Value::Table(t)) => t.clone(),
+        Some(_) => return Err(format!("{file}: `vehicle` must be a table")),
+        None => value,
+    };
+    let v: VehicleParams = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| format!("{file}: [vehicle]: {}", e.message()))?;
+    v.validate().map_err(|e| format!("{file}: [vehicle]: field `{}`: {}", e.field, e.reason))?;
+    Ok(v)
+}
+
+fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
+    let vehicle = match &a.vehicle {
+        Some(p) => load_vehicle(p).map_err(CliError::BadInput)?,
+        None => VehicleParams::default(),
+    };
+    let src = std::fs::read_to_string(&a.inputs)
+        .map_err(|e| CliError::BadInput(format!("{}: cannot read the file: {e}", a.inputs.display())))?;
+    let rows =
+        parse_rotor_csv(&src).map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;
+    if !a.start.iter().all(|x| x.is_finite()) {
+        return Err(CliError::BadInput("option --start: must be finite".into()));
+    }
+    let opts = ReplayOptions {
+        dt: a.dt,
+        start_ned: Vector3::new(a.start[0], a.start[1], a.start[2]),
+        motor_lag: a.motor_lag,
+        ground: a.ground,
+    };
+    let csv = replay(vehicle, &rows, &opts).map_err(|e| CliError::BadInput(format!("replay: {e}")))?;
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    std::fs::write(&a.out, csv).map_err(|e| anyhow!("cannot write {}: {e}", a.out.display()))?;
+    println!("replayed {} samples -> {}", rows.len(), a.out.display());
+    Ok(())
+}

@@ -1,0 +1,180 @@
+//! Adapter between the runner and [`parapet_core::controller::FlightController`]:
+//! f64 simulator types ↔ f32 core types, simulator time ↔ controller clock,
+//! and the start-up sequence.
+//!
+//! * **Clock**: controller time (µs) = (simulated time + [`CLOCK_OFFSET_S`]) · 10⁶,
+//!   so that position fixes measured before t = 0 (latency priming) keep
+//!   non-negative timestamps.
+//! * **Start-up** (at t = 0, vehicle hovering at the start): one IMU sample
+//!   initialises the estimator, a position fix and the obstacle report are
+//!   given, then `arm`, `hold_position(start)`, one outer step (the reference
+//!   becomes the start) and `start_mission`.
+//! * **Position fixes** carry the time they were measured (so the controller's
+//!   latency compensation by extrapolation applies) and the true yaw (a motion
+//!   capture system measures it).
+//! * **`--no-cbf`**: the controller is told that no obstacle is in range (an
+//!   empty report), so its filter passes the nominal input through unchanged
+//!   (region "none"). The controller itself is the same.
+
+use anyhow::{anyhow, Result};
+use nalgebra::Vector3;
+use parapet_core::cbf::{CbfParams, FilterVariant, Region};
+use parapet_core::controller::{ControllerParams, FlightController, PositionFix, Telemetry};
+use parapet_core::estimator::ImuSample;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::thrust::ThrustParams;
+use parapet_core::tracking::TrackingParams;
+use parapet_core::waypoint::WaypointParams;
+use parapet_core::Vec3;
+
+use crate::runner::RunConfig;
+use crate::scene::{to_f32, to_f64, Scene};
+use crate::sensors::{ImuReading, PositionReading};
+
+/// Offset of the controller clock from simulated time, s.
+pub const CLOCK_OFFSET_S: f64 = 1.0;
+
+/// Controller clock (µs) at simulated time `t` (s).
+pub fn clock_us(t: f64) -> u64 {
+    ((t + CLOCK_OFFSET_S).max(0.0) * 1e6).round() as u64
+}
+
+/// What one outer step produced, for the recorder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OuterOut {
+    /// Reference position, NED, m.
+    pub reference: Vector3<f64>,
+    /// Filter region name.
+    pub region: &'static str,
+    /// Filter region code ([`Region::code`]).
+    pub region_code: u8,
+    /// Obstacle the filter acted on.
+    pub active_obstacle: Option<u16>,
+    /// The filter changed u*.
+    pub filter_active: bool,
+    /// The path follower has reached the end of the path.
+    pub path_done: bool,
+}
+
+/// Region name for reports.
+pub fn region_name(r: Region) -> &'static str {
+    match r {
+        Region::NoObstacle => "none",
+        Region::Far => "far",
+        Region::NominalSafe => "nominal_safe",
+        Region::Perpendicular => "filtering",
+        Region::Fault => "fault",
+    }
+}
+
+/// The controller parameters of a run: defaults of the core with the scene's
+/// vehicle and the run's tracking / filter / speed settings.
+pub fn controller_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+    cbf: CbfParams,
+    variant: FilterVariant,
+) -> ControllerParams {
+    let af = scene.vehicle.airframe();
+    let d = ControllerParams::default();
+    ControllerParams {
+        airframe: af,
+        tracking: TrackingParams { ..TrackingParams::uniform(cfg.params.kp as f32, cfg.params.kd as f32) },
+        cbf,
+        filter_variant: variant,
+        thrust: ThrustParams {
+            mass: af.mass,
+            // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
+            thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
+            ..d.thrust
+        },
+        attitude: parapet_core::attitude::AttitudeParams { inertia: af.inertia, ..d.attitude },
+        waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
+        ..d
+    }
+}
+
+/// The flight controller as the runner drives it.
+pub struct Controller {
+    fc: FlightController,
+    cbf: bool,
+}
+
+impl Controller {
+    /// Build the controller and give it the path. Errors name the rejected parameter or path.
+    pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
+        let params = controller_params(scene, cfg, cbf, cfg.variant);
+        let mut fc = FlightController::new(params).map_err(|e| anyhow!("controller parameters: {e:?}"))?;
+        let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();
+        fc.set_path(&wps).map_err(|e| anyhow!("path rejected by the controller: {e:?}"))?;
+        Ok(Controller { fc, cbf: cfg.cbf })
+    }
+
+    /// Start-up at simulated time `t` (see the module docs).
+    pub fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()> {
+        let now = clock_us(t);
+        self.fc.step_inner(now, &imu_sample(imu));
+        self.position_fix(fix);
+        self.report_obstacles(now, obstacles);
+        self.fc.arm(now).map_err(|e| anyhow!("arming refused: {e:?}"))?;
+        self.fc.hold_position(now, to_f32(&start)).map_err(|e| anyhow!("hold refused: {e:?}"))?;
+        self.fc.step_outer(now);
+        self.fc.start_mission(now).map_err(|e| anyhow!("mission start refused: {e:?}"))?;
+        Ok(())
+    }
+
+    /// A position/velocity/yaw fix (measured at `fix.t_measured`).
+    pub fn position_fix(&mut self, fix: PositionReading) {
+        self.fc.update_position(PositionFix {
+            t_us: clock_us(fix.t_measured),
+            position: to_f32(&fix.position),
+            velocity: to_f32(&fix.velocity),
+            yaw: Some(fix.yaw as f32),
+        });
+    }
+
+    fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
+        if self.cbf {
+            self.fc.update_obstacles(now, obstacles);
+        } else {
+            self.fc.update_obstacles(now, &[]);
+        }
+    }
+
+    /// One outer step at simulated time `t` with the obstacles the proximity sensor reports.
+    pub fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+        let now = clock_us(t);
+        self.report_obstacles(now, obstacles);
+        self.fc.step_outer(now);
+        let tel = self.fc.telemetry();
+        OuterOut {
+            reference: to_f64(&tel.reference.position),
+            region: region_name(tel.filter.region),
+            region_code: tel.filter.region.code(),
+            active_obstacle: tel.filter.active_id,
+            filter_active: tel.filter.intervened,
+            path_done: tel.progress.done,
+        }
+    }
+
+    /// One inner step at simulated time `t`: IMU in, throttles out.
+    pub fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+        self.fc.step_inner(clock_us(t), &imu_sample(imu)).throttle
+    }
+
+    /// Latest telemetry.
+    pub fn telemetry(&self) -> Telemetry {
+        self.fc.telemetry()
+    }
+}
+
+fn imu_sample(imu: &ImuReading) -> ImuSample {
+    ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) }
+}

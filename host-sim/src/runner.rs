@@ -1,0 +1,340 @@
+//! Closed-loop runner: plant (1 kHz RK4) → sensors → the flight controller of
+//! `parapet-core` (inner loop 1 kHz, outer loop 250 Hz) → motor commands → plant.
+//!
+//! ## Sequence
+//! The vehicle starts hovering at the mission start (level, heading north,
+//! rotors at the hover speed), the controller is armed, given the path and its
+//! mission is started at t = 0. The run stops at the first of:
+//! * **collision**: the hull sphere intersects an obstacle (signed distance
+//!   from the centre of mass to a surface < hull radius), checked every plant step;
+//! * **goal**: within [`GOAL_TOLERANCE_M`] of the goal and slower than [`GOAL_SPEED_MPS`];
+//! * the **duration** limit.
+//!
+//! ## What the controller is told
+//! * Position fixes at the outer rate from [`crate::sensors`] (noise, latency).
+//! * IMU samples at the inner rate.
+//! * Obstacles at the outer rate, as a proximity sensor would report them: for
+//!   each obstacle whose surface is within the sensing range of the true
+//!   centre of mass, its closest surface point (moving obstacles at their
+//!   current position) and its velocity, id = index in the scene file.
+//!
+//! ## Metrics (true state, every outer step unless said otherwise)
+//! clearance = signed distance to the nearest surface − hull radius (every
+//! plant step for the minimum); h̄ = min over all obstacles of the filter's
+//! barrier `|d|² + μ dᵀḋ − δ` (ḋ relative for the relative variants);
+//! tracking error = |p − p_ref|; filter active = the filter changed `u*`.
+
+use std::time::Instant;
+
+use anyhow::{anyhow, Result};
+use nalgebra::Vector3;
+use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
+use parapet_core::obstacle::ObstaclePoint;
+
+use crate::control::Controller;
+use crate::plant::Plant;
+use crate::report::{RunParams, Sample, Summary};
+use crate::scene::{to_f32, Scene};
+use crate::sensors::{SensorParams, Sensors};
+
+/// Goal reached: distance to the goal below this, m.
+pub const GOAL_TOLERANCE_M: f64 = 0.1;
+/// Goal reached: speed below this, m/s.
+pub const GOAL_SPEED_MPS: f64 = 0.1;
+/// Inner-loop period, s (1 kHz).
+pub const INNER_DT: f64 = 0.001;
+/// Outer-loop decimation: one outer step every this many inner steps (250 Hz).
+pub const OUTER_DIVIDER: u64 = 4;
+/// Default proximity-sensor range, m.
+pub const DEFAULT_SENSING_RANGE: f64 = 3.0;
+
+/// Everything a run needs besides the scene.
+#[derive(Clone, Debug)]
+pub struct RunConfig {
+    /// Path to fly, NED, m, start first (at least one waypoint).
+    pub path: Vec<Vector3<f64>>,
+    /// Where the path came from: "planner", "file" or "straight".
+    pub path_source: String,
+    /// Planning time, ms, if planned.
+    pub planning_time_ms: Option<f64>,
+    /// Safety filter on.
+    pub cbf: bool,
+    /// Filter variant.
+    pub variant: FilterVariant,
+    /// Controller parameters as flown (scene/CLI overrides already applied).
+    pub params: RunParams,
+    /// Bound on unknown obstacle acceleration, m/s² (relative variants).
+    pub accel_bound: f64,
+    /// Sensor parameters (noise flag included).
+    pub sensors: SensorParams,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Duration limit, s.
+    pub duration: f64,
+    /// Proximity-sensor range, m.
+    pub sensing_range: f64,
+    /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
+    pub dt: f64,
+}
+
+impl RunConfig {
+    /// Defaults for `scene` with the given path: scene controller overrides,
+    /// the scene's sensor table (or defaults), duration 1.5 × path time + 15 s.
+    pub fn for_scene(scene: &Scene, path: Vec<Vector3<f64>>) -> Result<RunConfig> {
+        let c = &scene.controller;
+        let cbf_default = CbfParams::default();
+        let variant = match &c.filter {
+            Some(name) => name.parse().map_err(|_| anyhow!("unknown filter variant {name:?}"))?,
+            None => FilterVariant::default(),
+        };
+        let params = RunParams {
+            mu: c.mu.unwrap_or(cbf_default.mu as f64),
+            delta: c.delta.unwrap_or(cbf_default.delta as f64),
+            delta1: c.delta1.unwrap_or(cbf_default.delta1 as f64),
+            kp: c.kp.unwrap_or(0.5),
+            kd: c.kd.unwrap_or(0.8),
+            speed: scene.speed,
+        };
+        let len = path_length(&path);
+        Ok(RunConfig {
+            duration: scene.sim.duration.unwrap_or(1.5 * len / scene.speed + 15.0),
+            path,
+            path_source: "straight".into(),
+            planning_time_ms: None,
+            cbf: true,
+            variant,
+            params,
+            accel_bound: c.accel_bound.unwrap_or(0.0),
+            sensors: scene.sensors.clone().unwrap_or_default(),
+            seed: 0,
+            sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),
+            dt: scene.sim.dt.unwrap_or(INNER_DT),
+        })
+    }
+
+    /// The CBF parameters of this run (validated).
+    pub fn cbf_params(&self) -> Result<CbfParams> {
+        let p = CbfParams {
+            mu: self.params.mu as f32,
+            delta: self.params.delta as f32,
+            delta1: self.params.delta1 as f32,
+            accel_bound: self.accel_bound as f32,
+            ..CbfParams::default()
+        };
+        p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
+        Ok(p)
+    }
+}
+
+/// Length of a polyline, m.
+pub fn path_length(path: &[Vector3<f64>]) -> f64 {
+    path.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// The outcome of a run: samples at the outer rate and the summary.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// Recorded samples.
+    pub samples: Vec<Sample>,
+    /// Summary.
+    pub summary: Summary,
+}
+
+/// Min h̄ over all obstacles at time `t` for the true state, and the nearest
+/// signed distance and obstacle index.
+fn true_metrics(
+    scene: &Scene,
+    filter: &SafetyFilter,
+    t: f64,
+    p: &Vector3<f64>,
+    v: &Vector3<f64>,
+) -> (f64, f64, Option<usize>) {
+    let (pf, vf) = (to_f32(p), to_f32(v));
+    let mut h_min = f64::INFINITY;
+    let mut near = (f64::INFINITY, None);
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        let (shape, vel) = o.at(t);
+        let (q, sd) = shape.closest_point(&pf);
+        if (sd as f64) < near.0 {
+            near = (sd as f64, Some(i));
+        }
+        let op = ObstaclePoint { point: q, velocity: Some(to_f32(&vel)), id: i as u16 };
+        let h = match filter.barrier(&pf, &vf, &op) {
+            Some(b) => (b.h - filter.params.delta) as f64,
+            None => -(filter.params.delta as f64),
+        };
+        // Inside the solid the closest point is the exit point: count as violated.
+        let h = if sd < 0.0 { h.min(-(filter.params.delta as f64)) } else { h };
+        h_min = h_min.min(h);
+    }
+    (h_min, near.0, near.1)
+}
+
+/// What the proximity sensor reports at time `t` from true position `p`.
+pub fn sense_obstacles(scene: &Scene, t: f64, p: &Vector3<f64>, range: f64) -> Vec<ObstaclePoint> {
+    let pf = to_f32(p);
+    scene
+        .obstacles
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| {
+            let (shape, vel) = o.at(t);
+            let (q, sd) = shape.closest_point(&pf);
+            ((sd as f64) <= range).then(|| ObstaclePoint {
+                point: q,
+                velocity: Some(to_f32(&vel)),
+                id: i as u16,
+            })
+        })
+        .collect()
+}
+
+/// Fly `scene` with `cfg`. `progress` is called with the simulated time (s) about
+/// 10 times per simulated second.
+pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Result<RunOutput> {
+    let wall = Instant::now();
+    if cfg.path.is_empty() {
+        return Err(anyhow!("empty path"));
+    }
+    if !(cfg.dt.is_finite() && cfg.dt > 0.0 && cfg.dt <= INNER_DT) {
+        return Err(anyhow!("plant step dt must be in (0, {INNER_DT}] s, got {}", cfg.dt));
+    }
+    let substeps = (INNER_DT / cfg.dt).round().max(1.0) as usize;
+    let dt = INNER_DT / substeps as f64;
+    let cbf = cfg.cbf_params()?;
+    let filter = SafetyFilter::new(cbf, cfg.variant).map_err(|e| anyhow!("filter: {e}"))?;
+    let hull = scene.vehicle.hull_radius;
+
+    let mut plant = Plant::new(scene.vehicle.clone()).map_err(|e| anyhow!("{e}"))?;
+    plant.set_hover(scene.start, 0.0);
+    let mut sensors = Sensors::new(cfg.sensors.clone(), cfg.seed);
+    let mut ctrl = Controller::new(scene, cfg, cbf)?;
+    // Start-up: the vehicle has been hovering at the start; prime the position
+    // measurement's latency buffer with that hover, then arm and start.
+    let mut fix = None;
+    let prime = (cfg.sensors.position_latency / (INNER_DT * OUTER_DIVIDER as f64)).ceil() as i64 + 1;
+    for j in (0..=prime).rev() {
+        let tj = -(j as f64) * INNER_DT * OUTER_DIVIDER as f64;
+        if let Some(f) = sensors.position(tj, &plant) {
+            fix = Some(f);
+        }
+    }
+    let fix = fix.ok_or_else(|| anyhow!("no position fix at start-up"))?;
+    let seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range);
+    let imu0 = sensors.imu(&plant);
+    ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
+
+    let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
+    let mut samples = Vec::with_capacity((n_inner / OUTER_DIVIDER + 1) as usize);
+    let (mut collided_at, mut collision_obstacle) = (None, None);
+    let mut goal_at = None;
+    let mut min_clear = f64::INFINITY;
+    let (mut sq_err, mut n_outer, mut n_active) = (0.0, 0u64, 0u64);
+    let mut steps = 0u64;
+    let mut t = 0.0;
+    let mut next_progress = 0.0;
+    let goal = *cfg.path.last().unwrap_or(&scene.goal);
+
+    for k in 0..n_inner {
+        t = k as f64 * INNER_DT;
+        if k % OUTER_DIVIDER == 0 {
+            if let Some(fix) = sensors.position(t, &plant) {
+                ctrl.position_fix(fix);
+            }
+            let seen = sense_obstacles(scene, t, &plant.state.pos, cfg.sensing_range);
+            let out = ctrl.outer(t, &seen);
+            let (h_bar, sd, _) = true_metrics(scene, &filter, t, &plant.state.pos, &plant.state.vel);
+            let ref_clear = scene.nearest(&out.reference, t).0 - hull;
+            let err = (plant.state.pos - out.reference).norm();
+            sq_err += err * err;
+            n_outer += 1;
+            if out.filter_active {
+                n_active += 1;
+            }
+            let (roll, pitch, yaw) = plant.state.euler();
+            samples.push(Sample {
+                t,
+                ref_pos: out.reference,
+                pos: plant.state.pos,
+                vel: plant.state.vel,
+                rpy: [roll, pitch, yaw],
+                region: out.region,
+                region_code: out.region_code,
+                active_obstacle: out.active_obstacle,
+                filter_active: out.filter_active,
+                clearance: sd - hull,
+                ref_clearance: ref_clear,
+                h_bar,
+            });
+            if goal_at.is_none()
+                && (plant.state.pos - goal).norm() < GOAL_TOLERANCE_M
+                && plant.state.vel.norm() < GOAL_SPEED_MPS
+                && out.path_done
+            {
+                goal_at = Some(t);
+                break;
+            }
+            if t >= next_progress {
+                progress(t);
+                next_progress = t + 0.1;
+            }
+        }
+        let imu = sensors.imu(&plant);
+        let throttle = ctrl.inner(t, &imu);
+        plant.set_throttles(throttle);
+        for _ in 0..substeps {
+            plant.step(dt);
+            steps += 1;
+        }
+        let (sd, idx) = scene.nearest(&plant.state.pos, t + INNER_DT);
+        min_clear = min_clear.min(sd - hull);
+        if sd < hull {
+            collided_at = Some(t + INNER_DT);
+            collision_obstacle = idx;
+            t += INNER_DT;
+            break;
+        }
+        if !plant.state.pos.iter().all(|x| x.is_finite()) {
+            return Err(anyhow!("the plant state became non-finite at t = {t:.3} s"));
+        }
+    }
+    if collided_at.is_none() && goal_at.is_none() {
+        t = n_inner as f64 * INNER_DT;
+    }
+    let min_h_bar = samples.iter().map(|s| s.h_bar).fold(f64::INFINITY, f64::min);
+    let summary = Summary {
+        scene: scene.name.clone(),
+        scene_file: scene.source.clone(),
+        filter: if cfg.cbf { cfg.variant.as_str().to_string() } else { "none".into() },
+        cbf_enabled: cfg.cbf,
+        collided: collided_at.is_some(),
+        first_collision_time_s: collided_at,
+        collision_obstacle,
+        min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
+        min_h_bar,
+        reached_goal: goal_at.is_some(),
+        time_to_goal_s: goal_at,
+        tracking_rms_m: if n_outer > 0 { (sq_err / n_outer as f64).sqrt() } else { 0.0 },
+        filter_active_fraction: if n_outer > 0 { n_active as f64 / n_outer as f64 } else { 0.0 },
+        end_reason: if collided_at.is_some() {
+            "collision"
+        } else if goal_at.is_some() {
+            "goal"
+        } else {
+            "duration"
+        }
+        .into(),
+        sim_time_s: t,
+        wall_time_s: wall.elapsed().as_secs_f64(),
+        steps,
+        planning_time_ms: cfg.planning_time_ms,
+        path_length_m: path_length(&cfg.path),
+        path_source: cfg.path_source.clone(),
+        path_waypoints: cfg.path.len(),
+        params: cfg.params.clone(),
+        final_controller_state: format!("{:?}", ctrl.telemetry().state),
+        seed: cfg.seed,
+        noise: cfg.sensors.noise,
+    };
+    Ok(RunOutput { samples, summary })
+}
