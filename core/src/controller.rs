@@ -1185,11 +1185,13 @@ mod tests {
         // Paper office gains (defaults), horizontal step: second-order overshoot
         // e^{−πζ/√(1−ζ²)} ≈ 12 % plus the attitude-loop lag.
         let (overshoot, final_err) = step_response(ControllerParams::default(), 0, 25.0);
+        std::println!("x step: overshoot {overshoot} m, final error {final_err} m");
         assert!(overshoot <= 0.20, "x overshoot {overshoot}");
         assert!(overshoot > 0.0, "an underdamped loop does overshoot a little: {overshoot}");
         assert!(final_err < 0.02, "settled: {final_err}");
         // Vertical step (up), defaults (vertical integral off, see ControllerParams::tracking).
         let (overshoot, final_err) = step_response(ControllerParams::default(), 2, 25.0);
+        std::println!("z step: overshoot {overshoot} m, final error {final_err} m");
         assert!(overshoot <= 0.20, "z overshoot {overshoot}");
         assert!(final_err < 0.02, "settled: {final_err}");
     }
