@@ -79,7 +79,14 @@ pub fn controller_params(
     let d = ControllerParams::default();
     ControllerParams {
         airframe: af,
-        tracking: TrackingParams { ..TrackingParams::uniform(cfg.params.kp as f32, cfg.params.kd as f32) },
+        // The core's tracking defaults (vertical integral off: with the paper's soft
+        // gains a z integrator is badly damped, and unstable once ki_z > kp·kd) with
+        // the run's kp, kd on every axis.
+        tracking: TrackingParams {
+            kp: [cfg.params.kp as f32; 3],
+            kd: [cfg.params.kd as f32; 3],
+            ..d.tracking
+        },
         cbf,
         filter_variant: variant,
         thrust: ThrustParams {

@@ -21,11 +21,12 @@
 //!   `I ω̇ = τ − ω × (I ω)`; `q̇ = ½ q ⊗ (0, ω)`. Rotor inertia (the rotors' own
 //!   gyroscopic and spin-up reaction torques) is neglected.
 //! * **Ground contact**: the ground is the plane z = 0 (NED; z > 0 is below
-//!   ground). After each step, if the vehicle is at or below the ground and the
-//!   net vertical force does not lift it (world z-acceleration ≥ 0, i.e. not
-//!   upwards), it is put back on the ground at rest (z = 0, v = 0, ω = 0,
-//!   attitude unchanged): a perfectly inelastic, no-slip, no-tipping contact.
-//!   A vehicle producing lift leaves the ground normally.
+//!   ground). After each step a vehicle at or below the ground is put back on
+//!   it (z = 0) and loses any downward velocity (perfectly inelastic impact);
+//!   if moreover the net vertical force does not lift it (world z-acceleration
+//!   ≥ 0, i.e. not upwards), it rests: v = 0, ω = 0, attitude unchanged (no
+//!   slip, no tipping). A vehicle producing lift leaves the ground normally.
+//!   (The runner counts touching the ground with the hull as a collision.)
 //! * Integration: classic fixed-step RK4 of the 17-dimensional state
 //!   (p, v, q, ω_b, rotor speeds), the quaternion renormalised after each step.
 //!   The step (default 1 ms, 1 kHz) is a parameter of [`Plant::step`].
@@ -362,11 +363,16 @@ impl Plant {
         self.state = s;
         let acc: Vector3<f64> = self.derivative(&self.state.to_x()).fixed_rows::<3>(3).into_owned();
         self.accel = acc;
-        if self.ground && self.state.pos.z >= 0.0 && acc.z >= 0.0 {
+        if self.ground && self.state.pos.z >= 0.0 {
+            // Never below the ground; an impact stops the vertical motion.
             self.state.pos.z = 0.0;
-            self.state.vel = Vector3::zeros();
-            self.state.rates = Vector3::zeros();
-            self.accel = Vector3::zeros();
+            self.state.vel.z = self.state.vel.z.min(0.0);
+            if acc.z >= 0.0 {
+                // Not lifting: resting on the ground.
+                self.state.vel = Vector3::zeros();
+                self.state.rates = Vector3::zeros();
+                self.accel = Vector3::zeros();
+            }
         }
     }
 
@@ -463,6 +469,14 @@ mod tests {
             p.step(0.001);
         }
         assert!(p.state.pos.z < -0.05, "took off: z = {}", p.state.pos.z);
+        // Falling fast onto the ground while producing some lift: stops at z = 0.
+        p.set_hover(Vector3::new(0.0, 0.0, -0.01), 0.0);
+        p.state.vel.z = 3.0;
+        p.set_rotor_speeds([p.params().hover_omega() * 1.05; 4]);
+        for _ in 0..100 {
+            p.step(0.001);
+            assert!(p.state.pos.z <= 0.0);
+        }
     }
 
     #[test]

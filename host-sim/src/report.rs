@@ -49,10 +49,12 @@ pub struct Summary {
     pub collided: bool,
     /// Time of the first collision, s (null if none).
     pub first_collision_time_s: Option<f64>,
-    /// Index (0-based, scene file order) of the obstacle hit first (null if none).
+    /// Index (0-based, scene file order) of the obstacle hit first (null if none or the ground).
     pub collision_obstacle: Option<usize>,
+    /// What was hit first: `"obstacles[i] (name)"` or `"ground"` (null if nothing).
+    pub collision_with: Option<String>,
     /// Minimum over the flight of (distance from the centre of mass to the
-    /// nearest obstacle surface − hull radius), m. Negative = collision.
+    /// nearest obstacle surface or the ground − hull radius), m. Negative = collision.
     pub min_clearance_m: f64,
     /// Minimum over the flight and over all obstacles of the barrier
     /// `h̄ = |d|² + μ dᵀḋ − δ` (m²) on the true state, with the filter's notion of ḋ.
@@ -218,7 +220,15 @@ pub fn summary_table(s: &Summary) -> String {
         ),
         ("end", s.end_reason.clone()),
         ("reached goal", format!("{} (t = {})", s.reached_goal, opt(s.time_to_goal_s, "s"))),
-        ("collided", format!("{} (t = {})", s.collided, opt(s.first_collision_time_s, "s"))),
+        (
+            "collided",
+            format!(
+                "{} (t = {}{})",
+                s.collided,
+                opt(s.first_collision_time_s, "s"),
+                s.collision_with.as_ref().map(|w| format!(", {w}")).unwrap_or_default()
+            ),
+        ),
         ("min clearance", format!("{:.3} m", s.min_clearance_m)),
         ("min h_bar", format!("{:.4} m²", s.min_h_bar)),
         ("tracking RMS", format!("{:.3} m", s.tracking_rms_m)),
@@ -277,6 +287,16 @@ fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
     anyhow!("{err}")
 }
 
+/// Height of the top of a shape above the ground, m.
+fn top_height(shape: &Shape) -> f64 {
+    match shape {
+        Shape::Point { center } => -center[2] as f64,
+        Shape::Sphere { center, radius } => -(center[2] - radius) as f64,
+        Shape::Box { min, .. } => -min[2] as f64,
+        Shape::Cylinder { base, height, .. } => -(base[2] - height) as f64,
+    }
+}
+
 /// Outline of a shape's top view (ENU x, y), closed polygon.
 fn outline(shape: &Shape) -> Vec<(f64, f64)> {
     let circle = |c: Vector3<f64>, r: f64| -> Vec<(f64, f64)> {
@@ -309,7 +329,7 @@ where
     root.fill(&WHITE).map_err(e)?;
     let (mn, mx) = rec.scene.bounds_enu;
     let title = format!(
-        "{} — {} (planned green, flown blue{})",
+        "{} — {} (planned green, flown blue; light grey: below flight level{})",
         rec.summary.scene,
         rec.summary.filter,
         if rec.summary.collided { ", collision ×" } else { "" }
@@ -331,7 +351,14 @@ where
     let t_end = rec.samples.last().map(|s| s.t).unwrap_or(0.0);
     for o in &rec.scene.obstacles {
         let moving = !o.is_static();
-        let fill = if moving { RGBColor(230, 160, 160) } else { RGBColor(170, 170, 170) };
+        // Obstacles whose top is below the start height (desks, low furniture) are
+        // drawn lighter: the vehicle may fly over them.
+        let low = top_height(&o.shape) < -rec.scene.start.z - rec.scene.vehicle.hull_radius;
+        let fill = match (moving, low) {
+            (true, _) => RGBColor(230, 160, 160),
+            (false, true) => RGBColor(215, 215, 215),
+            (false, false) => RGBColor(160, 160, 160),
+        };
         if moving {
             // Start pose light, end pose darker, and the track of its reference point.
             let track: Vec<(f64, f64)> = (0..=50)

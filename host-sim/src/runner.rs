@@ -19,8 +19,9 @@
 //!   current position) and its velocity, id = index in the scene file.
 //!
 //! ## Metrics (true state, every outer step unless said otherwise)
-//! clearance = signed distance to the nearest surface − hull radius (every
-//! plant step for the minimum); h̄ = min over all obstacles of the filter's
+//! clearance = signed distance to the nearest obstacle surface or the ground
+//! plane − hull radius (every plant step for the minimum; touching the ground
+//! with the hull is a collision too); h̄ = min over all obstacles of the filter's
 //! barrier `|d|² + μ dᵀḋ − δ` (ḋ relative for the relative variants);
 //! tracking error = |p − p_ref|; filter active = the filter changed `u*`.
 
@@ -140,34 +141,35 @@ pub struct RunOutput {
     pub summary: Summary,
 }
 
-/// Min h̄ over all obstacles at time `t` for the true state, and the nearest
-/// signed distance and obstacle index.
-fn true_metrics(
-    scene: &Scene,
-    filter: &SafetyFilter,
-    t: f64,
-    p: &Vector3<f64>,
-    v: &Vector3<f64>,
-) -> (f64, f64, Option<usize>) {
+/// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
+/// ground plane (z = 0) at time `t`, and the obstacle index (`None` = ground).
+pub fn nearest_with_ground(scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
+    let (d, i) = scene.nearest(p, t);
+    let ground = -p.z;
+    if ground < d {
+        (ground, None)
+    } else {
+        (d, i)
+    }
+}
+
+/// Min over all obstacles of the filter's barrier `h̄ = h − δ` (m²) at time `t`
+/// for the true state; `+∞` without obstacles. Inside an obstacle counts as −δ or less.
+fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
     let (pf, vf) = (to_f32(p), to_f32(v));
+    let delta = filter.params.delta as f64;
     let mut h_min = f64::INFINITY;
-    let mut near = (f64::INFINITY, None);
     for (i, o) in scene.obstacles.iter().enumerate() {
         let (shape, vel) = o.at(t);
         let (q, sd) = shape.closest_point(&pf);
-        if (sd as f64) < near.0 {
-            near = (sd as f64, Some(i));
-        }
         let op = ObstaclePoint { point: q, velocity: Some(to_f32(&vel)), id: i as u16 };
         let h = match filter.barrier(&pf, &vf, &op) {
-            Some(b) => (b.h - filter.params.delta) as f64,
-            None => -(filter.params.delta as f64),
+            Some(b) => b.h as f64 - delta,
+            None => -delta,
         };
-        // Inside the solid the closest point is the exit point: count as violated.
-        let h = if sd < 0.0 { h.min(-(filter.params.delta as f64)) } else { h };
-        h_min = h_min.min(h);
+        h_min = h_min.min(if sd < 0.0 { h.min(-delta) } else { h });
     }
-    (h_min, near.0, near.1)
+    h_min
 }
 
 /// What the proximity sensor reports at time `t` from true position `p`.
@@ -243,8 +245,9 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
             }
             let seen = sense_obstacles(scene, t, &plant.state.pos, cfg.sensing_range);
             let out = ctrl.outer(t, &seen);
-            let (h_bar, sd, _) = true_metrics(scene, &filter, t, &plant.state.pos, &plant.state.vel);
-            let ref_clear = scene.nearest(&out.reference, t).0 - hull;
+            let h_bar = true_h_bar(scene, &filter, t, &plant.state.pos, &plant.state.vel);
+            let sd = nearest_with_ground(scene, &plant.state.pos, t).0;
+            let ref_clear = nearest_with_ground(scene, &out.reference, t).0 - hull;
             let err = (plant.state.pos - out.reference).norm();
             sq_err += err * err;
             n_outer += 1;
@@ -286,7 +289,7 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
             plant.step(dt);
             steps += 1;
         }
-        let (sd, idx) = scene.nearest(&plant.state.pos, t + INNER_DT);
+        let (sd, idx) = nearest_with_ground(scene, &plant.state.pos, t + INNER_DT);
         min_clear = min_clear.min(sd - hull);
         if sd < hull {
             collided_at = Some(t + INNER_DT);
@@ -310,6 +313,13 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
         collided: collided_at.is_some(),
         first_collision_time_s: collided_at,
         collision_obstacle,
+        collision_with: collided_at.map(|_| match collision_obstacle {
+            Some(i) => match &scene.obstacles[i].name {
+                Some(n) => format!("obstacles[{i}] ({n})"),
+                None => format!("obstacles[{i}]"),
+            },
+            None => "ground".to_string(),
+        }),
         min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
         min_h_bar,
         reached_goal: goal_at.is_some(),
