@@ -42,7 +42,7 @@
 
 use crate::airframe::Airframe;
 use crate::attitude::{torque_vec, AttitudeController, AttitudeError, AttitudeParams, Euler};
-use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter};
+use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter, INPUT_LIMIT};
 use crate::estimator::{AttitudeEstimator, EstimatorError, EstimatorParams, ImuSample, ImuStatus};
 use crate::failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
 use crate::frame::{is_finite3, GRAVITY};
@@ -412,6 +412,11 @@ impl ControllerParams {
     }
 }
 
+/// Finite and within ±[`INPUT_LIMIT`] (m, m/s): anything else is a corrupt input.
+fn plausible(v: &Vec3) -> bool {
+    is_finite3(v) && v.amax() <= INPUT_LIMIT
+}
+
 fn age(now: u64, t: u64) -> u64 {
     now.saturating_sub(t)
 }
@@ -578,14 +583,14 @@ impl FlightController {
         self.clock_us().is_some_and(|now| t_us > now.saturating_add(limit_us))
     }
 
-    /// Store an external position fix. A fix with a NaN/Inf position or velocity
-    /// (or a non-finite yaw), or time-stamped more than the position timeout after
+    /// Store an external position fix. A fix with a NaN/Inf position or velocity,
+    /// a component beyond ±[`INPUT_LIMIT`] (1e5 m or m/s), a non-finite yaw, or time-stamped more than the position timeout after
     /// the controller clock, is rejected and counts as a bad input (failsafe brake).
     /// Fixes older than the stored one are ignored.
     pub fn update_position(&mut self, fix: PositionFix) {
         let yaw_ok = fix.yaw.is_none_or(|y| y.is_finite());
         let future = self.is_future(fix.t_us, self.params.failsafe.position_timeout_us);
-        if !is_finite3(&fix.position) || !is_finite3(&fix.velocity) || !yaw_ok || future {
+        if !plausible(&fix.position) || !plausible(&fix.velocity) || !yaw_ok || future {
             self.note_fault();
             return;
         }
@@ -608,7 +613,8 @@ impl FlightController {
 
     /// Replace the obstacle set with `obstacles` (closest surface points, NED),
     /// valid at `now_us`. At most [`OBSTACLE_CAPACITY`] are kept (the nearest to
-    /// the vehicle); non-finite points are dropped and count as a bad input, as does
+    /// the vehicle); points (or velocities) that are non-finite or beyond ±[`INPUT_LIMIT`]
+    /// are dropped and count as a bad input, as does
     /// a `now_us` more than the obstacle timeout after the controller clock (the
     /// update is then ignored).
     pub fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
@@ -625,6 +631,11 @@ impl FlightController {
         let mut dropped = 0u8;
         let mut fault = false;
         for o in obstacles {
+            if !plausible(&o.point) || !o.velocity.is_none_or(|v| plausible(&v)) {
+                dropped = dropped.saturating_add(1);
+                fault = true;
+                continue;
+            }
             match self.obstacles.insert_nearest(&vehicle, *o) {
                 InsertOutcome::Added | InsertOutcome::ReplacedFarthest => {}
                 InsertOutcome::DroppedFarther => dropped = dropped.saturating_add(1),
@@ -1411,6 +1422,62 @@ mod tests {
             sim.run(2.0, |q, _| worst = worst.max((q.p - at).norm()));
             assert!(worst < 0.05, "case {case}: brakes and holds: {worst}");
         }
+    }
+
+    #[test]
+    fn data_loss_on_the_ground_stays_idle_and_disarms() {
+        let mut sim = Sim::new(ControllerParams::default(), Vec3::zeros());
+        sim.ctl.arm(sim.t_us).unwrap();
+        sim.feed_obs = false;
+        sim.run(0.6, |_, _| {});
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Armed, FailsafeState::Brake, TransitionReason::ObstacleStale)
+        );
+        assert_eq!(sim.ctl.telemetry().motors.throttle, [0.1; 4], "idle, no lift-off");
+        sim.run(3.0, |q, _| assert!(q.on_ground()));
+        // Brake timeout → Land → a vehicle that never took off is landed at once.
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Land, FailsafeState::Disarmed, TransitionReason::Landed)
+        );
+        assert_eq!(sim.ctl.telemetry().transitions, 4);
+    }
+
+    #[test]
+    fn huge_inputs_count_as_bad_inputs() {
+        let at = Vec3::new(0.0, 0.0, -1.0);
+        let mut sim = hovering(ControllerParams::default(), at);
+        sim.ctl.update_obstacles(sim.t_us, &[ObstaclePoint::fixed(Vec3::new(1e30, 0.0, 0.0), 3)]);
+        assert!(sim.ctl.obstacles().is_empty());
+        sim.run(0.01, |_, _| {});
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Armed, FailsafeState::Brake, TransitionReason::NonFiniteInput)
+        );
+        let mut sim = hovering(ControllerParams::default(), at);
+        let fix = PositionFix {
+            t_us: sim.t_us,
+            position: Vec3::new(0.0, 2e5, 0.0),
+            velocity: Vec3::zeros(),
+            yaw: None,
+        };
+        sim.ctl.update_position(fix);
+        sim.run(0.01, |_, _| {});
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Armed, FailsafeState::Brake, TransitionReason::NonFiniteInput)
+        );
+        // A fix time-stamped far in the future would never go stale: rejected too.
+        let mut sim = hovering(ControllerParams::default(), at);
+        let fix =
+            PositionFix { t_us: sim.t_us + 10_000_000, position: at, velocity: Vec3::zeros(), yaw: None };
+        sim.ctl.update_position(fix);
+        sim.run(0.01, |_, _| {});
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Armed, FailsafeState::Brake, TransitionReason::NonFiniteInput)
+        );
     }
 
     #[test]
