@@ -338,6 +338,7 @@ pub struct FlightController {
     home: Vec3,
     brake_point: Vec3,
     land_ref: Vec3,
+    land_ref_valid: bool,
     land_from_ground: bool,
     landed_since_us: Option<u64>,
     no_fix_since_us: Option<u64>,
@@ -475,6 +476,7 @@ impl FlightController {
             home: Vec3::zeros(),
             brake_point: Vec3::zeros(),
             land_ref: Vec3::zeros(),
+            land_ref_valid: false,
             land_from_ground: false,
             landed_since_us: None,
             no_fix_since_us: None,
@@ -541,8 +543,9 @@ impl FlightController {
                     .unwrap_or_else(|| self.fix.map(|f| f.position).unwrap_or_else(Vec3::zeros));
             }
             FailsafeState::Land => {
-                let (p, _) = self.position_estimate(tr.t_us).unwrap_or((self.brake_point, Vec3::zeros()));
-                self.land_ref = p;
+                let fresh = self.position_estimate(tr.t_us);
+                self.land_ref = fresh.map(|(p, _)| p).unwrap_or(self.brake_point);
+                self.land_ref_valid = fresh.is_some();
                 self.land_from_ground = self.guidance == Guidance::Ground;
                 self.landed_since_us = None;
             }
@@ -839,14 +842,21 @@ impl FlightController {
             FailsafeState::Brake => (GuidanceMode::Brake, Some(self.hold_ref(self.brake_point))),
             FailsafeState::Land if self.land_from_ground => (GuidanceMode::Ground, None),
             FailsafeState::Land => {
-                let mut r = self.hold_ref(self.land_ref);
                 if let Some((p, _)) = fresh {
+                    if !self.land_ref_valid {
+                        // First fix after landing blind: descend from where the vehicle is now
+                        // (it may have dropped or drifted), never climb back.
+                        self.land_ref = p;
+                        self.land_ref_valid = true;
+                    }
                     // Descend at land_speed, leading the vehicle by at most land_lead.
                     self.land_ref.z =
                         (self.land_ref.z + self.params.land_speed * dt).min(p.z + self.params.land_lead);
-                    r.position = self.land_ref;
-                    r.velocity = Vec3::new(0.0, 0.0, self.params.land_speed);
+                } else {
+                    self.land_ref_valid = false;
                 }
+                let mut r = self.hold_ref(self.land_ref);
+                r.velocity = Vec3::new(0.0, 0.0, self.params.land_speed);
                 (GuidanceMode::Land, Some(r))
             }
         };
@@ -1422,6 +1432,28 @@ mod tests {
             sim.run(2.0, |q, _| worst = worst.max((q.p - at).norm()));
             assert!(worst < 0.05, "case {case}: brakes and holds: {worst}");
         }
+    }
+
+    #[test]
+    fn fix_returning_during_a_blind_landing_continues_down_from_there() {
+        let mut sim = hovering(ControllerParams::default(), Vec3::new(0.0, 0.0, -3.0));
+        sim.feed_fix = false;
+        sim.run(3.3, |_, _| {});
+        assert_eq!(sim.ctl.state(), FailsafeState::Land);
+        sim.run(1.0, |_, _| {});
+        let z_back = sim.quad.p.z;
+        assert!(z_back > -2.9, "descended blind: {z_back}");
+        sim.feed_fix = true;
+        let mut highest = f32::INFINITY;
+        sim.run(0.5, |q, _| highest = highest.min(q.p.z));
+        assert!(highest > z_back - 0.05, "no climb back to the old hold height: {highest} vs {z_back}");
+        let mut done = false;
+        sim.run(15.0, |_, c| done |= c.state() == FailsafeState::Disarmed);
+        assert!(done && sim.quad.on_ground());
+        assert_eq!(
+            last_reason(&sim.ctl),
+            (FailsafeState::Land, FailsafeState::Disarmed, TransitionReason::Landed)
+        );
     }
 
     #[test]
