@@ -1444,9 +1444,18 @@ mod tests {
         let z_back = sim.quad.p.z;
         assert!(z_back > -2.9, "descended blind: {z_back}");
         sim.feed_fix = true;
-        let mut highest = f32::INFINITY;
-        sim.run(0.5, |q, _| highest = highest.min(q.p.z));
-        assert!(highest > z_back - 0.05, "no climb back to the old hold height: {highest} vs {z_back}");
+        // The landing reference restarts from where the vehicle is when the fix returns
+        // and only goes down from there: it never pulls the vehicle back up towards the
+        // old hold height (−3 m).
+        let mut ref_highest = f32::INFINITY;
+        sim.run(3.0, |_, c| {
+            let tel = c.telemetry();
+            if tel.mode == GuidanceMode::Land {
+                ref_highest = ref_highest.min(tel.reference.position.z);
+            }
+        });
+        assert!(ref_highest.is_finite(), "landing with the fix again");
+        assert!(ref_highest > z_back - 0.02, "reference {ref_highest} above the re-acquired height {z_back}");
         let mut done = false;
         sim.run(15.0, |_, c| done |= c.state() == FailsafeState::Disarmed);
         assert!(done && sim.quad.on_ground());
