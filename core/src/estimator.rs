@@ -25,7 +25,8 @@
 //! multirotor mostly sees the thrust direction). The
 //! [`crate::controller::FlightController`] passes the acceleration obtained
 //! from the external velocity fixes. The accelerometer is ignored (gyro and bias
-//! integration only) when `|f|` is outside `g·(1 ± accel_gate)`.
+//! integration only) when `|f|` differs from the expected `|g e₃ − a_w|` by more than
+//! `accel_gate·g` (bumps, free fall, an acceleration the aid does not explain).
 //!
 //! Position and velocity are **not** estimated here: they come from outside
 //! (motion capture, VIO or the simulator) as a position fix.
@@ -62,7 +63,8 @@ pub struct EstimatorParams {
     pub kp_yaw: f32,
     /// Integral external-yaw (z-bias) gain, rad/s² per rad. Default 0.05.
     pub ki_yaw: f32,
-    /// The accelerometer is used only when `|f|` is within `g·(1 ± accel_gate)`. Default 0.25.
+    /// The accelerometer is used only when `|f|` is within `accel_gate·g` of the expected
+    /// `|g e₃ − a_w|` (`g` without an acceleration aid). Default 0.25.
     pub accel_gate: f32,
     /// Clamp of each gyro-bias component, rad/s. Default 0.2.
     pub bias_max: f32,
@@ -213,9 +215,9 @@ impl AttitudeEstimator {
         }
     }
 
-    fn accel_usable(&self, f: &Vec3) -> bool {
-        let n = f.norm();
-        (n - GRAVITY).abs() <= self.params.accel_gate * GRAVITY
+    fn accel_usable(&self, f: &Vec3, a_w: &Vec3) -> bool {
+        let expected = (Vec3::new(0.0, 0.0, GRAVITY) - a_w).norm();
+        (f.norm() - expected).abs() <= self.params.accel_gate * GRAVITY
     }
 
     /// Process one sample taken `dt_s` seconds after the previous one.
@@ -251,7 +253,7 @@ impl AttitudeEstimator {
         let yaw_ext = yaw_ext.filter(|y| y.is_finite());
         let p = self.params;
         if !self.initialised {
-            if !self.accel_usable(&imu.accel) {
+            if !self.accel_usable(&imu.accel, &a_w) {
                 // Cannot level yet: keep identity and wait for a usable sample.
                 self.rate = imu.gyro;
                 return ImuStatus::AccelIgnored;
@@ -271,7 +273,7 @@ impl AttitudeEstimator {
         let e3 = Vector3::new(0.0, 0.0, 1.0);
         let mut corr = Vec3::zeros();
         let mut bias_dot = Vec3::zeros();
-        let use_acc = self.accel_usable(&imu.accel);
+        let use_acc = self.accel_usable(&imu.accel, &a_w);
         if use_acc {
             let v_meas = -imu.accel / imu.accel.norm();
             let g_w = e3 * GRAVITY - a_w;
@@ -381,6 +383,14 @@ mod tests {
             e.euler().pitch
         };
         assert!((run(Some(a_w)) + 0.2).abs() < 1e-3);
+        // A hard climb (|f| = 1.4 g) passes the gate when the aid explains it, not without it.
+        let climb = Vec3::new(0.0, 0.0, -4.0);
+        let f_climb = Vec3::new(0.0, 0.0, -GRAVITY - 4.0);
+        let mut e = est();
+        e.set_attitude(UnitQuaternion::identity());
+        let imu = ImuSample { gyro: Vec3::zeros(), accel: f_climb };
+        assert_eq!(e.update(&imu, 0.001, Some(climb), None), ImuStatus::Ok);
+        assert_eq!(e.update(&imu, 0.001, None, None), ImuStatus::AccelIgnored);
         assert!(run(None) > -0.15, "without compensation the estimate drifts towards level");
     }
 
