@@ -262,6 +262,15 @@ fn cmd_run(a: RunArgs) -> Result<(), CliError> {
         let wps = planned.waypoints.iter().map(to_f64).collect();
         (wps, "planner", Some(planned.planning_time_ms))
     };
+    let capacity = parapet_core::controller::PATH_CAPACITY;
+    if path.len() > capacity {
+        let from =
+            a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
+        return Err(CliError::BadInput(format!(
+            "{from}: field `waypoints`: {} waypoints exceed the controller's path capacity of {capacity}",
+            path.len()
+        )));
+    }
     let mut cfg = RunConfig::for_scene(&scene, path)
         .map_err(|e| CliError::BadInput(format!("{}: {e}", scene.source)))?;
     cfg.path_source = source.into();

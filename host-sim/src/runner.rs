@@ -172,23 +172,29 @@ fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>, v:
     h_min
 }
 
-/// What the proximity sensor reports at time `t` from true position `p`.
-pub fn sense_obstacles(scene: &Scene, t: f64, p: &Vector3<f64>, range: f64) -> Vec<ObstaclePoint> {
+/// What the proximity sensor reports at time `t` from true position `p`: for
+/// each obstacle whose surface is within `range` (m), the closest surface point
+/// and the obstacle's velocity (NED), id = scene index. Moving obstacles'
+/// velocities pass through [`Sensors::obstacle_velocity`] (optional noise);
+/// static obstacles are reported with velocity exactly zero.
+pub fn sense_obstacles(
+    scene: &Scene,
+    t: f64,
+    p: &Vector3<f64>,
+    range: f64,
+    sensors: &mut Sensors,
+) -> Vec<ObstaclePoint> {
     let pf = to_f32(p);
-    scene
-        .obstacles
-        .iter()
-        .enumerate()
-        .filter_map(|(i, o)| {
-            let (shape, vel) = o.at(t);
-            let (q, sd) = shape.closest_point(&pf);
-            ((sd as f64) <= range).then(|| ObstaclePoint {
-                point: q,
-                velocity: Some(to_f32(&vel)),
-                id: i as u16,
-            })
-        })
-        .collect()
+    let mut out = Vec::new();
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        let (shape, vel) = o.at(t);
+        let (q, sd) = shape.closest_point(&pf);
+        if (sd as f64) <= range {
+            let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
+            out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 });
+        }
+    }
+    out
 }
 
 /// Fly `scene` with `cfg`. `progress` is called with the simulated time (s) about
@@ -222,7 +228,7 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
         }
     }
     let fix = fix.ok_or_else(|| anyhow!("no position fix at start-up"))?;
-    let seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range);
+    let seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range, &mut sensors);
     let imu0 = sensors.imu(&plant);
     ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
 
@@ -243,7 +249,7 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
             if let Some(fix) = sensors.position(t, &plant) {
                 ctrl.position_fix(fix);
             }
-            let seen = sense_obstacles(scene, t, &plant.state.pos, cfg.sensing_range);
+            let seen = sense_obstacles(scene, t, &plant.state.pos, cfg.sensing_range, &mut sensors);
             let out = ctrl.outer(t, &seen);
             let h_bar = true_h_bar(scene, &filter, t, &plant.state.pos, &plant.state.vel);
             let sd = nearest_with_ground(scene, &plant.state.pos, t).0;

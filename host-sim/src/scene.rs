@@ -406,6 +406,7 @@ fn validate_sensors(s: &SensorParams) -> Result<(), String> {
         ("position_noise", s.position_noise),
         ("velocity_noise", s.velocity_noise),
         ("position_latency", s.position_latency),
+        ("obstacle_velocity_noise", s.obstacle_velocity_noise),
     ] {
         if !(x.is_finite() && x >= 0.0) {
             return Err(format!("field `{field}`: must be finite and >= 0, got {x}"));

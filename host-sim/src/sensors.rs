@@ -41,12 +41,15 @@ pub struct SensorParams {
     pub velocity_noise: f64,
     /// Latency of the position/velocity measurement, s (0 = none).
     pub position_latency: f64,
+    /// Noise on the velocity of moving obstacles as the proximity sensor /
+    /// tracker reports it, m/s per axis (default 0: the true velocity).
+    pub obstacle_velocity_noise: f64,
 }
 
 impl Default for SensorParams {
     /// A small MEMS IMU (MPU-6000 class) and a motion-capture-like position fix:
     /// gyro 0.005 rad/s noise, 0.002 rad/s bias; accel 0.05 m/s² noise, 0.02 m/s² bias;
-    /// position 5 mm, velocity 0.02 m/s noise, 10 ms latency.
+    /// position 5 mm, velocity 0.02 m/s noise, 10 ms latency; obstacle velocities exact.
     fn default() -> Self {
         SensorParams {
             noise: true,
@@ -57,6 +60,7 @@ impl Default for SensorParams {
             position_noise: 0.005,
             velocity_noise: 0.02,
             position_latency: 0.01,
+            obstacle_velocity_noise: 0.0,
         }
     }
 }
@@ -128,6 +132,16 @@ impl Sensors {
         ImuReading { gyro, accel }
     }
 
+    /// A moving obstacle's velocity (NED, m/s) as reported: the true one plus
+    /// `obstacle_velocity_noise` (when noise is on).
+    pub fn obstacle_velocity(&mut self, v: Vector3<f64>) -> Vector3<f64> {
+        if self.params.noise {
+            v + normal3(&mut self.rng, self.params.obstacle_velocity_noise)
+        } else {
+            v
+        }
+    }
+
     /// Record the plant's true position/velocity at time `t` (s) and return the
     /// newest measurement whose latency has elapsed at `t`, if any. Call at the
     /// measurement rate; with zero latency the measurement of `t` itself is returned.
@@ -192,6 +206,18 @@ mod tests {
         let n = 20000;
         let var: f64 = (0..n).map(|_| a.imu(&p).gyro.x.powi(2)).sum::<f64>() / n as f64;
         assert!((var.sqrt() - params.gyro_noise).abs() < 0.1 * params.gyro_noise, "std {}", var.sqrt());
+    }
+
+    #[test]
+    fn obstacle_velocity_noise_only_when_asked() {
+        let v = Vector3::new(0.2, 0.0, 0.0);
+        let mut exact = Sensors::new(SensorParams::default(), 1);
+        assert_eq!(exact.obstacle_velocity(v), v);
+        let p = SensorParams { obstacle_velocity_noise: 0.1, ..Default::default() };
+        let mut noisy = Sensors::new(p.clone(), 1);
+        assert_ne!(noisy.obstacle_velocity(v), v);
+        let mut off = Sensors::new(SensorParams { noise: false, ..p }, 1);
+        assert_eq!(off.obstacle_velocity(v), v);
     }
 
     #[test]
