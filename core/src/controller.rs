@@ -945,6 +945,8 @@ impl FlightController {
         let fix_fresh = self.position_estimate(now_us).is_some();
         let accel_world = if fix_fresh { Some(self.accel_est) } else { None };
         let yaw_ext = if fix_fresh { self.fix.and_then(|f| f.yaw) } else { None };
+        // Motors off: the vehicle is taken as at rest for the gyro-bias calibration.
+        self.estimator.set_at_rest(!self.failsafe.state().motors_enabled());
         let status = self.estimator.update(imu, dt, accel_world, yaw_ext);
         if status == ImuStatus::RejectedNonFinite {
             self.note_fault();
@@ -1094,6 +1096,34 @@ mod tests {
         feed_obs: bool,
         obstacles: heapless::Vec<ObstaclePoint, 4>,
         min_dist: f32,
+        noise: Option<Noise>,
+    }
+
+    /// Sensor imperfections for the noisy closed-loop test (deterministic xorshift).
+    struct Noise {
+        state: u64,
+        gyro_bias: Vec3,
+        gyro_sigma: f32,
+        accel_sigma: f32,
+        pos_sigma: f32,
+        vel_sigma: f32,
+    }
+
+    impl Noise {
+        /// Approximately normal (sum of 4 uniforms), zero mean, unit variance.
+        fn normal(&mut self) -> f32 {
+            let mut acc = 0.0f32;
+            for _ in 0..4 {
+                self.state ^= self.state << 13;
+                self.state ^= self.state >> 7;
+                self.state ^= self.state << 17;
+                acc += (self.state >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
+            }
+            acc * 1.732
+        }
+        fn vec(&mut self, sigma: f32) -> Vec3 {
+            Vec3::new(self.normal(), self.normal(), self.normal()) * sigma
+        }
     }
 
     impl Sim {
@@ -1106,6 +1136,7 @@ mod tests {
                 feed_obs: true,
                 obstacles: heapless::Vec::new(),
                 min_dist: f32::INFINITY,
+                noise: None,
             };
             // Prime the estimator and the data with the vehicle frozen in place.
             for _ in 0..20 {
@@ -1125,7 +1156,12 @@ mod tests {
                 let t = self.t_us;
                 if t.is_multiple_of(10_000) {
                     if self.feed_fix {
-                        self.ctl.update_position(self.quad.fix(t));
+                        let mut fix = self.quad.fix(t);
+                        if let Some(n) = self.noise.as_mut() {
+                            fix.position += n.vec(n.pos_sigma);
+                            fix.velocity += n.vec(n.vel_sigma);
+                        }
+                        self.ctl.update_position(fix);
                     }
                     if self.feed_obs {
                         let p = self.quad.p;
@@ -1139,7 +1175,12 @@ mod tests {
                 if t.is_multiple_of(4000) {
                     self.ctl.step_outer(t);
                 }
-                let out = self.ctl.step_inner(t, &self.quad.imu());
+                let mut imu = self.quad.imu();
+                if let Some(n) = self.noise.as_mut() {
+                    imu.gyro += n.gyro_bias + n.vec(n.gyro_sigma);
+                    imu.accel += n.vec(n.accel_sigma);
+                }
+                let out = self.ctl.step_inner(t, &imu);
                 assert!(out.throttle.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)));
                 self.quad.step(&out.throttle, 1e-3);
                 each(&self.quad, &self.ctl);
@@ -1172,6 +1213,42 @@ mod tests {
         sim.run(3.0, |q, _| worst = worst.max((q.p - target).norm()));
         assert!(worst < 0.02, "error between 5 and 8 s: {worst} m");
         assert_eq!(sim.ctl.state(), FailsafeState::Armed);
+    }
+
+    #[test]
+    fn noisy_biased_sensors_take_off_and_hover() {
+        // Gyro bias (0.03, −0.02, 0.01) rad/s, gyro noise 0.01 rad/s, accelerometer noise
+        // 0.1 m/s², fix noise 2 mm / 2 cm/s per axis (100 Hz), paper gains. 3 s on the ground
+        // disarmed (at-rest bias calibration), take off to 1 m, hover.
+        let mut sim = Sim::new(ControllerParams::default(), Vec3::zeros());
+        sim.noise = Some(Noise {
+            state: 0x9E37_79B9_7F4A_7C15,
+            gyro_bias: Vec3::new(0.03, -0.02, 0.01),
+            gyro_sigma: 0.01,
+            accel_sigma: 0.1,
+            pos_sigma: 0.002,
+            vel_sigma: 0.02,
+        });
+        sim.run(3.0, |_, _| {});
+        let b = sim.ctl.telemetry().gyro_bias;
+        assert!((b - Vec3::new(0.03, -0.02, 0.01)).norm() < 0.005, "bias after 3 s at rest: {b:?}");
+        sim.ctl.arm(sim.t_us).unwrap();
+        sim.ctl.takeoff(sim.t_us, 1.0).unwrap();
+        sim.run(15.0, |_, _| {});
+        let target = Vec3::new(0.0, 0.0, -1.0);
+        let (mut sq, mut worst, mut n) = (0.0f32, 0.0f32, 0u32);
+        sim.run(10.0, |q, _| {
+            let e = (q.p - target).norm();
+            sq += e * e;
+            worst = worst.max(e);
+            n += 1;
+        });
+        let rms = libm::sqrtf(sq / n as f32);
+        std::println!("noisy hover: rms {rms} m, worst {worst} m");
+        assert!(rms < 0.03 && worst < 0.06, "rms {rms} m, worst {worst} m");
+        let tel = sim.ctl.telemetry();
+        assert!(tel.attitude.roll.abs() < 0.05 && tel.attitude.pitch.abs() < 0.05);
+        assert_eq!(tel.state, FailsafeState::Armed);
     }
 
     #[test]

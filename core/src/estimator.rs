@@ -28,6 +28,13 @@
 //! integration only) when `|f|` differs from the expected `|g e₃ − a_w|` by more than
 //! `accel_gate·g` (bumps, free fall, an acceleration the aid does not explain).
 //!
+//! **At rest** ([`AttitudeEstimator::set_at_rest`], set by the controller while the
+//! motors are off) the vehicle is assumed not to rotate: while the bias-corrected
+//! rate stays below `rest_rate_max` and the accelerometer is usable, the bias is
+//! also pulled straight to the gyro reading with time constant `rest_bias_tau_s`
+//! (the start-up gyro calibration of PX4/Betaflight). The Mahony integral alone
+//! learns a bias with a time constant of ≈ 1/k_i·k_p ≈ 20 s.
+//!
 //! Position and velocity are **not** estimated here: they come from outside
 //! (motion capture, VIO or the simulator) as a position fix.
 //!
@@ -70,6 +77,10 @@ pub struct EstimatorParams {
     pub bias_max: f32,
     /// Largest time step integrated, s. Default 0.02.
     pub dt_max: f32,
+    /// Time constant of the at-rest gyro-bias calibration, s. Default 1.0.
+    pub rest_bias_tau_s: f32,
+    /// Largest bias-corrected rate still taken as "not rotating" at rest, rad/s. Default 0.2.
+    pub rest_rate_max: f32,
 }
 
 impl Default for EstimatorParams {
@@ -82,6 +93,8 @@ impl Default for EstimatorParams {
             accel_gate: 0.25,
             bias_max: 0.2,
             dt_max: 0.02,
+            rest_bias_tau_s: 1.0,
+            rest_rate_max: 0.2,
         }
     }
 }
@@ -90,7 +103,8 @@ impl Default for EstimatorParams {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EstimatorError {
-    /// A gain is negative or not finite, or `accel_gate`, `bias_max`, `dt_max` not > 0.
+    /// A gain is negative or not finite, or `accel_gate`, `bias_max`, `dt_max`,
+    /// `rest_bias_tau_s`, `rest_rate_max` not > 0.
     BadParams,
 }
 
@@ -106,6 +120,8 @@ impl EstimatorParams {
             && pos(self.accel_gate)
             && pos(self.bias_max)
             && pos(self.dt_max)
+            && pos(self.rest_bias_tau_s)
+            && pos(self.rest_rate_max)
         {
             Ok(())
         } else {
@@ -138,6 +154,7 @@ pub struct AttitudeEstimator {
     bias: Vec3,
     rate: Vec3,
     initialised: bool,
+    at_rest: bool,
     rejected: u32,
     last: ImuStatus,
 }
@@ -152,9 +169,16 @@ impl AttitudeEstimator {
             bias: Vec3::zeros(),
             rate: Vec3::zeros(),
             initialised: false,
+            at_rest: false,
             rejected: 0,
             last: ImuStatus::BadDt,
         })
+    }
+
+    /// Tell the estimator whether the vehicle is at rest (motors off, on the ground):
+    /// enables the fast at-rest gyro-bias calibration (see the module documentation).
+    pub fn set_at_rest(&mut self, at_rest: bool) {
+        self.at_rest = at_rest;
     }
 
     /// Forget the attitude and bias (next valid sample re-initialises).
@@ -291,6 +315,10 @@ impl AttitudeEstimator {
             bias_dot -= axis * (p.ki_yaw * e_psi);
         }
         self.bias += bias_dot * dt_s;
+        if self.at_rest && use_acc && (imu.gyro - self.bias).amax() < p.rest_rate_max {
+            let k = dt_s / (p.rest_bias_tau_s + dt_s);
+            self.bias += (imu.gyro - self.bias) * k;
+        }
         let bm = p.bias_max;
         self.bias = self.bias.map(|b| b.clamp(-bm, bm));
         self.rate = imu.gyro - self.bias;
@@ -350,6 +378,33 @@ mod tests {
         assert!(wrap_pi(a.yaw - 0.5).abs() < 2e-3, "{a:?}");
         assert!((e.gyro_bias() - bias).norm() < 2e-3, "bias {:?}", e.gyro_bias());
         assert!(e.rate().norm() < 2e-3);
+    }
+
+    #[test]
+    fn at_rest_calibration_learns_the_bias_in_seconds() {
+        let bias = Vec3::new(0.03, -0.02, 0.01);
+        let imu = ImuSample { gyro: bias, accel: Vec3::new(0.0, 0.0, -GRAVITY) };
+        let run = |rest: bool| {
+            let mut e = est();
+            e.set_attitude(UnitQuaternion::identity());
+            e.set_at_rest(rest);
+            for _ in 0..3000 {
+                e.update(&imu, 0.001, None, None);
+            }
+            (e.gyro_bias() - bias).norm()
+        };
+        let (fast, slow) = (run(true), run(false));
+        assert!(fast < 0.06 * bias.norm(), "3 s at rest: residual {fast}");
+        assert!(slow > 0.5 * bias.norm(), "Mahony integral alone is slow: residual {slow}");
+        // Rotating faster than rest_rate_max: no at-rest update.
+        let mut e = est();
+        e.set_attitude(UnitQuaternion::identity());
+        e.set_at_rest(true);
+        let spin = ImuSample { gyro: Vec3::new(0.0, 0.0, 1.0), accel: Vec3::new(0.0, 0.0, -GRAVITY) };
+        for _ in 0..100 {
+            e.update(&spin, 0.001, None, None);
+        }
+        assert!(e.gyro_bias().norm() < 0.01, "{:?}", e.gyro_bias());
     }
 
     #[test]
