@@ -1543,6 +1543,38 @@ mod tests {
     }
 
     #[test]
+    fn defaults_are_the_papers_office_setting() {
+        let p = ControllerParams::default();
+        assert_eq!((p.tracking.kp, p.tracking.kd), ([0.5; 3], [0.8; 3]));
+        assert_eq!((p.cbf.mu, p.cbf.delta, p.cbf.delta1), (1.4, 0.05, 0.1));
+        assert_eq!(p.waypoint.cruise_speed, 0.25);
+        assert_eq!((p.outer_rate_hz, p.inner_rate_hz), (250.0, 1000.0));
+        assert_eq!((p.airframe.mass, p.airframe.inertia), (0.5, [0.0019, 0.0019, 0.0033]));
+        assert!(p.validate().is_ok());
+    }
+
+    #[test]
+    fn replanning_mid_mission_continues_without_a_jump() {
+        let at = Vec3::new(0.0, 0.0, -1.0);
+        let mut sim = hovering(ControllerParams::default(), at);
+        sim.ctl.set_path(&[at, Vec3::new(2.0, 0.0, -1.0)]).unwrap();
+        sim.ctl.start_mission(sim.t_us).unwrap();
+        sim.run(2.0, |_, _| {});
+        let before = sim.ctl.telemetry().reference.position;
+        assert!((before.x - 0.5).abs() < 0.01, "0.25 m/s for 2 s: {before:?}");
+        sim.ctl.set_path(&[Vec3::new(0.5, 1.0, -1.0)]).unwrap();
+        sim.run(0.004, |_, _| {});
+        let after = sim.ctl.telemetry();
+        assert!((after.reference.position - before).norm() < 0.01, "{:?}", after.reference.position);
+        assert!(
+            (after.reference.velocity - Vec3::new(0.0, 0.25, 0.0)).norm() < 1e-4,
+            "heads to the new waypoint"
+        );
+        sim.run(6.0, |_, _| {});
+        assert!(sim.ctl.telemetry().progress.done);
+    }
+
+    #[test]
     fn data_loss_on_the_ground_stays_idle_and_disarms() {
         let mut sim = Sim::new(ControllerParams::default(), Vec3::zeros());
         sim.ctl.arm(sim.t_us).unwrap();
