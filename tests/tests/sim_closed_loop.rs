@@ -103,3 +103,28 @@ fn moving_person_is_reported_and_avoided_or_recorded() {
     // The filter saw the person (obstacle 0) at some point.
     assert!(out.samples.iter().any(|k| k.active_obstacle == Some(0)));
 }
+
+#[test]
+fn default_office_flight_is_safe_and_reaches_the_goal() {
+    // The README's main command: the office scene, planned with seed 0, default filter.
+    use parapet_sim::planner::{plan, PlanProblem, PlannerParams};
+    let s = scene("office.toml");
+    let planned = plan(&PlanProblem::from_scene(&s), &PlannerParams::default()).unwrap();
+    let path = planned.waypoints.iter().map(parapet_sim::scene::to_f64).collect();
+    let cfg = RunConfig::for_scene(&s, path).unwrap();
+    let out = run(&s, &cfg, &mut |_| {}).unwrap();
+    let sum = &out.summary;
+    println!(
+        "office: goal {} at {:?} s, min clearance {:.3} m, min h_bar {:.4}, RMS {:.3} m, active {:.3}",
+        sum.reached_goal,
+        sum.time_to_goal_s,
+        sum.min_clearance_m,
+        sum.min_h_bar,
+        sum.tracking_rms_m,
+        sum.filter_active_fraction
+    );
+    assert!(!sum.collided, "{sum:?}");
+    assert!(sum.reached_goal, "{sum:?}");
+    assert!(sum.min_h_bar > -0.01, "barrier violated: {}", sum.min_h_bar);
+    assert!(sum.filter_active_fraction > 0.0);
+}
