@@ -16,7 +16,8 @@
 //! * [`FlightController::update_obstacles`] replaces the obstacle set (capacity
 //!   [`OBSTACLE_CAPACITY`] = 32, nearest kept, see [`ObstacleSet`]). An empty
 //!   update means "the sensor sees nothing" and keeps the obstacle data fresh;
-//!   no update for longer than the limit is a data loss (failsafe).
+//!   no update for longer than the limit is a data loss (failsafe), unless
+//!   `failsafe.obstacles_required` is `false` (flights without an obstacle source).
 //! * [`FlightController::step_outer`]: failsafe data check, reference, PD, CBF,
 //!   thrust/attitude mapping. [`FlightController::step_inner`]: estimator, crash
 //!   check, attitude and rate loops, mixer. Both are O(obstacles + waypoints),

@@ -125,6 +125,10 @@ pub struct FailsafeParams {
     pub brake_timeout_us: u64,
     /// Tilt (angle between body z and world z) that means a crash, rad. Default 1.05 (60°).
     pub tilt_limit: f32,
+    /// `true` (default): obstacle data must be fresh to arm and to stay Armed. `false`
+    /// for flights without an obstacle source (bench tests, bring-up): obstacle ages
+    /// are ignored and the filter only acts on the obstacles it is given.
+    pub obstacles_required: bool,
 }
 
 impl Default for FailsafeParams {
@@ -134,6 +138,7 @@ impl Default for FailsafeParams {
             obstacle_timeout_us: 500_000,
             brake_timeout_us: 3_000_000,
             tilt_limit: 1.05,
+            obstacles_required: true,
         }
     }
 }
@@ -231,6 +236,11 @@ impl Failsafe {
         age.is_some_and(|a| a <= limit)
     }
 
+    fn obstacles_ok(&self, health: &DataHealth) -> bool {
+        !self.params.obstacles_required
+            || Self::fresh(health.obstacle_age_us, self.params.obstacle_timeout_us)
+    }
+
     /// Arm command: accepted only in Disarmed with fresh position and obstacle data,
     /// no NaN/Inf input and an initialised attitude within the tilt limit.
     pub fn arm(
@@ -249,7 +259,7 @@ impl Failsafe {
         if !Self::fresh(health.position_age_us, self.params.position_timeout_us) {
             return Err(ArmRefusal::NoFreshPosition);
         }
-        if !Self::fresh(health.obstacle_age_us, self.params.obstacle_timeout_us) {
+        if !self.obstacles_ok(health) {
             return Err(ArmRefusal::NoFreshObstacles);
         }
         if !attitude_ok || !tilt.is_finite() || tilt > self.params.tilt_limit {
@@ -296,7 +306,7 @@ impl Failsafe {
                     Some(TransitionReason::NonFiniteInput)
                 } else if !Self::fresh(health.position_age_us, self.params.position_timeout_us) {
                     Some(TransitionReason::PositionStale)
-                } else if !Self::fresh(health.obstacle_age_us, self.params.obstacle_timeout_us) {
+                } else if !self.obstacles_ok(health) {
                     Some(TransitionReason::ObstacleStale)
                 } else {
                     None
@@ -399,6 +409,18 @@ mod tests {
         let mut f = armed();
         let h = DataHealth { obstacle_age_us: None, ..good() };
         check(f.check_data(1, &h, false), S::Armed, S::Brake, R::ObstacleStale);
+    }
+
+    #[test]
+    fn obstacles_not_required_ignores_their_age() {
+        let mut f = Failsafe::new(FailsafeParams { obstacles_required: false, ..FailsafeParams::default() });
+        let h = DataHealth { obstacle_age_us: None, ..good() };
+        assert!(f.arm(1, &h, true, 0.0).is_ok());
+        assert!(f.check_data(2, &h, false).is_none());
+        assert!(f.check_data(3, &DataHealth { obstacle_age_us: Some(u64::MAX), ..good() }, false).is_none());
+        // Position and bad inputs still count.
+        let h = DataHealth { position_age_us: None, ..h };
+        check(f.check_data(4, &h, false), S::Armed, S::Brake, R::PositionStale);
     }
 
     #[test]
