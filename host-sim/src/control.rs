@@ -54,6 +54,20 @@ pub struct OuterOut {
     pub filter_active: bool,
     /// The path follower has reached the end of the path.
     pub path_done: bool,
+    /// Nominal acceleration u* (PD output), NED, m/s².
+    pub u_nominal: Vector3<f64>,
+    /// Filtered acceleration u (filter output), NED, m/s².
+    pub u_filtered: Vector3<f64>,
+    /// The filter's own min h̄ over the obstacles it was given (controller's estimate), m².
+    pub filter_h_bar: f64,
+    /// Barriers enforced this step.
+    pub n_constraints: u8,
+    /// The filter flagged a constraint it cannot meet with the available acceleration.
+    pub unavoidable: bool,
+    /// The enforced constraints had no common solution.
+    pub infeasible: bool,
+    /// Guidance mode of the controller (e.g. "Mission", "Brake").
+    pub mode: String,
 }
 
 /// Region name for reports.
@@ -168,6 +182,13 @@ impl Controller {
             active_obstacle: tel.filter.active_id,
             filter_active: tel.filter.intervened,
             path_done: tel.progress.done,
+            u_nominal: to_f64(&tel.u_nominal),
+            u_filtered: to_f64(&tel.u_filtered),
+            filter_h_bar: tel.filter.h_bar as f64,
+            n_constraints: tel.filter.n_constraints,
+            unavoidable: tel.filter.unavoidable,
+            infeasible: tel.filter.infeasible,
+            mode: format!("{:?}", tel.mode),
         }
     }
 

@@ -2,8 +2,19 @@
 //! short summary table on stdout.
 //!
 //! Everything written here is in the file/plot frame **ENU** (x east, y
-//! north, z up, m); attitude angles are the vehicle's roll/pitch/yaw of FRD
-//! relative to NED (rad), as the controller sees them.
+//! north, z up, m; accelerations m/s² in ENU too); attitude angles are the
+//! vehicle's true roll/pitch/yaw of FRD relative to NED (rad).
+//!
+//! `trajectory.csv` columns (one row per outer step, 250 Hz): `t` (s since the
+//! mission start); `ref_*` reference (planned) position; `x,y,z` true position;
+//! `v*` true velocity; `roll,pitch,yaw`; `region` (none, far, nominal_safe,
+//! filtering, fault); `active_obstacle` (scene index or empty);
+//! `filter_active` (0/1); `clearance` (m, true, nearest obstacle or ground
+//! minus hull radius); `h_bar` (m², true state, min over all obstacles);
+//! `u_nom_*` PD output u*; `u_*` filter output; `filter_h_bar` (the
+//! controller's own min h̄ from its estimate and the sensed obstacles);
+//! `n_constraints`, `unavoidable`, `infeasible` (filter diagnostics); `mode`
+//! (controller guidance mode).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -63,6 +74,8 @@ pub struct Summary {
     pub reached_goal: bool,
     /// Time from mission start to reaching the goal, s (null if not reached).
     pub time_to_goal_s: Option<f64>,
+    /// Distance from the vehicle to the goal at the end of the run, m.
+    pub final_distance_to_goal_m: f64,
     /// RMS of |actual − reference position| over the flight, m.
     pub tracking_rms_m: f64,
     /// Share of outer-loop steps where the filter changed the nominal input.
@@ -120,6 +133,20 @@ pub struct Sample {
     pub ref_clearance: f64,
     /// Min h̄ over all obstacles on the true state, m².
     pub h_bar: f64,
+    /// Nominal acceleration u* (PD), NED, m/s².
+    pub u_nominal: Vector3<f64>,
+    /// Filtered acceleration u, NED, m/s².
+    pub u_filtered: Vector3<f64>,
+    /// The controller's own min h̄ (estimated state, sensed obstacles), m².
+    pub filter_h_bar: f64,
+    /// Barriers enforced by the filter.
+    pub n_constraints: u8,
+    /// Filter flag: a constraint needs more acceleration than available.
+    pub unavoidable: bool,
+    /// Filter flag: the enforced constraints had no common solution.
+    pub infeasible: bool,
+    /// Controller guidance mode.
+    pub mode: String,
 }
 
 /// Everything the report needs.
@@ -162,35 +189,50 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
 /// The trajectory CSV text (ENU).
 pub fn trajectory_csv(samples: &[Sample]) -> String {
     let mut s = String::from(
-        "t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar\n",
+        "t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar,\
+         u_nom_x,u_nom_y,u_nom_z,u_x,u_y,u_z,filter_h_bar,n_constraints,unavoidable,infeasible,mode\n",
     );
     for k in samples {
         let r = ned_to_enu_arr(&k.ref_pos);
         let p = ned_to_enu_arr(&k.pos);
         let v = ned_to_enu_arr(&k.vel);
+        let un = ned_to_enu_arr(&k.u_nominal);
+        let uf = ned_to_enu_arr(&k.u_filtered);
         let active = k.active_obstacle.map(|i| i.to_string()).unwrap_or_default();
-        let _ = writeln!(
-            s,
-            "{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{},{},{},{:.4},{:.5}",
-            k.t,
-            r[0],
-            r[1],
-            r[2],
-            p[0],
-            p[1],
-            p[2],
-            v[0],
-            v[1],
-            v[2],
-            k.rpy[0],
-            k.rpy[1],
-            k.rpy[2],
-            k.region,
+        let f = |x: f64, d: usize| format!("{x:.d$}");
+        let fields = [
+            f(k.t, 4),
+            f(r[0], 4),
+            f(r[1], 4),
+            f(r[2], 4),
+            f(p[0], 4),
+            f(p[1], 4),
+            f(p[2], 4),
+            f(v[0], 4),
+            f(v[1], 4),
+            f(v[2], 4),
+            f(k.rpy[0], 5),
+            f(k.rpy[1], 5),
+            f(k.rpy[2], 5),
+            k.region.to_string(),
             active,
-            u8::from(k.filter_active),
-            k.clearance,
-            k.h_bar
-        );
+            u8::from(k.filter_active).to_string(),
+            f(k.clearance, 4),
+            f(k.h_bar, 5),
+            f(un[0], 4),
+            f(un[1], 4),
+            f(un[2], 4),
+            f(uf[0], 4),
+            f(uf[1], 4),
+            f(uf[2], 4),
+            f(k.filter_h_bar, 5),
+            k.n_constraints.to_string(),
+            u8::from(k.unavoidable).to_string(),
+            u8::from(k.infeasible).to_string(),
+            k.mode.clone(),
+        ];
+        s.push_str(&fields.join(","));
+        s.push('\n');
     }
     s
 }

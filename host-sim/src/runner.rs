@@ -274,6 +274,13 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
                 clearance: sd - hull,
                 ref_clearance: ref_clear,
                 h_bar,
+                u_nominal: out.u_nominal,
+                u_filtered: out.u_filtered,
+                filter_h_bar: out.filter_h_bar,
+                n_constraints: out.n_constraints,
+                unavoidable: out.unavoidable,
+                infeasible: out.infeasible,
+                mode: out.mode,
             });
             if goal_at.is_none()
                 && (plant.state.pos - goal).norm() < GOAL_TOLERANCE_M
@@ -330,6 +337,7 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
         min_h_bar,
         reached_goal: goal_at.is_some(),
         time_to_goal_s: goal_at,
+        final_distance_to_goal_m: (plant.state.pos - goal).norm(),
         tracking_rms_m: if n_outer > 0 { (sq_err / n_outer as f64).sqrt() } else { 0.0 },
         filter_active_fraction: if n_outer > 0 { n_active as f64 / n_outer as f64 } else { 0.0 },
         end_reason: if collided_at.is_some() {
