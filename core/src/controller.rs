@@ -30,7 +30,9 @@
 //!   then *Hold* / *Takeoff* / *Mission* ([`start_mission`](FlightController::start_mission))
 //!   or a position step ([`hold_position`](FlightController::hold_position)).
 //! * **Brake**: hold the last good position estimate with zero velocity (the CBF
-//!   filter stays on). Without a fresh fix: level attitude at hover thrust.
+//!   filter stays on). Without a fresh fix: stop the last good velocity open-loop
+//!   (constant deceleration `blind_brake_accel` for `|v|/blind_brake_accel` seconds),
+//!   then level attitude at hover thrust.
 //! * **Land**: the reference descends at `land_speed` from the position at entry
 //!   (leading the vehicle by at most `land_lead`); landed when the reference is
 //!   pinned `land_lead` below the vehicle and the vehicle is still for
@@ -132,6 +134,9 @@ pub struct ControllerParams {
     pub land_no_fix_time_us: u64,
     /// Motor command while armed on the ground, 0..1. Default 0.1.
     pub idle_throttle: f32,
+    /// Deceleration used to stop the last good velocity when the position fix is lost
+    /// (Brake/Land without a fix), m/s², in (0, 5]. Default 1.0.
+    pub blind_brake_accel: f32,
     /// Time constant of the low-pass on the fix-derived acceleration fed to the estimator, s. Default 0.05.
     pub accel_comp_tau_s: f32,
 }
@@ -160,6 +165,7 @@ impl Default for ControllerParams {
             land_thrust_factor: 0.9,
             land_no_fix_time_us: 10_000_000,
             idle_throttle: 0.1,
+            blind_brake_accel: 1.0,
             accel_comp_tau_s: 0.05,
         }
     }
@@ -343,6 +349,8 @@ pub struct FlightController {
     land_from_ground: bool,
     landed_since_us: Option<u64>,
     no_fix_since_us: Option<u64>,
+    last_fresh_velocity: Vec3,
+    blind_velocity: Option<Vec3>,
     output: Output,
     sp: AttitudeSetpoint,
     last_outer_us: Option<u64>,
@@ -405,6 +413,8 @@ impl ControllerParams {
             && self.land_no_fix_time_us > 0
             && nonneg(self.idle_throttle)
             && self.idle_throttle <= 1.0
+            && pos(self.blind_brake_accel)
+            && self.blind_brake_accel <= 5.0
             && pos(self.accel_comp_tau_s);
         if ok {
             Ok(())
@@ -481,6 +491,8 @@ impl FlightController {
             land_from_ground: false,
             landed_since_us: None,
             no_fix_since_us: None,
+            last_fresh_velocity: Vec3::zeros(),
+            blind_velocity: None,
             output: Output::Off,
             sp: AttitudeSetpoint::default(),
             last_outer_us: None,
@@ -797,10 +809,16 @@ impl FlightController {
         tel.outer_count = tel.outer_count.wrapping_add(1);
 
         let fresh = self.position_estimate(now_us);
-        if fresh.is_none() {
-            self.no_fix_since_us.get_or_insert(now_us);
-        } else {
-            self.no_fix_since_us = None;
+        match fresh {
+            None => {
+                self.no_fix_since_us.get_or_insert(now_us);
+                self.blind_velocity.get_or_insert(self.last_fresh_velocity);
+            }
+            Some((_, v)) => {
+                self.no_fix_since_us = None;
+                self.blind_velocity = None;
+                self.last_fresh_velocity = v;
+            }
         }
         let health = self.health(now_us);
         self.pending_fault = false;
@@ -888,9 +906,18 @@ impl FlightController {
                 tel.filter = diag;
             }
             None => {
-                // No position: level attitude, hover thrust (or slightly less when landing).
+                // No position: open-loop stop of the last good velocity v0 at blind_brake_accel
+                // (for |v0|/a seconds, the double-integrator stopping time), then level
+                // attitude at hover thrust (or slightly less when landing).
                 let factor = if state == FailsafeState::Land { self.params.land_thrust_factor } else { 1.0 };
-                let u = Vec3::new(0.0, 0.0, (1.0 - factor) * GRAVITY);
+                let mut u = Vec3::new(0.0, 0.0, (1.0 - factor) * GRAVITY);
+                let v0 = self.blind_velocity.unwrap_or_else(Vec3::zeros);
+                let speed = v0.norm();
+                let a_b = self.params.blind_brake_accel;
+                let blind_s = self.no_fix_since_us.map_or(0.0, |t| age(now_us, t) as f32 * 1e-6);
+                if speed > 1e-3 && blind_s < speed / a_b {
+                    u -= v0 * (a_b / speed);
+                }
                 self.tracker.reset();
                 self.sp = map_acceleration(&self.params.thrust, &u, self.yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
@@ -942,9 +969,18 @@ impl FlightController {
         self.telemetry.t_inner_us = now_us;
         self.telemetry.inner_count = self.telemetry.inner_count.wrapping_add(1);
 
-        // Estimator aids from the position fix, when fresh.
+        // Estimator aids: with a fresh fix, the acceleration from the fix velocities and
+        // the fix yaw. Flying without a fix, the commanded acceleration (p̈ ≈ u): the
+        // accelerometer of a multirotor sees mostly the thrust direction, so without any
+        // acceleration aid a commanded tilt would be mistaken for level.
         let fix_fresh = self.position_estimate(now_us).is_some();
-        let accel_world = if fix_fresh { Some(self.accel_est) } else { None };
+        let accel_world = if fix_fresh {
+            Some(self.accel_est)
+        } else if self.output == Output::Fly {
+            Some(self.telemetry.u_filtered)
+        } else {
+            None
+        };
         let yaw_ext = if fix_fresh { self.fix.and_then(|f| f.yaw) } else { None };
         // Motors off: the vehicle is taken as at rest for the gyro-bias calibration.
         self.estimator.set_at_rest(!self.failsafe.state().motors_enabled());
@@ -1447,6 +1483,26 @@ mod tests {
             (FailsafeState::Land, FailsafeState::Disarmed, TransitionReason::Landed)
         );
         assert_eq!(sim.ctl.telemetry().motors, MotorOutput::default());
+    }
+
+    #[test]
+    fn position_loss_in_motion_stops_the_vehicle_open_loop() {
+        let start = Vec3::new(0.0, 0.0, -2.0);
+        let mut sim = hovering(ControllerParams::default(), start);
+        sim.ctl.set_path(&[start, Vec3::new(5.0, 0.0, -2.0)]).unwrap();
+        sim.ctl.start_mission(sim.t_us).unwrap();
+        sim.run(6.0, |_, _| {});
+        let v_before = sim.quad.v;
+        assert!((v_before.x - 0.25).abs() < 0.03, "cruising: {v_before:?}");
+        sim.feed_fix = false;
+        let x_lost = sim.quad.p.x;
+        sim.run(3.0, |_, _| {});
+        assert_eq!(sim.ctl.state(), FailsafeState::Brake);
+        let drift = sim.quad.p.x - x_lost;
+        let v_after = sim.quad.v.xy().norm();
+        std::println!("blind stop: drift {drift} m, speed after 3 s {v_after} m/s");
+        // Coasting at 0.25 m/s would drift 0.75 m and keep going.
+        assert!(drift < 0.25 && v_after < 0.05, "drift {drift} m, speed {v_after} m/s");
     }
 
     #[test]
