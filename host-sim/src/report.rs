@@ -70,6 +70,9 @@ pub struct Summary {
     /// Minimum over the flight and over all obstacles of the barrier
     /// `h̄ = |d|² + μ dᵀḋ − δ` (m²) on the true state, with the filter's notion of ḋ.
     pub min_h_bar: f64,
+    /// Minimum over the flight of the controller's own h̄ (its position/velocity
+    /// estimate, the obstacles it was told about), m²; null when it never saw one.
+    pub min_filter_h_bar: Option<f64>,
     /// Goal reached (within the tolerance and slow) before the end.
     pub reached_goal: bool,
     /// Time from mission start to reaching the goal, s (null if not reached).

@@ -335,6 +335,8 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
         }),
         min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
         min_h_bar,
+        min_filter_h_bar: Some(samples.iter().map(|s| s.filter_h_bar).fold(f64::INFINITY, f64::min))
+            .filter(|x| x.is_finite()),
         reached_goal: goal_at.is_some(),
         time_to_goal_s: goal_at,
         final_distance_to_goal_m: (plant.state.pos - goal).norm(),

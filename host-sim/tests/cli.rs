@@ -92,6 +92,8 @@ fn run_writes_the_report() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("min clearance"), "{stdout}");
+    // Not a terminal: no progress bar, and no warning (e.g. a plot that failed).
+    assert!(stderr(&o).is_empty(), "stderr: {}", stderr(&o));
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     for key in [
