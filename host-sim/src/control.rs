@@ -115,6 +115,31 @@ pub fn controller_params(
     }
 }
 
+/// What the runner needs from a flight controller, in simulated time `t` (s).
+/// Implemented by [`Controller`] (in-process `FlightController`); a
+/// processor-in-the-loop link can implement it too. Call order per 1 ms step:
+/// every 4th step `position_fix` (when a fix is due) then `outer`; every step `inner`.
+pub trait Autopilot {
+    /// Start-up at `t` with the vehicle hovering at `start` (NED): initialise,
+    /// arm, hold `start`, start the mission.
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()>;
+    /// A position/velocity/yaw fix measured at `fix.t_measured`.
+    fn position_fix(&mut self, fix: PositionReading);
+    /// Outer step at `t` with the sensed obstacles; returns what the recorder needs.
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut;
+    /// Inner step at `t`: IMU in, motor throttles (0..1, rotors 1..4) out.
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4];
+    /// Name of the controller's failsafe state (e.g. "Armed").
+    fn state_name(&self) -> String;
+}
+
 /// The flight controller as the runner drives it.
 pub struct Controller {
     fc: FlightController,
@@ -131,8 +156,23 @@ impl Controller {
         Ok(Controller { fc, cbf: cfg.cbf })
     }
 
+    fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
+        if self.cbf {
+            self.fc.update_obstacles(now, obstacles);
+        } else {
+            self.fc.update_obstacles(now, &[]);
+        }
+    }
+
+    /// Latest telemetry.
+    pub fn telemetry(&self) -> Telemetry {
+        self.fc.telemetry()
+    }
+}
+
+impl Autopilot for Controller {
     /// Start-up at simulated time `t` (see the module docs).
-    pub fn start(
+    fn start(
         &mut self,
         t: f64,
         start: Vector3<f64>,
@@ -152,7 +192,7 @@ impl Controller {
     }
 
     /// A position/velocity/yaw fix (measured at `fix.t_measured`).
-    pub fn position_fix(&mut self, fix: PositionReading) {
+    fn position_fix(&mut self, fix: PositionReading) {
         self.fc.update_position(PositionFix {
             t_us: clock_us(fix.t_measured),
             position: to_f32(&fix.position),
@@ -161,16 +201,8 @@ impl Controller {
         });
     }
 
-    fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
-        if self.cbf {
-            self.fc.update_obstacles(now, obstacles);
-        } else {
-            self.fc.update_obstacles(now, &[]);
-        }
-    }
-
     /// One outer step at simulated time `t` with the obstacles the proximity sensor reports.
-    pub fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let now = clock_us(t);
         self.report_obstacles(now, obstacles);
         self.fc.step_outer(now);
@@ -193,13 +225,12 @@ impl Controller {
     }
 
     /// One inner step at simulated time `t`: IMU in, throttles out.
-    pub fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
         self.fc.step_inner(clock_us(t), &imu_sample(imu)).throttle
     }
 
-    /// Latest telemetry.
-    pub fn telemetry(&self) -> Telemetry {
-        self.fc.telemetry()
+    fn state_name(&self) -> String {
+        format!("{:?}", self.fc.state())
     }
 }
 

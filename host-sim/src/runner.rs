@@ -32,7 +32,7 @@ use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::obstacle::ObstaclePoint;
 
-use crate::control::Controller;
+use crate::control::{Autopilot, Controller};
 use crate::plant::Plant;
 use crate::report::{RunParams, Sample, Summary};
 use crate::scene::{to_f32, Scene};
@@ -197,9 +197,22 @@ pub fn sense_obstacles(
     out
 }
 
-/// Fly `scene` with `cfg`. `progress` is called with the simulated time (s) about
+/// Fly `scene` with `cfg` and the in-process [`Controller`] (`parapet-core`'s
+/// `FlightController`). `progress` is called with the simulated time (s) about
 /// 10 times per simulated second.
 pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Result<RunOutput> {
+    let cbf = cfg.cbf_params()?;
+    let mut ctrl = Controller::new(scene, cfg, cbf)?;
+    run_with(scene, cfg, &mut ctrl, progress)
+}
+
+/// Fly `scene` with `cfg` and any [`Autopilot`] (e.g. firmware in the loop).
+pub fn run_with(
+    scene: &Scene,
+    cfg: &RunConfig,
+    ctrl: &mut dyn Autopilot,
+    progress: &mut dyn FnMut(f64),
+) -> Result<RunOutput> {
     let wall = Instant::now();
     if cfg.path.is_empty() {
         return Err(anyhow!("empty path"));
@@ -216,7 +229,6 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
     let mut plant = Plant::new(scene.vehicle.clone()).map_err(|e| anyhow!("{e}"))?;
     plant.set_hover(scene.start, 0.0);
     let mut sensors = Sensors::new(cfg.sensors.clone(), cfg.seed);
-    let mut ctrl = Controller::new(scene, cfg, cbf)?;
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.
     let mut fix = None;
@@ -358,7 +370,7 @@ pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Res
         path_source: cfg.path_source.clone(),
         path_waypoints: cfg.path.len(),
         params: cfg.params.clone(),
-        final_controller_state: format!("{:?}", ctrl.telemetry().state),
+        final_controller_state: ctrl.state_name(),
         seed: cfg.seed,
         noise: cfg.sensors.noise,
     };
