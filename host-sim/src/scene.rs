@@ -67,6 +67,8 @@ pub struct ControllerOverrides {
     pub filter: Option<String>,
     /// Bound A on the unknown obstacle acceleration, m/s² (relative variants).
     pub accel_bound: Option<f64>,
+    /// Reference speed along the path, m/s; overrides `[mission] speed` when given.
+    pub speed: Option<f64>,
 }
 
 /// Optional simulation settings (`[sim]` table).
@@ -250,7 +252,7 @@ pub struct Scene {
     pub start: Vector3<f64>,
     /// Mission goal, NED, m.
     pub goal: Vector3<f64>,
-    /// Reference speed along the path, m/s.
+    /// Reference speed along the path, m/s (`[controller] speed` if given, else `[mission] speed`).
     pub speed: f64,
     /// Vehicle parameters (defaults overridden by `[vehicle]`).
     pub vehicle: VehicleParams,
@@ -330,7 +332,7 @@ impl Scene {
             bounds_enu: (raw.bounds.min, raw.bounds.max),
             start: enu_arr_to_ned(raw.mission.start),
             goal: enu_arr_to_ned(raw.mission.goal),
-            speed: raw.mission.speed,
+            speed: controller.speed.unwrap_or(raw.mission.speed),
             vehicle,
             controller,
             sensors: raw.sensors,
@@ -372,7 +374,14 @@ impl Scene {
 }
 
 fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
-    for (field, x) in [("mu", c.mu), ("delta", c.delta), ("delta1", c.delta1), ("kp", c.kp), ("kd", c.kd)] {
+    for (field, x) in [
+        ("mu", c.mu),
+        ("delta", c.delta),
+        ("delta1", c.delta1),
+        ("kp", c.kp),
+        ("kd", c.kd),
+        ("speed", c.speed),
+    ] {
         if let Some(x) = x {
             if !(x.is_finite() && x > 0.0) {
                 return Err(format!("field `{field}`: must be finite and > 0, got {x}"));
@@ -568,6 +577,7 @@ speed = 0.3
 [controller]
 mu = 1.4
 filter = "paper"
+speed = 0.4
 [[obstacles]]
 kind = "sphere"
 center = [4, 0, 1]
@@ -600,7 +610,8 @@ waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
         assert_eq!(s.start, Vector3::new(0.0, 0.0, -1.0));
         assert_eq!(s.goal, Vector3::new(0.0, 8.0, -1.0));
         assert_eq!(s.obstacles.len(), 3);
-        // Sphere at east 4, up 1 → NED (0, 4, -1).
+        assert_eq!(s.speed, 0.4); // [controller] speed overrides [mission] speed
+                                  // Sphere at east 4, up 1 → NED (0, 4, -1).
         let (d, i) = s.nearest(&Vector3::new(0.0, 3.0, -1.0), 0.0);
         assert_eq!(i, Some(0));
         assert!((d - 0.7).abs() < 1e-6);
