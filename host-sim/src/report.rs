@@ -405,7 +405,9 @@ where
             (false, false) => RGBColor(160, 160, 160),
         };
         if moving {
-            // Start pose light, end pose darker, and the track of its reference point.
+            // Track of its reference point, faint poses every 1/6 of the run, the
+            // pose at the end, and (solid) the pose at the closest approach to the
+            // vehicle together with the vehicle's hull circle at that instant.
             let track: Vec<(f64, f64)> = (0..=50)
                 .map(|k| {
                     let c = crate::scene::reference_point(&o.at(t_end * k as f64 / 50.0).0);
@@ -414,10 +416,24 @@ where
                 })
                 .collect();
             chart.draw_series(std::iter::once(PathElement::new(track, fill.stroke_width(1)))).map_err(e)?;
-            let start = outline(&o.at(0.0).0);
-            chart.draw_series(std::iter::once(Polygon::new(start, fill.mix(0.35).filled()))).map_err(e)?;
-            let end = outline(&o.at(t_end).0);
-            chart.draw_series(std::iter::once(Polygon::new(end, fill.filled()))).map_err(e)?;
+            for k in 0..=6 {
+                let pose = outline(&o.at(t_end * k as f64 / 6.0).0);
+                chart.draw_series(std::iter::once(Polygon::new(pose, fill.mix(0.3).filled()))).map_err(e)?;
+            }
+            let pf = |v: &Vector3<f64>| crate::scene::to_f32(v);
+            let closest = rec.samples.iter().min_by(|a, b| {
+                let da = o.at(a.t).0.signed_distance(&pf(&a.pos));
+                let db = o.at(b.t).0.signed_distance(&pf(&b.pos));
+                da.total_cmp(&db)
+            });
+            if let Some(k) = closest {
+                let pose = outline(&o.at(k.t).0);
+                chart.draw_series(std::iter::once(Polygon::new(pose, fill.filled()))).map_err(e)?;
+                let hull = outline(&Shape::sphere(pf(&k.pos), rec.scene.vehicle.hull_radius as f32));
+                chart
+                    .draw_series(std::iter::once(PathElement::new(hull, BLUE.stroke_width(1))))
+                    .map_err(e)?;
+            }
         } else {
             chart.draw_series(std::iter::once(Polygon::new(outline(&o.shape), fill.filled()))).map_err(e)?;
         }
