@@ -44,6 +44,8 @@ pub const GOAL_TOLERANCE_M: f64 = 0.1;
 pub const GOAL_SPEED_MPS: f64 = 0.1;
 /// Inner-loop period, s (1 kHz).
 pub const INNER_DT: f64 = 0.001;
+/// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
+const INNER_HZ: f64 = 1000.0;
 /// Outer-loop decimation: one outer step every this many inner steps (250 Hz).
 pub const OUTER_DIVIDER: u64 = 4;
 /// Default proximity-sensor range, m.
@@ -256,7 +258,7 @@ pub fn run_with(
     let goal = *cfg.path.last().unwrap_or(&scene.goal);
 
     for k in 0..n_inner {
-        t = k as f64 * INNER_DT;
+        t = k as f64 / INNER_HZ;
         if k % OUTER_DIVIDER == 0 {
             if let Some(fix) = sensors.position(t, &plant) {
                 ctrl.position_fix(fix);
@@ -314,12 +316,13 @@ pub fn run_with(
             plant.step(dt);
             steps += 1;
         }
-        let (sd, idx) = nearest_with_ground(scene, &plant.state.pos, t + INNER_DT);
+        let t_next = (k + 1) as f64 / INNER_HZ;
+        let (sd, idx) = nearest_with_ground(scene, &plant.state.pos, t_next);
         min_clear = min_clear.min(sd - hull);
         if sd < hull {
-            collided_at = Some(t + INNER_DT);
+            collided_at = Some(t_next);
             collision_obstacle = idx;
-            t += INNER_DT;
+            t = t_next;
             break;
         }
         if !plant.state.pos.iter().all(|x| x.is_finite()) {
@@ -327,7 +330,7 @@ pub fn run_with(
         }
     }
     if collided_at.is_none() && goal_at.is_none() {
-        t = n_inner as f64 * INNER_DT;
+        t = n_inner as f64 / INNER_HZ;
     }
     let min_h_bar = samples.iter().map(|s| s.h_bar).fold(f64::INFINITY, f64::min);
     let summary = Summary {
