@@ -19,6 +19,9 @@
 //! q     ← q ⊗ exp(ω dt / 2)
 //! ```
 //!
+//! The first external yaw sets the yaw at once (at start-up, or the first one after a
+//! start without it); later ones correct it through `k_ψ`, `k_iψ`.
+//!
 //! `a_w` (world NED acceleration, m/s²) is optional: without it the filter
 //! assumes the vehicle is not accelerating, which in sustained accelerated
 //! flight pulls the tilt estimate towards level (the accelerometer of a
@@ -154,6 +157,7 @@ pub struct AttitudeEstimator {
     bias: Vec3,
     rate: Vec3,
     initialised: bool,
+    yaw_aligned: bool,
     at_rest: bool,
     rejected: u32,
     last: ImuStatus,
@@ -169,6 +173,7 @@ impl AttitudeEstimator {
             bias: Vec3::zeros(),
             rate: Vec3::zeros(),
             initialised: false,
+            yaw_aligned: false,
             at_rest: false,
             rejected: 0,
             last: ImuStatus::BadDt,
@@ -187,6 +192,7 @@ impl AttitudeEstimator {
         self.bias = Vec3::zeros();
         self.rate = Vec3::zeros();
         self.initialised = false;
+        self.yaw_aligned = false;
     }
 
     /// Attitude quaternion, body FRD → world NED.
@@ -288,7 +294,14 @@ impl AttitudeEstimator {
             self.q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_ext.unwrap_or(0.0));
             self.rate = imu.gyro - self.bias;
             self.initialised = true;
+            self.yaw_aligned = yaw_ext.is_some();
             return ImuStatus::Initialised;
+        }
+        if let (false, Some(psi)) = (self.yaw_aligned, yaw_ext) {
+            // First external yaw after a start without one: take it at once (keep roll, pitch).
+            let e = self.euler();
+            self.q = UnitQuaternion::from_euler_angles(e.roll, e.pitch, psi);
+            self.yaw_aligned = true;
         }
         if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= p.dt_max) {
             return ImuStatus::BadDt;
@@ -405,6 +418,19 @@ mod tests {
             e.update(&spin, 0.001, None, None);
         }
         assert!(e.gyro_bias().norm() < 0.01, "{:?}", e.gyro_bias());
+    }
+
+    #[test]
+    fn first_external_yaw_aligns_at_once() {
+        let mut e = est();
+        let level = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -GRAVITY) };
+        assert_eq!(e.update(&level, 0.001, None, None), ImuStatus::Initialised);
+        assert!(e.euler().yaw.abs() < 1e-6);
+        e.update(&level, 0.001, None, Some(2.5));
+        assert!((e.euler().yaw - 2.5).abs() < 1e-3, "{:?}", e.euler());
+        // Later yaw measurements only correct slowly (k_ψ = 1 rad/s per rad).
+        e.update(&level, 0.001, None, Some(2.6));
+        assert!((e.euler().yaw - 2.5).abs() < 1e-3);
     }
 
     #[test]
