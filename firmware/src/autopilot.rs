@@ -197,6 +197,20 @@ pub struct TelemetrySnapshot {
     pub filter: FilterReport,
 }
 
+impl TelemetrySnapshot {
+    /// Before the cascade is running: disarmed, everything zero.
+    pub const BOOT: Self = Self {
+        armed: false,
+        phase: FlightPhase::Disarmed,
+        failsafe: None,
+        attitude_rpy: Vec3::new(0.0, 0.0, 0.0),
+        body_rates_frd: Vec3::new(0.0, 0.0, 0.0),
+        position_ned: Vec3::new(0.0, 0.0, 0.0),
+        velocity_ned: Vec3::new(0.0, 0.0, 0.0),
+        filter: FilterReport::IDLE,
+    };
+}
+
 /// The flight-control cascade as the tasks see it. Every method is bounded in time and never
 /// panics; bad inputs get the cascade's defined safe response.
 pub trait Autopilot {

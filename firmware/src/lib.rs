@@ -10,8 +10,9 @@
 //! framing ([`dshot`]) and the IMU driver ([`mpu6000`]). Tasks reach the flight-control cascade
 //! only through [`autopilot::Autopilot`].
 //!
-//! Board code (`src/board/*.rs`) and the executors live in the binaries (`src/main.rs`,
-//! `src/bin/parapet-firmware-qemu.rs`) and build only for `target_os = "none"`.
+//! Board layers ([`board`], `src/board/*.rs`) build only for `target_os = "none"`; the executors
+//! and tasks live in the binaries (`src/main.rs` for the STM32F405 board,
+//! `src/bin/parapet-firmware-qemu.rs` for QEMU).
 //!
 //! Frames: world NED, body FRD, SI units; see `firmware/README.md` for the wire protocol.
 #![cfg_attr(not(test), no_std)]
@@ -19,6 +20,9 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod autopilot;
+#[cfg(target_os = "none")]
+pub mod board;
+pub mod cascade;
 pub mod command;
 pub mod dshot;
 pub mod frame_parser;
@@ -30,6 +34,8 @@ pub mod mission;
 pub mod mpu6000;
 pub mod obstacle_link;
 pub mod outbound;
+pub mod pil;
+pub mod shared;
 pub mod telemetry;
 pub mod wire;
 

@@ -21,6 +21,12 @@ pub struct LoopReport {
     pub overruns: u32,
 }
 
+impl LoopReport {
+    /// No step measured yet.
+    pub const ZERO: Self =
+        Self { period_mean_us: 0.0, period_max_us: 0.0, exec_max_us: 0.0, steps: 0, overruns: 0 };
+}
+
 /// Measures one periodic loop.
 #[derive(Clone, Debug)]
 pub struct LoopTimer {

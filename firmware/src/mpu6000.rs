@@ -99,6 +99,11 @@ impl<S: SpiDevice> Mpu6000<S> {
         Self { spi, map }
     }
 
+    /// The SPI device (e.g. to change the bus clock after initialisation).
+    pub fn bus_mut(&mut self) -> &mut S {
+        &mut self.spi
+    }
+
     async fn write(&mut self, r: u8, v: u8) -> Result<(), ImuError> {
         self.spi.write(&[r & 0x7F, v]).await.map_err(|_| ImuError::Bus)
     }

@@ -1,0 +1,87 @@
+//! Processor-in-the-loop firmware for QEMU's `netduinoplus2` (STM32F405 emulation).
+//!
+//! Same cascade (`parapet-core`) and application code as the board firmware; the board layer is
+//! `parapet_firmware::board::qemu` and the application `parapet_firmware::pil` (lockstep over
+//! USART1, see `firmware/README.md`). Build:
+//! `cargo build -p parapet-firmware --release --target thumbv7em-none-eabihf
+//!  --no-default-features --features board-qemu --bin parapet-firmware-qemu`.
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+#[cfg(target_os = "none")]
+mod firmware {
+    use embassy_executor::Spawner;
+    use mavlink::dialects::ardupilotmega::MavSeverity;
+    use parapet_core::controller::ControllerParams;
+    use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Usart1};
+    use parapet_firmware::cascade::Cascade;
+    use parapet_firmware::outbound::Outbound;
+    use parapet_firmware::pil::{PilApp, CALIBRATION_ITERATIONS};
+    use parapet_firmware::telemetry::status_text;
+    use parapet_firmware::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+
+    /// Handshake heartbeat period: 10 ms of virtual time at the 168 MHz SysTick clock.
+    const HEARTBEAT_PERIOD_TICKS: u32 = 1_680_000;
+
+    fn report_and_halt(text: &str) -> ! {
+        let mut w = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
+        let m = Outbound::StatusText(status_text(MavSeverity::MAV_SEVERITY_EMERGENCY, text, ""));
+        panic_write(m.encode(&mut w).raw_bytes());
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[embassy_executor::main]
+    async fn main(spawner: Spawner) {
+        let Some(cp) = cortex_m::Peripherals::take() else {
+            report_and_halt("core peripherals taken twice");
+        };
+        let counter = InstructionCounter::new(cp.SYST);
+        let calibration = counter.calibrate(CALIBRATION_ITERATIONS);
+        let port = Usart1::new();
+        let cascade = match Cascade::new(ControllerParams::default()) {
+            Ok(c) => c,
+            Err(_) => report_and_halt("controller parameters rejected"),
+        };
+        match lockstep(PilApp::new(cascade, calibration), port, counter) {
+            Ok(token) => spawner.spawn(token),
+            Err(_) => report_and_halt("lockstep task spawn failed"),
+        }
+    }
+
+    /// The PIL task: heartbeat handshake, then answer every HIL_SENSOR.
+    #[embassy_executor::task]
+    async fn lockstep(mut app: PilApp<Cascade>, mut port: Usart1, counter: InstructionCounter) {
+        while !app.handshake_round(&mut port, &counter, HEARTBEAT_PERIOD_TICKS) {
+            embassy_futures::yield_now().await;
+        }
+        loop {
+            app.poll(&mut port, &counter);
+            port.wait_readable().await;
+        }
+    }
+
+    /// Every interrupt without its own vector lands here; only USART1 is ever unmasked.
+    #[cortex_m_rt::exception]
+    unsafe fn DefaultHandler(irqn: i16) {
+        if irqn == parapet_firmware::board::qemu::USART1_IRQ as i16 {
+            parapet_firmware::board::qemu::on_usart1_interrupt();
+        }
+    }
+
+    #[panic_handler]
+    fn panic(_info: &core::panic::PanicInfo) -> ! {
+        cortex_m::interrupt::disable();
+        // No motors in QEMU: report and stop answering (the host detects the silence).
+        report_and_halt("PANIC");
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "parapet-firmware-qemu runs on thumbv7em-none-eabihf under qemu-system-arm (see firmware/README.md)"
+    );
+    std::process::exit(2);
+}

@@ -1,0 +1,216 @@
+//! Board layer: MATEKF405 (STM32F405RGT6, 8 MHz HSE, MPU-6000 on SPI1) and pin-compatible
+//! F405 flight controllers. The whole pin map and clock tree of the board is in this file; another
+//! F405/F7/H7 board is one new file next to it.
+//!
+//! | function | peripheral | pins | DMA |
+//! |---|---|---|---|
+//! | IMU MPU-6000 | SPI1, mode 3, 1 MHz (init) / 10.5 MHz (reads) | SCK PA5, MISO PA6, MOSI PA7, CS PC2 | TX DMA2 stream 3, RX DMA2 stream 0 |
+//! | IMU data ready | EXTI3 | PC3 (rising edge) | – |
+//! | motors M1..M4, DShot600 | TIM8 CH1..CH4 (AF3) | PC6, PC7, PC8, PC9 | TIM8_UP burst, DMA2 stream 1 |
+//! | companion link, MAVLink 921 600 Bd | USART3 | TX PC10, RX PC11 | TX DMA1 stream 3, RX DMA1 stream 1 (ring buffer) |
+//! | embassy time driver | TIM2 | – | – |
+//! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
+//!
+//! Clocks: HSE 8 MHz → PLL (M 4, N 168, P 2, Q 7) → SYSCLK 168 MHz, AHB 168 MHz, APB1 42 MHz
+//! (timers 84 MHz), APB2 84 MHz (timers 168 MHz), USB/SDIO 48 MHz.
+//!
+//! Motor order M1..M4 must match `parapet_core::airframe` (rotor 0..3): wire the ESCs (or remap
+//! `MOTOR_PINS` below) accordingly; the IMU axis map [`IMU_AXES`] is the board's `CW180`
+//! mounting (Betaflight `GYRO_1_ALIGN CW180_DEG`); check both on the bench before flight.
+
+use embassy_stm32::exti::{self, ExtiInput};
+use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
+use embassy_stm32::mode::Async;
+use embassy_stm32::peripherals;
+use embassy_stm32::spi::{self, Spi};
+use embassy_stm32::time::Hertz;
+use embassy_stm32::timer::low_level::CountingMode;
+use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+use embassy_stm32::timer::Channel;
+use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
+use embedded_hal_async::spi::{ErrorType, Operation, SpiBus, SpiDevice};
+
+use crate::autopilot::MotorCommand;
+use crate::dshot;
+use crate::mpu6000::{AxisMap, Mpu6000};
+
+/// Companion UART baud rate.
+pub const COMPANION_BAUD: u32 = 921_600;
+/// Core clock, Hz (DWT cycle counter rate).
+pub const SYSCLK_HZ: u32 = 168_000_000;
+/// IMU mounting: Betaflight `CW180_DEG` on a chip whose default frame is x forward, y left, z up.
+pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, 1, -1] };
+/// SPI clock for MPU-6000 register writes (datasheet: ≤ 1 MHz).
+pub const IMU_SPI_SLOW_HZ: u32 = 1_000_000;
+/// SPI clock for sensor reads (datasheet: ≤ 20 MHz; APB2 84 MHz / 8).
+pub const IMU_SPI_FAST_HZ: u32 = 10_500_000;
+/// DMA ring buffer for the companion UART receiver, bytes.
+pub const COMPANION_RX_RING: usize = 1024;
+
+bind_interrupts!(
+    /// Interrupt bindings of the board's drivers.
+    pub struct Irqs {
+    USART3 => usart::InterruptHandler<peripherals::USART3>;
+    EXTI3 => exti::InterruptHandler<interrupt::typelevel::EXTI3>;
+    DMA2_STREAM0 => dma::InterruptHandler<peripherals::DMA2_CH0>;
+    DMA2_STREAM1 => dma::InterruptHandler<peripherals::DMA2_CH1>;
+    DMA2_STREAM3 => dma::InterruptHandler<peripherals::DMA2_CH3>;
+    DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
+    DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+});
+
+/// Clock tree of the board (see the module docs).
+pub fn clock_config() -> Config {
+    use embassy_stm32::rcc::{
+        AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource, Sysclk,
+    };
+    let mut config = Config::default();
+    config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
+    config.rcc.pll_src = PllSource::HSE;
+    config.rcc.pll = Some(Pll {
+        prediv: PllPreDiv::DIV4,
+        mul: PllMul::MUL168,
+        divp: Some(PllPDiv::DIV2),
+        divq: Some(PllQDiv::DIV7),
+        divr: None,
+    });
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV4;
+    config.rcc.apb2_pre = APBPrescaler::DIV2;
+    config.rcc.sys = Sysclk::PLL1_P;
+    config
+}
+
+/// The IMU's SPI device: SPI1 with a GPIO chip select (one device on the bus).
+pub struct ImuSpi {
+    bus: Spi<'static, Async, spi::mode::Master>,
+    cs: Output<'static>,
+}
+
+impl ErrorType for ImuSpi {
+    type Error = spi::Error;
+}
+
+impl SpiDevice for ImuSpi {
+    async fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
+        self.cs.set_low();
+        let mut result = Ok(());
+        for op in operations.iter_mut() {
+            result = match op {
+                Operation::Read(buf) => SpiBus::read(&mut self.bus, buf).await,
+                Operation::Write(buf) => SpiBus::write(&mut self.bus, buf).await,
+                Operation::Transfer(r, w) => SpiBus::transfer(&mut self.bus, r, w).await,
+                Operation::TransferInPlace(buf) => SpiBus::transfer_in_place(&mut self.bus, buf).await,
+                Operation::DelayNs(ns) => {
+                    embassy_time::Timer::after_micros(u64::from(*ns).div_ceil(1000)).await;
+                    Ok(())
+                }
+            };
+            if result.is_err() {
+                break;
+            }
+        }
+        let flushed = SpiBus::<u8>::flush(&mut self.bus).await;
+        self.cs.set_high();
+        result.and(flushed)
+    }
+}
+
+impl ImuSpi {
+    /// Switches the SPI clock (slow for register writes, fast for sample reads).
+    pub fn set_frequency(&mut self, hz: u32) {
+        let mut cfg = spi::Config::default();
+        cfg.mode = spi::MODE_3;
+        cfg.frequency = Hertz(hz);
+        // Only fails for an unsupported mode/frequency combination, which these constants are not.
+        let _ = self.bus.set_config(&cfg);
+    }
+}
+
+/// Four DShot600 outputs on TIM8 CH1..CH4, updated together by one DMA burst per frame.
+pub struct DshotMotors {
+    pwm: SimplePwm<'static, peripherals::TIM8>,
+    dma: Peri<'static, peripherals::DMA2_CH1>,
+    period: u16,
+    buf: [u16; dshot::BURST_LEN],
+}
+
+impl DshotMotors {
+    /// Sends one frame per motor (≈ 30 µs). Disarmed → DShot 0 (motor stop).
+    pub async fn write(&mut self, cmd: &MotorCommand) {
+        let cmd = cmd.sanitized();
+        let frames = cmd.throttle.map(|t| dshot::frame(dshot::throttle_to_value(t, cmd.armed), false));
+        dshot::fill_burst(frames, self.period, &mut self.buf);
+        self.pwm
+            .waveform_up_multi_channel(self.dma.reborrow(), Irqs, Channel::Ch1, Channel::Ch4, &self.buf)
+            .await;
+    }
+}
+
+/// Panic / fault path: stops the motor outputs at register level, whatever the drivers were
+/// doing (TIM8 DMA requests off, compare values 0, main output disabled → lines low; DShot ESCs
+/// stop on signal loss).
+pub fn force_motors_off() {
+    let tim = embassy_stm32::pac::TIM8;
+    tim.dier().modify(|w| w.set_ude(false));
+    for ch in 0..4 {
+        tim.ccr(ch).write_value(embassy_stm32::pac::timer::regs::Ccr1ch(0));
+    }
+    tim.bdtr().modify(|w| w.set_moe(false));
+}
+
+/// The board's drivers, ready for the tasks.
+pub struct Board {
+    /// MPU-6000 on SPI1 (initialised by the inner-loop task).
+    pub imu: Mpu6000<ImuSpi>,
+    /// Data-ready line of the IMU.
+    pub imu_ready: ExtiInput<'static, Async>,
+    /// Motor outputs.
+    pub motors: DshotMotors,
+    /// Companion link transmitter.
+    pub link_tx: UartTx<'static, Async>,
+    /// Companion link receiver (DMA ring buffer).
+    pub link_rx: RingBufferedUartRx<'static>,
+}
+
+/// Errors of the board bring-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum BoardError {
+    /// The companion UART configuration was refused.
+    Uart,
+}
+
+/// Clocks, pins and drivers. `rx_ring` is the DMA ring buffer of the companion receiver.
+pub fn init(rx_ring: &'static mut [u8; COMPANION_RX_RING]) -> Result<Board, BoardError> {
+    let p = embassy_stm32::init(clock_config());
+
+    let mut spi_cfg = spi::Config::default();
+    spi_cfg.mode = spi::MODE_3;
+    spi_cfg.frequency = Hertz(IMU_SPI_SLOW_HZ);
+    let bus = Spi::new(p.SPI1, p.PA5, p.PA7, p.PA6, p.DMA2_CH3, p.DMA2_CH0, Irqs, spi_cfg);
+    let cs = Output::new(p.PC2, Level::High, Speed::VeryHigh);
+    let imu = Mpu6000::new(ImuSpi { bus, cs }, IMU_AXES);
+    let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
+
+    let pwm = SimplePwm::new(
+        p.TIM8,
+        Some(PwmPin::new(p.PC6, OutputType::PushPull)),
+        Some(PwmPin::new(p.PC7, OutputType::PushPull)),
+        Some(PwmPin::new(p.PC8, OutputType::PushPull)),
+        Some(PwmPin::new(p.PC9, OutputType::PushPull)),
+        Hertz(dshot::BITRATE_HZ),
+        CountingMode::EdgeAlignedUp,
+    );
+    let period = u16::try_from(pwm.max_duty_cycle()).unwrap_or(u16::MAX);
+    let motors = DshotMotors { pwm, dma: p.DMA2_CH1, period, buf: [0; dshot::BURST_LEN] };
+
+    let mut uart_cfg = usart::Config::default();
+    uart_cfg.baudrate = COMPANION_BAUD;
+    let uart = Uart::new(p.USART3, p.PC11, p.PC10, p.DMA1_CH3, p.DMA1_CH1, Irqs, uart_cfg)
+        .map_err(|_| BoardError::Uart)?;
+    let (link_tx, rx) = uart.split();
+    let link_rx = rx.into_ring_buffered(rx_ring);
+
+    Ok(Board { imu, imu_ready, motors, link_tx, link_rx })
+}

@@ -1,0 +1,244 @@
+//! Boots the `board-qemu` firmware in `qemu-system-arm -machine netduinoplus2 -icount shift=0`,
+//! runs the heartbeat handshake and 2 s of simulated lockstep on a vehicle at rest (arm at
+//! 0.5 s), injects corrupted frames, and checks the answers.
+//!
+//! Needs `qemu-system-arm` and the ELF built by
+//! `cargo build -p parapet-firmware --release --target thumbv7em-none-eabihf --no-default-features
+//!  --features board-qemu --bin parapet-firmware-qemu`; its path in `PARAPET_QEMU_ELF`.
+//! Run: `PARAPET_QEMU_ELF=… cargo test -p parapet-firmware --test qemu_pil -- --ignored --nocapture`.
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavModeFlag, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
+    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, STATUSTEXT_DATA,
+};
+use mavlink::{MavlinkVersion, MessageData};
+use parapet_firmware::frame_parser::FrameParser;
+use parapet_firmware::messages::frame_extra_crc;
+use parapet_firmware::obstacle_link::CLEAR_ID;
+use parapet_firmware::telemetry::name_is;
+use parapet_firmware::wire::FrameWriter;
+
+/// Kills QEMU on every exit path.
+struct Qemu(Child);
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+struct Host {
+    sock: TcpStream,
+    parser: FrameParser,
+    writer: FrameWriter,
+    inbox: std::collections::VecDeque<(u32, Vec<u8>)>,
+}
+
+impl Host {
+    fn send<D: MessageData>(&mut self, m: &D) {
+        let raw = self.writer.encode(m);
+        self.sock.write_all(raw.raw_bytes()).expect("socket write");
+    }
+
+    fn send_corrupted<D: MessageData>(&mut self, m: &D) {
+        let raw = self.writer.encode(m);
+        let mut b = raw.raw_bytes().to_vec();
+        let n = b.len();
+        b[n - 3] ^= 0x5A;
+        self.sock.write_all(&b).expect("socket write");
+    }
+
+    /// Next frame, or `None` after `timeout`.
+    fn next(&mut self, timeout: Duration) -> Option<(u32, Vec<u8>)> {
+        let end = Instant::now() + timeout;
+        loop {
+            if let Some(f) = self.inbox.pop_front() {
+                return Some(f);
+            }
+            let left = end.checked_duration_since(Instant::now())?;
+            self.sock.set_read_timeout(Some(left.max(Duration::from_millis(1)))).ok()?;
+            let mut buf = [0u8; 512];
+            match self.sock.read(&mut buf) {
+                Ok(0) => return None,
+                Ok(n) => {
+                    let inbox = &mut self.inbox;
+                    self.parser.push_bytes(&buf[..n], frame_extra_crc, |f| {
+                        inbox.push_back((f.msg_id, f.payload.to_vec()))
+                    });
+                }
+                Err(e)
+                    if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) =>
+                {
+                    return None
+                }
+                Err(e) => panic!("socket read: {e}"),
+            }
+        }
+    }
+}
+
+fn de<D: MessageData>(p: &[u8]) -> D {
+    D::deser(MavlinkVersion::V2, p).expect("decodes")
+}
+
+#[test]
+#[ignore = "needs qemu-system-arm and the board-qemu ELF (PARAPET_QEMU_ELF); run by cargo xtask test"]
+fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
+    let elf = std::env::var("PARAPET_QEMU_ELF").expect("set PARAPET_QEMU_ELF to the board-qemu firmware ELF");
+    let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
+    let child = Command::new("qemu-system-arm")
+        .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-kernel", &elf])
+        .args(["-chardev", &format!("socket,id=c0,host=127.0.0.1,port={port},server=on,wait=off,nodelay=on")])
+        .args(["-serial", "chardev:c0"])
+        .args(["-icount", &std::env::var("PARAPET_QEMU_ICOUNT").unwrap_or_else(|_| "shift=0".into())])
+        // Extra QEMU arguments for debugging, e.g. "-d int -D /tmp/qemu.log".
+        .args(std::env::var("PARAPET_QEMU_ARGS").unwrap_or_default().split_whitespace())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("qemu-system-arm starts");
+    let _qemu = Qemu(child);
+    let t_start = Instant::now();
+    let sock = loop {
+        match TcpStream::connect(("127.0.0.1", port)) {
+            Ok(s) => break s,
+            Err(_) if t_start.elapsed() < Duration::from_secs(10) => {
+                std::thread::sleep(Duration::from_millis(50))
+            }
+            Err(e) => panic!("cannot connect to QEMU's serial socket: {e}"),
+        }
+    };
+    sock.set_nodelay(true).ok();
+    let mut h = Host {
+        sock,
+        parser: FrameParser::new(),
+        writer: FrameWriter::new(255, 190),
+        inbox: Default::default(),
+    };
+
+    // Handshake: the firmware heartbeats until our first frame.
+    let mut heartbeats = 0;
+    while heartbeats == 0 {
+        match h.next(Duration::from_secs(10)) {
+            Some((id, _)) if id == HEARTBEAT_DATA::ID => heartbeats += 1,
+            Some(_) => {}
+            None => panic!("no HEARTBEAT from the firmware within 10 s"),
+        }
+    }
+    h.send(&HEARTBEAT_DATA::default());
+    let (mut cal, mut cal_n, mut ready) = (None, None, false);
+    while cal.is_none() || cal_n.is_none() || !ready {
+        let Some((id, p)) = h.next(Duration::from_secs(5)) else {
+            panic!("no calibration after the handshake")
+        };
+        if id == NAMED_VALUE_INT_DATA::ID {
+            let m: NAMED_VALUE_INT_DATA = de(&p);
+            if name_is(&m.name, "ins_cal") {
+                cal = Some(m.value);
+            } else if name_is(&m.name, "ins_cal_n") {
+                cal_n = Some(m.value);
+            }
+        } else if id == STATUSTEXT_DATA::ID {
+            ready = true;
+        }
+    }
+    let (cal, cal_n) = (cal.unwrap_or(0), cal_n.unwrap_or(0));
+    println!("calibration: {cal_n} instructions = {cal} SysTick ticks");
+    assert!(cal > 0 && cal_n > 0);
+
+    // Lockstep: 2 s of simulated time at 1 kHz, vehicle at rest; arm at 0.5 s.
+    let steps = 2000u64;
+    let mut ins = Vec::new();
+    let mut acks = Vec::new();
+    let mut link_crc_errors = 0.0f32;
+    let mut corrupted = 0;
+    let mut corrupted_at_link = 0;
+    let mut last_ctl = None;
+    let wall = Instant::now();
+    for k in 0..steps {
+        let t = 1_000_000 + k * 1000;
+        if k % 4 == 0 {
+            h.send(&ODOMETRY_DATA {
+                time_usec: t,
+                q: [1.0, 0.0, 0.0, 0.0],
+                frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                ..Default::default()
+            });
+            h.send(&OBSTACLE_DISTANCE_3D_DATA {
+                time_boot_ms: (t / 1000) as u32,
+                obstacle_id: CLEAR_ID,
+                frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                ..Default::default()
+            });
+        }
+        if k % 50 == 25 {
+            h.send_corrupted(&HEARTBEAT_DATA::default());
+            corrupted += 1;
+        }
+        if k == 500 {
+            h.send(&COMMAND_LONG_DATA {
+                param1: 1.0,
+                command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            });
+        }
+        h.send(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() });
+        loop {
+            let Some((id, p)) = h.next(Duration::from_secs(5)) else {
+                panic!("firmware stopped answering at step {k}")
+            };
+            match id {
+                HIL_ACTUATOR_CONTROLS_DATA::ID => {
+                    let c: HIL_ACTUATOR_CONTROLS_DATA = de(&p);
+                    assert_eq!(c.time_usec, t, "answer for the wrong step");
+                    last_ctl = Some(c);
+                    break;
+                }
+                NAMED_VALUE_INT_DATA::ID => {
+                    let m: NAMED_VALUE_INT_DATA = de(&p);
+                    if name_is(&m.name, "ins_step") {
+                        ins.push(m.value);
+                    }
+                }
+                COMMAND_ACK_DATA::ID => acks.push(de::<COMMAND_ACK_DATA>(&p).result),
+                DEBUG_VECT_DATA::ID => {
+                    let d: DEBUG_VECT_DATA = de(&p);
+                    if name_is(&d.name, "LINK") {
+                        link_crc_errors = d.y;
+                        corrupted_at_link = corrupted;
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    let wall = wall.elapsed().as_secs_f64();
+    assert_eq!(ins.len() as u64, steps);
+    let mean = ins.iter().map(|&v| v as f64).sum::<f64>() / ins.len() as f64;
+    let max = ins.iter().copied().max().unwrap_or(0);
+    println!(
+        "{steps} steps in {wall:.2} s wall (real-time factor {:.2}); instructions per control step: mean {mean:.0}, max {max}",
+        (steps as f64 * 1e-3) / wall
+    );
+    assert!(mean > 100.0, "implausible instruction count {mean}");
+    assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED], "arm accepted once");
+    let c = last_ctl.expect("answers");
+    assert!(c.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+    assert!(c.controls[..4].iter().all(|&x| x > 0.0 && x < 0.3), "idle throttles {:?}", &c.controls[..4]);
+    // LINK (1 Hz) counts the corrupted frames sent before it; a resync inside a corrupted frame
+    // may add a second CRC error, never fewer.
+    assert!(corrupted_at_link >= 20, "{corrupted_at_link}");
+    assert!(
+        link_crc_errors >= corrupted_at_link as f32,
+        "LINK crc errors {link_crc_errors}, injected {corrupted_at_link}"
+    );
+}
