@@ -1176,14 +1176,19 @@ mod tests {
                 noise: None,
             };
             // Prime the estimator and the data with the vehicle frozen in place.
-            for _ in 0..20 {
-                s.t_us += 1000;
-                s.ctl.update_position(s.quad.fix(s.t_us));
-                s.ctl.update_obstacles(s.t_us, &[]);
-                s.ctl.step_outer(s.t_us);
-                s.ctl.step_inner(s.t_us, &s.quad.imu());
-            }
+            s.run_frozen(0.02);
             s
+        }
+
+        /// Feed data and run both loops for `seconds` with the vehicle held still (priming).
+        fn run_frozen(&mut self, seconds: f32) {
+            for _ in 0..(seconds * 1000.0) as u32 {
+                self.t_us += 1000;
+                self.ctl.update_position(self.quad.fix(self.t_us));
+                self.ctl.update_obstacles(self.t_us, &[]);
+                self.ctl.step_outer(self.t_us);
+                self.ctl.step_inner(self.t_us, &self.quad.imu());
+            }
         }
 
         fn run(&mut self, seconds: f32, mut each: impl FnMut(&Quad, &FlightController)) {
@@ -1597,6 +1602,35 @@ mod tests {
             last_reason(&sim.ctl),
             (FailsafeState::Land, FailsafeState::Disarmed, TransitionReason::Landed)
         );
+    }
+
+    #[test]
+    fn heading_near_pi_steps_and_holds_yaw_across_the_wrap() {
+        // Facing yaw 3.1 rad (just short of +π), then kicked across the ±π wrap: the yaw loop
+        // must turn back the short way, through ±π, not 2π the long way round.
+        let start = Vec3::new(0.0, 0.0, -1.0);
+        let mut sim = Sim::new(gains(HOVER_KP, HOVER_KD), start);
+        sim.quad.q = UnitQuaternion::from_euler_angles(0.0, 0.0, 3.1);
+        sim.ctl = FlightController::new(gains(HOVER_KP, HOVER_KD)).unwrap();
+        sim.run_frozen(0.02);
+        sim.ctl.arm(sim.t_us).unwrap();
+        assert!((sim.ctl.telemetry().attitude.yaw - 3.1).abs() < 1e-3);
+        let target = Vec3::new(0.5, 1.0, -1.0);
+        sim.ctl.hold_position(sim.t_us, target).unwrap();
+        sim.run(1.0, |_, _| {});
+        // A yaw-rate kick (seen by the gyro) carries the vehicle and its estimate across +π.
+        sim.quad.w.z = 1.0;
+        let mut worst_yaw = 0.0f32;
+        let mut crossed = false;
+        sim.run(8.0, |q, _| {
+            let (_, _, yaw) = q.q.euler_angles();
+            worst_yaw = worst_yaw.max(crate::frame::wrap_pi(yaw - 3.1).abs());
+            crossed |= yaw > 0.0;
+        });
+        let (_, _, yaw) = sim.quad.q.euler_angles();
+        assert!(crossed && crate::frame::wrap_pi(yaw - 3.1).abs() < 0.01, "back at 3.1 rad: {yaw}");
+        assert!(worst_yaw < 0.1, "turned the short way: worst {worst_yaw} rad");
+        assert!((sim.quad.p - target).norm() < 0.02, "{:?}", sim.quad.p);
     }
 
     #[test]
