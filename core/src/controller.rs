@@ -1812,6 +1812,24 @@ mod tests {
             (wild(), wild(), wild()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
         }
 
+        /// Accelerometer samples: arbitrary, plus exact free fall and rest.
+        fn accel() -> impl Strategy<Value = Vec3> {
+            prop_oneof![
+                3 => wild3(),
+                1 => Just(Vec3::zeros()),
+                1 => Just(Vec3::new(0.0, 0.0, -GRAVITY)),
+            ]
+        }
+
+        /// Acceleration aids: none, arbitrary, or exactly cancelling gravity (predicted free fall).
+        fn aid() -> impl Strategy<Value = Option<Vec3>> {
+            prop_oneof![
+                1 => Just(None),
+                3 => wild3().prop_map(Some),
+                1 => Just(Some(Vec3::new(0.0, 0.0, GRAVITY))),
+            ]
+        }
+
         /// Time step: mostly nominal, sometimes zero, backwards, huge or saturating.
         #[derive(Clone, Copy, Debug)]
         enum Dt {
@@ -1953,17 +1971,18 @@ mod tests {
             /// samples, setpoints and time steps: finite, in-range rotor commands.
             #[test]
             fn inner_chain_is_finite_for_any_input(
-                steps in proptest::collection::vec((wild3(), wild3(), wild3(), wild(), wild()), 1..40),
+                steps in proptest::collection::vec((wild3(), accel(), aid(), wild3(), wild(), wild()), 1..40),
             ) {
                 let af = Airframe::default();
                 let mut est = AttitudeEstimator::new(EstimatorParams::default()).unwrap();
                 let mut att = AttitudeController::new(AttitudeParams::default()).unwrap();
                 let mixer = Mixer::new(&af).unwrap();
                 let mut sat = false;
-                for (g, a, sp, thrust, dt) in steps {
-                    est.update(&ImuSample { gyro: g, accel: a }, dt, Some(sp), Some(thrust));
+                for (g, a, aid, sp, thrust, dt) in steps {
+                    est.update(&ImuSample { gyro: g, accel: a }, dt, aid, Some(thrust));
                     let e = est.euler();
                     prop_assert!(e.is_finite() && est.tilt().is_finite());
+                    prop_assert!(is_finite3(&est.gyro_bias()) && is_finite3(&est.rate()));
                     let sp = Euler { roll: sp.x, pitch: sp.y, yaw: sp.z };
                     let r = est.rate();
                     let o = att.update(&sp, &e, &[r.x, r.y, r.z], dt, sat);

@@ -247,7 +247,9 @@ impl AttitudeEstimator {
 
     fn accel_usable(&self, f: &Vec3, a_w: &Vec3) -> bool {
         let expected = (Vec3::new(0.0, 0.0, GRAVITY) - a_w).norm();
-        (f.norm() - expected).abs() <= self.params.accel_gate * GRAVITY
+        let n = f.norm();
+        // Near free fall the direction of f is meaningless (and 1/|f| unbounded).
+        n >= 0.5 * GRAVITY && (n - expected).abs() <= self.params.accel_gate * GRAVITY
     }
 
     /// Process one sample taken `dt_s` seconds after the previous one.
@@ -326,6 +328,10 @@ impl AttitudeEstimator {
             let axis = r_t * e3;
             corr += axis * (p.kp_yaw * e_psi);
             bias_dot -= axis * (p.ki_yaw * e_psi);
+        }
+        if !is_finite3(&corr) || !is_finite3(&bias_dot) {
+            // Cannot happen with the guards above; never let a NaN into the state.
+            return ImuStatus::RejectedNonFinite;
         }
         self.bias += bias_dot * dt_s;
         if self.at_rest && use_acc && (imu.gyro - self.bias).amax() < p.rest_rate_max {
@@ -497,9 +503,16 @@ mod tests {
         // Non-finite aids are ignored, the sample still used.
         let s = e.update(&good, 0.001, Some(Vec3::new(f32::NAN, 0.0, 0.0)), Some(f32::INFINITY));
         assert_eq!(s, ImuStatus::Ok);
-        // Free fall (|f| ≈ 0): accelerometer ignored.
+        // Free fall (|f| ≈ 0): accelerometer ignored, also when the aid predicts free fall.
         let s = e.update(&ImuSample { gyro: Vec3::zeros(), accel: Vec3::zeros() }, 0.001, None, None);
         assert_eq!(s, ImuStatus::AccelIgnored);
+        let fall = Some(Vec3::new(0.0, 0.0, GRAVITY));
+        let s = e.update(&ImuSample { gyro: Vec3::zeros(), accel: Vec3::zeros() }, 0.001, fall, None);
+        assert_eq!(s, ImuStatus::AccelIgnored);
+        assert!(
+            e.gyro_bias().iter().all(|b| b.is_finite())
+                && e.quaternion().coords.iter().all(|c| c.is_finite())
+        );
         assert!(AttitudeEstimator::new(EstimatorParams { kp: -1.0, ..Default::default() }).is_err());
     }
 }
