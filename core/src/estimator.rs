@@ -42,7 +42,7 @@
 //! (motion capture, VIO or the simulator) as a position fix.
 //!
 //! ## Bad samples
-//! A sample with a NaN/Inf component is rejected: the state is kept, the
+//! A sample with a NaN/Inf component, or beyond [`GYRO_LIMIT`] / [`ACCEL_LIMIT`], is rejected: the state is kept, the
 //! rejection counted and reported in the returned [`ImuStatus`]. A time step
 //! that is not finite, ≤ 0 or above `dt_max` is not integrated (the
 //! accelerometer/yaw correction is still not applied; state kept).
@@ -51,6 +51,12 @@ use crate::attitude::Euler;
 use crate::frame::{is_finite3, wrap_pi, GRAVITY};
 use crate::Vec3;
 use nalgebra::{UnitQuaternion, Vector3};
+
+/// Largest plausible gyro component, rad/s (MEMS gyros saturate near 35 rad/s).
+pub const GYRO_LIMIT: f32 = 100.0;
+
+/// Largest plausible accelerometer component, m/s² (≈ 100 g; MEMS parts saturate at 16–32 g).
+pub const ACCEL_LIMIT: f32 = 1000.0;
 
 /// One inertial measurement.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -145,7 +151,8 @@ pub enum ImuStatus {
     Initialised,
     /// Time step not finite, ≤ 0 or above `dt_max`: nothing integrated.
     BadDt,
-    /// NaN/Inf in the sample (or in the acceleration/yaw aids): rejected, state kept.
+    /// NaN/Inf in the sample, or a reading beyond [`GYRO_LIMIT`] / [`ACCEL_LIMIT`]
+    /// (no real sensor reports it: corrupt data): rejected, state kept.
     RejectedNonFinite,
 }
 
@@ -277,7 +284,8 @@ impl AttitudeEstimator {
         accel_world: Option<Vec3>,
         yaw_ext: Option<f32>,
     ) -> ImuStatus {
-        if !is_finite3(&imu.gyro) || !is_finite3(&imu.accel) {
+        let in_range = |v: &Vec3, lim: f32| is_finite3(v) && v.amax() <= lim;
+        if !in_range(&imu.gyro, GYRO_LIMIT) || !in_range(&imu.accel, ACCEL_LIMIT) {
             return ImuStatus::RejectedNonFinite;
         }
         // Non-finite aids are ignored rather than rejecting a good IMU sample.
@@ -490,11 +498,13 @@ mod tests {
         for bad in [
             ImuSample { gyro: Vec3::new(f32::NAN, 0.0, 0.0), accel: at_rest(&q) },
             ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, f32::INFINITY, 0.0) },
+            ImuSample { gyro: Vec3::new(0.0, 0.0, 1e3), accel: at_rest(&q) },
+            ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(-1e30, 0.0, 0.0) },
         ] {
             assert_eq!(e.update(&bad, 0.001, None, None), ImuStatus::RejectedNonFinite);
         }
         assert_eq!(e.quaternion(), before);
-        assert_eq!(e.rejected_count(), 2);
+        assert_eq!(e.rejected_count(), 4);
         let good = ImuSample { gyro: Vec3::new(1.0, 0.0, 0.0), accel: at_rest(&q) };
         for dt in [0.0, -1.0, f32::NAN, 10.0] {
             assert_eq!(e.update(&good, dt, None, None), ImuStatus::BadDt);
