@@ -36,12 +36,19 @@
 //! * **Land**: the reference descends at `land_speed` from the position at entry
 //!   (leading the vehicle by at most `land_lead`); landed when the reference is
 //!   pinned `land_lead` below the vehicle and the vehicle is still for
-//!   `landed_time_us`. Without a fresh fix: level attitude and `land_thrust_factor`
-//!   × hover thrust; landed after `land_no_fix_time_us` without a fix.
+//!   `landed_time_us`. Without a fresh fix: the same open-loop stop, then level
+//!   attitude and `land_thrust_factor` × hover thrust (no vertical-speed feedback: the
+//!   descent accelerates at ≈ (1 − factor)·g); landed after `land_no_fix_time_us`
+//!   without a fix. A fix that returns re-seeds the descent where the vehicle is.
 //!   A vehicle that never took off is landed at once.
 //! * **Disarmed / MotorsOff**: all motor outputs zero.
 //!
 //! Yaw: the yaw reference is the estimated yaw at arming, held constant.
+//!
+//! Estimator aids: with a fresh fix, the world acceleration from successive fix
+//! velocities (low-passed) and the fix yaw; flying without a fix, the commanded
+//! acceleration `u`. While the motors are off the estimator runs its at-rest gyro-bias
+//! calibration.
 
 use crate::airframe::Airframe;
 use crate::attitude::{torque_vec, AttitudeController, AttitudeError, AttitudeParams, Euler};
