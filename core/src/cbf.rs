@@ -49,6 +49,8 @@ pub enum CbfError {
     AccelBoundNegative,
     /// u_max must be finite and > 0.
     UMaxNotPositive,
+    /// The sample time must be finite, ≥ 0 and ≤ 1 s.
+    SampleTimeOutOfRange,
 }
 
 impl core::fmt::Display for CbfError {
@@ -59,6 +61,7 @@ impl core::fmt::Display for CbfError {
             CbfError::Delta1NotAboveDelta => "delta1 must be finite and > delta",
             CbfError::AccelBoundNegative => "accel_bound must be finite and >= 0",
             CbfError::UMaxNotPositive => "u_max must be finite and > 0",
+            CbfError::SampleTimeOutOfRange => "sample_time must be finite and in [0, 1] s",
         })
     }
 }
@@ -79,11 +82,16 @@ pub struct CbfParams {
     /// along its normal raises [`FilterDiagnostics::unavoidable`]. Default 6.0
     /// (≈ g·tan 31°, below the thrust mapping's 35° tilt limit).
     pub u_max: f32,
+    /// T, s: the period the filter is applied at (zero-order hold). With T > 0 the
+    /// event rule engages a barrier when `h` or its one-step prediction under the
+    /// nominal input, `h + T·min(0, ḣ(u*))`, is ≤ δ1, so the filter does not engage a
+    /// sample too late. T = 0 is the paper's continuous-time rule `h ≤ δ1`. Default 0.
+    pub sample_time: f32,
 }
 
 impl Default for CbfParams {
     fn default() -> Self {
-        CbfParams { mu: 1.4, delta: 0.05, delta1: 0.1, accel_bound: 0.0, u_max: 6.0 }
+        CbfParams { mu: 1.4, delta: 0.05, delta1: 0.1, accel_bound: 0.0, u_max: 6.0, sample_time: 0.0 }
     }
 }
 
@@ -110,6 +118,9 @@ impl CbfParams {
         }
         if !(self.u_max.is_finite() && self.u_max > 0.0) {
             return Err(CbfError::UMaxNotPositive);
+        }
+        if !(self.sample_time.is_finite() && (0.0..=1.0).contains(&self.sample_time)) {
+            return Err(CbfError::SampleTimeOutOfRange);
         }
         Ok(())
     }
@@ -246,6 +257,11 @@ impl FilterDiagnostics {
 pub struct Barrier {
     /// `h = |d|² + μ dᵀḋ`, m².
     pub h: f32,
+    /// `μ(nᵀḋ)²`, m²/s: a lower bound on the part of `ḣ` that does not depend on
+    /// the input. For a point obstacle that part is `μ|ḋ|²`; for an extended convex
+    /// obstacle the closest point slides with the vehicle's tangential motion and
+    /// only `μ ḋ_trueᵀḋ ≥ μ(nᵀḋ)²` remains (a wall keeps just the radial part).
+    pub mu_radial_speed_sq: f32,
     /// `|d|²`, m².
     pub dist_sq: f32,
     /// The constraint `nᵀu ≥ c` that keeps `ḣ ≥ 0`.
@@ -296,7 +312,26 @@ impl SafetyFilter {
         let n = d / libm::sqrtf(dist_sq);
         let mu = self.params.mu;
         let c = -(2.0 / mu) * n.dot(&d_dot) + a_bound;
-        Some(Barrier { h: barrier_value(mu, &d, &d_dot), dist_sq, constraint: HalfSpace { n, c } })
+        Some(Barrier {
+            h: barrier_value(mu, &d, &d_dot),
+            mu_radial_speed_sq: mu * n.dot(&d_dot) * n.dot(&d_dot),
+            dist_sq,
+            constraint: HalfSpace { n, c },
+        })
+    }
+
+    /// The value the event rule compares with δ1: `h + T·min(0, ḣ(u))` where
+    /// `ḣ(u) = μ|d|(nᵀu − c) + μ(nᵀḋ)²` is a lower bound on the barrier's rate under
+    /// input `u` (worst case over the unknown obstacle acceleration and over convex
+    /// obstacle shapes). Equals `h` when T = 0.
+    pub fn trigger_value(&self, b: &Barrier, u: &Vec3) -> f32 {
+        let t = self.params.sample_time;
+        if t <= 0.0 {
+            return b.h;
+        }
+        let h_dot = self.params.mu * libm::sqrtf(b.dist_sq) * (b.constraint.n.dot(u) - b.constraint.c)
+            + b.mu_radial_speed_sq;
+        b.h + t * h_dot.min(0.0)
     }
 
     /// Bounded braking command `u = −(2/μ)·ṗ`, saturated to `u_max` (zero if `ṗ` is bad).
@@ -342,7 +377,7 @@ impl SafetyFilter {
         }
         let mut diag = FilterDiagnostics::new(Region::Far);
         // Closest obstacle (single-barrier variants) and the K most critical near ones (multi).
-        let mut closest: Option<(Barrier, u16)> = None;
+        let mut closest: Option<(Barrier, u16, f32)> = None; // (barrier, id, trigger value)
         let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
         let delta = self.params.delta;
         for o in obstacles {
@@ -353,10 +388,11 @@ impl SafetyFilter {
                 return self.fault(v, FilterFault::ZeroDistance);
             };
             diag.h_bar = diag.h_bar.min(b.h - delta);
-            if closest.is_none_or(|(c, _)| b.dist_sq < c.dist_sq) {
-                closest = Some((b, o.id));
+            let trigger = self.trigger_value(&b, u_nom);
+            if closest.is_none_or(|(c, _, _)| b.dist_sq < c.dist_sq) {
+                closest = Some((b, o.id, trigger));
             }
-            if b.h <= self.params.delta1 {
+            if trigger <= self.params.delta1 {
                 diag.n_near = diag.n_near.saturating_add(1);
                 // Keep the K smallest h: replace the largest when full.
                 if let Err(item) = near.push((b, o.id)) {
@@ -376,9 +412,9 @@ impl SafetyFilter {
         let u_max = self.params.u_max;
         if !self.variant.is_multi() {
             // Eq. 14: only the closest obstacle's barrier is active; eq. 12 on it.
-            let Some((b, id)) = closest else { return (*u_nom, diag) };
+            let Some((b, id, trigger)) = closest else { return (*u_nom, diag) };
             diag.active_id = Some(id);
-            if b.h > self.params.delta1 {
+            if trigger > self.params.delta1 {
                 return (*u_nom, diag); // D_δ1
             }
             let HalfSpace { n, c } = b.constraint;
@@ -395,7 +431,7 @@ impl SafetyFilter {
         }
 
         if near.is_empty() {
-            diag.active_id = closest.map(|(_, id)| id);
+            diag.active_id = closest.map(|(_, id, _)| id);
             return (*u_nom, diag);
         }
         let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
@@ -414,7 +450,7 @@ impl SafetyFilter {
             diag.region = Region::NominalSafe;
             return (*u_nom, diag);
         }
-        let sol = qp3::project(u_nom, cons);
+        let sol = qp3::project(u_nom, cons, &(v * (-2.0 / self.params.mu)));
         diag.region = Region::Perpendicular;
         diag.intervened = true;
         diag.infeasible = !sol.feasible;

@@ -3,9 +3,16 @@
 //! Solves `min |u − u*|²  s.t.  n_iᵀ u ≥ c_i  (i < k)` for `k ≤ MAX_CONSTRAINTS`
 //! half-spaces without an iterative solver. The optimum of a strictly convex
 //! QP in R³ is the projection of `u*` onto the affine set of at most three
-//! linearly independent active constraints (Carathéodory), so enumerating
-//! every active set of size 0, 1, 2, 3, solving each in closed form and keeping
-//! the KKT-valid candidate of least cost gives the exact answer. Work is fixed
+//! linearly independent active constraints (Carathéodory), so it is one of the
+//! candidates obtained by enumerating every active set of size 0, 1, 2, 3 and
+//! projecting in closed form: the optimum is the feasible candidate whose
+//! multipliers are all ≥ 0 (KKT), and also the cheapest feasible candidate. In
+//! f32 both tests can be blurred by round-off (a candidate violating within
+//! tolerance can look cheaper; multipliers of near-coplanar normals are noisy),
+//! so the choice is: the cheapest feasible KKT-valid candidate, else the
+//! cheapest feasible one, else the cheapest within a loose tolerance. Each
+//! candidate is computed with cross products (Cramer), in coordinates centred
+//! on a point the planes (nearly) share, to keep round-off small. Work is fixed
 //! in advance: at most `Σ_{s≤3} C(k, s)` candidates (15 for k = 4, 93 for k = 8),
 //! each a ≤ 3×3 solve.
 //!
@@ -16,13 +23,12 @@
 //! returned and flagged `feasible = false`.
 
 use crate::Vec3;
-use nalgebra::{Matrix2, Matrix3, Vector2};
 
 /// Maximum number of half-spaces [`project`] accepts; extra ones are ignored.
 pub const MAX_CONSTRAINTS: usize = 8;
 
 /// Active sets whose normals' Gram determinant is below this are skipped as degenerate.
-pub const GRAM_EPS: f32 = 1e-6;
+pub const GRAM_EPS: f32 = 1e-9;
 
 /// A half-space `nᵀu ≥ c` with unit normal `n`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,8 +60,10 @@ pub struct Projection {
     pub max_violation: f32,
 }
 
-/// Candidate for an active set: `u = u* + Σ λ_j n_j` with `N_Sᵀ u = c_S`.
-/// Returns `None` for degenerate sets, else `(u, min λ)`.
+/// Candidate for an active set: the projection `u = u* + Σ λ_j n_j` of `u*` onto
+/// `{N_Sᵀ u = c_S}`, by cross products (conditioning `cond(N)`, not the Gram
+/// matrix's `cond(N)²`), with its smallest multiplier `min λ_j` (0 for the empty
+/// set; the KKT conditions need every `λ_j ≥ 0`). `None` for degenerate sets.
 fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f32)> {
     match *idx {
         [] => Some((*u_nom, 0.0)),
@@ -65,28 +73,33 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
             Some((u_nom + h.n * lam, lam))
         }
         [i, j] => {
+            // The line where both planes meet: direction l = n_i × n_j, point x0 on it.
             let (a, b) = (&cons[i], &cons[j]);
-            let g = Matrix2::new(1.0, a.n.dot(&b.n), a.n.dot(&b.n), 1.0);
-            if g.determinant() < GRAM_EPS {
+            let l = a.n.cross(&b.n);
+            let ll = l.norm_squared(); // = det of the 2×2 Gram matrix for unit normals
+            if ll < GRAM_EPS {
                 return None;
             }
-            let rhs = Vector2::new(a.c - a.n.dot(u_nom), b.c - b.n.dot(u_nom));
-            let lam = g.try_inverse()? * rhs;
-            Some((u_nom + a.n * lam.x + b.n * lam.y, lam.x.min(lam.y)))
+            let x0 = (b.n.cross(&l) * a.c + l.cross(&a.n) * b.c) / ll;
+            let u = x0 + l * (l.dot(&(u_nom - x0)) / ll);
+            // u − u* = λ_a n_a + λ_b n_b; n_b × l ⟂ n_b picks out λ_a (and l × n_a ⟂ n_a, λ_b).
+            let w = u - u_nom;
+            let lam_a = w.dot(&b.n.cross(&l)) / ll;
+            let lam_b = w.dot(&l.cross(&a.n)) / ll;
+            Some((u, lam_a.min(lam_b)))
         }
         [i, j, k] => {
-            let n = Matrix3::from_columns(&[cons[i].n, cons[j].n, cons[k].n]);
-            let g = n.transpose() * n;
-            if g.determinant() < GRAM_EPS {
+            // The vertex where three planes meet (Cramer's rule with cross products).
+            let (a, b, c) = (&cons[i], &cons[j], &cons[k]);
+            let (bc, ca, ab) = (b.n.cross(&c.n), c.n.cross(&a.n), a.n.cross(&b.n));
+            let det = a.n.dot(&bc); // det² = det of the 3×3 Gram matrix
+            if det * det < GRAM_EPS {
                 return None;
             }
-            let rhs = Vec3::new(
-                cons[i].c - cons[i].n.dot(u_nom),
-                cons[j].c - cons[j].n.dot(u_nom),
-                cons[k].c - cons[k].n.dot(u_nom),
-            );
-            let lam = g.try_inverse()? * rhs;
-            Some((u_nom + n * lam, lam.min()))
+            let u = (bc * a.c + ca * b.c + ab * c.c) / det;
+            let w = u - u_nom;
+            let lam = (w.dot(&bc) / det).min(w.dot(&ca) / det).min(w.dot(&ab) / det);
+            Some((u, lam))
         }
         _ => None,
     }
@@ -94,16 +107,52 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
 
 /// Minimum-norm correction of `u_nom` onto `{u : n_iᵀu ≥ c_i}` (see module docs).
 /// Uses the first [`MAX_CONSTRAINTS`] entries of `cons`. Bounded time, no allocation.
-/// Non-finite data yields a non-finite `u` only if the inputs are non-finite:
-/// callers validate inputs first (the CBF filter does).
-pub fn project(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
-    let cons = &cons[..cons.len().min(MAX_CONSTRAINTS)];
+/// Callers validate inputs first (the CBF filter does): non-finite data gives a
+/// non-finite answer only from non-finite input.
+///
+/// `u_ref` is a point near which the planes meet; the problem is solved in
+/// coordinates centred there, which keeps f32 round-off small for nearly
+/// coplanar normals. The CBF filter passes the braking input `−(2/μ)ṗ`, where
+/// every static barrier's plane passes exactly. Any finite point is correct
+/// (zero when nothing better is known).
+pub fn project(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3) -> Projection {
+    let n = cons.len().min(MAX_CONSTRAINTS);
+    let mut shifted = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_CONSTRAINTS];
+    for (s, h) in shifted.iter_mut().zip(&cons[..n]) {
+        let along = h.n.dot(u_ref);
+        let c = h.c - along;
+        // A plane through `u_ref` up to round-off passes through it exactly: this makes
+        // the shared vertex of the CBF constraints exact even for near-coplanar normals.
+        let c = if c.abs() <= 4.0 * f32::EPSILON * (h.c.abs() + along.abs()) { 0.0 } else { c };
+        *s = HalfSpace { n: h.n, c };
+    }
+    let p = project_centred(&(u_nom - u_ref), &shifted[..n]);
+    Projection { u: p.u + u_ref, ..p }
+}
+
+fn project_centred(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
     let k = cons.len();
     let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| m.max(h.c.abs()));
-    let tol = 1e-5 * scale;
+    // Feasibility tolerances: tight (near f32 round-off) first; the loose one only
+    // when no candidate passes the tight one (ill-conditioned, near-degenerate sets).
+    let (tol_tight, tol_loose) = (2e-6 * scale, 1e-4 * scale);
     let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| m.max(h.violation(u)));
 
-    let mut best: Option<(Vec3, f32, u8)> = None; // (u, cost, mask) among KKT-valid feasible points
+    // (u, violation, mask): cheapest feasible candidate satisfying the KKT sign
+    // condition (the optimum), then without it, then under the loose tolerance.
+    let mut best_kkt: Option<(Vec3, f32, u8)> = None;
+    let mut best: Option<(Vec3, f32, u8)> = None;
+    let mut best_loose: Option<(Vec3, f32, u8)> = None;
+    // Is `u` (violating by `vu`) cheaper than `b`? The cost difference is taken exactly,
+    // |u−u*|² − |b−u*|² = (u − b)ᵀ(u + b − 2u*) (no cancellation of two large squared
+    // norms in f32), and each side is charged 2|·−u*|·violation, the first-order cost
+    // of repairing its violation: a candidate may not win by violating within tolerance.
+    let cheaper = |u: &Vec3, vu: f32, b: &Option<(Vec3, f32, u8)>| {
+        b.is_none_or(|(b, vb, _)| {
+            (u - b).dot(&(u + b - u_nom * 2.0)) + 2.0 * ((u - u_nom).norm() * vu - (b - u_nom).norm() * vb)
+                < 0.0
+        })
+    };
     let mut least_bad: (Vec3, f32, u8) = (*u_nom, max_viol(u_nom), 0); // least violation
     let mut consider = |idx: &[usize]| {
         if let Some((u, lam_min)) = candidate(u_nom, cons, idx) {
@@ -115,11 +164,16 @@ pub fn project(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
             if viol < least_bad.1 {
                 least_bad = (u, viol, mask);
             }
-            if lam_min >= -tol && viol <= tol {
-                let cost = (u - u_nom).norm_squared();
-                if best.is_none_or(|b| cost < b.1) {
-                    best = Some((u, cost, mask));
-                }
+            // Multipliers are scaled by the correction's size; a small negative one is round-off.
+            let kkt = lam_min >= -1e-5 * (1.0 + (u - u_nom).norm());
+            if viol <= tol_tight && kkt && cheaper(&u, viol, &best_kkt) {
+                best_kkt = Some((u, viol, mask));
+            }
+            if viol <= tol_tight && cheaper(&u, viol, &best) {
+                best = Some((u, viol, mask));
+            }
+            if viol <= tol_loose && cheaper(&u, viol, &best_loose) {
+                best_loose = Some((u, viol, mask));
             }
         }
     };
@@ -133,10 +187,8 @@ pub fn project(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
             }
         }
     }
-    match best {
-        Some((u, _, mask)) => {
-            Projection { u, feasible: true, active_mask: mask, max_violation: max_viol(&u) }
-        }
+    match best_kkt.or(best).or(best_loose) {
+        Some((u, viol, mask)) => Projection { u, feasible: true, active_mask: mask, max_violation: viol },
         None => Projection {
             u: least_bad.0,
             feasible: false,
@@ -156,7 +208,7 @@ mod tests {
 
     #[test]
     fn inactive_constraint_leaves_nominal() {
-        let p = project(&Vec3::new(1.0, 2.0, 3.0), &[hs(Vec3::x(), 0.5)]);
+        let p = project(&Vec3::new(1.0, 2.0, 3.0), &[hs(Vec3::x(), 0.5)], &Vec3::zeros());
         assert!(p.feasible);
         assert_eq!(p.active_mask, 0);
         assert_eq!(p.u, Vec3::new(1.0, 2.0, 3.0));
@@ -164,7 +216,7 @@ mod tests {
 
     #[test]
     fn single_constraint_is_orthogonal_projection() {
-        let p = project(&Vec3::new(-1.0, 2.0, 0.0), &[hs(Vec3::x(), 0.5)]);
+        let p = project(&Vec3::new(-1.0, 2.0, 0.0), &[hs(Vec3::x(), 0.5)], &Vec3::zeros());
         assert!(p.feasible);
         assert!((p.u - Vec3::new(0.5, 2.0, 0.0)).norm() < 1e-6);
     }
@@ -172,7 +224,8 @@ mod tests {
     #[test]
     fn corner_of_two_walls() {
         // u ≥ 1 along x and along y; nominal (−1, −1, 2) → (1, 1, 2).
-        let p = project(&Vec3::new(-1.0, -1.0, 2.0), &[hs(Vec3::x(), 1.0), hs(Vec3::y(), 1.0)]);
+        let p =
+            project(&Vec3::new(-1.0, -1.0, 2.0), &[hs(Vec3::x(), 1.0), hs(Vec3::y(), 1.0)], &Vec3::zeros());
         assert!(p.feasible);
         assert!((p.u - Vec3::new(1.0, 1.0, 2.0)).norm() < 1e-5);
         assert_eq!(p.active_mask, 0b11);
@@ -181,7 +234,7 @@ mod tests {
     #[test]
     fn redundant_duplicate_normals_are_handled() {
         let c = [hs(Vec3::x(), 1.0), hs(Vec3::x(), 2.0), hs(Vec3::x(), 0.0)];
-        let p = project(&Vec3::zeros(), &c);
+        let p = project(&Vec3::zeros(), &c, &Vec3::zeros());
         assert!(p.feasible);
         assert!((p.u - Vec3::new(2.0, 0.0, 0.0)).norm() < 1e-5);
     }
@@ -189,7 +242,7 @@ mod tests {
     #[test]
     fn infeasible_opposite_walls_are_flagged() {
         let c = [hs(Vec3::x(), 1.0), hs(-Vec3::x(), 1.0)];
-        let p = project(&Vec3::zeros(), &c);
+        let p = project(&Vec3::zeros(), &c, &Vec3::zeros());
         assert!(!p.feasible);
         assert!(p.max_violation > 0.0);
         assert!(p.u.x.is_finite());
@@ -198,7 +251,7 @@ mod tests {
     #[test]
     fn three_planes_vertex() {
         let c = [hs(Vec3::x(), 1.0), hs(Vec3::y(), 1.0), hs(Vec3::z(), 1.0)];
-        let p = project(&Vec3::zeros(), &c);
+        let p = project(&Vec3::zeros(), &c, &Vec3::zeros());
         assert!((p.u - Vec3::new(1.0, 1.0, 1.0)).norm() < 1e-5);
         assert_eq!(p.active_mask, 0b111);
     }
