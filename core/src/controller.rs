@@ -105,7 +105,10 @@ pub struct ControllerParams {
     /// closed-loop test model, 1 m climb: ki_z 0.02 → 20 % overshoot, 0.05 → 31 %, 0.3 → 89 %;
     /// 0 → 12 %). Enable it (with stiffer kp/kd) when the mass or thrust model is uncertain.
     pub tracking: TrackingParams,
-    /// CBF filter. Default μ 1.4 s, δ 0.05 m², δ1 0.1 m² (paper, office).
+    /// CBF filter. Default μ 1.4 s, δ 0.05 m², δ1 0.1 m² (paper, office). The filter
+    /// runs at the outer rate: for every variant but `Paper` (kept exactly as published)
+    /// the controller raises `cbf.sample_time` to at least the outer period, so the
+    /// event rule does not engage a sample late (see `cbf::CbfParams::sample_time`).
     pub cbf: CbfParams,
     /// Filter law. Default [`FilterVariant::default`].
     pub filter_variant: FilterVariant,
@@ -444,7 +447,11 @@ impl FlightController {
     /// A disarmed controller; errors on invalid parameters.
     pub fn new(params: ControllerParams) -> Result<Self, ParamError> {
         params.validate()?;
-        let filter = SafetyFilter::new(params.cbf, params.filter_variant).map_err(ParamError::Cbf)?;
+        let mut cbf = params.cbf;
+        if params.filter_variant != FilterVariant::Paper {
+            cbf.sample_time = cbf.sample_time.max(1.0 / params.outer_rate_hz);
+        }
+        let filter = SafetyFilter::new(cbf, params.filter_variant).map_err(ParamError::Cbf)?;
         let (_, diag0) = filter.apply(&Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), &[]);
         let telemetry = Telemetry {
             t_outer_us: 0,
