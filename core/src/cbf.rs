@@ -9,7 +9,8 @@
 //! * barrier `h = |d|² + μ dᵀḋ`, `h̄ = h − δ`, safe set `h̄ ≥ 0`;
 //! * sufficient condition for `ḣ ≥ 0` (eq. 8): `2dᵀḋ + μ dᵀ(u − ā) ≥ 0`;
 //!   with unit normal `n = d/|d|` and `|ā| ≤ A` unknown this is the half-space
-//!   `nᵀu ≥ c`, `c = −(2/μ) nᵀḋ + A` (`A = 0` in the paper's variants);
+//!   `nᵀu ≥ c`, `c = −(2/μ) (nᵀḋ − ε_v) + A` (`A = 0` in the paper's variants;
+//!   `ε_v` a velocity-uncertainty margin, 0 by default);
 //! * regions: `D_δ1 = {h > δ1}` (far), `D_u* = {nᵀu* > c}` (nominal safe),
 //!   `D_⊥` otherwise, where the law (12) is `u = −(2/μ)Πḋ + Π⊥u* + A n`,
 //!   i.e. the minimum-norm correction of `u*` onto the half-space.
@@ -51,6 +52,8 @@ pub enum CbfError {
     UMaxNotPositive,
     /// The sample time must be finite, ≥ 0 and ≤ 1 s.
     SampleTimeOutOfRange,
+    /// The velocity margin must be finite and ≥ 0.
+    VelocityMarginNegative,
 }
 
 impl core::fmt::Display for CbfError {
@@ -62,6 +65,7 @@ impl core::fmt::Display for CbfError {
             CbfError::AccelBoundNegative => "accel_bound must be finite and >= 0",
             CbfError::UMaxNotPositive => "u_max must be finite and > 0",
             CbfError::SampleTimeOutOfRange => "sample_time must be finite and in [0, 1] s",
+            CbfError::VelocityMarginNegative => "velocity_margin must be finite and >= 0",
         })
     }
 }
@@ -82,6 +86,13 @@ pub struct CbfParams {
     /// along its normal raises [`FilterDiagnostics::unavoidable`]. Default 6.0
     /// (≈ g·tan 31°, below the thrust mapping's 35° tilt limit).
     pub u_max: f32,
+    /// ε_v, m/s: bound on the error of the measured velocity along the obstacle
+    /// direction. The constraint assumes the vehicle approaches ε_v faster than
+    /// measured (`c += 2ε_v/μ`), so zero-mean velocity noise cannot rectify into a
+    /// creep towards the obstacle (noisy "moving away" readings would otherwise let
+    /// an inward-pushing `u*` through while "moving in" readings brake). Default 0
+    /// (the paper's law).
+    pub velocity_margin: f32,
     /// T, s: the period the filter is applied at (zero-order hold). With T > 0 the
     /// event rule engages a barrier when `h` or its one-step prediction under the
     /// nominal input, `h + T·min(0, ḣ(u*))`, is ≤ δ1, so the filter does not engage a
@@ -91,7 +102,15 @@ pub struct CbfParams {
 
 impl Default for CbfParams {
     fn default() -> Self {
-        CbfParams { mu: 1.4, delta: 0.05, delta1: 0.1, accel_bound: 0.0, u_max: 6.0, sample_time: 0.0 }
+        CbfParams {
+            mu: 1.4,
+            delta: 0.05,
+            delta1: 0.1,
+            accel_bound: 0.0,
+            u_max: 6.0,
+            velocity_margin: 0.0,
+            sample_time: 0.0,
+        }
     }
 }
 
@@ -121,6 +140,9 @@ impl CbfParams {
         }
         if !(self.sample_time.is_finite() && (0.0..=1.0).contains(&self.sample_time)) {
             return Err(CbfError::SampleTimeOutOfRange);
+        }
+        if !(self.velocity_margin.is_finite() && self.velocity_margin >= 0.0) {
+            return Err(CbfError::VelocityMarginNegative);
         }
         Ok(())
     }
@@ -311,7 +333,7 @@ impl SafetyFilter {
         };
         let n = d / libm::sqrtf(dist_sq);
         let mu = self.params.mu;
-        let c = -(2.0 / mu) * n.dot(&d_dot) + a_bound;
+        let c = -(2.0 / mu) * (n.dot(&d_dot) - self.params.velocity_margin) + a_bound;
         Some(Barrier {
             h: barrier_value(mu, &d, &d_dot),
             mu_radial_speed_sq: mu * n.dot(&d_dot) * n.dot(&d_dot),
@@ -556,6 +578,20 @@ mod tests {
             filt(FilterVariant::Paper).apply(&p, &v, &u, &obs),
             filt(FilterVariant::Relative).apply(&p, &v, &u, &obs)
         );
+    }
+
+    #[test]
+    fn velocity_margin_pushes_away_when_at_rest_near_an_obstacle() {
+        let p = Vec3::new(0.25, 0.0, 0.0);
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1)];
+        let prm = CbfParams { velocity_margin: 0.05, ..CbfParams::new(0.9, 0.05, 0.08).unwrap() };
+        let f = SafetyFilter::new(prm, FilterVariant::Multi).unwrap();
+        // Nominal pushes into the obstacle; at rest the margin demands 2ε_v/μ outwards.
+        let (u, d) = f.apply(&p, &Vec3::zeros(), &Vec3::new(-1.0, 0.5, 0.0), &obs);
+        assert!(d.intervened);
+        assert!((u.x - 2.0 * 0.05 / 0.9).abs() < 1e-5 && (u.y - 0.5).abs() < 1e-6);
+        let bad = CbfParams { velocity_margin: -0.1, ..CbfParams::default() };
+        assert_eq!(bad.validate(), Err(CbfError::VelocityMarginNegative));
     }
 
     #[test]
