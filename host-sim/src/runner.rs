@@ -68,6 +68,8 @@ pub struct RunConfig {
     pub params: RunParams,
     /// Bound on unknown obstacle acceleration, m/s² (relative variants).
     pub accel_bound: f64,
+    /// Velocity-uncertainty margin ε_v of the filter, m/s.
+    pub velocity_margin: f64,
     /// Sensor parameters (noise flag included).
     pub sensors: SensorParams,
     /// Seed of the sensor noise.
@@ -108,6 +110,7 @@ impl RunConfig {
             variant,
             params,
             accel_bound: c.accel_bound.unwrap_or(0.0),
+            velocity_margin: c.velocity_margin.unwrap_or(0.0),
             sensors: scene.sensors.clone().unwrap_or_default(),
             seed: 0,
             sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),
@@ -122,6 +125,7 @@ impl RunConfig {
             delta: self.params.delta as f32,
             delta1: self.params.delta1 as f32,
             accel_bound: self.accel_bound as f32,
+            velocity_margin: self.velocity_margin as f32,
             ..CbfParams::default()
         };
         p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;

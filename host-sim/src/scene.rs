@@ -67,6 +67,8 @@ pub struct ControllerOverrides {
     pub filter: Option<String>,
     /// Bound A on the unknown obstacle acceleration, m/s² (relative variants).
     pub accel_bound: Option<f64>,
+    /// Velocity-uncertainty margin ε_v of the filter's constraint, m/s (default 0).
+    pub velocity_margin: Option<f64>,
     /// Reference speed along the path, m/s; overrides `[mission] speed` when given.
     pub speed: Option<f64>,
 }
@@ -388,9 +390,11 @@ fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
             }
         }
     }
-    if let Some(a) = c.accel_bound {
-        if !(a.is_finite() && a >= 0.0) {
-            return Err(format!("field `accel_bound`: must be finite and >= 0, got {a}"));
+    for (field, x) in [("accel_bound", c.accel_bound), ("velocity_margin", c.velocity_margin)] {
+        if let Some(a) = x {
+            if !(a.is_finite() && a >= 0.0) {
+                return Err(format!("field `{field}`: must be finite and >= 0, got {a}"));
+            }
         }
     }
     if let (Some(d), Some(d1)) = (c.delta, c.delta1) {
