@@ -20,7 +20,7 @@ const CHECK_TOL_M: f32 = 1e-4;
 /// Independent check: waypoints start at `start`, end at `goal`, and every
 /// point sampled every ≤ 1 cm along the polyline lies in the bounds with
 /// clearance ≥ hull radius + margin. Returns the smallest clearance seen.
-fn check_path(problem: &PlanProblem, margin: f32, waypoints: &[Vec3]) -> f32 {
+fn check_path(label: &str, problem: &PlanProblem, margin: f32, waypoints: &[Vec3]) -> f32 {
     assert!(waypoints.len() >= 2, "path has {} waypoints", waypoints.len());
     assert_eq!(waypoints[0], problem.start, "path does not begin at the start");
     assert_eq!(*waypoints.last().unwrap(), problem.goal, "path does not end at the goal");
@@ -35,13 +35,13 @@ fn check_path(problem: &PlanProblem, margin: f32, waypoints: &[Vec3]) -> f32 {
                 assert!(
                     p[i] >= problem.bounds_min[i] - CHECK_TOL_M
                         && p[i] <= problem.bounds_max[i] + CHECK_TOL_M,
-                    "segment {k}: {p:?} outside the bounds"
+                    "{label}: segment {k}: {p:?} outside the bounds"
                 );
             }
             let c = problem.obstacles.iter().map(|o| o.signed_distance(&p)).fold(f32::INFINITY, f32::min);
             assert!(
                 c >= required - CHECK_TOL_M,
-                "segment {k} ({a:?} -> {b:?}): point {p:?} has clearance {c} < required {required}"
+                "{label}: segment {k} ({a:?} -> {b:?}): point {p:?} has clearance {c} < required {required}"
             );
             min_clear = min_clear.min(c);
         }
@@ -78,12 +78,16 @@ fn shipped_scenes_give_collision_free_paths() {
             let params = PlannerParams { seed, ..Default::default() };
             let path =
                 plan(&problem, &params).unwrap_or_else(|e| panic!("{}: seed {seed}: {e}", file.display()));
-            check_path(&problem, params.margin, &path.waypoints);
+            check_path(&format!("{}: seed {seed}", file.display()), &problem, params.margin, &path.waypoints);
             assert!(path.waypoints.len() <= params.max_waypoints);
             let straight = (problem.goal - problem.start).norm();
             assert!(path.length_m >= straight - 1e-3);
             assert!((path.length_m - parapet_sim::planner::path_length(&path.waypoints)).abs() < 1e-3);
-            assert!(path_is_valid(&problem, params.margin, &path.waypoints));
+            assert!(
+                path_is_valid(&problem, params.margin, &path.waypoints),
+                "{}: seed {seed}",
+                file.display()
+            );
             assert_eq!(path.seed, seed);
         }
     }
@@ -170,7 +174,9 @@ fn random_scenes_give_collision_free_paths() {
         let problem = random_problem(&mut rng);
         match plan(&problem, &PlannerParams { seed: k, ..params.clone() }) {
             Ok(path) => {
-                check_path(&problem, params.margin, &path.waypoints);
+                check_path(&format!("random scene {k}"), &problem, params.margin, &path.waypoints);
+                // Every segment also passes the planner's own check (each was checked itself).
+                assert!(path_is_valid(&problem, params.margin, &path.waypoints), "random scene {k}");
                 assert!(path.waypoints.len() <= params.max_waypoints);
                 solved += 1;
                 if path.iterations > 0 {
@@ -304,7 +310,7 @@ fn thin_plates_are_never_crossed() {
     for seed in 0..10 {
         let params = PlannerParams { seed, ..Default::default() };
         let path = plan(&problem, &params).unwrap();
-        let min_clear = check_path(&problem, params.margin, &path.waypoints);
+        let min_clear = check_path(&format!("plates seed {seed}"), &problem, params.margin, &path.waypoints);
         assert!(min_clear >= problem.hull_radius + params.margin - CHECK_TOL_M);
     }
 }
@@ -331,5 +337,5 @@ fn planned_path_round_trips_through_a_path_file() {
     for (a, b) in ned.iter().zip(&path.waypoints) {
         assert!((a - b).norm() < 1e-5, "{a:?} vs {b:?}");
     }
-    check_path(&problem, PlannerParams::default().margin, &ned);
+    check_path("path file", &problem, PlannerParams::default().margin, &ned);
 }
