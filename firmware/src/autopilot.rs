@@ -8,6 +8,8 @@
 //! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
 
 use parapet_core::obstacle::ObstaclePoint;
+
+pub use crate::params::ParamRejected;
 use parapet_core::Vec3;
 
 /// One IMU sample in the body FRD frame.
@@ -79,6 +81,11 @@ pub enum VehicleCommand {
     Land,
     /// Fly the uploaded waypoint path.
     StartMission,
+    /// Hold a position: `target_ned` (world NED, m), or the current estimate when `None`.
+    Hold {
+        /// Point to hold.
+        target_ned: Option<Vec3>,
+    },
 }
 
 /// A command the cascade refused.
@@ -228,6 +235,10 @@ pub trait Autopilot {
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
     /// Current telemetry.
     fn telemetry(&self) -> TelemetrySnapshot;
+    /// Sets parameter `name` (see [`crate::params`]); returns the value now in effect.
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected>;
+    /// Current value of parameter `name`.
+    fn get_param(&self, name: &str) -> Option<f32>;
 }
 
 #[cfg(test)]
@@ -248,6 +259,7 @@ pub(crate) mod test_double {
         pub armed: bool,
         pub failsafe: Option<Failsafe>,
         pub max_path: usize,
+        pub params: Vec<(std::string::String, f32)>,
     }
 
     impl RecordingAutopilot {
@@ -287,6 +299,21 @@ pub(crate) mod test_double {
                 _ => {}
             }
             Ok(())
+        }
+        fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+            if crate::params::index_of(name).is_none() {
+                return Err(ParamRejected::Unknown);
+            }
+            if self.armed {
+                return Err(ParamRejected::NotNow);
+            }
+            self.params.retain(|(n, _)| n != name);
+            self.params.push((name.into(), value));
+            Ok(value)
+        }
+        fn get_param(&self, name: &str) -> Option<f32> {
+            crate::params::index_of(name)?;
+            Some(self.params.iter().find(|(n, _)| n == name).map_or(0.0, |p| p.1))
         }
         fn telemetry(&self) -> TelemetrySnapshot {
             TelemetrySnapshot {

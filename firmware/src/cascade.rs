@@ -10,8 +10,9 @@ use parapet_core::Vec3;
 
 use crate::autopilot::{
     Autopilot, CommandRejected, Failsafe, FilterRegion, FilterReport, FlightPhase, ImuSample, MotorCommand,
-    PathRejected, PositionFix, TelemetrySnapshot, VehicleCommand,
+    ParamRejected, PathRejected, PositionFix, TelemetrySnapshot, VehicleCommand,
 };
+use crate::params;
 
 /// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
 pub const DEFAULT_TAKEOFF_HEIGHT_M: f32 = 1.0;
@@ -106,8 +107,26 @@ impl Autopilot for Cascade {
             }
             VehicleCommand::Land => self.fc.land(now_us),
             VehicleCommand::StartMission => self.fc.start_mission(now_us),
+            VehicleCommand::Hold { target_ned } => {
+                let target = target_ned.unwrap_or(self.fc.telemetry().position);
+                self.fc.hold_position(now_us, target)
+            }
         };
         r.map_err(rejected)
+    }
+
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+        let mut p = *self.fc.params();
+        params::set(&mut p, name, value)?;
+        if self.fc.state() != FailsafeState::Disarmed {
+            return Err(ParamRejected::NotNow);
+        }
+        self.fc = FlightController::new(p).map_err(|_| ParamRejected::Invalid)?;
+        params::get(self.fc.params(), name).ok_or(ParamRejected::Unknown)
+    }
+
+    fn get_param(&self, name: &str) -> Option<f32> {
+        params::get(self.fc.params(), name)
     }
 
     fn telemetry(&self) -> TelemetrySnapshot {
@@ -174,6 +193,11 @@ mod tests {
             Ok(c) => c,
             Err(e) => panic!("default params rejected: {e:?}"),
         };
+        // Parameters apply while disarmed (the cascade is rebuilt with them).
+        assert_eq!(ap.set_param("CBF_MU", 1.2), Ok(1.2));
+        assert_eq!(ap.get_param("CBF_MU"), Some(1.2));
+        assert_eq!(ap.set_param("CBF_DELTA1", 0.01), Err(ParamRejected::Invalid)); // δ1 < δ
+        assert_eq!(ap.get_param("CBF_DELTA1"), Some(0.1));
         let mut link = Link::new(1, FixClock::Message);
         let mut sched = LockstepScheduler::default();
         let mut host = FrameWriter::new(255, 190);
@@ -235,9 +259,17 @@ mod tests {
             last_motors = out.motors;
         }
         assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED, MavResult::MAV_RESULT_ACCEPTED]);
+        // Parameters are refused while armed, and a hold command switches to hover.
+        assert_eq!(ap.set_param("CBF_MU", 0.9), Err(ParamRejected::NotNow));
+        assert_eq!(ap.command(2_500_000, VehicleCommand::Hold { target_ned: None }), Ok(()));
+        ap.step_outer(2_500_000);
+        assert_eq!(ap.telemetry().phase, FlightPhase::Hover);
+        assert_eq!(
+            ap.command(2_500_000, VehicleCommand::Disarm { force: false }),
+            Err(CommandRejected::NotNow)
+        );
         assert!(last_motors.armed);
         let s = ap.telemetry();
-        assert_eq!(s.phase, FlightPhase::Takeoff, "{s:?}");
-        assert!(s.failsafe.is_none());
+        assert!(s.failsafe.is_none(), "{s:?}");
     }
 }

@@ -6,6 +6,7 @@
 //! | NAV_TAKEOFF (22) | p7 = height above the current position, m (positive up; NaN/0: default) | take off |
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
+//! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system are
 //! ignored (no answer); target system 0 is broadcast.
@@ -43,6 +44,22 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
         }
         MavCmd::MAV_CMD_NAV_LAND => Ok(VehicleCommand::Land),
         MavCmd::MAV_CMD_MISSION_START => Ok(VehicleCommand::StartMission),
+        MavCmd::MAV_CMD_OVERRIDE_GOTO => {
+            // p1 MAV_GOTO_DO_HOLD (0); p2 HOLD_AT_CURRENT_POSITION (2) or
+            // HOLD_AT_SPECIFIED_POSITION (3) with p3 = MAV_FRAME_LOCAL_NED (1), p5..p7 = x, y, z.
+            if cmd.param1 != 0.0 {
+                return Err(MavResult::MAV_RESULT_DENIED);
+            }
+            if cmd.param2 == 2.0 {
+                return Ok(VehicleCommand::Hold { target_ned: None });
+            }
+            let p = parapet_core::Vec3::new(cmd.param5, cmd.param6, cmd.param7);
+            if cmd.param2 == 3.0 && cmd.param3 == 1.0 && p.iter().all(|x| x.is_finite()) {
+                Ok(VehicleCommand::Hold { target_ned: Some(p) })
+            } else {
+                Err(MavResult::MAV_RESULT_DENIED)
+            }
+        }
         _ => Err(MavResult::MAV_RESULT_UNSUPPORTED),
     }
 }
@@ -129,6 +146,20 @@ mod tests {
         assert_eq!(
             decode_command(&cmd(MAV_CMD_DO_SET_MODE, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_UNSUPPORTED)
+        );
+        let mut goto = cmd(MAV_CMD_OVERRIDE_GOTO, 0.0, 3.0, -1.5);
+        goto.param3 = 1.0;
+        goto.param5 = 1.0;
+        goto.param6 = 2.0;
+        assert_eq!(
+            decode_command(&goto),
+            Ok(VehicleCommand::Hold { target_ned: Some(parapet_core::Vec3::new(1.0, 2.0, -1.5)) })
+        );
+        goto.param3 = 0.0; // global frame: refused
+        assert_eq!(decode_command(&goto), Err(MavResult::MAV_RESULT_DENIED));
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_OVERRIDE_GOTO, 0.0, 2.0, 0.0)),
+            Ok(VehicleCommand::Hold { target_ned: None })
         );
     }
 

@@ -34,6 +34,7 @@ pub mod mission;
 pub mod mpu6000;
 pub mod obstacle_link;
 pub mod outbound;
+pub mod params;
 pub mod pil;
 pub mod shared;
 pub mod telemetry;

@@ -18,7 +18,9 @@
 //! retries, as the MAVLink command and mission protocols require).
 
 use heapless::Deque;
-use mavlink::dialects::ardupilotmega::{MavFrame, MavMissionResult, HIL_SENSOR_DATA, ODOMETRY_DATA};
+use mavlink::dialects::ardupilotmega::{
+    MavFrame, MavMissionResult, MavParamType, HIL_SENSOR_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
+};
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
@@ -70,6 +72,8 @@ pub struct LinkStats {
     pub hil_samples: u32,
     /// HIL_SENSOR samples overwritten before the control step took them.
     pub hil_overwritten: u32,
+    /// PARAM_SET / PARAM_REQUEST_READ for unknown names or indices.
+    pub unknown_params: u32,
 }
 
 /// Whose clock time-stamps a position fix.
@@ -118,7 +122,30 @@ pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
     Some(PositionFix { t_us, position_ned: p, velocity_ned: v })
 }
 
+/// PARAM_VALUE for parameter `index` with `value`.
+fn param_value(index: usize, value: f32) -> Outbound {
+    let name = crate::params::NAMES.get(index).copied().unwrap_or("");
+    Outbound::ParamValue(PARAM_VALUE_DATA {
+        param_value: value,
+        param_count: crate::params::NAMES.len() as u16,
+        param_index: index as u16,
+        param_id: crate::outbound::name(name),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    })
+}
+
 impl Router {
+    fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
+        let found = index.and_then(|i| {
+            let name = crate::params::NAMES.get(i)?;
+            ap.get_param(name).map(|v| (i, v))
+        });
+        match found {
+            Some((i, v)) => self.reply(param_value(i, v)),
+            None => self.stats.unknown_params = self.stats.unknown_params.saturating_add(1),
+        }
+    }
+
     fn reply(&mut self, m: Outbound) {
         if self.replies.push_back(m).is_err() {
             self.stats.replies_dropped = self.stats.replies_dropped.saturating_add(1);
@@ -201,6 +228,25 @@ impl Router {
                     self.reply(Outbound::MissionAck(ack));
                 }
             }
+            Inbound::ParamSet(m) => {
+                if m.target_system == 0 || m.target_system == self.own_system {
+                    let name = m.param_id.to_str().unwrap_or("");
+                    // Refused values are answered with the value still in effect (MAVLink
+                    // parameter protocol); unknown names are not answered.
+                    let _ = ap.set_param(name, m.param_value);
+                    self.param_reply(crate::params::index_of(name), ap);
+                }
+            }
+            Inbound::ParamRequestRead(m) => {
+                if m.target_system == 0 || m.target_system == self.own_system {
+                    let index = if m.param_index >= 0 {
+                        Some(m.param_index as usize)
+                    } else {
+                        crate::params::index_of(m.param_id.to_str().unwrap_or(""))
+                    };
+                    self.param_reply(index, ap);
+                }
+            }
             Inbound::CommandLong(m) => {
                 if let Some(ack) = handle_command(&m, self.own_system, now_us, ap) {
                     self.reply(Outbound::CommandAck(ack));
@@ -235,6 +281,7 @@ impl Link {
                     odometry_rejected: 0,
                     hil_samples: 0,
                     hil_overwritten: 0,
+                    unknown_params: 0,
                 },
                 peer_seen: false,
             },
@@ -425,6 +472,46 @@ mod tests {
         let mut enu = odo;
         enu.frame_id = MavFrame::MAV_FRAME_LOCAL_ENU;
         assert_eq!(odometry_fix(&enu, 0), None);
+    }
+
+    #[test]
+    fn param_set_and_read_answer_param_value() {
+        use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Arrival);
+        let mut w = gcs();
+        let set = |name: &str, v: f32| PARAM_SET_DATA {
+            param_value: v,
+            target_system: 1,
+            target_component: 1,
+            param_id: crate::outbound::name(name),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        };
+        l.push_bytes(&send(&mut w, &set("CBF_MU", 0.9)), 0, &mut ap);
+        match &replies(&mut l)[..] {
+            [Outbound::ParamValue(v)] => {
+                assert_eq!(v.param_value, 0.9);
+                assert_eq!(usize::from(v.param_index), crate::params::index_of("CBF_MU").unwrap_or(99));
+                assert_eq!(usize::from(v.param_count), crate::params::NAMES.len());
+            }
+            other => panic!("{other:?}"),
+        }
+        // Armed: refused, answered with the value still in effect.
+        ap.armed = true;
+        l.push_bytes(&send(&mut w, &set("CBF_MU", 0.5)), 0, &mut ap);
+        assert!(matches!(&replies(&mut l)[..], [Outbound::ParamValue(v)] if v.param_value == 0.9));
+        // Unknown names are not answered.
+        l.push_bytes(&send(&mut w, &set("NOPE", 1.0)), 0, &mut ap);
+        assert!(replies(&mut l).is_empty());
+        assert_eq!(l.stats().unknown_params, 1);
+        let read = PARAM_REQUEST_READ_DATA {
+            param_index: -1,
+            target_system: 1,
+            target_component: 1,
+            param_id: crate::outbound::name("CBF_MU"),
+        };
+        l.push_bytes(&send(&mut w, &read), 0, &mut ap);
+        assert!(matches!(&replies(&mut l)[..], [Outbound::ParamValue(v)] if v.param_value == 0.9));
     }
 
     #[test]

@@ -117,7 +117,8 @@ impl LoopTimer {
             period_mean_us: if self.periods == 0 {
                 0.0
             } else {
-                (self.period_sum as f64 / f64::from(self.periods)) as f32 / self.cycles_per_us
+                // f32 on purpose (no soft-float f64 on the Cortex-M4F); 24-bit mantissa is ample.
+                (self.period_sum as f32 / self.periods as f32) / self.cycles_per_us
             },
             period_max_us: us(self.period_max),
             exec_max_us: us(self.exec_max),

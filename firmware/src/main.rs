@@ -34,7 +34,7 @@ mod firmware {
     use parapet_firmware::cascade::Cascade;
     use parapet_firmware::link::{FixClock, Link};
     use parapet_firmware::loop_timing::{LoopReport, LoopTimer};
-    use parapet_firmware::mpu6000::Mpu6000;
+    use parapet_firmware::mpu6000::{ImuError, Mpu6000};
     use parapet_firmware::outbound::Outbound;
     use parapet_firmware::shared::{SharedAutopilot, SharedCell};
     use parapet_firmware::telemetry::{TelemetryInputs, TelemetryScheduler};
@@ -137,7 +137,12 @@ mod firmware {
             match imu.init(&mut delay).await {
                 Ok(()) => imu_ok = true,
                 Err(e) => {
-                    defmt::error!("IMU init failed: {}", defmt::Debug2Format(&e));
+                    match e {
+                        ImuError::Bus => defmt::error!("IMU init failed: SPI error"),
+                        ImuError::WrongDevice(id) => {
+                            defmt::error!("IMU init failed: WHO_AM_I = {=u8:#x}", id)
+                        }
+                    }
                     motors.write(&MotorCommand::OFF).await;
                     Timer::after_millis(500).await;
                 }
@@ -240,7 +245,11 @@ mod firmware {
     fn panic(info: &core::panic::PanicInfo) -> ! {
         cortex_m::interrupt::disable();
         f405::force_motors_off();
-        defmt::error!("panic: {}", defmt::Display2Format(info));
+        // Location only: formatting the message would link core::fmt's float formatting (≈ 9 KiB).
+        match info.location() {
+            Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
+            None => defmt::error!("panic"),
+        }
         loop {
             cortex_m::asm::wfi();
         }

@@ -11,6 +11,7 @@ use mavlink::dialects::ardupilotmega::{
     MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
     ODOMETRY_DATA,
 };
+use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
 use mavlink::{MavlinkVersion, Message, MessageData};
 
 use crate::frame_parser::RawFrame;
@@ -37,8 +38,12 @@ pub enum Inbound {
     MissionAck(MISSION_ACK_DATA),
     /// Clear the stored mission.
     MissionClearAll(MISSION_CLEAR_ALL_DATA),
-    /// Command (arm, disarm, takeoff, land, mission start).
+    /// Command (arm, disarm, takeoff, land, mission start, hold).
     CommandLong(COMMAND_LONG_DATA),
+    /// Set a parameter.
+    ParamSet(PARAM_SET_DATA),
+    /// Read a parameter.
+    ParamRequestRead(PARAM_REQUEST_READ_DATA),
 }
 
 /// Why a CRC-valid frame could not be decoded.
@@ -63,6 +68,8 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         MISSION_ACK_DATA::ID => MISSION_ACK_DATA::EXTRA_CRC,
         MISSION_CLEAR_ALL_DATA::ID => MISSION_CLEAR_ALL_DATA::EXTRA_CRC,
         COMMAND_LONG_DATA::ID => COMMAND_LONG_DATA::EXTRA_CRC,
+        PARAM_SET_DATA::ID => PARAM_SET_DATA::EXTRA_CRC,
+        PARAM_REQUEST_READ_DATA::ID => PARAM_REQUEST_READ_DATA::EXTRA_CRC,
         _ => return None,
     })
 }
@@ -95,6 +102,8 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         MISSION_ACK_DATA::ID => Inbound::MissionAck(de(p)?),
         MISSION_CLEAR_ALL_DATA::ID => Inbound::MissionClearAll(de(p)?),
         COMMAND_LONG_DATA::ID => Inbound::CommandLong(de(p)?),
+        PARAM_SET_DATA::ID => Inbound::ParamSet(de(p)?),
+        PARAM_REQUEST_READ_DATA::ID => Inbound::ParamRequestRead(de(p)?),
         _ => return Err(DecodeError::NotHandled),
     })
 }

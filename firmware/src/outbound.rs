@@ -1,5 +1,6 @@
 //! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
 
+use mavlink::dialects::ardupilotmega::PARAM_VALUE_DATA;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
@@ -34,6 +35,8 @@ pub enum Outbound {
     MissionAck(MISSION_ACK_DATA),
     /// HIL_ACTUATOR_CONTROLS (lockstep answer).
     HilActuatorControls(HIL_ACTUATOR_CONTROLS_DATA),
+    /// PARAM_VALUE (answer to PARAM_SET / PARAM_REQUEST_READ).
+    ParamValue(PARAM_VALUE_DATA),
 }
 
 impl Outbound {
@@ -51,6 +54,7 @@ impl Outbound {
             Outbound::MissionRequestInt(m) => writer.encode(m),
             Outbound::MissionAck(m) => writer.encode(m),
             Outbound::HilActuatorControls(m) => writer.encode(m),
+            Outbound::ParamValue(m) => writer.encode(m),
         }
     }
 }

@@ -14,8 +14,8 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
 use crate::autopilot::{
-    Autopilot, CommandRejected, ImuSample, MotorCommand, PathRejected, PositionFix, TelemetrySnapshot,
-    VehicleCommand,
+    Autopilot, CommandRejected, ImuSample, MotorCommand, ParamRejected, PathRejected, PositionFix,
+    TelemetrySnapshot, VehicleCommand,
 };
 
 /// An [`Autopilot`] behind a critical-section mutex, installed once at start-up.
@@ -80,6 +80,12 @@ impl<A: Autopilot> Autopilot for SharedHandle<'_, A> {
     }
     fn telemetry(&self) -> TelemetrySnapshot {
         self.0.with(|a| a.telemetry()).unwrap_or(TelemetrySnapshot::BOOT)
+    }
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+        self.0.with(|a| a.set_param(name, value)).unwrap_or(Err(ParamRejected::NotNow))
+    }
+    fn get_param(&self, name: &str) -> Option<f32> {
+        self.0.with(|a| a.get_param(name)).flatten()
     }
 }
 

@@ -160,6 +160,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     let mut corrupted = 0;
     let mut corrupted_at_link = 0;
     let mut last_ctl = None;
+    let mut step_wall: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let wall = Instant::now();
     for k in 0..steps {
         let t = 1_000_000 + k * 1000;
@@ -192,6 +193,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
             });
         }
         h.send(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() });
+        let t_sent = Instant::now();
         loop {
             let Some((id, p)) = h.next(Duration::from_secs(5)) else {
                 panic!("firmware stopped answering at step {k}")
@@ -201,6 +203,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                     let c: HIL_ACTUATOR_CONTROLS_DATA = de(&p);
                     assert_eq!(c.time_usec, t, "answer for the wrong step");
                     last_ctl = Some(c);
+                    step_wall[(k % 4 == 0) as usize].push(t_sent.elapsed().as_secs_f64());
                     break;
                 }
                 NAMED_VALUE_INT_DATA::ID => {
@@ -222,6 +225,12 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         }
     }
     let wall = wall.elapsed().as_secs_f64();
+    let avg = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len().max(1) as f64 * 1e3;
+    println!(
+        "wall per step from HIL_SENSOR to answer: {:.2} ms (inner only), {:.2} ms (with outer + odometry + obstacles)",
+        avg(&step_wall[0]),
+        avg(&step_wall[1])
+    );
     assert_eq!(ins.len() as u64, steps);
     let mean = ins.iter().map(|&v| v as f64).sum::<f64>() / ins.len() as f64;
     let max = ins.iter().copied().max().unwrap_or(0);

@@ -58,7 +58,7 @@ mod firmware {
         }
         loop {
             app.poll(&mut port, &counter);
-            port.wait_readable().await;
+            port.sleep_until_readable();
         }
     }
 

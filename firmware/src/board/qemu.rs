@@ -105,6 +105,25 @@ impl Usart1 {
         }
     }
 
+    /// Sleeps (WFI) until at least one byte was received. Halting the emulated core instead of
+    /// spinning leaves the host CPU to QEMU's I/O thread, which delivers the next byte.
+    /// Interrupts are masked around the check so the wake-up cannot be lost: a pending
+    /// interrupt ends WFI even while masked, and runs when they are unmasked again.
+    pub fn sleep_until_readable(&mut self) {
+        if self.peeked.is_some() {
+            return;
+        }
+        while RX.is_empty() {
+            cortex_m::interrupt::disable();
+            if RX.is_empty() {
+                cortex_m::asm::wfi();
+            }
+            // SAFETY: re-enables interrupts after the masked check + WFI; no critical section is
+            // open here.
+            unsafe { cortex_m::interrupt::enable() };
+        }
+    }
+
     /// One received byte, if any.
     pub fn try_read(&mut self) -> Option<u8> {
         if let Some(b) = self.peeked.take() {
