@@ -15,6 +15,7 @@
 //! `cargo run -p parapet-firmware --release` flashes through probe-rs; logs are defmt over RTT.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 #[cfg(target_os = "none")]
 mod firmware {

@@ -1,6 +1,6 @@
 //! Boots the `board-qemu` firmware in `qemu-system-arm -machine netduinoplus2 -icount shift=0`,
 //! runs the heartbeat handshake and 2 s of simulated lockstep on a vehicle at rest (arm at
-//! 0.5 s), injects corrupted frames, and checks the answers.
+//! 0.5 s), injects corrupted frames and a truncated HIL_SENSOR, and checks the answers.
 //!
 //! Needs `qemu-system-arm` and the ELF built by
 //! `cargo build -p parapet-firmware --release --target thumbv7em-none-eabihf --no-default-features
@@ -52,6 +52,12 @@ impl Host {
         let n = b.len();
         b[n - 3] ^= 0x5A;
         self.sock.write_all(&b).expect("socket write");
+    }
+
+    fn send_truncated<D: MessageData>(&mut self, m: &D) {
+        let raw = self.writer.encode(m);
+        let b = raw.raw_bytes();
+        self.sock.write_all(&b[..b.len() / 2]).expect("socket write");
     }
 
     /// Next frame, or `None` after `timeout`.
@@ -192,7 +198,17 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                 ..Default::default()
             });
         }
-        h.send(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() });
+        let hil = HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() };
+        if k == 1500 {
+            // A truncated HIL_SENSOR: no answer may come; the framer must not stall, so the
+            // complete one sent next is answered.
+            h.send_truncated(&hil);
+            assert!(
+                !matches!(h.next(Duration::from_millis(300)), Some((id, _)) if id == HIL_ACTUATOR_CONTROLS_DATA::ID),
+                "answer to a truncated frame"
+            );
+        }
+        h.send(&hil);
         let t_sent = Instant::now();
         loop {
             let Some((id, p)) = h.next(Duration::from_secs(5)) else {

@@ -7,6 +7,7 @@
 //!  --no-default-features --features board-qemu --bin parapet-firmware-qemu`.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 #[cfg(target_os = "none")]
 mod firmware {
