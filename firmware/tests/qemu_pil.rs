@@ -18,9 +18,13 @@ use mavlink::dialects::ardupilotmega::{
     OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, STATUSTEXT_DATA,
 };
 use mavlink::{MavlinkVersion, MessageData};
+use parapet_core::controller::ControllerParams;
+use parapet_firmware::cascade::Cascade;
 use parapet_firmware::frame_parser::FrameParser;
+use parapet_firmware::lockstep::InstructionCalibration;
 use parapet_firmware::messages::frame_extra_crc;
 use parapet_firmware::obstacle_link::CLEAR_ID;
+use parapet_firmware::pil::{BytePort, PilApp, TickCounter};
 use parapet_firmware::telemetry::name_is;
 use parapet_firmware::wire::FrameWriter;
 
@@ -34,6 +38,8 @@ impl Drop for Qemu {
 }
 
 struct Host {
+    /// Every byte sent, for the host-side mirror of the firmware.
+    sent: Vec<u8>,
     sock: TcpStream,
     parser: FrameParser,
     writer: FrameWriter,
@@ -43,7 +49,12 @@ struct Host {
 impl Host {
     fn send<D: MessageData>(&mut self, m: &D) {
         let raw = self.writer.encode(m);
-        self.sock.write_all(raw.raw_bytes()).expect("socket write");
+        self.write(raw.raw_bytes());
+    }
+
+    fn write(&mut self, b: &[u8]) {
+        self.sent.extend_from_slice(b);
+        self.sock.write_all(b).expect("socket write");
     }
 
     fn send_corrupted<D: MessageData>(&mut self, m: &D) {
@@ -51,13 +62,14 @@ impl Host {
         let mut b = raw.raw_bytes().to_vec();
         let n = b.len();
         b[n - 3] ^= 0x5A;
-        self.sock.write_all(&b).expect("socket write");
+        self.write(&b);
     }
 
     fn send_truncated<D: MessageData>(&mut self, m: &D) {
         let raw = self.writer.encode(m);
         let b = raw.raw_bytes();
-        self.sock.write_all(&b[..b.len() / 2]).expect("socket write");
+        let half = b[..b.len() / 2].to_vec();
+        self.write(&half);
     }
 
     /// Next frame, or `None` after `timeout`.
@@ -87,6 +99,48 @@ impl Host {
             }
         }
     }
+}
+
+/// In-memory port for the host-side mirror: the same `PilApp` + `Cascade` the firmware runs.
+#[derive(Default)]
+struct MemPort {
+    rx: std::collections::VecDeque<u8>,
+    tx: Vec<u8>,
+}
+impl BytePort for MemPort {
+    fn try_read(&mut self) -> Option<u8> {
+        self.rx.pop_front()
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        self.tx.extend_from_slice(bytes);
+    }
+}
+struct NoTicks;
+impl TickCounter for NoTicks {
+    fn now(&self) -> u32 {
+        0
+    }
+    fn since(&self, _start: u32) -> u32 {
+        0
+    }
+}
+
+/// Throttles the mirror answered for simulated time `t`.
+fn mirror_step(app: &mut PilApp<Cascade>, port: &mut MemPort, bytes: &[u8], t: u64) -> Option<[f32; 4]> {
+    port.rx.extend(bytes);
+    port.tx.clear();
+    app.poll(port, &NoTicks);
+    let mut p = FrameParser::new();
+    let mut out = None;
+    p.push_bytes(&port.tx, frame_extra_crc, |f| {
+        if f.msg_id == HIL_ACTUATOR_CONTROLS_DATA::ID {
+            let c: HIL_ACTUATOR_CONTROLS_DATA = de(f.payload);
+            if c.time_usec == t {
+                out = Some([c.controls[0], c.controls[1], c.controls[2], c.controls[3]]);
+            }
+        }
+    });
+    out
 }
 
 fn de<D: MessageData>(p: &[u8]) -> D {
@@ -122,6 +176,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     };
     sock.set_nodelay(true).ok();
     let mut h = Host {
+        sent: Vec::new(),
         sock,
         parser: FrameParser::new(),
         writer: FrameWriter::new(255, 190),
@@ -138,6 +193,13 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         }
     }
     h.send(&HEARTBEAT_DATA::default());
+    let cascade = Cascade::new(ControllerParams::default()).expect("default parameters");
+    let mut mirror = PilApp::new(cascade, InstructionCalibration { instructions: 1, ticks: 1 });
+    let mut mirror_port = MemPort::default();
+    let mut mismatches = 0usize;
+    let mut max_diff = 0.0f32;
+    let mut compared = 0usize;
+    let mut varied = std::collections::BTreeSet::new();
     let (mut cal, mut cal_n, mut ready) = (None, None, false);
     while cal.is_none() || cal_n.is_none() || !ready {
         let Some((id, p)) = h.next(Duration::from_secs(5)) else {
@@ -171,19 +233,41 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     for k in 0..steps {
         let t = 1_000_000 + k * 1000;
         if k % 4 == 0 {
+            let kf = k as f32;
             h.send(&ODOMETRY_DATA {
                 time_usec: t,
+                x: 0.05 * (0.0031 * kf).sin(),
+                y: 0.04 * (0.0023 * kf).cos(),
+                z: -0.02 * (0.0017 * kf).sin(),
+                vx: 0.02 * (0.0029 * kf).cos(),
+                vy: -0.01 * (0.0041 * kf).sin(),
                 q: [1.0, 0.0, 0.0, 0.0],
                 frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
                 child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
                 ..Default::default()
             });
-            h.send(&OBSTACLE_DISTANCE_3D_DATA {
-                time_boot_ms: (t / 1000) as u32,
-                obstacle_id: CLEAR_ID,
-                frame: MavFrame::MAV_FRAME_LOCAL_NED,
-                ..Default::default()
-            });
+            if k < 1000 {
+                h.send(&OBSTACLE_DISTANCE_3D_DATA {
+                    time_boot_ms: (t / 1000) as u32,
+                    obstacle_id: CLEAR_ID,
+                    frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    ..Default::default()
+                });
+            } else {
+                // A moving obstacle 0.6 m north, 0.3 m up, approaching.
+                let mut name = [0u8; 10];
+                name[..4].copy_from_slice(b"OBV3");
+                h.send(&DEBUG_VECT_DATA { time_usec: t, x: -0.2, y: 0.05, z: 0.0, name: name.into() });
+                h.send(&OBSTACLE_DISTANCE_3D_DATA {
+                    time_boot_ms: (t / 1000) as u32,
+                    x: 0.6 - 0.0002 * (k - 1000) as f32,
+                    y: 0.0,
+                    z: -0.3,
+                    obstacle_id: 3,
+                    frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    ..Default::default()
+                });
+            }
         }
         if k % 50 == 25 {
             h.send_corrupted(&HEARTBEAT_DATA::default());
@@ -198,7 +282,30 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                 ..Default::default()
             });
         }
-        let hil = HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() };
+        if k == 700 {
+            // Hold 1 m above the origin: the cascade now flies (no plant moves the vehicle, but
+            // every stage of the cascade computes real outputs from the varying inputs).
+            h.send(&COMMAND_LONG_DATA {
+                param2: 3.0,
+                param3: 1.0,
+                param7: -1.0,
+                command: MavCmd::MAV_CMD_OVERRIDE_GOTO,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            });
+        }
+        let kf = k as f32;
+        let hil = HIL_SENSOR_DATA {
+            time_usec: t,
+            xgyro: 0.02 * (0.013 * kf).sin(),
+            ygyro: 0.02 * (0.007 * kf).cos(),
+            zgyro: 0.01 * (0.003 * kf).sin(),
+            xacc: 0.1 * (0.011 * kf).sin(),
+            yacc: 0.1 * (0.005 * kf).cos(),
+            zacc: -9.81 + 0.05 * (0.017 * kf).sin(),
+            ..Default::default()
+        };
         if k == 1500 {
             // A truncated HIL_SENSOR: no answer may come; the framer must not stall, so the
             // complete one sent next is answered.
@@ -218,6 +325,16 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                 HIL_ACTUATOR_CONTROLS_DATA::ID => {
                     let c: HIL_ACTUATOR_CONTROLS_DATA = de(&p);
                     assert_eq!(c.time_usec, t, "answer for the wrong step");
+                    let sent = std::mem::take(&mut h.sent);
+                    let m = mirror_step(&mut mirror, &mut mirror_port, &sent, t).expect("mirror answers");
+                    compared += 1;
+                    for i in 0..4 {
+                        if c.controls[i].to_bits() != m[i].to_bits() {
+                            mismatches += 1;
+                        }
+                        max_diff = max_diff.max((c.controls[i] - m[i]).abs());
+                        varied.insert(c.controls[i].to_bits());
+                    }
                     last_ctl = Some(c);
                     step_wall[(k % 4 == 0) as usize].push(t_sent.elapsed().as_secs_f64());
                     break;
@@ -255,10 +372,19 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         (steps as f64 * 1e-3) / wall
     );
     assert!(mean > 100.0, "implausible instruction count {mean}");
-    assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED], "arm accepted once");
+    assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED; 2], "arm and hold accepted");
     let c = last_ctl.expect("answers");
     assert!(c.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
-    assert!(c.controls[..4].iter().all(|&x| x > 0.0 && x < 0.3), "idle throttles {:?}", &c.controls[..4]);
+    assert!(c.controls[..4].iter().all(|&x| x > 0.0 && x <= 1.0), "throttles {:?}", &c.controls[..4]);
+    // The ARM binary and the host build of the same cascade agree bit for bit (IEEE-754 f32,
+    // no FMA contraction, same libm code) on every throttle of every step.
+    println!(
+        "PIL vs host mirror: {compared} steps, {mismatches} differing throttles, max |diff| {max_diff:e}, {} distinct values",
+        varied.len()
+    );
+    assert_eq!(compared as u64, steps);
+    assert!(varied.len() > 100, "the cascade's output must vary for the comparison to mean something");
+    assert_eq!(mismatches, 0, "max diff {max_diff}");
     // LINK (1 Hz) counts the corrupted frames sent before it; a resync inside a corrupted frame
     // may add a second CRC error, never fewer.
     assert!(corrupted_at_link >= 20, "{corrupted_at_link}");
