@@ -328,12 +328,12 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                     let sent = std::mem::take(&mut h.sent);
                     let m = mirror_step(&mut mirror, &mut mirror_port, &sent, t).expect("mirror answers");
                     compared += 1;
-                    for i in 0..4 {
-                        if c.controls[i].to_bits() != m[i].to_bits() {
+                    for (got, want) in c.controls[..4].iter().zip(m) {
+                        if got.to_bits() != want.to_bits() {
                             mismatches += 1;
                         }
-                        max_diff = max_diff.max((c.controls[i] - m[i]).abs());
-                        varied.insert(c.controls[i].to_bits());
+                        max_diff = max_diff.max((got - want).abs());
+                        varied.insert(got.to_bits());
                     }
                     last_ctl = Some(c);
                     step_wall[(k % 4 == 0) as usize].push(t_sent.elapsed().as_secs_f64());
