@@ -9,6 +9,22 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
+use std::os::unix::net::UnixStream;
+
+/// The host end of QEMU's serial chardev: TCP (default) or a Unix socket (`PARAPET_QEMU_UNIX=1`).
+trait SerialStream: Read + Write {
+    fn set_timeout(&self, d: Duration) -> std::io::Result<()>;
+}
+impl SerialStream for TcpStream {
+    fn set_timeout(&self, d: Duration) -> std::io::Result<()> {
+        self.set_read_timeout(Some(d))
+    }
+}
+impl SerialStream for UnixStream {
+    fn set_timeout(&self, d: Duration) -> std::io::Result<()> {
+        self.set_read_timeout(Some(d))
+    }
+}
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -40,7 +56,7 @@ impl Drop for Qemu {
 struct Host {
     /// Every byte sent, for the host-side mirror of the firmware.
     sent: Vec<u8>,
-    sock: TcpStream,
+    sock: Box<dyn SerialStream>,
     parser: FrameParser,
     writer: FrameWriter,
     inbox: std::collections::VecDeque<(u32, Vec<u8>)>,
@@ -80,7 +96,7 @@ impl Host {
                 return Some(f);
             }
             let left = end.checked_duration_since(Instant::now())?;
-            self.sock.set_read_timeout(Some(left.max(Duration::from_millis(1)))).ok()?;
+            self.sock.set_timeout(left.max(Duration::from_millis(1))).ok()?;
             let mut buf = [0u8; 512];
             match self.sock.read(&mut buf) {
                 Ok(0) => return None,
@@ -151,10 +167,17 @@ fn de<D: MessageData>(p: &[u8]) -> D {
 #[ignore = "needs qemu-system-arm and the board-qemu ELF (PARAPET_QEMU_ELF); run by cargo xtask test"]
 fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     let elf = std::env::var("PARAPET_QEMU_ELF").expect("set PARAPET_QEMU_ELF to the board-qemu firmware ELF");
+    let unix = std::env::var("PARAPET_QEMU_UNIX").is_ok_and(|v| v == "1");
     let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
+    let path = std::env::temp_dir().join(format!("parapet-pil-{}-{port}.sock", std::process::id()));
+    let chardev = if unix {
+        format!("socket,id=c0,path={},server=on,wait=off", path.display())
+    } else {
+        format!("socket,id=c0,host=127.0.0.1,port={port},server=on,wait=off,nodelay=on")
+    };
     let child = Command::new("qemu-system-arm")
         .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-kernel", &elf])
-        .args(["-chardev", &format!("socket,id=c0,host=127.0.0.1,port={port},server=on,wait=off,nodelay=on")])
+        .args(["-chardev", &chardev])
         .args(["-serial", "chardev:c0"])
         .args(["-icount", &std::env::var("PARAPET_QEMU_ICOUNT").unwrap_or_else(|_| "shift=0".into())])
         // Extra QEMU arguments for debugging, e.g. "-d int -D /tmp/qemu.log".
@@ -165,8 +188,16 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         .expect("qemu-system-arm starts");
     let _qemu = Qemu(child);
     let t_start = Instant::now();
-    let sock = loop {
-        match TcpStream::connect(("127.0.0.1", port)) {
+    let sock: Box<dyn SerialStream> = loop {
+        let r: std::io::Result<Box<dyn SerialStream>> = if unix {
+            UnixStream::connect(&path).map(|s| Box::new(s) as Box<dyn SerialStream>)
+        } else {
+            TcpStream::connect(("127.0.0.1", port)).map(|s| {
+                s.set_nodelay(true).ok();
+                Box::new(s) as Box<dyn SerialStream>
+            })
+        };
+        match r {
             Ok(s) => break s,
             Err(_) if t_start.elapsed() < Duration::from_secs(10) => {
                 std::thread::sleep(Duration::from_millis(50))
@@ -174,7 +205,6 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
             Err(e) => panic!("cannot connect to QEMU's serial socket: {e}"),
         }
     };
-    sock.set_nodelay(true).ok();
     let mut h = Host {
         sent: Vec::new(),
         sock,
