@@ -6,10 +6,13 @@
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
 //!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight.
 //! * `cargo xtask size` — print the firmware's flash and static-RAM use.
+//! * `cargo xtask bench [--long]` — run every criterion benchmark (short
+//!   measurement times unless `--long`) and print one summary table (see `bench.rs`).
 //!
 //! Environment: `PARAPET_PROPTEST_CASES` (default 10000 here) sets the number of
 //! cases of each safety-invariant property.
 
+mod bench;
 mod elf;
 
 use std::path::{Path, PathBuf};
@@ -26,8 +29,9 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("test") => test(),
         Some("size") => size().map(|_| ()),
+        Some("bench") => bench::bench(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test|size>");
+            eprintln!("usage: cargo xtask <test|size|bench [--long]>");
             return ExitCode::from(2);
         }
     };

@@ -1,0 +1,291 @@
+//! `cargo xtask bench [--long]`: run every criterion benchmark with short
+//! measurement times (`--warm-up-time 1 --measurement-time 2`; `--long` keeps
+//! criterion's defaults, 3 s + 5 s) and print one summary table from
+//! criterion's `<target>/criterion/**/new/{benchmark,estimates}.json`.
+//!
+//! Benchmarks: `parapet-tests` — `cbf_filter` (closed-form filter vs CBF-QP
+//! with clarabel), `cascade` (outer/inner steps of `FlightController`),
+//! `plant` (RK4 step, whole office flight); `parapet-sim` — `planner`.
+//! The benches print their own detail tables (agreement with the QP, planner
+//! statistics, flight summary) as they run; the summary adds the ratios:
+//! QP time / filter time per obstacle count, real-time factor of the flight,
+//! share of a 4 ms control period the host cascade uses.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::SystemTime;
+
+use crate::{cargo, root};
+
+/// One benchmark result read from criterion's files.
+#[derive(Clone, Debug)]
+struct Estimate {
+    /// `group/function/value` as criterion names it.
+    id: String,
+    group: String,
+    function: String,
+    value: Option<String>,
+    /// Median time per iteration, ns, and its 95 % confidence interval.
+    median_ns: f64,
+    ci_ns: (f64, f64),
+    /// Median absolute deviation of the samples, ns.
+    mad_ns: f64,
+}
+
+fn target_dir() -> PathBuf {
+    std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"))
+}
+
+/// Run a cargo command, echoing its stdout line by line, and return the lines.
+fn run_tee(what: &str, cmd: &mut Command) -> Result<Vec<String>, String> {
+    eprintln!("\n== xtask: {what}\n   $ {cmd:?}");
+    let mut child = cmd
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{what}: cannot start: {e}"))?;
+    let mut lines = Vec::new();
+    if let Some(out) = child.stdout.take() {
+        for line in BufReader::new(out).lines() {
+            let line = line.map_err(|e| format!("{what}: reading output: {e}"))?;
+            println!("{line}");
+            lines.push(line);
+        }
+    }
+    let status = child.wait().map_err(|e| format!("{what}: {e}"))?;
+    if status.success() {
+        Ok(lines)
+    } else {
+        Err(format!("{what} failed ({status})"))
+    }
+}
+
+/// The text of the JSON object that follows `"key":` in `s` (balanced braces).
+fn object<'a>(s: &'a str, key: &str) -> Option<&'a str> {
+    let start = s.find(&format!("\"{key}\":"))? + key.len() + 3;
+    let rest = s[start..].trim_start();
+    if !rest.starts_with('{') {
+        return None;
+    }
+    let mut depth = 0usize;
+    for (i, ch) in rest.char_indices() {
+        match ch {
+            '{' => depth += 1,
+            '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return Some(&rest[..=i]);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// The number that follows `"key":` in `s`.
+fn number(s: &str, key: &str) -> Option<f64> {
+    let start = s.find(&format!("\"{key}\":"))? + key.len() + 3;
+    let rest = s[start..].trim_start();
+    let end = rest.find([',', '}']).unwrap_or(rest.len());
+    rest[..end].trim().parse().ok()
+}
+
+/// The string that follows `"key":` in `s` (`None` for `null`).
+fn string(s: &str, key: &str) -> Option<String> {
+    let start = s.find(&format!("\"{key}\":"))? + key.len() + 3;
+    let rest = s[start..].trim_start().strip_prefix('"')?;
+    let mut out = String::new();
+    let mut chars = rest.chars();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' => return Some(out),
+            '\\' => out.push(chars.next()?),
+            c => out.push(c),
+        }
+    }
+    None
+}
+
+fn read_estimate(dir: &Path) -> Option<Estimate> {
+    let bench = std::fs::read_to_string(dir.join("benchmark.json")).ok()?;
+    let est = std::fs::read_to_string(dir.join("estimates.json")).ok()?;
+    let median = object(&est, "median")?;
+    let ci = object(median, "confidence_interval")?;
+    Some(Estimate {
+        id: string(&bench, "full_id")?,
+        group: string(&bench, "group_id")?,
+        function: string(&bench, "function_id").unwrap_or_default(),
+        value: string(&bench, "value_str"),
+        median_ns: number(median, "point_estimate")?,
+        ci_ns: (number(ci, "lower_bound")?, number(ci, "upper_bound")?),
+        mad_ns: number(object(&est, "median_abs_dev")?, "point_estimate")?,
+    })
+}
+
+/// Every `new/` result directory under `dir` written after `since`.
+fn collect(dir: &Path, since: SystemTime, out: &mut Vec<Estimate>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        if !p.is_dir() {
+            continue;
+        }
+        if p.file_name().is_some_and(|n| n == "new") {
+            let fresh = std::fs::metadata(p.join("estimates.json"))
+                .and_then(|m| m.modified())
+                .is_ok_and(|t| t >= since);
+            if fresh {
+                if let Some(est) = read_estimate(&p) {
+                    out.push(est);
+                }
+            }
+        } else if p.file_name().is_some_and(|n| n != "report" && n != "base" && n != "change") {
+            collect(&p, since, out);
+        }
+    }
+}
+
+fn fmt_time(ns: f64) -> String {
+    if ns >= 1e9 {
+        format!("{:.3} s", ns / 1e9)
+    } else if ns >= 1e6 {
+        format!("{:.3} ms", ns / 1e6)
+    } else if ns >= 1e3 {
+        format!("{:.2} µs", ns / 1e3)
+    } else {
+        format!("{ns:.1} ns")
+    }
+}
+
+/// Simulated seconds of the benchmark flight, from the line the `plant` bench prints.
+fn flight_sim_seconds(lines: &[String]) -> Option<f64> {
+    let line = lines.iter().find(|l| l.starts_with("office flight:"))?;
+    let before = line.split(" s simulated").next()?;
+    before.rsplit(' ').next()?.parse().ok()
+}
+
+/// What to say about one result in the summary's last column.
+fn note(e: &Estimate, all: &[Estimate], flight_s: Option<f64>) -> String {
+    match (e.group.as_str(), e.function.as_str()) {
+        ("cbf_filter", "multi" | "paper") => {
+            let qp = all
+                .iter()
+                .find(|q| q.group == "cbf_filter" && q.function == "qp_clarabel" && q.value == e.value);
+            match qp {
+                Some(q) => format!("QP (clarabel, all K) / this = {:.0}x", q.median_ns / e.median_ns),
+                None => String::new(),
+            }
+        }
+        ("plant", "office_flight") => match flight_s {
+            Some(s) => format!("{s:.2} s simulated: {:.0}x real time", s / (e.median_ns * 1e-9)),
+            None => String::new(),
+        },
+        ("cascade", "period_4ms") => format!("{:.3} % of the 4 ms period", 100.0 * e.median_ns / 4e6),
+        _ => String::new(),
+    }
+}
+
+/// `cargo xtask bench`.
+pub fn bench(args: &[String]) -> Result<(), String> {
+    let long = args.iter().any(|a| a == "--long");
+    let times: &[&str] = if long { &[] } else { &["--warm-up-time", "1", "--measurement-time", "2"] };
+    let since = SystemTime::now();
+    let mut lines = run_tee(
+        "benchmarks of parapet-tests (cbf_filter, cascade, plant)",
+        cargo()
+            .args(["bench", "-p", "parapet-tests", "--bench", "cbf_filter", "--bench", "cascade"])
+            .args(["--bench", "plant", "--"])
+            .args(times),
+    )?;
+    lines.extend(run_tee(
+        "planner benchmark of parapet-sim",
+        cargo().args(["bench", "-p", "parapet-sim", "--bench", "planner", "--"]).args(times),
+    )?);
+
+    let mut all = Vec::new();
+    collect(&target_dir().join("criterion"), since, &mut all);
+    if all.is_empty() {
+        return Err(format!("no criterion results found under {}", target_dir().join("criterion").display()));
+    }
+    let order = ["cbf_filter", "cascade", "plant", "plan"];
+    all.sort_by_key(|e| {
+        let g = order.iter().position(|g| *g == e.group).unwrap_or(order.len());
+        let k: u64 = e.value.as_deref().and_then(|v| v.parse().ok()).unwrap_or(0);
+        (g, k, e.function.clone(), e.id.clone())
+    });
+    let flight_s = flight_sim_seconds(&lines);
+    let cpu = Command::new("sh")
+        .args(["-c", "lscpu | sed -n 's/^Model name: *//p' | head -1"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "\n## Summary ({}; machine: {cores} cores, {cpu}; load average {})\n",
+        if long { "criterion default times" } else { "short runs: warm-up 1 s, measurement 2 s" },
+        load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+    );
+    println!("| benchmark | median | MAD | 95 % CI of the median | note |");
+    println!("|---|---:|---:|---|---|");
+    for e in &all {
+        println!(
+            "| {} | {} | {} | {} – {} | {} |",
+            e.id,
+            fmt_time(e.median_ns),
+            fmt_time(e.mad_ns),
+            fmt_time(e.ci_ns.0),
+            fmt_time(e.ci_ns.1),
+            note(e, &all, flight_s)
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EST: &str = r#"{"mean":{"confidence_interval":{"confidence_level":0.95,"lower_bound":10.0,"upper_bound":12.0},"point_estimate":11.0,"standard_error":0.5},"median":{"confidence_interval":{"confidence_level":0.95,"lower_bound":9.5,"upper_bound":10.5},"point_estimate":10.0,"standard_error":0.2},"median_abs_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":0.1,"upper_bound":0.3},"point_estimate":0.2,"standard_error":0.05},"slope":null,"std_dev":{"confidence_interval":{"confidence_level":0.95,"lower_bound":1.0,"upper_bound":2.0},"point_estimate":1.5,"standard_error":0.1}}"#;
+    const BENCH: &str = r#"{"group_id":"cbf_filter","function_id":"multi","value_str":"16","throughput":null,"full_id":"cbf_filter/multi/16","directory_name":"cbf_filter/multi/16","title":"cbf_filter/multi/16"}"#;
+
+    #[test]
+    fn parses_criterion_files() {
+        let m = object(EST, "median").unwrap();
+        assert_eq!(number(m, "point_estimate"), Some(10.0));
+        assert_eq!(number(object(m, "confidence_interval").unwrap(), "upper_bound"), Some(10.5));
+        assert_eq!(number(object(EST, "median_abs_dev").unwrap(), "point_estimate"), Some(0.2));
+        assert_eq!(string(BENCH, "full_id").as_deref(), Some("cbf_filter/multi/16"));
+        assert_eq!(string(BENCH, "value_str").as_deref(), Some("16"));
+        assert_eq!(object(EST, "slope"), None);
+    }
+
+    #[test]
+    fn reads_a_result_directory_and_notes_ratios() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-test-{}", std::process::id()));
+        let new = dir.join("cbf_filter/multi/16/new");
+        std::fs::create_dir_all(&new).unwrap();
+        std::fs::write(new.join("estimates.json"), EST).unwrap();
+        std::fs::write(new.join("benchmark.json"), BENCH).unwrap();
+        let mut all = Vec::new();
+        collect(&dir, SystemTime::UNIX_EPOCH, &mut all);
+        assert_eq!(all.len(), 1);
+        assert_eq!((all[0].median_ns, all[0].ci_ns, all[0].mad_ns), (10.0, (9.5, 10.5), 0.2));
+        let mut qp = all[0].clone();
+        qp.function = "qp_clarabel".into();
+        qp.median_ns = 2500.0;
+        all.push(qp);
+        assert_eq!(note(&all[0], &all, None), "QP (clarabel, all K) / this = 250x");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn finds_the_flight_time() {
+        let lines =
+            vec!["x".to_string(), "office flight: end goal, 59.28 s simulated, 59280 plant steps".into()];
+        assert_eq!(flight_sim_seconds(&lines), Some(59.28));
+        assert_eq!(fmt_time(1500.0), "1.50 µs");
+    }
+}
