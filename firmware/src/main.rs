@@ -257,11 +257,22 @@ mod firmware {
     }
 }
 
+/// On the host, `cargo run -p parapet-firmware --release` lands here: re-run cargo for the
+/// Cortex-M target, whose runner (`.cargo/config.toml`) flashes the board through probe-rs.
 #[cfg(not(target_os = "none"))]
 fn main() {
-    eprintln!(
-        "parapet-firmware runs on an STM32F405 (thumbv7em-none-eabihf): \
-         cargo run -p parapet-firmware --release --target thumbv7em-none-eabihf"
-    );
-    std::process::exit(2);
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    eprintln!("parapet-firmware: building for thumbv7em-none-eabihf and flashing through probe-rs");
+    let status = std::process::Command::new(cargo)
+        .args(["run", "-p", "parapet-firmware", "--release", "--target", "thumbv7em-none-eabihf", "--bin"])
+        .arg("parapet-firmware")
+        .args(std::env::args().skip(1))
+        .status();
+    match status {
+        Ok(s) => std::process::exit(s.code().unwrap_or(1)),
+        Err(e) => {
+            eprintln!("parapet-firmware: cannot run cargo: {e}");
+            std::process::exit(1);
+        }
+    }
 }
