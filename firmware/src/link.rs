@@ -525,6 +525,7 @@ mod tests {
             l.push_bytes(&send(&mut w, &land), 0, &mut ap);
         }
         assert_eq!(l.stats().replies_dropped, 3);
+        assert_eq!(crate::telemetry::ErrorCounters::from_link(&l).replies_dropped, 3);
         assert_eq!(replies(&mut l).len(), REPLY_QUEUE_LEN);
     }
 }

@@ -38,7 +38,7 @@ mod firmware {
     use parapet_firmware::mpu6000::{ImuError, Mpu6000};
     use parapet_firmware::outbound::Outbound;
     use parapet_firmware::shared::{SharedAutopilot, SharedCell};
-    use parapet_firmware::telemetry::{TelemetryInputs, TelemetryScheduler};
+    use parapet_firmware::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
     use parapet_firmware::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use static_cell::StaticCell;
 
@@ -55,6 +55,7 @@ mod firmware {
     static CASCADE: SharedAutopilot<Cascade> = SharedAutopilot::new();
     static INNER_REPORT: SharedCell<LoopReport> = SharedCell::new(LoopReport::ZERO);
     static OUTER_REPORT: SharedCell<LoopReport> = SharedCell::new(LoopReport::ZERO);
+    static IMU_ERRORS: SharedCell<u32> = SharedCell::new(0);
     static EXECUTOR_HIGH: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
@@ -162,6 +163,7 @@ mod firmware {
                 Ok(s) => s,
                 Err(_) => {
                     imu_errors = imu_errors.saturating_add(1);
+                    IMU_ERRORS.set(imu_errors);
                     // A non-finite sample makes the cascade take its bad-input failsafe.
                     ImuSample { gyro_frd: Vec3::repeat(f32::NAN), accel_frd: Vec3::repeat(f32::NAN) }
                 }
@@ -220,10 +222,15 @@ mod firmware {
                 inner: INNER_REPORT.get(),
                 outer: OUTER_REPORT.get(),
                 parser: link.parser_stats(),
+                counters: ErrorCounters {
+                    imu_errors: IMU_ERRORS.get(),
+                    uart_errors,
+                    ..ErrorCounters::from_link(&link)
+                },
             };
             let mut queued: heapless::Vec<Outbound, 16> = heapless::Vec::new();
             telemetry.poll(now, &inputs, |m| {
-                // 16 > the at most 13 messages of one poll.
+                // 16 > the at most 15 messages of one poll.
                 let _ = queued.push(m);
             });
             for m in &queued {

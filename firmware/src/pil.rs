@@ -11,7 +11,7 @@ use crate::link::{FixClock, Link};
 use crate::lockstep::{InstructionCalibration, LockstepScheduler};
 use crate::loop_timing::{LoopReport, LoopTimer};
 use crate::outbound::{named_int, Outbound};
-use crate::telemetry::{heartbeat, status_text, TelemetryInputs, TelemetryScheduler};
+use crate::telemetry::{heartbeat, status_text, ErrorCounters, TelemetryInputs, TelemetryScheduler};
 use crate::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 
 /// Instructions of the start-up calibration loop (2 × 50 000 iterations of a 2-instruction loop
@@ -182,10 +182,11 @@ impl<A: Autopilot> PilApp<A> {
             inner: self.inner_timer.report(),
             outer: self.outer_timer.report(),
             parser: self.link.parser_stats(),
+            counters: ErrorCounters::from_link(&self.link),
         };
         let mut queued: heapless::Vec<Outbound, 16> = heapless::Vec::new();
         self.telemetry.poll(t, &inputs, |m| {
-            // 16 > the at most 13 messages one poll emits.
+            // 16 > the at most 15 messages one poll emits.
             let _ = queued.push(m);
         });
         if self.telemetry.loops_reported {

@@ -11,6 +11,8 @@
 //! | outer loop | DEBUG_VECT `LOOP_OUT` | 2 Hz | same for the position + CBF loop |
 //! | overruns | NAMED_VALUE_INT `OVR_IN` / `OVR_OUT` | 2 Hz | overruns since boot |
 //! | link | DEBUG_VECT `LINK` | 1 Hz | x = frames ok, y = CRC errors, z = malformed frames |
+//! | drops | DEBUG_VECT `LINK_DROP` | 1 Hz | x = replies dropped (queue full), y = inbound messages rejected, z = obstacle points rejected/dropped |
+//! | hardware | DEBUG_VECT `HW_ERR` | 1 Hz | x = IMU read errors, y = UART receive errors |
 //! | failsafe | STATUSTEXT + NAMED_VALUE_INT `FAILSAFE` | on every transition | severity CRITICAL on entry ("FAILSAFE: reason"), NOTICE on exit ("FAILSAFE cleared") |
 //!
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
@@ -36,6 +38,44 @@ pub struct TelemetryInputs {
     pub outer: LoopReport,
     /// Framer counters.
     pub parser: ParserStats,
+    /// Error counters.
+    pub counters: ErrorCounters,
+}
+
+/// Error counters reported at 1 Hz (`DEBUG_VECT LINK_DROP` and `HW_ERR`), all since boot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ErrorCounters {
+    /// Replies dropped because the reply queue was full.
+    pub replies_dropped: u32,
+    /// Inbound messages rejected: undecodable payloads, bad ODOMETRY, unknown parameters.
+    pub inputs_rejected: u32,
+    /// Obstacle points rejected (unsupported frame, non-finite) or dropped (batch full).
+    pub obstacles_rejected: u32,
+    /// IMU read failures (board) — each fed the cascade a NaN sample.
+    pub imu_errors: u32,
+    /// UART receive errors (board: overrun, framing, noise).
+    pub uart_errors: u32,
+}
+
+impl ErrorCounters {
+    /// The link's counters (board counters zero).
+    pub fn from_link(link: &crate::link::Link) -> Self {
+        let l = link.stats();
+        let o = link.obstacle_stats();
+        Self {
+            replies_dropped: l.replies_dropped,
+            inputs_rejected: l
+                .decode_errors
+                .saturating_add(l.odometry_rejected)
+                .saturating_add(l.unknown_params),
+            obstacles_rejected: o
+                .rejected_frame
+                .saturating_add(o.rejected_non_finite)
+                .saturating_add(o.dropped_full),
+            imu_errors: 0,
+            uart_errors: 0,
+        }
+    }
 }
 
 /// Stream periods, µs.
@@ -119,7 +159,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most 13 messages per call.
+    /// `emit`. Bounded: at most 15 messages per call.
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -202,6 +242,15 @@ impl TelemetryScheduler {
                         p.crc_errors as f32,
                         p.malformed as f32,
                     ));
+                    let c = &inp.counters;
+                    emit(debug_vect(
+                        now_us,
+                        "LINK_DROP",
+                        c.replies_dropped as f32,
+                        c.inputs_rejected as f32,
+                        c.obstacles_rejected as f32,
+                    ));
+                    emit(debug_vect(now_us, "HW_ERR", c.imu_errors as f32, c.uart_errors as f32, 0.0));
                 }
             }
         }
@@ -226,6 +275,7 @@ mod tests {
             inner: LoopReport::default(),
             outer: LoopReport::default(),
             parser: ParserStats::default(),
+            counters: ErrorCounters::default(),
         }
     }
 
@@ -245,6 +295,8 @@ mod tests {
         assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "CBF"))), 25);
         assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LOOP_IN"))), 2);
         assert_eq!(count(&|m| matches!(m, Outbound::StatusText(_))), 0);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LINK_DROP"))), 1);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "HW_ERR"))), 1);
     }
 
     #[test]
