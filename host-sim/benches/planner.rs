@@ -1,11 +1,19 @@
 //! Planner benchmark: `cargo bench -p parapet-sim --bench planner`.
 //!
 //! For every shipped scene (`scenes/*.toml`) it first prints a table of
-//! per-call statistics over 200 seeds (median and 95th percentile planning
-//! time, iterations, waypoints, path length relative to the straight line),
+//! per-call statistics over 200 seeds (median and 95th percentile wall-clock
+//! planning time, median CPU time, iterations, waypoints, path length
+//! relative to the straight line),
 //! then runs one criterion benchmark per scene whose iterations cycle through
 //! seeds 0..100 (so the reported time is the typical time of a `plan` call,
-//! not that of one lucky or unlucky seed).
+//! not that of one lucky or unlucky seed; criterion's figure is therefore
+//! close to the *mean* time per call, which the tail of slow seeds raises
+//! above the median of the table).
+//!
+//! CPU time (`cpu_med_ms`) is the thread's CPU time
+//! (`CLOCK_THREAD_CPUTIME_ID`, 64-bit Linux), each seed timed over 10
+//! identical calls; unlike wall-clock time it does not grow when other
+//! processes compete for the cores. `-` on other platforms.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -32,6 +40,30 @@ fn scenes() -> Vec<(String, PlanProblem)> {
         .collect()
 }
 
+/// This thread's CPU time, ns: `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`
+/// (64-bit Linux; declared here to avoid a `libc` dependency for one call).
+#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
+fn thread_cpu_ns() -> Option<u64> {
+    #[repr(C)]
+    struct Timespec {
+        tv_sec: i64,
+        tv_nsec: i64,
+    }
+    extern "C" {
+        fn clock_gettime(clock_id: i32, tp: *mut Timespec) -> i32;
+    }
+    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+    let mut ts = Timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
+    let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
+}
+
+#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
+fn thread_cpu_ns() -> Option<u64> {
+    None
+}
+
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     let i = ((sorted.len() - 1) as f64 * q).round() as usize;
     sorted[i]
@@ -39,14 +71,15 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 fn print_table(scenes: &[(String, PlanProblem)]) {
     println!(
-        "{:<16} {:>5} {:>11} {:>11} {:>9} {:>10} {:>10} {:>12}",
-        "scene", "obst", "median_ms", "p95_ms", "med_iter", "med_wps", "len_m", "len/straight"
+        "{:<16} {:>5} {:>10} {:>10} {:>11} {:>9} {:>8} {:>8} {:>12}",
+        "scene", "obst", "median_ms", "p95_ms", "cpu_med_ms", "med_iter", "med_wps", "len_m", "len/straight"
     );
     for (name, problem) in scenes {
         let mut times = Vec::new();
         let mut iters = Vec::new();
         let mut wps = Vec::new();
         let mut lens = Vec::new();
+        let mut cpu = Vec::new();
         for seed in 0..200 {
             let params = PlannerParams { seed, ..Default::default() };
             let t0 = Instant::now();
@@ -55,17 +88,28 @@ fn print_table(scenes: &[(String, PlanProblem)]) {
             iters.push(path.iterations as f64);
             wps.push(path.waypoints.len() as f64);
             lens.push(path.length_m as f64);
+            if let Some(c0) = thread_cpu_ns() {
+                for _ in 0..10 {
+                    black_box(plan(black_box(problem), &params).is_ok());
+                }
+                if let Some(c1) = thread_cpu_ns() {
+                    cpu.push((c1 - c0) as f64 / 10.0 / 1e6);
+                }
+            }
         }
-        for v in [&mut times, &mut iters, &mut wps, &mut lens] {
+        for v in [&mut times, &mut iters, &mut wps, &mut lens, &mut cpu] {
             v.sort_by(f64::total_cmp);
         }
         let straight = (problem.goal - problem.start).norm() as f64;
+        let cpu_med =
+            if cpu.len() == times.len() { format!("{:.4}", percentile(&cpu, 0.5)) } else { "-".into() };
         println!(
-            "{:<16} {:>5} {:>11.4} {:>11.4} {:>9.0} {:>10.0} {:>10.2} {:>12.3}",
+            "{:<16} {:>5} {:>10.4} {:>10.4} {:>11} {:>9.0} {:>8.0} {:>8.2} {:>12.3}",
             name,
             problem.obstacles.len(),
             percentile(&times, 0.5),
             percentile(&times, 0.95),
+            cpu_med,
             percentile(&iters, 0.5),
             percentile(&wps, 0.5),
             percentile(&lens, 0.5),

@@ -119,9 +119,9 @@ use thiserror::Error;
 /// Default planning margin added to the hull radius, m.
 pub const DEFAULT_MARGIN_M: f32 = 0.05;
 
-/// Default waypoint capacity (start and goal included): the firmware's path
-/// capacity.
-pub const DEFAULT_MAX_WAYPOINTS: usize = 64;
+/// Default waypoint capacity (start and goal included): the flight
+/// controller's path capacity, [`parapet_core::controller::PATH_CAPACITY`] (64).
+pub const DEFAULT_MAX_WAYPOINTS: usize = parapet_core::controller::PATH_CAPACITY;
 
 /// Hard cap on clearance evaluations per segment check (the check rejects
 /// the rest of the segment when it is reached; only relevant for a segment
@@ -188,7 +188,8 @@ pub struct PlannerParams {
     pub time_budget_ms: f64,
     /// Probability in [0, 1] that a sample is the other tree's root (default 0.05).
     pub goal_bias: f32,
-    /// Maximum number of waypoints, start and goal included (≥ 2; default 64).
+    /// Maximum number of waypoints, start and goal included (≥ 2; default
+    /// [`DEFAULT_MAX_WAYPOINTS`] = the controller's path capacity, 64).
     pub max_waypoints: usize,
     /// Maximum extension length per tree step, m; `None` = 20 % of the
     /// largest bounds extent (OMPL's default range), at least 0.1 m.
