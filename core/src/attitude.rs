@@ -30,7 +30,7 @@
 //! while the mixer reports saturation (conditional integration).
 //! `α` is clamped to `±alpha_max` so a wild input cannot produce a huge torque.
 
-use crate::frame::wrap_pi;
+use crate::frame::{clampf, wrap_pi};
 use crate::Vec3;
 
 /// Attitude and rate controller gains, limits and filter settings.
@@ -196,7 +196,7 @@ impl AttitudeController {
         ];
         let mut out = [0.0; 3];
         for i in 0..3 {
-            out[i] = w[i].clamp(-p.rate_max[i], p.rate_max[i]);
+            out[i] = clampf(w[i], -p.rate_max[i], p.rate_max[i]);
         }
         (out, true)
     }
@@ -238,10 +238,10 @@ impl AttitudeController {
             let e = (rate_sp[i] - rate[i]).clamp(-1e4, 1e4);
             if dt_ok && !saturated {
                 let lim = p.integral_limit[i];
-                self.integral[i] = (self.integral[i] + p.rate_i[i] * e * dt_s).clamp(-lim, lim);
+                self.integral[i] = clampf(self.integral[i] + p.rate_i[i] * e * dt_s, -lim, lim);
             }
             let alpha = p.rate_p[i] * e + self.integral[i] - p.rate_d[i] * self.d_filt[i];
-            torque[i] = p.inertia[i] * alpha.clamp(-p.alpha_max, p.alpha_max);
+            torque[i] = p.inertia[i] * clampf(alpha, -p.alpha_max, p.alpha_max);
         }
         (torque, dt_ok)
     }

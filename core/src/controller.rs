@@ -55,7 +55,7 @@ use crate::attitude::{torque_vec, AttitudeController, AttitudeError, AttitudePar
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter, INPUT_LIMIT};
 use crate::estimator::{AttitudeEstimator, EstimatorError, EstimatorParams, ImuSample, ImuStatus};
 use crate::failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
-use crate::frame::{is_finite3, GRAVITY};
+use crate::frame::{clampf, is_finite3, GRAVITY};
 use crate::mixer::{Mixer, MixerError, MixerOutput};
 use crate::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
 use crate::thrust::{map_acceleration, AttitudeSetpoint, ThrustParams};
@@ -631,7 +631,7 @@ impl FlightController {
             let dt = (fix.t_us - prev.t_us) as f32 * 1e-6;
             if dt > 0.0 && dt <= 0.1 {
                 let lim = 2.0 * GRAVITY;
-                let raw = ((fix.velocity - prev.velocity) / dt).map(|x| x.clamp(-lim, lim));
+                let raw = ((fix.velocity - prev.velocity) / dt).map(|x| clampf(x, -lim, lim));
                 let k = dt / (self.params.accel_comp_tau_s + dt);
                 self.accel_est += (raw - self.accel_est) * k;
             } else if dt > 0.1 {

@@ -48,7 +48,7 @@
 //! accelerometer/yaw correction is still not applied; state kept).
 
 use crate::attitude::Euler;
-use crate::frame::{is_finite3, wrap_pi, GRAVITY};
+use crate::frame::{clampf, is_finite3, wrap_pi, GRAVITY};
 use crate::Vec3;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -347,7 +347,7 @@ impl AttitudeEstimator {
             self.bias += (imu.gyro - self.bias) * k;
         }
         let bm = p.bias_max;
-        self.bias = self.bias.map(|b| b.clamp(-bm, bm));
+        self.bias = self.bias.map(|b| clampf(b, -bm, bm));
         self.rate = imu.gyro - self.bias;
         let omega = self.rate + corr;
         let dq = UnitQuaternion::from_scaled_axis(omega * dt_s);

@@ -38,6 +38,14 @@ pub fn is_finite3(v: &Vec3) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
 
+/// `x` limited to `[lo, hi]` without ever panicking (unlike `f32::clamp`, which
+/// panics when `lo > hi` or a bound is NaN — a bad parameter must not stop a
+/// control loop). NaN `x` gives `lo`; NaN bounds are ignored; `lo > hi` gives `hi`.
+#[inline]
+pub fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
+}
+
 /// Wrap an angle to (−π, π], rad. Non-finite input is returned unchanged
 /// (callers check finiteness themselves).
 #[inline]
@@ -63,6 +71,15 @@ mod tests {
         assert_eq!(ned_to_enu(enu_to_ned(p)), p);
         // 3 m above ground is z = -3 in NED; east (x_enu) becomes y_ned.
         assert_eq!(enu_to_ned(p), Vec3::new(2.0, 1.0, -3.0));
+    }
+
+    #[test]
+    fn clampf_never_panics() {
+        assert_eq!(clampf(5.0, 0.0, 1.0), 1.0);
+        assert_eq!(clampf(-5.0, 0.0, 1.0), 0.0);
+        assert_eq!(clampf(f32::NAN, 0.0, 1.0), 0.0);
+        assert_eq!(clampf(0.5, f32::NAN, 1.0), 0.5);
+        assert_eq!(clampf(0.5, 2.0, 1.0), 1.0); // lo > hi: no panic
     }
 
     #[test]

@@ -33,6 +33,7 @@
 //! [`crate::airframe`]: `ω = c·ω_max`, `f = c² f_max`).
 
 use crate::airframe::{Airframe, ROTOR_XY_UNIT, ROTOR_YAW_SIGN};
+use crate::frame::clampf;
 use crate::Vec3;
 
 /// Result of one mixing step.
@@ -146,7 +147,7 @@ impl Mixer {
 
         // 2. Collective: shift as little as possible so that base + rp ∈ [0, f_max].
         let want = t / 4.0;
-        let base = want.clamp(-lo, (fm - hi).max(-lo));
+        let base = clampf(want, -lo, (fm - hi).max(-lo));
         let thrust_limited = (base - want).abs() > 1e-6 * fm.max(1.0);
 
         // 3. Yaw: largest scale λ ∈ [0, 1] keeping every rotor in range.
@@ -172,7 +173,7 @@ impl Mixer {
             ..MixerOutput::default()
         };
         for i in 0..4 {
-            let f = (base + rp[i] + lambda * yaw[i]).clamp(0.0, fm);
+            let f = clampf(base + rp[i] + lambda * yaw[i], 0.0, fm);
             // clamp() of a NaN stays NaN; the inputs are clean so f is finite, but be explicit.
             let f = if f.is_finite() { f } else { 0.0 };
             out.thrust_n[i] = f;

@@ -6,7 +6,7 @@
 //! reports), optionally with the obstacle's velocity. [`Shape::closest_point`]
 //! produces that point from a known shape (simulator, planner, tests).
 
-use crate::frame::is_finite3;
+use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
 /// Obstacle geometry in the world NED frame.
@@ -164,7 +164,7 @@ impl Shape {
                     }
                 } else {
                     let rc = if inside_r { r } else { *radius };
-                    let zc = p.z.clamp(z_top, z_bot);
+                    let zc = clampf(p.z, z_top, z_bot);
                     let s = Vec3::new(b.x + dir.x * rc, b.y + dir.y * rc, zc);
                     (s, (p - s).norm())
                 }

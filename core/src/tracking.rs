@@ -3,7 +3,7 @@
 //!
 //! `u* = p̈_d + K_d (ṗ_d − ṗ) + K_p (p_d − p) + e_z ∫ k_i (z_d − z) dt`, world NED, m/s².
 
-use crate::frame::is_finite3;
+use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
 /// Tracking gains and limits.
@@ -110,7 +110,7 @@ impl PdTracker {
         // Output limits: horizontal norm, then vertical interval.
         let (z_lo, z_hi) = (-p.accel_max_up.abs(), p.accel_max_down.abs());
         let z_sat = u.z < z_lo || u.z > z_hi;
-        u.z = u.z.clamp(z_lo, z_hi);
+        u.z = clampf(u.z, z_lo, z_hi);
         let xy = libm::hypotf(u.x, u.y);
         let xy_max = p.accel_max_xy.abs();
         if xy > xy_max && xy > 0.0 {
@@ -123,7 +123,7 @@ impl PdTracker {
             let pushing_further = z_sat && (e.z > 0.0) == (u.z >= z_hi);
             if !pushing_further {
                 let lim = p.integral_limit_z.abs();
-                self.integral_z = (self.integral_z + p.ki_z * e.z * dt_s).clamp(-lim, lim);
+                self.integral_z = clampf(self.integral_z + p.ki_z * e.z * dt_s, -lim, lim);
             }
         }
         if !u.iter().all(|x| x.is_finite()) {
