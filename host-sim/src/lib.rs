@@ -7,11 +7,13 @@
 //! * [`planner`]: offline RRT-Connect + shortcutting planner (static obstacles, NED).
 //! * [`pathfile`]: path files (JSON, ENU z-up) written by `parapet plan`.
 //! * [`runner`]: the closed loop plant → sensors → controller, metrics.
+//! * [`pil`]: processor-in-the-loop: the QEMU firmware flies the scene over MAVLink lockstep.
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 pub mod cli;
 pub mod control;
 pub mod pathfile;
+pub mod pil;
 pub mod planner;
 pub mod plant;
 pub mod replay;
