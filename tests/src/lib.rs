@@ -2,6 +2,7 @@
 //! and benchmarks: a double-integrator closed loop for the safety invariant,
 //! a reference CBF-QP solved with clarabel, and the proptest case count.
 
+pub mod bench_states;
 pub mod double_integrator;
 pub mod reference_qp;
 
