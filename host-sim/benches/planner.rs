@@ -2,7 +2,7 @@
 //!
 //! For every shipped scene (`scenes/*.toml`) it first prints a table of
 //! per-call statistics over 200 seeds (median and 95th percentile wall-clock
-//! planning time, median CPU time, iterations, waypoints, path length
+//! planning time, median and mean CPU time, iterations, waypoints, path length
 //! relative to the straight line),
 //! then runs one criterion benchmark per scene whose iterations cycle through
 //! seeds 0..100 (so the reported time is the typical time of a `plan` call,
@@ -71,8 +71,17 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 fn print_table(scenes: &[(String, PlanProblem)]) {
     println!(
-        "{:<16} {:>5} {:>10} {:>10} {:>11} {:>9} {:>8} {:>8} {:>12}",
-        "scene", "obst", "median_ms", "p95_ms", "cpu_med_ms", "med_iter", "med_wps", "len_m", "len/straight"
+        "{:<24} {:>5} {:>10} {:>10} {:>11} {:>12} {:>9} {:>8} {:>8} {:>12}",
+        "scene",
+        "obst",
+        "median_ms",
+        "p95_ms",
+        "cpu_med_ms",
+        "cpu_mean_ms",
+        "med_iter",
+        "med_wps",
+        "len_m",
+        "len/straight"
     );
     for (name, problem) in scenes {
         let mut times = Vec::new();
@@ -101,15 +110,22 @@ fn print_table(scenes: &[(String, PlanProblem)]) {
             v.sort_by(f64::total_cmp);
         }
         let straight = (problem.goal - problem.start).norm() as f64;
-        let cpu_med =
-            if cpu.len() == times.len() { format!("{:.4}", percentile(&cpu, 0.5)) } else { "-".into() };
+        let (cpu_med, cpu_mean) = if cpu.len() == times.len() {
+            (
+                format!("{:.4}", percentile(&cpu, 0.5)),
+                format!("{:.4}", cpu.iter().sum::<f64>() / cpu.len() as f64),
+            )
+        } else {
+            ("-".into(), "-".into())
+        };
         println!(
-            "{:<16} {:>5} {:>10.4} {:>10.4} {:>11} {:>9.0} {:>8.0} {:>8.2} {:>12.3}",
+            "{:<24} {:>5} {:>10.4} {:>10.4} {:>11} {:>12} {:>9.0} {:>8.0} {:>8.2} {:>12.3}",
             name,
             problem.obstacles.len(),
             percentile(&times, 0.5),
             percentile(&times, 0.95),
             cpu_med,
+            cpu_mean,
             percentile(&iters, 0.5),
             percentile(&wps, 0.5),
             percentile(&lens, 0.5),
