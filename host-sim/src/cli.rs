@@ -1,4 +1,4 @@
-//! The `parapet` command line: `run`, `plan`, `replay`.
+//! The `parapet` command line: `run`, `pil`, `plan`, `replay`.
 //!
 //! Exit codes: 0 success, 1 internal failure, 2 bad input (a file, field or
 //! option named in the message), 3 no path found by the planner.
@@ -35,6 +35,10 @@ enum Command {
     /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
     /// simulator; write summary.json, trajectory.csv and plots.
     Run(RunArgs),
+    /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
+    /// (`parapet-firmware-qemu`) in QEMU netduinoplus2 as the flight controller, in lockstep
+    /// over MAVLink; same report plus PIL figures (frames, instructions per step, real-time factor).
+    Pil(PilArgs),
     /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
     Plan(PlanArgs),
     /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
@@ -92,9 +96,22 @@ struct RunArgs {
     /// Proximity-sensor range, m (default: the scene's, else 3).
     #[arg(long, allow_negative_numbers = true)]
     sensing_range: Option<f64>,
-    /// Output directory.
-    #[arg(long, default_value = "out/run")]
-    out: PathBuf,
+    /// Output directory [default: out/run; `pil`: out/pil].
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct PilArgs {
+    #[command(flatten)]
+    run: RunArgs,
+    /// Firmware ELF (`parapet-firmware-qemu`, the board-qemu build). Default: build it with
+    /// cargo (release, thumbv7em-none-eabihf, --no-default-features --features board-qemu).
+    #[arg(long)]
+    firmware: Option<PathBuf>,
+    /// Wall-clock seconds without an answer from the firmware before the run fails.
+    #[arg(long, default_value_t = 3.0)]
+    timeout: f64,
 }
 
 #[derive(Debug, Args)]
@@ -192,6 +209,7 @@ pub fn main() -> i32 {
 fn dispatch(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Run(a) => cmd_run(a),
+        Command::Pil(a) => cmd_pil(a),
         Command::Plan(a) => cmd_plan(a),
         Command::Replay(a) => cmd_replay(a),
     }
@@ -243,7 +261,8 @@ fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
     }
 }
 
-fn cmd_run(a: RunArgs) -> Result<(), CliError> {
+/// Scene and run configuration from the `run` options (shared by `run` and `pil`).
+fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     let mut scene = load_scene(&a.scene)?;
     if let Some(s) = positive("speed", a.speed)? {
         scene.speed = s;
@@ -309,9 +328,13 @@ fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     }
     cfg.seed = a.seed;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
+    Ok((scene, cfg))
+}
 
+/// Run `f` with a progress bar (simulated seconds) on a terminal.
+fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> T {
     let bar = std::io::stderr().is_terminal().then(|| {
-        let pb = indicatif::ProgressBar::new((cfg.duration * 10.0).ceil() as u64);
+        let pb = indicatif::ProgressBar::new((duration * 10.0).ceil() as u64);
         pb.set_style(
             indicatif::ProgressStyle::with_template("{spinner} sim {msg} [{bar:40}] {elapsed_precise}")
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -324,18 +347,65 @@ fn cmd_run(a: RunArgs) -> Result<(), CliError> {
             pb.set_message(format!("{t:6.1} s"));
         }
     };
-    let out = run(&scene, &cfg, &mut on_progress)?;
+    let r = f(&mut on_progress);
     if let Some(pb) = bar {
         pb.finish_and_clear();
     }
+    r
+}
+
+fn cmd_run(a: RunArgs) -> Result<(), CliError> {
+    let (scene, cfg) = run_setup(&a)?;
+    let out = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
+    let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     let rec = RunRecord { scene: &scene, path: &cfg.path, samples: &out.samples, summary: &out.summary };
-    let (files, warnings) = write_report(&a.out, &rec)?;
+    let (files, warnings) = write_report(&dir, &rec)?;
     print!("{}", summary_table(&out.summary));
-    println!("  report: {}", a.out.display());
+    println!("  report: {}", dir.display());
     for w in warnings {
         eprintln!("warning: {w}");
     }
     let _ = files;
+    Ok(())
+}
+
+fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
+    use crate::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
+    let (scene, cfg) = run_setup(&a.run)?;
+    let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
+    let elf = match &a.firmware {
+        Some(p) if !p.is_file() => {
+            return Err(CliError::BadInput(format!("option --firmware: {} is not a file", p.display())))
+        }
+        Some(p) => p.clone(),
+        None => build_firmware()?,
+    };
+    let mut opts = PilOptions::new(elf);
+    opts.timeout = std::time::Duration::from_secs_f64(timeout);
+    opts.resend_after = opts.resend_after.min(opts.timeout / 2);
+    let (out, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
+    let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
+    let rec = RunRecord { scene: &scene, path: &cfg.path, samples: &out.samples, summary: &out.summary };
+    let (_, warnings) = write_report(&dir, &rec)?;
+    add_figures_to_summary(&dir, &fig)?;
+    print!("{}", summary_table(&out.summary));
+    let ins = &fig.instructions_per_control_step;
+    println!(
+        "  PIL: {} steps, real-time factor {:.3}; frames sent {}, received {}, dropped {}; \
+         instructions/step mean {:.0}, max {} (≥ {:.0} µs at 168 MHz)",
+        fig.flight_steps,
+        fig.real_time_factor,
+        fig.frames_sent,
+        fig.frames_received,
+        fig.frames_dropped,
+        ins.mean,
+        ins.max,
+        ins.max_time_at_168mhz_us
+    );
+    println!("  report: {}", dir.display());
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(())
 }
 
