@@ -155,16 +155,54 @@ fn size() -> Result<(u64, u64), String> {
     Ok((s.flash, s.ram()))
 }
 
+/// Build the `board-qemu` firmware (QEMU netduinoplus2, processor-in-the-loop) and return its ELF.
+fn build_qemu_firmware() -> Result<PathBuf, String> {
+    run(
+        "build the QEMU firmware (release, board-qemu, for processor-in-the-loop)",
+        cargo().args([
+            "build",
+            "--release",
+            "-p",
+            "parapet-firmware",
+            "--target",
+            TARGET,
+            "--no-default-features",
+            "--features",
+            "board-qemu",
+            "--bin",
+            "parapet-firmware-qemu",
+        ]),
+    )?;
+    let elf = firmware_elf(Some("board-qemu"));
+    if elf.is_file() {
+        Ok(elf)
+    } else {
+        Err(format!("the QEMU firmware build succeeded but {} is missing", elf.display()))
+    }
+}
+
 fn test() -> Result<(), String> {
     ensure_target()?;
+    // The processor-in-the-loop tests (tests/tests/pil_*.rs, run with the host tests) fly this
+    // ELF in qemu-system-arm: both are needed first.
+    ensure_qemu()?;
+    let qemu_elf = build_qemu_firmware()?;
     let cases = std::env::var("PARAPET_PROPTEST_CASES").unwrap_or_else(|_| "10000".into());
     run(
-        "host tests (workspace)",
+        "host tests (workspace, processor-in-the-loop included)",
         cargo()
             .args(["test", "--workspace", "--exclude", "parapet-firmware"])
-            .env("PARAPET_PROPTEST_CASES", &cases),
+            .env("PARAPET_PROPTEST_CASES", &cases)
+            .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf)
+            .env_remove("PARAPET_PIL_SKIP"),
     )?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
+    run(
+        "firmware QEMU smoke test",
+        cargo()
+            .args(["test", "-p", "parapet-firmware", "--test", "qemu_pil", "--", "--ignored"])
+            .env("PARAPET_QEMU_ELF", &qemu_elf),
+    )?;
     run(
         "build parapet-core for Cortex-M4F",
         cargo().args(["build", "--release", "-p", "parapet-core", "--target", TARGET]),
@@ -175,7 +213,6 @@ fn test() -> Result<(), String> {
             "firmware over budget: flash {flash} B (max {FLASH_BUDGET}), RAM {ram} B (max {RAM_BUDGET})"
         ));
     }
-    ensure_qemu()?;
     eprintln!("\nxtask: all checks passed");
     Ok(())
 }
