@@ -5,7 +5,10 @@
 //!
 //! Benchmarks: `parapet-tests` — `cbf_filter` (closed-form filter vs CBF-QP
 //! with clarabel), `cascade` (outer/inner steps of `FlightController`),
-//! `plant` (RK4 step, whole office flight); `parapet-sim` — `planner`.
+//! `plant` (RK4 step, whole office flight); `parapet-sim` — `planner`; and,
+//! when `qemu-system-arm` is installed, the Cortex-M4F instruction counts of
+//! `tests/cortex-m4` (QEMU `-icount`, see its README), checked against the
+//! issue's goals (filter ≤ 2,000 instructions at K = 16, cascade ≤ 5,000).
 //! The benches print their own detail tables (agreement with the QP, planner
 //! statistics, flight summary) as they run; the summary adds the ratios:
 //! QP time / filter time per obstacle count, real-time factor of the flight,
@@ -14,7 +17,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::SystemTime;
+use std::time::{Duration, Instant, SystemTime};
 
 use crate::{cargo, root};
 
@@ -187,6 +190,66 @@ fn note(e: &Estimate, all: &[Estimate], flight_s: Option<f64>) -> String {
     }
 }
 
+/// Instruction-count goals of the issue: (line prefix printed by the M4 bench, goal).
+const M4_GOALS: [(&str, u64); 2] =
+    [("filter multi-relative K=16:", 2_000), ("cascade: 1 ms step with the outer loop", 5_000)];
+
+/// The `mean N` figure of a line printed by the M4 bench.
+fn m4_mean(line: &str) -> Option<u64> {
+    line.split("mean ").nth(1)?.split_whitespace().next()?.parse().ok()
+}
+
+/// Build `tests/cortex-m4` and run it in QEMU; its output lines (`None` without QEMU).
+fn cortex_m4() -> Result<Option<Vec<String>>, String> {
+    let qemu_ok = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !qemu_ok {
+        eprintln!("xtask: qemu-system-arm not found: Cortex-M4F instruction counts skipped");
+        return Ok(None);
+    }
+    crate::ensure_target()?;
+    let dir = root().join("tests").join("cortex-m4");
+    eprintln!("\n== xtask: build the Cortex-M4F instruction-count program (tests/cortex-m4)");
+    let status = cargo()
+        .args(["build", "--release"])
+        .current_dir(&dir)
+        .status()
+        .map_err(|e| format!("cargo build in {}: {e}", dir.display()))?;
+    if !status.success() {
+        return Err(format!("building tests/cortex-m4 failed ({status})"));
+    }
+    let elf = target_dir().join(crate::TARGET).join("release").join("parapet-bench-m4");
+    eprintln!("== xtask: run it in qemu-system-arm -machine netduinoplus2 -icount shift=0");
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-icount", "shift=0"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
+        .arg(&elf)
+        .stdout(Stdio::piped())
+        .stdin(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("qemu-system-arm: {e}"))?;
+    let out = child.stdout.take();
+    let reader = std::thread::spawn(move || {
+        out.map(|o| BufReader::new(o).lines().map_while(Result::ok).collect::<Vec<_>>()).unwrap_or_default()
+    });
+    let deadline = Instant::now() + Duration::from_secs(600);
+    let status = loop {
+        if let Some(st) = child.try_wait().map_err(|e| format!("qemu: {e}"))? {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err("the Cortex-M4F program did not finish within 600 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let lines = reader.join().map_err(|_| "reading QEMU's output failed".to_string())?;
+    if !status.success() || !lines.iter().any(|l| l == "done") {
+        return Err(format!("the Cortex-M4F program failed ({status}): {}", lines.join(" / ")));
+    }
+    Ok(Some(lines))
+}
+
 /// `cargo xtask bench`.
 pub fn bench(args: &[String]) -> Result<(), String> {
     let long = args.iter().any(|a| a == "--long");
@@ -203,6 +266,8 @@ pub fn bench(args: &[String]) -> Result<(), String> {
         "planner benchmark of parapet-sim",
         cargo().args(["bench", "-p", "parapet-sim", "--bench", "planner", "--"]).args(times),
     )?);
+
+    let m4 = cortex_m4()?;
 
     let mut all = Vec::new();
     collect(&target_dir().join("criterion"), since, &mut all);
@@ -240,6 +305,24 @@ pub fn bench(args: &[String]) -> Result<(), String> {
             fmt_time(e.ci_ns.1),
             note(e, &all, flight_s)
         );
+    }
+    if let Some(lines) = m4 {
+        println!(
+            "\n## Cortex-M4F instruction counts (QEMU netduinoplus2, -icount shift=0; tests/cortex-m4)\n"
+        );
+        for l in &lines {
+            println!("    {l}");
+        }
+        println!();
+        for (prefix, goal) in M4_GOALS {
+            match lines.iter().find(|l| l.starts_with(prefix)).and_then(|l| m4_mean(l)) {
+                Some(n) => println!(
+                    "goal {prefix} mean {n} instructions vs ≤ {goal}: {}",
+                    if n <= goal { "met" } else { "NOT met" }
+                ),
+                None => println!("goal {prefix} ≤ {goal}: no figure found"),
+            }
+        }
     }
     Ok(())
 }
@@ -279,6 +362,19 @@ mod tests {
         all.push(qp);
         assert_eq!(note(&all[0], &all, None), "QP (clarabel, all K) / this = 250x");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reads_m4_means() {
+        assert_eq!(
+            m4_mean("filter multi K=16: mean 14248 min 5998 max 15397 instructions (n = 64)"),
+            Some(14248)
+        );
+        assert_eq!(
+            m4_mean("cascade: 1 ms step with the outer loop (update_obstacles + step_outer + step_inner): mean 36823 max 40921 instructions"),
+            Some(36823)
+        );
+        assert_eq!(m4_mean("done"), None);
     }
 
     #[test]

@@ -1,0 +1,441 @@
+//! Instruction counts of Parapet's control code on a Cortex-M4F, measured in
+//! QEMU (`netduinoplus2`, STM32F405) with `-icount shift=0` (issue 9).
+//!
+//! Under `-icount shift=0` QEMU advances virtual time by 1 ns per guest
+//! instruction and SysTick (core clock, 168 MHz) counts virtual time, so
+//! SysTick ticks measure executed instructions. The ratio is calibrated at
+//! start-up with a loop of known length (`subs`/`bne`, 2 instructions per
+//! turn) and the cost of an empty measurement is subtracted. Each call is
+//! repeated [`REPS`] times on the same input so one tick (≈ 6 instructions)
+//! becomes a fraction of an instruction.
+//!
+//! What is measured (same code, parameters and release settings as the
+//! firmware: `parapet-core` at opt-level 3, fat LTO):
+//! * `SafetyFilter::apply` for the `multi`, `multi-relative` and `paper`
+//!   variants with K = 1, 4, 16, 32 obstacles, on 64 seeded random problems per
+//!   K drawn exactly as the host benchmark's (`parapet_tests::bench_states`);
+//! * the cascade of `FlightController` flying a mission with 16 obstacles:
+//!   `update_obstacles` (16 points), `step_outer`, `step_inner`, over 256 steps.
+//!
+//! Results go to the host console by semihosting; the program then exits QEMU.
+//! Run: `cd tests/cortex-m4 && cargo run --release` (README.md).
+
+#![no_std]
+#![no_main]
+
+use core::fmt::Write;
+use core::hint::black_box;
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m::peripheral::SYST;
+use cortex_m_rt::entry;
+use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
+use parapet_core::controller::{ControllerParams, FlightController, GuidanceMode, PositionFix};
+use parapet_core::estimator::ImuSample;
+use parapet_core::failsafe::FailsafeState;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::Vec3;
+
+/// Repetitions of each measured call.
+const REPS: u32 = 16;
+/// Problems per obstacle count.
+const PROBLEMS: usize = 64;
+/// Seed of the problems (the host benchmark's timed set uses the same).
+const SEED: u64 = 2024;
+
+// ---------------------------------------------------------------- semihosting
+
+fn semihosting(op: u32, arg: usize) -> u32 {
+    let r: u32;
+    // SAFETY: the ARM semihosting call (BKPT 0xAB); QEMU handles it with
+    // `-semihosting-config enable=on`. r0 = operation, r1 = argument block.
+    unsafe { core::arch::asm!("bkpt 0xAB", inout("r0") op => r, in("r1") arg, options(nostack)) };
+    r
+}
+
+/// SYS_WRITE0 of `s` (copied into a NUL-terminated buffer, in chunks).
+fn print(s: &str) {
+    let mut buf = [0u8; 129];
+    for chunk in s.as_bytes().chunks(128) {
+        buf[..chunk.len()].copy_from_slice(chunk);
+        buf[chunk.len()] = 0;
+        semihosting(0x04, buf.as_ptr() as usize);
+    }
+}
+
+struct Console;
+impl Write for Console {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        print(s);
+        Ok(())
+    }
+}
+
+fn exit(ok: bool) -> ! {
+    // SYS_EXIT with ADP_Stopped_ApplicationExit (0x20026) or ADP_Stopped_InternalError (0x20024).
+    let reason = if ok { 0x20026 } else { 0x20024 };
+    semihosting(0x18, reason);
+    loop {
+        cortex_m::asm::nop();
+    }
+}
+
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_ef: &cortex_m_rt::ExceptionFrame) -> ! {
+    print("HARD FAULT\n");
+    exit(false)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    let _ = writeln!(Console, "PANIC: {info}");
+    exit(false)
+}
+
+// ---------------------------------------------------------------- counting
+
+/// Instruction counter: SysTick ticks converted with the start-up calibration.
+struct Counter {
+    /// Owned so nothing else reprograms SysTick.
+    _syst: SYST,
+    /// Instructions per tick × 2^16 (fixed point).
+    ins_per_tick_q16: u64,
+    /// Instructions of an empty measurement of REPS turns (subtracted).
+    overhead: u64,
+    /// Instructions of an empty single measurement (subtracted).
+    overhead_once: u64,
+}
+
+#[inline(always)]
+fn now() -> u32 {
+    SYST::get_current()
+}
+
+#[inline(always)]
+fn ticks_since(start: u32) -> u32 {
+    start.wrapping_sub(now()) & 0x00FF_FFFF
+}
+
+/// `n` turns of a 2-instruction loop.
+#[inline(never)]
+fn spin(n: u32) {
+    // SAFETY: a register-only countdown loop.
+    unsafe {
+        core::arch::asm!("1:", "subs {0}, {0}, #1", "bne 1b", inout(reg) n => _, options(nomem, nostack));
+    }
+}
+
+impl Counter {
+    fn new(mut syst: SYST) -> Counter {
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(0x00FF_FFFF);
+        syst.clear_current();
+        syst.enable_counter();
+        // Calibration: 2 × 500 000 instructions (the call overhead is a few instructions).
+        let n = 500_000u32;
+        let t0 = now();
+        spin(n);
+        let ticks = ticks_since(t0).max(1) as u64;
+        let ins_per_tick_q16 = ((2 * n as u64) << 16) / ticks;
+        let _ = writeln!(Console, "calibration: {} instructions = {} SysTick ticks", 2 * n, ticks);
+        let mut c = Counter { _syst: syst, ins_per_tick_q16, overhead: 0, overhead_once: 0 };
+        c.overhead = c.measure(|| {});
+        c.overhead_once = c.measure_once(|| {}) / REPS as u64;
+        c
+    }
+
+    /// Instructions of `REPS` calls of `f` (minus the measuring overhead), × 1/REPS later.
+    #[inline(always)]
+    fn measure(&self, mut f: impl FnMut()) -> u64 {
+        let t0 = now();
+        for _ in 0..black_box(REPS) {
+            f();
+        }
+        let ticks = ticks_since(t0) as u64;
+        ((ticks * self.ins_per_tick_q16) >> 16).saturating_sub(self.overhead)
+    }
+
+    /// Instructions of one call of `f`, scaled by REPS (for stateful calls that must
+    /// not be repeated; resolution one SysTick tick ≈ 6 instructions).
+    #[inline(always)]
+    fn measure_once(&self, mut f: impl FnMut()) -> u64 {
+        let t0 = now();
+        f();
+        let ticks = ticks_since(t0) as u64;
+        (((ticks * self.ins_per_tick_q16) >> 16).saturating_sub(self.overhead_once)) * REPS as u64
+    }
+}
+
+/// Running statistics of per-call instruction counts (in 1/REPS units).
+#[derive(Default)]
+struct Stats {
+    n: u64,
+    sum: u64,
+    min: u64,
+    max: u64,
+}
+
+impl Stats {
+    fn add(&mut self, total_over_reps: u64) {
+        if self.n == 0 || total_over_reps < self.min {
+            self.min = total_over_reps;
+        }
+        self.max = self.max.max(total_over_reps);
+        self.sum += total_over_reps;
+        self.n += 1;
+    }
+    fn report(&self, what: &str) {
+        let r = REPS as u64;
+        let _ = writeln!(
+            Console,
+            "{what}: mean {} min {} max {} instructions (n = {})",
+            self.sum / (self.n.max(1) * r),
+            self.min / r,
+            self.max / r,
+            self.n
+        );
+    }
+}
+
+// ---------------------------------------------------------------- problems
+
+/// SplitMix64, as in `parapet_tests::bench_states`.
+struct SplitMix64(u64);
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn uniform(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn direction(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.uniform(-1.0, 1.0), self.uniform(-1.0, 1.0), self.uniform(-1.0, 1.0));
+            let n = v.norm();
+            if n > 0.1 && n <= 1.0 {
+                return v / n;
+            }
+        }
+    }
+    /// Unit vector within 75° of `axis` (`bench_states::FORWARD_HALF_ANGLE_DEG`).
+    fn direction_forward(&mut self, axis: &Vec3) -> Vec3 {
+        let cos_max = libm::cosf(75f32.to_radians());
+        loop {
+            let d = self.direction();
+            if d.dot(axis) >= cos_max {
+                return d;
+            }
+        }
+    }
+}
+
+struct Problem {
+    p: Vec3,
+    v: Vec3,
+    u_nom: Vec3,
+    obstacles: [ObstaclePoint; 32],
+    k: usize,
+}
+
+/// The next problem with `k` obstacles (the distribution of `bench_states::problems` with the
+/// forward sector; same generator and seed, so the same problems up to the f32 round-off of
+/// `cos 75°`).
+fn next_problem(rng: &mut SplitMix64, k: usize) -> Problem {
+    let p = Vec3::new(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(-3.0, -0.5));
+    let heading = rng.direction();
+    let v = heading * rng.uniform(0.0, 1.5);
+    let mut obstacles = [ObstaclePoint::fixed(Vec3::zeros(), 0); 32];
+    for (i, o) in obstacles.iter_mut().enumerate().take(k) {
+        let r = if i == 0 {
+            rng.uniform(0.24, 0.40)
+        } else {
+            let x = rng.unit();
+            0.24 + 2.76 * x * x
+        };
+        *o = ObstaclePoint::fixed(p + rng.direction_forward(&heading) * r, i as u16);
+    }
+    let mut u_nom = rng.direction() * rng.uniform(0.0, 4.0);
+    if rng.unit() < 0.5 {
+        let towards = (obstacles[0].point - p).normalize();
+        u_nom = (towards * 2.0 + rng.direction() * 0.5) * rng.uniform(0.5, 2.0);
+    }
+    Problem { p, v, u_nom, obstacles, k }
+}
+
+fn filter(variant: FilterVariant) -> SafetyFilter {
+    let mut params = CbfParams::default();
+    if variant != FilterVariant::Paper {
+        params.sample_time = 1.0 / 250.0;
+    }
+    match SafetyFilter::new(params, variant) {
+        Ok(f) => f,
+        Err(_) => exit(false),
+    }
+}
+
+fn bench_filter(c: &Counter) {
+    for variant in [FilterVariant::Multi, FilterVariant::MultiRelative, FilterVariant::Paper] {
+        let f = filter(variant);
+        for k in [1usize, 4, 16, 32] {
+            let mut rng = SplitMix64(SEED ^ (k as u64).wrapping_mul(0x1000_0000_01B3));
+            let (mut all, mut hit) = (Stats::default(), Stats::default());
+            for _ in 0..PROBLEMS {
+                let pr = next_problem(&mut rng, k);
+                let obs = &pr.obstacles[..pr.k];
+                let ins = c.measure(|| {
+                    black_box(f.apply(black_box(&pr.p), black_box(&pr.v), black_box(&pr.u_nom), black_box(obs)));
+                });
+                all.add(ins);
+                if f.apply(&pr.p, &pr.v, &pr.u_nom, obs).1.intervened {
+                    hit.add(ins);
+                }
+            }
+            let mut name: heapless::String<64> = heapless::String::new();
+            let _ = write!(name, "filter {} K={k}", variant.as_str());
+            all.report(&name);
+            name.clear();
+            let _ = write!(name, "filter {} K={k} (intervened only)", variant.as_str());
+            hit.report(&name);
+        }
+    }
+}
+
+// ---------------------------------------------------------------- building blocks
+
+fn bench_blocks(c: &Counter) {
+    let mut rng = SplitMix64(1);
+    let (mut sq, mut mx, mut bar) = (Stats::default(), Stats::default(), Stats::default());
+    let f = filter(FilterVariant::Multi);
+    for _ in 0..64 {
+        let x = rng.uniform(0.01, 10.0);
+        let y = rng.uniform(0.01, 10.0);
+        sq.add(c.measure(|| {
+            black_box(libm::sqrtf(black_box(x)));
+        }));
+        mx.add(c.measure(|| {
+            black_box(black_box(x).max(black_box(y)));
+        }));
+        let p = Vec3::new(x, y, -1.0);
+        let v = rng.direction();
+        let o = ObstaclePoint::fixed(p + rng.direction() * 0.3, 1);
+        bar.add(c.measure(|| {
+            black_box(f.barrier(black_box(&p), black_box(&v), black_box(&o)));
+        }));
+    }
+    sq.report("libm::sqrtf (as used by parapet-core)");
+    mx.report("f32::max (compiles to a call of fmaxf)");
+    bar.report("SafetyFilter::barrier (one obstacle)");
+}
+
+// ---------------------------------------------------------------- cascade
+
+fn bench_cascade(c: &Counter) {
+    let start = Vec3::new(0.0, 0.0, -1.5);
+    let mut fc = match FlightController::new(ControllerParams::default()) {
+        Ok(fc) => fc,
+        Err(_) => exit(false),
+    };
+    if fc.set_path(&[start, start + Vec3::new(20_000.0, 0.0, 0.0)]).is_err() {
+        exit(false);
+    }
+    let level = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -9.81) };
+    let mut now = 0u64;
+    for k in 0..500u64 {
+        now = k * 1000;
+        if k % 4 == 0 {
+            fc.update_position(PositionFix { t_us: now, position: start, velocity: Vec3::zeros(), yaw: Some(0.0) });
+            fc.update_obstacles(now, &[]);
+            fc.step_outer(now);
+        }
+        fc.step_inner(now, &level);
+    }
+    if fc.arm(now).is_err() || fc.hold_position(now, start).is_err() {
+        exit(false);
+    }
+    fc.step_outer(now);
+    if fc.start_mission(now).is_err() {
+        exit(false);
+    }
+    let t_mission = now;
+    let mut rng = SplitMix64(SEED ^ 16u64.wrapping_mul(0x1000_0000_01B3));
+    let mut noise = SplitMix64(7);
+    let (mut upd, mut outer, mut inner, mut inner_plain) =
+        (Stats::default(), Stats::default(), Stats::default(), Stats::default());
+    let mut intervened = 0u32;
+    let steps = 256;
+    for _ in 0..steps {
+        // One 4 ms period: fix + obstacles + outer, then 4 inner steps.
+        let pr = next_problem(&mut rng, 16);
+        let offset = noise.direction() * noise.uniform(0.0, 0.2);
+        let gyro = noise.direction() * noise.uniform(0.0, 0.3);
+        let imu = ImuSample { gyro, accel: Vec3::new(0.0, 0.0, -9.81) + noise.direction() * noise.uniform(0.0, 0.5) };
+        now += 4000;
+        let p = start + Vec3::new(0.25 * (now - t_mission) as f32 * 1e-6, 0.0, 0.0) + offset;
+        let mut obs = [ObstaclePoint::fixed(Vec3::zeros(), 0); 16];
+        for (o, src) in obs.iter_mut().zip(&pr.obstacles[..16]) {
+            *o = ObstaclePoint { point: src.point - pr.p + p, velocity: Some(Vec3::zeros()), id: src.id };
+        }
+        fc.update_position(PositionFix { t_us: now, position: p, velocity: pr.v, yaw: Some(0.0) });
+        // The controller has state: each call is measured once (resolution ≈ 6 instructions).
+        upd.add(c.measure_once(|| fc.update_obstacles(black_box(now), black_box(&obs))));
+        outer.add(c.measure_once(|| fc.step_outer(black_box(now))));
+        intervened += fc.telemetry().filter.intervened as u32;
+        for j in 0..4u64 {
+            let t = now + j * 1000;
+            let ins = c.measure_once(|| {
+                black_box(fc.step_inner(black_box(t), black_box(&imu)));
+            });
+            if j == 0 {
+                inner.add(ins);
+            } else {
+                inner_plain.add(ins);
+            }
+        }
+    }
+    let _ = writeln!(
+        Console,
+        "cascade: filter intervened in {intervened} of {steps} outer steps; state {:?}, mode {:?}",
+        fc.state(),
+        fc.telemetry().mode
+    );
+    if fc.state() != FailsafeState::Armed || fc.telemetry().mode != GuidanceMode::Mission {
+        print("cascade: the controller left the mission: figures are not valid\n");
+        exit(false);
+    }
+    upd.report("cascade update_obstacles (16 points)");
+    outer.report("cascade step_outer (16 obstacles)");
+    inner.report("cascade step_inner");
+    inner_plain.report("cascade step_inner (steps without outer)");
+    let r = REPS as u64;
+    let n = steps as u64 * r;
+    let period = (upd.sum + outer.sum + inner.sum + inner_plain.sum) / n;
+    let _ = writeln!(
+        Console,
+        "cascade: 1 ms step with the outer loop (update_obstacles + step_outer + step_inner): mean {} max {} instructions",
+        (upd.sum + outer.sum + inner.sum) / n,
+        (upd.max + outer.max + inner.max) / r
+    );
+    let _ = writeln!(Console, "cascade: 4 ms period (1 outer + 4 inner): mean {period} instructions, {} per 1 ms step", period / 4);
+}
+
+#[entry]
+fn main() -> ! {
+    let cp = match cortex_m::Peripherals::take() {
+        Some(cp) => cp,
+        None => exit(false),
+    };
+    let c = Counter::new(cp.SYST);
+    let _ = writeln!(Console, "empty measurement: {} instructions per {REPS} turns", c.overhead);
+    bench_blocks(&c);
+    bench_filter(&c);
+    bench_cascade(&c);
+    print("done\n");
+    exit(true)
+}
