@@ -328,7 +328,7 @@ impl QemuGuard {
 }
 
 enum Inbound {
-    Msg(MavHeader, MavMessage),
+    Msg(MavHeader, Box<MavMessage>),
     DecodeError,
     Closed(String),
 }
@@ -517,7 +517,7 @@ impl PilLink {
                 }
                 self.fig.frames_received += 1;
                 self.observe(&m);
-                Ok(Some(m))
+                Ok(Some(*m))
             }
             Ok(Inbound::DecodeError) => {
                 self.fig.host_decode_errors += 1;
@@ -651,7 +651,7 @@ impl PilLink {
                 .opts
                 .faults
                 .lose_trigger_every
-                .is_some_and(|n| n > 0 && (self.flight_sim_steps + 1) % n == 0);
+                .is_some_and(|n| n > 0 && (self.flight_sim_steps + 1).is_multiple_of(n));
         if lose {
             self.fig.injected_dropped += 1;
         } else {
@@ -690,13 +690,15 @@ impl PilLink {
                     break;
                 }
                 MavMessage::HIL_ACTUATOR_CONTROLS(_) => {} // answer to a re-sent older step
-                MavMessage::NAMED_VALUE_INT(n) if n.name.to_str().unwrap_or("") == "ins_step" => {
-                    if n.time_boot_ms as u64 == t_us / 1000 && self.in_flight {
-                        // Flight steps at T0 + k·4 ms (T0 = mission start + 1 ms) run the outer loop.
-                        let t0 = self.mission_t0_us.unwrap_or(0) + 1000;
-                        let outer = t_us.saturating_sub(t0) % OUTER_US == 0;
-                        self.ins.push((n.value.max(0) as u64, outer));
-                    }
+                MavMessage::NAMED_VALUE_INT(n)
+                    if n.name.to_str().unwrap_or("") == "ins_step"
+                        && n.time_boot_ms as u64 == t_us / 1000
+                        && self.in_flight =>
+                {
+                    // Flight steps at T0 + k·4 ms (T0 = mission start + 1 ms) run the outer loop.
+                    let t0 = self.mission_t0_us.unwrap_or(0) + 1000;
+                    let outer = t_us.saturating_sub(t0).is_multiple_of(OUTER_US);
+                    self.ins.push((n.value.max(0) as u64, outer));
                 }
                 m @ (MavMessage::COMMAND_ACK(_)
                 | MavMessage::MISSION_REQUEST_INT(_)
@@ -817,12 +819,7 @@ impl PilLink {
             }
         }
         // Mission upload.
-        self.queue(&MISSION_COUNT_DATA {
-            count: path.len() as u16,
-            target_system: 1,
-            target_component: 1,
-            ..Default::default()
-        });
+        self.queue(&MISSION_COUNT_DATA { count: path.len() as u16, target_system: 1, target_component: 1 });
         let mut accepted = false;
         for _ in 0..(4 * path.len() + 8) {
             let ans = self.step(t, imu)?;
@@ -868,7 +865,7 @@ impl PilLink {
         }
         // Warm-up with fixes and obstacles at the outer rate; arm and hold the start at T0 − 4 ms.
         while t < t0_us {
-            if (t0_us - t) % OUTER_US == 0 && t > warmup_from {
+            if (t0_us - t).is_multiple_of(OUTER_US) && t > warmup_from {
                 self.queue_odometry(t, fix);
                 self.queue_obstacles(t, obstacles);
             }
@@ -903,6 +900,8 @@ impl PilLink {
         // MISSION_START goes with the first flight step (processed at T0 − 1 ms).
         self.mission_start_pending = true;
         self.mission_t0_us = Some(t0_us - 1000);
+        // Armed and holding (both acknowledged); the 1 Hz HEARTBEAT takes over from here.
+        (self.armed, self.phase) = (true, 4);
         self.follower.start(to_f32(&start)).map_err(|e| anyhow!("follower: {e:?}"))?;
         self.in_flight = true;
         Ok(())
@@ -1050,7 +1049,7 @@ fn reader_thread(sock: TcpStream, tx: mpsc::Sender<Inbound>) {
     let mut reader = MavlinkReader::new(sock);
     loop {
         let ev = match reader.read_message::<MavMessage>(MavlinkVersion::V2) {
-            Ok((h, m)) => Inbound::Msg(h, m),
+            Ok((h, m)) => Inbound::Msg(h, Box::new(m)),
             Err(mavlink::error::MessageReadError::Io(e)) => {
                 let _ = tx.send(Inbound::Closed(e.to_string()));
                 return;
@@ -1248,7 +1247,7 @@ impl Autopilot for FirmwareTwin {
         self.next_outer = Some(t_pre + (tk - t_pre).div_ceil(OUTER_US) * OUTER_US);
         let warmup_from = t0 - (WARMUP_STEPS + OUTER_DIVIDER) * 1000;
         while tk < t0 {
-            if (t0 - tk) % OUTER_US == 0 && tk > warmup_from {
+            if (t0 - tk).is_multiple_of(OUTER_US) && tk > warmup_from {
                 self.fix(tk, &fix);
                 self.obstacles(obstacles);
             }
