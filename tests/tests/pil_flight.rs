@@ -10,7 +10,6 @@
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
 
 use parapet_sim::pil::{firmware_from_env_or_build, max_deviation, run_pil, run_twin, PilOptions};
 use parapet_sim::runner::{run, RunConfig};
