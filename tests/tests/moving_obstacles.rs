@@ -264,3 +264,25 @@ fn simulator_reports_the_true_obstacle_velocity() {
         Sensors::new(SensorParams { noise: false, obstacle_velocity_noise: sigma, ..Default::default() }, 3);
     assert_eq!(sense_obstacles(&s, t, &p, 5.0, &mut off)[0].velocity, Some(to_f32(&v_true)));
 }
+
+/// Where the guarantee ends (issue 10: "an obstacle approaching faster than the vehicle
+/// can retreat cannot be avoided"). The constraint asks for c = (2/μ)·(closing speed)
+/// along the normal; above u_max = 6 m/s², i.e. closing faster than μ·u_max/2 = 2.7 m/s at
+/// μ = 0.9, the filter raises `unavoidable`. Measured, head-on at offset 0 (relative):
+/// 2.0 m/s → no flag, min h̄ +0.025 m²; 2.5 m/s → flag, h̄ −0.17 m² but no contact (the
+/// flag is a sufficient condition: the vehicle still backs off and sidesteps); from
+/// ≈ 3.5 m/s the obstacle is first sensed (3 m range) with h̄ already < 0; 6 m/s → flag
+/// from 1.28 s, collision at 1.80 s.
+#[test]
+fn unavoidable_flag_marks_where_the_guarantee_ends() {
+    let ok = fly_case(2.0, 0.0, FilterVariant::Relative, 0, 0.0);
+    assert!(!ok.out.summary.collided && ok.rel_h_bar >= -EPS, "2 m/s: {:?}", ok.out.summary);
+    assert!(ok.out.samples.iter().all(|k| !k.unavoidable), "2 m/s is within u_max");
+
+    let fast = fly_case(6.0, 0.0, FilterVariant::Relative, 0, 0.0);
+    let su = &fast.out.summary;
+    assert!(su.collided, "6 m/s head-on: expected the collision the flag predicts: {su:?}");
+    let flagged = fast.out.samples.iter().find(|k| k.unavoidable).map(|k| k.t);
+    let hit = su.first_collision_time_s.unwrap_or(0.0);
+    assert!(flagged.is_some_and(|t| t < hit - 0.1), "flag at {flagged:?}, collision at {hit} s");
+}
