@@ -162,7 +162,8 @@ pub struct PilFigures {
     /// CRC-valid MAVLink frames received from the firmware.
     pub frames_received: u64,
     /// Frames lost on the link: host-side (firmware frames missing by sequence number, or
-    /// undecodable) + the firmware's counters (CRC errors + malformed, last `DEBUG_VECT LINK`).
+    /// undecodable) + the firmware's counters (CRC errors + malformed, last `DEBUG_VECT LINK`;
+    /// replies dropped + inbound messages rejected, last `DEBUG_VECT LINK_DROP`).
     pub frames_dropped: u64,
     /// Firmware frames the host found missing (sequence gaps).
     pub host_sequence_gaps: u64,
@@ -174,6 +175,13 @@ pub struct PilFigures {
     pub firmware_malformed: u64,
     /// Firmware's count of good host frames (last `LINK` report).
     pub firmware_frames_ok: u64,
+    /// Firmware's replies dropped because its reply queue was full (last `LINK_DROP`, 1 Hz).
+    pub firmware_replies_dropped: u64,
+    /// Firmware's count of rejected inbound messages (undecodable, bad ODOMETRY, unknown
+    /// parameter; last `LINK_DROP`).
+    pub firmware_inputs_rejected: u64,
+    /// Firmware's count of obstacle points rejected or dropped (batch full; last `LINK_DROP`).
+    pub firmware_obstacles_rejected: u64,
     /// Host frames corrupted on purpose (fault injection).
     pub injected_corrupted: u64,
     /// Host frames dropped on purpose (fault injection, HIL_SENSORs included).
@@ -449,8 +457,12 @@ impl PilLink {
     /// Figures so far.
     pub fn figures(&self) -> PilFigures {
         let mut f = self.fig.clone();
-        f.frames_dropped =
-            f.host_sequence_gaps + f.host_decode_errors + f.firmware_crc_errors + f.firmware_malformed;
+        f.frames_dropped = f.host_sequence_gaps
+            + f.host_decode_errors
+            + f.firmware_crc_errors
+            + f.firmware_malformed
+            + f.firmware_replies_dropped
+            + f.firmware_inputs_rejected;
         f.flight_steps = self.flight_sim_steps;
         let wall = self.flight_wall.as_secs_f64();
         if wall > 0.0 {
@@ -542,6 +554,11 @@ impl PilLink {
                     self.fig.firmware_frames_ok = d.x.max(0.0) as u64;
                     self.fig.firmware_crc_errors = d.y.max(0.0) as u64;
                     self.fig.firmware_malformed = d.z.max(0.0) as u64;
+                }
+                "LINK_DROP" => {
+                    self.fig.firmware_replies_dropped = d.x.max(0.0) as u64;
+                    self.fig.firmware_inputs_rejected = d.y.max(0.0) as u64;
+                    self.fig.firmware_obstacles_rejected = d.z.max(0.0) as u64;
                 }
                 _ => {}
             },
