@@ -154,7 +154,10 @@ impl Bench {
         self.intervened += self.fc.telemetry().filter.intervened as u64;
     }
 
-    fn check(&self, what: &str) {
+    /// One more outer step (the telemetry's mode is set there), then: still armed and
+    /// flying the mission.
+    fn check(&mut self, what: &str) {
+        self.outer();
         let tel = self.fc.telemetry();
         assert_eq!(self.fc.state(), FailsafeState::Armed, "{what}: left Armed ({:?})", tel.last_transition);
         assert_eq!(tel.mode, GuidanceMode::Mission, "{what}: not flying the mission");

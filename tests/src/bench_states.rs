@@ -188,7 +188,8 @@ pub struct Agreement {
     /// Fraction of problems where `Multi`'s output violates (by > 1e-4) some constraint (8) it did
     /// not enforce (a far barrier, `h > δ1`, or beyond the K most critical).
     pub multi_violates_unenforced: f64,
-    /// Largest `|u_multi − u_QP(same enforced set)|`, m/s² (exactness of the closed form).
+    /// Largest `|u_multi − u_QP(same enforced set)|` where clarabel solved that QP, m/s²
+    /// (exactness of the closed form).
     pub multi_vs_qp_same_max: f32,
     /// Median and largest `|u_multi − u_QP(all K)|` over the problems the QP solved, m/s².
     pub multi_vs_qp_all: (f32, f32),
@@ -228,8 +229,15 @@ pub fn agreement(k: usize, problems: &[FilterProblem]) -> Agreement {
         m_enf += dm.n_constraints as usize;
         m_viol = m_viol.max(max_violation(&um, &enforced));
         m_unenf += (max_violation(&um, &all) > 1e-4) as usize;
-        let same = if enforced.is_empty() { pr.u_nom } else { reference_qp::solve(&pr.u_nom, &enforced).u };
-        m_same = m_same.max((um - same).norm());
+        let same = if enforced.is_empty() {
+            Some(pr.u_nom)
+        } else {
+            let r = reference_qp::solve(&pr.u_nom, &enforced);
+            r.solved.then_some(r.u)
+        };
+        if let Some(same) = same {
+            m_same = m_same.max((um - same).norm());
+        }
 
         let (up, dp) = paper.apply(&pr.p, &pr.v, &pr.u_nom, &pr.obstacles);
         p_int += dp.intervened as usize;
@@ -280,8 +288,17 @@ pub fn agreement_table(rows: &[Agreement]) -> String {
     s.push_str(&"---|".repeat(13));
     s.push('\n');
     for a in rows {
+        // Distances to the all-K QP exist only where clarabel solved it.
+        let vs_all = |d: (f32, f32)| {
+            if a.qp_solved > 0.0 {
+                format!("{:.3} / {:.3}", d.0, d.1)
+            } else {
+                "n/a".to_string()
+            }
+        };
+        let qp_viol = if a.qp_solved > 0.0 { format!("{:.1e}", a.qp_max_violation) } else { "n/a".into() };
         s.push_str(&format!(
-            "| {} | {} | {:.0} % | {:.2} | {:.1e} | {:.0} % | {:.1e} | {:.3} / {:.3} | {:.0} % | {:.1e} | {:.3} / {:.3} | {:.0} % | {:.1e} |\n",
+            "| {} | {} | {:.0} % | {:.2} | {:.1e} | {:.0} % | {:.1e} | {} | {:.0} % | {:.1e} | {} | {:.0} % | {} |\n",
             a.k,
             a.n,
             100.0 * a.multi_intervened,
@@ -289,14 +306,12 @@ pub fn agreement_table(rows: &[Agreement]) -> String {
             a.multi_max_violation_enforced,
             100.0 * a.multi_violates_unenforced,
             a.multi_vs_qp_same_max,
-            a.multi_vs_qp_all.0,
-            a.multi_vs_qp_all.1,
+            vs_all(a.multi_vs_qp_all),
             100.0 * a.paper_intervened,
             a.paper_max_violation_closest,
-            a.paper_vs_qp_all.0,
-            a.paper_vs_qp_all.1,
+            vs_all(a.paper_vs_qp_all),
             100.0 * a.qp_solved,
-            a.qp_max_violation,
+            qp_viol,
         ));
     }
     s

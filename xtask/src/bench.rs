@@ -223,11 +223,13 @@ fn cortex_m4() -> Result<Option<Vec<String>>, String> {
         .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-icount", "shift=0"])
         .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
         .arg(&elf)
-        .stdout(Stdio::piped())
+        .stdout(Stdio::null())
+        // QEMU writes the semihosting console to its stderr.
+        .stderr(Stdio::piped())
         .stdin(Stdio::null())
         .spawn()
         .map_err(|e| format!("qemu-system-arm: {e}"))?;
-    let out = child.stdout.take();
+    let out = child.stderr.take();
     let reader = std::thread::spawn(move || {
         out.map(|o| BufReader::new(o).lines().map_while(Result::ok).collect::<Vec<_>>()).unwrap_or_default()
     });
