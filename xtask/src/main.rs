@@ -193,8 +193,7 @@ fn test() -> Result<(), String> {
         cargo()
             .args(["test", "--workspace", "--exclude", "parapet-firmware"])
             .env("PARAPET_PROPTEST_CASES", &cases)
-            .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf)
-            .env_remove("PARAPET_PIL_SKIP"),
+            .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf),
     )?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
     run(
