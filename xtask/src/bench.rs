@@ -6,6 +6,7 @@
 //! Benchmarks: `parapet-tests` — `cbf_filter` (closed-form filter vs CBF-QP
 //! with clarabel), `cascade` (outer/inner steps of `FlightController`),
 //! `plant` (RK4 step, whole office flight); `parapet-sim` — `planner`; and,
+//! the speed-up of `parapet sweep` from `--jobs 1` to `--jobs 2`; and,
 //! when `qemu-system-arm` is installed, the Cortex-M4F instruction counts of
 //! `tests/cortex-m4` (QEMU `-icount`, see its README), checked against the
 //! issue's goals (filter ≤ 2,000 instructions at K = 16, cascade ≤ 5,000).
@@ -252,6 +253,63 @@ fn cortex_m4() -> Result<Option<Vec<String>>, String> {
     Ok(Some(lines))
 }
 
+/// `parapet sweep` scaling: wall time of the same sweep with `--jobs 1` and `--jobs 2`
+/// (3 repetitions each, alternating); `None` when the binary has no `sweep` command.
+fn sweep_scaling() -> Result<Option<(f64, f64)>, String> {
+    let status = cargo()
+        .args(["build", "--profile", "bench", "-p", "parapet-sim", "--bin", "parapet"])
+        .current_dir(root())
+        .status()
+        .map_err(|e| format!("cargo build parapet: {e}"))?;
+    if !status.success() {
+        return Err(format!("building parapet failed ({status})"));
+    }
+    let exe = target_dir().join("release").join("parapet");
+    let has_sweep = Command::new(&exe).args(["sweep", "--help"]).output().is_ok_and(|o| o.status.success());
+    if !has_sweep {
+        eprintln!("xtask: `parapet sweep` not available: sweep scaling skipped");
+        return Ok(None);
+    }
+    let out = std::env::temp_dir().join(format!("parapet-xtask-sweep-{}", std::process::id()));
+    let root = root();
+    let mut walls: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for _ in 0..3 {
+        for (i, jobs) in ["1", "2"].iter().enumerate() {
+            let t0 = Instant::now();
+            let o = Command::new(&exe)
+                .args(["sweep", "--scene"])
+                .arg(root.join("scenes/office.toml"))
+                .arg("--path")
+                .arg(root.join("scenes/office_path.json"))
+                .args([
+                    "--mu",
+                    "1.0:1.4:4",
+                    "--delta1",
+                    "0.08:0.12:3",
+                    "--seeds",
+                    "4",
+                    "--jobs",
+                    jobs,
+                    "--out",
+                ])
+                .arg(&out)
+                .output()
+                .map_err(|e| format!("parapet sweep: {e}"))?;
+            if !o.status.success() {
+                return Err(format!("parapet sweep failed: {}", String::from_utf8_lossy(&o.stderr)));
+            }
+            walls[i].push(t0.elapsed().as_secs_f64());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (w1, w2) = (median(&mut walls[0]), median(&mut walls[1]));
+    Ok(Some((w1, w2)))
+}
+
 /// `cargo xtask bench`.
 pub fn bench(args: &[String]) -> Result<(), String> {
     let long = args.iter().any(|a| a == "--long");
@@ -269,6 +327,8 @@ pub fn bench(args: &[String]) -> Result<(), String> {
         cargo().args(["bench", "-p", "parapet-sim", "--bench", "planner", "--"]).args(times),
     )?);
 
+    eprintln!("\n== xtask: parapet sweep scaling (office, 48 runs, --jobs 1 vs 2, 3 repetitions)");
+    let sweep = sweep_scaling()?;
     let m4 = cortex_m4()?;
 
     let mut all = Vec::new();
@@ -306,6 +366,13 @@ pub fn bench(args: &[String]) -> Result<(), String> {
             fmt_time(e.ci_ns.0),
             fmt_time(e.ci_ns.1),
             note(e, &all, flight_s)
+        );
+    }
+    if let Some((w1, w2)) = sweep {
+        println!(
+            "\n`parapet sweep` (office, 4 μ × 3 δ1 × 4 seeds = 48 flights; median of 3): --jobs 1 {w1:.2} s, \
+             --jobs 2 {w2:.2} s: speed-up {:.2}x",
+            w1 / w2
         );
     }
     if let Some(lines) = m4 {
