@@ -4,6 +4,7 @@
 //!
 //! Needs `qemu-system-arm` and the QEMU firmware ELF (see `pil_flight.rs`).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -54,7 +55,9 @@ fn firmware() -> Option<PathBuf> {
                 "qemu-system-arm is missing: sudo apt-get update && sudo apt-get install -y qemu-system-arm"
             );
         }
-        eprintln!(
+        // Straight to stderr: libtest does not capture this, so the SKIP is visible.
+        let _ = writeln!(
+            std::io::stderr(),
             "\n*** SKIP: qemu-system-arm not installed and PARAPET_FIRMWARE_QEMU_ELF unset: \
              processor-in-the-loop NOT TESTED (cargo xtask test runs it) ***\n"
         );

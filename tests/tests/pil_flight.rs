@@ -8,6 +8,7 @@
 //! Timing: QEMU lockstep runs at a real-time factor of ≈ 0.1–0.2 on the CI machine, so the scene
 //! is short (2.4 m at 0.4 m/s, ≈ 9 s of simulated flight).
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::Command;
 use std::sync::OnceLock;
@@ -58,7 +59,9 @@ fn firmware() -> Option<PathBuf> {
                 "qemu-system-arm is missing: sudo apt-get update && sudo apt-get install -y qemu-system-arm"
             );
         }
-        eprintln!(
+        // Straight to stderr: libtest does not capture this, so the SKIP is visible.
+        let _ = writeln!(
+            std::io::stderr(),
             "\n*** SKIP: qemu-system-arm not installed and PARAPET_FIRMWARE_QEMU_ELF unset: \
              processor-in-the-loop NOT TESTED (cargo xtask test runs it) ***\n"
         );
