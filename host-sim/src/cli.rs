@@ -44,6 +44,11 @@ enum Command {
     /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
     /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
     Replay(ReplayArgs),
+    /// Fly a scene over a grid of (μ, δ1[, speed]) × noise seeds in parallel; write sweep.csv
+    /// and heatmaps of collision rate, min clearance and tracking RMS (paper Fig. 9).
+    Sweep(crate::sweep::SweepArgs),
+    /// Join the sweep.csv files of sharded sweeps (`--shard I/N`) and redraw the heatmaps.
+    SweepMerge(crate::sweep::SweepMergeArgs),
 }
 
 #[derive(Debug, Args)]
@@ -212,6 +217,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Pil(a) => cmd_pil(a),
         Command::Plan(a) => cmd_plan(a),
         Command::Replay(a) => cmd_replay(a),
+        Command::Sweep(a) => crate::sweep::cmd_sweep(a),
+        Command::SweepMerge(a) => crate::sweep::cmd_sweep_merge(a),
     }
 }
 

@@ -21,3 +21,4 @@ pub mod report;
 pub mod runner;
 pub mod scene;
 pub mod sensors;
+pub mod sweep;

@@ -328,7 +328,7 @@ fn plot_size(name: &str, rec: &RunRecord) -> (u32, u32) {
     }
 }
 
-fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
+pub(crate) fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
     anyhow!("{err}")
 }
 
