@@ -367,10 +367,12 @@ pub struct Cell {
     pub tracking_rms_m: f64,
 }
 
+/// Sorted μ values, sorted δ1 values, and `cells[i_mu][i_delta1]`.
+pub type Aggregate = (Vec<f64>, Vec<f64>, Vec<Vec<Option<Cell>>>);
+
 /// Aggregate rows per (μ, δ1) over seeds and speeds. Returns the sorted μ and δ1
 /// values and the cells, `cells[i_mu][i_delta1]` (`None` where no run).
-#[allow(clippy::type_complexity)]
-pub fn aggregate(rows: &[SweepRow]) -> (Vec<f64>, Vec<f64>, Vec<Vec<Option<Cell>>>) {
+pub fn aggregate(rows: &[SweepRow]) -> Aggregate {
     let key = |x: f64| x.to_bits();
     let mut mus: BTreeMap<u64, f64> = BTreeMap::new();
     let mut d1s: BTreeMap<u64, f64> = BTreeMap::new();
@@ -434,7 +436,7 @@ fn draw_heatmap<DB: DrawingBackend>(
     stem: &str,
     title: &str,
     scene: &str,
-    agg: &(Vec<f64>, Vec<f64>, Vec<Vec<Option<Cell>>>),
+    agg: &Aggregate,
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
@@ -500,12 +502,12 @@ where
                     WHITE.stroke_width(1),
                 )))
                 .map_err(e)?;
-            let style = TextStyle::from(("sans-serif", 14).into_font()).color(&BLACK).pos(
-                plotters::style::text_anchor::Pos::new(
+            let style = TextStyle::from(("sans-serif", 14).into_font())
+                .color(if dark { &WHITE } else { &BLACK })
+                .pos(plotters::style::text_anchor::Pos::new(
                     plotters::style::text_anchor::HPos::Center,
                     plotters::style::text_anchor::VPos::Center,
-                ),
-            );
+                ));
             chart.draw_series(std::iter::once(Text::new(label, (x0 + 0.5, y0 + 0.5), style))).map_err(e)?;
         }
     }
