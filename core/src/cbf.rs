@@ -472,7 +472,14 @@ impl SafetyFilter {
             diag.region = Region::NominalSafe;
             return (*u_nom, diag);
         }
-        let sol = qp3::project(u_nom, cons, &(v * (-2.0 / self.params.mu)));
+        let u_brake = v * (-2.0 / self.params.mu);
+        // Bound: the optimum lies within 2|u* − u_brake| of the braking input whenever the
+        // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
+        // beyond it; 4·Σ max(c'_i, 0) (at most 2·u_max) leaves room for those, and excludes the
+        // far sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
+        let shift: f32 = cons.iter().map(|h| (h.c - h.n.dot(&u_brake)).max(0.0)).sum();
+        let bound = 2.0 * (u_nom - u_brake).norm() + (4.0 * shift).min(2.0 * u_max);
+        let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
         diag.region = Region::Perpendicular;
         diag.intervened = true;
         diag.infeasible = !sol.feasible;
@@ -592,6 +599,26 @@ mod tests {
         assert!((u.x - 2.0 * 0.05 / 0.9).abs() < 1e-5 && (u.y - 0.5).abs() < 1e-6);
         let bad = CbfParams { velocity_margin: -0.1, ..CbfParams::default() };
         assert_eq!(bad.validate(), Err(CbfError::VelocityMarginNegative));
+    }
+
+    #[test]
+    fn contradictory_nearly_opposite_walls_do_not_give_huge_accelerations() {
+        // Reported from flight: corridor walls at x = ±0.45 m, position estimate 1 cm off,
+        // velocity margin 0.05 m/s: the exact QP optimum is 3.24 m/s² straight down.
+        let prm = CbfParams {
+            velocity_margin: 0.05,
+            sample_time: 0.004,
+            ..CbfParams::new(1.4, 0.05, 0.3).unwrap()
+        };
+        let f = SafetyFilter::new(prm, FilterVariant::Multi).unwrap();
+        let p = Vec3::new(0.0, 0.5, -0.99);
+        let obs = [
+            ObstaclePoint::fixed(Vec3::new(0.45, 0.5, -1.0), 1),
+            ObstaclePoint::fixed(Vec3::new(-0.45, 0.5, -1.0), 2),
+        ];
+        let (u, d) = f.apply(&p, &Vec3::new(0.0, 0.2, 0.0), &Vec3::new(0.0, 0.2, 0.0), &obs);
+        assert!(d.infeasible, "{d:?}");
+        assert!(u.norm() < 1.0, "{u}");
     }
 
     #[test]

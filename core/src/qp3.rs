@@ -116,6 +116,17 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
 /// every static barrier's plane passes exactly. Any finite point is correct
 /// (zero when nothing better is known).
 pub fn project(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3) -> Projection {
+    project_bounded(u_nom, cons, u_ref, f32::INFINITY)
+}
+
+/// [`project`] restricted to candidates within `bound` of `u_ref` (m/s²). Nearly
+/// opposite constraints whose offsets cannot both be met meet only in a sliver
+/// far away; its points are excluded and, if nothing within the bound is
+/// feasible, the least-violation candidate within the bound is returned with
+/// `feasible = false`. When `u_ref` itself is feasible (the braking input for
+/// static barriers) the optimum lies within `2|u* − u_ref|` of it, so a bound
+/// at least that large never excludes it.
+pub fn project_bounded(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3, bound: f32) -> Projection {
     let n = cons.len().min(MAX_CONSTRAINTS);
     let mut shifted = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_CONSTRAINTS];
     for (s, h) in shifted.iter_mut().zip(&cons[..n]) {
@@ -126,11 +137,11 @@ pub fn project(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3) -> Projection {
         let c = if c.abs() <= 4.0 * f32::EPSILON * (h.c.abs() + along.abs()) { 0.0 } else { c };
         *s = HalfSpace { n: h.n, c };
     }
-    let p = project_centred(&(u_nom - u_ref), &shifted[..n]);
+    let p = project_centred(&(u_nom - u_ref), &shifted[..n], bound);
     Projection { u: p.u + u_ref, ..p }
 }
 
-fn project_centred(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
+fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     let k = cons.len();
     let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| m.max(h.c.abs()));
     // Feasibility tolerances: tight (near f32 round-off) first; the loose one only
@@ -153,10 +164,15 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace]) -> Projection {
                 < 0.0
         })
     };
-    let mut least_bad: (Vec3, f32, u8) = (*u_nom, max_viol(u_nom), 0); // least violation
+    // Least violation among bounded candidates (u* itself when it is within the bound).
+    let mut least_bad: (Vec3, f32, u8) = if u_nom.norm() <= bound {
+        (*u_nom, max_viol(u_nom), 0)
+    } else {
+        (Vec3::zeros(), max_viol(&Vec3::zeros()), 0)
+    };
     let mut consider = |idx: &[usize]| {
         if let Some((u, lam_min)) = candidate(u_nom, cons, idx) {
-            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) {
+            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || u.norm() > bound {
                 return;
             }
             let mask = idx.iter().fold(0u8, |m, &i| m | (1 << i));
@@ -246,6 +262,19 @@ mod tests {
         assert!(!p.feasible);
         assert!(p.max_violation > 0.0);
         assert!(p.u.x.is_finite());
+    }
+
+    #[test]
+    fn far_sliver_of_nearly_opposite_planes_is_flagged_infeasible() {
+        // Two walls 0.9 m apart whose normals are 0.022 rad off opposite, each demanding
+        // 0.07 m/s² outwards: the exact optimum is ~3.2 m/s² away along the sliver.
+        let a = hs(Vec3::new(0.0, 1.0, 0.0225), 0.0714);
+        let b = hs(Vec3::new(0.0, -1.0, 0.0), 0.0714);
+        let exact = project(&Vec3::zeros(), &[a, b], &Vec3::zeros());
+        assert!(exact.feasible && exact.u.norm() > 3.0);
+        let bounded = project_bounded(&Vec3::zeros(), &[a, b], &Vec3::zeros(), 1.0);
+        assert!(!bounded.feasible);
+        assert!(bounded.u.norm() <= 1.0 && bounded.max_violation > 0.0);
     }
 
     #[test]
