@@ -4,6 +4,7 @@
 
 pub mod bench_states;
 pub mod double_integrator;
+pub mod pil_support;
 pub mod reference_qp;
 
 /// Cases per property: `PARAPET_PROPTEST_CASES` (set to 10000 by `cargo xtask test`), else 256.

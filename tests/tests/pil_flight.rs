@@ -8,73 +8,18 @@
 //! Timing: QEMU lockstep runs at a real-time factor of ≈ 0.1–0.2 on the CI machine, so the scene
 //! is short (2.4 m at 0.4 m/s, ≈ 9 s of simulated flight).
 
-use std::io::Write;
-use std::path::PathBuf;
-use std::process::Command;
-use std::sync::OnceLock;
+use parapet_sim::pil::{max_deviation, run_pil, run_twin, PilOptions};
+use parapet_sim::runner::run;
+use parapet_tests::pil_support::{config, firmware, scene};
 
-use parapet_sim::pil::{firmware_from_env_or_build, max_deviation, run_pil, run_twin, PilOptions};
-use parapet_sim::runner::{run, RunConfig};
-use parapet_sim::scene::Scene;
-
-/// One sphere (r 0.2 m) 5 cm off the straight start → goal line: without the filter the hull
-/// (r 0.224 m) hits it.
-const SCENE: &str = r#"
-name = "pil_short"
-[bounds]
-min = [-1.0, -1.5, 0.3]
-max = [3.5, 1.5, 2.0]
-[mission]
-start = [0.0, 0.0, 1.0]
-goal = [2.4, 0.0, 1.0]
-speed = 0.4
-[sensors]
-noise = false
-[[obstacles]]
-kind = "sphere"
-center = [1.2, 0.05, 1.0]
-radius = 0.2
-"#;
-
-fn scene() -> Scene {
-    Scene::parse(SCENE, "pil_short (tests/tests/pil_flight.rs)").expect("scene parses")
-}
-
-fn config(scene: &Scene) -> RunConfig {
-    let mut cfg = RunConfig::for_scene(scene, vec![scene.start, scene.goal]).expect("config");
-    cfg.duration = 14.0;
-    cfg
-}
-
-/// The firmware ELF: `PARAPET_FIRMWARE_QEMU_ELF` (set by `cargo xtask test`: QEMU must then be
-/// installed), else built with cargo when QEMU is installed; `None` (loud SKIP) without QEMU and
-/// without the variable.
-fn firmware() -> Option<PathBuf> {
-    static ELF: OnceLock<PathBuf> = OnceLock::new();
-    let have_qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
-    let from_env = std::env::var_os("PARAPET_FIRMWARE_QEMU_ELF").is_some();
-    if !have_qemu {
-        if from_env {
-            panic!(
-                "qemu-system-arm is missing: sudo apt-get update && sudo apt-get install -y qemu-system-arm"
-            );
-        }
-        // Straight to stderr: libtest does not capture this, so the SKIP is visible.
-        let _ = writeln!(
-            std::io::stderr(),
-            "\n*** SKIP: qemu-system-arm not installed and PARAPET_FIRMWARE_QEMU_ELF unset: \
-             processor-in-the-loop NOT TESTED (cargo xtask test runs it) ***\n"
-        );
-        return None;
-    }
-    Some(ELF.get_or_init(|| firmware_from_env_or_build().expect("QEMU firmware ELF")).clone())
-}
+/// Longest simulated flight of the short scene, s.
+const DURATION: f64 = 14.0;
 
 #[test]
 fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     let Some(elf) = firmware() else { return };
     let scene = scene();
-    let cfg = config(&scene);
+    let cfg = config(&scene, DURATION);
     let (pil, fig) = run_pil(&scene, &cfg, PilOptions::new(elf), &mut |_| {}).expect("PIL flight");
     let s = &pil.summary;
     println!("PIL: {}", serde_json::to_string_pretty(&fig).unwrap_or_default());
