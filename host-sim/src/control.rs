@@ -70,6 +70,27 @@ pub struct OuterOut {
     pub mode: String,
 }
 
+impl OuterOut {
+    /// The recorder's view of the controller's telemetry after an outer step.
+    pub fn from_telemetry(tel: &Telemetry) -> Self {
+        OuterOut {
+            reference: to_f64(&tel.reference.position),
+            region: region_name(tel.filter.region),
+            region_code: tel.filter.region.code(),
+            active_obstacle: tel.filter.active_id,
+            filter_active: tel.filter.intervened,
+            path_done: tel.progress.done,
+            u_nominal: to_f64(&tel.u_nominal),
+            u_filtered: to_f64(&tel.u_filtered),
+            filter_h_bar: tel.filter.h_bar as f64,
+            n_constraints: tel.filter.n_constraints,
+            unavoidable: tel.filter.unavoidable,
+            infeasible: tel.filter.infeasible,
+            mode: format!("{:?}", tel.mode),
+        }
+    }
+}
+
 /// Region name for reports.
 pub fn region_name(r: Region) -> &'static str {
     match r {
@@ -206,22 +227,7 @@ impl Autopilot for Controller {
         let now = clock_us(t);
         self.report_obstacles(now, obstacles);
         self.fc.step_outer(now);
-        let tel = self.fc.telemetry();
-        OuterOut {
-            reference: to_f64(&tel.reference.position),
-            region: region_name(tel.filter.region),
-            region_code: tel.filter.region.code(),
-            active_obstacle: tel.filter.active_id,
-            filter_active: tel.filter.intervened,
-            path_done: tel.progress.done,
-            u_nominal: to_f64(&tel.u_nominal),
-            u_filtered: to_f64(&tel.u_filtered),
-            filter_h_bar: tel.filter.h_bar as f64,
-            n_constraints: tel.filter.n_constraints,
-            unavoidable: tel.filter.unavoidable,
-            infeasible: tel.filter.infeasible,
-            mode: format!("{:?}", tel.mode),
-        }
+        OuterOut::from_telemetry(&self.fc.telemetry())
     }
 
     /// One inner step at simulated time `t`: IMU in, throttles out.

@@ -1291,22 +1291,7 @@ impl Autopilot for FirmwareTwin {
             let _ = self.fc.start_mission(self.last_t_us);
         }
         let _ = t;
-        let tel = self.fc.telemetry();
-        OuterOut {
-            reference: to_f64(&tel.reference.position),
-            region: region_name(tel.filter.region),
-            region_code: tel.filter.region.code(),
-            active_obstacle: tel.filter.active_id,
-            filter_active: tel.filter.intervened,
-            path_done: tel.progress.done,
-            u_nominal: to_f64(&tel.u_nominal),
-            u_filtered: to_f64(&tel.u_filtered),
-            filter_h_bar: tel.filter.h_bar as f64,
-            n_constraints: tel.filter.n_constraints,
-            unavoidable: tel.filter.unavoidable,
-            infeasible: tel.filter.infeasible,
-            mode: format!("{:?}", tel.mode),
-        }
+        OuterOut::from_telemetry(&self.fc.telemetry())
     }
 
     fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
