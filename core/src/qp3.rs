@@ -9,10 +9,11 @@
 //! multipliers are all ≥ 0 (KKT), and also the cheapest feasible candidate. In
 //! f32 both tests can be blurred by round-off (a candidate violating within
 //! tolerance can look cheaper; multipliers of near-coplanar normals are noisy),
-//! so the choice is: the cheapest feasible KKT-valid candidate, else the
-//! cheapest feasible one, else the cheapest within a loose tolerance. Each
-//! candidate is computed with cross products (Cramer), in coordinates centred
-//! on a point the planes (nearly) share, to keep round-off small. Work is fixed
+//! so the choice is: the cheapest feasible KKT-valid candidate (tight, then
+//! loose tolerance), else the cheapest feasible one, else the cheapest within a
+//! loose tolerance. Each candidate is computed with cross products (Cramer),
+//! in coordinates centred on a point the planes (nearly) share, and polished by
+//! one step of iterative refinement, to keep round-off small. Work is fixed
 //! in advance: at most `Σ_{s≤3} C(k, s)` candidates (15 for k = 4, 93 for k = 8),
 //! each a ≤ 3×3 solve.
 //!
@@ -80,12 +81,18 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
             if ll < GRAM_EPS {
                 return None;
             }
-            let x0 = (b.n.cross(&l) * a.c + l.cross(&a.n) * b.c) / ll;
+            let (bl, la) = (b.n.cross(&l), l.cross(&a.n));
+            let x0 = (bl * a.c + la * b.c) / ll;
             let u = x0 + l * (l.dot(&(u_nom - x0)) / ll);
+            // One step of iterative refinement: for nearly opposite planes (small |l|) the
+            // point lies far along the line and the f32 error of l tilts it off both planes
+            // by ~ε·|u|/|l|; moving it back by the residuals the same way restores them to
+            // round-off of the residual evaluation.
+            let u = u + (bl * (a.c - a.n.dot(&u)) + la * (b.c - b.n.dot(&u))) / ll;
             // u − u* = λ_a n_a + λ_b n_b; n_b × l ⟂ n_b picks out λ_a (and l × n_a ⟂ n_a, λ_b).
             let w = u - u_nom;
-            let lam_a = w.dot(&b.n.cross(&l)) / ll;
-            let lam_b = w.dot(&l.cross(&a.n)) / ll;
+            let lam_a = w.dot(&bl) / ll;
+            let lam_b = w.dot(&la) / ll;
             Some((u, lam_a.min(lam_b)))
         }
         [i, j, k] => {
@@ -97,6 +104,8 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
                 return None;
             }
             let u = (bc * a.c + ca * b.c + ab * c.c) / det;
+            // One step of iterative refinement, as for the line.
+            let u = u + (bc * (a.c - a.n.dot(&u)) + ca * (b.c - b.n.dot(&u)) + ab * (c.c - c.n.dot(&u))) / det;
             let w = u - u_nom;
             let lam = (w.dot(&bc) / det).min(w.dot(&ca) / det).min(w.dot(&ab) / det);
             Some((u, lam))
@@ -150,8 +159,11 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| m.max(h.violation(u)));
 
     // (u, violation, mask): cheapest feasible candidate satisfying the KKT sign
-    // condition (the optimum), then without it, then under the loose tolerance.
+    // condition (the optimum), then the same under the loose tolerance (a KKT point
+    // a round-off away from feasible is a near-optimum; a feasible non-KKT vertex can
+    // be far costlier), then the cheapest feasible one without KKT, then loose.
     let mut best_kkt: Option<(Vec3, f32, u8)> = None;
+    let mut best_kkt_loose: Option<(Vec3, f32, u8)> = None;
     let mut best: Option<(Vec3, f32, u8)> = None;
     let mut best_loose: Option<(Vec3, f32, u8)> = None;
     // Is `u` (violating by `vu`) cheaper than `b`? The cost difference is taken exactly,
@@ -185,6 +197,9 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
             if viol <= tol_tight && kkt && cheaper(&u, viol, &best_kkt) {
                 best_kkt = Some((u, viol, mask));
             }
+            if viol <= tol_loose && kkt && cheaper(&u, viol, &best_kkt_loose) {
+                best_kkt_loose = Some((u, viol, mask));
+            }
             if viol <= tol_tight && cheaper(&u, viol, &best) {
                 best = Some((u, viol, mask));
             }
@@ -203,7 +218,7 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
             }
         }
     }
-    match best_kkt.or(best).or(best_loose) {
+    match best_kkt.or(best_kkt_loose).or(best).or(best_loose) {
         Some((u, viol, mask)) => Projection { u, feasible: true, active_mask: mask, max_violation: viol },
         None => Projection {
             u: least_bad.0,
