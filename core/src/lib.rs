@@ -17,6 +17,7 @@
 //!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
 //! - [`tracking`]: PD position tracking (eq. 2).
 //! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
+//! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -30,6 +31,7 @@ pub mod failsafe;
 pub mod frame;
 pub mod mixer;
 pub mod obstacle;
+pub mod params;
 pub mod qp3;
 pub mod thrust;
 pub mod tracking;
