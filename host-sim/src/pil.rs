@@ -53,10 +53,10 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkReader, MavlinkVersion, MessageData};
 use nalgebra::Vector3;
-use parapet_core::cbf::FilterVariant;
 use parapet_core::controller::{ControllerParams, FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::params;
 use parapet_core::waypoint::WaypointFollower;
 use parapet_core::Vec3;
 use rand::{Rng, SeedableRng};
@@ -249,49 +249,28 @@ pub fn firmware_from_env_or_build() -> Result<PathBuf> {
     }
 }
 
-/// The controller parameters the firmware flies with for `cfg`: its boot defaults
-/// (`ControllerParams::default()`, default airframe) with the PARAM_SET-able settings of the run.
-/// Errors for run settings the firmware has no parameter for.
-pub fn firmware_params(cfg: &RunConfig) -> Result<ControllerParams> {
-    let mut p = ControllerParams::default();
-    let d = parapet_core::cbf::CbfParams::default();
-    if (cfg.velocity_margin as f32) != d.velocity_margin {
-        bail!(
-            "velocity_margin = {} cannot be given to the firmware (no parameter for it; default {})",
-            cfg.velocity_margin,
-            d.velocity_margin
-        );
-    }
-    p.cbf.mu = cfg.params.mu as f32;
-    p.cbf.delta = cfg.params.delta as f32;
-    p.cbf.delta1 = cfg.params.delta1 as f32;
-    p.cbf.accel_bound = cfg.accel_bound as f32;
-    p.filter_variant = cfg.variant;
-    p.tracking.kp = [cfg.params.kp as f32; 3];
-    p.tracking.kd = [cfg.params.kd as f32; 3];
-    p.waypoint.cruise_speed = cfg.params.speed as f32;
-    p.validate().map_err(|e| anyhow!("controller parameters rejected: {e:?}"))?;
-    Ok(p)
-}
-
-/// PARAM_SET name/value pairs that give the firmware `p` (see `firmware/src/params.rs`).
-pub fn param_table(p: &ControllerParams) -> Vec<(&'static str, f32)> {
-    let variant = match p.filter_variant {
-        FilterVariant::Paper => 0.0,
-        FilterVariant::Relative => 1.0,
-        FilterVariant::Multi => 2.0,
-        FilterVariant::MultiRelative => 3.0,
-    };
-    vec![
-        ("CBF_MU", p.cbf.mu),
-        ("CBF_DELTA", p.cbf.delta),
-        ("CBF_DELTA1", p.cbf.delta1),
-        ("CBF_ACC_BOUND", p.cbf.accel_bound),
-        ("CBF_VARIANT", variant),
-        ("TRK_KP", p.tracking.kp[0]),
-        ("TRK_KD", p.tracking.kd[0]),
-        ("WP_SPEED", p.waypoint.cruise_speed),
-    ]
+/// The controller parameters the firmware flies with for `scene` and `cfg`: exactly those of
+/// `parapet run` ([`crate::control::controller_params`]: the scene's vehicle, the run's CBF,
+/// tracking and speed settings), with the PARAM_SET sequence that takes the firmware from its
+/// boot defaults (`ControllerParams::default()`) there, in an order in which every intermediate
+/// set validates ([`parapet_core::params::plan_updates`]). Errors name a setting the firmware
+/// has no parameter for.
+pub fn firmware_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+) -> Result<(ControllerParams, Vec<(&'static str, f32)>)> {
+    let p = crate::control::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    let mut out = [("", 0.0f32); params::COUNT];
+    let n = params::plan_updates(&ControllerParams::default(), &p, &mut out).map_err(|e| match e {
+        params::PlanError::InvalidTarget => anyhow!("controller parameters rejected: {:?}", p.validate()),
+        params::PlanError::NotSettable(field) => {
+            anyhow!("the run's controller `{field}` settings cannot be given to the firmware (no parameter for them)")
+        }
+        params::PlanError::NoValidOrder(name) => {
+            anyhow!("no order of PARAM_SETs keeps the firmware's parameters valid (stuck at {name})")
+        }
+    })?;
+    Ok((p, out[..n].to_vec()))
 }
 
 /// The path as the firmware stores it after MISSION_ITEM_INT (x, y quantised to 0.1 mm), NED.
@@ -370,7 +349,8 @@ pub struct PilLink {
     last_fw_seq: Option<u8>,
     fig: PilFigures,
     ins: Vec<(u64, bool)>,
-    params: ControllerParams,
+    /// PARAM_SETs of the start-up (name, value), in order.
+    param_updates: Vec<(&'static str, f32)>,
     path: Vec<Vector3<f64>>,
     cbf: bool,
     follower: WaypointFollower<{ parapet_core::controller::PATH_CAPACITY }>,
@@ -387,10 +367,10 @@ pub struct PilLink {
 }
 
 impl PilLink {
-    /// Start QEMU with the firmware, connect, handshake. `cfg` gives the parameters and path
-    /// (sent in [`Autopilot::start`]).
-    pub fn spawn(cfg: &RunConfig, opts: PilOptions) -> Result<PilLink> {
-        let params = firmware_params(cfg)?;
+    /// Start QEMU with the firmware, connect, handshake. `scene` and `cfg` give the parameters
+    /// (see [`firmware_params`]) and the path (sent in [`Autopilot::start`]).
+    pub fn spawn(scene: &Scene, cfg: &RunConfig, opts: PilOptions) -> Result<PilLink> {
+        let (params, param_updates) = firmware_params(scene, cfg)?;
         if cfg.path.len() > parapet_core::controller::PATH_CAPACITY {
             bail!("the path has {} waypoints; the firmware stores at most 64", cfg.path.len());
         }
@@ -423,7 +403,7 @@ impl PilLink {
             last_fw_seq: None,
             fig: PilFigures::default(),
             ins: Vec::new(),
-            params,
+            param_updates,
             path: cfg.path.clone(),
             cbf: cfg.cbf,
             follower,
@@ -807,7 +787,7 @@ impl PilLink {
         obstacles: &[ObstaclePoint],
         imu: &ImuReading,
     ) -> Result<()> {
-        let table = param_table(&self.params);
+        let table = self.param_updates.clone();
         let path = self.path.clone();
         let mut t = preroll_start(t0_us, table.len(), path.len());
         let mut steps = 0u64;
@@ -1154,7 +1134,7 @@ pub fn run_pil(
     opts: PilOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<(RunOutput, PilFigures)> {
-    let mut link = PilLink::spawn(cfg, opts)?;
+    let mut link = PilLink::spawn(scene, cfg, opts)?;
     let out = run_with(scene, cfg, &mut link, progress);
     if let Some(f) = link.fault() {
         bail!("processor-in-the-loop link failed: {f}");
@@ -1194,10 +1174,10 @@ pub struct FirmwareTwin {
 }
 
 impl FirmwareTwin {
-    /// Controller with the firmware's parameters for `cfg`.
-    pub fn new(cfg: &RunConfig) -> Result<Self> {
-        let p = firmware_params(cfg)?;
-        let n_params = param_table(&p).len();
+    /// Controller with the firmware's parameters for `scene` and `cfg`.
+    pub fn new(scene: &Scene, cfg: &RunConfig) -> Result<Self> {
+        let (p, updates) = firmware_params(scene, cfg)?;
+        let n_params = updates.len();
         let mut fc = FlightController::new(p).map_err(|e| anyhow!("controller parameters: {e:?}"))?;
         fc.set_path(&quantised_path(&cfg.path)).map_err(|e| anyhow!("path rejected: {e:?}"))?;
         Ok(FirmwareTwin {
@@ -1305,7 +1285,7 @@ impl Autopilot for FirmwareTwin {
 
 /// Fly `scene` with the [`FirmwareTwin`] (pure host, firmware parameters and sequence).
 pub fn run_twin(scene: &Scene, cfg: &RunConfig) -> Result<RunOutput> {
-    let mut twin = FirmwareTwin::new(cfg)?;
+    let mut twin = FirmwareTwin::new(scene, cfg)?;
     run_with(scene, cfg, &mut twin, &mut |_| {})
 }
 
@@ -1316,4 +1296,57 @@ pub fn max_deviation(a: &RunOutput, b: &RunOutput) -> (f64, usize) {
     let d =
         a.samples[..n].iter().zip(&b.samples[..n]).map(|(x, y)| (x.pos - y.pos).norm()).fold(0.0, f64::max);
     (d, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(extra: &str) -> Scene {
+        let text = format!(
+            "name = \"t\"\n[bounds]\nmin = [-1.0, -1.0, 0.3]\nmax = [3.0, 1.0, 2.0]\n\
+             [mission]\nstart = [0.0, 0.0, 1.0]\ngoal = [2.0, 0.0, 1.0]\nspeed = 0.4\n{extra}"
+        );
+        Scene::parse(&text, "test scene").expect("scene parses")
+    }
+
+    /// The firmware gets exactly `parapet run`'s parameters: applying the PARAM_SETs in order to
+    /// its boot defaults, each step validating as the firmware requires, gives them.
+    #[test]
+    fn firmware_flies_the_scenes_vehicle_and_settings() {
+        let s = scene(
+            "[vehicle]\nmass = 1.2\ninertia = [0.004, 0.0045, 0.007]\narm_length = 0.2\nk_f = 6.0e-6\n\
+             [controller]\nvelocity_margin = 0.03\n",
+        );
+        let cfg = RunConfig::for_scene(&s, vec![s.start, s.goal]).expect("config");
+        let (p, updates) = firmware_params(&s, &cfg).expect("representable");
+        assert_eq!(
+            p,
+            crate::control::controller_params(&s, &cfg, cfg.cbf_params().expect("cbf"), cfg.variant)
+        );
+        assert_eq!(p.airframe.mass, 1.2);
+        assert_eq!(p.cbf.velocity_margin, 0.03);
+        let mut fw = ControllerParams::default();
+        for (name, v) in &updates {
+            params::set(&mut fw, name, *v).expect("known parameter");
+            assert!(fw.validate().is_ok(), "the firmware would refuse {name} = {v}");
+        }
+        assert_eq!(fw, p);
+        // 1.2 kg hovers on 11.8 N, above the boot THR_MAX (11 N): the limit must go first.
+        let pos = |n: &str| updates.iter().position(|(m, _)| *m == n).expect("sent");
+        assert!(pos("THR_MAX") < pos("VEH_MASS"));
+    }
+
+    #[test]
+    fn default_scene_and_invalid_settings() {
+        let s = scene("");
+        let cfg = RunConfig::for_scene(&s, vec![s.start, s.goal]).expect("config");
+        let (p, _) = firmware_params(&s, &cfg).expect("default scene");
+        assert_eq!(p.airframe, s.vehicle.airframe());
+        let mut bad = cfg.clone();
+        bad.params.mu = -1.0;
+        let err = firmware_params(&s, &bad).expect_err("invalid mu");
+        println!("{err:#}");
+        assert!(format!("{err:#}").contains("mu"), "{err:#}");
+    }
 }

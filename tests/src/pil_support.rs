@@ -11,7 +11,9 @@ use parapet_sim::runner::RunConfig;
 use parapet_sim::scene::Scene;
 
 /// One sphere (r 0.2 m) 5 cm off the straight start → goal line: without the filter the hull
-/// (r 0.224 m) hits it.
+/// (r 0.224 m) hits it. The vehicle is not the default one (heavier, larger, stronger rotors)
+/// and the filter has a velocity margin, so the PIL flight checks that the firmware receives
+/// the scene's airframe and settings over PARAM_SET (`parapet_sim::pil::firmware_params`).
 pub const SCENE: &str = r#"
 name = "pil_short"
 [bounds]
@@ -23,6 +25,14 @@ goal = [2.4, 0.0, 1.0]
 speed = 0.4
 [sensors]
 noise = false
+[vehicle]
+mass = 0.62
+inertia = [0.0024, 0.0025, 0.0041]
+arm_length = 0.15
+k_f = 2.6e-6
+k_m = 4.3e-8
+[controller]
+velocity_margin = 0.02
 [[obstacles]]
 kind = "sphere"
 center = [1.2, 0.05, 1.0]

@@ -57,7 +57,7 @@ fn stop_run(signal: &str, at_s: f64, timeout: Duration) -> (String, Duration, u3
     let mut opts = PilOptions::new(elf);
     opts.timeout = timeout;
     opts.resend_after = Duration::from_millis(500);
-    let mut link = PilLink::spawn(&cfg, opts).expect("QEMU starts");
+    let mut link = PilLink::spawn(&scene, &cfg, opts).expect("QEMU starts");
     let pid = link.qemu_pid();
     let mut stopped_at = None;
     let r = run_with(&scene, &cfg, &mut link, &mut |t| {
@@ -108,7 +108,7 @@ fn missing_qemu_names_the_package_and_command() {
     let cfg = config(&scene, 1.0);
     let mut opts = PilOptions::new(std::env::current_exe().expect("test binary path"));
     opts.qemu = "/nonexistent/qemu-system-arm".into();
-    let err = match PilLink::spawn(&cfg, opts) {
+    let err = match PilLink::spawn(&scene, &cfg, opts) {
         Ok(_) => panic!("spawned a nonexistent QEMU"),
         Err(e) => format!("{e:#}"),
     };

@@ -49,13 +49,13 @@ fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     // Same f32 inputs (HIL_SENSOR, ODOMETRY and OBSTACLE_DISTANCE_3D carry the f32 values the
     // twin gets), same sequence: only floating-point codegen differs (measured ≈ 1e-7 m).
     assert!(dev < 1e-3, "PIL and host twin differ by {dev} m");
-    // The plain `parapet run` controller (vehicle-derived parameters, outer before inner).
+    // The plain `parapet run` controller (same parameters, the scene's vehicle included; outer
+    // before inner).
     let host = run(&scene, &cfg, &mut |_| {}).expect("host flight");
     let (dev_run, n_run) = max_deviation(&pil, &host);
     println!("PIL vs parapet run: max position deviation {dev_run:.4} m over {n_run} samples");
-    // Differences by design (measured ≈ 4 mm): the firmware applies an outer step's setpoint
-    // one inner step later, starts the mission 1 ms earlier, flies the default airframe's
-    // parameters (thrust_max 11.0 N vs 0.9·4·rotor max), ignores the fix's yaw, warms its
+    // Differences by design (measured ≈ 1 mm): the firmware applies an outer step's setpoint
+    // one inner step later, starts the mission 1 ms earlier, ignores the fix's yaw, warms its
     // estimator up for 300 ms; the path is quantised to 0.1 mm by MISSION_ITEM_INT.
     assert!(dev_run < 0.05, "PIL and `parapet run` differ by {dev_run} m");
 }
