@@ -18,6 +18,19 @@ use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HI
 
 use crate::autopilot::{Autopilot, MotorCommand};
 use crate::link::{HilSample, Link};
+use crate::pil::TickCounter;
+
+/// A clock that never advances (untimed steps).
+struct NoTicks;
+
+impl TickCounter for NoTicks {
+    fn now(&self) -> u32 {
+        0
+    }
+    fn since(&self, _start: u32) -> u32 {
+        0
+    }
+}
 
 /// Outer-loop period by simulated time, µs (250 Hz).
 pub const OUTER_PERIOD_US: u64 = 4_000;
@@ -57,6 +70,9 @@ pub struct StepOutcome {
     pub motors: MotorCommand,
     /// The outer loop ran in this step.
     pub ran_outer: bool,
+    /// Ticks of the outer step alone (`step_outer`), when it ran and the step was timed
+    /// ([`LockstepScheduler::step_timed`]); `None` otherwise.
+    pub outer_ticks: Option<u32>,
 }
 
 /// HIL_ACTUATOR_CONTROLS for `motors` at simulated time `t_us`.
@@ -93,6 +109,19 @@ impl LockstepScheduler {
 
     /// Runs one control step for `sample` (see the module docs).
     pub fn step<A: Autopilot>(&mut self, sample: &HilSample, link: &mut Link, ap: &mut A) -> StepOutcome {
+        let mut o = self.step_timed(sample, link, ap, &NoTicks);
+        o.outer_ticks = None;
+        o
+    }
+
+    /// [`Self::step`], with the outer step timed on `ticks` ([`StepOutcome::outer_ticks`]).
+    pub fn step_timed<A: Autopilot>(
+        &mut self,
+        sample: &HilSample,
+        link: &mut Link,
+        ap: &mut A,
+        ticks: &impl TickCounter,
+    ) -> StepOutcome {
         let t = sample.time_usec;
         if self.last_t_us.is_some_and(|last| t <= last) {
             self.stats.non_monotonic = self.stats.non_monotonic.saturating_add(1);
@@ -102,8 +131,11 @@ impl LockstepScheduler {
         link.flush_obstacles(t, ap);
         let motors = ap.step_inner(t, &sample.imu).sanitized();
         let ran_outer = self.next_outer_us.is_none_or(|n| t >= n);
+        let mut outer_ticks = None;
         if ran_outer {
+            let t0 = ticks.now();
             ap.step_outer(t);
+            outer_ticks = Some(ticks.since(t0));
             self.stats.outer_steps = self.stats.outer_steps.saturating_add(1);
             self.next_outer_us = Some(match self.next_outer_us {
                 Some(n) if t - n < self.outer_period_us => n + self.outer_period_us,
@@ -111,7 +143,7 @@ impl LockstepScheduler {
             });
         }
         self.stats.steps = self.stats.steps.saturating_add(1);
-        StepOutcome { controls: actuator_controls(t, &motors), motors, ran_outer }
+        StepOutcome { controls: actuator_controls(t, &motors), motors, ran_outer, outer_ticks }
     }
 }
 

@@ -162,7 +162,7 @@ impl<A: Autopilot> PilApp<A> {
         let t32 = t as u32;
         self.inner_timer.start(t32);
         let t0 = ticks.now();
-        let out = self.scheduler.step(sample, &mut self.link, &mut self.autopilot);
+        let out = self.scheduler.step_timed(sample, &mut self.link, &mut self.autopilot, ticks);
         let spent = ticks.since(t0);
         self.inner_timer.end(t32);
         if out.ran_outer {
@@ -195,6 +195,13 @@ impl<A: Autopilot> PilApp<A> {
         }
         for m in &queued {
             self.send(port, m);
+        }
+        if let Some(outer) = out.outer_ticks {
+            let ins_outer = self.calibration.instructions_for(outer);
+            self.send(
+                port,
+                &named_int((t / 1000) as u32, "ins_outer", ins_outer.min(i32::MAX as u32) as i32),
+            );
         }
         self.send(port, &named_int((t / 1000) as u32, "ins_step", ins.min(i32::MAX as u32) as i32));
         self.send(port, &Outbound::HilActuatorControls(out.controls));
@@ -286,12 +293,28 @@ mod tests {
             assert_eq!(last_id, HIL_ACTUATOR_CONTROLS_DATA::ID);
             let ctl = HIL_ACTUATOR_CONTROLS_DATA::deser(MavlinkVersion::V2, &last).expect("decodes");
             assert_eq!(ctl.time_usec, t);
-            let (id, step) = &sent[sent.len() - 2];
-            assert_eq!(*id, NAMED_VALUE_INT_DATA::ID);
-            let step = NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, step).expect("decodes");
+            let int_at = |i: usize| {
+                let (id, m) = &sent[i];
+                assert_eq!(*id, NAMED_VALUE_INT_DATA::ID);
+                NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m).expect("decodes")
+            };
+            let step = int_at(sent.len() - 2);
             assert!(crate::telemetry::name_is(&step.name, "ins_step"));
-            // One tick read pair around the step = 7 fake ticks → 7 × 100000 / 16800 ≈ 42.
-            assert_eq!(step.value, 42);
+            if k == 0 {
+                // The first sample runs the outer loop, timed by its own read pair (7 fake ticks →
+                // 7 × 100000 / 16800 ≈ 42, reported as `ins_outer` before `ins_step`); the whole
+                // step spans three reads after its start: 21 ticks ≈ 125 instructions.
+                let outer = int_at(sent.len() - 3);
+                assert!(crate::telemetry::name_is(&outer.name, "ins_outer"));
+                assert_eq!(outer.value, 42);
+                assert_eq!(step.value, 125);
+            } else {
+                // Inner only: one tick read pair around the step = 7 fake ticks ≈ 42.
+                assert_eq!(step.value, 42);
+                assert!(!sent.iter().any(|(id, m)| *id == NAMED_VALUE_INT_DATA::ID
+                    && NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m)
+                        .is_ok_and(|m| crate::telemetry::name_is(&m.name, "ins_outer"))));
+            }
         }
         assert_eq!(app.autopilot().inner_steps, vec![2_000_000, 2_001_000, 2_002_000]);
         assert_eq!(app.stats().steps, 3);

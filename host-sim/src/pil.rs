@@ -142,6 +142,11 @@ pub struct InstructionFigures {
     pub mean_outer_steps: f64,
     /// Mean over the inner-only steps.
     pub mean_inner_only_steps: f64,
+    /// The outer step alone (`step_outer`: waypoint, PD, CBF filter, thrust mapping; the
+    /// firmware's `ins_outer`), mean over the outer steps.
+    pub mean_outer_loop: f64,
+    /// The outer step alone, max.
+    pub max_outer_loop: u64,
     /// Steps counted.
     pub steps: u64,
     /// Calibration: instructions of the calibration loop (`ins_cal_n`).
@@ -349,6 +354,9 @@ pub struct PilLink {
     last_fw_seq: Option<u8>,
     fig: PilFigures,
     ins: Vec<(u64, bool)>,
+    /// `ins_outer` of the flight steps, and the one of the step being answered.
+    ins_outer: Vec<u64>,
+    pending_outer: Option<(u64, u64)>,
     /// PARAM_SETs of the start-up (name, value), in order.
     param_updates: Vec<(&'static str, f32)>,
     path: Vec<Vector3<f64>>,
@@ -403,6 +411,8 @@ impl PilLink {
             last_fw_seq: None,
             fig: PilFigures::default(),
             ins: Vec::new(),
+            ins_outer: Vec::new(),
+            pending_outer: None,
             param_updates,
             path: cfg.path.clone(),
             cbf: cfg.cbf,
@@ -463,6 +473,8 @@ impl PilLink {
         i.max = self.ins.iter().map(|x| x.0).max().unwrap_or(0);
         i.mean_outer_steps = mean(&mut self.ins.iter().filter(|x| x.1).map(|x| x.0));
         i.mean_inner_only_steps = mean(&mut self.ins.iter().filter(|x| !x.1).map(|x| x.0));
+        i.mean_outer_loop = mean(&mut self.ins_outer.iter().copied());
+        i.max_outer_loop = self.ins_outer.iter().copied().max().unwrap_or(0);
         i.max_time_at_168mhz_us = i.max as f64 / 168.0;
         f
     }
@@ -688,14 +700,21 @@ impl PilLink {
                 }
                 MavMessage::HIL_ACTUATOR_CONTROLS(_) => {} // answer to a re-sent older step
                 MavMessage::NAMED_VALUE_INT(n)
+                    if n.name.to_str().unwrap_or("") == "ins_outer"
+                        && n.time_boot_ms as u64 == t_us / 1000
+                        && self.in_flight =>
+                {
+                    self.pending_outer = Some((t_us, n.value.max(0) as u64));
+                }
+                MavMessage::NAMED_VALUE_INT(n)
                     if n.name.to_str().unwrap_or("") == "ins_step"
                         && n.time_boot_ms as u64 == t_us / 1000
                         && self.in_flight =>
                 {
-                    // Flight steps at T0 + k·4 ms (T0 = mission start + 1 ms) run the outer loop.
-                    let t0 = self.mission_t0_us.unwrap_or(0) + 1000;
-                    let outer = t_us.saturating_sub(t0).is_multiple_of(OUTER_US);
-                    self.ins.push((n.value.max(0) as u64, outer));
+                    // `ins_outer` comes first in the answer of a step that ran the outer loop.
+                    let outer = self.pending_outer.take().filter(|p| p.0 == t_us).map(|p| p.1);
+                    self.ins_outer.extend(outer);
+                    self.ins.push((n.value.max(0) as u64, outer.is_some()));
                 }
                 m @ (MavMessage::COMMAND_ACK(_)
                 | MavMessage::MISSION_REQUEST_INT(_)

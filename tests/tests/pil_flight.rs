@@ -39,6 +39,10 @@ fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     assert!(
         ins.mean > 500.0 && ins.max as f64 >= ins.mean && ins.mean_outer_steps > ins.mean_inner_only_steps
     );
+    // The outer loop alone (`ins_outer`) is part of the steps that ran it: one report per outer
+    // step, each smaller than its whole step.
+    assert!(ins.mean_outer_loop > 100.0 && ins.mean_outer_loop < ins.mean_outer_steps, "{ins:?}");
+    assert!(ins.max_outer_loop <= ins.max);
     assert!(fig.real_time_factor > 0.0);
 
     // Pure host, same core, same parameters and sequence as the firmware.
