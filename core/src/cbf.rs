@@ -20,6 +20,7 @@
 //! `Multi` (every near barrier at once, own velocity: exact min-norm QP),
 //! `MultiRelative` (both; the default).
 
+use crate::fmath::{norm3, sqrtf};
 use crate::frame::is_finite3;
 use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
@@ -331,7 +332,7 @@ impl SafetyFilter {
         } else {
             (*v, 0.0)
         };
-        let n = d / libm::sqrtf(dist_sq);
+        let n = d / sqrtf(dist_sq);
         let mu = self.params.mu;
         let c = -(2.0 / mu) * (n.dot(&d_dot) - self.params.velocity_margin) + a_bound;
         Some(Barrier {
@@ -351,7 +352,7 @@ impl SafetyFilter {
         if t <= 0.0 {
             return b.h;
         }
-        let h_dot = self.params.mu * libm::sqrtf(b.dist_sq) * (b.constraint.n.dot(u) - b.constraint.c)
+        let h_dot = self.params.mu * sqrtf(b.dist_sq) * (b.constraint.n.dot(u) - b.constraint.c)
             + b.mu_radial_speed_sq;
         b.h + t * h_dot.min(0.0)
     }
@@ -362,7 +363,7 @@ impl SafetyFilter {
             return Vec3::zeros();
         }
         let u = v * (-2.0 / self.params.mu);
-        let n = u.norm();
+        let n = norm3(&u);
         if n > self.params.u_max {
             u * (self.params.u_max / n)
         } else {
@@ -478,7 +479,7 @@ impl SafetyFilter {
         // beyond it; 4·Σ max(c'_i, 0) (at most 2·u_max) leaves room for those, and excludes the
         // far sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
         let shift: f32 = cons.iter().map(|h| (h.c - h.n.dot(&u_brake)).max(0.0)).sum();
-        let bound = 2.0 * (u_nom - u_brake).norm() + (4.0 * shift).min(2.0 * u_max);
+        let bound = 2.0 * norm3(&(u_nom - u_brake)) + (4.0 * shift).min(2.0 * u_max);
         let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
         diag.region = Region::Perpendicular;
         diag.intervened = true;

@@ -55,6 +55,7 @@ use crate::attitude::{torque_vec, AttitudeController, AttitudeError, AttitudePar
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter, INPUT_LIMIT};
 use crate::estimator::{AttitudeEstimator, EstimatorError, EstimatorParams, ImuSample, ImuStatus};
 use crate::failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
+use crate::fmath::norm3;
 use crate::frame::{clampf, is_finite3, GRAVITY};
 use crate::mixer::{Mixer, MixerError, MixerOutput};
 use crate::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
@@ -793,7 +794,7 @@ impl FlightController {
             Some((p, v)) => {
                 self.no_fix_since_us = None;
                 let pinned = self.land_ref.z - p.z >= 0.9 * self.params.land_lead;
-                if pinned && v.norm() < self.params.landed_speed {
+                if pinned && norm3(&v) < self.params.landed_speed {
                     let since = *self.landed_since_us.get_or_insert(now_us);
                     age(now_us, since) >= self.params.landed_time_us
                 } else {
@@ -926,7 +927,7 @@ impl FlightController {
                 let factor = if state == FailsafeState::Land { self.params.land_thrust_factor } else { 1.0 };
                 let mut u = Vec3::new(0.0, 0.0, (1.0 - factor) * GRAVITY);
                 let v0 = self.blind_velocity.unwrap_or_else(Vec3::zeros);
-                let speed = v0.norm();
+                let speed = norm3(&v0);
                 let a_b = self.params.blind_brake_accel;
                 let blind_s = self.no_fix_since_us.map_or(0.0, |t| age(now_us, t) as f32 * 1e-6);
                 if speed > 1e-3 && blind_s < speed / a_b {
@@ -954,7 +955,7 @@ impl FlightController {
 
     fn ramp_ref(&self, from: Vec3, to: Vec3, elapsed_us: u64, speed: f32) -> (Reference, bool) {
         let d = to - from;
-        let len = d.norm();
+        let len = norm3(&d);
         let s = speed * (elapsed_us as f32 * 1e-6);
         if len.is_nan() || len <= 0.0 || s >= len {
             return (self.hold_ref(to), true);

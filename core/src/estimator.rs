@@ -48,9 +48,10 @@
 //! accelerometer/yaw correction is still not applied; state kept).
 
 use crate::attitude::Euler;
+use crate::fmath::{norm3, sqrtf};
 use crate::frame::{clampf, is_finite3, wrap_pi, GRAVITY};
 use crate::Vec3;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// Largest plausible gyro component, rad/s (MEMS gyros saturate near 35 rad/s).
 pub const GYRO_LIMIT: f32 = 100.0;
@@ -253,8 +254,8 @@ impl AttitudeEstimator {
     }
 
     fn accel_usable(&self, f: &Vec3, a_w: &Vec3) -> bool {
-        let expected = (Vec3::new(0.0, 0.0, GRAVITY) - a_w).norm();
-        let n = f.norm();
+        let expected = norm3(&(Vec3::new(0.0, 0.0, GRAVITY) - a_w));
+        let n = norm3(f);
         // Near free fall the direction of f is meaningless (and 1/|f| unbounded).
         n >= 0.5 * GRAVITY && (n - expected).abs() <= self.params.accel_gate * GRAVITY
     }
@@ -299,7 +300,7 @@ impl AttitudeEstimator {
                 return ImuStatus::AccelIgnored;
             }
             let f = imu.accel;
-            let pitch = libm::atan2f(f.x, libm::sqrtf(f.y * f.y + f.z * f.z));
+            let pitch = libm::atan2f(f.x, sqrtf(f.y * f.y + f.z * f.z));
             let roll = libm::atan2f(-f.y, -f.z);
             self.q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_ext.unwrap_or(0.0));
             self.rate = imu.gyro - self.bias;
@@ -322,9 +323,9 @@ impl AttitudeEstimator {
         let mut bias_dot = Vec3::zeros();
         let use_acc = self.accel_usable(&imu.accel, &a_w);
         if use_acc {
-            let v_meas = -imu.accel / imu.accel.norm();
+            let v_meas = -imu.accel / norm3(&imu.accel);
             let g_w = e3 * GRAVITY - a_w;
-            let n = g_w.norm();
+            let n = norm3(&g_w);
             // A compensation that cancels gravity would leave no reference: fall back to level.
             let v_est = if n > 0.5 * GRAVITY { r_t * (g_w / n) } else { r_t * e3 };
             let e = v_meas.cross(&v_est);
@@ -350,10 +351,10 @@ impl AttitudeEstimator {
         self.bias = self.bias.map(|b| clampf(b, -bm, bm));
         self.rate = imu.gyro - self.bias;
         let omega = self.rate + corr;
-        let dq = UnitQuaternion::from_scaled_axis(omega * dt_s);
+        let dq = quat_from_scaled_axis(&(omega * dt_s));
         let q = self.q * dq;
         // Renormalise (from_scaled_axis and the product keep unit norm up to rounding).
-        let q = UnitQuaternion::new_normalize(q.into_inner());
+        let q = normalize_quat(q.into_inner());
         if q.coords.iter().all(|c| c.is_finite()) {
             self.q = q;
         }
@@ -363,6 +364,26 @@ impl AttitudeEstimator {
             ImuStatus::AccelIgnored
         }
     }
+}
+
+/// `UnitQuaternion::from_scaled_axis(w)` (rotation vector `w`, rad) with nalgebra 0.35's
+/// arithmetic (`exp` of the pure quaternion `w/2`, identity below `ε²`), its square root
+/// taken by [`sqrtf`] (the FPU instruction on the Cortex-M4F; the same value).
+fn quat_from_scaled_axis(w: &Vec3) -> UnitQuaternion<f32> {
+    let v = w / 2.0;
+    let nn = v.norm_squared();
+    if nn <= f32::EPSILON * f32::EPSILON {
+        return UnitQuaternion::identity();
+    }
+    let n = sqrtf(nn);
+    let nv = v * (libm::sinf(n) / n);
+    UnitQuaternion::new_unchecked(Quaternion::from_parts(libm::cosf(n), nv))
+}
+
+/// `UnitQuaternion::new_normalize(q)` with the norm's square root taken by [`sqrtf`].
+fn normalize_quat(q: Quaternion<f32>) -> UnitQuaternion<f32> {
+    let n = sqrtf(q.coords.norm_squared());
+    UnitQuaternion::new_unchecked(Quaternion::from(q.coords.map(|c| c / n)))
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@
 //! * **Files and plots (scenes, paths, trajectories):** ENU — x east, y north,
 //!   z **up** (height above ground). Convert only at that boundary.
 
+use crate::fmath::{maxf, minf};
 use crate::Vec3;
 
 /// Standard gravity, m/s², acting along world +z (down).
@@ -43,7 +44,7 @@ pub fn is_finite3(v: &Vec3) -> bool {
 /// control loop). NaN `x` gives `lo`; NaN bounds are ignored; `lo > hi` gives `hi`.
 #[inline]
 pub fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
-    x.max(lo).min(hi)
+    minf(maxf(x, lo), hi)
 }
 
 /// Wrap an angle to (−π, π], rad. Non-finite input is returned unchanged

@@ -17,9 +17,10 @@
 //!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
 //! - [`tracking`]: PD position tracking (eq. 2).
 //! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
+//! - [`fmath`]: square root (FPU instruction on the Cortex-M4F), min, max.
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
 #![no_std]
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod airframe;
@@ -28,6 +29,7 @@ pub mod cbf;
 pub mod controller;
 pub mod estimator;
 pub mod failsafe;
+pub mod fmath;
 pub mod frame;
 pub mod mixer;
 pub mod obstacle;

@@ -33,6 +33,7 @@
 //! [`crate::airframe`]: `ω = c·ω_max`, `f = c² f_max`).
 
 use crate::airframe::{Airframe, ROTOR_XY_UNIT, ROTOR_YAW_SIGN};
+use crate::fmath::sqrtf;
 use crate::frame::clampf;
 use crate::Vec3;
 
@@ -177,7 +178,7 @@ impl Mixer {
             // clamp() of a NaN stays NaN; the inputs are clean so f is finite, but be explicit.
             let f = if f.is_finite() { f } else { 0.0 };
             out.thrust_n[i] = f;
-            out.throttle[i] = libm::sqrtf(f / fm).clamp(0.0, 1.0);
+            out.throttle[i] = sqrtf(f / fm).clamp(0.0, 1.0);
         }
         out
     }

@@ -6,6 +6,7 @@
 //! reports), optionally with the obstacle's velocity. [`Shape::closest_point`]
 //! produces that point from a known shape (simulator, planner, tests).
 
+use crate::fmath::{norm3, sqrtf};
 use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
@@ -113,12 +114,12 @@ impl Shape {
         match self {
             Shape::Point { center } => {
                 let c = v(center);
-                (c, (p - c).norm())
+                (c, norm3(&(p - c)))
             }
             Shape::Sphere { center, radius } => {
                 let c = v(center);
                 let d = p - c;
-                let n = d.norm();
+                let n = norm3(&d);
                 let dir = if n > 0.0 { d / n } else { Vec3::x() };
                 (c + dir * *radius, n - *radius)
             }
@@ -126,7 +127,7 @@ impl Shape {
                 let (lo, hi) = (v(min), v(max));
                 let q = p.sup(&lo).inf(&hi);
                 if q != *p {
-                    return (q, (p - q).norm());
+                    return (q, norm3(&(p - q)));
                 }
                 // Inside (or on the surface): exit through the nearest face.
                 let mut best = (q, f32::INFINITY);
@@ -145,7 +146,7 @@ impl Shape {
                 let b = v(base);
                 let (z_top, z_bot) = (b.z - *height, b.z);
                 let rxy = nalgebra::Vector2::new(p.x - b.x, p.y - b.y);
-                let r = rxy.norm();
+                let r = sqrtf(rxy.norm_squared());
                 let dir = if r > 0.0 { rxy / r } else { nalgebra::Vector2::x() };
                 let inside_r = r <= *radius;
                 let inside_z = p.z >= z_top && p.z <= z_bot;
@@ -166,7 +167,7 @@ impl Shape {
                     let rc = if inside_r { r } else { *radius };
                     let zc = clampf(p.z, z_top, z_bot);
                     let s = Vec3::new(b.x + dir.x * rc, b.y + dir.y * rc, zc);
-                    (s, (p - s).norm())
+                    (s, norm3(&(p - s)))
                 }
             }
         }

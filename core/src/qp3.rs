@@ -23,6 +23,7 @@
 //! do not intersect), the candidate with the smallest maximum violation is
 //! returned and flagged `feasible = false`.
 
+use crate::fmath::norm3;
 use crate::Vec3;
 
 /// Maximum number of half-spaces [`project`] accepts; extra ones are ignored.
@@ -105,7 +106,8 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
             }
             let u = (bc * a.c + ca * b.c + ab * c.c) / det;
             // One step of iterative refinement, as for the line.
-            let u = u + (bc * (a.c - a.n.dot(&u)) + ca * (b.c - b.n.dot(&u)) + ab * (c.c - c.n.dot(&u))) / det;
+            let u =
+                u + (bc * (a.c - a.n.dot(&u)) + ca * (b.c - b.n.dot(&u)) + ab * (c.c - c.n.dot(&u))) / det;
             let w = u - u_nom;
             let lam = (w.dot(&bc) / det).min(w.dot(&ca) / det).min(w.dot(&ab) / det);
             Some((u, lam))
@@ -172,19 +174,19 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     // of repairing its violation: a candidate may not win by violating within tolerance.
     let cheaper = |u: &Vec3, vu: f32, b: &Option<(Vec3, f32, u8)>| {
         b.is_none_or(|(b, vb, _)| {
-            (u - b).dot(&(u + b - u_nom * 2.0)) + 2.0 * ((u - u_nom).norm() * vu - (b - u_nom).norm() * vb)
+            (u - b).dot(&(u + b - u_nom * 2.0)) + 2.0 * (norm3(&(u - u_nom)) * vu - norm3(&(b - u_nom)) * vb)
                 < 0.0
         })
     };
     // Least violation among bounded candidates (u* itself when it is within the bound).
-    let mut least_bad: (Vec3, f32, u8) = if u_nom.norm() <= bound {
+    let mut least_bad: (Vec3, f32, u8) = if norm3(u_nom) <= bound {
         (*u_nom, max_viol(u_nom), 0)
     } else {
         (Vec3::zeros(), max_viol(&Vec3::zeros()), 0)
     };
     let mut consider = |idx: &[usize]| {
         if let Some((u, lam_min)) = candidate(u_nom, cons, idx) {
-            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || u.norm() > bound {
+            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || norm3(&u) > bound {
                 return;
             }
             let mask = idx.iter().fold(0u8, |m, &i| m | (1 << i));
@@ -193,7 +195,7 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
                 least_bad = (u, viol, mask);
             }
             // Multipliers are scaled by the correction's size; a small negative one is round-off.
-            let kkt = lam_min >= -1e-5 * (1.0 + (u - u_nom).norm());
+            let kkt = lam_min >= -1e-5 * (1.0 + norm3(&(u - u_nom)));
             if viol <= tol_tight && kkt && cheaper(&u, viol, &best_kkt) {
                 best_kkt = Some((u, viol, mask));
             }

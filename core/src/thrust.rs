@@ -14,6 +14,7 @@
 //! when level (vertical priority), then the horizontal part is scaled down so
 //! the tilt stays within `tilt_max` and the total thrust within `thrust_max`.
 
+use crate::fmath::sqrtf;
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 use crate::Vec3;
 
@@ -65,7 +66,7 @@ pub fn limit_acceleration(p: &ThrustParams, u: &Vec3) -> (Vec3, bool) {
     let mut sat = (GRAVITY - u.z - gz).abs() > 1e-6;
     let xy = libm::hypotf(u.x, u.y);
     let by_tilt = gz * libm::tanf(p.tilt_max.clamp(0.0, 1.5));
-    let by_thrust = libm::sqrtf((a_max * a_max - gz * gz).max(0.0));
+    let by_thrust = sqrtf((a_max * a_max - gz * gz).max(0.0));
     let xy_max = by_tilt.min(by_thrust);
     let (mut ux, mut uy) = (u.x, u.y);
     if xy > xy_max {

@@ -33,6 +33,7 @@ use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::{ControllerParams, FlightController, GuidanceMode, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
+use parapet_core::fmath;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
@@ -290,7 +291,12 @@ fn bench_filter(c: &Counter) {
                 let pr = next_problem(&mut rng, k);
                 let obs = &pr.obstacles[..pr.k];
                 let ins = c.measure(|| {
-                    black_box(f.apply(black_box(&pr.p), black_box(&pr.v), black_box(&pr.u_nom), black_box(obs)));
+                    black_box(f.apply(
+                        black_box(&pr.p),
+                        black_box(&pr.v),
+                        black_box(&pr.u_nom),
+                        black_box(obs),
+                    ));
                 });
                 all.add(ins);
                 if f.apply(&pr.p, &pr.v, &pr.u_nom, obs).1.intervened {
@@ -312,6 +318,7 @@ fn bench_filter(c: &Counter) {
 fn bench_blocks(c: &Counter) {
     let mut rng = SplitMix64(1);
     let (mut sq, mut mx, mut bar) = (Stats::default(), Stats::default(), Stats::default());
+    let (mut hsq, mut hmx) = (Stats::default(), Stats::default());
     let f = filter(FilterVariant::Multi);
     for _ in 0..64 {
         let x = rng.uniform(0.01, 10.0);
@@ -322,6 +329,12 @@ fn bench_blocks(c: &Counter) {
         mx.add(c.measure(|| {
             black_box(black_box(x).max(black_box(y)));
         }));
+        hsq.add(c.measure(|| {
+            black_box(fmath::sqrtf(black_box(x)));
+        }));
+        hmx.add(c.measure(|| {
+            black_box(fmath::maxf(black_box(x), black_box(y)));
+        }));
         let p = Vec3::new(x, y, -1.0);
         let v = rng.direction();
         let o = ObstaclePoint::fixed(p + rng.direction() * 0.3, 1);
@@ -329,9 +342,55 @@ fn bench_blocks(c: &Counter) {
             black_box(f.barrier(black_box(&p), black_box(&v), black_box(&o)));
         }));
     }
-    sq.report("libm::sqrtf (as used by parapet-core)");
+    sq.report("libm::sqrtf (software)");
+    hsq.report("parapet_core::fmath::sqrtf (VSQRT.F32)");
     mx.report("f32::max (compiles to a call of fmaxf)");
+    hmx.report("parapet_core::fmath::maxf (compare and select)");
     bar.report("SafetyFilter::barrier (one obstacle)");
+}
+
+/// `fmath::sqrtf` (VSQRT.F32) must equal `libm::sqrtf` bit for bit, and `minf`/`maxf` libm's
+/// `fminf`/`fmaxf`, on this target: checked over a geometric sweep of 0..f32::MAX, random
+/// values and the special cases. A mismatch stops the program with a failure exit.
+fn check_fmath() {
+    let mut rng = SplitMix64(99);
+    let mut x = f32::MIN_POSITIVE / 8.0; // subnormals too
+    let mut n = 0u32;
+    let mut check = |x: f32| {
+        let (a, b) = (fmath::sqrtf(x), libm::sqrtf(x));
+        if a.to_bits() != b.to_bits() && !(a.is_nan() && b.is_nan()) {
+            let _ = writeln!(Console, "fmath::sqrtf({x:e}) = {a:e} but libm::sqrtf = {b:e}");
+            exit(false);
+        }
+        n += 1;
+    };
+    while x < f32::MAX / 1.01 {
+        check(x);
+        x *= 1.01;
+    }
+    for _ in 0..20_000 {
+        check(f32::from_bits((rng.next_u64() >> 32) as u32 & 0x7FFF_FFFF));
+        check(rng.uniform(0.0, 100.0));
+    }
+    for s in [0.0, -0.0, -1.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+        check(s);
+    }
+    let vals = [-2.0f32, -0.0, 0.0, 1.5, 7.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+    for &a in &vals {
+        for &b in &vals {
+            let ok = |p: f32, q: f32| p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan());
+            if !ok(fmath::minf(a, b), black_box(a).min(black_box(b)))
+                || !ok(fmath::maxf(a, b), black_box(a).max(black_box(b)))
+            {
+                let _ = writeln!(Console, "fmath::minf/maxf({a}, {b}) differ from f32::min/max");
+                exit(false);
+            }
+        }
+    }
+    let _ = writeln!(
+        Console,
+        "fmath check: sqrtf = libm::sqrtf bit for bit on {n} inputs; minf/maxf = f32::min/max"
+    );
 }
 
 // ---------------------------------------------------------------- cascade
@@ -350,7 +409,12 @@ fn bench_cascade(c: &Counter) {
     for k in 0..500u64 {
         now = k * 1000;
         if k % 4 == 0 {
-            fc.update_position(PositionFix { t_us: now, position: start, velocity: Vec3::zeros(), yaw: Some(0.0) });
+            fc.update_position(PositionFix {
+                t_us: now,
+                position: start,
+                velocity: Vec3::zeros(),
+                yaw: Some(0.0),
+            });
             fc.update_obstacles(now, &[]);
             fc.step_outer(now);
         }
@@ -375,7 +439,10 @@ fn bench_cascade(c: &Counter) {
         let pr = next_problem(&mut rng, 16);
         let offset = noise.direction() * noise.uniform(0.0, 0.2);
         let gyro = noise.direction() * noise.uniform(0.0, 0.3);
-        let imu = ImuSample { gyro, accel: Vec3::new(0.0, 0.0, -9.81) + noise.direction() * noise.uniform(0.0, 0.5) };
+        let imu = ImuSample {
+            gyro,
+            accel: Vec3::new(0.0, 0.0, -9.81) + noise.direction() * noise.uniform(0.0, 0.5),
+        };
         now += 4000;
         let p = start + Vec3::new(0.25 * (now - t_mission) as f32 * 1e-6, 0.0, 0.0) + offset;
         let mut obs = [ObstaclePoint::fixed(Vec3::zeros(), 0); 16];
@@ -422,7 +489,11 @@ fn bench_cascade(c: &Counter) {
         (upd.sum + outer.sum + inner.sum) / n,
         (upd.max + outer.max + inner.max) / r
     );
-    let _ = writeln!(Console, "cascade: 4 ms period (1 outer + 4 inner): mean {period} instructions, {} per 1 ms step", period / 4);
+    let _ = writeln!(
+        Console,
+        "cascade: 4 ms period (1 outer + 4 inner): mean {period} instructions, {} per 1 ms step",
+        period / 4
+    );
 }
 
 #[entry]
@@ -433,6 +504,7 @@ fn main() -> ! {
     };
     let c = Counter::new(cp.SYST);
     let _ = writeln!(Console, "empty measurement: {} instructions per {REPS} turns", c.overhead);
+    check_fmath();
     bench_blocks(&c);
     bench_filter(&c);
     bench_cascade(&c);
