@@ -20,7 +20,7 @@
 //! `Multi` (every near barrier at once, own velocity: exact min-norm QP),
 //! `MultiRelative` (both; the default).
 
-use crate::fmath::{norm3, sqrtf};
+use crate::fmath::{maxf, minf, norm3, sqrtf};
 use crate::frame::is_finite3;
 use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
@@ -354,7 +354,7 @@ impl SafetyFilter {
         }
         let h_dot = self.params.mu * sqrtf(b.dist_sq) * (b.constraint.n.dot(u) - b.constraint.c)
             + b.mu_radial_speed_sq;
-        b.h + t * h_dot.min(0.0)
+        b.h + t * minf(h_dot, 0.0)
     }
 
     /// Bounded braking command `u = −(2/μ)·ṗ`, saturated to `u_max` (zero if `ṗ` is bad).
@@ -410,7 +410,7 @@ impl SafetyFilter {
             let Some(b) = self.barrier(p, v, o) else {
                 return self.fault(v, FilterFault::ZeroDistance);
             };
-            diag.h_bar = diag.h_bar.min(b.h - delta);
+            diag.h_bar = minf(diag.h_bar, b.h - delta);
             let trigger = self.trigger_value(&b, u_nom);
             if closest.is_none_or(|(c, _, _)| b.dist_sq < c.dist_sq) {
                 closest = Some((b, o.id, trigger));
@@ -478,8 +478,8 @@ impl SafetyFilter {
         // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
         // beyond it; 4·Σ max(c'_i, 0) (at most 2·u_max) leaves room for those, and excludes the
         // far sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
-        let shift: f32 = cons.iter().map(|h| (h.c - h.n.dot(&u_brake)).max(0.0)).sum();
-        let bound = 2.0 * norm3(&(u_nom - u_brake)) + (4.0 * shift).min(2.0 * u_max);
+        let shift: f32 = cons.iter().map(|h| maxf(h.c - h.n.dot(&u_brake), 0.0)).sum();
+        let bound = 2.0 * norm3(&(u_nom - u_brake)) + minf(4.0 * shift, 2.0 * u_max);
         let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
         diag.region = Region::Perpendicular;
         diag.intervened = true;

@@ -55,7 +55,7 @@ use crate::attitude::{torque_vec, AttitudeController, AttitudeError, AttitudePar
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter, INPUT_LIMIT};
 use crate::estimator::{AttitudeEstimator, EstimatorError, EstimatorParams, ImuSample, ImuStatus};
 use crate::failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
-use crate::fmath::norm3;
+use crate::fmath::{maxf, minf, norm3};
 use crate::frame::{clampf, is_finite3, GRAVITY};
 use crate::mixer::{Mixer, MixerError, MixerOutput};
 use crate::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
@@ -450,7 +450,7 @@ impl FlightController {
         params.validate()?;
         let mut cbf = params.cbf;
         if params.filter_variant != FilterVariant::Paper {
-            cbf.sample_time = cbf.sample_time.max(1.0 / params.outer_rate_hz);
+            cbf.sample_time = maxf(cbf.sample_time, 1.0 / params.outer_rate_hz);
         }
         let filter = SafetyFilter::new(cbf, params.filter_variant).map_err(ParamError::Cbf)?;
         let (_, diag0) = filter.apply(&Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), &[]);
@@ -814,7 +814,7 @@ impl FlightController {
     pub fn step_outer(&mut self, now_us: u64) {
         let nominal_dt = 1.0 / self.params.outer_rate_hz;
         let dt = match self.last_outer_us {
-            Some(t) if now_us >= t => (age(now_us, t) as f32 * 1e-6).min(4.0 * nominal_dt),
+            Some(t) if now_us >= t => minf(age(now_us, t) as f32 * 1e-6, 4.0 * nominal_dt),
             Some(_) => 0.0,
             None => nominal_dt,
         };
@@ -885,7 +885,7 @@ impl FlightController {
                     }
                     // Descend at land_speed, leading the vehicle by at most land_lead.
                     self.land_ref.z =
-                        (self.land_ref.z + self.params.land_speed * dt).min(p.z + self.params.land_lead);
+                        minf(self.land_ref.z + self.params.land_speed * dt, p.z + self.params.land_lead);
                 } else {
                     self.land_ref_valid = false;
                 }

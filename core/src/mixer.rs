@@ -33,7 +33,7 @@
 //! [`crate::airframe`]: `ω = c·ω_max`, `f = c² f_max`).
 
 use crate::airframe::{Airframe, ROTOR_XY_UNIT, ROTOR_YAW_SIGN};
-use crate::fmath::sqrtf;
+use crate::fmath::{maxf, minf, sqrtf};
 use crate::frame::clampf;
 use crate::Vec3;
 
@@ -127,7 +127,7 @@ impl Mixer {
                 0.0
             }
         };
-        let t = clean(thrust).max(0.0);
+        let t = maxf(clean(thrust), 0.0);
         let (tx, ty, tz) = (clean(torque.x), clean(torque.y), clean(torque.z));
         let fm = self.f_max;
 
@@ -148,8 +148,8 @@ impl Mixer {
 
         // 2. Collective: shift as little as possible so that base + rp ∈ [0, f_max].
         let want = t / 4.0;
-        let base = clampf(want, -lo, (fm - hi).max(-lo));
-        let thrust_limited = (base - want).abs() > 1e-6 * fm.max(1.0);
+        let base = clampf(want, -lo, maxf(fm - hi, -lo));
+        let thrust_limited = (base - want).abs() > 1e-6 * maxf(fm, 1.0);
 
         // 3. Yaw: largest scale λ ∈ [0, 1] keeping every rotor in range.
         let mut lambda = 1.0f32;
@@ -159,9 +159,9 @@ impl Mixer {
             let f0 = base + rp[i];
             let y = yaw[i];
             if y > 0.0 && f0 + y > fm {
-                lambda = lambda.min(((fm - f0) / y).max(0.0));
+                lambda = minf(lambda, maxf((fm - f0) / y, 0.0));
             } else if y < 0.0 && f0 + y < 0.0 {
-                lambda = lambda.min((f0 / -y).max(0.0));
+                lambda = minf(lambda, maxf(f0 / -y, 0.0));
             }
         }
         let yaw_limited = lambda < 1.0;
@@ -185,7 +185,7 @@ impl Mixer {
 }
 
 fn min_max(x: &[f32; 4]) -> (f32, f32) {
-    x.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+    x.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (minf(lo, v), maxf(hi, v)))
 }
 
 #[cfg(test)]

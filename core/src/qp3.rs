@@ -23,7 +23,7 @@
 //! do not intersect), the candidate with the smallest maximum violation is
 //! returned and flagged `feasible = false`.
 
-use crate::fmath::norm3;
+use crate::fmath::{maxf, minf, norm3};
 use crate::Vec3;
 
 /// Maximum number of half-spaces [`project`] accepts; extra ones are ignored.
@@ -45,7 +45,7 @@ impl HalfSpace {
     /// Violation `max(0, c − nᵀu)` of `u`, m/s².
     #[inline]
     pub fn violation(&self, u: &Vec3) -> f32 {
-        (self.c - self.n.dot(u)).max(0.0)
+        maxf(self.c - self.n.dot(u), 0.0)
     }
 }
 
@@ -94,7 +94,7 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
             let w = u - u_nom;
             let lam_a = w.dot(&bl) / ll;
             let lam_b = w.dot(&la) / ll;
-            Some((u, lam_a.min(lam_b)))
+            Some((u, minf(lam_a, lam_b)))
         }
         [i, j, k] => {
             // The vertex where three planes meet (Cramer's rule with cross products).
@@ -109,7 +109,7 @@ fn candidate(u_nom: &Vec3, cons: &[HalfSpace], idx: &[usize]) -> Option<(Vec3, f
             let u =
                 u + (bc * (a.c - a.n.dot(&u)) + ca * (b.c - b.n.dot(&u)) + ab * (c.c - c.n.dot(&u))) / det;
             let w = u - u_nom;
-            let lam = (w.dot(&bc) / det).min(w.dot(&ca) / det).min(w.dot(&ab) / det);
+            let lam = minf(minf(w.dot(&bc) / det, w.dot(&ca) / det), w.dot(&ab) / det);
             Some((u, lam))
         }
         _ => None,
@@ -154,11 +154,11 @@ pub fn project_bounded(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3, bound: f3
 
 fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     let k = cons.len();
-    let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| m.max(h.c.abs()));
+    let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| maxf(m, h.c.abs()));
     // Feasibility tolerances: tight (near f32 round-off) first; the loose one only
     // when no candidate passes the tight one (ill-conditioned, near-degenerate sets).
     let (tol_tight, tol_loose) = (2e-6 * scale, 1e-4 * scale);
-    let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| m.max(h.violation(u)));
+    let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| maxf(m, h.violation(u)));
 
     // (u, violation, mask): cheapest feasible candidate satisfying the KKT sign
     // condition (the optimum), then the same under the loose tolerance (a KKT point

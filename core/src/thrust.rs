@@ -14,7 +14,7 @@
 //! when level (vertical priority), then the horizontal part is scaled down so
 //! the tilt stays within `tilt_max` and the total thrust within `thrust_max`.
 
-use crate::fmath::sqrtf;
+use crate::fmath::{maxf, minf, sqrtf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 use crate::Vec3;
 
@@ -62,12 +62,12 @@ pub fn limit_acceleration(p: &ThrustParams, u: &Vec3) -> (Vec3, bool) {
     }
     let (a_min, a_max) = (p.thrust_min / p.mass, p.thrust_max / p.mass); // specific thrust range
                                                                          // Vertical priority: g − u_z must lie in the specific-thrust range.
-    let gz = clampf(GRAVITY - u.z, a_min.max(1e-3), a_max.max(a_min.max(1e-3)));
+    let gz = clampf(GRAVITY - u.z, maxf(a_min, 1e-3), maxf(a_max, maxf(a_min, 1e-3)));
     let mut sat = (GRAVITY - u.z - gz).abs() > 1e-6;
     let xy = libm::hypotf(u.x, u.y);
     let by_tilt = gz * libm::tanf(p.tilt_max.clamp(0.0, 1.5));
-    let by_thrust = sqrtf((a_max * a_max - gz * gz).max(0.0));
-    let xy_max = by_tilt.min(by_thrust);
+    let by_thrust = sqrtf(maxf(a_max * a_max - gz * gz, 0.0));
+    let xy_max = minf(by_tilt, by_thrust);
     let (mut ux, mut uy) = (u.x, u.y);
     if xy > xy_max {
         sat = true;
@@ -98,7 +98,7 @@ pub fn map_acceleration(
     let (r, q) =
         if roll_meas.is_finite() && pitch_meas.is_finite() { (roll_meas, pitch_meas) } else { (0.0, 0.0) };
     // Guard eq. 4 against large measured tilt: never compensate beyond the tilt limit.
-    let tilt_cos = (libm::cosf(r) * libm::cosf(q)).max(libm::cosf(p.tilt_max.clamp(0.0, 1.5)));
+    let tilt_cos = maxf(libm::cosf(r) * libm::cosf(q), libm::cosf(p.tilt_max.clamp(0.0, 1.5)));
     let thrust = clampf(p.mass * (GRAVITY - a.z) / tilt_cos, p.thrust_min, p.thrust_max);
     AttitudeSetpoint { roll, pitch, yaw, thrust, saturated: sat || !u.iter().all(|x| x.is_finite()) }
 }

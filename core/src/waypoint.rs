@@ -30,6 +30,7 @@
 //! NaN/Inf coordinates and coordinates beyond ±[`COORDINATE_LIMIT`] are rejected too.
 //! Every query is O(N).
 
+use crate::fmath::{maxf, minf, norm3};
 use crate::frame::is_finite3;
 use crate::Vec3;
 
@@ -229,7 +230,7 @@ impl<const N: usize> WaypointFollower<N> {
         let mut acc = 0.0f32;
         let mut prev = origin;
         for w in self.points.iter() {
-            acc += (w - prev).norm();
+            acc += norm3(&(w - prev));
             prev = *w;
             let _ = self.cum.push(acc);
         }
@@ -295,16 +296,16 @@ impl<const N: usize> WaypointFollower<N> {
         let total = self.total_length();
         let mut acc = Vec3::zeros();
         if s_a < 0.0 {
-            acc += self.origin * (s_b.min(0.0) - s_a);
+            acc += self.origin * (minf(s_b, 0.0) - s_a);
         }
         if s_b > total {
-            acc += self.vertex(n) * (s_b - s_a.max(total));
+            acc += self.vertex(n) * (s_b - maxf(s_a, total));
         }
         for k in 0..n {
             let s0 = self.vertex_s(k);
             let s1 = self.cum[k];
-            let lo = s_a.max(s0);
-            let hi = s_b.min(s1);
+            let lo = maxf(s_a, s0);
+            let hi = minf(s_b, s1);
             if hi > lo {
                 let (pa, _, _, _) = self.at(lo);
                 let (pb, _, _, _) = self.at(hi);
@@ -327,7 +328,7 @@ impl<const N: usize> WaypointFollower<N> {
                 progress: Progress { segment: 0, fraction: 0.0, done: true },
             };
         }
-        let t = if t_s.is_finite() { t_s.max(0.0) } else { 0.0 };
+        let t = if t_s.is_finite() { maxf(t_s, 0.0) } else { 0.0 };
         let v = self.params.cruise_speed;
         let w = self.params.corner_radius;
         let total = self.total_length();
