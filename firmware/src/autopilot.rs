@@ -154,6 +154,29 @@ impl FilterReport {
     };
 }
 
+/// The outer loop's setpoints of the last outer step (NED).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SetpointReport {
+    /// Reference position p_d, m.
+    pub position_ned: Vec3,
+    /// Reference velocity ṗ_d, m/s.
+    pub velocity_ned: Vec3,
+    /// Nominal acceleration u* of the PD law (before the filter), m/s² (gravity excluded).
+    pub accel_nominal_ned: Vec3,
+    /// Acceleration after the safety filter u, m/s² (gravity excluded).
+    pub accel_filtered_ned: Vec3,
+}
+
+impl SetpointReport {
+    /// Before the first outer step: all zero.
+    pub const ZERO: Self = Self {
+        position_ned: Vec3::new(0.0, 0.0, 0.0),
+        velocity_ned: Vec3::new(0.0, 0.0, 0.0),
+        accel_nominal_ned: Vec3::new(0.0, 0.0, 0.0),
+        accel_filtered_ned: Vec3::new(0.0, 0.0, 0.0),
+    };
+}
+
 /// Flight phase, reported as HEARTBEAT `custom_mode`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u32)]
@@ -202,6 +225,8 @@ pub struct TelemetrySnapshot {
     pub velocity_ned: Vec3,
     /// Safety filter diagnostics.
     pub filter: FilterReport,
+    /// Outer-loop setpoints.
+    pub setpoint: SetpointReport,
 }
 
 impl TelemetrySnapshot {
@@ -215,6 +240,7 @@ impl TelemetrySnapshot {
         position_ned: Vec3::new(0.0, 0.0, 0.0),
         velocity_ned: Vec3::new(0.0, 0.0, 0.0),
         filter: FilterReport::IDLE,
+        setpoint: SetpointReport::ZERO,
     };
 }
 
@@ -325,6 +351,12 @@ pub(crate) mod test_double {
                 position_ned: Vec3::new(1.0, 2.0, -3.0),
                 velocity_ned: Vec3::zeros(),
                 filter: FilterReport::IDLE,
+                setpoint: SetpointReport {
+                    position_ned: Vec3::new(1.5, 2.0, -3.0),
+                    velocity_ned: Vec3::new(0.25, 0.0, 0.0),
+                    accel_nominal_ned: Vec3::new(-1.0, 0.5, 0.0),
+                    accel_filtered_ned: Vec3::new(-0.5, 0.5, 0.0),
+                },
             }
         }
     }

@@ -10,7 +10,7 @@ use parapet_core::Vec3;
 
 use crate::autopilot::{
     Autopilot, CommandRejected, Failsafe, FilterRegion, FilterReport, FlightPhase, ImuSample, MotorCommand,
-    ParamRejected, PathRejected, PositionFix, TelemetrySnapshot, VehicleCommand,
+    ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
 };
 use crate::params;
 
@@ -166,6 +166,12 @@ impl Autopilot for Cascade {
                 unavoidable: f.unavoidable,
                 infeasible: f.infeasible,
                 n_constraints: f.n_constraints,
+            },
+            setpoint: SetpointReport {
+                position_ned: t.reference.position,
+                velocity_ned: t.reference.velocity,
+                accel_nominal_ned: t.u_nominal,
+                accel_filtered_ned: t.u_filtered,
             },
         }
     }

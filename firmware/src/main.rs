@@ -228,9 +228,9 @@ mod firmware {
                     ..ErrorCounters::from_link(&link)
                 },
             };
-            let mut queued: heapless::Vec<Outbound, 16> = heapless::Vec::new();
+            let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
             telemetry.poll(now, &inputs, |m| {
-                // 16 > the at most 15 messages of one poll.
+                // 20 > the at most 16 messages of one poll.
                 let _ = queued.push(m);
             });
             for m in &queued {

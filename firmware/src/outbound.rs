@@ -4,7 +4,7 @@ use mavlink::dialects::ardupilotmega::PARAM_VALUE_DATA;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
-    NAMED_VALUE_INT_DATA, STATUSTEXT_DATA,
+    NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
 use mavlink::MAVLinkV2MessageRaw;
 
@@ -19,6 +19,8 @@ pub enum Outbound {
     Attitude(ATTITUDE_DATA),
     /// LOCAL_POSITION_NED.
     LocalPositionNed(LOCAL_POSITION_NED_DATA),
+    /// POSITION_TARGET_LOCAL_NED (outer-loop reference and filtered acceleration).
+    PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA),
     /// DEBUG_VECT (filter diagnostics, loop timing, link statistics).
     DebugVect(DEBUG_VECT_DATA),
     /// NAMED_VALUE_INT (flags, counters, PIL instruction counts).
@@ -46,6 +48,7 @@ impl Outbound {
             Outbound::Heartbeat(m) => writer.encode(m),
             Outbound::Attitude(m) => writer.encode(m),
             Outbound::LocalPositionNed(m) => writer.encode(m),
+            Outbound::PositionTargetLocalNed(m) => writer.encode(m),
             Outbound::DebugVect(m) => writer.encode(m),
             Outbound::NamedValueInt(m) => writer.encode(m),
             Outbound::NamedValueFloat(m) => writer.encode(m),

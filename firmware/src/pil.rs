@@ -184,9 +184,9 @@ impl<A: Autopilot> PilApp<A> {
             parser: self.link.parser_stats(),
             counters: ErrorCounters::from_link(&self.link),
         };
-        let mut queued: heapless::Vec<Outbound, 16> = heapless::Vec::new();
+        let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
         self.telemetry.poll(t, &inputs, |m| {
-            // 16 > the at most 15 messages one poll emits.
+            // 20 > the at most 16 messages one poll emits.
             let _ = queued.push(m);
         });
         if self.telemetry.loops_reported {

@@ -7,6 +7,8 @@
 //! | position | LOCAL_POSITION_NED | 25 Hz | position NED m, velocity NED m/s |
 //! | filter | DEBUG_VECT `CBF` | 25 Hz | x = h̄ (m², min over obstacles; +∞ none), y = region code (0 none, 1 far, 2 nominal-safe, 3 perpendicular/intervening, 4 fault), z = active obstacle id (−1 none) |
 //! | filter flags | NAMED_VALUE_INT `CBF_FLAGS` | 25 Hz | bit0 intervened, bit1 unavoidable, bit2 infeasible, bits 8..15 active constraints |
+//! | setpoint | POSITION_TARGET_LOCAL_NED | 25 Hz | frame LOCAL_NED; x, y, z = reference position m; vx, vy, vz = reference velocity m/s; afx, afy, afz = filtered acceleration u m/s² (gravity excluded); type_mask ignores yaw and yaw rate |
+//! | nominal command | DEBUG_VECT `U_NOM` | 25 Hz | x, y, z = nominal acceleration u* NED m/s² (before the filter) |
 //! | inner loop | DEBUG_VECT `LOOP_IN` | 2 Hz | x = mean period µs, y = max period µs, z = max execution µs (window since last report) |
 //! | outer loop | DEBUG_VECT `LOOP_OUT` | 2 Hz | same for the position + CBF loop |
 //! | overruns | NAMED_VALUE_INT `OVR_IN` / `OVR_OUT` | 2 Hz | overruns since boot |
@@ -18,8 +20,8 @@
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
 use mavlink::dialects::ardupilotmega::{
-    MavAutopilot, MavModeFlag, MavSeverity, MavState, MavType, ATTITUDE_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, STATUSTEXT_DATA,
+    MavAutopilot, MavFrame, MavModeFlag, MavSeverity, MavState, MavType, PositionTargetTypemask,
+    ATTITUDE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
 
 use crate::autopilot::{Failsafe, TelemetrySnapshot};
@@ -159,7 +161,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most 15 messages per call.
+    /// `emit`. Bounded: at most 16 messages per call (2 failsafe, 1 + 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -224,6 +226,26 @@ impl TelemetryScheduler {
                         | (i32::from(f.infeasible) << 2)
                         | (i32::from(f.n_constraints) << 8);
                     emit(named_int(ms, "CBF_FLAGS", flags));
+                    let sp = &s.setpoint;
+                    emit(Outbound::PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA {
+                        time_boot_ms: ms,
+                        x: sp.position_ned.x,
+                        y: sp.position_ned.y,
+                        z: sp.position_ned.z,
+                        vx: sp.velocity_ned.x,
+                        vy: sp.velocity_ned.y,
+                        vz: sp.velocity_ned.z,
+                        afx: sp.accel_filtered_ned.x,
+                        afy: sp.accel_filtered_ned.y,
+                        afz: sp.accel_filtered_ned.z,
+                        yaw: 0.0,
+                        yaw_rate: 0.0,
+                        type_mask: PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
+                            | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+                        coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    }));
+                    let u = &sp.accel_nominal_ned;
+                    emit(debug_vect(now_us, "U_NOM", u.x, u.y, u.z));
                 }
                 Stream::Loops => {
                     let (i, o) = (&inp.inner, &inp.outer);
@@ -293,6 +315,15 @@ mod tests {
         assert_eq!(count(&|m| matches!(m, Outbound::Attitude(_))), 50);
         assert_eq!(count(&|m| matches!(m, Outbound::LocalPositionNed(_))), 25);
         assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "CBF"))), 25);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "U_NOM"))), 25);
+        assert_eq!(count(&|m| matches!(m, Outbound::PositionTargetLocalNed(_))), 25);
+        let sp = out.iter().find_map(|m| match m {
+            Outbound::PositionTargetLocalNed(p) => Some(p.clone()),
+            _ => None,
+        });
+        let sp = sp.expect("a setpoint");
+        assert_eq!((sp.x, sp.vx, sp.afx, sp.afy), (1.5, 0.25, -0.5, 0.5));
+        assert_eq!(sp.coordinate_frame, MavFrame::MAV_FRAME_LOCAL_NED);
         assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LOOP_IN"))), 2);
         assert_eq!(count(&|m| matches!(m, Outbound::StatusText(_))), 0);
         assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LINK_DROP"))), 1);

@@ -24,11 +24,12 @@
 //!
 //! ## What the report gets from the firmware
 //! Motor throttles every step (the only thing that drives the plant). For the recorder: the
-//! filter diagnostics (`DEBUG_VECT CBF`, `NAMED_VALUE_INT CBF_FLAGS`, 25 Hz, held between
-//! reports), the phase (HEARTBEAT, 1 Hz). The reference position and `path_done` are
-//! recomputed on the host with the same `parapet_core::waypoint::WaypointFollower`, path
-//! (as quantised by MISSION_ITEM_INT) and mission start time; `u_nom_*`/`u_*` are not sent by
-//! the firmware and are NaN in `trajectory.csv`.
+//! filter diagnostics (`DEBUG_VECT CBF`, `NAMED_VALUE_INT CBF_FLAGS`), the nominal and the
+//! filtered acceleration (`DEBUG_VECT U_NOM`, POSITION_TARGET_LOCAL_NED `afx..afz`), all 25 Hz
+//! and held between reports (NaN before the first), and the phase (HEARTBEAT, 1 Hz). The
+//! reference position and `path_done` are recomputed on the host with the same
+//! `parapet_core::waypoint::WaypointFollower`, path (as quantised by MISSION_ITEM_INT) and
+//! mission start time (exact, every outer step).
 //!
 //! ## Failure handling
 //! QEMU runs in a guard that kills it on drop (every exit path). No answer to a HIL_SENSOR
@@ -339,6 +340,10 @@ struct FilterTelemetry {
     region_code: u8,
     active: Option<u16>,
     flags: i32,
+    /// Nominal acceleration u* (`DEBUG_VECT U_NOM`), NED m/s²; NaN before the first report.
+    u_nominal: Vector3<f64>,
+    /// Filtered acceleration u (POSITION_TARGET_LOCAL_NED afx..afz), NED m/s²; NaN before.
+    u_filtered: Vector3<f64>,
 }
 
 /// The firmware in QEMU behind the [`Autopilot`] interface.
@@ -419,7 +424,14 @@ impl PilLink {
             follower,
             mission_t0_us: None,
             mission_start_pending: false,
-            filter: FilterTelemetry { h_bar: f64::INFINITY, region_code: 0, active: None, flags: 0 },
+            filter: FilterTelemetry {
+                h_bar: f64::INFINITY,
+                region_code: 0,
+                active: None,
+                flags: 0,
+                u_nominal: Vector3::repeat(f64::NAN),
+                u_filtered: Vector3::repeat(f64::NAN),
+            },
             phase: 0,
             armed: false,
             critical: false,
@@ -537,6 +549,7 @@ impl PilLink {
     fn observe(&mut self, m: &MavMessage) {
         match m {
             MavMessage::DEBUG_VECT(d) => match d.name.to_str().unwrap_or("") {
+                "U_NOM" => self.filter.u_nominal = Vector3::new(d.x, d.y, d.z).cast(),
                 "CBF" => {
                     self.filter.h_bar = d.x as f64;
                     self.filter.region_code = if d.y.is_finite() { d.y.clamp(0.0, 4.0) as u8 } else { 4 };
@@ -564,6 +577,9 @@ impl PilLink {
                     }
                     _ => {}
                 }
+            }
+            MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
+                self.filter.u_filtered = Vector3::new(p.afx, p.afy, p.afz).cast();
             }
             MavMessage::HEARTBEAT(h) => {
                 self.phase = h.custom_mode;
@@ -974,8 +990,8 @@ impl Autopilot for PilLink {
             active_obstacle: f.active,
             filter_active: f.flags & 1 != 0,
             path_done: s.progress.done,
-            u_nominal: Vector3::repeat(f64::NAN),
-            u_filtered: Vector3::repeat(f64::NAN),
+            u_nominal: f.u_nominal,
+            u_filtered: f.u_filtered,
             filter_h_bar: f.h_bar,
             n_constraints: ((f.flags >> 8) & 0xFF) as u8,
             unavoidable: f.flags & 2 != 0,

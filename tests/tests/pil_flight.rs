@@ -53,6 +53,21 @@ fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     // Same f32 inputs (HIL_SENSOR, ODOMETRY and OBSTACLE_DISTANCE_3D carry the f32 values the
     // twin gets), same sequence: only floating-point codegen differs (measured ≈ 1e-7 m).
     assert!(dev < 1e-3, "PIL and host twin differ by {dev} m");
+    // The firmware's own accelerations (25 Hz reports, held): each recorded u*, u equals the
+    // twin's at some outer step of the last 40 ms.
+    let (mut checked, n_twin) = (0, twin.samples.len());
+    for (i, p) in pil.samples.iter().enumerate().filter(|(_, p)| p.t > 0.5) {
+        assert!(p.u_nominal.iter().chain(p.u_filtered.iter()).all(|x| x.is_finite()), "t = {}", p.t);
+        let matches = twin.samples[i.saturating_sub(12)..(i + 1).min(n_twin)].iter().any(|q| {
+            p.t - q.t < 0.0405
+                && (p.u_nominal - q.u_nominal).norm() < 1e-4
+                && (p.u_filtered - q.u_filtered).norm() < 1e-4
+        });
+        assert!(matches, "t = {}: firmware u* {} u {} not among the twin's", p.t, p.u_nominal, p.u_filtered);
+        checked += 1;
+    }
+    assert!(checked > 1000);
+    assert!(pil.samples.iter().any(|p| (p.u_filtered - p.u_nominal).norm() > 0.01), "the filter acted");
     // The plain `parapet run` controller (same parameters, the scene's vehicle included; outer
     // before inner).
     let host = run(&scene, &cfg, &mut |_| {}).expect("host flight");
