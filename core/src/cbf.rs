@@ -21,7 +21,6 @@
 //! `MultiRelative` (both; the default).
 
 use crate::fmath::{maxf, minf, norm3, sqrtf};
-use crate::frame::is_finite3;
 use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
 use crate::Vec3;
@@ -297,9 +296,11 @@ pub fn barrier_value(mu: f32, d: &Vec3, d_dot: &Vec3) -> f32 {
     d.norm_squared() + mu * d.dot(d_dot)
 }
 
+/// Finite and every component within ±[`INPUT_LIMIT`] (one comparison per component:
+/// `|x| ≤ L` is false for NaN and ±∞).
 #[inline]
 fn within_limits(v: &Vec3) -> bool {
-    is_finite3(v) && v.amax() <= INPUT_LIMIT
+    v.x.abs() <= INPUT_LIMIT && v.y.abs() <= INPUT_LIMIT && v.z.abs() <= INPUT_LIMIT
 }
 
 /// The closed-form CBF safety filter. Stateless, `Copy`, bounded time.
@@ -327,20 +328,33 @@ impl SafetyFilter {
         if dist_sq.is_nan() || dist_sq <= MIN_DISTANCE_SQ {
             return None;
         }
-        let (d_dot, a_bound) = if self.variant.uses_relative_velocity() {
+        let (d_dot, a_bound) = self.relative_velocity(v, o);
+        Some(self.barrier_at(&d, dist_sq, sqrtf(dist_sq), &d_dot, a_bound))
+    }
+
+    /// `ḋ` (m/s) and the robust term `A` (m/s²) of obstacle `o` for this variant.
+    #[inline(always)]
+    fn relative_velocity(&self, v: &Vec3, o: &ObstaclePoint) -> (Vec3, f32) {
+        if self.variant.uses_relative_velocity() {
             (v - o.velocity.unwrap_or_else(Vec3::zeros), self.params.accel_bound)
         } else {
             (*v, 0.0)
-        };
-        let n = d / sqrtf(dist_sq);
+        }
+    }
+
+    /// The barrier from `d`, `|d|²`, `|d|` (> 0) and `ḋ`: the arithmetic of [`barrier`](Self::barrier).
+    #[inline(always)]
+    fn barrier_at(&self, d: &Vec3, dist_sq: f32, dist: f32, d_dot: &Vec3, a_bound: f32) -> Barrier {
+        let n = d / dist;
         let mu = self.params.mu;
-        let c = -(2.0 / mu) * (n.dot(&d_dot) - self.params.velocity_margin) + a_bound;
-        Some(Barrier {
-            h: barrier_value(mu, &d, &d_dot),
-            mu_radial_speed_sq: mu * n.dot(&d_dot) * n.dot(&d_dot),
+        let nd = n.dot(d_dot);
+        let c = -(2.0 / mu) * (nd - self.params.velocity_margin) + a_bound;
+        Barrier {
+            h: barrier_value(mu, d, d_dot),
+            mu_radial_speed_sq: mu * nd * nd,
             dist_sq,
             constraint: HalfSpace { n, c },
-        })
+        }
     }
 
     /// The value the event rule compares with δ1: `h + T·min(0, ḣ(u))` where
@@ -348,13 +362,48 @@ impl SafetyFilter {
     /// input `u` (worst case over the unknown obstacle acceleration and over convex
     /// obstacle shapes). Equals `h` when T = 0.
     pub fn trigger_value(&self, b: &Barrier, u: &Vec3) -> f32 {
+        self.trigger_at(b, sqrtf(b.dist_sq), u)
+    }
+
+    /// [`trigger_value`](Self::trigger_value) with `|d| = √(b.dist_sq)` already known.
+    #[inline(always)]
+    fn trigger_at(&self, b: &Barrier, dist: f32, u: &Vec3) -> f32 {
         let t = self.params.sample_time;
         if t <= 0.0 {
             return b.h;
         }
-        let h_dot = self.params.mu * sqrtf(b.dist_sq) * (b.constraint.n.dot(u) - b.constraint.c)
-            + b.mu_radial_speed_sq;
+        let h_dot = self.params.mu * dist * (b.constraint.n.dot(u) - b.constraint.c) + b.mu_radial_speed_sq;
         b.h + t * minf(h_dot, 0.0)
+    }
+
+    /// `true` when the event-rule value ([`trigger_value`](Self::trigger_value)) of an
+    /// obstacle is certainly above δ1, decided without building its barrier (no division):
+    /// with `r = |d|`, `ḣ(u) = μ dᵀu + 2dᵀḋ − r(2ε_v + μA) + μ(nᵀḋ)²`, so dropping the last
+    /// (non-negative) term gives a lower bound of `h + T·min(0, ḣ(u*))`. The bound must
+    /// exceed δ1 by 1e-4 of the magnitudes involved, far above the f32 round-off of either
+    /// side, so the decision is the one the full evaluation would take. `u_norm = |u*|`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn certainly_far(
+        &self,
+        d: &Vec3,
+        dist_sq: f32,
+        h: f32,
+        d_dot: &Vec3,
+        a_bound: f32,
+        u_nom: &Vec3,
+        u_norm: f32,
+    ) -> bool {
+        let (t, delta1) = (self.params.sample_time, self.params.delta1);
+        if t <= 0.0 {
+            return h > delta1; // the trigger value is h itself
+        }
+        let mu = self.params.mu;
+        let r = sqrtf(dist_sq);
+        let k0 = 2.0 * self.params.velocity_margin + mu * a_bound;
+        let bound = h + t * minf(mu * d.dot(u_nom) + 2.0 * d.dot(d_dot) - r * k0, 0.0);
+        let scale = dist_sq + (h - dist_sq).abs() + delta1 + t * r * (mu * u_norm + 2.0 * norm3(d_dot) + k0);
+        bound - delta1 > 1e-4 * scale
     }
 
     /// Bounded braking command `u = −(2/μ)·ṗ`, saturated to `u_max` (zero if `ṗ` is bad).
@@ -400,24 +449,39 @@ impl SafetyFilter {
         }
         let mut diag = FilterDiagnostics::new(Region::Far);
         // Closest obstacle (single-barrier variants) and the K most critical near ones (multi).
-        let mut closest: Option<(Barrier, u16, f32)> = None; // (barrier, id, trigger value)
+        let mut closest: Option<(usize, f32)> = None; // (index, |d|²)
         let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
-        let delta = self.params.delta;
-        for o in obstacles {
+        let (mu, delta, delta1) = (self.params.mu, self.params.delta, self.params.delta1);
+        let multi = self.variant.is_multi();
+        let u_norm = norm3(u_nom);
+        for (i, o) in obstacles.iter().enumerate() {
             if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
                 return self.fault(v, FilterFault::BadObstacle);
             }
-            let Some(b) = self.barrier(p, v, o) else {
+            let d = p - o.point;
+            let dist_sq = d.norm_squared();
+            if dist_sq <= MIN_DISTANCE_SQ {
                 return self.fault(v, FilterFault::ZeroDistance);
-            };
-            diag.h_bar = minf(diag.h_bar, b.h - delta);
-            let trigger = self.trigger_value(&b, u_nom);
-            if closest.is_none_or(|(c, _, _)| b.dist_sq < c.dist_sq) {
-                closest = Some((b, o.id, trigger));
             }
-            if trigger <= self.params.delta1 {
+            let (d_dot, a_bound) = self.relative_velocity(v, o);
+            let h = barrier_value(mu, &d, &d_dot);
+            diag.h_bar = minf(diag.h_bar, h - delta);
+            if closest.is_none_or(|(_, c)| dist_sq < c) {
+                closest = Some((i, dist_sq));
+            }
+            if self.certainly_far(&d, dist_sq, h, &d_dot, a_bound, u_nom, u_norm) {
+                continue; // only its h (h_bar) and |d|² (closest) were needed
+            }
+            let dist = sqrtf(dist_sq);
+            let b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
+            let trigger = self.trigger_at(&b, dist, u_nom);
+            if trigger <= delta1 {
                 diag.n_near = diag.n_near.saturating_add(1);
-                // Keep the K smallest h: replace the largest when full.
+                // Keep the K smallest h: replace the largest when full (multi variants;
+                // the others use only the closest obstacle's barrier, below).
+                if !multi {
+                    continue;
+                }
                 if let Err(item) = near.push((b, o.id)) {
                     let mut worst = 0;
                     for (i, (nb, _)) in near.iter().enumerate() {
@@ -433,11 +497,13 @@ impl SafetyFilter {
         }
 
         let u_max = self.params.u_max;
-        if !self.variant.is_multi() {
+        if !multi {
             // Eq. 14: only the closest obstacle's barrier is active; eq. 12 on it.
-            let Some((b, id, trigger)) = closest else { return (*u_nom, diag) };
-            diag.active_id = Some(id);
-            if trigger > self.params.delta1 {
+            let Some(o) = closest.and_then(|(i, _)| obstacles.get(i)) else { return (*u_nom, diag) };
+            let Some(b) = self.barrier(p, v, o) else { return self.fault(v, FilterFault::ZeroDistance) };
+            let trigger = self.trigger_value(&b, u_nom);
+            diag.active_id = Some(o.id);
+            if trigger > delta1 {
                 return (*u_nom, diag); // D_δ1
             }
             let HalfSpace { n, c } = b.constraint;
@@ -454,7 +520,7 @@ impl SafetyFilter {
         }
 
         if near.is_empty() {
-            diag.active_id = closest.map(|(_, id, _)| id);
+            diag.active_id = closest.and_then(|(i, _)| obstacles.get(i)).map(|o| o.id);
             return (*u_nom, diag);
         }
         let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
@@ -644,6 +710,153 @@ mod tests {
         let (b, db) = filt(FilterVariant::Multi).apply(&p, &v, &u, &obs);
         assert!((a - b).norm() < 1e-5);
         assert_eq!(da.region, db.region);
+    }
+
+    /// The filter as written before the far-obstacle shortcut (every obstacle's barrier and
+    /// trigger value evaluated): `apply` must give exactly the same answer.
+    fn apply_reference(
+        f: &SafetyFilter,
+        p: &Vec3,
+        v: &Vec3,
+        u_nom: &Vec3,
+        obstacles: &[ObstaclePoint],
+    ) -> (Vec3, FilterDiagnostics) {
+        if !within_limits(p) || !within_limits(v) {
+            return f.fault(v, FilterFault::BadState);
+        }
+        if !within_limits(u_nom) {
+            return f.fault(v, FilterFault::BadNominal);
+        }
+        if obstacles.is_empty() {
+            return (*u_nom, FilterDiagnostics::new(Region::NoObstacle));
+        }
+        let mut diag = FilterDiagnostics::new(Region::Far);
+        let mut closest: Option<(Barrier, u16, f32)> = None;
+        let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
+        for o in obstacles {
+            if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
+                return f.fault(v, FilterFault::BadObstacle);
+            }
+            let Some(b) = f.barrier(p, v, o) else {
+                return f.fault(v, FilterFault::ZeroDistance);
+            };
+            diag.h_bar = diag.h_bar.min(b.h - f.params.delta);
+            let trigger = f.trigger_value(&b, u_nom);
+            if closest.is_none_or(|(c, _, _)| b.dist_sq < c.dist_sq) {
+                closest = Some((b, o.id, trigger));
+            }
+            if trigger <= f.params.delta1 {
+                diag.n_near = diag.n_near.saturating_add(1);
+                if let Err(item) = near.push((b, o.id)) {
+                    let mut worst = 0;
+                    for (i, (nb, _)) in near.iter().enumerate() {
+                        if nb.h > near[worst].0.h {
+                            worst = i;
+                        }
+                    }
+                    if item.0.h < near[worst].0.h {
+                        near[worst] = item;
+                    }
+                }
+            }
+        }
+        let u_max = f.params.u_max;
+        if !f.variant.is_multi() {
+            let Some((b, id, trigger)) = closest else { return (*u_nom, diag) };
+            diag.active_id = Some(id);
+            if trigger > f.params.delta1 {
+                return (*u_nom, diag);
+            }
+            let HalfSpace { n, c } = b.constraint;
+            diag.n_constraints = 1;
+            diag.unavoidable = c > u_max;
+            if n.dot(u_nom) > c {
+                diag.region = Region::NominalSafe;
+                return (*u_nom, diag);
+            }
+            diag.region = Region::Perpendicular;
+            diag.intervened = true;
+            return (u_nom + n * (c - n.dot(u_nom)), diag);
+        }
+        if near.is_empty() {
+            diag.active_id = closest.map(|(_, id, _)| id);
+            return (*u_nom, diag);
+        }
+        let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
+        let mut most_critical = (f32::INFINITY, 0u16);
+        for (slot, (b, id)) in cons.iter_mut().zip(near.iter()) {
+            *slot = b.constraint;
+            diag.unavoidable |= b.constraint.c > u_max;
+            if b.h < most_critical.0 {
+                most_critical = (b.h, *id);
+            }
+        }
+        let cons = &cons[..near.len()];
+        diag.n_constraints = near.len() as u8;
+        diag.active_id = Some(most_critical.1);
+        if cons.iter().all(|h| h.n.dot(u_nom) >= h.c) {
+            diag.region = Region::NominalSafe;
+            return (*u_nom, diag);
+        }
+        let u_brake = v * (-2.0 / f.params.mu);
+        let shift: f32 = cons.iter().map(|h| (h.c - h.n.dot(&u_brake)).max(0.0)).sum();
+        let bound = 2.0 * (u_nom - u_brake).norm() + (4.0 * shift).min(2.0 * u_max);
+        let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
+        diag.region = Region::Perpendicular;
+        diag.intervened = true;
+        diag.infeasible = !sol.feasible;
+        (sol.u, diag)
+    }
+
+    mod props {
+        extern crate std;
+        use super::*;
+        use proptest::prelude::*;
+        use std::vec::Vec;
+
+        fn vec(r: f32) -> impl Strategy<Value = Vec3> {
+            (-r..r, -r..r, -r..r).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+        }
+
+        fn obstacle() -> impl Strategy<Value = ObstaclePoint> {
+            // Mostly near the vehicle (within ~0.6 m, where the event rule switches), some far.
+            (vec(0.6), 0.0f32..1.0, proptest::option::of(vec(1.0)), any::<u16>()).prop_map(
+                |(d, far, w, id)| {
+                    let scale = if far < 0.8 { 1.0 } else { 6.0 };
+                    ObstaclePoint { point: d * scale, velocity: w, id }
+                },
+            )
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(4000))]
+            #[test]
+            fn apply_equals_full_evaluation(
+                v in vec(2.5),
+                u in vec(8.0),
+                obs in proptest::collection::vec(obstacle(), 0..12),
+                variant in 0usize..4,
+                t in prop_oneof![Just(0.0f32), Just(0.004), 0.0f32..0.05],
+                margin in prop_oneof![Just(0.0f32), 0.0f32..0.2],
+                accel in prop_oneof![Just(0.0f32), 0.0f32..2.0],
+                delta1 in 0.06f32..0.4,
+            ) {
+                let params = CbfParams {
+                    sample_time: t,
+                    velocity_margin: margin,
+                    accel_bound: accel,
+                    ..CbfParams::new(1.4, 0.05, delta1).unwrap()
+                };
+                let f = SafetyFilter::new(params, FilterVariant::ALL[variant]).unwrap();
+                let p = Vec3::new(1.0, -2.0, -1.5);
+                let obs: Vec<ObstaclePoint> =
+                    obs.iter().map(|o| ObstaclePoint { point: p + o.point, ..*o }).collect();
+                let (a, da) = f.apply(&p, &v, &u, &obs);
+                let (b, db) = apply_reference(&f, &p, &v, &u, &obs);
+                prop_assert_eq!(a, b);
+                prop_assert_eq!(da, db);
+            }
+        }
     }
 
     #[test]
