@@ -208,6 +208,129 @@ impl Default for PlantState {
 
 type X = SVector<f64, 17>;
 
+/// What the state derivative needs besides the state, fixed during one step:
+/// the vehicle parameters in the form the equations use and the clamped
+/// rotor-speed commands.
+#[derive(Clone, Copy, Debug)]
+struct Consts {
+    /// Thrust coefficient, N/(rad/s)².
+    k_f: f64,
+    /// `ROTOR_YAW_SIGN[i] · k_m`, N·m/(rad/s)².
+    yaw_k_m: [f64; 4],
+    /// Roll moment arm of rotor i, `−y_i`, m.
+    roll_arm: [f64; 4],
+    /// Pitch moment arm of rotor i, `x_i`, m.
+    pitch_arm: [f64; 4],
+    /// Rotor-speed commands clamped to `[omega_min, omega_max]`, rad/s.
+    cmd: [f64; 4],
+    /// `1 / τ_motor`, 1/s.
+    inv_motor_tau: f64,
+    /// Linear body drag, N/(m/s).
+    drag: [f64; 3],
+    /// `1 / m`, 1/kg.
+    inv_mass: f64,
+    /// Principal moments of inertia, kg·m².
+    inertia: [f64; 3],
+    /// Their reciprocals, 1/(kg·m²).
+    inv_inertia: [f64; 3],
+}
+
+/// Rotation matrix (body → world) of the quaternion `(w, x, y, z)` after
+/// normalisation, as `[row0, row1, row2]`. Equal (to round-off) to
+/// `UnitQuaternion::from_quaternion(q).to_rotation_matrix()`, without forming
+/// the unit quaternion: `R(q) = R̃(q) / |q|²` with `R̃` the homogeneous form.
+#[inline(always)]
+fn rotation(w: f64, x: f64, y: f64, z: f64) -> [[f64; 3]; 3] {
+    let s = 1.0 / (w * w + x * x + y * y + z * z);
+    let (ww, xx, yy, zz) = (w * w, x * x, y * y, z * z);
+    let (xy, wz, wy, xz, yz, wx) = (x * y, w * z, w * y, x * z, y * z, w * x);
+    [
+        [(ww + xx - yy - zz) * s, 2.0 * (xy - wz) * s, 2.0 * (wy + xz) * s],
+        [2.0 * (wz + xy) * s, (ww - xx + yy - zz) * s, 2.0 * (yz - wx) * s],
+        [2.0 * (xz - wy) * s, 2.0 * (wx + yz) * s, (ww - xx - yy + zz) * s],
+    ]
+}
+
+impl Consts {
+    /// Collective thrust (N, along body −z) of the rotor speeds `w`.
+    #[inline(always)]
+    fn thrust(&self, w: &[f64; 4]) -> f64 {
+        let mut thrust = 0.0;
+        for wi in w {
+            thrust += self.k_f * wi * wi;
+        }
+        thrust
+    }
+
+    /// Acceleration of the centre of mass (NED, m/s²) at velocity `v`, attitude
+    /// rotation `r` and collective thrust `thrust`: `R (F_thrust + F_drag) / m + g e_z`.
+    #[inline(always)]
+    fn accel_of(&self, v: [f64; 3], r: &[[f64; 3]; 3], thrust: f64) -> Vector3<f64> {
+        // v_body = Rᵀ v.
+        let vb = [
+            r[0][0] * v[0] + r[1][0] * v[1] + r[2][0] * v[2],
+            r[0][1] * v[0] + r[1][1] * v[1] + r[2][1] * v[2],
+            r[0][2] * v[0] + r[1][2] * v[1] + r[2][2] * v[2],
+        ];
+        let f = [-self.drag[0] * vb[0], -self.drag[1] * vb[1], -self.drag[2] * vb[2] - thrust];
+        let m = self.inv_mass;
+        Vector3::new(
+            (r[0][0] * f[0] + r[0][1] * f[1] + r[0][2] * f[2]) * m,
+            (r[1][0] * f[0] + r[1][1] * f[1] + r[1][2] * f[2]) * m,
+            (r[2][0] * f[0] + r[2][1] * f[1] + r[2][2] * f[2]) * m + GRAVITY,
+        )
+    }
+
+    /// Acceleration of the centre of mass at plant state `s` (NED, m/s²).
+    fn acceleration(&self, s: &PlantState) -> Vector3<f64> {
+        let q = s.att.quaternion();
+        let r = rotation(q.w, q.i, q.j, q.k);
+        self.accel_of(s.vel.into(), &r, self.thrust(&s.rotor))
+    }
+
+    /// The state derivative ẋ of the 17-dimensional state
+    /// `x = (p, v, q (w, i, j, k), ω_b, rotor speeds)`: the equations of the module docs.
+    #[inline(always)]
+    fn derivative(&self, x: &X) -> X {
+        let w = [x[13], x[14], x[15], x[16]];
+        let mut xd = X::zeros();
+        let mut tau = [0.0; 3];
+        let mut thrust = 0.0;
+        for i in 0..4 {
+            let f = self.k_f * w[i] * w[i];
+            thrust += f;
+            tau[0] += self.roll_arm[i] * f;
+            tau[1] += self.pitch_arm[i] * f;
+            tau[2] += self.yaw_k_m[i] * w[i] * w[i];
+            xd[13 + i] = (self.cmd[i] - w[i]) * self.inv_motor_tau;
+        }
+        let (qw, qi, qj, qk) = (x[6], x[7], x[8], x[9]);
+        let r = rotation(qw, qi, qj, qk);
+        let acc = self.accel_of([x[3], x[4], x[5]], &r, thrust);
+        // Euler's equations: I ω̇ = τ − ω × (I ω).
+        let (p, q, rr) = (x[10], x[11], x[12]);
+        let ii = self.inertia;
+        let iw = [ii[0] * p, ii[1] * q, ii[2] * rr];
+        let gyro = [q * iw[2] - rr * iw[1], rr * iw[0] - p * iw[2], p * iw[1] - q * iw[0]];
+        // q̇ = ½ q ⊗ (0, ω), on the raw (not re-normalised) quaternion of x.
+        xd[0] = x[3];
+        xd[1] = x[4];
+        xd[2] = x[5];
+        xd[3] = acc.x;
+        xd[4] = acc.y;
+        xd[5] = acc.z;
+        xd[6] = 0.5 * (-qi * p - qj * q - qk * rr);
+        xd[7] = 0.5 * (qw * p + qj * rr - qk * q);
+        xd[8] = 0.5 * (qw * q - qi * rr + qk * p);
+        xd[9] = 0.5 * (qw * rr + qi * q - qj * p);
+        let inv = self.inv_inertia;
+        xd[10] = (tau[0] - gyro[0]) * inv[0];
+        xd[11] = (tau[1] - gyro[1]) * inv[1];
+        xd[12] = (tau[2] - gyro[2]) * inv[2];
+        xd
+    }
+}
+
 impl PlantState {
     fn to_x(&self) -> X {
         let q = self.att.quaternion();
@@ -264,7 +387,7 @@ impl Plant {
             ground: true,
             accel: Vector3::zeros(),
         };
-        p.accel = p.derivative(&p.state.to_x()).fixed_rows::<3>(3).into_owned();
+        p.accel = p.consts().acceleration(&p.state);
         Ok(p)
     }
 
@@ -310,58 +433,40 @@ impl Plant {
         self.omega_cmd = w;
     }
 
-    fn derivative(&self, x: &X) -> X {
+    /// The constants of the derivative for the current parameters and motor
+    /// commands (commands clamped to `[omega_min, omega_max]`), computed once per step.
+    fn consts(&self) -> Consts {
         let p = &self.params;
-        let s = PlantState::from_x(x);
-        let r = s.att.to_rotation_matrix();
-        let mut thrust = 0.0;
-        let mut tau = Vector3::zeros();
         let pos = p.rotor_positions();
-        let mut xd = X::zeros();
-        for i in 0..4 {
-            let w = s.rotor[i];
-            let f = p.k_f * w * w;
-            thrust += f;
-            tau.x += -pos[i][1] * f;
-            tau.y += pos[i][0] * f;
-            tau.z += ROTOR_YAW_SIGN[i] as f64 * p.k_m * w * w;
-            let cmd = self.omega_cmd[i].clamp(p.omega_min, p.omega_max);
-            xd[13 + i] = (cmd - w) / p.motor_tau;
+        Consts {
+            k_f: p.k_f,
+            yaw_k_m: ROTOR_YAW_SIGN.map(|s| s as f64 * p.k_m),
+            roll_arm: pos.map(|r| -r[1]),
+            pitch_arm: pos.map(|r| r[0]),
+            cmd: self.omega_cmd.map(|c| c.clamp(p.omega_min, p.omega_max)),
+            inv_motor_tau: 1.0 / p.motor_tau,
+            drag: p.drag,
+            inv_mass: 1.0 / p.mass,
+            inertia: p.inertia,
+            inv_inertia: p.inertia.map(|i| 1.0 / i),
         }
-        let v_body = r.transpose() * s.vel;
-        let f_body =
-            Vector3::new(-p.drag[0] * v_body.x, -p.drag[1] * v_body.y, -p.drag[2] * v_body.z - thrust);
-        let acc = r * f_body / p.mass + Vector3::new(0.0, 0.0, GRAVITY);
-        let inertia = Vector3::from(p.inertia);
-        let iw = inertia.component_mul(&s.rates);
-        let wdot = (tau - s.rates.cross(&iw)).component_div(&inertia);
-        // q̇ = ½ q ⊗ (0, ω), on the raw (not re-normalised) quaternion of x.
-        let q = nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]);
-        let qd = q * nalgebra::Quaternion::new(0.0, s.rates.x, s.rates.y, s.rates.z) * 0.5;
-        xd.fixed_rows_mut::<3>(0).copy_from(&s.vel);
-        xd.fixed_rows_mut::<3>(3).copy_from(&acc);
-        xd[6] = qd.w;
-        xd[7] = qd.i;
-        xd[8] = qd.j;
-        xd[9] = qd.k;
-        xd.fixed_rows_mut::<3>(10).copy_from(&wdot);
-        xd
     }
 
     /// Advance by `dt` seconds with one RK4 step, then apply ground contact.
     pub fn step(&mut self, dt: f64) {
+        let c = self.consts();
         let x = self.state.to_x();
-        let k1 = self.derivative(&x);
-        let k2 = self.derivative(&(x + k1 * (dt / 2.0)));
-        let k3 = self.derivative(&(x + k2 * (dt / 2.0)));
-        let k4 = self.derivative(&(x + k3 * dt));
+        let k1 = c.derivative(&x);
+        let k2 = c.derivative(&(x + k1 * (dt / 2.0)));
+        let k3 = c.derivative(&(x + k2 * (dt / 2.0)));
+        let k4 = c.derivative(&(x + k3 * dt));
         let xn = x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0);
         let mut s = PlantState::from_x(&xn);
         for w in &mut s.rotor {
             *w = w.clamp(0.0, self.params.omega_max);
         }
         self.state = s;
-        let acc: Vector3<f64> = self.derivative(&self.state.to_x()).fixed_rows::<3>(3).into_owned();
+        let acc = c.acceleration(&self.state);
         self.accel = acc;
         if self.ground && self.state.pos.z >= 0.0 {
             // Never below the ground; an impact stops the vertical motion.
@@ -566,6 +671,71 @@ mod tests {
         assert!(e2 < 1e-6, "e2 = {e2}");
         assert!(e1 / e2 > 8.0, "ratio {}", e1 / e2);
         assert!((b.rates - c.rates).norm() < 1e-6);
+    }
+
+    /// The derivative as the model equations read, with nalgebra's quaternion
+    /// and rotation types (the plain form of [`Consts::derivative`]).
+    fn reference_derivative(p: &VehicleParams, cmd: &[f64; 4], x: &X) -> X {
+        let s = PlantState::from_x(x);
+        let r = s.att.to_rotation_matrix();
+        let mut thrust = 0.0;
+        let mut tau = Vector3::zeros();
+        let pos = p.rotor_positions();
+        let mut xd = X::zeros();
+        for i in 0..4 {
+            let w = s.rotor[i];
+            let f = p.k_f * w * w;
+            thrust += f;
+            tau.x += -pos[i][1] * f;
+            tau.y += pos[i][0] * f;
+            tau.z += ROTOR_YAW_SIGN[i] as f64 * p.k_m * w * w;
+            xd[13 + i] = (cmd[i].clamp(p.omega_min, p.omega_max) - w) / p.motor_tau;
+        }
+        let v_body = r.transpose() * s.vel;
+        let f_body =
+            Vector3::new(-p.drag[0] * v_body.x, -p.drag[1] * v_body.y, -p.drag[2] * v_body.z - thrust);
+        let acc = r * f_body / p.mass + Vector3::new(0.0, 0.0, GRAVITY);
+        let inertia = Vector3::from(p.inertia);
+        let wdot = (tau - s.rates.cross(&inertia.component_mul(&s.rates))).component_div(&inertia);
+        let q = nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]);
+        let qd = q * nalgebra::Quaternion::new(0.0, s.rates.x, s.rates.y, s.rates.z) * 0.5;
+        xd.fixed_rows_mut::<3>(0).copy_from(&s.vel);
+        xd.fixed_rows_mut::<3>(3).copy_from(&acc);
+        xd[6] = qd.w;
+        xd[7] = qd.i;
+        xd[8] = qd.j;
+        xd[9] = qd.k;
+        xd.fixed_rows_mut::<3>(10).copy_from(&wdot);
+        xd
+    }
+
+    #[test]
+    fn derivative_matches_the_plain_equations() {
+        // Tumbling, moving, unequal rotors, a quaternion off the unit sphere
+        // (as the RK4 stages see it), drag and a non-symmetric inertia.
+        let mut p = plant_no_ground();
+        p.params.inertia = [0.0019, 0.0025, 0.0033];
+        p.params.drag = [0.1, 0.2, 0.3];
+        p.set_rotor_speed_commands([700.0, 1500.0, -3.0, 650.0]);
+        let mut x = X::zeros();
+        let vals = [
+            1.0, -2.0, -3.0, 0.7, -0.4, 0.2, 0.9, 0.3, -0.2, 0.25, 3.0, -1.5, 0.8, 610.0, 720.0, 680.0, 655.0,
+        ];
+        for (xi, v) in x.iter_mut().zip(vals) {
+            *xi = v;
+        }
+        let c = p.consts();
+        let fast = c.derivative(&x);
+        let plain = reference_derivative(&p.params, &p.omega_cmd, &x);
+        for i in 0..17 {
+            let tol = 1e-12 * (1.0 + plain[i].abs());
+            assert!((fast[i] - plain[i]).abs() <= tol, "component {i}: {} vs {}", fast[i], plain[i]);
+        }
+        // The cheap acceleration of a state is the derivative's.
+        let s = PlantState::from_x(&x);
+        let a = c.acceleration(&s);
+        let plain = reference_derivative(&p.params, &p.omega_cmd, &s.to_x());
+        assert!((a - plain.fixed_rows::<3>(3)).norm() < 1e-12);
     }
 
     #[test]
