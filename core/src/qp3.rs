@@ -9,13 +9,17 @@
 //! multipliers are all ≥ 0 (KKT), and also the cheapest feasible candidate. In
 //! f32 both tests can be blurred by round-off (a candidate violating within
 //! tolerance can look cheaper; multipliers of near-coplanar normals are noisy),
-//! so the choice is: the cheapest feasible KKT-valid candidate (tight, then
-//! loose tolerance), else the cheapest feasible one, else the cheapest within a
-//! loose tolerance. Each candidate is computed with cross products (Cramer),
-//! in coordinates centred on a point the planes (nearly) share, and polished by
-//! one step of iterative refinement, to keep round-off small. Work is fixed
-//! in advance: at most `Σ_{s≤3} C(k, s)` candidates (15 for k = 4, 93 for k = 8),
-//! each a ≤ 3×3 solve.
+//! so the choice is: the first candidate, in order of active-set size (empty,
+//! singletons, pairs, triples), that is feasible within a tight tolerance and
+//! KKT-valid — the unique optimum in exact arithmetic, so the search stops
+//! there; without one, every candidate is visited and the choice is the
+//! cheapest feasible KKT-valid candidate within a loose tolerance, else the
+//! cheapest feasible one, else the cheapest within the loose tolerance. Each
+//! candidate is computed with cross products (Cramer), in coordinates centred
+//! on a point the planes (nearly) share, and polished by one step of iterative
+//! refinement, to keep round-off small. Work is bounded in advance: at most
+//! `Σ_{s≤3} C(k, s)` candidates (15 for k = 4, 93 for k = 8), each a ≤ 3×3
+//! solve; typically the search ends after a few.
 //!
 //! Degenerate active sets (collinear or coplanar normals, Gram determinant
 //! below [`GRAM_EPS`]) are skipped: the same optimum is then reachable through
@@ -152,6 +156,36 @@ pub fn project_bounded(u_nom: &Vec3, cons: &[HalfSpace], u_ref: &Vec3, bound: f3
     Projection { u: p.u + u_ref, ..p }
 }
 
+/// Calls `f` on every active set of size 0, 1, 2, 3 of `k` constraints, smallest sets
+/// first (then lexicographic), until it returns `Some`; that value, or `None`.
+fn first_active_set<T>(k: usize, mut f: impl FnMut(&[usize]) -> Option<T>) -> Option<T> {
+    if let Some(hit) = f(&[]) {
+        return Some(hit);
+    }
+    for i in 0..k {
+        if let Some(hit) = f(&[i]) {
+            return Some(hit);
+        }
+    }
+    for i in 0..k {
+        for j in (i + 1)..k {
+            if let Some(hit) = f(&[i, j]) {
+                return Some(hit);
+            }
+        }
+    }
+    for i in 0..k {
+        for j in (i + 1)..k {
+            for l in (j + 1)..k {
+                if let Some(hit) = f(&[i, j, l]) {
+                    return Some(hit);
+                }
+            }
+        }
+    }
+    None
+}
+
 fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     let k = cons.len();
     let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| maxf(m, h.c.abs()));
@@ -159,12 +193,45 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     // when no candidate passes the tight one (ill-conditioned, near-degenerate sets).
     let (tol_tight, tol_loose) = (2e-6 * scale, 1e-4 * scale);
     let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| maxf(m, h.violation(u)));
+    let mask_of = |idx: &[usize]| idx.iter().fold(0u8, |m, &i| m | (1 << i));
+    // Bounded, finite candidate with its smallest multiplier, and whether that satisfies
+    // the KKT sign condition (multipliers are scaled by the correction's size; a small
+    // negative one is round-off).
+    let bounded = |idx: &[usize]| -> Option<(Vec3, bool)> {
+        let (u, lam_min) = candidate(u_nom, cons, idx)?;
+        if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || norm3(&u) > bound {
+            return None;
+        }
+        Some((u, lam_min >= -1e-5 * (1.0 + norm3(&(u - u_nom)))))
+    };
 
-    // (u, violation, mask): cheapest feasible candidate satisfying the KKT sign
-    // condition (the optimum), then the same under the loose tolerance (a KKT point
-    // a round-off away from feasible is a near-optimum; a feasible non-KKT vertex can
-    // be far costlier), then the cheapest feasible one without KKT, then loose.
-    let mut best_kkt: Option<(Vec3, f32, u8)> = None;
+    // Pass 1: the first candidate, smallest active sets first, that is KKT-valid and
+    // feasible within the tight tolerance. In exact arithmetic that is the unique
+    // optimum, so the search stops there (mostly after a single plane or an edge).
+    let hit = first_active_set(k, |idx| {
+        let (u, kkt) = bounded(idx)?;
+        if !kkt {
+            return None;
+        }
+        let mut viol = 0.0f32;
+        for h in cons {
+            let v = h.violation(&u);
+            if v > tol_tight {
+                return None;
+            }
+            viol = maxf(viol, v);
+        }
+        Some(Projection { u, feasible: true, active_mask: mask_of(idx), max_violation: viol })
+    });
+    if let Some(p) = hit {
+        return p;
+    }
+
+    // Pass 2, only when no candidate passed: every candidate is visited and the choice
+    // is (u, violation, mask) of the cheapest KKT-valid candidate within the loose
+    // tolerance (a KKT point a round-off away from feasible is a near-optimum; a feasible
+    // non-KKT vertex can be far costlier), then the cheapest feasible one without KKT,
+    // then the cheapest within the loose tolerance, else the least violation.
     let mut best_kkt_loose: Option<(Vec3, f32, u8)> = None;
     let mut best: Option<(Vec3, f32, u8)> = None;
     let mut best_loose: Option<(Vec3, f32, u8)> = None;
@@ -184,43 +251,25 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     } else {
         (Vec3::zeros(), max_viol(&Vec3::zeros()), 0)
     };
-    let mut consider = |idx: &[usize]| {
-        if let Some((u, lam_min)) = candidate(u_nom, cons, idx) {
-            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || norm3(&u) > bound {
-                return;
-            }
-            let mask = idx.iter().fold(0u8, |m, &i| m | (1 << i));
-            let viol = max_viol(&u);
-            if viol < least_bad.1 {
-                least_bad = (u, viol, mask);
-            }
-            // Multipliers are scaled by the correction's size; a small negative one is round-off.
-            let kkt = lam_min >= -1e-5 * (1.0 + norm3(&(u - u_nom)));
-            if viol <= tol_tight && kkt && cheaper(&u, viol, &best_kkt) {
-                best_kkt = Some((u, viol, mask));
-            }
-            if viol <= tol_loose && kkt && cheaper(&u, viol, &best_kkt_loose) {
-                best_kkt_loose = Some((u, viol, mask));
-            }
-            if viol <= tol_tight && cheaper(&u, viol, &best) {
-                best = Some((u, viol, mask));
-            }
-            if viol <= tol_loose && cheaper(&u, viol, &best_loose) {
-                best_loose = Some((u, viol, mask));
-            }
+    first_active_set(k, |idx| -> Option<()> {
+        let (u, kkt) = bounded(idx)?;
+        let mask = mask_of(idx);
+        let viol = max_viol(&u);
+        if viol < least_bad.1 {
+            least_bad = (u, viol, mask);
         }
-    };
-    consider(&[]);
-    for i in 0..k {
-        consider(&[i]);
-        for j in (i + 1)..k {
-            consider(&[i, j]);
-            for l in (j + 1)..k {
-                consider(&[i, j, l]);
-            }
+        if viol <= tol_loose && kkt && cheaper(&u, viol, &best_kkt_loose) {
+            best_kkt_loose = Some((u, viol, mask));
         }
-    }
-    match best_kkt.or(best_kkt_loose).or(best).or(best_loose) {
+        if viol <= tol_tight && cheaper(&u, viol, &best) {
+            best = Some((u, viol, mask));
+        }
+        if viol <= tol_loose && cheaper(&u, viol, &best_loose) {
+            best_loose = Some((u, viol, mask));
+        }
+        None
+    });
+    match best_kkt_loose.or(best).or(best_loose) {
         Some((u, viol, mask)) => Projection { u, feasible: true, active_mask: mask, max_violation: viol },
         None => Projection {
             u: least_bad.0,
