@@ -29,12 +29,18 @@ use core::hint::black_box;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
+use parapet_core::attitude::{AttitudeController, Euler};
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::{ControllerParams, FlightController, GuidanceMode, PositionFix};
+use parapet_core::estimator::AttitudeEstimator;
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
 use parapet_core::fmath;
+use parapet_core::frame::wrap_pi;
+use parapet_core::mixer::Mixer;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::thrust::map_acceleration;
+use parapet_core::tracking::{PdTracker, Reference};
 use parapet_core::Vec3;
 
 /// Repetitions of each measured call.
@@ -349,6 +355,136 @@ fn bench_blocks(c: &Counter) {
     bar.report("SafetyFilter::barrier (one obstacle)");
 }
 
+/// The parts of the cascade and the libm functions they call, each repeated on one input
+/// (stateful parts too: repeating an estimator or PID update on the same sample is fine for
+/// counting). Tells where the instructions of `step_outer`/`step_inner` go.
+fn bench_cascade_parts(c: &Counter) {
+    let report = |name: &str, ins: u64| {
+        let _ = writeln!(Console, "part {name}: {} instructions", ins / REPS as u64);
+    };
+    let (x, y) = (black_box(0.3f32), black_box(-0.7f32));
+    report(
+        "libm::sincosf",
+        c.measure(|| {
+            black_box(libm::sincosf(black_box(x)));
+        }),
+    );
+    report(
+        "libm::cosf",
+        c.measure(|| {
+            black_box(libm::cosf(black_box(x)));
+        }),
+    );
+    report(
+        "libm::tanf",
+        c.measure(|| {
+            black_box(libm::tanf(black_box(x)));
+        }),
+    );
+    report(
+        "libm::atanf",
+        c.measure(|| {
+            black_box(libm::atanf(black_box(x)));
+        }),
+    );
+    report(
+        "libm::atan2f",
+        c.measure(|| {
+            black_box(libm::atan2f(black_box(x), black_box(y)));
+        }),
+    );
+    report(
+        "libm::acosf",
+        c.measure(|| {
+            black_box(libm::acosf(black_box(x)));
+        }),
+    );
+    report(
+        "libm::hypotf",
+        c.measure(|| {
+            black_box(libm::hypotf(black_box(x), black_box(y)));
+        }),
+    );
+    report(
+        "frame::wrap_pi (|a| < pi)",
+        c.measure(|| {
+            black_box(wrap_pi(black_box(x)));
+        }),
+    );
+    let params = ControllerParams::default();
+    let mut est = match AttitudeEstimator::new(params.estimator) {
+        Ok(e) => e,
+        Err(_) => exit(false),
+    };
+    let imu = ImuSample { gyro: Vec3::new(0.05, -0.1, 0.02), accel: Vec3::new(0.3, -0.2, -9.7) };
+    est.update(&imu, 0.001, None, Some(0.1));
+    report(
+        "AttitudeEstimator::update (accel aid, external yaw)",
+        c.measure(|| {
+            black_box(est.update(black_box(&imu), 0.001, Some(Vec3::new(0.1, 0.0, 0.0)), Some(0.1)));
+        }),
+    );
+    report(
+        "AttitudeEstimator::euler",
+        c.measure(|| {
+            black_box(black_box(&est).euler());
+        }),
+    );
+    report(
+        "AttitudeEstimator::tilt",
+        c.measure(|| {
+            black_box(black_box(&est).tilt());
+        }),
+    );
+    let mut att = match AttitudeController::new(params.attitude) {
+        Ok(a) => a,
+        Err(_) => exit(false),
+    };
+    let sp = Euler { roll: 0.1, pitch: -0.05, yaw: 0.2 };
+    let now = est.euler();
+    report(
+        "AttitudeController::update",
+        c.measure(|| {
+            black_box(att.update(black_box(&sp), black_box(&now), &[0.1, -0.2, 0.05], 0.001, false));
+        }),
+    );
+    let mixer = match Mixer::new(&params.airframe) {
+        Ok(m) => m,
+        Err(_) => exit(false),
+    };
+    report(
+        "Mixer::mix",
+        c.measure(|| {
+            black_box(mixer.mix(black_box(5.0), black_box(&Vec3::new(0.01, -0.02, 0.001))));
+        }),
+    );
+    let u = Vec3::new(0.8, -0.5, 0.3);
+    report(
+        "thrust::map_acceleration",
+        c.measure(|| {
+            black_box(map_acceleration(&params.thrust, black_box(&u), 0.2, 0.05, -0.03));
+        }),
+    );
+    let mut tracker = PdTracker::new(params.tracking);
+    let r = Reference {
+        position: Vec3::new(1.0, 0.0, -1.5),
+        velocity: Vec3::new(0.25, 0.0, 0.0),
+        acceleration: Vec3::zeros(),
+        yaw: 0.0,
+    };
+    report(
+        "PdTracker::update",
+        c.measure(|| {
+            black_box(tracker.update(
+                black_box(&r),
+                &Vec3::new(0.95, 0.05, -1.5),
+                &Vec3::new(0.2, 0.0, 0.0),
+                0.004,
+            ));
+        }),
+    );
+}
+
 /// `fmath::sqrtf` (VSQRT.F32) must equal `libm::sqrtf` bit for bit, and `minf`/`maxf` libm's
 /// `fminf`/`fmaxf`, on this target: checked over a geometric sweep of 0..f32::MAX, random
 /// values and the special cases. A mismatch stops the program with a failure exit.
@@ -506,6 +642,7 @@ fn main() -> ! {
     let _ = writeln!(Console, "empty measurement: {} instructions per {REPS} turns", c.overhead);
     check_fmath();
     bench_blocks(&c);
+    bench_cascade_parts(&c);
     bench_filter(&c);
     bench_cascade(&c);
     print("done\n");
