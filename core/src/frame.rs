@@ -52,6 +52,11 @@ pub fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
 #[inline]
 pub fn wrap_pi(a: f32) -> f32 {
     use core::f32::consts::PI;
+    if a > -PI && a <= PI {
+        // Already in range: remainderf(a, 2π) returns a exactly here (|a/2π| ≤ 1/2, a tie
+        // at a = π rounding the quotient to even 0), so this is the same value, cheaply.
+        return a;
+    }
     if !a.is_finite() {
         return a;
     }
@@ -90,5 +95,13 @@ mod tests {
         assert!((wrap_pi(-0.5) + 0.5).abs() < 1e-6);
         assert!((wrap_pi(2.0 * PI + 0.25) - 0.25).abs() < 1e-5);
         assert!(wrap_pi(-PI) > 0.0);
+        // The in-range shortcut returns what remainderf does, bit for bit.
+        for a in [0.0f32, -0.0, 1e-30, 0.5, -3.1, PI, PI - 1e-6, -3.0, 2.0, -PI + 1e-6] {
+            let mut x = libm::remainderf(a, 2.0 * PI);
+            if x <= -PI {
+                x += 2.0 * PI;
+            }
+            assert_eq!(wrap_pi(a).to_bits(), x.to_bits(), "{a}");
+        }
     }
 }
