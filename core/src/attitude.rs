@@ -30,6 +30,7 @@
 //! while the mixer reports saturation (conditional integration).
 //! `α` is clamped to `±alpha_max` so a wild input cannot produce a huge torque.
 
+use crate::fmath::sincosf;
 use crate::frame::{clampf, wrap_pi};
 use crate::Vec3;
 
@@ -187,8 +188,8 @@ impl AttitudeController {
         let p = &self.params;
         let e = [wrap_pi(sp.roll - att.roll), wrap_pi(sp.pitch - att.pitch), wrap_pi(sp.yaw - att.yaw)];
         let eta = [p.att_p[0] * e[0], p.att_p[1] * e[1], p.att_p[2] * e[2]];
-        let (sphi, cphi) = libm::sincosf(att.roll);
-        let (sth, cth) = libm::sincosf(att.pitch);
+        let (sphi, cphi) = sincosf(att.roll);
+        let (sth, cth) = sincosf(att.pitch);
         let w = [
             eta[0] - sth * eta[2],
             cphi * eta[1] + sphi * cth * eta[2],

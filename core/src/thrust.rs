@@ -14,7 +14,7 @@
 //! when level (vertical priority), then the horizontal part is scaled down so
 //! the tilt stays within `tilt_max` and the total thrust within `thrust_max`.
 
-use crate::fmath::{maxf, minf, sqrtf};
+use crate::fmath::{cosf, hypotf, maxf, minf, sincosf, sqrtf, tanf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 use crate::Vec3;
 
@@ -64,8 +64,8 @@ pub fn limit_acceleration(p: &ThrustParams, u: &Vec3) -> (Vec3, bool) {
                                                                          // Vertical priority: g − u_z must lie in the specific-thrust range.
     let gz = clampf(GRAVITY - u.z, maxf(a_min, 1e-3), maxf(a_max, maxf(a_min, 1e-3)));
     let mut sat = (GRAVITY - u.z - gz).abs() > 1e-6;
-    let xy = libm::hypotf(u.x, u.y);
-    let by_tilt = gz * libm::tanf(p.tilt_max.clamp(0.0, 1.5));
+    let xy = hypotf(u.x, u.y);
+    let by_tilt = gz * tanf(p.tilt_max.clamp(0.0, 1.5));
     let by_thrust = sqrtf(maxf(a_max * a_max - gz * gz, 0.0));
     let xy_max = minf(by_tilt, by_thrust);
     let (mut ux, mut uy) = (u.x, u.y);
@@ -91,14 +91,14 @@ pub fn map_acceleration(
 ) -> AttitudeSetpoint {
     let (a, sat) = limit_acceleration(p, u);
     let yaw = if yaw_ref.is_finite() { wrap_pi(yaw_ref) } else { 0.0 };
-    let (sy, cy) = libm::sincosf(yaw);
+    let (sy, cy) = sincosf(yaw);
     let den = a.z - GRAVITY; // < 0: thrust points up
     let pitch = libm::atanf((a.x * cy + a.y * sy) / den);
-    let roll = libm::atanf(libm::cosf(pitch) * (a.x * sy - a.y * cy) / den);
+    let roll = libm::atanf(cosf(pitch) * (a.x * sy - a.y * cy) / den);
     let (r, q) =
         if roll_meas.is_finite() && pitch_meas.is_finite() { (roll_meas, pitch_meas) } else { (0.0, 0.0) };
     // Guard eq. 4 against large measured tilt: never compensate beyond the tilt limit.
-    let tilt_cos = maxf(libm::cosf(r) * libm::cosf(q), libm::cosf(p.tilt_max.clamp(0.0, 1.5)));
+    let tilt_cos = maxf(cosf(r) * cosf(q), cosf(p.tilt_max.clamp(0.0, 1.5)));
     let thrust = clampf(p.mass * (GRAVITY - a.z) / tilt_cos, p.thrust_min, p.thrust_max);
     AttitudeSetpoint { roll, pitch, yaw, thrust, saturated: sat || !u.iter().all(|x| x.is_finite()) }
 }

@@ -3,6 +3,7 @@
 //!
 //! `u* = p̈_d + K_d (ṗ_d − ṗ) + K_p (p_d − p) + e_z ∫ k_i (z_d − z) dt`, world NED, m/s².
 
+use crate::fmath::hypotf;
 use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
@@ -111,7 +112,7 @@ impl PdTracker {
         let (z_lo, z_hi) = (-p.accel_max_up.abs(), p.accel_max_down.abs());
         let z_sat = u.z < z_lo || u.z > z_hi;
         u.z = clampf(u.z, z_lo, z_hi);
-        let xy = libm::hypotf(u.x, u.y);
+        let xy = hypotf(u.x, u.y);
         let xy_max = p.accel_max_xy.abs();
         if xy > xy_max && xy > 0.0 {
             u.x *= xy_max / xy;
