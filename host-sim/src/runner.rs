@@ -24,6 +24,13 @@
 //! with the hull is a collision too); h̄ = min over all obstacles of the filter's
 //! barrier `|d|² + μ dᵀḋ − δ` (ḋ relative for the relative variants);
 //! tracking error = |p − p_ref|; filter active = the filter changed `u*`.
+//!
+//! ## Cost
+//! The distance queries (clearance every plant step, proximity report and h̄
+//! every outer step, the reference's clearance) go through
+//! [`NearestTracker`]: obstacles that provably cannot matter are skipped, the
+//! results are the same as the full scans' ([`nearest_with_ground`],
+//! [`sense_obstacles`], [`true_h_bar`]) bit for bit.
 
 use std::time::Instant;
 
@@ -31,11 +38,12 @@ use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::Vec3;
 
 use crate::control::{Autopilot, Controller};
 use crate::plant::Plant;
 use crate::report::{RunParams, Sample, Summary};
-use crate::scene::{to_f32, Scene};
+use crate::scene::{to_f32, NearestTracker, Scene};
 use crate::sensors::{SensorParams, Sensors};
 
 /// Goal reached: distance to the goal below this, m.
@@ -150,30 +158,116 @@ pub struct RunOutput {
 /// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
 /// ground plane (z = 0) at time `t`, and the obstacle index (`None` = ground).
 pub fn nearest_with_ground(scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
-    let (d, i) = scene.nearest(p, t);
+    with_ground(scene.nearest(p, t), p)
+}
+
+/// [`nearest_with_ground`] from the obstacles' `(distance, index)` at `p`.
+fn with_ground(nearest: (f64, Option<usize>), p: &Vector3<f64>) -> (f64, Option<usize>) {
     let ground = -p.z;
-    if ground < d {
+    if ground < nearest.0 {
         (ground, None)
     } else {
-        (d, i)
+        nearest
+    }
+}
+
+/// The true barrier `h̄` (m²) of obstacle `i` whose closest point is `q` (signed
+/// distance `sd`, velocity `vel`) for the vehicle at `pf`, `vf`; inside counts as −δ or less.
+fn h_bar_of(
+    filter: &SafetyFilter,
+    pf: &Vec3,
+    vf: &Vec3,
+    i: usize,
+    q: Vec3,
+    vel: &Vector3<f64>,
+    sd: f32,
+) -> f64 {
+    let delta = filter.params.delta as f64;
+    let op = ObstaclePoint { point: q, velocity: Some(to_f32(vel)), id: i as u16 };
+    let h = match filter.barrier(pf, vf, &op) {
+        Some(b) => b.h as f64 - delta,
+        None => -delta,
+    };
+    if sd < 0.0 {
+        h.min(-delta)
+    } else {
+        h
     }
 }
 
 /// Min over all obstacles of the filter's barrier `h̄ = h − δ` (m²) at time `t`
 /// for the true state; `+∞` without obstacles. Inside an obstacle counts as −δ or less.
-fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
+pub fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
     let (pf, vf) = (to_f32(p), to_f32(v));
-    let delta = filter.params.delta as f64;
     let mut h_min = f64::INFINITY;
     for (i, o) in scene.obstacles.iter().enumerate() {
         let (shape, vel) = o.at(t);
         let (q, sd) = shape.closest_point(&pf);
-        let op = ObstaclePoint { point: q, velocity: Some(to_f32(&vel)), id: i as u16 };
-        let h = match filter.barrier(&pf, &vf, &op) {
-            Some(b) => b.h as f64 - delta,
-            None => -delta,
-        };
-        h_min = h_min.min(if sd < 0.0 { h.min(-delta) } else { h });
+        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+    }
+    h_min
+}
+
+/// Relative margin on the lower bound of a far obstacle's barrier in
+/// [`sense_and_h_bar`] (covers the `f32` round-off of `h`).
+const H_BOUND_MARGIN: f64 = 1e-4;
+
+/// The proximity report ([`sense_obstacles`], into `seen`) and the true barrier
+/// ([`true_h_bar`], returned) at one outer step, with the same results: the
+/// closest points are computed once for both, and only for the obstacles that
+/// can matter. `tracker` is the vehicle's (its last point should be `p`).
+///
+/// Obstacles that may be within `range` (lower bound of the distance ≤ range;
+/// moving obstacles always) are evaluated in index order (the order of the
+/// report and of the sensor-noise draws). The others are beyond `range`; one of
+/// them is skipped when `L² − μ s L − δ`, with `L` its distance bound and `s` the
+/// speed (a lower bound of `h̄` for `L ≥ μ s / 2`: `h = |d|² + μ dᵀḋ ≥ |d|² − μ|d||ḋ|`
+/// and a static obstacle's `ḋ` is the vehicle's velocity), is above the smallest
+/// `h̄` found so far, with a margin for round-off.
+#[allow(clippy::too_many_arguments)]
+fn sense_and_h_bar(
+    scene: &Scene,
+    tracker: &mut NearestTracker,
+    filter: &SafetyFilter,
+    t: f64,
+    p: &Vector3<f64>,
+    v: &Vector3<f64>,
+    range: f64,
+    sensors: &mut Sensors,
+    seen: &mut Vec<ObstaclePoint>,
+    far: &mut Vec<usize>,
+) -> f64 {
+    tracker.move_to(p);
+    let (pf, vf) = (to_f32(p), to_f32(v));
+    seen.clear();
+    far.clear();
+    let mut h_min = f64::INFINITY;
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        if tracker.lower_bound(i) > range {
+            far.push(i);
+            continue;
+        }
+        let (_, vel, q, sd) = tracker.closest(scene, i, &pf, t);
+        if (sd as f64) <= range {
+            let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
+            seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 });
+        }
+        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+    }
+    let mu_s = filter.params.mu as f64 * v.norm();
+    let delta = filter.params.delta as f64;
+    let margin = tracker.margin();
+    for &i in far.iter() {
+        // Far obstacles are static (moving ones have no bound): ḋ = v.
+        let l = tracker.lower_bound(i) - margin;
+        if l > 0.01 && 2.0 * l >= mu_s {
+            let (l2, ml) = (l * l, mu_s * l);
+            if l2 - ml - delta - H_BOUND_MARGIN * (l2 + ml + delta + 1.0) > h_min {
+                continue;
+            }
+        }
+        let (_, vel, q, sd) = tracker.closest(scene, i, &pf, t);
+        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
     }
     h_min
 }
@@ -250,6 +344,13 @@ pub fn run_with(
     let imu0 = sensors.imu(&plant);
     ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
 
+    // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
+    let mut tracker = NearestTracker::new(scene);
+    let mut ref_tracker = NearestTracker::new(scene);
+    let (mut seen, mut far) = (Vec::new(), Vec::new());
+    // Signed distance to the nearest obstacle or the ground at the current plant state.
+    let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
+
     let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
     let mut samples = Vec::with_capacity((n_inner / OUTER_DIVIDER + 1) as usize);
     let (mut collided_at, mut collision_obstacle) = (None, None);
@@ -267,11 +368,23 @@ pub fn run_with(
             if let Some(fix) = sensors.position(t, &plant) {
                 ctrl.position_fix(fix);
             }
-            let seen = sense_obstacles(scene, t, &plant.state.pos, cfg.sensing_range, &mut sensors);
+            let (pos, vel) = (plant.state.pos, plant.state.vel);
+            let h_bar = sense_and_h_bar(
+                scene,
+                &mut tracker,
+                &filter,
+                t,
+                &pos,
+                &vel,
+                cfg.sensing_range,
+                &mut sensors,
+                &mut seen,
+                &mut far,
+            );
             let out = ctrl.outer(t, &seen);
-            let h_bar = true_h_bar(scene, &filter, t, &plant.state.pos, &plant.state.vel);
-            let sd = nearest_with_ground(scene, &plant.state.pos, t).0;
-            let ref_clear = nearest_with_ground(scene, &out.reference, t).0 - hull;
+            let sd = sd_now;
+            let ref_clear =
+                with_ground(ref_tracker.nearest(scene, &out.reference, t), &out.reference).0 - hull;
             let err = (plant.state.pos - out.reference).norm();
             sq_err += err * err;
             n_outer += 1;
@@ -321,7 +434,8 @@ pub fn run_with(
             steps += 1;
         }
         let t_next = (k + 1) as f64 / INNER_HZ;
-        let (sd, idx) = nearest_with_ground(scene, &plant.state.pos, t_next);
+        let (sd, idx) = with_ground(tracker.nearest(scene, &plant.state.pos, t_next), &plant.state.pos);
+        sd_now = sd;
         min_clear = min_clear.min(sd - hull);
         if sd < hull {
             collided_at = Some(t_next);
@@ -382,4 +496,85 @@ pub fn run_with(
         noise: cfg.sensors.noise,
     };
     Ok(RunOutput { samples, summary })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Motion, SceneObstacle};
+    use parapet_core::obstacle::Shape;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The office with a walking obstacle added (waypoints), so the proximity
+    /// report draws velocity noise.
+    fn office_with_walker() -> Scene {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut s = Scene::load(&dir.join("office.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let a = s.start + Vector3::new(0.5, 0.5, 0.0);
+        s.obstacles.push(SceneObstacle {
+            name: Some("walker".into()),
+            shape: Shape::sphere(to_f32(&a), 0.3),
+            motion: Motion::Waypoints(vec![(0.0, a), (20.0, a + Vector3::new(4.0, 1.0, 0.0))]),
+        });
+        s
+    }
+
+    #[test]
+    fn shared_sensing_and_barrier_equal_the_full_scans() {
+        let scene = office_with_walker();
+        let params = SensorParams { obstacle_velocity_noise: 0.05, ..SensorParams::default() };
+        for variant in [FilterVariant::default(), FilterVariant::Paper] {
+            let filter = SafetyFilter::new(CbfParams::default(), variant).expect("default filter");
+            let (mut full_sensors, mut fast_sensors) =
+                (Sensors::new(params.clone(), 5), Sensors::new(params.clone(), 5));
+            let mut tracker = NearestTracker::new(&scene);
+            let (mut seen, mut far) = (Vec::new(), Vec::new());
+            let mut rng = ChaCha8Rng::seed_from_u64(11);
+            let (lo, hi) = scene.bounds_ned();
+            let mut p = scene.start;
+            let mut v = Vector3::zeros();
+            let n = 20_000;
+            let (mut skipped_some, mut reported) = (0, 0);
+            for k in 0..n {
+                let t = k as f64 * 0.004;
+                // Mostly a flight (velocity changes slowly), sometimes a jump or a fast vehicle.
+                let r: f64 = rng.random();
+                if r < 0.005 {
+                    p = Vector3::from_fn(|i, _| rng.random_range(lo[i]..hi[i]));
+                } else if r < 0.02 {
+                    v = Vector3::from_fn(|_, _| rng.random_range(-3.0..3.0));
+                } else {
+                    v += Vector3::from_fn(|_, _| rng.random_range(-0.05..0.05));
+                    v = v.cap_magnitude(1.5);
+                }
+                p += v * 0.004;
+                let full = sense_obstacles(&scene, t, &p, 3.0, &mut full_sensors);
+                let h_full = true_h_bar(&scene, &filter, t, &p, &v);
+                let before = tracker.evaluations;
+                let h_fast = sense_and_h_bar(
+                    &scene,
+                    &mut tracker,
+                    &filter,
+                    t,
+                    &p,
+                    &v,
+                    3.0,
+                    &mut fast_sensors,
+                    &mut seen,
+                    &mut far,
+                );
+                assert_eq!(seen, full, "step {k} at {p:?}");
+                assert_eq!(h_fast.to_bits(), h_full.to_bits(), "step {k} at {p:?}: {h_fast} vs {h_full}");
+                skipped_some += usize::from(tracker.evaluations - before < scene.obstacles.len() as u64);
+                reported += seen.len();
+            }
+            // The noise streams stayed in step, and the test saw reports and skips.
+            assert_eq!(
+                full_sensors.obstacle_velocity(Vector3::zeros()),
+                fast_sensors.obstacle_velocity(Vector3::zeros())
+            );
+            assert!(reported > n && skipped_some > n / 2, "reported {reported}, skipped in {skipped_some}");
+        }
+    }
 }

@@ -375,6 +375,156 @@ impl Scene {
     }
 }
 
+/// Relative size of the margin that covers the `f32` round-off of
+/// [`Shape::closest_point`] in the bounds of [`NearestTracker`]: the margin is
+/// this times (1 m + the largest coordinate involved), about 84 `f32` epsilons
+/// of the largest coordinate, well above the few ulps the computation can be off.
+const ROUND_OFF_MARGIN: f64 = 1e-5;
+
+/// Nearest-obstacle queries for a point that moves (the vehicle, its
+/// reference), **exactly** equal to [`Scene::nearest`] and cheaper, with a
+/// broad phase that skips obstacles that cannot be the nearest.
+///
+/// The signed distance to a solid is 1-Lipschitz: a static obstacle last
+/// evaluated at `p_i` with distance `d_i` is at least `d_i − |p − p_i|` from `p`.
+/// The tracker keeps an odometer `s` (sum of `|Δp|` over the points it was
+/// given, m) and per obstacle `d_i + s_i` (distance plus odometer at its last
+/// evaluation); since `|p − p_i| ≤ s − s_i`, the bound costs one comparison.
+/// A margin (10⁻⁵ × (1 m + the largest coordinate)) covers the `f32` round-off of the computed
+/// distances, so an obstacle is skipped only when its computed distance is
+/// certainly larger than the best one: the result, value and index (lowest
+/// index among equal distances), is the same as the full scan's.
+/// Moving obstacles are evaluated at every query.
+#[derive(Clone, Debug)]
+pub struct NearestTracker {
+    /// Last point given, NED, m.
+    last: Option<Vector3<f64>>,
+    /// Path length of the points given so far, m.
+    odo: f64,
+    /// Per obstacle: last computed signed distance + odometer at that time, m
+    /// (−∞ for a moving obstacle or one never evaluated).
+    key: Vec<f64>,
+    /// Per obstacle: it never moves.
+    fixed: Vec<bool>,
+    /// Largest coordinate magnitude of the static obstacles, m.
+    extent: f64,
+    /// Largest coordinate magnitude of the points given so far, m.
+    reach: f64,
+    /// Obstacle found nearest by the last query (evaluated first).
+    hint: Option<usize>,
+    /// Exact distance evaluations done, for benchmarks and tests.
+    pub evaluations: u64,
+}
+
+impl NearestTracker {
+    /// A tracker for the obstacles of `scene` (the same scene must be passed to every query).
+    pub fn new(scene: &Scene) -> Self {
+        let extent = scene
+            .obstacles
+            .iter()
+            .map(|o| {
+                let m = |a: &[f32; 3]| a.iter().fold(0f64, |m, x| m.max((*x as f64).abs()));
+                match o.shape {
+                    Shape::Point { center } => m(&center),
+                    Shape::Sphere { center, radius } => m(&center) + radius as f64,
+                    Shape::Box { min, max } => m(&min).max(m(&max)),
+                    Shape::Cylinder { base, radius, height } => m(&base) + radius as f64 + height as f64,
+                }
+            })
+            .fold(0.0, f64::max);
+        NearestTracker {
+            last: None,
+            odo: 0.0,
+            key: vec![f64::NEG_INFINITY; scene.obstacles.len()],
+            fixed: scene.obstacles.iter().map(SceneObstacle::is_static).collect(),
+            extent,
+            reach: 0.0,
+            hint: None,
+            evaluations: 0,
+        }
+    }
+
+    /// Move the query point to `p` (NED, m): advances the odometer.
+    pub fn move_to(&mut self, p: &Vector3<f64>) {
+        if let Some(last) = self.last {
+            if last == *p {
+                return;
+            }
+            let step = (p - last).norm();
+            // A non-finite point makes every bound −∞ (NaN compares false): full scans.
+            self.odo += if step.is_finite() { step } else { f64::INFINITY };
+        }
+        self.last = Some(*p);
+        self.reach = self.reach.max(p.amax());
+    }
+
+    /// The round-off margin (m) the bounds include at the current point.
+    #[inline]
+    pub fn margin(&self) -> f64 {
+        ROUND_OFF_MARGIN * (1.0 + self.reach + self.extent)
+    }
+
+    /// A lower bound (m) on the signed distance [`Shape::signed_distance`] computes
+    /// from the point of the last [`move_to`](Self::move_to) to obstacle `i`;
+    /// −∞ when nothing is known (moving obstacle, never evaluated).
+    #[inline]
+    pub fn lower_bound(&self, i: usize) -> f64 {
+        self.key[i] - self.odo - self.margin()
+    }
+
+    /// Record the distance `d` (m) computed for obstacle `i` at the current point
+    /// (ignored for moving obstacles).
+    #[inline]
+    pub fn record(&mut self, i: usize, d: f64) {
+        self.evaluations += 1;
+        if self.fixed[i] {
+            self.key[i] = d + self.odo;
+        }
+    }
+
+    /// The shape of obstacle `i` at time `t`, its closest point to the current
+    /// point and the signed distance (see [`Shape::closest_point`]); recorded.
+    #[inline]
+    pub fn closest(
+        &mut self,
+        scene: &Scene,
+        i: usize,
+        pf: &Vec3,
+        t: f64,
+    ) -> (Shape, Vector3<f64>, Vec3, f32) {
+        let (shape, vel) = scene.obstacles[i].at(t);
+        let (q, d) = shape.closest_point(pf);
+        self.record(i, d as f64);
+        (shape, vel, q, d)
+    }
+
+    /// Signed distance (m) from `p` (NED) to the nearest obstacle surface at time
+    /// `t` and that obstacle's index: the same as [`Scene::nearest`], bit for bit.
+    pub fn nearest(&mut self, scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
+        self.move_to(p);
+        let pf = to_f32(p);
+        let mut best = (f64::INFINITY, None);
+        if let Some(h) = self.hint {
+            let d = self.closest(scene, h, &pf, t).3 as f64;
+            if d < best.0 {
+                best = (d, Some(h));
+            }
+        }
+        for i in 0..scene.obstacles.len() {
+            if Some(i) == self.hint || self.lower_bound(i) > best.0 {
+                continue;
+            }
+            let d = self.closest(scene, i, &pf, t).3 as f64;
+            // The full scan keeps the lowest index among equal distances.
+            if d < best.0 || (d == best.0 && best.1.is_some_and(|b| i < b)) {
+                best = (d, Some(i));
+            }
+        }
+        self.hint = best.1;
+        best
+    }
+}
+
 fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
     for (field, x) in [
         ("mu", c.mu),
@@ -692,5 +842,100 @@ mod shipped {
             }
         }
         assert!(n >= 4, "found {n} scenes");
+    }
+}
+
+#[cfg(test)]
+mod tracker {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn office() -> Scene {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        Scene::load(&dir.join("office.toml")).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// A random walk through `scene`: small steps, sometimes a jump, sometimes a
+    /// teleport anywhere in (and a little beyond) the bounds, inside obstacles too.
+    fn walk(scene: &Scene, seed: u64, n: usize) -> Vec<Vector3<f64>> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (lo, hi) = scene.bounds_ned();
+        let uniform =
+            |rng: &mut ChaCha8Rng| Vector3::from_fn(|i, _| rng.random_range(lo[i] - 0.5..hi[i] + 0.5));
+        let mut p = scene.start;
+        (0..n)
+            .map(|_| {
+                let r: f64 = rng.random();
+                let size = if r < 0.01 {
+                    0.0
+                } else if r < 0.95 {
+                    0.002
+                } else if r < 0.99 {
+                    0.5
+                } else {
+                    -1.0
+                };
+                p = if size < 0.0 {
+                    uniform(&mut rng)
+                } else {
+                    p + Vector3::from_fn(|_, _| rng.random_range(-size..=size))
+                };
+                p
+            })
+            .collect()
+    }
+
+    #[test]
+    fn tracker_equals_the_full_scan_bit_for_bit() {
+        let mut scene = office();
+        // A duplicate (equal distances: the lowest index wins), and a moving obstacle.
+        let dup = scene.obstacles[3].clone();
+        scene.obstacles.push(dup);
+        scene.obstacles.push(SceneObstacle {
+            name: None,
+            shape: Shape::sphere(to_f32(&(scene.start + Vector3::new(1.0, 0.0, 0.0))), 0.3),
+            motion: Motion::Velocity(Vector3::new(0.1, 0.2, 0.0)),
+        });
+        let n = scene.obstacles.len();
+        let mut tracker = NearestTracker::new(&scene);
+        let points = walk(&scene, 7, 40_000);
+        let (mut inside, mut moving_nearest) = (0, 0);
+        for (k, p) in points.iter().enumerate() {
+            let t = k as f64 * 0.001;
+            let full = scene.nearest(p, t);
+            let fast = tracker.nearest(&scene, p, t);
+            assert_eq!(fast.0.to_bits(), full.0.to_bits(), "query {k} at {p:?}: {fast:?} vs {full:?}");
+            assert_eq!(fast.1, full.1, "query {k} at {p:?}");
+            inside += usize::from(full.0 < 0.0);
+            moving_nearest += usize::from(full.1 == Some(n - 1));
+            assert_ne!(full.1, Some(n - 2), "the duplicate never wins over the original");
+        }
+        assert!(inside > 10 && moving_nearest > 10, "inside {inside}, moving {moving_nearest}");
+        // The broad phase skips most evaluations on a walk.
+        let full_cost = (points.len() * n) as u64;
+        assert!(tracker.evaluations * 4 < full_cost, "{} of {full_cost}", tracker.evaluations);
+    }
+
+    #[test]
+    fn lower_bounds_hold_and_bad_points_fall_back_to_full_scans() {
+        let scene = office();
+        let mut tracker = NearestTracker::new(&scene);
+        for (k, p) in walk(&scene, 3, 5_000).iter().enumerate() {
+            tracker.nearest(&scene, p, 0.0);
+            if k % 7 == 0 {
+                for (i, o) in scene.obstacles.iter().enumerate() {
+                    let d = o.shape.signed_distance(&to_f32(p)) as f64;
+                    assert!(tracker.lower_bound(i) <= d, "obstacle {i} at {p:?}");
+                }
+            }
+        }
+        let before = tracker.evaluations;
+        let nan = Vector3::new(f64::NAN, 0.0, 0.0);
+        assert_eq!(tracker.nearest(&scene, &nan, 0.0).1, scene.nearest(&nan, 0.0).1);
+        assert_eq!(tracker.evaluations - before, scene.obstacles.len() as u64);
+        let p = scene.start;
+        assert_eq!(tracker.nearest(&scene, &p, 0.0), scene.nearest(&p, 0.0));
+        assert!(tracker.lower_bound(0).is_nan() || tracker.lower_bound(0) == f64::NEG_INFINITY);
     }
 }
