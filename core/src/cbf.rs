@@ -469,13 +469,15 @@ impl SafetyFilter {
             if closest.is_none_or(|(_, c)| dist_sq < c) {
                 closest = Some((i, dist_sq));
             }
-            if self.certainly_far(&d, dist_sq, h, &d_dot, a_bound, u_nom, u_norm) {
+            // h ≤ δ1: near whatever ḣ is (the trigger value h + T·min(0, ḣ) is ≤ h, also
+            // in f32, where adding a non-positive number to h cannot round above h).
+            let near_for_sure = h <= delta1;
+            if !near_for_sure && self.certainly_far(&d, dist_sq, h, &d_dot, a_bound, u_nom, u_norm) {
                 continue; // only its h (h_bar) and |d|² (closest) were needed
             }
             let dist = sqrtf(dist_sq);
             let b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
-            let trigger = self.trigger_at(&b, dist, u_nom);
-            if trigger <= delta1 {
+            if near_for_sure || self.trigger_at(&b, dist, u_nom) <= delta1 {
                 diag.n_near = diag.n_near.saturating_add(1);
                 // Keep the K smallest h: replace the largest when full (multi variants;
                 // the others use only the closest obstacle's barrier, below).
