@@ -436,8 +436,9 @@ impl ControllerParams {
 }
 
 /// Finite and within ±[`INPUT_LIMIT`] (m, m/s): anything else is a corrupt input.
+/// (`|x| ≤ L` is false for NaN and ±∞: one comparison per component.)
 fn plausible(v: &Vec3) -> bool {
-    is_finite3(v) && v.amax() <= INPUT_LIMIT
+    v.x.abs() <= INPUT_LIMIT && v.y.abs() <= INPUT_LIMIT && v.z.abs() <= INPUT_LIMIT
 }
 
 fn age(now: u64, t: u64) -> u64 {
