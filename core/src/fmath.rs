@@ -102,7 +102,7 @@ const SINCOS_FAST_LIMIT: f32 = 1000.0;
 /// order. The result differs from libm's (correctly rounded in practice) by at most
 /// one unit in the last place (test: absolute error ≤ 1.5e-7 for |x| ≤ 1000; measured
 /// 6e-8 for sin, 1.2e-7 for cos); larger or non-finite `x` go to libm.
-#[inline]
+#[inline(never)]
 pub fn sincosf(x: f32) -> (f32, f32) {
     if x.abs() > SINCOS_FAST_LIMIT || x.is_nan() {
         return libm::sincosf(x);
