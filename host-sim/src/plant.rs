@@ -227,6 +227,8 @@ struct Consts {
     inv_motor_tau: f64,
     /// Linear body drag, N/(m/s).
     drag: [f64; 3],
+    /// The drag coefficient when it is the same on the three axes.
+    iso_drag: Option<f64>,
     /// `1 / m`, 1/kg.
     inv_mass: f64,
     /// Principal moments of inertia, kg·m².
@@ -252,6 +254,24 @@ fn rotation(w: f64, x: f64, y: f64, z: f64) -> [[f64; 3]; 3] {
 }
 
 impl Consts {
+    /// The constants for vehicle `p` and rotor-speed commands `omega_cmd` (rad/s).
+    fn new(p: &VehicleParams, omega_cmd: &[f64; 4]) -> Self {
+        let pos = p.rotor_positions();
+        Consts {
+            k_f: p.k_f,
+            yaw_k_m: ROTOR_YAW_SIGN.map(|s| s as f64 * p.k_m),
+            roll_arm: pos.map(|r| -r[1]),
+            pitch_arm: pos.map(|r| r[0]),
+            cmd: omega_cmd.map(|c| c.clamp(p.omega_min, p.omega_max)),
+            inv_motor_tau: 1.0 / p.motor_tau,
+            drag: p.drag,
+            iso_drag: (p.drag[0] == p.drag[1] && p.drag[1] == p.drag[2]).then_some(p.drag[0]),
+            inv_mass: 1.0 / p.mass,
+            inertia: p.inertia,
+            inv_inertia: p.inertia.map(|i| 1.0 / i),
+        }
+    }
+
     /// Collective thrust (N, along body −z) of the rotor speeds `w`.
     #[inline(always)]
     fn thrust(&self, w: &[f64; 4]) -> f64 {
@@ -263,9 +283,25 @@ impl Consts {
     }
 
     /// Acceleration of the centre of mass (NED, m/s²) at velocity `v`, attitude
-    /// rotation `r` and collective thrust `thrust`: `R (F_thrust + F_drag) / m + g e_z`.
+    /// quaternion `q` = (w, i, j, k) (normalised here) and collective thrust
+    /// `thrust`: `R (F_thrust + F_drag) / m + g e_z` with `F_drag = −D Rᵀ v`.
+    /// With the same drag on every axis `R D Rᵀ = d I`, and only the body z axis
+    /// `R e_z` is needed.
     #[inline(always)]
-    fn accel_of(&self, v: [f64; 3], r: &[[f64; 3]; 3], thrust: f64) -> Vector3<f64> {
+    fn accel_of(&self, v: [f64; 3], q: [f64; 4], thrust: f64) -> Vector3<f64> {
+        let m = self.inv_mass;
+        if let Some(d) = self.iso_drag {
+            let [w, x, y, z] = q;
+            let s = 1.0 / (w * w + x * x + y * y + z * z);
+            let ez =
+                [2.0 * (w * y + x * z) * s, 2.0 * (y * z - w * x) * s, (w * w - x * x - y * y + z * z) * s];
+            return Vector3::new(
+                (-d * v[0] - thrust * ez[0]) * m,
+                (-d * v[1] - thrust * ez[1]) * m,
+                (-d * v[2] - thrust * ez[2]) * m + GRAVITY,
+            );
+        }
+        let r = rotation(q[0], q[1], q[2], q[3]);
         // v_body = Rᵀ v.
         let vb = [
             r[0][0] * v[0] + r[1][0] * v[1] + r[2][0] * v[2],
@@ -273,7 +309,6 @@ impl Consts {
             r[0][2] * v[0] + r[1][2] * v[1] + r[2][2] * v[2],
         ];
         let f = [-self.drag[0] * vb[0], -self.drag[1] * vb[1], -self.drag[2] * vb[2] - thrust];
-        let m = self.inv_mass;
         Vector3::new(
             (r[0][0] * f[0] + r[0][1] * f[1] + r[0][2] * f[2]) * m,
             (r[1][0] * f[0] + r[1][1] * f[1] + r[1][2] * f[2]) * m,
@@ -284,8 +319,7 @@ impl Consts {
     /// Acceleration of the centre of mass at plant state `s` (NED, m/s²).
     fn acceleration(&self, s: &PlantState) -> Vector3<f64> {
         let q = s.att.quaternion();
-        let r = rotation(q.w, q.i, q.j, q.k);
-        self.accel_of(s.vel.into(), &r, self.thrust(&s.rotor))
+        self.accel_of(s.vel.into(), [q.w, q.i, q.j, q.k], self.thrust(&s.rotor))
     }
 
     /// The state derivative ẋ of the 17-dimensional state
@@ -305,8 +339,7 @@ impl Consts {
             xd[13 + i] = (self.cmd[i] - w[i]) * self.inv_motor_tau;
         }
         let (qw, qi, qj, qk) = (x[6], x[7], x[8], x[9]);
-        let r = rotation(qw, qi, qj, qk);
-        let acc = self.accel_of([x[3], x[4], x[5]], &r, thrust);
+        let acc = self.accel_of([x[3], x[4], x[5]], [qw, qi, qj, qk], thrust);
         // Euler's equations: I ω̇ = τ − ω × (I ω).
         let (p, q, rr) = (x[10], x[11], x[12]);
         let ii = self.inertia;
@@ -348,11 +381,13 @@ impl PlantState {
         x
     }
     fn from_x(x: &X) -> Self {
-        let q = nalgebra::Quaternion::new(x[6], x[7], x[8], x[9]);
+        let (w, i, j, k) = (x[6], x[7], x[8], x[9]);
+        let inv = 1.0 / (w * w + i * i + j * j + k * k).sqrt();
+        let q = nalgebra::Quaternion::new(w * inv, i * inv, j * inv, k * inv);
         PlantState {
             pos: x.fixed_rows::<3>(0).into_owned(),
             vel: x.fixed_rows::<3>(3).into_owned(),
-            att: UnitQuaternion::from_quaternion(q),
+            att: UnitQuaternion::new_unchecked(q),
             rates: x.fixed_rows::<3>(10).into_owned(),
             rotor: [x[13], x[14], x[15], x[16]],
         }
@@ -371,6 +406,8 @@ pub struct Plant {
     /// Current state.
     pub state: PlantState,
     omega_cmd: [f64; 4],
+    /// The derivative's constants for `params` and `omega_cmd` (kept up to date by the setters).
+    consts: Consts,
     /// Whether the ground plane z = 0 is simulated (default true).
     pub ground: bool,
     accel: Vector3<f64>,
@@ -380,14 +417,16 @@ impl Plant {
     /// A plant at rest at the origin, level, rotors stopped. Fails on invalid parameters.
     pub fn new(params: VehicleParams) -> Result<Self, ParamError> {
         params.validate()?;
+        let consts = Consts::new(&params, &[0.0; 4]);
         let mut p = Plant {
             params,
             state: PlantState::default(),
             omega_cmd: [0.0; 4],
+            consts,
             ground: true,
             accel: Vector3::zeros(),
         };
-        p.accel = p.consts().acceleration(&p.state);
+        p.accel = p.consts.acceleration(&p.state);
         Ok(p)
     }
 
@@ -407,22 +446,22 @@ impl Plant {
             rates: Vector3::zeros(),
             rotor: [w; 4],
         };
-        self.omega_cmd = [w; 4];
+        self.command([w; 4]);
         self.accel = Vector3::zeros();
     }
 
     /// Motor commands ("throttles", `c ∈ [0, 1]`, see airframe.rs "Motor
     /// command"): `ω_cmd = c · ω_max`. Non-finite commands count as 0.
     pub fn set_throttles(&mut self, throttle: [f32; 4]) {
-        for (cmd, c) in self.omega_cmd.iter_mut().zip(throttle) {
-            let c = if c.is_finite() { (c as f64).clamp(0.0, 1.0) } else { 0.0 };
-            *cmd = c * self.params.omega_max;
-        }
+        let omega_max = self.params.omega_max;
+        self.command(
+            throttle.map(|c| if c.is_finite() { (c as f64).clamp(0.0, 1.0) * omega_max } else { 0.0 }),
+        );
     }
 
     /// Rotor-speed commands, rad/s (clamped to `[omega_min, omega_max]` when integrated).
     pub fn set_rotor_speed_commands(&mut self, omega: [f64; 4]) {
-        self.omega_cmd = omega.map(|w| if w.is_finite() { w } else { 0.0 });
+        self.command(omega.map(|w| if w.is_finite() { w } else { 0.0 }));
     }
 
     /// Impose the rotor speeds directly (state and command), bypassing the motor lag
@@ -430,31 +469,18 @@ impl Plant {
     pub fn set_rotor_speeds(&mut self, omega: [f64; 4]) {
         let w = omega.map(|w| if w.is_finite() { w.clamp(0.0, self.params.omega_max) } else { 0.0 });
         self.state.rotor = w;
-        self.omega_cmd = w;
+        self.command(w);
     }
 
-    /// The constants of the derivative for the current parameters and motor
-    /// commands (commands clamped to `[omega_min, omega_max]`), computed once per step.
-    fn consts(&self) -> Consts {
-        let p = &self.params;
-        let pos = p.rotor_positions();
-        Consts {
-            k_f: p.k_f,
-            yaw_k_m: ROTOR_YAW_SIGN.map(|s| s as f64 * p.k_m),
-            roll_arm: pos.map(|r| -r[1]),
-            pitch_arm: pos.map(|r| r[0]),
-            cmd: self.omega_cmd.map(|c| c.clamp(p.omega_min, p.omega_max)),
-            inv_motor_tau: 1.0 / p.motor_tau,
-            drag: p.drag,
-            inv_mass: 1.0 / p.mass,
-            inertia: p.inertia,
-            inv_inertia: p.inertia.map(|i| 1.0 / i),
-        }
+    /// Set the rotor-speed commands (rad/s, finite) and the derivative's clamped copy.
+    fn command(&mut self, omega: [f64; 4]) {
+        self.omega_cmd = omega;
+        self.consts.cmd = omega.map(|c| c.clamp(self.params.omega_min, self.params.omega_max));
     }
 
     /// Advance by `dt` seconds with one RK4 step, then apply ground contact.
     pub fn step(&mut self, dt: f64) {
-        let c = self.consts();
+        let c = &self.consts;
         let x = self.state.to_x();
         let k1 = c.derivative(&x);
         let k2 = c.derivative(&(x + k1 * (dt / 2.0)));
@@ -514,7 +540,14 @@ mod tests {
     use super::*;
 
     fn plant_no_ground() -> Plant {
-        let mut p = Plant::new(VehicleParams::default()).unwrap();
+        plant_with(|_| {})
+    }
+
+    /// A plant without ground with the default vehicle changed by `change`.
+    fn plant_with(change: impl FnOnce(&mut VehicleParams)) -> Plant {
+        let mut v = VehicleParams::default();
+        change(&mut v);
+        let mut p = Plant::new(v).unwrap();
         p.ground = false;
         p
     }
@@ -532,8 +565,7 @@ mod tests {
 
     #[test]
     fn free_fall_matches_closed_form() {
-        let mut p = plant_no_ground();
-        p.params.drag = [0.0; 3];
+        let mut p = plant_with(|v| v.drag = [0.0; 3]);
         p.state.pos = Vector3::new(0.0, 0.0, -100.0);
         for _ in 0..1000 {
             p.step(0.001);
@@ -628,9 +660,10 @@ mod tests {
 
     #[test]
     fn torque_free_rotation_conserves_energy_and_angular_momentum() {
-        let mut p = plant_no_ground();
-        p.params.drag = [0.0; 3];
-        p.params.inertia = [0.0019, 0.0025, 0.0033];
+        let mut p = plant_with(|v| {
+            v.drag = [0.0; 3];
+            v.inertia = [0.0019, 0.0025, 0.0033];
+        });
         p.state.pos = Vector3::new(0.0, 0.0, -1000.0);
         p.state.vel = Vector3::new(1.0, -2.0, 0.5);
         p.state.rates = Vector3::new(3.0, 0.2, -1.0); // tumbling, gyroscopic term active
@@ -713,29 +746,34 @@ mod tests {
     fn derivative_matches_the_plain_equations() {
         // Tumbling, moving, unequal rotors, a quaternion off the unit sphere
         // (as the RK4 stages see it), drag and a non-symmetric inertia.
-        let mut p = plant_no_ground();
-        p.params.inertia = [0.0019, 0.0025, 0.0033];
-        p.params.drag = [0.1, 0.2, 0.3];
-        p.set_rotor_speed_commands([700.0, 1500.0, -3.0, 650.0]);
-        let mut x = X::zeros();
-        let vals = [
-            1.0, -2.0, -3.0, 0.7, -0.4, 0.2, 0.9, 0.3, -0.2, 0.25, 3.0, -1.5, 0.8, 610.0, 720.0, 680.0, 655.0,
-        ];
-        for (xi, v) in x.iter_mut().zip(vals) {
-            *xi = v;
+        // Drag different on each axis (full rotation) and the same (shortcut).
+        for drag in [[0.1, 0.2, 0.3], [0.15; 3]] {
+            let mut p = plant_with(|v| {
+                v.inertia = [0.0019, 0.0025, 0.0033];
+                v.drag = drag;
+            });
+            p.set_rotor_speed_commands([700.0, 1500.0, -3.0, 650.0]);
+            let mut x = X::zeros();
+            let vals = [
+                1.0, -2.0, -3.0, 0.7, -0.4, 0.2, 0.9, 0.3, -0.2, 0.25, 3.0, -1.5, 0.8, 610.0, 720.0, 680.0,
+                655.0,
+            ];
+            for (xi, v) in x.iter_mut().zip(vals) {
+                *xi = v;
+            }
+            let c = p.consts;
+            let fast = c.derivative(&x);
+            let plain = reference_derivative(&p.params, &p.omega_cmd, &x);
+            for i in 0..17 {
+                let tol = 1e-12 * (1.0 + plain[i].abs());
+                assert!((fast[i] - plain[i]).abs() <= tol, "component {i}: {} vs {}", fast[i], plain[i]);
+            }
+            // The cheap acceleration of a state is the derivative's.
+            let s = PlantState::from_x(&x);
+            let a = c.acceleration(&s);
+            let plain = reference_derivative(&p.params, &p.omega_cmd, &s.to_x());
+            assert!((a - plain.fixed_rows::<3>(3)).norm() < 1e-12);
         }
-        let c = p.consts();
-        let fast = c.derivative(&x);
-        let plain = reference_derivative(&p.params, &p.omega_cmd, &x);
-        for i in 0..17 {
-            let tol = 1e-12 * (1.0 + plain[i].abs());
-            assert!((fast[i] - plain[i]).abs() <= tol, "component {i}: {} vs {}", fast[i], plain[i]);
-        }
-        // The cheap acceleration of a state is the derivative's.
-        let s = PlantState::from_x(&x);
-        let a = c.acceleration(&s);
-        let plain = reference_derivative(&p.params, &p.omega_cmd, &s.to_x());
-        assert!((a - plain.fixed_rows::<3>(3)).norm() < 1e-12);
     }
 
     #[test]
