@@ -365,7 +365,9 @@ pub fn run_with(
     for k in 0..n_inner {
         t = k as f64 / INNER_HZ;
         if k % OUTER_DIVIDER == 0 {
-            if let Some(fix) = sensors.position(t, &plant) {
+            // Euler angles of the true state, once for the position fix and the sample.
+            let (roll, pitch, yaw) = plant.state.euler();
+            if let Some(fix) = sensors.position_with_yaw(t, &plant, yaw) {
                 ctrl.position_fix(fix);
             }
             let (pos, vel) = (plant.state.pos, plant.state.vel);
@@ -391,7 +393,6 @@ pub fn run_with(
             if out.filter_active {
                 n_active += 1;
             }
-            let (roll, pitch, yaw) = plant.state.euler();
             samples.push(Sample {
                 t,
                 ref_pos: out.reference,

@@ -146,12 +146,14 @@ impl Sensors {
     /// newest measurement whose latency has elapsed at `t`, if any. Call at the
     /// measurement rate; with zero latency the measurement of `t` itself is returned.
     pub fn position(&mut self, t: f64, plant: &Plant) -> Option<PositionReading> {
-        let mut r = PositionReading {
-            t_measured: t,
-            position: plant.state.pos,
-            velocity: plant.state.vel,
-            yaw: plant.state.euler().2,
-        };
+        self.position_with_yaw(t, plant, plant.state.euler().2)
+    }
+
+    /// [`position`](Self::position) with the plant's true yaw (rad) given by a
+    /// caller that has already computed the Euler angles of this state.
+    pub fn position_with_yaw(&mut self, t: f64, plant: &Plant, yaw: f64) -> Option<PositionReading> {
+        let mut r =
+            PositionReading { t_measured: t, position: plant.state.pos, velocity: plant.state.vel, yaw };
         if self.params.noise {
             r.position += normal3(&mut self.rng, self.params.position_noise);
             r.velocity += normal3(&mut self.rng, self.params.velocity_noise);
