@@ -208,22 +208,46 @@ pub fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>
     h_min
 }
 
-/// Relative margin on the lower bound of a far obstacle's barrier in
+/// Relative margin on the lower bound of an obstacle's barrier in
 /// [`sense_and_h_bar`] (covers the `f32` round-off of `h`).
 const H_BOUND_MARGIN: f64 = 1e-4;
 
-/// The proximity report ([`sense_obstacles`], into `seen`) and the true barrier
-/// ([`true_h_bar`], returned) at one outer step, with the same results: the
-/// closest points are computed once for both, and only for the obstacles that
-/// can matter. `tracker` is the vehicle's (its last point should be `p`).
+/// `true` when an obstacle whose distance is at least `l` (m) certainly has a
+/// barrier `h̄` above `h_min` (m²) for a vehicle at speed `s` (`mu_s` = μ s, m):
+/// `h = |d|² + μ dᵀḋ ≥ |d|² − μ s |d|` for a static obstacle, increasing in
+/// `|d|` for `|d| ≥ μ s / 2`; with a relative margin for round-off.
+#[inline]
+fn h_bar_certainly_above(l: f64, mu_s: f64, delta: f64, h_min: f64) -> bool {
+    if !(l > 0.01 && 2.0 * l >= mu_s) {
+        return false;
+    }
+    let (l2, ml) = (l * l, mu_s * l);
+    l2 - ml - delta - H_BOUND_MARGIN * (l2 + ml + delta + 1.0) > h_min
+}
+
+/// Reusable buffers of [`sense_and_h_bar`].
+#[derive(Default)]
+struct OuterScratch {
+    /// The proximity report.
+    seen: Vec<ObstaclePoint>,
+    /// Obstacles certainly beyond the sensing range.
+    far: Vec<usize>,
+    /// Obstacles evaluated: index, closest point, velocity, signed distance.
+    near: Vec<(usize, Vec3, Vector3<f64>, f32)>,
+}
+
+/// The proximity report ([`sense_obstacles`], into `scratch.seen`) and the true
+/// barrier ([`true_h_bar`], returned) at one outer step, with the same results:
+/// the closest points are computed once for both, and only for the obstacles
+/// that can matter. `tracker` is the vehicle's.
 ///
 /// Obstacles that may be within `range` (lower bound of the distance ≤ range;
 /// moving obstacles always) are evaluated in index order (the order of the
-/// report and of the sensor-noise draws). The others are beyond `range`; one of
-/// them is skipped when `L² − μ s L − δ`, with `L` its distance bound and `s` the
-/// speed (a lower bound of `h̄` for `L ≥ μ s / 2`: `h = |d|² + μ dᵀḋ ≥ |d|² − μ|d||ḋ|`
-/// and a static obstacle's `ḋ` is the vehicle's velocity), is above the smallest
-/// `h̄` found so far, with a margin for round-off.
+/// report and of the sensor-noise draws). The barrier is evaluated for the
+/// nearest of them, then for each other one unless a lower bound of its `h̄`
+/// is above the smallest found so far: `|d|² − μ s |d| − δ` for a static
+/// obstacle (whose `ḋ` is the vehicle's velocity, speed `s`), with `|d|` its
+/// distance (or, beyond the range, the tracker's lower bound of it).
 #[allow(clippy::too_many_arguments)]
 fn sense_and_h_bar(
     scene: &Scene,
@@ -234,40 +258,49 @@ fn sense_and_h_bar(
     v: &Vector3<f64>,
     range: f64,
     sensors: &mut Sensors,
-    seen: &mut Vec<ObstaclePoint>,
-    far: &mut Vec<usize>,
+    scratch: &mut OuterScratch,
 ) -> f64 {
     tracker.move_to(p);
     let (pf, vf) = (to_f32(p), to_f32(v));
+    let OuterScratch { seen, far, near } = scratch;
     seen.clear();
     far.clear();
-    let mut h_min = f64::INFINITY;
+    near.clear();
     for (i, o) in scene.obstacles.iter().enumerate() {
         if tracker.lower_bound(i) > range {
             far.push(i);
             continue;
         }
-        let (_, vel, q, sd) = tracker.closest(scene, i, &pf, t);
+        let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
         if (sd as f64) <= range {
             let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
             seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 });
         }
-        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+        near.push((i, q, vel, sd));
     }
     let mu_s = filter.params.mu as f64 * v.norm();
     let delta = filter.params.delta as f64;
     let margin = tracker.margin();
-    for &i in far.iter() {
-        // Far obstacles are static (moving ones have no bound): ḋ = v.
-        let l = tracker.lower_bound(i) - margin;
-        if l > 0.01 && 2.0 * l >= mu_s {
-            let (l2, ml) = (l * l, mu_s * l);
-            if l2 - ml - delta - H_BOUND_MARGIN * (l2 + ml + delta + 1.0) > h_min {
-                continue;
-            }
+    let mut h_min = f64::INFINITY;
+    // The nearest first: its barrier is usually the smallest.
+    let first = (0..near.len()).min_by(|&a, &b| near[a].3.total_cmp(&near[b].3));
+    if let Some(j) = first {
+        let (i, q, vel, sd) = near[j];
+        h_min = h_bar_of(filter, &pf, &vf, i, q, &vel, sd);
+    }
+    for (j, &(i, q, vel, sd)) in near.iter().enumerate() {
+        let bounded =
+            scene.obstacles[i].is_static() && h_bar_certainly_above(sd as f64 - margin, mu_s, delta, h_min);
+        if Some(j) != first && !bounded {
+            h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
         }
-        let (_, vel, q, sd) = tracker.closest(scene, i, &pf, t);
-        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+    }
+    for &i in far.iter() {
+        // Far obstacles are static (moving ones have no bound).
+        if !h_bar_certainly_above(tracker.lower_bound(i) - margin, mu_s, delta, h_min) {
+            let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
+            h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+        }
     }
     h_min
 }
@@ -347,7 +380,7 @@ pub fn run_with(
     // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
     let mut tracker = NearestTracker::new(scene);
     let mut ref_tracker = NearestTracker::new(scene);
-    let (mut seen, mut far) = (Vec::new(), Vec::new());
+    let mut scratch = OuterScratch::default();
     // Signed distance to the nearest obstacle or the ground at the current plant state.
     let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
 
@@ -380,10 +413,9 @@ pub fn run_with(
                 &vel,
                 cfg.sensing_range,
                 &mut sensors,
-                &mut seen,
-                &mut far,
+                &mut scratch,
             );
-            let out = ctrl.outer(t, &seen);
+            let out = ctrl.outer(t, &scratch.seen);
             let sd = sd_now;
             let ref_clear =
                 with_ground(ref_tracker.nearest(scene, &out.reference, t), &out.reference).0 - hull;
@@ -435,14 +467,23 @@ pub fn run_with(
             steps += 1;
         }
         let t_next = (k + 1) as f64 / INNER_HZ;
-        let (sd, idx) = with_ground(tracker.nearest(scene, &plant.state.pos, t_next), &plant.state.pos);
-        sd_now = sd;
-        min_clear = min_clear.min(sd - hull);
-        if sd < hull {
-            collided_at = Some(t_next);
-            collision_obstacle = idx;
-            t = t_next;
-            break;
+        let pos = plant.state.pos;
+        tracker.move_to(&pos);
+        // The exact distance is needed for the next outer step's sample, and
+        // whenever it may be a new minimum or a collision (min_clear ≥ 0: a
+        // collision ends the run); otherwise a lower bound rules both out.
+        let skip =
+            (k + 1) % OUTER_DIVIDER != 0 && tracker.nearest_lower_bound().min(-pos.z) - hull > min_clear;
+        if !skip {
+            let (sd, idx) = with_ground(tracker.nearest(scene, &pos, t_next), &pos);
+            sd_now = sd;
+            min_clear = min_clear.min(sd - hull);
+            if sd < hull {
+                collided_at = Some(t_next);
+                collision_obstacle = idx;
+                t = t_next;
+                break;
+            }
         }
         if !plant.state.pos.iter().all(|x| x.is_finite()) {
             return Err(anyhow!("the plant state became non-finite at t = {t:.3} s"));
@@ -530,7 +571,7 @@ mod tests {
             let (mut full_sensors, mut fast_sensors) =
                 (Sensors::new(params.clone(), 5), Sensors::new(params.clone(), 5));
             let mut tracker = NearestTracker::new(&scene);
-            let (mut seen, mut far) = (Vec::new(), Vec::new());
+            let mut scratch = OuterScratch::default();
             let mut rng = ChaCha8Rng::seed_from_u64(11);
             let (lo, hi) = scene.bounds_ned();
             let mut p = scene.start;
@@ -562,13 +603,12 @@ mod tests {
                     &v,
                     3.0,
                     &mut fast_sensors,
-                    &mut seen,
-                    &mut far,
+                    &mut scratch,
                 );
-                assert_eq!(seen, full, "step {k} at {p:?}");
+                assert_eq!(scratch.seen, full, "step {k} at {p:?}");
                 assert_eq!(h_fast.to_bits(), h_full.to_bits(), "step {k} at {p:?}: {h_fast} vs {h_full}");
                 skipped_some += usize::from(tracker.evaluations - before < scene.obstacles.len() as u64);
-                reported += seen.len();
+                reported += scratch.seen.len();
             }
             // The noise streams stayed in step, and the test saw reports and skips.
             assert_eq!(

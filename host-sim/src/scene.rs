@@ -406,12 +406,17 @@ pub struct NearestTracker {
     key: Vec<f64>,
     /// Per obstacle: it never moves.
     fixed: Vec<bool>,
+    /// Per obstacle: its shape (NED) if it never moves (then `at(t)` is the same for every t).
+    fixed_shape: Vec<Option<Shape>>,
     /// Largest coordinate magnitude of the static obstacles, m.
     extent: f64,
     /// Largest coordinate magnitude of the points given so far, m.
     reach: f64,
     /// Obstacle found nearest by the last query (evaluated first).
     hint: Option<usize>,
+    /// Result of the last [`nearest`](Self::nearest) plus the odometer then, m
+    /// (−∞ when the scene has moving obstacles: no bound).
+    nearest_key: f64,
     /// Exact distance evaluations done, for benchmarks and tests.
     pub evaluations: u64,
 }
@@ -437,9 +442,11 @@ impl NearestTracker {
             odo: 0.0,
             key: vec![f64::NEG_INFINITY; scene.obstacles.len()],
             fixed: scene.obstacles.iter().map(SceneObstacle::is_static).collect(),
+            fixed_shape: scene.obstacles.iter().map(|o| o.is_static().then(|| o.at(0.0).0)).collect(),
             extent,
             reach: 0.0,
             hint: None,
+            nearest_key: f64::NEG_INFINITY,
             evaluations: 0,
         }
     }
@@ -472,6 +479,15 @@ impl NearestTracker {
         self.key[i] - self.odo - self.margin()
     }
 
+    /// A lower bound (m) on what [`nearest`](Self::nearest) would return at the
+    /// point of the last [`move_to`](Self::move_to) (the distance to the nearest
+    /// obstacle is 1-Lipschitz too): one subtraction, no obstacle looked at.
+    /// −∞ with moving obstacles or before the first query; +∞ without obstacles.
+    #[inline]
+    pub fn nearest_lower_bound(&self) -> f64 {
+        self.nearest_key - self.odo - self.margin()
+    }
+
     /// Record the distance `d` (m) computed for obstacle `i` at the current point
     /// (ignored for moving obstacles).
     #[inline]
@@ -482,20 +498,17 @@ impl NearestTracker {
         }
     }
 
-    /// The shape of obstacle `i` at time `t`, its closest point to the current
-    /// point and the signed distance (see [`Shape::closest_point`]); recorded.
+    /// The velocity of obstacle `i` at time `t` (NED, m/s), its closest point to
+    /// the current point and the signed distance (see [`Shape::closest_point`]); recorded.
     #[inline]
-    pub fn closest(
-        &mut self,
-        scene: &Scene,
-        i: usize,
-        pf: &Vec3,
-        t: f64,
-    ) -> (Shape, Vector3<f64>, Vec3, f32) {
-        let (shape, vel) = scene.obstacles[i].at(t);
+    pub fn closest(&mut self, scene: &Scene, i: usize, pf: &Vec3, t: f64) -> (Vector3<f64>, Vec3, f32) {
+        let (shape, vel) = match self.fixed_shape[i] {
+            Some(shape) => (shape, Vector3::zeros()),
+            None => scene.obstacles[i].at(t),
+        };
         let (q, d) = shape.closest_point(pf);
         self.record(i, d as f64);
-        (shape, vel, q, d)
+        (vel, q, d)
     }
 
     /// Signed distance (m) from `p` (NED) to the nearest obstacle surface at time
@@ -503,24 +516,26 @@ impl NearestTracker {
     pub fn nearest(&mut self, scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
         self.move_to(p);
         let pf = to_f32(p);
+        let margin = self.margin();
         let mut best = (f64::INFINITY, None);
         if let Some(h) = self.hint {
-            let d = self.closest(scene, h, &pf, t).3 as f64;
+            let d = self.closest(scene, h, &pf, t).2 as f64;
             if d < best.0 {
                 best = (d, Some(h));
             }
         }
         for i in 0..scene.obstacles.len() {
-            if Some(i) == self.hint || self.lower_bound(i) > best.0 {
+            if Some(i) == self.hint || self.key[i] - self.odo - margin > best.0 {
                 continue;
             }
-            let d = self.closest(scene, i, &pf, t).3 as f64;
+            let d = self.closest(scene, i, &pf, t).2 as f64;
             // The full scan keeps the lowest index among equal distances.
             if d < best.0 || (d == best.0 && best.1.is_some_and(|b| i < b)) {
                 best = (d, Some(i));
             }
         }
         self.hint = best.1;
+        self.nearest_key = if self.fixed.iter().all(|&f| f) { best.0 + self.odo } else { f64::NEG_INFINITY };
         best
     }
 }
@@ -897,10 +912,18 @@ mod tracker {
             shape: Shape::sphere(to_f32(&(scene.start + Vector3::new(1.0, 0.0, 0.0))), 0.3),
             motion: Motion::Velocity(Vector3::new(0.1, 0.2, 0.0)),
         });
+        // A "moving" obstacle that stands still away from where its shape was written.
+        let still = scene.start + Vector3::new(-0.6, 0.4, 0.0);
+        scene.obstacles.push(SceneObstacle {
+            name: None,
+            shape: Shape::aabb(Vec3::new(9.0, 9.0, -1.0), Vec3::new(9.3, 9.2, -0.5)),
+            motion: Motion::Waypoints(vec![(0.0, still), (5.0, still)]),
+        });
+        assert!(scene.obstacles[scene.obstacles.len() - 1].is_static());
         let n = scene.obstacles.len();
         let mut tracker = NearestTracker::new(&scene);
         let points = walk(&scene, 7, 40_000);
-        let (mut inside, mut moving_nearest) = (0, 0);
+        let (mut inside, mut moving_nearest, mut still_nearest) = (0, 0, 0);
         for (k, p) in points.iter().enumerate() {
             let t = k as f64 * 0.001;
             let full = scene.nearest(p, t);
@@ -908,10 +931,14 @@ mod tracker {
             assert_eq!(fast.0.to_bits(), full.0.to_bits(), "query {k} at {p:?}: {fast:?} vs {full:?}");
             assert_eq!(fast.1, full.1, "query {k} at {p:?}");
             inside += usize::from(full.0 < 0.0);
-            moving_nearest += usize::from(full.1 == Some(n - 1));
-            assert_ne!(full.1, Some(n - 2), "the duplicate never wins over the original");
+            moving_nearest += usize::from(full.1 == Some(n - 2));
+            still_nearest += usize::from(full.1 == Some(n - 1));
+            assert_ne!(full.1, Some(n - 3), "the duplicate never wins over the original");
         }
-        assert!(inside > 10 && moving_nearest > 10, "inside {inside}, moving {moving_nearest}");
+        assert!(
+            inside > 10 && moving_nearest > 10 && still_nearest > 10,
+            "inside {inside}, moving {moving_nearest}, still {still_nearest}"
+        );
         // The broad phase skips most evaluations on a walk.
         let full_cost = (points.len() * n) as u64;
         assert!(tracker.evaluations * 4 < full_cost, "{} of {full_cost}", tracker.evaluations);
@@ -921,7 +948,14 @@ mod tracker {
     fn lower_bounds_hold_and_bad_points_fall_back_to_full_scans() {
         let scene = office();
         let mut tracker = NearestTracker::new(&scene);
+        let mut bounded = 0;
         for (k, p) in walk(&scene, 3, 5_000).iter().enumerate() {
+            // The bound on the nearest distance from the previous query, moved here.
+            tracker.move_to(p);
+            let lb = tracker.nearest_lower_bound();
+            let exact = scene.nearest(p, 0.0).0;
+            assert!(lb <= exact, "at {p:?}: {lb} > {exact}");
+            bounded += usize::from(lb > exact - 0.01);
             tracker.nearest(&scene, p, 0.0);
             if k % 7 == 0 {
                 for (i, o) in scene.obstacles.iter().enumerate() {
@@ -930,6 +964,7 @@ mod tracker {
                 }
             }
         }
+        assert!(bounded > 4_000, "the nearest bound was tight in {bounded} of 5000 steps");
         let before = tracker.evaluations;
         let nan = Vector3::new(f64::NAN, 0.0, 0.0);
         assert_eq!(tracker.nearest(&scene, &nan, 0.0).1, scene.nearest(&nan, 0.0).1);
