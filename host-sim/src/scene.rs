@@ -502,11 +502,14 @@ impl NearestTracker {
     /// the current point and the signed distance (see [`Shape::closest_point`]); recorded.
     #[inline]
     pub fn closest(&mut self, scene: &Scene, i: usize, pf: &Vec3, t: f64) -> (Vector3<f64>, Vec3, f32) {
-        let (shape, vel) = match self.fixed_shape[i] {
-            Some(shape) => (shape, Vector3::zeros()),
-            None => scene.obstacles[i].at(t),
+        // The stored shape by reference: copying the enum costs more than the distance.
+        let (vel, (q, d)) = match &self.fixed_shape[i] {
+            Some(shape) => (Vector3::zeros(), shape.closest_point(pf)),
+            None => {
+                let (shape, vel) = scene.obstacles[i].at(t);
+                (vel, shape.closest_point(pf))
+            }
         };
-        let (q, d) = shape.closest_point(pf);
         self.record(i, d as f64);
         (vel, q, d)
     }
