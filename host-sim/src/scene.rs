@@ -406,6 +406,8 @@ pub struct NearestTracker {
     key: Vec<f64>,
     /// Per obstacle: it never moves.
     fixed: Vec<bool>,
+    /// No obstacle moves.
+    all_fixed: bool,
     /// Per obstacle: its shape (NED) if it never moves (then `at(t)` is the same for every t).
     fixed_shape: Vec<Option<Shape>>,
     /// Largest coordinate magnitude of the static obstacles, m.
@@ -442,6 +444,7 @@ impl NearestTracker {
             odo: 0.0,
             key: vec![f64::NEG_INFINITY; scene.obstacles.len()],
             fixed: scene.obstacles.iter().map(SceneObstacle::is_static).collect(),
+            all_fixed: scene.obstacles.iter().all(SceneObstacle::is_static),
             fixed_shape: scene.obstacles.iter().map(|o| o.is_static().then(|| o.at(0.0).0)).collect(),
             extent,
             reach: 0.0,
@@ -527,18 +530,21 @@ impl NearestTracker {
                 best = (d, Some(h));
             }
         }
+        // Obstacle i is skipped when its bound key_i − odo − margin is above the best so far.
+        let mut threshold = best.0 + self.odo + margin;
         for i in 0..scene.obstacles.len() {
-            if Some(i) == self.hint || self.key[i] - self.odo - margin > best.0 {
+            if self.key[i] > threshold || Some(i) == self.hint {
                 continue;
             }
             let d = self.closest(scene, i, &pf, t).2 as f64;
             // The full scan keeps the lowest index among equal distances.
             if d < best.0 || (d == best.0 && best.1.is_some_and(|b| i < b)) {
                 best = (d, Some(i));
+                threshold = best.0 + self.odo + margin;
             }
         }
         self.hint = best.1;
-        self.nearest_key = if self.fixed.iter().all(|&f| f) { best.0 + self.odo } else { f64::NEG_INFINITY };
+        self.nearest_key = if self.all_fixed { best.0 + self.odo } else { f64::NEG_INFINITY };
         best
     }
 }
