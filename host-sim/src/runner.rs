@@ -226,10 +226,10 @@ fn h_bar_certainly_above(l: f64, mu_s: f64, delta: f64, h_min: f64) -> bool {
 }
 
 /// Reusable buffers of [`sense_and_h_bar`].
-#[derive(Default)]
-struct OuterScratch {
-    /// The proximity report.
-    seen: Vec<ObstaclePoint>,
+#[derive(Clone, Debug, Default)]
+pub struct OuterScratch {
+    /// The proximity report (output of [`sense_and_h_bar`]).
+    pub seen: Vec<ObstaclePoint>,
     /// Obstacles certainly beyond the sensing range.
     far: Vec<usize>,
     /// Obstacles evaluated: index, closest point, velocity, signed distance.
@@ -239,7 +239,8 @@ struct OuterScratch {
 /// The proximity report ([`sense_obstacles`], into `scratch.seen`) and the true
 /// barrier ([`true_h_bar`], returned) at one outer step, with the same results:
 /// the closest points are computed once for both, and only for the obstacles
-/// that can matter. `tracker` is the vehicle's.
+/// that can matter. `tracker` is the vehicle's (same scene). Time `t` s,
+/// position `p` NED m, velocity `v` NED m/s, sensing range m; returns h̄, m².
 ///
 /// Obstacles that may be within `range` (lower bound of the distance ≤ range;
 /// moving obstacles always) are evaluated in index order (the order of the
@@ -249,7 +250,7 @@ struct OuterScratch {
 /// obstacle (whose `ḋ` is the vehicle's velocity, speed `s`), with `|d|` its
 /// distance (or, beyond the range, the tracker's lower bound of it).
 #[allow(clippy::too_many_arguments)]
-fn sense_and_h_bar(
+pub fn sense_and_h_bar(
     scene: &Scene,
     tracker: &mut NearestTracker,
     filter: &SafetyFilter,
@@ -266,9 +267,12 @@ fn sense_and_h_bar(
     seen.clear();
     far.clear();
     near.clear();
+    let mut far_min = f64::INFINITY;
     for (i, o) in scene.obstacles.iter().enumerate() {
-        if tracker.lower_bound(i) > range {
+        let lb = tracker.lower_bound(i);
+        if lb > range {
             far.push(i);
+            far_min = far_min.min(lb);
             continue;
         }
         let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
@@ -294,6 +298,10 @@ fn sense_and_h_bar(
         if Some(j) != first && !bounded {
             h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
         }
+    }
+    // The bound grows with the distance: the nearest far obstacle's covers them all.
+    if far.is_empty() || h_bar_certainly_above(far_min - margin, mu_s, delta, h_min) {
+        return h_min;
     }
     for &i in far.iter() {
         // Far obstacles are static (moving ones have no bound).
