@@ -151,7 +151,7 @@ pub fn tanf(x: f32) -> f32 {
 #[inline]
 pub fn hypotf(x: f32, y: f32) -> f32 {
     let s = x * x + y * y;
-    if s.is_finite() && s >= f32::MIN_POSITIVE {
+    if s.is_finite() && (s >= f32::MIN_POSITIVE || (x == 0.0 && y == 0.0)) {
         sqrtf(s)
     } else {
         libm::hypotf(x, y)
