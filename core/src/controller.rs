@@ -266,6 +266,22 @@ pub enum GuidanceMode {
     NoFix,
 }
 
+impl GuidanceMode {
+    /// The variant's name ("Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix").
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            GuidanceMode::Off => "Off",
+            GuidanceMode::Ground => "Ground",
+            GuidanceMode::Hold => "Hold",
+            GuidanceMode::Takeoff => "Takeoff",
+            GuidanceMode::Mission => "Mission",
+            GuidanceMode::Brake => "Brake",
+            GuidanceMode::Land => "Land",
+            GuidanceMode::NoFix => "NoFix",
+        }
+    }
+}
+
 /// One telemetry record (updated by every step; copy with [`FlightController::telemetry`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Telemetry {
@@ -1058,6 +1074,15 @@ impl FlightController {
 mod tests {
     extern crate std;
     use super::*;
+
+    #[test]
+    fn guidance_mode_names_are_the_variant_names() {
+        extern crate std;
+        use GuidanceMode::*;
+        for m in [Off, Ground, Hold, Takeoff, Mission, Brake, Land, NoFix] {
+            assert_eq!(m.as_str(), std::format!("{m:?}"));
+        }
+    }
     use crate::failsafe::TransitionReason;
     use nalgebra::UnitQuaternion;
 

@@ -67,7 +67,7 @@ pub struct OuterOut {
     /// The enforced constraints had no common solution.
     pub infeasible: bool,
     /// Guidance mode of the controller (e.g. "Mission", "Brake").
-    pub mode: String,
+    pub mode: &'static str,
 }
 
 impl OuterOut {
@@ -86,7 +86,7 @@ impl OuterOut {
             n_constraints: tel.filter.n_constraints,
             unavoidable: tel.filter.unavoidable,
             infeasible: tel.filter.infeasible,
-            mode: format!("{:?}", tel.mode),
+            mode: tel.mode.as_str(),
         }
     }
 }

@@ -996,7 +996,7 @@ impl Autopilot for PilLink {
             n_constraints: ((f.flags >> 8) & 0xFF) as u8,
             unavoidable: f.flags & 2 != 0,
             infeasible: f.flags & 4 != 0,
-            mode: phase_mode(self.phase).into(),
+            mode: phase_mode(self.phase),
         }
     }
 

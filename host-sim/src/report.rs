@@ -149,7 +149,7 @@ pub struct Sample {
     /// Filter flag: the enforced constraints had no common solution.
     pub infeasible: bool,
     /// Controller guidance mode.
-    pub mode: String,
+    pub mode: &'static str,
 }
 
 /// Everything the report needs.
@@ -232,7 +232,7 @@ pub fn trajectory_csv(samples: &[Sample]) -> String {
             k.n_constraints.to_string(),
             u8::from(k.unavoidable).to_string(),
             u8::from(k.infeasible).to_string(),
-            k.mode.clone(),
+            k.mode.to_string(),
         ];
         s.push_str(&fields.join(","));
         s.push('\n');
