@@ -1,5 +1,6 @@
 //! Cheap `f32` primitives for the control loops: square root, minimum, maximum
-//! and clamp, bit-identical to what `libm` / `f32::min` / `f32::max` give.
+//! and clamp, bit-identical to what `libm` / `f32::min` / `f32::max` give, and
+//! single-precision trigonometry within one ulp of libm's.
 //!
 //! Why: on the Cortex-M4F (`thumbv7em-none-eabihf`) `libm::sqrtf` is a
 //! software routine (≈ 75 instructions) although the FPU has `VSQRT.F32`, and
@@ -16,6 +17,9 @@
 //!   is returned), both NaN give NaN; for `±0` the first operand wins on a tie,
 //!   as in libm.
 //! * [`clampf`](crate::frame::clampf) is built from them.
+//! * [`sincosf`], [`cosf`], [`tanf`], [`hypotf`]: evaluated in `f32` (libm's use
+//!   `f64` kernels, software on the Cortex-M4F); within about one ulp of libm's,
+//!   not bit-identical (see each function).
 
 /// Square root, correctly rounded (NaN for `x < 0` or NaN). `VSQRT.F32` on
 /// Cortex-M4F and other ARM hard-float targets, `libm::sqrtf` elsewhere.

@@ -17,8 +17,14 @@
 //!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
 //! - [`tracking`]: PD position tracking (eq. 2).
 //! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
-//! - [`fmath`]: square root (FPU instruction on the Cortex-M4F), min, max.
+//! - [`fmath`]: square root (FPU instruction on the Cortex-M4F), min, max,
+//!   single-precision trigonometry.
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
+//!
+//! ## Unsafe code
+//! Denied crate-wide. The one exception is `fmath::sqrtf` on ARM hard-float
+//! targets: a five-instruction `asm!` around `VSQRT.F32` (see its SAFETY note),
+//! because stable Rust has no `sqrtf` in `core` and libm's is a software routine.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
