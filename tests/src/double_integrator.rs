@@ -30,6 +30,10 @@ pub struct RunResult {
     pub interventions: u32,
     /// Steps on which the filter said `infeasible`.
     pub infeasible_steps: u32,
+    /// First step on which the filter said `infeasible` (its problem had no solution).
+    pub first_infeasible_step: Option<u32>,
+    /// Smallest `h̄_i` of any obstacle up to that step (the whole run when never), m².
+    pub min_h_bar_while_feasible: f32,
     /// Largest |u| applied, m/s².
     pub max_u: f32,
 }
@@ -70,6 +74,8 @@ pub fn fly(
         min_dist_sq_margin: f32::INFINITY,
         interventions: 0,
         infeasible_steps: 0,
+        first_infeasible_step: None,
+        min_h_bar_while_feasible: f32::INFINITY,
         max_u: 0.0,
     };
     for k in 0..=steps {
@@ -89,12 +95,18 @@ pub fn fly(
             }
         }
         r.min_h_bar_closest = r.min_h_bar_closest.min(closest.1);
+        if r.first_infeasible_step.is_none() {
+            r.min_h_bar_while_feasible = r.min_h_bar;
+        }
         if k == steps {
             break;
         }
         let (u, diag): (Vec3, FilterDiagnostics) = filter.apply(&p, &v, &nominal(t, &p, &v), &pts);
         r.interventions += u32::from(diag.intervened);
         r.infeasible_steps += u32::from(diag.infeasible);
+        if diag.infeasible && r.first_infeasible_step.is_none() {
+            r.first_infeasible_step = Some(k);
+        }
         r.max_u = r.max_u.max(u.norm());
         p += v * dt + u * (0.5 * dt * dt);
         v += u * dt;

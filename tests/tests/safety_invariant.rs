@@ -4,7 +4,9 @@
 //! Every case starts with `h̄_i ≥ 0` for every obstacle, applies an arbitrary
 //! bounded nominal input (a PD pull towards a goal behind the obstacles plus a
 //! random piecewise-constant push, |u*| ≤ 4 m/s²), integrates exactly with a
-//! zero-order hold at dt = 1 ms for 10 s, and checks `h̄ ≥ −ε` throughout.
+//! zero-order hold at dt = 1 ms for 10 s, and checks `h̄ ≥ −ε` throughout —
+//! or, when moving obstacles make the multi-barrier problem infeasible, up to the
+//! first step the filter says so (see [`check`]; the guarantee ends there).
 //!
 //! **ε = 2·10⁻³ m².** The law keeps `ḣ ≥ 0` in continuous time; applied with
 //! a zero-order hold, `h` can drop within one step by up to `½|ḧ|dt²` and the
@@ -65,7 +67,20 @@ macro_rules! admissible {
     }};
 }
 
+/// The invariant, as far as it is guaranteed: the whole run when the filter's problem was
+/// always feasible; up to the first `infeasible` step otherwise (obstacles closing from
+/// opposite sides can make the barriers contradictory — then no input keeps every h̄ ≥ 0, the
+/// filter says so, and the guarantee ends; a case found at 100,000 cases: two spheres closing
+/// on the vehicle, 42 infeasible steps, min h̄ −0.022 m² afterwards).
 fn check(r: &RunResult) -> Result<(), TestCaseError> {
+    if r.first_infeasible_step.is_some() {
+        prop_assert!(
+            r.min_h_bar_while_feasible >= -EPS,
+            "min h̄ before the first infeasible step = {} < −ε ({r:?})",
+            r.min_h_bar_while_feasible
+        );
+        return Ok(());
+    }
     prop_assert!(r.min_h_bar >= -EPS, "min h̄ = {} < −ε ({r:?})", r.min_h_bar);
     prop_assert!(r.min_dist_sq_margin >= -EPS, "hull entered: |d|² − δ = {}", r.min_dist_sq_margin);
     Ok(())
@@ -79,6 +94,36 @@ fn check_closest(r: &RunResult) -> Result<(), TestCaseError> {
     prop_assert!(r.min_h_bar_closest >= -EPS, "closest min h̄ = {} < −ε ({r:?})", r.min_h_bar_closest);
     prop_assert!(r.min_dist_sq_margin >= -EPS, "hull entered: |d|² − δ = {}", r.min_dist_sq_margin);
     Ok(())
+}
+
+/// The case the property found at 100,000 cases: two spheres (r 0.26 and 0.20 m) moving at
+/// 0.7 and 0.6 m/s close on the vehicle from opposite sides. The multi-relative problem becomes
+/// infeasible, the filter says so, and h̄ then goes below −ε: the documented end of the
+/// guarantee. Until then the invariant held.
+#[test]
+fn two_closing_spheres_end_the_guarantee_with_an_infeasible_flag() {
+    let (mu, d1) = (0.848_611_5f32, 0.051f32);
+    let moving = [
+        MovingShape {
+            shape: Shape::sphere(Vec3::new(0.960_261_5, 1.899_627_7, 0.0), 0.259_557_22),
+            velocity: Vec3::new(-0.254_327_77, -0.370_453_45, -0.546_297_9),
+        },
+        MovingShape {
+            shape: Shape::sphere(Vec3::new(-0.959_425, 0.0, -0.470_635_3), 0.198_020_46),
+            velocity: Vec3::new(0.384_333_1, 0.382_670_9, -0.279_984_03),
+        },
+    ];
+    let mut pushes = vec![Vec3::zeros(); 10];
+    pushes[0] = Vec3::new(-1.694_388_4, -0.874_018_2, -2.376_620_5);
+    pushes[1] = Vec3::new(0.0, -2.842_788, 0.0);
+    let f = SafetyFilter::new(guarded(mu, d1), FilterVariant::MultiRelative).unwrap();
+    let start = Vec3::zeros();
+    let v0 =
+        admissible_velocity(&f, &moving, &start, Vec3::new(-0.528_764_7, 0.759_552, 0.334_848_8)).unwrap();
+    let r = fly(&f, &moving, &no_accel, &nominal(Vec3::new(2.0, 2.0, 0.0), pushes), start, v0, DT, STEPS);
+    assert!(r.first_infeasible_step.is_some() && r.min_h_bar < -EPS, "{r:?}");
+    assert!(r.min_h_bar_while_feasible >= -EPS, "{r:?}");
+    assert!(check(&r).is_ok());
 }
 
 fn static_obstacles(shapes: &[Shape]) -> Vec<MovingShape> {
