@@ -10,8 +10,10 @@
 //! * [`pil`]: processor-in-the-loop: the QEMU firmware flies the scene over MAVLink lockstep.
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
+//! * [`input`]: the one error type for bad user input, and the documented limits.
 pub mod cli;
 pub mod control;
+pub mod input;
 pub mod pathfile;
 pub mod pil;
 pub mod planner;
