@@ -19,12 +19,23 @@ use crate::report::{summary_table, write_report, RunRecord};
 use crate::runner::{path_length, run, RunConfig};
 use crate::scene::{to_f32, to_f64, Scene};
 
+/// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
+/// level and of each subcommand. Every command returns these and only these.
+pub const EXIT_CODES_HELP: &str = "\
+Exit codes:
+  0    success: the command finished (a flight that collides or misses the goal still
+       exits 0; its outcome is in the summary); also when stdout is closed early
+       (`parapet run | head`)
+  1    failure that is not the input's fault (I/O error writing a report, firmware or QEMU failure)
+  2    bad input: a file, table, field or option is named with the value and the allowed range
+  3    no path: the planner found no collision-free path within its budget";
+
 /// Default scene of `parapet run` and `parapet plan`.
 pub const DEFAULT_SCENE: &str = "scenes/office.toml";
 
 /// Parapet: quadrotor flight with a closed-form CBF safety filter — simulator and tools.
 #[derive(Debug, Parser)]
-#[command(name = "parapet", version, about, long_about = None)]
+#[command(name = "parapet", version, about, long_about = None, after_help = EXIT_CODES_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
