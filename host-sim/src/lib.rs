@@ -11,6 +11,7 @@
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 //! * [`input`]: the one error type for bad user input, and the documented limits.
+//! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
 pub mod cli;
 pub mod control;
 pub mod input;
@@ -18,6 +19,7 @@ pub mod pathfile;
 pub mod pil;
 pub mod planner;
 pub mod plant;
+pub mod preflight;
 pub mod replay;
 pub mod report;
 pub mod runner;

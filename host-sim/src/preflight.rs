@@ -1,0 +1,224 @@
+//! Pre-flight checks: is this scene + path flyable at all, before any flight?
+//!
+//! ```text
+//! pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<(), InputError>
+//! ```
+//!
+//! Called by `parapet run`, `parapet pil` (through `cli::run_setup`) and
+//! `parapet sweep` before the first step; a refusal is an [`InputError`]
+//! (exit 2) naming the file (the scene, or the path file), the waypoint index,
+//! the coordinate (ENU, as in the files), the obstacle (index and name) or the
+//! bound violated, and the tolerance. What is checked, in this order:
+//!
+//! 1. **Start** (`[mission] start`, where the vehicle hovers at t = 0): the hull
+//!    (radius `[vehicle] hull_radius`) is clear of the ground (hull bottom at or
+//!    above z = 0 ENU) and of **every** obstacle at t = 0 (moving obstacles at
+//!    their t = 0 position). The start inside the bounds is checked when the
+//!    scene is loaded.
+//! 2. **Every waypoint** `i` of the path: its centre inside the scene bounds
+//!    (the bounds are where the centre of mass may be, as for the planner; with
+//!    [`BOUNDS_TOLERANCE_M`] for the `f32` round-off of path files), the hull
+//!    clear of the ground and of every **static** obstacle. Moving obstacles
+//!    are not checked at waypoints: they are elsewhere when the vehicle gets
+//!    there, and the safety filter handles them in flight. Segments between
+//!    waypoints are not checked either (a straight line through an obstacle is
+//!    what the filter is there for).
+//! 3. **The path belongs to the scene**: its first waypoint within
+//!    [`PATH_END_TOLERANCE_M`] of the mission start and its last within that of
+//!    the mission goal, unless [`PreflightOptions::foreign_path`]
+//!    (`--foreign-path`) says the path is meant to go elsewhere.
+//!
+//! "Clear" means signed distance from the centre to the surface ≥ hull radius:
+//! the runner's collision test (`sd < hull`), so a start the runner would
+//! count as a collision at t = 0 is refused here instead.
+//!
+//! May import: `crate::scene`, `crate::runner` (RunConfig), `crate::input`, `nalgebra`.
+
+use nalgebra::Vector3;
+
+use crate::input::InputError;
+use crate::runner::RunConfig;
+use crate::scene::{ned_to_enu_arr, to_f32, Scene};
+
+/// How far (m) the first / last waypoint may be from the mission start / goal
+/// for the path to count as the scene's (without `--foreign-path`).
+pub const PATH_END_TOLERANCE_M: f64 = 0.5;
+
+/// How far (m) a waypoint's centre may be outside the scene bounds before it
+/// is refused: covers the `f32` round-off of waypoints written by the planner.
+pub const BOUNDS_TOLERANCE_M: f64 = 1e-3;
+
+/// What the caller knows about the path besides its waypoints.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PreflightOptions {
+    /// The path file as given (`--path`), named in messages about waypoints;
+    /// `None` for a planned or straight path (messages then name the scene file
+    /// and `the planned path` / `the straight line`).
+    pub path_file: Option<String>,
+    /// The path need not start at the mission start nor end at its goal
+    /// (`--foreign-path`): the endpoint check (3.) is skipped; bounds and
+    /// collision checks still apply.
+    pub foreign_path: bool,
+}
+
+/// Run every pre-flight check (see the module doc); `Ok` when the flight may start.
+// InputError is the shared (large) user-input error; it is returned once per run at most.
+#[allow(clippy::result_large_err)]
+pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<(), InputError> {
+    let hull = scene.vehicle.hull_radius;
+    check_start(scene, hull)?;
+    let origin = path_origin(scene, cfg, opts);
+    let field = |i: usize| format!("waypoints[{i}]");
+    if cfg.path.is_empty() {
+        return Err(InputError::file(&origin, "the path has no waypoints").field("waypoints"));
+    }
+    let (lo, hi) = scene.bounds_enu;
+    for (i, w) in cfg.path.iter().enumerate() {
+        let e = ned_to_enu_arr(w);
+        if !e.iter().all(|x| x.is_finite()) {
+            return Err(InputError::file(&origin, "the waypoint is not finite")
+                .field(field(i))
+                .value(fmt3(&e)));
+        }
+        if let Some(axis) =
+            (0..3).find(|&k| e[k] < lo[k] - BOUNDS_TOLERANCE_M || e[k] > hi[k] + BOUNDS_TOLERANCE_M)
+        {
+            let name = ["x", "y", "z"][axis];
+            return Err(InputError::file(&origin, format!(
+                "the waypoint is outside the bounds of scene {} ({}; [bounds] is where the centre of mass may be, tolerance {BOUNDS_TOLERANCE_M} m)",
+                scene.name, scene.source
+            ))
+            .field(field(i))
+            .value(fmt3(&e))
+            .allowed(format!("{} ≤ {name} ≤ {}", lo[axis], hi[axis])));
+        }
+        if let Some(msg) = ground_violation(w, hull) {
+            return Err(InputError::file(&origin, format!("the waypoint puts {msg}"))
+                .field(field(i))
+                .value(fmt3(&e))
+                .allowed(format!("z ≥ {hull:.4} (hull radius)")));
+        }
+        if let Some((j, sd)) = obstacle_violation(scene, w, hull, true) {
+            return Err(InputError::file(
+                &origin,
+                format!(
+                    "the waypoint puts the hull (radius {hull:.4} m) into {} of scene {}: the centre is {sd:.4} m from its surface",
+                    obstacle_label(scene, j),
+                    scene.source
+                ),
+            )
+            .field(field(i))
+            .value(fmt3(&e))
+            .allowed(format!("distance to every static obstacle ≥ {hull:.4} m")));
+        }
+    }
+    if !opts.foreign_path {
+        let n = cfg.path.len();
+        let ends = [(0, scene.start, "start"), (n - 1, scene.goal, "goal")];
+        for (i, target, what) in ends {
+            let d = (cfg.path[i] - target).norm();
+            if d.is_nan() || d > PATH_END_TOLERANCE_M {
+                return Err(InputError::file(
+                    &origin,
+                    format!(
+                        "the path does not belong to scene {} ({}): its {} waypoint is {d:.3} m from the mission {what} {} (a path for another scene?); pass --foreign-path to fly it anyway",
+                        scene.name,
+                        scene.source,
+                        if i == 0 { "first" } else { "last" },
+                        fmt3(&ned_to_enu_arr(&target)),
+                    ),
+                )
+                .field(field(i))
+                .value(fmt3(&ned_to_enu_arr(&cfg.path[i])))
+                .allowed(format!("within {PATH_END_TOLERANCE_M} m of the mission {what}")));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The start: hull clear of the ground and of every obstacle at t = 0.
+#[allow(clippy::result_large_err)]
+fn check_start(scene: &Scene, hull: f64) -> Result<(), InputError> {
+    let s = scene.start;
+    let e = ned_to_enu_arr(&s);
+    if let Some(msg) = ground_violation(&s, hull) {
+        return Err(InputError::file(&scene.source, format!("the start puts {msg}"))
+            .table("mission")
+            .field("start")
+            .value(fmt3(&e))
+            .allowed(format!("z ≥ {hull:.4} (hull radius)")));
+    }
+    if let Some((j, sd)) = obstacle_violation(scene, &s, hull, false) {
+        return Err(InputError::file(
+            &scene.source,
+            format!(
+                "the start puts the hull (radius {hull:.4} m) into {} at t = 0: the centre is {sd:.4} m from its surface",
+                obstacle_label(scene, j)
+            ),
+        )
+        .table("mission")
+        .field("start")
+        .value(fmt3(&e))
+        .allowed(format!("distance to every obstacle ≥ {hull:.4} m")));
+    }
+    Ok(())
+}
+
+/// Label of the path in messages: the path file, else the scene file plus the path's kind.
+fn path_origin(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> String {
+    match &opts.path_file {
+        Some(f) => f.clone(),
+        None => {
+            let kind = match cfg.path_source.as_str() {
+                "planner" => "the planned path",
+                "straight" => "the straight line start → goal",
+                _ => "the path",
+            };
+            format!("{} ({kind})", scene.source)
+        }
+    }
+}
+
+/// `Some(description)` when the hull at `p` (NED) reaches below the ground z = 0.
+fn ground_violation(p: &Vector3<f64>, hull: f64) -> Option<String> {
+    let height = -p.z;
+    (height < hull).then(|| {
+        format!("the hull (radius {hull:.4} m) into the ground: the centre is {height:.4} m above z = 0")
+    })
+}
+
+/// The first obstacle (index, signed distance of `p` to its surface at t = 0)
+/// that the hull at `p` intersects; only static obstacles when `static_only`.
+fn obstacle_violation(scene: &Scene, p: &Vector3<f64>, hull: f64, static_only: bool) -> Option<(usize, f64)> {
+    let pf = to_f32(p);
+    scene.obstacles.iter().enumerate().find_map(|(j, o)| {
+        if static_only && !o.is_static() {
+            return None;
+        }
+        let sd = o.at(0.0).0.signed_distance(&pf) as f64;
+        (sd < hull).then_some((j, sd))
+    })
+}
+
+/// `obstacles[j] ("name")` as in scene-file messages.
+fn obstacle_label(scene: &Scene, j: usize) -> String {
+    match scene.obstacles.get(j).and_then(|o| o.name.as_deref()) {
+        Some(n) => format!("obstacles[{j}] ({n})"),
+        None => format!("obstacles[{j}]"),
+    }
+}
+
+/// `[x, y, z]` with up to 4 decimals, as a user would write it.
+fn fmt3(a: &[f64; 3]) -> String {
+    let f = |x: f64| {
+        let s = format!("{x:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s
+        }
+    };
+    format!("[{}, {}, {}]", f(a[0]), f(a[1]), f(a[2]))
+}
