@@ -614,7 +614,15 @@ impl FlightController {
             position_age_us: self.fix.map(|f| age(now_us, f.t_us)),
             obstacle_age_us: self.obstacle_t_us.map(|t| age(now_us, t)),
             non_finite: self.pending_fault,
+            obstacle_in_hull: None,
         }
+    }
+
+    /// Id of the first stored obstacle point closer than the hull radius √δ
+    /// to `p` (NED, m): `|p − q|² < δ`.
+    fn obstacle_in_hull(&self, p: &Vec3) -> Option<u16> {
+        let delta = self.params.cbf.delta;
+        self.obstacles.as_slice().iter().find(|o| (o.point - *p).norm_squared() < delta).map(|o| o.id)
     }
 
     /// Latest step time, µs (`None` before the first step).
@@ -719,10 +727,13 @@ impl FlightController {
     }
 
     /// Arm: needs a fresh, finite position fix, fresh obstacle data, no bad input
-    /// pending and an initialised, level-enough attitude estimate. The yaw reference
+    /// pending, no reported obstacle point inside the hull (distance from the
+    /// position estimate below √δ: the vehicle would start in collision) and an
+    /// initialised, level-enough attitude estimate. The yaw reference
     /// is the current estimated yaw; the vehicle stays on the ground (motors idle).
     pub fn arm(&mut self, now_us: u64) -> Result<(), CommandError> {
-        let health = self.health(now_us);
+        let mut health = self.health(now_us);
+        health.obstacle_in_hull = self.position_estimate(now_us).and_then(|(p, _)| self.obstacle_in_hull(&p));
         let tilt = self.estimator.tilt();
         let tr = self
             .failsafe
@@ -1388,6 +1399,43 @@ mod tests {
     fn last_reason(ctl: &FlightController) -> (FailsafeState, FailsafeState, TransitionReason) {
         let tr = ctl.telemetry().last_transition.expect("a transition");
         (tr.from, tr.to, tr.reason)
+    }
+
+    #[test]
+    fn arm_refused_with_an_obstacle_inside_the_hull() {
+        let mut ctl = FlightController::new(ControllerParams::default()).unwrap();
+        let hull = ControllerParams::default().cbf.delta.sqrt();
+        let t = 1_000_000;
+        let p = Vec3::new(2.0, -1.0, -1.2);
+        ctl.update_position(PositionFix { t_us: t, position: p, velocity: Vec3::zeros(), yaw: Some(0.0) });
+        let level = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -GRAVITY) };
+        ctl.step_inner(t, &level);
+        // Obstacle 5 clear of the hull, obstacle 9 just inside it: refused, naming 9.
+        let clear = ObstaclePoint::fixed(p + Vec3::new(hull + 0.05, 0.0, 0.0), 5);
+        let inside = ObstaclePoint::fixed(p + Vec3::new(0.0, 0.0, 0.95 * hull), 9);
+        ctl.update_obstacles(t, &[clear, inside]);
+        assert_eq!(ctl.arm(t), Err(CommandError::Arm(ArmRefusal::ObstacleInsideHull { id: 9 })));
+        assert_eq!(ctl.state(), FailsafeState::Disarmed);
+        // The same point, the vehicle moved away (fresh fix): arming accepted.
+        let p2 = p + Vec3::new(0.0, 0.0, -0.5);
+        ctl.update_position(PositionFix {
+            t_us: t + 4000,
+            position: p2,
+            velocity: Vec3::zeros(),
+            yaw: Some(0.0),
+        });
+        ctl.update_obstacles(t + 4000, &[clear, inside]);
+        assert_eq!(ctl.arm(t + 4000), Ok(()));
+        assert_eq!(ctl.state(), FailsafeState::Armed);
+        // Already armed: NotDisarmed wins over the obstacle check.
+        ctl.update_position(PositionFix {
+            t_us: t + 8000,
+            position: p,
+            velocity: Vec3::zeros(),
+            yaw: Some(0.0),
+        });
+        ctl.update_obstacles(t + 8000, &[inside]);
+        assert_eq!(ctl.arm(t + 8000), Err(CommandError::Arm(ArmRefusal::NotDisarmed)));
     }
 
     #[test]

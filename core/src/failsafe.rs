@@ -164,6 +164,10 @@ pub struct DataHealth {
     pub obstacle_age_us: Option<u64>,
     /// A NaN/Inf input was seen since the last check.
     pub non_finite: bool,
+    /// Id of a reported obstacle point inside the hull (distance from the
+    /// position estimate below the hull radius √δ), computed when arming only
+    /// (`None` otherwise): the vehicle is inside an obstacle or its data is wrong.
+    pub obstacle_in_hull: Option<u16>,
 }
 
 /// The failsafe state machine (see the module documentation).
@@ -190,6 +194,35 @@ pub enum ArmRefusal {
     NonFiniteInput,
     /// The attitude estimate is not initialised or the tilt is beyond the limit.
     AttitudeNotReady,
+    /// A reported obstacle point (this id) lies inside the hull: the vehicle
+    /// would start in collision, or the position / obstacle data are wrong.
+    ObstacleInsideHull {
+        /// Id of the obstacle point (as reported).
+        id: u16,
+    },
+}
+
+impl core::fmt::Display for ArmRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ArmRefusal::NotDisarmed => {
+                f.write_str("not disarmed (already armed, or motors off awaiting a disarm)")
+            }
+            ArmRefusal::NoFreshPosition => {
+                f.write_str("no position fix, or the last one is older than the position timeout")
+            }
+            ArmRefusal::NoFreshObstacles => {
+                f.write_str("no obstacle update, or the last one is older than the obstacle timeout")
+            }
+            ArmRefusal::NonFiniteInput => f.write_str("a NaN/Inf or out-of-range input was received"),
+            ArmRefusal::AttitudeNotReady => {
+                f.write_str("the attitude estimate is not initialised or the tilt is beyond the limit")
+            }
+            ArmRefusal::ObstacleInsideHull { id } => {
+                write!(f, "obstacle {id} is reported inside the hull (the vehicle would start in collision)")
+            }
+        }
+    }
 }
 
 impl Failsafe {
@@ -242,7 +275,8 @@ impl Failsafe {
     }
 
     /// Arm command: accepted only in Disarmed with fresh position and obstacle data,
-    /// no NaN/Inf input and an initialised attitude within the tilt limit.
+    /// no NaN/Inf input, no reported obstacle point inside the hull and an
+    /// initialised attitude within the tilt limit.
     pub fn arm(
         &mut self,
         t_us: u64,
@@ -261,6 +295,9 @@ impl Failsafe {
         }
         if !self.obstacles_ok(health) {
             return Err(ArmRefusal::NoFreshObstacles);
+        }
+        if let Some(id) = health.obstacle_in_hull {
+            return Err(ArmRefusal::ObstacleInsideHull { id });
         }
         if !attitude_ok || !tilt.is_finite() || tilt > self.params.tilt_limit {
             return Err(ArmRefusal::AttitudeNotReady);
@@ -335,7 +372,12 @@ mod tests {
     use TransitionReason as R;
 
     fn good() -> DataHealth {
-        DataHealth { position_age_us: Some(1_000), obstacle_age_us: Some(1_000), non_finite: false }
+        DataHealth {
+            position_age_us: Some(1_000),
+            obstacle_age_us: Some(1_000),
+            non_finite: false,
+            obstacle_in_hull: None,
+        }
     }
 
     fn armed() -> Failsafe {
@@ -368,6 +410,10 @@ mod tests {
         assert_eq!(
             f.arm(0, &DataHealth { non_finite: true, ..good() }, true, 0.0),
             Err(ArmRefusal::NonFiniteInput)
+        );
+        assert_eq!(
+            f.arm(0, &DataHealth { obstacle_in_hull: Some(7), ..good() }, true, 0.0),
+            Err(ArmRefusal::ObstacleInsideHull { id: 7 })
         );
         assert_eq!(f.arm(0, &good(), false, 0.0), Err(ArmRefusal::AttitudeNotReady));
         assert_eq!(f.arm(0, &good(), true, f32::NAN), Err(ArmRefusal::AttitudeNotReady));

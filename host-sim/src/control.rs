@@ -19,7 +19,7 @@
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, Region};
-use parapet_core::controller::{ControllerParams, FlightController, PositionFix, Telemetry};
+use parapet_core::controller::{CommandError, ControllerParams, FlightController, PositionFix, Telemetry};
 use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::thrust::ThrustParams;
@@ -205,7 +205,10 @@ impl Autopilot for Controller {
         self.fc.step_inner(now, &imu_sample(imu));
         self.position_fix(fix);
         self.report_obstacles(now, obstacles);
-        self.fc.arm(now).map_err(|e| anyhow!("arming refused: {e:?}"))?;
+        self.fc.arm(now).map_err(|e| match e {
+            CommandError::Arm(r) => anyhow!("the flight controller refused to arm at the start: {r}"),
+            other => anyhow!("the flight controller refused to arm at the start: {other:?}"),
+        })?;
         self.fc.hold_position(now, to_f32(&start)).map_err(|e| anyhow!("hold refused: {e:?}"))?;
         self.fc.step_outer(now);
         self.fc.start_mission(now).map_err(|e| anyhow!("mission start refused: {e:?}"))?;
