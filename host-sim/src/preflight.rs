@@ -102,9 +102,10 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
             return Err(InputError::file(
                 &origin,
                 format!(
-                    "the waypoint puts the hull (radius {hull:.4} m) into {} of scene {}: the centre is {sd:.4} m from its surface",
+                    "the waypoint puts the hull (radius {hull:.4} m) into {} of scene {}: {}",
                     obstacle_label(scene, j),
-                    scene.source
+                    scene.source,
+                    depth(sd)
                 ),
             )
             .field(field(i))
@@ -153,8 +154,9 @@ fn check_start(scene: &Scene, hull: f64) -> Result<(), InputError> {
         return Err(InputError::file(
             &scene.source,
             format!(
-                "the start puts the hull (radius {hull:.4} m) into {} at t = 0: the centre is {sd:.4} m from its surface",
-                obstacle_label(scene, j)
+                "the start puts the hull (radius {hull:.4} m) into {} at t = 0: {}",
+                obstacle_label(scene, j),
+                depth(sd)
             ),
         )
         .table("mission")
@@ -201,6 +203,15 @@ fn obstacle_violation(scene: &Scene, p: &Vector3<f64>, hull: f64, static_only: b
     })
 }
 
+/// Where the centre is, from its signed distance `sd` (m) to the obstacle's surface.
+fn depth(sd: f64) -> String {
+    if sd < 0.0 {
+        format!("the centre is inside it, {:.4} m below its surface", -sd)
+    } else {
+        format!("the centre is {sd:.4} m from its surface")
+    }
+}
+
 /// `obstacles[j] ("name")` as in scene-file messages.
 fn obstacle_label(scene: &Scene, j: usize) -> String {
     match scene.obstacles.get(j).and_then(|o| o.name.as_deref()) {
@@ -221,4 +232,165 @@ fn fmt3(a: &[f64; 3]) -> String {
         }
     };
     format!("[{}, {}, {}]", f(a[0]), f(a[1]), f(a[2]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::enu_arr_to_ned;
+
+    /// Start (0, 0, 1), goal (6, 0, 1); a static sphere at x = 3 beside the line,
+    /// a box wall at x = 4.5, and a sphere walking from far away at t = 0.
+    const SCENE: &str = r#"
+name = "pf"
+[bounds]
+min = [-1, -2, 0.1]
+max = [7, 2, 2.5]
+[mission]
+start = [0, 0, 1]
+goal = [6, 0, 1]
+speed = 0.5
+[[obstacles]]
+name = "ball"
+kind = "sphere"
+center = [3, 1.2, 1]
+radius = 0.3
+[[obstacles]]
+kind = "box"
+min = [4, -2, 0]
+max = [4.5, -1, 2]
+[[obstacles]]
+name = "walker"
+kind = "sphere"
+center = [5, 1.5, 1]
+radius = 0.3
+velocity = [-0.5, 0, 0]
+"#;
+
+    fn scene(text: &str) -> Scene {
+        Scene::parse(text, "pf.toml").unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn cfg(s: &Scene, enu: &[[f64; 3]]) -> RunConfig {
+        let path = enu.iter().map(|a| enu_arr_to_ned(*a)).collect();
+        RunConfig::for_scene(s, path).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn refused(s: &Scene, c: &RunConfig, o: &PreflightOptions) -> String {
+        match check(s, c, o) {
+            Ok(()) => panic!("accepted {:?}", c.path),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    fn file() -> PreflightOptions {
+        PreflightOptions { path_file: Some("p.json".into()), foreign_path: false }
+    }
+
+    #[test]
+    fn a_good_path_passes() {
+        let s = scene(SCENE);
+        let c = cfg(&s, &[[0.0, 0.0, 1.0], [3.0, -0.5, 1.5], [6.0, 0.0, 1.0]]);
+        assert_eq!(check(&s, &c, &file()), Ok(()));
+        // A waypoint where the walker was at t = 0 is fine: it has moved on by then.
+        let c = cfg(&s, &[[0.0, 0.0, 1.0], [5.0, 1.5, 1.0], [6.0, 0.0, 1.0]]);
+        assert_eq!(check(&s, &c, &file()), Ok(()));
+        // End points within the tolerance.
+        let c = cfg(&s, &[[0.0, 0.3, 1.2], [6.0, -0.3, 0.8]]);
+        assert_eq!(check(&s, &c, &file()), Ok(()));
+    }
+
+    #[test]
+    fn start_in_an_obstacle_or_the_ground_is_refused_naming_it() {
+        // Start 0.2 m from the ball's surface (hull 0.2236): in collision at t = 0.
+        let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [3, 0.7, 1]"));
+        let e = refused(&s, &cfg(&s, &[[3.0, 0.7, 1.0], [6.0, 0.0, 1.0]]), &file());
+        assert!(e.starts_with("pf.toml: [mission] field `start`"), "{e}");
+        assert!(
+            e.contains("obstacles[0] (ball)") && e.contains("[3, 0.7, 1]") && e.contains("0.2236"),
+            "{e}"
+        );
+        // A moving obstacle is checked at its t = 0 position.
+        let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [5, 1.4, 1.1]"));
+        let e = refused(&s, &cfg(&s, &[[5.0, 1.4, 1.1], [6.0, 0.0, 1.0]]), &file());
+        assert!(
+            e.contains("obstacles[2] (walker) at t = 0") && e.contains("inside it, 0.1586 m below"),
+            "{e}"
+        );
+        // Hull bottom below the ground.
+        let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [0, 0, 0.15]"));
+        let e = refused(&s, &cfg(&s, &[[0.0, 0.0, 0.15], [6.0, 0.0, 1.0]]), &file());
+        assert!(
+            e.contains("[mission] field `start`") && e.contains("ground") && e.contains("z ≥ 0.2236"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn bad_waypoints_are_refused_naming_file_index_and_coordinate() {
+        let s = scene(SCENE);
+        type Case<'a> = (&'a [[f64; 3]], &'a str, &'a [&'a str]);
+        let cases: [Case; 4] = [
+            (
+                &[[0.0, 0.0, 1.0], [3.0, 2.5, 1.0], [6.0, 0.0, 1.0]],
+                "waypoints[1]",
+                &["outside the bounds", "-2 ≤ y ≤ 2"],
+            ),
+            (
+                &[[0.0, 0.0, 1.0], [2.0, 0.0, 0.15], [6.0, 0.0, 1.0]],
+                "waypoints[1]",
+                &["ground", "z ≥ 0.2236"],
+            ),
+            (
+                &[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [4.2, -1.5, 1.0], [6.0, 0.0, 1.0]],
+                "waypoints[2]",
+                &["obstacles[1]", "[4.2, -1.5, 1]"],
+            ),
+            (&[[0.0, 0.0, 1.0], [3.0, 1.0, 1.0], [6.0, 0.0, 1.0]], "waypoints[1]", &["obstacles[0] (ball)"]),
+        ];
+        for (wps, field, words) in cases {
+            let e = refused(&s, &cfg(&s, wps), &file());
+            assert!(e.starts_with(&format!("p.json: field `{field}`")), "{e}");
+            for w in words {
+                assert!(e.contains(w), "{w:?} missing in {e}");
+            }
+        }
+        // Without a path file the scene file and the path's kind are named.
+        let mut c = cfg(&s, &[[0.0, 0.0, 1.0], [3.0, 2.5, 1.0], [6.0, 0.0, 1.0]]);
+        c.path_source = "planner".into();
+        let e = refused(&s, &c, &PreflightOptions::default());
+        assert!(e.starts_with("pf.toml (the planned path): field `waypoints[1]`"), "{e}");
+    }
+
+    #[test]
+    fn a_foreign_path_is_refused_unless_allowed() {
+        let s = scene(SCENE);
+        // First waypoint 0.6 m from the start.
+        let c = cfg(&s, &[[0.0, 0.6, 1.0], [6.0, 0.0, 1.0]]);
+        let e = refused(&s, &c, &file());
+        assert!(e.contains("field `waypoints[0]`") && e.contains("0.600 m from the mission start"), "{e}");
+        assert!(e.contains("within 0.5 m") && e.contains("--foreign-path"), "{e}");
+        // Last waypoint 3 m short of the goal.
+        let c = cfg(&s, &[[0.0, 0.0, 1.0], [3.0, -0.5, 1.0]]);
+        let e = refused(&s, &c, &file());
+        assert!(e.contains("field `waypoints[1]`") && e.contains("from the mission goal [6, 0, 1]"), "{e}");
+        let allow = PreflightOptions { foreign_path: true, ..file() };
+        assert_eq!(check(&s, &c, &allow), Ok(()));
+        // --foreign-path does not lift the collision checks.
+        let c = cfg(&s, &[[0.0, 0.0, 1.0], [3.0, 1.0, 1.0]]);
+        assert!(refused(&s, &c, &allow).contains("obstacles[0] (ball)"));
+    }
+
+    #[test]
+    fn without_the_preflight_check_the_core_refuses_to_arm() {
+        // The runner alone (no pre-flight check): the flight controller's arm
+        // check sees the ball's surface point inside the hull and refuses.
+        let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [3, 0.75, 1]"));
+        let c = cfg(&s, &[[3.0, 0.75, 1.0], [6.0, 0.0, 1.0]]);
+        let e = match crate::runner::run(&s, &c, &mut |_| {}) {
+            Ok(o) => panic!("flew: {:?}", o.summary.end_reason),
+            Err(e) => format!("{e:#}"),
+        };
+        assert!(e.contains("refused to arm") && e.contains("obstacle 0 is reported inside the hull"), "{e}");
+    }
 }
