@@ -182,6 +182,9 @@ pub enum CliError {
     NoPath(String),
     /// Anything else (exit code 1).
     Failed(anyhow::Error),
+    /// `sweep` / `sweep-merge`: some runs failed, the others are written
+    /// (exit code `sweep::EXIT_SOME_FAILED` = 4).
+    SomeFailed(String),
 }
 
 impl CliError {
@@ -191,6 +194,7 @@ impl CliError {
             CliError::BadInput(_) => 2,
             CliError::NoPath(_) => 3,
             CliError::Failed(_) => 1,
+            CliError::SomeFailed(_) => crate::sweep::EXIT_SOME_FAILED,
         }
     }
 }
@@ -198,7 +202,7 @@ impl CliError {
 impl std::fmt::Display for CliError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            CliError::BadInput(m) | CliError::NoPath(m) => f.write_str(m),
+            CliError::BadInput(m) | CliError::NoPath(m) | CliError::SomeFailed(m) => f.write_str(m),
             CliError::Failed(e) => write!(f, "{e:#}"),
         }
     }

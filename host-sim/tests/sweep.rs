@@ -119,3 +119,304 @@ fn bad_ranges_and_options_exit_2_with_a_clear_message() {
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("bad.csv"));
 }
+
+fn err(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A copy of one_sphere.toml with `edit` applied, written to `dir/name`.
+fn scene_copy(dir: &Path, name: &str, edit: &dyn Fn(String) -> String) -> String {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/one_sphere.toml"))
+            .unwrap();
+    let edited = edit(text.clone());
+    assert_ne!(edited, text, "edit changed nothing");
+    let p = dir.join(name);
+    std::fs::write(&p, edited).unwrap();
+    p.display().to_string()
+}
+
+/// A small sweep (2 runs by default) with `args` after the scene.
+fn sweep_any(scene: &str, out: &Path, args: &[&str]) -> Output {
+    let o = out.display().to_string();
+    let mut v = vec!["sweep", "--scene", scene, "--straight", "--duration", "12", "--out", &o];
+    if !args.contains(&"--filter") {
+        v.extend_from_slice(&["--filter", "paper"]);
+    }
+    v.extend_from_slice(args);
+    parapet(&v)
+}
+
+fn read_csv(p: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut r = csv::Reader::from_path(p).unwrap();
+    let h = r.headers().unwrap().iter().map(str::to_string).collect();
+    let rows = r.records().map(|x| x.unwrap().iter().map(str::to_string).collect()).collect();
+    (h, rows)
+}
+
+#[test]
+fn oversized_grids_are_refused_before_anything_is_allocated() {
+    let d = tmp("size");
+    let o = d.join("o");
+    let t0 = std::time::Instant::now();
+    // 2^64 - 1 seeds: over the seed cap, named with the cap.
+    let r = sweep_any(
+        "scenes/one_sphere.toml",
+        &o,
+        &["--mu", "0.9", "--delta1", "0.2", "--seeds", "18446744073709551615"],
+    );
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("--seeds") && err(&r).contains("10000"), "{}", err(&r));
+    // 10,000 × 10,000 × 1,000 grid: over the per-invocation cap; the message names the
+    // cap and the option that splits the grid.
+    let huge = ["--mu", "0.5:1.4:10000", "--delta1", "0.06:0.3:10000", "--speed", "0.1:1:1000"];
+    let r = sweep_any("scenes/one_sphere.toml", &o, &huge);
+    let e = err(&r);
+    assert_eq!(r.status.code(), Some(2), "{e}");
+    assert!(e.contains("100000000000 runs") && e.contains("1000000") && e.contains("--shard"), "{e}");
+    // 10,100 runs: over the --yes threshold; the refusal gives the count and an estimate.
+    let r = sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.5:1.4:101", "--delta1", "0.06:0.3:100"]);
+    let e = err(&r);
+    assert_eq!(r.status.code(), Some(2), "{e}");
+    assert!(e.contains("--yes") && e.contains("10100 runs") && e.contains("estimated time"), "{e}");
+    // With --yes (and with the huge grid split into 100,000 shards) the size checks pass:
+    // the next check (δ1 must exceed δ = 0.05) is what refuses these.
+    let low = ["--mu", "0.5:1.4:101", "--delta1", "0.01:0.3:100", "--yes"];
+    let mut split: Vec<&str> = huge.to_vec();
+    split[3] = "0.01:0.3:10000";
+    split.extend_from_slice(&["--shard", "1/100000", "--yes"]);
+    for args in [&low[..], &split[..]] {
+        let r = sweep_any("scenes/one_sphere.toml", &o, args);
+        assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+        assert!(err(&r).contains("--delta1") && err(&r).contains("0.01"), "{}", err(&r));
+    }
+    assert!(!o.join("sweep.csv").exists(), "a refused sweep wrote a CSV");
+    // Nothing proportional to the grid was allocated or flown: all of this is fast.
+    assert!(t0.elapsed().as_secs_f64() < 20.0, "{:?}", t0.elapsed());
+}
+
+#[test]
+fn a_failing_point_is_a_failed_row_and_the_others_are_kept() {
+    let d = tmp("failing");
+    let o = d.join("o");
+    // Speed 200 m/s is beyond what the waypoint follower accepts; 0.3 flies.
+    let r =
+        sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.9", "--delta1", "0.2", "--speed", "0.3:200:2"]);
+    let e = err(&r);
+    assert_eq!(r.status.code(), Some(4), "{e}");
+    assert!(e.contains("1 of 2 runs failed") && e.contains("sweep.csv"), "{e}");
+    let (h, rows) = read_csv(&o.join("sweep.csv"));
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!((rows[0][col("speed")].as_str(), rows[0][col("status")].as_str()), ("0.3", "ok"));
+    assert_eq!(rows[0][col("error")], "");
+    assert!(rows[0][col("sim_time_s")].parse::<f64>().unwrap() > 1.0);
+    assert_eq!(rows[1][col("speed")].parse::<f64>(), Ok(200.0));
+    assert_eq!(rows[1][col("status")], "failed");
+    // The run's own error text (its wording is the runner's / input checks' business).
+    assert!(rows[1][col("error")].len() > 5, "{:?}", rows[1][col("error")]);
+    assert_eq!(rows[1][col("min_clearance_m")], "");
+    // Heatmaps drawn from the flown row; the manifest counts the failure.
+    assert!(o.join("heatmap_min_clearance.png").exists());
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!((m["rows"].as_u64(), m["failed"].as_u64()), (Some(2), Some(1)));
+}
+
+#[test]
+fn a_base_configuration_that_fails_preflight_is_refused_up_front() {
+    let d = tmp("preflight");
+    let o = d.join("o");
+    // The start inside the sphere.
+    let s =
+        scene_copy(&d, "inside.toml", &|t| t.replace("start = [0.0, 0.0, 1.0]", "start = [3.0, 0.1, 1.0]"));
+    let r = sweep_any(&s, &o, &["--mu", "0.9", "--delta1", "0.2"]);
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("inside.toml"), "{}", err(&r));
+    assert!(!o.join("sweep.csv").exists());
+}
+
+#[test]
+fn csv_strings_are_quoted() {
+    let d = tmp("quoted");
+    let o = d.join("o");
+    let s = scene_copy(&d, "q.toml", &|t| {
+        t.replace("name = \"one_sphere\"", "name = \"one, \\\"quoted\\\" sphere\"")
+    });
+    let r = sweep_any(&s, &o, &["--mu", "0.9", "--delta1", "0.2"]);
+    assert!(r.status.success(), "{}", err(&r));
+    let (h, rows) = read_csv(&o.join("sweep.csv"));
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].len(), h.len());
+    assert_eq!(rows[0][1], "one, \"quoted\" sphere");
+}
+
+/// Shards `1..=n` of `which` of a 4-run grid into `d/<tag><i>`; returns the directories.
+fn shards(d: &Path, tag: &str, scene: &str, n: u64, which: &[u64], extra: &[&str]) -> Vec<String> {
+    which
+        .iter()
+        .map(|i| {
+            let o = d.join(format!("{tag}{i}"));
+            let shard = format!("{i}/{n}");
+            let mut args =
+                vec!["--mu", "0.5:1.4:2", "--delta1", "0.06:0.3:2", "--shard", &shard, "--jobs", "1"];
+            args.extend_from_slice(extra);
+            let r = sweep_any(scene, &o, &args);
+            assert!(r.status.success(), "{}", err(&r));
+            o.display().to_string()
+        })
+        .collect()
+}
+
+fn merge(args: &[&str]) -> Output {
+    let mut v = vec!["sweep-merge"];
+    v.extend_from_slice(args);
+    parapet(&v)
+}
+
+#[test]
+fn sweep_merge_refuses_shards_that_do_not_belong_together() {
+    let d = tmp("mixup");
+    let out = d.join("merged").display().to_string();
+    let base = shards(&d, "a", "scenes/one_sphere.toml", 2, &[1, 2], &[]);
+    // Same scene name, other contents (a moved sphere); other filter; other grid; other N.
+    let moved =
+        scene_copy(&d, "moved.toml", &|t| t.replace("center = [3.0, 0.1, 1.0]", "center = [3.0, 0.2, 1.0]"));
+    let other_scene = shards(&d, "s", &moved, 2, &[2], &[]);
+    let other_filter = shards(&d, "f", "scenes/one_sphere.toml", 2, &[2], &["--filter", "multi"]);
+    let other_n = shards(&d, "n", "scenes/one_sphere.toml", 3, &[2], &[]);
+    let o = d.join("g");
+    let r = sweep_any(
+        "scenes/one_sphere.toml",
+        &o,
+        &["--mu", "0.5:1.4:2", "--delta1", "0.06:0.3:3", "--shard", "2/2", "--jobs", "1"],
+    );
+    assert!(r.status.success(), "{}", err(&r));
+    let other_grid = o.display().to_string();
+    let cases: [(&str, &str); 4] = [
+        (&other_scene[0], "scene_fnv1a64"),
+        (&other_filter[0], "filter"),
+        (&other_grid, "delta1"),
+        (&other_n[0], "shards"),
+    ];
+    for (second, needle) in cases {
+        let r = merge(&[&base[0], second, "--out", &out]);
+        let e = err(&r);
+        assert_eq!(r.status.code(), Some(2), "{second}: {e}");
+        assert!(e.contains(second) && e.contains(needle), "{second}: {e}");
+    }
+    // The same shard twice.
+    let r = merge(&[&base[0], &base[0], "--out", &out]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("shard 1/2 is given twice"), "{}", err(&r));
+    assert!(!d.join("merged").join("sweep.csv").exists(), "a refused merge wrote a CSV");
+    // A plain CSV without its manifest.
+    let lone = d.join("lone");
+    std::fs::create_dir_all(&lone).unwrap();
+    std::fs::copy(Path::new(&base[0]).join("sweep.csv"), lone.join("sweep.csv")).unwrap();
+    let r = merge(&[&lone.join("sweep.csv").display().to_string(), "--out", &out]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("sweep.json"), "{}", err(&r));
+}
+
+#[test]
+fn sweep_merge_reports_missing_shards_and_damaged_rows() {
+    let d = tmp("missing");
+    let sh = shards(&d, "p", "scenes/one_sphere.toml", 4, &[1, 3, 4], &[]);
+    let out = d.join("merged");
+    let o = out.display().to_string();
+    let r = merge(&[&sh[0], &sh[2], "--out", &o]);
+    let e = err(&r);
+    assert_eq!(r.status.code(), Some(2), "{e}");
+    assert!(e.contains("2 of 4 shards are missing: 2/4, 3/4") && e.contains("--allow-partial"), "{e}");
+    // --allow-partial: the rows of the shards given, and the manifest says which.
+    let r = merge(&[&sh[2], &sh[0], "--allow-partial", "--out", &o]);
+    assert!(r.status.success(), "{}", err(&r));
+    let (h, rows) = read_csv(&out.join("sweep.csv"));
+    let idx: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!((h[0].as_str(), idx), ("index", vec!["0", "3"]));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(m["shards"], serde_json::json!([1, 4]));
+    // The partial result merges with the missing shard 3 (shard 2/4 is empty: 4 runs, 4 shards).
+    let full = d.join("full").display().to_string();
+    let r = merge(&[&o, &sh[1], "--allow-partial", "--out", &full]);
+    assert!(r.status.success(), "{}", err(&r));
+    // A truncated shard (last row cut) and a tampered row are refused, naming the file.
+    let csv = Path::new(&sh[1]).join("sweep.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header = text.lines().next().unwrap().to_string();
+    std::fs::write(&csv, format!("{header}\n")).unwrap();
+    let r = merge(&[&sh[0], &sh[1], &sh[2], "--allow-partial", "--out", &o]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains(&csv.display().to_string()) && err(&r).contains("0 rows"), "{}", err(&r));
+    let row = text.lines().nth(1).unwrap();
+    std::fs::write(&csv, format!("{header}\n{}\n", row.replacen(",0.06,", ",0.07,", 1))).unwrap();
+    let r = merge(&[&sh[0], &sh[1], &sh[2], "--allow-partial", "--out", &o]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("line 2") && err(&r).contains("does not match grid point 2"), "{}", err(&r));
+    std::fs::write(&csv, format!("{header}\n{}\n", row.replacen(",0.06,", ",sixty,", 1))).unwrap();
+    let r = merge(&[&sh[0], &sh[1], &sh[2], "--allow-partial", "--out", &o]);
+    assert_eq!(r.status.code(), Some(2));
+    let e = err(&r);
+    assert!(
+        e.contains("line 2") && e.contains("delta1") && e.contains("sixty") && e.contains("column 6"),
+        "{e}"
+    );
+}
+
+#[test]
+fn outputs_never_overwrite_inputs() {
+    let d = tmp("overwrite");
+    let sh = shards(&d, "w", "scenes/one_sphere.toml", 2, &[1, 2], &[]);
+    let before = std::fs::read(Path::new(&sh[0]).join("sweep.csv")).unwrap();
+    // Merging into a shard's own directory.
+    let r = merge(&[&sh[0], &sh[1], "--out", &sh[0]]);
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("--out") && err(&r).contains("overwrite"), "{}", err(&r));
+    assert_eq!(std::fs::read(Path::new(&sh[0]).join("sweep.csv")).unwrap(), before);
+    // A sweep whose output would replace its scene file.
+    let s = scene_copy(&d, "sweep.json", &|t| t.replace("one_sphere", "in_out"));
+    let scene_before = std::fs::read(&s).unwrap();
+    let r = sweep_any(&s, &d, &["--mu", "0.9", "--delta1", "0.2"]);
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("overwrite"), "{}", err(&r));
+    assert_eq!(std::fs::read(&s).unwrap(), scene_before);
+    // sweep-merge's default output folder is its own, not sweep's.
+    let r = parapet(&["sweep-merge", "--help"]);
+    let help = String::from_utf8_lossy(&r.stdout);
+    assert!(help.contains("[default: out/sweep-merge]"), "{help}");
+    let r = parapet(&["sweep", "--help"]);
+    assert!(String::from_utf8_lossy(&r.stdout).contains("[default: out/sweep]"));
+}
+
+#[test]
+fn help_documents_seeds_ranges_limits_examples_and_exit_codes() {
+    for cmd in ["sweep", "sweep-merge"] {
+        let r = parapet(&[cmd, "--help"]);
+        assert!(r.status.success());
+        let h = String::from_utf8_lossy(&r.stdout);
+        for needle in ["Examples:", "Exit codes:", "  2 ", "  4 "] {
+            assert!(h.contains(needle), "{cmd} --help lacks {needle:?}: {h}");
+        }
+    }
+    let h = String::from_utf8_lossy(&parapet(&["sweep", "--help"]).stdout).into_owned();
+    for needle in ["seeds 0..K-1", "or one value", "10000 values per range", "1000000 runs", "--yes"] {
+        assert!(h.contains(needle), "sweep --help lacks {needle:?}: {h}");
+    }
+    // `--seeds` is a count: a range is refused with the hint.
+    let d = tmp("help");
+    let r = sweep_any("scenes/one_sphere.toml", &d, &["--mu", "0.9", "--delta1", "0.2", "--seeds", "0..4"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("--seeds") && err(&r).contains("count"), "{}", err(&r));
+    // One value per range, and --seeds 2: 2 runs with seeds 0 and 1.
+    let r = sweep_any("scenes/one_sphere.toml", &d, &["--mu", "0.9", "--delta1", "0.2", "--seeds", "2"]);
+    assert!(r.status.success(), "{}", err(&r));
+    let (h, rows) = read_csv(&d.join("sweep.csv"));
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    let got: Vec<(&str, &str, &str)> = rows
+        .iter()
+        .map(|r| (r[col("mu")].as_str(), r[col("delta1")].as_str(), r[col("seed")].as_str()))
+        .collect();
+    assert_eq!(got, vec![("0.9", "0.2", "0"), ("0.9", "0.2", "1")]);
+}

@@ -5,558 +5,117 @@
 //! planner's path for planner seed `--plan-seed`, planned once), in parallel on a
 //! local rayon pool of `--jobs` threads. Every run is deterministic for its seed,
 //! so the grid can be split: `--shard I/N` (I = 1..=N) flies only the runs whose
-//! grid index `k` satisfies `k mod N = I − 1`, and `sweep-merge` joins the shards'
-//! CSVs into the same `sweep.csv` the unsharded sweep writes.
+//! grid index `k` satisfies `k mod N = I − 1`, and `sweep-merge` joins the shards
+//! into the same `sweep.csv` the unsharded sweep writes.
 //!
-//! Outputs in `--out` (default `out/sweep`):
-//! * `sweep.csv`: one row per run, sorted by grid index, columns [`CSV_HEADER`]:
-//!   the grid index, the parameters (μ s, δ1 m², speed m/s, seed) and the run
-//!   summary's fields (see `report::Summary`). Numbers are written in Rust's
-//!   shortest round-trip form, so a merged CSV equals the unsharded one byte for byte.
-//!   The wall-clock time is left out on purpose (it is not deterministic).
-//! * `heatmap_collision_rate`, `heatmap_min_clearance`, `heatmap_tracking_rms`
-//!   (`.png` and `.svg`): μ on x, δ1 on y; each cell aggregates the runs of all
-//!   seeds and speeds at that (μ, δ1): collision rate = share of runs that
-//!   collided, min clearance = the smallest over the cell's runs (m), tracking RMS
-//!   = mean over the cell's runs (m).
+//! Before anything is flown (or allocated for the grid) the sizes are checked
+//! against `input::limits` (values per range, seeds, runs per invocation, the
+//! `--yes` threshold) and the base configuration passes `preflight::check`
+//! (exit 2 otherwise). A run that fails on its own parameters (pre-flight or in
+//! flight) becomes a `failed` row with its error; the other rows are kept and the
+//! command exits with [`EXIT_SOME_FAILED`]. Rows stream to `sweep.csv` in grid
+//! order as chunks of runs finish; memory is one chunk of rows plus one small
+//! record per heatmap cell.
+//!
+//! Outputs in `--out` (default `out/sweep`; `sweep-merge`: `out/sweep-merge`):
+//! `sweep.csv` ([`record`]), `sweep.json` ([`manifest`], written last: the
+//! sweep's identity and which shards the CSV holds) and the heatmaps
+//! ([`heatmap`]). No output ever replaces an input file (refused, exit 2).
+//!
+//! Submodules: [`grid`] (ranges, shards, sizes), [`record`] (the CSV),
+//! [`manifest`] (`sweep.json`, merge checks), [`heatmap`] (aggregation, plots).
+//! May import: `crate::{cli, input, pathfile, planner, preflight, runner, scene}`,
+//! clap, rayon, indicatif, anyhow.
 
-use std::collections::BTreeMap;
-use std::fmt::Write as _;
+pub mod grid;
+pub mod heatmap;
+pub mod manifest;
+pub mod record;
+
+use std::collections::BinaryHeap;
 use std::io::IsTerminal;
+use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use rayon::prelude::*;
 
+pub use grid::{Grid, GridPoint, GridRange, Shard};
+pub use heatmap::{Aggregator, Cell};
+pub use manifest::{Identity, Manifest};
+pub use record::{SweepRecord, COLUMNS};
+
 use crate::cli::CliError;
+use crate::input::limits::{SWEEP_CONFIRM_RUNS, SWEEP_MAX_RUNS, SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES};
+use crate::input::InputError;
 use crate::pathfile::PathFile;
 use crate::planner::{plan, PlanProblem, PlannerParams};
-use crate::report::e;
+use crate::preflight::PreflightOptions;
 use crate::runner::{path_length, run, RunConfig};
 use crate::scene::{to_f32, to_f64, Scene};
 
-/// Columns of `sweep.csv`.
-pub const CSV_HEADER: &str = "index,scene,filter,mu,delta,delta1,kp,kd,speed,seed,noise,collided,\
-first_collision_time_s,collision_with,min_clearance_m,min_h_bar,min_filter_h_bar,reached_goal,\
-time_to_goal_s,final_distance_to_goal_m,tracking_rms_m,filter_active_fraction,end_reason,sim_time_s";
+/// Exit code of `parapet sweep` when some runs failed (their rows say why; the
+/// others are complete).
+pub const EXIT_SOME_FAILED: i32 = 4;
 
-/// An inclusive range `A:B:N` of `N` evenly spaced values (`N = 1`: just `A`, and `B` must equal `A`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct GridRange {
-    /// First value.
-    pub start: f64,
-    /// Last value.
-    pub end: f64,
-    /// Number of values (≥ 1).
-    pub n: usize,
+/// Simulated seconds per wall-clock second and thread of a release build (office
+/// sweep in `docs/performance.md`: 96 flights of ~61 s in 4.1 s), for the `--yes` estimate.
+const SIM_RATE_PER_THREAD: f64 = 1400.0;
+
+/// Runs flown between two writes to `sweep.csv` (per thread).
+const CHUNK_PER_JOB: usize = 64;
+
+fn sweep_help() -> String {
+    format!(
+        "\
+Grid: every combination speed × μ × δ1 × seed, index k speed-major (seed fastest).
+  A range is A:B:N (N evenly spaced values from A to B) or one value A.
+  --seeds K flies the sensor-noise seeds 0, 1, …, K-1 at every grid point (a count, not a range).
+
+Limits (input::limits):
+  at most {SWEEP_MAX_VALUES} values per range and {SWEEP_MAX_SEEDS} seeds;
+  at most {SWEEP_MAX_RUNS} runs per invocation: split a larger grid with --shard I/N;
+  more than {SWEEP_CONFIRM_RUNS} runs need --yes (the refusal states the count and the estimated time);
+  heatmaps are drawn for at most {} μ and {} δ1 values.
+
+Outputs (--out): sweep.csv (one row per run; status ok | failed, and the error of a failed run),
+  sweep.json (the sweep's identity and shards, for sweep-merge), heatmap_*.png/svg
+  (μ × δ1; failed runs left out). The scene and path files are never overwritten.
+
+Examples:
+  parapet sweep --scene scenes/office.toml --path scenes/office_path.json --filter paper \\
+      --mu 0.5:1.4:4 --delta1 0.051:0.3:4 --seeds 2 --out out/fig9
+  parapet sweep --scene scenes/one_sphere.toml --straight --mu 0.9 --delta1 0.06:0.3:3 --speed 0.25:1:4
+  parapet sweep … --shard 1/2 --out out/s1   # and --shard 2/2 --out out/s2, then sweep-merge
+
+{}
+  {EXIT_SOME_FAILED}    sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept",
+        heatmap::MAX_AXIS_CELLS,
+        heatmap::MAX_AXIS_CELLS,
+        crate::cli::EXIT_CODES_HELP
+    )
 }
 
-impl GridRange {
-    /// Parse `A:B:N` (A ≤ B finite and > 0, N ≥ 1 integer, at most 10 000 values).
-    pub fn parse(s: &str) -> Result<GridRange, String> {
-        let parts: Vec<&str> = s.split(':').collect();
-        if parts.len() != 3 {
-            return Err(format!("{s:?}: expected A:B:N (first:last:count), e.g. 0.5:1.4:4"));
-        }
-        let num = |t: &str| -> Result<f64, String> {
-            t.trim().parse::<f64>().map_err(|_| format!("{s:?}: {t:?} is not a number"))
-        };
-        let (a, b) = (num(parts[0])?, num(parts[1])?);
-        let n: usize = parts[2]
-            .trim()
-            .parse()
-            .map_err(|_| format!("{s:?}: count {:?} is not a whole number", parts[2]))?;
-        if !(a.is_finite() && b.is_finite() && a > 0.0 && b > 0.0) {
-            return Err(format!("{s:?}: the bounds must be finite and > 0"));
-        }
-        if n == 0 || n > 10_000 {
-            return Err(format!("{s:?}: the count must be in 1..=10000"));
-        }
-        if a > b {
-            return Err(format!("{s:?}: the first value exceeds the last"));
-        }
-        if n == 1 && a != b {
-            return Err(format!("{s:?}: a count of 1 needs first = last"));
-        }
-        Ok(GridRange { start: a, end: b, n })
-    }
+fn merge_help() -> String {
+    format!(
+        "\
+Inputs: shard directories of `parapet sweep --shard I/N`, or their sweep.csv files (sweep.json must
+  be next to each). Refused (exit 2): shards of different sweeps (scene name or file contents, path,
+  filter, noise, duration, μ/δ1/speed ranges, seed count, parapet version), different N, a shard
+  given twice, rows that do not match their manifest, missing shards (listed) unless --allow-partial.
+  The output directory must not hold an input.
 
-    /// The values, first to last (the last is exactly `end`).
-    pub fn values(&self) -> Vec<f64> {
-        if self.n == 1 {
-            return vec![self.start];
-        }
-        (0..self.n)
-            .map(|i| {
-                if i + 1 == self.n {
-                    self.end
-                } else {
-                    self.start + (self.end - self.start) * i as f64 / (self.n - 1) as f64
-                }
-            })
-            .collect()
-    }
-}
+Examples:
+  parapet sweep-merge out/s1 out/s2 --out out/fig9
+  parapet sweep-merge out/s1/sweep.csv out/s3/sweep.csv --allow-partial
 
-/// `--shard I/N`: the I-th (1-based) of N interleaved slices of the grid.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Shard {
-    /// Slice number, 1..=count.
-    pub index: usize,
-    /// Number of slices.
-    pub count: usize,
-}
-
-impl Shard {
-    /// Parse `I/N` with 1 ≤ I ≤ N.
-    pub fn parse(s: &str) -> Result<Shard, String> {
-        let (i, n) = s.split_once('/').ok_or_else(|| format!("{s:?}: expected I/N, e.g. 2/4"))?;
-        let i: usize = i.trim().parse().map_err(|_| format!("{s:?}: {i:?} is not a whole number"))?;
-        let n: usize = n.trim().parse().map_err(|_| format!("{s:?}: {n:?} is not a whole number"))?;
-        if n == 0 || i == 0 || i > n {
-            return Err(format!("{s:?}: need 1 <= I <= N"));
-        }
-        Ok(Shard { index: i, count: n })
-    }
-
-    /// Whether grid index `k` belongs to this shard.
-    pub fn contains(&self, k: usize) -> bool {
-        k % self.count == self.index - 1
-    }
-}
-
-/// One run of the grid.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GridPoint {
-    /// Index in the full grid (speed-major, then μ, δ1, seed).
-    pub index: usize,
-    /// μ, s.
-    pub mu: f64,
-    /// δ1, m².
-    pub delta1: f64,
-    /// Reference speed, m/s.
-    pub speed: f64,
-    /// Sensor-noise seed.
-    pub seed: u64,
-}
-
-/// The full grid, in index order.
-pub fn grid(mu: &GridRange, delta1: &GridRange, speeds: &[f64], seeds: u64) -> Vec<GridPoint> {
-    let mut out = Vec::new();
-    for &speed in speeds {
-        for m in mu.values() {
-            for d in delta1.values() {
-                for seed in 0..seeds {
-                    out.push(GridPoint { index: out.len(), mu: m, delta1: d, speed, seed });
-                }
-            }
-        }
-    }
-    out
-}
-
-/// One row of `sweep.csv`: the columns of [`CSV_HEADER`] as text, plus the
-/// parsed fields the heatmaps need.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SweepRow {
-    /// Grid index.
-    pub index: usize,
-    /// μ, s.
-    pub mu: f64,
-    /// δ1, m².
-    pub delta1: f64,
-    /// Collided.
-    pub collided: bool,
-    /// Minimum clearance, m.
-    pub min_clearance_m: f64,
-    /// Tracking RMS, m.
-    pub tracking_rms_m: f64,
-    /// All columns as written.
-    pub fields: Vec<String>,
-}
-
-fn opt_num(x: Option<f64>) -> String {
-    x.map(|v| format!("{v}")).unwrap_or_default()
-}
-
-fn csv_text(s: &str) -> String {
-    // Names never contain quotes in practice; replace the CSV metacharacters to stay one column.
-    s.replace([',', '"', '\n'], " ")
-}
-
-/// Fly one grid point (a fresh config from `base`) and make its row.
-pub fn fly_point(scene: &Scene, base: &RunConfig, p: &GridPoint) -> Result<SweepRow> {
-    let mut scene = scene.clone();
-    scene.speed = p.speed;
-    let mut cfg = base.clone();
-    cfg.params.mu = p.mu;
-    cfg.params.delta1 = p.delta1;
-    cfg.params.speed = p.speed;
-    cfg.seed = p.seed;
-    if scene.sim.duration.is_none() {
-        // Same rule as `parapet run`: 1.5 × path time + 15 s at this speed.
-        cfg.duration = base.duration.min(1.5 * path_length(&cfg.path) / p.speed + 15.0);
-    }
-    let out = run(&scene, &cfg, &mut |_| {}).with_context(|| {
-        format!("run {} (mu {}, delta1 {}, speed {}, seed {})", p.index, p.mu, p.delta1, p.speed, p.seed)
-    })?;
-    let s = out.summary;
-    let fields = vec![
-        p.index.to_string(),
-        csv_text(&s.scene),
-        s.filter.clone(),
-        format!("{}", p.mu),
-        format!("{}", s.params.delta),
-        format!("{}", p.delta1),
-        format!("{}", s.params.kp),
-        format!("{}", s.params.kd),
-        format!("{}", p.speed),
-        p.seed.to_string(),
-        u8::from(s.noise).to_string(),
-        u8::from(s.collided).to_string(),
-        opt_num(s.first_collision_time_s),
-        s.collision_with.as_deref().map(csv_text).unwrap_or_default(),
-        format!("{}", s.min_clearance_m),
-        format!("{}", s.min_h_bar),
-        opt_num(s.min_filter_h_bar),
-        u8::from(s.reached_goal).to_string(),
-        opt_num(s.time_to_goal_s),
-        format!("{}", s.final_distance_to_goal_m),
-        format!("{}", s.tracking_rms_m),
-        format!("{}", s.filter_active_fraction),
-        s.end_reason.clone(),
-        format!("{}", s.sim_time_s),
-    ];
-    Ok(SweepRow {
-        index: p.index,
-        mu: p.mu,
-        delta1: p.delta1,
-        collided: s.collided,
-        min_clearance_m: s.min_clearance_m,
-        tracking_rms_m: s.tracking_rms_m,
-        fields,
-    })
-}
-
-/// Fly `points` on a local pool of `jobs` threads; `tick` is called after each run.
-pub fn run_points(
-    scene: &Scene,
-    base: &RunConfig,
-    points: &[GridPoint],
-    jobs: usize,
-    tick: &(dyn Fn() + Sync),
-) -> Result<Vec<SweepRow>> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs.max(1))
-        .build()
-        .map_err(|err| anyhow!("cannot start the thread pool: {err}"))?;
-    let mut rows: Vec<SweepRow> = pool.install(|| {
-        points
-            .par_iter()
-            .map(|p| {
-                let r = fly_point(scene, base, p);
-                tick();
-                r
-            })
-            .collect::<Result<Vec<_>>>()
-    })?;
-    rows.sort_by_key(|r| r.index);
-    Ok(rows)
-}
-
-/// The text of `sweep.csv` for `rows` (sorted by index by the caller).
-pub fn csv_string(rows: &[SweepRow]) -> String {
-    let mut s = String::from(CSV_HEADER);
-    s.push('\n');
-    for r in rows {
-        s.push_str(&r.fields.join(","));
-        s.push('\n');
-    }
-    s
-}
-
-/// Parse a `sweep.csv` (as written by [`csv_string`]); `file` names it in errors.
-pub fn parse_csv(text: &str, file: &str) -> Result<Vec<SweepRow>, String> {
-    let mut lines = text.lines();
-    match lines.next() {
-        Some(h) if h.trim_end() == CSV_HEADER => {}
-        _ => return Err(format!("{file}: line 1: not a sweep CSV (expected the header {CSV_HEADER:?})")),
-    }
-    let ncol = CSV_HEADER.split(',').count();
-    let col = |name: &str| CSV_HEADER.split(',').position(|c| c == name).unwrap_or(0);
-    let (ci, cm, cd, cc, ccl, cr) = (
-        col("index"),
-        col("mu"),
-        col("delta1"),
-        col("collided"),
-        col("min_clearance_m"),
-        col("tracking_rms_m"),
-    );
-    let mut rows = Vec::new();
-    for (k, line) in lines.enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let ln = k + 2;
-        let fields: Vec<String> = line.split(',').map(str::to_string).collect();
-        if fields.len() != ncol {
-            return Err(format!("{file}: line {ln}: {} columns, expected {ncol}", fields.len()));
-        }
-        let num = |c: usize| -> Result<f64, String> {
-            fields[c].parse::<f64>().map_err(|_| {
-                format!(
-                    "{file}: line {ln}: column `{}`: {:?} is not a number",
-                    CSV_HEADER.split(',').nth(c).unwrap_or("?"),
-                    fields[c]
-                )
-            })
-        };
-        let index = fields[ci].parse::<usize>().map_err(|_| {
-            format!("{file}: line {ln}: column `index`: {:?} is not a whole number", fields[ci])
-        })?;
-        let collided = match fields[cc].as_str() {
-            "0" => false,
-            "1" => true,
-            other => return Err(format!("{file}: line {ln}: column `collided`: {other:?} is not 0 or 1")),
-        };
-        rows.push(SweepRow {
-            index,
-            mu: num(cm)?,
-            delta1: num(cd)?,
-            collided,
-            min_clearance_m: num(ccl)?,
-            tracking_rms_m: num(cr)?,
-            fields,
-        });
-    }
-    Ok(rows)
-}
-
-/// Join shard rows: sort by index; the same index twice must be the same row.
-pub fn merge_rows(mut rows: Vec<SweepRow>) -> Result<Vec<SweepRow>, String> {
-    rows.sort_by_key(|r| r.index);
-    let mut out: Vec<SweepRow> = Vec::with_capacity(rows.len());
-    for r in rows {
-        match out.last() {
-            Some(prev) if prev.index == r.index => {
-                if prev.fields != r.fields {
-                    return Err(format!("run {} appears twice with different results", r.index));
-                }
-            }
-            _ => out.push(r),
-        }
-    }
-    Ok(out)
-}
-
-/// One (μ, δ1) cell of the heatmaps.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Cell {
-    /// Runs in the cell.
-    pub runs: usize,
-    /// Share of runs that collided.
-    pub collision_rate: f64,
-    /// Smallest min clearance over the runs, m.
-    pub min_clearance_m: f64,
-    /// Mean tracking RMS over the runs, m.
-    pub tracking_rms_m: f64,
-}
-
-/// Sorted μ values, sorted δ1 values, and `cells[i_mu][i_delta1]`.
-pub type Aggregate = (Vec<f64>, Vec<f64>, Vec<Vec<Option<Cell>>>);
-
-/// Aggregate rows per (μ, δ1) over seeds and speeds. Returns the sorted μ and δ1
-/// values and the cells, `cells[i_mu][i_delta1]` (`None` where no run).
-pub fn aggregate(rows: &[SweepRow]) -> Aggregate {
-    let key = |x: f64| x.to_bits();
-    let mut mus: BTreeMap<u64, f64> = BTreeMap::new();
-    let mut d1s: BTreeMap<u64, f64> = BTreeMap::new();
-    for r in rows {
-        mus.insert(key(r.mu), r.mu);
-        d1s.insert(key(r.delta1), r.delta1);
-    }
-    let mut mu_v: Vec<f64> = mus.into_values().collect();
-    let mut d1_v: Vec<f64> = d1s.into_values().collect();
-    mu_v.sort_by(f64::total_cmp);
-    d1_v.sort_by(f64::total_cmp);
-    let mut cells = vec![vec![None; d1_v.len()]; mu_v.len()];
-    for (i, &m) in mu_v.iter().enumerate() {
-        for (j, &d) in d1_v.iter().enumerate() {
-            let sel: Vec<&SweepRow> = rows.iter().filter(|r| r.mu == m && r.delta1 == d).collect();
-            if sel.is_empty() {
-                continue;
-            }
-            let n = sel.len() as f64;
-            cells[i][j] = Some(Cell {
-                runs: sel.len(),
-                collision_rate: sel.iter().filter(|r| r.collided).count() as f64 / n,
-                min_clearance_m: sel.iter().map(|r| r.min_clearance_m).fold(f64::INFINITY, f64::min),
-                tracking_rms_m: sel.iter().map(|r| r.tracking_rms_m).sum::<f64>() / n,
-            });
-        }
-    }
-    (mu_v, d1_v, cells)
-}
-
-/// Heatmap kinds: file stem, title, value of a cell, colour scale reversed (high = good).
-const HEATMAPS: [(&str, &str); 3] = [
-    ("heatmap_collision_rate", "collision rate"),
-    ("heatmap_min_clearance", "min clearance [m] (worst run)"),
-    ("heatmap_tracking_rms", "tracking RMS [m] (mean)"),
-];
-
-fn cell_value(stem: &str, c: &Cell) -> f64 {
-    match stem {
-        "heatmap_collision_rate" => c.collision_rate,
-        "heatmap_min_clearance" => c.min_clearance_m,
-        _ => c.tracking_rms_m,
-    }
-}
-
-/// Colour for `t` in [0, 1]: white-yellow (0) → red → dark red (1).
-fn ramp(t: f64) -> RGBColor {
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
-    let lerp = |a: f64, b: f64, s: f64| (a + (b - a) * s).round() as u8;
-    if t < 0.5 {
-        let s = t / 0.5;
-        RGBColor(255, lerp(255.0, 140.0, s), lerp(204.0, 40.0, s))
-    } else {
-        let s = (t - 0.5) / 0.5;
-        RGBColor(lerp(255.0, 140.0, s), lerp(140.0, 0.0, s), lerp(40.0, 0.0, s))
-    }
-}
-
-fn draw_heatmap<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    stem: &str,
-    title: &str,
-    scene: &str,
-    agg: &Aggregate,
-) -> Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    let (mus, d1s, cells) = agg;
-    root.fill(&WHITE).map_err(e)?;
-    let vals: Vec<f64> = cells.iter().flatten().flatten().map(|c| cell_value(stem, c)).collect();
-    let (lo, hi) = vals.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-    let (lo, hi) = if stem == "heatmap_collision_rate" { (0.0, 1.0) } else { (lo, hi) };
-    let span = if hi > lo { hi - lo } else { 1.0 };
-    // Collision rate and tracking RMS: high = bad = dark; clearance: low = bad = dark.
-    let badness = |v: f64| if stem == "heatmap_min_clearance" { (hi - v) / span } else { (v - lo) / span };
-    let (nx, ny) = (mus.len().max(1), d1s.len().max(1));
-    let mut chart = ChartBuilder::on(root)
-        .caption(format!("{scene}: {title} over (μ, δ1)"), ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0f64..nx as f64, 0f64..ny as f64)
-        .map_err(e)?;
-    let fmt_axis = |vals: &[f64], x: f64| -> String {
-        let i = x.floor();
-        if (x - i - 0.5).abs() < 1e-6 && i >= 0.0 && (i as usize) < vals.len() {
-            format!("{:.3}", vals[i as usize])
-        } else {
-            String::new()
-        }
-    };
-    let xf = |x: &f64| fmt_axis(mus, *x);
-    let yf = |y: &f64| fmt_axis(d1s, *y);
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc("μ [s]")
-        .y_desc("δ1 [m²]")
-        .x_labels(2 * nx + 1)
-        .y_labels(2 * ny + 1)
-        .x_label_formatter(&xf)
-        .y_label_formatter(&yf)
-        .draw()
-        .map_err(e)?;
-    for (i, col) in cells.iter().enumerate() {
-        for (j, c) in col.iter().enumerate() {
-            let (x0, y0) = (i as f64, j as f64);
-            let (fill, label, dark) = match c {
-                Some(c) => {
-                    let v = cell_value(stem, c);
-                    let dark = badness(v) > 0.6;
-                    (
-                        ramp(badness(v)),
-                        if stem == "heatmap_collision_rate" { format!("{v:.2}") } else { format!("{v:.3}") },
-                        dark,
-                    )
-                }
-                None => (RGBColor(230, 230, 230), "-".to_string(), false),
-            };
-            chart
-                .draw_series(std::iter::once(Rectangle::new([(x0, y0), (x0 + 1.0, y0 + 1.0)], fill.filled())))
-                .map_err(e)?;
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(x0, y0), (x0 + 1.0, y0 + 1.0)],
-                    WHITE.stroke_width(1),
-                )))
-                .map_err(e)?;
-            let style = TextStyle::from(("sans-serif", 14).into_font())
-                .color(if dark { &WHITE } else { &BLACK })
-                .pos(plotters::style::text_anchor::Pos::new(
-                    plotters::style::text_anchor::HPos::Center,
-                    plotters::style::text_anchor::VPos::Center,
-                ));
-            chart.draw_series(std::iter::once(Text::new(label, (x0 + 0.5, y0 + 0.5), style))).map_err(e)?;
-        }
-    }
-    Ok(())
-}
-
-/// Draw the three heatmaps (PNG and SVG) into `dir`. Returns the files written and
-/// warnings for plots that could not be drawn (e.g. no usable font).
-pub fn write_heatmaps(dir: &Path, scene: &str, rows: &[SweepRow]) -> (Vec<PathBuf>, Vec<String>) {
-    let agg = aggregate(rows);
-    let (nx, ny) = (agg.0.len().max(1) as u32, agg.1.len().max(1) as u32);
-    let size = ((120 + 70 * nx).clamp(420, 1400), (110 + 45 * ny).clamp(300, 1000));
-    let mut files = Vec::new();
-    let mut warnings = Vec::new();
-    for (stem, title) in HEATMAPS {
-        let one = || -> Result<Vec<PathBuf>> {
-            let svg = dir.join(format!("{stem}.svg"));
-            {
-                let root = SVGBackend::new(&svg, size).into_drawing_area();
-                draw_heatmap(&root, stem, title, scene, &agg)?;
-                root.present().map_err(e)?;
-            }
-            let png = dir.join(format!("{stem}.png"));
-            {
-                let root = BitMapBackend::new(&png, size).into_drawing_area();
-                draw_heatmap(&root, stem, title, scene, &agg)?;
-                root.present().map_err(e)?;
-            }
-            Ok(vec![svg, png])
-        };
-        match one() {
-            Ok(mut v) => files.append(&mut v),
-            Err(err) => warnings.push(format!("plot {stem}: {err:#}")),
-        }
-    }
-    (files, warnings)
-}
-
-/// Write `sweep.csv` and the heatmaps into `dir` (created). Prints warnings.
-pub fn write_outputs(dir: &Path, rows: &[SweepRow]) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let csv = dir.join("sweep.csv");
-    std::fs::write(&csv, csv_string(rows)).with_context(|| format!("cannot write {}", csv.display()))?;
-    let scene = rows.first().and_then(|r| r.fields.get(1).cloned()).unwrap_or_default();
-    let (_, warnings) = write_heatmaps(dir, &scene, rows);
-    for w in warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(())
+{}
+  {EXIT_SOME_FAILED}    some merged rows are failed runs (status failed in sweep.csv)",
+        crate::cli::EXIT_CODES_HELP
+    )
 }
 
 fn parse_range(s: &str) -> Result<GridRange, String> {
@@ -571,26 +130,27 @@ fn parse_variant(s: &str) -> Result<FilterVariant, String> {
 
 /// Options of `parapet sweep`.
 #[derive(Debug, Args)]
+#[command(after_help = sweep_help())]
 pub struct SweepArgs {
     /// Scene file (TOML, ENU z-up).
     #[arg(long)]
     pub scene: PathBuf,
-    /// μ values, s: first:last:count (e.g. 0.5:1.4:4).
+    /// μ values, s: A:B:N (N values from A to B, e.g. 0.5:1.4:4) or one value (e.g. 0.9).
     #[arg(long, value_parser = parse_range)]
     pub mu: GridRange,
-    /// δ1 values, m²: first:last:count (each must exceed δ).
+    /// δ1 values, m²: A:B:N or one value; each must exceed δ.
     #[arg(long, value_parser = parse_range)]
     pub delta1: GridRange,
-    /// Reference speeds, m/s: first:last:count (default: the scene's speed).
+    /// Reference speeds, m/s: A:B:N or one value [default: the scene's speed].
     #[arg(long, value_parser = parse_range)]
     pub speed: Option<GridRange>,
-    /// Sensor-noise seeds per grid point: 0..K.
-    #[arg(long, default_value_t = 1)]
+    /// Number K of sensor-noise seeds per grid point: seeds 0..K-1 (e.g. 4 → 0, 1, 2, 3).
+    #[arg(long, value_name = "K", default_value = "1", value_parser = grid::parse_seed_count)]
     pub seeds: u64,
-    /// Parallel runs (threads; default: the number of CPUs).
+    /// Parallel runs (threads) [default: the number of CPUs].
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
+    /// Filter variant: paper | relative | multi | multi-relative [default: the scene's, else multi-relative].
     #[arg(long, value_parser = parse_variant)]
     pub filter: Option<FilterVariant>,
     /// Sensor noise off.
@@ -599,18 +159,24 @@ pub struct SweepArgs {
     /// Fly this path file (JSON from `parapet plan`) instead of planning.
     #[arg(long)]
     pub path: Option<PathBuf>,
+    /// The path file may start and end away from the scene's start and goal.
+    #[arg(long, requires = "path")]
+    pub foreign_path: bool,
     /// Fly the straight line start → goal instead of planning.
     #[arg(long, conflicts_with = "path")]
     pub straight: bool,
     /// Planner seed of the one path every run flies (when planning).
     #[arg(long, default_value_t = 0)]
     pub plan_seed: u64,
-    /// Duration limit of each run, s (default: the scene's, else 1.5 × path time + 15 s).
+    /// Duration limit of each run, s [default: the scene's, else 1.5 × path time + 15 s at the run's speed].
     #[arg(long)]
     pub duration: Option<f64>,
     /// Run only slice I of N (1 <= I <= N; grid index k with k mod N = I - 1).
     #[arg(long, value_parser = parse_shard)]
     pub shard: Option<Shard>,
+    /// Fly more than the --yes threshold of runs (see Limits).
+    #[arg(long)]
+    pub yes: bool,
     /// Output directory.
     #[arg(long, default_value = "out/sweep")]
     pub out: PathBuf,
@@ -618,17 +184,25 @@ pub struct SweepArgs {
 
 /// Options of `parapet sweep-merge`.
 #[derive(Debug, Args)]
+#[command(after_help = merge_help())]
 pub struct SweepMergeArgs {
-    /// Shard CSVs (sweep.csv files of `parapet sweep --shard`).
+    /// Shard directories (or their sweep.csv files) of `parapet sweep --shard I/N`.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
-    /// Output directory (sweep.csv and heatmaps).
-    #[arg(long, default_value = "out/sweep")]
+    /// Merge although some shards are missing (the output's sweep.json lists the shards it holds).
+    #[arg(long)]
+    pub allow_partial: bool,
+    /// Output directory (sweep.csv, sweep.json and heatmaps); must not hold an input.
+    #[arg(long, default_value = "out/sweep-merge")]
     pub out: PathBuf,
 }
 
 fn bad(m: impl Into<String>) -> CliError {
     CliError::BadInput(m.into())
+}
+
+fn bad_input(e: InputError) -> CliError {
+    CliError::BadInput(e.to_string())
 }
 
 /// The path every run of a sweep flies (NED, start first).
@@ -665,28 +239,308 @@ fn sweep_path(scene: &Scene, a: &SweepArgs) -> Result<(Vec<Vector3<f64>>, &'stat
     Ok((planned.waypoints.iter().map(to_f64).collect(), "planner"))
 }
 
+/// Everything shared by the runs of one sweep.
+pub struct SweepSetup {
+    /// The scene.
+    pub scene: Scene,
+    /// Base configuration (path, filter, noise, duration rule); each run sets μ, δ1, speed, seed.
+    pub base: RunConfig,
+    /// Pre-flight options (path file, `--foreign-path`).
+    pub preflight: PreflightOptions,
+    /// The scene's `[sim] duration` is set: every run flies the base duration.
+    /// Otherwise a run's duration is 1.5 × path time + 15 s at its speed, at most
+    /// [`SweepSetup::duration_limit`].
+    pub scene_duration: bool,
+    /// `--duration`, s.
+    pub duration_limit: Option<f64>,
+}
+
+impl SweepSetup {
+    /// The configuration of run `p`, and its scene (the run's speed set).
+    pub fn config(&self, p: &GridPoint) -> (Scene, RunConfig) {
+        let mut scene = self.scene.clone();
+        scene.speed = p.speed;
+        let mut cfg = self.base.clone();
+        cfg.params.mu = p.mu;
+        cfg.params.delta1 = p.delta1;
+        cfg.params.speed = p.speed;
+        cfg.seed = p.seed;
+        if !self.scene_duration {
+            cfg.duration = self.run_duration(path_length(&cfg.path), p.speed);
+        }
+        (scene, cfg)
+    }
+
+    /// Duration of a run at `speed` on a path of `len` m when the scene sets none:
+    /// the rule of `parapet run` (1.5 × path time + 15 s), at most `--duration`.
+    fn run_duration(&self, len: f64, speed: f64) -> f64 {
+        self.duration_limit.unwrap_or(f64::INFINITY).min(1.5 * len / speed + 15.0)
+    }
+
+    fn failed_row(&self, p: &GridPoint, error: String) -> SweepRecord {
+        let filter = if self.base.cbf { self.base.variant.as_str().to_string() } else { "none".into() };
+        SweepRecord {
+            index: p.index,
+            scene: self.scene.name.clone(),
+            filter,
+            mu: p.mu,
+            delta: self.base.params.delta,
+            delta1: p.delta1,
+            kp: self.base.params.kp,
+            kd: self.base.params.kd,
+            speed: p.speed,
+            seed: p.seed,
+            noise: self.base.sensors.noise,
+            status: record::Status::Failed,
+            collided: None,
+            first_collision_time_s: None,
+            collision_with: None,
+            min_clearance_m: None,
+            min_h_bar: None,
+            min_filter_h_bar: None,
+            reached_goal: None,
+            time_to_goal_s: None,
+            final_distance_to_goal_m: None,
+            tracking_rms_m: None,
+            filter_active_fraction: None,
+            end_reason: None,
+            sim_time_s: None,
+            error: Some(error.replace(['\n', '\r'], " ")),
+        }
+    }
+
+    /// Fly run `p` and make its row; a pre-flight refusal, a run error or a panic
+    /// in the run is a `failed` row carrying the message.
+    pub fn fly(&self, p: &GridPoint) -> SweepRecord {
+        let (scene, cfg) = self.config(p);
+        if let Err(err) = crate::preflight::check(&scene, &cfg, &self.preflight) {
+            return self.failed_row(p, format!("pre-flight: {err}"));
+        }
+        let flown = std::panic::catch_unwind(AssertUnwindSafe(|| run(&scene, &cfg, &mut |_| {})));
+        let s = match flown {
+            Ok(Ok(out)) => out.summary,
+            Ok(Err(err)) => return self.failed_row(p, format!("{err:#}")),
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "unknown".into());
+                return self.failed_row(p, format!("internal error (panic): {what}"));
+            }
+        };
+        SweepRecord {
+            index: p.index,
+            scene: s.scene,
+            filter: s.filter,
+            mu: p.mu,
+            delta: s.params.delta,
+            delta1: p.delta1,
+            kp: s.params.kp,
+            kd: s.params.kd,
+            speed: p.speed,
+            seed: p.seed,
+            noise: s.noise,
+            status: record::Status::Ok,
+            collided: Some(s.collided),
+            first_collision_time_s: s.first_collision_time_s,
+            collision_with: s.collision_with,
+            min_clearance_m: Some(s.min_clearance_m),
+            min_h_bar: Some(s.min_h_bar),
+            min_filter_h_bar: s.min_filter_h_bar,
+            reached_goal: Some(s.reached_goal),
+            time_to_goal_s: s.time_to_goal_s,
+            final_distance_to_goal_m: Some(s.final_distance_to_goal_m),
+            tracking_rms_m: Some(s.tracking_rms_m),
+            filter_active_fraction: Some(s.filter_active_fraction),
+            end_reason: Some(s.end_reason),
+            sim_time_s: Some(s.sim_time_s),
+            error: None,
+        }
+    }
+}
+
+/// Fly the runs `shard` holds of `grid` on `jobs` threads, in chunks; each chunk's
+/// rows go to `sink` in grid order. `tick` is called after each run.
+pub fn run_shard(
+    setup: &SweepSetup,
+    grid: &Grid,
+    shard: Shard,
+    jobs: usize,
+    sink: &mut dyn FnMut(&SweepRecord) -> Result<()>,
+    tick: &(dyn Fn() + Sync),
+) -> Result<()> {
+    let total = grid.size().ok_or_else(|| anyhow!("grid size overflows"))?;
+    let n = shard.len(total);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs.max(1))
+        .build()
+        .map_err(|err| anyhow!("cannot start the thread pool: {err}"))?;
+    let chunk = (CHUNK_PER_JOB * jobs.max(1)) as u64;
+    let mut j = 0;
+    while j < n {
+        let end = n.min(j + chunk);
+        let points: Vec<GridPoint> = (j..end).map(|i| grid.point(shard.nth(i))).collect();
+        let rows: Vec<SweepRecord> = pool.install(|| {
+            points
+                .par_iter()
+                .map(|p| {
+                    let r = setup.fly(p);
+                    tick();
+                    r
+                })
+                .collect()
+        });
+        for r in &rows {
+            sink(r)?;
+        }
+        j = end;
+    }
+    Ok(())
+}
+
+/// Refuse writing any of `outputs` over one of `inputs` (same file after resolving).
+fn refuse_overwrite(outputs: &[PathBuf], inputs: &[PathBuf], option: &str) -> Result<(), CliError> {
+    let canon = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        // Not there yet: its directory resolved, plus the name.
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    let ins: Vec<(PathBuf, &PathBuf)> = inputs.iter().filter_map(|p| Some((canon(p)?, p))).collect();
+    for o in outputs {
+        let Some(oc) = canon(o) else { continue };
+        if let Some((_, i)) = ins.iter().find(|(c, _)| *c == oc) {
+            return Err(bad_input(
+                InputError::option(
+                    option,
+                    format!("the output {} would overwrite the input {}", o.display(), i.display()),
+                )
+                .value(o.display())
+                .allowed("a directory that holds none of the inputs"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn output_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v = vec![dir.join("sweep.csv"), dir.join("sweep.json")];
+    v.extend(heatmap::file_names().into_iter().map(|n| dir.join(n)));
+    v
+}
+
+fn human_duration(s: f64) -> String {
+    if s < 120.0 {
+        format!("{s:.0} s")
+    } else if s < 2.0 * 3600.0 {
+        format!("{:.0} min", s / 60.0)
+    } else if s < 2.0 * 86400.0 {
+        format!("{:.1} h", s / 3600.0)
+    } else {
+        format!("{:.1} days", s / 86400.0)
+    }
+}
+
+/// Check the sizes against the caps; returns this invocation's number of runs.
+/// `duration(speed)` is a run's simulated duration, for the time estimate.
+fn check_size(
+    grid: &Grid,
+    a: &SweepArgs,
+    duration: &dyn Fn(f64) -> f64,
+    jobs: usize,
+) -> Result<u64, CliError> {
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    let options = "options --mu, --delta1, --speed, --seeds";
+    let Some(total) = grid.size() else {
+        return Err(bad_input(
+            InputError::file(
+                options,
+                format!("the grid ({}) has more runs than fit in 64 bits", grid.describe()),
+            )
+            .allowed(format!("at most {SWEEP_MAX_RUNS} runs per invocation")),
+        ));
+    };
+    let runs = shard.len(total);
+    if runs > SWEEP_MAX_RUNS {
+        let need = total.div_ceil(SWEEP_MAX_RUNS);
+        return Err(bad_input(
+            InputError::file(
+                options,
+                format!(
+                    "the sweep would fly {runs} runs (grid {} = {total}{}), more than the cap of {SWEEP_MAX_RUNS} \
+                     runs per invocation (input::limits::SWEEP_MAX_RUNS); split it with --shard I/N, N ≥ {need}",
+                    grid.describe(),
+                    a.shard.map(|s| format!(", shard {}/{}", s.index, s.count)).unwrap_or_default()
+                ),
+            )
+            .value(runs)
+            .allowed(format!("≤ {SWEEP_MAX_RUNS} runs")),
+        ));
+    }
+    if runs > SWEEP_CONFIRM_RUNS && !a.yes {
+        // Estimated simulated time: each speed's share of the runs at its duration.
+        let per_speed: f64 =
+            grid.speeds.iter().map(|&v| duration(v)).sum::<f64>() / grid.speeds.len().max(1) as f64;
+        let wall = runs as f64 * per_speed / (SIM_RATE_PER_THREAD * jobs.max(1) as f64);
+        return Err(bad_input(
+            InputError::option(
+                "yes",
+                format!(
+                    "the sweep would fly {runs} runs (grid {}), more than {SWEEP_CONFIRM_RUNS} \
+                     (input::limits::SWEEP_CONFIRM_RUNS); estimated time ≈ {} on {jobs} threads \
+                     (release build, ~{SIM_RATE_PER_THREAD:.0}× real time per thread, ~{per_speed:.0} s simulated per run); \
+                     add --yes to fly it, or split it with --shard I/N",
+                    grid.describe(),
+                    human_duration(wall)
+                ),
+            )
+            .value(runs)
+            .allowed(format!("≤ {SWEEP_CONFIRM_RUNS} runs without --yes")),
+        ));
+    }
+    Ok(runs)
+}
+
 /// `parapet sweep`.
 pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
-    let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
-    if a.seeds == 0 {
-        return Err(bad("option --seeds: must be at least 1"));
-    }
     if a.jobs == Some(0) {
-        return Err(bad("option --jobs: must be at least 1"));
+        return Err(bad_input(InputError::option("jobs", "must be at least 1").value(0).allowed("≥ 1")));
     }
     if let Some(d) = a.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
-        return Err(bad(format!("option --duration: must be finite and > 0, got {d}")));
+        return Err(bad_input(
+            InputError::option("duration", "must be finite and > 0").value(d).allowed("> 0 s"),
+        ));
     }
+    let jobs = a.jobs.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let scene_bytes = std::fs::read(&a.scene)
+        .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
+    let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
+    let speed = a.speed.clone().unwrap_or(GridRange { start: scene.speed, end: scene.speed, n: 1 });
+    let grid = Grid::new(&a.mu, &a.delta1, &speed, a.seeds);
+    let fixed_duration = a.duration.or(scene.sim.duration);
+    // A first size check with the straight-line length (the path is not known yet):
+    // refuses absurd grids before planning.
+    let rule = |len: f64, v: f64| {
+        scene.sim.duration.unwrap_or_else(|| a.duration.unwrap_or(f64::INFINITY).min(1.5 * len / v + 15.0))
+    };
+    let straight = (scene.goal - scene.start).norm();
+    check_size(&grid, &a, &|v| rule(straight, v), jobs)?;
+
     let (path, source) = sweep_path(&scene, &a)?;
     if path.len() > parapet_core::controller::PATH_CAPACITY {
+        let from =
+            a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
         return Err(bad(format!(
-            "the path has {} waypoints, more than the controller's capacity of {}",
+            "{from}: field `waypoints`: {} waypoints exceed the controller's path capacity of {}",
             path.len(),
             parapet_core::controller::PATH_CAPACITY
         )));
     }
     let mut base =
-        RunConfig::for_scene(&scene, path).map_err(|err| bad(format!("{}: {err}", scene.source)))?;
+        RunConfig::for_scene(&scene, path).map_err(|err| bad(format!("{}: {err:#}", scene.source)))?;
     base.path_source = source.into();
     if let Some(v) = a.filter {
         base.variant = v;
@@ -694,18 +548,67 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     if a.no_noise {
         base.sensors.noise = false;
     }
-    base.duration = a.duration.or(scene.sim.duration).unwrap_or(f64::INFINITY);
-    let delta = base.params.delta;
-    if let Some(d1) = a.delta1.values().into_iter().find(|&d1| d1 <= delta) {
-        return Err(bad(format!("option --delta1: every value must exceed delta = {delta} m², got {d1}")));
+    if let Some(d) = fixed_duration {
+        base.duration = d;
     }
-    let speeds = a.speed.as_ref().map(|s| s.values()).unwrap_or_else(|| vec![scene.speed]);
-    let all = grid(&a.mu, &a.delta1, &speeds, a.seeds);
-    let points: Vec<GridPoint> =
-        all.iter().filter(|p| a.shard.is_none_or(|s| s.contains(p.index))).cloned().collect();
-    let jobs = a.jobs.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let scene_duration = scene.sim.duration.is_some();
+    let len = path_length(&base.path);
+    let runs = check_size(&grid, &a, &|v| rule(len, v), jobs)?;
+    let delta = base.params.delta;
+    if let Some(d1) = grid.delta1.iter().find(|&&d1| d1 <= delta) {
+        return Err(bad_input(
+            InputError::option("delta1", "every value must exceed δ")
+                .value(d1)
+                .allowed(format!("> δ = {delta} m² (the scene's [controller] delta, else the default)")),
+        ));
+    }
+    let preflight = PreflightOptions {
+        path_file: a.path.as_ref().map(|p| p.display().to_string()),
+        foreign_path: a.foreign_path,
+    };
+    crate::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
+    let mut inputs = vec![a.scene.clone()];
+    inputs.extend(a.path.clone());
+    refuse_overwrite(&output_files(&a.out), &inputs, "out")?;
+
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    let mut hash_bytes = Vec::with_capacity(base.path.len() * 24);
+    for w in &base.path {
+        for x in w.iter() {
+            hash_bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let filter = if base.cbf { base.variant.as_str().to_string() } else { "none".into() };
+    let identity = Identity {
+        format: manifest::FORMAT,
+        parapet_version: env!("CARGO_PKG_VERSION").into(),
+        scene: scene.name.clone(),
+        scene_fnv1a64: manifest::fnv1a64(&scene_bytes),
+        path_source: source.into(),
+        plan_seed: (source == "planner").then_some(a.plan_seed),
+        path_fnv1a64: manifest::fnv1a64(&hash_bytes),
+        foreign_path: a.foreign_path,
+        filter,
+        noise: base.sensors.noise,
+        duration_s: fixed_duration,
+        mu: a.mu.clone(),
+        delta1: a.delta1.clone(),
+        speed,
+        seeds: a.seeds,
+    };
+    let setup = SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration };
+
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let json = a.out.join("sweep.json");
+    // An old manifest would vouch for the new, unfinished CSV.
+    if json.exists() {
+        std::fs::remove_file(&json).with_context(|| format!("cannot remove the old {}", json.display()))?;
+    }
+    let csv_path = a.out.join("sweep.csv");
+    let mut csv =
+        record::CsvSink::create(&csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
     let bar = std::io::stderr().is_terminal().then(|| {
-        let pb = indicatif::ProgressBar::new(points.len() as u64);
+        let pb = indicatif::ProgressBar::new(runs);
         pb.set_style(
             indicatif::ProgressStyle::with_template(
                 "sweep [{bar:40}] {pos}/{len} runs {elapsed_precise} eta {eta}",
@@ -719,114 +622,270 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
             pb.inc(1);
         }
     };
-    let rows = run_points(&scene, &base, &points, jobs, &tick)?;
+    let mut agg = Aggregator::default();
+    let mut sink = |r: &SweepRecord| -> Result<()> {
+        agg.add(r);
+        csv.push(r).with_context(|| format!("cannot write {}", csv_path.display()))
+    };
+    run_shard(&setup, &grid, shard, jobs, &mut sink, &tick)?;
     if let Some(pb) = bar {
         pb.finish_and_clear();
     }
-    write_outputs(&a.out, &rows)?;
-    let collided = rows.iter().filter(|r| r.collided).count();
-    let mut msg = format!(
-        "{}: {} of {} runs{}, {} collided -> {}",
-        scene.name,
-        rows.len(),
-        all.len(),
+    csv.finish().with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let total = grid.size().unwrap_or(0);
+    let m = Manifest {
+        identity,
+        scene_file: a.scene.display().to_string(),
+        path_file: a.path.as_ref().map(|p| p.display().to_string()),
+        grid_runs: total,
+        shard_count: shard.count,
+        shards: vec![shard.index],
+        rows: agg.rows(),
+        failed: agg.failed(),
+    };
+    m.write(&json).with_context(|| format!("cannot write {}", json.display()))?;
+    let (_, warnings) = heatmap::write_heatmaps(&a.out, &setup.scene.name, &agg.aggregate());
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "{}: {} of {} runs{}, {} collided, {} failed -> {}",
+        setup.scene.name,
+        agg.rows(),
+        total,
         a.shard.map(|s| format!(" (shard {}/{})", s.index, s.count)).unwrap_or_default(),
-        collided,
-        a.out.join("sweep.csv").display()
+        agg.collided(),
+        agg.failed(),
+        csv_path.display()
     );
-    let _ = writeln!(msg);
-    print!("{msg}");
-    Ok(())
+    some_failed(agg.failed(), agg.rows(), &csv_path)
+}
+
+fn some_failed(failed: u64, rows: u64, csv: &Path) -> Result<(), CliError> {
+    if failed == 0 {
+        return Ok(());
+    }
+    Err(CliError::SomeFailed(format!(
+        "{failed} of {rows} runs failed (rows with status `failed` in {}, column `error` says why); the other rows are complete",
+        csv.display()
+    )))
+}
+
+/// The manifest and CSV of a `sweep-merge` input (a directory or its sweep.csv).
+fn input_files(p: &Path) -> (PathBuf, PathBuf) {
+    if p.is_dir() {
+        (p.join("sweep.csv"), p.join("sweep.json"))
+    } else {
+        (p.to_path_buf(), p.with_extension("json"))
+    }
+}
+
+/// One input of a merge while it streams: its next row, for the heap.
+struct Head {
+    index: u64,
+    input: usize,
+    rec: SweepRecord,
+}
+impl PartialEq for Head {
+    fn eq(&self, o: &Self) -> bool {
+        self.index == o.index
+    }
+}
+impl Eq for Head {}
+impl PartialOrd for Head {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Head {
+    // Reversed: BinaryHeap is a max-heap, the smallest index must come first.
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        o.index.cmp(&self.index)
+    }
+}
+
+/// Reads one input's rows, checking each against its manifest: indices strictly
+/// increasing and in the input's shards, parameters those of the grid point.
+struct CheckedRows {
+    rows: record::CsvRows,
+    grid: Grid,
+    identity: Identity,
+    shard_count: u64,
+    shards: Vec<u64>,
+    last: Option<u64>,
+    seen: u64,
+}
+
+impl CheckedRows {
+    fn next(&mut self) -> Result<Option<SweepRecord>, InputError> {
+        let Some((line, r)) = self.rows.next_record()? else { return Ok(None) };
+        let at = format!("{}: line {line}", self.rows.file());
+        let shard = r.index % self.shard_count + 1;
+        if self.last.is_some_and(|l| r.index <= l) || self.shards.binary_search(&shard).is_err() {
+            return Err(InputError::file(
+                &at,
+                format!(
+                    "grid index out of order or not in this file's shards {:?} of {}",
+                    self.shards, self.shard_count
+                ),
+            )
+            .field("index")
+            .value(r.index));
+        }
+        let p = self.grid.point(r.index);
+        let same = p.mu.to_bits() == r.mu.to_bits()
+            && p.delta1.to_bits() == r.delta1.to_bits()
+            && p.speed.to_bits() == r.speed.to_bits()
+            && p.seed == r.seed
+            && r.scene == self.identity.scene
+            && r.filter == self.identity.filter;
+        if !same {
+            return Err(InputError::file(
+                &at,
+                format!(
+                    "the row does not match grid point {} of its sweep.json (mu {}, delta1 {}, speed {}, seed {}, scene {}, filter {})",
+                    r.index, p.mu, p.delta1, p.speed, p.seed, self.identity.scene, self.identity.filter
+                ),
+            )
+            .field("index")
+            .value(r.index));
+        }
+        self.last = Some(r.index);
+        self.seen += 1;
+        Ok(Some(r))
+    }
 }
 
 /// `parapet sweep-merge`.
 pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
-    let mut rows = Vec::new();
-    for f in &a.inputs {
-        let text = std::fs::read_to_string(f)
-            .map_err(|err| bad(format!("{}: cannot read the file: {err}", f.display())))?;
-        rows.extend(parse_csv(&text, &f.display().to_string()).map_err(bad)?);
+    let mut named = Vec::new();
+    let mut files = Vec::new();
+    for p in &a.inputs {
+        let (csv, json) = input_files(p);
+        if !csv.is_file() {
+            return Err(bad_input(InputError::file(
+                csv.display(),
+                "no such file (a sweep.csv, or a directory with one)",
+            )));
+        }
+        let m = Manifest::read(&json)
+            .map_err(|e| bad_input(InputError::file(csv.display(), format!("its manifest: {e}"))))?;
+        named.push((csv.display().to_string(), m));
+        files.push(csv.clone());
+        files.push(json);
     }
-    let rows = merge_rows(rows).map_err(bad)?;
-    write_outputs(&a.out, &rows)?;
-    println!("merged {} files: {} runs -> {}", a.inputs.len(), rows.len(), a.out.join("sweep.csv").display());
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ranges_parse_and_reject() {
-        assert_eq!(GridRange::parse("0.5:1.4:4").unwrap().values().len(), 4);
-        let v = GridRange::parse("0.051:0.3:3").unwrap().values();
-        assert_eq!(v[0], 0.051);
-        assert_eq!(v[2], 0.3);
-        assert!((v[1] - 0.1755).abs() < 1e-12);
-        assert_eq!(GridRange::parse("1:1:1").unwrap().values(), vec![1.0]);
-        for bad in ["1:2", "a:2:3", "1:2:0", "2:1:3", "-1:2:3", "1:2:x", "1:2:1", "nan:1:2", "1:inf:2"] {
-            assert!(GridRange::parse(bad).is_err(), "{bad} accepted");
+    let plan = manifest::plan_merge(&named).map_err(bad_input)?;
+    if !plan.missing.is_empty() && !a.allow_partial {
+        let n_missing = plan.shard_count - plan.present.len() as u64;
+        let list: Vec<String> =
+            plan.missing.iter().take(20).map(|i| format!("{i}/{}", plan.shard_count)).collect();
+        return Err(bad_input(
+            InputError::file(
+                "sweep-merge",
+                format!(
+                    "{n_missing} of {} shards are missing: {}{} (merge them too, or pass --allow-partial)",
+                    plan.shard_count,
+                    list.join(", "),
+                    if n_missing > 20 { ", …" } else { "" }
+                ),
+            )
+            .value(format!("{} inputs", a.inputs.len())),
+        ));
+    }
+    refuse_overwrite(&output_files(&a.out), &files, "out")?;
+    let first = named[0].1.clone();
+    let grid = first.identity.grid();
+    let total = first.grid_runs;
+    let mut readers = Vec::new();
+    for (k, (name, m)) in named.iter().enumerate() {
+        let expected: u64 =
+            m.shards.iter().map(|&i| Shard { index: i, count: m.shard_count }.len(total)).sum();
+        if expected != m.rows {
+            return Err(bad_input(
+                InputError::file(
+                    format!("{}", files[2 * k + 1].display()),
+                    "the row count does not match the shards",
+                )
+                .field("rows")
+                .value(m.rows)
+                .allowed(expected.to_string()),
+            ));
+        }
+        let rows = record::CsvRows::open(Path::new(name)).map_err(bad_input)?;
+        readers.push(CheckedRows {
+            rows,
+            grid: grid.clone(),
+            identity: m.identity.clone(),
+            shard_count: m.shard_count,
+            shards: m.shards.clone(),
+            last: None,
+            seen: 0,
+        });
+    }
+    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    let json = a.out.join("sweep.json");
+    if json.exists() {
+        std::fs::remove_file(&json).with_context(|| format!("cannot remove the old {}", json.display()))?;
+    }
+    let csv_path = a.out.join("sweep.csv");
+    let mut csv =
+        record::CsvSink::create(&csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let mut heap = BinaryHeap::new();
+    for (k, r) in readers.iter_mut().enumerate() {
+        if let Some(rec) = r.next().map_err(bad_input)? {
+            heap.push(Head { index: rec.index, input: k, rec });
         }
     }
-
-    #[test]
-    fn shards_partition_the_grid() {
-        let s: Vec<Shard> = (1..=3).map(|i| Shard::parse(&format!("{i}/3")).unwrap()).collect();
-        for k in 0..20 {
-            assert_eq!(s.iter().filter(|x| x.contains(k)).count(), 1);
-        }
-        for bad in ["0/3", "4/3", "1/0", "x/2", "1-2"] {
-            assert!(Shard::parse(bad).is_err(), "{bad} accepted");
+    let mut agg = Aggregator::default();
+    while let Some(h) = heap.pop() {
+        agg.add(&h.rec);
+        csv.push(&h.rec).with_context(|| format!("cannot write {}", csv_path.display()))?;
+        if let Some(rec) = readers[h.input].next().map_err(bad_input)? {
+            heap.push(Head { index: rec.index, input: h.input, rec });
         }
     }
-
-    #[test]
-    fn grid_order_and_csv_round_trip() {
-        let mu = GridRange::parse("0.5:1:2").unwrap();
-        let d1 = GridRange::parse("0.1:0.3:3").unwrap();
-        let g = grid(&mu, &d1, &[0.25], 2);
-        assert_eq!(g.len(), 12);
-        assert!(g.iter().enumerate().all(|(i, p)| p.index == i));
-        assert_eq!((g[0].mu, g[0].delta1, g[0].seed), (0.5, 0.1, 0));
-        assert_eq!((g[1].seed, g[2].delta1), (1, 0.2));
-        let ncol = CSV_HEADER.split(',').count();
-        let mk = |i: usize, c: bool| {
-            let mut f = vec!["0".to_string(); ncol];
-            f[0] = i.to_string();
-            f[3] = "0.5".into();
-            f[5] = "0.1".into();
-            f[11] = if c { "1".into() } else { "0".into() };
-            f[14] = format!("{}", 0.1 * i as f64);
-            f[20] = "0.2".into();
-            f
-        };
-        let rows: Vec<SweepRow> = (0..3)
-            .map(|i| SweepRow {
-                index: i,
-                mu: 0.5,
-                delta1: 0.1,
-                collided: i == 1,
-                min_clearance_m: 0.1 * i as f64,
-                tracking_rms_m: 0.2,
-                fields: mk(i, i == 1),
-            })
-            .collect();
-        let text = csv_string(&rows);
-        assert_eq!(parse_csv(&text, "x").unwrap(), rows);
-        let merged =
-            merge_rows(vec![rows[2].clone(), rows[0].clone(), rows[1].clone(), rows[0].clone()]).unwrap();
-        assert_eq!(merged, rows);
-        let mut other = rows[0].clone();
-        other.fields[14] = "9".into();
-        assert!(merge_rows(vec![rows[0].clone(), other]).is_err());
-        let (m, d, cells) = aggregate(&rows);
-        assert_eq!((m, d), (vec![0.5], vec![0.1]));
-        let c = cells[0][0].unwrap();
-        assert_eq!(c.runs, 3);
-        assert!((c.collision_rate - 1.0 / 3.0).abs() < 1e-12);
-        assert_eq!(c.min_clearance_m, 0.0);
-        assert!(parse_csv("a,b\n", "f").unwrap_err().contains("f: line 1"));
-        assert!(parse_csv(&format!("{CSV_HEADER}\n1,2\n"), "f").unwrap_err().contains("line 2"));
+    csv.finish().with_context(|| format!("cannot write {}", csv_path.display()))?;
+    for (k, r) in readers.iter().enumerate() {
+        if r.seen != named[k].1.rows {
+            // The partial output stays without a manifest: it cannot be merged further.
+            return Err(bad_input(InputError::file(
+                &named[k].0,
+                format!("has {} rows, its sweep.json says {} (truncated?)", r.seen, named[k].1.rows),
+            )));
+        }
     }
+    let complete = plan.missing.is_empty();
+    let m = Manifest {
+        identity: first.identity.clone(),
+        scene_file: first.scene_file.clone(),
+        path_file: first.path_file.clone(),
+        grid_runs: total,
+        shard_count: if complete { 1 } else { plan.shard_count },
+        shards: if complete { vec![1] } else { plan.present.iter().map(|p| p.0).collect() },
+        rows: agg.rows(),
+        failed: agg.failed(),
+    };
+    m.write(&json).with_context(|| format!("cannot write {}", json.display()))?;
+    let (_, warnings) = heatmap::write_heatmaps(&a.out, &first.identity.scene, &agg.aggregate());
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "merged {} inputs ({} of {} shards): {} of {} runs, {} failed -> {}",
+        a.inputs.len(),
+        plan.present.len(),
+        plan.shard_count,
+        agg.rows(),
+        total,
+        agg.failed(),
+        csv_path.display()
+    );
+    if !complete {
+        eprintln!(
+            "warning: partial merge (--allow-partial): {} of {} shards missing",
+            plan.shard_count - plan.present.len() as u64,
+            plan.shard_count
+        );
+    }
+    some_failed(agg.failed(), agg.rows(), &csv_path)
 }
