@@ -15,7 +15,11 @@
 //!    above z = 0 ENU) and of **every** obstacle at t = 0 (moving obstacles at
 //!    their t = 0 position). The start inside the bounds is checked when the
 //!    scene is loaded.
-//! 2. **Every waypoint** `i` of the path: its centre inside the scene bounds
+//! 2. **The path belongs to the scene**: its first waypoint within
+//!    [`PATH_END_TOLERANCE_M`] of the mission start and its last within that of
+//!    the mission goal, unless [`PreflightOptions::foreign_path`]
+//!    (`--foreign-path`) says the path is meant to go elsewhere.
+//! 3. **Every waypoint** `i` of the path: its centre inside the scene bounds
 //!    (the bounds are where the centre of mass may be, as for the planner; with
 //!    [`BOUNDS_TOLERANCE_M`] for the `f32` round-off of path files), the hull
 //!    clear of the ground and of every **static** obstacle. Moving obstacles
@@ -23,10 +27,6 @@
 //!    there, and the safety filter handles them in flight. Segments between
 //!    waypoints are not checked either (a straight line through an obstacle is
 //!    what the filter is there for).
-//! 3. **The path belongs to the scene**: its first waypoint within
-//!    [`PATH_END_TOLERANCE_M`] of the mission start and its last within that of
-//!    the mission goal, unless [`PreflightOptions::foreign_path`]
-//!    (`--foreign-path`) says the path is meant to go elsewhere.
 //!
 //! "Clear" means signed distance from the centre to the surface ≥ hull radius:
 //! the runner's collision test (`sd < hull`), so a start the runner would
@@ -56,7 +56,7 @@ pub struct PreflightOptions {
     /// and `the planned path` / `the straight line`).
     pub path_file: Option<String>,
     /// The path need not start at the mission start nor end at its goal
-    /// (`--foreign-path`): the endpoint check (3.) is skipped; bounds and
+    /// (`--foreign-path`): the endpoint check (2.) is skipped; bounds and
     /// collision checks still apply.
     pub foreign_path: bool,
 }
@@ -71,6 +71,28 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
     let field = |i: usize| format!("waypoints[{i}]");
     if cfg.path.is_empty() {
         return Err(InputError::file(&origin, "the path has no waypoints").field("waypoints"));
+    }
+    if !opts.foreign_path {
+        let n = cfg.path.len();
+        let ends = [(0, scene.start, "start"), (n - 1, scene.goal, "goal")];
+        for (i, target, what) in ends {
+            let d = (cfg.path[i] - target).norm();
+            if d.is_nan() || d > PATH_END_TOLERANCE_M {
+                return Err(InputError::file(
+                    &origin,
+                    format!(
+                        "the path does not belong to scene {} ({}): its {} waypoint is {d:.3} m from the mission {what} {} (a path for another scene?); pass --foreign-path to fly it anyway",
+                        scene.name,
+                        scene.source,
+                        if i == 0 { "first" } else { "last" },
+                        fmt3(&ned_to_enu_arr(&target)),
+                    ),
+                )
+                .field(field(i))
+                .value(fmt3(&ned_to_enu_arr(&cfg.path[i])))
+                .allowed(format!("within {PATH_END_TOLERANCE_M} m of the mission {what}")));
+            }
+        }
     }
     let (lo, hi) = scene.bounds_enu;
     for (i, w) in cfg.path.iter().enumerate() {
@@ -111,28 +133,6 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
             .field(field(i))
             .value(fmt3(&e))
             .allowed(format!("distance to every static obstacle ≥ {hull:.4} m")));
-        }
-    }
-    if !opts.foreign_path {
-        let n = cfg.path.len();
-        let ends = [(0, scene.start, "start"), (n - 1, scene.goal, "goal")];
-        for (i, target, what) in ends {
-            let d = (cfg.path[i] - target).norm();
-            if d.is_nan() || d > PATH_END_TOLERANCE_M {
-                return Err(InputError::file(
-                    &origin,
-                    format!(
-                        "the path does not belong to scene {} ({}): its {} waypoint is {d:.3} m from the mission {what} {} (a path for another scene?); pass --foreign-path to fly it anyway",
-                        scene.name,
-                        scene.source,
-                        if i == 0 { "first" } else { "last" },
-                        fmt3(&ned_to_enu_arr(&target)),
-                    ),
-                )
-                .field(field(i))
-                .value(fmt3(&ned_to_enu_arr(&cfg.path[i])))
-                .allowed(format!("within {PATH_END_TOLERANCE_M} m of the mission {what}")));
-            }
         }
     }
     Ok(())
@@ -379,6 +379,47 @@ velocity = [-0.5, 0, 0]
         // --foreign-path does not lift the collision checks.
         let c = cfg(&s, &[[0.0, 0.0, 1.0], [3.0, 1.0, 1.0]]);
         assert!(refused(&s, &c, &allow).contains("obstacles[0] (ball)"));
+    }
+
+    #[test]
+    fn every_committed_scene_and_path_passes() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{e}")) {
+            let f = entry.unwrap_or_else(|e| panic!("{e}")).path();
+            if f.extension().is_none_or(|x| x != "toml") {
+                continue;
+            }
+            let s = Scene::load(&f).unwrap_or_else(|e| panic!("{e}"));
+            let c = RunConfig::for_scene(&s, vec![s.start, s.goal]).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(check(&s, &c, &PreflightOptions::default()), Ok(()), "{}", f.display());
+            let stem = f.file_stem().and_then(|x| x.to_str()).unwrap_or_default();
+            let pf = dir.join(format!("{stem}_path.json"));
+            if pf.exists() {
+                let file = crate::pathfile::PathFile::read(&pf).unwrap_or_else(|e| panic!("{e}"));
+                let path = file.waypoints_ned().iter().map(crate::scene::to_f64).collect();
+                let c = RunConfig::for_scene(&s, path).unwrap_or_else(|e| panic!("{e}"));
+                let o = PreflightOptions { path_file: Some(pf.display().to_string()), foreign_path: false };
+                assert_eq!(check(&s, &c, &o), Ok(()), "{}", pf.display());
+                n += 1;
+            }
+        }
+        assert!(n >= 4, "only {n} committed paths checked");
+        // The office's path flown in the outdoor scene is refused as foreign.
+        let s = Scene::load(&dir.join("outdoor_static.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let file =
+            crate::pathfile::PathFile::read(&dir.join("office_path.json")).unwrap_or_else(|e| panic!("{e}"));
+        let c = RunConfig::for_scene(&s, file.waypoints_ned().iter().map(crate::scene::to_f64).collect())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let e = refused(
+            &s,
+            &c,
+            &PreflightOptions { path_file: Some("office_path.json".into()), foreign_path: false },
+        );
+        assert!(
+            e.contains("does not belong to scene outdoor_static") || e.contains("outside the bounds"),
+            "{e}"
+        );
     }
 
     #[test]
