@@ -73,17 +73,24 @@ pub struct Summary {
     /// Minimum over the flight of the controller's own h̄ (its position/velocity
     /// estimate, the obstacles it was told about), m²; null when it never saw one.
     pub min_filter_h_bar: Option<f64>,
-    /// Goal reached (within the tolerance and slow) before the end.
+    /// The **scene's** mission goal reached: the path done, the vehicle slow and
+    /// within the tolerance of `[mission] goal` (not merely of the path's end).
     pub reached_goal: bool,
-    /// Time from mission start to reaching the goal, s (null if not reached).
+    /// Time from mission start to reaching the scene's goal, s (null if not reached).
     pub time_to_goal_s: Option<f64>,
-    /// Distance from the vehicle to the goal at the end of the run, m.
+    /// Distance from the vehicle to the scene's mission goal at the end of the run, m.
     pub final_distance_to_goal_m: f64,
+    /// The path's last waypoint reached (path done, slow, within the tolerance);
+    /// equals `reached_goal` for a path of the scene, differs for a `--foreign-path`.
+    pub reached_path_end: bool,
+    /// Distance from the vehicle to the path's last waypoint at the end of the run, m.
+    pub final_distance_to_path_end_m: f64,
     /// RMS of |actual − reference position| over the flight, m.
     pub tracking_rms_m: f64,
     /// Share of outer-loop steps where the filter changed the nominal input.
     pub filter_active_fraction: f64,
-    /// Why the run ended: "goal", "collision" or "duration".
+    /// Why the run ended: "goal" (the scene's), "path_end" (the path's end, away
+    /// from the scene's goal), "collision" or "duration".
     pub end_reason: String,
     /// Simulated time, s.
     pub sim_time_s: f64,
@@ -264,7 +271,23 @@ pub fn summary_table(s: &Summary) -> String {
             ),
         ),
         ("end", s.end_reason.clone()),
-        ("reached goal", format!("{} (t = {})", s.reached_goal, opt(s.time_to_goal_s, "s"))),
+        (
+            "reached goal",
+            format!(
+                "{} (t = {}; scene goal, final distance {:.3} m)",
+                s.reached_goal,
+                opt(s.time_to_goal_s, "s"),
+                s.final_distance_to_goal_m
+            ),
+        ),
+        (
+            "path end",
+            format!(
+                "{} (last waypoint, final distance {:.3} m)",
+                if s.reached_path_end { "reached" } else { "not reached" },
+                s.final_distance_to_path_end_m
+            ),
+        ),
         (
             "collided",
             format!(

@@ -7,8 +7,14 @@
 //! mission is started at t = 0. The run stops at the first of:
 //! * **collision**: the hull sphere intersects an obstacle (signed distance
 //!   from the centre of mass to a surface < hull radius), checked every plant step;
-//! * **goal**: within [`GOAL_TOLERANCE_M`] of the goal and slower than [`GOAL_SPEED_MPS`];
-//! * the **duration** limit.
+//! * **path end**: the path is done, the vehicle within [`GOAL_TOLERANCE_M`] of
+//!   the path's last waypoint and slower than [`GOAL_SPEED_MPS`]. The goal is
+//!   **reached** (`reached_goal`, end reason `goal`) when the vehicle is then
+//!   also within [`GOAL_TOLERANCE_M`] of the **scene's** mission goal; a path
+//!   ending elsewhere (`--foreign-path`) ends with `reached_path_end` only
+//!   (end reason `path_end`);
+//! * the **duration** limit (default [`default_duration`]: 1.5 × the flown
+//!   length start → first waypoint → … → last at the reference speed, + 15 s).
 //!
 //! ## What the controller is told
 //! * Position fixes at the outer rate from [`crate::sensors`] (noise, latency).
@@ -92,7 +98,8 @@ pub struct RunConfig {
 
 impl RunConfig {
     /// Defaults for `scene` with the given path: scene controller overrides,
-    /// the scene's sensor table (or defaults), duration 1.5 × path time + 15 s.
+    /// the scene's sensor table (or defaults), duration `[sim] duration` or
+    /// [`default_duration`] at the scene's speed.
     pub fn for_scene(scene: &Scene, path: Vec<Vector3<f64>>) -> Result<RunConfig> {
         let c = &scene.controller;
         let cbf_default = CbfParams::default();
@@ -108,9 +115,8 @@ impl RunConfig {
             kd: c.kd.unwrap_or(0.8),
             speed: scene.speed,
         };
-        let len = path_length(&path);
         Ok(RunConfig {
-            duration: scene.sim.duration.unwrap_or(1.5 * len / scene.speed + 15.0),
+            duration: scene.sim.duration.unwrap_or_else(|| default_duration(scene, &path, scene.speed)),
             path,
             path_source: "straight".into(),
             planning_time_ms: None,
@@ -144,6 +150,18 @@ impl RunConfig {
 /// Length of a polyline, m.
 pub fn path_length(path: &[Vector3<f64>]) -> f64 {
     path.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// Length of what is flown, m: from the mission start (where the vehicle
+/// hovers at t = 0) to the first waypoint, then along the path.
+pub fn flown_length(start: &Vector3<f64>, path: &[Vector3<f64>]) -> f64 {
+    path.first().map_or(0.0, |w| (w - start).norm()) + path_length(path)
+}
+
+/// Default duration limit, s: 1.5 × the flown length ([`flown_length`]) at
+/// `speed` (m/s) + 15 s for the start-up and the settling at the end.
+pub fn default_duration(scene: &Scene, path: &[Vector3<f64>], speed: f64) -> f64 {
+    1.5 * flown_length(&scene.start, path) / speed + 15.0
 }
 
 /// The outcome of a run: samples at the outer rate and the summary.
@@ -401,7 +419,8 @@ pub fn run_with(
     let mut steps = 0u64;
     let mut t = 0.0;
     let mut next_progress = 0.0;
-    let goal = *cfg.path.last().unwrap_or(&scene.goal);
+    // The path's end (where the run stops) and the scene's goal (what `reached_goal` means).
+    let path_end = *cfg.path.last().unwrap_or(&scene.goal);
 
     for k in 0..n_inner {
         t = k as f64 / INNER_HZ;
@@ -455,7 +474,7 @@ pub fn run_with(
                 mode: out.mode,
             });
             if goal_at.is_none()
-                && (plant.state.pos - goal).norm() < GOAL_TOLERANCE_M
+                && (plant.state.pos - path_end).norm() < GOAL_TOLERANCE_M
                 && plant.state.vel.norm() < GOAL_SPEED_MPS
                 && out.path_done
             {
@@ -500,6 +519,9 @@ pub fn run_with(
     if collided_at.is_none() && goal_at.is_none() {
         t = n_inner as f64 / INNER_HZ;
     }
+    let reached_path_end = goal_at.is_some();
+    let goal_dist = (plant.state.pos - scene.goal).norm();
+    let goal_at = goal_at.filter(|_| goal_dist < GOAL_TOLERANCE_M);
     let min_h_bar = samples.iter().map(|s| s.h_bar).fold(f64::INFINITY, f64::min);
     let summary = Summary {
         scene: scene.name.clone(),
@@ -522,13 +544,17 @@ pub fn run_with(
             .filter(|x| x.is_finite()),
         reached_goal: goal_at.is_some(),
         time_to_goal_s: goal_at,
-        final_distance_to_goal_m: (plant.state.pos - goal).norm(),
+        final_distance_to_goal_m: goal_dist,
+        reached_path_end,
+        final_distance_to_path_end_m: (plant.state.pos - path_end).norm(),
         tracking_rms_m: if n_outer > 0 { (sq_err / n_outer as f64).sqrt() } else { 0.0 },
         filter_active_fraction: if n_outer > 0 { n_active as f64 / n_outer as f64 } else { 0.0 },
         end_reason: if collided_at.is_some() {
             "collision"
         } else if goal_at.is_some() {
             "goal"
+        } else if reached_path_end {
+            "path_end"
         } else {
             "duration"
         }
