@@ -16,7 +16,7 @@ use crate::planner::{plan, PlanProblem, PlannedPath, PlannerParams};
 use crate::plant::VehicleParams;
 use crate::replay::{parse_rotor_csv, replay, ReplayOptions};
 use crate::report::{summary_table, write_report, RunRecord};
-use crate::runner::{path_length, run, RunConfig};
+use crate::runner::{run, RunConfig};
 use crate::scene::{to_f32, to_f64, Scene};
 
 /// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
@@ -73,6 +73,12 @@ struct RunArgs {
     /// Fly the straight line start → goal instead of planning (for tests and demos).
     #[arg(long, conflicts_with = "path")]
     straight: bool,
+    /// [preflight] Fly a `--path` whose first/last waypoint is not within 0.5 m of the
+    /// scene's mission start/goal (a path meant for elsewhere). Without it such a path is
+    /// refused (exit 2). Bounds and collision checks of the start and waypoints still apply;
+    /// `reached_goal` still means the scene's goal.
+    #[arg(long)]
+    foreign_path: bool,
     /// Disable the CBF safety filter (nominal PD tracking only).
     #[arg(long)]
     no_cbf: bool,
@@ -286,6 +292,11 @@ fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
 /// Scene and run configuration from the `run` options (shared by `run` and `pil`).
 fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     let mut scene = load_scene(&a.scene)?;
+    // [preflight] the start is flyable (before planning from it); --foreign-path needs --path.
+    crate::preflight::check_start(&scene).map_err(|e| CliError::BadInput(e.to_string()))?;
+    if a.foreign_path && a.path.is_none() {
+        return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
+    }
     if let Some(s) = positive("speed", a.speed)? {
         scene.speed = s;
     }
@@ -338,7 +349,8 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     if let Some(x) = positive("duration", a.duration)? {
         cfg.duration = x;
     } else if scene.sim.duration.is_none() {
-        cfg.duration = 1.5 * path_length(&cfg.path) / cfg.params.speed + 15.0;
+        // [preflight] the default covers the whole flown path, start → first waypoint included.
+        cfg.duration = crate::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
     }
     if let Some(x) = positive("sensing-range", a.sensing_range)? {
         cfg.sensing_range = x;
@@ -350,6 +362,12 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     }
     cfg.seed = a.seed;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
+    // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
+    let opts = crate::preflight::PreflightOptions {
+        path_file: a.path.as_ref().map(|p| p.display().to_string()),
+        foreign_path: a.foreign_path,
+    };
+    crate::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
     Ok((scene, cfg))
 }
 

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<(), InputError>
+//! pub fn check_start(scene: &Scene) -> Result<(), InputError>   // 1. only, before planning
 //! ```
 //!
 //! Called by `parapet run`, `parapet pil` (through `cli::run_setup`) and
@@ -66,7 +67,7 @@ pub struct PreflightOptions {
 #[allow(clippy::result_large_err)]
 pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<(), InputError> {
     let hull = scene.vehicle.hull_radius;
-    check_start(scene, hull)?;
+    check_start(scene)?;
     let origin = path_origin(scene, cfg, opts);
     let field = |i: usize| format!("waypoints[{i}]");
     if cfg.path.is_empty() {
@@ -138,9 +139,12 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
     Ok(())
 }
 
-/// The start: hull clear of the ground and of every obstacle at t = 0.
+/// Check 1 alone (the start: hull clear of the ground and of every obstacle
+/// at t = 0), for callers that plan from the start before they have a path;
+/// [`check`] includes it.
 #[allow(clippy::result_large_err)]
-fn check_start(scene: &Scene, hull: f64) -> Result<(), InputError> {
+pub fn check_start(scene: &Scene) -> Result<(), InputError> {
+    let hull = scene.vehicle.hull_radius;
     let s = scene.start;
     let e = ned_to_enu_arr(&s);
     if let Some(msg) = ground_violation(&s, hull) {
