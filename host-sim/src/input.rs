@@ -12,7 +12,8 @@
 //! [`limits`] holds every cap the tools enforce on user input (durations, steps,
 //! sweep sizes, …) so `--help`, `scenes/README.md` and the checks use one number.
 //!
-//! May import: std only (used by every other host-sim module).
+//! May import: std and `parapet-core`'s public constants (used by every other
+//! host-sim module, so nothing else of host-sim).
 
 use std::fmt;
 
@@ -106,6 +107,54 @@ impl std::error::Error for InputError {}
 /// a value beyond a cap is refused with an [`InputError`] naming the cap and,
 /// where one exists, the option that raises it.
 pub mod limits {
+    use parapet_core::{cbf, controller, waypoint};
+
+    /// Longest simulated duration of one run (`--duration`, `[sim] duration` or the
+    /// default duration), s, unless `--max-duration` raises it. A run stops earlier
+    /// at the goal or a collision; memory grows with the time actually flown.
+    pub const MAX_DURATION_S: f64 = 3600.0;
+    /// Largest value of `--max-duration`, s (one simulated day).
+    pub const MAX_DURATION_CEILING_S: f64 = 86_400.0;
+    /// Smallest plant integration step (`[sim] dt`, `replay --dt`), s.
+    pub const MIN_DT_S: f64 = 1e-5;
+    /// Largest plant integration step, s: the inner-loop period (the plant takes
+    /// round(1 ms / dt) steps per inner step). Equals `runner::INNER_DT`.
+    pub const MAX_DT_S: f64 = 1e-3;
+    /// Most plant integration steps of one run or replay (duration / dt).
+    pub const MAX_PLANT_STEPS: f64 = 4e8;
+    /// Largest `[sensors] position_latency`, s: half the flight controller's
+    /// position timeout (`FailsafeParams::position_timeout_us`, 0.2 s), so a fix
+    /// delayed by the latency and one outer period is still fresh when arming.
+    pub const MAX_POSITION_LATENCY_S: f64 = 0.1;
+    /// Largest noise standard deviation in `[sensors]` (rad/s, m/s², m, m/s).
+    pub const MAX_SENSOR_NOISE: f64 = 100.0;
+    /// Largest reference speed (`--speed`, `[mission] speed`, `[controller] speed`),
+    /// m/s: the waypoint follower's limit `waypoint::PARAM_LIMIT`.
+    pub const MAX_SPEED_MPS: f64 = waypoint::PARAM_LIMIT as f64;
+    /// Largest coordinate magnitude of bounds, mission, obstacles (and their sizes)
+    /// and path waypoints, m: the core's `waypoint::COORDINATE_LIMIT` (the
+    /// controller drops obstacle points beyond `cbf::INPUT_LIMIT`, the same value).
+    pub const MAX_COORDINATE_M: f64 = waypoint::COORDINATE_LIMIT as f64;
+    /// Most waypoints in a path (planned or `--path`): the controller's `PATH_CAPACITY`.
+    pub const MAX_WAYPOINTS: usize = controller::PATH_CAPACITY;
+    /// Most obstacles reported to the controller at once (the nearest are kept):
+    /// `controller::OBSTACLE_CAPACITY`. A scene may hold more.
+    pub const MAX_OBSTACLES_SENSED: usize = controller::OBSTACLE_CAPACITY;
+    /// Most barriers the `multi` filters enforce at once: `cbf::MAX_ACTIVE_BARRIERS`.
+    pub const MAX_BARRIERS: usize = cbf::MAX_ACTIVE_BARRIERS;
+    /// Wall-clock budget of the planner's tree search, s (`PlannerParams::time_budget_ms`).
+    pub const PLANNER_BUDGET_S: f64 = 1.0;
+    /// Largest input file read (scene, path, vehicle, replay CSV), bytes (64 MiB).
+    pub const MAX_INPUT_FILE_BYTES: u64 = 64 << 20;
+    /// Most data rows of a replay CSV.
+    pub const MAX_REPLAY_ROWS: usize = 1_000_000;
+    /// Longest time span of a replay CSV (last t − first t), s.
+    pub const MAX_REPLAY_SPAN_S: f64 = 3600.0;
+
+    // Within the default caps, the step cap never binds at the smallest dt.
+    const _: () = assert!(MAX_DURATION_S / MIN_DT_S <= MAX_PLANT_STEPS);
+    const _: () = assert!(MAX_REPLAY_SPAN_S / MIN_DT_S <= MAX_PLANT_STEPS);
+
     // --- sweep (owner: the sweep engineer) ---
 
     /// Most values in one `parapet sweep` range (`--mu`, `--delta1`, `--speed` `A:B:N`: N ≤ this).
@@ -123,9 +172,73 @@ pub mod limits {
     pub const SWEEP_CONFIRM_RUNS: u64 = 10_000;
 }
 
+/// A number as a user reads it: shortest decimal, exponent form for very large
+/// or small magnitudes (`1e300`, `1e-7`, `0.002`, `150`).
+pub fn num(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// Read a user-given text file, refusing one larger than
+/// [`limits::MAX_INPUT_FILE_BYTES`]; errors name the file.
+pub fn read_text(path: &std::path::Path) -> Result<String, InputError> {
+    use std::io::Read as _;
+    let shown = path.display();
+    let cannot = |e: std::io::Error| InputError::file(&shown, format!("cannot read the file: {e}"));
+    let f = std::fs::File::open(path).map_err(cannot)?;
+    let mut text = String::new();
+    let cap = limits::MAX_INPUT_FILE_BYTES;
+    let n = f.take(cap + 1).read_to_string(&mut text).map_err(cannot)?;
+    if n as u64 > cap {
+        return Err(InputError::file(&shown, "the file is too large")
+            .value(format!("more than {cap} bytes"))
+            .allowed(format!("at most {cap} bytes")));
+    }
+    Ok(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn limits_agree_with_the_code_they_describe() {
+        assert_eq!(limits::MAX_DT_S, crate::runner::INNER_DT);
+        assert_eq!(
+            limits::PLANNER_BUDGET_S * 1000.0,
+            crate::planner::PlannerParams::default().time_budget_ms
+        );
+        let timeout_us = parapet_core::failsafe::FailsafeParams::default().position_timeout_us;
+        assert!((limits::MAX_POSITION_LATENCY_S * 1e6).round() as u64 <= timeout_us / 2);
+    }
+
+    #[test]
+    fn read_text_refuses_a_file_over_the_cap() {
+        let dir = std::env::temp_dir().join(format!("parapet-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("big.csv");
+        let file = std::fs::File::create(&f).unwrap();
+        file.set_len(limits::MAX_INPUT_FILE_BYTES + 1).unwrap();
+        let e = read_text(&f).unwrap_err().to_string();
+        assert!(e.contains("big.csv") && e.contains("too large"), "{e}");
+        std::fs::write(&f, "ok").unwrap();
+        assert_eq!(read_text(&f).unwrap(), "ok");
+        assert!(read_text(&dir.join("none")).unwrap_err().to_string().contains("none"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn numbers_read_like_the_input() {
+        assert_eq!(num(1e300), "1e300");
+        assert_eq!(num(1e-7), "1e-7");
+        assert_eq!(num(0.002), "0.002");
+        assert_eq!(num(150.0), "150");
+        assert_eq!(num(1e7), "1e7");
+        assert_eq!(num(f64::NAN), "NaN");
+    }
 
     #[test]
     fn small_enough_to_return_by_value() {

@@ -11,6 +11,7 @@
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 //! * [`input`]: the one error type for bad user input, and the documented limits.
+//! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
 pub mod cli;
 pub mod control;
@@ -26,3 +27,4 @@ pub mod runner;
 pub mod scene;
 pub mod sensors;
 pub mod sweep;
+pub mod validate;

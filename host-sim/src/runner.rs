@@ -47,10 +47,12 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
 use crate::control::{Autopilot, Controller};
+use crate::input::limits;
 use crate::plant::Plant;
 use crate::report::{RunParams, Sample, Summary};
 use crate::scene::{to_f32, NearestTracker, Scene};
 use crate::sensors::{SensorParams, Sensors};
+use crate::validate::f32_as_f64;
 
 /// Goal reached: distance to the goal below this, m.
 pub const GOAL_TOLERANCE_M: f64 = 0.1;
@@ -62,6 +64,10 @@ pub const INNER_DT: f64 = 0.001;
 const INNER_HZ: f64 = 1000.0;
 /// Outer-loop decimation: one outer step every this many inner steps (250 Hz).
 pub const OUTER_DIVIDER: u64 = 4;
+/// Default PD position gain k_p, 1/s² (the paper's office experiment).
+pub const DEFAULT_KP: f64 = 0.5;
+/// Default PD velocity gain k_d, 1/s.
+pub const DEFAULT_KD: f64 = 0.8;
 /// Default proximity-sensor range, m.
 pub const DEFAULT_SENSING_RANGE: f64 = 3.0;
 
@@ -107,12 +113,14 @@ impl RunConfig {
             Some(name) => name.parse().map_err(|_| anyhow!("unknown filter variant {name:?}"))?,
             None => FilterVariant::default(),
         };
+        // The f32 defaults as their shortest decimals (1.4, not 1.399999976158142):
+        // the same f32 values reach the filter, and reports print them as written.
         let params = RunParams {
-            mu: c.mu.unwrap_or(cbf_default.mu as f64),
-            delta: c.delta.unwrap_or(cbf_default.delta as f64),
-            delta1: c.delta1.unwrap_or(cbf_default.delta1 as f64),
-            kp: c.kp.unwrap_or(0.5),
-            kd: c.kd.unwrap_or(0.8),
+            mu: c.mu.unwrap_or(f32_as_f64(cbf_default.mu)),
+            delta: c.delta.unwrap_or(f32_as_f64(cbf_default.delta)),
+            delta1: c.delta1.unwrap_or(f32_as_f64(cbf_default.delta1)),
+            kp: c.kp.unwrap_or(DEFAULT_KP),
+            kd: c.kd.unwrap_or(DEFAULT_KD),
             speed: scene.speed,
         };
         Ok(RunConfig {
@@ -145,6 +153,40 @@ impl RunConfig {
         p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
         Ok(p)
     }
+}
+
+/// Samples reserved up front by [`run_with`] (one minute at the outer rate); more
+/// are added as the flight goes.
+const SAMPLES_RESERVED: u64 = 15_000;
+
+/// The caps that keep one run's time and memory bounded (the CLI refuses the same
+/// values earlier, naming the option or the file): duration finite, > 0 and ≤
+/// [`limits::MAX_DURATION_CEILING_S`]; dt in [[`limits::MIN_DT_S`], [`INNER_DT`]];
+/// at most [`limits::MAX_PLANT_STEPS`] plant steps; position latency in [0,
+/// [`limits::MAX_POSITION_LATENCY_S`]] (the start-up primes one fix per outer step of it).
+pub fn check_bounded(cfg: &RunConfig) -> Result<()> {
+    let d = cfg.duration;
+    if !(d.is_finite() && d > 0.0 && d <= limits::MAX_DURATION_CEILING_S) {
+        return Err(anyhow!("duration must be in (0, {}] s, got {d}", limits::MAX_DURATION_CEILING_S));
+    }
+    if !(cfg.dt.is_finite() && cfg.dt >= limits::MIN_DT_S && cfg.dt <= INNER_DT) {
+        return Err(anyhow!("plant step dt must be in [{}, {INNER_DT}] s, got {}", limits::MIN_DT_S, cfg.dt));
+    }
+    if d / cfg.dt > limits::MAX_PLANT_STEPS {
+        return Err(anyhow!(
+            "duration / dt = {:.3e} plant steps exceed the cap of {:.0e}",
+            d / cfg.dt,
+            limits::MAX_PLANT_STEPS
+        ));
+    }
+    let lat = cfg.sensors.position_latency;
+    if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
+        return Err(anyhow!(
+            "position latency must be in [0, {}] s, got {lat}",
+            limits::MAX_POSITION_LATENCY_S
+        ));
+    }
+    Ok(())
 }
 
 /// Length of a polyline, m.
@@ -376,9 +418,7 @@ pub fn run_with(
     if cfg.path.is_empty() {
         return Err(anyhow!("empty path"));
     }
-    if !(cfg.dt.is_finite() && cfg.dt > 0.0 && cfg.dt <= INNER_DT) {
-        return Err(anyhow!("plant step dt must be in (0, {INNER_DT}] s, got {}", cfg.dt));
-    }
+    check_bounded(cfg)?;
     let substeps = (INNER_DT / cfg.dt).round().max(1.0) as usize;
     let dt = INNER_DT / substeps as f64;
     let cbf = cfg.cbf_params()?;
@@ -411,7 +451,9 @@ pub fn run_with(
     let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
 
     let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
-    let mut samples = Vec::with_capacity((n_inner / OUTER_DIVIDER + 1) as usize);
+    // Memory grows with the time flown, not with the duration limit: reserve at
+    // most a minute of samples up front.
+    let mut samples = Vec::with_capacity((n_inner / OUTER_DIVIDER + 1).min(SAMPLES_RESERVED) as usize);
     let (mut collided_at, mut collision_obstacle) = (None, None);
     let mut goal_at = None;
     let mut min_clear = f64::INFINITY;
@@ -594,6 +636,33 @@ mod tests {
             motion: Motion::Waypoints(vec![(0.0, a), (20.0, a + Vector3::new(4.0, 1.0, 0.0))]),
         });
         s
+    }
+
+    #[test]
+    fn runs_beyond_the_caps_are_refused_before_any_step() {
+        let scene = office_with_walker();
+        let base =
+            RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
+        assert!(check_bounded(&base).is_ok());
+        let cases: [(&str, fn(&mut RunConfig)); 6] = [
+            ("duration", |c| c.duration = 1e20),
+            ("duration", |c| c.duration = f64::NAN),
+            ("dt", |c| c.dt = 1e-7),
+            ("dt", |c| c.dt = 0.002),
+            ("plant steps", |c| {
+                c.duration = limits::MAX_DURATION_CEILING_S;
+                c.dt = limits::MIN_DT_S;
+            }),
+            ("latency", |c| c.sensors.position_latency = 1e9),
+        ];
+        for (what, f) in cases {
+            let mut cfg = base.clone();
+            f(&mut cfg);
+            let e = run(&scene, &cfg, &mut |_| {}).unwrap_err().to_string();
+            assert!(e.contains(what), "{what}: {e}");
+        }
+        // The default f32 parameters print as written.
+        assert_eq!(base.params.mu.to_string(), "1.4");
     }
 
     #[test]

@@ -22,7 +22,13 @@
 //! ```
 //!
 //! Unknown keys and invalid values are errors naming the file, the table
-//! (`obstacles[i]` with a 0-based index) and the field.
+//! (`obstacles[i]` with a 0-based index), the field, the value and the allowed
+//! range. The limits ([`crate::input::limits`]): coordinates and sizes ≤
+//! `MAX_COORDINATE_M` (1e5 m), speed ≤ `MAX_SPEED_MPS` (100 m/s), `[sim] dt` in
+//! [`MIN_DT_S`, `MAX_DT_S`] (10 µs … 1 ms), `position_latency` ≤
+//! `MAX_POSITION_LATENCY_S` (0.1 s), noise ≤ `MAX_SENSOR_NOISE`, files ≤
+//! `MAX_INPUT_FILE_BYTES`. The duration cap depends on `--max-duration` and is
+//! checked by [`crate::validate::check_run`].
 
 use std::path::Path;
 
@@ -31,6 +37,7 @@ use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
 use serde::{Deserialize, Serialize};
 
+use crate::input::{limits, InputError};
 use crate::plant::VehicleParams;
 use crate::sensors::SensorParams;
 
@@ -268,12 +275,31 @@ pub struct Scene {
     pub obstacles: Vec<SceneObstacle>,
 }
 
+impl From<SceneError> for InputError {
+    fn from(e: SceneError) -> Self {
+        InputError::file(e.file, e.message)
+    }
+}
+
+/// `|x| ≤ MAX_COORDINATE_M` for every component.
+fn within_limit(a: &[f64]) -> bool {
+    a.iter().all(|x| x.abs() <= limits::MAX_COORDINATE_M)
+}
+
+/// "field `f`: <what> (got <value>; allowed <allowed>)".
+fn bad(field: &str, what: &str, value: impl std::fmt::Debug, allowed: &str) -> String {
+    format!("field `{field}`: {what} (got {value:?}; allowed {allowed})")
+}
+
 impl Scene {
-    /// Read and validate a scene file.
+    /// Read and validate a scene file (at most `MAX_INPUT_FILE_BYTES`).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let file = path.display().to_string();
-        let src = std::fs::read_to_string(path)
-            .map_err(|e| SceneError { file: file.clone(), message: format!("cannot read the file: {e}") })?;
+        let src = crate::input::read_text(path).map_err(|e| {
+            let text = e.to_string();
+            let message = text.strip_prefix(&format!("{file}: ")).unwrap_or(&text).to_string();
+            SceneError { file: file.clone(), message }
+        })?;
         Scene::parse(&src, &file)
     }
 
@@ -281,11 +307,12 @@ impl Scene {
     pub fn parse(src: &str, file: &str) -> Result<Scene, SceneError> {
         let err = |message: String| SceneError { file: file.to_string(), message };
         let raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
+        let coord = format!("finite, |x| ≤ {} m", limits::MAX_COORDINATE_M);
         let finite3 = |table: &str, field: &str, a: [f64; 3]| -> Result<(), SceneError> {
-            if a.iter().all(|x| x.is_finite()) {
+            if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
                 Ok(())
             } else {
-                Err(err(format!("{table}: field `{field}`: values must be finite, got {a:?}")))
+                Err(err(format!("{table}: {}", bad(field, "coordinate out of range", a, &coord))))
             }
         };
         finite3("[bounds]", "min", raw.bounds.min)?;
@@ -305,19 +332,32 @@ impl Scene {
                 return Err(err(format!("[mission]: field `{field}`: {a:?} is outside the bounds")));
             }
         }
-        if !(raw.mission.speed.is_finite() && raw.mission.speed > 0.0) {
-            return Err(err(format!("[mission]: field `speed`: must be > 0, got {}", raw.mission.speed)));
+        let speed_range = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
+        if !(raw.mission.speed > 0.0 && raw.mission.speed <= limits::MAX_SPEED_MPS) {
+            return Err(err(format!(
+                "[mission]: {}",
+                bad("speed", "reference speed out of range", raw.mission.speed, &speed_range)
+            )));
         }
         let vehicle = raw.vehicle.unwrap_or_default();
         vehicle.validate().map_err(|e| err(format!("[vehicle]: field `{}`: {}", e.field, e.reason)))?;
         let controller = raw.controller.unwrap_or_default();
         validate_controller(&controller).map_err(|m| err(format!("[controller]: {m}")))?;
         let sim = raw.sim.unwrap_or_default();
-        for (field, x) in [("sensing_range", sim.sensing_range), ("duration", sim.duration), ("dt", sim.dt)] {
+        for (field, x) in [("sensing_range", sim.sensing_range), ("duration", sim.duration)] {
             if let Some(x) = x {
                 if !(x.is_finite() && x > 0.0) {
-                    return Err(err(format!("[sim]: field `{field}`: must be > 0, got {x}")));
+                    return Err(err(format!("[sim]: {}", bad(field, "must be finite and > 0", x, "> 0"))));
                 }
+            }
+        }
+        if let Some(dt) = sim.dt {
+            if !(limits::MIN_DT_S..=limits::MAX_DT_S).contains(&dt) {
+                let allowed = format!("{:e} ≤ dt ≤ {:e} s", limits::MIN_DT_S, limits::MAX_DT_S);
+                return Err(err(format!(
+                    "[sim]: {}",
+                    bad("dt", "plant integration step out of range", dt, &allowed)
+                )));
             }
         }
         if let Some(s) = &raw.sensors {
@@ -550,18 +590,23 @@ impl NearestTracker {
 }
 
 fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
-    for (field, x) in [
-        ("mu", c.mu),
-        ("delta", c.delta),
-        ("delta1", c.delta1),
-        ("kp", c.kp),
-        ("kd", c.kd),
-        ("speed", c.speed),
-    ] {
+    for (field, x) in [("mu", c.mu), ("delta", c.delta), ("delta1", c.delta1), ("kp", c.kp), ("kd", c.kd)] {
         if let Some(x) = x {
-            if !(x.is_finite() && x > 0.0) {
-                return Err(format!("field `{field}`: must be finite and > 0, got {x}"));
+            // In f32 as the controller sees them.
+            if !(x.is_finite() && (x as f32).is_finite() && x > 0.0) {
+                return Err(bad(
+                    field,
+                    "must be finite and > 0",
+                    x,
+                    &format!("0 < {field} ≤ {:e}", f32::MAX),
+                ));
             }
+        }
+    }
+    if let Some(v) = c.speed {
+        if !(v > 0.0 && v <= limits::MAX_SPEED_MPS) {
+            let allowed = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
+            return Err(bad("speed", "reference speed out of range", v, &allowed));
         }
     }
     for (field, x) in [("accel_bound", c.accel_bound), ("velocity_margin", c.velocity_margin)] {
@@ -572,8 +617,8 @@ fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
         }
     }
     if let (Some(d), Some(d1)) = (c.delta, c.delta1) {
-        if d1 <= d {
-            return Err(format!("field `delta1`: must exceed delta ({d}), got {d1}"));
+        if d1 as f32 <= d as f32 {
+            return Err(bad("delta1", &format!("must exceed delta = {d}"), d1, &format!("delta1 > {d}")));
         }
     }
     if let Some(f) = &c.filter {
@@ -595,26 +640,37 @@ fn validate_sensors(s: &SensorParams) -> Result<(), String> {
         ("position_latency", s.position_latency),
         ("obstacle_velocity_noise", s.obstacle_velocity_noise),
     ] {
-        if !(x.is_finite() && x >= 0.0) {
-            return Err(format!("field `{field}`: must be finite and >= 0, got {x}"));
+        let cap = if field == "position_latency" {
+            limits::MAX_POSITION_LATENCY_S
+        } else {
+            limits::MAX_SENSOR_NOISE
+        };
+        if !(x.is_finite() && (0.0..=cap).contains(&x)) {
+            let why = if field == "position_latency" {
+                "beyond the cap (the flight controller's position timeout is 0.2 s)"
+            } else {
+                "out of range"
+            };
+            return Err(bad(field, why, x, &format!("0 ≤ {field} ≤ {cap}")));
         }
     }
     Ok(())
 }
 
 fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
+    let max = limits::MAX_COORDINATE_M;
     let finite3 = |field: &str, a: [f64; 3]| {
-        if a.iter().all(|x| x.is_finite()) {
+        if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
             Ok(enu_arr_to_ned(a))
         } else {
-            Err(format!("field `{field}`: values must be finite, got {a:?}"))
+            Err(bad(field, "out of range", a, &format!("finite, |x| ≤ {max}")))
         }
     };
     let positive = |field: &str, x: f64| {
-        if x.is_finite() && x > 0.0 {
+        if x.is_finite() && x > 0.0 && x <= max {
             Ok(x as f32)
         } else {
-            Err(format!("field `{field}`: must be finite and > 0, got {x}"))
+            Err(bad(field, "must be finite and > 0", x, &format!("0 < {field} ≤ {max} m")))
         }
     };
     let need = |field: &str, present: bool| {
@@ -687,8 +743,9 @@ fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
             }
             let mut out = Vec::with_capacity(w.len());
             for (k, e) in w.iter().enumerate() {
-                if !e.iter().all(|x| x.is_finite()) {
-                    return Err(format!("field `waypoints`: entry {k} must be finite, got {e:?}"));
+                if !(e.iter().all(|x| x.is_finite()) && within_limit(&e[1..])) {
+                    let allowed = format!("finite, |x| ≤ {max} m");
+                    return Err(bad("waypoints", &format!("entry {k} out of range"), e, &allowed));
                 }
                 if let Some((t_prev, _)) = out.last() {
                     if e[0] <= *t_prev {
@@ -711,13 +768,17 @@ fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
         return msg;
     };
     let start = span.start.min(src.len());
+    // Up to the end of the line where the span starts: a missing key's span is
+    // its table's `[[obstacles]]` header, which must count.
+    let line_end = src[start..].find('\n').map_or(src.len(), |k| start + k);
     let before = &src[..start];
+    let through = &src[..line_end];
     let line_no = before.matches('\n').count() + 1;
     let line = src.lines().nth(line_no - 1).unwrap_or("");
     // The table the offending line belongs to.
     let mut table = String::from("top level");
     let mut n_obstacles = 0usize;
-    for l in before.lines() {
+    for l in through.lines() {
         let t = l.trim();
         if t.starts_with("[[obstacles]]") {
             n_obstacles += 1;
@@ -836,6 +897,43 @@ waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
         assert!(e.contains("[vehicle]") && e.contains("`mass`"), "{e}");
         let e = err_of(&OK.replace("[controller]", "[vehicle]\nmas = 2\n[controller]"));
         assert!(e.contains("mas"), "{e}");
+    }
+
+    #[test]
+    fn a_missing_key_names_its_own_obstacle() {
+        // The span of a missing `kind` is the table header itself.
+        let e = err_of(&OK.replace("kind = \"cylinder\"\n", ""));
+        assert!(e.contains("obstacles[1]") && e.contains("kind"), "{e}");
+        let e = err_of(&OK.replace("kind = \"sphere\"\n", ""));
+        assert!(e.contains("obstacles[0]") && e.contains("kind"), "{e}");
+    }
+
+    #[test]
+    fn values_beyond_the_documented_limits_name_field_value_and_range() {
+        let cases = [
+            (OK.replace("radius = 0.3", "radius = 1e300"), "obstacles[0]", "`radius`", "1e300"),
+            (OK.replace("center = [4, 0, 1]", "center = [4, 2e5, 1]"), "obstacles[0]", "`center`", "200000"),
+            (OK.replace("speed = 0.3", "speed = 200"), "[mission]", "`speed`", "200"),
+            (OK.replace("speed = 0.4", "speed = 150"), "[controller]", "`speed`", "150"),
+            (OK.replace("mu = 1.4", "mu = 1e300"), "[controller]", "`mu`", "1e300"),
+            (OK.replace("mu = 1.4", "delta = 0.2\ndelta1 = 0.1"), "[controller]", "`delta1`", "0.2"),
+            (OK.replace("[controller]", "[sim]\ndt = 0.002\n[controller]"), "[sim]", "`dt`", "0.002"),
+            (OK.replace("[controller]", "[sim]\ndt = 1e-7\n[controller]"), "[sim]", "`dt`", "1e-5"),
+            (
+                OK.replace("[controller]", "[sensors]\nposition_latency = 10\n[controller]"),
+                "[sensors]",
+                "`position_latency`",
+                "0.1",
+            ),
+            (OK.replace("max = [10, 5, 3]", "max = [1e6, 5, 3]"), "[bounds]", "`max`", "100000"),
+            (OK.replace("[2, 1.5, 3.5, 1]", "[2, 1.5, 3e5, 1]"), "obstacles[2]", "`waypoints`", "300000"),
+        ];
+        for (src, table, field, value) in cases {
+            let e = err_of(&src);
+            assert!(e.starts_with("bad.toml:"), "{e}");
+            assert!(e.contains(table) && e.contains(field) && e.contains(value), "{table} {field}: {e}");
+            assert!(e.contains("allowed"), "{e}");
+        }
     }
 }
 

@@ -1,0 +1,407 @@
+//! Up-front checks of a run's configuration against the limits that the flight
+//! controller (`parapet-core`) and the runner enforce, so that a bad value is
+//! refused before the flight with an [`InputError`] naming where it came from
+//! (a command-line option, the scene file's table and field, or the built-in
+//! default), the value and the allowed range — instead of a library error enum
+//! (`Waypoint(BadParams)`, `Tracking`, `Thrust`, …) after the start.
+//!
+//! The ranges are the core's own constants and rules ([`waypoint::PARAM_LIMIT`],
+//! `CbfParams::validate`, `ControllerParams::validate`) and the caps of
+//! [`crate::input::limits`]; nothing is retyped.
+//!
+//! Owns: [`Given`], [`check_run`], [`describe_param_error`].
+//! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
+
+use parapet_core::cbf::CbfParams;
+use parapet_core::controller::{ControllerParams, ParamError};
+use parapet_core::frame::GRAVITY;
+use parapet_core::waypoint;
+
+use crate::control::controller_params;
+use crate::input::{limits, num, InputError};
+use crate::runner::RunConfig;
+use crate::scene::Scene;
+
+/// Which run settings were given on the command line (they win over the scene),
+/// and the duration cap in force (`--max-duration`).
+#[derive(Clone, Debug)]
+pub struct Given {
+    /// Names (without dashes) of the options given: `mu`, `delta`, `delta1`,
+    /// `kp`, `kd`, `speed`, `duration`, `sensing-range`.
+    pub options: Vec<&'static str>,
+    /// Longest duration allowed, s ([`limits::MAX_DURATION_S`] unless raised).
+    pub max_duration: f64,
+}
+
+impl Default for Given {
+    fn default() -> Self {
+        Given { options: Vec::new(), max_duration: limits::MAX_DURATION_S }
+    }
+}
+
+impl Given {
+    fn has(&self, name: &str) -> bool {
+        self.options.contains(&name)
+    }
+}
+
+/// Where a controller setting came from, to build the error about it.
+struct Origin<'a> {
+    scene: &'a Scene,
+    given: &'a Given,
+}
+
+impl Origin<'_> {
+    /// An error about the setting `option` (CLI name) / `[table] field` (scene).
+    fn err(
+        &self,
+        option: &'static str,
+        table: &str,
+        field: &str,
+        in_scene: bool,
+        reason: String,
+    ) -> InputError {
+        if self.given.has(option) {
+            InputError::option(option, reason)
+        } else if in_scene {
+            InputError::file(&self.scene.source, reason).table(table).field(field)
+        } else {
+            InputError::file("built-in default", reason).field(field)
+        }
+    }
+
+    /// A short label of where the setting came from, for messages about two values.
+    fn label(&self, option: &'static str, in_scene: bool) -> String {
+        if self.given.has(option) {
+            format!("--{option}")
+        } else if in_scene {
+            format!("{} [controller]", self.scene.source)
+        } else {
+            "built-in default".into()
+        }
+    }
+}
+
+fn f32_finite(x: f64) -> bool {
+    x.is_finite() && (x as f32).is_finite()
+}
+
+/// Check the run configuration `cfg` for `scene` before flying; `given` says
+/// which settings came from the command line. Covers the reference speed, the
+/// filter parameters (μ, δ, δ1 > δ, A, ε_v, in `f32`), the PD gains, the
+/// duration against `given.max_duration`, dt and the plant-step cap, the
+/// sensing range, the position latency, and finally the core's own
+/// `ControllerParams::validate` (vehicle mass vs. thrust limits, …), every
+/// refusal naming its origin.
+pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), InputError> {
+    let o = Origin { scene, given };
+    let c = &scene.controller;
+    let p = &cfg.params;
+
+    // Reference speed: the waypoint follower accepts (0, PARAM_LIMIT] m/s.
+    let max_speed = limits::MAX_SPEED_MPS;
+    if !(p.speed > 0.0 && p.speed <= max_speed) {
+        let (table, in_ctrl) = if c.speed.is_some() { ("controller", true) } else { ("mission", true) };
+        return Err(o
+            .err("speed", table, "speed", in_ctrl, "reference speed out of range".into())
+            .value(num(p.speed))
+            .allowed(format!("0 < speed ≤ {max_speed} m/s")));
+    }
+    // PD gains: finite and > 0 in the core's f32.
+    for (name, x, in_scene) in [("kp", p.kp, c.kp.is_some()), ("kd", p.kd, c.kd.is_some())] {
+        if !(f32_finite(x) && x > 0.0) {
+            return Err(o
+                .err(name, "controller", name, in_scene, "PD gain out of range".into())
+                .value(num(x))
+                .allowed(format!("0 < {name} ≤ {:e} (f32)", f32::MAX)));
+        }
+    }
+    // Filter parameters, in f32 as the filter sees them.
+    for (name, x, in_scene) in [
+        ("mu", p.mu, c.mu.is_some()),
+        ("delta", p.delta, c.delta.is_some()),
+        ("delta1", p.delta1, c.delta1.is_some()),
+    ] {
+        if !(f32_finite(x) && x > 0.0) {
+            return Err(o
+                .err(name, "controller", name, in_scene, "filter parameter out of range".into())
+                .value(num(x))
+                .allowed(format!("0 < {name} ≤ {:e} (f32)", f32::MAX)));
+        }
+    }
+    if (p.delta1 as f32) <= (p.delta as f32) {
+        let (d_scene, d1_scene) = (c.delta.is_some(), c.delta1.is_some());
+        // Blame the value the user set (δ1 when both or neither were set).
+        let delta_is_user = given.has("delta") || d_scene;
+        let delta1_is_user = given.has("delta1") || d1_scene;
+        return Err(if delta_is_user && !delta1_is_user {
+            o.err(
+                "delta",
+                "controller",
+                "delta",
+                d_scene,
+                format!(
+                    "the safety level δ must be below the engagement level δ1 = {} ({}; set delta1 too)",
+                    p.delta1,
+                    o.label("delta1", d1_scene)
+                ),
+            )
+            .value(num(p.delta))
+            .allowed(format!("0 < delta < {}", p.delta1))
+        } else {
+            o.err(
+                "delta1",
+                "controller",
+                "delta1",
+                d1_scene,
+                format!(
+                    "the engagement level δ1 must exceed the safety level δ = {} ({})",
+                    p.delta,
+                    o.label("delta", d_scene)
+                ),
+            )
+            .value(num(p.delta1))
+            .allowed(format!("delta1 > {}", p.delta))
+        });
+    }
+    for (name, x) in [("accel_bound", cfg.accel_bound), ("velocity_margin", cfg.velocity_margin)] {
+        if !(f32_finite(x) && x >= 0.0) {
+            return Err(InputError::file(&scene.source, "filter parameter out of range")
+                .table("controller")
+                .field(name)
+                .value(num(x))
+                .allowed(format!("0 ≤ {name} ≤ {:e} (f32)", f32::MAX)));
+        }
+    }
+    check_duration(&o, cfg)?;
+    if !(cfg.sensing_range > 0.0 && cfg.sensing_range <= limits::MAX_COORDINATE_M) {
+        let in_scene = scene.sim.sensing_range.is_some();
+        return Err(o
+            .err("sensing-range", "sim", "sensing_range", in_scene, "sensing range out of range".into())
+            .value(num(cfg.sensing_range))
+            .allowed(format!("0 < sensing range ≤ {} m", limits::MAX_COORDINATE_M)));
+    }
+    let lat = cfg.sensors.position_latency;
+    if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
+        return Err(InputError::file(
+            &scene.source,
+            "position latency beyond the cap (the flight controller's position timeout is 0.2 s)",
+        )
+        .table("sensors")
+        .field("position_latency")
+        .value(num(lat))
+        .allowed(format!("0 ≤ position_latency ≤ {} s", limits::MAX_POSITION_LATENCY_S)));
+    }
+    // The core's own parameter check, for what the scene's vehicle implies.
+    let cbf = CbfParams {
+        mu: p.mu as f32,
+        delta: p.delta as f32,
+        delta1: p.delta1 as f32,
+        accel_bound: cfg.accel_bound as f32,
+        velocity_margin: cfg.velocity_margin as f32,
+        ..CbfParams::default()
+    };
+    let params = controller_params(scene, cfg, cbf, cfg.variant);
+    params.validate().map_err(|e| describe_param_error(scene, &params, e))
+}
+
+/// The duration against the cap in force, and duration / dt against the step cap.
+fn check_duration(o: &Origin, cfg: &RunConfig) -> Result<(), InputError> {
+    let (scene, given) = (o.scene, o.given);
+    let cap = given.max_duration;
+    let dt_range = format!("{:e} ≤ dt ≤ {:e} s", limits::MIN_DT_S, limits::MAX_DT_S);
+    if !(cfg.dt >= limits::MIN_DT_S && cfg.dt <= limits::MAX_DT_S) {
+        return Err(InputError::file(&scene.source, "plant integration step out of range")
+            .table("sim")
+            .field("dt")
+            .value(num(cfg.dt))
+            .allowed(dt_range));
+    }
+    let d = cfg.duration;
+    let raise = if cap < limits::MAX_DURATION_CEILING_S {
+        format!("; --max-duration raises the cap up to {} s", limits::MAX_DURATION_CEILING_S)
+    } else {
+        String::new()
+    };
+    let err = |reason: String| {
+        if given.has("duration") {
+            InputError::option("duration", reason)
+        } else if scene.sim.duration.is_some() {
+            InputError::file(&scene.source, reason).table("sim").field("duration")
+        } else {
+            InputError::option(
+                "duration",
+                format!(
+                    "the default duration (from the path length and the reference speed {} m/s) {reason}; \
+                     give --duration or a higher --speed",
+                    cfg.params.speed
+                ),
+            )
+        }
+    };
+    if !(d.is_finite() && d > 0.0 && d <= cap) {
+        return Err(err(format!("is beyond the duration cap{raise}"))
+            .value(num(d))
+            .allowed(format!("0 < duration ≤ {cap} s")));
+    }
+    let steps = d / cfg.dt;
+    if steps > limits::MAX_PLANT_STEPS {
+        return Err(err(format!(
+            "needs {steps:.3e} plant steps at dt = {} s, above the cap of {:e} steps (shorten it or raise [sim] dt)",
+            cfg.dt,
+            limits::MAX_PLANT_STEPS
+        ))
+        .value(num(d))
+        .allowed(format!("duration ≤ {} s at this dt", limits::MAX_PLANT_STEPS * cfg.dt)));
+    }
+    Ok(())
+}
+
+/// A core parameter error as an [`InputError`] about the scene's table and
+/// field it comes from, in words (never the enum's debug text).
+pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamError) -> InputError {
+    let file = &scene.source;
+    let v = &scene.vehicle;
+    match e {
+        ParamError::Cbf(c) => {
+            InputError::file(file, format!("filter parameters rejected: {c}")).table("controller")
+        }
+        ParamError::Waypoint(_) => {
+            InputError::file(file, "reference speed rejected by the waypoint follower")
+                .table("mission")
+                .field("speed")
+                .value(num(scene.speed))
+                .allowed(format!("0 < speed ≤ {} m/s", waypoint::PARAM_LIMIT))
+        }
+        ParamError::Tracking => InputError::file(file, "PD gains rejected by the tracking controller")
+            .table("controller")
+            .allowed("kp, kd finite and > 0"),
+        ParamError::Thrust => {
+            let th = &params.thrust;
+            let (lo, hi) = (th.thrust_min as f64 / GRAVITY as f64, th.thrust_max as f64 / GRAVITY as f64);
+            InputError::file(
+                file,
+                format!(
+                    "the hover thrust m·g = {:.4} N must lie between the controller's minimum thrust {} N \
+                     and 90 % of the rotors' maximum {:.3} N",
+                    v.mass * GRAVITY as f64,
+                    th.thrust_min,
+                    th.thrust_max
+                ),
+            )
+            .table("vehicle")
+            .field("mass")
+            .value(num(v.mass))
+            .allowed(format!("{lo:.4} < mass < {hi:.4} kg with these rotors"))
+        }
+        ParamError::Mixer(_) | ParamError::AirframeMismatch => InputError::file(
+            file,
+            "the vehicle's airframe is unusable by the mixer (arm length, inertia, k_m/k_f)",
+        )
+        .table("vehicle"),
+        ParamError::Attitude(_) => {
+            InputError::file(file, "attitude controller rejected the vehicle's inertia")
+                .table("vehicle")
+                .field("inertia")
+        }
+        ParamError::Estimator(_) | ParamError::Failsafe | ParamError::Loop => InputError::file(
+            file,
+            "the flight controller's built-in parameters were rejected (a parapet bug)",
+        ),
+    }
+}
+
+/// The `f64` value of an `f32` constant with its shortest decimal form
+/// (`1.4f32` → `1.4`, not `1.399999976158142`); the `f32` round trip is exact.
+pub fn f32_as_f64(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+/// Built-in defaults of the controller settings, for `--help`: μ, δ, δ1 (core
+/// `CbfParams::default`), k_p, k_d (the runner's), as shortest decimals.
+pub fn defaults_help() -> String {
+    let c = CbfParams::default();
+    format!(
+        "Built-in defaults (a scene's [controller] table and the options override them):\n  \
+         mu {} s, delta {} m², delta1 {} m², kp {} 1/s², kd {} 1/s, filter {}",
+        f32_as_f64(c.mu),
+        f32_as_f64(c.delta),
+        f32_as_f64(c.delta1),
+        crate::runner::DEFAULT_KP,
+        crate::runner::DEFAULT_KD,
+        parapet_core::cbf::FilterVariant::default().as_str()
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENE: &str = r#"
+name = "t"
+[bounds]
+min = [-1, -2, 0]
+max = [7, 2, 3]
+[mission]
+start = [0, 0, 1]
+goal = [6, 0, 1]
+speed = 0.5
+"#;
+
+    fn setup(extra: &str) -> (Scene, RunConfig) {
+        let s = Scene::parse(&format!("{SCENE}{extra}"), "t.toml").unwrap_or_else(|e| panic!("{e}"));
+        let cfg = RunConfig::for_scene(&s, vec![s.start, s.goal]).unwrap_or_else(|e| panic!("{e}"));
+        (s, cfg)
+    }
+
+    #[test]
+    fn the_defaults_pass_and_shortest_decimals() {
+        let (s, cfg) = setup("");
+        check_run(&s, &cfg, &Given::default()).unwrap();
+        assert_eq!(f32_as_f64(1.4), 1.4);
+        assert_eq!(f32_as_f64(1.4) as f32, 1.4f32);
+        assert!(defaults_help().contains("mu 1.4 s"), "{}", defaults_help());
+    }
+
+    #[test]
+    fn each_refusal_names_its_origin() {
+        let msg = |extra: &str, f: &dyn Fn(&mut RunConfig), given: &[&'static str]| {
+            let (s, mut cfg) = setup(extra);
+            f(&mut cfg);
+            let g = Given { options: given.to_vec(), ..Given::default() };
+            check_run(&s, &cfg, &g).unwrap_err().to_string()
+        };
+        let m = msg("", &|c| c.params.speed = 200.0, &["speed"]);
+        assert!(m.contains("option --speed") && m.contains("200") && m.contains("≤ 100"), "{m}");
+        let m = msg("", &|c| c.params.speed = 150.0, &[]);
+        assert!(m.contains("t.toml: [mission] field `speed`"), "{m}");
+        let m = msg("", &|c| c.params.kp = 1e300, &["kp"]);
+        assert!(m.contains("option --kp") && m.contains("1e300"), "{m}");
+        let m = msg("[controller]\ndelta1 = 0.01\n", &|_| {}, &[]);
+        assert!(
+            m.contains("t.toml: [controller] field `delta1`") && m.contains("0.01") && m.contains("0.05"),
+            "{m}"
+        );
+        let m = msg("[controller]\ndelta = 0.5\n", &|_| {}, &[]);
+        assert!(m.contains("field `delta`:") && m.contains("0.5") && m.contains("0.1"), "{m}");
+        let m = msg("", &|c| c.duration = 1e7, &["duration"]);
+        assert!(m.contains("option --duration") && m.contains("3600") && m.contains("--max-duration"), "{m}");
+        let m = msg("[sim]\nduration = 1e7\n", &|_| {}, &[]);
+        assert!(m.contains("[sim] field `duration`") && m.contains("1e7"), "{m}");
+        let m = msg("", &|c| c.duration = 5e6, &[]);
+        assert!(m.contains("default duration") && m.contains("--duration"), "{m}");
+        let m = msg("", &|c| c.sensors.position_latency = 10.0, &[]);
+        assert!(m.contains("[sensors] field `position_latency`") && m.contains("0.1"), "{m}");
+        let m = msg("[vehicle]\nmass = 1e-9\n", &|_| {}, &[]);
+        assert!(m.contains("[vehicle] field `mass`") && m.contains("1e-9") && m.contains("< mass <"), "{m}");
+        let m = msg("", &|c| c.dt = 2e-3, &[]);
+        assert!(m.contains("t.toml: [sim] field `dt`") && m.contains("0.002") && m.contains("1e-3"), "{m}");
+        // More steps than the cap: a long flight with the smallest dt, cap raised.
+        let (s, mut cfg) = setup("");
+        cfg.dt = limits::MIN_DT_S;
+        cfg.duration = 5000.0;
+        let g = Given { options: vec!["duration"], max_duration: limits::MAX_DURATION_CEILING_S };
+        let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
+        assert!(m.contains("plant steps"), "{m}");
+    }
+}
