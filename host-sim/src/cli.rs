@@ -106,7 +106,8 @@ struct RunArgs {
     /// Random seed (sensor noise and planner).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Duration limit, s (default: the scene's, else 1.5 × path time + 15 s).
+    /// Duration limit, s (default: the scene's, else 1.5 × the flown length (start → first
+    /// waypoint → … → last) / speed + 15 s).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
     /// Sensor noise on (default, unless the scene's [sensors] table says otherwise).
