@@ -644,7 +644,8 @@ mod tests {
         let base =
             RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
         assert!(check_bounded(&base).is_ok());
-        let cases: [(&str, fn(&mut RunConfig)); 6] = [
+        type Edit = fn(&mut RunConfig);
+        let cases: [(&str, Edit); 6] = [
             ("duration", |c| c.duration = 1e20),
             ("duration", |c| c.duration = f64::NAN),
             ("dt", |c| c.dt = 1e-7),
@@ -661,8 +662,6 @@ mod tests {
             let e = run(&scene, &cfg, &mut |_| {}).unwrap_err().to_string();
             assert!(e.contains(what), "{what}: {e}");
         }
-        // The default f32 parameters print as written.
-        assert_eq!(base.params.mu.to_string(), "1.4");
     }
 
     #[test]

@@ -358,6 +358,8 @@ speed = 0.5
     fn the_defaults_pass_and_shortest_decimals() {
         let (s, cfg) = setup("");
         check_run(&s, &cfg, &Given::default()).unwrap();
+        // No [controller] table: the core's f32 defaults, printed as written.
+        assert_eq!(format!("{} {} {}", cfg.params.mu, cfg.params.delta, cfg.params.delta1), "1.4 0.05 0.1");
         assert_eq!(f32_as_f64(1.4), 1.4);
         assert_eq!(f32_as_f64(1.4) as f32, 1.4f32);
         assert!(defaults_help().contains("mu 1.4 s"), "{}", defaults_help());
