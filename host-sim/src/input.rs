@@ -170,6 +170,9 @@ pub mod limits {
     /// Runs above which `parapet sweep` asks for `--yes` (the message states the count
     /// and the estimated time).
     pub const SWEEP_CONFIRM_RUNS: u64 = 10_000;
+
+    /// Most threads of `parapet sweep --jobs`.
+    pub const SWEEP_MAX_JOBS: usize = 256;
 }
 
 /// A number as a user reads it: shortest decimal, exponent form for very large

@@ -139,9 +139,11 @@ fn scene_copy(dir: &Path, name: &str, edit: &dyn Fn(String) -> String) -> String
 /// A small sweep (2 runs by default) with `args` after the scene.
 fn sweep_any(scene: &str, out: &Path, args: &[&str]) -> Output {
     let o = out.display().to_string();
-    let mut v = vec!["sweep", "--scene", scene, "--straight", "--duration", "12", "--out", &o];
-    if !args.contains(&"--filter") {
-        v.extend_from_slice(&["--filter", "paper"]);
+    let mut v = vec!["sweep", "--scene", scene, "--straight", "--out", &o];
+    for (opt, default) in [("--filter", "paper"), ("--duration", "12")] {
+        if !args.contains(&opt) {
+            v.extend_from_slice(&[opt, default]);
+        }
     }
     v.extend_from_slice(args);
     parapet(&v)
@@ -213,8 +215,9 @@ fn a_failing_point_is_a_failed_row_and_the_others_are_kept() {
     assert!(rows[0][col("sim_time_s")].parse::<f64>().unwrap() > 1.0);
     assert_eq!(rows[1][col("speed")].parse::<f64>(), Ok(200.0));
     assert_eq!(rows[1][col("status")], "failed");
-    // The run's own error text (its wording is the runner's / input checks' business).
-    assert!(rows[1][col("error")].len() > 5, "{:?}", rows[1][col("error")]);
+    // The error names the option, the value and the allowed range.
+    let e = &rows[1][col("error")];
+    assert!(e.contains("option --speed") && e.contains("200") && e.contains("100 m/s"), "{e:?}");
     assert_eq!(rows[1][col("min_clearance_m")], "");
     // Heatmaps drawn from the flown row; the manifest counts the failure.
     assert!(o.join("heatmap_min_clearance.png").exists());
@@ -401,7 +404,9 @@ fn help_documents_seeds_ranges_limits_examples_and_exit_codes() {
         }
     }
     let h = String::from_utf8_lossy(&parapet(&["sweep", "--help"]).stdout).into_owned();
-    for needle in ["seeds 0..K-1", "or one value", "10000 values per range", "1000000 runs", "--yes"] {
+    for needle in
+        ["seeds 0..K-1", "or one value", "10000 values per range", "256 threads", "1000000 runs", "--yes"]
+    {
         assert!(h.contains(needle), "sweep --help lacks {needle:?}: {h}");
     }
     // `--seeds` is a count: a range is refused with the hint.
@@ -419,4 +424,70 @@ fn help_documents_seeds_ranges_limits_examples_and_exit_codes() {
         .map(|r| (r[col("mu")].as_str(), r[col("delta1")].as_str(), r[col("seed")].as_str()))
         .collect();
     assert_eq!(got, vec![("0.9", "0.2", "0"), ("0.9", "0.2", "1")]);
+}
+
+#[test]
+fn durations_beyond_the_cap_are_refused_or_failed_rows() {
+    let d = tmp("duration");
+    let o = d.join("o");
+    // An explicit --duration beyond the cap: refused up front, naming the option that raises it.
+    let r = sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.9", "--delta1", "0.2", "--duration", "1e6"]);
+    let e = err(&r);
+    assert_eq!(r.status.code(), Some(2), "{e}");
+    assert!(e.contains("option --duration") && e.contains("3600") && e.contains("--max-duration"), "{e}");
+    let r = sweep_any(
+        "scenes/one_sphere.toml",
+        &o,
+        &["--mu", "0.9", "--delta1", "0.2", "--duration", "1e6", "--max-duration", "1e6"],
+    );
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("--max-duration") && err(&r).contains("86400"), "{}", err(&r));
+    assert!(!o.join("sweep.csv").exists());
+    // A grid speed whose default duration is beyond the cap (6 m at 1e-5 m/s): that run
+    // is a failed row, the other (0.3 m/s, 45 s) flies.
+    let out = o.display().to_string();
+    let r = parapet(&[
+        "sweep",
+        "--scene",
+        "scenes/one_sphere.toml",
+        "--straight",
+        "--filter",
+        "paper",
+        "--mu",
+        "0.9",
+        "--delta1",
+        "0.2",
+        "--speed",
+        "0.00001:0.3:2",
+        "--out",
+        &out,
+    ]);
+    assert_eq!(r.status.code(), Some(4), "{}", err(&r));
+    let (h, rows) = read_csv(&o.join("sweep.csv"));
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    assert_eq!(rows[0][col("status")], "failed");
+    assert!(
+        rows[0][col("error")].contains("duration") && rows[0][col("error")].contains("3600"),
+        "{:?}",
+        rows[0]
+    );
+    assert_eq!(rows[1][col("status")], "ok");
+}
+
+#[test]
+fn bad_jobs_and_output_directories_exit_2() {
+    let d = tmp("jobs");
+    let o = d.join("o");
+    for jobs in ["0", "100000"] {
+        let r = sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.9", "--delta1", "0.2", "--jobs", jobs]);
+        assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+        assert!(err(&r).contains("option --jobs") && err(&r).contains("256"), "{}", err(&r));
+    }
+    // --out is an existing file: nothing written over it.
+    let f = d.join("file");
+    std::fs::write(&f, "keep").unwrap();
+    let r = sweep_any("scenes/one_sphere.toml", &f.join("sub"), &["--mu", "0.9", "--delta1", "0.2"]);
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("option --out"), "{}", err(&r));
+    assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
 }

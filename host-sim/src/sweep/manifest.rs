@@ -16,10 +16,11 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::grid::{Grid, GridRange};
+use crate::input::limits::MAX_INPUT_FILE_BYTES;
 use crate::input::InputError;
 
 /// Version of the `sweep.csv` + `sweep.json` format (changes with the columns).
-pub const FORMAT: u32 = 2;
+pub const FORMAT: u32 = 3;
 
 /// FNV-1a, 64 bit: a stable fingerprint (not a security hash) of a scene file or path.
 pub fn fnv1a64(bytes: &[u8]) -> String {
@@ -110,6 +111,15 @@ impl Manifest {
     /// Read and check a `sweep.json`.
     pub fn read(path: &Path) -> Result<Manifest, InputError> {
         let file = path.display().to_string();
+        let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        if len > MAX_INPUT_FILE_BYTES {
+            return Err(InputError::file(
+                &file,
+                "too large for a sweep manifest (input::limits::MAX_INPUT_FILE_BYTES)",
+            )
+            .value(format!("{len} bytes"))
+            .allowed(format!("≤ {MAX_INPUT_FILE_BYTES} bytes")));
+        }
         let text = std::fs::read_to_string(path).map_err(|e| {
             InputError::file(
                 &file,

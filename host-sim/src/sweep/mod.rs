@@ -23,16 +23,18 @@
 //! ([`heatmap`]). No output ever replaces an input file (refused, exit 2).
 //!
 //! Submodules: [`grid`] (ranges, shards, sizes), [`record`] (the CSV),
-//! [`manifest`] (`sweep.json`, merge checks), [`heatmap`] (aggregation, plots).
+//! [`manifest`] (`sweep.json`, merge checks), [`merge`] (`sweep-merge`),
+//! [`heatmap`] (aggregation, plots). This file: `parapet sweep` (options, checks,
+//! flying the runs).
 //! May import: `crate::{cli, input, pathfile, planner, preflight, runner, scene}`,
 //! clap, rayon, indicatif, anyhow.
 
 pub mod grid;
 pub mod heatmap;
 pub mod manifest;
+pub mod merge;
 pub mod record;
 
-use std::collections::BinaryHeap;
 use std::io::IsTerminal;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -46,16 +48,21 @@ use rayon::prelude::*;
 pub use grid::{Grid, GridPoint, GridRange, Shard};
 pub use heatmap::{Aggregator, Cell};
 pub use manifest::{Identity, Manifest};
+pub use merge::{cmd_sweep_merge, SweepMergeArgs};
 pub use record::{SweepRecord, COLUMNS};
 
 use crate::cli::CliError;
-use crate::input::limits::{SWEEP_CONFIRM_RUNS, SWEEP_MAX_RUNS, SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES};
+use crate::input::limits::{
+    MAX_DURATION_CEILING_S, MAX_DURATION_S, SWEEP_CONFIRM_RUNS, SWEEP_MAX_JOBS, SWEEP_MAX_RUNS,
+    SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
+};
 use crate::input::InputError;
 use crate::pathfile::PathFile;
 use crate::planner::{plan, PlanProblem, PlannerParams};
 use crate::preflight::PreflightOptions;
-use crate::runner::{path_length, run, RunConfig};
+use crate::runner::{default_duration, run, RunConfig};
 use crate::scene::{to_f32, to_f64, Scene};
+use crate::validate::Given;
 
 /// Exit code of `parapet sweep` when some runs failed (their rows say why; the
 /// others are complete).
@@ -76,9 +83,10 @@ Grid: every combination speed × μ × δ1 × seed, index k speed-major (seed fa
   --seeds K flies the sensor-noise seeds 0, 1, …, K-1 at every grid point (a count, not a range).
 
 Limits (input::limits):
-  at most {SWEEP_MAX_VALUES} values per range and {SWEEP_MAX_SEEDS} seeds;
+  at most {SWEEP_MAX_VALUES} values per range, {SWEEP_MAX_SEEDS} seeds and {SWEEP_MAX_JOBS} threads (--jobs);
   at most {SWEEP_MAX_RUNS} runs per invocation: split a larger grid with --shard I/N;
   more than {SWEEP_CONFIRM_RUNS} runs need --yes (the refusal states the count and the estimated time);
+  a run's duration at most --max-duration (default {MAX_DURATION_S} s, at most {MAX_DURATION_CEILING_S} s);
   heatmaps are drawn for at most {} μ and {} δ1 values.
 
 Outputs (--out): sweep.csv (one row per run; status ok | failed, and the error of a failed run),
@@ -95,25 +103,6 @@ Examples:
   {EXIT_SOME_FAILED}    sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept",
         heatmap::MAX_AXIS_CELLS,
         heatmap::MAX_AXIS_CELLS,
-        crate::cli::EXIT_CODES_HELP
-    )
-}
-
-fn merge_help() -> String {
-    format!(
-        "\
-Inputs: shard directories of `parapet sweep --shard I/N`, or their sweep.csv files (sweep.json must
-  be next to each). Refused (exit 2): shards of different sweeps (scene name or file contents, path,
-  filter, noise, duration, μ/δ1/speed ranges, seed count, parapet version), different N, a shard
-  given twice, rows that do not match their manifest, missing shards (listed) unless --allow-partial.
-  The output directory must not hold an input.
-
-Examples:
-  parapet sweep-merge out/s1 out/s2 --out out/fig9
-  parapet sweep-merge out/s1/sweep.csv out/s3/sweep.csv --allow-partial
-
-{}
-  {EXIT_SOME_FAILED}    some merged rows are failed runs (status failed in sweep.csv)",
         crate::cli::EXIT_CODES_HELP
     )
 }
@@ -168,9 +157,12 @@ pub struct SweepArgs {
     /// Planner seed of the one path every run flies (when planning).
     #[arg(long, default_value_t = 0)]
     pub plan_seed: u64,
-    /// Duration limit of each run, s [default: the scene's, else 1.5 × path time + 15 s at the run's speed].
+    /// Duration limit of each run, s [default: the scene's [sim] duration, else 1.5 × flown path length / speed + 15 s].
     #[arg(long)]
     pub duration: Option<f64>,
+    /// Duration cap of each run, s (see Limits).
+    #[arg(long, value_name = "S", default_value_t = MAX_DURATION_S)]
+    pub max_duration: f64,
     /// Run only slice I of N (1 <= I <= N; grid index k with k mod N = I - 1).
     #[arg(long, value_parser = parse_shard)]
     pub shard: Option<Shard>,
@@ -182,26 +174,11 @@ pub struct SweepArgs {
     pub out: PathBuf,
 }
 
-/// Options of `parapet sweep-merge`.
-#[derive(Debug, Args)]
-#[command(after_help = merge_help())]
-pub struct SweepMergeArgs {
-    /// Shard directories (or their sweep.csv files) of `parapet sweep --shard I/N`.
-    #[arg(required = true)]
-    pub inputs: Vec<PathBuf>,
-    /// Merge although some shards are missing (the output's sweep.json lists the shards it holds).
-    #[arg(long)]
-    pub allow_partial: bool,
-    /// Output directory (sweep.csv, sweep.json and heatmaps); must not hold an input.
-    #[arg(long, default_value = "out/sweep-merge")]
-    pub out: PathBuf,
-}
-
 fn bad(m: impl Into<String>) -> CliError {
     CliError::BadInput(m.into())
 }
 
-fn bad_input(e: InputError) -> CliError {
+pub(crate) fn bad_input(e: InputError) -> CliError {
     CliError::BadInput(e.to_string())
 }
 
@@ -248,11 +225,13 @@ pub struct SweepSetup {
     /// Pre-flight options (path file, `--foreign-path`).
     pub preflight: PreflightOptions,
     /// The scene's `[sim] duration` is set: every run flies the base duration.
-    /// Otherwise a run's duration is 1.5 × path time + 15 s at its speed, at most
-    /// [`SweepSetup::duration_limit`].
+    /// Otherwise a run's duration is `runner::default_duration` at its speed, at
+    /// most [`SweepSetup::duration_limit`].
     pub scene_duration: bool,
     /// `--duration`, s.
     pub duration_limit: Option<f64>,
+    /// What `validate::check_run` is told: the grid's options and `--max-duration`.
+    pub given: Given,
 }
 
 impl SweepSetup {
@@ -266,15 +245,18 @@ impl SweepSetup {
         cfg.params.speed = p.speed;
         cfg.seed = p.seed;
         if !self.scene_duration {
-            cfg.duration = self.run_duration(path_length(&cfg.path), p.speed);
+            // The rule of `parapet run` at this speed, at most `--duration`.
+            let rule = default_duration(&scene, &cfg.path, p.speed);
+            cfg.duration = self.duration_limit.unwrap_or(f64::INFINITY).min(rule);
         }
         (scene, cfg)
     }
 
-    /// Duration of a run at `speed` on a path of `len` m when the scene sets none:
-    /// the rule of `parapet run` (1.5 × path time + 15 s), at most `--duration`.
-    fn run_duration(&self, len: f64, speed: f64) -> f64 {
-        self.duration_limit.unwrap_or(f64::INFINITY).min(1.5 * len / speed + 15.0)
+    /// `validate::check_run` and `preflight::check` for run `p`.
+    pub fn check(&self, p: &GridPoint) -> Result<(), InputError> {
+        let (scene, cfg) = self.config(p);
+        crate::validate::check_run(&scene, &cfg, &self.given)?;
+        crate::preflight::check(&scene, &cfg, &self.preflight)
     }
 
     fn failed_row(&self, p: &GridPoint, error: String) -> SweepRecord {
@@ -301,6 +283,8 @@ impl SweepSetup {
             reached_goal: None,
             time_to_goal_s: None,
             final_distance_to_goal_m: None,
+            reached_path_end: None,
+            final_distance_to_path_end_m: None,
             tracking_rms_m: None,
             filter_active_fraction: None,
             end_reason: None,
@@ -312,10 +296,10 @@ impl SweepSetup {
     /// Fly run `p` and make its row; a pre-flight refusal, a run error or a panic
     /// in the run is a `failed` row carrying the message.
     pub fn fly(&self, p: &GridPoint) -> SweepRecord {
-        let (scene, cfg) = self.config(p);
-        if let Err(err) = crate::preflight::check(&scene, &cfg, &self.preflight) {
-            return self.failed_row(p, format!("pre-flight: {err}"));
+        if let Err(err) = self.check(p) {
+            return self.failed_row(p, format!("refused before the flight: {err}"));
         }
+        let (scene, cfg) = self.config(p);
         let flown = std::panic::catch_unwind(AssertUnwindSafe(|| run(&scene, &cfg, &mut |_| {})));
         let s = match flown {
             Ok(Ok(out)) => out.summary,
@@ -351,6 +335,8 @@ impl SweepSetup {
             reached_goal: Some(s.reached_goal),
             time_to_goal_s: s.time_to_goal_s,
             final_distance_to_goal_m: Some(s.final_distance_to_goal_m),
+            reached_path_end: Some(s.reached_path_end),
+            final_distance_to_path_end_m: Some(s.final_distance_to_path_end_m),
             tracking_rms_m: Some(s.tracking_rms_m),
             filter_active_fraction: Some(s.filter_active_fraction),
             end_reason: Some(s.end_reason),
@@ -400,7 +386,11 @@ pub fn run_shard(
 }
 
 /// Refuse writing any of `outputs` over one of `inputs` (same file after resolving).
-fn refuse_overwrite(outputs: &[PathBuf], inputs: &[PathBuf], option: &str) -> Result<(), CliError> {
+pub(crate) fn refuse_overwrite(
+    outputs: &[PathBuf],
+    inputs: &[PathBuf],
+    option: &str,
+) -> Result<(), CliError> {
     let canon = |p: &Path| -> Option<PathBuf> {
         if let Ok(c) = p.canonicalize() {
             return Some(c);
@@ -426,7 +416,18 @@ fn refuse_overwrite(outputs: &[PathBuf], inputs: &[PathBuf], option: &str) -> Re
     Ok(())
 }
 
-fn output_files(dir: &Path) -> Vec<PathBuf> {
+/// Create the output directory; failing that is a bad `--out` (exit 2).
+pub(crate) fn create_out(dir: &Path) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        bad_input(
+            InputError::option("out", format!("cannot create the output directory: {e}"))
+                .value(dir.display())
+                .allowed("a directory that can be created and written"),
+        )
+    })
+}
+
+pub(crate) fn output_files(dir: &Path) -> Vec<PathBuf> {
     let mut v = vec![dir.join("sweep.csv"), dir.join("sweep.json")];
     v.extend(heatmap::file_names().into_iter().map(|n| dir.join(n)));
     v
@@ -506,15 +507,45 @@ fn check_size(
 
 /// `parapet sweep`.
 pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
-    if a.jobs == Some(0) {
-        return Err(bad_input(InputError::option("jobs", "must be at least 1").value(0).allowed("≥ 1")));
+    if let Some(j) = a.jobs.filter(|&j| j == 0 || j > SWEEP_MAX_JOBS) {
+        return Err(bad_input(
+            InputError::option("jobs", "thread count out of range (input::limits::SWEEP_MAX_JOBS)")
+                .value(j)
+                .allowed(format!("1 ≤ jobs ≤ {SWEEP_MAX_JOBS}")),
+        ));
     }
     if let Some(d) = a.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
         return Err(bad_input(
             InputError::option("duration", "must be finite and > 0").value(d).allowed("> 0 s"),
         ));
     }
-    let jobs = a.jobs.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let max_duration = a.max_duration;
+    if !(max_duration > 0.0 && max_duration <= MAX_DURATION_CEILING_S) {
+        return Err(bad_input(
+            InputError::option("max-duration", "out of range")
+                .value(max_duration)
+                .allowed(format!("0 < max-duration ≤ {MAX_DURATION_CEILING_S} s")),
+        ));
+    }
+    if let Some(d) = a.duration.filter(|&d| d > max_duration) {
+        return Err(bad_input(
+            InputError::option(
+                "duration",
+                format!(
+                    "beyond the duration cap (input::limits::MAX_DURATION_S){}",
+                    if max_duration < MAX_DURATION_CEILING_S {
+                        format!("; --max-duration raises it up to {MAX_DURATION_CEILING_S} s")
+                    } else {
+                        String::new()
+                    }
+                ),
+            )
+            .value(d)
+            .allowed(format!("0 < duration ≤ {max_duration} s")),
+        ));
+    }
+    let cpus = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let jobs = a.jobs.unwrap_or(cpus.min(SWEEP_MAX_JOBS));
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
     let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
@@ -523,11 +554,16 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let fixed_duration = a.duration.or(scene.sim.duration);
     // A first size check with the straight-line length (the path is not known yet):
     // refuses absurd grids before planning.
-    let rule = |len: f64, v: f64| {
-        scene.sim.duration.unwrap_or_else(|| a.duration.unwrap_or(f64::INFINITY).min(1.5 * len / v + 15.0))
+    let rule = |path: &[Vector3<f64>], v: f64| {
+        scene
+            .sim
+            .duration
+            .unwrap_or_else(|| a.duration.unwrap_or(f64::INFINITY).min(default_duration(&scene, path, v)))
     };
-    let straight = (scene.goal - scene.start).norm();
-    check_size(&grid, &a, &|v| rule(straight, v), jobs)?;
+    let straight = [scene.goal];
+    check_size(&grid, &a, &|v| rule(&straight, v), jobs)?;
+    // The start must be flyable before the planner is asked for a path from it.
+    crate::preflight::check_start(&scene).map_err(bad_input)?;
 
     let (path, source) = sweep_path(&scene, &a)?;
     if path.len() > parapet_core::controller::PATH_CAPACITY {
@@ -552,8 +588,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         base.duration = d;
     }
     let scene_duration = scene.sim.duration.is_some();
-    let len = path_length(&base.path);
-    let runs = check_size(&grid, &a, &|v| rule(len, v), jobs)?;
+    let runs = check_size(&grid, &a, &|v| rule(&base.path, v), jobs)?;
     let delta = base.params.delta;
     if let Some(d1) = grid.delta1.iter().find(|&&d1| d1 <= delta) {
         return Err(bad_input(
@@ -567,6 +602,11 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         foreign_path: a.foreign_path,
     };
     crate::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
+    let mut options = vec!["mu", "delta1", "speed"];
+    if a.duration.is_some() {
+        options.push("duration");
+    }
+    let given = Given { options, max_duration };
     let mut inputs = vec![a.scene.clone()];
     inputs.extend(a.path.clone());
     refuse_overwrite(&output_files(&a.out), &inputs, "out")?;
@@ -596,9 +636,17 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         speed,
         seeds: a.seeds,
     };
-    let setup = SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration };
+    let setup = SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration, given };
+    // What the grid does not change must pass for the first run; a refusal about
+    // a grid option (or the duration its speed implies) is that run's failed row.
+    if let Err(e) = setup.check(&grid.point(0)) {
+        let per_run = ["option --mu", "option --delta1", "option --speed", "option --duration"];
+        if !per_run.contains(&e.origin.as_str()) {
+            return Err(bad_input(e));
+        }
+    }
 
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
+    create_out(&a.out)?;
     let json = a.out.join("sweep.json");
     // An old manifest would vouch for the new, unfinished CSV.
     if json.exists() {
@@ -661,7 +709,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     some_failed(agg.failed(), agg.rows(), &csv_path)
 }
 
-fn some_failed(failed: u64, rows: u64, csv: &Path) -> Result<(), CliError> {
+pub(crate) fn some_failed(failed: u64, rows: u64, csv: &Path) -> Result<(), CliError> {
     if failed == 0 {
         return Ok(());
     }
@@ -669,223 +717,4 @@ fn some_failed(failed: u64, rows: u64, csv: &Path) -> Result<(), CliError> {
         "{failed} of {rows} runs failed (rows with status `failed` in {}, column `error` says why); the other rows are complete",
         csv.display()
     )))
-}
-
-/// The manifest and CSV of a `sweep-merge` input (a directory or its sweep.csv).
-fn input_files(p: &Path) -> (PathBuf, PathBuf) {
-    if p.is_dir() {
-        (p.join("sweep.csv"), p.join("sweep.json"))
-    } else {
-        (p.to_path_buf(), p.with_extension("json"))
-    }
-}
-
-/// One input of a merge while it streams: its next row, for the heap.
-struct Head {
-    index: u64,
-    input: usize,
-    rec: SweepRecord,
-}
-impl PartialEq for Head {
-    fn eq(&self, o: &Self) -> bool {
-        self.index == o.index
-    }
-}
-impl Eq for Head {}
-impl PartialOrd for Head {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Head {
-    // Reversed: BinaryHeap is a max-heap, the smallest index must come first.
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        o.index.cmp(&self.index)
-    }
-}
-
-/// Reads one input's rows, checking each against its manifest: indices strictly
-/// increasing and in the input's shards, parameters those of the grid point.
-struct CheckedRows {
-    rows: record::CsvRows,
-    grid: Grid,
-    identity: Identity,
-    shard_count: u64,
-    shards: Vec<u64>,
-    last: Option<u64>,
-    seen: u64,
-}
-
-impl CheckedRows {
-    fn next(&mut self) -> Result<Option<SweepRecord>, InputError> {
-        let Some((line, r)) = self.rows.next_record()? else { return Ok(None) };
-        let at = format!("{}: line {line}", self.rows.file());
-        let shard = r.index % self.shard_count + 1;
-        if self.last.is_some_and(|l| r.index <= l) || self.shards.binary_search(&shard).is_err() {
-            return Err(InputError::file(
-                &at,
-                format!(
-                    "grid index out of order or not in this file's shards {:?} of {}",
-                    self.shards, self.shard_count
-                ),
-            )
-            .field("index")
-            .value(r.index));
-        }
-        let p = self.grid.point(r.index);
-        let same = p.mu.to_bits() == r.mu.to_bits()
-            && p.delta1.to_bits() == r.delta1.to_bits()
-            && p.speed.to_bits() == r.speed.to_bits()
-            && p.seed == r.seed
-            && r.scene == self.identity.scene
-            && r.filter == self.identity.filter;
-        if !same {
-            return Err(InputError::file(
-                &at,
-                format!(
-                    "the row does not match grid point {} of its sweep.json (mu {}, delta1 {}, speed {}, seed {}, scene {}, filter {})",
-                    r.index, p.mu, p.delta1, p.speed, p.seed, self.identity.scene, self.identity.filter
-                ),
-            )
-            .field("index")
-            .value(r.index));
-        }
-        self.last = Some(r.index);
-        self.seen += 1;
-        Ok(Some(r))
-    }
-}
-
-/// `parapet sweep-merge`.
-pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
-    let mut named = Vec::new();
-    let mut files = Vec::new();
-    for p in &a.inputs {
-        let (csv, json) = input_files(p);
-        if !csv.is_file() {
-            return Err(bad_input(InputError::file(
-                csv.display(),
-                "no such file (a sweep.csv, or a directory with one)",
-            )));
-        }
-        let m = Manifest::read(&json)
-            .map_err(|e| bad_input(InputError::file(csv.display(), format!("its manifest: {e}"))))?;
-        named.push((csv.display().to_string(), m));
-        files.push(csv.clone());
-        files.push(json);
-    }
-    let plan = manifest::plan_merge(&named).map_err(bad_input)?;
-    if !plan.missing.is_empty() && !a.allow_partial {
-        let n_missing = plan.shard_count - plan.present.len() as u64;
-        let list: Vec<String> =
-            plan.missing.iter().take(20).map(|i| format!("{i}/{}", plan.shard_count)).collect();
-        return Err(bad_input(
-            InputError::file(
-                "sweep-merge",
-                format!(
-                    "{n_missing} of {} shards are missing: {}{} (merge them too, or pass --allow-partial)",
-                    plan.shard_count,
-                    list.join(", "),
-                    if n_missing > 20 { ", …" } else { "" }
-                ),
-            )
-            .value(format!("{} inputs", a.inputs.len())),
-        ));
-    }
-    refuse_overwrite(&output_files(&a.out), &files, "out")?;
-    let first = named[0].1.clone();
-    let grid = first.identity.grid();
-    let total = first.grid_runs;
-    let mut readers = Vec::new();
-    for (k, (name, m)) in named.iter().enumerate() {
-        let expected: u64 =
-            m.shards.iter().map(|&i| Shard { index: i, count: m.shard_count }.len(total)).sum();
-        if expected != m.rows {
-            return Err(bad_input(
-                InputError::file(
-                    format!("{}", files[2 * k + 1].display()),
-                    "the row count does not match the shards",
-                )
-                .field("rows")
-                .value(m.rows)
-                .allowed(expected.to_string()),
-            ));
-        }
-        let rows = record::CsvRows::open(Path::new(name)).map_err(bad_input)?;
-        readers.push(CheckedRows {
-            rows,
-            grid: grid.clone(),
-            identity: m.identity.clone(),
-            shard_count: m.shard_count,
-            shards: m.shards.clone(),
-            last: None,
-            seen: 0,
-        });
-    }
-    std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let json = a.out.join("sweep.json");
-    if json.exists() {
-        std::fs::remove_file(&json).with_context(|| format!("cannot remove the old {}", json.display()))?;
-    }
-    let csv_path = a.out.join("sweep.csv");
-    let mut csv =
-        record::CsvSink::create(&csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
-    let mut heap = BinaryHeap::new();
-    for (k, r) in readers.iter_mut().enumerate() {
-        if let Some(rec) = r.next().map_err(bad_input)? {
-            heap.push(Head { index: rec.index, input: k, rec });
-        }
-    }
-    let mut agg = Aggregator::default();
-    while let Some(h) = heap.pop() {
-        agg.add(&h.rec);
-        csv.push(&h.rec).with_context(|| format!("cannot write {}", csv_path.display()))?;
-        if let Some(rec) = readers[h.input].next().map_err(bad_input)? {
-            heap.push(Head { index: rec.index, input: h.input, rec });
-        }
-    }
-    csv.finish().with_context(|| format!("cannot write {}", csv_path.display()))?;
-    for (k, r) in readers.iter().enumerate() {
-        if r.seen != named[k].1.rows {
-            // The partial output stays without a manifest: it cannot be merged further.
-            return Err(bad_input(InputError::file(
-                &named[k].0,
-                format!("has {} rows, its sweep.json says {} (truncated?)", r.seen, named[k].1.rows),
-            )));
-        }
-    }
-    let complete = plan.missing.is_empty();
-    let m = Manifest {
-        identity: first.identity.clone(),
-        scene_file: first.scene_file.clone(),
-        path_file: first.path_file.clone(),
-        grid_runs: total,
-        shard_count: if complete { 1 } else { plan.shard_count },
-        shards: if complete { vec![1] } else { plan.present.iter().map(|p| p.0).collect() },
-        rows: agg.rows(),
-        failed: agg.failed(),
-    };
-    m.write(&json).with_context(|| format!("cannot write {}", json.display()))?;
-    let (_, warnings) = heatmap::write_heatmaps(&a.out, &first.identity.scene, &agg.aggregate());
-    for w in warnings {
-        eprintln!("warning: {w}");
-    }
-    println!(
-        "merged {} inputs ({} of {} shards): {} of {} runs, {} failed -> {}",
-        a.inputs.len(),
-        plan.present.len(),
-        plan.shard_count,
-        agg.rows(),
-        total,
-        agg.failed(),
-        csv_path.display()
-    );
-    if !complete {
-        eprintln!(
-            "warning: partial merge (--allow-partial): {} of {} shards missing",
-            plan.shard_count - plan.present.len() as u64,
-            plan.shard_count
-        );
-    }
-    some_failed(agg.failed(), agg.rows(), &csv_path)
 }

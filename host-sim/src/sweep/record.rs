@@ -76,6 +76,10 @@ pub struct SweepRecord {
     pub time_to_goal_s: Option<f64>,
     /// Final distance to the goal, m.
     pub final_distance_to_goal_m: Option<f64>,
+    /// The path's last waypoint reached (differs from `reached_goal` only for a foreign path).
+    pub reached_path_end: Option<bool>,
+    /// Final distance to the path's last waypoint, m.
+    pub final_distance_to_path_end_m: Option<f64>,
     /// Tracking RMS, m.
     pub tracking_rms_m: Option<f64>,
     /// Share of outer steps with the filter active.
@@ -89,7 +93,7 @@ pub struct SweepRecord {
 }
 
 /// Column names of `sweep.csv`, in order (the field names of [`SweepRecord`]).
-pub const COLUMNS: [&str; 26] = [
+pub const COLUMNS: [&str; 28] = [
     "index",
     "scene",
     "filter",
@@ -111,6 +115,8 @@ pub const COLUMNS: [&str; 26] = [
     "reached_goal",
     "time_to_goal_s",
     "final_distance_to_goal_m",
+    "reached_path_end",
+    "final_distance_to_path_end_m",
     "tracking_rms_m",
     "filter_active_fraction",
     "end_reason",
@@ -153,6 +159,8 @@ impl SweepRecord {
                     ("min_h_bar", self.min_h_bar.is_none()),
                     ("reached_goal", self.reached_goal.is_none()),
                     ("final_distance_to_goal_m", self.final_distance_to_goal_m.is_none()),
+                    ("reached_path_end", self.reached_path_end.is_none()),
+                    ("final_distance_to_path_end_m", self.final_distance_to_path_end_m.is_none()),
                     ("tracking_rms_m", self.tracking_rms_m.is_none()),
                     ("filter_active_fraction", self.filter_active_fraction.is_none()),
                     ("end_reason", self.end_reason.is_none()),
@@ -315,6 +323,8 @@ mod tests {
             reached_goal: Some(!collided),
             time_to_goal_s: (!collided).then_some(12.5),
             final_distance_to_goal_m: Some(0.1),
+            reached_path_end: Some(!collided),
+            final_distance_to_path_end_m: Some(0.1),
             tracking_rms_m: Some(0.2),
             filter_active_fraction: Some(0.01),
             end_reason: Some(if collided { "collision" } else { "goal" }.into()),
@@ -361,6 +371,7 @@ mod tests {
             *x = None;
         }
         (failed.collided, failed.reached_goal, failed.end_reason) = (None, None, None);
+        (failed.reached_path_end, failed.final_distance_to_path_end_m) = (None, None);
         (failed.final_distance_to_goal_m, failed.filter_active_fraction, failed.sim_time_s) =
             (None, None, None);
         failed.error = Some("run 2: waypoint follower: speed 200 m/s, allowed ≤ 100, \"quoted\"".into());
