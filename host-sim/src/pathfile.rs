@@ -7,7 +7,8 @@
 //!  "length_m": 3.8079, "planning_time_ms": 0.21, "iterations": 12, "seed": 0}
 //! ```
 //! * `scene` (string): the scene the path was planned for (as given to the CLI).
-//! * `waypoints` (array of `[x, y, z]`, at least one, all finite): ENU, m.
+//! * `waypoints` (array of `[x, y, z]`, at least one, all finite, |x| ≤
+//!   [`limits::MAX_COORDINATE_M`] = the core's `COORDINATE_LIMIT`): ENU, m.
 //! * `length_m`, `planning_time_ms` (numbers), `iterations`, `seed` (unsigned integers).
 //!
 //! When reading, only `waypoints` is required (a hand-written path needs
@@ -23,6 +24,7 @@ use parapet_core::Vec3;
 use serde_json::{Map, Value};
 use thiserror::Error;
 
+use crate::input::limits;
 use crate::planner::{path_length, PlannedPath};
 
 /// Contents of a path file (positions ENU, m).
@@ -114,6 +116,11 @@ impl PathFile {
 
     /// Read and validate a path file.
     pub fn read(file: &Path) -> Result<Self, PathFileError> {
+        let cap = limits::MAX_INPUT_FILE_BYTES;
+        if std::fs::metadata(file).is_ok_and(|m| m.len() > cap) {
+            let message = format!("the file is too large (allowed at most {cap} bytes)");
+            return Err(PathFileError::Field { file: file.to_path_buf(), field: "(file)".into(), message });
+        }
         let text = std::fs::read_to_string(file)
             .map_err(|source| PathFileError::Io { file: file.to_path_buf(), source })?;
         Self::parse(&text, file)
@@ -162,10 +169,18 @@ impl PathFile {
             let mut p = [0.0f32; 3];
             for (k, c) in a.iter().enumerate() {
                 let f = format!("{field}[{k}]");
-                p[k] = finite_f64(c).map_err(|m| err(&f, m))? as f32;
-                if !p[k].is_finite() {
-                    return Err(err(&f, format!("{c} does not fit in f32")));
+                let x = finite_f64(c).map_err(|m| err(&f, m))?;
+                if x.abs() > limits::MAX_COORDINATE_M {
+                    return Err(err(
+                        &f,
+                        format!(
+                            "coordinate out of range (got {}; allowed |x| ≤ {} m)",
+                            crate::input::num(x),
+                            limits::MAX_COORDINATE_M
+                        ),
+                    ));
                 }
+                p[k] = x as f32;
             }
             waypoints.push(p);
         }
@@ -281,6 +296,8 @@ mod tests {
         assert!(m.contains("`length_m`"), "{m}");
         let m = msg(r#"{"waypoints": [[0,0,1e39]]}"#);
         assert!(m.contains("waypoints[0][2]"), "{m}");
+        let m = msg(r#"{"waypoints": [[0,0,1],[2e5,0,1]]}"#);
+        assert!(m.contains("waypoints[1][0]") && m.contains("200000") && m.contains("100000"), "{m}");
         let m = msg("[1, 2]");
         assert!(m.contains("bad.json") && m.contains("object"), "{m}");
         let m = msg("{");

@@ -26,17 +26,29 @@
 //! rotating body **FRD** vectors into NED, body rates `(p, q, r)` about FRD
 //! axes (rad/s). The vehicle starts at rest, level, at the given start
 //! position (NED), heading north. The ground plane is off unless requested.
+//!
+//! ## Limits ([`crate::input::limits`])
+//! At most `MAX_REPLAY_ROWS` data rows spanning at most `MAX_REPLAY_SPAN_S`
+//! (last t − first t), times within ±10¹⁰ s (Unix time fits); dt in
+//! [`MIN_DT_S`, `MAX_DT_S`] and at most `MAX_PLANT_STEPS` integration steps,
+//! so a replay's time and memory are bounded by its input.
 
 use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
+use crate::input::limits;
 use crate::plant::{Plant, VehicleParams};
 
 /// One input sample: time (s) and rotor speeds (rad/s, rotors 1..4).
 pub type RotorSample = (f64, [f64; 4]);
 
-/// Parse the `t,w1,w2,w3,w4` CSV. Errors name the line and column.
+/// Largest |t| accepted, s: room for a Unix-time clock (1.7e9 s), small enough
+/// that the gaps between rows keep µs resolution in `f64`.
+const MAX_ABS_TIME_S: f64 = 1e10;
+
+/// Parse the `t,w1,w2,w3,w4` CSV. Errors name the line and column, the value
+/// and the allowed range; the row count and time span are capped (module docs).
 pub fn parse_rotor_csv(src: &str) -> Result<Vec<RotorSample>, String> {
     let mut out: Vec<RotorSample> = Vec::new();
     let mut lines = src.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
@@ -62,10 +74,36 @@ pub fn parse_rotor_csv(src: &str) -> Result<Vec<RotorSample>, String> {
         if v[1..].iter().any(|w| *w < 0.0) {
             return Err(format!("line {}: rotor speeds must be >= 0", i + 1));
         }
+        if v[0].abs() > MAX_ABS_TIME_S {
+            return Err(format!(
+                "line {}: column `t`: time out of range (got {}; allowed |t| ≤ {MAX_ABS_TIME_S:e} s)",
+                i + 1,
+                crate::input::num(v[0])
+            ));
+        }
         if let Some((t_prev, _)) = out.last() {
             if v[0] <= *t_prev {
                 return Err(format!("line {}: column `t`: times must increase strictly", i + 1));
             }
+        }
+        if let Some((t0, _)) = out.first() {
+            if v[0] - t0 > limits::MAX_REPLAY_SPAN_S {
+                return Err(format!(
+                    "line {}: column `t`: the replay would span {} s from the first row's t = {} (allowed ≤ {} s)",
+                    i + 1,
+                    crate::input::num(v[0] - t0),
+                    crate::input::num(*t0),
+                    limits::MAX_REPLAY_SPAN_S
+                ));
+            }
+        }
+        if out.len() == limits::MAX_REPLAY_ROWS {
+            return Err(format!(
+                "line {}: more than {} data rows (allowed ≤ {} rows)",
+                i + 1,
+                limits::MAX_REPLAY_ROWS,
+                limits::MAX_REPLAY_ROWS
+            ));
         }
         out.push((v[0], [v[1], v[2], v[3], v[4]]));
     }
@@ -100,8 +138,22 @@ pub fn replay(
     inputs: &[RotorSample],
     opts: &ReplayOptions,
 ) -> Result<String, String> {
-    if !(opts.dt.is_finite() && opts.dt > 0.0) {
-        return Err(format!("dt must be > 0, got {}", opts.dt));
+    if !(limits::MIN_DT_S..=limits::MAX_DT_S).contains(&opts.dt) {
+        return Err(format!(
+            "option --dt: integration step out of range (got {}; allowed {:e} ≤ dt ≤ {:e} s)",
+            crate::input::num(opts.dt),
+            limits::MIN_DT_S,
+            limits::MAX_DT_S
+        ));
+    }
+    if let (Some(first), Some(last)) = (inputs.first(), inputs.last()) {
+        let steps = (last.0 - first.0) / opts.dt;
+        if steps.is_nan() || steps > limits::MAX_PLANT_STEPS {
+            return Err(format!(
+                "option --dt: the replay needs {steps:.3e} steps, more than the cap of {:e} (raise --dt)",
+                limits::MAX_PLANT_STEPS
+            ));
+        }
     }
     let mut plant = Plant::new(vehicle).map_err(|e| e.to_string())?;
     plant.ground = opts.ground;
@@ -110,11 +162,14 @@ pub fn replay(
     let mut t = inputs.first().map(|s| s.0).unwrap_or(0.0);
     for (k, (tk, w)) in inputs.iter().enumerate() {
         // Integrate up to this row's time with the previous row's speeds.
+        // A counted number of equal steps (≤ dt each): no accumulation of `t`
+        // that could stall, and at most span / dt + rows steps in all.
         if k > 0 {
-            while *tk - t > 1e-12 {
-                let h = opts.dt.min(*tk - t);
+            let gap = *tk - t;
+            let n = (gap / opts.dt - 1e-9).ceil().max(1.0) as u64;
+            let h = gap / n as f64;
+            for _ in 0..n {
                 plant.step(h);
-                t += h;
             }
             t = *tk;
         }
@@ -169,5 +224,26 @@ mod tests {
         assert!(parse_rotor_csv("t,w1,w2,w3,w4\n0,1,2,3,x\n").unwrap_err().contains("w4"));
         assert!(parse_rotor_csv("t,a,b\n").is_err());
         assert!(parse_rotor_csv("t,w1,w2,w3,w4\n1,1,1,1,1\n0.5,1,1,1,1\n").unwrap_err().contains("line 3"));
+    }
+
+    #[test]
+    fn spans_rows_and_steps_are_capped() {
+        let e = parse_rotor_csv("t,w1,w2,w3,w4\n0,1,1,1,1\n1e9,1,1,1,1\n").unwrap_err();
+        assert!(e.contains("line 3") && e.contains("`t`") && e.contains("1e9") && e.contains("3600"), "{e}");
+        let e = parse_rotor_csv("t,w1,w2,w3,w4\n1e300,1,1,1,1\n").unwrap_err();
+        assert!(e.contains("line 2") && e.contains("1e300"), "{e}");
+        let mut big = String::from("t,w1,w2,w3,w4\n");
+        for k in 0..=limits::MAX_REPLAY_ROWS {
+            big.push_str(&format!("{},0,0,0,0\n", k as f64 * 1e-3));
+        }
+        let e = parse_rotor_csv(&big).unwrap_err();
+        assert!(e.contains(&format!("line {}", limits::MAX_REPLAY_ROWS + 2)) && e.contains("rows"), "{e}");
+        let rows = [(0.0, [0.0; 4]), (10.0, [0.0; 4])];
+        let opts = ReplayOptions { dt: 1e-7, ..ReplayOptions::default() };
+        assert!(replay(VehicleParams::default(), &rows, &opts).unwrap_err().contains("--dt"));
+        // Steps are counted: an uneven gap ends exactly on the row's time.
+        let rows = [(0.0, [0.0; 4]), (0.0105, [0.0; 4])];
+        let out = replay(VehicleParams::default(), &rows, &ReplayOptions::default()).unwrap();
+        assert!(out.lines().last().unwrap().starts_with("0.010500,"), "{out}");
     }
 }
