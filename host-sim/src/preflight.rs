@@ -63,8 +63,6 @@ pub struct PreflightOptions {
 }
 
 /// Run every pre-flight check (see the module doc); `Ok` when the flight may start.
-// InputError is the shared (large) user-input error; it is returned once per run at most.
-#[allow(clippy::result_large_err)]
 pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<(), InputError> {
     let hull = scene.vehicle.hull_radius;
     check_start(scene)?;
@@ -142,7 +140,6 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
 /// Check 1 alone (the start: hull clear of the ground and of every obstacle
 /// at t = 0), for callers that plan from the start before they have a path;
 /// [`check`] includes it.
-#[allow(clippy::result_large_err)]
 pub fn check_start(scene: &Scene) -> Result<(), InputError> {
     let hull = scene.vehicle.hull_radius;
     let s = scene.start;
