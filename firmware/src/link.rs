@@ -334,6 +334,11 @@ impl Link {
         self.parser.stats()
     }
 
+    /// Framer work so far (byte operations; see [`FrameParser::work`]).
+    pub fn parser_work(&self) -> u64 {
+        self.parser.work()
+    }
+
     /// Link counters.
     pub fn stats(&self) -> LinkStats {
         self.router.stats
