@@ -491,3 +491,32 @@ fn bad_jobs_and_output_directories_exit_2() {
     assert!(err(&r).contains("option --out"), "{}", err(&r));
     assert_eq!(std::fs::read_to_string(&f).unwrap(), "keep");
 }
+
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    use std::process::{Command, Stdio};
+    let d = tmp("pipe");
+    let o = d.display().to_string();
+    for args in [
+        vec!["sweep", "--scene", "scenes/one_sphere.toml", "--straight", "--mu", "0.9", "--delta1", "0.2"],
+        vec!["sweep-merge", &o],
+    ] {
+        let mut args = args.clone();
+        let merged = d.join("merged").display().to_string();
+        args.extend_from_slice(&["--out", if args[0] == "sweep" { &o } else { &merged }]);
+        let mut child = Command::new(env!("CARGO_BIN_EXE_parapet"))
+            .args(&args)
+            .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the reading end before the report line is printed (`parapet sweep … | true`).
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let e = err(&out);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {e}");
+        assert!(!e.contains("panicked"), "{e}");
+    }
+    assert!(d.join("merged").join("sweep.csv").exists());
+}

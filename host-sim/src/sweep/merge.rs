@@ -19,7 +19,7 @@ use super::grid::{Grid, Shard};
 use super::heatmap::{self, Aggregator};
 use super::manifest::{self, Identity, Manifest};
 use super::record::{self, SweepRecord};
-use super::{bad_input, create_out, output_files, refuse_overwrite, some_failed, EXIT_SOME_FAILED};
+use super::{bad_input, create_out, output_files, refuse_overwrite, say, some_failed, EXIT_SOME_FAILED};
 use crate::cli::CliError;
 use crate::input::InputError;
 
@@ -256,7 +256,7 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
     for w in warnings {
         eprintln!("warning: {w}");
     }
-    println!(
+    say(format_args!(
         "merged {} inputs ({} of {} shards): {} of {} runs, {} failed -> {}",
         a.inputs.len(),
         plan.present.len(),
@@ -265,7 +265,7 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
         total,
         agg.failed(),
         csv_path.display()
-    );
+    ));
     if !complete {
         eprintln!(
             "warning: partial merge (--allow-partial): {} of {} shards missing",

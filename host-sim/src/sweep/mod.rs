@@ -416,6 +416,13 @@ pub(crate) fn refuse_overwrite(
     Ok(())
 }
 
+/// Print a line of the report on stdout; a closed stdout (`parapet sweep … | head`)
+/// is not an error: the outputs are written either way.
+pub(crate) fn say(line: std::fmt::Arguments) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{line}");
+}
+
 /// Create the output directory; failing that is a bad `--out` (exit 2).
 pub(crate) fn create_out(dir: &Path) -> Result<(), CliError> {
     std::fs::create_dir_all(dir).map_err(|e| {
@@ -696,7 +703,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     for w in warnings {
         eprintln!("warning: {w}");
     }
-    println!(
+    say(format_args!(
         "{}: {} of {} runs{}, {} collided, {} failed -> {}",
         setup.scene.name,
         agg.rows(),
@@ -705,7 +712,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         agg.collided(),
         agg.failed(),
         csv_path.display()
-    );
+    ));
     some_failed(agg.failed(), agg.rows(), &csv_path)
 }
 
