@@ -5,6 +5,10 @@
 //!   apt-get when missing and root), runs every host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
 //!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight.
+//!   After the host tests, a bounded coverage-guided fuzz run of every `tests/fuzz` target
+//!   (see `fuzz.rs`).
+//! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
+//!   and `docs/reliability.md`).
 //! * `cargo xtask size` — print the firmware's flash and static-RAM use.
 //! * `cargo xtask bench [--long]` — run every criterion benchmark (short
 //!   measurement times unless `--long`) and print one summary table (see `bench.rs`).
@@ -14,6 +18,7 @@
 
 mod bench;
 mod elf;
+mod fuzz;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -30,8 +35,11 @@ fn main() -> ExitCode {
         Some("test") => test(),
         Some("size") => size().map(|_| ()),
         Some("bench") => bench::bench(&args[1..]),
+        Some("fuzz") => fuzz::fuzz(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask <test|size|bench [--long]>");
+            eprintln!(
+                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]>"
+            );
             return ExitCode::from(2);
         }
     };
@@ -196,6 +204,7 @@ fn test() -> Result<(), String> {
             .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf),
     )?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
+    fuzz::smoke()?;
     run(
         "firmware QEMU smoke test",
         cargo()
