@@ -16,7 +16,15 @@
 //!   `ω̇_i = (ω_cmd,i − ω_i) / τ_motor`, the command clamped to
 //!   `[omega_min, omega_max]`.
 //! * Translation: `m v̇ = R (F_thrust + F_drag) + m g e_z`, with linear body
-//!   drag `F_drag = −diag(drag) · (Rᵀ v)` (air at rest).
+//!   drag `F_drag = −diag(drag) · v_a`, `v_a = Rᵀ (v − w)` the **air-relative**
+//!   velocity in the body frame (`w` the wind, NED, set with [`Plant::set_wind`]
+//!   and held over a step; zero by default: air at rest).
+//! * Aerodynamics (RotorPy's `Multirotor` model, off when its coefficients are 0):
+//!   rotor drag ("H-force") at each hub, `H_i = −ω_i diag(k_d, k_d, k_z) v_i` with
+//!   `v_i = v_a + ω_b × r_i` the air velocity at rotor i (`r_i` its hub, body z = 0),
+//!   its moment `r_i × H_i` about the centre of mass, and quadratic parasitic
+//!   drag `D = −|v_a| diag(c_D) v_a` at the centre of mass.
+//! * Rotor fault: each rotor's thrust can be scaled ([`Plant::set_rotor_scale`]).
 //! * Rotation: Euler's equations with the gyroscopic term,
 //!   `I ω̇ = τ − ω × (I ω)`; `q̇ = ½ q ⊗ (0, ω)`. Rotor inertia (the rotors' own
 //!   gyroscopic and spin-up reaction torques) is neglected.
@@ -71,6 +79,15 @@ pub struct VehicleParams {
     pub drag: [f64; 3],
     /// Radius of the sphere bounding the vehicle (collision hull), m.
     pub hull_radius: f64,
+    /// Rotor drag ("H-force") coefficient in the rotor plane, N/(rad/s · m/s) (RotorPy's
+    /// `k_d`); default 0 (off).
+    pub rotor_drag_kd: f64,
+    /// Rotor drag coefficient along the rotor axis (induced inflow), N/(rad/s · m/s)
+    /// (RotorPy's `k_z`); default 0 (off).
+    pub rotor_drag_kz: f64,
+    /// Quadratic parasitic drag along the FRD body axes, N/(m/s)² (RotorPy's `c_Dx`,
+    /// `c_Dy`, `c_Dz`); default 0 (off).
+    pub parasitic_drag: [f64; 3],
 }
 
 impl Default for VehicleParams {
@@ -89,6 +106,9 @@ impl Default for VehicleParams {
             motor_tau: 0.02,
             drag: [0.1, 0.1, 0.1],
             hull_radius: 0.05f64.sqrt(),
+            rotor_drag_kd: 0.0,
+            rotor_drag_kz: 0.0,
+            parasitic_drag: [0.0; 3],
         }
     }
 }
@@ -137,6 +157,11 @@ impl VehicleParams {
             nonneg("drag", d)?;
         }
         pos("hull_radius", self.hull_radius)?;
+        nonneg("rotor_drag_kd", self.rotor_drag_kd)?;
+        nonneg("rotor_drag_kz", self.rotor_drag_kz)?;
+        for &c in &self.parasitic_drag {
+            nonneg("parasitic_drag", c)?;
+        }
         let t_max = 4.0 * self.k_f * self.omega_max * self.omega_max;
         if t_max <= self.mass * GRAVITY {
             return Err(ParamError {
@@ -164,6 +189,13 @@ impl VehicleParams {
     pub fn rotor_positions(&self) -> [[f64; 2]; 4] {
         let a = self.arm_length / 2f64.sqrt();
         ROTOR_XY_UNIT.map(|[x, y]| [x as f64 * a, y as f64 * a])
+    }
+
+    /// Whether any aerodynamic term beyond the linear body drag is on.
+    pub fn has_aero(&self) -> bool {
+        self.rotor_drag_kd != 0.0
+            || self.rotor_drag_kz != 0.0
+            || self.parasitic_drag.iter().any(|&c| c != 0.0)
     }
 
     /// The airframe description the controller needs (f32).
@@ -213,8 +245,8 @@ type X = SVector<f64, 17>;
 /// rotor-speed commands.
 #[derive(Clone, Copy, Debug)]
 struct Consts {
-    /// Thrust coefficient, N/(rad/s)².
-    k_f: f64,
+    /// Thrust coefficient of each rotor (`k_f` times its fault scale), N/(rad/s)².
+    k_f: [f64; 4],
     /// `ROTOR_YAW_SIGN[i] · k_m`, N·m/(rad/s)².
     yaw_k_m: [f64; 4],
     /// Roll moment arm of rotor i, `−y_i`, m.
@@ -235,6 +267,23 @@ struct Consts {
     inertia: [f64; 3],
     /// Their reciprocals, 1/(kg·m²).
     inv_inertia: [f64; 3],
+    /// Wind velocity, NED, m/s (held over a step).
+    wind: [f64; 3],
+    /// The aerodynamic terms, when any is on.
+    aero: Option<Aero>,
+}
+
+/// The aerodynamic coefficients of [`Consts`] (see the module docs).
+#[derive(Clone, Copy, Debug)]
+struct Aero {
+    /// Rotor drag in the rotor plane, N/(rad/s · m/s).
+    kd: f64,
+    /// Rotor drag along the rotor axis, N/(rad/s · m/s).
+    kz: f64,
+    /// Quadratic parasitic drag per body axis, N/(m/s)².
+    cd: [f64; 3],
+    /// Rotor hub positions, body FRD, m (z = 0).
+    hub: [[f64; 2]; 4],
 }
 
 /// Rotation matrix (body → world) of the quaternion `(w, x, y, z)` after
@@ -258,7 +307,7 @@ impl Consts {
     fn new(p: &VehicleParams, omega_cmd: &[f64; 4]) -> Self {
         let pos = p.rotor_positions();
         Consts {
-            k_f: p.k_f,
+            k_f: [p.k_f; 4],
             yaw_k_m: ROTOR_YAW_SIGN.map(|s| s as f64 * p.k_m),
             roll_arm: pos.map(|r| -r[1]),
             pitch_arm: pos.map(|r| r[0]),
@@ -269,6 +318,13 @@ impl Consts {
             inv_mass: 1.0 / p.mass,
             inertia: p.inertia,
             inv_inertia: p.inertia.map(|i| 1.0 / i),
+            wind: [0.0; 3],
+            aero: p.has_aero().then_some(Aero {
+                kd: p.rotor_drag_kd,
+                kz: p.rotor_drag_kz,
+                cd: p.parasitic_drag,
+                hub: pos,
+            }),
         }
     }
 
@@ -276,20 +332,22 @@ impl Consts {
     #[inline(always)]
     fn thrust(&self, w: &[f64; 4]) -> f64 {
         let mut thrust = 0.0;
-        for wi in w {
-            thrust += self.k_f * wi * wi;
+        for (k_f, wi) in self.k_f.iter().zip(w) {
+            thrust += k_f * wi * wi;
         }
         thrust
     }
 
     /// Acceleration of the centre of mass (NED, m/s²) at velocity `v`, attitude
     /// quaternion `q` = (w, i, j, k) (normalised here) and collective thrust
-    /// `thrust`: `R (F_thrust + F_drag) / m + g e_z` with `F_drag = −D Rᵀ v`.
+    /// `thrust`: `R (F_thrust + F_drag) / m + g e_z` with `F_drag = −D Rᵀ (v − wind)`.
     /// With the same drag on every axis `R D Rᵀ = d I`, and only the body z axis
-    /// `R e_z` is needed.
+    /// `R e_z` is needed. (Without the aerodynamic terms; see [`Self::aero_accel`].)
     #[inline(always)]
     fn accel_of(&self, v: [f64; 3], q: [f64; 4], thrust: f64) -> Vector3<f64> {
         let m = self.inv_mass;
+        let wind = self.wind;
+        let v = [v[0] - wind[0], v[1] - wind[1], v[2] - wind[2]];
         if let Some(d) = self.iso_drag {
             let [w, x, y, z] = q;
             let s = 1.0 / (w * w + x * x + y * y + z * z);
@@ -319,7 +377,60 @@ impl Consts {
     /// Acceleration of the centre of mass at plant state `s` (NED, m/s²).
     fn acceleration(&self, s: &PlantState) -> Vector3<f64> {
         let q = s.att.quaternion();
-        self.accel_of(s.vel.into(), [q.w, q.i, q.j, q.k], self.thrust(&s.rotor))
+        let q = [q.w, q.i, q.j, q.k];
+        match &self.aero {
+            None => self.accel_of(s.vel.into(), q, self.thrust(&s.rotor)),
+            Some(a) => self.aero_accel(a, s.vel.into(), q, s.rates.into(), &s.rotor).0,
+        }
+    }
+
+    /// With the aerodynamic terms on: the acceleration of the centre of mass (NED,
+    /// m/s²) and the aerodynamic moment (rotor drag, body FRD, N·m) at velocity
+    /// `v`, attitude `q` (normalised here), body rates `rates` and rotor speeds `w`.
+    fn aero_accel(
+        &self,
+        a: &Aero,
+        v: [f64; 3],
+        q: [f64; 4],
+        rates: [f64; 3],
+        w: &[f64; 4],
+    ) -> (Vector3<f64>, [f64; 3]) {
+        let r = rotation(q[0], q[1], q[2], q[3]);
+        let va = [v[0] - self.wind[0], v[1] - self.wind[1], v[2] - self.wind[2]];
+        // Air-relative velocity, body frame: v_a = Rᵀ (v − wind).
+        let vb = [
+            r[0][0] * va[0] + r[1][0] * va[1] + r[2][0] * va[2],
+            r[0][1] * va[0] + r[1][1] * va[1] + r[2][1] * va[2],
+            r[0][2] * va[0] + r[1][2] * va[1] + r[2][2] * va[2],
+        ];
+        let speed = (vb[0] * vb[0] + vb[1] * vb[1] + vb[2] * vb[2]).sqrt();
+        let mut f = [
+            -self.drag[0] * vb[0] - a.cd[0] * speed * vb[0],
+            -self.drag[1] * vb[1] - a.cd[1] * speed * vb[1],
+            -self.drag[2] * vb[2] - a.cd[2] * speed * vb[2] - self.thrust(w),
+        ];
+        let mut m = [0.0; 3];
+        let [p, qq, rr] = rates;
+        for (i, wi) in w.iter().enumerate() {
+            let [x, y] = a.hub[i];
+            // Air velocity at the hub: v_a + ω × r_i, r_i = (x, y, 0).
+            let vi = [vb[0] - rr * y, vb[1] + rr * x, vb[2] + p * y - qq * x];
+            let h = [-wi * a.kd * vi[0], -wi * a.kd * vi[1], -wi * a.kz * vi[2]];
+            f[0] += h[0];
+            f[1] += h[1];
+            f[2] += h[2];
+            // r_i × H_i.
+            m[0] += y * h[2];
+            m[1] -= x * h[2];
+            m[2] += x * h[1] - y * h[0];
+        }
+        let im = self.inv_mass;
+        let acc = Vector3::new(
+            (r[0][0] * f[0] + r[0][1] * f[1] + r[0][2] * f[2]) * im,
+            (r[1][0] * f[0] + r[1][1] * f[1] + r[1][2] * f[2]) * im,
+            (r[2][0] * f[0] + r[2][1] * f[1] + r[2][2] * f[2]) * im + GRAVITY,
+        );
+        (acc, m)
     }
 
     /// The state derivative ẋ of the 17-dimensional state
@@ -331,7 +442,7 @@ impl Consts {
         let mut tau = [0.0; 3];
         let mut thrust = 0.0;
         for i in 0..4 {
-            let f = self.k_f * w[i] * w[i];
+            let f = self.k_f[i] * w[i] * w[i];
             thrust += f;
             tau[0] += self.roll_arm[i] * f;
             tau[1] += self.pitch_arm[i] * f;
@@ -339,7 +450,17 @@ impl Consts {
             xd[13 + i] = (self.cmd[i] - w[i]) * self.inv_motor_tau;
         }
         let (qw, qi, qj, qk) = (x[6], x[7], x[8], x[9]);
-        let acc = self.accel_of([x[3], x[4], x[5]], [qw, qi, qj, qk], thrust);
+        let acc = match &self.aero {
+            None => self.accel_of([x[3], x[4], x[5]], [qw, qi, qj, qk], thrust),
+            Some(a) => {
+                let (acc, m) =
+                    self.aero_accel(a, [x[3], x[4], x[5]], [qw, qi, qj, qk], [x[10], x[11], x[12]], &w);
+                tau[0] += m[0];
+                tau[1] += m[1];
+                tau[2] += m[2];
+                acc
+            }
+        };
         // Euler's equations: I ω̇ = τ − ω × (I ω).
         let (p, q, rr) = (x[10], x[11], x[12]);
         let ii = self.inertia;
@@ -470,6 +591,24 @@ impl Plant {
         let w = omega.map(|w| if w.is_finite() { w.clamp(0.0, self.params.omega_max) } else { 0.0 });
         self.state.rotor = w;
         self.command(w);
+    }
+
+    /// Wind velocity, NED, m/s, held over the following steps (zero: air at rest).
+    /// Non-finite components count as 0.
+    pub fn set_wind(&mut self, wind: Vector3<f64>) {
+        self.consts.wind = [wind.x, wind.y, wind.z].map(|w| if w.is_finite() { w } else { 0.0 });
+    }
+
+    /// The wind the plant flies in, NED, m/s.
+    pub fn wind(&self) -> Vector3<f64> {
+        Vector3::from(self.consts.wind)
+    }
+
+    /// Scale each rotor's thrust (a rotor fault: 1 = healthy, 0 = no thrust; clamped
+    /// to [0, 1], non-finite counts as 1). The drag torque is not scaled.
+    pub fn set_rotor_scale(&mut self, scale: [f64; 4]) {
+        let k_f = self.params.k_f;
+        self.consts.k_f = scale.map(|s| if s.is_finite() { k_f * s.clamp(0.0, 1.0) } else { k_f });
     }
 
     /// Set the rotor-speed commands (rad/s, finite) and the derivative's clamped copy.
@@ -774,6 +913,107 @@ mod tests {
             let plain = reference_derivative(&p.params, &p.omega_cmd, &s.to_x());
             assert!((a - plain.fixed_rows::<3>(3)).norm() < 1e-12);
         }
+    }
+
+    /// The aerodynamic derivative as RotorPy writes it (nalgebra vectors, per rotor).
+    fn reference_aero(p: &VehicleParams, wind: Vector3<f64>, x: &X) -> (Vector3<f64>, Vector3<f64>) {
+        let s = PlantState::from_x(x);
+        let r = s.att.to_rotation_matrix();
+        let vb = r.transpose() * (s.vel - wind);
+        let cd = Vector3::from(p.parasitic_drag);
+        let mut f = -vb.component_mul(&Vector3::from(p.drag)) - vb.norm() * cd.component_mul(&vb);
+        let mut m = Vector3::zeros();
+        let kdm = Vector3::new(p.rotor_drag_kd, p.rotor_drag_kd, p.rotor_drag_kz);
+        for (i, xy) in p.rotor_positions().iter().enumerate() {
+            let ri = Vector3::new(xy[0], xy[1], 0.0);
+            let w = s.rotor[i];
+            let vi = vb + s.rates.cross(&ri);
+            let h = -w * kdm.component_mul(&vi);
+            let t = Vector3::new(0.0, 0.0, -p.k_f * w * w);
+            f += h + t;
+            m += ri.cross(&(h + t));
+            m.z += ROTOR_YAW_SIGN[i] as f64 * p.k_m * w * w;
+        }
+        (r * f / p.mass + Vector3::new(0.0, 0.0, GRAVITY), m)
+    }
+
+    #[test]
+    fn aerodynamic_derivative_matches_rotorpy_form() {
+        let mut p = plant_with(|v| {
+            v.inertia = [0.0019, 0.0025, 0.0033];
+            v.drag = [0.05, 0.07, 0.02];
+            v.rotor_drag_kd = 3e-5;
+            v.rotor_drag_kz = 2e-5;
+            v.parasitic_drag = [0.01, 0.02, 0.03];
+        });
+        let wind = Vector3::new(2.0, -1.0, 0.3);
+        p.set_wind(wind);
+        let vals = [
+            1.0, -2.0, -3.0, 0.7, -0.4, 0.2, 0.9, 0.3, -0.2, 0.25, 3.0, -1.5, 0.8, 610.0, 720.0, 680.0, 655.0,
+        ];
+        let mut x = X::zeros();
+        for (xi, v) in x.iter_mut().zip(vals) {
+            *xi = v;
+        }
+        let fast = p.consts.derivative(&x);
+        let (acc, m) = reference_aero(&p.params, wind, &x);
+        let s = PlantState::from_x(&x);
+        let i = Vector3::from(p.params.inertia);
+        let wdot = (m - s.rates.cross(&i.component_mul(&s.rates))).component_div(&i);
+        for k in 0..3 {
+            assert!((fast[3 + k] - acc[k]).abs() < 1e-11 * (1.0 + acc[k].abs()), "acc {k}");
+            assert!((fast[10 + k] - wdot[k]).abs() < 1e-10 * (1.0 + wdot[k].abs()), "wdot {k}");
+        }
+        // The accelerometer's acceleration is the derivative's.
+        assert!((p.consts.acceleration(&s) - acc).norm() < 1e-11);
+        // The rotor drag damps body rates: rolling right gives a negative roll moment.
+        p.set_wind(Vector3::zeros());
+        let c = p.consts;
+        let roll = |rate: f64| {
+            let mut y = X::zeros();
+            y[6] = 1.0;
+            y[10] = rate;
+            for k in 0..4 {
+                y[13 + k] = 700.0;
+            }
+            c.derivative(&y)[10]
+        };
+        let (right, left) = (roll(1.0), roll(-1.0));
+        assert!(right < 0.0 && left > 0.0, "{right} {left}");
+    }
+
+    #[test]
+    fn wind_acts_through_the_air_relative_velocity() {
+        // At rest in a steady wind, the linear drag pushes downwind with d W / m.
+        let mut p = plant_no_ground();
+        p.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        let w = Vector3::new(0.0, 3.0, 0.0);
+        p.set_wind(w);
+        p.step(1e-4);
+        let a = p.acceleration();
+        assert!((a.y - 0.1 * 3.0 / 0.5).abs() < 1e-3, "a = {a:?}");
+        assert!(a.x.abs() < 1e-9);
+        // Moving with the wind: no drag, the hover stays unaccelerated.
+        let mut q = plant_no_ground();
+        q.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        q.state.vel = w;
+        q.set_wind(w);
+        q.step(1e-3);
+        assert!(q.acceleration().norm() < 1e-9);
+    }
+
+    #[test]
+    fn a_rotor_fault_scales_its_thrust() {
+        let mut p = plant_no_ground();
+        p.set_hover(Vector3::new(0.0, 0.0, -5.0), 0.0);
+        p.set_rotor_scale([0.5, 1.0, 1.0, 1.0]);
+        p.step(0.001);
+        // Rotor 1 (front-right) weaker: less lift and a roll to the right... the
+        // left side is stronger, so positive roll, and nose down (negative pitch).
+        assert!(p.state.vel.z > 0.0);
+        assert!(p.state.rates.x > 0.0 && p.state.rates.y < 0.0, "{:?}", p.state.rates);
+        p.set_rotor_scale([1.0; 4]);
+        assert_eq!(p.consts.k_f, [p.params.k_f; 4]);
     }
 
     #[test]

@@ -17,7 +17,9 @@
 //! (zero-order hold). By default they are imposed on the rotors directly
 //! (no motor lag) so that only the rigid-body and rotor-force model is
 //! compared; with `motor_lag` they are commands passed through the
-//! first-order motor model instead.
+//! first-order motor model instead, the rotors starting at the first row's
+//! speeds (or at [`ReplayOptions::initial_speed`]), so the vehicle does not drop
+//! while they spin up from rest.
 //!
 //! ## Output CSV
 //! `t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r`, one row per input row, the state at
@@ -124,11 +126,23 @@ pub struct ReplayOptions {
     pub motor_lag: bool,
     /// Simulate the ground plane z = 0.
     pub ground: bool,
+    /// With `motor_lag`: the rotor speeds at the first row's time, rad/s (default:
+    /// the first row's speeds).
+    pub initial_speed: Option<[f64; 4]>,
+    /// Steady wind, NED, m/s (default still air).
+    pub wind_ned: Vector3<f64>,
 }
 
 impl Default for ReplayOptions {
     fn default() -> Self {
-        ReplayOptions { dt: 0.001, start_ned: Vector3::zeros(), motor_lag: false, ground: false }
+        ReplayOptions {
+            dt: 0.001,
+            start_ned: Vector3::zeros(),
+            motor_lag: false,
+            ground: false,
+            initial_speed: None,
+            wind_ned: Vector3::zeros(),
+        }
     }
 }
 
@@ -158,6 +172,18 @@ pub fn replay(
     let mut plant = Plant::new(vehicle).map_err(|e| e.to_string())?;
     plant.ground = opts.ground;
     plant.state.pos = opts.start_ned;
+    if !opts.wind_ned.iter().all(|w| w.is_finite()) {
+        return Err(format!("wind must be finite, got {:?}", opts.wind_ned));
+    }
+    plant.set_wind(opts.wind_ned);
+    if opts.motor_lag {
+        if let Some(w0) = opts.initial_speed.or(inputs.first().map(|s| s.1)) {
+            if !w0.iter().all(|w| w.is_finite() && *w >= 0.0) {
+                return Err(format!("initial rotor speed must be finite and >= 0, got {w0:?}"));
+            }
+            plant.set_rotor_speeds(w0);
+        }
+    }
     let mut out = String::from("t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r\n");
     let mut t = inputs.first().map(|s| s.0).unwrap_or(0.0);
     for (k, (tk, w)) in inputs.iter().enumerate() {
@@ -224,6 +250,23 @@ mod tests {
         assert!(parse_rotor_csv("t,w1,w2,w3,w4\n0,1,2,3,x\n").unwrap_err().contains("w4"));
         assert!(parse_rotor_csv("t,a,b\n").is_err());
         assert!(parse_rotor_csv("t,w1,w2,w3,w4\n1,1,1,1,1\n0.5,1,1,1,1\n").unwrap_err().contains("line 3"));
+    }
+
+    #[test]
+    fn motor_lag_replay_starts_at_the_first_speed() {
+        let v = VehicleParams::default();
+        let w = v.hover_omega();
+        let csv = format!("t,w1,w2,w3,w4\n0,{w},{w},{w},{w}\n0.5,{w},{w},{w},{w}\n");
+        let rows = parse_rotor_csv(&csv).unwrap();
+        let opts = ReplayOptions { motor_lag: true, ..Default::default() };
+        let out = replay(v.clone(), &rows, &opts).unwrap();
+        let vz: f64 = out.lines().last().unwrap().split(',').nth(6).unwrap().parse().unwrap();
+        assert!(vz.abs() < 1e-9, "hovers from the start: vz = {vz}");
+        // A stated initial speed of 0: the rotors spin up and the vehicle sinks first.
+        let opts = ReplayOptions { motor_lag: true, initial_speed: Some([0.0; 4]), ..Default::default() };
+        let out = replay(v, &rows, &opts).unwrap();
+        let vz: f64 = out.lines().last().unwrap().split(',').nth(6).unwrap().parse().unwrap();
+        assert!(vz > 0.1, "sinks while spinning up: vz = {vz}");
     }
 
     #[test]
