@@ -279,3 +279,63 @@ pub fn write_heatmaps(dir: &Path, scene: &str, agg: &Aggregate) -> (Vec<PathBuf>
     }
     (files, warnings)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::record::tests::ok_row;
+    use super::super::record::Status;
+    use super::*;
+
+    fn row(index: u64, mu: f64, delta1: f64, collided: bool, clearance: f64, rms: f64) -> SweepRecord {
+        SweepRecord { mu, delta1, tracking_rms_m: Some(rms), ..ok_row(index, collided, clearance) }
+    }
+
+    fn failed(index: u64, mu: f64, delta1: f64) -> SweepRecord {
+        let mut r = row(index, mu, delta1, false, -5.0, 9.0);
+        r.status = Status::Failed;
+        (r.collided, r.min_clearance_m, r.tracking_rms_m) = (None, None, None);
+        r.error = Some("refused".into());
+        r
+    }
+
+    #[test]
+    fn cells_aggregate_flown_rows_and_skip_failed_ones() {
+        let rows = [
+            row(0, 0.5, 0.1, false, 0.3, 0.1),
+            row(1, 0.5, 0.1, true, -0.02, 0.3),
+            row(2, 0.5, 0.1, false, 0.1, 0.2),
+            row(3, 1.4, 0.3, false, 0.25, 0.4),
+            failed(4, 0.5, 0.1),
+            // Only a failed run at (1.4, 0.1): no cell there.
+            failed(5, 1.4, 0.1),
+        ];
+        let mut agg = Aggregator::default();
+        for r in &rows {
+            agg.add(r);
+        }
+        assert_eq!((agg.rows(), agg.failed(), agg.collided()), (6, 2, 1));
+        let (mu, d1, cells) = agg.aggregate();
+        assert_eq!((mu, d1), (vec![0.5, 1.4], vec![0.1, 0.3]));
+        let c = cells[0][0].unwrap();
+        assert_eq!(c.runs, 3);
+        assert!((c.collision_rate - 1.0 / 3.0).abs() < 1e-12);
+        assert_eq!(c.min_clearance_m, -0.02);
+        assert!((c.tracking_rms_m - 0.2).abs() < 1e-12);
+        assert_eq!(cells[1][1].map(|c| (c.runs, c.min_clearance_m)), Some((1, 0.25)));
+        assert_eq!((cells[0][1], cells[1][0]), (None, None));
+    }
+
+    #[test]
+    fn too_many_cells_are_not_drawn() {
+        let mut agg = Aggregator::default();
+        for i in 0..=MAX_AXIS_CELLS as u64 {
+            agg.add(&row(i, 0.5 + i as f64, 0.1, false, 0.1, 0.1));
+        }
+        let dir = std::env::temp_dir().join(format!("parapet-heatmap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (files, warnings) = write_heatmaps(&dir, "s", &agg.aggregate());
+        assert!(files.is_empty());
+        assert!(warnings[0].contains("101 μ"), "{warnings:?}");
+        assert!(!dir.join("heatmap_collision_rate.png").exists());
+    }
+}

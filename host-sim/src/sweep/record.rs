@@ -297,10 +297,11 @@ pub fn to_string(records: &[SweepRecord]) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn ok_row(index: u64, collided: bool, clearance: f64) -> SweepRecord {
+    /// A flown row (for the tests of this and the other sweep modules).
+    pub(crate) fn ok_row(index: u64, collided: bool, clearance: f64) -> SweepRecord {
         SweepRecord {
             index,
             scene: "a \"quoted\", scene\nname".into(),
