@@ -1,9 +1,18 @@
-//! The `parapet` command line: `run`, `pil`, `plan`, `replay`.
+//! The `parapet` command line: `run`, `pil`, `plan`, `replay` (and the entry
+//! points of `sweep`, `sweep-merge`).
 //!
-//! Exit codes: 0 success, 1 internal failure, 2 bad input (a file, field or
-//! option named in the message), 3 no path found by the planner.
+//! Exit codes ([`EXIT_CODES_HELP`]): 0 success, 1 internal failure, 2 bad input
+//! (a file, table, field or option named in the message with the value and the
+//! allowed range), 3 no path found by the planner. Bad input is an
+//! [`InputError`]; library error enums are never shown as debug text.
+//!
+//! Standard output goes through [`out`]: a closed pipe (`parapet run | head`)
+//! ends the command quietly with exit 0, never a panic. Outputs never replace an
+//! input file ([`refuse_overwrite`]).
+//!
+//! May import: every host-sim module (it is the top).
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write as _};
 use std::path::{Path, PathBuf};
 
 use anyhow::anyhow;
@@ -11,11 +20,12 @@ use clap::{Args, Parser, Subcommand};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
 
+use crate::input::{limits, num, InputError};
 use crate::pathfile::PathFile;
 use crate::planner::{plan, PlanProblem, PlannedPath, PlannerParams};
 use crate::plant::VehicleParams;
 use crate::replay::{parse_rotor_csv, replay, ReplayOptions};
-use crate::report::{summary_table, write_report, RunRecord};
+use crate::report::{report_files, summary_table, write_report, RunRecord};
 use crate::runner::{run, RunConfig};
 use crate::scene::{to_f32, to_f64, Scene};
 
@@ -35,7 +45,7 @@ pub const DEFAULT_SCENE: &str = "scenes/office.toml";
 
 /// Parapet: quadrotor flight with a closed-form CBF safety filter — simulator and tools.
 #[derive(Debug, Parser)]
-#[command(name = "parapet", version, about, long_about = None, after_help = EXIT_CODES_HELP)]
+#[command(name = "parapet", version, about, long_about = None, after_help = crate::help::top())]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -45,15 +55,19 @@ pub struct Cli {
 enum Command {
     /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
     /// simulator; write summary.json, trajectory.csv and plots.
+    #[command(after_help = crate::help::run())]
     Run(RunArgs),
     /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
     /// (`parapet-firmware-qemu`) in QEMU netduinoplus2 as the flight controller, in lockstep
     /// over MAVLink; same report plus PIL figures (frames, instructions per step, real-time factor).
+    #[command(after_help = crate::help::pil())]
     Pil(PilArgs),
     /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
+    #[command(after_help = crate::help::plan())]
     Plan(PlanArgs),
     /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
     /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
+    #[command(after_help = crate::help::replay())]
     Replay(ReplayArgs),
     /// Fly a scene over a grid of (μ, δ1[, speed]) × noise seeds in parallel; write sweep.csv
     /// and heatmaps of collision rate, min clearance and tracking RMS (paper Fig. 9).
@@ -64,7 +78,7 @@ enum Command {
 
 #[derive(Debug, Args)]
 struct RunArgs {
-    /// Scene file (TOML, ENU z-up).
+    /// Scene file (TOML, ENU z-up; see scenes/README.md).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: PathBuf,
     /// Fly this path file (JSON from `parapet plan`) instead of planning.
@@ -85,23 +99,18 @@ struct RunArgs {
     /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
     #[arg(long, value_parser = parse_variant)]
     filter: Option<FilterVariant>,
-    /// Barrier velocity weight μ, s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
     mu: Option<f64>,
-    /// Safety level δ, m² (hull radius squared).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = default_help("Safety level δ, m² (hull radius squared)", "delta"))]
     delta: Option<f64>,
-    /// Engagement level δ1 (> δ), m².
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = default_help("Engagement level δ1 (> δ), m²", "delta1"))]
     delta1: Option<f64>,
-    /// PD position gain k_p, 1/s².
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = default_help("PD position gain k_p, 1/s²", "kp"))]
     kp: Option<f64>,
-    /// PD velocity gain k_d, 1/s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = default_help("PD velocity gain k_d, 1/s", "kd"))]
     kd: Option<f64>,
-    /// Reference speed along the path, m/s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, help = format!(
+        "Reference speed along the path, m/s, in (0, {}] [default: the scene's]", limits::MAX_SPEED_MPS))]
     speed: Option<f64>,
     /// Random seed (sensor noise and planner).
     #[arg(long, default_value_t = 0)]
@@ -110,6 +119,10 @@ struct RunArgs {
     /// waypoint → … → last) / speed + 15 s).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = format!(
+        "Raise the duration cap, s [default: {} s; at most {} s]",
+        limits::MAX_DURATION_S, limits::MAX_DURATION_CEILING_S))]
+    max_duration: Option<f64>,
     /// Sensor noise on (default, unless the scene's [sensors] table says otherwise).
     #[arg(long, conflicts_with = "no_noise")]
     noise: bool,
@@ -119,7 +132,7 @@ struct RunArgs {
     /// Proximity-sensor range, m (default: the scene's, else 3).
     #[arg(long, allow_negative_numbers = true)]
     sensing_range: Option<f64>,
-    /// Output directory [default: out/run; `pil`: out/pil].
+    /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -145,35 +158,80 @@ struct PlanArgs {
     /// Planner seed (same seed, same path).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Output path file (JSON, ENU z-up).
+    /// Output path file (JSON, ENU z-up); never the scene file, and an existing file only
+    /// if it is a parapet path file (or with --force).
     #[arg(long, default_value = "out/path.json")]
     out: PathBuf,
+    /// Replace an existing --out file even if it is not a path file (never an input).
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Debug, Args)]
 struct ReplayArgs {
     /// Vehicle parameters: a TOML file with VehicleParams keys at the top level or in a
-    /// [vehicle] table (a scene file works). Default: the built-in vehicle.
+    /// [vehicle] table; a scene file works (its [vehicle] table, defaults for missing keys).
+    /// Default: the built-in vehicle.
     #[arg(long)]
     vehicle: Option<PathBuf>,
     /// Input CSV: header t,w1,w2,w3,w4 (s, rad/s; rotor order 1..4 = FR, RL, FL, RR).
     #[arg(long)]
     inputs: PathBuf,
-    /// Output CSV of states (NED position/velocity, quaternion FRD→NED, FRD body rates).
+    /// Output CSV of states (NED position/velocity, quaternion FRD→NED, FRD body rates);
+    /// must not be an input file.
     #[arg(long)]
     out: PathBuf,
     /// Integration step, s.
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = 0.001, allow_negative_numbers = true)]
     dt: f64,
-    /// Start position, NED, m, as x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.0, 0.0, 0.0])]
-    start: Vec<f64>,
+    /// Start position, NED, m, as x,y,z (e.g. `--start 1,2,-1.5`: 1.5 m up).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    start: [f64; 3],
     /// Treat the speeds as commands through the first-order motor model (default: imposed directly).
     #[arg(long)]
     motor_lag: bool,
+    /// With --motor-lag: every rotor's speed at the first row's time, rad/s (default: the
+    /// first row's speeds).
+    #[arg(long, requires = "motor_lag")]
+    initial_speed: Option<f64>,
+    /// Steady wind, NED, m/s, as x,y,z (default 0,0,0: still air).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    wind: [f64; 3],
     /// Simulate the ground plane z = 0 (default off: free space).
     #[arg(long)]
     ground: bool,
+}
+
+/// The help line of a controller option with its built-in default (from the
+/// core's constants, shortest decimals).
+fn default_help(what: &str, name: &str) -> String {
+    let c = parapet_core::cbf::CbfParams::default();
+    let f = crate::validate::f32_as_f64;
+    let d = match name {
+        "mu" => f(c.mu),
+        "delta" => f(c.delta),
+        "delta1" => f(c.delta1),
+        "kp" => crate::runner::DEFAULT_KP,
+        _ => crate::runner::DEFAULT_KD,
+    };
+    format!("{what} [default: the scene's [controller] {name}, else {d}]")
+}
+
+/// `x,y,z` (three finite numbers, commas, optional spaces).
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected x,y,z (three numbers), got {s:?}"));
+    }
+    let mut v = [0.0; 3];
+    for (k, p) in parts.iter().enumerate() {
+        v[k] = p
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{p:?} is not a finite number"))?;
+    }
+    Ok(v)
 }
 
 fn parse_variant(s: &str) -> Result<FilterVariant, String> {
@@ -192,6 +250,8 @@ pub enum CliError {
     /// `sweep` / `sweep-merge`: some runs failed, the others are written
     /// (exit code `sweep::EXIT_SOME_FAILED` = 4).
     SomeFailed(String),
+    /// Standard output was closed by the reader (`| head`): stop quietly, exit 0.
+    StdoutClosed,
 }
 
 impl CliError {
@@ -201,6 +261,7 @@ impl CliError {
             CliError::BadInput(_) => 2,
             CliError::NoPath(_) => 3,
             CliError::Failed(_) => 1,
+            CliError::StdoutClosed => 0,
             CliError::SomeFailed(_) => crate::sweep::EXIT_SOME_FAILED,
         }
     }
@@ -211,8 +272,51 @@ impl std::fmt::Display for CliError {
         match self {
             CliError::BadInput(m) | CliError::NoPath(m) | CliError::SomeFailed(m) => f.write_str(m),
             CliError::Failed(e) => write!(f, "{e:#}"),
+            CliError::StdoutClosed => f.write_str("standard output closed"),
         }
     }
+}
+
+impl From<InputError> for CliError {
+    fn from(e: InputError) -> Self {
+        CliError::BadInput(e.to_string())
+    }
+}
+
+/// Write `text` to standard output. A reader that closed the pipe (`| head`,
+/// `| true`) gives [`CliError::StdoutClosed`] (quiet exit 0); other write
+/// errors are failures (exit 1). Never panics, unlike `print!`.
+pub fn out(text: &str) -> Result<(), CliError> {
+    let mut so = std::io::stdout().lock();
+    match so.write_all(text.as_bytes()).and_then(|()| so.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(CliError::StdoutClosed),
+        Err(e) => Err(CliError::Failed(anyhow!("cannot write to standard output: {e}"))),
+    }
+}
+
+/// `true` when `a` and `b` name the same existing file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+}
+
+/// Refuse (exit 2) when one of `outputs` would replace one of `inputs`
+/// (`(what, path)`), naming the option, both files and what the input is.
+pub fn refuse_overwrite(option: &str, outputs: &[PathBuf], inputs: &[(&str, &Path)]) -> Result<(), CliError> {
+    for o in outputs {
+        for (what, i) in inputs {
+            if same_file(o, i) {
+                return Err(InputError::option(
+                    option,
+                    format!("would overwrite the {what} {}", i.display()),
+                )
+                .value(o.display())
+                .allowed("a path that is not an input file")
+                .into());
+            }
+        }
+    }
+    Ok(())
 }
 
 impl From<anyhow::Error> for CliError {
@@ -225,7 +329,7 @@ impl From<anyhow::Error> for CliError {
 pub fn main() -> i32 {
     let cli = Cli::parse();
     match dispatch(cli) {
-        Ok(()) => 0,
+        Ok(()) | Err(CliError::StdoutClosed) => 0,
         Err(e) => {
             eprintln!("error: {e}");
             e.exit_code()
@@ -244,20 +348,38 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// Resolve a scene path: as given, else (for the default scene only) relative
-/// to the source tree this binary was built from.
-fn resolve_scene(p: &Path) -> PathBuf {
-    if !p.exists() && p == Path::new(DEFAULT_SCENE) {
-        let alt = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SCENE);
-        if alt.exists() {
-            return alt;
-        }
+/// Resolve a scene path: as given; for the default scene missing from the
+/// current directory, the source tree's copy (this binary's build tree), with a
+/// note on stderr naming the file used; refused when that is missing too.
+fn resolve_scene(p: &Path) -> Result<PathBuf, CliError> {
+    if p.exists() || p != Path::new(DEFAULT_SCENE) {
+        return Ok(p.to_path_buf());
     }
-    p.to_path_buf()
+    let cwd = std::env::current_dir().map(|d| d.display().to_string()).unwrap_or_else(|_| "?".into());
+    let alt = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SCENE);
+    match alt.canonicalize() {
+        Ok(file) if file.is_file() => {
+            eprintln!(
+                "note: {DEFAULT_SCENE} is not in the current directory ({cwd}); using {} \
+                 (pass --scene FILE to choose)",
+                file.display()
+            );
+            Ok(file)
+        }
+        _ => Err(InputError::option(
+            "scene",
+            format!(
+                "the default scene {DEFAULT_SCENE} is neither in the current directory ({cwd}) nor at {}; \
+                 pass --scene FILE",
+                alt.display()
+            ),
+        )
+        .into()),
+    }
 }
 
 fn load_scene(p: &Path) -> Result<Scene, CliError> {
-    Scene::load(&resolve_scene(p)).map_err(|e| CliError::BadInput(e.to_string()))
+    Scene::load(&resolve_scene(p)?).map_err(|e| CliError::BadInput(e.to_string()))
 }
 
 fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
@@ -284,10 +406,42 @@ fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
 fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
     match x {
         Some(v) if !(v.is_finite() && v > 0.0) => {
-            Err(CliError::BadInput(format!("option --{name}: must be finite and > 0, got {v}")))
+            Err(InputError::option(name, "must be finite and > 0").value(num(v)).allowed("> 0").into())
         }
         other => Ok(other),
     }
+}
+
+/// The options of `a` given on the command line and the duration cap, for
+/// [`crate::validate::check_run`].
+fn given(a: &RunArgs) -> Result<crate::validate::Given, CliError> {
+    let mut options = Vec::new();
+    for (name, x) in [
+        ("mu", a.mu),
+        ("delta", a.delta),
+        ("delta1", a.delta1),
+        ("kp", a.kp),
+        ("kd", a.kd),
+        ("speed", a.speed),
+        ("duration", a.duration),
+        ("sensing-range", a.sensing_range),
+    ] {
+        if x.is_some() {
+            options.push(name);
+        }
+    }
+    let ceiling = limits::MAX_DURATION_CEILING_S;
+    let max_duration = match positive("max-duration", a.max_duration)? {
+        Some(m) if m > ceiling => {
+            return Err(InputError::option("max-duration", "beyond the largest duration cap")
+                .value(num(m))
+                .allowed(format!("0 < max-duration ≤ {ceiling} s"))
+                .into())
+        }
+        Some(m) => m,
+        None => limits::MAX_DURATION_S,
+    };
+    Ok(crate::validate::Given { options, max_duration })
 }
 
 /// Scene and run configuration from the `run` options (shared by `run` and `pil`).
@@ -315,14 +469,15 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         let wps = planned.waypoints.iter().map(to_f64).collect();
         (wps, "planner", Some(planned.planning_time_ms))
     };
-    let capacity = parapet_core::controller::PATH_CAPACITY;
+    let capacity = limits::MAX_WAYPOINTS;
     if path.len() > capacity {
         let from =
             a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
-        return Err(CliError::BadInput(format!(
-            "{from}: field `waypoints`: {} waypoints exceed the controller's path capacity of {capacity}",
-            path.len()
-        )));
+        return Err(InputError::file(from, "more waypoints than the controller's path capacity")
+            .field("waypoints")
+            .value(path.len())
+            .allowed(format!("at most {capacity} waypoints"))
+            .into());
     }
     let mut cfg = RunConfig::for_scene(&scene, path)
         .map_err(|e| CliError::BadInput(format!("{}: {e}", scene.source)))?;
@@ -362,6 +517,8 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         cfg.sensors.noise = true;
     }
     cfg.seed = a.seed;
+    // Every setting against the core's limits and the caps, naming its origin.
+    crate::validate::check_run(&scene, &cfg, &given(a)?)?;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
     // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
     let opts = crate::preflight::PreflightOptions {
@@ -397,17 +554,32 @@ fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> 
 
 fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let (scene, cfg) = run_setup(&a)?;
-    let out = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
-    let rec = RunRecord { scene: &scene, path: &cfg.path, samples: &out.samples, summary: &out.summary };
-    let (files, warnings) = write_report(&dir, &rec)?;
-    print!("{}", summary_table(&out.summary));
-    println!("  report: {}", dir.display());
+    check_report_dir(&dir, &scene, a.path.as_deref())?;
+    let result = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
+    let rec =
+        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
+    let (_, warnings) = write_report(&dir, &rec)?;
     for w in warnings {
         eprintln!("warning: {w}");
     }
-    let _ = files;
-    Ok(())
+    out(&format!("{}  report: {}\n", summary_table(&result.summary), dir.display()))
+}
+
+/// The report directory `dir` of `run` / `pil`: not an existing file, and none
+/// of the report's files is the scene or the path file.
+fn check_report_dir(dir: &Path, scene: &Scene, path: Option<&Path>) -> Result<(), CliError> {
+    if dir.is_file() {
+        return Err(InputError::option("out", "is an existing file, not a directory")
+            .value(dir.display())
+            .allowed("a directory (created if missing)")
+            .into());
+    }
+    let mut inputs: Vec<(&str, &Path)> = vec![("scene file", Path::new(&scene.source))];
+    if let Some(p) = path {
+        inputs.push(("path file", p));
+    }
+    refuse_overwrite("out", &report_files(dir), &inputs)
 }
 
 fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
@@ -424,16 +596,21 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     let mut opts = PilOptions::new(elf);
     opts.timeout = std::time::Duration::from_secs_f64(timeout);
     opts.resend_after = opts.resend_after.min(opts.timeout / 2);
-    let (out, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
     let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
-    let rec = RunRecord { scene: &scene, path: &cfg.path, samples: &out.samples, summary: &out.summary };
+    check_report_dir(&dir, &scene, a.run.path.as_deref())?;
+    let (result, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
+    let rec =
+        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
     let (_, warnings) = write_report(&dir, &rec)?;
     add_figures_to_summary(&dir, &fig)?;
-    print!("{}", summary_table(&out.summary));
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
     let ins = &fig.instructions_per_control_step;
-    println!(
-        "  PIL: {} steps, real-time factor {:.3}; frames sent {}, received {}, dropped {}; \
-         instructions/step mean {:.0}, max {} (≥ {:.0} µs at 168 MHz)",
+    out(&format!(
+        "{}  PIL: {} steps, real-time factor {:.3}; frames sent {}, received {}, dropped {}; \
+         instructions/step mean {:.0}, max {} (≥ {:.0} µs at 168 MHz)\n  report: {}\n",
+        summary_table(&result.summary),
         fig.flight_steps,
         fig.real_time_factor,
         fig.frames_sent,
@@ -441,25 +618,32 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
         fig.frames_dropped,
         ins.mean,
         ins.max,
-        ins.max_time_at_168mhz_us
-    );
-    println!("  report: {}", dir.display());
-    for w in warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(())
+        ins.max_time_at_168mhz_us,
+        dir.display()
+    ))
 }
 
 fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
-    let scene = load_scene(&a.scene)?;
+    let scene_file = resolve_scene(&a.scene)?;
+    refuse_overwrite("out", std::slice::from_ref(&a.out), &[("scene file", scene_file.as_path())])?;
+    if a.out.is_dir() {
+        return Err(InputError::option("out", "is a directory, not a file").value(a.out.display()).into());
+    }
+    if a.out.exists() && !a.force && PathFile::read(&a.out).is_err() {
+        return Err(InputError::option("out", "the file exists and is not a parapet path file")
+            .value(a.out.display())
+            .allowed("a new file, a path file written by parapet, or --force to replace it")
+            .into());
+    }
+    let scene = load_scene(&scene_file)?;
     let planned = plan_scene(&scene, a.seed)?;
     let file = PathFile::from_planned(&scene.name, &planned);
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
     }
     file.write(&a.out).map_err(|e| anyhow!("{e}"))?;
-    println!(
-        "{}: {} waypoints, {:.2} m, {:.2} ms, {} iterations, seed {} -> {}",
+    out(&format!(
+        "{}: {} waypoints, {:.2} m, {:.2} ms, {} iterations, seed {} -> {}\n",
         scene.name,
         planned.waypoints.len(),
         planned.length_m,
@@ -467,50 +651,68 @@ fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
         planned.iterations,
         planned.seed,
         a.out.display()
-    );
-    Ok(())
+    ))
 }
 
-/// Load vehicle parameters from a TOML file: top-level keys, or a `[vehicle]` table.
-pub fn load_vehicle(path: &Path) -> Result<VehicleParams, String> {
+/// Load vehicle parameters from a TOML file: a `[vehicle]` table (a scene file:
+/// other tables are ignored, a scene without `[vehicle]` flies the default
+/// vehicle, as the scene loader does), or VehicleParams keys at the top level.
+pub fn load_vehicle(path: &Path) -> Result<VehicleParams, InputError> {
     let file = path.display();
-    let src = std::fs::read_to_string(path).map_err(|e| format!("{file}: cannot read the file: {e}"))?;
-    let value: toml::Table = toml::from_str(&src).map_err(|e| format!("{file}: {}", e.message()))?;
+    let src = crate::input::read_text(path)?;
+    let value: toml::Table = toml::from_str(&src).map_err(|e| InputError::file(&file, e.message().trim()))?;
+    let is_scene = ["mission", "bounds", "obstacles"].iter().any(|k| value.contains_key(*k));
     let table = match value.get("vehicle") {
         Some(toml::Value::Table(t)) => t.clone(),
-        Some(_) => return Err(format!("{file}: `vehicle` must be a table")),
+        Some(_) => return Err(InputError::file(&file, "must be a table").field("vehicle")),
+        None if is_scene => toml::Table::new(),
         None => value,
     };
     let v: VehicleParams = toml::Value::Table(table)
         .try_into()
-        .map_err(|e: toml::de::Error| format!("{file}: [vehicle]: {}", e.message()))?;
-    v.validate().map_err(|e| format!("{file}: [vehicle]: field `{}`: {}", e.field, e.reason))?;
+        .map_err(|e: toml::de::Error| InputError::file(&file, e.message().trim()).table("vehicle"))?;
+    v.validate().map_err(|e| InputError::file(&file, e.reason).table("vehicle").field(e.field))?;
     Ok(v)
 }
 
 fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
+    let mut inputs: Vec<(&str, &Path)> = vec![("input CSV", a.inputs.as_path())];
+    if let Some(v) = &a.vehicle {
+        inputs.push(("vehicle file", v.as_path()));
+    }
+    refuse_overwrite("out", std::slice::from_ref(&a.out), &inputs)?;
+    if !(limits::MIN_DT_S..=limits::MAX_DT_S).contains(&a.dt) {
+        return Err(InputError::option("dt", "integration step out of range")
+            .value(num(a.dt))
+            .allowed(format!("{:e} ≤ dt ≤ {:e} s", limits::MIN_DT_S, limits::MAX_DT_S))
+            .into());
+    }
+    if let Some(k) = a.start.iter().position(|x| x.abs() > limits::MAX_COORDINATE_M) {
+        return Err(InputError::option("start", "coordinate out of range")
+            .value(num(a.start[k]))
+            .allowed(format!("|x| ≤ {} m", limits::MAX_COORDINATE_M))
+            .into());
+    }
     let vehicle = match &a.vehicle {
-        Some(p) => load_vehicle(p).map_err(CliError::BadInput)?,
+        Some(p) => load_vehicle(p)?,
         None => VehicleParams::default(),
     };
-    let src = std::fs::read_to_string(&a.inputs)
-        .map_err(|e| CliError::BadInput(format!("{}: cannot read the file: {e}", a.inputs.display())))?;
+    let src = crate::input::read_text(&a.inputs)?;
     let rows =
         parse_rotor_csv(&src).map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;
-    if !a.start.iter().all(|x| x.is_finite()) {
-        return Err(CliError::BadInput("option --start: must be finite".into()));
-    }
     let opts = ReplayOptions {
         dt: a.dt,
         start_ned: Vector3::new(a.start[0], a.start[1], a.start[2]),
         motor_lag: a.motor_lag,
         ground: a.ground,
+        initial_speed: a.initial_speed.map(|w| [w; 4]),
+        wind_ned: Vector3::from(a.wind),
     };
-    let csv = replay(vehicle, &rows, &opts).map_err(|e| CliError::BadInput(format!("replay: {e}")))?;
+    let csv = replay(vehicle, &rows, &opts)
+        .map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
     }
     std::fs::write(&a.out, csv).map_err(|e| anyhow!("cannot write {}: {e}", a.out.display()))?;
-    println!("replayed {} samples -> {}", rows.len(), a.out.display());
-    Ok(())
+    out(&format!("replayed {} samples -> {}\n", rows.len(), a.out.display()))
 }

@@ -11,10 +11,12 @@
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 //! * [`input`]: the one error type for bad user input, and the documented limits.
+//! * [`help`]: the long help texts (defaults, limits, examples, exit codes).
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
 pub mod cli;
 pub mod control;
+pub mod help;
 pub mod input;
 pub mod pathfile;
 pub mod pil;

@@ -171,6 +171,20 @@ pub struct RunRecord<'a> {
     pub summary: &'a Summary,
 }
 
+/// Plots of the report: each is written as `<name>.svg` and `<name>.png`.
+pub const PLOTS: [&str; 3] = ["top_view", "clearance", "filter_activity"];
+
+/// Every file [`write_report`] may write into its directory (so the CLI can
+/// refuse an output directory where one of them is an input).
+pub fn report_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v = vec![dir.join("summary.json"), dir.join("trajectory.csv")];
+    for name in PLOTS {
+        v.push(dir.join(format!("{name}.svg")));
+        v.push(dir.join(format!("{name}.png")));
+    }
+    v
+}
+
 /// Write `summary.json`, `trajectory.csv` and the plots into `dir` (created if
 /// needed). Returns the files written; a plot that fails (e.g. no usable font)
 /// is reported in the returned warnings instead of failing the run.
@@ -183,11 +197,17 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
         .with_context(|| format!("cannot write {}", summary_path.display()))?;
     files.push(summary_path);
     let csv_path = dir.join("trajectory.csv");
-    std::fs::write(&csv_path, trajectory_csv(rec.samples))
+    // Streamed row by row: no second copy of the flight in memory.
+    std::fs::File::create(&csv_path)
+        .map(std::io::BufWriter::new)
+        .and_then(|mut w| {
+            write_trajectory_csv(&mut w, rec.samples)?;
+            std::io::Write::flush(&mut w)
+        })
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     files.push(csv_path);
     let mut warnings = Vec::new();
-    for name in ["top_view", "clearance", "filter_activity"] {
+    for name in PLOTS {
         match plot_both(dir, name, rec) {
             Ok(mut v) => files.append(&mut v),
             Err(e) => warnings.push(format!("plot {name}: {e:#}")),
@@ -198,11 +218,21 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
 
 /// The trajectory CSV text (ENU).
 pub fn trajectory_csv(samples: &[Sample]) -> String {
-    let mut s = String::from(
-        "t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar,\
+    let mut v = Vec::new();
+    // Writing into a Vec cannot fail; the text is ASCII.
+    let _ = write_trajectory_csv(&mut v, samples);
+    String::from_utf8_lossy(&v).into_owned()
+}
+
+/// Write the trajectory CSV (ENU) to `w`, one row at a time.
+pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> std::io::Result<()> {
+    w.write_all(
+        b"t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar,\
          u_nom_x,u_nom_y,u_nom_z,u_x,u_y,u_z,filter_h_bar,n_constraints,unavoidable,infeasible,mode\n",
-    );
+    )?;
+    let mut s = String::new();
     for k in samples {
+        s.clear();
         let r = ned_to_enu_arr(&k.ref_pos);
         let p = ned_to_enu_arr(&k.pos);
         let v = ned_to_enu_arr(&k.vel);
@@ -243,8 +273,9 @@ pub fn trajectory_csv(samples: &[Sample]) -> String {
         ];
         s.push_str(&fields.join(","));
         s.push('\n');
+        w.write_all(s.as_bytes())?;
     }
-    s
+    Ok(())
 }
 
 /// The short summary table printed after a run.

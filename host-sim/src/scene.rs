@@ -37,7 +37,7 @@ use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::input::{limits, InputError};
+use crate::input::{limits, num, InputError};
 use crate::plant::VehicleParams;
 use crate::sensors::SensorParams;
 
@@ -286,9 +286,34 @@ fn within_limit(a: &[f64]) -> bool {
     a.iter().all(|x| x.abs() <= limits::MAX_COORDINATE_M)
 }
 
-/// "field `f`: <what> (got <value>; allowed <allowed>)".
-fn bad(field: &str, what: &str, value: impl std::fmt::Debug, allowed: &str) -> String {
-    format!("field `{field}`: {what} (got {value:?}; allowed {allowed})")
+/// "field `f`: <what> (got <value>; allowed <allowed>)", numbers as a user
+/// writes them ([`num`]: `1e9`, not `1000000000.0`).
+fn bad(field: &str, what: &str, value: impl Shown, allowed: &str) -> String {
+    format!("field `{field}`: {what} (got {}; allowed {allowed})", value.shown())
+}
+
+/// A value in an error message.
+trait Shown {
+    fn shown(&self) -> String;
+}
+
+impl Shown for f64 {
+    fn shown(&self) -> String {
+        num(*self)
+    }
+}
+
+impl<const N: usize> Shown for [f64; N] {
+    fn shown(&self) -> String {
+        let parts: Vec<String> = self.iter().map(|x| num(*x)).collect();
+        format!("[{}]", parts.join(", "))
+    }
+}
+
+impl<T: Shown> Shown for &T {
+    fn shown(&self) -> String {
+        (*self).shown()
+    }
 }
 
 impl Scene {

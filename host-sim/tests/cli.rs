@@ -235,3 +235,328 @@ fn replay_hover_and_bad_csv() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("motor_tau") && stderr(&o).contains("vehicle.toml"), "{}", stderr(&o));
 }
+
+// ---- Hardening (issue 15): bounded runs, clear errors, help, pipes, outputs ----
+
+use parapet_sim::input::limits;
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Library error enums as debug text: none may reach the user.
+const DEBUG_TEXT: [&str; 8] = [
+    "BadParams",
+    "Tracking",
+    "Thrust",
+    "NonFiniteInput",
+    "NoFreshPosition",
+    "OutOfRange",
+    "Arm(",
+    "Waypoint(",
+];
+
+/// Exit 2, every `needles` in stderr, no debug text, no panic.
+fn refused(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "{needles:?}: {e}");
+    for n in needles {
+        assert!(e.contains(n), "{n:?} not in: {e}");
+    }
+    for d in DEBUG_TEXT {
+        assert!(!e.contains(d), "debug text {d:?} in: {e}");
+    }
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn durations_beyond_the_cap_are_refused_and_memory_follows_the_flight() {
+    let d = tmp("durations");
+    let f = write_scene(&d, GOOD);
+    let out = d.join("o");
+    let o = out.to_str().unwrap();
+    let cap = limits::MAX_DURATION_S.to_string();
+    for dur in ["1e6", "1e20"] {
+        let r = parapet(&["run", "--scene", &f, "--straight", "--duration", dur, "--out", o]);
+        refused(&r, &["option --duration", &cap, "--max-duration"]);
+    }
+    let r = parapet(&["run", "--scene", &f, "--straight", "--speed", "1e-5", "--out", o]);
+    refused(&r, &["option --duration", "default duration", &cap]);
+    let long = write_scene(&d, &GOOD.replace("speed = 0.5", "speed = 0.5\n[sim]\nduration = 1e7"));
+    let r = parapet(&["run", "--scene", &long, "--straight", "--out", o]);
+    refused(&r, &[&long, "[sim]", "duration", "1e7", &cap]);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--max-duration", "1e6", "--out", o]);
+    refused(&r, &["option --max-duration", &limits::MAX_DURATION_CEILING_S.to_string()]);
+    // A whole simulated day allowed: the flight still ends at the goal after a few
+    // seconds, without reserving memory for the day (86 400 s × 250 Hz samples).
+    let day = limits::MAX_DURATION_CEILING_S.to_string();
+    let r = parapet(&[
+        "run",
+        "--scene",
+        &f,
+        "--straight",
+        "--no-noise",
+        "--max-duration",
+        &day,
+        "--duration",
+        &day,
+        "--out",
+        o,
+    ]);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let s = summary(&out);
+    assert_eq!(s["end_reason"], "goal", "{s}");
+    assert!(s["sim_time_s"].as_f64().unwrap() < 30.0, "{s}");
+}
+
+#[test]
+fn latency_dt_and_step_caps_name_the_file_table_and_field() {
+    let d = tmp("caps");
+    let o = d.join("o");
+    let o = o.to_str().unwrap();
+    let with = |table: &str| GOOD.replacen("[[obstacles]]", &format!("{table}\n[[obstacles]]"), 1);
+    let cases = [
+        (with("[sensors]\nposition_latency = 1e9"), vec!["[sensors]", "position_latency", "1e9", "0.1"]),
+        (with("[sensors]\nposition_latency = 10"), vec!["[sensors]", "position_latency", "10", "0.1"]),
+        (with("[sim]\ndt = 1e-7"), vec!["[sim]", "`dt`", "1e-7", "1e-5"]),
+        (with("[sim]\ndt = 0.002"), vec!["[sim]", "`dt`", "0.002", "1e-3"]),
+    ];
+    for (text, needles) in cases {
+        let f = write_scene(&d, &text);
+        let r = parapet(&["run", "--scene", &f, "--straight", "--out", o]);
+        let mut n = needles.clone();
+        n.push(&f);
+        refused(&r, &n);
+    }
+    // duration / dt beyond the step cap, with the duration cap raised.
+    let f = write_scene(&d, &with("[sim]\ndt = 1e-5"));
+    let r = parapet(&[
+        "run",
+        "--scene",
+        &f,
+        "--straight",
+        "--max-duration",
+        "86400",
+        "--duration",
+        "5000",
+        "--out",
+        o,
+    ]);
+    refused(&r, &["option --duration", "plant steps"]);
+}
+
+#[test]
+fn library_errors_become_named_inputs() {
+    let d = tmp("clear");
+    let o = d.join("o");
+    let o = o.to_str().unwrap();
+    let f = write_scene(&d, GOOD);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--speed", "200", "--out", o]);
+    refused(&r, &["option --speed", "200", "100"]);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--kp", "1e300", "--out", o]);
+    refused(&r, &["option --kp", "1e300"]);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--delta1", "0.01", "--out", o]);
+    refused(&r, &["option --delta1", "0.01", "0.05"]);
+    let scene_cases = [
+        (GOOD.replace("speed = 0.5", "speed = 200"), vec!["[mission]", "speed", "200", "100"]),
+        (
+            GOOD.replacen("[[obstacles]]", "[vehicle]\nmass = 1e-9\n[[obstacles]]", 1),
+            vec!["[vehicle]", "mass", "1e-9"],
+        ),
+        (GOOD.replace("radius = 0.3", "radius = 1e300"), vec!["obstacles[0]", "radius", "1e300"]),
+        (
+            GOOD.replacen("[[obstacles]]", "[controller]\ndelta1 = 0.01\n[[obstacles]]", 1),
+            vec!["[controller]", "delta1", "0.01", "0.05"],
+        ),
+        (GOOD.replace("kind = \"box\"\n", ""), vec!["obstacles[1]", "kind"]),
+    ];
+    for (text, needles) in scene_cases {
+        let f = write_scene(&d, &text);
+        let r = parapet(&["run", "--scene", &f, "--straight", "--out", o]);
+        let mut n = needles.clone();
+        n.push(&f);
+        refused(&r, &n);
+    }
+    let f = write_scene(&d, GOOD);
+    let path = d.join("far.json");
+    std::fs::write(&path, r#"{"waypoints": [[0, 0, 1], [2e5, 0, 1], [6, 0, 1]]}"#).unwrap();
+    let r = parapet(&["run", "--scene", &f, "--path", path.to_str().unwrap(), "--out", o]);
+    refused(&r, &["far.json", "waypoints[1][0]", "200000", "100000"]);
+}
+
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    use std::process::{Command, Stdio};
+    let d = tmp("pipe");
+    let f = write_scene(&d, GOOD);
+    let csv = d.join("in.csv");
+    std::fs::write(&csv, "t,w1,w2,w3,w4\n0,0,0,0,0\n0.1,0,0,0,0\n").unwrap();
+    let (o, p, s) = (d.join("o"), d.join("p.json"), d.join("s.csv"));
+    let cases: [Vec<&str>; 3] = [
+        vec!["run", "--scene", &f, "--straight", "--duration", "2", "--out", o.to_str().unwrap()],
+        vec!["plan", "--scene", &f, "--out", p.to_str().unwrap()],
+        vec!["replay", "--inputs", csv.to_str().unwrap(), "--out", s.to_str().unwrap()],
+    ];
+    for args in cases {
+        // `parapet … | true`: the reader is gone before parapet writes.
+        let mut child = Command::new(env!("CARGO_BIN_EXE_parapet"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let r = child.wait_with_output().unwrap();
+        assert_eq!(r.status.code(), Some(0), "{args:?}: {}", stderr(&r));
+        assert!(stderr(&r).is_empty(), "{args:?}: {}", stderr(&r));
+    }
+}
+
+#[test]
+fn help_shows_defaults_limits_examples_and_exit_codes() {
+    for cmd in [
+        vec!["--help"],
+        vec!["run", "--help"],
+        vec!["pil", "--help"],
+        vec!["plan", "--help"],
+        vec!["replay", "--help"],
+    ] {
+        let r = parapet(&cmd);
+        assert_eq!(r.status.code(), Some(0));
+        let h = stdout(&r);
+        for n in ["Exit codes:", "Examples:", "  2    bad input", "  3    no path"] {
+            assert!(h.contains(n), "{cmd:?}: {n:?} missing");
+        }
+    }
+    let h = stdout(&parapet(&["run", "--help"]));
+    let ceiling = limits::MAX_DURATION_CEILING_S.to_string();
+    for n in [
+        "mu 1.4 s",
+        "delta 0.05",
+        "delta1 0.1",
+        "kp 0.5",
+        "kd 0.8",
+        "else 1.4]",
+        "duration ≤ 3600 s",
+        ceiling.as_str(),
+        "(0, 100] m/s",
+        "1e5 m",
+        "64 waypoints",
+        "32 obstacles",
+        "4 barriers",
+        "1 s",
+        "1e-3",
+    ] {
+        assert!(h.contains(n), "run --help lacks {n:?}:\n{h}");
+    }
+    let h = stdout(&parapet(&["replay", "--help"]));
+    assert!(h.contains(&limits::MAX_REPLAY_ROWS.to_string()) && h.contains("--start 1,2,-1.5"), "{h}");
+}
+
+#[test]
+fn replay_takes_start_as_written_and_a_scene_as_vehicle_and_refuses_huge_spans() {
+    let d = tmp("replay2");
+    let csv = d.join("in.csv");
+    std::fs::write(&csv, "t,w1,w2,w3,w4\n0,0,0,0,0\n0.01,0,0,0,0\n").unwrap();
+    let out = d.join("states.csv");
+    let (c, o) = (csv.to_str().unwrap(), out.to_str().unwrap());
+    for (start, x) in [
+        ("1,2,3", "1.000000000,2.000000000,3.000000000"),
+        ("-1,2,-3", "-1.000000000,2.000000000,-3.000000000"),
+    ] {
+        let r = parapet(&["replay", "--inputs", c, "--out", o, "--start", start]);
+        assert_eq!(r.status.code(), Some(0), "{start}: {}", stderr(&r));
+        let row = std::fs::read_to_string(&out).unwrap().lines().nth(1).unwrap().to_string();
+        assert!(row.starts_with(&format!("0.000000,{x},")), "{start}: {row}");
+    }
+    let r = parapet(&["replay", "--inputs", c, "--out", o, "--start", "1,2"]);
+    assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+    let r = parapet(&["replay", "--vehicle", "scenes/office.toml", "--inputs", c, "--out", o]);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let scene = d.join("heavy.toml");
+    std::fs::write(&scene, GOOD.replacen("[[obstacles]]", "[vehicle]\nmass = -1\n[[obstacles]]", 1)).unwrap();
+    let r = parapet(&["replay", "--vehicle", scene.to_str().unwrap(), "--inputs", c, "--out", o]);
+    refused(&r, &["heavy.toml", "[vehicle]", "mass"]);
+    std::fs::write(&csv, "t,w1,w2,w3,w4\n0,0,0,0,0\n1e9,0,0,0,0\n").unwrap();
+    let t0 = std::time::Instant::now();
+    let r = parapet(&["replay", "--inputs", c, "--out", o]);
+    refused(&r, &["in.csv", "line 3", "`t`", "1e9", &limits::MAX_REPLAY_SPAN_S.to_string()]);
+    assert!(t0.elapsed().as_secs() < 10);
+    let r = parapet(&["replay", "--inputs", c, "--out", o, "--dt", "1e-7"]);
+    refused(&r, &["option --dt", "1e-7"]);
+}
+
+#[test]
+fn default_scene_outside_the_tree_is_named() {
+    let d = tmp("elsewhere");
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_parapet"))
+        .args(["plan", "--out", "p.json"])
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let e = stderr(&r);
+    assert!(e.contains("note:") && e.contains("office.toml") && e.contains("--scene"), "{e}");
+    assert!(d.join("p.json").is_file());
+}
+
+#[test]
+fn parameters_print_as_written() {
+    let d = tmp("params");
+    let f = write_scene(&d, GOOD);
+    let out = d.join("o");
+    let r = parapet(&["run", "--scene", &f, "--straight", "--duration", "1", "--out", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    assert!(stdout(&r).contains("mu 1.4 delta 0.05 delta1 0.1 kp 0.5 kd 0.8"), "{}", stdout(&r));
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(text.contains("\"mu\": 1.4,") && text.contains("\"delta\": 0.05,"), "{text}");
+}
+
+#[test]
+fn outputs_never_replace_inputs() {
+    let d = tmp("overwrite");
+    let f = write_scene(&d, GOOD);
+    let before = std::fs::read_to_string(&f).unwrap();
+    let r = parapet(&["plan", "--scene", &f, "--out", &f]);
+    refused(&r, &["option --out", "scene file", &f]);
+    assert_eq!(std::fs::read_to_string(&f).unwrap(), before);
+    // An existing file that is not a path file: refused unless --force.
+    let notes = d.join("notes.txt");
+    std::fs::write(&notes, "keep me").unwrap();
+    let r = parapet(&["plan", "--scene", &f, "--out", notes.to_str().unwrap()]);
+    refused(&r, &["option --out", "notes.txt", "--force"]);
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "keep me");
+    let r = parapet(&["plan", "--scene", &f, "--out", notes.to_str().unwrap(), "--force"]);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    // A previous path file is replaced.
+    let r = parapet(&["plan", "--scene", &f, "--seed", "1", "--out", notes.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    // run --out where the report would write over the scene file.
+    let sub = d.join("rep");
+    std::fs::create_dir_all(&sub).unwrap();
+    let scene_as_csv = sub.join("trajectory.csv");
+    std::fs::write(&scene_as_csv, GOOD).unwrap();
+    let r = parapet(&[
+        "run",
+        "--scene",
+        scene_as_csv.to_str().unwrap(),
+        "--straight",
+        "--out",
+        sub.to_str().unwrap(),
+    ]);
+    refused(&r, &["option --out", "scene file", "trajectory.csv"]);
+    assert_eq!(std::fs::read_to_string(&scene_as_csv).unwrap(), GOOD);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--out", &f]);
+    refused(&r, &["option --out", "not a directory"]);
+    // replay --out onto its own input.
+    let csv = d.join("in.csv");
+    let text = "t,w1,w2,w3,w4\n0,0,0,0,0\n0.01,0,0,0,0\n";
+    std::fs::write(&csv, text).unwrap();
+    let r = parapet(&["replay", "--inputs", csv.to_str().unwrap(), "--out", csv.to_str().unwrap()]);
+    refused(&r, &["option --out", "input CSV", "in.csv"]);
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), text);
+}
