@@ -10,7 +10,8 @@
 //! * **path end**: the path is done, the vehicle within [`GOAL_TOLERANCE_M`] of
 //!   the path's last waypoint and slower than [`GOAL_SPEED_MPS`]. The goal is
 //!   **reached** (`reached_goal`, end reason `goal`) when the vehicle is then
-//!   also within [`GOAL_TOLERANCE_M`] of the **scene's** mission goal; a path
+//!   also within [`GOAL_TOLERANCE_M`] of the **scene's** mission goal (or the
+//!   path ends there up to [`PATH_END_ROUNDOFF_M`]); a path
 //!   ending elsewhere (`--foreign-path`) ends with `reached_path_end` only
 //!   (end reason `path_end`);
 //! * the **duration** limit (default [`default_duration`]: 1.5 × the flown
@@ -58,6 +59,9 @@ use crate::validate::f32_as_f64;
 pub const GOAL_TOLERANCE_M: f64 = 0.1;
 /// Goal reached: speed below this, m/s.
 pub const GOAL_SPEED_MPS: f64 = 0.1;
+/// A path whose last waypoint is this close to the scene's goal (m) ends at the
+/// goal: covers the `f32` round-off of path coordinates (under 1 mm up to 10 km).
+pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
 /// Inner-loop period, s (1 kHz).
 pub const INNER_DT: f64 = 0.001;
 /// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
@@ -563,7 +567,10 @@ pub fn run_with(
     }
     let reached_path_end = goal_at.is_some();
     let goal_dist = (plant.state.pos - scene.goal).norm();
-    let goal_at = goal_at.filter(|_| goal_dist < GOAL_TOLERANCE_M);
+    // A path ending at the goal up to the f32 round-off of its waypoints counts as
+    // ending there (the path-end test decides); otherwise the scene goal's own test.
+    let ends_at_goal = (path_end - scene.goal).norm() <= PATH_END_ROUNDOFF_M;
+    let goal_at = goal_at.filter(|_| ends_at_goal || goal_dist < GOAL_TOLERANCE_M);
     let min_h_bar = samples.iter().map(|s| s.h_bar).fold(f64::INFINITY, f64::min);
     let summary = Summary {
         scene: scene.name.clone(),
