@@ -14,8 +14,10 @@
 //! * [`help`]: the long help texts (defaults, limits, examples, exit codes).
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
+//! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
 pub mod cli;
 pub mod control;
+pub mod disturbance;
 pub mod help;
 pub mod input;
 pub mod pathfile;
