@@ -171,9 +171,12 @@ impl Controller {
     /// Build the controller and give it the path. Errors name the rejected parameter or path.
     pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
         let params = controller_params(scene, cfg, cbf, cfg.variant);
-        let mut fc = FlightController::new(params).map_err(|e| anyhow!("controller parameters: {e:?}"))?;
+        let mut fc = FlightController::new(params)
+            .map_err(|e| anyhow!("{}", crate::validate::describe_param_error(scene, &params, e)))?;
         let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();
-        fc.set_path(&wps).map_err(|e| anyhow!("path rejected by the controller: {e:?}"))?;
+        fc.set_path(&wps).map_err(|e| {
+            anyhow!("path rejected by the controller: {}", crate::validate::describe_command_error(e))
+        })?;
         Ok(Controller { fc, cbf: cfg.cbf })
     }
 
@@ -207,11 +210,18 @@ impl Autopilot for Controller {
         self.report_obstacles(now, obstacles);
         self.fc.arm(now).map_err(|e| match e {
             CommandError::Arm(r) => anyhow!("the flight controller refused to arm at the start: {r}"),
-            other => anyhow!("the flight controller refused to arm at the start: {other:?}"),
+            other => anyhow!(
+                "the flight controller refused to arm at the start: {}",
+                crate::validate::describe_command_error(other)
+            ),
         })?;
-        self.fc.hold_position(now, to_f32(&start)).map_err(|e| anyhow!("hold refused: {e:?}"))?;
+        self.fc
+            .hold_position(now, to_f32(&start))
+            .map_err(|e| anyhow!("hold refused: {}", crate::validate::describe_command_error(e)))?;
         self.fc.step_outer(now);
-        self.fc.start_mission(now).map_err(|e| anyhow!("mission start refused: {e:?}"))?;
+        self.fc
+            .start_mission(now)
+            .map_err(|e| anyhow!("mission start refused: {}", crate::validate::describe_command_error(e)))?;
         Ok(())
     }
 

@@ -268,7 +268,10 @@ pub fn firmware_params(
     let p = crate::control::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
     let mut out = [("", 0.0f32); params::COUNT];
     let n = params::plan_updates(&ControllerParams::default(), &p, &mut out).map_err(|e| match e {
-        params::PlanError::InvalidTarget => anyhow!("controller parameters rejected: {:?}", p.validate()),
+        params::PlanError::InvalidTarget => match p.validate() {
+            Err(e) => anyhow!("{}", crate::validate::describe_param_error(scene, &p, e)),
+            Ok(()) => anyhow!("controller parameters rejected by the firmware's parameter plan"),
+        },
         params::PlanError::NotSettable(field) => {
             anyhow!("the run's controller `{field}` settings cannot be given to the firmware (no parameter for them)")
         }
@@ -401,9 +404,11 @@ impl PilLink {
         let read_half = sock.try_clone().context("socket clone")?;
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || reader_thread(read_half, tx));
-        let mut follower =
-            WaypointFollower::new(params.waypoint).map_err(|e| anyhow!("waypoint parameters: {e:?}"))?;
-        follower.set_path(&quantised_path(&cfg.path)).map_err(|e| anyhow!("path rejected: {e:?}"))?;
+        let mut follower = WaypointFollower::new(params.waypoint)
+            .map_err(|e| anyhow!("waypoint parameters: {}", crate::validate::describe_path_error(e)))?;
+        follower
+            .set_path(&quantised_path(&cfg.path))
+            .map_err(|e| anyhow!("path rejected: {}", crate::validate::describe_path_error(e)))?;
         let mut link = PilLink {
             qemu,
             sock,
@@ -934,7 +939,9 @@ impl PilLink {
         self.mission_t0_us = Some(t0_us - 1000);
         // Armed and holding (both acknowledged); the 1 Hz HEARTBEAT takes over from here.
         (self.armed, self.phase) = (true, 4);
-        self.follower.start(to_f32(&start)).map_err(|e| anyhow!("follower: {e:?}"))?;
+        self.follower
+            .start(to_f32(&start))
+            .map_err(|e| anyhow!("follower: {}", crate::validate::describe_path_error(e)))?;
         self.in_flight = true;
         Ok(())
     }
@@ -1213,8 +1220,10 @@ impl FirmwareTwin {
     pub fn new(scene: &Scene, cfg: &RunConfig) -> Result<Self> {
         let (p, updates) = firmware_params(scene, cfg)?;
         let n_params = updates.len();
-        let mut fc = FlightController::new(p).map_err(|e| anyhow!("controller parameters: {e:?}"))?;
-        fc.set_path(&quantised_path(&cfg.path)).map_err(|e| anyhow!("path rejected: {e:?}"))?;
+        let mut fc = FlightController::new(p)
+            .map_err(|e| anyhow!("{}", crate::validate::describe_param_error(scene, &p, e)))?;
+        fc.set_path(&quantised_path(&cfg.path))
+            .map_err(|e| anyhow!("{}", crate::validate::describe_command_error(e)))?;
         Ok(FirmwareTwin {
             fc,
             cbf: cfg.cbf,
@@ -1285,8 +1294,10 @@ impl Autopilot for FirmwareTwin {
             }
             if tk == t0 - OUTER_US {
                 let prev = self.last_t_us;
-                self.fc.arm(prev).map_err(|e| anyhow!("arming refused: {e:?}"))?;
-                self.fc.hold_position(prev, to_f32(&start)).map_err(|e| anyhow!("hold refused: {e:?}"))?;
+                self.fc.arm(prev).map_err(|e| anyhow!("{}", crate::validate::describe_command_error(e)))?;
+                self.fc
+                    .hold_position(prev, to_f32(&start))
+                    .map_err(|e| anyhow!("hold refused: {}", crate::validate::describe_command_error(e)))?;
             }
             self.step(tk, imu);
             tk += 1000;

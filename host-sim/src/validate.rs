@@ -9,13 +9,14 @@
 //! `CbfParams::validate`, `ControllerParams::validate`) and the caps of
 //! [`crate::input::limits`]; nothing is retyped.
 //!
-//! Owns: [`Given`], [`check_run`], [`describe_param_error`].
+//! Owns: [`Given`], [`check_run`], and the words for the core's error enums
+//! ([`describe_param_error`], [`describe_path_error`], [`describe_command_error`]).
 //! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
-use parapet_core::controller::{ControllerParams, ParamError};
+use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
-use parapet_core::waypoint;
+use parapet_core::waypoint::{self, PathError};
 
 use crate::control::controller_params;
 use crate::input::{limits, num, InputError};
@@ -311,6 +312,39 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
     }
 }
 
+/// A core path error in words (never the enum's debug text).
+pub fn describe_path_error(e: PathError) -> String {
+    let lim = waypoint::COORDINATE_LIMIT;
+    match e {
+        PathError::Empty => "the path has no waypoint".into(),
+        PathError::TooMany { capacity } => format!("the path has more than {capacity} waypoints"),
+        PathError::NonFinite { index } => format!("waypoint {index} is not finite"),
+        PathError::OutOfRange { index } => format!("waypoint {index} has a coordinate beyond ±{lim} m"),
+        PathError::BadParams => {
+            format!(
+                "cruise speed not in (0, {0}] m/s or corner radius not in [0, {0}] m",
+                waypoint::PARAM_LIMIT
+            )
+        }
+        PathError::BadOrigin => format!("the start is not finite or beyond ±{lim} m"),
+        PathError::NoPath => "no path was set".into(),
+    }
+}
+
+/// A core command refusal in words (never the enum's debug text).
+pub fn describe_command_error(e: CommandError) -> String {
+    match e {
+        CommandError::Arm(r) => format!("arming refused: {r}"),
+        CommandError::NotArmed => "the controller is not armed".into(),
+        CommandError::AlreadyDisarmed => "the controller is already disarmed".into(),
+        CommandError::BadHeight => "takeoff height not finite or above the limit".into(),
+        CommandError::BadTarget => "target position not finite".into(),
+        CommandError::NotFlying => "the vehicle is not flying (take off first)".into(),
+        CommandError::Path(p) => format!("path rejected: {}", describe_path_error(p)),
+        CommandError::NoPosition => "no fresh position fix".into(),
+    }
+}
+
 /// The `f64` value of an `f32` constant with its shortest decimal form
 /// (`1.4f32` → `1.4`, not `1.399999976158142`); the `f32` round trip is exact.
 pub fn f32_as_f64(x: f32) -> f64 {
@@ -363,6 +397,19 @@ speed = 0.5
         assert_eq!(f32_as_f64(1.4), 1.4);
         assert_eq!(f32_as_f64(1.4) as f32, 1.4f32);
         assert!(defaults_help().contains("mu 1.4 s"), "{}", defaults_help());
+    }
+
+    #[test]
+    fn core_errors_in_words() {
+        let m = describe_path_error(PathError::OutOfRange { index: 3 });
+        assert!(m.contains("waypoint 3") && m.contains("100000"), "{m}");
+        let m =
+            describe_command_error(CommandError::Arm(parapet_core::failsafe::ArmRefusal::NoFreshPosition));
+        assert!(m.contains("position") && !m.contains("NoFreshPosition"), "{m}");
+        let (s, cfg) = setup("[vehicle]\nmass = 1e-9\n");
+        let p = controller_params(&s, &cfg, CbfParams::default(), cfg.variant);
+        let m = describe_param_error(&s, &p, ParamError::Thrust).to_string();
+        assert!(m.contains("[vehicle] field `mass`") && !m.contains("Thrust"), "{m}");
     }
 
     #[test]
