@@ -3,8 +3,8 @@
 //!
 //! [`Identity`] is everything that decides the rows: parapet version and CSV
 //! format, scene name and a hash of the scene file's bytes, the path flown (its
-//! source and a hash of its waypoints), filter, noise, duration rule, the grid
-//! (μ, δ1, speed ranges, seed count). Two shards merge only when their identities
+//! source and a hash of its waypoints), filter, noise, duration rule and cap, the
+//! grid (μ, δ1, speed ranges, seed count). Two shards merge only when their identities
 //! are equal and they split the grid the same way (same N); [`plan_merge`] finds
 //! the shards that are missing or given twice. The manifest is written after the
 //! last row, so a sweep that was interrupted has none and cannot be merged.
@@ -20,7 +20,7 @@ use crate::input::limits::MAX_INPUT_FILE_BYTES;
 use crate::input::InputError;
 
 /// Version of the `sweep.csv` + `sweep.json` format (changes with the columns).
-pub const FORMAT: u32 = 3;
+pub const FORMAT: u32 = 4;
 
 /// FNV-1a, 64 bit: a stable fingerprint (not a security hash) of a scene file or path.
 pub fn fnv1a64(bytes: &[u8]) -> String {
@@ -56,8 +56,10 @@ pub struct Identity {
     pub filter: String,
     /// Sensor noise on.
     pub noise: bool,
-    /// Duration limit of each run, s (`None`: 1.5 × path time + 15 s at its speed).
+    /// Duration limit of each run, s (`None`: the default duration at its speed).
     pub duration_s: Option<f64>,
+    /// `--max-duration`, s (decides which runs fail).
+    pub max_duration_s: f64,
     /// μ range, s.
     pub mu: GridRange,
     /// δ1 range, m².
@@ -239,6 +241,7 @@ mod tests {
             filter: "paper".into(),
             noise: true,
             duration_s: Some(12.0),
+            max_duration_s: 3600.0,
             mu: GridRange::parse("0.5:1.4:2").unwrap(),
             delta1: GridRange::parse("0.06:0.3:2").unwrap(),
             speed: GridRange::parse("0.25").unwrap(),

@@ -124,7 +124,8 @@ impl CheckedRows {
             && p.speed.to_bits() == r.speed.to_bits()
             && p.seed == r.seed
             && r.scene == self.identity.scene
-            && r.filter == self.identity.filter;
+            && r.filter == self.identity.filter
+            && r.noise == self.identity.noise;
         if !same {
             return Err(InputError::file(
                 &at,

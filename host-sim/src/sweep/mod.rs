@@ -553,9 +553,10 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     }
     let cpus = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let jobs = a.jobs.unwrap_or(cpus.min(SWEEP_MAX_JOBS));
+    // Loaded first: the loader checks the file (size cap included) before we hash it.
+    let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
-    let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
     let speed = a.speed.clone().unwrap_or(GridRange { start: scene.speed, end: scene.speed, n: 1 });
     let grid = Grid::new(&a.mu, &a.delta1, &speed, a.seeds);
     let fixed_duration = a.duration.or(scene.sim.duration);
@@ -638,6 +639,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         filter,
         noise: base.sensors.noise,
         duration_s: fixed_duration,
+        max_duration_s: max_duration,
         mu: a.mu.clone(),
         delta1: a.delta1.clone(),
         speed,
