@@ -178,10 +178,18 @@ pub mod limits {
 /// A number as a user reads it: shortest decimal, exponent form for very large
 /// or small magnitudes (`1e300`, `1e-7`, `0.002`, `150`).
 pub fn num(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
+    let shortest = |x: f64| {
+        if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    let s = shortest(x);
+    // A computed value (900014.9999999999): 7 significant digits are enough.
+    match format!("{x:.6e}").parse::<f64>() {
+        Ok(r) if s.len() > 12 => shortest(r),
+        _ => s,
     }
 }
 
@@ -241,6 +249,10 @@ mod tests {
         assert_eq!(num(150.0), "150");
         assert_eq!(num(1e7), "1e7");
         assert_eq!(num(f64::NAN), "NaN");
+        assert_eq!(num(900014.9999999999), "900015");
+        assert_eq!(num(0.123456789), "0.123456789");
+        assert_eq!(num(0.12345678912345), "0.1234568");
+        assert_eq!(num(1.399999976158142), "1.4");
     }
 
     #[test]

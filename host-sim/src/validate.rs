@@ -235,7 +235,7 @@ fn check_duration(o: &Origin, cfg: &RunConfig) -> Result<(), InputError> {
                 format!(
                     "the default duration (from the path length and the reference speed {} m/s) {reason}; \
                      give --duration or a higher --speed",
-                    cfg.params.speed
+                    num(cfg.params.speed)
                 ),
             )
         }
@@ -283,9 +283,9 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
             InputError::file(
                 file,
                 format!(
-                    "the hover thrust m·g = {:.4} N must lie between the controller's minimum thrust {} N \
+                    "the hover thrust m·g = {} N must lie between the controller's minimum thrust {} N \
                      and 90 % of the rotors' maximum {:.3} N",
-                    v.mass * GRAVITY as f64,
+                    num(v.mass * GRAVITY as f64),
                     th.thrust_min,
                     th.thrust_max
                 ),
