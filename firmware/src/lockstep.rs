@@ -138,8 +138,9 @@ impl LockstepScheduler {
             outer_ticks = Some(ticks.since(t0));
             self.stats.outer_steps = self.stats.outer_steps.saturating_add(1);
             self.next_outer_us = Some(match self.next_outer_us {
-                Some(n) if t - n < self.outer_period_us => n + self.outer_period_us,
-                _ => t + self.outer_period_us,
+                // Saturating: the time comes from the host's HIL_SENSOR (any u64).
+                Some(n) if t - n < self.outer_period_us => n.saturating_add(self.outer_period_us),
+                _ => t.saturating_add(self.outer_period_us),
             });
         }
         self.stats.steps = self.stats.steps.saturating_add(1);
@@ -217,6 +218,19 @@ mod tests {
         // Time going backwards is answered and counted.
         assert!(s.step(&sample(10), &mut link, &mut ap).ran_outer);
         assert_eq!(s.stats().non_monotonic, 1);
+    }
+
+    #[test]
+    fn times_near_u64_max_do_not_overflow() {
+        // Found by the `link` fuzz target (HIL_SENSOR time_usec is the host's, any u64).
+        let mut ap = RecordingAutopilot::new();
+        let mut link = Link::new(1, FixClock::Message);
+        let mut s = LockstepScheduler::new(4000);
+        assert!(s.step(&sample(u64::MAX - 1000), &mut link, &mut ap).ran_outer);
+        assert!(!s.step(&sample(u64::MAX - 10), &mut link, &mut ap).ran_outer);
+        let o = s.step(&sample(u64::MAX), &mut link, &mut ap);
+        assert_eq!(o.controls.time_usec, u64::MAX);
+        assert_eq!(ap.inner_steps.len(), 3);
     }
 
     #[test]
