@@ -135,6 +135,8 @@ struct RunArgs {
     /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
     #[arg(long)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    disturb: crate::disturbance::args::DisturbanceArgs,
 }
 
 #[derive(Debug, Args)]
@@ -481,6 +483,8 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     }
     let mut cfg = RunConfig::for_scene(&scene, path)
         .map_err(|e| CliError::BadInput(format!("{}: {e}", scene.source)))?;
+    // [disturbances] --disturbances FILE, --wind, --turbulence, --gust over the scene's tables.
+    a.disturb.apply(&mut cfg.disturbances, &scene.vehicle)?;
     cfg.path_source = source.into();
     cfg.planning_time_ms = planning_ms;
     cfg.cbf = !a.no_cbf;
@@ -527,6 +531,18 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     };
     crate::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
     Ok((scene, cfg))
+}
+
+/// The scene and run configuration of a `parapet run` command line (`args`: the
+/// options after `run`), exactly as `parapet run` flies it (`parapet campaign`
+/// flies its flights through this, so a flight's command reproduces it).
+pub fn run_config_from_args(args: &[String]) -> Result<(Scene, RunConfig), CliError> {
+    let argv = ["parapet".to_string(), "run".to_string()].into_iter().chain(args.iter().cloned());
+    match Cli::try_parse_from(argv) {
+        Ok(Cli { command: Command::Run(a) }) => run_setup(&a),
+        Ok(_) => Err(CliError::BadInput("not a `run` command".into())),
+        Err(e) => Err(CliError::BadInput(e.to_string())),
+    }
 }
 
 /// Run `f` with a progress bar (simulated seconds) on a terminal.

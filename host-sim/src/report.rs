@@ -14,7 +14,8 @@
 //! `u_nom_*` PD output u*; `u_*` filter output; `filter_h_bar` (the
 //! controller's own min h̄ from its estimate and the sensed obstacles);
 //! `n_constraints`, `unavoidable`, `infeasible` (filter diagnostics); `mode`
-//! (controller guidance mode).
+//! (controller guidance mode); `wind_x,wind_y,wind_z` the wind at the vehicle (m/s,
+//! ENU; 0 in still air, see `crate::disturbance`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -157,6 +158,8 @@ pub struct Sample {
     pub infeasible: bool,
     /// Controller guidance mode.
     pub mode: &'static str,
+    /// Wind at the vehicle, NED, m/s.
+    pub wind: Vector3<f64>,
 }
 
 /// Everything the report needs.
@@ -228,7 +231,8 @@ pub fn trajectory_csv(samples: &[Sample]) -> String {
 pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> std::io::Result<()> {
     w.write_all(
         b"t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar,\
-         u_nom_x,u_nom_y,u_nom_z,u_x,u_y,u_z,filter_h_bar,n_constraints,unavoidable,infeasible,mode\n",
+         u_nom_x,u_nom_y,u_nom_z,u_x,u_y,u_z,filter_h_bar,n_constraints,unavoidable,infeasible,mode,\
+         wind_x,wind_y,wind_z\n",
     )?;
     let mut s = String::new();
     for k in samples {
@@ -238,6 +242,7 @@ pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> s
         let v = ned_to_enu_arr(&k.vel);
         let un = ned_to_enu_arr(&k.u_nominal);
         let uf = ned_to_enu_arr(&k.u_filtered);
+        let wind = ned_to_enu_arr(&k.wind);
         let active = k.active_obstacle.map(|i| i.to_string()).unwrap_or_default();
         let f = |x: f64, d: usize| format!("{x:.d$}");
         let fields = [
@@ -270,6 +275,9 @@ pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> s
             u8::from(k.unavoidable).to_string(),
             u8::from(k.infeasible).to_string(),
             k.mode.to_string(),
+            f(wind[0], 4),
+            f(wind[1], 4),
+            f(wind[2], 4),
         ];
         s.push_str(&fields.join(","));
         s.push('\n');

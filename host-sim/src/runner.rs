@@ -104,6 +104,8 @@ pub struct RunConfig {
     pub sensing_range: f64,
     /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
     pub dt: f64,
+    /// Wind, plant vehicle (mismatch) and faults (the scene's, or overridden).
+    pub disturbances: crate::disturbance::Disturbances,
 }
 
 impl RunConfig {
@@ -141,6 +143,7 @@ impl RunConfig {
             seed: 0,
             sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),
             dt: scene.sim.dt.unwrap_or(INNER_DT),
+            disturbances: scene.disturbances.clone(),
         })
     }
 
@@ -429,9 +432,12 @@ pub fn run_with(
     let filter = SafetyFilter::new(cbf, cfg.variant).map_err(|e| anyhow!("filter: {e}"))?;
     let hull = scene.vehicle.hull_radius;
 
-    let mut plant = Plant::new(scene.vehicle.clone()).map_err(|e| anyhow!("{e}"))?;
+    // The plant flies the `[plant]` vehicle (mismatch), the controller knows the scene's.
+    let plant_vehicle = cfg.disturbances.plant_vehicle(&scene.vehicle);
+    let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
     plant.set_hover(scene.start, 0.0);
-    let mut sensors = Sensors::new(cfg.sensors.clone(), cfg.seed);
+    let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
+    let mut live = crate::disturbance::Live::new(&cfg.disturbances, cfg.seed);
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.
     let mut fix = None;
@@ -488,6 +494,7 @@ pub fn run_with(
                 &mut sensors,
                 &mut scratch,
             );
+            sensors.obstacle_report(t, &mut scratch.seen);
             let out = ctrl.outer(t, &scratch.seen);
             let sd = sd_now;
             let ref_clear =
@@ -518,6 +525,7 @@ pub fn run_with(
                 unavoidable: out.unavoidable,
                 infeasible: out.infeasible,
                 mode: out.mode,
+                wind: live.wind(),
             });
             if goal_at.is_none()
                 && (plant.state.pos - path_end).norm() < GOAL_TOLERANCE_M
@@ -535,6 +543,7 @@ pub fn run_with(
         let imu = sensors.imu(&plant);
         let throttle = ctrl.inner(t, &imu);
         plant.set_throttles(throttle);
+        live.apply(t, INNER_DT, &mut plant);
         for _ in 0..substeps {
             plant.step(dt);
             steps += 1;

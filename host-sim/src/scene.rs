@@ -110,6 +110,12 @@ struct RawScene {
     #[serde(default)]
     sim: Option<SimSettings>,
     #[serde(default)]
+    wind: Option<crate::disturbance::wind::WindParams>,
+    #[serde(default)]
+    plant: Option<toml::Table>,
+    #[serde(default)]
+    faults: Option<crate::disturbance::faults::FaultParams>,
+    #[serde(default)]
     obstacles: Vec<RawObstacle>,
 }
 
@@ -271,6 +277,8 @@ pub struct Scene {
     pub sensors: Option<SensorParams>,
     /// Simulation settings from `[sim]`.
     pub sim: SimSettings,
+    /// Disturbances from `[wind]`, `[plant]`, `[faults]` (see [`crate::disturbance`]).
+    pub disturbances: crate::disturbance::Disturbances,
     /// Obstacles (index = position in the file, 0-based).
     pub obstacles: Vec<SceneObstacle>,
 }
@@ -388,6 +396,12 @@ impl Scene {
         if let Some(s) = &raw.sensors {
             validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
         }
+        let mut disturbances = crate::disturbance::Disturbances::default();
+        let tables = crate::disturbance::RawTables { wind: raw.wind, plant: raw.plant, faults: raw.faults };
+        disturbances.overlay(tables, &vehicle, file).map_err(|e| {
+            let text = e.to_string();
+            err(text.strip_prefix(&format!("{file}: ")).unwrap_or(&text).to_string())
+        })?;
         let mut obstacles = Vec::with_capacity(raw.obstacles.len());
         for (i, o) in raw.obstacles.into_iter().enumerate() {
             obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
@@ -403,6 +417,7 @@ impl Scene {
             vehicle,
             controller,
             sensors: raw.sensors,
+            disturbances,
             sim,
             obstacles,
         })
