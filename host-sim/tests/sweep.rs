@@ -341,10 +341,16 @@ fn sweep_merge_reports_missing_shards_and_damaged_rows() {
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
     assert_eq!(m["shards"], serde_json::json!([1, 4]));
-    // The partial result merges with the missing shard 3 (shard 2/4 is empty: 4 runs, 4 shards).
-    let full = d.join("full").display().to_string();
-    let r = merge(&[&o, &sh[1], "--allow-partial", "--out", &full]);
+    // The partial result merges on with shard 3 (2/4 still missing): rows 0, 2, 3.
+    let full = d.join("full");
+    let r = merge(&[&o, &sh[1], "--allow-partial", "--out", &full.display().to_string()]);
     assert!(r.status.success(), "{}", err(&r));
+    let idx: Vec<String> = read_csv(&full.join("sweep.csv")).1.iter().map(|r| r[0].clone()).collect();
+    assert_eq!(idx, vec!["0", "2", "3"]);
+    // Merging the partial result with itself: its shards given twice.
+    let r = merge(&[&o, &o, "--allow-partial", "--out", &full.display().to_string()]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("given twice"), "{}", err(&r));
     // A truncated shard (last row cut) and a tampered row are refused, naming the file.
     let csv = Path::new(&sh[1]).join("sweep.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
