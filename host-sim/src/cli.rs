@@ -602,6 +602,12 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     use crate::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
+    if timeout > limits::MAX_PIL_TIMEOUT_S {
+        return Err(InputError::option("timeout", "longer than the largest firmware timeout")
+            .value(num(timeout))
+            .allowed(format!("0 < timeout ≤ {} s", limits::MAX_PIL_TIMEOUT_S))
+            .into());
+    }
     let elf = match &a.firmware {
         Some(p) if !p.is_file() => {
             return Err(CliError::BadInput(format!("option --firmware: {} is not a file", p.display())))

@@ -51,7 +51,9 @@ Examples:
   parapet run --scene scenes/office.toml --path out/path.json --out out/from_file
   parapet replay --inputs rotors.csv --out states.csv --start 0,0,-1
 
-{EXIT_CODES_HELP}"
+{EXIT_CODES_HELP}
+  {some}    sweep, sweep-merge: some runs failed (their rows say why; see their --help)",
+        some = crate::sweep::EXIT_SOME_FAILED
     )
 }
 
@@ -86,6 +88,8 @@ pub fn pil() -> String {
 
 {limits}
 
+--timeout ≤ {timeout} s.
+
 Examples:
   parapet pil --scene scenes/one_sphere.toml --straight --duration 10
   parapet pil --firmware target/thumbv7em-none-eabihf/release/parapet-firmware-qemu --out out/pil
@@ -93,6 +97,7 @@ Examples:
 {EXIT_CODES_HELP}",
         defaults = crate::validate::defaults_help(),
         limits = flight_limits(),
+        timeout = l::MAX_PIL_TIMEOUT_S,
     )
 }
 

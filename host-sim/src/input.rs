@@ -150,6 +150,8 @@ pub mod limits {
     pub const MAX_REPLAY_ROWS: usize = 1_000_000;
     /// Longest time span of a replay CSV (last t − first t), s.
     pub const MAX_REPLAY_SPAN_S: f64 = 3600.0;
+    /// Longest `pil --timeout` (wall-clock wait for the firmware), s.
+    pub const MAX_PIL_TIMEOUT_S: f64 = 3600.0;
 
     // Within the default caps, the step cap never binds at the smallest dt.
     const _: () = assert!(MAX_DURATION_S / MIN_DT_S <= MAX_PLANT_STEPS);

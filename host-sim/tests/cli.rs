@@ -560,3 +560,15 @@ fn outputs_never_replace_inputs() {
     refused(&r, &["option --out", "input CSV", "in.csv"]);
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), text);
 }
+
+#[test]
+fn pil_timeout_is_capped_before_any_build() {
+    let d = tmp("piltimeout");
+    let f = write_scene(&d, GOOD);
+    let o = d.join("o");
+    let r =
+        parapet(&["pil", "--scene", &f, "--straight", "--timeout", "1e300", "--out", o.to_str().unwrap()]);
+    refused(&r, &["option --timeout", "1e300", &limits::MAX_PIL_TIMEOUT_S.to_string()]);
+    let h = stdout(&parapet(&["--help"]));
+    assert!(h.contains("  4    sweep"), "{h}");
+}
