@@ -15,6 +15,7 @@
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
+//! * [`world`]: spatial index of the static obstacles, nearest-obstacle tracker, scene checks, generator.
 pub mod cli;
 pub mod control;
 pub mod disturbance;
@@ -32,3 +33,4 @@ pub mod scene;
 pub mod sensors;
 pub mod sweep;
 pub mod validate;
+pub mod world;

@@ -329,13 +329,17 @@ pub fn sense_and_h_bar(
     scratch: &mut OuterScratch,
 ) -> f64 {
     tracker.move_to(p);
+    // Every obstacle that may be within the range is a candidate (scene order).
+    tracker.ensure(range);
     let (pf, vf) = (to_f32(p), to_f32(v));
     let OuterScratch { seen, far, near } = scratch;
     seen.clear();
     far.clear();
     near.clear();
     let mut far_min = f64::INFINITY;
-    for (i, o) in scene.obstacles.iter().enumerate() {
+    for j in 0..tracker.candidates().len() {
+        let i = tracker.candidates()[j];
+        let o = &scene.obstacles[i];
         let lb = tracker.lower_bound(i);
         if lb > range {
             far.push(i);
@@ -366,9 +370,22 @@ pub fn sense_and_h_bar(
             h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
         }
     }
-    // The bound grows with the distance: the nearest far obstacle's covers them all.
-    if far.is_empty() || h_bar_certainly_above(far_min - margin, mu_s, delta, h_min) {
+    // The bound grows with the distance: the nearest far obstacle's covers them all
+    // (obstacles outside the candidate set are farther than its bound).
+    let outside = tracker.outside_lower_bound();
+    far_min = far_min.min(outside);
+    if (far.is_empty() && outside == f64::INFINITY)
+        || h_bar_certainly_above(far_min - margin, mu_s, delta, h_min)
+    {
         return h_min;
+    }
+    if !h_bar_certainly_above(outside - margin, mu_s, delta, h_min) {
+        // Obstacles outside the set up to a distance beyond which the bound holds.
+        let mut reach = 2.0 * range.max(1.0);
+        while !h_bar_certainly_above(reach - 2.0 * margin, mu_s, delta, h_min) && reach < 1e7 {
+            reach *= 2.0;
+        }
+        tracker.outside_within(if reach < 1e7 { reach } else { f64::INFINITY }, far);
     }
     for &i in far.iter() {
         // Far obstacles are static (moving ones have no bound).
@@ -455,7 +472,7 @@ pub fn run_with(
 
     // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
     let mut tracker = NearestTracker::new(scene);
-    let mut ref_tracker = NearestTracker::new(scene);
+    let mut ref_tracker = NearestTracker::with_index(scene, tracker.index());
     let mut scratch = OuterScratch::default();
     // Signed distance to the nearest obstacle or the ground at the current plant state.
     let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;

@@ -1,0 +1,20 @@
+//! Worlds at scale: the spatial index of a scene's static obstacles, the
+//! nearest-obstacle tracker built on it, scene checks, and the procedural
+//! scene generator.
+//!
+//! * [`index`]: [`index::StaticIndex`], a BVH (parry3d-f64) over the static
+//!   obstacles' bounding boxes with exact nearest / within-radius / box queries
+//!   (the narrow phase is the core's `Shape::closest_point`, so results equal
+//!   full scans bit for bit).
+//! * [`tracker`]: [`tracker::NearestTracker`], the exact nearest-obstacle and
+//!   proximity queries along a moving point (the simulator's vehicle and
+//!   reference): a local candidate set from the index plus the moving
+//!   obstacles, and per-obstacle Lipschitz bounds.
+//!
+//! May import: `parapet-core`, parry3d-f64, and of host-sim `scene` (types),
+//! `planner` (generate only), `input` (errors).
+pub mod index;
+pub mod tracker;
+
+pub use index::StaticIndex;
+pub use tracker::NearestTracker;
