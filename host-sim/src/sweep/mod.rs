@@ -68,9 +68,11 @@ use crate::validate::Given;
 /// others are complete).
 pub const EXIT_SOME_FAILED: i32 = 4;
 
-/// Simulated seconds per wall-clock second and thread of a release build (office
-/// sweep in `docs/performance.md`: 96 flights of ~61 s in 4.1 s), for the `--yes` estimate.
-const SIM_RATE_PER_THREAD: f64 = 1400.0;
+/// Simulated seconds per wall-clock second and thread, for the `--yes` estimate:
+/// release build (office sweep in `docs/performance.md`: 96 flights of ~61 s in
+/// 4.1 s on one thread) or debug build (one office flight, 61.3 s in 1.73 s).
+const SIM_RATE_PER_THREAD: f64 = if cfg!(debug_assertions) { 35.0 } else { 1400.0 };
+const BUILD: &str = if cfg!(debug_assertions) { "debug" } else { "release" };
 
 /// Runs flown between two writes to `sweep.csv` (per thread).
 const CHUNK_PER_JOB: usize = 64;
@@ -499,7 +501,7 @@ fn check_size(
                 format!(
                     "the sweep would fly {runs} runs (grid {}), more than {SWEEP_CONFIRM_RUNS} \
                      (input::limits::SWEEP_CONFIRM_RUNS); estimated time ≈ {} on {jobs} threads \
-                     (release build, ~{SIM_RATE_PER_THREAD:.0}× real time per thread, ~{per_speed:.0} s simulated per run); \
+                     ({BUILD} build, ~{SIM_RATE_PER_THREAD:.0}× real time per thread, ~{per_speed:.0} s simulated per run); \
                      add --yes to fly it, or split it with --shard I/N",
                     grid.describe(),
                     human_duration(wall)

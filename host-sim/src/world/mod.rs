@@ -10,9 +10,11 @@
 //!   proximity queries along a moving point (the simulator's vehicle and
 //!   reference): a local candidate set from the index plus the moving
 //!   obstacles, and per-obstacle Lipschitz bounds.
+//! * [`check`]: scene-loader checks for duplicated and degenerate obstacles.
 //!
 //! May import: `parapet-core`, parry3d-f64, and of host-sim `scene` (types),
 //! `planner` (generate only), `input` (errors).
+pub mod check;
 pub mod index;
 pub mod tracker;
 
