@@ -406,6 +406,7 @@ impl Scene {
         for (i, o) in raw.obstacles.into_iter().enumerate() {
             obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
         }
+        crate::world::check::obstacles(&obstacles).map_err(err)?;
         Ok(Scene {
             name: raw.name,
             description: raw.description,
