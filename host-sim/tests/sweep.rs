@@ -351,7 +351,10 @@ fn sweep_merge_reports_missing_shards_and_damaged_rows() {
     let r = merge(&[&o, &o, "--allow-partial", "--out", &full.display().to_string()]);
     assert_eq!(r.status.code(), Some(2));
     assert!(err(&r).contains("given twice"), "{}", err(&r));
-    // A truncated shard (last row cut) and a tampered row are refused, naming the file.
+    // A truncated shard (last row cut) and a tampered row are refused, naming the file;
+    // the output directory keeps what it had (the partial merge above).
+    let kept =
+        (std::fs::read(out.join("sweep.csv")).unwrap(), std::fs::read(out.join("sweep.json")).unwrap());
     let csv = Path::new(&sh[1]).join("sweep.csv");
     let text = std::fs::read_to_string(&csv).unwrap();
     let header = text.lines().next().unwrap().to_string();
@@ -372,6 +375,11 @@ fn sweep_merge_reports_missing_shards_and_damaged_rows() {
         e.contains("line 2") && e.contains("delta1") && e.contains("sixty") && e.contains("column 6"),
         "{e}"
     );
+    assert_eq!(
+        (std::fs::read(out.join("sweep.csv")).unwrap(), std::fs::read(out.join("sweep.json")).unwrap()),
+        kept
+    );
+    assert!(!out.join("sweep.csv.partial").exists());
 }
 
 #[test]

@@ -143,6 +143,41 @@ impl CheckedRows {
     }
 }
 
+/// Stream the k-way merge of `readers` into `path`; every input must end with
+/// as many rows as its manifest (`named`) says.
+fn merge_rows(
+    readers: &mut [CheckedRows],
+    named: &[(String, Manifest)],
+    path: &Path,
+) -> Result<Aggregator, CliError> {
+    let mut csv =
+        record::CsvSink::create(path).with_context(|| format!("cannot write {}", path.display()))?;
+    let mut heap = BinaryHeap::new();
+    for (k, r) in readers.iter_mut().enumerate() {
+        if let Some(rec) = r.next().map_err(bad_input)? {
+            heap.push(Head { index: rec.index, input: k, rec });
+        }
+    }
+    let mut agg = Aggregator::default();
+    while let Some(h) = heap.pop() {
+        agg.add(&h.rec);
+        csv.push(&h.rec).with_context(|| format!("cannot write {}", path.display()))?;
+        if let Some(rec) = readers[h.input].next().map_err(bad_input)? {
+            heap.push(Head { index: rec.index, input: h.input, rec });
+        }
+    }
+    csv.finish().with_context(|| format!("cannot write {}", path.display()))?;
+    for (r, (name, m)) in readers.iter().zip(named) {
+        if r.seen != m.rows {
+            return Err(bad_input(InputError::file(
+                name,
+                format!("has {} rows, its sweep.json says {} (truncated?)", r.seen, m.rows),
+            )));
+        }
+    }
+    Ok(agg)
+}
+
 /// `parapet sweep-merge`.
 pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
     let mut named = Vec::new();
@@ -211,36 +246,22 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
     }
     create_out(&a.out)?;
     let json = a.out.join("sweep.json");
+    let csv_path = a.out.join("sweep.csv");
+    // Rows go to a scratch file first: a merge refused half-way (a damaged input)
+    // leaves the directory's previous outputs as they were.
+    let scratch = a.out.join("sweep.csv.partial");
+    let merged = merge_rows(&mut readers, &named, &scratch);
+    let agg = match merged {
+        Ok(agg) => agg,
+        Err(e) => {
+            let _ = std::fs::remove_file(&scratch);
+            return Err(e);
+        }
+    };
     if json.exists() {
         std::fs::remove_file(&json).with_context(|| format!("cannot remove the old {}", json.display()))?;
     }
-    let csv_path = a.out.join("sweep.csv");
-    let mut csv =
-        record::CsvSink::create(&csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
-    let mut heap = BinaryHeap::new();
-    for (k, r) in readers.iter_mut().enumerate() {
-        if let Some(rec) = r.next().map_err(bad_input)? {
-            heap.push(Head { index: rec.index, input: k, rec });
-        }
-    }
-    let mut agg = Aggregator::default();
-    while let Some(h) = heap.pop() {
-        agg.add(&h.rec);
-        csv.push(&h.rec).with_context(|| format!("cannot write {}", csv_path.display()))?;
-        if let Some(rec) = readers[h.input].next().map_err(bad_input)? {
-            heap.push(Head { index: rec.index, input: h.input, rec });
-        }
-    }
-    csv.finish().with_context(|| format!("cannot write {}", csv_path.display()))?;
-    for (k, r) in readers.iter().enumerate() {
-        if r.seen != named[k].1.rows {
-            // The partial output stays without a manifest: it cannot be merged further.
-            return Err(bad_input(InputError::file(
-                &named[k].0,
-                format!("has {} rows, its sweep.json says {} (truncated?)", r.seen, named[k].1.rows),
-            )));
-        }
-    }
+    std::fs::rename(&scratch, &csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
     let complete = plan.missing.is_empty();
     let m = Manifest {
         identity: first.identity.clone(),

@@ -437,7 +437,7 @@ pub(crate) fn create_out(dir: &Path) -> Result<(), CliError> {
 }
 
 pub(crate) fn output_files(dir: &Path) -> Vec<PathBuf> {
-    let mut v = vec![dir.join("sweep.csv"), dir.join("sweep.json")];
+    let mut v = vec![dir.join("sweep.csv"), dir.join("sweep.json"), dir.join("sweep.csv.partial")];
     v.extend(heatmap::file_names().into_iter().map(|n| dir.join(n)));
     v
 }
