@@ -16,7 +16,7 @@ Limits (refused with exit 2, naming the option or file, table and field):
   duration ≤ {dur} s (--duration, [sim] duration, or the default; --max-duration raises the cap up to {ceil} s)
   [sim] dt in [{mindt:e}, {maxdt:e}] s; duration / dt ≤ {steps:e} plant steps
   speed in (0, {speed}] m/s; coordinates (bounds, mission, obstacles, path waypoints) |x| ≤ {coord:e} m
-  [sensors] position_latency ≤ {lat} s (the controller's position timeout is 0.2 s); noise ≤ {noise}
+  [sensors] position_latency ≤ {lat} s (the controller's position timeout is {timeout} s); noise ≤ {noise}
   a path has at most {wps} waypoints; the controller is told about the nearest {obs} obstacles at once;
   the multi filters enforce at most {bars} barriers at once; the planner's search budget is {budget} s
   input files ≤ {bytes} bytes",
@@ -28,6 +28,7 @@ Limits (refused with exit 2, naming the option or file, table and field):
         speed = l::MAX_SPEED_MPS,
         coord = l::MAX_COORDINATE_M,
         lat = l::MAX_POSITION_LATENCY_S,
+        timeout = crate::input::num(l::position_timeout_s()),
         noise = l::MAX_SENSOR_NOISE,
         wps = l::MAX_WAYPOINTS,
         obs = l::MAX_OBSTACLES_SENSED,

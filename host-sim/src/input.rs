@@ -153,6 +153,12 @@ pub mod limits {
     /// Longest `pil --timeout` (wall-clock wait for the firmware), s.
     pub const MAX_PIL_TIMEOUT_S: f64 = 3600.0;
 
+    /// The flight controller's position timeout, s (`FailsafeParams::position_timeout_us`),
+    /// which [`MAX_POSITION_LATENCY_S`] stays below.
+    pub fn position_timeout_s() -> f64 {
+        parapet_core::failsafe::FailsafeParams::default().position_timeout_us as f64 * 1e-6
+    }
+
     // Within the default caps, the step cap never binds at the smallest dt.
     const _: () = assert!(MAX_DURATION_S / MIN_DT_S <= MAX_PLANT_STEPS);
     const _: () = assert!(MAX_REPLAY_SPAN_S / MIN_DT_S <= MAX_PLANT_STEPS);

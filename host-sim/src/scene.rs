@@ -518,11 +518,14 @@ fn validate_sensors(s: &SensorParams) -> Result<(), String> {
         };
         if !(x.is_finite() && (0.0..=cap).contains(&x)) {
             let why = if field == "position_latency" {
-                "beyond the cap (the flight controller's position timeout is 0.2 s)"
+                format!(
+                    "beyond the cap (the flight controller's position timeout is {} s)",
+                    num(limits::position_timeout_s())
+                )
             } else {
-                "out of range"
+                "out of range".to_string()
             };
-            return Err(bad(field, why, x, &format!("0 ≤ {field} ≤ {cap}")));
+            return Err(bad(field, &why, x, &format!("0 ≤ {field} ≤ {cap}")));
         }
     }
     Ok(())

@@ -186,7 +186,10 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
     if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
         return Err(InputError::file(
             &scene.source,
-            "position latency beyond the cap (the flight controller's position timeout is 0.2 s)",
+            format!(
+                "position latency beyond the cap (the flight controller's position timeout is {} s)",
+                num(limits::position_timeout_s())
+            ),
         )
         .table("sensors")
         .field("position_latency")
