@@ -6,19 +6,22 @@
 //! allowed range), 3 no path found by the planner. Bad input is an
 //! [`InputError`]; library error enums are never shown as debug text.
 //!
-//! Standard output goes through [`out`]: a closed pipe (`parapet run | head`)
-//! ends the command quietly with exit 0, never a panic. Outputs never replace an
-//! input file ([`refuse_overwrite`]).
+//! Standard output goes through [`out`] ([`crate::output`]): a closed pipe
+//! (`parapet run | head`) ends the command quietly with exit 0, never a panic.
+//! Outputs never replace an input file ([`refuse_overwrite`]).
 //!
 //! May import: every host-sim module (it is the top).
 
-use std::io::{IsTerminal, Write as _};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::anyhow;
 use clap::{Args, Parser, Subcommand};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+
+pub use crate::output::{out, refuse_overwrite};
+pub use crate::replay::load_vehicle;
 
 use crate::input::{limits, num, InputError};
 use crate::pathfile::PathFile;
@@ -283,42 +286,6 @@ impl From<InputError> for CliError {
     fn from(e: InputError) -> Self {
         CliError::BadInput(e.to_string())
     }
-}
-
-/// Write `text` to standard output. A reader that closed the pipe (`| head`,
-/// `| true`) gives [`CliError::StdoutClosed`] (quiet exit 0); other write
-/// errors are failures (exit 1). Never panics, unlike `print!`.
-pub fn out(text: &str) -> Result<(), CliError> {
-    let mut so = std::io::stdout().lock();
-    match so.write_all(text.as_bytes()).and_then(|()| so.flush()) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(CliError::StdoutClosed),
-        Err(e) => Err(CliError::Failed(anyhow!("cannot write to standard output: {e}"))),
-    }
-}
-
-/// `true` when `a` and `b` name the same existing file.
-fn same_file(a: &Path, b: &Path) -> bool {
-    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
-}
-
-/// Refuse (exit 2) when one of `outputs` would replace one of `inputs`
-/// (`(what, path)`), naming the option, both files and what the input is.
-pub fn refuse_overwrite(option: &str, outputs: &[PathBuf], inputs: &[(&str, &Path)]) -> Result<(), CliError> {
-    for o in outputs {
-        for (what, i) in inputs {
-            if same_file(o, i) {
-                return Err(InputError::option(
-                    option,
-                    format!("would overwrite the {what} {}", i.display()),
-                )
-                .value(o.display())
-                .allowed("a path that is not an input file")
-                .into());
-            }
-        }
-    }
-    Ok(())
 }
 
 impl From<anyhow::Error> for CliError {
@@ -674,27 +641,6 @@ fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
         planned.seed,
         a.out.display()
     ))
-}
-
-/// Load vehicle parameters from a TOML file: a `[vehicle]` table (a scene file:
-/// other tables are ignored, a scene without `[vehicle]` flies the default
-/// vehicle, as the scene loader does), or VehicleParams keys at the top level.
-pub fn load_vehicle(path: &Path) -> Result<VehicleParams, InputError> {
-    let file = path.display();
-    let src = crate::input::read_text(path)?;
-    let value: toml::Table = toml::from_str(&src).map_err(|e| InputError::file(&file, e.message().trim()))?;
-    let is_scene = ["mission", "bounds", "obstacles"].iter().any(|k| value.contains_key(*k));
-    let table = match value.get("vehicle") {
-        Some(toml::Value::Table(t)) => t.clone(),
-        Some(_) => return Err(InputError::file(&file, "must be a table").field("vehicle")),
-        None if is_scene => toml::Table::new(),
-        None => value,
-    };
-    let v: VehicleParams = toml::Value::Table(table)
-        .try_into()
-        .map_err(|e: toml::de::Error| InputError::file(&file, e.message().trim()).table("vehicle"))?;
-    v.validate().map_err(|e| InputError::file(&file, e.reason).table("vehicle").field(e.field))?;
-    Ok(v)
 }
 
 fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {

@@ -11,6 +11,7 @@
 //! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 //! * [`input`]: the one error type for bad user input, and the documented limits.
+//! * [`output`]: stdout that survives a closed pipe; outputs never replace inputs.
 //! * [`help`]: the long help texts (defaults, limits, examples, exit codes).
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
@@ -21,6 +22,7 @@ pub mod control;
 pub mod disturbance;
 pub mod help;
 pub mod input;
+pub mod output;
 pub mod pathfile;
 pub mod pil;
 pub mod planner;

@@ -29,6 +29,11 @@
 //! axes (rad/s). The vehicle starts at rest, level, at the given start
 //! position (NED), heading north. The ground plane is off unless requested.
 //!
+//! ## Vehicle file
+//! [`load_vehicle`]: a `[vehicle]` table (a scene file works: its other tables
+//! are ignored, a scene without `[vehicle]` gives the default vehicle, as the
+//! scene loader does) or VehicleParams keys at the top level.
+//!
 //! ## Limits ([`crate::input::limits`])
 //! At most `MAX_REPLAY_ROWS` data rows spanning at most `MAX_REPLAY_SPAN_S`
 //! (last t − first t), times within ±10¹⁰ s (Unix time fits); dt in
@@ -36,10 +41,11 @@
 //! so a replay's time and memory are bounded by its input.
 
 use std::fmt::Write as _;
+use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::input::limits;
+use crate::input::{limits, InputError};
 use crate::plant::{Plant, VehicleParams};
 
 /// One input sample: time (s) and rotor speeds (rad/s, rotors 1..4).
@@ -113,6 +119,27 @@ pub fn parse_rotor_csv(src: &str) -> Result<Vec<RotorSample>, String> {
         return Err("no data rows".into());
     }
     Ok(out)
+}
+
+/// Load vehicle parameters from a TOML file: a `[vehicle]` table (a scene file:
+/// other tables are ignored, a scene without `[vehicle]` flies the default
+/// vehicle, as the scene loader does), or VehicleParams keys at the top level.
+pub fn load_vehicle(path: &Path) -> Result<VehicleParams, InputError> {
+    let file = path.display();
+    let src = crate::input::read_text(path)?;
+    let value: toml::Table = toml::from_str(&src).map_err(|e| InputError::file(&file, e.message().trim()))?;
+    let is_scene = ["mission", "bounds", "obstacles"].iter().any(|k| value.contains_key(*k));
+    let table = match value.get("vehicle") {
+        Some(toml::Value::Table(t)) => t.clone(),
+        Some(_) => return Err(InputError::file(&file, "must be a table").field("vehicle")),
+        None if is_scene => toml::Table::new(),
+        None => value,
+    };
+    let v: VehicleParams = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| InputError::file(&file, e.message().trim()).table("vehicle"))?;
+    v.validate().map_err(|e| InputError::file(&file, e.reason).table("vehicle").field(e.field))?;
+    Ok(v)
 }
 
 /// Replay options.
