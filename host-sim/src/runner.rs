@@ -672,6 +672,20 @@ mod tests {
     }
 
     #[test]
+    fn memory_follows_the_flight_not_the_duration_limit() {
+        let src = "name = \"m\"\n[bounds]\nmin = [-1, -1, 0]\nmax = [3, 1, 2]\n\
+                   [mission]\nstart = [0, 0, 1]\ngoal = [1, 0, 1]\nspeed = 0.5\n[sensors]\nnoise = false\n";
+        let scene = Scene::parse(src, "m.toml").unwrap_or_else(|e| panic!("{e}"));
+        let mut cfg =
+            RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
+        // A whole simulated day allowed (21.6 M samples if reserved up front).
+        cfg.duration = limits::MAX_DURATION_CEILING_S;
+        let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.summary.end_reason, "goal");
+        assert!(out.samples.capacity() <= SAMPLES_RESERVED as usize, "{}", out.samples.capacity());
+    }
+
+    #[test]
     fn runs_beyond_the_caps_are_refused_before_any_step() {
         let scene = office_with_walker();
         let base =
