@@ -19,7 +19,7 @@ use super::grid::{Grid, Shard};
 use super::heatmap::{self, Aggregator};
 use super::manifest::{self, Identity, Manifest};
 use super::record::{self, SweepRecord};
-use super::{bad_input, create_out, output_files, refuse_overwrite, say, some_failed, EXIT_SOME_FAILED};
+use super::{bad_input, create_out, exit_codes_help, output_files, refuse_overwrite, say, some_failed};
 use crate::cli::CliError;
 use crate::input::InputError;
 
@@ -36,9 +36,8 @@ Examples:
   parapet sweep-merge out/s1 out/s2 --out out/fig9
   parapet sweep-merge out/s1/sweep.csv out/s3/sweep.csv --allow-partial
 
-{}
-  {EXIT_SOME_FAILED}    some merged rows are failed runs (status failed in sweep.csv)",
-        crate::cli::EXIT_CODES_HELP
+{}",
+        exit_codes_help("some merged rows are failed runs (status failed in sweep.csv)")
     )
 }
 

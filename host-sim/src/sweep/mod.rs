@@ -101,12 +101,24 @@ Examples:
   parapet sweep --scene scenes/one_sphere.toml --straight --mu 0.9 --delta1 0.06:0.3:3 --speed 0.25:1:4
   parapet sweep … --shard 1/2 --out out/s1   # and --shard 2/2 --out out/s2, then sweep-merge
 
-{}
-  {EXIT_SOME_FAILED}    sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept",
+{}",
         heatmap::MAX_AXIS_CELLS,
         heatmap::MAX_AXIS_CELLS,
-        crate::cli::EXIT_CODES_HELP
+        exit_codes_help(
+            "sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept"
+        )
     )
+}
+
+/// The shared exit-code text, with code [`EXIT_SOME_FAILED`] explained by `what`
+/// unless the shared text already lists it.
+pub(crate) fn exit_codes_help(what: &str) -> String {
+    let shared = crate::cli::EXIT_CODES_HELP;
+    if shared.contains(&format!("\n  {EXIT_SOME_FAILED} ")) {
+        shared.to_string()
+    } else {
+        format!("{shared}\n  {EXIT_SOME_FAILED}    {what}")
+    }
 }
 
 fn parse_range(s: &str) -> Result<GridRange, String> {
@@ -728,4 +740,16 @@ pub(crate) fn some_failed(failed: u64, rows: u64, csv: &Path) -> Result<(), CliE
         "{failed} of {rows} runs failed (rows with status `failed` in {}, column `error` says why); the other rows are complete",
         csv.display()
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_code_4_is_listed_exactly_once() {
+        let h = exit_codes_help("some runs failed");
+        assert_eq!(h.matches(&format!("\n  {EXIT_SOME_FAILED} ")).count(), 1, "{h}");
+        assert!(h.starts_with(crate::cli::EXIT_CODES_HELP));
+    }
 }
