@@ -77,6 +77,12 @@ enum Command {
     Sweep(crate::sweep::SweepArgs),
     /// Join the sweep.csv files of sharded sweeps (`--shard I/N`) and redraw the heatmaps.
     SweepMerge(crate::sweep::SweepMergeArgs),
+    /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
+    /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
+    /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
+    Campaign(crate::campaign::CampaignArgs),
+    /// Join the shards of a campaign (`parapet campaign --shard I/N`) into its full outputs.
+    CampaignMerge(crate::campaign::CampaignMergeArgs),
 }
 
 #[derive(Debug, Args)]
@@ -314,6 +320,8 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Replay(a) => cmd_replay(a),
         Command::Sweep(a) => crate::sweep::cmd_sweep(a),
         Command::SweepMerge(a) => crate::sweep::cmd_sweep_merge(a),
+        Command::Campaign(a) => crate::campaign::cmd_campaign(a),
+        Command::CampaignMerge(a) => crate::campaign::cmd_campaign_merge(a),
     }
 }
 

@@ -15,8 +15,10 @@
 //! * [`help`]: the long help texts (defaults, limits, examples, exit codes).
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
+//! * [`campaign`]: `parapet campaign`: Monte Carlo campaigns of disturbed flights, shards and merge.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
 //! * [`world`]: spatial index of the static obstacles, nearest-obstacle tracker, scene checks, generator.
+pub mod campaign;
 pub mod cli;
 pub mod control;
 pub mod disturbance;

@@ -204,6 +204,8 @@ pub struct WindField {
     gust_s: Vec<f64>,
     /// The last wind returned, NED, m/s.
     current: Vector3<f64>,
+    /// [`dryden_scales`] of the last clamped height (ft): `(h, (L_u, L_w), (σ_u, σ_w))`.
+    scales: (f64, (f64, f64), (f64, f64)),
 }
 
 impl WindField {
@@ -230,6 +232,7 @@ impl WindField {
             w,
             gust_s: vec![0.0; params.gusts.len()],
             current: steady,
+            scales: (f64::NAN, (0.0, 0.0), (0.0, 0.0)),
             params: params.clone(),
         }
     }
@@ -250,7 +253,13 @@ impl WindField {
         let conv = (vel - self.steady).norm().max(MIN_CONVECTION_MPS);
         let mut wind = self.steady;
         if self.turbulent {
-            let ((l_u, l_w), (s_u, s_w)) = dryden_scales(-pos.z, self.w20, self.params.sigma);
+            // The scales change with the height only (and not at all below 10 ft).
+            let hf = (-pos.z / FT).clamp(10.0, 1000.0);
+            if hf != self.scales.0 {
+                let (l, s) = dryden_scales(hf * FT, self.w20, self.params.sigma);
+                self.scales = (hf, l, s);
+            }
+            let (_, (l_u, l_w), (s_u, s_w)) = self.scales;
             let a_u = (-conv * dt / l_u).exp();
             let a_w = (-conv * dt / l_w).exp();
             self.u = a_u * self.u + (1.0 - a_u * a_u).sqrt() * normal(&mut self.rng);

@@ -1,0 +1,504 @@
+//! The campaign file (TOML) and the per-flight draws.
+//!
+//! ```toml
+//! name = "ci"                 # label
+//! seed = 1                    # campaign seed: flight i's draws depend only on (seed, i)
+//! flights = 200
+//! [run]                       # `parapet run` options every flight gets (optional)
+//! filter = "multi-relative"   #   filter, noise (bool), no_cbf (bool), duration, sensing_range
+//! [[scenes]]                  # flight i flies scenes[i mod n]
+//! file = "../office.toml"     # relative to the campaign file
+//! path = "../office_path.json"  # optional; or straight = true; else the planner (flight seed)
+//! [draw]                      # quantity = number (fixed) or one distribution:
+//! wind_speed = { uniform = [0.0, 3.0] }
+//! mass = { normal = [1.0, 0.1], min = 0.8, max = 1.2 }
+//! motor_tau = { log_uniform = [0.5, 2.0] }
+//! fix_dropout_length = { fixed = 0.2 }
+//! ```
+//!
+//! Quantities ([`QUANTITIES`]): wind (`wind_speed` m/s, `wind_direction_deg` from,
+//! `turbulence_sigma` horizontal σ m/s, one gust `gust_amplitude` / `gust_length` /
+//! `gust_time` / `gust_direction_deg`), mismatch factors on the controller's vehicle
+//! (`mass`, `inertia`, `k_f`, `k_m`, `motor_tau`, `drag`), plant aerodynamics
+//! (`rotor_drag_kd`, `rotor_drag_kz`, `parasitic_drag`: absolute), a rotor fault
+//! (`rotor_fault_factor`, `rotor_fault_time`, `rotor_fault_rotor` rounded to 1..4),
+//! every `[faults]` field, and the controller's `mu`, `delta`, `delta1`, `kp`, `kd`,
+//! `speed` (passed as `parapet run` options).
+//!
+//! Determinism: each quantity of flight i is drawn from its own ChaCha8 stream
+//! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
+//! seed is a mix of (campaign seed, i). Adding a quantity does not change the others.
+//!
+//! May import: `crate::disturbance`, `crate::input`, the external crates.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::disturbance::faults::RotorFault;
+use crate::disturbance::wind::Gust;
+use crate::disturbance::{Disturbances, Mismatch};
+use crate::input::InputError;
+use crate::plant::VehicleParams;
+
+/// Largest number of flights of a campaign.
+pub const MAX_FLIGHTS: u64 = 1_000_000;
+
+/// Every quantity a campaign can draw.
+pub const QUANTITIES: &[&str] = &[
+    "wind_speed",
+    "wind_direction_deg",
+    "turbulence_sigma",
+    "gust_amplitude",
+    "gust_length",
+    "gust_time",
+    "gust_direction_deg",
+    "mass",
+    "inertia",
+    "k_f",
+    "k_m",
+    "motor_tau",
+    "drag",
+    "rotor_drag_kd",
+    "rotor_drag_kz",
+    "parasitic_drag",
+    "rotor_fault_rotor",
+    "rotor_fault_factor",
+    "rotor_fault_time",
+    "gyro_bias_walk",
+    "accel_bias_walk",
+    "fix_dropout_rate",
+    "fix_dropout_length",
+    "fix_outlier_prob",
+    "fix_outlier_size",
+    "fix_latency_jitter",
+    "obstacle_position_noise",
+    "obstacle_latency",
+    "obstacle_miss_prob",
+    "mu",
+    "delta",
+    "delta1",
+    "kp",
+    "kd",
+    "speed",
+];
+
+/// A distribution of one quantity.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Dist {
+    /// Always this value.
+    Fixed(f64),
+    /// Uniform in [a, b].
+    Uniform(f64, f64),
+    /// Normal (mean, std), clamped to [min, max].
+    Normal(f64, f64, f64, f64),
+    /// Log-uniform in [a, b] (0 < a ≤ b).
+    LogUniform(f64, f64),
+}
+
+impl Dist {
+    /// One draw.
+    pub fn sample(&self, rng: &mut ChaCha8Rng) -> f64 {
+        match *self {
+            Dist::Fixed(x) => x,
+            Dist::Uniform(a, b) => a + (b - a) * rng.random::<f64>(),
+            Dist::Normal(m, s, lo, hi) => {
+                let n: f64 = StandardNormal.sample(rng);
+                (m + s * n).clamp(lo, hi)
+            }
+            Dist::LogUniform(a, b) => (a.ln() + (b.ln() - a.ln()) * rng.random::<f64>()).exp(),
+        }
+    }
+}
+
+/// One scene of the campaign.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CampaignScene {
+    /// Scene file (resolved against the campaign file's directory).
+    pub file: PathBuf,
+    /// Path file, if any.
+    pub path: Option<PathBuf>,
+    /// Fly the straight line.
+    pub straight: bool,
+}
+
+/// A parsed campaign file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Campaign {
+    /// Label.
+    pub name: String,
+    /// The file it came from.
+    pub source: PathBuf,
+    /// Campaign seed.
+    pub seed: u64,
+    /// Number of flights.
+    pub flights: u64,
+    /// `parapet run` options every flight gets.
+    pub run_args: Vec<String>,
+    /// Scenes, flown in turn.
+    pub scenes: Vec<CampaignScene>,
+    /// Distributions by quantity (sorted by name).
+    pub draw: BTreeMap<String, Dist>,
+    /// Identity (FNV-1a of the campaign text and every scene and path file), hex.
+    pub identity: String,
+}
+
+/// What flight i flies.
+#[derive(Clone, Debug)]
+pub struct FlightDraw {
+    /// Flight index.
+    pub index: u64,
+    /// Scene index in [`Campaign::scenes`].
+    pub scene: usize,
+    /// Noise (and planner) seed.
+    pub seed: u64,
+    /// Drawn values, by quantity.
+    pub values: BTreeMap<String, f64>,
+    /// The `parapet run` options (without `--disturbances` and `--out`).
+    pub args: Vec<String>,
+}
+
+/// SplitMix64 finaliser.
+pub fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// FNV-1a, 64 bit.
+pub fn fnv(bytes: &[u8], mut h: u64) -> u64 {
+    for b in bytes {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x100_0000_01b3);
+    }
+    h
+}
+
+const FNV0: u64 = 0xcbf2_9ce4_8422_2325;
+
+fn bad(file: &Path, table: &str, field: &str, reason: &str) -> InputError {
+    InputError::file(file.display(), reason).table(table).field(field)
+}
+
+fn parse_dist(file: &Path, name: &str, v: &toml::Value) -> Result<Dist, InputError> {
+    let num =
+        |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).filter(|x| x.is_finite());
+    let pair = |v: &toml::Value| -> Option<(f64, f64)> {
+        let a = v.as_array()?;
+        (a.len() == 2).then_some(())?;
+        Some((num(&a[0])?, num(&a[1])?))
+    };
+    let allowed = "a number, or { fixed = x } | { uniform = [a, b] } | { normal = [mean, std], min, max } | \
+                   { log_uniform = [a, b] }";
+    let err = |reason: &str| bad(file, "draw", name, reason).value(v.to_string()).allowed(allowed);
+    if let Some(x) = num(v) {
+        return Ok(Dist::Fixed(x));
+    }
+    let t = v.as_table().ok_or_else(|| err("not a distribution"))?;
+    let kinds: Vec<&String> = t.keys().filter(|k| !matches!(k.as_str(), "min" | "max")).collect();
+    if kinds.len() != 1 {
+        return Err(err("exactly one of fixed, uniform, normal, log_uniform"));
+    }
+    let (kind, arg) = (kinds[0].as_str(), &t[kinds[0]]);
+    if kind != "normal" && (t.contains_key("min") || t.contains_key("max")) {
+        return Err(err("min / max only with normal"));
+    }
+    match kind {
+        "fixed" => num(arg).map(Dist::Fixed).ok_or_else(|| err("fixed needs a number")),
+        "uniform" => match pair(arg) {
+            Some((a, b)) if a <= b => Ok(Dist::Uniform(a, b)),
+            _ => Err(err("uniform needs [a, b] with a ≤ b")),
+        },
+        "log_uniform" => match pair(arg) {
+            Some((a, b)) if 0.0 < a && a <= b => Ok(Dist::LogUniform(a, b)),
+            _ => Err(err("log_uniform needs [a, b] with 0 < a ≤ b")),
+        },
+        "normal" => {
+            let lo = t.get("min").map(num).unwrap_or(Some(f64::NEG_INFINITY));
+            let hi = t.get("max").map(num).unwrap_or(Some(f64::INFINITY));
+            match (pair(arg), lo, hi) {
+                (Some((m, s)), Some(lo), Some(hi)) if s >= 0.0 && lo <= hi => Ok(Dist::Normal(m, s, lo, hi)),
+                _ => Err(err("normal needs [mean, std ≥ 0] and min ≤ max")),
+            }
+        }
+        _ => Err(err("unknown distribution")),
+    }
+}
+
+impl Campaign {
+    /// Read and check a campaign file.
+    pub fn load(path: &Path) -> Result<Campaign, InputError> {
+        let src = crate::input::read_text(path)?;
+        let table: toml::Table =
+            toml::from_str(&src).map_err(|e| InputError::file(path.display(), e.message().to_string()))?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let top = |field: &str, reason: &str| InputError::file(path.display(), reason).field(field);
+        for k in table.keys() {
+            if !matches!(k.as_str(), "name" | "seed" | "flights" | "run" | "scenes" | "draw") {
+                return Err(top(k, "unknown key").allowed("name, seed, flights, run, scenes, draw"));
+            }
+        }
+        let name = table.get("name").and_then(|v| v.as_str()).unwrap_or("campaign").to_string();
+        let seed = match table.get("seed") {
+            None => 0,
+            Some(v) => v.as_integer().filter(|s| *s >= 0).ok_or_else(|| {
+                top("seed", "not an integer ≥ 0").value(v.to_string()).allowed("0 ≤ seed < 2^63")
+            })? as u64,
+        };
+        let flights = table.get("flights").and_then(|v| v.as_integer()).unwrap_or(0);
+        if !(1..=MAX_FLIGHTS as i64).contains(&flights) {
+            return Err(top("flights", "out of range")
+                .value(flights)
+                .allowed(format!("1 ≤ flights ≤ {MAX_FLIGHTS}")));
+        }
+        let mut run_args = Vec::new();
+        if let Some(r) = table.get("run") {
+            let r = r.as_table().ok_or_else(|| top("run", "not a table"))?;
+            for (k, v) in r {
+                let f = |reason: &str| bad(path, "run", k, reason).value(v.to_string());
+                match (k.as_str(), v) {
+                    ("filter", toml::Value::String(s)) => run_args.extend(["--filter".into(), s.clone()]),
+                    ("noise", toml::Value::Boolean(b)) => {
+                        run_args.push(if *b { "--noise" } else { "--no-noise" }.into())
+                    }
+                    ("no_cbf", toml::Value::Boolean(b)) => {
+                        if *b {
+                            run_args.push("--no-cbf".into())
+                        }
+                    }
+                    ("duration" | "sensing_range", v) => {
+                        let x = v
+                            .as_float()
+                            .or_else(|| v.as_integer().map(|i| i as f64))
+                            .ok_or_else(|| f("not a number"))?;
+                        run_args.extend([format!("--{}", k.replace('_', "-")), format!("{x}")]);
+                    }
+                    _ => {
+                        return Err(f("unknown key or wrong type").allowed(
+                            "filter (string), noise, no_cbf (bool), duration, sensing_range (number)",
+                        ))
+                    }
+                }
+            }
+        }
+        let scenes_v = table
+            .get("scenes")
+            .and_then(|v| v.as_array())
+            .ok_or_else(|| top("scenes", "missing: at least one [[scenes]] table"))?;
+        let mut scenes = Vec::new();
+        let mut id = fnv(src.as_bytes(), FNV0);
+        for (i, s) in scenes_v.iter().enumerate() {
+            let t = s.as_table().ok_or_else(|| top(&format!("scenes[{i}]"), "not a table"))?;
+            let tab = format!("scenes[{i}]");
+            for k in t.keys() {
+                if !matches!(k.as_str(), "file" | "path" | "straight") {
+                    return Err(bad(path, &tab, k, "unknown key").allowed("file, path, straight"));
+                }
+            }
+            let file =
+                t.get("file").and_then(|v| v.as_str()).ok_or_else(|| bad(path, &tab, "file", "missing"))?;
+            let file = dir.join(file);
+            let sp = t.get("path").and_then(|v| v.as_str()).map(|p| dir.join(p));
+            let straight = t.get("straight").and_then(|v| v.as_bool()).unwrap_or(false);
+            if straight && sp.is_some() {
+                return Err(bad(path, &tab, "straight", "not with a path"));
+            }
+            for f in std::iter::once(&file).chain(sp.iter()) {
+                let text = crate::input::read_text(f)?;
+                id = fnv(text.as_bytes(), id);
+            }
+            scenes.push(CampaignScene { file, path: sp, straight });
+        }
+        if scenes.is_empty() {
+            return Err(top("scenes", "at least one [[scenes]] table"));
+        }
+        let mut draw = BTreeMap::new();
+        if let Some(d) = table.get("draw") {
+            let d = d.as_table().ok_or_else(|| top("draw", "not a table"))?;
+            for (k, v) in d {
+                if !QUANTITIES.contains(&k.as_str()) {
+                    return Err(bad(path, "draw", k, "unknown quantity").allowed(QUANTITIES.join(", ")));
+                }
+                draw.insert(k.clone(), parse_dist(path, k, v)?);
+            }
+        }
+        Ok(Campaign {
+            name,
+            source: path.to_path_buf(),
+            seed,
+            flights: flights as u64,
+            run_args,
+            scenes,
+            draw,
+            identity: format!("{id:016x}"),
+        })
+    }
+
+    /// The draws of flight `i`.
+    pub fn flight(&self, i: u64) -> FlightDraw {
+        let base = mix(self.seed ^ mix(i));
+        let scene = (i % self.scenes.len() as u64) as usize;
+        let seed = mix(base ^ 0x5345_4544);
+        let mut values = BTreeMap::new();
+        for (name, dist) in &self.draw {
+            let mut rng = ChaCha8Rng::seed_from_u64(mix(base ^ fnv(name.as_bytes(), FNV0)));
+            values.insert(name.clone(), dist.sample(&mut rng));
+        }
+        let sc = &self.scenes[scene];
+        let mut args = vec!["--scene".to_string(), sc.file.display().to_string()];
+        if let Some(p) = &sc.path {
+            args.extend(["--path".into(), p.display().to_string()]);
+        } else if sc.straight {
+            args.push("--straight".into());
+        }
+        args.extend(["--seed".into(), seed.to_string()]);
+        args.extend(self.run_args.iter().cloned());
+        for q in ["mu", "delta", "delta1", "kp", "kd", "speed"] {
+            if let Some(x) = values.get(q) {
+                args.extend([format!("--{q}"), format!("{x}")]);
+            }
+        }
+        FlightDraw { index: i, scene, seed, values, args }
+    }
+}
+
+impl FlightDraw {
+    /// The flight's disturbances: `base` (the scene's, after the run options) with
+    /// the drawn quantities; `vehicle` is the controller's.
+    pub fn disturbances(&self, base: &Disturbances, vehicle: &VehicleParams) -> Disturbances {
+        let v = |k: &str| self.values.get(k).copied();
+        let mut d = base.clone();
+        let w = &mut d.wind;
+        if let Some(x) = v("wind_speed") {
+            w.speed = x;
+        }
+        if let Some(x) = v("wind_direction_deg") {
+            w.direction_deg = x;
+        }
+        if let Some(x) = v("turbulence_sigma") {
+            w.sigma = Some(x);
+        }
+        if let Some(a) = v("gust_amplitude") {
+            w.gusts.push(Gust {
+                amplitude: a,
+                length: v("gust_length").unwrap_or(10.0),
+                time: v("gust_time").unwrap_or(5.0),
+                direction_deg: v("gust_direction_deg"),
+            });
+        }
+        let m = Mismatch {
+            mass: v("mass").unwrap_or(1.0),
+            inertia: v("inertia").unwrap_or(1.0),
+            k_f: v("k_f").unwrap_or(1.0),
+            k_m: v("k_m").unwrap_or(1.0),
+            motor_tau: v("motor_tau").unwrap_or(1.0),
+            drag: v("drag").unwrap_or(1.0),
+        };
+        let mut plant = m.apply(&d.plant_vehicle(vehicle));
+        if let Some(x) = v("rotor_drag_kd") {
+            plant.rotor_drag_kd = x;
+        }
+        if let Some(x) = v("rotor_drag_kz") {
+            plant.rotor_drag_kz = x;
+        }
+        if let Some(x) = v("parasitic_drag") {
+            plant.parasitic_drag = [x; 3];
+        }
+        d.plant = Some(plant);
+        let f = &mut d.faults;
+        let set = |slot: &mut f64, k: &str| {
+            if let Some(x) = v(k) {
+                *slot = x;
+            }
+        };
+        set(&mut f.gyro_bias_walk, "gyro_bias_walk");
+        set(&mut f.accel_bias_walk, "accel_bias_walk");
+        set(&mut f.fix_dropout_rate, "fix_dropout_rate");
+        set(&mut f.fix_dropout_length, "fix_dropout_length");
+        set(&mut f.fix_outlier_prob, "fix_outlier_prob");
+        set(&mut f.fix_outlier_size, "fix_outlier_size");
+        set(&mut f.fix_latency_jitter, "fix_latency_jitter");
+        set(&mut f.obstacle_position_noise, "obstacle_position_noise");
+        set(&mut f.obstacle_latency, "obstacle_latency");
+        set(&mut f.obstacle_miss_prob, "obstacle_miss_prob");
+        if let Some(factor) = v("rotor_fault_factor") {
+            f.rotor_fault = Some(RotorFault {
+                rotor: v("rotor_fault_rotor").map_or(1, |r| r.round().clamp(1.0, 4.0) as u8),
+                factor,
+                time: v("rotor_fault_time").unwrap_or(0.0),
+            });
+        }
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn scene_dir() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
+    }
+
+    #[test]
+    fn draws_depend_only_on_seed_and_index_and_follow_their_distributions() {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sc = scene_dir().join("one_sphere.toml");
+        let text = format!(
+            "seed = 5\nflights = 10\n[[scenes]]\nfile = {:?}\nstraight = true\n[draw]\n\
+             wind_speed = {{ uniform = [0, 3] }}\nmass = {{ normal = [1.0, 0.1], min = 0.8, max = 1.2 }}\n\
+             motor_tau = {{ log_uniform = [0.5, 2.0] }}\nkp = 0.6\n",
+            sc.display().to_string()
+        );
+        let c = Campaign::load(&write(&dir, "a.toml", &text)).unwrap_or_else(|e| panic!("{e}"));
+        // Adding a quantity does not change the others' draws.
+        let more = text.replace("kp = 0.6", "kp = 0.6\nfix_dropout_rate = 0.5");
+        let d = Campaign::load(&write(&dir, "b.toml", &more)).unwrap();
+        assert_ne!(c.identity, d.identity);
+        let (mut sum, mut lo, mut hi) = (0.0, f64::INFINITY, 0.0f64);
+        let n = 4000;
+        for i in 0..n {
+            let a = c.flight(i);
+            let b = d.flight(i);
+            assert_eq!(a.values["wind_speed"], b.values["wind_speed"]);
+            assert_eq!(a.seed, b.seed);
+            assert!((0.8..=1.2).contains(&a.values["mass"]));
+            let t = a.values["motor_tau"];
+            lo = lo.min(t);
+            hi = hi.max(t);
+            sum += t.ln();
+            assert_eq!(a.values["kp"], 0.6);
+        }
+        // Log-uniform: ln τ uniform on [ln 0.5, ln 2], mean 0.
+        assert!((sum / n as f64).abs() < 0.03 && lo >= 0.5 && hi <= 2.0 && lo < 0.52 && hi > 1.95);
+        let f = c.flight(7);
+        assert!(f.args.contains(&"--kp".to_string()) && f.args.contains(&"--straight".to_string()));
+        assert_eq!(c.flight(7).values, f.values);
+        assert_ne!(c.flight(8).values, f.values);
+        // Errors name the file, table, field and what is allowed.
+        for (body, want) in [
+            ("[draw]\nwindspeed = 1\n", "unknown quantity"),
+            ("[draw]\nmass = { uniform = [2, 1] }\n", "a ≤ b"),
+            ("[draw]\nmass = { gamma = [2, 1] }\n", "unknown distribution"),
+            ("[draw]\nmotor_tau = { log_uniform = [0, 1] }\n", "0 < a"),
+        ] {
+            let t = format!("flights = 1\n[[scenes]]\nfile = {:?}\n{body}", sc.display().to_string());
+            let e = Campaign::load(&write(&dir, "bad.toml", &t)).unwrap_err().to_string();
+            assert!(e.contains("bad.toml") && e.contains("[draw]") && e.contains(want), "{e}");
+        }
+        let e = Campaign::load(&write(&dir, "bad.toml", "flights = 0\n")).unwrap_err().to_string();
+        assert!(e.contains("flights") && e.contains("1 ≤ flights"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
