@@ -52,7 +52,14 @@
 //! * Broad phase: each obstacle's bounding box is grown by `required` once
 //!   per problem; an obstacle whose grown box misses the segment's bounding
 //!   box is at least `required` away from every point of the segment and is
-//!   certified for the whole segment without a distance evaluation.
+//!   certified for the whole segment without a distance evaluation. Problems
+//!   with at least [`INDEX_MIN_OBSTACLES`] obstacles find the candidates in a
+//!   BVH ([`crate::world::index::StaticIndex`], built per call or passed in
+//!   with [`plan_with_index`]) and keep only those whose grown box meets the
+//!   **segment itself** (a long diagonal segment's bounding box holds
+//!   thousands of trunks in a forest); the point checks of samples query the
+//!   same tree. Smaller problems (every shipped scene) scan the grown boxes as
+//!   before, so their paths are unchanged bit for bit.
 //! * Each remaining obstacle keeps the arc length up to which it is
 //!   certified; only obstacles whose certificate has run out are
 //!   re-evaluated, so a segment check usually costs at most one distance
@@ -86,7 +93,14 @@
 //!    partial step becomes the nearest node for many samples it cannot serve;
 //!    measured, that multiplied the iterations on the office scene by ~5).
 //!    Stops at the first connection, after `max_iterations` iterations or
-//!    after `time_budget_ms`.
+//!    after `time_budget_ms` (`parapet plan --max-iterations`, `--time-limit`).
+//!    Indexed problems (large scenes) sample in the box around start and goal
+//!    grown by [`REGION_MIN_MARGIN_M`] or half their distance, whichever is
+//!    larger, clipped to the bounds; the margin doubles every
+//!    [`REGION_GROW_ITERATIONS`] iterations (the region becomes the bounds), and
+//!    the default `range_m` is 20 % of the region's largest extent. A mission of
+//!    60 m in a 1.4 km forest then samples where the path can be, not the
+//!    whole forest.
 //! 4. Shortcutting: random vertex-to-vertex shortcuts, `shortcut_attempts`
 //!    random shortcuts between points anywhere on the path, `corner_passes`
 //!    corner-cutting passes (each interior waypoint is replaced by two points
@@ -107,9 +121,12 @@
 //! path or by the iteration budget. Only a search cut short by the wall-clock
 //! `time_budget_ms` depends on the machine's speed.
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use kiddo::{KdTree, SquaredEuclidean};
+
+use crate::world::index::StaticIndex;
 use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
 use rand::{Rng, SeedableRng};
@@ -299,9 +316,29 @@ struct Space<'a> {
     /// (min, max), NED, m. A point or segment outside it is at least
     /// `required` from the obstacle (broad phase).
     inflated: Vec<(Vec3, Vec3)>,
-    /// Per-obstacle certified arc length (scratch for `free_prefix`).
+    /// The spatial index of the obstacles (problems with at least
+    /// [`INDEX_MIN_OBSTACLES`]; smaller ones scan every grown box).
+    index: Option<Cow<'a, StaticIndex>>,
+    /// Largest growth of a box beyond the obstacle's own bounding box, m.
+    grow: f64,
+    /// Obstacles that may matter for the current segment (scratch for `free_prefix`).
+    cand: Vec<usize>,
+    /// Per candidate: certified arc length (scratch for `free_prefix`).
     cert: Vec<f32>,
 }
+
+/// Problems with at least this many obstacles use the spatial index
+/// ([`crate::world::index`]) for every validity check, and sample in a region
+/// around start and goal that grows while no path is found.
+pub const INDEX_MIN_OBSTACLES: usize = crate::world::tracker::INDEX_MIN_OBSTACLES;
+
+/// Indexed problems: the first sampling region is the box around start and
+/// goal grown by this much or by half their distance, whichever is larger, m.
+pub const REGION_MIN_MARGIN_M: f32 = 20.0;
+
+/// Indexed problems: the sampling region's margin doubles after this many
+/// iterations without a connection (until the region is the whole bounds).
+pub const REGION_GROW_ITERATIONS: u32 = 500;
 
 /// Axis-aligned bounding box of a shape (min, max), NED, m.
 fn shape_aabb(shape: &Shape) -> (Vec3, Vec3) {
@@ -326,6 +363,10 @@ fn boxes_overlap(a0: &Vec3, a1: &Vec3, b0: &Vec3, b1: &Vec3) -> bool {
 
 impl<'a> Space<'a> {
     fn new(problem: &'a PlanProblem, required: f32, min_step: f32) -> Self {
+        Self::new_unindexed(problem, required, min_step).indexed(None)
+    }
+
+    fn new_unindexed(problem: &'a PlanProblem, required: f32, min_step: f32) -> Self {
         Space {
             obstacles: &problem.obstacles,
             lo: problem.bounds_min,
@@ -343,8 +384,31 @@ impl<'a> Space<'a> {
                     (lo - g, hi + g)
                 })
                 .collect(),
-            cert: vec![0.0; problem.obstacles.len()],
+            index: None,
+            grow: 0.0,
+            cand: Vec::new(),
+            cert: Vec::new(),
         }
+    }
+
+    /// Use `index` (of `problem.obstacles`), or build one, for a large problem.
+    fn indexed(mut self, index: Option<&'a StaticIndex>) -> Self {
+        if self.obstacles.len() >= INDEX_MIN_OBSTACLES {
+            self.index = Some(match index {
+                Some(i) => Cow::Borrowed(i),
+                None => Cow::Owned(StaticIndex::from_shapes(self.obstacles)),
+            });
+            self.grow = self
+                .obstacles
+                .iter()
+                .zip(&self.inflated)
+                .map(|(o, (lo, hi))| {
+                    let (a, b) = shape_aabb(o);
+                    (0..3).fold(0f64, |m, i| m.max((a[i] - lo[i]) as f64).max((hi[i] - b[i]) as f64))
+                })
+                .fold(0.0, f64::max);
+        }
+        self
     }
 
     fn in_bounds(&self, p: &Vec3) -> bool {
@@ -357,10 +421,25 @@ impl<'a> Space<'a> {
 
     /// Clearance ≥ required (bounds not checked).
     fn clear_of_obstacles(&self, p: &Vec3) -> bool {
-        self.obstacles
-            .iter()
-            .zip(&self.inflated)
-            .all(|(o, (lo, hi))| !boxes_overlap(p, p, lo, hi) || o.signed_distance(p) >= self.required)
+        let blocks = |i: usize| {
+            let (lo, hi) = &self.inflated[i];
+            let clear = self.obstacles[i].signed_distance(p) >= self.required;
+            boxes_overlap(p, p, lo, hi) && !clear
+        };
+        match &self.index {
+            None => !(0..self.obstacles.len()).any(blocks),
+            Some(index) => {
+                let g = self.grow;
+                let q = [p.x as f64, p.y as f64, p.z as f64];
+                let (lo, hi) = ([q[0] - g, q[1] - g, q[2] - g], [q[0] + g, q[1] + g, q[2] + g]);
+                let mut clear = true;
+                index.for_each_overlapping(&lo, &hi, |leaf| {
+                    clear = !blocks(index.leaf(leaf).0);
+                    clear
+                });
+                clear
+            }
+        }
     }
 
     /// Length of the prefix of segment `a → b` certified valid (m). Returns
@@ -374,18 +453,35 @@ impl<'a> Space<'a> {
         }
         let dir = delta / len;
         // Broad phase: an obstacle whose grown box misses the segment's box
-        // is certified for the whole segment.
+        // (small problems) or the segment itself (indexed problems) is
+        // certified for the whole segment; the others are the candidates.
         let (seg_lo, seg_hi) = (a.inf(b), a.sup(b));
-        for (c, (lo, hi)) in self.cert.iter_mut().zip(&self.inflated) {
-            *c = if boxes_overlap(&seg_lo, &seg_hi, lo, hi) { f32::NEG_INFINITY } else { f32::INFINITY };
+        let (inflated, cand) = (&self.inflated, &mut self.cand);
+        cand.clear();
+        match &self.index {
+            None => cand.extend(
+                (0..inflated.len())
+                    .filter(|&i| boxes_overlap(&seg_lo, &seg_hi, &inflated[i].0, &inflated[i].1)),
+            ),
+            Some(index) => {
+                let (a64, b64) = ([a.x as f64, a.y as f64, a.z as f64], [b.x as f64, b.y as f64, b.z as f64]);
+                index.for_each_on_segment(&a64, &b64, self.grow, |leaf| {
+                    cand.push(index.leaf(leaf).0);
+                    true
+                });
+                cand.sort_unstable();
+            }
         }
+        self.cert.clear();
+        self.cert.resize(self.cand.len(), f32::NEG_INFINITY);
         let mut s = 0.0f32;
         for _ in 0..MAX_SEGMENT_STEPS {
             let p = a + dir * s;
             let mut s_next = f32::INFINITY;
-            for (i, shape) in self.obstacles.iter().enumerate() {
-                if self.cert[i] > s {
-                    s_next = s_next.min(self.cert[i]);
+            for (k, &i) in self.cand.iter().enumerate() {
+                let shape = &self.obstacles[i];
+                if self.cert[k] > s {
+                    s_next = s_next.min(self.cert[k]);
                     continue;
                 }
                 let (q, c) = shape.closest_point(&p);
@@ -406,8 +502,8 @@ impl<'a> Space<'a> {
                 if step < self.min_step {
                     return s;
                 }
-                self.cert[i] = s + step;
-                s_next = s_next.min(self.cert[i]);
+                self.cert[k] = s + step;
+                s_next = s_next.min(self.cert[k]);
             }
             if s_next >= len {
                 return len;
@@ -594,9 +690,36 @@ pub fn path_is_valid(problem: &PlanProblem, margin: f32, waypoints: &[Vec3]) -> 
 /// variant; budget exhausted → [`PlanError::NoPathFound`]; simplified path
 /// longer than `max_waypoints` → [`PlanError::TooManyWaypoints`].
 pub fn plan(problem: &PlanProblem, params: &PlannerParams) -> Result<PlannedPath, PlanError> {
+    plan_with_index(problem, None, params)
+}
+
+/// The index [`plan_with_index`] takes: the problem's obstacles in a BVH,
+/// `None` for problems below [`INDEX_MIN_OBSTACLES`] (they scan every box).
+/// Build it once to plan the same obstacles many times (seeds, missions).
+pub fn index_for(problem: &PlanProblem) -> Option<StaticIndex> {
+    (problem.obstacles.len() >= INDEX_MIN_OBSTACLES).then(|| StaticIndex::from_shapes(&problem.obstacles))
+}
+
+/// [`plan`] with a prebuilt index of `problem.obstacles` ([`index_for`]; it
+/// must have been built from the same obstacle list). Same result as [`plan`].
+pub fn plan_with_index(
+    problem: &PlanProblem,
+    index: Option<&StaticIndex>,
+    params: &PlannerParams,
+) -> Result<PlannedPath, PlanError> {
     let t0 = Instant::now();
     validate(problem, params)?;
-    let mut space = Space::new(problem, problem.hull_radius + params.margin, params.min_step_m);
+    if let Some(i) = index {
+        if i.len() != problem.obstacles.len() {
+            return Err(PlanError::InvalidInput(format!(
+                "the index holds {} obstacles, the problem {}",
+                i.len(),
+                problem.obstacles.len()
+            )));
+        }
+    }
+    let required = problem.hull_radius + params.margin;
+    let mut space = Space::new_unindexed(problem, required, params.min_step_m).indexed(index);
     let (start, goal) = (problem.start, problem.goal);
     if !space.in_bounds(&start) {
         return Err(PlanError::StartOutOfBounds);
@@ -638,9 +761,23 @@ fn search(
     rng: &mut ChaCha8Rng,
     t0: &Instant,
 ) -> Result<(Vec<Vec3>, u32), PlanError> {
-    let (lo, hi) = (problem.bounds_min, problem.bounds_max);
-    let extent = hi - lo;
-    let range = params.range_m.unwrap_or_else(|| (0.2 * extent.max()).max(0.1));
+    let (lo_b, hi_b) = (problem.bounds_min, problem.bounds_max);
+    // Small problems sample the whole bounds; indexed ones a region around
+    // start and goal that grows while no path is found.
+    let mut margin = REGION_MIN_MARGIN_M.max(0.5 * (problem.goal - problem.start).norm());
+    let indexed = space.index.is_some();
+    let region = |margin: f32| {
+        if !indexed {
+            return (lo_b, hi_b - lo_b);
+        }
+        let m = Vec3::repeat(margin);
+        let lo = (problem.start.inf(&problem.goal) - m).sup(&lo_b);
+        let hi = (problem.start.sup(&problem.goal) + m).inf(&hi_b);
+        (lo, hi - lo)
+    };
+    let (mut lo, mut extent) = region(margin);
+    let range_of = |extent: &Vec3| params.range_m.unwrap_or_else(|| (0.2 * extent.max()).max(0.1));
+    let mut range = range_of(&extent);
     let mut trees = [Tree::new(problem.start), Tree::new(problem.goal)];
     // trees[a] grows towards the sample this iteration; trees[1 - a] connects.
     let mut a = 0usize;
@@ -650,6 +787,11 @@ fn search(
                 iterations: it - 1,
                 elapsed_ms: t0.elapsed().as_secs_f64() * 1e3,
             });
+        }
+        if it % REGION_GROW_ITERATIONS == 0 && indexed {
+            margin *= 2.0;
+            (lo, extent) = region(margin);
+            range = range_of(&extent);
         }
         let b = 1 - a;
         let u = rng.random::<f32>();
