@@ -380,12 +380,25 @@ pub fn sense_and_h_bar(
         return h_min;
     }
     if !h_bar_certainly_above(outside - margin, mu_s, delta, h_min) {
-        // Obstacles outside the set up to a distance beyond which the bound holds.
+        // Obstacles outside the set, within a reach that doubles until the bound
+        // covers what lies beyond it (1e7 m: every obstacle).
+        let local_far = far.len();
         let mut reach = 2.0 * range.max(1.0);
-        while !h_bar_certainly_above(reach - 2.0 * margin, mu_s, delta, h_min) && reach < 1e7 {
+        loop {
+            far.truncate(local_far);
+            tracker.outside_within(reach, far);
+            for &i in &far[local_far..] {
+                if !h_bar_certainly_above(tracker.lower_bound(i) - margin, mu_s, delta, h_min) {
+                    let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
+                    h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+                }
+            }
+            if reach >= 1e7 || h_bar_certainly_above(reach - 2.0 * margin, mu_s, delta, h_min) {
+                break;
+            }
             reach *= 2.0;
         }
-        tracker.outside_within(if reach < 1e7 { reach } else { f64::INFINITY }, far);
+        far.truncate(local_far);
     }
     for &i in far.iter() {
         // Far obstacles are static (moving ones have no bound).
