@@ -77,6 +77,9 @@ enum Command {
     Sweep(crate::sweep::SweepArgs),
     /// Join the sweep.csv files of sharded sweeps (`--shard I/N`) and redraw the heatmaps.
     SweepMerge(crate::sweep::SweepMergeArgs),
+    /// Scene tools: `parapet scene generate` writes procedural forest, city, warehouse and
+    /// clutter scenes (seeded, with a mission the planner connects).
+    Scene(crate::world::generate::SceneArgs),
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
     /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
@@ -176,6 +179,12 @@ struct PlanArgs {
     /// Replace an existing --out file even if it is not a path file (never an input).
     #[arg(long)]
     force: bool,
+    /// Wall-clock budget of the tree search, s (0 < t ≤ 3600).
+    #[arg(long, default_value_t = crate::input::limits::PLANNER_BUDGET_S)]
+    time_limit: f64,
+    /// RRT-Connect iteration budget (1 ≤ n ≤ 100000000).
+    #[arg(long, default_value_t = PlannerParams::default().max_iterations)]
+    max_iterations: u32,
 }
 
 #[derive(Debug, Args)]
@@ -320,6 +329,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Replay(a) => cmd_replay(a),
         Command::Sweep(a) => crate::sweep::cmd_sweep(a),
         Command::SweepMerge(a) => crate::sweep::cmd_sweep_merge(a),
+        Command::Scene(a) => out(&crate::world::generate::cmd_scene(a)?),
         Command::Campaign(a) => crate::campaign::cmd_campaign(a),
         Command::CampaignMerge(a) => crate::campaign::cmd_campaign_merge(a),
     }
@@ -360,6 +370,10 @@ fn load_scene(p: &Path) -> Result<Scene, CliError> {
 }
 
 fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
+    plan_scene_with(scene, PlannerParams { seed, ..PlannerParams::default() })
+}
+
+fn plan_scene_with(scene: &Scene, params: PlannerParams) -> Result<PlannedPath, CliError> {
     let (mn, mx) = scene.bounds_ned();
     let problem = PlanProblem {
         bounds_min: to_f32(&mn),
@@ -369,7 +383,6 @@ fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
         goal: to_f32(&scene.goal),
         hull_radius: scene.vehicle.hull_radius as f32,
     };
-    let params = PlannerParams { seed, ..PlannerParams::default() };
     plan(&problem, &params).map_err(|e| {
         let msg = format!("{}: planning failed: {e}", scene.source);
         if e.exit_code() == 3 {
@@ -632,8 +645,26 @@ fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
             .allowed("a new file, a path file written by parapet, or --force to replace it")
             .into());
     }
+    if !(a.time_limit.is_finite() && a.time_limit > 0.0 && a.time_limit <= 3600.0) {
+        return Err(InputError::option("time-limit", "planner wall-clock budget out of range")
+            .value(num(a.time_limit))
+            .allowed("0 < time-limit ≤ 3600 s")
+            .into());
+    }
+    if !(1..=100_000_000).contains(&a.max_iterations) {
+        return Err(InputError::option("max-iterations", "planner iteration budget out of range")
+            .value(a.max_iterations)
+            .allowed("1 ≤ max-iterations ≤ 100000000")
+            .into());
+    }
     let scene = load_scene(&scene_file)?;
-    let planned = plan_scene(&scene, a.seed)?;
+    let params = PlannerParams {
+        seed: a.seed,
+        time_budget_ms: a.time_limit * 1e3,
+        max_iterations: a.max_iterations,
+        ..PlannerParams::default()
+    };
+    let planned = plan_scene_with(&scene, params)?;
     let file = PathFile::from_planned(&scene.name, &planned);
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;

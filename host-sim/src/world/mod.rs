@@ -11,10 +11,13 @@
 //!   reference): a local candidate set from the index plus the moving
 //!   obstacles, and per-obstacle Lipschitz bounds.
 //! * [`check`]: scene-loader checks for duplicated and degenerate obstacles.
+//! * [`generate`]: `parapet scene generate` — forest, city, warehouse and
+//!   clutter scenes, seeded, with a mission the planner connects.
 //!
 //! May import: `parapet-core`, parry3d-f64, and of host-sim `scene` (types),
 //! `planner` (generate only), `input` (errors).
 pub mod check;
+pub mod generate;
 pub mod index;
 pub mod tracker;
 
