@@ -2,7 +2,7 @@
 //! runs them. Owns only the fuzz build and runs; imports nothing from the project's crates.
 //!
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a campaign (default: every target,
-//!   60 s each). Corpus growth goes to `tests/fuzz/corpus-run/TARGET` (git-ignored), crash
+//!   60 s each). `cargo xtask fuzz --smoke` runs exactly the step of `cargo xtask test`. Corpus growth goes to `tests/fuzz/corpus-run/TARGET` (git-ignored), crash
 //!   inputs to `tests/fuzz/artifacts/TARGET/`; the committed seeds (`corpus/TARGET`) and crash
 //!   regressions (`regressions/TARGET`) are read first, so an old crash fails at once.
 //! * [`smoke`] — the bounded run inside `cargo xtask test` (each target [`SMOKE_SECONDS`] s
@@ -103,6 +103,7 @@ pub fn fuzz(args: &[String]) -> Result<(), String> {
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
+            "--smoke" => return smoke(),
             "--time" | "--runs" => {
                 let v = it.next().ok_or_else(|| format!("option {a}: needs a value"))?;
                 let n: u64 = v.parse().map_err(|_| format!("option {a}: `{v}` is not a whole number ≥ 1"))?;
@@ -115,7 +116,7 @@ pub fn fuzz(args: &[String]) -> Result<(), String> {
             other => {
                 let names: Vec<&str> = TARGETS.iter().map(|(n, _)| *n).collect();
                 return Err(format!(
-                    "unknown argument `{other}`; usage: cargo xtask fuzz [{}|all] [--time S | --runs N]",
+                    "unknown argument `{other}`; usage: cargo xtask fuzz [{}|all] [--time S | --runs N] | --smoke",
                     names.join("|")
                 ));
             }
