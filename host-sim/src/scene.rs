@@ -340,6 +340,7 @@ impl Scene {
     pub fn parse(src: &str, file: &str) -> Result<Scene, SceneError> {
         let err = |message: String| SceneError { file: file.to_string(), message };
         let raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
+        check_array_lengths(src).map_err(err)?;
         let coord = format!("finite, |x| ≤ {} m", limits::MAX_COORDINATE_M);
         let finite3 = |table: &str, field: &str, a: [f64; 3]| -> Result<(), SceneError> {
             if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
@@ -635,6 +636,44 @@ fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
     Ok(SceneObstacle { name: o.name, shape, motion })
 }
 
+/// Refuse arrays longer than their field (`start = [0, 0, 1, 3]`): toml's
+/// document deserializer fills a `[f64; 3]` from the first three elements and
+/// drops the rest silently; its value deserializer, used here on the already
+/// parsed text, refuses the extra elements and names the key path.
+fn check_array_lengths(src: &str) -> Result<(), String> {
+    let describe = |e: toml::de::Error, table: Option<String>| {
+        let text = e.to_string();
+        let mut lines = text.lines();
+        let msg = lines.next().unwrap_or("").trim().to_string();
+        let keys: Vec<String> = lines
+            .find_map(|l| l.strip_prefix("in `")?.strip_suffix('`').map(str::to_string))
+            .map(|k| k.split('.').map(str::to_string).collect())
+            .unwrap_or_default();
+        let (table, field) = match (table, keys.split_last()) {
+            (Some(t), Some((f, _))) => (t, Some(f.clone())),
+            (Some(t), None) => (t, None),
+            (None, Some((f, []))) => ("top level".to_string(), Some(f.clone())),
+            (None, Some((f, rest))) => (format!("[{}]", rest.join(".")), Some(f.clone())),
+            (None, None) => ("top level".to_string(), None),
+        };
+        match field {
+            Some(f) => {
+                format!("{table}, field `{f}`: {msg} (an array with more values than the field takes)")
+            }
+            None => format!("{table}: {msg}"),
+        }
+    };
+    let mut table: toml::Table = toml::from_str(src).map_err(|e| e.message().trim().to_string())?;
+    let obstacles = table.remove("obstacles");
+    RawScene::deserialize(table).map_err(|e| describe(e, None))?;
+    if let Some(toml::Value::Array(list)) = obstacles {
+        for (i, o) in list.into_iter().enumerate() {
+            RawObstacle::deserialize(o).map_err(|e| describe(e, Some(format!("obstacles[{i}]"))))?;
+        }
+    }
+    Ok(())
+}
+
 /// Turn a TOML/serde error into "line N, <table>, field `k`: message".
 fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
     let msg = e.message().trim().to_string();
@@ -771,6 +810,29 @@ waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
         assert!(e.contains("[vehicle]") && e.contains("`mass`"), "{e}");
         let e = err_of(&OK.replace("[controller]", "[vehicle]\nmas = 2\n[controller]"));
         assert!(e.contains("mas"), "{e}");
+    }
+
+    #[test]
+    fn an_array_longer_than_its_field_is_refused() {
+        // toml's document deserializer would keep the first three and drop the rest.
+        let cases = [
+            ("start = [0, 0, 1]", "start = [0, 0, 1, 3]", "[mission]", "`start`"),
+            ("max = [10, 5, 3]", "max = [10, 5, 3, 9]", "[bounds]", "`max`"),
+            ("center = [4, 0, 1]", "center = [4, 0, 1, 0]", "obstacles[0]", "`center`"),
+            ("[2, 1.5, 3.5, 1]", "[2, 1.5, 3.5, 1, 7]", "obstacles[2]", "`waypoints`"),
+            (
+                "[controller]",
+                "[vehicle]\ninertia = [0.002, 0.002, 0.003, 1]\n[controller]",
+                "[vehicle]",
+                "`inertia`",
+            ),
+        ];
+        for (from, to, table, field) in cases {
+            let e = err_of(&OK.replace(from, to));
+            assert!(e.starts_with("bad.toml:") && e.contains(table) && e.contains(field), "{to}: {e}");
+            assert!(e.contains("invalid length"), "{e}");
+        }
+        assert!(Scene::parse(OK, "ok.toml").is_ok());
     }
 
     #[test]
