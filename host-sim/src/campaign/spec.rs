@@ -17,7 +17,8 @@
 //! ```
 //!
 //! Quantities ([`QUANTITIES`]): wind (`wind_speed` m/s, `wind_direction_deg` from,
-//! `turbulence_sigma` horizontal σ m/s, one gust `gust_amplitude` / `gust_length` /
+//! `turbulence_sigma` horizontal σ m/s or `turbulence_w20` the MIL-HDBK-1797 wind at
+//! 20 ft that sets it (light 7.7, moderate 15.4 m/s), one gust `gust_amplitude` / `gust_length` /
 //! `gust_time` / `gust_direction_deg`), mismatch factors on the controller's vehicle
 //! (`mass`, `inertia`, `k_f`, `k_m`, `motor_tau`, `drag`), plant aerodynamics
 //! (`rotor_drag_kd`, `rotor_drag_kz`, `parasitic_drag`: absolute), a rotor fault
@@ -52,6 +53,7 @@ pub const QUANTITIES: &[&str] = &[
     "wind_speed",
     "wind_direction_deg",
     "turbulence_sigma",
+    "turbulence_w20",
     "gust_amplitude",
     "gust_length",
     "gust_time",
@@ -381,6 +383,9 @@ impl FlightDraw {
         }
         if let Some(x) = v("turbulence_sigma") {
             w.sigma = Some(x);
+        }
+        if let Some(x) = v("turbulence_w20") {
+            w.w20 = Some(x);
         }
         if let Some(a) = v("gust_amplitude") {
             w.gusts.push(Gust {

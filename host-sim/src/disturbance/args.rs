@@ -71,10 +71,12 @@ impl DisturbanceArgs {
         }
         if let Some(t) = &self.turbulence {
             match t.as_str() {
-                "none" => (d.wind.turbulence, d.wind.sigma) = (Intensity::None, None),
-                "light" => (d.wind.turbulence, d.wind.sigma) = (Intensity::Light, None),
-                "moderate" => (d.wind.turbulence, d.wind.sigma) = (Intensity::Moderate, None),
-                "severe" => (d.wind.turbulence, d.wind.sigma) = (Intensity::Severe, None),
+                "none" => (d.wind.turbulence, d.wind.sigma, d.wind.w20) = (Intensity::None, None, None),
+                "light" => (d.wind.turbulence, d.wind.sigma, d.wind.w20) = (Intensity::Light, None, None),
+                "moderate" => {
+                    (d.wind.turbulence, d.wind.sigma, d.wind.w20) = (Intensity::Moderate, None, None)
+                }
+                "severe" => (d.wind.turbulence, d.wind.sigma, d.wind.w20) = (Intensity::Severe, None, None),
                 s => {
                     let x: f64 = s.parse().ok().filter(|x: &f64| x.is_finite()).ok_or_else(|| {
                         InputError::option("turbulence", "not a level or a number")

@@ -13,7 +13,8 @@
 //!   with `L_w`, `σ_w`. Low altitude (h in ft, clamped to [10, 1000] ft): `L_w = h`,
 //!   `L_u = L_v = h / (0.177 + 0.000823 h)^1.2`, `σ_w = 0.1 W20`,
 //!   `σ_u = σ_v = σ_w / (0.177 + 0.000823 h)^0.4`; `W20` (wind speed at 20 ft) 15 / 30 / 45
-//!   knots for light / moderate / severe. `sigma` (m/s) sets `σ_u` directly instead.
+//!   knots for light / moderate / severe, or `w20` (m/s) given; `sigma` (m/s) sets `σ_u`
+//!   directly instead (it wins over both).
 //! * `V` = the air-relative speed `|v − w_steady|`, at least [`MIN_CONVECTION_MPS`]
 //!   (a hovering vehicle in still air still sees the field change).
 //! * Realisation per step (dt): `u`: exact first-order Gauss–Markov,
@@ -96,6 +97,8 @@ pub struct WindParams {
     pub direction_deg: f64,
     /// Turbulence intensity.
     pub turbulence: Intensity,
+    /// Wind speed at 20 ft that sets the turbulence, m/s (overrides `turbulence`).
+    pub w20: Option<f64>,
     /// Horizontal turbulence σ_u = σ_v, m/s (overrides `turbulence`).
     pub sigma: Option<f64>,
     /// Discrete gusts.
@@ -113,8 +116,13 @@ impl WindParams {
     pub fn is_calm(&self) -> bool {
         self.speed == 0.0
             && self.sigma.unwrap_or(0.0) == 0.0
-            && (self.sigma.is_some() || self.turbulence == Intensity::None)
+            && (self.sigma.is_some() || self.w20() == 0.0)
             && self.gusts.iter().all(|g| g.amplitude == 0.0)
+    }
+
+    /// The wind speed at 20 ft that sets the turbulence, m/s.
+    pub fn w20(&self) -> f64 {
+        self.w20.unwrap_or(self.turbulence.w20())
     }
 
     /// The steady wind, NED, m/s.
@@ -135,6 +143,9 @@ impl WindParams {
         check("direction_deg".into(), self.direction_deg, -360.0, 360.0)?;
         if let Some(s) = self.sigma {
             check("sigma".into(), s, 0.0, MAX_WIND_MPS)?;
+        }
+        if let Some(s) = self.w20 {
+            check("w20".into(), s, 0.0, 10.0 * MAX_WIND_MPS)?;
         }
         for (i, g) in self.gusts.iter().enumerate() {
             check(format!("gusts[{i}].amplitude"), g.amplitude, -MAX_WIND_MPS, MAX_WIND_MPS)?;
@@ -215,7 +226,7 @@ impl WindField {
         let u_axis = if params.speed > 0.0 { steady / params.speed } else { Vector3::x() };
         let v_axis = Vector3::new(-u_axis.y, u_axis.x, 0.0);
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5749_4e44_5f44_5259);
-        let turbulent = params.sigma.map_or(params.turbulence != Intensity::None, |s| s > 0.0);
+        let turbulent = params.sigma.map_or(params.w20() > 0.0, |s| s > 0.0);
         let (u, v, w) = if turbulent {
             (normal(&mut rng), Lag2::start(&mut rng), Lag2::start(&mut rng))
         } else {
@@ -224,7 +235,7 @@ impl WindField {
         WindField {
             steady,
             axes: [u_axis, v_axis],
-            w20: params.turbulence.w20(),
+            w20: params.w20(),
             turbulent,
             rng,
             u,

@@ -1,0 +1,183 @@
+//! `parapet campaign`: the CI-sized campaign (`scenes/campaigns/ci.toml`, 200
+//! flights), its outputs, the worst flight's command reproducing it bit for bit,
+//! shards merged byte-identical to a single-process run, merges of mixed
+//! campaigns refused, and bad options refused with exit code 2.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use parapet_sim::campaign::{cmd_campaign, cmd_campaign_merge, CampaignArgs, CampaignMergeArgs};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("parapet-campaign-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn campaign(file: &Path, out: &Path, shard: Option<&str>) {
+    let a = CampaignArgs {
+        campaign: file.into(),
+        out: out.into(),
+        jobs: Some(2),
+        shard: shard.map(String::from),
+    };
+    cmd_campaign(a).unwrap_or_else(|e| panic!("{e}"));
+}
+
+fn csv_rows(p: &Path) -> Vec<Vec<String>> {
+    let mut r = csv::Reader::from_path(p).unwrap();
+    r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect()
+}
+
+#[test]
+fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
+    let out = tmp("ci");
+    campaign(&root().join("scenes/campaigns/ci.toml"), &out, None);
+    let rows = csv_rows(&out.join("campaign.csv"));
+    assert_eq!(rows.len(), 200);
+    let head: Vec<String> = csv::Reader::from_path(out.join("campaign.csv"))
+        .unwrap()
+        .headers()
+        .unwrap()
+        .iter()
+        .map(String::from)
+        .collect();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let (collided, reason, clearance) = (col("collided"), col("end_reason"), col("min_clearance_m"));
+    for q in ["wind_speed", "mass", "k_f", "motor_tau", "fix_dropout_length", "speed"] {
+        col(q);
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let n_coll = rows.iter().filter(|r| r[collided] == "true").count() as u64;
+    let all = &summary["all"];
+    assert_eq!(all["flights"], 200);
+    assert_eq!(all["failed"], 0);
+    assert_eq!(all["collisions"].as_u64().unwrap(), n_coll);
+    let rate = all["collision_rate"].as_f64().unwrap();
+    assert!((rate - n_coll as f64 / 200.0).abs() < 1e-12);
+    assert!(all["collision_rate_upper_95"].as_f64().unwrap() > rate);
+    // Per-scene rows add up; the collisions' places add up.
+    let per: u64 =
+        summary["per_scene"].as_object().unwrap().values().map(|s| s["flights"].as_u64().unwrap()).sum();
+    assert_eq!(per, 200);
+    let placed: u64 = summary["collisions_by_obstacle"]
+        .as_object()
+        .unwrap()
+        .values()
+        .flat_map(|m| m.as_object().unwrap().values().map(|c| c.as_u64().unwrap()))
+        .sum();
+    assert_eq!(placed, n_coll);
+    let min = rows.iter().map(|r| r[clearance].parse::<f64>().unwrap()).fold(f64::INFINITY, f64::min);
+    assert_eq!(all["min_clearance_m"]["p0"].as_f64().unwrap(), min);
+    for f in
+        ["min_clearance_hist.svg", "outcome_vs_wind_speed.svg", "outcome_vs_mass.svg", "outcome_vs_speed.svg"]
+    {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    // The worst flight's command flies it again, bit for bit.
+    let worst = &summary["worst"][0];
+    let flight = worst["flight"].as_u64().unwrap() as usize;
+    assert_eq!(worst["min_clearance_m"].as_f64().unwrap(), min);
+    let text = std::fs::read_to_string(out.join("worst.txt")).unwrap();
+    let cmd = text.lines().find(|l| l.starts_with("parapet run")).unwrap();
+    assert_eq!(text.lines().filter(|l| l.starts_with("parapet run")).count(), 10);
+    let args: Vec<&str> = cmd.split(' ').skip(1).collect();
+    assert!(args.iter().all(|a| !a.starts_with('\'')), "simple words: {cmd}");
+    let st = Command::new(env!("CARGO_BIN_EXE_parapet"))
+        .args(&args)
+        .current_dir(root().join("host-sim"))
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let dir = args[args.iter().position(|a| *a == "--out").unwrap() + 1];
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(Path::new(dir).join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        s["min_clearance_m"].as_f64().unwrap().to_bits(),
+        rows[flight][clearance].parse::<f64>().unwrap().to_bits()
+    );
+    assert_eq!(s["end_reason"].as_str().unwrap(), rows[flight][reason]);
+    assert_eq!(
+        s["tracking_rms_m"].as_f64().unwrap(),
+        rows[flight][col("tracking_rms_m")].parse::<f64>().unwrap()
+    );
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// A small campaign over two scenes (absolute paths), `seed` and `flights` given.
+fn small(dir: &Path, name: &str, seed: u64, flights: u64) -> PathBuf {
+    let s = root().join("scenes");
+    let text = format!(
+        "name = \"small\"\nseed = {seed}\nflights = {flights}\n\
+         [[scenes]]\nfile = {:?}\nstraight = true\n[[scenes]]\nfile = {:?}\n\
+         [draw]\nwind_speed = {{ uniform = [0, 2] }}\nmass = {{ normal = [1.0, 0.1], min = 0.8, max = 1.2 }}\n\
+         fix_dropout_rate = 0.5\nfix_dropout_length = 0.2\nturbulence_sigma = 0.3\n",
+        s.join("one_sphere.toml").display().to_string(),
+        s.join("narrow_passage.toml").display().to_string()
+    );
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn shards_merge_byte_identical_and_mixed_campaigns_are_refused() {
+    let dir = tmp("shards");
+    let c = small(&dir, "small.toml", 7, 9);
+    campaign(&c, &dir.join("single"), None);
+    for i in 1..=3 {
+        campaign(&c, &dir.join(format!("s{i}")), Some(&format!("{i}/3")));
+    }
+    let shards: Vec<PathBuf> = [3, 1, 2].iter().map(|i| dir.join(format!("s{i}"))).collect();
+    let merge = |shards: Vec<PathBuf>, file: &Path| {
+        cmd_campaign_merge(CampaignMergeArgs { campaign: file.into(), out: dir.join("merged"), shards })
+    };
+    merge(shards.clone(), &c).unwrap_or_else(|e| panic!("{e}"));
+    for f in ["campaign.csv", "summary.json"] {
+        let (a, b) = (
+            std::fs::read(dir.join("single").join(f)).unwrap(),
+            std::fs::read(dir.join("merged").join(f)).unwrap(),
+        );
+        assert!(a == b, "{f} differs");
+    }
+    assert_eq!(
+        csv_rows(&dir.join("s2/campaign.csv")).iter().map(|r| r[0].clone()).collect::<Vec<_>>(),
+        ["1", "4", "7"]
+    );
+    // Another campaign's shard, a shard twice, a shard missing: refused, naming why.
+    let other = small(&dir, "other.toml", 8, 9);
+    campaign(&other, &dir.join("o2"), Some("2/3"));
+    let e = merge(vec![shards[0].clone(), shards[1].clone(), dir.join("o2")], &c).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("another campaign") && e.to_string().contains("identity"), "{e}");
+    let e = merge(vec![shards[0].clone(), shards[1].clone(), shards[1].clone()], &c).unwrap_err().to_string();
+    assert!(e.contains("twice"), "{e}");
+    let e = merge(vec![shards[0].clone(), shards[1].clone()], &c).unwrap_err().to_string();
+    assert!(e.contains("missing") && e.contains("2/3"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_campaign_options_exit_2_naming_the_option() {
+    let dir = tmp("bad");
+    let c = small(&dir, "small.toml", 1, 2);
+    let run = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_parapet")).args(args).output().unwrap();
+    let cs = c.display().to_string();
+    for (args, want) in [
+        (vec!["campaign", cs.as_str(), "--shard", "4/3"], "--shard"),
+        (vec!["campaign", cs.as_str(), "--jobs", "0"], "--jobs"),
+        (vec!["campaign", "no-such-campaign.toml"], "no-such-campaign.toml"),
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
