@@ -87,6 +87,16 @@ fn f32_finite(x: f64) -> bool {
     x.is_finite() && (x as f32).is_finite()
 }
 
+/// Finite and > 0 in `f32` too: 1e-300 is > 0 in f64 but 0 as the core sees it.
+fn f32_positive(x: f64) -> bool {
+    f32_finite(x) && (x as f32) > 0.0
+}
+
+/// The range of a positive `f32` setting, for messages.
+fn f32_range(name: &str) -> String {
+    format!("{:e} ≤ {name} ≤ {:e} (f32)", f32::from_bits(1), f32::MAX)
+}
+
 /// Check the run configuration `cfg` for `scene` before flying; `given` says
 /// which settings came from the command line. Covers the reference speed, the
 /// filter parameters (μ, δ, δ1 > δ, A, ε_v, in `f32`), the PD gains, the
@@ -110,11 +120,11 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
     }
     // PD gains: finite and > 0 in the core's f32.
     for (name, x, in_scene) in [("kp", p.kp, c.kp.is_some()), ("kd", p.kd, c.kd.is_some())] {
-        if !(f32_finite(x) && x > 0.0) {
+        if !f32_positive(x) {
             return Err(o
                 .err(name, "controller", name, in_scene, "PD gain out of range".into())
                 .value(num(x))
-                .allowed(format!("0 < {name} ≤ {:e} (f32)", f32::MAX)));
+                .allowed(f32_range(name)));
         }
     }
     // Filter parameters, in f32 as the filter sees them.
@@ -123,11 +133,11 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         ("delta", p.delta, c.delta.is_some()),
         ("delta1", p.delta1, c.delta1.is_some()),
     ] {
-        if !(f32_finite(x) && x > 0.0) {
+        if !f32_positive(x) {
             return Err(o
                 .err(name, "controller", name, in_scene, "filter parameter out of range".into())
                 .value(num(x))
-                .allowed(format!("0 < {name} ≤ {:e} (f32)", f32::MAX)));
+                .allowed(f32_range(name)));
         }
     }
     if (p.delta1 as f32) <= (p.delta as f32) {
@@ -246,7 +256,7 @@ fn check_duration(o: &Origin, cfg: &RunConfig) -> Result<(), InputError> {
     if !(d.is_finite() && d > 0.0 && d <= cap) {
         return Err(err(format!("is beyond the duration cap{raise}"))
             .value(num(d))
-            .allowed(format!("0 < duration ≤ {cap} s")));
+            .allowed(format!("0 < duration ≤ {} s", num(cap))));
     }
     let steps = d / cfg.dt;
     if steps > limits::MAX_PLANT_STEPS {
@@ -455,5 +465,31 @@ speed = 0.5
         let g = Given { options: vec!["duration"], max_duration: limits::MAX_DURATION_CEILING_S };
         let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
         assert!(m.contains("plant steps"), "{m}");
+    }
+
+    #[test]
+    fn values_that_vanish_in_f32_are_refused_as_options() {
+        let (s, base) = setup("");
+        for name in ["mu", "delta", "kp", "kd"] {
+            let mut cfg = base.clone();
+            match name {
+                "mu" => cfg.params.mu = 1e-300,
+                "delta" => cfg.params.delta = 1e-300,
+                "kp" => cfg.params.kp = 1e-300,
+                _ => cfg.params.kd = 1e-300,
+            }
+            let g = Given { options: vec![name], ..Given::default() };
+            let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
+            assert!(
+                m.contains(&format!("option --{name}")) && m.contains("1e-300") && m.contains("1e-45"),
+                "{m}"
+            );
+        }
+        // A tiny cap prints as a number, not 300 zeros.
+        let mut cfg = base.clone();
+        cfg.duration = 45.0;
+        let g = Given { options: vec!["duration"], max_duration: 1e-300 };
+        let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
+        assert!(m.contains("≤ 1e-300 s") && m.len() < 300, "{m}");
     }
 }
