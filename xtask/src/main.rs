@@ -4,7 +4,9 @@
 //!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
 //!   apt-get when missing and root), runs every host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
-//!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight.
+//!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight and the
+//!   Slurm job-array campaign test (`host-sim/slurm/ci_test.sh`; installs slurmctld,
+//!   slurmd and munge via apt-get when missing).
 //!   After the host tests, a bounded coverage-guided fuzz run of every `tests/fuzz` target
 //!   (see `fuzz.rs`).
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
@@ -119,6 +121,24 @@ fn ensure_qemu() -> Result<(), String> {
     }
 }
 
+/// The Slurm test (`host-sim/slurm/ci_test.sh`): a one-node cluster on localhost flies a
+/// small campaign as a 4-task job array; the merged result must be byte-identical to
+/// the single-process run. Needs root (it installs slurmctld/slurmd/munge when missing
+/// and starts the daemons); the `parapet` binary is the test profile's (as the host tests).
+fn slurm_test() -> Result<(), String> {
+    if !is_root() {
+        return Err("the Slurm test needs root (apt-get, daemons): run \
+                    sudo host-sim/slurm/ci_test.sh target/debug/parapet"
+            .into());
+    }
+    run(
+        "build parapet (test profile)",
+        cargo().args(["build", "--profile", "test", "-p", "parapet-sim", "--bin", "parapet"]),
+    )?;
+    let bin = root().join("target/debug/parapet");
+    run("Slurm job-array campaign test", Command::new(root().join("host-sim/slurm/ci_test.sh")).arg(bin))
+}
+
 fn firmware_elf(features: Option<&str>) -> PathBuf {
     let target_dir =
         std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"));
@@ -203,6 +223,7 @@ fn test() -> Result<(), String> {
             .env("PARAPET_PROPTEST_CASES", &cases)
             .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf),
     )?;
+    slurm_test()?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
     fuzz::smoke()?;
     run(
