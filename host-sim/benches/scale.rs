@@ -1,0 +1,186 @@
+//! Worlds at scale (issue 18): `cargo bench -p parapet-sim --bench scale`.
+//!
+//! For generated scenes (`world::generate`, forest and city) of 10³, 10⁴ and
+//! 10⁵ obstacles, several generator seeds each, it measures and prints:
+//! * the scene file's size, the thread-CPU time (ms) to parse and validate it
+//!   (`Scene::parse`, the loader's work after reading the file) and to build
+//!   the planner's index;
+//! * `plan` over planner seeds: success count, median / p95 wall time and
+//!   median thread-CPU time **with a prebuilt index** (`plan_with_index`, what
+//!   a sweep or a second mission in the same world costs) and of the whole
+//!   `plan` call (index built inside), median iterations and path length.
+//!
+//! It writes `target/scale/plan_scale.csv` (one row per call) and the log-log
+//! plot of planning cost against obstacle count, `target/scale/plan_scale.svg`
+//! (copied to `docs/img/` for `docs/performance.md`). `SCALE_QUICK=1` runs one
+//! scene seed and 5 planner seeds per size.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use parapet_sim::planner::{index_for, plan, plan_with_index, PlanProblem, PlannerParams};
+use parapet_sim::scene::Scene;
+use parapet_sim::world::generate::{generate, GenParams, Kind};
+use plotters::prelude::*;
+
+/// This thread's CPU time, ns (64-bit Linux; see the planner bench).
+#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
+fn thread_cpu_ns() -> u64 {
+    #[repr(C)]
+    struct Timespec {
+        tv_sec: i64,
+        tv_nsec: i64,
+    }
+    extern "C" {
+        fn clock_gettime(clock_id: i32, tp: *mut Timespec) -> i32;
+    }
+    let mut ts = Timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
+    let rc = unsafe { clock_gettime(3, &mut ts) };
+    if rc == 0 {
+        ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+    } else {
+        0
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
+fn thread_cpu_ns() -> u64 {
+    0
+}
+
+fn pct(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+struct Row {
+    kind: &'static str,
+    n: usize,
+    median_ms: f64,
+}
+
+fn main() {
+    // `cargo bench` passes `--bench`; nothing to parse.
+    let quick = std::env::var_os("SCALE_QUICK").is_some_and(|v| !v.is_empty());
+    let (scene_seeds, plan_seeds) = if quick { (1u64, 5u64) } else { (5, 20) };
+    let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scale");
+    std::fs::create_dir_all(&out_dir).expect("target/scale");
+    let mut csv = String::from(
+        "kind,obstacles,scene_seed,plan_seed,ok,wall_ms,cpu_ms,full_wall_ms,iterations,length_m\n",
+    );
+    let mut rows: Vec<Row> = Vec::new();
+    println!(
+        "{:<7} {:>7} {:>6} {:>9} {:>8} {:>9} {:>7} {:>10} {:>9} {:>10} {:>11} {:>8} {:>8}",
+        "kind",
+        "obst",
+        "scenes",
+        "file_MB",
+        "load_cpu",
+        "index_cpu",
+        "ok",
+        "median_ms",
+        "p95_ms",
+        "cpu_med_ms",
+        "full_med_ms",
+        "med_iter",
+        "len_m"
+    );
+    for (kind, name) in [(Kind::Forest, "forest"), (Kind::City, "city")] {
+        for n in [1_000usize, 10_000, 100_000] {
+            let (mut load, mut build, mut wall, mut cpu, mut full, mut iters, mut lens) =
+                (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
+            let (mut ok, mut total, mut bytes) = (0, 0, 0usize);
+            for s in 0..scene_seeds {
+                let g = generate(&GenParams { kind, obstacles: n, seed: s, ..GenParams::default() })
+                    .unwrap_or_else(|e| panic!("{name} {n} seed {s}: {e}"));
+                bytes = g.toml.len();
+                let c = thread_cpu_ns();
+                let scene = Scene::parse(&g.toml, "generated").expect("parses");
+                load.push((thread_cpu_ns() - c) as f64 / 1e6);
+                let problem = PlanProblem::from_scene(&scene);
+                let c = thread_cpu_ns();
+                let index = index_for(&problem);
+                build.push((thread_cpu_ns() - c) as f64 / 1e6);
+                for seed in 0..plan_seeds {
+                    let params = PlannerParams { seed, ..PlannerParams::default() };
+                    let (t, c) = (Instant::now(), thread_cpu_ns());
+                    let r = plan_with_index(&problem, index.as_ref(), &params);
+                    let (w, c) = (t.elapsed().as_secs_f64() * 1e3, (thread_cpu_ns() - c) as f64 / 1e6);
+                    let t = Instant::now();
+                    let r_full = plan(&problem, &params);
+                    let f = t.elapsed().as_secs_f64() * 1e3;
+                    if let (Ok(a), Ok(b)) = (&r, &r_full) {
+                        assert_eq!(a.waypoints, b.waypoints, "{name} {n}: prebuilt index and plan differ");
+                    }
+                    total += 1;
+                    let (okk, it, len) = match &r {
+                        Ok(p) => (true, p.iterations as f64, p.length_m as f64),
+                        Err(_) => (false, f64::NAN, f64::NAN),
+                    };
+                    let _ = writeln!(csv, "{name},{n},{s},{seed},{okk},{w:.4},{c:.4},{f:.4},{it},{len:.3}");
+                    if okk {
+                        ok += 1;
+                        iters.push(it);
+                        lens.push(len);
+                    }
+                    wall.push(w);
+                    cpu.push(c);
+                    full.push(f);
+                }
+            }
+            let median = pct(&mut wall, 0.5);
+            println!(
+                "{:<7} {:>7} {:>6} {:>9.2} {:>8.1} {:>9.1} {:>3}/{:<3} {:>10.3} {:>9.3} {:>10.3} {:>11.3} {:>8.0} {:>8.2}",
+                name,
+                n,
+                scene_seeds,
+                bytes as f64 / 1e6,
+                pct(&mut load, 0.5),
+                pct(&mut build, 0.5),
+                ok,
+                total,
+                median,
+                pct(&mut wall, 0.95),
+                pct(&mut cpu, 0.5),
+                pct(&mut full, 0.5),
+                pct(&mut iters, 0.5),
+                pct(&mut lens, 0.5)
+            );
+            rows.push(Row { kind: name, n, median_ms: median });
+        }
+    }
+    std::fs::write(out_dir.join("plan_scale.csv"), csv).expect("csv");
+    plot(&out_dir.join("plan_scale.svg"), &rows).expect("plot");
+    println!("wrote {}", out_dir.join("plan_scale.csv").display());
+}
+
+fn plot(path: &Path, rows: &[Row]) -> Result<(), Box<dyn std::error::Error>> {
+    let root = SVGBackend::new(path, (640, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let lo = rows.iter().map(|r| r.median_ms).fold(f64::INFINITY, f64::min).max(1e-3) / 2.0;
+    let hi = rows.iter().map(|r| r.median_ms).fold(0.0, f64::max).max(lo * 4.0) * 2.0;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("parapet plan: median time vs obstacle count", ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((500f64..200_000f64).log_scale(), (lo..hi).log_scale())?;
+    chart.configure_mesh().x_desc("static obstacles").y_desc("median planning time, ms").draw()?;
+    for (kind, color) in [("forest", &BLUE), ("city", &RED)] {
+        let pts: Vec<(f64, f64)> =
+            rows.iter().filter(|r| r.kind == kind).map(|r| (r.n as f64, r.median_ms)).collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color))?
+            .label(kind)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
+    Ok(())
+}
