@@ -600,6 +600,14 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
         Some(p) if !p.is_file() => {
             return Err(CliError::BadInput(format!("option --firmware: {} is not a file", p.display())))
         }
+        // QEMU would boot any bytes and die with a register dump (exit 1).
+        Some(p) if !crate::pil::is_elf(p) => {
+            return Err(CliError::BadInput(format!(
+                "option --firmware: {} is not an ELF file (it does not start with 0x7f 'E' 'L' 'F'); \
+                 give the `parapet-firmware-qemu` build",
+                p.display()
+            )))
+        }
         Some(p) => p.clone(),
         None => build_firmware()?,
     };

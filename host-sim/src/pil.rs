@@ -232,6 +232,12 @@ pub fn firmware_build_command() -> Command {
     c
 }
 
+/// `true` when `path` starts with the ELF magic (0x7f 'E' 'L' 'F').
+pub fn is_elf(path: &Path) -> bool {
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && magic == *b"\x7fELF"
+}
+
 /// Build the QEMU firmware (cargo: a no-op when up to date) and return the ELF path.
 pub fn build_firmware() -> Result<PathBuf> {
     let mut cmd = firmware_build_command();

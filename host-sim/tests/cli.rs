@@ -571,4 +571,8 @@ fn pil_timeout_is_capped_before_any_build() {
     refused(&r, &["option --timeout", "1e300", &limits::MAX_PIL_TIMEOUT_S.to_string()]);
     let h = stdout(&parapet(&["--help"]));
     assert!(h.contains("  4    sweep"), "{h}");
+    // A file that is not firmware is refused before QEMU boots it (it died with a register dump, exit 1).
+    let r = parapet(&["pil", "--scene", &f, "--straight", "--firmware", &f, "--out", o.to_str().unwrap()]);
+    refused(&r, &["option --firmware", "scene.toml", "not an ELF file"]);
+    assert!(!o.exists(), "no report for a refused run");
 }
