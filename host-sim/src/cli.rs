@@ -708,6 +708,14 @@ fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
             .allowed(format!("|x| ≤ {} m", limits::MAX_COORDINATE_M))
             .into());
     }
+    // The same cap as `run --wind` (a 1e300 m/s wind flew to 1e302 m).
+    let max_wind = crate::disturbance::wind::MAX_WIND_MPS;
+    if let Some(k) = a.wind.iter().position(|x| x.abs() > max_wind) {
+        return Err(InputError::option("wind", "wind component out of range")
+            .value(num(a.wind[k]))
+            .allowed(format!("|x| ≤ {max_wind} m/s"))
+            .into());
+    }
     let vehicle = match &a.vehicle {
         Some(p) => load_vehicle(p)?,
         None => VehicleParams::default(),

@@ -488,6 +488,8 @@ fn replay_takes_start_as_written_and_a_scene_as_vehicle_and_refuses_huge_spans()
     assert!(t0.elapsed().as_secs() < 10);
     let r = parapet(&["replay", "--inputs", c, "--out", o, "--dt", "1e-7"]);
     refused(&r, &["option --dt", "1e-7"]);
+    let r = parapet(&["replay", "--inputs", c, "--out", o, "--wind", "1e300,0,0"]);
+    refused(&r, &["option --wind", "1e300", "50 m/s"]);
 }
 
 #[test]
