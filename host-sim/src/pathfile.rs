@@ -133,6 +133,8 @@ impl PathFile {
             field: field.to_string(),
             message,
         };
+        serde_json::from_str::<NoDuplicateKeys>(text)
+            .map_err(|source| PathFileError::Json { file: file.to_path_buf(), source })?;
         let value: Value = serde_json::from_str(text)
             .map_err(|source| PathFileError::Json { file: file.to_path_buf(), source })?;
         let obj = match value {
@@ -215,6 +217,55 @@ impl PathFile {
             }
         };
         Ok(PathFile { scene, waypoints, length_m, planning_time_ms, iterations, seed })
+    }
+}
+
+/// Any JSON value, refusing an object that gives a key twice: serde_json's
+/// `Value` keeps the last `"waypoints"` silently.
+struct NoDuplicateKeys;
+
+impl<'de> serde::Deserialize<'de> for NoDuplicateKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NoDuplicateKeys)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for NoDuplicateKeys {
+    type Value = NoDuplicateKeys;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_unit<E>(self) -> Result<Self, E> {
+        Ok(self)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut a: A) -> Result<Self, A::Error> {
+        while a.next_element::<NoDuplicateKeys>()?.is_some() {}
+        Ok(self)
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut a: A) -> Result<Self, A::Error> {
+        let mut seen = std::collections::HashSet::new();
+        while let Some(k) = a.next_key::<String>()? {
+            if !seen.insert(k.clone()) {
+                return Err(serde::de::Error::custom(format!("field `{k}` is given twice")));
+            }
+            a.next_value::<NoDuplicateKeys>()?;
+        }
+        Ok(self)
     }
 }
 
@@ -302,6 +353,10 @@ mod tests {
         assert!(m.contains("bad.json") && m.contains("object"), "{m}");
         let m = msg("{");
         assert!(m.contains("bad.json") && m.contains("JSON"), "{m}");
+        let m = msg(r#"{"waypoints": [[0,0,1]], "waypoints": [[5,5,1]]}"#);
+        assert!(m.contains("bad.json") && m.contains("`waypoints` is given twice"), "{m}");
+        let m = msg(r#"{"waypoints": [[0,0,1]], "scene": "a", "scene": "b"}"#);
+        assert!(m.contains("`scene` is given twice"), "{m}");
         let m = PathFile::read(Path::new("/nonexistent/p.json")).unwrap_err().to_string();
         assert!(m.contains("/nonexistent/p.json"), "{m}");
     }
