@@ -193,8 +193,10 @@ impl PathFile {
             }
             Some(v) => {
                 let l = finite_f64(v).map_err(|m| err("length_m", m))?;
-                if l < 0.0 {
-                    return Err(err("length_m", format!("must be >= 0, got {l}")));
+                // Stored as f32: a larger value would become infinite (found by fuzzing).
+                if l < 0.0 || l > f64::from(f32::MAX) {
+                    let got = if l.abs() < 1e15 { l.to_string() } else { format!("{l:e}") };
+                    return Err(err("length_m", format!("must be in 0..={:e} m, got {got}", f32::MAX)));
                 }
                 l as f32
             }
@@ -345,6 +347,10 @@ mod tests {
         assert!(m.contains("`seed`"), "{m}");
         let m = msg(r#"{"waypoints": [[0,0,1]], "length_m": -1}"#);
         assert!(m.contains("`length_m`"), "{m}");
+        // Fuzz regression (tests/fuzz/regressions/path_json/length_overflows_f32): 1.4e59 was
+        // accepted as an infinite length.
+        let m = msg(r#"{"waypoints": [[0,0,1]], "length_m": 14.298372268676e58}"#);
+        assert!(m.contains("`length_m`") && m.contains("1.4298372268676e59"), "{m}");
         let m = msg(r#"{"waypoints": [[0,0,1e39]]}"#);
         assert!(m.contains("waypoints[0][2]"), "{m}");
         let m = msg(r#"{"waypoints": [[0,0,1],[2e5,0,1]]}"#);
