@@ -15,6 +15,9 @@
 //! to its bounding box, and the margin covers the `f32` rounding of the point
 //! and of the computed distance.
 //!
+//! Queries: nearest (with a seed), k nearest, every box within a radius, every
+//! box overlapping a box, every grown box meeting a segment.
+//!
 //! Owns: [`StaticIndex`] and [`round_off_margin`]. May import: `parapet-core`
 //! (shapes), parry3d-f64 (the BVH), nalgebra; nothing else of host-sim.
 
@@ -218,6 +221,39 @@ impl StaticIndex {
             }
             TraversalAction::Continue
         });
+    }
+
+    /// The `k` nearest indexed obstacles to `p` (NED): `(signed distance m,
+    /// scene index)` in increasing distance, equal distances by increasing
+    /// index (the first `k` of a full scan sorted that way; fewer when the
+    /// index holds fewer; none for a non-finite point's NaN distances).
+    pub fn nearest_k(&self, p: &Vector3<f64>, k: usize) -> Vec<(f64, usize)> {
+        let pf = Vec3::new(p.x as f32, p.y as f32, p.z as f32);
+        let q = [p.x, p.y, p.z];
+        let margin = round_off_margin(p.amax(), self.extent);
+        let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
+        if k == 0 {
+            return best;
+        }
+        self.bvh.traverse(|node| {
+            let d_box = node_distance(node, &q);
+            if best.len() == k && d_box > 0.0 && d_box - margin > best[k - 1].0 {
+                return TraversalAction::Prune;
+            }
+            if let Some(leaf) = node.leaf_data() {
+                let l = leaf as usize;
+                let d = self.shapes[l].signed_distance(&pf) as f64;
+                let e = (d, self.ids[l]);
+                if d.is_nan() || (best.len() == k && (best[k - 1].0, best[k - 1].1) < e) {
+                    return TraversalAction::Continue;
+                }
+                let at = best.partition_point(|b| (b.0, b.1) < e);
+                best.insert(at, e);
+                best.truncate(k);
+            }
+            TraversalAction::Continue
+        });
+        best
     }
 
     /// Signed distance (m) from `p` (NED) to the nearest indexed obstacle
@@ -447,6 +483,31 @@ pub(crate) mod tests {
             found += got.len();
         }
         assert!(found > 400, "only {found} hits");
+    }
+
+    #[test]
+    fn nearest_k_equals_the_sorted_full_scan() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let shapes = random_shapes(&mut rng, 2500, 50.0);
+        let index = StaticIndex::from_shapes(&shapes);
+        for _ in 0..300 {
+            let p = Vector3::new(
+                rng.random_range(-55.0..55.0),
+                rng.random_range(-55.0..55.0),
+                rng.random_range(-55.0..1.0),
+            );
+            let k = rng.random_range(0..40);
+            let pf = Vec3::new(p.x as f32, p.y as f32, p.z as f32);
+            let mut all: Vec<(f64, usize)> =
+                shapes.iter().enumerate().map(|(i, s)| (s.signed_distance(&pf) as f64, i)).collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            all.truncate(k);
+            let got = index.nearest_k(&p, k);
+            assert_eq!(got.len(), all.len());
+            for (g, w) in got.iter().zip(&all) {
+                assert_eq!((g.0.to_bits(), g.1), (w.0.to_bits(), w.1), "k {k} at {p:?}");
+            }
+        }
     }
 
     #[test]
