@@ -216,7 +216,35 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         ..CbfParams::default()
     };
     let params = controller_params(scene, cfg, cbf, cfg.variant);
-    params.validate().map_err(|e| describe_param_error(scene, &params, e))
+    params.validate().map_err(|e| describe_param_error(scene, &params, e))?;
+    check_vehicle_integrable(scene, cfg)
+}
+
+/// `[vehicle]` values the plant's fixed-step RK4 cannot integrate (the state
+/// went non-finite within milliseconds, exit 1 without naming the field):
+/// linear drag faster than the step (drag / mass ≤ 1 / dt; RK4 diverges at
+/// 2.8 / dt), and a yaw torque coefficient beyond the roll arm's moment per
+/// unit thrust (k_m ≤ k_f · arm_length; propellers have k_m / k_f ≈ 0.01–0.05 m).
+fn check_vehicle_integrable(scene: &Scene, cfg: &RunConfig) -> Result<(), InputError> {
+    let v = &scene.vehicle;
+    let err =
+        |field: &str, reason: &str| InputError::file(&scene.source, reason).table("vehicle").field(field);
+    let max_drag = v.mass / cfg.dt;
+    if let Some(d) = v.drag.iter().find(|d| **d > max_drag) {
+        return Err(err(
+            "drag",
+            "linear drag too fast for the plant step (time constant mass / drag below dt)",
+        )
+        .value(num(*d))
+        .allowed(format!("0 ≤ drag ≤ mass / dt = {} N/(m/s)", num(max_drag))));
+    }
+    let max_km = v.k_f * v.arm_length;
+    if v.k_m > max_km {
+        return Err(err("k_m", "yaw torque coefficient beyond the roll arm's moment per unit thrust")
+            .value(num(v.k_m))
+            .allowed(format!("0 ≤ k_m ≤ k_f · arm_length = {} N m/(rad/s)²", num(max_km))));
+    }
+    Ok(())
 }
 
 /// The duration against the cap in force, and duration / dt against the step cap.
@@ -465,6 +493,22 @@ speed = 0.5
         let g = Given { options: vec!["duration"], max_duration: limits::MAX_DURATION_CEILING_S };
         let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
         assert!(m.contains("plant steps"), "{m}");
+    }
+
+    #[test]
+    fn vehicles_the_plant_cannot_integrate_are_refused() {
+        let (s, cfg) = setup("[vehicle]\nk_m = 1e10\n");
+        let m = check_run(&s, &cfg, &Given::default()).unwrap_err().to_string();
+        assert!(
+            m.contains("t.toml: [vehicle] field `k_m`") && m.contains("1e10") && m.contains("k_f"),
+            "{m}"
+        );
+        let (s, cfg) = setup("[vehicle]\ndrag = [0.1, 0.1, 1e30]\n");
+        let m = check_run(&s, &cfg, &Given::default()).unwrap_err().to_string();
+        assert!(m.contains("[vehicle] field `drag`") && m.contains("1e30") && m.contains("500"), "{m}");
+        // Heavy drag that still integrates (time constant 0.83 ms at dt 1 ms) and the default pass.
+        let (s, cfg) = setup("[vehicle]\ndrag = [600, 600, 600]\nmass = 0.6\n");
+        check_run(&s, &cfg, &Given::default()).unwrap();
     }
 
     #[test]
