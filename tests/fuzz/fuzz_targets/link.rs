@@ -21,8 +21,8 @@ use std::cell::Cell;
 
 use libfuzzer_sys::fuzz_target;
 use mavlink::dialects::ardupilotmega::{
-    MavModeFlag, COMMAND_LONG_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA,
-    MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    MavModeFlag, COMMAND_LONG_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
+    HIL_SENSOR_DATA, MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
 };
 use mavlink::{calculate_crc, MavlinkVersion, MessageData, MAV_STX_V2};
@@ -129,7 +129,11 @@ fuzz_target!(|data: &[u8]| {
             let m = HIL_ACTUATOR_CONTROLS_DATA::deser(MavlinkVersion::V2, f.payload)
                 .expect("HIL_ACTUATOR_CONTROLS decodes");
             // 3. Throttles.
-            assert!(m.controls[..4].iter().all(|t| t.is_finite() && (0.0..=1.0).contains(t)), "{:?}", m.controls);
+            assert!(
+                m.controls[..4].iter().all(|t| t.is_finite() && (0.0..=1.0).contains(t)),
+                "{:?}",
+                m.controls
+            );
             if !m.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED) {
                 assert!(m.controls[..4].iter().all(|t| *t == 0.0), "disarmed but throttles {:?}", m.controls);
             }
