@@ -122,6 +122,13 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     };
     row.scene = scene.name.clone();
     cfg.disturbances = d.disturbances(&cfg.disturbances, &scene.vehicle);
+    // The drawn plant as `--disturbances` would check it (so the worst-flight command flies too).
+    if let Some(p) = &cfg.disturbances.plant {
+        let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
+        if let Err((field, value, allowed)) = checked.and_then(|_| crate::disturbance::check_integrable(p)) {
+            return failed(row, format!("the drawn [plant] field `{field}`: {value} {allowed}"));
+        }
+    }
     match crate::runner::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {

@@ -111,7 +111,42 @@ pub fn merge_plant(
         .try_into()
         .map_err(|e: toml::de::Error| InputError::file(file, e.message().to_string()).table("plant"))?;
     merged.validate().map_err(|e| InputError::file(file, e.reason).table("plant").field(e.field))?;
+    check_integrable(&merged).map_err(|(field, value, allowed)| {
+        InputError::file(file, "too stiff for the plant's 1 ms RK4 step")
+            .table("plant")
+            .field(field)
+            .value(value)
+            .allowed(allowed)
+    })?;
     Ok(merged)
+}
+
+/// Plant values the fixed-step RK4 (step ≤ 1 ms) cannot integrate: linear drag or
+/// rotor drag at full speed faster than the step (`drag ≤ m / 1 ms`,
+/// `4 k_d ω_max ≤ m / 1 ms`, the same for `k_z`) and a yaw torque coefficient beyond
+/// the roll arm's moment per unit thrust (`k_m ≤ k_f · arm_length`), as
+/// `crate::validate` refuses them for `[vehicle]`. `Err((field, value, allowed))`.
+pub fn check_integrable(v: &VehicleParams) -> Result<(), (String, String, String)> {
+    let max_drag = v.mass / crate::runner::INNER_DT;
+    let num = crate::input::num;
+    if let Some(d) = v.drag.iter().find(|d| **d > max_drag) {
+        return Err(("drag".into(), num(*d), format!("0 ≤ drag ≤ mass / 1 ms = {}", num(max_drag))));
+    }
+    let max_rotor = max_drag / (4.0 * v.omega_max);
+    for (field, k) in [("rotor_drag_kd", v.rotor_drag_kd), ("rotor_drag_kz", v.rotor_drag_kz)] {
+        if k > max_rotor {
+            return Err((
+                field.into(),
+                num(k),
+                format!("0 ≤ {field} ≤ mass / (4 omega_max 1 ms) = {}", num(max_rotor)),
+            ));
+        }
+    }
+    let max_km = v.k_f * v.arm_length;
+    if v.k_m > max_km {
+        return Err(("k_m".into(), num(v.k_m), format!("0 ≤ k_m ≤ k_f · arm_length = {}", num(max_km))));
+    }
+    Ok(())
 }
 
 impl Disturbances {
@@ -267,6 +302,15 @@ mod tests {
         let bad: RawTables = toml::from_str("[plant]\nmass = -1.0\n").unwrap();
         let msg = Disturbances::default().overlay(bad, &v, "f.toml").unwrap_err().to_string();
         assert!(msg.contains("[plant]") && msg.contains("mass"), "{msg}");
+        for (t, field) in [
+            ("k_m = 1e10", "k_m"),
+            ("drag = [0.1, 0.1, 1e30]", "drag"),
+            ("rotor_drag_kd = 1.0", "rotor_drag_kd"),
+        ] {
+            let bad: RawTables = toml::from_str(&format!("[plant]\n{t}\n")).unwrap();
+            let msg = Disturbances::default().overlay(bad, &v, "f.toml").unwrap_err().to_string();
+            assert!(msg.contains("[plant]") && msg.contains(field) && msg.contains("allowed"), "{msg}");
+        }
         let bad: RawTables = toml::from_str("[wind]\nspeed = 99.0\n").unwrap();
         let msg = Disturbances::default().overlay(bad, &v, "f.toml").unwrap_err().to_string();
         assert!(msg.contains("[wind]") && msg.contains("speed") && msg.contains("99"), "{msg}");
