@@ -559,7 +559,7 @@ fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> 
 fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let (scene, cfg) = run_setup(&a)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
-    check_report_dir(&dir, &scene, a.path.as_deref())?;
+    check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
     let result = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
     let rec =
         RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
@@ -572,7 +572,12 @@ fn cmd_run(a: RunArgs) -> Result<(), CliError> {
 
 /// The report directory `dir` of `run` / `pil`: not an existing file, and none
 /// of the report's files is the scene or the path file.
-fn check_report_dir(dir: &Path, scene: &Scene, path: Option<&Path>) -> Result<(), CliError> {
+fn check_report_dir(
+    dir: &Path,
+    scene: &Scene,
+    path: Option<&Path>,
+    disturbances: Option<&Path>,
+) -> Result<(), CliError> {
     if dir.is_file() {
         return Err(InputError::option("out", "is an existing file, not a directory")
             .value(dir.display())
@@ -582,6 +587,9 @@ fn check_report_dir(dir: &Path, scene: &Scene, path: Option<&Path>) -> Result<()
     let mut inputs: Vec<(&str, &Path)> = vec![("scene file", Path::new(&scene.source))];
     if let Some(p) = path {
         inputs.push(("path file", p));
+    }
+    if let Some(p) = disturbances {
+        inputs.push(("disturbances file", p));
     }
     refuse_overwrite("out", &report_files(dir), &inputs)
 }
@@ -615,7 +623,7 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     opts.timeout = std::time::Duration::from_secs_f64(timeout);
     opts.resend_after = opts.resend_after.min(opts.timeout / 2);
     let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
-    check_report_dir(&dir, &scene, a.run.path.as_deref())?;
+    check_report_dir(&dir, &scene, a.run.path.as_deref(), a.run.disturb.disturbances.as_deref())?;
     let (result, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
     let rec =
         RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };

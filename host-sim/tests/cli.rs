@@ -554,6 +554,14 @@ fn outputs_never_replace_inputs() {
     assert_eq!(std::fs::read_to_string(&scene_as_csv).unwrap(), GOOD);
     let r = parapet(&["run", "--scene", &f, "--straight", "--out", &f]);
     refused(&r, &["option --out", "not a directory"]);
+    // run --disturbances FILE where the report writes summary.json (it was replaced).
+    let dist = sub.join("summary.json");
+    let wind = "[wind]\nspeed = 1.0\n";
+    std::fs::write(&dist, wind).unwrap();
+    let (ds, so) = (dist.to_str().unwrap(), sub.to_str().unwrap());
+    let r = parapet(&["run", "--scene", &f, "--straight", "--disturbances", ds, "--out", so]);
+    refused(&r, &["option --out", "disturbances file", "summary.json"]);
+    assert_eq!(std::fs::read_to_string(&dist).unwrap(), wind);
     // replay --out onto its own input.
     let csv = d.join("in.csv");
     let text = "t,w1,w2,w3,w4\n0,0,0,0,0\n0.01,0,0,0,0\n";
