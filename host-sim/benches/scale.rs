@@ -12,7 +12,7 @@
 //!
 //! It writes `target/scale/plan_scale.csv` (one row per call) and the log-log
 //! plot of planning cost against obstacle count, `target/scale/plan_scale.svg`
-//! (copied to `docs/img/` for `docs/performance.md`). `SCALE_QUICK=1` runs one
+//! (copied to `docs/figures/` for `docs/performance.md`). `SCALE_QUICK=1` runs one
 //! scene seed and 5 planner seeds per size.
 
 use std::fmt::Write as _;
