@@ -160,7 +160,7 @@ struct PilArgs {
     #[arg(long)]
     firmware: Option<PathBuf>,
     /// Wall-clock seconds without an answer from the firmware before the run fails.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     timeout: f64,
 }
 
@@ -212,7 +212,7 @@ struct ReplayArgs {
     motor_lag: bool,
     /// With --motor-lag: every rotor's speed at the first row's time, rad/s (default: the
     /// first row's speeds).
-    #[arg(long, requires = "motor_lag")]
+    #[arg(long, requires = "motor_lag", allow_negative_numbers = true)]
     initial_speed: Option<f64>,
     /// Steady wind, NED, m/s, as x,y,z (default 0,0,0: still air).
     #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
@@ -728,6 +728,12 @@ fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
         Some(p) => load_vehicle(p)?,
         None => VehicleParams::default(),
     };
+    if let Some(w) = a.initial_speed.filter(|w| !(0.0..=vehicle.omega_max).contains(w)) {
+        return Err(InputError::option("initial-speed", "rotor speed out of the vehicle's range")
+            .value(num(w))
+            .allowed(format!("0 ≤ initial-speed ≤ omega_max = {} rad/s", num(vehicle.omega_max)))
+            .into());
+    }
     let src = crate::input::read_text(&a.inputs)?;
     let rows =
         parse_rotor_csv(&src).map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;

@@ -490,6 +490,11 @@ fn replay_takes_start_as_written_and_a_scene_as_vehicle_and_refuses_huge_spans()
     refused(&r, &["option --dt", "1e-7"]);
     let r = parapet(&["replay", "--inputs", c, "--out", o, "--wind", "1e300,0,0"]);
     refused(&r, &["option --wind", "1e300", "50 m/s"]);
+    // A negative number is a value (it was "unexpected argument '-5'"), refused by range.
+    for w in ["-5", "1e300", "nan"] {
+        let r = parapet(&["replay", "--inputs", c, "--out", o, "--motor-lag", "--initial-speed", w]);
+        refused(&r, &["option --initial-speed", "omega_max = 1200 rad/s"]);
+    }
 }
 
 #[test]
@@ -579,6 +584,8 @@ fn pil_timeout_is_capped_before_any_build() {
     let r =
         parapet(&["pil", "--scene", &f, "--straight", "--timeout", "1e300", "--out", o.to_str().unwrap()]);
     refused(&r, &["option --timeout", "1e300", &limits::MAX_PIL_TIMEOUT_S.to_string()]);
+    let r = parapet(&["pil", "--scene", &f, "--straight", "--timeout", "-1", "--out", o.to_str().unwrap()]);
+    refused(&r, &["option --timeout", "-1"]);
     let h = stdout(&parapet(&["--help"]));
     assert!(h.contains("  4    sweep"), "{h}");
     // A file that is not firmware is refused before QEMU boots it (it died with a register dump, exit 1).
