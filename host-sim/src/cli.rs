@@ -58,22 +58,23 @@ pub struct Cli {
 enum Command {
     /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
     /// simulator; write summary.json, trajectory.csv and plots.
-    #[command(after_help = crate::help::run())]
+    #[command(after_help = crate::help::run(), allow_negative_numbers = true)]
     Run(RunArgs),
     /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
     /// (`parapet-firmware-qemu`) in QEMU netduinoplus2 as the flight controller, in lockstep
     /// over MAVLink; same report plus PIL figures (frames, instructions per step, real-time factor).
-    #[command(after_help = crate::help::pil())]
+    #[command(after_help = crate::help::pil(), allow_negative_numbers = true)]
     Pil(PilArgs),
     /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
-    #[command(after_help = crate::help::plan())]
+    #[command(after_help = crate::help::plan(), allow_negative_numbers = true)]
     Plan(PlanArgs),
     /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
     /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
-    #[command(after_help = crate::help::replay())]
+    #[command(after_help = crate::help::replay(), allow_negative_numbers = true)]
     Replay(ReplayArgs),
     /// Fly a scene over a grid of (μ, δ1[, speed]) × noise seeds in parallel; write sweep.csv
     /// and heatmaps of collision rate, min clearance and tracking RMS (paper Fig. 9).
+    #[command(allow_negative_numbers = true)]
     Sweep(crate::sweep::SweepArgs),
     /// Join the sweep.csv files of sharded sweeps (`--shard I/N`) and redraw the heatmaps.
     SweepMerge(crate::sweep::SweepMergeArgs),

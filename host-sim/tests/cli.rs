@@ -361,6 +361,15 @@ fn library_errors_become_named_inputs() {
     refused(&r, &["option --kp", "1e300"]);
     let r = parapet(&["run", "--scene", &f, "--straight", "--delta1", "0.01", "--out", o]);
     refused(&r, &["option --delta1", "0.01", "0.05"]);
+    // A negative number is the option's value, refused by its range (it was "unexpected argument '-1'").
+    let sweep = ["sweep", "--scene", &f, "--straight", "--mu", "0.9", "--delta1", "0.1", "--out", o];
+    for (args, needles) in [
+        (vec!["plan", "--scene", &f, "--time-limit", "-1", "--out", o], ["option --time-limit", "-1"]),
+        ([&sweep[..], &["--duration", "-1"]].concat(), ["option --duration", "-1"]),
+        ([&sweep[..], &["--speed", "-1"]].concat(), ["--speed", "-1"]),
+    ] {
+        refused(&parapet(&args), &needles);
+    }
     let scene_cases = [
         (GOOD.replace("speed = 0.5", "speed = 200"), vec!["[mission]", "speed", "200", "100"]),
         (
