@@ -106,7 +106,8 @@ Examples:
 pub fn plan() -> String {
     format!(
         "\
-Limits: the tree search stops after {budget} s (wall clock) or its iteration budget (then exit 3);
+Limits: the tree search stops after --time-limit (default {budget} s, wall clock, at most 3600 s) or
+  --max-iterations (then exit 3);
   a path has at most {wps} waypoints; coordinates |x| ≤ {coord:e} m.
 --out never replaces the scene file, nor an existing file that is not a parapet path file
   (unless --force).

@@ -464,6 +464,9 @@ fn help_shows_defaults_limits_examples_and_exit_codes() {
     }
     let h = stdout(&parapet(&["replay", "--help"]));
     assert!(h.contains(&limits::MAX_REPLAY_ROWS.to_string()) && h.contains("--start 1,2,-1.5"), "{h}");
+    // The planner's budget is --time-limit, not a fixed 1 s.
+    let h = stdout(&parapet(&["plan", "--help"]));
+    assert!(h.contains("stops after --time-limit (default 1 s"), "{h}");
 }
 
 #[test]
