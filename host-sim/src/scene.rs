@@ -675,7 +675,7 @@ fn check_array_lengths(src: &str) -> Result<(), String> {
 }
 
 /// Turn a TOML/serde error into "line N, <table>, field `k`: message".
-fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
+pub(crate) fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
     let msg = e.message().trim().to_string();
     let Some(span) = e.span() else {
         return msg;

@@ -235,8 +235,8 @@ impl Campaign {
     /// Read and check a campaign file.
     pub fn load(path: &Path) -> Result<Campaign, InputError> {
         let src = crate::input::read_text(path)?;
-        let table: toml::Table =
-            toml::from_str(&src).map_err(|e| InputError::file(path.display(), e.message().to_string()))?;
+        let table: toml::Table = toml::from_str(&src)
+            .map_err(|e| InputError::file(path.display(), crate::scene::describe_toml_error(&src, &e)))?;
         let dir = path.parent().unwrap_or(Path::new(""));
         let top = |field: &str, reason: &str| InputError::file(path.display(), reason).field(field);
         for k in table.keys() {
@@ -251,12 +251,22 @@ impl Campaign {
                 top("seed", "not an integer ≥ 0").value(v.to_string()).allowed("0 ≤ seed < 2^63")
             })? as u64,
         };
-        let flights = table.get("flights").and_then(|v| v.as_integer()).unwrap_or(0);
-        if !(1..=MAX_FLIGHTS as i64).contains(&flights) {
-            return Err(top("flights", "out of range")
-                .value(flights)
-                .allowed(format!("1 ≤ flights ≤ {MAX_FLIGHTS}")));
-        }
+        let flights_allowed = format!("an integer, 1 ≤ flights ≤ {MAX_FLIGHTS}");
+        let flights = match table.get("flights") {
+            None => return Err(top("flights", "missing").allowed(flights_allowed)),
+            // The value as written (`1e9`, `"10"`), not a conversion of it.
+            Some(v) => match v.as_integer() {
+                Some(n) if (1..=MAX_FLIGHTS as i64).contains(&n) => n,
+                Some(_) => {
+                    return Err(top("flights", "out of range").value(v.to_string()).allowed(flights_allowed))
+                }
+                None => {
+                    return Err(top("flights", "not an integer")
+                        .value(v.to_string())
+                        .allowed(flights_allowed))
+                }
+            },
+        };
         let mut run_args = Vec::new();
         if let Some(r) = table.get("run") {
             let r = r.as_table().ok_or_else(|| top("run", "not a table"))?;
@@ -504,6 +514,21 @@ mod tests {
         }
         let e = Campaign::load(&write(&dir, "bad.toml", "flights = 0\n")).unwrap_err().to_string();
         assert!(e.contains("flights") && e.contains("1 ≤ flights"), "{e}");
+        for (text, reason, got) in [
+            ("seed = 1\n", "missing", None),
+            ("flights = 1e9\n", "not an integer", Some("got 1000000000.0")),
+            ("flights = 1000000000\n", "out of range", Some("got 1000000000;")),
+            ("flights = \"10\"\n", "not an integer", Some("got \"10\"")),
+            ("flights = 18446744073709551615\n", "line 1", None),
+        ] {
+            let e = Campaign::load(&write(&dir, "bad.toml", text)).unwrap_err().to_string();
+            assert!(e.contains("field `flights`") && e.contains(reason), "{e}");
+            // A value the TOML reader itself cannot hold is named by its line and key.
+            assert!(reason == "line 1" || e.contains("1 ≤ flights"), "{e}");
+            if let Some(g) = got {
+                assert!(e.contains(g), "{e}");
+            }
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 }
