@@ -30,7 +30,7 @@ use crate::plant::VehicleParams;
 use crate::replay::{parse_rotor_csv, replay, ReplayOptions};
 use crate::report::{report_files, summary_table, write_report, RunRecord};
 use crate::runner::{run, RunConfig};
-use crate::scene::{to_f32, to_f64, Scene};
+use crate::scene::{to_f64, Scene};
 
 /// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
 /// level and of each subcommand. Every command returns these and only these.
@@ -375,15 +375,7 @@ fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
 }
 
 fn plan_scene_with(scene: &Scene, params: PlannerParams) -> Result<PlannedPath, CliError> {
-    let (mn, mx) = scene.bounds_ned();
-    let problem = PlanProblem {
-        bounds_min: to_f32(&mn),
-        bounds_max: to_f32(&mx),
-        obstacles: scene.static_shapes(),
-        start: to_f32(&scene.start),
-        goal: to_f32(&scene.goal),
-        hull_radius: scene.vehicle.hull_radius as f32,
-    };
+    let problem = PlanProblem::from_scene(scene);
     plan(&problem, &params).map_err(|e| {
         let msg = format!("{}: planning failed: {e}", scene.source);
         if e.exit_code() == 3 {

@@ -61,7 +61,7 @@ use crate::pathfile::PathFile;
 use crate::planner::{plan, PlanProblem, PlannerParams};
 use crate::preflight::PreflightOptions;
 use crate::runner::{default_duration, run, RunConfig};
-use crate::scene::{to_f32, to_f64, Scene};
+use crate::scene::{to_f64, Scene};
 use crate::validate::Given;
 
 /// Exit code of `parapet sweep` when some runs failed (their rows say why; the
@@ -209,15 +209,7 @@ fn sweep_path(scene: &Scene, a: &SweepArgs) -> Result<(Vec<Vector3<f64>>, &'stat
     if a.straight {
         return Ok((vec![scene.start, scene.goal], "straight"));
     }
-    let (mn, mx) = scene.bounds_ned();
-    let problem = PlanProblem {
-        bounds_min: to_f32(&mn),
-        bounds_max: to_f32(&mx),
-        obstacles: scene.static_shapes(),
-        start: to_f32(&scene.start),
-        goal: to_f32(&scene.goal),
-        hull_radius: scene.vehicle.hull_radius as f32,
-    };
+    let problem = PlanProblem::from_scene(scene);
     let params = PlannerParams { seed: a.plan_seed, ..PlannerParams::default() };
     let planned = plan(&problem, &params).map_err(|err| {
         let msg = format!("{}: planning failed: {err}", scene.source);
