@@ -84,8 +84,10 @@ enum Command {
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
     /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
+    #[command(after_help = crate::help::campaign())]
     Campaign(crate::campaign::CampaignArgs),
     /// Join the shards of a campaign (`parapet campaign --shard I/N`) into its full outputs.
+    #[command(after_help = crate::help::campaign_merge())]
     CampaignMerge(crate::campaign::CampaignMergeArgs),
 }
 

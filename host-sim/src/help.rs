@@ -1,5 +1,5 @@
 //! The long help texts of the `parapet` command line (`after_help` of the top
-//! level and of `run`, `pil`, `plan`, `replay`): built-in defaults, limits,
+//! level and of `run`, `pil`, `plan`, `replay`, `campaign`, `campaign-merge`, `scene generate`): built-in defaults, limits,
 //! examples and exit codes. Every number comes from the constant that the code
 //! enforces ([`crate::input::limits`], the core's defaults), never retyped.
 //!
@@ -53,7 +53,7 @@ Examples:
   parapet replay --inputs rotors.csv --out states.csv --start 0,0,-1
 
 {EXIT_CODES_HELP}
-  {some}    sweep, sweep-merge: some runs failed (their rows say why; see their --help)",
+  {some}    sweep, sweep-merge, campaign: some runs failed (their rows say why; see their --help)",
         some = crate::sweep::EXIT_SOME_FAILED
     )
 }
@@ -141,5 +141,59 @@ Examples:
         maxdt = l::MAX_DT_S,
         steps = l::MAX_PLANT_STEPS,
         bytes = l::MAX_INPUT_FILE_BYTES,
+    )
+}
+
+/// `parapet campaign --help`.
+pub fn campaign() -> String {
+    format!(
+        "\
+Limits: 1 ≤ flights ≤ {flights} per campaign file; every flight is checked like `parapet run`
+  (its limits apply; a flight whose drawn values are refused is a row with end_reason error);
+  --jobs ≤ 256; --shard I/N with 1 ≤ I ≤ N ≤ 100000. --out never replaces an input.
+  The file format (distributions fixed | uniform | normal | log_uniform per quantity) is in
+  docs/robustness.md; examples in scenes/campaigns/.
+
+Examples:
+  parapet campaign scenes/campaigns/ci.toml --out out/campaign
+  parapet campaign scenes/campaigns/robustness.toml --jobs 2
+  parapet campaign scenes/campaigns/ci.toml --shard 2/4 --out out/shard2   # then campaign-merge
+
+{codes}",
+        flights = crate::campaign::spec::MAX_FLIGHTS,
+        codes = crate::sweep::exit_codes_help(
+            "campaign: some flights could not be flown (end_reason error in campaign.csv); the others are kept"
+        ),
+    )
+}
+
+/// `parapet campaign-merge --help`.
+pub fn campaign_merge() -> String {
+    format!(
+        "\
+Refuses (exit 2) shards of another campaign (file, seed, flights), a shard given twice and
+  missing shards, naming them. The merged outputs are byte-identical to one process's.
+
+Examples:
+  parapet campaign-merge --campaign scenes/campaigns/ci.toml out/shard1 out/shard2 out/shard3 out/shard4 --out out/merged
+
+{EXIT_CODES_HELP}"
+    )
+}
+
+/// `parapet scene generate --help`.
+pub fn scene_generate() -> String {
+    format!(
+        "\
+Limits: 1 ≤ --obstacles ≤ 1,000,000; the mission must fit the scene (--mission-length at most
+  80 % of its side); the planner must connect start and goal, else no file is written.
+  --out never replaces an existing file unless --force.
+
+Examples:
+  parapet scene generate --kind forest --obstacles 10000 --density 0.05 --seed 1 --out out/forest.toml
+  parapet scene generate --kind city --street 8 --out out/city.toml
+  parapet run --scene out/forest.toml --out out/forest_run
+
+{EXIT_CODES_HELP}"
     )
 }

@@ -433,6 +433,11 @@ fn help_shows_defaults_limits_examples_and_exit_codes() {
         vec!["pil", "--help"],
         vec!["plan", "--help"],
         vec!["replay", "--help"],
+        vec!["sweep", "--help"],
+        vec!["sweep-merge", "--help"],
+        vec!["campaign", "--help"],
+        vec!["campaign-merge", "--help"],
+        vec!["scene", "generate", "--help"],
     ] {
         let r = parapet(&cmd);
         assert_eq!(r.status.code(), Some(0));

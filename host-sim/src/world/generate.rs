@@ -457,6 +457,7 @@ pub struct SceneArgs {
 enum SceneCommand {
     /// Generate a procedural scene (forest, city, warehouse, clutter), seeded, with a mission
     /// the planner connects, and write it as a scene TOML.
+    #[command(after_help = crate::help::scene_generate())]
     Generate(GenerateArgs),
 }
 
