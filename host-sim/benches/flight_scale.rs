@@ -19,29 +19,11 @@ use parapet_sim::world::generate::{generate, GenParams, Kind};
 
 const REPS: usize = 7;
 
-#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
-fn thread_cpu_ns() -> u64 {
-    #[repr(C)]
-    struct Timespec {
-        tv_sec: i64,
-        tv_nsec: i64,
-    }
-    extern "C" {
-        fn clock_gettime(clock_id: i32, tp: *mut Timespec) -> i32;
-    }
-    let mut ts = Timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: `ts` is a valid, writable timespec for the duration of the call.
-    let rc = unsafe { clock_gettime(3, &mut ts) };
-    if rc == 0 {
-        ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
-    } else {
-        0
-    }
-}
+mod common;
 
-#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
+/// This thread's CPU time, ns (0 where it cannot be read).
 fn thread_cpu_ns() -> u64 {
-    0
+    common::thread_cpu_ns().unwrap_or(0)
 }
 
 fn median(v: &mut [f64]) -> f64 {
