@@ -12,9 +12,9 @@
 
 use std::path::Path;
 
-use parapet_sim::planner::{plan, PlanProblem, PlannerParams};
-use parapet_sim::runner::{run, RunConfig};
-use parapet_sim::scene::{to_f64, NearestTracker, Scene};
+use parapet_sim::plan::{plan, PlanProblem, PlannerParams};
+use parapet_sim::flight::runner::{run, RunConfig};
+use parapet_sim::world::scene::{to_f64, NearestTracker, Scene};
 use parapet_sim::world::generate::{generate, GenParams, Kind};
 
 const REPS: usize = 7;

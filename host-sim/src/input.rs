@@ -225,10 +225,10 @@ mod tests {
 
     #[test]
     fn limits_agree_with_the_code_they_describe() {
-        assert_eq!(limits::MAX_DT_S, crate::runner::INNER_DT);
+        assert_eq!(limits::MAX_DT_S, crate::flight::runner::INNER_DT);
         assert_eq!(
             limits::PLANNER_BUDGET_S * 1000.0,
-            crate::planner::PlannerParams::default().time_budget_ms
+            crate::plan::PlannerParams::default().time_budget_ms
         );
         let timeout_us = parapet_core::failsafe::FailsafeParams::default().position_timeout_us;
         assert!((limits::MAX_POSITION_LATENCY_S * 1e6).round() as u64 <= timeout_us / 2);

@@ -34,13 +34,13 @@ use std::time::Instant;
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use nalgebra::Vector3;
 use parapet_core::cbf::SafetyFilter;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::plant::{Plant, VehicleParams};
-use parapet_sim::runner::{
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::sim::plant::{Plant, VehicleParams};
+use parapet_sim::flight::runner::{
     nearest_with_ground, run, sense_and_h_bar, sense_obstacles, OuterScratch, RunConfig,
 };
-use parapet_sim::scene::{to_f64, NearestTracker, Scene};
-use parapet_sim::sensors::Sensors;
+use parapet_sim::world::scene::{to_f64, NearestTracker, Scene};
+use parapet_sim::sim::sensors::Sensors;
 
 /// The office scene and its shipped path, with a 60 s duration limit.
 fn office() -> (Scene, RunConfig) {

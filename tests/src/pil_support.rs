@@ -6,14 +6,14 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::sync::OnceLock;
 
-use parapet_sim::pil::firmware_from_env_or_build;
-use parapet_sim::runner::RunConfig;
-use parapet_sim::scene::Scene;
+use parapet_sim::fc::pil::firmware_from_env_or_build;
+use parapet_sim::flight::runner::RunConfig;
+use parapet_sim::world::scene::Scene;
 
 /// One sphere (r 0.2 m) 5 cm off the straight start → goal line: without the filter the hull
 /// (r 0.224 m) hits it. The vehicle is not the default one (heavier, larger, stronger rotors)
 /// and the filter has a velocity margin, so the PIL flight checks that the firmware receives
-/// the scene's airframe and settings over PARAM_SET (`parapet_sim::pil::firmware_params`).
+/// the scene's airframe and settings over PARAM_SET (`parapet_sim::fc::pil::firmware_params`).
 pub const SCENE: &str = r#"
 name = "pil_short"
 [bounds]

@@ -26,9 +26,9 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::runner::{path_length, run, RunConfig, RunOutput};
-use parapet_sim::scene::{to_f64, Scene};
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::flight::runner::{path_length, run, RunConfig, RunOutput};
+use parapet_sim::world::scene::{to_f64, Scene};
 
 const EPS: f64 = 2e-3;
 const SCENES: [&str; 2] = ["dogleg_corridor", "door_lintel"];

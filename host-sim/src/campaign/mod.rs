@@ -19,7 +19,7 @@
 //! Memory: one row per flight (the samples of a flight are dropped when it ends);
 //! time: the flights' durations are bounded as `parapet run`'s.
 //!
-//! May import: `crate::cli` (run options, errors), `crate::runner`, `crate::disturbance`,
+//! May import: `crate::cli` (run options, errors), `crate::flight::runner`, `crate::sim::disturbance`,
 //! `crate::input`, rayon, indicatif, clap, serde.
 
 pub mod output;
@@ -125,11 +125,11 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     // The drawn plant as `--disturbances` would check it (so the worst-flight command flies too).
     if let Some(p) = &cfg.disturbances.plant {
         let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
-        if let Err((field, value, allowed)) = checked.and_then(|_| crate::disturbance::check_integrable(p)) {
+        if let Err((field, value, allowed)) = checked.and_then(|_| crate::sim::disturbance::check_integrable(p)) {
             return failed(row, format!("the drawn [plant] field `{field}`: {value} {allowed}"));
         }
     }
-    match crate::runner::run(&scene, &cfg, &mut |_| {}) {
+    match crate::flight::runner::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
             let s = &out.summary;

@@ -75,8 +75,8 @@ Examples:
   parapet run --scene scenes/outdoor_static.toml --speed 1.5 --max-duration 7200 --duration 5000
 
 {EXIT_CODES_HELP}",
-        defaults = crate::validate::defaults_help(),
-        range = crate::runner::DEFAULT_SENSING_RANGE,
+        defaults = crate::flight::validate::defaults_help(),
+        range = crate::flight::runner::DEFAULT_SENSING_RANGE,
         limits = flight_limits(),
     )
 }
@@ -96,7 +96,7 @@ Examples:
   parapet pil --firmware target/thumbv7em-none-eabihf/release/parapet-firmware-qemu --out out/pil
 
 {EXIT_CODES_HELP}",
-        defaults = crate::validate::defaults_help(),
+        defaults = crate::flight::validate::defaults_help(),
         limits = flight_limits(),
         timeout = l::MAX_PIL_TIMEOUT_S,
     )

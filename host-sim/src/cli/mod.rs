@@ -6,11 +6,14 @@
 //! allowed range), 3 no path found by the planner. Bad input is an
 //! [`InputError`]; library error enums are never shown as debug text.
 //!
-//! Standard output goes through [`out`] ([`crate::output`]): a closed pipe
+//! Standard output goes through [`out`] ([`crate::cli::output`]): a closed pipe
 //! (`parapet run | head`) ends the command quietly with exit 0, never a panic.
 //! Outputs never replace an input file ([`refuse_overwrite`]).
 //!
 //! May import: every host-sim module (it is the top).
+
+pub mod help;
+pub mod output;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -20,17 +23,17 @@ use clap::{Args, Parser, Subcommand};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
 
-pub use crate::output::{out, refuse_overwrite};
-pub use crate::replay::load_vehicle;
+pub use crate::cli::output::{out, refuse_overwrite};
+pub use crate::sim::replay::load_vehicle;
 
 use crate::input::{limits, num, InputError};
-use crate::pathfile::PathFile;
-use crate::planner::{plan, PlanProblem, PlannedPath, PlannerParams};
-use crate::plant::VehicleParams;
-use crate::replay::{parse_rotor_csv, replay, ReplayOptions};
+use crate::plan::pathfile::PathFile;
+use crate::plan::{plan, PlanProblem, PlannedPath, PlannerParams};
+use crate::sim::plant::VehicleParams;
+use crate::sim::replay::{parse_rotor_csv, replay, ReplayOptions};
 use crate::report::{report_files, summary_table, write_report, RunRecord};
-use crate::runner::{run, RunConfig};
-use crate::scene::{to_f64, Scene};
+use crate::flight::runner::{run, RunConfig};
+use crate::world::scene::{to_f64, Scene};
 
 /// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
 /// level and of each subcommand. Every command returns these and only these.
@@ -48,7 +51,7 @@ pub const DEFAULT_SCENE: &str = "scenes/office.toml";
 
 /// Parapet: quadrotor flight with a closed-form CBF safety filter — simulator and tools.
 #[derive(Debug, Parser)]
-#[command(name = "parapet", version, about, long_about = None, after_help = crate::help::top())]
+#[command(name = "parapet", version, about, long_about = None, after_help = crate::cli::help::top())]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -58,19 +61,19 @@ pub struct Cli {
 enum Command {
     /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
     /// simulator; write summary.json, trajectory.csv and plots.
-    #[command(after_help = crate::help::run(), allow_negative_numbers = true)]
+    #[command(after_help = crate::cli::help::run(), allow_negative_numbers = true)]
     Run(RunArgs),
     /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
     /// (`parapet-firmware-qemu`) in QEMU netduinoplus2 as the flight controller, in lockstep
     /// over MAVLink; same report plus PIL figures (frames, instructions per step, real-time factor).
-    #[command(after_help = crate::help::pil(), allow_negative_numbers = true)]
+    #[command(after_help = crate::cli::help::pil(), allow_negative_numbers = true)]
     Pil(PilArgs),
     /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
-    #[command(after_help = crate::help::plan(), allow_negative_numbers = true)]
+    #[command(after_help = crate::cli::help::plan(), allow_negative_numbers = true)]
     Plan(PlanArgs),
     /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
     /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
-    #[command(after_help = crate::help::replay(), allow_negative_numbers = true)]
+    #[command(after_help = crate::cli::help::replay(), allow_negative_numbers = true)]
     Replay(ReplayArgs),
     /// Fly a scene over a grid of (μ, δ1[, speed]) × noise seeds in parallel; write sweep.csv
     /// and heatmaps of collision rate, min clearance and tracking RMS (paper Fig. 9).
@@ -84,10 +87,10 @@ enum Command {
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
     /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
-    #[command(after_help = crate::help::campaign())]
+    #[command(after_help = crate::cli::help::campaign())]
     Campaign(crate::campaign::CampaignArgs),
     /// Join the shards of a campaign (`parapet campaign --shard I/N`) into its full outputs.
-    #[command(after_help = crate::help::campaign_merge())]
+    #[command(after_help = crate::cli::help::campaign_merge())]
     CampaignMerge(crate::campaign::CampaignMergeArgs),
 }
 
@@ -151,7 +154,7 @@ struct RunArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     #[command(flatten)]
-    disturb: crate::disturbance::args::DisturbanceArgs,
+    disturb: crate::sim::disturbance::args::DisturbanceArgs,
 }
 
 #[derive(Debug, Args)]
@@ -229,13 +232,13 @@ struct ReplayArgs {
 /// core's constants, shortest decimals).
 fn default_help(what: &str, name: &str) -> String {
     let c = parapet_core::cbf::CbfParams::default();
-    let f = crate::validate::f32_as_f64;
+    let f = crate::flight::validate::f32_as_f64;
     let d = match name {
         "mu" => f(c.mu),
         "delta" => f(c.delta),
         "delta1" => f(c.delta1),
-        "kp" => crate::runner::DEFAULT_KP,
-        _ => crate::runner::DEFAULT_KD,
+        "kp" => crate::flight::runner::DEFAULT_KP,
+        _ => crate::flight::runner::DEFAULT_KD,
     };
     format!("{what} [default: the scene's [controller] {name}, else {d}]")
 }
@@ -398,8 +401,8 @@ fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
 }
 
 /// The options of `a` given on the command line and the duration cap, for
-/// [`crate::validate::check_run`].
-fn given(a: &RunArgs) -> Result<crate::validate::Given, CliError> {
+/// [`crate::flight::validate::check_run`].
+fn given(a: &RunArgs) -> Result<crate::flight::validate::Given, CliError> {
     let mut options = Vec::new();
     for (name, x) in [
         ("mu", a.mu),
@@ -426,14 +429,14 @@ fn given(a: &RunArgs) -> Result<crate::validate::Given, CliError> {
         Some(m) => m,
         None => limits::MAX_DURATION_S,
     };
-    Ok(crate::validate::Given { options, max_duration })
+    Ok(crate::flight::validate::Given { options, max_duration })
 }
 
 /// Scene and run configuration from the `run` options (shared by `run` and `pil`).
 fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     let mut scene = load_scene(&a.scene)?;
     // [preflight] the start is flyable (before planning from it); --foreign-path needs --path.
-    crate::preflight::check_start(&scene).map_err(|e| CliError::BadInput(e.to_string()))?;
+    crate::flight::preflight::check_start(&scene).map_err(|e| CliError::BadInput(e.to_string()))?;
     if a.foreign_path && a.path.is_none() {
         return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
     }
@@ -493,7 +496,7 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         cfg.duration = x;
     } else if scene.sim.duration.is_none() {
         // [preflight] the default covers the whole flown path, start → first waypoint included.
-        cfg.duration = crate::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
+        cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
     }
     if let Some(x) = positive("sensing-range", a.sensing_range)? {
         cfg.sensing_range = x;
@@ -505,14 +508,14 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     }
     cfg.seed = a.seed;
     // Every setting against the core's limits and the caps, naming its origin.
-    crate::validate::check_run(&scene, &cfg, &given(a)?)?;
+    crate::flight::validate::check_run(&scene, &cfg, &given(a)?)?;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
     // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
-    let opts = crate::preflight::PreflightOptions {
+    let opts = crate::flight::preflight::PreflightOptions {
         path_file: a.path.as_ref().map(|p| p.display().to_string()),
         foreign_path: a.foreign_path,
     };
-    crate::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
+    crate::flight::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
     Ok((scene, cfg))
 }
 
@@ -590,7 +593,7 @@ fn check_report_dir(
 }
 
 fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
-    use crate::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
+    use crate::fc::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
     if timeout > limits::MAX_PIL_TIMEOUT_S {
@@ -604,7 +607,7 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
             return Err(CliError::BadInput(format!("option --firmware: {} is not a file", p.display())))
         }
         // QEMU would boot any bytes and die with a register dump (exit 1).
-        Some(p) if !crate::pil::is_elf(p) => {
+        Some(p) if !crate::fc::pil::is_elf(p) => {
             return Err(CliError::BadInput(format!(
                 "option --firmware: {} is not an ELF file (it does not start with 0x7f 'E' 'L' 'F'); \
                  give the `parapet-firmware-qemu` build",
@@ -712,7 +715,7 @@ fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
             .into());
     }
     // The same cap as `run --wind` (a 1e300 m/s wind flew to 1e302 m).
-    let max_wind = crate::disturbance::wind::MAX_WIND_MPS;
+    let max_wind = crate::sim::disturbance::wind::MAX_WIND_MPS;
     if let Some(k) = a.wind.iter().position(|x| x.abs() > max_wind) {
         return Err(InputError::option("wind", "wind component out of range")
             .value(num(a.wind[k]))

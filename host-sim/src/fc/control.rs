@@ -27,9 +27,9 @@ use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::WaypointParams;
 use parapet_core::Vec3;
 
-use crate::runner::RunConfig;
-use crate::scene::{to_f32, to_f64, Scene};
-use crate::sensors::{ImuReading, PositionReading};
+use crate::flight::runner::RunConfig;
+use crate::world::scene::{to_f32, to_f64, Scene};
+use crate::sim::sensors::{ImuReading, PositionReading};
 
 /// Offset of the controller clock from simulated time, s.
 pub const CLOCK_OFFSET_S: f64 = 1.0;
@@ -172,10 +172,10 @@ impl Controller {
     pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
         let params = controller_params(scene, cfg, cbf, cfg.variant);
         let mut fc = FlightController::new(params)
-            .map_err(|e| anyhow!("{}", crate::validate::describe_param_error(scene, &params, e)))?;
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &params, e)))?;
         let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();
         fc.set_path(&wps).map_err(|e| {
-            anyhow!("path rejected by the controller: {}", crate::validate::describe_command_error(e))
+            anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
         })?;
         Ok(Controller { fc, cbf: cfg.cbf })
     }
@@ -212,16 +212,16 @@ impl Autopilot for Controller {
             CommandError::Arm(r) => anyhow!("the flight controller refused to arm at the start: {r}"),
             other => anyhow!(
                 "the flight controller refused to arm at the start: {}",
-                crate::validate::describe_command_error(other)
+                crate::flight::validate::describe_command_error(other)
             ),
         })?;
         self.fc
             .hold_position(now, to_f32(&start))
-            .map_err(|e| anyhow!("hold refused: {}", crate::validate::describe_command_error(e)))?;
+            .map_err(|e| anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e)))?;
         self.fc.step_outer(now);
         self.fc
             .start_mission(now)
-            .map_err(|e| anyhow!("mission start refused: {}", crate::validate::describe_command_error(e)))?;
+            .map_err(|e| anyhow!("mission start refused: {}", crate::flight::validate::describe_command_error(e)))?;
         Ok(())
     }
 

@@ -1,6 +1,6 @@
 //! Processor-in-the-loop (PIL): the real firmware binary (`parapet-firmware-qemu`, the
 //! `board-qemu` build of `firmware/`) runs in `qemu-system-arm -machine netduinoplus2
-//! -icount shift=0` and flies the scene against the 6-DOF plant of [`crate::runner`].
+//! -icount shift=0` and flies the scene against the 6-DOF plant of [`crate::flight::runner`].
 //!
 //! The link follows the "QEMU lockstep protocol" of `firmware/README.md` exactly: a TCP
 //! chardev on a free localhost port (TCP_NODELAY on both sides), the HEARTBEAT handshake,
@@ -9,7 +9,7 @@
 //! waits for the HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.
 //! MAVLink v2 encoding/decoding is the `mavlink` crate (the firmware's version and dialect).
 //!
-//! [`PilLink`] implements [`Autopilot`], so [`crate::runner::run_with`] drives the firmware
+//! [`PilLink`] implements [`Autopilot`], so [`crate::flight::runner::run_with`] drives the firmware
 //! exactly like the in-process controller and the report is the same as `parapet run`'s.
 //!
 //! ## Start-up (before simulated t = 0, plant frozen in hover at the start)
@@ -64,10 +64,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::control::{clock_us, region_name, Autopilot, OuterOut};
-use crate::runner::{run_with, RunConfig, RunOutput, OUTER_DIVIDER};
-use crate::scene::{to_f32, to_f64, Scene};
-use crate::sensors::{ImuReading, PositionReading};
+use crate::fc::control::{clock_us, region_name, Autopilot, OuterOut};
+use crate::flight::runner::{run_with, RunConfig, RunOutput, OUTER_DIVIDER};
+use crate::world::scene::{to_f32, to_f64, Scene};
+use crate::sim::sensors::{ImuReading, PositionReading};
 
 /// Debian/Ubuntu package (and binary) of the emulator.
 pub const QEMU_PACKAGE: &str = "qemu-system-arm";
@@ -262,7 +262,7 @@ pub fn firmware_from_env_or_build() -> Result<PathBuf> {
 }
 
 /// The controller parameters the firmware flies with for `scene` and `cfg`: exactly those of
-/// `parapet run` ([`crate::control::controller_params`]: the scene's vehicle, the run's CBF,
+/// `parapet run` ([`crate::fc::control::controller_params`]: the scene's vehicle, the run's CBF,
 /// tracking and speed settings), with the PARAM_SET sequence that takes the firmware from its
 /// boot defaults (`ControllerParams::default()`) there, in an order in which every intermediate
 /// set validates ([`parapet_core::params::plan_updates`]). Errors name a setting the firmware
@@ -271,11 +271,11 @@ pub fn firmware_params(
     scene: &Scene,
     cfg: &RunConfig,
 ) -> Result<(ControllerParams, Vec<(&'static str, f32)>)> {
-    let p = crate::control::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    let p = crate::fc::control::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
     let mut out = [("", 0.0f32); params::COUNT];
     let n = params::plan_updates(&ControllerParams::default(), &p, &mut out).map_err(|e| match e {
         params::PlanError::InvalidTarget => match p.validate() {
-            Err(e) => anyhow!("{}", crate::validate::describe_param_error(scene, &p, e)),
+            Err(e) => anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)),
             Ok(()) => anyhow!("controller parameters rejected by the firmware's parameter plan"),
         },
         params::PlanError::NotSettable(field) => {
@@ -411,10 +411,10 @@ impl PilLink {
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || reader_thread(read_half, tx));
         let mut follower = WaypointFollower::new(params.waypoint)
-            .map_err(|e| anyhow!("waypoint parameters: {}", crate::validate::describe_path_error(e)))?;
+            .map_err(|e| anyhow!("waypoint parameters: {}", crate::flight::validate::describe_path_error(e)))?;
         follower
             .set_path(&quantised_path(&cfg.path))
-            .map_err(|e| anyhow!("path rejected: {}", crate::validate::describe_path_error(e)))?;
+            .map_err(|e| anyhow!("path rejected: {}", crate::flight::validate::describe_path_error(e)))?;
         let mut link = PilLink {
             qemu,
             sock,
@@ -947,7 +947,7 @@ impl PilLink {
         (self.armed, self.phase) = (true, 4);
         self.follower
             .start(to_f32(&start))
-            .map_err(|e| anyhow!("follower: {}", crate::validate::describe_path_error(e)))?;
+            .map_err(|e| anyhow!("follower: {}", crate::flight::validate::describe_path_error(e)))?;
         self.in_flight = true;
         Ok(())
     }
@@ -1227,9 +1227,9 @@ impl FirmwareTwin {
         let (p, updates) = firmware_params(scene, cfg)?;
         let n_params = updates.len();
         let mut fc = FlightController::new(p)
-            .map_err(|e| anyhow!("{}", crate::validate::describe_param_error(scene, &p, e)))?;
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)))?;
         fc.set_path(&quantised_path(&cfg.path))
-            .map_err(|e| anyhow!("{}", crate::validate::describe_command_error(e)))?;
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
         Ok(FirmwareTwin {
             fc,
             cbf: cfg.cbf,
@@ -1300,10 +1300,10 @@ impl Autopilot for FirmwareTwin {
             }
             if tk == t0 - OUTER_US {
                 let prev = self.last_t_us;
-                self.fc.arm(prev).map_err(|e| anyhow!("{}", crate::validate::describe_command_error(e)))?;
+                self.fc.arm(prev).map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
                 self.fc
                     .hold_position(prev, to_f32(&start))
-                    .map_err(|e| anyhow!("hold refused: {}", crate::validate::describe_command_error(e)))?;
+                    .map_err(|e| anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e)))?;
             }
             self.step(tk, imu);
             tk += 1000;
@@ -1374,7 +1374,7 @@ mod tests {
         let (p, updates) = firmware_params(&s, &cfg).expect("representable");
         assert_eq!(
             p,
-            crate::control::controller_params(&s, &cfg, cfg.cbf_params().expect("cbf"), cfg.variant)
+            crate::fc::control::controller_params(&s, &cfg, cfg.cbf_params().expect("cbf"), cfg.variant)
         );
         assert_eq!(p.airframe.mass, 1.2);
         assert_eq!(p.cbf.velocity_margin, 0.03);

@@ -33,13 +33,13 @@
 //! the runner's collision test (`sd < hull`), so a start the runner would
 //! count as a collision at t = 0 is refused here instead.
 //!
-//! May import: `crate::scene`, `crate::runner` (RunConfig), `crate::input`, `nalgebra`.
+//! May import: `crate::world::scene`, `crate::flight::runner` (RunConfig), `crate::input`, `nalgebra`.
 
 use nalgebra::Vector3;
 
 use crate::input::InputError;
-use crate::runner::RunConfig;
-use crate::scene::{ned_to_enu_arr, to_f32, Scene};
+use crate::flight::runner::RunConfig;
+use crate::world::scene::{ned_to_enu_arr, to_f32, Scene};
 
 /// How far (m) the first / last waypoint may be from the mission start / goal
 /// for the path to count as the scene's (without `--foreign-path`).
@@ -238,7 +238,7 @@ fn fmt3(a: &[f64; 3]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::enu_arr_to_ned;
+    use crate::world::scene::enu_arr_to_ned;
 
     /// Start (0, 0, 1), goal (6, 0, 1); a static sphere at x = 3 beside the line,
     /// a box wall at x = 4.5, and a sphere walking from far away at t = 0.
@@ -397,8 +397,8 @@ velocity = [-0.5, 0, 0]
             let stem = f.file_stem().and_then(|x| x.to_str()).unwrap_or_default();
             let pf = dir.join(format!("{stem}_path.json"));
             if pf.exists() {
-                let file = crate::pathfile::PathFile::read(&pf).unwrap_or_else(|e| panic!("{e}"));
-                let path = file.waypoints_ned().iter().map(crate::scene::to_f64).collect();
+                let file = crate::plan::pathfile::PathFile::read(&pf).unwrap_or_else(|e| panic!("{e}"));
+                let path = file.waypoints_ned().iter().map(crate::world::scene::to_f64).collect();
                 let c = RunConfig::for_scene(&s, path).unwrap_or_else(|e| panic!("{e}"));
                 let o = PreflightOptions { path_file: Some(pf.display().to_string()), foreign_path: false };
                 assert_eq!(check(&s, &c, &o), Ok(()), "{}", pf.display());
@@ -409,8 +409,8 @@ velocity = [-0.5, 0, 0]
         // The office's path flown in the outdoor scene is refused as foreign.
         let s = Scene::load(&dir.join("outdoor_static.toml")).unwrap_or_else(|e| panic!("{e}"));
         let file =
-            crate::pathfile::PathFile::read(&dir.join("office_path.json")).unwrap_or_else(|e| panic!("{e}"));
-        let c = RunConfig::for_scene(&s, file.waypoints_ned().iter().map(crate::scene::to_f64).collect())
+            crate::plan::pathfile::PathFile::read(&dir.join("office_path.json")).unwrap_or_else(|e| panic!("{e}"));
+        let c = RunConfig::for_scene(&s, file.waypoints_ned().iter().map(crate::world::scene::to_f64).collect())
             .unwrap_or_else(|e| panic!("{e}"));
         let e = refused(
             &s,
@@ -429,7 +429,7 @@ velocity = [-0.5, 0, 0]
         // check sees the ball's surface point inside the hull and refuses.
         let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [3, 0.75, 1]"));
         let c = cfg(&s, &[[3.0, 0.75, 1.0], [6.0, 0.0, 1.0]]);
-        let e = match crate::runner::run(&s, &c, &mut |_| {}) {
+        let e = match crate::flight::runner::run(&s, &c, &mut |_| {}) {
             Ok(o) => panic!("flew: {:?}", o.summary.end_reason),
             Err(e) => format!("{e:#}"),
         };

@@ -18,7 +18,7 @@
 //!   length start → first waypoint → … → last at the reference speed, + 15 s).
 //!
 //! ## What the controller is told
-//! * Position fixes at the outer rate from [`crate::sensors`] (noise, latency).
+//! * Position fixes at the outer rate from [`crate::sim::sensors`] (noise, latency).
 //! * IMU samples at the inner rate.
 //! * Obstacles at the outer rate, as a proximity sensor would report them: for
 //!   each obstacle whose surface is within the sensing range of the true
@@ -47,13 +47,13 @@ use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
-use crate::control::{Autopilot, Controller};
+use crate::fc::control::{Autopilot, Controller};
 use crate::input::limits;
-use crate::plant::Plant;
+use crate::sim::plant::Plant;
 use crate::report::{RunParams, Sample, Summary};
-use crate::scene::{to_f32, NearestTracker, Scene};
-use crate::sensors::{SensorParams, Sensors};
-use crate::validate::f32_as_f64;
+use crate::world::scene::{to_f32, NearestTracker, Scene};
+use crate::sim::sensors::{SensorParams, Sensors};
+use crate::flight::validate::f32_as_f64;
 
 /// Goal reached: distance to the goal below this, m.
 pub const GOAL_TOLERANCE_M: f64 = 0.1;
@@ -105,7 +105,7 @@ pub struct RunConfig {
     /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
     pub dt: f64,
     /// Wind, plant vehicle (mismatch) and faults (the scene's, or overridden).
-    pub disturbances: crate::disturbance::Disturbances,
+    pub disturbances: crate::sim::disturbance::Disturbances,
 }
 
 impl RunConfig {
@@ -470,7 +470,7 @@ pub fn run_with(
     let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
     plant.set_hover(scene.start, 0.0);
     let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
-    let mut live = crate::disturbance::Live::new(&cfg.disturbances, cfg.seed);
+    let mut live = crate::sim::disturbance::Live::new(&cfg.disturbances, cfg.seed);
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.
     let mut fix = None;
@@ -668,7 +668,7 @@ pub fn run_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Motion, SceneObstacle};
+    use crate::world::scene::{Motion, SceneObstacle};
     use parapet_core::obstacle::Shape;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -18,10 +18,10 @@ use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
 use parapet_core::waypoint::{self, PathError};
 
-use crate::control::controller_params;
+use crate::fc::control::controller_params;
 use crate::input::{limits, num, InputError};
-use crate::runner::RunConfig;
-use crate::scene::Scene;
+use crate::flight::runner::RunConfig;
+use crate::world::scene::Scene;
 
 /// Which run settings were given on the command line (they win over the scene),
 /// and the duration cap in force (`--max-duration`).
@@ -402,8 +402,8 @@ pub fn defaults_help() -> String {
         f32_as_f64(c.mu),
         f32_as_f64(c.delta),
         f32_as_f64(c.delta1),
-        crate::runner::DEFAULT_KP,
-        crate::runner::DEFAULT_KD,
+        crate::flight::runner::DEFAULT_KP,
+        crate::flight::runner::DEFAULT_KD,
         parapet_core::cbf::FilterVariant::default().as_str()
     )
 }

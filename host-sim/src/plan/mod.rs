@@ -3,7 +3,7 @@
 //!
 //! # API
 //! ```ignore
-//! use parapet_sim::planner::{plan, PlanProblem, PlannerParams, PlanError};
+//! use parapet_sim::plan::{plan, PlanProblem, PlannerParams, PlanError};
 //! let problem = PlanProblem { bounds_min, bounds_max, obstacles, start, goal, hull_radius }; // NED, m
 //! let params = PlannerParams { seed: 7, ..PlannerParams::default() };
 //! match plan(&problem, &params) {
@@ -22,9 +22,9 @@
 //!   last, at most `max_waypoints` of them) or a [`PlanError`] whose
 //!   [`PlanError::exit_code`] is the CLI's exit code.
 //! * [`PlanProblem::from_scene`] builds the problem from a loaded
-//!   [`crate::scene::Scene`].
+//!   [`crate::world::scene::Scene`].
 //! * [`path_is_valid`] checks any waypoint list (e.g. one read from a path file
-//!   with [`crate::pathfile`]) against a problem with the same segment test.
+//!   with [`crate::plan::pathfile`]) against a problem with the same segment test.
 //!
 //! # Configuration space and validity
 //! The configuration is the centre of mass. A position `p` is **valid** when it
@@ -133,6 +133,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
+pub mod pathfile;
 mod shortcut;
 mod space;
 
@@ -185,14 +186,14 @@ impl PlanProblem {
     /// The planning problem of a loaded scene: its NED bounds, its **static**
     /// obstacles only (moving ones are left to the safety filter), mission
     /// start and goal, and the vehicle's hull radius.
-    pub fn from_scene(scene: &crate::scene::Scene) -> Self {
+    pub fn from_scene(scene: &crate::world::scene::Scene) -> Self {
         let (lo, hi) = scene.bounds_ned();
         PlanProblem {
-            bounds_min: crate::scene::to_f32(&lo),
-            bounds_max: crate::scene::to_f32(&hi),
+            bounds_min: crate::world::scene::to_f32(&lo),
+            bounds_max: crate::world::scene::to_f32(&hi),
             obstacles: scene.static_shapes(),
-            start: crate::scene::to_f32(&scene.start),
-            goal: crate::scene::to_f32(&scene.goal),
+            start: crate::world::scene::to_f32(&scene.start),
+            goal: crate::world::scene::to_f32(&scene.goal),
             hull_radius: scene.vehicle.hull_radius as f32,
         }
     }

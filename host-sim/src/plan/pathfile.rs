@@ -25,7 +25,7 @@ use serde_json::{Map, Value};
 use thiserror::Error;
 
 use crate::input::limits;
-use crate::planner::{path_length, PlannedPath};
+use crate::plan::{path_length, PlannedPath};
 
 /// Contents of a path file (positions ENU, m).
 #[derive(Clone, Debug, PartialEq)]

@@ -15,7 +15,11 @@
 //! controller's own min h̄ from its estimate and the sensed obstacles);
 //! `n_constraints`, `unavoidable`, `infeasible` (filter diagnostics); `mode`
 //! (controller guidance mode); `wind_x,wind_y,wind_z` the wind at the vehicle (m/s,
-//! ENU; 0 in still air, see `crate::disturbance`).
+//! ENU; 0 in still air, see `crate::sim::disturbance`).
+//!
+//! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
+//! May import: `parapet-core`, [`crate::input`], [`crate::world`] (the scene
+//! drawn in the plots), plotters, serde.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -27,7 +31,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::scene::{ned_to_enu_arr, to_f64, Scene};
+use crate::world::scene::{ned_to_enu_arr, to_f64, Scene};
 
 /// Controller parameters of a run, as flown.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -472,7 +476,7 @@ where
             // vehicle together with the vehicle's hull circle at that instant.
             let track: Vec<(f64, f64)> = (0..=50)
                 .map(|k| {
-                    let c = crate::scene::reference_point(&o.at(t_end * k as f64 / 50.0).0);
+                    let c = crate::world::scene::reference_point(&o.at(t_end * k as f64 / 50.0).0);
                     let a = ned_to_enu_arr(&c);
                     (a[0], a[1])
                 })
@@ -482,7 +486,7 @@ where
                 let pose = outline(&o.at(t_end * k as f64 / 6.0).0);
                 chart.draw_series(std::iter::once(Polygon::new(pose, fill.mix(0.3).filled()))).map_err(e)?;
             }
-            let pf = |v: &Vector3<f64>| crate::scene::to_f32(v);
+            let pf = |v: &Vector3<f64>| crate::world::scene::to_f32(v);
             let closest = rec.samples.iter().min_by(|a, b| {
                 let da = o.at(a.t).0.signed_distance(&pf(&a.pos));
                 let db = o.at(b.t).0.signed_distance(&pf(&b.pos));

@@ -46,7 +46,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use crate::input::{limits, InputError};
-use crate::plant::{Plant, VehicleParams};
+use crate::sim::plant::{Plant, VehicleParams};
 
 /// One input sample: time (s) and rotor speeds (rad/s, rotors 1..4).
 pub type RotorSample = (f64, [f64; 4]);

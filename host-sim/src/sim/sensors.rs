@@ -19,7 +19,7 @@
 //! without faults, and nothing is drawn when every fault is off. Faults act
 //! whether or not `noise` is on.
 //!
-//! May import: `crate::plant`, `crate::disturbance::faults`, `parapet-core`'s obstacle type.
+//! May import: `crate::sim::plant`, `crate::sim::disturbance::faults`, `parapet-core`'s obstacle type.
 
 use std::collections::VecDeque;
 
@@ -31,8 +31,8 @@ use serde::{Deserialize, Serialize};
 
 use parapet_core::obstacle::ObstaclePoint;
 
-pub use crate::disturbance::faults::FaultParams;
-use crate::plant::Plant;
+pub use crate::sim::disturbance::faults::FaultParams;
+use crate::sim::plant::Plant;
 
 /// Period of the IMU samples the bias random walk assumes, s (1 kHz).
 pub const IMU_PERIOD_S: f64 = 0.001;
@@ -308,7 +308,7 @@ impl Sensors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plant::{VehicleParams, GRAVITY};
+    use crate::sim::plant::{VehicleParams, GRAVITY};
 
     fn hover_plant() -> Plant {
         let mut p = Plant::new(VehicleParams::default()).unwrap();

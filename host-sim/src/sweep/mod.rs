@@ -57,12 +57,12 @@ use crate::input::limits::{
     SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
 };
 use crate::input::InputError;
-use crate::pathfile::PathFile;
-use crate::planner::{plan, PlanProblem, PlannerParams};
-use crate::preflight::PreflightOptions;
-use crate::runner::{default_duration, run, RunConfig};
-use crate::scene::{to_f64, Scene};
-use crate::validate::Given;
+use crate::plan::pathfile::PathFile;
+use crate::plan::{plan, PlanProblem, PlannerParams};
+use crate::flight::preflight::PreflightOptions;
+use crate::flight::runner::{default_duration, run, RunConfig};
+use crate::world::scene::{to_f64, Scene};
+use crate::flight::validate::Given;
 
 /// Exit code of `parapet sweep` when some runs failed (their rows say why; the
 /// others are complete).
@@ -261,8 +261,8 @@ impl SweepSetup {
     /// `validate::check_run` and `preflight::check` for run `p`.
     pub fn check(&self, p: &GridPoint) -> Result<(), InputError> {
         let (scene, cfg) = self.config(p);
-        crate::validate::check_run(&scene, &cfg, &self.given)?;
-        crate::preflight::check(&scene, &cfg, &self.preflight)
+        crate::flight::validate::check_run(&scene, &cfg, &self.given)?;
+        crate::flight::preflight::check(&scene, &cfg, &self.preflight)
     }
 
     fn failed_row(&self, p: &GridPoint, error: String) -> SweepRecord {
@@ -577,7 +577,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let straight = [scene.goal];
     check_size(&grid, &a, &|v| rule(&straight, v), jobs)?;
     // The start must be flyable before the planner is asked for a path from it.
-    crate::preflight::check_start(&scene).map_err(bad_input)?;
+    crate::flight::preflight::check_start(&scene).map_err(bad_input)?;
 
     let (path, source) = sweep_path(&scene, &a)?;
     if path.len() > parapet_core::controller::PATH_CAPACITY {
@@ -615,7 +615,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         path_file: a.path.as_ref().map(|p| p.display().to_string()),
         foreign_path: a.foreign_path,
     };
-    crate::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
+    crate::flight::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
     let mut options = vec!["mu", "delta1", "speed"];
     if a.duration.is_some() {
         options.push("duration");

@@ -27,7 +27,7 @@
 //! obstacles are written in Morton order of 4 m cells (neighbours, near indices).
 //!
 //! Owns the generator. May import: `parapet-core` (shapes), [`super::index`],
-//! `crate::scene`, `crate::planner`, `crate::input` (errors).
+//! `crate::world::scene`, `crate::plan`, `crate::input` (errors).
 
 use std::fmt::Write as _;
 
@@ -37,8 +37,8 @@ use rand_chacha::ChaCha8Rng;
 
 use super::index::StaticIndex;
 use crate::input::InputError;
-use crate::planner::{plan, PlanProblem, PlannerParams};
-use crate::scene::{enu_arr_to_ned, to_f32, Scene};
+use crate::plan::{plan, PlanProblem, PlannerParams};
+use crate::world::scene::{enu_arr_to_ned, to_f32, Scene};
 
 /// Mission placements tried before giving up.
 pub const MISSION_TRIES: usize = 20;
@@ -457,7 +457,7 @@ pub struct SceneArgs {
 enum SceneCommand {
     /// Generate a procedural scene (forest, city, warehouse, clutter), seeded, with a mission
     /// the planner connects, and write it as a scene TOML.
-    #[command(after_help = crate::help::scene_generate())]
+    #[command(after_help = crate::cli::help::scene_generate())]
     Generate(GenerateArgs),
 }
 

@@ -28,7 +28,7 @@
 //! [`MIN_DT_S`, `MAX_DT_S`] (10 µs … 1 ms), `position_latency` ≤
 //! `MAX_POSITION_LATENCY_S` (0.1 s), noise ≤ `MAX_SENSOR_NOISE`, files ≤
 //! `MAX_INPUT_FILE_BYTES`. The duration cap depends on `--max-duration` and is
-//! checked by [`crate::validate::check_run`].
+//! checked by [`crate::flight::validate::check_run`].
 
 use std::path::Path;
 
@@ -38,8 +38,8 @@ use parapet_core::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::input::{limits, num, InputError};
-use crate::plant::VehicleParams;
-use crate::sensors::SensorParams;
+use crate::sim::plant::VehicleParams;
+use crate::sim::sensors::SensorParams;
 
 /// A scene file that could not be read or is invalid. `Display` gives
 /// `"<file>: <where>: <what>"`.
@@ -110,11 +110,11 @@ struct RawScene {
     #[serde(default)]
     sim: Option<SimSettings>,
     #[serde(default)]
-    wind: Option<crate::disturbance::wind::WindParams>,
+    wind: Option<crate::sim::disturbance::wind::WindParams>,
     #[serde(default)]
     plant: Option<toml::Table>,
     #[serde(default)]
-    faults: Option<crate::disturbance::faults::FaultParams>,
+    faults: Option<crate::sim::disturbance::faults::FaultParams>,
     #[serde(default)]
     obstacles: Vec<RawObstacle>,
 }
@@ -277,8 +277,8 @@ pub struct Scene {
     pub sensors: Option<SensorParams>,
     /// Simulation settings from `[sim]`.
     pub sim: SimSettings,
-    /// Disturbances from `[wind]`, `[plant]`, `[faults]` (see [`crate::disturbance`]).
-    pub disturbances: crate::disturbance::Disturbances,
+    /// Disturbances from `[wind]`, `[plant]`, `[faults]` (see [`crate::sim::disturbance`]).
+    pub disturbances: crate::sim::disturbance::Disturbances,
     /// Obstacles (index = position in the file, 0-based).
     pub obstacles: Vec<SceneObstacle>,
 }
@@ -397,8 +397,8 @@ impl Scene {
         if let Some(s) = &raw.sensors {
             validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
         }
-        let mut disturbances = crate::disturbance::Disturbances::default();
-        let tables = crate::disturbance::RawTables { wind: raw.wind, plant: raw.plant, faults: raw.faults };
+        let mut disturbances = crate::sim::disturbance::Disturbances::default();
+        let tables = crate::sim::disturbance::RawTables { wind: raw.wind, plant: raw.plant, faults: raw.faults };
         disturbances.overlay(tables, &vehicle, file).map_err(|e| {
             let text = e.to_string();
             err(text.strip_prefix(&format!("{file}: ")).unwrap_or(&text).to_string())
@@ -889,7 +889,7 @@ mod shipped {
                 assert!(s.nearest(&s.start, 0.0).0 > r, "{}: start too close", path.display());
                 // The goal is reached long after t = 0: check it against the static obstacles,
                 // as the planner does (a moving obstacle may start near the goal and walk away).
-                let goal = crate::scene::to_f32(&s.goal);
+                let goal = crate::world::scene::to_f32(&s.goal);
                 let goal_clearance = s
                     .static_shapes()
                     .iter()

@@ -2,7 +2,7 @@
 //! (flattened into their options): `--disturbances FILE`, `--wind`,
 //! `--turbulence`, `--gust`. Applied after the scene's tables, in that order.
 //!
-//! May import: `super`, `crate::input`, `crate::plant`, clap.
+//! May import: `super`, `crate::input`, `crate::sim::plant`, clap.
 
 use std::path::PathBuf;
 
@@ -11,7 +11,7 @@ use clap::Args;
 use super::wind::{Gust, Intensity, MAX_GUST_LENGTH_M, MAX_WIND_MPS};
 use super::Disturbances;
 use crate::input::InputError;
-use crate::plant::VehicleParams;
+use crate::sim::plant::VehicleParams;
 
 /// Disturbance options.
 #[derive(Debug, Clone, Default, Args)]

@@ -3,7 +3,7 @@
 //! jitter, obstacle reports with position noise, latency and missed detections,
 //! and a rotor fault (one rotor's thrust scaled from a time on).
 //!
-//! The parameters only; [`crate::sensors::Sensors`] applies the sensor and report
+//! The parameters only; [`crate::sim::sensors::Sensors`] applies the sensor and report
 //! faults (with its own fault generator, so the noise stream of a flight does not
 //! change when faults are added), [`super::Live`] the rotor fault. All zero by
 //! default: no fault, nothing drawn.

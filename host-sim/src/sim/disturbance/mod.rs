@@ -10,13 +10,13 @@
 //! fault from its time on). With every table absent nothing changes: the plant
 //! flies in still air with the controller's vehicle, no fault is drawn.
 //!
-//! `[plant]` takes any `[vehicle]` key (`crate::plant::VehicleParams`) and
+//! `[plant]` takes any `[vehicle]` key (`crate::sim::plant::VehicleParams`) and
 //! overrides the scene's `[vehicle]` for the **plant only**: the controller keeps
 //! the scene's `[vehicle]` (its model of the vehicle), the simulated vehicle flies
 //! with the merged values. [`Mismatch`] expresses the same as factors on the
 //! controller's vehicle (what `parapet campaign` draws).
 //!
-//! May import: `crate::plant`, `crate::input` and the external crates.
+//! May import: `crate::sim::plant`, `crate::input` and the external crates.
 
 pub mod args;
 pub mod faults;
@@ -28,7 +28,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::input::InputError;
-use crate::plant::{Plant, VehicleParams};
+use crate::sim::plant::{Plant, VehicleParams};
 use faults::FaultParams;
 use wind::{WindField, WindParams};
 
@@ -125,9 +125,9 @@ pub fn merge_plant(
 /// rotor drag at full speed faster than the step (`drag ≤ m / 1 ms`,
 /// `4 k_d ω_max ≤ m / 1 ms`, the same for `k_z`) and a yaw torque coefficient beyond
 /// the roll arm's moment per unit thrust (`k_m ≤ k_f · arm_length`), as
-/// `crate::validate` refuses them for `[vehicle]`. `Err((field, value, allowed))`.
+/// `crate::flight::validate` refuses them for `[vehicle]`. `Err((field, value, allowed))`.
 pub fn check_integrable(v: &VehicleParams) -> Result<(), (String, String, String)> {
-    let max_drag = v.mass / crate::runner::INNER_DT;
+    let max_drag = v.mass / crate::flight::runner::INNER_DT;
     let num = crate::input::num;
     if let Some(d) = v.drag.iter().find(|d| **d > max_drag) {
         return Err(("drag".into(), num(*d), format!("0 ≤ drag ≤ mass / 1 ms = {}", num(max_drag))));

@@ -1,0 +1,13 @@
+//! The simulated vehicle and its environment (no controller, no scene).
+//!
+//! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz, RotorPy-style aerodynamics.
+//! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
+//! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
+//! * [`replay`]: open-loop replay of rotor speeds from a CSV.
+//!
+//! Owns the physics and sensor models. May import: `parapet-core`, and of
+//! host-sim only [`crate::input`] (errors, limits).
+pub mod disturbance;
+pub mod plant;
+pub mod replay;
+pub mod sensors;
