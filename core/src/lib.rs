@@ -18,6 +18,7 @@
 //! - [`inner`]: the inner loop — [`estimator`], [`attitude`] (attitude P, rate PID), [`mixer`].
 //! - [`supervisor`]: [`failsafe`] state machine, arming, modes, landing.
 //! - [`controller`]: [`controller::FlightController`], the whole cascade behind one API.
+//! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
 //!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
@@ -42,6 +43,7 @@ pub mod inner;
 pub mod outer;
 pub mod params;
 pub mod safety;
+pub mod schedule;
 pub mod supervisor;
 pub mod wire;
 
