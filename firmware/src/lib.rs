@@ -19,26 +19,19 @@
 #![warn(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-pub mod autopilot;
+pub mod app;
 #[cfg(target_os = "none")]
 pub mod board;
-pub mod cascade;
-pub mod command;
-pub mod dshot;
-pub mod frame_parser;
+pub mod drivers;
 pub mod link;
-pub mod lockstep;
-pub mod loop_timing;
-pub mod messages;
-pub mod mission;
-pub mod mpu6000;
-pub mod obstacle_link;
-pub mod outbound;
-pub mod params;
 pub mod pil;
-pub mod shared;
-pub mod telemetry;
-pub mod wire;
+
+// Paths of the modules before the move into folders (removed in the next commit).
+pub use app::{autopilot, cascade, loop_timing, shared};
+pub use drivers::{dshot, mpu6000};
+pub use link::obstacles as obstacle_link;
+pub use link::{command, frame_parser, framing as wire, messages, mission, outbound, params, telemetry};
+pub use pil::lockstep;
 
 #[cfg(test)]
 extern crate std;
