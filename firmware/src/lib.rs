@@ -3,16 +3,19 @@
 //! Embassy flight-control firmware for STM32F405 flight controllers, plus a `board-qemu` build
 //! that runs the same application on QEMU's `netduinoplus2` for processor-in-the-loop tests.
 //!
-//! The library part is hardware-independent and host-tested: the MAVLink link
-//! ([`link`], [`frame_parser`], [`messages`], [`outbound`], [`wire`]), the mission protocol
-//! ([`mission`]), commands ([`command`]), obstacle decoding ([`obstacle_link`]), telemetry
-//! ([`telemetry`]), loop timing ([`loop_timing`]), the lockstep PIL step ([`lockstep`]), DShot
-//! framing ([`dshot`]) and the IMU driver ([`mpu6000`]). Tasks reach the flight-control cascade
-//! only through [`autopilot::Autopilot`].
+//! The library part is hardware-independent and host-tested; one folder per concern:
 //!
-//! Board layers ([`board`], `src/board/*.rs`) build only for `target_os = "none"`; the executors
-//! and tasks live in the binaries (`src/main.rs` for the STM32F405 board,
-//! `src/bin/parapet-firmware-qemu.rs` for QEMU).
+//! | folder | owns | may import |
+//! |---|---|---|
+//! | [`app`] | the boundary to the cascade ([`app::autopilot`]), the real cascade ([`app::cascade`]), how tasks exchange messages ([`app::shared`]), loop timing | `parapet_core` |
+//! | [`link`] | MAVLink framing, inbound/outbound message sets, dispatcher ([`link::Link`]), commands, mission, obstacle batches, parameters, telemetry | `parapet_core` (wire contract `parapet_core::wire`), `mavlink`, [`app`] |
+//! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
+//! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
+//! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
+//!
+//! Tasks reach the flight-control cascade only through [`app::autopilot`]. The board layers
+//! (`src/board/*.rs`) build only for `target_os = "none"`; the executors and tasks live in the
+//! binaries (`src/main.rs` for the STM32F405 board, `src/bin/parapet-firmware-qemu.rs` for QEMU).
 //!
 //! Frames: world NED, body FRD, SI units; see `firmware/README.md` for the wire protocol.
 #![cfg_attr(not(test), no_std)]
@@ -25,13 +28,6 @@ pub mod board;
 pub mod drivers;
 pub mod link;
 pub mod pil;
-
-// Paths of the modules before the move into folders (removed in the next commit).
-pub use app::{autopilot, cascade, loop_timing, shared};
-pub use drivers::{dshot, mpu6000};
-pub use link::obstacles as obstacle_link;
-pub use link::{command, frame_parser, framing as wire, messages, mission, outbound, params, telemetry};
-pub use pil::lockstep;
 
 #[cfg(test)]
 extern crate std;

@@ -10,8 +10,8 @@
 //! - **link** (thread-mode executor, lowest priority): MAVLink over USART3 (DMA ring buffer),
 //!   telemetry streams.
 //!
-//! The cascade lives in one critical-section mutex ([`parapet_firmware::shared`]); loop reports
-//! are published through [`parapet_firmware::shared::SharedCell`]s. No `static mut`.
+//! The cascade lives in one critical-section mutex ([`parapet_firmware::app::shared`]); loop reports
+//! are published through [`parapet_firmware::app::shared::SharedCell`]s. No `static mut`.
 //! `cargo run -p parapet-firmware --release` flashes through probe-rs; logs are defmt over RTT.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
@@ -28,18 +28,18 @@ mod firmware {
     use embassy_time::{Duration, Instant, Ticker, Timer};
     use parapet_core::controller::ControllerParams;
     use parapet_core::Vec3;
-    use parapet_firmware::autopilot::{Autopilot, ImuSample, MotorCommand};
+    use parapet_firmware::app::autopilot::{Autopilot, ImuSample, MotorCommand};
+    use parapet_firmware::app::cascade::Cascade;
+    use parapet_firmware::app::loop_timing::{LoopReport, LoopTimer};
+    use parapet_firmware::app::shared::{SharedAutopilot, SharedCell};
     use parapet_firmware::board::f405::{
         self, DshotMotors, ImuSpi, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
     };
-    use parapet_firmware::cascade::Cascade;
+    use parapet_firmware::drivers::mpu6000::{ImuError, Mpu6000};
+    use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+    use parapet_firmware::link::outbound::Outbound;
+    use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
     use parapet_firmware::link::{FixClock, Link};
-    use parapet_firmware::loop_timing::{LoopReport, LoopTimer};
-    use parapet_firmware::mpu6000::{ImuError, Mpu6000};
-    use parapet_firmware::outbound::Outbound;
-    use parapet_firmware::shared::{SharedAutopilot, SharedCell};
-    use parapet_firmware::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
-    use parapet_firmware::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use static_cell::StaticCell;
 
     /// Inner-loop period, µs (1 kHz, paced by the IMU's data-ready line).

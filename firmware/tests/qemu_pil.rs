@@ -35,14 +35,14 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MavlinkVersion, MessageData};
 use parapet_core::controller::ControllerParams;
-use parapet_firmware::cascade::Cascade;
-use parapet_firmware::frame_parser::FrameParser;
-use parapet_firmware::lockstep::InstructionCalibration;
-use parapet_firmware::messages::frame_extra_crc;
-use parapet_firmware::obstacle_link::CLEAR_ID;
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::frame_parser::FrameParser;
+use parapet_firmware::link::framing::FrameWriter;
+use parapet_firmware::link::messages::frame_extra_crc;
+use parapet_firmware::link::obstacles::CLEAR_ID;
+use parapet_firmware::link::telemetry::name_is;
+use parapet_firmware::pil::lockstep::InstructionCalibration;
 use parapet_firmware::pil::{BytePort, PilApp, TickCounter};
-use parapet_firmware::telemetry::name_is;
-use parapet_firmware::wire::FrameWriter;
 
 /// Kills QEMU on every exit path.
 struct Qemu(Child);

@@ -3,13 +3,13 @@
 //! Tasks talk to the cascade only through [`Autopilot`], so the task logic (link dispatch, loop
 //! scheduling, lockstep) is tested on the host against a test double, and the real cascade
 //! (`parapet_core::controller::FlightController`) plugs in through one adapter
-//! ([`crate::cascade`]).
+//! ([`crate::app::cascade`]).
 //!
 //! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
 
 use parapet_core::obstacle::ObstaclePoint;
 
-pub use crate::params::ParamRejected;
+pub use parapet_core::params::ParamRejected;
 use parapet_core::Vec3;
 
 /// One IMU sample in the body FRD frame.
@@ -62,7 +62,7 @@ impl MotorCommand {
     }
 }
 
-/// Commands from COMMAND_LONG (see [`crate::command`]).
+/// Commands from COMMAND_LONG (see [`crate::link::command`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VehicleCommand {
     /// Arm the motors (idle on the ground).
@@ -261,7 +261,7 @@ pub trait Autopilot {
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
     /// Current telemetry.
     fn telemetry(&self) -> TelemetrySnapshot;
-    /// Sets parameter `name` (see [`crate::params`]); returns the value now in effect.
+    /// Sets parameter `name` (see [`parapet_core::params`]); returns the value now in effect.
     fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected>;
     /// Current value of parameter `name`.
     fn get_param(&self, name: &str) -> Option<f32>;
@@ -327,7 +327,7 @@ pub(crate) mod test_double {
             Ok(())
         }
         fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
-            if crate::params::index_of(name).is_none() {
+            if parapet_core::params::index_of(name).is_none() {
                 return Err(ParamRejected::Unknown);
             }
             if self.armed {
@@ -338,7 +338,7 @@ pub(crate) mod test_double {
             Ok(value)
         }
         fn get_param(&self, name: &str) -> Option<f32> {
-            crate::params::index_of(name)?;
+            parapet_core::params::index_of(name)?;
             Some(self.params.iter().find(|(n, _)| n == name).map_or(0.0, |p| p.1))
         }
         fn telemetry(&self) -> TelemetrySnapshot {

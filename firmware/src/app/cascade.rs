@@ -8,11 +8,11 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::waypoint::PathError;
 use parapet_core::Vec3;
 
-use crate::autopilot::{
+use crate::app::autopilot::{
     Autopilot, CommandRejected, Failsafe, FilterRegion, FilterReport, FlightPhase, ImuSample, MotorCommand,
     ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
 };
-use crate::params;
+use parapet_core::params;
 
 /// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
 pub const DEFAULT_TAKEOFF_HEIGHT_M: f32 = 1.0;
@@ -180,11 +180,11 @@ impl Autopilot for Cascade {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::link::framing::FrameWriter;
+    use crate::link::obstacles::CLEAR_ID;
+    use crate::link::outbound::Outbound;
     use crate::link::{FixClock, Link};
-    use crate::lockstep::LockstepScheduler;
-    use crate::obstacle_link::CLEAR_ID;
-    use crate::outbound::Outbound;
-    use crate::wire::FrameWriter;
+    use crate::pil::lockstep::LockstepScheduler;
     use mavlink::dialects::ardupilotmega::{
         MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
         ODOMETRY_DATA,

@@ -2,7 +2,7 @@
 //! ([`autopilot`]), the real cascade behind it ([`cascade`]), how tasks share state
 //! ([`shared`]) and loop timing ([`loop_timing`]).
 //!
-//! May import: `parapet_core`, [`crate::link::params`] (parameter names). Not the link, the
+//! May import: `parapet_core` only (the tests also drive it through [`crate::link`]). Not the link, the
 //! PIL application, drivers or boards.
 
 pub mod autopilot;

@@ -13,7 +13,7 @@ use embassy_sync::blocking_mutex::Mutex;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
-use crate::autopilot::{
+use crate::app::autopilot::{
     Autopilot, CommandRejected, ImuSample, MotorCommand, ParamRejected, PathRejected, PositionFix,
     TelemetrySnapshot, VehicleCommand,
 };
@@ -112,7 +112,7 @@ impl<T: Copy> SharedCell<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
 
     #[test]
     fn defaults_before_install_then_forwards() {

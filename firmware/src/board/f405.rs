@@ -31,9 +31,9 @@ use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
 use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
 use embedded_hal_async::spi::{ErrorType, Operation, SpiBus, SpiDevice};
 
-use crate::autopilot::MotorCommand;
-use crate::dshot;
-use crate::mpu6000::{AxisMap, Mpu6000};
+use crate::app::autopilot::MotorCommand;
+use crate::drivers::dshot;
+use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 
 /// Companion UART baud rate.
 pub const COMPANION_BAUD: u32 = 921_600;

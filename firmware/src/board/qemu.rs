@@ -24,9 +24,9 @@ use embassy_sync::pipe::Pipe;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 
-use crate::lockstep::{systick_elapsed, InstructionCalibration};
-use crate::outbound::Outbound;
-use crate::wire::FrameWriter;
+use crate::link::framing::FrameWriter;
+use crate::link::outbound::Outbound;
+use crate::pil::lockstep::{systick_elapsed, InstructionCalibration};
 
 const USART1_BASE: usize = 0x4001_1000;
 const SR: usize = USART1_BASE;

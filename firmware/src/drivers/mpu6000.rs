@@ -13,7 +13,7 @@ use embedded_hal_async::delay::DelayNs;
 use embedded_hal_async::spi::{Operation, SpiDevice};
 use parapet_core::Vec3;
 
-use crate::autopilot::ImuSample;
+use crate::app::autopilot::ImuSample;
 
 /// Register addresses.
 mod reg {

@@ -13,7 +13,7 @@
 
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA};
 
-use crate::autopilot::{Autopilot, CommandRejected, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub const FORCE_DISARM_MAGIC: f32 = 21196.0;
@@ -89,7 +89,7 @@ pub fn handle_command<A: Autopilot>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
 
     fn cmd(command: MavCmd, p1: f32, p2: f32, p7: f32) -> COMMAND_LONG_DATA {
         COMMAND_LONG_DATA {

@@ -355,7 +355,7 @@ impl FrameParser {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::FrameWriter;
+    use crate::link::framing::FrameWriter;
     use mavlink::dialects::ardupilotmega::{
         MavCmd, COMMAND_LONG_DATA, HEARTBEAT_DATA, MISSION_COUNT_DATA, NAMED_VALUE_INT_DATA, ODOMETRY_DATA,
     };
@@ -363,7 +363,7 @@ mod tests {
     use std::vec::Vec;
 
     fn extra(id: u32) -> Option<u8> {
-        crate::messages::frame_extra_crc(id)
+        crate::link::messages::frame_extra_crc(id)
     }
 
     fn frames(bytes: &[u8], p: &mut FrameParser) -> Vec<(u32, u8)> {

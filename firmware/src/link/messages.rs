@@ -2,7 +2,7 @@
 //! decoding from CRC-checked frames.
 //!
 //! Only these ids are decoded; other ids of the dialect are CRC-checked by the framer and then
-//! ignored (counted), ids outside the dialect are skipped (see [`crate::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
+//! ignored (counted), ids outside the dialect are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
 //! firmware links only the deserialisers it needs, not the whole dialect.
 
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -14,7 +14,7 @@ use mavlink::dialects::ardupilotmega::{
 use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
 use mavlink::{MavlinkVersion, Message, MessageData};
 
-use crate::frame_parser::RawFrame;
+use crate::link::frame_parser::RawFrame;
 
 /// A decoded inbound message.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,7 +28,7 @@ pub enum Inbound {
     Odometry(ODOMETRY_DATA),
     /// One obstacle point.
     Obstacle(OBSTACLE_DISTANCE_3D_DATA),
-    /// Named vector; `OBV<id>` carries an obstacle's velocity (see [`crate::obstacle_link`]).
+    /// Named vector; `OBV<id>` carries an obstacle's velocity (see [`crate::link::obstacles`]).
     DebugVect(DEBUG_VECT_DATA),
     /// Start of a mission upload.
     MissionCount(MISSION_COUNT_DATA),

@@ -34,7 +34,7 @@ use parapet_core::nalgebra::Rotation3;
 use parapet_core::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
 use parapet_core::Vec3;
 
-use crate::autopilot::Autopilot;
+use crate::app::autopilot::Autopilot;
 
 /// `obstacle_id` that marks an empty batch ("no obstacles").
 pub const CLEAR_ID: u16 = u16::MAX;
@@ -198,7 +198,7 @@ impl ObstacleAssembler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
 
     fn pt(t: u32, id: u16, frame: MavFrame, x: f32, y: f32, z: f32) -> OBSTACLE_DISTANCE_3D_DATA {
         OBSTACLE_DISTANCE_3D_DATA { time_boot_ms: t, x, y, z, obstacle_id: id, frame, ..Default::default() }

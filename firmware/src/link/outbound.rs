@@ -8,7 +8,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::MAVLinkV2MessageRaw;
 
-use crate::wire::FrameWriter;
+use crate::link::framing::FrameWriter;
 
 /// A message to send.
 #[derive(Clone, Debug, PartialEq)]

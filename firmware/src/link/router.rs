@@ -7,10 +7,10 @@
 //! | message | action |
 //! |---|---|
 //! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted |
-//! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::obstacle_link`] |
-//! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::mission`] |
-//! | COMMAND_LONG | arm / disarm / takeoff / land / mission start, see [`crate::command`] |
-//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::lockstep`] |
+//! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
+//! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
+//! | COMMAND_LONG | arm / disarm / takeoff / land / mission start, see [`crate::link::command`] |
+//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | HEARTBEAT | marks the peer alive |
 //!
 //! Replies (COMMAND_ACK, MISSION_REQUEST_INT, MISSION_ACK) go to a queue of
@@ -24,13 +24,13 @@ use mavlink::dialects::ardupilotmega::{
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
-use crate::autopilot::{Autopilot, ImuSample, PositionFix};
-use crate::command::handle_command;
-use crate::frame_parser::{FrameParser, ParserStats, RawFrame};
-use crate::messages::{decode, frame_extra_crc, DecodeError, Inbound};
-use crate::mission::{MissionReply, MissionUpload};
-use crate::obstacle_link::{ObstacleAssembler, ObstacleStats};
-use crate::outbound::Outbound;
+use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
+use crate::link::command::handle_command;
+use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
+use crate::link::mission::{MissionReply, MissionUpload};
+use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
+use crate::link::outbound::Outbound;
 
 /// Reply queue capacity.
 pub const REPLY_QUEUE_LEN: usize = 8;
@@ -124,12 +124,12 @@ pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
 
 /// PARAM_VALUE for parameter `index` with `value`.
 fn param_value(index: usize, value: f32) -> Outbound {
-    let name = crate::params::NAMES.get(index).copied().unwrap_or("");
+    let name = crate::link::params::NAMES.get(index).copied().unwrap_or("");
     Outbound::ParamValue(PARAM_VALUE_DATA {
         param_value: value,
-        param_count: crate::params::NAMES.len() as u16,
+        param_count: crate::link::params::NAMES.len() as u16,
         param_index: index as u16,
-        param_id: crate::outbound::name(name),
+        param_id: crate::link::outbound::name(name),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
     })
 }
@@ -137,7 +137,7 @@ fn param_value(index: usize, value: f32) -> Outbound {
 impl Router {
     fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
         let found = index.and_then(|i| {
-            let name = crate::params::NAMES.get(i)?;
+            let name = crate::link::params::NAMES.get(i)?;
             ap.get_param(name).map(|v| (i, v))
         });
         match found {
@@ -159,8 +159,12 @@ impl Router {
             MissionReply::Complete => {
                 let result = match ap.set_path(self.mission.path()) {
                     Ok(()) => MavMissionResult::MAV_MISSION_ACCEPTED,
-                    Err(crate::autopilot::PathRejected::TooLong) => MavMissionResult::MAV_MISSION_NO_SPACE,
-                    Err(crate::autopilot::PathRejected::Invalid) => MavMissionResult::MAV_MISSION_INVALID,
+                    Err(crate::app::autopilot::PathRejected::TooLong) => {
+                        MavMissionResult::MAV_MISSION_NO_SPACE
+                    }
+                    Err(crate::app::autopilot::PathRejected::Invalid) => {
+                        MavMissionResult::MAV_MISSION_INVALID
+                    }
                 };
                 let ack = self.mission.ack_for(result);
                 self.reply(Outbound::MissionAck(ack));
@@ -234,7 +238,7 @@ impl Router {
                     // Refused values are answered with the value still in effect (MAVLink
                     // parameter protocol); unknown names are not answered.
                     let _ = ap.set_param(name, m.param_value);
-                    self.param_reply(crate::params::index_of(name), ap);
+                    self.param_reply(crate::link::params::index_of(name), ap);
                 }
             }
             Inbound::ParamRequestRead(m) => {
@@ -242,7 +246,7 @@ impl Router {
                     let index = if m.param_index >= 0 {
                         Some(m.param_index as usize)
                     } else {
-                        crate::params::index_of(m.param_id.to_str().unwrap_or(""))
+                        crate::link::params::index_of(m.param_id.to_str().unwrap_or(""))
                     };
                     self.param_reply(index, ap);
                 }
@@ -353,9 +357,9 @@ impl Link {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
-    use crate::autopilot::VehicleCommand;
-    use crate::wire::FrameWriter;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::VehicleCommand;
+    use crate::link::framing::FrameWriter;
     use mavlink::dialects::ardupilotmega::{
         MavCmd, MavResult, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
         OBSTACLE_DISTANCE_3D_DATA,
@@ -489,15 +493,15 @@ mod tests {
             param_value: v,
             target_system: 1,
             target_component: 1,
-            param_id: crate::outbound::name(name),
+            param_id: crate::link::outbound::name(name),
             param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
         };
         l.push_bytes(&send(&mut w, &set("CBF_MU", 0.9)), 0, &mut ap);
         match &replies(&mut l)[..] {
             [Outbound::ParamValue(v)] => {
                 assert_eq!(v.param_value, 0.9);
-                assert_eq!(usize::from(v.param_index), crate::params::index_of("CBF_MU").unwrap_or(99));
-                assert_eq!(usize::from(v.param_count), crate::params::NAMES.len());
+                assert_eq!(usize::from(v.param_index), crate::link::params::index_of("CBF_MU").unwrap_or(99));
+                assert_eq!(usize::from(v.param_count), crate::link::params::NAMES.len());
             }
             other => panic!("{other:?}"),
         }
@@ -513,7 +517,7 @@ mod tests {
             param_index: -1,
             target_system: 1,
             target_component: 1,
-            param_id: crate::outbound::name("CBF_MU"),
+            param_id: crate::link::outbound::name("CBF_MU"),
         };
         l.push_bytes(&send(&mut w, &read), 0, &mut ap);
         assert!(matches!(&replies(&mut l)[..], [Outbound::ParamValue(v)] if v.param_value == 0.9));
@@ -530,7 +534,7 @@ mod tests {
             l.push_bytes(&send(&mut w, &land), 0, &mut ap);
         }
         assert_eq!(l.stats().replies_dropped, 3);
-        assert_eq!(crate::telemetry::ErrorCounters::from_link(&l).replies_dropped, 3);
+        assert_eq!(crate::link::telemetry::ErrorCounters::from_link(&l).replies_dropped, 3);
         assert_eq!(replies(&mut l).len(), REPLY_QUEUE_LEN);
     }
 }

@@ -24,10 +24,10 @@ use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
 
-use crate::autopilot::{Failsafe, TelemetrySnapshot};
-use crate::frame_parser::ParserStats;
-use crate::loop_timing::LoopReport;
-use crate::outbound::{debug_vect, name, named_int, Outbound};
+use crate::app::autopilot::{Failsafe, TelemetrySnapshot};
+use crate::app::loop_timing::LoopReport;
+use crate::link::frame_parser::ParserStats;
+use crate::link::outbound::{debug_vect, name, named_int, Outbound};
 
 /// Everything the telemetry streams read.
 #[derive(Clone, Copy, Debug)]
@@ -288,8 +288,8 @@ pub fn name_is<const N: usize>(field: &mavlink::types::CharArray<N>, key: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
-    use crate::autopilot::Autopilot;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::Autopilot;
     use std::vec::Vec;
 
     fn inputs(ap: &RecordingAutopilot) -> TelemetryInputs {

@@ -6,13 +6,13 @@
 
 use mavlink::dialects::ardupilotmega::{MavSeverity, HEARTBEAT_DATA};
 
-use crate::autopilot::Autopilot;
+use crate::app::autopilot::Autopilot;
+use crate::app::loop_timing::{LoopReport, LoopTimer};
+use crate::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+use crate::link::outbound::{named_int, Outbound};
+use crate::link::telemetry::{heartbeat, status_text, ErrorCounters, TelemetryInputs, TelemetryScheduler};
 use crate::link::{FixClock, Link};
-use crate::lockstep::{InstructionCalibration, LockstepScheduler};
-use crate::loop_timing::{LoopReport, LoopTimer};
-use crate::outbound::{named_int, Outbound};
-use crate::telemetry::{heartbeat, status_text, ErrorCounters, TelemetryInputs, TelemetryScheduler};
-use crate::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+use crate::pil::lockstep::{InstructionCalibration, LockstepScheduler};
 
 /// Instructions of the start-up calibration loop (2 × 50 000 iterations of a 2-instruction loop
 /// difference, see `board::qemu::InstructionCounter::calibrate`).
@@ -71,7 +71,7 @@ impl<A: Autopilot> PilApp<A> {
             calibration,
             // Periods are measured in simulated µs (1 "cycle" per µs).
             inner_timer: LoopTimer::new(1000, 1),
-            outer_timer: LoopTimer::new(crate::lockstep::OUTER_PERIOD_US as u32, 1),
+            outer_timer: LoopTimer::new(crate::pil::lockstep::OUTER_PERIOD_US as u32, 1),
             stats: PilStats::default(),
             last_t_us: 0,
         }
@@ -130,7 +130,7 @@ impl<A: Autopilot> PilApp<A> {
         self.send(port, &Outbound::StatusText(ready));
     }
 
-    /// Processes every byte available now; answers each HIL_SENSOR (see [`crate::lockstep`]).
+    /// Processes every byte available now; answers each HIL_SENSOR (see [`crate::pil::lockstep`]).
     /// Returns the number of control steps answered.
     pub fn poll(&mut self, port: &mut impl BytePort, ticks: &impl TickCounter) -> u32 {
         let mut answered = 0;
@@ -211,9 +211,9 @@ impl<A: Autopilot> PilApp<A> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
-    use crate::frame_parser::FrameParser;
-    use crate::messages::frame_extra_crc;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::link::frame_parser::FrameParser;
+    use crate::link::messages::frame_extra_crc;
     use mavlink::dialects::ardupilotmega::{
         HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
     };
@@ -278,8 +278,12 @@ mod tests {
             .filter(|(id, _)| *id == NAMED_VALUE_INT_DATA::ID)
             .filter_map(|(_, p)| NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, p).ok())
             .collect();
-        assert!(ints.iter().any(|m| crate::telemetry::name_is(&m.name, "ins_cal") && m.value == 16_800));
-        assert!(ints.iter().any(|m| crate::telemetry::name_is(&m.name, "ins_cal_n") && m.value == 100_000));
+        assert!(ints
+            .iter()
+            .any(|m| crate::link::telemetry::name_is(&m.name, "ins_cal") && m.value == 16_800));
+        assert!(ints
+            .iter()
+            .any(|m| crate::link::telemetry::name_is(&m.name, "ins_cal_n") && m.value == 100_000));
 
         for k in 0..3u64 {
             port.tx.clear();
@@ -299,13 +303,13 @@ mod tests {
                 NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m).expect("decodes")
             };
             let step = int_at(sent.len() - 2);
-            assert!(crate::telemetry::name_is(&step.name, "ins_step"));
+            assert!(crate::link::telemetry::name_is(&step.name, "ins_step"));
             if k == 0 {
                 // The first sample runs the outer loop, timed by its own read pair (7 fake ticks →
                 // 7 × 100000 / 16800 ≈ 42, reported as `ins_outer` before `ins_step`); the whole
                 // step spans three reads after its start: 21 ticks ≈ 125 instructions.
                 let outer = int_at(sent.len() - 3);
-                assert!(crate::telemetry::name_is(&outer.name, "ins_outer"));
+                assert!(crate::link::telemetry::name_is(&outer.name, "ins_outer"));
                 assert_eq!(outer.value, 42);
                 assert_eq!(step.value, 125);
             } else {
@@ -313,7 +317,7 @@ mod tests {
                 assert_eq!(step.value, 42);
                 assert!(!sent.iter().any(|(id, m)| *id == NAMED_VALUE_INT_DATA::ID
                     && NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m)
-                        .is_ok_and(|m| crate::telemetry::name_is(&m.name, "ins_outer"))));
+                        .is_ok_and(|m| crate::link::telemetry::name_is(&m.name, "ins_outer"))));
             }
         }
         assert_eq!(app.autopilot().inner_steps, vec![2_000_000, 2_001_000, 2_002_000]);

@@ -1,7 +1,7 @@
 //! Lockstep processor-in-the-loop step: one HIL_SENSOR in → one HIL_ACTUATOR_CONTROLS out.
 //!
 //! For each HIL_SENSOR with simulated time `t` (µs), the firmware
-//! 1. closes the open obstacle batch (`update_obstacles(t, …)`, see [`crate::obstacle_link`]),
+//! 1. closes the open obstacle batch (`update_obstacles(t, …)`, see [`crate::link::obstacles`]),
 //! 2. runs the inner loop `step_inner(t, imu)` (estimator, attitude, rate control, mixer),
 //! 3. runs the outer loop `step_outer(t)` when it is due by simulated time: at the first sample,
 //!    then whenever `t ≥ next_outer`, with `next_outer += outer period` (or `t + period` when more
@@ -16,7 +16,7 @@
 
 use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
 
-use crate::autopilot::{Autopilot, MotorCommand};
+use crate::app::autopilot::{Autopilot, MotorCommand};
 use crate::link::{HilSample, Link};
 use crate::pil::TickCounter;
 
@@ -184,14 +184,14 @@ impl InstructionCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
     use crate::link::FixClock;
     use parapet_core::Vec3;
 
     fn sample(t: u64) -> HilSample {
         HilSample {
             time_usec: t,
-            imu: crate::autopilot::ImuSample {
+            imu: crate::app::autopilot::ImuSample {
                 gyro_frd: Vec3::zeros(),
                 accel_frd: Vec3::new(0.0, 0.0, -9.81),
             },

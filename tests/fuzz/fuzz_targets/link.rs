@@ -27,12 +27,12 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{calculate_crc, MavlinkVersion, MessageData, MAV_STX_V2};
 use parapet_core::controller::ControllerParams;
-use parapet_firmware::autopilot::Autopilot;
-use parapet_firmware::cascade::Cascade;
-use parapet_firmware::frame_parser::{FrameParser, WORK_PER_BYTE};
-use parapet_firmware::lockstep::InstructionCalibration;
-use parapet_firmware::messages::frame_extra_crc;
-use parapet_firmware::params::NAMES;
+use parapet_firmware::app::autopilot::Autopilot;
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::frame_parser::{FrameParser, WORK_PER_BYTE};
+use parapet_firmware::pil::lockstep::InstructionCalibration;
+use parapet_firmware::link::messages::frame_extra_crc;
+use parapet_firmware::link::params::NAMES;
 use parapet_firmware::pil::{BytePort, PilApp, TickCounter};
 
 /// The firmware's inbound message set (ids).
