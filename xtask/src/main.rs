@@ -12,6 +12,8 @@
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
 //!   and `docs/reliability.md`).
 //! * `cargo xtask size` — print the firmware's flash and static-RAM use.
+//! * `cargo xtask params [--out FILE]` — the parameter table as ground-station metadata JSON
+//!   (see `params.rs`).
 //! * `cargo xtask bench [--long]` — run every criterion benchmark (short
 //!   measurement times unless `--long`) and print one summary table (see `bench.rs`).
 //!
@@ -21,6 +23,7 @@
 mod bench;
 mod elf;
 mod fuzz;
+mod params;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -38,9 +41,10 @@ fn main() -> ExitCode {
         Some("size") => size().map(|_| ()),
         Some("bench") => bench::bench(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
+        Some("params") => params::params(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]>"
+                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]>"
             );
             return ExitCode::from(2);
         }
