@@ -39,28 +39,9 @@ pub struct PositionFix {
     pub velocity_ned: Vec3,
 }
 
-/// Motor command for the four rotors (order and spin directions: `parapet_core::airframe`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotorCommand {
-    /// Normalised throttle per rotor, 0..1 (rotor speed ω = throttle · ω_max).
-    pub throttle: [f32; 4],
-    /// `false`: motors must be stopped (disarmed or motors-off failsafe).
-    pub armed: bool,
-}
-
-impl MotorCommand {
-    /// Motors stopped.
-    pub const OFF: Self = Self { throttle: [0.0; 4], armed: false };
-
-    /// The command the motor driver may output: disarmed → all zero; each throttle clamped to
-    /// 0..1; a non-finite throttle stops every motor (disarmed) because the mixer is broken.
-    pub fn sanitized(self) -> Self {
-        if !self.armed || self.throttle.iter().any(|t| !t.is_finite()) {
-            return Self::OFF;
-        }
-        Self { throttle: self.throttle.map(|t| t.clamp(0.0, 1.0)), armed: true }
-    }
-}
+/// Motor command for the four rotors and its sanitiser: the wire contract's
+/// (`parapet_core::wire::lockstep`), so the host twin applies exactly the same rule.
+pub use parapet_core::wire::lockstep::MotorCommand;
 
 /// Commands from COMMAND_LONG (see [`crate::link::command`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,21 +87,8 @@ pub enum PathRejected {
     Invalid,
 }
 
-/// Safety-filter region, as reported on the link (`DEBUG_VECT "CBF".y`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub enum FilterRegion {
-    /// No obstacle known.
-    NoObstacle = 0,
-    /// D_δ1: far from every obstacle.
-    Far = 1,
-    /// D_u*: the nominal command already satisfies the barrier condition.
-    NominalSafe = 2,
-    /// D_⊥: the filter replaced the nominal command.
-    Perpendicular = 3,
-    /// The filter could not evaluate (bad input); the safe fallback was used.
-    Fault = 4,
-}
+/// Safety-filter region (`DEBUG_VECT "CBF".y`, code [`FilterRegion::code`]): the core's type.
+pub use parapet_core::cbf::Region as FilterRegion;
 
 /// The safety filter's diagnostics of the last outer step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -177,25 +145,8 @@ impl SetpointReport {
     };
 }
 
-/// Flight phase, reported as HEARTBEAT `custom_mode`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-pub enum FlightPhase {
-    /// Motors off.
-    Disarmed = 0,
-    /// Armed on the ground, motors idle.
-    Idle = 1,
-    /// Climbing to the takeoff height.
-    Takeoff = 2,
-    /// Holding position.
-    Hover = 3,
-    /// Flying the waypoint path.
-    Mission = 4,
-    /// Descending to land.
-    Landing = 5,
-    /// A failsafe owns the vehicle.
-    Failsafe = 6,
-}
+/// Flight phase, reported as HEARTBEAT `custom_mode` (the wire contract's codes).
+pub use parapet_core::wire::codes::FlightPhase;
 
 /// A failsafe state (reported in STATUSTEXT on every transition).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -359,21 +310,5 @@ pub(crate) mod test_double {
                 },
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sanitized_motor_command() {
-        let c = MotorCommand { throttle: [0.5, 1.5, -0.2, 0.0], armed: true }.sanitized();
-        assert_eq!(c.throttle, [0.5, 1.0, 0.0, 0.0]);
-        assert!(c.armed);
-        let c = MotorCommand { throttle: [0.5, f32::NAN, 0.1, 0.0], armed: true }.sanitized();
-        assert_eq!(c, MotorCommand::OFF);
-        let c = MotorCommand { throttle: [0.5; 4], armed: false }.sanitized();
-        assert_eq!(c, MotorCommand::OFF);
     }
 }

@@ -6,11 +6,12 @@ use parapet_core::estimator;
 use parapet_core::failsafe::{FailsafeState, TransitionReason};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::waypoint::PathError;
+use parapet_core::wire::codes;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{
-    Autopilot, CommandRejected, Failsafe, FilterRegion, FilterReport, FlightPhase, ImuSample, MotorCommand,
-    ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, Failsafe, FilterReport, FlightPhase, ImuSample, MotorCommand, ParamRejected,
+    PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
 };
 use parapet_core::params;
 
@@ -44,17 +45,6 @@ fn rejected(e: CommandError) -> CommandRejected {
         | CommandError::AlreadyDisarmed
         | CommandError::NotFlying
         | CommandError::NoPosition => CommandRejected::NotNow,
-    }
-}
-
-fn region(r: parapet_core::cbf::Region) -> FilterRegion {
-    use parapet_core::cbf::Region;
-    match r {
-        Region::NoObstacle => FilterRegion::NoObstacle,
-        Region::Far => FilterRegion::Far,
-        Region::NominalSafe => FilterRegion::NominalSafe,
-        Region::Perpendicular => FilterRegion::Perpendicular,
-        Region::Fault => FilterRegion::Fault,
     }
 }
 
@@ -133,9 +123,9 @@ impl Autopilot for Cascade {
         let t = self.fc.telemetry();
         let commanded_land = t.last_transition.is_some_and(|tr| tr.reason == TransitionReason::LandCommand);
         let failsafe = match t.state {
-            FailsafeState::Brake => Some(1),
-            FailsafeState::Land if !commanded_land => Some(2),
-            FailsafeState::MotorsOff => Some(3),
+            FailsafeState::Brake => Some(codes::failsafe::BRAKE),
+            FailsafeState::Land if !commanded_land => Some(codes::failsafe::LAND),
+            FailsafeState::MotorsOff => Some(codes::failsafe::MOTORS_OFF),
             _ => None,
         }
         .map(|code| Failsafe { code, reason: t.last_transition.map_or("unknown", |tr| tr.reason.as_str()) });
@@ -159,7 +149,7 @@ impl Autopilot for Cascade {
             position_ned: t.position,
             velocity_ned: t.velocity,
             filter: FilterReport {
-                region: region(f.region),
+                region: f.region,
                 active_id: f.active_id,
                 h_bar: f.h_bar,
                 intervened: f.intervened,

@@ -75,7 +75,7 @@ mod firmware {
     fn panic(_info: &core::panic::PanicInfo) -> ! {
         cortex_m::interrupt::disable();
         // No motors in QEMU: report and stop answering (the host detects the silence).
-        report_and_halt("PANIC");
+        report_and_halt(parapet_core::wire::names::PANIC_TEXT);
     }
 }
 

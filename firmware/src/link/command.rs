@@ -16,7 +16,7 @@ use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, COMMAND_ACK_DATA, COMM
 use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
-pub const FORCE_DISARM_MAGIC: f32 = 21196.0;
+pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
 /// Highest accepted takeoff height, m.
 pub const MAX_TAKEOFF_HEIGHT_M: f32 = 100.0;
 

@@ -2,10 +2,7 @@
 
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 
-/// MAVLink system id of the vehicle.
-pub const VEHICLE_SYSTEM_ID: u8 = 1;
-/// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
-pub const AUTOPILOT_COMPONENT_ID: u8 = 1;
+pub use parapet_core::wire::ids::{AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 
 /// Serialises messages into MAVLink v2 frames with a running sequence number.
 #[derive(Clone, Debug)]

@@ -23,8 +23,9 @@ pub const MAX_WAYPOINTS: usize = 64;
 pub const RETRY_INTERVAL_US: u64 = 500_000;
 /// Re-requests before the upload is cancelled.
 pub const MAX_RETRIES: u8 = 4;
+use parapet_core::wire::ids::local_xy_from_wire;
 /// Scale of MISSION_ITEM_INT x/y in local frames (int32 = metres × 10⁴).
-pub const LOCAL_XY_SCALE: f32 = 1.0e4;
+pub use parapet_core::wire::ids::LOCAL_XY_SCALE;
 
 /// What the vehicle must send (or do) after an input.
 #[derive(Clone, Debug, PartialEq)]
@@ -145,7 +146,7 @@ impl MissionUpload {
         if !msg.z.is_finite() {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_PARAM7));
         }
-        let wp = Vec3::new(msg.x as f32 / LOCAL_XY_SCALE, msg.y as f32 / LOCAL_XY_SCALE, msg.z);
+        let wp = Vec3::new(local_xy_from_wire(msg.x), local_xy_from_wire(msg.y), msg.z);
         if self.items.push(wp).is_err() {
             return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
         }
@@ -193,8 +194,8 @@ mod tests {
 
     fn item(seq: u16, x: f32, y: f32, z: f32) -> MISSION_ITEM_INT_DATA {
         MISSION_ITEM_INT_DATA {
-            x: (x * LOCAL_XY_SCALE) as i32,
-            y: (y * LOCAL_XY_SCALE) as i32,
+            x: parapet_core::wire::ids::local_xy_to_wire(f64::from(x)),
+            y: parapet_core::wire::ids::local_xy_to_wire(f64::from(y)),
             z,
             seq,
             command: MavCmd::MAV_CMD_NAV_WAYPOINT,

@@ -37,9 +37,9 @@ use parapet_core::Vec3;
 use crate::app::autopilot::Autopilot;
 
 /// `obstacle_id` that marks an empty batch ("no obstacles").
-pub const CLEAR_ID: u16 = u16::MAX;
+pub use parapet_core::wire::ids::CLEAR_ID;
 /// Name prefix of the DEBUG_VECT carrying an obstacle velocity.
-pub const VELOCITY_PREFIX: &[u8] = b"OBV";
+pub const VELOCITY_PREFIX: &[u8] = parapet_core::wire::names::OBSTACLE_VELOCITY_PREFIX.as_bytes();
 /// Pending velocities kept (oldest dropped when full).
 pub const MAX_PENDING_VELOCITIES: usize = 16;
 /// The radio link flushes a batch this long after its last point, µs.

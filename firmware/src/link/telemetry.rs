@@ -27,7 +27,8 @@ use mavlink::dialects::ardupilotmega::{
 use crate::app::autopilot::{Failsafe, TelemetrySnapshot};
 use crate::app::loop_timing::LoopReport;
 use crate::link::frame_parser::ParserStats;
-use crate::link::outbound::{debug_vect, name, named_int, Outbound};
+use crate::link::outbound::{debug_vect, named_int, Outbound};
+use parapet_core::wire::{codes, names};
 
 /// Everything the telemetry streams read.
 #[derive(Clone, Copy, Debug)]
@@ -136,7 +137,7 @@ pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
         MavState::MAV_STATE_STANDBY
     };
     HEARTBEAT_DATA {
-        custom_mode: s.phase as u32,
+        custom_mode: s.phase.code(),
         mavtype: MavType::MAV_TYPE_QUADROTOR,
         autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
         base_mode: base,
@@ -174,7 +175,7 @@ impl TelemetryScheduler {
                         "FAILSAFE: ",
                         f.reason,
                     )));
-                    emit(named_int(ms, "FAILSAFE", i32::from(f.code)));
+                    emit(named_int(ms, names::FAILSAFE, i32::from(f.code)));
                 }
                 None => {
                     emit(Outbound::StatusText(status_text(
@@ -182,7 +183,7 @@ impl TelemetryScheduler {
                         "FAILSAFE cleared",
                         "",
                     )));
-                    emit(named_int(ms, "FAILSAFE", 0));
+                    emit(named_int(ms, names::FAILSAFE, 0));
                 }
             }
             self.last_failsafe = s.failsafe;
@@ -220,13 +221,16 @@ impl TelemetryScheduler {
                 })),
                 Stream::Filter => {
                     let f = &s.filter;
-                    let id = f.active_id.map_or(-1.0, f32::from);
-                    emit(debug_vect(now_us, "CBF", f.h_bar, f32::from(f.region as u8), id));
-                    let flags = i32::from(f.intervened)
-                        | (i32::from(f.unavoidable) << 1)
-                        | (i32::from(f.infeasible) << 2)
-                        | (i32::from(f.n_constraints) << 8);
-                    emit(named_int(ms, "CBF_FLAGS", flags));
+                    let (region, id) =
+                        (codes::region_to_wire(f.region), codes::active_id_to_wire(f.active_id));
+                    emit(debug_vect(now_us, names::CBF, f.h_bar, region, id));
+                    let flags = codes::CbfFlags {
+                        intervened: f.intervened,
+                        unavoidable: f.unavoidable,
+                        infeasible: f.infeasible,
+                        n_constraints: f.n_constraints,
+                    };
+                    emit(named_int(ms, names::CBF_FLAGS, flags.encode()));
                     let sp = &s.setpoint;
                     emit(Outbound::PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA {
                         time_boot_ms: ms,
@@ -246,21 +250,33 @@ impl TelemetryScheduler {
                         coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
                     }));
                     let u = &sp.accel_nominal_ned;
-                    emit(debug_vect(now_us, "U_NOM", u.x, u.y, u.z));
+                    emit(debug_vect(now_us, names::U_NOM, u.x, u.y, u.z));
                 }
                 Stream::Loops => {
                     let (i, o) = (&inp.inner, &inp.outer);
-                    emit(debug_vect(now_us, "LOOP_IN", i.period_mean_us, i.period_max_us, i.exec_max_us));
-                    emit(debug_vect(now_us, "LOOP_OUT", o.period_mean_us, o.period_max_us, o.exec_max_us));
-                    emit(named_int(ms, "OVR_IN", i.overruns.min(i32::MAX as u32) as i32));
-                    emit(named_int(ms, "OVR_OUT", o.overruns.min(i32::MAX as u32) as i32));
+                    emit(debug_vect(
+                        now_us,
+                        names::LOOP_IN,
+                        i.period_mean_us,
+                        i.period_max_us,
+                        i.exec_max_us,
+                    ));
+                    emit(debug_vect(
+                        now_us,
+                        names::LOOP_OUT,
+                        o.period_mean_us,
+                        o.period_max_us,
+                        o.exec_max_us,
+                    ));
+                    emit(named_int(ms, names::OVR_IN, i.overruns.min(i32::MAX as u32) as i32));
+                    emit(named_int(ms, names::OVR_OUT, o.overruns.min(i32::MAX as u32) as i32));
                     self.loops_reported = true;
                 }
                 Stream::Link => {
                     let p = &inp.parser;
                     emit(debug_vect(
                         now_us,
-                        "LINK",
+                        names::LINK,
                         p.frames_ok as f32,
                         p.crc_errors as f32,
                         p.malformed as f32,
@@ -268,12 +284,12 @@ impl TelemetryScheduler {
                     let c = &inp.counters;
                     emit(debug_vect(
                         now_us,
-                        "LINK_DROP",
+                        names::LINK_DROP,
                         c.replies_dropped as f32,
                         c.inputs_rejected as f32,
                         c.obstacles_rejected as f32,
                     ));
-                    emit(debug_vect(now_us, "HW_ERR", c.imu_errors as f32, c.uart_errors as f32, 0.0));
+                    emit(debug_vect(now_us, names::HW_ERR, c.imu_errors as f32, c.uart_errors as f32, 0.0));
                 }
             }
         }
@@ -282,7 +298,7 @@ impl TelemetryScheduler {
 
 /// Name check helper for tests and the host tools: `true` when a MAVLink name field equals `key`.
 pub fn name_is<const N: usize>(field: &mavlink::types::CharArray<N>, key: &str) -> bool {
-    field[..] == name::<N>(key)[..]
+    names::name_is(&field[..], key)
 }
 
 #[cfg(test)]

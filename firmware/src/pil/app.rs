@@ -5,6 +5,8 @@
 //! specified in `firmware/README.md` ("QEMU lockstep protocol").
 
 use mavlink::dialects::ardupilotmega::{MavSeverity, HEARTBEAT_DATA};
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::names;
 
 use crate::app::autopilot::Autopilot;
 use crate::app::loop_timing::{LoopReport, LoopTimer};
@@ -71,7 +73,10 @@ impl<A: Autopilot> PilApp<A> {
             calibration,
             // Periods are measured in simulated µs (1 "cycle" per µs).
             inner_timer: LoopTimer::new(1000, 1),
-            outer_timer: LoopTimer::new(crate::pil::lockstep::OUTER_PERIOD_US as u32, 1),
+            outer_timer: LoopTimer::new(
+                OuterSchedule::DEFAULT.period_us().min(u64::from(u32::MAX)) as u32,
+                1,
+            ),
             stats: PilStats::default(),
             last_t_us: 0,
         }
@@ -124,9 +129,9 @@ impl<A: Autopilot> PilApp<A> {
 
     fn after_handshake(&mut self, port: &mut impl BytePort) {
         let c = self.calibration;
-        self.send(port, &named_int(0, "ins_cal_n", c.instructions.min(i32::MAX as u32) as i32));
-        self.send(port, &named_int(0, "ins_cal", c.ticks.min(i32::MAX as u32) as i32));
-        let ready = status_text(MavSeverity::MAV_SEVERITY_INFO, "parapet PIL ready", "");
+        self.send(port, &named_int(0, names::INS_CAL_N, c.instructions.min(i32::MAX as u32) as i32));
+        self.send(port, &named_int(0, names::INS_CAL, c.ticks.min(i32::MAX as u32) as i32));
+        let ready = status_text(MavSeverity::MAV_SEVERITY_INFO, names::PIL_READY_TEXT, "");
         self.send(port, &Outbound::StatusText(ready));
     }
 
@@ -200,10 +205,10 @@ impl<A: Autopilot> PilApp<A> {
             let ins_outer = self.calibration.instructions_for(outer);
             self.send(
                 port,
-                &named_int((t / 1000) as u32, "ins_outer", ins_outer.min(i32::MAX as u32) as i32),
+                &named_int((t / 1000) as u32, names::INS_OUTER, ins_outer.min(i32::MAX as u32) as i32),
             );
         }
-        self.send(port, &named_int((t / 1000) as u32, "ins_step", ins.min(i32::MAX as u32) as i32));
+        self.send(port, &named_int((t / 1000) as u32, names::INS_STEP, ins.min(i32::MAX as u32) as i32));
         self.send(port, &Outbound::HilActuatorControls(out.controls));
     }
 }

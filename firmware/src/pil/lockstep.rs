@@ -3,11 +3,11 @@
 //! For each HIL_SENSOR with simulated time `t` (µs), the firmware
 //! 1. closes the open obstacle batch (`update_obstacles(t, …)`, see [`crate::link::obstacles`]),
 //! 2. runs the inner loop `step_inner(t, imu)` (estimator, attitude, rate control, mixer),
-//! 3. runs the outer loop `step_outer(t)` when it is due by simulated time: at the first sample,
-//!    then whenever `t ≥ next_outer`, with `next_outer += outer period` (or `t + period` when more
-//!    than one period was skipped),
-//! 4. answers HIL_ACTUATOR_CONTROLS with `time_usec = t`, `controls[0..4]` = rotor throttles
-//!    0..1 (rotor order of `parapet_core::airframe`), `controls[4..16] = 0`,
+//! 3. runs the outer loop `step_outer(t)` when it is due by simulated time (the wire contract's
+//!    rule, `parapet_core::wire::lockstep::LockstepClock`, with the period of
+//!    `parapet_core::schedule::OuterSchedule`),
+//! 4. answers HIL_ACTUATOR_CONTROLS with `time_usec = t`, `controls` = the sanitised motor
+//!    command (`parapet_core::wire::lockstep::MotorCommand::to_actuator_controls`),
 //!    `mode` = HIL_ENABLED (+ SAFETY_ARMED when armed), `flags` = LOCKSTEP.
 //!
 //! Simulated time only advances when the host got the answer, so results do not depend on how
@@ -15,6 +15,9 @@
 //! `qemu -icount shift=0` and calibrated with [`InstructionCalibration`].
 
 use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
+
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::lockstep::LockstepClock;
 
 use crate::app::autopilot::{Autopilot, MotorCommand};
 use crate::link::{HilSample, Link};
@@ -32,9 +35,6 @@ impl TickCounter for NoTicks {
     }
 }
 
-/// Outer-loop period by simulated time, µs (250 Hz).
-pub const OUTER_PERIOD_US: u64 = 4_000;
-
 /// Counters of the lockstep scheduler (saturating).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LockstepStats {
@@ -49,15 +49,14 @@ pub struct LockstepStats {
 /// Outer-loop scheduling by simulated time.
 #[derive(Clone, Debug)]
 pub struct LockstepScheduler {
-    outer_period_us: u64,
-    next_outer_us: Option<u64>,
-    last_t_us: Option<u64>,
+    clock: LockstepClock,
     stats: LockstepStats,
 }
 
 impl Default for LockstepScheduler {
+    /// The default parameters' schedule (250 Hz).
     fn default() -> Self {
-        Self::new(OUTER_PERIOD_US)
+        Self::new(OuterSchedule::DEFAULT)
     }
 }
 
@@ -77,8 +76,7 @@ pub struct StepOutcome {
 
 /// HIL_ACTUATOR_CONTROLS for `motors` at simulated time `t_us`.
 pub fn actuator_controls(t_us: u64, motors: &MotorCommand) -> HIL_ACTUATOR_CONTROLS_DATA {
-    let mut controls = [0.0f32; 16];
-    controls[..4].copy_from_slice(&motors.throttle);
+    let controls = motors.to_actuator_controls();
     let mut mode = MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED;
     if motors.armed {
         mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
@@ -92,14 +90,9 @@ pub fn actuator_controls(t_us: u64, motors: &MotorCommand) -> HIL_ACTUATOR_CONTR
 }
 
 impl LockstepScheduler {
-    /// Outer loop every `outer_period_us` of simulated time.
-    pub const fn new(outer_period_us: u64) -> Self {
-        Self {
-            outer_period_us,
-            next_outer_us: None,
-            last_t_us: None,
-            stats: LockstepStats { steps: 0, outer_steps: 0, non_monotonic: 0 },
-        }
+    /// Outer loop every `schedule.period_us()` of simulated time.
+    pub const fn new(schedule: OuterSchedule) -> Self {
+        Self { clock: schedule.clock(), stats: LockstepStats { steps: 0, outer_steps: 0, non_monotonic: 0 } }
     }
 
     /// Counters so far.
@@ -123,25 +116,19 @@ impl LockstepScheduler {
         ticks: &impl TickCounter,
     ) -> StepOutcome {
         let t = sample.time_usec;
-        if self.last_t_us.is_some_and(|last| t <= last) {
+        let tick = self.clock.tick(t);
+        if tick.non_monotonic {
             self.stats.non_monotonic = self.stats.non_monotonic.saturating_add(1);
-            self.next_outer_us = None;
         }
-        self.last_t_us = Some(t);
         link.flush_obstacles(t, ap);
         let motors = ap.step_inner(t, &sample.imu).sanitized();
-        let ran_outer = self.next_outer_us.is_none_or(|n| t >= n);
+        let ran_outer = tick.run_outer;
         let mut outer_ticks = None;
         if ran_outer {
             let t0 = ticks.now();
             ap.step_outer(t);
             outer_ticks = Some(ticks.since(t0));
             self.stats.outer_steps = self.stats.outer_steps.saturating_add(1);
-            self.next_outer_us = Some(match self.next_outer_us {
-                // Saturating: the time comes from the host's HIL_SENSOR (any u64).
-                Some(n) if t - n < self.outer_period_us => n.saturating_add(self.outer_period_us),
-                _ => t.saturating_add(self.outer_period_us),
-            });
         }
         self.stats.steps = self.stats.steps.saturating_add(1);
         StepOutcome { controls: actuator_controls(t, &motors), motors, ran_outer, outer_ticks }
@@ -202,7 +189,7 @@ mod tests {
     fn outer_loop_runs_every_fourth_millisecond_by_simulated_time() {
         let mut ap = RecordingAutopilot::new();
         let mut link = Link::new(1, FixClock::Message);
-        let mut s = LockstepScheduler::new(4000);
+        let mut s = LockstepScheduler::new(OuterSchedule::from_rates(250.0, 1000.0));
         for k in 0..20u64 {
             let o = s.step(&sample(1_000_000 + k * 1000), &mut link, &mut ap);
             assert_eq!(o.controls.time_usec, 1_000_000 + k * 1000);
@@ -225,7 +212,7 @@ mod tests {
         // Found by the `link` fuzz target (HIL_SENSOR time_usec is the host's, any u64).
         let mut ap = RecordingAutopilot::new();
         let mut link = Link::new(1, FixClock::Message);
-        let mut s = LockstepScheduler::new(4000);
+        let mut s = LockstepScheduler::new(OuterSchedule::from_rates(250.0, 1000.0));
         assert!(s.step(&sample(u64::MAX - 1000), &mut link, &mut ap).ran_outer);
         assert!(!s.step(&sample(u64::MAX - 10), &mut link, &mut ap).ran_outer);
         let o = s.step(&sample(u64::MAX), &mut link, &mut ap);
