@@ -37,6 +37,9 @@ pub struct PositionFix {
     pub position_ned: Vec3,
     /// Velocity, world NED, m/s.
     pub velocity_ned: Vec3,
+    /// Heading (ZYX yaw, rad) if the source measures it (ODOMETRY `q`); corrects the
+    /// estimator's yaw drift.
+    pub yaw: Option<f32>,
 }
 
 /// Motor command for the four rotors and its sanitiser: the wire contract's

@@ -65,7 +65,7 @@ impl Autopilot for Cascade {
             t_us: fix.t_us,
             position: fix.position_ned,
             velocity: fix.velocity_ned,
-            yaw: None,
+            yaw: fix.yaw,
         });
     }
 
@@ -179,6 +179,32 @@ mod tests {
         MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
         ODOMETRY_DATA,
     };
+
+    /// The ODOMETRY yaw reaches the estimator (as in `parapet run`): the first external yaw
+    /// sets the heading; without one the heading stays where the accelerometer start left it.
+    #[test]
+    fn position_fix_yaw_sets_the_estimated_heading() {
+        let heading = |yaw: Option<f32>| {
+            let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("default params") };
+            let imu = ImuSample { gyro_frd: Vec3::zeros(), accel_frd: Vec3::new(0.0, 0.0, -9.81) };
+            for k in 0..50u64 {
+                let t = 1_000_000 + k * 1000;
+                if k % 4 == 0 {
+                    let fix = PositionFix {
+                        t_us: t,
+                        position_ned: Vec3::zeros(),
+                        velocity_ned: Vec3::zeros(),
+                        yaw,
+                    };
+                    ap.update_position(&fix);
+                }
+                let _ = ap.step_inner(t, &imu);
+            }
+            ap.telemetry().attitude_rpy.z
+        };
+        assert!((heading(Some(1.0)) - 1.0).abs() < 1e-3, "{}", heading(Some(1.0)));
+        assert!(heading(None).abs() < 1e-3, "{}", heading(None));
+    }
 
     /// The lockstep path with the real cascade on a vehicle at rest: arm is accepted once the
     /// position and obstacle data are fresh, the motors then idle, and a takeoff command spins

@@ -97,7 +97,8 @@ struct Router {
     peer_seen: bool,
 }
 
-/// Converts ODOMETRY into a position fix; `None` for unsupported frames or non-finite data.
+/// Converts ODOMETRY into a position fix (with the yaw of `q` when it is a valid attitude);
+/// `None` for unsupported frames or non-finite data.
 pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
     if m.frame_id != MavFrame::MAV_FRAME_LOCAL_NED {
         return None;
@@ -119,7 +120,10 @@ pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
     if !(p.iter().chain(v.iter()).all(|x| x.is_finite())) {
         return None;
     }
-    Some(PositionFix { t_us, position_ned: p, velocity_ned: v })
+    // The heading the fix measures (as `parapet run` feeds the estimator); unknown (zero or
+    // NaN quaternion) → none.
+    let yaw = parapet_core::wire::codes::odometry_yaw(m.q);
+    Some(PositionFix { t_us, position_ned: p, velocity_ned: v, yaw })
 }
 
 /// PARAM_VALUE for parameter `index` with `value`.
@@ -463,6 +467,28 @@ mod tests {
         assert_eq!(ap.obstacle_batches.len(), 1);
         assert_eq!(ap.obstacle_batches[0][0].id, 4);
         assert!(l.peer_seen());
+    }
+
+    #[test]
+    fn odometry_carries_the_yaw_of_q_to_the_autopilot() {
+        let q = parapet_core::wire::codes::odometry_quaternion(-2.0);
+        let odo = |q: [f32; 4]| ODOMETRY_DATA {
+            q,
+            frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+            child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+            ..Default::default()
+        };
+        let yaw = odometry_fix(&odo(q), 0).and_then(|f| f.yaw);
+        assert!(yaw.is_some_and(|y| (y + 2.0).abs() < 1e-5), "{yaw:?}");
+        // Unknown attitude (MAVLink: zeros or NaN): the fix still counts, without a yaw.
+        assert_eq!(odometry_fix(&odo([0.0; 4]), 0).map(|f| f.yaw), Some(None));
+        assert_eq!(odometry_fix(&odo([f32::NAN, 0.0, 0.0, 0.0]), 0).map(|f| f.yaw), Some(None));
+        // Through the link: the recorded fix holds it.
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = gcs();
+        l.push_bytes(&send(&mut w, &odo(q)), 0, &mut ap);
+        assert!(ap.fixes.last().and_then(|f| f.yaw).is_some_and(|y| (y + 2.0).abs() < 1e-5));
     }
 
     #[test]
