@@ -24,7 +24,7 @@ use mavlink::dialects::ardupilotmega::{
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
-use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
+use crate::app::autopilot::{FlightStack, ImuSample, PositionFix};
 use crate::link::command::handle_command;
 use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
 use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
@@ -128,10 +128,10 @@ pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
 
 /// PARAM_VALUE for parameter `index` with `value`.
 fn param_value(index: usize, value: f32) -> Outbound {
-    let name = crate::link::params::NAMES.get(index).copied().unwrap_or("");
+    let name = crate::link::params::TABLE.get(index).map_or("", |p| p.name);
     Outbound::ParamValue(PARAM_VALUE_DATA {
         param_value: value,
-        param_count: crate::link::params::NAMES.len() as u16,
+        param_count: crate::link::params::COUNT as u16,
         param_index: index as u16,
         param_id: crate::link::outbound::name(name),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
@@ -139,10 +139,10 @@ fn param_value(index: usize, value: f32) -> Outbound {
 }
 
 impl Router {
-    fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
+    fn param_reply<A: FlightStack>(&mut self, index: Option<usize>, ap: &mut A) {
         let found = index.and_then(|i| {
-            let name = crate::link::params::NAMES.get(i)?;
-            ap.get_param(name).map(|v| (i, v))
+            let p = crate::link::params::TABLE.get(i)?;
+            ap.get_param(p.name).map(|v| (i, v))
         });
         match found {
             Some((i, v)) => self.reply(param_value(i, v)),
@@ -156,7 +156,7 @@ impl Router {
         }
     }
 
-    fn mission_reply<A: Autopilot>(&mut self, r: MissionReply, ap: &mut A) {
+    fn mission_reply<A: FlightStack>(&mut self, r: MissionReply, ap: &mut A) {
         match r {
             MissionReply::Request(q) => self.reply(Outbound::MissionRequestInt(q)),
             MissionReply::Ack(a) => self.reply(Outbound::MissionAck(a)),
@@ -176,7 +176,7 @@ impl Router {
         }
     }
 
-    fn on_frame<A: Autopilot>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
+    fn on_frame<A: FlightStack>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
         let msg = match decode(f) {
             Ok(m) => m,
             Err(DecodeError::NotHandled) => {
@@ -297,20 +297,20 @@ impl Link {
     }
 
     /// Feeds one received byte at firmware time `now_us`.
-    pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
+    pub fn push_byte<A: FlightStack>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
         self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| router.on_frame(f, now_us, ap));
     }
 
     /// Feeds received bytes at firmware time `now_us`.
-    pub fn push_bytes<A: Autopilot>(&mut self, bytes: &[u8], now_us: u64, ap: &mut A) {
+    pub fn push_bytes<A: FlightStack>(&mut self, bytes: &[u8], now_us: u64, ap: &mut A) {
         for &b in bytes {
             self.push_byte(b, now_us, ap);
         }
     }
 
     /// Periodic work (call at ≥ 10 Hz): mission retries, obstacle batch timeout.
-    pub fn poll<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn poll<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
         if let Some(r) = self.router.mission.poll(now_us) {
             self.router.mission_reply(r, ap);
         }
@@ -318,7 +318,7 @@ impl Link {
     }
 
     /// Closes the open obstacle batch (lockstep: on every HIL_SENSOR).
-    pub fn flush_obstacles<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn flush_obstacles<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
         self.router.obstacles.flush(now_us, ap);
     }
 
@@ -527,7 +527,7 @@ mod tests {
             [Outbound::ParamValue(v)] => {
                 assert_eq!(v.param_value, 0.9);
                 assert_eq!(usize::from(v.param_index), crate::link::params::index_of("CBF_MU").unwrap_or(99));
-                assert_eq!(usize::from(v.param_count), crate::link::params::NAMES.len());
+                assert_eq!(usize::from(v.param_count), crate::link::params::COUNT);
             }
             other => panic!("{other:?}"),
         }
