@@ -17,6 +17,7 @@
 //!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants), [`qp3`].
 //! - [`inner`]: the inner loop — [`estimator`], [`attitude`] (attitude P, rate PID), [`mixer`].
 //! - [`supervisor`]: [`failsafe`] state machine, arming, modes, landing.
+//! - [`msg`]: the `Copy` messages the stages exchange (attitude command, state estimate, …).
 //! - [`controller`]: [`controller::FlightController`], the whole cascade behind one API.
 //! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
@@ -40,6 +41,7 @@ pub mod controller;
 pub mod fmath;
 pub mod frame;
 pub mod inner;
+pub mod msg;
 pub mod outer;
 pub mod params;
 pub mod safety;

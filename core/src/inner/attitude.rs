@@ -32,6 +32,7 @@
 
 use crate::fmath::sincosf;
 use crate::frame::{clampf, wrap_pi};
+pub use crate::msg::Euler;
 use crate::Vec3;
 
 /// Attitude and rate controller gains, limits and filter settings.
@@ -112,25 +113,6 @@ impl AttitudeParams {
         } else {
             Err(AttitudeError::BadParams)
         }
-    }
-}
-
-/// Roll, pitch, yaw (Euler ZYX, rad) — measured attitude or setpoint.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Euler {
-    /// Roll φ, rad.
-    pub roll: f32,
-    /// Pitch θ, rad.
-    pub pitch: f32,
-    /// Yaw ψ, rad.
-    pub yaw: f32,
-}
-
-impl Euler {
-    /// `true` when all three angles are finite.
-    pub fn is_finite(&self) -> bool {
-        self.roll.is_finite() && self.pitch.is_finite() && self.yaw.is_finite()
     }
 }
 

@@ -50,6 +50,7 @@
 use crate::attitude::Euler;
 use crate::fmath::{norm3, sincosf, sqrtf};
 use crate::frame::{clampf, is_finite3, wrap_pi, GRAVITY};
+pub use crate::msg::{ImuSample, ImuStatus};
 use crate::Vec3;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
@@ -58,15 +59,6 @@ pub const GYRO_LIMIT: f32 = 100.0;
 
 /// Largest plausible accelerometer component, m/s² (≈ 100 g; MEMS parts saturate at 16–32 g).
 pub const ACCEL_LIMIT: f32 = 1000.0;
-
-/// One inertial measurement.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuSample {
-    /// Angular rate, rad/s, body FRD.
-    pub gyro: Vec3,
-    /// Specific force (acceleration minus gravity), m/s², body FRD; `(0, 0, −9.81)` at rest and level.
-    pub accel: Vec3,
-}
 
 /// Estimator gains and limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,23 +130,6 @@ impl EstimatorParams {
             Err(EstimatorError::BadParams)
         }
     }
-}
-
-/// What the estimator did with a sample.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ImuStatus {
-    /// Integrated, accelerometer correction applied.
-    Ok,
-    /// Integrated; accelerometer outside the gate, so gyro only.
-    AccelIgnored,
-    /// First valid sample: attitude initialised from the accelerometer (and external yaw).
-    Initialised,
-    /// Time step not finite, ≤ 0 or above `dt_max`: nothing integrated.
-    BadDt,
-    /// NaN/Inf in the sample, or a reading beyond [`GYRO_LIMIT`] / [`ACCEL_LIMIT`]
-    /// (no real sensor reports it: corrupt data): rejected, state kept.
-    RejectedNonFinite,
 }
 
 /// Mahony attitude estimator (see the module documentation).

@@ -16,6 +16,7 @@
 
 use crate::fmath::{cosf, hypotf, maxf, minf, sincosf, sqrtf, tanf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
+pub use crate::msg::AttitudeSetpoint;
 use crate::Vec3;
 
 /// Limits of the thrust/attitude mapping.
@@ -36,22 +37,6 @@ impl Default for ThrustParams {
     fn default() -> Self {
         ThrustParams { mass: 0.5, tilt_max: 0.61, thrust_min: 0.6, thrust_max: 11.0 }
     }
-}
-
-/// Attitude and thrust reference for the inner loop.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct AttitudeSetpoint {
-    /// φ_d, rad (FRD, positive right side down).
-    pub roll: f32,
-    /// θ_d, rad (FRD, positive nose up).
-    pub pitch: f32,
-    /// ψ_d, rad in (−π, π] (0 = north, positive towards east).
-    pub yaw: f32,
-    /// Collective thrust T, N (along body −z).
-    pub thrust: f32,
-    /// `true` when the acceleration command was limited (tilt, thrust, or bad input).
-    pub saturated: bool,
 }
 
 /// The acceleration actually realised by [`map_acceleration`] after saturation
