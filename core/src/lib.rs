@@ -18,7 +18,8 @@
 //! - [`inner`]: the inner loop — [`estimator`], [`attitude`] (attitude P, rate PID), [`mixer`].
 //! - [`supervisor`]: [`failsafe`] state machine, arming, modes, landing.
 //! - [`msg`]: the `Copy` messages the stages exchange (attitude command, state estimate, …).
-//! - [`controller`]: [`controller::FlightController`], the whole cascade behind one API.
+//! - [`controller`]: [`controller::FlightController`], the whole cascade behind one API;
+//!   [`config`]: its parameters ([`controller::ControllerParams`]) and their validation.
 //! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
 //!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
@@ -37,6 +38,7 @@
 #![warn(missing_docs)]
 
 pub mod airframe;
+pub mod config;
 pub mod controller;
 pub mod fmath;
 pub mod frame;
