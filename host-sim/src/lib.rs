@@ -18,13 +18,13 @@
 //! * [`cli`]: the `parapet` command line (`run`, `pil`, `plan`, `replay`,
 //!   `scene generate`), help texts, errors and exit codes.
 //! * [`sweep`], [`campaign`]: parameter sweeps and Monte Carlo campaigns.
+pub mod campaign;
+pub mod cli;
+pub mod fc;
+pub mod flight;
 pub mod input;
-pub mod sim;
-pub mod world;
 pub mod plan;
 pub mod report;
-pub mod flight;
-pub mod fc;
-pub mod cli;
+pub mod sim;
 pub mod sweep;
-pub mod campaign;
+pub mod world;

@@ -5,10 +5,11 @@
 //! deterministic for its seed.
 
 use nalgebra::Vector3;
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::sim::disturbance::faults::{FaultParams, RotorFault};
 use parapet_sim::sim::disturbance::Mismatch;
 use parapet_sim::sim::plant::GRAVITY;
-use parapet_sim::flight::runner::{run, RunConfig, RunOutput};
 use parapet_sim::world::scene::Scene;
 
 /// An empty room, 2 m up; the path leads 3 m north (10 s at 0.3 m/s) and holds there.

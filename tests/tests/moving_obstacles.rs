@@ -22,9 +22,10 @@ use std::path::PathBuf;
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterVariant, SafetyFilter};
 use parapet_core::obstacle::ObstaclePoint;
-use parapet_sim::flight::runner::{run, sense_obstacles, RunConfig, RunOutput};
-use parapet_sim::world::scene::{to_f32, Scene};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{sense_obstacles, RunConfig, RunOutput};
 use parapet_sim::sim::sensors::{SensorParams, Sensors};
+use parapet_sim::world::scene::{to_f32, Scene};
 
 const SPEEDS: [f64; 3] = [0.2, 0.3, 0.5];
 const OFFSETS: [f64; 5] = [0.0, 0.1, 0.2, 0.3, 0.4];

@@ -9,8 +9,8 @@
 //! Timing: QEMU lockstep runs at a real-time factor of ≈ 0.1–0.2 on the CI machine, so the scene
 //! is short (2.4 m at 0.4 m/s, ≈ 9 s of simulated flight).
 
+use parapet_sim::fc::control::run;
 use parapet_sim::fc::pil::{max_deviation, run_pil, run_twin, PilOptions};
-use parapet_sim::flight::runner::run;
 use parapet_tests::pil_support::{config, firmware, scene};
 
 /// Longest simulated flight of the short scene, s.

@@ -26,8 +26,9 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{path_length, RunConfig, RunOutput};
 use parapet_sim::plan::pathfile::PathFile;
-use parapet_sim::flight::runner::{path_length, run, RunConfig, RunOutput};
 use parapet_sim::world::scene::{to_f64, Scene};
 
 const EPS: f64 = 2e-3;

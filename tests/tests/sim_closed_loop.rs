@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-use parapet_sim::flight::runner::{run, RunConfig, RunOutput};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::world::scene::Scene;
 
 fn scene(name: &str) -> Scene {

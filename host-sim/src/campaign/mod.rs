@@ -125,11 +125,13 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     // The drawn plant as `--disturbances` would check it (so the worst-flight command flies too).
     if let Some(p) = &cfg.disturbances.plant {
         let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
-        if let Err((field, value, allowed)) = checked.and_then(|_| crate::sim::disturbance::check_integrable(p)) {
+        if let Err((field, value, allowed)) =
+            checked.and_then(|_| crate::sim::disturbance::check_integrable(p))
+        {
             return failed(row, format!("the drawn [plant] field `{field}`: {value} {allowed}"));
         }
     }
-    match crate::flight::runner::run(&scene, &cfg, &mut |_| {}) {
+    match crate::fc::control::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
             let s = &out.summary;

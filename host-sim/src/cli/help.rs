@@ -54,7 +54,7 @@ Examples:
 
 {EXIT_CODES_HELP}
   {some}    sweep, sweep-merge, campaign: some runs failed (their rows say why; see their --help)",
-        some = crate::sweep::EXIT_SOME_FAILED
+        some = crate::cli::EXIT_SOME_FAILED
     )
 }
 
@@ -160,8 +160,8 @@ Examples:
   parapet campaign scenes/campaigns/ci.toml --shard 2/4 --out out/shard2   # then campaign-merge
 
 {codes}",
-        flights = crate::campaign::spec::MAX_FLIGHTS,
-        codes = crate::sweep::exit_codes_help(
+        flights = l::CAMPAIGN_MAX_FLIGHTS,
+        codes = crate::cli::exit_codes_help(
             "campaign: some flights could not be flown (end_reason error in campaign.csv); the others are kept"
         ),
     )

@@ -1,5 +1,8 @@
-//! The `parapet` command line: `run`, `pil`, `plan`, `replay` (and the entry
-//! points of `sweep`, `sweep-merge`).
+//! The `parapet` commands `run`, `pil`, `plan`, `replay` and `scene` ([`scene`]),
+//! the shared command plumbing (errors and exit codes, run options, output) and
+//! the help texts ([`help`]). The `parapet` parser and dispatch is the binary
+//! (`src/main.rs`), above this module, [`crate::sweep`] and [`crate::campaign`]
+//! (which use [`CliError`] and [`run_config_from_args`]).
 //!
 //! Exit codes ([`EXIT_CODES_HELP`]): 0 success, 1 internal failure, 2 bad input
 //! (a file, table, field or option named in the message with the value and the
@@ -10,29 +13,31 @@
 //! (`parapet run | head`) ends the command quietly with exit 0, never a panic.
 //! Outputs never replace an input file ([`refuse_overwrite`]).
 //!
-//! May import: every host-sim module (it is the top).
+//! May import: every host-sim module except [`crate::sweep`] and [`crate::campaign`].
 
 pub mod help;
 pub mod output;
+pub mod scene;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::anyhow;
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
 
 pub use crate::cli::output::{out, refuse_overwrite};
 pub use crate::sim::replay::load_vehicle;
 
+use crate::fc::control::run;
+use crate::flight::runner::RunConfig;
 use crate::input::{limits, num, InputError};
 use crate::plan::pathfile::PathFile;
 use crate::plan::{plan, PlanProblem, PlannedPath, PlannerParams};
+use crate::report::{report_files, summary_table, write_report, RunRecord};
 use crate::sim::plant::VehicleParams;
 use crate::sim::replay::{parse_rotor_csv, replay, ReplayOptions};
-use crate::report::{report_files, summary_table, write_report, RunRecord};
-use crate::flight::runner::{run, RunConfig};
 use crate::world::scene::{to_f64, Scene};
 
 /// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
@@ -46,56 +51,26 @@ Exit codes:
   2    bad input: a file, table, field or option is named with the value and the allowed range
   3    no path: the planner found no collision-free path within its budget";
 
+/// Exit code of `parapet sweep`, `sweep-merge` and `campaign` when some runs failed (their rows say why; the
+/// others are complete).
+pub const EXIT_SOME_FAILED: i32 = 4;
+
+/// The shared exit-code text, with code [`EXIT_SOME_FAILED`] explained by `what`
+/// unless the shared text already lists it.
+pub fn exit_codes_help(what: &str) -> String {
+    let shared = EXIT_CODES_HELP;
+    if shared.contains(&format!("\n  {EXIT_SOME_FAILED} ")) {
+        shared.to_string()
+    } else {
+        format!("{shared}\n  {EXIT_SOME_FAILED}    {what}")
+    }
+}
+
 /// Default scene of `parapet run` and `parapet plan`.
 pub const DEFAULT_SCENE: &str = "scenes/office.toml";
 
-/// Parapet: quadrotor flight with a closed-form CBF safety filter — simulator and tools.
-#[derive(Debug, Parser)]
-#[command(name = "parapet", version, about, long_about = None, after_help = crate::cli::help::top())]
-pub struct Cli {
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Debug, Subcommand)]
-enum Command {
-    /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
-    /// simulator; write summary.json, trajectory.csv and plots.
-    #[command(after_help = crate::cli::help::run(), allow_negative_numbers = true)]
-    Run(RunArgs),
-    /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
-    /// (`parapet-firmware-qemu`) in QEMU netduinoplus2 as the flight controller, in lockstep
-    /// over MAVLink; same report plus PIL figures (frames, instructions per step, real-time factor).
-    #[command(after_help = crate::cli::help::pil(), allow_negative_numbers = true)]
-    Pil(PilArgs),
-    /// Plan a collision-free path through a scene's static obstacles and write it as JSON.
-    #[command(after_help = crate::cli::help::plan(), allow_negative_numbers = true)]
-    Plan(PlanArgs),
-    /// Drive the plant open loop with rotor speeds from a CSV (t,w1,w2,w3,w4 in rad/s)
-    /// and write the states (t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r; NED / FRD).
-    #[command(after_help = crate::cli::help::replay(), allow_negative_numbers = true)]
-    Replay(ReplayArgs),
-    /// Fly a scene over a grid of (μ, δ1[, speed]) × noise seeds in parallel; write sweep.csv
-    /// and heatmaps of collision rate, min clearance and tracking RMS (paper Fig. 9).
-    #[command(allow_negative_numbers = true)]
-    Sweep(crate::sweep::SweepArgs),
-    /// Join the sweep.csv files of sharded sweeps (`--shard I/N`) and redraw the heatmaps.
-    SweepMerge(crate::sweep::SweepMergeArgs),
-    /// Scene tools: `parapet scene generate` writes procedural forest, city, warehouse and
-    /// clutter scenes (seeded, with a mission the planner connects).
-    Scene(crate::world::generate::SceneArgs),
-    /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
-    /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
-    /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
-    #[command(after_help = crate::cli::help::campaign())]
-    Campaign(crate::campaign::CampaignArgs),
-    /// Join the shards of a campaign (`parapet campaign --shard I/N`) into its full outputs.
-    #[command(after_help = crate::cli::help::campaign_merge())]
-    CampaignMerge(crate::campaign::CampaignMergeArgs),
-}
-
 #[derive(Debug, Args)]
-struct RunArgs {
+pub struct RunArgs {
     /// Scene file (TOML, ENU z-up; see scenes/README.md).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: PathBuf,
@@ -158,7 +133,7 @@ struct RunArgs {
 }
 
 #[derive(Debug, Args)]
-struct PilArgs {
+pub struct PilArgs {
     #[command(flatten)]
     run: RunArgs,
     /// Firmware ELF (`parapet-firmware-qemu`, the board-qemu build). Default: build it with
@@ -171,7 +146,7 @@ struct PilArgs {
 }
 
 #[derive(Debug, Args)]
-struct PlanArgs {
+pub struct PlanArgs {
     /// Scene file (TOML, ENU z-up).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: PathBuf,
@@ -194,7 +169,7 @@ struct PlanArgs {
 }
 
 #[derive(Debug, Args)]
-struct ReplayArgs {
+pub struct ReplayArgs {
     /// Vehicle parameters: a TOML file with VehicleParams keys at the top level or in a
     /// [vehicle] table; a scene file works (its [vehicle] table, defaults for missing keys).
     /// Default: the built-in vehicle.
@@ -232,7 +207,7 @@ struct ReplayArgs {
 /// core's constants, shortest decimals).
 fn default_help(what: &str, name: &str) -> String {
     let c = parapet_core::cbf::CbfParams::default();
-    let f = crate::flight::validate::f32_as_f64;
+    let f = crate::input::f32_as_f64;
     let d = match name {
         "mu" => f(c.mu),
         "delta" => f(c.delta),
@@ -274,7 +249,7 @@ pub enum CliError {
     /// Anything else (exit code 1).
     Failed(anyhow::Error),
     /// `sweep` / `sweep-merge`: some runs failed, the others are written
-    /// (exit code `sweep::EXIT_SOME_FAILED` = 4).
+    /// (exit code [`EXIT_SOME_FAILED`] = 4).
     SomeFailed(String),
     /// Standard output was closed by the reader (`| head`): stop quietly, exit 0.
     StdoutClosed,
@@ -288,7 +263,7 @@ impl CliError {
             CliError::NoPath(_) => 3,
             CliError::Failed(_) => 1,
             CliError::StdoutClosed => 0,
-            CliError::SomeFailed(_) => crate::sweep::EXIT_SOME_FAILED,
+            CliError::SomeFailed(_) => EXIT_SOME_FAILED,
         }
     }
 }
@@ -312,32 +287,6 @@ impl From<InputError> for CliError {
 impl From<anyhow::Error> for CliError {
     fn from(e: anyhow::Error) -> Self {
         CliError::Failed(e)
-    }
-}
-
-/// Parse the process arguments, run, print errors; returns the exit code.
-pub fn main() -> i32 {
-    let cli = Cli::parse();
-    match dispatch(cli) {
-        Ok(()) | Err(CliError::StdoutClosed) => 0,
-        Err(e) => {
-            eprintln!("error: {e}");
-            e.exit_code()
-        }
-    }
-}
-
-fn dispatch(cli: Cli) -> Result<(), CliError> {
-    match cli.command {
-        Command::Run(a) => cmd_run(a),
-        Command::Pil(a) => cmd_pil(a),
-        Command::Plan(a) => cmd_plan(a),
-        Command::Replay(a) => cmd_replay(a),
-        Command::Sweep(a) => crate::sweep::cmd_sweep(a),
-        Command::SweepMerge(a) => crate::sweep::cmd_sweep_merge(a),
-        Command::Scene(a) => out(&crate::world::generate::cmd_scene(a)?),
-        Command::Campaign(a) => crate::campaign::cmd_campaign(a),
-        Command::CampaignMerge(a) => crate::campaign::cmd_campaign_merge(a),
     }
 }
 
@@ -523,12 +472,19 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
 /// options after `run`), exactly as `parapet run` flies it (`parapet campaign`
 /// flies its flights through this, so a flight's command reproduces it).
 pub fn run_config_from_args(args: &[String]) -> Result<(Scene, RunConfig), CliError> {
-    let argv = ["parapet".to_string(), "run".to_string()].into_iter().chain(args.iter().cloned());
-    match Cli::try_parse_from(argv) {
-        Ok(Cli { command: Command::Run(a) }) => run_setup(&a),
-        Ok(_) => Err(CliError::BadInput("not a `run` command".into())),
+    let argv = ["parapet run".to_string()].into_iter().chain(args.iter().cloned());
+    match RunCommandLine::try_parse_from(argv) {
+        Ok(RunCommandLine { run }) => run_setup(&run),
         Err(e) => Err(CliError::BadInput(e.to_string())),
     }
+}
+
+/// The options of `parapet run` alone (the binary's parser has every subcommand).
+#[derive(Debug, Parser)]
+#[command(name = "parapet run", bin_name = "parapet run", allow_negative_numbers = true)]
+struct RunCommandLine {
+    #[command(flatten)]
+    run: RunArgs,
 }
 
 /// Run `f` with a progress bar (simulated seconds) on a terminal.
@@ -554,7 +510,7 @@ fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> 
     r
 }
 
-fn cmd_run(a: RunArgs) -> Result<(), CliError> {
+pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let (scene, cfg) = run_setup(&a)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
@@ -592,7 +548,7 @@ fn check_report_dir(
     refuse_overwrite("out", &report_files(dir), &inputs)
 }
 
-fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
+pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     use crate::fc::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
@@ -647,7 +603,7 @@ fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     ))
 }
 
-fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
+pub fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
     let scene_file = resolve_scene(&a.scene)?;
     refuse_overwrite("out", std::slice::from_ref(&a.out), &[("scene file", scene_file.as_path())])?;
     if a.out.is_dir() {
@@ -696,7 +652,7 @@ fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
     ))
 }
 
-fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
+pub fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
     let mut inputs: Vec<(&str, &Path)> = vec![("input CSV", a.inputs.as_path())];
     if let Some(v) = &a.vehicle {
         inputs.push(("vehicle file", v.as_path()));

@@ -2,9 +2,7 @@
 //! f64 simulator types ↔ f32 core types, simulator time ↔ controller clock,
 //! and the start-up sequence.
 //!
-//! * **Clock**: controller time (µs) = (simulated time + [`CLOCK_OFFSET_S`]) · 10⁶,
-//!   so that position fixes measured before t = 0 (latency priming) keep
-//!   non-negative timestamps.
+//! * **Clock**: [`crate::flight::stack::clock_us`].
 //! * **Start-up** (at t = 0, vehicle hovering at the start): one IMU sample
 //!   initialises the estimator, a position fix and the obstacle report are
 //!   given, then `arm`, `hold_position(start)`, one outer step (the reference
@@ -18,148 +16,16 @@
 
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
-use parapet_core::cbf::{CbfParams, FilterVariant, Region};
-use parapet_core::controller::{CommandError, ControllerParams, FlightController, PositionFix, Telemetry};
+use parapet_core::cbf::CbfParams;
+use parapet_core::controller::{CommandError, FlightController, PositionFix, Telemetry};
 use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
-use parapet_core::thrust::ThrustParams;
-use parapet_core::tracking::TrackingParams;
-use parapet_core::waypoint::WaypointParams;
 use parapet_core::Vec3;
 
-use crate::flight::runner::RunConfig;
-use crate::world::scene::{to_f32, to_f64, Scene};
+use crate::flight::runner::{controller_params, run_with, RunConfig, RunOutput};
+use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
-
-/// Offset of the controller clock from simulated time, s.
-pub const CLOCK_OFFSET_S: f64 = 1.0;
-
-/// Controller clock (µs) at simulated time `t` (s).
-pub fn clock_us(t: f64) -> u64 {
-    ((t + CLOCK_OFFSET_S).max(0.0) * 1e6).round() as u64
-}
-
-/// What one outer step produced, for the recorder.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OuterOut {
-    /// Reference position, NED, m.
-    pub reference: Vector3<f64>,
-    /// Filter region name.
-    pub region: &'static str,
-    /// Filter region code ([`Region::code`]).
-    pub region_code: u8,
-    /// Obstacle the filter acted on.
-    pub active_obstacle: Option<u16>,
-    /// The filter changed u*.
-    pub filter_active: bool,
-    /// The path follower has reached the end of the path.
-    pub path_done: bool,
-    /// Nominal acceleration u* (PD output), NED, m/s².
-    pub u_nominal: Vector3<f64>,
-    /// Filtered acceleration u (filter output), NED, m/s².
-    pub u_filtered: Vector3<f64>,
-    /// The filter's own min h̄ over the obstacles it was given (controller's estimate), m².
-    pub filter_h_bar: f64,
-    /// Barriers enforced this step.
-    pub n_constraints: u8,
-    /// The filter flagged a constraint it cannot meet with the available acceleration.
-    pub unavoidable: bool,
-    /// The enforced constraints had no common solution.
-    pub infeasible: bool,
-    /// Guidance mode of the controller (e.g. "Mission", "Brake").
-    pub mode: &'static str,
-}
-
-impl OuterOut {
-    /// The recorder's view of the controller's telemetry after an outer step.
-    pub fn from_telemetry(tel: &Telemetry) -> Self {
-        OuterOut {
-            reference: to_f64(&tel.reference.position),
-            region: region_name(tel.filter.region),
-            region_code: tel.filter.region.code(),
-            active_obstacle: tel.filter.active_id,
-            filter_active: tel.filter.intervened,
-            path_done: tel.progress.done,
-            u_nominal: to_f64(&tel.u_nominal),
-            u_filtered: to_f64(&tel.u_filtered),
-            filter_h_bar: tel.filter.h_bar as f64,
-            n_constraints: tel.filter.n_constraints,
-            unavoidable: tel.filter.unavoidable,
-            infeasible: tel.filter.infeasible,
-            mode: tel.mode.as_str(),
-        }
-    }
-}
-
-/// Region name for reports.
-pub fn region_name(r: Region) -> &'static str {
-    match r {
-        Region::NoObstacle => "none",
-        Region::Far => "far",
-        Region::NominalSafe => "nominal_safe",
-        Region::Perpendicular => "filtering",
-        Region::Fault => "fault",
-    }
-}
-
-/// The controller parameters of a run: defaults of the core with the scene's
-/// vehicle and the run's tracking / filter / speed settings.
-pub fn controller_params(
-    scene: &Scene,
-    cfg: &RunConfig,
-    cbf: CbfParams,
-    variant: FilterVariant,
-) -> ControllerParams {
-    let af = scene.vehicle.airframe();
-    let d = ControllerParams::default();
-    ControllerParams {
-        airframe: af,
-        // The core's tracking defaults (vertical integral off: with the paper's soft
-        // gains a z integrator is badly damped, and unstable once ki_z > kp·kd) with
-        // the run's kp, kd on every axis.
-        tracking: TrackingParams {
-            kp: [cfg.params.kp as f32; 3],
-            kd: [cfg.params.kd as f32; 3],
-            ..d.tracking
-        },
-        cbf,
-        filter_variant: variant,
-        thrust: ThrustParams {
-            mass: af.mass,
-            // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
-            thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
-            ..d.thrust
-        },
-        attitude: parapet_core::attitude::AttitudeParams { inertia: af.inertia, ..d.attitude },
-        waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
-        ..d
-    }
-}
-
-/// What the runner needs from a flight controller, in simulated time `t` (s).
-/// Implemented by [`Controller`] (in-process `FlightController`); a
-/// processor-in-the-loop link can implement it too. Call order per 1 ms step:
-/// every 4th step `position_fix` (when a fix is due) then `outer`; every step `inner`.
-pub trait Autopilot {
-    /// Start-up at `t` with the vehicle hovering at `start` (NED): initialise,
-    /// arm, hold `start`, start the mission.
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()>;
-    /// A position/velocity/yaw fix measured at `fix.t_measured`.
-    fn position_fix(&mut self, fix: PositionReading);
-    /// Outer step at `t` with the sensed obstacles; returns what the recorder needs.
-    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut;
-    /// Inner step at `t`: IMU in, motor throttles (0..1, rotors 1..4) out.
-    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4];
-    /// Name of the controller's failsafe state (e.g. "Armed").
-    fn state_name(&self) -> String;
-}
+use crate::world::scene::{to_f32, Scene};
 
 /// The flight controller as the runner drives it.
 pub struct Controller {
@@ -194,7 +60,7 @@ impl Controller {
     }
 }
 
-impl Autopilot for Controller {
+impl FlightStack for Controller {
     /// Start-up at simulated time `t` (see the module docs).
     fn start(
         &mut self,
@@ -219,9 +85,9 @@ impl Autopilot for Controller {
             .hold_position(now, to_f32(&start))
             .map_err(|e| anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e)))?;
         self.fc.step_outer(now);
-        self.fc
-            .start_mission(now)
-            .map_err(|e| anyhow!("mission start refused: {}", crate::flight::validate::describe_command_error(e)))?;
+        self.fc.start_mission(now).map_err(|e| {
+            anyhow!("mission start refused: {}", crate::flight::validate::describe_command_error(e))
+        })?;
         Ok(())
     }
 
@@ -255,4 +121,13 @@ impl Autopilot for Controller {
 
 fn imu_sample(imu: &ImuReading) -> ImuSample {
     ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) }
+}
+
+/// Fly `scene` with `cfg` and the in-process [`Controller`] (`parapet-core`'s
+/// `FlightController`). `progress` is called with the simulated time (s) about
+/// 10 times per simulated second.
+pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Result<RunOutput> {
+    let cbf = cfg.cbf_params()?;
+    let mut ctrl = Controller::new(scene, cfg, cbf)?;
+    run_with(scene, cfg, &mut ctrl, progress)
 }

@@ -9,7 +9,7 @@
 //! waits for the HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.
 //! MAVLink v2 encoding/decoding is the `mavlink` crate (the firmware's version and dialect).
 //!
-//! [`PilLink`] implements [`Autopilot`], so [`crate::flight::runner::run_with`] drives the firmware
+//! [`PilLink`] implements [`FlightStack`], so [`crate::flight::runner::run_with`] drives the firmware
 //! exactly like the in-process controller and the report is the same as `parapet run`'s.
 //!
 //! ## Start-up (before simulated t = 0, plant frozen in hover at the start)
@@ -34,7 +34,7 @@
 //! ## Failure handling
 //! QEMU runs in a guard that kills it on drop (every exit path). No answer to a HIL_SENSOR
 //! within [`PilOptions::resend_after`] → the HIL_SENSOR is re-sent (same t; the firmware
-//! answers it); no answer within [`PilOptions::timeout`] → error. As [`Autopilot`] cannot
+//! answers it); no answer within [`PilOptions::timeout`] → error. As [`FlightStack`] cannot
 //! return errors, a failure latches: the link outputs zero throttle from then on (the run
 //! ends quickly with a ground contact) and [`run_pil`] returns the error.
 
@@ -64,10 +64,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::fc::control::{clock_us, region_name, Autopilot, OuterOut};
 use crate::flight::runner::{run_with, RunConfig, RunOutput, OUTER_DIVIDER};
-use crate::world::scene::{to_f32, to_f64, Scene};
+use crate::flight::stack::{clock_us, region_name, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::{to_f32, to_f64, Scene};
 
 /// Debian/Ubuntu package (and binary) of the emulator.
 pub const QEMU_PACKAGE: &str = "qemu-system-arm";
@@ -262,7 +262,7 @@ pub fn firmware_from_env_or_build() -> Result<PathBuf> {
 }
 
 /// The controller parameters the firmware flies with for `scene` and `cfg`: exactly those of
-/// `parapet run` ([`crate::fc::control::controller_params`]: the scene's vehicle, the run's CBF,
+/// `parapet run` ([`crate::flight::runner::controller_params`]: the scene's vehicle, the run's CBF,
 /// tracking and speed settings), with the PARAM_SET sequence that takes the firmware from its
 /// boot defaults (`ControllerParams::default()`) there, in an order in which every intermediate
 /// set validates ([`parapet_core::params::plan_updates`]). Errors name a setting the firmware
@@ -271,7 +271,7 @@ pub fn firmware_params(
     scene: &Scene,
     cfg: &RunConfig,
 ) -> Result<(ControllerParams, Vec<(&'static str, f32)>)> {
-    let p = crate::fc::control::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    let p = crate::flight::runner::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
     let mut out = [("", 0.0f32); params::COUNT];
     let n = params::plan_updates(&ControllerParams::default(), &p, &mut out).map_err(|e| match e {
         params::PlanError::InvalidTarget => match p.validate() {
@@ -355,7 +355,7 @@ struct FilterTelemetry {
     u_filtered: Vector3<f64>,
 }
 
-/// The firmware in QEMU behind the [`Autopilot`] interface.
+/// The firmware in QEMU behind the [`FlightStack`] interface.
 pub struct PilLink {
     qemu: QemuGuard,
     sock: TcpStream,
@@ -390,7 +390,7 @@ pub struct PilLink {
 
 impl PilLink {
     /// Start QEMU with the firmware, connect, handshake. `scene` and `cfg` give the parameters
-    /// (see [`firmware_params`]) and the path (sent in [`Autopilot::start`]).
+    /// (see [`firmware_params`]) and the path (sent in [`FlightStack::start`]).
     pub fn spawn(scene: &Scene, cfg: &RunConfig, opts: PilOptions) -> Result<PilLink> {
         let (params, param_updates) = firmware_params(scene, cfg)?;
         if cfg.path.len() > parapet_core::controller::PATH_CAPACITY {
@@ -410,8 +410,9 @@ impl PilLink {
         let read_half = sock.try_clone().context("socket clone")?;
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || reader_thread(read_half, tx));
-        let mut follower = WaypointFollower::new(params.waypoint)
-            .map_err(|e| anyhow!("waypoint parameters: {}", crate::flight::validate::describe_path_error(e)))?;
+        let mut follower = WaypointFollower::new(params.waypoint).map_err(|e| {
+            anyhow!("waypoint parameters: {}", crate::flight::validate::describe_path_error(e))
+        })?;
         follower
             .set_path(&quantised_path(&cfg.path))
             .map_err(|e| anyhow!("path rejected: {}", crate::flight::validate::describe_path_error(e)))?;
@@ -965,7 +966,7 @@ impl Drop for PilLink {
     }
 }
 
-impl Autopilot for PilLink {
+impl FlightStack for PilLink {
     fn start(
         &mut self,
         t: f64,
@@ -1276,7 +1277,7 @@ impl FirmwareTwin {
     }
 }
 
-impl Autopilot for FirmwareTwin {
+impl FlightStack for FirmwareTwin {
     fn start(
         &mut self,
         t: f64,
@@ -1300,10 +1301,12 @@ impl Autopilot for FirmwareTwin {
             }
             if tk == t0 - OUTER_US {
                 let prev = self.last_t_us;
-                self.fc.arm(prev).map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
                 self.fc
-                    .hold_position(prev, to_f32(&start))
-                    .map_err(|e| anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e)))?;
+                    .arm(prev)
+                    .map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
+                self.fc.hold_position(prev, to_f32(&start)).map_err(|e| {
+                    anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e))
+                })?;
             }
             self.step(tk, imu);
             tk += 1000;
@@ -1374,7 +1377,7 @@ mod tests {
         let (p, updates) = firmware_params(&s, &cfg).expect("representable");
         assert_eq!(
             p,
-            crate::fc::control::controller_params(&s, &cfg, cfg.cbf_params().expect("cbf"), cfg.variant)
+            crate::flight::runner::controller_params(&s, &cfg, cfg.cbf_params().expect("cbf"), cfg.variant)
         );
         assert_eq!(p.airframe.mass, 1.2);
         assert_eq!(p.cbf.velocity_margin, 0.03);

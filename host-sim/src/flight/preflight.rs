@@ -37,8 +37,8 @@
 
 use nalgebra::Vector3;
 
-use crate::input::InputError;
 use crate::flight::runner::RunConfig;
+use crate::input::InputError;
 use crate::world::scene::{ned_to_enu_arr, to_f32, Scene};
 
 /// How far (m) the first / last waypoint may be from the mission start / goal
@@ -408,10 +408,11 @@ velocity = [-0.5, 0, 0]
         assert!(n >= 4, "only {n} committed paths checked");
         // The office's path flown in the outdoor scene is refused as foreign.
         let s = Scene::load(&dir.join("outdoor_static.toml")).unwrap_or_else(|e| panic!("{e}"));
-        let file =
-            crate::plan::pathfile::PathFile::read(&dir.join("office_path.json")).unwrap_or_else(|e| panic!("{e}"));
-        let c = RunConfig::for_scene(&s, file.waypoints_ned().iter().map(crate::world::scene::to_f64).collect())
+        let file = crate::plan::pathfile::PathFile::read(&dir.join("office_path.json"))
             .unwrap_or_else(|e| panic!("{e}"));
+        let c =
+            RunConfig::for_scene(&s, file.waypoints_ned().iter().map(crate::world::scene::to_f64).collect())
+                .unwrap_or_else(|e| panic!("{e}"));
         let e = refused(
             &s,
             &c,
@@ -429,7 +430,7 @@ velocity = [-0.5, 0, 0]
         // check sees the ball's surface point inside the hull and refuses.
         let s = scene(&SCENE.replace("start = [0, 0, 1]", "start = [3, 0.75, 1]"));
         let c = cfg(&s, &[[3.0, 0.75, 1.0], [6.0, 0.0, 1.0]]);
-        let e = match crate::flight::runner::run(&s, &c, &mut |_| {}) {
+        let e = match crate::fc::control::run(&s, &c, &mut |_| {}) {
             Ok(o) => panic!("flew: {:?}", o.summary.end_reason),
             Err(e) => format!("{e:#}"),
         };

@@ -44,16 +44,22 @@ use std::time::Instant;
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
+use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::thrust::ThrustParams;
+use parapet_core::tracking::TrackingParams;
+use parapet_core::waypoint::WaypointParams;
 use parapet_core::Vec3;
 
-use crate::fc::control::{Autopilot, Controller};
+use crate::flight::stack::FlightStack;
+use crate::input::f32_as_f64;
 use crate::input::limits;
-use crate::sim::plant::Plant;
 use crate::report::{RunParams, Sample, Summary};
-use crate::world::scene::{to_f32, NearestTracker, Scene};
+use crate::sim::plant::Plant;
 use crate::sim::sensors::{SensorParams, Sensors};
-use crate::flight::validate::f32_as_f64;
+use crate::sim::INNER_DT;
+use crate::world::scene::{to_f32, Scene};
+use crate::world::NearestTracker;
 
 /// Goal reached: distance to the goal below this, m.
 pub const GOAL_TOLERANCE_M: f64 = 0.1;
@@ -62,8 +68,6 @@ pub const GOAL_SPEED_MPS: f64 = 0.1;
 /// A path whose last waypoint is this close to the scene's goal (m) ends at the
 /// goal: covers the `f32` round-off of path coordinates (under 1 mm up to 10 km).
 pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
-/// Inner-loop period, s (1 kHz).
-pub const INNER_DT: f64 = 0.001;
 /// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
 const INNER_HZ: f64 = 1000.0;
 /// Outer-loop decimation: one outer step every this many inner steps (250 Hz).
@@ -159,6 +163,40 @@ impl RunConfig {
         };
         p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
         Ok(p)
+    }
+}
+
+/// The controller parameters of a run: defaults of the core with the scene's
+/// vehicle and the run's tracking / filter / speed settings.
+pub fn controller_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+    cbf: CbfParams,
+    variant: FilterVariant,
+) -> ControllerParams {
+    let af = scene.vehicle.airframe();
+    let d = ControllerParams::default();
+    ControllerParams {
+        airframe: af,
+        // The core's tracking defaults (vertical integral off: with the paper's soft
+        // gains a z integrator is badly damped, and unstable once ki_z > kp·kd) with
+        // the run's kp, kd on every axis.
+        tracking: TrackingParams {
+            kp: [cfg.params.kp as f32; 3],
+            kd: [cfg.params.kd as f32; 3],
+            ..d.tracking
+        },
+        cbf,
+        filter_variant: variant,
+        thrust: ThrustParams {
+            mass: af.mass,
+            // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
+            thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
+            ..d.thrust
+        },
+        attitude: parapet_core::attitude::AttitudeParams { inertia: af.inertia, ..d.attitude },
+        waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
+        ..d
     }
 }
 
@@ -435,20 +473,12 @@ pub fn sense_obstacles(
     out
 }
 
-/// Fly `scene` with `cfg` and the in-process [`Controller`] (`parapet-core`'s
-/// `FlightController`). `progress` is called with the simulated time (s) about
-/// 10 times per simulated second.
-pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Result<RunOutput> {
-    let cbf = cfg.cbf_params()?;
-    let mut ctrl = Controller::new(scene, cfg, cbf)?;
-    run_with(scene, cfg, &mut ctrl, progress)
-}
-
-/// Fly `scene` with `cfg` and any [`Autopilot`] (e.g. firmware in the loop).
+/// Fly `scene` with `cfg` and any [`FlightStack`] (in-process: `crate::fc::control::run`;
+/// firmware in the loop: `crate::fc::pil`).
 pub fn run_with(
     scene: &Scene,
     cfg: &RunConfig,
-    ctrl: &mut dyn Autopilot,
+    ctrl: &mut dyn FlightStack,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutput> {
     // The world's spatial index is built with the world, like loading the scene,
@@ -668,6 +698,7 @@ pub fn run_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fc::control::run;
     use crate::world::scene::{Motion, SceneObstacle};
     use parapet_core::obstacle::Shape;
     use rand::{Rng, SeedableRng};

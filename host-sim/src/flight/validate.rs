@@ -18,9 +18,9 @@ use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
 use parapet_core::waypoint::{self, PathError};
 
-use crate::fc::control::controller_params;
+use crate::flight::runner::{controller_params, RunConfig};
+use crate::input::f32_as_f64;
 use crate::input::{limits, num, InputError};
-use crate::flight::runner::RunConfig;
 use crate::world::scene::Scene;
 
 /// Which run settings were given on the command line (they win over the scene),
@@ -384,12 +384,6 @@ pub fn describe_command_error(e: CommandError) -> String {
         CommandError::Path(p) => format!("path rejected: {}", describe_path_error(p)),
         CommandError::NoPosition => "no fresh position fix".into(),
     }
-}
-
-/// The `f64` value of an `f32` constant with its shortest decimal form
-/// (`1.4f32` → `1.4`, not `1.399999976158142`); the `f32` round trip is exact.
-pub fn f32_as_f64(x: f32) -> f64 {
-    x.to_string().parse().unwrap_or(x as f64)
 }
 
 /// Built-in defaults of the controller settings, for `--help`: μ, δ, δ1 (core

@@ -133,6 +133,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
+pub mod generate;
 pub mod pathfile;
 mod shortcut;
 mod space;

@@ -7,6 +7,9 @@
 //!
 //! Owns the physics and sensor models. May import: `parapet-core`, and of
 //! host-sim only [`crate::input`] (errors, limits).
+/// Plant step and inner-loop period, s (1 kHz).
+pub const INNER_DT: f64 = 0.001;
+
 pub mod disturbance;
 pub mod plant;
 pub mod replay;

@@ -62,6 +62,7 @@ pub struct VehicleParams {
     /// Mass, kg.
     pub mass: f64,
     /// Principal moments of inertia (Ix, Iy, Iz) about the FRD body axes, kg·m².
+    #[serde(deserialize_with = "crate::input::exact::array")]
     pub inertia: [f64; 3],
     /// Distance from the centre of mass to each rotor axis, m.
     pub arm_length: f64,
@@ -76,6 +77,7 @@ pub struct VehicleParams {
     /// First-order motor time constant, s.
     pub motor_tau: f64,
     /// Linear body drag coefficients along the FRD body axes, N/(m/s).
+    #[serde(deserialize_with = "crate::input::exact::array")]
     pub drag: [f64; 3],
     /// Radius of the sphere bounding the vehicle (collision hull), m.
     pub hull_radius: f64,
@@ -87,6 +89,7 @@ pub struct VehicleParams {
     pub rotor_drag_kz: f64,
     /// Quadratic parasitic drag along the FRD body axes, N/(m/s)² (RotorPy's `c_Dx`,
     /// `c_Dy`, `c_Dz`); default 0 (off).
+    #[serde(deserialize_with = "crate::input::exact::array")]
     pub parasitic_drag: [f64; 3],
 }
 

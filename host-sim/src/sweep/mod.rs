@@ -13,7 +13,7 @@
 //! `--yes` threshold) and the base configuration passes `preflight::check`
 //! (exit 2 otherwise). A run that fails on its own parameters (pre-flight or in
 //! flight) becomes a `failed` row with its error; the other rows are kept and the
-//! command exits with [`EXIT_SOME_FAILED`]. Rows stream to `sweep.csv` in grid
+//! command exits with [`crate::cli::EXIT_SOME_FAILED`]. Rows stream to `sweep.csv` in grid
 //! order as chunks of runs finish; memory is one chunk of rows plus one small
 //! record per heatmap cell.
 //!
@@ -51,7 +51,11 @@ pub use manifest::{Identity, Manifest};
 pub use merge::{cmd_sweep_merge, SweepMergeArgs};
 pub use record::{SweepRecord, COLUMNS};
 
-use crate::cli::CliError;
+use crate::cli::{exit_codes_help, CliError};
+use crate::fc::control::run;
+use crate::flight::preflight::PreflightOptions;
+use crate::flight::runner::{default_duration, RunConfig};
+use crate::flight::validate::Given;
 use crate::input::limits::{
     MAX_DURATION_CEILING_S, MAX_DURATION_S, SWEEP_CONFIRM_RUNS, SWEEP_MAX_JOBS, SWEEP_MAX_RUNS,
     SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
@@ -59,14 +63,7 @@ use crate::input::limits::{
 use crate::input::InputError;
 use crate::plan::pathfile::PathFile;
 use crate::plan::{plan, PlanProblem, PlannerParams};
-use crate::flight::preflight::PreflightOptions;
-use crate::flight::runner::{default_duration, run, RunConfig};
 use crate::world::scene::{to_f64, Scene};
-use crate::flight::validate::Given;
-
-/// Exit code of `parapet sweep` when some runs failed (their rows say why; the
-/// others are complete).
-pub const EXIT_SOME_FAILED: i32 = 4;
 
 /// Simulated seconds per wall-clock second and thread, for the `--yes` estimate:
 /// release build (office sweep in `docs/performance.md`: 96 flights of ~61 s in
@@ -108,17 +105,6 @@ Examples:
             "sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept"
         )
     )
-}
-
-/// The shared exit-code text, with code [`EXIT_SOME_FAILED`] explained by `what`
-/// unless the shared text already lists it.
-pub(crate) fn exit_codes_help(what: &str) -> String {
-    let shared = crate::cli::EXIT_CODES_HELP;
-    if shared.contains(&format!("\n  {EXIT_SOME_FAILED} ")) {
-        shared.to_string()
-    } else {
-        format!("{shared}\n  {EXIT_SOME_FAILED}    {what}")
-    }
 }
 
 fn parse_range(s: &str) -> Result<GridRange, String> {
@@ -741,7 +727,7 @@ mod tests {
     #[test]
     fn exit_code_4_is_listed_exactly_once() {
         let h = exit_codes_help("some runs failed");
-        assert_eq!(h.matches(&format!("\n  {EXIT_SOME_FAILED} ")).count(), 1, "{h}");
+        assert_eq!(h.matches(&format!("\n  {} ", crate::cli::EXIT_SOME_FAILED)).count(), 1, "{h}");
         assert!(h.starts_with(crate::cli::EXIT_CODES_HELP));
     }
 }

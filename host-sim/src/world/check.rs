@@ -10,13 +10,13 @@
 //!   the simulator stores it, `f32`) and the same motion; one of them is
 //!   redundant and every query would count it twice.
 //!
-//! Owns the checks. May import: `parapet-core` (shapes), `crate::world::scene` (types).
+//! Owns the checks. May import: `parapet-core` (shapes), [`super::obstacle`].
 
 use std::collections::HashMap;
 
 use parapet_core::obstacle::Shape;
 
-use crate::world::scene::SceneObstacle;
+use super::obstacle::SceneObstacle;
 
 /// Smallest radius, height or box side accepted, m.
 pub const MIN_OBSTACLE_SIZE_M: f64 = 1e-3;

@@ -34,10 +34,13 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 use parapet_core::obstacle::Shape;
-use parapet_core::Vec3;
-use serde::{Deserialize, Serialize};
 
-use crate::input::{limits, num, InputError};
+pub use super::frame::{enu_arr_to_ned, ned_to_enu_arr, to_f32, to_f64};
+pub use super::obstacle::{reference_point, Motion, SceneObstacle};
+pub(crate) use super::schema::describe_toml_error;
+use super::schema::{bad, convert_obstacle, validate_controller, validate_sensors, within_limit, RawScene};
+pub use super::schema::{ControllerOverrides, SimSettings, FILTER_NAMES};
+use crate::input::{limits, InputError};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
 
@@ -50,206 +53,6 @@ pub struct SceneError {
     pub file: String,
     /// What is wrong and where (table, obstacle index, field).
     pub message: String,
-}
-
-/// The filter variant names accepted in `[controller] filter`.
-pub const FILTER_NAMES: [&str; 4] = ["paper", "relative", "multi", "multi-relative"];
-
-/// Optional controller overrides (`[controller]` table). Missing values keep
-/// the controller defaults (or the command-line values, which win over the scene).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerOverrides {
-    /// Barrier velocity weight μ, s.
-    pub mu: Option<f64>,
-    /// Safety level δ, m² (the hull radius squared).
-    pub delta: Option<f64>,
-    /// Engagement level δ1 > δ, m².
-    pub delta1: Option<f64>,
-    /// PD position gain k_p, 1/s² (all axes).
-    pub kp: Option<f64>,
-    /// PD velocity gain k_d, 1/s (all axes).
-    pub kd: Option<f64>,
-    /// Filter variant: one of [`FILTER_NAMES`].
-    pub filter: Option<String>,
-    /// Bound A on the unknown obstacle acceleration, m/s² (relative variants).
-    pub accel_bound: Option<f64>,
-    /// Velocity-uncertainty margin ε_v of the filter's constraint, m/s (default 0).
-    pub velocity_margin: Option<f64>,
-    /// Reference speed along the path, m/s; overrides `[mission] speed` when given.
-    pub speed: Option<f64>,
-}
-
-/// Optional simulation settings (`[sim]` table).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SimSettings {
-    /// Range of the proximity sensor, m: obstacles farther than this (surface
-    /// distance from the centre of mass) are not reported to the controller. Default 3.
-    pub sensing_range: Option<f64>,
-    /// Duration limit of a run, s. Default: 1.5 × path length / speed + 15 s.
-    pub duration: Option<f64>,
-    /// Plant integration step, s. Default 0.001 (1 kHz).
-    pub dt: Option<f64>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawScene {
-    name: String,
-    #[serde(default)]
-    description: Option<String>,
-    bounds: RawBounds,
-    mission: RawMission,
-    #[serde(default)]
-    vehicle: Option<VehicleParams>,
-    #[serde(default)]
-    controller: Option<ControllerOverrides>,
-    #[serde(default)]
-    sensors: Option<SensorParams>,
-    #[serde(default)]
-    sim: Option<SimSettings>,
-    #[serde(default)]
-    wind: Option<crate::sim::disturbance::wind::WindParams>,
-    #[serde(default)]
-    plant: Option<toml::Table>,
-    #[serde(default)]
-    faults: Option<crate::sim::disturbance::faults::FaultParams>,
-    #[serde(default)]
-    obstacles: Vec<RawObstacle>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawBounds {
-    min: [f64; 3],
-    max: [f64; 3],
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawMission {
-    start: [f64; 3],
-    goal: [f64; 3],
-    speed: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawObstacle {
-    kind: String,
-    #[serde(default)]
-    name: Option<String>,
-    center: Option<[f64; 3]>,
-    radius: Option<f64>,
-    min: Option<[f64; 3]>,
-    max: Option<[f64; 3]>,
-    base: Option<[f64; 3]>,
-    height: Option<f64>,
-    velocity: Option<[f64; 3]>,
-    waypoints: Option<Vec<[f64; 4]>>,
-}
-
-/// How an obstacle moves. Positions/velocities NED.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Motion {
-    /// Does not move.
-    Static,
-    /// Constant velocity from t = 0, m/s.
-    Velocity(Vector3<f64>),
-    /// Piecewise-linear trajectory of the reference point: `(t s, position m)`,
-    /// times strictly increasing; held at the first/last point outside the range.
-    Waypoints(Vec<(f64, Vector3<f64>)>),
-}
-
-/// One obstacle of a scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SceneObstacle {
-    /// Optional name from the file.
-    pub name: Option<String>,
-    /// Geometry as written in the file (converted to NED), i.e. at t = 0 for
-    /// `Velocity` motion; for `Waypoints` the reference point is moved along the waypoints.
-    pub shape: Shape,
-    /// Motion.
-    pub motion: Motion,
-}
-
-fn v3(a: &[f32; 3]) -> Vector3<f64> {
-    Vector3::new(a[0] as f64, a[1] as f64, a[2] as f64)
-}
-
-/// Reference point of a shape (NED): sphere/point centre, box centre,
-/// cylinder bottom-disc centre. Waypoints move this point.
-pub fn reference_point(shape: &Shape) -> Vector3<f64> {
-    match shape {
-        Shape::Point { center } | Shape::Sphere { center, .. } => v3(center),
-        Shape::Box { min, max } => (v3(min) + v3(max)) * 0.5,
-        Shape::Cylinder { base, .. } => v3(base),
-    }
-}
-
-impl SceneObstacle {
-    /// `true` when the obstacle never moves.
-    pub fn is_static(&self) -> bool {
-        match &self.motion {
-            Motion::Static => true,
-            Motion::Velocity(v) => v.norm() == 0.0,
-            Motion::Waypoints(w) => w.len() < 2 || w.windows(2).all(|p| p[0].1 == p[1].1),
-        }
-    }
-
-    /// The obstacle's shape (NED) and velocity (NED, m/s) at time `t` (s).
-    pub fn at(&self, t: f64) -> (Shape, Vector3<f64>) {
-        match &self.motion {
-            Motion::Static => (self.shape, Vector3::zeros()),
-            Motion::Velocity(v) => (self.shape.translated(to_f32(&(v * t))), *v),
-            Motion::Waypoints(w) => {
-                let (p, v) = interpolate(w, t);
-                let off = p - reference_point(&self.shape);
-                (self.shape.translated(to_f32(&off)), v)
-            }
-        }
-    }
-}
-
-fn interpolate(w: &[(f64, Vector3<f64>)], t: f64) -> (Vector3<f64>, Vector3<f64>) {
-    let (first, last) = (w[0], w[w.len() - 1]);
-    if t <= first.0 || w.len() == 1 {
-        return (first.1, Vector3::zeros());
-    }
-    if t >= last.0 {
-        return (last.1, Vector3::zeros());
-    }
-    for seg in w.windows(2) {
-        let ((t0, p0), (t1, p1)) = (seg[0], seg[1]);
-        if t >= t0 && t < t1 {
-            let v = (p1 - p0) / (t1 - t0);
-            return (p0 + v * (t - t0), v);
-        }
-    }
-    (last.1, Vector3::zeros())
-}
-
-/// f64 NED vector → core `Vec3` (f32).
-pub fn to_f32(v: &Vector3<f64>) -> Vec3 {
-    Vec3::new(v.x as f32, v.y as f32, v.z as f32)
-}
-
-/// core `Vec3` (f32) → f64.
-pub fn to_f64(v: &Vec3) -> Vector3<f64> {
-    Vector3::new(v.x as f64, v.y as f64, v.z as f64)
-}
-
-/// ENU array (file) → NED vector: the `f64` twin of
-/// [`parapet_core::frame::enu_to_ned`] (same axis mapping, checked in the tests).
-pub fn enu_arr_to_ned(a: [f64; 3]) -> Vector3<f64> {
-    Vector3::new(a[1], a[0], -a[2])
-}
-
-/// NED vector → ENU array (file, plots): the `f64` twin of
-/// [`parapet_core::frame::ned_to_enu`].
-pub fn ned_to_enu_arr(v: &Vector3<f64>) -> [f64; 3] {
-    [v.y, v.x, -v.z]
 }
 
 /// A validated scene, internal frame NED.
@@ -289,41 +92,6 @@ impl From<SceneError> for InputError {
     }
 }
 
-/// `|x| ≤ MAX_COORDINATE_M` for every component.
-fn within_limit(a: &[f64]) -> bool {
-    a.iter().all(|x| x.abs() <= limits::MAX_COORDINATE_M)
-}
-
-/// "field `f`: <what> (got <value>; allowed <allowed>)", numbers as a user
-/// writes them ([`num`]: `1e9`, not `1000000000.0`).
-fn bad(field: &str, what: &str, value: impl Shown, allowed: &str) -> String {
-    format!("field `{field}`: {what} (got {}; allowed {allowed})", value.shown())
-}
-
-/// A value in an error message.
-trait Shown {
-    fn shown(&self) -> String;
-}
-
-impl Shown for f64 {
-    fn shown(&self) -> String {
-        num(*self)
-    }
-}
-
-impl<const N: usize> Shown for [f64; N] {
-    fn shown(&self) -> String {
-        let parts: Vec<String> = self.iter().map(|x| num(*x)).collect();
-        format!("[{}]", parts.join(", "))
-    }
-}
-
-impl<T: Shown> Shown for &T {
-    fn shown(&self) -> String {
-        (*self).shown()
-    }
-}
-
 impl Scene {
     /// Read and validate a scene file (at most `MAX_INPUT_FILE_BYTES`).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
@@ -340,7 +108,6 @@ impl Scene {
     pub fn parse(src: &str, file: &str) -> Result<Scene, SceneError> {
         let err = |message: String| SceneError { file: file.to_string(), message };
         let raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
-        check_array_lengths(src).map_err(err)?;
         let coord = format!("finite, |x| ≤ {} m", limits::MAX_COORDINATE_M);
         let finite3 = |table: &str, field: &str, a: [f64; 3]| -> Result<(), SceneError> {
             if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
@@ -398,7 +165,8 @@ impl Scene {
             validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
         }
         let mut disturbances = crate::sim::disturbance::Disturbances::default();
-        let tables = crate::sim::disturbance::RawTables { wind: raw.wind, plant: raw.plant, faults: raw.faults };
+        let tables =
+            crate::sim::disturbance::RawTables { wind: raw.wind, plant: raw.plant, faults: raw.faults };
         disturbances.overlay(tables, &vehicle, file).map_err(|e| {
             let text = e.to_string();
             err(text.strip_prefix(&format!("{file}: ")).unwrap_or(&text).to_string())
@@ -407,7 +175,7 @@ impl Scene {
         for (i, o) in raw.obstacles.into_iter().enumerate() {
             obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
         }
-        crate::world::check::obstacles(&obstacles).map_err(err)?;
+        super::check::obstacles(&obstacles).map_err(err)?;
         Ok(Scene {
             name: raw.name,
             description: raw.description,
@@ -457,265 +225,11 @@ impl Scene {
     }
 }
 
-/// The exact nearest-obstacle tracker (spatial index, Lipschitz bounds) lives in
-/// [`crate::world::tracker`]; re-exported here where the runner and tests find it.
-pub use crate::world::tracker::NearestTracker;
-
-fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
-    for (field, x) in [("mu", c.mu), ("delta", c.delta), ("delta1", c.delta1), ("kp", c.kp), ("kd", c.kd)] {
-        if let Some(x) = x {
-            // In f32 as the controller sees them.
-            if !(x.is_finite() && (x as f32).is_finite() && x > 0.0) {
-                return Err(bad(
-                    field,
-                    "must be finite and > 0",
-                    x,
-                    &format!("0 < {field} ≤ {:e}", f32::MAX),
-                ));
-            }
-        }
-    }
-    if let Some(v) = c.speed {
-        if !(v > 0.0 && v <= limits::MAX_SPEED_MPS) {
-            let allowed = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
-            return Err(bad("speed", "reference speed out of range", v, &allowed));
-        }
-    }
-    for (field, x) in [("accel_bound", c.accel_bound), ("velocity_margin", c.velocity_margin)] {
-        if let Some(a) = x {
-            if !(a.is_finite() && a >= 0.0) {
-                return Err(format!("field `{field}`: must be finite and >= 0, got {a}"));
-            }
-        }
-    }
-    if let (Some(d), Some(d1)) = (c.delta, c.delta1) {
-        if d1 as f32 <= d as f32 {
-            return Err(bad("delta1", &format!("must exceed delta = {d}"), d1, &format!("delta1 > {d}")));
-        }
-    }
-    if let Some(f) = &c.filter {
-        if !FILTER_NAMES.contains(&f.as_str()) {
-            return Err(format!("field `filter`: unknown variant {f:?}, expected one of {FILTER_NAMES:?}"));
-        }
-    }
-    Ok(())
-}
-
-fn validate_sensors(s: &SensorParams) -> Result<(), String> {
-    for (field, x) in [
-        ("gyro_noise", s.gyro_noise),
-        ("gyro_bias", s.gyro_bias),
-        ("accel_noise", s.accel_noise),
-        ("accel_bias", s.accel_bias),
-        ("position_noise", s.position_noise),
-        ("velocity_noise", s.velocity_noise),
-        ("position_latency", s.position_latency),
-        ("obstacle_velocity_noise", s.obstacle_velocity_noise),
-    ] {
-        let cap = if field == "position_latency" {
-            limits::MAX_POSITION_LATENCY_S
-        } else {
-            limits::MAX_SENSOR_NOISE
-        };
-        if !(x.is_finite() && (0.0..=cap).contains(&x)) {
-            let why = if field == "position_latency" {
-                format!(
-                    "beyond the cap (the flight controller's position timeout is {} s)",
-                    num(limits::position_timeout_s())
-                )
-            } else {
-                "out of range".to_string()
-            };
-            return Err(bad(field, &why, x, &format!("0 ≤ {field} ≤ {cap}")));
-        }
-    }
-    Ok(())
-}
-
-fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
-    let max = limits::MAX_COORDINATE_M;
-    let finite3 = |field: &str, a: [f64; 3]| {
-        if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
-            Ok(enu_arr_to_ned(a))
-        } else {
-            Err(bad(field, "out of range", a, &format!("finite, |x| ≤ {max}")))
-        }
-    };
-    let positive = |field: &str, x: f64| {
-        if x.is_finite() && x > 0.0 && x <= max {
-            Ok(x as f32)
-        } else {
-            Err(bad(field, "must be finite and > 0", x, &format!("0 < {field} ≤ {max} m")))
-        }
-    };
-    let need = |field: &str, present: bool| {
-        if present {
-            Ok(())
-        } else {
-            Err(format!("field `{field}` is missing (required for kind = {:?})", o.kind))
-        }
-    };
-    let forbid = |field: &str, present: bool| {
-        if present {
-            Err(format!("field `{field}` is not allowed for kind = {:?}", o.kind))
-        } else {
-            Ok(())
-        }
-    };
-    let shape = match o.kind.as_str() {
-        "sphere" => {
-            forbid("min", o.min.is_some())?;
-            forbid("max", o.max.is_some())?;
-            forbid("base", o.base.is_some())?;
-            forbid("height", o.height.is_some())?;
-            need("center", o.center.is_some())?;
-            need("radius", o.radius.is_some())?;
-            let c = finite3("center", o.center.unwrap_or_default())?;
-            Shape::sphere(to_f32(&c), positive("radius", o.radius.unwrap_or_default())?)
-        }
-        "box" => {
-            forbid("center", o.center.is_some())?;
-            forbid("radius", o.radius.is_some())?;
-            forbid("base", o.base.is_some())?;
-            forbid("height", o.height.is_some())?;
-            need("min", o.min.is_some())?;
-            need("max", o.max.is_some())?;
-            let (mn, mx) = (o.min.unwrap_or_default(), o.max.unwrap_or_default());
-            let (a, b) = (finite3("min", mn)?, finite3("max", mx)?);
-            if (0..3).any(|i| mn[i] >= mx[i]) {
-                return Err(format!(
-                    "field `max`: must exceed `min` in every coordinate (min {mn:?}, max {mx:?})"
-                ));
-            }
-            Shape::aabb(to_f32(&a), to_f32(&b))
-        }
-        "cylinder" => {
-            forbid("center", o.center.is_some())?;
-            forbid("min", o.min.is_some())?;
-            forbid("max", o.max.is_some())?;
-            need("base", o.base.is_some())?;
-            need("radius", o.radius.is_some())?;
-            need("height", o.height.is_some())?;
-            let b = finite3("base", o.base.unwrap_or_default())?;
-            let r = positive("radius", o.radius.unwrap_or_default())?;
-            let h = positive("height", o.height.unwrap_or_default())?;
-            Shape::cylinder(to_f32(&b), r, h)
-        }
-        other => {
-            return Err(format!(
-                "field `kind`: unknown kind {other:?}, expected \"sphere\", \"box\" or \"cylinder\""
-            ))
-        }
-    };
-    let motion = match (o.velocity, o.waypoints) {
-        (Some(_), Some(_)) => {
-            return Err("field `waypoints`: give either `velocity` or `waypoints`, not both".into())
-        }
-        (Some(v), None) => Motion::Velocity(finite3("velocity", v)?),
-        (None, Some(w)) => {
-            if w.is_empty() {
-                return Err("field `waypoints`: needs at least one [t, x, y, z] entry".into());
-            }
-            let mut out = Vec::with_capacity(w.len());
-            for (k, e) in w.iter().enumerate() {
-                if !(e.iter().all(|x| x.is_finite()) && within_limit(&e[1..])) {
-                    let allowed = format!("finite, |x| ≤ {max} m");
-                    return Err(bad("waypoints", &format!("entry {k} out of range"), e, &allowed));
-                }
-                if let Some((t_prev, _)) = out.last() {
-                    if e[0] <= *t_prev {
-                        return Err(format!("field `waypoints`: times must increase strictly (entry {k})"));
-                    }
-                }
-                out.push((e[0], enu_arr_to_ned([e[1], e[2], e[3]])));
-            }
-            Motion::Waypoints(out)
-        }
-        (None, None) => Motion::Static,
-    };
-    Ok(SceneObstacle { name: o.name, shape, motion })
-}
-
-/// Refuse arrays longer than their field (`start = [0, 0, 1, 3]`): toml's
-/// document deserializer fills a `[f64; 3]` from the first three elements and
-/// drops the rest silently; its value deserializer, used here on the already
-/// parsed text, refuses the extra elements and names the key path.
-fn check_array_lengths(src: &str) -> Result<(), String> {
-    let describe = |e: toml::de::Error, table: Option<String>| {
-        let text = e.to_string();
-        let mut lines = text.lines();
-        let msg = lines.next().unwrap_or("").trim().to_string();
-        let keys: Vec<String> = lines
-            .find_map(|l| l.strip_prefix("in `")?.strip_suffix('`').map(str::to_string))
-            .map(|k| k.split('.').map(str::to_string).collect())
-            .unwrap_or_default();
-        let (table, field) = match (table, keys.split_last()) {
-            (Some(t), Some((f, _))) => (t, Some(f.clone())),
-            (Some(t), None) => (t, None),
-            (None, Some((f, []))) => ("top level".to_string(), Some(f.clone())),
-            (None, Some((f, rest))) => (format!("[{}]", rest.join(".")), Some(f.clone())),
-            (None, None) => ("top level".to_string(), None),
-        };
-        match field {
-            Some(f) => {
-                format!("{table}, field `{f}`: {msg} (an array with more values than the field takes)")
-            }
-            None => format!("{table}: {msg}"),
-        }
-    };
-    let mut table: toml::Table = toml::from_str(src).map_err(|e| e.message().trim().to_string())?;
-    let obstacles = table.remove("obstacles");
-    RawScene::deserialize(table).map_err(|e| describe(e, None))?;
-    if let Some(toml::Value::Array(list)) = obstacles {
-        for (i, o) in list.into_iter().enumerate() {
-            RawObstacle::deserialize(o).map_err(|e| describe(e, Some(format!("obstacles[{i}]"))))?;
-        }
-    }
-    Ok(())
-}
-
-/// Turn a TOML/serde error into "line N, <table>, field `k`: message".
-pub(crate) fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().trim().to_string();
-    let Some(span) = e.span() else {
-        return msg;
-    };
-    let start = span.start.min(src.len());
-    // Up to the end of the line where the span starts: a missing key's span is
-    // its table's `[[obstacles]]` header, which must count.
-    let line_end = src[start..].find('\n').map_or(src.len(), |k| start + k);
-    let before = &src[..start];
-    let through = &src[..line_end];
-    let line_no = before.matches('\n').count() + 1;
-    let line = src.lines().nth(line_no - 1).unwrap_or("");
-    // The table the offending line belongs to.
-    let mut table = String::from("top level");
-    let mut n_obstacles = 0usize;
-    for l in through.lines() {
-        let t = l.trim();
-        if t.starts_with("[[obstacles]]") {
-            n_obstacles += 1;
-            table = format!("obstacles[{}]", n_obstacles - 1);
-        } else if t.starts_with('[') {
-            table = t.split(']').next().map(|s| format!("{s}]")).unwrap_or_default();
-        }
-    }
-    let mut out = format!("line {line_no}, {table}");
-    if let Some((key, _)) = line.split_once('=') {
-        let key = key.trim();
-        if !key.is_empty() && !key.starts_with('[') && !msg.contains(&format!("`{key}`")) {
-            out.push_str(&format!(", field `{key}`"));
-        }
-    }
-    out.push_str(": ");
-    out.push_str(&msg);
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use parapet_core::frame::{enu_to_ned, ned_to_enu};
+    use parapet_core::Vec3;
 
     const OK: &str = r#"
 name = "t"
@@ -906,6 +420,8 @@ mod shipped {
 #[cfg(test)]
 mod tracker {
     use super::*;
+    use crate::world::NearestTracker;
+    use parapet_core::Vec3;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

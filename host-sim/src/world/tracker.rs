@@ -12,8 +12,10 @@ use nalgebra::Vector3;
 use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
 
+use super::frame::to_f32;
 use super::index::{round_off_margin, StaticIndex};
-use crate::world::scene::{to_f32, Scene, SceneObstacle};
+use super::obstacle::SceneObstacle;
+use super::scene::Scene;
 
 /// Scenes with at least this many static obstacles use the spatial index;
 /// smaller ones keep every obstacle in the candidate set (a scan of a few

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::plan::pathfile::PathFile;
-use parapet_sim::flight::runner::{run, RunConfig, RunOutput};
 use parapet_sim::world::scene::{to_f64, Scene};
 
 /// `scenes/<name>`.

@@ -127,7 +127,7 @@ pub fn merge_plant(
 /// the roll arm's moment per unit thrust (`k_m ≤ k_f · arm_length`), as
 /// `crate::flight::validate` refuses them for `[vehicle]`. `Err((field, value, allowed))`.
 pub fn check_integrable(v: &VehicleParams) -> Result<(), (String, String, String)> {
-    let max_drag = v.mass / crate::flight::runner::INNER_DT;
+    let max_drag = v.mass / super::INNER_DT;
     let num = crate::input::num;
     if let Some(d) = v.drag.iter().find(|d| **d > max_drag) {
         return Err(("drag".into(), num(*d), format!("0 ≤ drag ≤ mass / 1 ms = {}", num(max_drag))));
