@@ -7,7 +7,7 @@
 //! [`crate::safety`], [`crate::supervisor`]), never their loops or the controller facade.
 
 use crate::airframe::Airframe;
-use crate::attitude::{AttitudeError, AttitudeParams};
+use crate::attitude::{AttitudeController, AttitudeError, AttitudeParams};
 use crate::cbf::{CbfError, CbfParams, FilterVariant};
 use crate::estimator::{EstimatorError, EstimatorParams};
 use crate::failsafe::FailsafeParams;
@@ -35,9 +35,9 @@ pub struct ControllerParams {
     pub cbf: CbfParams,
     /// Filter law. Default [`FilterVariant::default`].
     pub filter_variant: FilterVariant,
-    /// Thrust/attitude mapping (eq. 4-5). `mass` must equal `airframe.mass`.
+    /// Thrust/attitude mapping limits (eq. 4-5; the mass is `airframe.mass`).
     pub thrust: ThrustParams,
-    /// Attitude and rate loops. `inertia` must equal `airframe.inertia`.
+    /// Attitude and rate loops (the inertia is `airframe.inertia`).
     pub attitude: AttitudeParams,
     /// Attitude estimator.
     pub estimator: EstimatorParams,
@@ -82,8 +82,8 @@ impl Default for ControllerParams {
             tracking: TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.5, 0.8) },
             cbf: CbfParams::default(),
             filter_variant: FilterVariant::default(),
-            thrust: ThrustParams { mass: airframe.mass, ..ThrustParams::default() },
-            attitude: AttitudeParams { inertia: airframe.inertia, ..AttitudeParams::default() },
+            thrust: ThrustParams::default(),
+            attitude: AttitudeParams::default(),
             estimator: EstimatorParams::default(),
             waypoint: WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 },
             failsafe: FailsafeParams::default(),
@@ -124,8 +124,6 @@ pub enum ParamError {
     Tracking,
     /// Thrust mapping limits invalid (0 < thrust_min < m·g < thrust_max ≤ 4·f_max, tilt in (0, 1.5)).
     Thrust,
-    /// `thrust.mass` ≠ `airframe.mass` or `attitude.inertia` ≠ `airframe.inertia`.
-    AirframeMismatch,
     /// A rate, speed, time or factor is not finite and positive / in range.
     Loop,
 }
@@ -134,7 +132,8 @@ impl ControllerParams {
     /// Check every parameter (see [`ParamError`]).
     pub fn validate(&self) -> Result<(), ParamError> {
         self.cbf.validate().map_err(ParamError::Cbf)?;
-        self.attitude.validate().map_err(ParamError::Attitude)?;
+        // The attitude gains with the airframe's inertia (checked where the rate loop uses it).
+        AttitudeController::new(self.attitude, self.airframe.inertia).map_err(ParamError::Attitude)?;
         self.estimator.validate().map_err(ParamError::Estimator)?;
         Mixer::new(&self.airframe).map_err(ParamError::Mixer)?;
         self.waypoint.validate().map_err(ParamError::Waypoint)?;
@@ -167,9 +166,6 @@ impl ControllerParams {
             && th.tilt_max < 1.5)
         {
             return Err(ParamError::Thrust);
-        }
-        if th.mass != a.mass || self.attitude.inertia != a.inertia {
-            return Err(ParamError::AirframeMismatch);
         }
         let ok = pos(self.outer_rate_hz)
             && pos(self.inner_rate_hz)

@@ -149,6 +149,7 @@ impl ControllerParams {
             cbf,
             filter_variant: self.filter_variant,
             thrust: self.thrust,
+            mass: self.airframe.mass,
             guidance: GuidanceParams {
                 waypoint: self.waypoint,
                 takeoff_speed: self.takeoff_speed,

@@ -340,7 +340,6 @@ pub const TABLE: [Param; COUNT] = [
         get: |p| p.airframe.mass,
         write: |p, v| {
             p.airframe.mass = v;
-            p.thrust.mass = v;
         },
     },
     Param {
@@ -358,7 +357,6 @@ pub const TABLE: [Param; COUNT] = [
         get: |p| p.airframe.inertia[0],
         write: |p, v| {
             p.airframe.inertia[0] = v;
-            p.attitude.inertia[0] = v;
         },
     },
     Param {
@@ -376,7 +374,6 @@ pub const TABLE: [Param; COUNT] = [
         get: |p| p.airframe.inertia[1],
         write: |p, v| {
             p.airframe.inertia[1] = v;
-            p.attitude.inertia[1] = v;
         },
     },
     Param {
@@ -394,7 +391,6 @@ pub const TABLE: [Param; COUNT] = [
         get: |p| p.airframe.inertia[2],
         write: |p, v| {
             p.airframe.inertia[2] = v;
-            p.attitude.inertia[2] = v;
         },
     },
     Param {
@@ -639,8 +635,7 @@ mod tests {
         assert!(!p.failsafe.obstacles_required);
         set(&mut p, "VEH_MASS", 0.6).unwrap();
         set(&mut p, "VEH_IZZ", 0.004).unwrap();
-        assert_eq!(p.thrust.mass, p.airframe.mass);
-        assert_eq!(p.attitude.inertia, p.airframe.inertia);
+        assert_eq!((p.airframe.mass, p.airframe.inertia[2]), (0.6, 0.004));
     }
 
     #[test]

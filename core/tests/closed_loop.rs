@@ -5,6 +5,8 @@
 mod plant;
 
 use nalgebra::UnitQuaternion;
+use parapet_core::airframe::Airframe;
+use parapet_core::attitude::AttitudeError;
 use parapet_core::cbf::CbfParams;
 use parapet_core::controller::{
     CommandError, ControllerParams, FlightController, GuidanceMode, MotorOutput, ParamError, PositionFix,
@@ -14,7 +16,6 @@ use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::{ArmRefusal, FailsafeState, TransitionReason};
 use parapet_core::frame::{wrap_pi, GRAVITY};
 use parapet_core::obstacle::ObstaclePoint;
-use parapet_core::thrust::ThrustParams;
 use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::PathError;
 use parapet_core::Vec3;
@@ -215,11 +216,18 @@ fn arm_refusals_and_command_errors() {
     assert_eq!(ctl.takeoff(t, 100.0), Err(CommandError::BadHeight));
     assert_eq!(ctl.hold_position(t, Vec3::new(f32::NAN, 0.0, 0.0)), Err(CommandError::BadTarget));
     assert_eq!(ctl.start_mission(t), Err(CommandError::NotFlying));
+    // Mass and inertia are stored once, in the airframe, and checked where a stage uses them.
     let bad = ControllerParams {
-        thrust: ThrustParams { mass: 0.6, ..ThrustParams::default() },
+        airframe: Airframe { mass: 0.0, ..Airframe::default() },
         ..ControllerParams::default()
     };
-    assert_eq!(FlightController::new(bad).err(), Some(ParamError::AirframeMismatch));
+    assert_eq!(FlightController::new(bad).err(), Some(ParamError::Thrust));
+    let inertia = [0.0019, 0.0, 0.0033];
+    let bad = ControllerParams {
+        airframe: Airframe { inertia, ..Airframe::default() },
+        ..ControllerParams::default()
+    };
+    assert_eq!(FlightController::new(bad).err(), Some(ParamError::Attitude(AttitudeError::BadParams)));
     let bad = ControllerParams { outer_rate_hz: 0.0, ..ControllerParams::default() };
     assert_eq!(FlightController::new(bad).err(), Some(ParamError::Loop));
     let bad = ControllerParams {

@@ -190,7 +190,7 @@ proptest! {
     ) {
         let af = Airframe::default();
         let mut est = AttitudeEstimator::new(EstimatorParams::default()).unwrap();
-        let mut att = AttitudeController::new(AttitudeParams::default()).unwrap();
+        let mut att = AttitudeController::new(AttitudeParams::default(), af.inertia).unwrap();
         let mixer = Mixer::new(&af).unwrap();
         let mut sat = false;
         for (g, a, aid, sp, thrust, dt) in steps {

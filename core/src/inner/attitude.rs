@@ -44,8 +44,6 @@ use crate::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AttitudeParams {
-    /// Principal inertia (Jx, Jy, Jz) about body FRD axes, kg·m². Default (0.0019, 0.0019, 0.0033).
-    pub inertia: [f32; 3],
     /// Attitude P gain per axis (roll, pitch, yaw), 1/s. Default (6.5, 6.5, 2.8).
     pub att_p: [f32; 3],
     /// Body-rate setpoint limit per axis, rad/s. Default (3.5, 3.5, 1.5) (200, 200, 86 °/s).
@@ -70,7 +68,6 @@ pub struct AttitudeParams {
 impl Default for AttitudeParams {
     fn default() -> Self {
         AttitudeParams {
-            inertia: [0.0019, 0.0019, 0.0033],
             att_p: [6.5, 6.5, 2.8],
             rate_max: [3.5, 3.5, 1.5],
             rate_p: [40.0, 40.0, 15.0],
@@ -88,18 +85,17 @@ impl Default for AttitudeParams {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum AttitudeError {
-    /// A gain, limit or inertia is negative or not finite (inertia, rate limits,
+    /// A gain, limit or the inertia is negative or not finite (inertia, rate limits,
     /// cut-off, alpha_max and dt_max must be > 0).
     BadParams,
 }
 
 impl AttitudeParams {
-    /// Check every field (finite; gains ≥ 0; inertia, limits, cut-off > 0).
+    /// Check every field (finite; gains ≥ 0; limits, cut-off > 0).
     pub fn validate(&self) -> Result<(), AttitudeError> {
         let pos = |x: &f32| x.is_finite() && *x > 0.0;
         let nonneg = |x: &f32| x.is_finite() && *x >= 0.0;
-        let ok = self.inertia.iter().all(pos)
-            && self.rate_max.iter().all(pos)
+        let ok = self.rate_max.iter().all(pos)
             && self.att_p.iter().all(nonneg)
             && self.rate_p.iter().all(nonneg)
             && self.rate_i.iter().all(nonneg)
@@ -132,16 +128,27 @@ pub struct AttitudeOutput {
 #[derive(Clone, Debug)]
 pub struct AttitudeController {
     params: AttitudeParams,
+    inertia: [f32; 3],
     integral: [f32; 3],
     prev_rate: Option<[f32; 3]>,
     d_filt: [f32; 3],
 }
 
 impl AttitudeController {
-    /// New controller; errors on invalid parameters.
-    pub fn new(params: AttitudeParams) -> Result<Self, AttitudeError> {
+    /// New controller for a vehicle of principal inertia `inertia` (Jx, Jy, Jz about body
+    /// FRD axes, kg·m²; the airframe's, [`crate::airframe::Airframe::inertia`]); errors on
+    /// invalid parameters or an inertia that is not finite and > 0.
+    pub fn new(params: AttitudeParams, inertia: [f32; 3]) -> Result<Self, AttitudeError> {
         params.validate()?;
-        Ok(AttitudeController { params, integral: [0.0; 3], prev_rate: None, d_filt: [0.0; 3] })
+        if !inertia.iter().all(|j| j.is_finite() && *j > 0.0) {
+            return Err(AttitudeError::BadParams);
+        }
+        Ok(AttitudeController { params, inertia, integral: [0.0; 3], prev_rate: None, d_filt: [0.0; 3] })
+    }
+
+    /// Principal inertia in use, kg·m².
+    pub fn inertia(&self) -> [f32; 3] {
+        self.inertia
     }
 
     /// Parameters in use.
@@ -224,7 +231,7 @@ impl AttitudeController {
                 self.integral[i] = clampf(self.integral[i] + p.rate_i[i] * e * dt_s, -lim, lim);
             }
             let alpha = p.rate_p[i] * e + self.integral[i] - p.rate_d[i] * self.d_filt[i];
-            torque[i] = p.inertia[i] * clampf(alpha, -p.alpha_max, p.alpha_max);
+            torque[i] = self.inertia[i] * clampf(alpha, -p.alpha_max, p.alpha_max);
         }
         (torque, dt_ok)
     }
@@ -253,8 +260,11 @@ pub fn torque_vec(o: &AttitudeOutput) -> Vec3 {
 mod tests {
     use super::*;
 
+    /// The paper's vehicle inertia, kg·m².
+    const J: [f32; 3] = [0.0019, 0.0019, 0.0033];
+
     fn ctl() -> AttitudeController {
-        AttitudeController::new(AttitudeParams::default()).unwrap()
+        AttitudeController::new(AttitudeParams::default(), J).unwrap()
     }
 
     fn e(roll: f32, pitch: f32, yaw: f32) -> Euler {
@@ -305,7 +315,7 @@ mod tests {
         let (t, ok) = c.rate_control(&[1.0, 0.0, 0.0], &[0.0; 3], 0.001, false);
         assert!(ok);
         // First step: P plus one integration step, no derivative yet.
-        let expect = p.inertia[0] * (p.rate_p[0] * 1.0 + p.rate_i[0] * 1.0 * 0.001);
+        let expect = J[0] * (p.rate_p[0] * 1.0 + p.rate_i[0] * 1.0 * 0.001);
         assert!((t[0] - expect).abs() < 1e-7, "{} vs {expect}", t[0]);
         // Integrator grows under a constant error and stops at its limit.
         for _ in 0..5000 {
@@ -327,13 +337,13 @@ mod tests {
         let (t1, _) = c.rate_control(&[2.0, 0.0, 0.0], &[0.0; 3], 0.001, false);
         let p = AttitudeParams::default();
         // Setpoint step: only P and I act (no derivative of the setpoint).
-        let pi_only = p.inertia[0] * (p.rate_p[0] * 2.0 + c.integral()[0]);
+        let pi_only = J[0] * (p.rate_p[0] * 2.0 + c.integral()[0]);
         assert!((t1[0] - pi_only).abs() < 1e-7);
         // Measurement step: the derivative opposes the change.
         let mut c = ctl();
         c.rate_control(&[0.0; 3], &[0.0; 3], 0.001, false);
         let (t2, _) = c.rate_control(&[0.0; 3], &[0.5, 0.0, 0.0], 0.001, false);
-        let p_only = p.inertia[0] * (p.rate_p[0] * -0.5 + c.integral()[0]);
+        let p_only = J[0] * (p.rate_p[0] * -0.5 + c.integral()[0]);
         assert!(t2[0] < p_only, "derivative adds damping: {} < {p_only}", t2[0]);
     }
 
@@ -347,12 +357,15 @@ mod tests {
         assert_eq!(c.integral(), [0.0; 3], "no integration on a bad dt");
         let (t, _) = c.rate_control(&[1e30, -1e30, 1e30], &[-1e30, 1e30, 0.0], 0.001, false);
         let p = AttitudeParams::default();
-        for (ti, ji) in t.iter().zip(p.inertia) {
+        for (ti, ji) in t.iter().zip(J) {
             assert!(ti.is_finite() && ti.abs() <= ji * p.alpha_max + 1e-6);
         }
         let out = c.update(&e(f32::NAN, 0.0, 0.0), &e(0.0, 0.0, 0.0), &[0.0; 3], 0.001, false);
         assert!(out.input_fault && out.rate_sp == [0.0; 3]);
-        assert!(AttitudeController::new(AttitudeParams { rate_p: [-1.0, 1.0, 1.0], ..Default::default() })
-            .is_err());
+        assert!(AttitudeController::new(
+            AttitudeParams { rate_p: [-1.0, 1.0, 1.0], ..Default::default() },
+            J
+        )
+        .is_err());
     }
 }

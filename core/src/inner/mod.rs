@@ -40,7 +40,7 @@ use mixer::{Mixer, MixerError, MixerOutput};
 /// `ControllerParams::inner_params`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InnerParams {
-    /// Vehicle (rotor layout and limits for the mixer).
+    /// Vehicle (inertia for the rate loop, rotor layout and limits for the mixer).
     pub airframe: Airframe,
     /// Attitude estimator.
     pub estimator: EstimatorParams,
@@ -127,7 +127,8 @@ impl InnerLoop {
             count: 0,
         };
         Ok(InnerLoop {
-            attitude: AttitudeController::new(params.attitude).map_err(InnerError::Attitude)?,
+            attitude: AttitudeController::new(params.attitude, params.airframe.inertia)
+                .map_err(InnerError::Attitude)?,
             mixer: Mixer::new(&params.airframe).map_err(InnerError::Mixer)?,
             tilt: estimator.tilt(),
             estimator,

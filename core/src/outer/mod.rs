@@ -55,6 +55,8 @@ pub struct OuterParams {
     pub filter_variant: FilterVariant,
     /// Thrust/attitude map.
     pub thrust: ThrustParams,
+    /// Vehicle mass, kg (the airframe's).
+    pub mass: f32,
     /// Guidance.
     pub guidance: GuidanceParams,
     /// Inputs.
@@ -412,7 +414,8 @@ impl OuterLoop {
             Some((p, v)) => {
                 let u_star = self.tracker.update(&reference, &p, &v, dt);
                 let (u, diag) = self.filter.apply(&p, &v, &u_star, self.inputs.obstacles());
-                self.sp = map_acceleration(&self.params.thrust, &u, yaw_ref, att.roll, att.pitch);
+                self.sp =
+                    map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
                 tel.mode = mode;
                 tel.position = p;
@@ -424,7 +427,8 @@ impl OuterLoop {
             None => {
                 let u = self.supervisor.blind_accel(now_us);
                 self.tracker.reset();
-                self.sp = map_acceleration(&self.params.thrust, &u, yaw_ref, att.roll, att.pitch);
+                self.sp =
+                    map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
                 tel.mode = GuidanceMode::NoFix;
                 tel.u_nominal = u;

@@ -23,8 +23,6 @@ use crate::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ThrustParams {
-    /// Vehicle mass, kg. Default 0.5 (paper).
-    pub mass: f32,
     /// Largest commanded tilt from level, rad. Default 0.61 (35°).
     pub tilt_max: f32,
     /// Smallest collective thrust commanded in flight, N. Default 0.6.
@@ -35,18 +33,18 @@ pub struct ThrustParams {
 
 impl Default for ThrustParams {
     fn default() -> Self {
-        ThrustParams { mass: 0.5, tilt_max: 0.61, thrust_min: 0.6, thrust_max: 11.0 }
+        ThrustParams { tilt_max: 0.61, thrust_min: 0.6, thrust_max: 11.0 }
     }
 }
 
 /// The acceleration actually realised by [`map_acceleration`] after saturation
-/// (NED, m/s²), for a vehicle whose attitude equals the returned setpoint.
-pub fn limit_acceleration(p: &ThrustParams, u: &Vec3) -> (Vec3, bool) {
-    if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite() && p.mass.is_finite() && p.mass > 0.0) {
+/// (NED, m/s²), for a vehicle of `mass` kg whose attitude equals the returned setpoint.
+pub fn limit_acceleration(p: &ThrustParams, mass: f32, u: &Vec3) -> (Vec3, bool) {
+    if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite() && mass.is_finite() && mass > 0.0) {
         return (Vec3::zeros(), true);
     }
-    let (a_min, a_max) = (p.thrust_min / p.mass, p.thrust_max / p.mass); // specific thrust range
-                                                                         // Vertical priority: g − u_z must lie in the specific-thrust range.
+    let (a_min, a_max) = (p.thrust_min / mass, p.thrust_max / mass); // specific thrust range
+                                                                     // Vertical priority: g − u_z must lie in the specific-thrust range.
     let gz = clampf(GRAVITY - u.z, maxf(a_min, 1e-3), maxf(a_max, maxf(a_min, 1e-3)));
     let mut sat = (GRAVITY - u.z - gz).abs() > 1e-6;
     let xy = hypotf(u.x, u.y);
@@ -64,17 +62,19 @@ pub fn limit_acceleration(p: &ThrustParams, u: &Vec3) -> (Vec3, bool) {
 }
 
 /// Map the acceleration command `u` (NED, m/s²) to an attitude/thrust setpoint
-/// (eq. 4-5). `yaw_ref` is the desired yaw (rad); `roll_meas`, `pitch_meas` the
+/// (eq. 4-5) for a vehicle of `mass` kg (the airframe's,
+/// [`crate::airframe::Airframe::mass`]). `yaw_ref` is the desired yaw (rad); `roll_meas`, `pitch_meas` the
 /// estimated attitude used in eq. 4 (non-finite ones are taken as level).
 /// Bad input gives a level hover setpoint flagged `saturated`.
 pub fn map_acceleration(
     p: &ThrustParams,
+    mass: f32,
     u: &Vec3,
     yaw_ref: f32,
     roll_meas: f32,
     pitch_meas: f32,
 ) -> AttitudeSetpoint {
-    let (a, sat) = limit_acceleration(p, u);
+    let (a, sat) = limit_acceleration(p, mass, u);
     let yaw = if yaw_ref.is_finite() { wrap_pi(yaw_ref) } else { 0.0 };
     let (sy, cy) = sincosf(yaw);
     let den = a.z - GRAVITY; // < 0: thrust points up
@@ -84,7 +84,7 @@ pub fn map_acceleration(
         if roll_meas.is_finite() && pitch_meas.is_finite() { (roll_meas, pitch_meas) } else { (0.0, 0.0) };
     // Guard eq. 4 against large measured tilt: never compensate beyond the tilt limit.
     let tilt_cos = maxf(cosf(r) * cosf(q), cosf(p.tilt_max.clamp(0.0, 1.5)));
-    let thrust = clampf(p.mass * (GRAVITY - a.z) / tilt_cos, p.thrust_min, p.thrust_max);
+    let thrust = clampf(mass * (GRAVITY - a.z) / tilt_cos, p.thrust_min, p.thrust_max);
     AttitudeSetpoint { roll, pitch, yaw, thrust, saturated: sat || !u.iter().all(|x| x.is_finite()) }
 }
 
@@ -92,6 +92,9 @@ pub fn map_acceleration(
 mod tests {
     use super::*;
     use nalgebra::{Rotation3, Vector3};
+
+    /// The paper's vehicle mass, kg.
+    const M: f32 = 0.5;
 
     fn thrust_direction_world(s: &AttitudeSetpoint) -> Vector3<f32> {
         // Body → world rotation, ZYX Euler; thrust along body −z.
@@ -101,7 +104,7 @@ mod tests {
     #[test]
     fn hover_is_level_at_mg() {
         let p = ThrustParams::default();
-        let s = map_acceleration(&p, &Vec3::zeros(), 0.0, 0.0, 0.0);
+        let s = map_acceleration(&p, M, &Vec3::zeros(), 0.0, 0.0, 0.0);
         assert!((s.thrust - 0.5 * GRAVITY).abs() < 1e-5);
         assert!(s.roll.abs() < 1e-7 && s.pitch.abs() < 1e-7);
         assert!(!s.saturated);
@@ -111,40 +114,40 @@ mod tests {
     fn plus_x_command_tilts_thrust_towards_plus_x_for_any_yaw() {
         let p = ThrustParams::default();
         for yaw in [0.0f32, 0.7, -2.0, 3.0] {
-            let s0 = map_acceleration(&p, &Vec3::new(1.0, 0.0, 0.0), yaw, 0.0, 0.0);
+            let s0 = map_acceleration(&p, M, &Vec3::new(1.0, 0.0, 0.0), yaw, 0.0, 0.0);
             // Steady state: the measured attitude equals the setpoint (eq. 4 uses the measured one).
-            let s = map_acceleration(&p, &Vec3::new(1.0, 0.0, 0.0), yaw, s0.roll, s0.pitch);
+            let s = map_acceleration(&p, M, &Vec3::new(1.0, 0.0, 0.0), yaw, s0.roll, s0.pitch);
             let f = thrust_direction_world(&s);
             assert!(f.x > 0.05, "yaw {yaw}: {f}");
             assert!(f.y.abs() < 1e-4 && f.z < 0.0);
             // The realised horizontal acceleration matches the command: T·f/m + g.
-            let acc = f * s.thrust / p.mass + Vector3::new(0.0, 0.0, GRAVITY);
+            let acc = f * s.thrust / M + Vector3::new(0.0, 0.0, GRAVITY);
             assert!((acc - Vector3::new(1.0, 0.0, 0.0)).norm() < 0.05, "{acc}");
         }
         // +y (east) rolls right.
-        let s = map_acceleration(&p, &Vec3::new(0.0, 1.0, 0.0), 0.0, 0.0, 0.0);
+        let s = map_acceleration(&p, M, &Vec3::new(0.0, 1.0, 0.0), 0.0, 0.0, 0.0);
         assert!(s.roll > 0.0 && thrust_direction_world(&s).y > 0.05);
     }
 
     #[test]
     fn eq4_compensates_measured_tilt() {
         let p = ThrustParams::default();
-        let s = map_acceleration(&p, &Vec3::zeros(), 0.0, 0.2, 0.1);
+        let s = map_acceleration(&p, M, &Vec3::zeros(), 0.0, 0.2, 0.1);
         assert!((s.thrust - 0.5 * GRAVITY / (0.2f32.cos() * 0.1f32.cos())).abs() < 1e-4);
     }
 
     #[test]
     fn saturation_keeps_vertical_priority_and_tilt_limit() {
         let p = ThrustParams::default();
-        let s0 = map_acceleration(&p, &Vec3::new(50.0, 0.0, -3.0), 0.0, 0.0, 0.0);
-        let s = map_acceleration(&p, &Vec3::new(50.0, 0.0, -3.0), 0.0, s0.roll, s0.pitch);
+        let s0 = map_acceleration(&p, M, &Vec3::new(50.0, 0.0, -3.0), 0.0, 0.0, 0.0);
+        let s = map_acceleration(&p, M, &Vec3::new(50.0, 0.0, -3.0), 0.0, s0.roll, s0.pitch);
         assert!(s.saturated);
         assert!(s.pitch.abs() <= p.tilt_max + 1e-5);
         // Vertical command −3 m/s² is kept: T cosθ = m (g + 3).
-        let vz = s.thrust * libm::cosf(s.pitch) / p.mass;
+        let vz = s.thrust * libm::cosf(s.pitch) / M;
         assert!((vz - (GRAVITY + 3.0)).abs() < 1e-3, "{vz}");
         // Bad input: level hover-ish setpoint, finite.
-        let s = map_acceleration(&p, &Vec3::new(f32::NAN, 0.0, 0.0), f32::INFINITY, f32::NAN, 0.0);
+        let s = map_acceleration(&p, M, &Vec3::new(f32::NAN, 0.0, 0.0), f32::INFINITY, f32::NAN, 0.0);
         assert!(s.saturated && s.roll == 0.0 && s.pitch == 0.0 && s.thrust.is_finite());
     }
 }

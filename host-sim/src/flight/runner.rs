@@ -23,7 +23,9 @@
 //! * Obstacles at the outer rate, as a proximity sensor would report them: for
 //!   each obstacle whose surface is within the sensing range of the true
 //!   centre of mass, its closest surface point (moving obstacles at their
-//!   current position) and its velocity, id = index in the scene file.
+//!   current position) and its velocity, id = a track id
+//!   ([`crate::sim::track_ids`]: the scene index for scenes of at most 65,535
+//!   obstacles; never two equal ids in view, never `CLEAR_ID`).
 //!
 //! ## Metrics (true state, every outer step unless said otherwise)
 //! clearance = signed distance to the nearest obstacle surface or the ground
@@ -57,6 +59,7 @@ use crate::input::limits;
 use crate::report::{RunParams, Sample, Summary};
 use crate::sim::plant::Plant;
 use crate::sim::sensors::{SensorParams, Sensors};
+use crate::sim::track_ids::TrackIds;
 use crate::sim::INNER_DT;
 use crate::world::scene::{to_f32, Scene};
 use crate::world::NearestTracker;
@@ -189,12 +192,10 @@ pub fn controller_params(
         cbf,
         filter_variant: variant,
         thrust: ThrustParams {
-            mass: af.mass,
             // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
             thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
             ..d.thrust
         },
-        attitude: parapet_core::attitude::AttitudeParams { inertia: af.inertia, ..d.attitude },
         waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
         ..d
     }
@@ -339,6 +340,8 @@ pub struct OuterScratch {
     far: Vec<usize>,
     /// Obstacles evaluated: index, closest point, velocity, signed distance.
     near: Vec<(usize, Vec3, Vector3<f64>, f32)>,
+    /// Track ids of the obstacles in view (kept from one outer step to the next).
+    pub ids: TrackIds,
 }
 
 /// The proximity report ([`sense_obstacles`], into `scratch.seen`) and the true
@@ -370,7 +373,8 @@ pub fn sense_and_h_bar(
     // Every obstacle that may be within the range is a candidate (scene order).
     tracker.ensure(range);
     let (pf, vf) = (to_f32(p), to_f32(v));
-    let OuterScratch { seen, far, near } = scratch;
+    let OuterScratch { seen, far, near, ids } = scratch;
+    ids.begin_pass();
     seen.clear();
     far.clear();
     near.clear();
@@ -387,7 +391,9 @@ pub fn sense_and_h_bar(
         let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
         if (sd as f64) <= range {
             let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
-            seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 });
+            if let Some(id) = ids.id(i) {
+                seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+            }
         }
         near.push((i, q, vel, sd));
     }
@@ -450,7 +456,8 @@ pub fn sense_and_h_bar(
 
 /// What the proximity sensor reports at time `t` from true position `p`: for
 /// each obstacle whose surface is within `range` (m), the closest surface point
-/// and the obstacle's velocity (NED), id = scene index. Moving obstacles'
+/// and the obstacle's velocity (NED), id = a track id of a fresh table (the first pass of
+/// [`sense_and_h_bar`]'s; the scene index below 65,535 obstacles). Moving obstacles'
 /// velocities pass through [`Sensors::obstacle_velocity`] (optional noise);
 /// static obstacles are reported with velocity exactly zero.
 pub fn sense_obstacles(
@@ -462,12 +469,16 @@ pub fn sense_obstacles(
 ) -> Vec<ObstaclePoint> {
     let pf = to_f32(p);
     let mut out = Vec::new();
+    let mut ids = TrackIds::new();
+    ids.begin_pass();
     for (i, o) in scene.obstacles.iter().enumerate() {
         let (shape, vel) = o.at(t);
         let (q, sd) = shape.closest_point(&pf);
         if (sd as f64) <= range {
             let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
-            out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 });
+            if let Some(id) = ids.id(i) {
+                out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+            }
         }
     }
     out
@@ -565,7 +576,7 @@ pub fn run_with(
             let err = (plant.state.pos - out.reference).norm();
             sq_err += err * err;
             n_outer += 1;
-            if out.filter_active {
+            if out.filter.intervened {
                 n_active += 1;
             }
             samples.push(Sample {
@@ -574,19 +585,12 @@ pub fn run_with(
                 pos: plant.state.pos,
                 vel: plant.state.vel,
                 rpy: [roll, pitch, yaw],
-                region: out.region,
-                region_code: out.region_code,
-                active_obstacle: out.active_obstacle,
-                filter_active: out.filter_active,
+                filter: out.filter,
                 clearance: sd - hull,
                 ref_clearance: ref_clear,
                 h_bar,
                 u_nominal: out.u_nominal,
                 u_filtered: out.u_filtered,
-                filter_h_bar: out.filter_h_bar,
-                n_constraints: out.n_constraints,
-                unavoidable: out.unavoidable,
-                infeasible: out.infeasible,
                 mode: out.mode,
                 wind: live.wind(),
             });
@@ -661,7 +665,7 @@ pub fn run_with(
         }),
         min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
         min_h_bar,
-        min_filter_h_bar: Some(samples.iter().map(|s| s.filter_h_bar).fold(f64::INFINITY, f64::min))
+        min_filter_h_bar: Some(samples.iter().map(|s| f64::from(s.filter.h_bar)).fold(f64::INFINITY, f64::min))
             .filter(|x| x.is_finite()),
         reached_goal: goal_at.is_some(),
         time_to_goal_s: goal_at,

@@ -14,6 +14,7 @@
 //! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
+use parapet_core::params;
 use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
 use parapet_core::waypoint::{self, PathError};
@@ -22,6 +23,7 @@ use crate::flight::runner::{controller_params, RunConfig};
 use crate::input::f32_as_f64;
 use crate::input::{limits, num, InputError};
 use crate::world::scene::Scene;
+use crate::world::schema::param_accepts;
 
 /// Which run settings were given on the command line (they win over the scene),
 /// and the duration cap in force (`--max-duration`).
@@ -83,20 +85,6 @@ impl Origin<'_> {
     }
 }
 
-fn f32_finite(x: f64) -> bool {
-    x.is_finite() && (x as f32).is_finite()
-}
-
-/// Finite and > 0 in `f32` too: 1e-300 is > 0 in f64 but 0 as the core sees it.
-fn f32_positive(x: f64) -> bool {
-    f32_finite(x) && (x as f32) > 0.0
-}
-
-/// The range of a positive `f32` setting, for messages.
-fn f32_range(name: &str) -> String {
-    format!("{:e} ≤ {name} ≤ {:e} (f32)", f32::from_bits(1), f32::MAX)
-}
-
 /// Check the run configuration `cfg` for `scene` before flying; `given` says
 /// which settings came from the command line. Covers the reference speed, the
 /// filter parameters (μ, δ, δ1 > δ, A, ε_v, in `f32`), the PD gains, the
@@ -109,35 +97,25 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
     let c = &scene.controller;
     let p = &cfg.params;
 
-    // Reference speed: the waypoint follower accepts (0, PARAM_LIMIT] m/s.
-    let max_speed = limits::MAX_SPEED_MPS;
-    if !(p.speed > 0.0 && p.speed <= max_speed) {
-        let (table, in_ctrl) = if c.speed.is_some() { ("controller", true) } else { ("mission", true) };
-        return Err(o
-            .err("speed", table, "speed", in_ctrl, "reference speed out of range".into())
-            .value(num(p.speed))
-            .allowed(format!("0 < speed ≤ {max_speed} m/s")));
-    }
-    // PD gains: finite and > 0 in the core's f32.
-    for (name, x, in_scene) in [("kp", p.kp, c.kp.is_some()), ("kd", p.kd, c.kd.is_some())] {
-        if !f32_positive(x) {
-            return Err(o
-                .err(name, "controller", name, in_scene, "PD gain out of range".into())
-                .value(num(x))
-                .allowed(f32_range(name)));
-        }
-    }
-    // Filter parameters, in f32 as the filter sees them.
-    for (name, x, in_scene) in [
-        ("mu", p.mu, c.mu.is_some()),
-        ("delta", p.delta, c.delta.is_some()),
-        ("delta1", p.delta1, c.delta1.is_some()),
+    // The controller settings against the parameter table's ranges (parapet_core::params,
+    // in f32 as the core sees them), each refusal naming where the value came from.
+    let speed_table = if c.speed.is_some() { "controller" } else { "mission" };
+    for (key, x, table, in_scene) in [
+        ("speed", p.speed, speed_table, true),
+        ("kp", p.kp, "controller", c.kp.is_some()),
+        ("kd", p.kd, "controller", c.kd.is_some()),
+        ("mu", p.mu, "controller", c.mu.is_some()),
+        ("delta", p.delta, "controller", c.delta.is_some()),
+        ("delta1", p.delta1, "controller", c.delta1.is_some()),
+        ("accel_bound", cfg.accel_bound, "controller", c.accel_bound.is_some()),
+        ("velocity_margin", cfg.velocity_margin, "controller", c.velocity_margin.is_some()),
     ] {
-        if !f32_positive(x) {
+        let Some(d) = params::by_key(key) else { continue };
+        if !param_accepts(d, x) {
             return Err(o
-                .err(name, "controller", name, in_scene, "filter parameter out of range".into())
+                .err(key, table, key, in_scene, format!("out of range ({})", d.description))
                 .value(num(x))
-                .allowed(f32_range(name)));
+                .allowed(d.range().to_string()));
         }
     }
     if (p.delta1 as f32) <= (p.delta as f32) {
@@ -174,15 +152,6 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
             .value(num(p.delta1))
             .allowed(format!("delta1 > {}", p.delta))
         });
-    }
-    for (name, x) in [("accel_bound", cfg.accel_bound), ("velocity_margin", cfg.velocity_margin)] {
-        if !(f32_finite(x) && x >= 0.0) {
-            return Err(InputError::file(&scene.source, "filter parameter out of range")
-                .table("controller")
-                .field(name)
-                .value(num(x))
-                .allowed(format!("0 ≤ {name} ≤ {:e} (f32)", f32::MAX)));
-        }
     }
     check_duration(&o, cfg)?;
     if !(cfg.sensing_range > 0.0 && cfg.sensing_range <= limits::MAX_COORDINATE_M) {
@@ -336,7 +305,7 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
             .value(num(v.mass))
             .allowed(format!("{lo:.4} < mass < {hi:.4} kg with these rotors"))
         }
-        ParamError::Mixer(_) | ParamError::AirframeMismatch => InputError::file(
+        ParamError::Mixer(_) => InputError::file(
             file,
             "the vehicle's airframe is unusable by the mixer (arm length, inertia, k_m/k_f)",
         )
@@ -386,19 +355,21 @@ pub fn describe_command_error(e: CommandError) -> String {
     }
 }
 
-/// Built-in defaults of the controller settings, for `--help`: μ, δ, δ1 (core
-/// `CbfParams::default`), k_p, k_d (the runner's), as shortest decimals.
+/// Built-in defaults of the controller settings, for `--help`: every parameter-table entry
+/// with a scene/option key but the scene's own speed, with its unit, as shortest decimals
+/// (the filter variant by name).
 pub fn defaults_help() -> String {
-    let c = CbfParams::default();
+    let list: Vec<String> = params::TABLE
+        .iter()
+        .filter_map(|p| p.key.filter(|k| *k != "speed").map(|k| (p, k)))
+        .map(|(p, k)| match p.label.and_then(|l| l(p.default as i32)) {
+            Some(name) => format!("{k} {name}"),
+            None => format!("{k} {} {}", f32_as_f64(p.default), p.unit),
+        })
+        .collect();
     format!(
-        "Built-in defaults (a scene's [controller] table and the options override them):\n  \
-         mu {} s, delta {} m², delta1 {} m², kp {} 1/s², kd {} 1/s, filter {}",
-        f32_as_f64(c.mu),
-        f32_as_f64(c.delta),
-        f32_as_f64(c.delta1),
-        crate::flight::runner::DEFAULT_KP,
-        crate::flight::runner::DEFAULT_KD,
-        parapet_core::cbf::FilterVariant::default().as_str()
+        "Built-in defaults (a scene's [controller] table and the options override them):\n  {}",
+        list.join(", ")
     )
 }
 
@@ -506,22 +477,32 @@ speed = 0.5
     }
 
     #[test]
-    fn values_that_vanish_in_f32_are_refused_as_options() {
+    fn options_are_checked_against_the_parameter_table() {
         let (s, base) = setup("");
         for name in ["mu", "delta", "kp", "kd"] {
-            let mut cfg = base.clone();
-            match name {
-                "mu" => cfg.params.mu = 1e-300,
-                "delta" => cfg.params.delta = 1e-300,
-                "kp" => cfg.params.kp = 1e-300,
-                _ => cfg.params.kd = 1e-300,
+            let range = params::by_key(name).unwrap();
+            for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)] {
+                let mut cfg = base.clone();
+                match name {
+                    "mu" => cfg.params.mu = x,
+                    "delta" => cfg.params.delta = x,
+                    "kp" => cfg.params.kp = x,
+                    _ => cfg.params.kd = x,
+                }
+                let g = Given { options: vec![name], ..Given::default() };
+                let r = check_run(&s, &cfg, &g);
+                if ok {
+                    assert!(r.is_ok(), "{name} = {x}: {r:?}");
+                    continue;
+                }
+                let m = r.unwrap_err().to_string();
+                assert!(
+                    m.contains(&format!("option --{name}"))
+                        && m.contains(&num(x))
+                        && m.contains(&range.range().to_string()),
+                    "{m}"
+                );
             }
-            let g = Given { options: vec![name], ..Given::default() };
-            let m = check_run(&s, &cfg, &g).unwrap_err().to_string();
-            assert!(
-                m.contains(&format!("option --{name}")) && m.contains("1e-300") && m.contains("1e-45"),
-                "{m}"
-            );
         }
         // A tiny cap prints as a number, not 300 zeros.
         let mut cfg = base.clone();

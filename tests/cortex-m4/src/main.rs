@@ -438,7 +438,7 @@ fn bench_cascade_parts(c: &Counter) {
             black_box(black_box(&est).tilt());
         }),
     );
-    let mut att = match AttitudeController::new(params.attitude) {
+    let mut att = match AttitudeController::new(params.attitude, params.airframe.inertia) {
         Ok(a) => a,
         Err(_) => exit(false),
     };
@@ -464,7 +464,7 @@ fn bench_cascade_parts(c: &Counter) {
     report(
         "thrust::map_acceleration",
         c.measure(|| {
-            black_box(map_acceleration(&params.thrust, black_box(&u), 0.2, 0.05, -0.03));
+            black_box(map_acceleration(&params.thrust, params.airframe.mass, black_box(&u), 0.2, 0.05, -0.03));
         }),
     );
     let mut tracker = PdTracker::new(params.tracking);
