@@ -160,31 +160,37 @@ impl<T: Shown> Shown for &T {
     }
 }
 
+impl ControllerOverrides {
+    /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
+    /// controller's parameter table, which gives its unit and range (`filter`, a name, is
+    /// `CBF_VARIANT`'s key).
+    pub fn numbers(&self) -> [(&'static str, Option<f64>); 8] {
+        [
+            ("mu", self.mu),
+            ("delta", self.delta),
+            ("delta1", self.delta1),
+            ("kp", self.kp),
+            ("kd", self.kd),
+            ("accel_bound", self.accel_bound),
+            ("velocity_margin", self.velocity_margin),
+            ("speed", self.speed),
+        ]
+    }
+}
+
+/// `x` is in `p`'s range as the controller sees it (in `f32`: 1e300 is not finite there).
+pub(crate) fn param_accepts(p: &parapet_core::params::Param, x: f64) -> bool {
+    x.is_finite() && p.check(x as f32).is_ok()
+}
+
+/// `[controller]` values against the parameter table's ranges
+/// ([`parapet_core::params::TABLE`]), then δ1 > δ when both are given.
 pub(crate) fn validate_controller(c: &ControllerOverrides) -> Result<(), String> {
-    for (field, x) in [("mu", c.mu), ("delta", c.delta), ("delta1", c.delta1), ("kp", c.kp), ("kd", c.kd)] {
-        if let Some(x) = x {
-            // In f32 as the controller sees them.
-            if !(x.is_finite() && (x as f32).is_finite() && x > 0.0) {
-                return Err(bad(
-                    field,
-                    "must be finite and > 0",
-                    x,
-                    &format!("0 < {field} ≤ {:e}", f32::MAX),
-                ));
-            }
-        }
-    }
-    if let Some(v) = c.speed {
-        if !(v > 0.0 && v <= limits::MAX_SPEED_MPS) {
-            let allowed = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
-            return Err(bad("speed", "reference speed out of range", v, &allowed));
-        }
-    }
-    for (field, x) in [("accel_bound", c.accel_bound), ("velocity_margin", c.velocity_margin)] {
-        if let Some(a) = x {
-            if !(a.is_finite() && a >= 0.0) {
-                return Err(format!("field `{field}`: must be finite and >= 0, got {a}"));
-            }
+    for (key, x) in c.numbers() {
+        let (Some(x), Some(p)) = (x, parapet_core::params::by_key(key)) else { continue };
+        if !param_accepts(p, x) {
+            let what = format!("out of range ({})", p.description);
+            return Err(bad(key, &what, x, &p.range().to_string()));
         }
     }
     if let (Some(d), Some(d1)) = (c.delta, c.delta1) {
@@ -371,4 +377,60 @@ pub(crate) fn describe_toml_error(src: &str, e: &toml::de::Error) -> String {
     out.push_str(": ");
     out.push_str(&msg);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every `[controller]` key is a key of the parameter table (so its range and unit come
+    /// from there), and `numbers()` names the serde fields as the file spells them.
+    #[test]
+    fn controller_keys_are_parameter_table_keys() {
+        let all = ControllerOverrides {
+            mu: Some(1.0),
+            delta: Some(2.0),
+            delta1: Some(3.0),
+            kp: Some(4.0),
+            kd: Some(5.0),
+            filter: Some("paper".into()),
+            accel_bound: Some(6.0),
+            velocity_margin: Some(7.0),
+            speed: Some(8.0),
+        };
+        let table = toml::Table::try_from(&all).unwrap();
+        let numbers = all.numbers();
+        assert_eq!(table.len(), numbers.len() + 1);
+        for (key, x) in numbers {
+            assert_eq!(table[key].as_float(), x, "{key}");
+            assert!(parapet_core::params::by_key(key).is_some(), "{key} is not in the parameter table");
+        }
+        assert_eq!(parapet_core::params::by_key("filter").map(|p| p.name), Some("CBF_VARIANT"));
+        assert!(FILTER_NAMES.iter().all(|f| f.parse::<parapet_core::cbf::FilterVariant>().is_ok()));
+    }
+
+    #[test]
+    fn controller_values_are_checked_against_the_table() {
+        let with = |f: fn(&mut ControllerOverrides)| {
+            let mut c = ControllerOverrides::default();
+            f(&mut c);
+            validate_controller(&c)
+        };
+        assert_eq!(with(|_| {}), Ok(()));
+        assert_eq!(with(|c| c.mu = Some(100.0)), Ok(()));
+        let e = with(|c| c.mu = Some(100.5)).unwrap_err();
+        assert!(e.contains("field `mu`") && e.contains("100.5") && e.contains("0.01 ≤ mu ≤ 100 s"), "{e}");
+        let e = with(|c| c.kp = Some(1e300)).unwrap_err();
+        assert!(e.contains("field `kp`") && e.contains("1e300"), "{e}");
+        let e = with(|c| c.velocity_margin = Some(-0.1)).unwrap_err();
+        assert!(e.contains("velocity_margin") && e.contains("0 ≤ velocity_margin ≤ 10 m/s"), "{e}");
+        let e = with(|c| c.speed = Some(0.0)).unwrap_err();
+        assert!(e.contains("speed") && e.contains("m/s"), "{e}");
+        let e = with(|c| {
+            c.delta = Some(0.2);
+            c.delta1 = Some(0.1)
+        })
+        .unwrap_err();
+        assert!(e.contains("delta1") && e.contains("0.2"), "{e}");
+    }
 }
