@@ -1,6 +1,6 @@
 //! The boundary between the firmware's tasks and the flight-control cascade.
 //!
-//! Tasks talk to the cascade only through [`Autopilot`], so the task logic (link dispatch, loop
+//! Tasks talk to the cascade only through [`FlightStack`] (and [`ControlSteps`]), so the task logic (link dispatch, loop
 //! scheduling, lockstep) is tested on the host against a test double, and the real cascade
 //! (`parapet_core::controller::FlightController`) plugs in through one adapter
 //! ([`crate::app::cascade`]).
@@ -90,40 +90,24 @@ pub enum PathRejected {
     Invalid,
 }
 
+/// The safety filter's diagnostics of the last outer step: the core's one diagnostics type
+/// (region, active obstacle, h̄, flags), carried unchanged to the link.
+pub use parapet_core::cbf::FilterDiagnostics;
 /// Safety-filter region (`DEBUG_VECT "CBF".y`, code [`FilterRegion::code`]): the core's type.
 pub use parapet_core::cbf::Region as FilterRegion;
 
-/// The safety filter's diagnostics of the last outer step.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilterReport {
-    /// Region of the active barrier.
-    pub region: FilterRegion,
-    /// Id of the active (closest) obstacle.
-    pub active_id: Option<u16>,
-    /// min over obstacles of h̄ = h − δ (m²); +∞ without obstacles.
-    pub h_bar: f32,
-    /// The filter changed the nominal command.
-    pub intervened: bool,
-    /// The obstacle cannot be avoided with the available acceleration.
-    pub unavoidable: bool,
-    /// The multi-barrier problem had no feasible solution.
-    pub infeasible: bool,
-    /// Barrier constraints active in the last step.
-    pub n_constraints: u8,
-}
-
-impl FilterReport {
-    /// Report before the first outer step.
-    pub const IDLE: Self = Self {
-        region: FilterRegion::NoObstacle,
-        active_id: None,
-        h_bar: f32::INFINITY,
-        intervened: false,
-        unavoidable: false,
-        infeasible: false,
-        n_constraints: 0,
-    };
-}
+/// Filter diagnostics before the first outer step: no obstacle, h̄ = +∞.
+pub const FILTER_IDLE: FilterDiagnostics = FilterDiagnostics {
+    region: FilterRegion::NoObstacle,
+    active_id: None,
+    h_bar: f32::INFINITY,
+    intervened: false,
+    n_constraints: 0,
+    n_near: 0,
+    unavoidable: false,
+    infeasible: false,
+    fault: None,
+};
 
 /// The outer loop's setpoints of the last outer step (NED).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -178,7 +162,7 @@ pub struct TelemetrySnapshot {
     /// Velocity estimate, NED, m/s.
     pub velocity_ned: Vec3,
     /// Safety filter diagnostics.
-    pub filter: FilterReport,
+    pub filter: FilterDiagnostics,
     /// Outer-loop setpoints.
     pub setpoint: SetpointReport,
 }
@@ -193,18 +177,15 @@ impl TelemetrySnapshot {
         body_rates_frd: Vec3::new(0.0, 0.0, 0.0),
         position_ned: Vec3::new(0.0, 0.0, 0.0),
         velocity_ned: Vec3::new(0.0, 0.0, 0.0),
-        filter: FilterReport::IDLE,
+        filter: FILTER_IDLE,
         setpoint: SetpointReport::ZERO,
     };
 }
 
-/// The flight-control cascade as the tasks see it. Every method is bounded in time and never
-/// panics; bad inputs get the cascade's defined safe response.
-pub trait Autopilot {
-    /// Inner loop: estimator + attitude + rate control + mixer. `now_us`: firmware clock, µs.
-    fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
-    /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
-    fn step_outer(&mut self, now_us: u64);
+/// The flight-control cascade as the link sees it (named `FlightStack`, not `Autopilot`: the
+/// host simulator's `Autopilot` is a different trait). Every method is bounded in time and
+/// never panics; bad inputs get the cascade's defined safe response.
+pub trait FlightStack {
     /// New position/velocity estimate.
     fn update_position(&mut self, fix: &PositionFix);
     /// Replaces the obstacle points (world NED) seen at `now_us`.
@@ -221,9 +202,18 @@ pub trait Autopilot {
     fn get_param(&self, name: &str) -> Option<f32>;
 }
 
+/// Both loops in one context (the lockstep PIL step, host tests): [`FlightStack`] plus the
+/// control steps.
+pub trait ControlSteps: FlightStack {
+    /// Inner loop: estimator + attitude + rate control + mixer. `now_us`: firmware clock, µs.
+    fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
+    /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
+    fn step_outer(&mut self, now_us: u64);
+}
+
 #[cfg(test)]
 pub(crate) mod test_double {
-    //! A recording [`Autopilot`] for the task-logic tests.
+    //! A recording [`FlightStack`] for the task-logic tests.
     use super::*;
     use std::vec::Vec;
 
@@ -248,7 +238,7 @@ pub(crate) mod test_double {
         }
     }
 
-    impl Autopilot for RecordingAutopilot {
+    impl ControlSteps for RecordingAutopilot {
         fn step_inner(&mut self, now_us: u64, _imu: &ImuSample) -> MotorCommand {
             self.inner_steps.push(now_us);
             MotorCommand { throttle: [0.5; 4], armed: self.armed }
@@ -256,6 +246,9 @@ pub(crate) mod test_double {
         fn step_outer(&mut self, now_us: u64) {
             self.outer_steps.push(now_us);
         }
+    }
+
+    impl FlightStack for RecordingAutopilot {
         fn update_position(&mut self, fix: &PositionFix) {
             self.fixes.push(*fix);
         }
@@ -304,7 +297,7 @@ pub(crate) mod test_double {
                 body_rates_frd: Vec3::zeros(),
                 position_ned: Vec3::new(1.0, 2.0, -3.0),
                 velocity_ned: Vec3::zeros(),
-                filter: FilterReport::IDLE,
+                filter: FILTER_IDLE,
                 setpoint: SetpointReport {
                     position_ned: Vec3::new(1.5, 2.0, -3.0),
                     velocity_ned: Vec3::new(0.25, 0.0, 0.0),

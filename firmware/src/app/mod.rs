@@ -1,6 +1,7 @@
-//! The application: the boundary between the tasks and the flight-control cascade
-//! ([`autopilot`]), the real cascade behind it ([`cascade`]), how tasks share state
-//! ([`shared`]) and loop timing ([`loop_timing`]).
+//! The application: the boundary between the link and the flight-control cascade
+//! ([`autopilot`]), the cascade as an outer and an inner stage ([`cascade`]), the mailboxes
+//! through which the stages and tasks exchange messages ([`mailbox`]) and loop timing
+//! ([`loop_timing`]).
 //!
 //! May import: `parapet_core` only (the tests also drive it through [`crate::link`]). Not the link, the
 //! PIL application, drivers or boards.
@@ -8,4 +9,4 @@
 pub mod autopilot;
 pub mod cascade;
 pub mod loop_timing;
-pub mod shared;
+pub mod mailbox;

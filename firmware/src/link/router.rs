@@ -177,13 +177,17 @@ impl Router {
     }
 
     fn on_frame<A: FlightStack>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
-        let msg = match decode(f) {
-            Ok(m) => m,
-            Err(DecodeError::NotHandled) => {
+        self.on_received(Received::of(f), now_us, ap);
+    }
+
+    fn on_received<A: FlightStack>(&mut self, r: Received, now_us: u64, ap: &mut A) {
+        let (msg, f) = match r {
+            Received::Message(m) => (m.msg, FrameSender { sys_id: m.sys_id, comp_id: m.comp_id }),
+            Received::Undecodable(DecodeError::NotHandled) => {
                 self.stats.ignored = self.stats.ignored.saturating_add(1);
                 return;
             }
-            Err(DecodeError::InvalidPayload) => {
+            Received::Undecodable(DecodeError::InvalidPayload) => {
                 self.stats.decode_errors = self.stats.decode_errors.saturating_add(1);
                 return;
             }
@@ -264,6 +268,44 @@ impl Router {
     }
 }
 
+#[derive(Clone, Copy)]
+struct FrameSender {
+    sys_id: u8,
+    comp_id: u8,
+}
+
+/// A decoded inbound message and its sender.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReceivedMessage {
+    /// Sender's system id.
+    pub sys_id: u8,
+    /// Sender's component id.
+    pub comp_id: u8,
+    /// The message.
+    pub msg: Inbound,
+}
+
+/// One CRC-checked frame after decoding: what a board's receiving task hands to the task that
+/// owns the [`Link`] ([`Link::receive`]) when framing and dispatch run in different tasks.
+#[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)] // one message at a time, copied once into a channel
+pub enum Received {
+    /// A message of the inbound set.
+    Message(ReceivedMessage),
+    /// A frame that is not (counted by the link).
+    Undecodable(DecodeError),
+}
+
+impl Received {
+    /// Decodes `f`.
+    pub fn of(f: &RawFrame<'_>) -> Self {
+        match decode(f) {
+            Ok(msg) => Received::Message(ReceivedMessage { sys_id: f.sys_id, comp_id: f.comp_id, msg }),
+            Err(e) => Received::Undecodable(e),
+        }
+    }
+}
+
 /// The link state machine (see the module docs).
 pub struct Link {
     parser: FrameParser,
@@ -300,6 +342,12 @@ impl Link {
     pub fn push_byte<A: FlightStack>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
         self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| router.on_frame(f, now_us, ap));
+    }
+
+    /// Handles one frame decoded elsewhere (a board's receiving task, [`Received::of`]) at
+    /// firmware time `now_us`; same effect as the frame's bytes through [`Link::push_bytes`].
+    pub fn receive<A: FlightStack>(&mut self, r: Received, now_us: u64, ap: &mut A) {
+        self.router.on_received(r, now_us, ap);
     }
 
     /// Feeds received bytes at firmware time `now_us`.
@@ -415,6 +463,35 @@ mod tests {
             matches!(r.last(), Some(Outbound::MissionAck(a)) if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED)
         );
         assert_eq!(ap.paths, vec![vec![Vec3::new(1.0, 0.0, -1.0), Vec3::new(2.0, 0.0, -1.0)]]);
+    }
+
+    /// Framing in one task and dispatch in another (the board: [`Received::of`] in the link
+    /// task, [`Link::receive`] in the outer task) does what the bytes through the link do.
+    #[test]
+    fn frames_decoded_elsewhere_are_dispatched_like_bytes() {
+        let arm = COMMAND_LONG_DATA {
+            param1: 1.0,
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            target_system: 1,
+            ..Default::default()
+        };
+        let bytes = send(&mut gcs(), &arm);
+        let (mut a, mut b) = (RecordingAutopilot::new(), RecordingAutopilot::new());
+        let (mut la, mut lb) = (Link::new(1, FixClock::Message), Link::new(1, FixClock::Message));
+        la.push_bytes(&bytes, 5, &mut a);
+        let mut parser = FrameParser::new();
+        let mut got = Vec::new();
+        parser.push_bytes(&bytes, frame_extra_crc, |f| got.push(Received::of(f)));
+        assert_eq!(got.len(), 1);
+        for r in got {
+            lb.receive(r, 5, &mut b);
+        }
+        assert_eq!(a.commands, b.commands);
+        assert_eq!(replies(&mut la), replies(&mut lb));
+        assert!(lb.peer_seen());
+        // An undecodable frame is counted, not dispatched.
+        lb.receive(Received::Undecodable(DecodeError::InvalidPayload), 6, &mut b);
+        assert_eq!(lb.stats().decode_errors, 1);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use mavlink::dialects::ardupilotmega::{MavSeverity, HEARTBEAT_DATA};
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::names;
 
-use crate::app::autopilot::Autopilot;
+use crate::app::autopilot::ControlSteps;
 use crate::app::loop_timing::{LoopReport, LoopTimer};
 use crate::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 use crate::link::outbound::{named_int, Outbound};
@@ -34,6 +34,11 @@ pub trait TickCounter {
     fn now(&self) -> u32;
     /// Ticks elapsed since `start`.
     fn since(&self, start: u32) -> u32;
+    /// Ticks of the longest section with interrupts masked since the previous call (a board
+    /// that measures its critical sections, `board::qemu`); 0 when not measured.
+    fn take_masked_max(&self) -> u32 {
+        0
+    }
 }
 
 /// Counters of the PIL application.
@@ -45,10 +50,12 @@ pub struct PilStats {
     pub steps: u32,
     /// Largest instruction count of one control step.
     pub max_step_instructions: u32,
+    /// Longest section with interrupts masked during a control step, instructions.
+    pub max_masked_instructions: u32,
 }
 
 /// The PIL application state.
-pub struct PilApp<A: Autopilot> {
+pub struct PilApp<A: ControlSteps> {
     autopilot: A,
     link: Link,
     scheduler: LockstepScheduler,
@@ -61,7 +68,7 @@ pub struct PilApp<A: Autopilot> {
     last_t_us: u64,
 }
 
-impl<A: Autopilot> PilApp<A> {
+impl<A: ControlSteps> PilApp<A> {
     /// Application around `autopilot` with the start-up `calibration`.
     pub fn new(autopilot: A, calibration: InstructionCalibration) -> Self {
         Self {
@@ -166,9 +173,11 @@ impl<A: Autopilot> PilApp<A> {
         let t = sample.time_usec;
         let t32 = t as u32;
         self.inner_timer.start(t32);
+        let _ = ticks.take_masked_max();
         let t0 = ticks.now();
         let out = self.scheduler.step_timed(sample, &mut self.link, &mut self.autopilot, ticks);
         let spent = ticks.since(t0);
+        let masked = self.calibration.instructions_for(ticks.take_masked_max());
         self.inner_timer.end(t32);
         if out.ran_outer {
             self.outer_timer.start(t32);
@@ -177,6 +186,7 @@ impl<A: Autopilot> PilApp<A> {
         let ins = self.calibration.instructions_for(spent);
         self.stats.steps = self.stats.steps.saturating_add(1);
         self.stats.max_step_instructions = self.stats.max_step_instructions.max(ins);
+        self.stats.max_masked_instructions = self.stats.max_masked_instructions.max(masked);
         self.last_t_us = t;
         self.link.poll(t, &mut self.autopilot);
         while let Some(r) = self.link.pop_reply() {
@@ -208,6 +218,7 @@ impl<A: Autopilot> PilApp<A> {
                 &named_int((t / 1000) as u32, names::INS_OUTER, ins_outer.min(i32::MAX as u32) as i32),
             );
         }
+        self.send(port, &named_int((t / 1000) as u32, names::INS_MASKED, masked.min(i32::MAX as u32) as i32));
         self.send(port, &named_int((t / 1000) as u32, names::INS_STEP, ins.min(i32::MAX as u32) as i32));
         self.send(port, &Outbound::HilActuatorControls(out.controls));
     }
@@ -241,9 +252,13 @@ mod tests {
         }
     }
 
-    /// Counts down by 7 per read (like SysTick).
+    /// Counts down by 7 per read (like SysTick); every masked-section window reports 14 ticks
+    /// (as if a critical section of 14 ticks ran in it).
     struct FakeTicks(Cell<u32>);
     impl TickCounter for FakeTicks {
+        fn take_masked_max(&self) -> u32 {
+            14
+        }
         fn now(&self) -> u32 {
             let v = self.0.get().wrapping_sub(7);
             self.0.set(v);
@@ -309,11 +324,15 @@ mod tests {
             };
             let step = int_at(sent.len() - 2);
             assert!(crate::link::telemetry::name_is(&step.name, "ins_step"));
+            // The longest masked section of the step comes before `ins_step`: 14 ticks ≈ 83.
+            let masked = int_at(sent.len() - 3);
+            assert!(crate::link::telemetry::name_is(&masked.name, "ins_masked"));
+            assert_eq!(masked.value, 83);
             if k == 0 {
                 // The first sample runs the outer loop, timed by its own read pair (7 fake ticks →
                 // 7 × 100000 / 16800 ≈ 42, reported as `ins_outer` before `ins_step`); the whole
                 // step spans three reads after its start: 21 ticks ≈ 125 instructions.
-                let outer = int_at(sent.len() - 3);
+                let outer = int_at(sent.len() - 4);
                 assert!(crate::link::telemetry::name_is(&outer.name, "ins_outer"));
                 assert_eq!(outer.value, 42);
                 assert_eq!(step.value, 125);
@@ -327,6 +346,7 @@ mod tests {
         }
         assert_eq!(app.autopilot().inner_steps, vec![2_000_000, 2_001_000, 2_002_000]);
         assert_eq!(app.stats().steps, 3);
+        assert_eq!(app.stats().max_masked_instructions, 83);
         // Nothing pending: no answer.
         port.tx.clear();
         assert_eq!(app.poll(&mut port, &ticks), 0);

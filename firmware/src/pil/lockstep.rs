@@ -19,7 +19,7 @@ use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HI
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::lockstep::LockstepClock;
 
-use crate::app::autopilot::{Autopilot, MotorCommand};
+use crate::app::autopilot::{ControlSteps, MotorCommand};
 use crate::link::{HilSample, Link};
 use crate::pil::TickCounter;
 
@@ -101,14 +101,14 @@ impl LockstepScheduler {
     }
 
     /// Runs one control step for `sample` (see the module docs).
-    pub fn step<A: Autopilot>(&mut self, sample: &HilSample, link: &mut Link, ap: &mut A) -> StepOutcome {
+    pub fn step<A: ControlSteps>(&mut self, sample: &HilSample, link: &mut Link, ap: &mut A) -> StepOutcome {
         let mut o = self.step_timed(sample, link, ap, &NoTicks);
         o.outer_ticks = None;
         o
     }
 
     /// [`Self::step`], with the outer step timed on `ticks` ([`StepOutcome::outer_ticks`]).
-    pub fn step_timed<A: Autopilot>(
+    pub fn step_timed<A: ControlSteps>(
         &mut self,
         sample: &HilSample,
         link: &mut Link,

@@ -4,6 +4,7 @@
 //! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
 //! * [`replay`]: open-loop replay of rotor speeds from a CSV.
+//! * [`track_ids`]: the `u16` track ids of the obstacles in view (scenes beyond 65,535 obstacles).
 //!
 //! Owns the physics and sensor models. May import: `parapet-core`, and of
 //! host-sim only [`crate::input`] (errors, limits).
@@ -14,3 +15,4 @@ pub mod disturbance;
 pub mod plant;
 pub mod replay;
 pub mod sensors;
+pub mod track_ids;
