@@ -281,7 +281,7 @@ pub const TABLE: [Param; COUNT] = [
         key: Some("speed"),
         unit: "m/s",
         default: 0.25,
-        min: 0.01,
+        min: 0.001,
         max: 100.0,
         integer: false,
         decimals: 2,

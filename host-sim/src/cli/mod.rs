@@ -426,20 +426,18 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     if let Some(v) = a.filter {
         cfg.variant = v;
     }
-    if let Some(x) = positive("mu", a.mu)? {
-        cfg.params.mu = x;
-    }
-    if let Some(x) = positive("delta", a.delta)? {
-        cfg.params.delta = x;
-    }
-    if let Some(x) = positive("delta1", a.delta1)? {
-        cfg.params.delta1 = x;
-    }
-    if let Some(x) = positive("kp", a.kp)? {
-        cfg.params.kp = x;
-    }
-    if let Some(x) = positive("kd", a.kd)? {
-        cfg.params.kd = x;
+    // Controller options: their ranges are the parameter table's, checked (naming the
+    // option, the value and the range) by check_run below with the scene's values.
+    for (x, field) in [
+        (a.mu, &mut cfg.params.mu),
+        (a.delta, &mut cfg.params.delta),
+        (a.delta1, &mut cfg.params.delta1),
+        (a.kp, &mut cfg.params.kp),
+        (a.kd, &mut cfg.params.kd),
+    ] {
+        if let Some(x) = x {
+            *field = x;
+        }
     }
     if let Some(x) = positive("duration", a.duration)? {
         cfg.duration = x;

@@ -50,6 +50,32 @@ pub struct RunParams {
     pub speed: f64,
 }
 
+impl RunParams {
+    /// The flown value of the parameter-table entry with scene/option key `key`
+    /// ([`parapet_core::params::Param::key`]), if the run records it.
+    pub fn value(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "mu" => self.mu,
+            "delta" => self.delta,
+            "delta1" => self.delta1,
+            "kp" => self.kp,
+            "kd" => self.kd,
+            "speed" => self.speed,
+            _ => return None,
+        })
+    }
+
+    /// The recorded values in parameter-table order with their units, e.g.
+    /// `mu 1.4 s, delta 0.05 m^2, …, speed 0.25 m/s`.
+    pub fn listed(&self) -> String {
+        let items: Vec<String> = parapet_core::params::TABLE
+            .iter()
+            .filter_map(|p| p.key.and_then(|k| self.value(k).map(|v| format!("{k} {v} {}", p.unit))))
+            .collect();
+        items.join(", ")
+    }
+}
+
 /// The machine-readable summary of a run (`summary.json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Summary {
@@ -296,13 +322,7 @@ pub fn summary_table(s: &Summary) -> String {
     let rows: Vec<(&str, String)> = vec![
         ("scene", format!("{} ({})", s.scene, s.scene_file)),
         ("filter", s.filter.clone()),
-        (
-            "params",
-            format!(
-                "mu {} delta {} delta1 {} kp {} kd {} speed {} m/s",
-                s.params.mu, s.params.delta, s.params.delta1, s.params.kp, s.params.kd, s.params.speed
-            ),
-        ),
+        ("params", s.params.listed()),
         (
             "path",
             format!(
@@ -608,4 +628,26 @@ where
         )
         .map_err(e)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every recorded run parameter is a parameter-table key, listed with its unit.
+    #[test]
+    fn run_parameters_come_from_the_table() {
+        let p = RunParams { mu: 1.4, delta: 0.05, delta1: 0.1, kp: 0.5, kd: 0.8, speed: 0.25 };
+        let json = serde_json::to_value(&p).unwrap();
+        let fields = json.as_object().unwrap();
+        for (k, v) in fields {
+            let entry = parapet_core::params::by_key(k).unwrap_or_else(|| panic!("{k} not in the table"));
+            assert_eq!(p.value(k), v.as_f64(), "{k}");
+            assert!(p.listed().contains(&format!("{k} {} {}", v, entry.unit)), "{}", p.listed());
+        }
+        assert_eq!(
+            p.listed(),
+            "mu 1.4 s, delta 0.05 m^2, delta1 0.1 m^2, kp 0.5 1/s^2, kd 0.8 1/s, speed 0.25 m/s"
+        );
+    }
 }
