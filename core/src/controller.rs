@@ -12,9 +12,9 @@
 //!        └───────────────────────────────────────────┴──────────────────────────┴──── StateEstimate ◀── Mahony estimator (gyro + accel, step_inner)
 //! ```
 //!
-//! The facade hands each message over at once (the outer step's [`AttitudeCommand`] to the
-//! inner loop, every inner step's [`StateEstimate`] to the outer loop, every fix's
-//! [`EstimatorAid`] to the inner loop), so it behaves exactly as one controller. A firmware
+//! The facade hands each message over at once (the outer step's [`crate::msg::AttitudeCommand`] to the
+//! inner loop, every inner step's [`crate::msg::StateEstimate`] to the outer loop, every fix's
+//! [`crate::msg::EstimatorAid`] to the inner loop), so it behaves exactly as one controller. A firmware
 //! that runs the loops in different tasks takes them apart with [`FlightController::into_loops`]
 //! and passes the same messages through its own mailboxes; which inner step runs the outer
 //! step is [`crate::schedule::OuterSchedule`].
@@ -71,7 +71,7 @@ pub use crate::config::{ControllerParams, ParamError};
 pub use crate::msg::{MotorOutput, PositionFix};
 pub use crate::outer::guidance::{GuidanceMode, PATH_CAPACITY};
 pub use crate::outer::inputs::OBSTACLE_CAPACITY;
-pub use crate::supervisor::CommandError;
+pub use crate::outer::CommandError;
 
 /// One telemetry record (updated by every step; copy with [`FlightController::telemetry`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

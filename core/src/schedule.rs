@@ -12,9 +12,9 @@
 //!   by simulated time ([`crate::wire::lockstep::LockstepClock`]: first sample, then
 //!   `t ≥ next`, `next += period`, a skipped period or time going backwards restarts the phase).
 //!
-//! May import: [`crate::controller::ControllerParams`] (read-only) and [`crate::wire::lockstep`].
+//! May import: [`crate::config::ControllerParams`] (read-only) and [`crate::wire::lockstep`].
 
-use crate::controller::ControllerParams;
+use crate::config::ControllerParams;
 use crate::wire::lockstep::LockstepClock;
 
 /// The outer-loop schedule of one parameter set (see the module documentation).

@@ -4,12 +4,12 @@
 //! Rate: the outer loop's (default 250 Hz), plus the commands (takeoff, hold, mission,
 //! new path). The yaw reference is the estimated yaw at arming, held constant.
 //!
-//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], [`crate::supervisor`]
-//! (command errors), the crate root foundation.
+//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], the command errors of
+//! [`crate::outer`], the crate root foundation.
 
+use super::CommandError;
 use crate::fmath::norm3;
 use crate::frame::is_finite3;
-use crate::supervisor::CommandError;
 use crate::tracking::Reference;
 use crate::waypoint::{PathError, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY};
 use crate::Vec3;

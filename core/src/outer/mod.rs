@@ -27,17 +27,40 @@ pub mod tracking;
 pub mod waypoint;
 
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter};
+use crate::failsafe::ArmRefusal;
 use crate::failsafe::{DataHealth, FailsafeState, Transition};
 use crate::fmath::minf;
 use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
 use crate::obstacle::ObstaclePoint;
-use crate::supervisor::{CommandError, EntryContext, Supervisor, SupervisorParams};
+use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
 use crate::Vec3;
 use guidance::{Guidance, GuidanceMode, GuidanceParams};
 use inputs::{InputParams, Inputs};
 use thrust::{map_acceleration, ThrustParams};
 use tracking::{PdTracker, Reference, TrackingParams};
 use waypoint::{PathError, Progress};
+
+/// Why a command was refused (the controller state is unchanged).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandError {
+    /// Arming refused.
+    Arm(ArmRefusal),
+    /// The command needs the Armed state (nominal operation).
+    NotArmed,
+    /// Already disarmed.
+    AlreadyDisarmed,
+    /// Takeoff height not finite or outside (0, takeoff_height_max].
+    BadHeight,
+    /// Target position not finite.
+    BadTarget,
+    /// Mission needs a flying vehicle (take off first).
+    NotFlying,
+    /// Path rejected.
+    Path(PathError),
+    /// No fresh position fix.
+    NoPosition,
+}
 
 /// The outer loop's parameters (a part of [`crate::controller::ControllerParams`], see
 /// `ControllerParams::outer_params`).
@@ -303,7 +326,8 @@ impl OuterLoop {
         let position = self.inputs.position_estimate(now_us).map(|(p, _)| p);
         health.obstacle_in_hull = position.and_then(|p| self.inputs.obstacle_in_hull(&p));
         let est = self.estimate;
-        let tr = self.supervisor.arm(now_us, &health, est.initialised, est.tilt)?;
+        let tr =
+            self.supervisor.arm(now_us, &health, est.initialised, est.tilt).map_err(CommandError::Arm)?;
         self.guidance.arm(position.unwrap_or_else(Vec3::zeros), est.attitude.yaw);
         self.stage = MotorStage::Idle;
         self.tracker.reset();
@@ -313,7 +337,7 @@ impl OuterLoop {
 
     /// Disarm: motors off at once, from any state.
     pub fn disarm(&mut self, now_us: u64) -> Result<(), CommandError> {
-        let tr = self.supervisor.disarm(now_us)?;
+        let tr = self.supervisor.disarm(now_us).ok_or(CommandError::AlreadyDisarmed)?;
         self.record(tr);
         Ok(())
     }
@@ -350,7 +374,7 @@ impl OuterLoop {
 
     /// Land (from Armed or Brake).
     pub fn land(&mut self, now_us: u64) -> Result<(), CommandError> {
-        let tr = self.supervisor.land(now_us)?;
+        let tr = self.supervisor.land(now_us).ok_or(CommandError::NotArmed)?;
         self.record(tr);
         Ok(())
     }

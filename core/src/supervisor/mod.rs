@@ -19,37 +19,14 @@
 //!   vehicle is. A vehicle that never took off is landed at once.
 //!
 //! May import: the crate root foundation ([`crate::frame`], [`crate::fmath`],
-//! [`crate::Vec3`]), [`crate::msg`] and the path error of [`crate::waypoint`]. Never the loops.
+//! [`crate::Vec3`]) and [`crate::msg`]. Never the loops.
 
 pub mod failsafe;
 
 use crate::fmath::{minf, norm3};
 use crate::frame::GRAVITY;
-use crate::waypoint::PathError;
 use crate::Vec3;
 use failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
-
-/// Why a command was refused (the controller state is unchanged).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum CommandError {
-    /// Arming refused.
-    Arm(ArmRefusal),
-    /// The command needs the Armed state (nominal operation).
-    NotArmed,
-    /// Already disarmed.
-    AlreadyDisarmed,
-    /// Takeoff height not finite or outside (0, takeoff_height_max].
-    BadHeight,
-    /// Target position not finite.
-    BadTarget,
-    /// Mission needs a flying vehicle (take off first).
-    NotFlying,
-    /// Path rejected.
-    Path(PathError),
-    /// No fresh position fix.
-    NoPosition,
-}
 
 /// The supervisor's parameters (a part of [`crate::controller::ControllerParams`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -174,18 +151,18 @@ impl Supervisor {
         health: &DataHealth,
         attitude_ok: bool,
         tilt: f32,
-    ) -> Result<Transition, CommandError> {
-        self.failsafe.arm(now_us, health, attitude_ok, tilt).map_err(CommandError::Arm)
+    ) -> Result<Transition, ArmRefusal> {
+        self.failsafe.arm(now_us, health, attitude_ok, tilt)
     }
 
-    /// Disarm (operator kill), from any state.
-    pub fn disarm(&mut self, now_us: u64) -> Result<Transition, CommandError> {
-        self.failsafe.disarm(now_us).ok_or(CommandError::AlreadyDisarmed)
+    /// Disarm (operator kill), from any state but Disarmed.
+    pub fn disarm(&mut self, now_us: u64) -> Option<Transition> {
+        self.failsafe.disarm(now_us)
     }
 
     /// Land command (from Armed or Brake).
-    pub fn land(&mut self, now_us: u64) -> Result<Transition, CommandError> {
-        self.failsafe.land(now_us).ok_or(CommandError::NotArmed)
+    pub fn land(&mut self, now_us: u64) -> Option<Transition> {
+        self.failsafe.land(now_us)
     }
 
     /// Crash check with a tilt the inner loop reported at `t_us`.
