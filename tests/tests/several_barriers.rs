@@ -82,7 +82,7 @@ fn the_scenes_put_several_barriers_near_at_once() {
             }
         }
         let out = fly(&s, &path, FilterVariant::Multi, s.speed, 0.1, 0);
-        let n_max = out.samples.iter().map(|k| k.n_constraints).max().unwrap_or(0);
+        let n_max = out.samples.iter().map(|k| k.filter.n_constraints).max().unwrap_or(0);
         assert!(n_max >= 2, "{name}: at most {n_max} barrier(s) enforced at once");
     }
 }

@@ -102,7 +102,7 @@ fn moving_person_is_reported_and_avoided_or_recorded() {
     assert!(sum.sim_time_s > 10.0);
     assert_eq!(sum.collided, sum.min_clearance_m < 0.0);
     // The filter saw the person (obstacle 0) at some point.
-    assert!(out.samples.iter().any(|k| k.active_obstacle == Some(0)));
+    assert!(out.samples.iter().any(|k| k.filter.active_id == Some(0)));
 }
 
 #[test]

@@ -665,8 +665,10 @@ pub fn run_with(
         }),
         min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
         min_h_bar,
-        min_filter_h_bar: Some(samples.iter().map(|s| f64::from(s.filter.h_bar)).fold(f64::INFINITY, f64::min))
-            .filter(|x| x.is_finite()),
+        min_filter_h_bar: Some(
+            samples.iter().map(|s| f64::from(s.filter.h_bar)).fold(f64::INFINITY, f64::min),
+        )
+        .filter(|x| x.is_finite()),
         reached_goal: goal_at.is_some(),
         time_to_goal_s: goal_at,
         final_distance_to_goal_m: goal_dist,

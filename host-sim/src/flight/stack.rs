@@ -11,7 +11,7 @@
 
 use anyhow::Result;
 use nalgebra::Vector3;
-use parapet_core::cbf::Region;
+use parapet_core::cbf::FilterDiagnostics;
 use parapet_core::controller::Telemetry;
 use parapet_core::obstacle::ObstaclePoint;
 
@@ -31,28 +31,15 @@ pub fn clock_us(t: f64) -> u64 {
 pub struct OuterOut {
     /// Reference position, NED, m.
     pub reference: Vector3<f64>,
-    /// Filter region name.
-    pub region: &'static str,
-    /// Filter region code ([`Region::code`]).
-    pub region_code: u8,
-    /// Obstacle the filter acted on.
-    pub active_obstacle: Option<u16>,
-    /// The filter changed u*.
-    pub filter_active: bool,
+    /// The safety filter's diagnostics of the step (the core's one type; `h_bar` is the
+    /// filter's own min h̄ over the obstacles it was given, from the controller's estimate).
+    pub filter: FilterDiagnostics,
     /// The path follower has reached the end of the path.
     pub path_done: bool,
     /// Nominal acceleration u* (PD output), NED, m/s².
     pub u_nominal: Vector3<f64>,
     /// Filtered acceleration u (filter output), NED, m/s².
     pub u_filtered: Vector3<f64>,
-    /// The filter's own min h̄ over the obstacles it was given (controller's estimate), m².
-    pub filter_h_bar: f64,
-    /// Barriers enforced this step.
-    pub n_constraints: u8,
-    /// The filter flagged a constraint it cannot meet with the available acceleration.
-    pub unavoidable: bool,
-    /// The enforced constraints had no common solution.
-    pub infeasible: bool,
     /// Guidance mode of the controller (e.g. "Mission", "Brake").
     pub mode: &'static str,
 }
@@ -62,30 +49,12 @@ impl OuterOut {
     pub fn from_telemetry(tel: &Telemetry) -> Self {
         OuterOut {
             reference: to_f64(&tel.reference.position),
-            region: region_name(tel.filter.region),
-            region_code: tel.filter.region.code(),
-            active_obstacle: tel.filter.active_id,
-            filter_active: tel.filter.intervened,
+            filter: tel.filter,
             path_done: tel.progress.done,
             u_nominal: to_f64(&tel.u_nominal),
             u_filtered: to_f64(&tel.u_filtered),
-            filter_h_bar: tel.filter.h_bar as f64,
-            n_constraints: tel.filter.n_constraints,
-            unavoidable: tel.filter.unavoidable,
-            infeasible: tel.filter.infeasible,
             mode: tel.mode.as_str(),
         }
-    }
-}
-
-/// Region name for reports.
-pub fn region_name(r: Region) -> &'static str {
-    match r {
-        Region::NoObstacle => "none",
-        Region::Far => "far",
-        Region::NominalSafe => "nominal_safe",
-        Region::Perpendicular => "filtering",
-        Region::Fault => "fault",
     }
 }
 

@@ -26,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use nalgebra::Vector3;
+use parapet_core::cbf::{FilterDiagnostics, Region};
 use parapet_core::obstacle::Shape;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -160,14 +161,10 @@ pub struct Sample {
     pub vel: Vector3<f64>,
     /// Roll, pitch, yaw (FRD w.r.t. NED), rad.
     pub rpy: [f64; 3],
-    /// Filter region name.
-    pub region: &'static str,
-    /// Filter region code (see `parapet_core::cbf::Region::code`), or 255 with no filter.
-    pub region_code: u8,
-    /// Obstacle id the filter acted on.
-    pub active_obstacle: Option<u16>,
-    /// The filter changed the nominal input in this step.
-    pub filter_active: bool,
+    /// The safety filter's diagnostics of the step (region, active obstacle, intervened,
+    /// the controller's own min h̄ from its estimate and the sensed obstacles, constraints
+    /// enforced, unavoidable / infeasible flags): the core's one type.
+    pub filter: FilterDiagnostics,
     /// True clearance (distance to nearest surface − hull radius), m.
     pub clearance: f64,
     /// Clearance of the reference position, m.
@@ -178,14 +175,6 @@ pub struct Sample {
     pub u_nominal: Vector3<f64>,
     /// Filtered acceleration u, NED, m/s².
     pub u_filtered: Vector3<f64>,
-    /// The controller's own min h̄ (estimated state, sensed obstacles), m².
-    pub filter_h_bar: f64,
-    /// Barriers enforced by the filter.
-    pub n_constraints: u8,
-    /// Filter flag: a constraint needs more acceleration than available.
-    pub unavoidable: bool,
-    /// Filter flag: the enforced constraints had no common solution.
-    pub infeasible: bool,
     /// Controller guidance mode.
     pub mode: &'static str,
     /// Wind at the vehicle, NED, m/s.
@@ -257,63 +246,157 @@ pub fn trajectory_csv(samples: &[Sample]) -> String {
     String::from_utf8_lossy(&v).into_owned()
 }
 
-/// Write the trajectory CSV (ENU) to `w`, one row at a time.
-pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> std::io::Result<()> {
-    w.write_all(
-        b"t,ref_x,ref_y,ref_z,x,y,z,vx,vy,vz,roll,pitch,yaw,region,active_obstacle,filter_active,clearance,h_bar,\
-         u_nom_x,u_nom_y,u_nom_z,u_x,u_y,u_z,filter_h_bar,n_constraints,unavoidable,infeasible,mode,\
-         wind_x,wind_y,wind_z\n",
-    )?;
-    let mut s = String::new();
-    for k in samples {
-        s.clear();
-        let r = ned_to_enu_arr(&k.ref_pos);
-        let p = ned_to_enu_arr(&k.pos);
-        let v = ned_to_enu_arr(&k.vel);
-        let un = ned_to_enu_arr(&k.u_nominal);
-        let uf = ned_to_enu_arr(&k.u_filtered);
-        let wind = ned_to_enu_arr(&k.wind);
-        let active = k.active_obstacle.map(|i| i.to_string()).unwrap_or_default();
-        let f = |x: f64, d: usize| format!("{x:.d$}");
-        let fields = [
-            f(k.t, 4),
-            f(r[0], 4),
-            f(r[1], 4),
-            f(r[2], 4),
-            f(p[0], 4),
-            f(p[1], 4),
-            f(p[2], 4),
-            f(v[0], 4),
-            f(v[1], 4),
-            f(v[2], 4),
-            f(k.rpy[0], 5),
-            f(k.rpy[1], 5),
-            f(k.rpy[2], 5),
-            k.region.to_string(),
-            active,
-            u8::from(k.filter_active).to_string(),
-            f(k.clearance, 4),
-            f(k.h_bar, 5),
-            f(un[0], 4),
-            f(un[1], 4),
-            f(un[2], 4),
-            f(uf[0], 4),
-            f(uf[1], 4),
-            f(uf[2], 4),
-            f(k.filter_h_bar, 5),
-            k.n_constraints.to_string(),
-            u8::from(k.unavoidable).to_string(),
-            u8::from(k.infeasible).to_string(),
-            k.mode.to_string(),
-            f(wind[0], 4),
-            f(wind[1], 4),
-            f(wind[2], 4),
-        ];
-        s.push_str(&fields.join(","));
-        s.push('\n');
-        w.write_all(s.as_bytes())?;
+/// A number written with `D` decimals (`trajectory.csv`).
+struct Dec<const D: usize>(f64);
+
+impl<const D: usize> Serialize for Dec<D> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(&format_args!("{:.*}", D, self.0))
     }
-    Ok(())
+}
+
+/// One row of `trajectory.csv` (columns in the module docs; ENU).
+#[derive(Serialize)]
+struct TrajectoryRow {
+    t: Dec<4>,
+    ref_x: Dec<4>,
+    ref_y: Dec<4>,
+    ref_z: Dec<4>,
+    x: Dec<4>,
+    y: Dec<4>,
+    z: Dec<4>,
+    vx: Dec<4>,
+    vy: Dec<4>,
+    vz: Dec<4>,
+    roll: Dec<5>,
+    pitch: Dec<5>,
+    yaw: Dec<5>,
+    region: &'static str,
+    active_obstacle: Option<u16>,
+    filter_active: u8,
+    clearance: Dec<4>,
+    h_bar: Dec<5>,
+    u_nom_x: Dec<4>,
+    u_nom_y: Dec<4>,
+    u_nom_z: Dec<4>,
+    u_x: Dec<4>,
+    u_y: Dec<4>,
+    u_z: Dec<4>,
+    filter_h_bar: Dec<5>,
+    n_constraints: u8,
+    unavoidable: u8,
+    infeasible: u8,
+    mode: &'static str,
+    wind_x: Dec<4>,
+    wind_y: Dec<4>,
+    wind_z: Dec<4>,
+}
+
+impl TrajectoryRow {
+    fn of(k: &Sample) -> Self {
+        let [ref_x, ref_y, ref_z] = ned_to_enu_arr(&k.ref_pos).map(Dec);
+        let [x, y, z] = ned_to_enu_arr(&k.pos).map(Dec);
+        let [vx, vy, vz] = ned_to_enu_arr(&k.vel).map(Dec);
+        let [roll, pitch, yaw] = k.rpy.map(Dec);
+        let [u_nom_x, u_nom_y, u_nom_z] = ned_to_enu_arr(&k.u_nominal).map(Dec);
+        let [u_x, u_y, u_z] = ned_to_enu_arr(&k.u_filtered).map(Dec);
+        let [wind_x, wind_y, wind_z] = ned_to_enu_arr(&k.wind).map(Dec);
+        let f = &k.filter;
+        TrajectoryRow {
+            t: Dec(k.t),
+            ref_x,
+            ref_y,
+            ref_z,
+            x,
+            y,
+            z,
+            vx,
+            vy,
+            vz,
+            roll,
+            pitch,
+            yaw,
+            region: region_name(f.region),
+            active_obstacle: f.active_id,
+            filter_active: u8::from(f.intervened),
+            clearance: Dec(k.clearance),
+            h_bar: Dec(k.h_bar),
+            u_nom_x,
+            u_nom_y,
+            u_nom_z,
+            u_x,
+            u_y,
+            u_z,
+            filter_h_bar: Dec(f64::from(f.h_bar)),
+            n_constraints: f.n_constraints,
+            unavoidable: u8::from(f.unavoidable),
+            infeasible: u8::from(f.infeasible),
+            mode: k.mode,
+            wind_x,
+            wind_y,
+            wind_z,
+        }
+    }
+}
+
+/// Write the trajectory CSV (ENU) to `w`, one row at a time (csv crate, serde records).
+pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> std::io::Result<()> {
+    let mut out = csv::Writer::from_writer(w);
+    for k in samples {
+        out.serialize(TrajectoryRow::of(k)).map_err(std::io::Error::other)?;
+    }
+    if samples.is_empty() {
+        // The header of an empty file (serde writes it with the first record).
+        out.write_record(TRAJECTORY_COLUMNS).map_err(std::io::Error::other)?;
+    }
+    out.flush()
+}
+
+/// Column names of `trajectory.csv`.
+pub const TRAJECTORY_COLUMNS: [&str; 32] = [
+    "t",
+    "ref_x",
+    "ref_y",
+    "ref_z",
+    "x",
+    "y",
+    "z",
+    "vx",
+    "vy",
+    "vz",
+    "roll",
+    "pitch",
+    "yaw",
+    "region",
+    "active_obstacle",
+    "filter_active",
+    "clearance",
+    "h_bar",
+    "u_nom_x",
+    "u_nom_y",
+    "u_nom_z",
+    "u_x",
+    "u_y",
+    "u_z",
+    "filter_h_bar",
+    "n_constraints",
+    "unavoidable",
+    "infeasible",
+    "mode",
+    "wind_x",
+    "wind_y",
+    "wind_z",
+];
+
+/// Region name for reports and `trajectory.csv`.
+pub fn region_name(r: Region) -> &'static str {
+    match r {
+        Region::NoObstacle => "none",
+        Region::Far => "far",
+        Region::NominalSafe => "nominal_safe",
+        Region::Perpendicular => "filtering",
+        Region::Fault => "fault",
+    }
 }
 
 /// The short summary table printed after a run.
@@ -616,14 +699,13 @@ where
         .build_cartesian_2d(time_range(rec), -0.5f64..4.5f64)
         .map_err(e)?;
     chart.configure_mesh().x_desc("t [s]").y_desc("region").draw().map_err(e)?;
-    let pts: Vec<(f64, f64)> =
-        rec.samples.iter().filter(|s| s.region_code != 255).map(|s| (s.t, s.region_code as f64)).collect();
+    let pts: Vec<(f64, f64)> = rec.samples.iter().map(|s| (s.t, s.filter.region.code() as f64)).collect();
     chart.draw_series(LineSeries::new(pts, BLUE)).map_err(e)?;
     chart
         .draw_series(
             rec.samples
                 .iter()
-                .filter(|s| s.filter_active)
+                .filter(|s| s.filter.intervened)
                 .map(|s| Rectangle::new([(s.t, -0.45), (s.t + 0.004, -0.1)], RED.filled())),
         )
         .map_err(e)?;
