@@ -33,11 +33,11 @@
 //! `THR_MAX` first.)
 //!
 //! Owns: [`Param`], [`TABLE`], [`COUNT`], [`ParamRejected`], lookup by name / key,
-//! [`get`], [`set`]. May import: `controller` (the [`ControllerParams`] struct),
-//! `cbf` (the filter variant codes). No allocation, no panics.
+//! [`get`], [`set`]. May import: `config` (the [`ControllerParams`] struct),
+//! `safety::cbf` (the filter variant codes), `frame` (tests). No allocation, no panics.
 
-use crate::cbf::FilterVariant;
-use crate::controller::{ControllerParams, ParamError};
+use crate::config::{ControllerParams, ParamError};
+use crate::safety::cbf::FilterVariant;
 
 /// One parameter: the single place its name, unit, default, range and meaning are written.
 #[derive(Clone, Copy)]
