@@ -11,8 +11,9 @@
 //! * an obstacle gets its scene index modulo 65 535 when that id is free, else the next free
 //!   one, so in a scene of at most 65 535 obstacles the id IS the scene index (the reports and
 //!   every result of such scenes are those of the plain index);
-//! * an obstacle out of view for one pass loses its id (it is free for others from then on);
-//! * with 65 535 obstacles in view at once (the table is full) a further one gets no id and is
+//! * an obstacle missing from a pass loses its id when the next pass starts (free for others
+//!   from then on);
+//! * with 65 535 ids held at once (the table is full) a further obstacle gets no id and is
 //!   not reported; [`TrackIds::refused`] counts them.
 //!
 //! Owns only the id table; imports `parapet-core`'s wire constant and std.
@@ -43,8 +44,8 @@ impl TrackIds {
         TrackIds::default()
     }
 
-    /// Starts a sensing pass: the obstacles not seen in the previous pass leave view and free
-    /// their ids.
+    /// Starts a sensing pass: the obstacles that were not seen in the previous pass leave view
+    /// and free their ids.
     pub fn begin_pass(&mut self) {
         let last = self.pass;
         let owner = &mut self.owner;
@@ -115,7 +116,9 @@ mod tests {
         let mut t = TrackIds::new();
         assert_eq!(pass(&mut t, &[0, 5, 65_534]), [Some(0), Some(5), Some(65_534)]);
         assert_eq!(pass(&mut t, &[65_534, 7]), [Some(65_534), Some(7)]);
-        assert_eq!((t.len(), t.obstacle(5), t.obstacle(7)), (2, None, Some(7)), "5 left view");
+        assert_eq!(pass(&mut t, &[7]), [Some(7)]);
+        // 0 and 5 were missing from the second pass: freed when the third started.
+        assert_eq!((t.len(), t.obstacle(5), t.obstacle(0), t.obstacle(7)), (2, None, None, Some(7)));
     }
 
     #[test]
@@ -131,7 +134,8 @@ mod tests {
         for _ in 0..3 {
             assert_eq!(pass(&mut t, &[c, b, a]), [Some(ids[2]), Some(ids[1]), Some(ids[0])]);
         }
-        // a leaves view: b keeps its id; a new obstacle with a's preferred id takes it.
+        // a leaves view: b keeps its id; from the pass after, a new obstacle with a's preferred
+        // id takes it.
         assert_eq!(pass(&mut t, &[b, c]), [Some(ids[1]), Some(ids[2])]);
         assert_eq!(pass(&mut t, &[b, c, 3 + 2 * 65_535]), [Some(ids[1]), Some(ids[2]), Some(3)]);
         assert_eq!(t.obstacle(3), Some(3 + 2 * 65_535));
@@ -159,8 +163,10 @@ mod tests {
         assert!(ids.iter().all(Option::is_some));
         assert_eq!(t.id(5_000_000), None);
         assert_eq!(t.refused(), 1);
-        // Next pass only one of them stays: the others free their ids.
-        assert_eq!(pass(&mut t, &[all[10], 5_000_000]).iter().filter(|x| x.is_some()).count(), 2);
-        assert_eq!(t.len(), 2);
+        // Next pass only one of them is seen: the table is still full during that pass (5,000,000
+        // refused again), the others' ids are freed when the pass after starts.
+        assert_eq!(pass(&mut t, &[all[10], 5_000_000]), [ids[10], None]);
+        assert_eq!(pass(&mut t, &[all[10], 5_000_000]), [ids[10], Some((5_000_000 % ID_COUNT) as u16)]);
+        assert_eq!((t.len(), t.refused()), (2, 2));
     }
 }
