@@ -25,7 +25,7 @@
 //! * `VEH_MASS`·g < `THR_MAX` ≤ 4·`VEH_ROTOR_TMAX` (the vehicle can hover, and the
 //!   collective limit is one the rotors can give).
 //!
-//! The defined outcome of an inconsistent set (the firmware's rule, `Cascade::set_param`):
+//! The defined outcome of an inconsistent set (the firmware's rule, `app::cascade` in `parapet-firmware`):
 //! the stored values are what PARAM_VALUE reports, the controller keeps flying the
 //! last consistent set, and arming is refused until the stored set is consistent
 //! again. (The earlier design validated the whole set on every PARAM_SET, so some
@@ -503,72 +503,6 @@ pub fn consistency(p: &ControllerParams) -> Result<(), ParamError> {
     p.validate()
 }
 
-/// Why [`plan_updates`] found no way to reach the target.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PlanError {
-    /// The target itself does not validate.
-    InvalidTarget,
-    /// The target differs from the start in a field no parameter sets; the first such
-    /// field is named.
-    NotSettable(&'static str),
-    /// No order of single changes keeps every intermediate set valid; `name` is one of
-    /// the parameters left over.
-    NoValidOrder(&'static str),
-}
-
-/// Transitional (removed once the PIL host sends its PARAM_SETs in table order): the
-/// changes that take `from` to `to`, in an order in which every intermediate set
-/// validates. Returns the number of entries written to `out`.
-pub fn plan_updates(
-    from: &ControllerParams,
-    to: &ControllerParams,
-    out: &mut [(&'static str, f32); COUNT],
-) -> Result<usize, PlanError> {
-    if to.validate().is_err() {
-        return Err(PlanError::InvalidTarget);
-    }
-    let mut all = *from;
-    for name in NAMES {
-        if let Some(v) = get(to, name) {
-            set(&mut all, name, v).map_err(|_| PlanError::NotSettable(name))?;
-        }
-    }
-    if all != *to {
-        return Err(PlanError::NotSettable("a field without a parameter"));
-    }
-    let mut pending = [false; COUNT];
-    for (i, name) in NAMES.iter().enumerate() {
-        pending[i] = get(from, name).map(f32::to_bits) != get(to, name).map(f32::to_bits);
-    }
-    let mut cur = *from;
-    let mut n = 0;
-    for _ in 0..COUNT {
-        let mut progressed = false;
-        for (i, name) in NAMES.iter().enumerate() {
-            if !pending[i] {
-                continue;
-            }
-            let Some(v) = get(to, name) else { continue };
-            let mut next = cur;
-            if set(&mut next, name, v).is_ok() && next.validate().is_ok() {
-                cur = next;
-                pending[i] = false;
-                if let Some(slot) = out.get_mut(n) {
-                    *slot = (name, v);
-                }
-                n += 1;
-                progressed = true;
-            }
-        }
-        if !progressed {
-            break;
-        }
-    }
-    match pending.iter().position(|&p| p) {
-        Some(i) => Err(PlanError::NoValidOrder(NAMES.get(i).copied().unwrap_or(""))),
-        None => Ok(n),
-    }
-}
 
 #[cfg(test)]
 mod tests {

@@ -33,29 +33,37 @@ pub(super) const WARMUP_STEPS: u64 = 300;
 
 /// The controller parameters the firmware flies with for `scene` and `cfg`: exactly those of
 /// `parapet run` ([`crate::flight::runner::controller_params`]: the scene's vehicle, the run's CBF,
-/// tracking and speed settings), with the PARAM_SET sequence that takes the firmware from its
-/// boot defaults (`ControllerParams::default()`) there, in an order in which every intermediate
-/// set validates ([`parapet_core::params::plan_updates`]). Errors name a setting the firmware
-/// has no parameter for.
+/// tracking and speed settings), with the PARAM_SETs that take the firmware from its boot
+/// defaults (`ControllerParams::default()`) there: every entry of the parameter table
+/// ([`parapet_core::params::TABLE`]) whose value differs, in table order. No order is needed:
+/// the firmware checks each value against its own range only and flies the stored set once it
+/// is consistent, which it is after the last one. Errors: the set is invalid (in words), a value
+/// is outside its parameter's range, or a setting differs in a field no parameter sets.
 pub fn firmware_params(
     scene: &Scene,
     cfg: &RunConfig,
 ) -> Result<(ControllerParams, Vec<(&'static str, f32)>)> {
     let p = crate::flight::runner::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
-    let mut out = [("", 0.0f32); params::COUNT];
-    let n = params::plan_updates(&ControllerParams::default(), &p, &mut out).map_err(|e| match e {
-        params::PlanError::InvalidTarget => match p.validate() {
-            Err(e) => anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)),
-            Ok(()) => anyhow!("controller parameters rejected by the firmware's parameter plan"),
-        },
-        params::PlanError::NotSettable(field) => {
-            anyhow!("the run's controller `{field}` settings cannot be given to the firmware (no parameter for them)")
+    p.validate().map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)))?;
+    let mut fw = ControllerParams::default();
+    let mut updates = Vec::new();
+    for d in &params::TABLE {
+        let v = (d.get)(&p);
+        if v.to_bits() == (d.get)(&fw).to_bits() {
+            continue;
         }
-        params::PlanError::NoValidOrder(name) => {
-            anyhow!("no order of PARAM_SETs keeps the firmware's parameters valid (stuck at {name})")
-        }
-    })?;
-    Ok((p, out[..n].to_vec()))
+        params::set(&mut fw, d.name, v).map_err(|_| {
+            anyhow!("the run's {} = {v} is outside the firmware's parameter range ({})", d.name, d.range())
+        })?;
+        updates.push((d.name, v));
+    }
+    if fw != p {
+        return Err(anyhow!(
+            "the run's controller settings differ from the firmware's defaults in a field no \
+             parameter sets (e.g. per-axis gains or loop rates)"
+        ));
+    }
+    Ok((p, updates))
 }
 
 /// The path as the firmware stores it after MISSION_ITEM_INT (x, y quantised to 0.1 mm), NED.

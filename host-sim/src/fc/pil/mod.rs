@@ -162,8 +162,9 @@ mod tests {
         Scene::parse(&text, "test scene").expect("scene parses")
     }
 
-    /// The firmware gets exactly `parapet run`'s parameters: applying the PARAM_SETs in order to
-    /// its boot defaults, each step validating as the firmware requires, gives them.
+    /// The firmware gets exactly `parapet run`'s parameters: the PARAM_SETs, each within its
+    /// parameter's range, reach them from its boot defaults in table order and in any other
+    /// order (no intermediate set needs to be consistent).
     #[test]
     fn firmware_flies_the_scenes_vehicle_and_settings() {
         let s = scene(
@@ -178,15 +179,22 @@ mod tests {
         );
         assert_eq!(p.airframe.mass, 1.2);
         assert_eq!(p.cbf.velocity_margin, 0.03);
-        let mut fw = ControllerParams::default();
+        let index = |n: &str| params::index_of(n).expect("table name");
+        assert!(updates.windows(2).all(|w| index(w[0].0) < index(w[1].0)), "table order: {updates:?}");
+        let mut in_order = ControllerParams::default();
+        let mut inconsistent_on_the_way = false;
         for (name, v) in &updates {
-            params::set(&mut fw, name, *v).expect("known parameter");
-            assert!(fw.validate().is_ok(), "the firmware would refuse {name} = {v}");
+            assert_eq!(params::set(&mut in_order, name, *v), Ok(*v), "{name}");
+            inconsistent_on_the_way |= in_order.validate().is_err();
         }
-        assert_eq!(fw, p);
-        // 1.2 kg hovers on 11.8 N, above the boot THR_MAX (11 N): the limit must go first.
-        let pos = |n: &str| updates.iter().position(|(m, _)| *m == n).expect("sent");
-        assert!(pos("THR_MAX") < pos("VEH_MASS"));
+        assert_eq!(in_order, p);
+        // 1.2 kg hovers on 11.8 N, above the boot THR_MAX (11 N), which comes later in the table.
+        assert!(inconsistent_on_the_way);
+        let mut reversed = ControllerParams::default();
+        for (name, v) in updates.iter().rev() {
+            assert_eq!(params::set(&mut reversed, name, *v), Ok(*v), "{name}");
+        }
+        assert_eq!(reversed, p);
     }
 
     #[test]
