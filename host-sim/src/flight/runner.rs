@@ -48,6 +48,7 @@ use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::schedule::OuterSchedule;
 use parapet_core::thrust::ThrustParams;
 use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::WaypointParams;
@@ -73,8 +74,6 @@ pub const GOAL_SPEED_MPS: f64 = 0.1;
 pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
 /// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
 const INNER_HZ: f64 = 1000.0;
-/// Outer-loop decimation: one outer step every this many inner steps (250 Hz).
-pub const OUTER_DIVIDER: u64 = 4;
 /// Default PD position gain k_p, 1/s² (the paper's office experiment).
 pub const DEFAULT_KP: f64 = 0.5;
 /// Default PD velocity gain k_d, 1/s.
@@ -504,6 +503,9 @@ pub fn run_with(
     let dt = INNER_DT / substeps as f64;
     let cbf = cfg.cbf_params()?;
     let filter = SafetyFilter::new(cbf, cfg.variant).map_err(|e| anyhow!("filter: {e}"))?;
+    // The core's one outer-loop schedule (250 Hz: every 4th inner step) of the parameters flown.
+    let schedule = OuterSchedule::new(&controller_params(scene, cfg, cbf, cfg.variant));
+    let divider = schedule.divider();
     let hull = scene.vehicle.hull_radius;
 
     // The plant flies the `[plant]` vehicle (mismatch), the controller knows the scene's.
@@ -515,9 +517,9 @@ pub fn run_with(
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.
     let mut fix = None;
-    let prime = (cfg.sensors.position_latency / (INNER_DT * OUTER_DIVIDER as f64)).ceil() as i64 + 1;
+    let prime = (cfg.sensors.position_latency / (INNER_DT * divider as f64)).ceil() as i64 + 1;
     for j in (0..=prime).rev() {
-        let tj = -(j as f64) * INNER_DT * OUTER_DIVIDER as f64;
+        let tj = -(j as f64) * INNER_DT * divider as f64;
         if let Some(f) = sensors.position(tj, &plant) {
             fix = Some(f);
         }
@@ -537,7 +539,7 @@ pub fn run_with(
     let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
     // Memory grows with the time flown, not with the duration limit: reserve at
     // most a minute of samples up front.
-    let mut samples = Vec::with_capacity((n_inner / OUTER_DIVIDER + 1).min(SAMPLES_RESERVED) as usize);
+    let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
     let (mut collided_at, mut collision_obstacle) = (None, None);
     let mut goal_at = None;
     let mut min_clear = f64::INFINITY;
@@ -550,7 +552,7 @@ pub fn run_with(
 
     for k in 0..n_inner {
         t = k as f64 / INNER_HZ;
-        if k % OUTER_DIVIDER == 0 {
+        if schedule.is_outer_step(k) {
             // Euler angles of the true state, once for the position fix and the sample.
             let (roll, pitch, yaw) = plant.state.euler();
             if let Some(fix) = sensors.position_with_yaw(t, &plant, yaw) {
@@ -622,7 +624,7 @@ pub fn run_with(
         // whenever it may be a new minimum or a collision (min_clear ≥ 0: a
         // collision ends the run); otherwise a lower bound rules both out.
         let skip =
-            (k + 1) % OUTER_DIVIDER != 0 && tracker.nearest_lower_bound().min(-pos.z) - hull > min_clear;
+            !schedule.is_outer_step(k + 1) && tracker.nearest_lower_bound().min(-pos.z) - hull > min_clear;
         if !skip {
             let (sd, idx) = with_ground(tracker.nearest(scene, &pos, t_next), &pos);
             sd_now = sd;
