@@ -229,6 +229,17 @@ pub fn f32_as_f64(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 
+/// A number written with `D` decimals in a file (`trajectory.csv`, replay output):
+/// serialises as that text.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fixed<const D: usize>(pub f64);
+
+impl<const D: usize> serde::Serialize for Fixed<D> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(&format_args!("{:.*}", D, self.0))
+    }
+}
+
 /// Fixed-length number arrays (`start = [x, y, z]`) read with their length
 /// checked: serde's `[f64; N]` takes the first N elements from a TOML document
 /// and silently drops the rest; these refuse any other length with serde's

@@ -32,6 +32,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde::Serialize;
 
+use crate::input::Fixed;
 use crate::world::scene::{ned_to_enu_arr, to_f64, Scene};
 
 /// Controller parameters of a run, as flown.
@@ -246,64 +247,55 @@ pub fn trajectory_csv(samples: &[Sample]) -> String {
     String::from_utf8_lossy(&v).into_owned()
 }
 
-/// A number written with `D` decimals (`trajectory.csv`).
-struct Dec<const D: usize>(f64);
-
-impl<const D: usize> Serialize for Dec<D> {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(&format_args!("{:.*}", D, self.0))
-    }
-}
-
 /// One row of `trajectory.csv` (columns in the module docs; ENU).
 #[derive(Serialize)]
 struct TrajectoryRow {
-    t: Dec<4>,
-    ref_x: Dec<4>,
-    ref_y: Dec<4>,
-    ref_z: Dec<4>,
-    x: Dec<4>,
-    y: Dec<4>,
-    z: Dec<4>,
-    vx: Dec<4>,
-    vy: Dec<4>,
-    vz: Dec<4>,
-    roll: Dec<5>,
-    pitch: Dec<5>,
-    yaw: Dec<5>,
+    t: Fixed<4>,
+    ref_x: Fixed<4>,
+    ref_y: Fixed<4>,
+    ref_z: Fixed<4>,
+    x: Fixed<4>,
+    y: Fixed<4>,
+    z: Fixed<4>,
+    vx: Fixed<4>,
+    vy: Fixed<4>,
+    vz: Fixed<4>,
+    roll: Fixed<5>,
+    pitch: Fixed<5>,
+    yaw: Fixed<5>,
     region: &'static str,
     active_obstacle: Option<u16>,
     filter_active: u8,
-    clearance: Dec<4>,
-    h_bar: Dec<5>,
-    u_nom_x: Dec<4>,
-    u_nom_y: Dec<4>,
-    u_nom_z: Dec<4>,
-    u_x: Dec<4>,
-    u_y: Dec<4>,
-    u_z: Dec<4>,
-    filter_h_bar: Dec<5>,
+    clearance: Fixed<4>,
+    h_bar: Fixed<5>,
+    u_nom_x: Fixed<4>,
+    u_nom_y: Fixed<4>,
+    u_nom_z: Fixed<4>,
+    u_x: Fixed<4>,
+    u_y: Fixed<4>,
+    u_z: Fixed<4>,
+    filter_h_bar: Fixed<5>,
     n_constraints: u8,
     unavoidable: u8,
     infeasible: u8,
     mode: &'static str,
-    wind_x: Dec<4>,
-    wind_y: Dec<4>,
-    wind_z: Dec<4>,
+    wind_x: Fixed<4>,
+    wind_y: Fixed<4>,
+    wind_z: Fixed<4>,
 }
 
 impl TrajectoryRow {
     fn of(k: &Sample) -> Self {
-        let [ref_x, ref_y, ref_z] = ned_to_enu_arr(&k.ref_pos).map(Dec);
-        let [x, y, z] = ned_to_enu_arr(&k.pos).map(Dec);
-        let [vx, vy, vz] = ned_to_enu_arr(&k.vel).map(Dec);
-        let [roll, pitch, yaw] = k.rpy.map(Dec);
-        let [u_nom_x, u_nom_y, u_nom_z] = ned_to_enu_arr(&k.u_nominal).map(Dec);
-        let [u_x, u_y, u_z] = ned_to_enu_arr(&k.u_filtered).map(Dec);
-        let [wind_x, wind_y, wind_z] = ned_to_enu_arr(&k.wind).map(Dec);
+        let [ref_x, ref_y, ref_z] = ned_to_enu_arr(&k.ref_pos).map(Fixed);
+        let [x, y, z] = ned_to_enu_arr(&k.pos).map(Fixed);
+        let [vx, vy, vz] = ned_to_enu_arr(&k.vel).map(Fixed);
+        let [roll, pitch, yaw] = k.rpy.map(Fixed);
+        let [u_nom_x, u_nom_y, u_nom_z] = ned_to_enu_arr(&k.u_nominal).map(Fixed);
+        let [u_x, u_y, u_z] = ned_to_enu_arr(&k.u_filtered).map(Fixed);
+        let [wind_x, wind_y, wind_z] = ned_to_enu_arr(&k.wind).map(Fixed);
         let f = &k.filter;
         TrajectoryRow {
-            t: Dec(k.t),
+            t: Fixed(k.t),
             ref_x,
             ref_y,
             ref_z,
@@ -319,15 +311,15 @@ impl TrajectoryRow {
             region: region_name(f.region),
             active_obstacle: f.active_id,
             filter_active: u8::from(f.intervened),
-            clearance: Dec(k.clearance),
-            h_bar: Dec(k.h_bar),
+            clearance: Fixed(k.clearance),
+            h_bar: Fixed(k.h_bar),
             u_nom_x,
             u_nom_y,
             u_nom_z,
             u_x,
             u_y,
             u_z,
-            filter_h_bar: Dec(f64::from(f.h_bar)),
+            filter_h_bar: Fixed(f64::from(f.h_bar)),
             n_constraints: f.n_constraints,
             unavoidable: u8::from(f.unavoidable),
             infeasible: u8::from(f.infeasible),

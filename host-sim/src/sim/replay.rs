@@ -40,16 +40,48 @@
 //! [`MIN_DT_S`, `MAX_DT_S`] and at most `MAX_PLANT_STEPS` integration steps,
 //! so a replay's time and memory are bounded by its input.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
 
-use crate::input::{limits, InputError};
+use crate::input::{limits, Fixed, InputError};
 use crate::sim::plant::{Plant, VehicleParams};
 
 /// One input sample: time (s) and rotor speeds (rad/s, rotors 1..4).
 pub type RotorSample = (f64, [f64; 4]);
+
+/// Columns of the input CSV.
+const ROTOR_COLUMNS: [&str; 5] = ["t", "w1", "w2", "w3", "w4"];
+
+/// One input row (serde record of the input CSV).
+#[derive(Deserialize)]
+struct RotorRow {
+    t: f64,
+    w1: f64,
+    w2: f64,
+    w3: f64,
+    w4: f64,
+}
+
+/// One output row: the state at a row's time (serde record of the output CSV).
+#[derive(Serialize)]
+struct StateRow {
+    t: Fixed<6>,
+    x: Fixed<9>,
+    y: Fixed<9>,
+    z: Fixed<9>,
+    vx: Fixed<9>,
+    vy: Fixed<9>,
+    vz: Fixed<9>,
+    qw: Fixed<9>,
+    qx: Fixed<9>,
+    qy: Fixed<9>,
+    qz: Fixed<9>,
+    p: Fixed<9>,
+    q: Fixed<9>,
+    r: Fixed<9>,
+}
 
 /// Largest |t| accepted, s: room for a Unix-time clock (1.7e9 s), small enough
 /// that the gaps between rows keep µs resolution in `f64`.
@@ -59,26 +91,45 @@ const MAX_ABS_TIME_S: f64 = 1e10;
 /// and the allowed range; the row count and time span are capped (module docs).
 pub fn parse_rotor_csv(src: &str) -> Result<Vec<RotorSample>, String> {
     let mut out: Vec<RotorSample> = Vec::new();
-    let mut lines = src.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let Some((_, header)) = lines.next() else {
+    let mut reader =
+        csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(true).from_reader(src.as_bytes());
+    let header = reader.headers().map_err(|e| format!("line 1: {e}"))?.clone();
+    if header.is_empty() || header.iter().all(str::is_empty) {
         return Err("empty file (expected header `t,w1,w2,w3,w4`)".into());
-    };
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    if cols != ["t", "w1", "w2", "w3", "w4"] {
-        return Err(format!("line 1: header must be `t,w1,w2,w3,w4`, got `{}`", header.trim()));
     }
-    for (i, line) in lines {
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        if fields.len() != 5 {
-            return Err(format!("line {}: expected 5 columns, got {}", i + 1, fields.len()));
+    if header.iter().ne(ROTOR_COLUMNS) {
+        return Err(format!(
+            "line 1: header must be `t,w1,w2,w3,w4`, got `{}`",
+            header.iter().collect::<Vec<_>>().join(",")
+        ));
+    }
+    for rec in reader.records() {
+        let rec = rec.map_err(|e| e.to_string())?;
+        let line = rec.position().map_or(0, |p| p.line());
+        if rec.len() == 1 && rec.get(0) == Some("") {
+            continue; // a line of blanks
         }
-        let mut v = [0.0; 5];
-        for (k, f) in fields.iter().enumerate() {
-            v[k] =
-                f.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                    format!("line {}: column `{}`: not a finite number: `{f}`", i + 1, cols[k])
-                })?;
+        if rec.len() != 5 {
+            return Err(format!("line {line}: expected 5 columns, got {}", rec.len()));
         }
+        let row: RotorRow = rec.deserialize(Some(&header)).map_err(|_| {
+            // Name the first field that is not a number.
+            let k = rec.iter().position(|f| f.parse::<f64>().is_err()).unwrap_or(0);
+            format!(
+                "line {line}: column `{}`: not a finite number: `{}`",
+                ROTOR_COLUMNS[k],
+                rec.get(k).unwrap_or("")
+            )
+        })?;
+        let v = [row.t, row.w1, row.w2, row.w3, row.w4];
+        if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+            return Err(format!(
+                "line {line}: column `{}`: not a finite number: `{}`",
+                ROTOR_COLUMNS[k],
+                rec.get(k).unwrap_or("")
+            ));
+        }
+        let i = line as usize - 1;
         if v[1..].iter().any(|w| *w < 0.0) {
             return Err(format!("line {}: rotor speeds must be >= 0", i + 1));
         }
@@ -211,7 +262,7 @@ pub fn replay(
             plant.set_rotor_speeds(w0);
         }
     }
-    let mut out = String::from("t,x,y,z,vx,vy,vz,qw,qx,qy,qz,p,q,r\n");
+    let mut out = csv::Writer::from_writer(Vec::new());
     let mut t = inputs.first().map(|s| s.0).unwrap_or(0.0);
     for (k, (tk, w)) in inputs.iter().enumerate() {
         // Integrate up to this row's time with the previous row's speeds.
@@ -226,36 +277,36 @@ pub fn replay(
             }
             t = *tk;
         }
-        write_state(&mut out, *tk, &plant);
+        out.serialize(state_row(*tk, &plant)).map_err(|e| e.to_string())?;
         if opts.motor_lag {
             plant.set_rotor_speed_commands(*w);
         } else {
             plant.set_rotor_speeds(*w);
         }
     }
-    Ok(out)
+    let bytes = out.into_inner().map_err(|e| e.to_string())?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
 }
 
-fn write_state(out: &mut String, t: f64, plant: &Plant) {
+fn state_row(t: f64, plant: &Plant) -> StateRow {
     let s = &plant.state;
     let q = s.att.quaternion();
-    let _ = writeln!(
-        out,
-        "{t:.6},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9}",
-        s.pos.x,
-        s.pos.y,
-        s.pos.z,
-        s.vel.x,
-        s.vel.y,
-        s.vel.z,
-        q.w,
-        q.i,
-        q.j,
-        q.k,
-        s.rates.x,
-        s.rates.y,
-        s.rates.z
-    );
+    StateRow {
+        t: Fixed(t),
+        x: Fixed(s.pos.x),
+        y: Fixed(s.pos.y),
+        z: Fixed(s.pos.z),
+        vx: Fixed(s.vel.x),
+        vy: Fixed(s.vel.y),
+        vz: Fixed(s.vel.z),
+        qw: Fixed(q.w),
+        qx: Fixed(q.i),
+        qy: Fixed(q.j),
+        qz: Fixed(q.k),
+        p: Fixed(s.rates.x),
+        q: Fixed(s.rates.y),
+        r: Fixed(s.rates.z),
+    }
 }
 
 #[cfg(test)]
