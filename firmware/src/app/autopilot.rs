@@ -1,6 +1,6 @@
 //! The boundary between the firmware's tasks and the flight-control cascade.
 //!
-//! Tasks talk to the cascade only through [`FlightStack`] (and [`ControlSteps`]), so the task logic (link dispatch, loop
+//! Tasks talk to the cascade only through [`Autopilot`] (and [`ControlSteps`]), so the task logic (link dispatch, loop
 //! scheduling, lockstep) is tested on the host against a test double, and the real cascade
 //! (`parapet_core::controller::FlightController`) plugs in through one adapter
 //! ([`crate::app::cascade`]).
@@ -182,10 +182,10 @@ impl TelemetrySnapshot {
     };
 }
 
-/// The flight-control cascade as the link sees it (named `FlightStack`, not `Autopilot`: the
-/// host simulator's `Autopilot` is a different trait). Every method is bounded in time and
-/// never panics; bad inputs get the cascade's defined safe response.
-pub trait FlightStack {
+/// The flight-control cascade as the link sees it (the host simulator's trait of the same role
+/// is `parapet_sim::flight::stack::FlightStack`). Every method is bounded in time and never
+/// panics; bad inputs get the cascade's defined safe response.
+pub trait Autopilot {
     /// New position/velocity estimate.
     fn update_position(&mut self, fix: &PositionFix);
     /// Replaces the obstacle points (world NED) seen at `now_us`.
@@ -202,9 +202,9 @@ pub trait FlightStack {
     fn get_param(&self, name: &str) -> Option<f32>;
 }
 
-/// Both loops in one context (the lockstep PIL step, host tests): [`FlightStack`] plus the
+/// Both loops in one context (the lockstep PIL step, host tests): [`Autopilot`] plus the
 /// control steps.
-pub trait ControlSteps: FlightStack {
+pub trait ControlSteps: Autopilot {
     /// Inner loop: estimator + attitude + rate control + mixer. `now_us`: firmware clock, µs.
     fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
     /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
@@ -213,7 +213,7 @@ pub trait ControlSteps: FlightStack {
 
 #[cfg(test)]
 pub(crate) mod test_double {
-    //! A recording [`FlightStack`] for the task-logic tests.
+    //! A recording [`Autopilot`] for the task-logic tests.
     use super::*;
     use std::vec::Vec;
 
@@ -248,7 +248,7 @@ pub(crate) mod test_double {
         }
     }
 
-    impl FlightStack for RecordingAutopilot {
+    impl Autopilot for RecordingAutopilot {
         fn update_position(&mut self, fix: &PositionFix) {
             self.fixes.push(*fix);
         }

@@ -4,7 +4,7 @@
 //! - [`OuterStage`]: `parapet_core::outer::OuterLoop` (guidance, PD tracking, CBF filter,
 //!   thrust/attitude map, supervisor) plus the parameter set a ground station edits. It takes
 //!   everything the link delivers (fixes, obstacles, path, commands, parameters) through
-//!   [`OuterPort`], its [`FlightStack`] view, and publishes attitude commands, the estimator aid
+//!   [`OuterPort`], its [`Autopilot`] view, and publishes attitude commands, the estimator aid
 //!   and the telemetry snapshot.
 //! - [`InnerStage`]: `parapet_core::inner::InnerLoop` (estimator, attitude and rate control,
 //!   mixer). Each step takes the queued commands, the latest aid and a new parameter set if
@@ -38,8 +38,8 @@ use parapet_core::wire::codes;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{
-    CommandRejected, ControlSteps, Failsafe, FlightPhase, FlightStack, ImuSample, MotorCommand,
-    ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand, ParamRejected,
+    PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
 };
 use crate::app::mailbox::Mailboxes;
 
@@ -96,7 +96,7 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
     }
 }
 
-/// The outer stage (see the module docs); its [`FlightStack`] view is [`OuterPort`].
+/// The outer stage (see the module docs); its [`Autopilot`] view is [`OuterPort`].
 #[derive(Clone, Debug)]
 pub struct OuterStage {
     outer: OuterLoop,
@@ -160,7 +160,7 @@ impl OuterStage {
         snapshot(self.outer.telemetry(), &self.estimate)
     }
 
-    /// The [`FlightStack`] view of this stage, publishing to `mb`.
+    /// The [`Autopilot`] view of this stage, publishing to `mb`.
     pub fn port<'a, M: RawMutex>(&'a mut self, mb: &'a Mailboxes<M>) -> OuterPort<'a, M> {
         OuterPort { stage: self, mb }
     }
@@ -190,7 +190,7 @@ impl<M: RawMutex> OuterPort<'_, M> {
     }
 }
 
-impl<M: RawMutex> FlightStack for OuterPort<'_, M> {
+impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
     fn update_position(&mut self, fix: &PositionFix) {
         let s = &mut *self.stage;
         s.outer.update_position(CoreFix {
@@ -362,7 +362,7 @@ impl ControlSteps for Cascade {
     }
 }
 
-impl FlightStack for Cascade {
+impl Autopilot for Cascade {
     fn update_position(&mut self, fix: &PositionFix) {
         self.port().update_position(fix);
     }

@@ -13,7 +13,7 @@
 
 use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA};
 
-use crate::app::autopilot::{CommandRejected, FlightStack, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
@@ -66,7 +66,7 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
 
 /// Handles a COMMAND_LONG addressed to `own_system`: executes it and returns the COMMAND_ACK, or
 /// `None` when the command is for another system.
-pub fn handle_command<A: FlightStack>(
+pub fn handle_command<A: Autopilot>(
     cmd: &COMMAND_LONG_DATA,
     own_system: u8,
     now_us: u64,

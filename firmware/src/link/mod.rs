@@ -4,7 +4,7 @@
 //! ([`obstacles`]), parameters ([`params`]) and telemetry streams ([`telemetry`]).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
-//! `parapet_core::wire`), `mavlink`, [`crate::app`] (the `FlightStack` boundary). Not the PIL
+//! `parapet_core::wire`), `mavlink`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
 //! application, drivers or boards.
 
 pub mod command;

@@ -34,7 +34,7 @@ use parapet_core::nalgebra::Rotation3;
 use parapet_core::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
 use parapet_core::Vec3;
 
-use crate::app::autopilot::FlightStack;
+use crate::app::autopilot::Autopilot;
 
 /// `obstacle_id` that marks an empty batch ("no obstacles").
 pub use parapet_core::wire::ids::CLEAR_ID;
@@ -136,7 +136,7 @@ impl ObstacleAssembler {
 
     /// OBSTACLE_DISTANCE_3D at `now_us`: adds the point to its batch (closing the previous
     /// batch first when `time_boot_ms` changed).
-    pub fn on_point<A: FlightStack>(&mut self, msg: &OBSTACLE_DISTANCE_3D_DATA, now_us: u64, ap: &mut A) {
+    pub fn on_point<A: Autopilot>(&mut self, msg: &OBSTACLE_DISTANCE_3D_DATA, now_us: u64, ap: &mut A) {
         if self.batch_time_ms.is_some_and(|t| t != msg.time_boot_ms) {
             self.flush(now_us, ap);
         }
@@ -179,7 +179,7 @@ impl ObstacleAssembler {
     }
 
     /// Hands the open batch (if any) to the cascade and closes it.
-    pub fn flush<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn flush<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         if self.batch_time_ms.take().is_some() {
             ap.update_obstacles(now_us, self.batch.as_slice());
             self.batch.clear();
@@ -188,7 +188,7 @@ impl ObstacleAssembler {
     }
 
     /// Flushes a batch whose last point is older than [`BATCH_TIMEOUT_US`].
-    pub fn poll<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn poll<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         if self.batch_time_ms.is_some() && now_us.saturating_sub(self.last_point_us) >= BATCH_TIMEOUT_US {
             self.flush(now_us, ap);
         }

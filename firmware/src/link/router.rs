@@ -24,7 +24,7 @@ use mavlink::dialects::ardupilotmega::{
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
-use crate::app::autopilot::{FlightStack, ImuSample, PositionFix};
+use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
 use crate::link::command::handle_command;
 use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
 use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
@@ -139,7 +139,7 @@ fn param_value(index: usize, value: f32) -> Outbound {
 }
 
 impl Router {
-    fn param_reply<A: FlightStack>(&mut self, index: Option<usize>, ap: &mut A) {
+    fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
         let found = index.and_then(|i| {
             let p = crate::link::params::TABLE.get(i)?;
             ap.get_param(p.name).map(|v| (i, v))
@@ -156,7 +156,7 @@ impl Router {
         }
     }
 
-    fn mission_reply<A: FlightStack>(&mut self, r: MissionReply, ap: &mut A) {
+    fn mission_reply<A: Autopilot>(&mut self, r: MissionReply, ap: &mut A) {
         match r {
             MissionReply::Request(q) => self.reply(Outbound::MissionRequestInt(q)),
             MissionReply::Ack(a) => self.reply(Outbound::MissionAck(a)),
@@ -176,11 +176,11 @@ impl Router {
         }
     }
 
-    fn on_frame<A: FlightStack>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
+    fn on_frame<A: Autopilot>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
         self.on_received(Received::of(f), now_us, ap);
     }
 
-    fn on_received<A: FlightStack>(&mut self, r: Received, now_us: u64, ap: &mut A) {
+    fn on_received<A: Autopilot>(&mut self, r: Received, now_us: u64, ap: &mut A) {
         let (msg, f) = match r {
             Received::Message(m) => (m.msg, FrameSender { sys_id: m.sys_id, comp_id: m.comp_id }),
             Received::Undecodable(DecodeError::NotHandled) => {
@@ -339,26 +339,26 @@ impl Link {
     }
 
     /// Feeds one received byte at firmware time `now_us`.
-    pub fn push_byte<A: FlightStack>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
+    pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
         self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| router.on_frame(f, now_us, ap));
     }
 
     /// Handles one frame decoded elsewhere (a board's receiving task, [`Received::of`]) at
     /// firmware time `now_us`; same effect as the frame's bytes through [`Link::push_bytes`].
-    pub fn receive<A: FlightStack>(&mut self, r: Received, now_us: u64, ap: &mut A) {
+    pub fn receive<A: Autopilot>(&mut self, r: Received, now_us: u64, ap: &mut A) {
         self.router.on_received(r, now_us, ap);
     }
 
     /// Feeds received bytes at firmware time `now_us`.
-    pub fn push_bytes<A: FlightStack>(&mut self, bytes: &[u8], now_us: u64, ap: &mut A) {
+    pub fn push_bytes<A: Autopilot>(&mut self, bytes: &[u8], now_us: u64, ap: &mut A) {
         for &b in bytes {
             self.push_byte(b, now_us, ap);
         }
     }
 
     /// Periodic work (call at ≥ 10 Hz): mission retries, obstacle batch timeout.
-    pub fn poll<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn poll<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         if let Some(r) = self.router.mission.poll(now_us) {
             self.router.mission_reply(r, ap);
         }
@@ -366,7 +366,7 @@ impl Link {
     }
 
     /// Closes the open obstacle batch (lockstep: on every HIL_SENSOR).
-    pub fn flush_obstacles<A: FlightStack>(&mut self, now_us: u64, ap: &mut A) {
+    pub fn flush_obstacles<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         self.router.obstacles.flush(now_us, ap);
     }
 

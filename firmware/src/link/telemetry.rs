@@ -305,7 +305,7 @@ pub fn name_is<const N: usize>(field: &mavlink::types::CharArray<N>, key: &str) 
 mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
-    use crate::app::autopilot::FlightStack;
+    use crate::app::autopilot::Autopilot;
     use std::vec::Vec;
 
     fn inputs(ap: &RecordingAutopilot) -> TelemetryInputs {

@@ -27,7 +27,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{calculate_crc, MavlinkVersion, MessageData, MAV_STX_V2};
 use parapet_core::controller::ControllerParams;
-use parapet_firmware::app::autopilot::FlightStack;
+use parapet_firmware::app::autopilot::Autopilot;
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::frame_parser::{FrameParser, WORK_PER_BYTE};
 use parapet_firmware::pil::lockstep::InstructionCalibration;
