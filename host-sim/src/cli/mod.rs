@@ -203,18 +203,10 @@ pub struct ReplayArgs {
     ground: bool,
 }
 
-/// The help line of a controller option with its built-in default (from the
-/// core's constants, shortest decimals).
+/// The help line of a controller option with its built-in default (the parameter
+/// table's, shortest decimals).
 fn default_help(what: &str, name: &str) -> String {
-    let c = parapet_core::cbf::CbfParams::default();
-    let f = crate::input::f32_as_f64;
-    let d = match name {
-        "mu" => f(c.mu),
-        "delta" => f(c.delta),
-        "delta1" => f(c.delta1),
-        "kp" => crate::flight::runner::DEFAULT_KP,
-        _ => crate::flight::runner::DEFAULT_KD,
-    };
+    let d = crate::flight::runner::table_default(name);
     format!("{what} [default: the scene's [controller] {name}, else {d}]")
 }
 
