@@ -37,6 +37,11 @@ pub struct InstructionFigures {
     pub mean_outer_loop: f64,
     /// The outer step alone, max.
     pub max_outer_loop: u64,
+    /// Longest section with interrupts masked in any flight step (the firmware's
+    /// `ins_masked`: its critical sections, i.e. mailbox message copies), instructions.
+    pub max_masked: u64,
+    /// Flight steps that reported `ins_masked`.
+    pub masked_steps: u64,
     /// Steps counted.
     pub steps: u64,
     /// Calibration: instructions of the calibration loop (`ins_cal_n`).
