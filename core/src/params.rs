@@ -282,7 +282,7 @@ pub const TABLE: [Param; COUNT] = [
         unit: "m/s",
         default: 0.25,
         min: 0.001,
-        max: 100.0,
+        max: crate::outer::waypoint::PARAM_LIMIT,
         integer: false,
         decimals: 2,
         group: "Mission",
@@ -502,7 +502,6 @@ pub fn set(p: &mut ControllerParams, name: &str, value: f32) -> Result<f32, Para
 pub fn consistency(p: &ControllerParams) -> Result<(), ParamError> {
     p.validate()
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -102,8 +102,7 @@ pub struct RunArgs {
     kp: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = default_help("PD velocity gain k_d, 1/s", "kd"))]
     kd: Option<f64>,
-    #[arg(long, allow_negative_numbers = true, help = format!(
-        "Reference speed along the path, m/s, in (0, {}] [default: the scene's]", limits::MAX_SPEED_MPS))]
+    #[arg(long, allow_negative_numbers = true, help = speed_help())]
     speed: Option<f64>,
     /// Random seed (sensor noise and planner).
     #[arg(long, default_value_t = 0)]
@@ -201,6 +200,12 @@ pub struct ReplayArgs {
     /// Simulate the ground plane z = 0 (default off: free space).
     #[arg(long)]
     ground: bool,
+}
+
+/// The help line of `--speed` with the parameter table's range.
+fn speed_help() -> String {
+    let range = parapet_core::params::by_key("speed").map(|p| p.range().to_string()).unwrap_or_default();
+    format!("Reference speed along the path, m/s, {range} [default: the scene's]")
 }
 
 /// The help line of a controller option with its built-in default (the parameter

@@ -14,9 +14,9 @@
 //! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
-use parapet_core::params;
 use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
+use parapet_core::params;
 use parapet_core::waypoint::{self, PathError};
 
 use crate::flight::runner::{controller_params, RunConfig};
@@ -282,7 +282,7 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .table("mission")
                 .field("speed")
                 .value(num(scene.speed))
-                .allowed(format!("0 < speed ≤ {} m/s", waypoint::PARAM_LIMIT))
+                .allowed(params::by_key("speed").map(|p| p.range().to_string()).unwrap_or_default())
         }
         ParamError::Tracking => InputError::file(file, "PD gains rejected by the tracking controller")
             .table("controller")
@@ -481,7 +481,8 @@ speed = 0.5
         let (s, base) = setup("");
         for name in ["mu", "delta", "kp", "kd"] {
             let range = params::by_key(name).unwrap();
-            for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)] {
+            for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)]
+            {
                 let mut cfg = base.clone();
                 match name {
                     "mu" => cfg.params.mu = x,

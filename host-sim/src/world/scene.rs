@@ -133,11 +133,13 @@ impl Scene {
                 return Err(err(format!("[mission]: field `{field}`: {a:?} is outside the bounds")));
             }
         }
-        let speed_range = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
-        if !(raw.mission.speed > 0.0 && raw.mission.speed <= limits::MAX_SPEED_MPS) {
+        // The reference speed's range is the parameter table's (WP_SPEED).
+        let speed = parapet_core::params::by_key("speed");
+        if !speed.is_some_and(|p| super::schema::param_accepts(p, raw.mission.speed)) {
+            let range = speed.map_or_else(String::new, |p| p.range().to_string());
             return Err(err(format!(
                 "[mission]: {}",
-                bad("speed", "reference speed out of range", raw.mission.speed, &speed_range)
+                bad("speed", "reference speed out of range", raw.mission.speed, &range)
             )));
         }
         let vehicle = raw.vehicle.unwrap_or_default();
