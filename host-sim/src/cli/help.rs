@@ -3,7 +3,7 @@
 //! examples and exit codes. Every number comes from the constant that the code
 //! enforces ([`crate::input::limits`], the core's defaults), never retyped.
 //!
-//! May import: `cli` (exit codes), `input`, `validate`, `runner`.
+//! May import: `cli` (exit codes), `input`, `flight::{validate, runner}`.
 
 use crate::cli::{DEFAULT_SCENE, EXIT_CODES_HELP};
 use crate::input::limits as l;

@@ -40,6 +40,9 @@
 //! [`NearestTracker`]: obstacles that provably cannot matter are skipped, the
 //! results are the same as the full scans' ([`nearest_with_ground`],
 //! [`sense_obstacles`], [`true_h_bar`]) bit for bit.
+//!
+//! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
+//! [`crate::report`] (samples, summary), [`super::stack`].
 
 use std::time::Instant;
 

@@ -11,7 +11,7 @@
 //!
 //! Owns: [`Given`], [`check_run`], and the words for the core's error enums
 //! ([`describe_param_error`], [`describe_path_error`], [`describe_command_error`]).
-//! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
+//! May import: `input`, `world::scene`, `flight::runner`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
 use parapet_core::controller::{CommandError, ControllerParams, ParamError};

@@ -29,6 +29,9 @@
 //! `MAX_POSITION_LATENCY_S` (0.1 s), noise ≤ `MAX_SENSOR_NOISE`, files ≤
 //! `MAX_INPUT_FILE_BYTES`. The duration cap depends on `--max-duration` and is
 //! checked by [`crate::flight::validate::check_run`].
+//!
+//! May import: `parapet-core`, [`super`]'s `schema`, `obstacle`, `frame`, `check`,
+//! [`crate::input`], [`crate::sim`] (vehicle, sensor and disturbance settings).
 
 use std::path::Path;
 

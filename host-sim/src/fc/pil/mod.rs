@@ -51,7 +51,7 @@
 //! are the wire contract `parapet_core::wire`, shared with the firmware.
 //!
 //! May import: `parapet-core`, mavlink, [`crate::flight`], [`crate::sim::sensors`],
-//! [`crate::world::scene`], [`crate::report`] (none yet); the children import each other
+//! [`crate::world::scene`]; the children import each other
 //! only downwards (link → gcs, telemetry, faults, qemu, firmware; twin → gcs).
 
 pub mod faults;
