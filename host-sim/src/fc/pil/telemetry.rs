@@ -152,17 +152,15 @@ impl FirmwareTelemetry {
         OuterOut {
             reference: to_f64(&s.position),
             // The fields the firmware reports (CBF, CBF_FLAGS); it sends neither n_near nor
-            // the fault kind (the region says Fault).
+            // the fault kind (the region says Fault), which keep the core's initial values.
             filter: FilterDiagnostics {
-                region: f.region,
                 active_id: f.active,
                 h_bar: f.h_bar,
                 intervened: f.flags.intervened,
                 n_constraints: f.flags.n_constraints,
-                n_near: 0,
                 unavoidable: f.flags.unavoidable,
                 infeasible: f.flags.infeasible,
-                fault: None,
+                ..FilterDiagnostics::new(f.region)
             },
             path_done: s.progress.done,
             u_nominal: f.u_nominal,
