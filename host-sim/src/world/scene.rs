@@ -42,7 +42,7 @@ pub use super::frame::{enu_arr_to_ned, ned_to_enu_arr, to_f32, to_f64};
 pub use super::obstacle::{reference_point, Motion, SceneObstacle};
 pub(crate) use super::schema::describe_toml_error;
 use super::schema::{bad, convert_obstacle, validate_controller, validate_sensors, within_limit, RawScene};
-pub use super::schema::{ControllerOverrides, SimSettings, FILTER_NAMES};
+pub use super::schema::{ControllerOverrides, SimSettings};
 use crate::input::{limits, InputError};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
