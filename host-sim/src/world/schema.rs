@@ -1,7 +1,7 @@
 //! The scene file's schema: the TOML tables as serde reads them
-//! ([`RawScene`] and its parts, [`ControllerOverrides`], [`SimSettings`]), the
+//! (`RawScene` and its parts, [`ControllerOverrides`], [`SimSettings`]), the
 //! per-table checks and the conversion of an obstacle table to a
-//! [`SceneObstacle`], and the error texts ("line N, <table>, field `k`: …").
+//! [`SceneObstacle`], and the error texts (`line N, <table>, field k: …`).
 //!
 //! Owns the file format (documented in `scenes/README.md`). May import:
 //! `parapet-core` (shapes), [`crate::input`] (limits, number format),

@@ -87,7 +87,7 @@ pub struct PilFigures {
     pub injected_corrupted: u64,
     /// Host frames dropped on purpose (fault injection, HIL_SENSORs included).
     pub injected_dropped: u64,
-    /// HIL_SENSORs re-sent after [`PilOptions::resend_after`] without an answer.
+    /// HIL_SENSORs re-sent after [`PilOptions::resend_after`](super::PilOptions::resend_after) without an answer.
     pub steps_resent: u64,
     /// Lockstep steps of the flight (after the start-up).
     pub flight_steps: u64,

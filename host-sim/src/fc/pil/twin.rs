@@ -20,12 +20,12 @@ use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
 
-/// The pure-host counterpart of [`PilLink`]: the same `parapet-core` `FlightController`, built
+/// The pure-host counterpart of [`PilLink`](super::PilLink): the same `parapet-core` `FlightController`, built
 /// with the firmware's parameters ([`firmware_params`]), driven with the firmware's lockstep
 /// sequence (pre-roll, commands at the previous step's time, obstacle batch closed at the step,
 /// inner step before the outer step, fixes with the yaw the firmware decodes from ODOMETRY's
 /// quaternion, quantised path). Flying a scene with
-/// this and with [`PilLink`] isolates what the ARM build and the link change.
+/// this and with `PilLink` isolates what the ARM build and the link change.
 pub struct FirmwareTwin {
     fc: FlightController,
     cbf: bool,
