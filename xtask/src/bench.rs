@@ -16,11 +16,11 @@
 //! share of a 4 ms control period the host cascade uses.
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Instant, SystemTime};
 
-use crate::{cargo, root};
+use crate::{cargo, root, target_dir};
 
 /// One benchmark result read from criterion's files.
 #[derive(Clone, Debug)]
@@ -35,10 +35,6 @@ struct Estimate {
     ci_ns: (f64, f64),
     /// Median absolute deviation of the samples, ns.
     mad_ns: f64,
-}
-
-fn target_dir() -> PathBuf {
-    std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"))
 }
 
 /// Run a cargo command, echoing its stdout line by line, and return the lines.

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::{cargo, root, TARGET};
+use crate::{cargo, root, target_dir, TARGET};
 
 /// Longest run of the program in QEMU (it takes well under a second), s.
 const TIMEOUT_S: u64 = 600;
@@ -22,14 +22,13 @@ pub const CHECK_LINES: [&str; 2] = ["fmath check vs host:", "fmath check vs targ
 
 /// The program's ELF (its own target dir under the workspace's `target/`, git-ignored).
 fn elf() -> PathBuf {
-    target_dir().join(TARGET).join("release").join("parapet-bench-m4")
+    m4_target_dir().join(TARGET).join("release").join("parapet-bench-m4")
 }
 
-fn target_dir() -> PathBuf {
-    std::env::var("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| root().join("target"))
-        .join("cortex-m4")
+/// `cortex-m4/` under the workspace's target dir: the program is its own workspace, so it
+/// gets its own build directory.
+fn m4_target_dir() -> PathBuf {
+    target_dir().join("cortex-m4")
 }
 
 /// Builds `tests/cortex-m4` (release, the firmware's settings) and runs it in QEMU: its output
@@ -37,7 +36,7 @@ fn target_dir() -> PathBuf {
 pub fn build_and_run() -> Result<(Vec<String>, ExitStatus), String> {
     let dir = root().join("tests").join("cortex-m4");
     let mut build = cargo();
-    build.args(["build", "--release", "--target-dir"]).arg(target_dir()).current_dir(&dir);
+    build.args(["build", "--release", "--target-dir"]).arg(m4_target_dir()).current_dir(&dir);
     eprintln!("\n== xtask: build the Cortex-M4F check and instruction-count program (tests/cortex-m4)\n   $ {build:?}");
     let status = build.status().map_err(|e| format!("cargo build in {}: {e}", dir.display()))?;
     if !status.success() {

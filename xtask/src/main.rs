@@ -143,7 +143,7 @@ fn slurm_test() -> Result<(), String> {
     }
     // The host tests have just built it (parapet-sim's CLI tests run the binary); build it
     // only when it is not there, so the step does not rebuild with other features.
-    let bin = root().join("target/debug/parapet");
+    let bin = target_dir().join("debug").join("parapet");
     if !bin.is_file() {
         run(
             "build parapet (test profile)",
@@ -153,11 +153,15 @@ fn slurm_test() -> Result<(), String> {
     run("Slurm job-array campaign test", Command::new(root().join("host-sim/slurm/ci_test.sh")).arg(bin))
 }
 
+/// Cargo's target directory: `CARGO_TARGET_DIR` when set, else `target/` of the workspace.
+/// Every path to a built artifact goes through it.
+pub(crate) fn target_dir() -> PathBuf {
+    std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"))
+}
+
 fn firmware_elf(features: Option<&str>) -> PathBuf {
-    let target_dir =
-        std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"));
     let name = if features == Some("board-qemu") { "parapet-firmware-qemu" } else { "parapet-firmware" };
-    target_dir.join(TARGET).join("release").join(name)
+    target_dir().join(TARGET).join("release").join(name)
 }
 
 fn build_firmware() -> Result<PathBuf, String> {
