@@ -14,7 +14,7 @@
 //!   fix (motion capture, VIO, simulator). Between fixes the outer loop uses the
 //!   fix extrapolated with its velocity: `p = p_fix + ṗ_fix·age`.
 //! * [`FlightController::update_obstacles`] replaces the obstacle set (capacity
-//!   [`OBSTACLE_CAPACITY`] = 32, nearest kept, see [`ObstacleSet`]). An empty
+//!   [`OBSTACLE_CAPACITY`] = 32, most critical kept, see [`crate::obstacle_set`]). An empty
 //!   update means "the sensor sees nothing" and keeps the obstacle data fresh;
 //!   no update for longer than the limit is a data loss (failsafe), unless
 //!   `failsafe.obstacles_required` is `false` (flights without an obstacle source).
@@ -58,7 +58,8 @@ use crate::failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, Failsafe
 use crate::fmath::{maxf, minf, norm3};
 use crate::frame::{clampf, is_finite3, GRAVITY};
 use crate::mixer::{Mixer, MixerError, MixerOutput};
-use crate::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
+use crate::obstacle::{ObstaclePoint, ObstacleSet};
+use crate::obstacle_set::{self, Ranking, SetReport};
 use crate::thrust::{map_acceleration, AttitudeSetpoint, ThrustParams};
 use crate::tracking::{PdTracker, Reference, TrackingParams};
 use crate::waypoint::{PathError, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY};
@@ -335,6 +336,8 @@ pub struct Telemetry {
     pub obstacle_count: u8,
     /// Obstacle points dropped (set full) or rejected (non-finite) in the last update.
     pub obstacles_dropped: u8,
+    /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
+    pub obstacle_set: SetReport,
     /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
     pub non_finite_inputs: u32,
     /// Outer steps run.
@@ -497,6 +500,7 @@ impl FlightController {
             obstacle_age_us: None,
             obstacle_count: 0,
             obstacles_dropped: 0,
+            obstacle_set: SetReport::default(),
             non_finite_inputs: 0,
             outer_count: 0,
             inner_count: 0,
@@ -668,8 +672,9 @@ impl FlightController {
     }
 
     /// Replace the obstacle set with `obstacles` (closest surface points, NED),
-    /// valid at `now_us`. At most [`OBSTACLE_CAPACITY`] are kept (the nearest to
-    /// the vehicle); points (or velocities) that are non-finite or beyond ±[`INPUT_LIMIT`]
+    /// valid at `now_us`. At most [`OBSTACLE_CAPACITY`] are kept: the most critical
+    /// (multi variants) or the nearest (closest-obstacle variants), see
+    /// [`crate::obstacle_set`], which reports the drops in [`Telemetry::obstacle_set`]; points (or velocities) that are non-finite or beyond ±[`INPUT_LIMIT`]
     /// are dropped and count as a bad input, as does
     /// a `now_us` more than the obstacle timeout after the controller clock (the
     /// update is then ignored).
@@ -683,30 +688,31 @@ impl FlightController {
             .map(|(p, _)| p)
             .or(self.fix.map(|f| f.position))
             .unwrap_or_else(Vec3::zeros);
-        self.obstacles.clear();
-        let mut dropped = 0u8;
-        let mut fault = false;
-        for o in obstacles {
-            if !plausible(&o.point) || !o.velocity.is_none_or(|v| plausible(&v)) {
-                dropped = dropped.saturating_add(1);
-                fault = true;
-                continue;
-            }
-            match self.obstacles.insert_nearest(&vehicle, *o) {
-                InsertOutcome::Added | InsertOutcome::ReplacedFarthest => {}
-                InsertOutcome::DroppedFarther => dropped = dropped.saturating_add(1),
-                InsertOutcome::RejectedNonFinite => {
-                    dropped = dropped.saturating_add(1);
-                    fault = true;
-                }
-            }
-        }
-        if fault {
+        // Obstacle-set policy at capacity (crate::obstacle_set): the published nearest-first
+        // for the closest-obstacle variants, most critical first for the multi ones.
+        let v_est = self.position_estimate(now_us).map_or_else(Vec3::zeros, |(_, v)| v);
+        let variant = self.filter.variant;
+        let ranking = if variant.is_multi() {
+            Ranking::Critical { mu: self.filter.params.mu, relative: variant.uses_relative_velocity() }
+        } else {
+            Ranking::Nearest
+        };
+        let rep = obstacle_set::select(
+            &mut self.obstacles,
+            ranking,
+            self.filter.params.delta1,
+            &vehicle,
+            &v_est,
+            obstacles,
+        );
+        if rep.rejected > 0 {
             self.note_fault();
         }
         self.obstacle_t_us = Some(now_us);
         self.telemetry.obstacle_count = self.obstacles.len() as u8;
-        self.telemetry.obstacles_dropped = dropped;
+        self.telemetry.obstacles_dropped =
+            u8::try_from(rep.dropped.saturating_add(rep.rejected)).unwrap_or(u8::MAX);
+        self.telemetry.obstacle_set = rep;
     }
 
     /// Replace the path (waypoints NED, m; at most [`PATH_CAPACITY`]). Rejected paths

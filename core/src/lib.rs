@@ -13,6 +13,8 @@
 //! ## Modules
 //! - [`obstacle`]: obstacle geometry (closest surface point, signed distance)
 //!   and the fixed-capacity [`obstacle::ObstacleSet`] the filter reads.
+//! - [`obstacle_set`]: which offered points the set keeps at capacity (most
+//!   critical first, one per obstacle) and the report of what was dropped.
 //! - [`cbf`]: the closed-form Control Barrier Function safety filter
 //!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
 //! - [`tracking`]: PD position tracking (eq. 2).
@@ -39,6 +41,7 @@ pub mod fmath;
 pub mod frame;
 pub mod mixer;
 pub mod obstacle;
+pub mod obstacle_set;
 pub mod params;
 pub mod qp3;
 pub mod thrust;
