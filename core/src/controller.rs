@@ -60,6 +60,7 @@ use crate::frame::{clampf, is_finite3, GRAVITY};
 use crate::mixer::{Mixer, MixerError, MixerOutput};
 use crate::obstacle::{ObstaclePoint, ObstacleSet};
 use crate::obstacle_set::{self, Ranking, SetReport};
+use crate::robust::{lag_time_constant, PlantAware, RobustError, RobustParams, RobustTelemetry, StepInput};
 use crate::thrust::{map_acceleration, AttitudeSetpoint, ThrustParams};
 use crate::tracking::{PdTracker, Reference, TrackingParams};
 use crate::waypoint::{PathError, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY};
@@ -67,6 +68,12 @@ use crate::Vec3;
 
 /// Capacity of the controller's obstacle set.
 pub const OBSTACLE_CAPACITY: usize = 32;
+
+/// Tracking error above which a mission step can count towards a stall, m.
+pub const STALL_TRACKING_ERROR_M: f32 = 0.3;
+
+/// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
+pub const DEFAULT_HULL_RADIUS: f32 = 0.223_606_8;
 
 /// Capacity of the controller's path, waypoints.
 pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;
@@ -114,6 +121,12 @@ pub struct ControllerParams {
     pub cbf: CbfParams,
     /// Filter law. Default [`FilterVariant::default`].
     pub filter_variant: FilterVariant,
+    /// Plant-aware wrapping of the filter (lag, disturbance observer, ground and
+    /// ceiling, stall), used by every variant but `Paper`. Default [`RobustParams::default`].
+    pub robust: RobustParams,
+    /// Radius of the sphere bounding the vehicle, m: `cbf.delta` must be at least
+    /// its square (refused otherwise, [`ParamError::DeltaBelowHull`]). Default √0.05 m.
+    pub hull_radius: f32,
     /// Thrust/attitude mapping (eq. 4-5). `mass` must equal `airframe.mass`.
     pub thrust: ThrustParams,
     /// Attitude and rate loops. `inertia` must equal `airframe.inertia`.
@@ -161,6 +174,8 @@ impl Default for ControllerParams {
             tracking: TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.5, 0.8) },
             cbf: CbfParams::default(),
             filter_variant: FilterVariant::default(),
+            robust: RobustParams::default(),
+            hull_radius: DEFAULT_HULL_RADIUS,
             thrust: ThrustParams { mass: airframe.mass, ..ThrustParams::default() },
             attitude: AttitudeParams { inertia: airframe.inertia, ..AttitudeParams::default() },
             estimator: EstimatorParams::default(),
@@ -184,11 +199,21 @@ impl Default for ControllerParams {
 }
 
 /// Why parameters were rejected.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamError {
     /// CBF parameters.
     Cbf(CbfError),
+    /// Plant-aware wrapping parameters.
+    Robust(RobustError),
+    /// `cbf.delta` is below the squared hull radius: the filter would let obstacles
+    /// inside the hull. Both values are given (m²).
+    DeltaBelowHull {
+        /// The δ given, m².
+        delta: f32,
+        /// `hull_radius²`, m² (the smallest δ accepted).
+        hull_sq: f32,
+    },
     /// Attitude/rate parameters.
     Attitude(AttitudeError),
     /// Estimator parameters.
@@ -312,8 +337,11 @@ pub struct Telemetry {
     pub u_filtered: Vec3,
     /// Attitude/thrust setpoint for the inner loop.
     pub attitude_sp: AttitudeSetpoint,
-    /// Safety-filter diagnostics of the last outer step.
+    /// Safety-filter diagnostics of the last outer step (`h_bar` at the actual
+    /// state; the plant-aware variants evaluate the barriers at the predicted one).
     pub filter: FilterDiagnostics,
+    /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
+    pub robust: RobustTelemetry,
     /// Estimated attitude (Euler ZYX, rad).
     pub attitude: Euler,
     /// Estimated gyro bias, rad/s FRD.
@@ -361,6 +389,8 @@ pub struct FlightController {
     follower: WaypointFollower<PATH_CAPACITY>,
     tracker: PdTracker,
     filter: SafetyFilter,
+    /// `Some` for every variant but `Paper`.
+    plant: Option<PlantAware>,
     attitude: AttitudeController,
     estimator: AttitudeEstimator,
     mixer: Mixer,
@@ -393,6 +423,14 @@ impl ControllerParams {
     /// Check every parameter (see [`ParamError`]).
     pub fn validate(&self) -> Result<(), ParamError> {
         self.cbf.validate().map_err(ParamError::Cbf)?;
+        self.robust.validate().map_err(ParamError::Robust)?;
+        let hull_sq = self.hull_radius * self.hull_radius;
+        // A relative tolerance of 1e-6 accepts δ = r² computed in either precision.
+        if !(self.hull_radius.is_finite() && self.hull_radius > 0.0)
+            || self.cbf.delta < hull_sq * (1.0 - 1e-6)
+        {
+            return Err(ParamError::DeltaBelowHull { delta: self.cbf.delta, hull_sq });
+        }
         self.attitude.validate().map_err(ParamError::Attitude)?;
         self.estimator.validate().map_err(ParamError::Estimator)?;
         Mixer::new(&self.airframe).map_err(ParamError::Mixer)?;
@@ -469,8 +507,17 @@ impl FlightController {
     pub fn new(params: ControllerParams) -> Result<Self, ParamError> {
         params.validate()?;
         let mut cbf = params.cbf;
+        let mut plant = None;
         if params.filter_variant != FilterVariant::Paper {
             cbf.sample_time = maxf(cbf.sample_time, 1.0 / params.outer_rate_hz);
+            // Plant-aware (docs/filter.md §9-§12): class-K relaxation, and the observer's
+            // error bound ē joins the robust term A.
+            let rp = params.robust;
+            cbf.gamma = maxf(cbf.gamma, rp.gamma);
+            if rp.dob_bandwidth > 0.0 {
+                cbf.accel_bound += rp.dob_margin;
+            }
+            plant = Some(PlantAware::new(rp, lag_time_constant(&params.attitude, rp.motor_tau)));
         }
         let filter = SafetyFilter::new(cbf, params.filter_variant).map_err(ParamError::Cbf)?;
         let (_, diag0) = filter.apply(&Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), &[]);
@@ -489,6 +536,7 @@ impl FlightController {
             u_filtered: Vec3::zeros(),
             attitude_sp: AttitudeSetpoint::default(),
             filter: diag0,
+            robust: RobustTelemetry::default(),
             attitude: Euler::default(),
             gyro_bias: Vec3::zeros(),
             imu_status: ImuStatus::BadDt,
@@ -509,6 +557,7 @@ impl FlightController {
             follower: WaypointFollower::new(params.waypoint).map_err(ParamError::Waypoint)?,
             tracker: PdTracker::new(params.tracking),
             filter,
+            plant,
             attitude: AttitudeController::new(params.attitude).map_err(ParamError::Attitude)?,
             estimator: AttitudeEstimator::new(params.estimator).map_err(ParamError::Estimator)?,
             mixer: Mixer::new(&params.airframe).map_err(ParamError::Mixer)?,
@@ -805,6 +854,10 @@ impl FlightController {
         let origin = self.telemetry.reference.position;
         self.follower.start(origin).map_err(CommandError::Path)?;
         self.guidance = Guidance::Mission { t0_us: now_us };
+        self.telemetry.robust.deadlock = false;
+        if let Some(pa) = self.plant.as_mut() {
+            pa.reset_stall();
+        }
         Ok(())
     }
 
@@ -937,14 +990,51 @@ impl FlightController {
         let Some(reference) = reference else {
             self.telemetry.mode = mode;
             self.tracker.reset();
+            if let Some(pa) = self.plant.as_mut() {
+                pa.reset();
+            }
             return;
         };
         self.telemetry.reference = reference;
         let att = self.estimator.euler();
         match fresh {
             Some((p, v)) => {
-                let u_star = self.tracker.update(&reference, &p, &v, dt);
-                let (u, diag) = self.filter.apply(&p, &v, &u_star, self.obstacles.as_slice());
+                let u_pd = self.tracker.update(&reference, &p, &v, dt);
+                let (u_star, u, diag) = match self.plant.as_mut() {
+                    None => {
+                        let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.obstacles.as_slice());
+                        (u_pd, u, diag)
+                    }
+                    Some(pa) => {
+                        // Stall armed: flying the mission and held away from the reference
+                        // (the reference may have reached the goal; the vehicle has not).
+                        let running = mode == GuidanceMode::Mission
+                            && (p - reference.position).norm_squared()
+                                > STALL_TRACKING_ERROR_M * STALL_TRACKING_ERROR_M;
+                        let input = StepInput {
+                            now_us,
+                            dt,
+                            p,
+                            v,
+                            u_pd,
+                            obstacles: self.obstacles.as_slice(),
+                            boundaries: matches!(
+                                mode,
+                                GuidanceMode::Mission | GuidanceMode::Hold | GuidanceMode::Brake
+                            ),
+                            mission_running: running,
+                        };
+                        let (u_star, u, diag, mut rt) = pa.apply(&self.filter, &input);
+                        // Deadlock: latched until the next mission start; the vehicle holds
+                        // where it stalled (docs/filter.md §11).
+                        if rt.deadlock && !self.telemetry.robust.deadlock {
+                            self.guidance = Guidance::Hold(p);
+                        }
+                        rt.deadlock |= self.telemetry.robust.deadlock;
+                        self.telemetry.robust = rt;
+                        (u_star, u, diag)
+                    }
+                };
                 self.sp = map_acceleration(&self.params.thrust, &u, self.yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
                 tel.mode = mode;
@@ -968,6 +1058,9 @@ impl FlightController {
                     u -= v0 * (a_b / speed);
                 }
                 self.tracker.reset();
+                if let Some(pa) = self.plant.as_mut() {
+                    pa.open_loop(&u, dt);
+                }
                 self.sp = map_acceleration(&self.params.thrust, &u, self.yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
                 tel.mode = GuidanceMode::NoFix;

@@ -21,6 +21,8 @@
 //! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
 //! - [`fmath`]: square root (FPU instruction on the Cortex-M4F), min, max,
 //!   single-precision trigonometry.
+//! - [`robust`]: the plant-aware wrapping of the filter (actuation lag, disturbance
+//!   observer, ground/ceiling barriers, stall detection; issue 17).
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
 //!
 //! ## Unsafe code
@@ -44,6 +46,7 @@ pub mod obstacle;
 pub mod obstacle_set;
 pub mod params;
 pub mod qp3;
+pub mod robust;
 pub mod thrust;
 pub mod tracking;
 pub mod waypoint;

@@ -346,6 +346,21 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .table("vehicle")
                 .field("inertia")
         }
+        ParamError::DeltaBelowHull { delta, hull_sq } => InputError::file(
+            file,
+            format!(
+                "delta = {delta} m² is below the squared hull radius {hull_sq} m² \
+                 ([vehicle] hull_radius = {} m): the filter would let obstacles inside the hull",
+                num(v.hull_radius)
+            ),
+        )
+        .table("controller")
+        .field("delta")
+        .value(format!("{delta}"))
+        .allowed(format!("delta >= hull_radius² = {hull_sq} m²")),
+        ParamError::Robust(r) => {
+            InputError::file(file, format!("plant-aware filter parameters rejected: {r}")).table("controller")
+        }
         ParamError::Estimator(_) | ParamError::Failsafe | ParamError::Loop => InputError::file(
             file,
             "the flight controller's built-in parameters were rejected (a parapet bug)",
