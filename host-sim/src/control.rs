@@ -27,6 +27,7 @@ use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::WaypointParams;
 use parapet_core::Vec3;
 
+use crate::report::SafetyFlags;
 use crate::runner::RunConfig;
 use crate::scene::{to_f32, to_f64, Scene};
 use crate::sensors::{ImuReading, PositionReading};
@@ -68,6 +69,8 @@ pub struct OuterOut {
     pub infeasible: bool,
     /// Guidance mode of the controller (e.g. "Mission", "Brake").
     pub mode: &'static str,
+    /// Deadlock and obstacle-set flags (issue 17).
+    pub safety: SafetyFlags,
 }
 
 impl OuterOut {
@@ -87,6 +90,11 @@ impl OuterOut {
             unavoidable: tel.filter.unavoidable,
             infeasible: tel.filter.infeasible,
             mode: tel.mode.as_str(),
+            safety: SafetyFlags {
+                deadlock: tel.robust.deadlock,
+                obstacles_dropped: tel.obstacle_set.dropped,
+                obstacles_dropped_near: tel.obstacle_set.dropped_near,
+            },
         }
     }
 }
@@ -170,7 +178,12 @@ pub struct Controller {
 impl Controller {
     /// Build the controller and give it the path. Errors name the rejected parameter or path.
     pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
-        let params = controller_params(scene, cfg, cbf, cfg.variant);
+        Self::with_params(scene, cfg, controller_params(scene, cfg, cbf, cfg.variant))
+    }
+
+    /// [`new`](Self::new) with explicit controller parameters (e.g. [`controller_params`]
+    /// with a slowed attitude loop, for tests).
+    pub fn with_params(scene: &Scene, cfg: &RunConfig, params: ControllerParams) -> Result<Self> {
         let mut fc = FlightController::new(params)
             .map_err(|e| anyhow!("{}", crate::validate::describe_param_error(scene, &params, e)))?;
         let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();

@@ -1010,6 +1010,8 @@ impl Autopilot for PilLink {
             unavoidable: f.flags & 2 != 0,
             infeasible: f.flags & 4 != 0,
             mode: phase_mode(self.phase),
+            // Not carried by the link's filter message.
+            safety: crate::report::SafetyFlags::default(),
         }
     }
 

@@ -147,6 +147,8 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
                 filter_active_steps: count(&|x| x.filter_active),
                 unavoidable_steps: count(&|x| x.unavoidable),
                 infeasible_steps: count(&|x| x.infeasible),
+                deadlock_steps: count(&|x| x.safety.deadlock),
+                obstacles_dropped_steps: count(&|x| x.safety.obstacles_dropped > 0),
                 outer_steps: out.samples.len() as u64,
                 sim_time_s: s.sim_time_s,
                 time_to_goal_s: s.time_to_goal_s,

@@ -37,6 +37,10 @@ pub struct Outcome {
     pub unavoidable_steps: u64,
     /// Outer steps with the infeasible flag.
     pub infeasible_steps: u64,
+    /// Outer steps with the deadlock flag (issue 17).
+    pub deadlock_steps: u64,
+    /// Outer steps in which the controller's obstacle set dropped points at capacity.
+    pub obstacles_dropped_steps: u64,
     /// Outer steps flown.
     pub outer_steps: u64,
     /// Simulated time, s.
@@ -62,7 +66,7 @@ pub struct Row {
     pub outcome: Outcome,
 }
 
-const OUTCOME_COLUMNS: [&str; 14] = [
+const OUTCOME_COLUMNS: [&str; 16] = [
     "collided",
     "collision_with",
     "reached_goal",
@@ -73,6 +77,8 @@ const OUTCOME_COLUMNS: [&str; 14] = [
     "filter_active_steps",
     "unavoidable_steps",
     "infeasible_steps",
+    "deadlock_steps",
+    "obstacles_dropped_steps",
     "outer_steps",
     "sim_time_s",
     "time_to_goal_s",
@@ -104,6 +110,8 @@ impl Row {
             o.filter_active_steps.to_string(),
             o.unavoidable_steps.to_string(),
             o.infeasible_steps.to_string(),
+            o.deadlock_steps.to_string(),
+            o.obstacles_dropped_steps.to_string(),
             o.outer_steps.to_string(),
             format!("{}", o.sim_time_s),
             o.time_to_goal_s.map(|t| format!("{t}")).unwrap_or_default(),
@@ -140,10 +148,12 @@ impl Row {
                 filter_active_steps: int(b + 7)?,
                 unavoidable_steps: int(b + 8)?,
                 infeasible_steps: int(b + 9)?,
-                outer_steps: int(b + 10)?,
-                sim_time_s: num(b + 11)?,
-                time_to_goal_s: if f(b + 12).is_empty() { None } else { Some(num(b + 12)?) },
-                error: f(b + 13).to_string(),
+                deadlock_steps: int(b + 10)?,
+                obstacles_dropped_steps: int(b + 11)?,
+                outer_steps: int(b + 12)?,
+                sim_time_s: num(b + 13)?,
+                time_to_goal_s: if f(b + 14).is_empty() { None } else { Some(num(b + 14)?) },
+                error: f(b + 15).to_string(),
             },
         })
     }
@@ -230,6 +240,11 @@ pub struct Rates {
     pub failed: u64,
     /// Flights that collided.
     pub collisions: u64,
+    /// Collided flights whose filter never raised `unavoidable` before the contact
+    /// (the flight ends at the contact): the collisions the filter did not foresee.
+    pub collisions_unflagged: u64,
+    /// Share of flown flights in which the controller reported a deadlock.
+    pub deadlock_rate: f64,
     /// collisions / flown.
     pub collision_rate: f64,
     /// 95 % Clopper–Pearson upper bound of the collision rate.
@@ -262,6 +277,11 @@ fn rates(rows: &[&Row]) -> Rates {
         flights: rows.len() as u64,
         failed: rows.len() as u64 - n,
         collisions: k,
+        collisions_unflagged: flown
+            .iter()
+            .filter(|r| r.outcome.collided && r.outcome.unavoidable_steps == 0)
+            .count() as u64,
+        deadlock_rate: share(&|r| r.outcome.deadlock_steps > 0),
         collision_rate: if n == 0 { 0.0 } else { k as f64 / n as f64 },
         collision_rate_upper_95: clopper_pearson_upper(k, n),
         goal_rate: share(&|r| r.outcome.reached_goal),
