@@ -132,6 +132,9 @@ pub fn controller_params(
         },
         cbf,
         filter_variant: variant,
+        // The scene's hull bounds δ from below; the lag model uses its motor (issue 17).
+        hull_radius: scene.vehicle.hull_radius as f32,
+        robust: parapet_core::robust::RobustParams { motor_tau: scene.vehicle.motor_tau as f32, ..d.robust },
         thrust: ThrustParams {
             mass: af.mass,
             // 90 % of the rotors' total, leaving attitude authority (the core's default rule).

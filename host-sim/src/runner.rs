@@ -123,7 +123,7 @@ impl RunConfig {
         // the same f32 values reach the filter, and reports print them as written.
         let params = RunParams {
             mu: c.mu.unwrap_or(f32_as_f64(cbf_default.mu)),
-            delta: c.delta.unwrap_or(f32_as_f64(cbf_default.delta)),
+            delta: c.delta.unwrap_or_else(|| default_delta(scene.vehicle.hull_radius)),
             delta1: c.delta1.unwrap_or(f32_as_f64(cbf_default.delta1)),
             kp: c.kp.unwrap_or(DEFAULT_KP),
             kd: c.kd.unwrap_or(DEFAULT_KD),
@@ -159,6 +159,18 @@ impl RunConfig {
         };
         p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
         Ok(p)
+    }
+}
+
+/// δ when the scene does not set it: the squared hull radius (margin 0; issue 17),
+/// written as the core's default 0.05 for the default hull √0.05.
+pub fn default_delta(hull_radius: f64) -> f64 {
+    let sq = hull_radius * hull_radius;
+    let d = f32_as_f64(CbfParams::default().delta);
+    if (sq - d).abs() <= 1e-9 * d {
+        d
+    } else {
+        sq
     }
 }
 
