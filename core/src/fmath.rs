@@ -20,6 +20,12 @@
 //! * [`sincosf`], [`cosf`], [`tanf`], [`hypotf`]: evaluated in `f32` (libm's use
 //!   `f64` kernels, software on the Cortex-M4F); within about one ulp of libm's,
 //!   not bit-identical (see each function).
+//!
+//! Checked where it matters: the host tests below compare with libm's rules and
+//! accuracy; `cargo xtask test` runs `tests/cortex-m4` in QEMU, which checks every
+//! function here on the Cortex-M4F bit for bit against the host build (so the
+//! firmware computes what the simulator computes) and `sqrtf` against the
+//! target's software `libm::sqrtf`.
 
 /// Square root, correctly rounded (NaN for `x < 0` or NaN). `VSQRT.F32` on
 /// Cortex-M4F and other ARM hard-float targets, `libm::sqrtf` elsewhere.
@@ -174,19 +180,10 @@ mod tests {
     use super::*;
     use crate::Vec3;
 
-    #[test]
-    fn sqrtf_matches_libm_bit_for_bit() {
-        let mut x = 1.0e-38f32;
-        while x < 1.0e38 {
-            for y in [x, x * 1.000_001, x * 3.7, x * 0.6180339] {
-                assert_eq!(sqrtf(y).to_bits(), libm::sqrtf(y).to_bits(), "{y}");
-            }
-            x *= 1.37;
-        }
-        assert_eq!(sqrtf(0.0), 0.0);
-        assert!(sqrtf(-1.0).is_nan() && sqrtf(f32::NAN).is_nan());
-        assert_eq!(sqrtf(f32::INFINITY), f32::INFINITY);
-    }
+    // No host test of `sqrtf`: here it IS `libm::sqrtf`, so comparing the two could not fail.
+    // `VSQRT.F32` is checked where it runs, on the Cortex-M4F in QEMU, by `cargo xtask test`
+    // (`tests/cortex-m4/src/check.rs`): against the target's software `libm::sqrtf` and, with
+    // every other function of this module, bit for bit against this host build.
 
     #[test]
     fn min_max_follow_libm_rule() {

@@ -10,20 +10,28 @@
 //! (m, s, kg, N, rad). Scene files and plots use ENU (z up); they are converted
 //! at the boundary with [`frame::enu_to_ned`] / [`frame::ned_to_enu`].
 //!
-//! ## Modules
-//! - [`obstacle`]: obstacle geometry (closest surface point, signed distance)
-//!   and the fixed-capacity [`obstacle::ObstacleSet`] the filter reads.
+//! ## Modules (folders follow the cascade, `docs/cascade.md`)
+//! - [`outer`]: the outer loop — [`waypoint`] follower, [`tracking`] (PD, eq. 2),
+//!   [`thrust`] (acceleration → collective thrust + attitude, eq. 4-5).
+//! - [`safety`]: [`obstacle`] geometry and set, the closed-form CBF filter [`cbf`]
+//!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants), [`qp3`].
+//! - [`inner`]: the inner loop — [`estimator`], [`attitude`] (attitude P, rate PID), [`mixer`].
+//! - [`supervisor`]: [`failsafe`] state machine, arming, modes, landing.
+//! - [`msg`]: the `Copy` messages the stages exchange (attitude command, state estimate, …).
+//! - [`controller`]: [`controller::FlightController`], the whole cascade behind one API;
+//!   [`config`]: its parameters ([`controller::ControllerParams`]) and their validation.
+//! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
+//! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
+//!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
 //! - [`obstacle_set`]: which offered points the set keeps at capacity (most
 //!   critical first, one per obstacle) and the report of what was dropped.
-//! - [`cbf`]: the closed-form Control Barrier Function safety filter
-//!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants).
-//! - [`tracking`]: PD position tracking (eq. 2).
-//! - [`thrust`]: acceleration command → collective thrust + attitude reference (eq. 4-5).
-//! - [`fmath`]: square root (FPU instruction on the Cortex-M4F), min, max,
-//!   single-precision trigonometry.
 //! - [`robust`]: the plant-aware wrapping of the filter (actuation lag, disturbance
 //!   observer, ground/ceiling barriers, stall detection; issue 17).
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
+//! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
+//!
+//! The modules of the folders are re-exported at the root (`parapet_core::cbf`,
+//! `parapet_core::estimator`, …), so each has one short path.
 //!
 //! ## Unsafe code
 //! Denied crate-wide. The one exception is `fmath::sqrtf` on ARM hard-float
@@ -34,22 +42,25 @@
 #![warn(missing_docs)]
 
 pub mod airframe;
-pub mod attitude;
-pub mod cbf;
+pub mod config;
 pub mod controller;
-pub mod estimator;
-pub mod failsafe;
 pub mod fmath;
 pub mod frame;
-pub mod mixer;
-pub mod obstacle;
+pub mod inner;
+pub mod msg;
 pub mod obstacle_set;
+pub mod outer;
 pub mod params;
-pub mod qp3;
 pub mod robust;
-pub mod thrust;
-pub mod tracking;
-pub mod waypoint;
+pub mod safety;
+pub mod schedule;
+pub mod supervisor;
+pub mod wire;
+
+pub use inner::{attitude, estimator, mixer};
+pub use outer::{thrust, tracking, waypoint};
+pub use safety::{cbf, obstacle, qp3};
+pub use supervisor::failsafe;
 
 pub use nalgebra;
 

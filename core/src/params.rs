@@ -1,67 +1,146 @@
-//! Named, individually settable controller parameters: the table a ground station
-//! (MAVLink PARAM_SET / PARAM_REQUEST_READ → PARAM_VALUE in the firmware) or the
-//! processor-in-the-loop host uses to give a [`ControllerParams`] the settings of a
-//! flight or a simulated scene. Shared by the firmware and the host so that both
-//! map names onto fields the same way.
+//! The controller's parameter table: every tunable parameter **once**, with its
+//! MAVLink name, unit, default, range, one-line description and how it reads and
+//! writes [`ControllerParams`]. Everything that names parameters is driven by
+//! [`TABLE`]: the firmware's MAVLink parameter protocol (PARAM_SET /
+//! PARAM_REQUEST_READ → PARAM_VALUE, `param_index` = table index, `param_count` =
+//! [`COUNT`]), the processor-in-the-loop host (which sends a scene's settings as
+//! PARAM_SETs), the scene file's `[controller]` keys and the `parapet` command-line
+//! options ([`Param::key`]), the run summary, and the ground-station metadata file
+//! (`cargo xtask params`, QGroundControl / PX4 `parameters.json` format).
 //!
-//! | name | field(s) | unit / values |
-//! |---|---|---|
-//! | `CBF_MU` | `cbf.mu` | s |
-//! | `CBF_DELTA` | `cbf.delta` | m² |
-//! | `CBF_DELTA1` | `cbf.delta1` | m² |
-//! | `CBF_ACC_BOUND` | `cbf.accel_bound` | m/s² |
-//! | `CBF_VEL_MARGIN` | `cbf.velocity_margin` | m/s |
-//! | `CBF_VARIANT` | `filter_variant` | 0 paper, 1 relative, 2 multi, 3 multi-relative |
-//! | `TRK_KP` | `tracking.kp` (all axes) | 1/s² |
-//! | `TRK_KD` | `tracking.kd` (all axes) | 1/s |
-//! | `WP_SPEED` | `waypoint.cruise_speed` | m/s |
-//! | `FS_OBST_REQ` | `failsafe.obstacles_required` | 0 / 1 |
-//! | `VEH_MASS` | `airframe.mass` and `thrust.mass` | kg |
-//! | `VEH_IXX`, `VEH_IYY`, `VEH_IZZ` | `airframe.inertia[i]` and `attitude.inertia[i]` | kg·m² |
-//! | `VEH_ARM` | `airframe.arm_length` | m |
-//! | `VEH_ROTOR_TMAX` | `airframe.rotor_thrust_max` | N, one rotor |
-//! | `VEH_KAPPA` | `airframe.torque_to_thrust` | m |
-//! | `THR_MAX` | `thrust.thrust_max` | N, collective |
+//! ## Validation: per parameter, no ordered updates
+//! [`set`] checks a value against **that parameter's own** range ([`Param::min`],
+//! [`Param::max`], finite, integral for [`Param::integer`] parameters) and nothing
+//! else: every in-range value is accepted whatever the other parameters are, so any
+//! set of changes can be sent one PARAM_SET at a time in any order. A refused value
+//! leaves the set unchanged (MAVLink: the answer carries the value still in effect).
 //!
-//! Values are `f32`. [`set`] writes one field (two for the mass and the inertia,
-//! which the controller keeps in two places that must agree); it checks only that
-//! the value is finite and allowed. Whether the whole set is usable is
-//! [`ControllerParams::validate`]'s decision, which the caller makes after each
-//! change: a change that leaves an invalid set must be refused as a whole. Some
-//! changes are valid only in a certain order (a heavier vehicle needs the larger
-//! `THR_MAX` first); [`plan_updates`] finds such an order.
+//! The ranges are chosen so that each field's own rule in
+//! [`ControllerParams::validate`] holds for every in-range value (e.g. `VEH_MASS`
+//! ≥ 0.07 kg keeps the hover thrust above the built-in minimum thrust 0.6 N). Only
+//! two constraints link parameters, and they are checked **at use**, on the whole
+//! set, by [`ControllerParams::validate`] (see [`consistency`]):
+//!
+//! * `CBF_DELTA1` > `CBF_DELTA` (the filter engages above the safety level);
+//! * `VEH_MASS`·g < `THR_MAX` ≤ 4·`VEH_ROTOR_TMAX` (the vehicle can hover, and the
+//!   collective limit is one the rotors can give).
+//!
+//! The defined outcome of an inconsistent set (the firmware's rule, `app::cascade` in `parapet-firmware`):
+//! the stored values are what PARAM_VALUE reports, the controller keeps flying the
+//! last consistent set, and arming is refused until the stored set is consistent
+//! again. (The earlier design validated the whole set on every PARAM_SET, so some
+//! changes had to be sent in a planned order: a heavier vehicle needed the larger
+//! `THR_MAX` first.)
+//!
+//! Owns: [`Param`], [`TABLE`], [`COUNT`], [`ParamRejected`], lookup by name / key,
+//! [`get`], [`set`]. May import: `config` (the [`ControllerParams`] struct),
+//! `safety::cbf` (the filter variant codes), `frame` (tests). No allocation, no panics.
 
-use crate::cbf::FilterVariant;
-use crate::controller::ControllerParams;
+use crate::config::{ControllerParams, ParamError};
+use crate::safety::cbf::FilterVariant;
 
-/// Number of parameters.
-pub const COUNT: usize = 18;
+/// One parameter: the single place its name, unit, default, range and meaning are written.
+#[derive(Clone, Copy)]
+pub struct Param {
+    /// MAVLink `param_id` (≤ 16 ASCII bytes), e.g. `CBF_MU`.
+    pub name: &'static str,
+    /// Key of the scene file's `[controller]` table and of the `parapet` command-line
+    /// option (`--key`), when the host exposes the parameter there; `None` otherwise
+    /// (the vehicle parameters come from the scene's `[vehicle]` table instead).
+    pub key: Option<&'static str>,
+    /// Unit (SI), `""` for codes and flags.
+    pub unit: &'static str,
+    /// Default value: [`ControllerParams::default`]'s (a test checks they agree).
+    pub default: f32,
+    /// Smallest allowed value.
+    pub min: f32,
+    /// Largest allowed value.
+    pub max: f32,
+    /// `true` for codes and flags: only whole numbers in `[min, max]`.
+    pub integer: bool,
+    /// Decimal places a ground station should show.
+    pub decimals: u8,
+    /// Ground-station group (`CBF`, `Tracking`, …).
+    pub group: &'static str,
+    /// One-line description.
+    pub description: &'static str,
+    /// Names of the values of a code parameter (`None` for a continuous one).
+    pub label: Option<fn(i32) -> Option<&'static str>>,
+    /// Reads the parameter from a set.
+    pub get: fn(&ControllerParams) -> f32,
+    /// Writes a value that [`Param::check`] accepted.
+    write: fn(&mut ControllerParams, f32),
+}
 
-/// Parameter names, in index order (MAVLink `param_index`), each at most 16 bytes.
-pub const NAMES: [&str; COUNT] = [
-    "CBF_MU",
-    "CBF_DELTA",
-    "CBF_DELTA1",
-    "CBF_ACC_BOUND",
-    "CBF_VARIANT",
-    "TRK_KP",
-    "TRK_KD",
-    "WP_SPEED",
-    "FS_OBST_REQ",
-    "CBF_VEL_MARGIN",
-    "VEH_MASS",
-    "VEH_IXX",
-    "VEH_IYY",
-    "VEH_IZZ",
-    "VEH_ARM",
-    "VEH_ROTOR_TMAX",
-    "VEH_KAPPA",
-    "THR_MAX",
-];
+impl core::fmt::Debug for Param {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Param")
+            .field("name", &self.name)
+            .field("unit", &self.unit)
+            .field("default", &self.default)
+            .field("min", &self.min)
+            .field("max", &self.max)
+            .finish_non_exhaustive()
+    }
+}
 
-/// Index of `name` in [`NAMES`].
-pub fn index_of(name: &str) -> Option<usize> {
-    NAMES.iter().position(|n| *n == name)
+impl Param {
+    /// `value` if this parameter accepts it: finite, in `[min, max]`, whole for codes.
+    pub fn check(&self, value: f32) -> Result<f32, ParamRejected> {
+        // `!(a ≤ x ≤ b)` also refuses NaN; ±∞ are outside every finite range.
+        if !(value >= self.min && value <= self.max) {
+            return Err(ParamRejected::Invalid);
+        }
+        // In range, so the cast cannot saturate: whole numbers survive the round trip.
+        if self.integer && (value as i32) as f32 != value {
+            return Err(ParamRejected::Invalid);
+        }
+        Ok(value)
+    }
+
+    /// The allowed values in words, e.g. `0.01 ≤ CBF_MU ≤ 100 s` (for messages).
+    pub fn range(&self) -> RangeText<'_> {
+        RangeText(self)
+    }
+}
+
+/// [`Param::range`]'s `Display`.
+pub struct RangeText<'a>(&'a Param);
+
+impl core::fmt::Display for RangeText<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let p = self.0;
+        let name = p.key.unwrap_or(p.name);
+        if p.integer {
+            write!(f, "{name} one of")?;
+            let (lo, hi) = (p.min as i32, p.max as i32);
+            for c in lo..=hi {
+                match p.label.and_then(|l| l(c)) {
+                    Some(s) => write!(f, " {c} ({s})")?,
+                    None => write!(f, " {c}")?,
+                }
+            }
+            Ok(())
+        } else {
+            write!(f, "{} ≤ {name} ≤ {}", p.min, p.max)?;
+            if !p.unit.is_empty() {
+                write!(f, " {}", p.unit)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Why a value was not taken (the parameter keeps its value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamRejected {
+    /// No such parameter.
+    Unknown,
+    /// Not finite, outside the parameter's range, or not a whole number for a code.
+    Invalid,
+    /// Not now (e.g. while armed).
+    NotNow,
 }
 
 fn variant_code(v: FilterVariant) -> f32 {
@@ -73,278 +152,519 @@ fn variant_code(v: FilterVariant) -> f32 {
     }
 }
 
+fn variant_of(code: i32) -> Option<FilterVariant> {
+    match code {
+        0 => Some(FilterVariant::Paper),
+        1 => Some(FilterVariant::Relative),
+        2 => Some(FilterVariant::Multi),
+        3 => Some(FilterVariant::MultiRelative),
+        _ => None,
+    }
+}
+
+/// Number of parameters.
+pub const COUNT: usize = 18;
+
+/// The parameters, in MAVLink `param_index` order.
+pub const TABLE: [Param; COUNT] = [
+    Param {
+        name: "CBF_MU",
+        key: Some("mu"),
+        unit: "s",
+        default: 1.4,
+        min: 0.01,
+        max: 100.0,
+        integer: false,
+        decimals: 2,
+        group: "CBF",
+        description: "Barrier velocity weight mu: the filter keeps h + mu*dh/dt above delta",
+        label: None,
+        get: |p| p.cbf.mu,
+        write: |p, v| p.cbf.mu = v,
+    },
+    Param {
+        name: "CBF_DELTA",
+        key: Some("delta"),
+        unit: "m^2",
+        default: 0.05,
+        min: 1e-4,
+        max: 100.0,
+        integer: false,
+        decimals: 4,
+        group: "CBF",
+        description: "Safety level delta (hull radius squared); must stay below CBF_DELTA1",
+        label: None,
+        get: |p| p.cbf.delta,
+        write: |p, v| p.cbf.delta = v,
+    },
+    Param {
+        name: "CBF_DELTA1",
+        key: Some("delta1"),
+        unit: "m^2",
+        default: 0.1,
+        min: 1e-4,
+        max: 100.0,
+        integer: false,
+        decimals: 4,
+        group: "CBF",
+        description: "Engagement level delta1 > CBF_DELTA: the filter acts below it",
+        label: None,
+        get: |p| p.cbf.delta1,
+        write: |p, v| p.cbf.delta1 = v,
+    },
+    Param {
+        name: "CBF_ACC_BOUND",
+        key: Some("accel_bound"),
+        unit: "m/s^2",
+        default: 0.0,
+        min: 0.0,
+        max: 50.0,
+        integer: false,
+        decimals: 2,
+        group: "CBF",
+        description: "Bound A on the unknown obstacle acceleration (relative variants)",
+        label: None,
+        get: |p| p.cbf.accel_bound,
+        write: |p, v| p.cbf.accel_bound = v,
+    },
+    Param {
+        name: "CBF_VARIANT",
+        key: Some("filter"),
+        unit: "",
+        default: 3.0,
+        min: 0.0,
+        max: 3.0,
+        integer: true,
+        decimals: 0,
+        group: "CBF",
+        description: "Filter law: 0 paper, 1 relative, 2 multi, 3 multi-relative",
+        label: Some(|c| variant_of(c).map(|v| v.as_str())),
+        get: |p| variant_code(p.filter_variant),
+        write: |p, v| {
+            if let Some(f) = variant_of(v as i32) {
+                p.filter_variant = f;
+            }
+        },
+    },
+    Param {
+        name: "TRK_KP",
+        key: Some("kp"),
+        unit: "1/s^2",
+        default: 0.5,
+        min: 0.01,
+        max: 100.0,
+        integer: false,
+        decimals: 3,
+        group: "Tracking",
+        description: "PD position gain k_p (all axes)",
+        label: None,
+        get: |p| p.tracking.kp[0],
+        write: |p, v| p.tracking.kp = [v; 3],
+    },
+    Param {
+        name: "TRK_KD",
+        key: Some("kd"),
+        unit: "1/s",
+        default: 0.8,
+        min: 0.01,
+        max: 100.0,
+        integer: false,
+        decimals: 3,
+        group: "Tracking",
+        description: "PD velocity gain k_d (all axes)",
+        label: None,
+        get: |p| p.tracking.kd[0],
+        write: |p, v| p.tracking.kd = [v; 3],
+    },
+    Param {
+        name: "WP_SPEED",
+        key: Some("speed"),
+        unit: "m/s",
+        default: 0.25,
+        min: 0.001,
+        max: 100.0,
+        integer: false,
+        decimals: 2,
+        group: "Mission",
+        description: "Reference speed along the path",
+        label: None,
+        get: |p| p.waypoint.cruise_speed,
+        write: |p, v| p.waypoint.cruise_speed = v,
+    },
+    Param {
+        name: "FS_OBST_REQ",
+        key: None,
+        unit: "",
+        default: 1.0,
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+        decimals: 0,
+        group: "Failsafe",
+        description: "Obstacle data must be fresh to arm and to stay armed (0 no, 1 yes)",
+        label: Some(|c| match c {
+            0 => Some("not required"),
+            1 => Some("required"),
+            _ => None,
+        }),
+        get: |p| f32::from(u8::from(p.failsafe.obstacles_required)),
+        write: |p, v| p.failsafe.obstacles_required = v != 0.0,
+    },
+    Param {
+        name: "CBF_VEL_MARGIN",
+        key: Some("velocity_margin"),
+        unit: "m/s",
+        default: 0.0,
+        min: 0.0,
+        max: 10.0,
+        integer: false,
+        decimals: 3,
+        group: "CBF",
+        description: "Velocity-uncertainty margin eps_v of the filter's constraint",
+        label: None,
+        get: |p| p.cbf.velocity_margin,
+        write: |p, v| p.cbf.velocity_margin = v,
+    },
+    Param {
+        name: "VEH_MASS",
+        key: None,
+        unit: "kg",
+        default: 0.5,
+        min: 0.07,
+        max: 50.0,
+        integer: false,
+        decimals: 3,
+        group: "Vehicle",
+        description: "Vehicle mass; hover thrust mass*g must stay below THR_MAX",
+        label: None,
+        get: |p| p.airframe.mass,
+        write: |p, v| {
+            p.airframe.mass = v;
+        },
+    },
+    Param {
+        name: "VEH_IXX",
+        key: None,
+        unit: "kg m^2",
+        default: 0.0019,
+        min: 1e-5,
+        max: 10.0,
+        integer: false,
+        decimals: 5,
+        group: "Vehicle",
+        description: "Moment of inertia about body x (roll)",
+        label: None,
+        get: |p| p.airframe.inertia[0],
+        write: |p, v| {
+            p.airframe.inertia[0] = v;
+        },
+    },
+    Param {
+        name: "VEH_IYY",
+        key: None,
+        unit: "kg m^2",
+        default: 0.0019,
+        min: 1e-5,
+        max: 10.0,
+        integer: false,
+        decimals: 5,
+        group: "Vehicle",
+        description: "Moment of inertia about body y (pitch)",
+        label: None,
+        get: |p| p.airframe.inertia[1],
+        write: |p, v| {
+            p.airframe.inertia[1] = v;
+        },
+    },
+    Param {
+        name: "VEH_IZZ",
+        key: None,
+        unit: "kg m^2",
+        default: 0.0033,
+        min: 1e-5,
+        max: 10.0,
+        integer: false,
+        decimals: 5,
+        group: "Vehicle",
+        description: "Moment of inertia about body z (yaw)",
+        label: None,
+        get: |p| p.airframe.inertia[2],
+        write: |p, v| {
+            p.airframe.inertia[2] = v;
+        },
+    },
+    Param {
+        name: "VEH_ARM",
+        key: None,
+        unit: "m",
+        default: 0.13,
+        min: 0.02,
+        max: 2.0,
+        integer: false,
+        decimals: 3,
+        group: "Vehicle",
+        description: "Distance from the centre of mass to each rotor axis",
+        label: None,
+        get: |p| p.airframe.arm_length,
+        write: |p, v| p.airframe.arm_length = v,
+    },
+    Param {
+        name: "VEH_ROTOR_TMAX",
+        key: None,
+        unit: "N",
+        default: 3.07,
+        min: 0.1,
+        max: 500.0,
+        integer: false,
+        decimals: 2,
+        group: "Vehicle",
+        description: "Largest thrust of one rotor; 4x it must be at least THR_MAX",
+        label: None,
+        get: |p| p.airframe.rotor_thrust_max,
+        write: |p, v| p.airframe.rotor_thrust_max = v,
+    },
+    Param {
+        name: "VEH_KAPPA",
+        key: None,
+        unit: "m",
+        default: 0.016,
+        min: 1e-4,
+        max: 0.5,
+        integer: false,
+        decimals: 4,
+        group: "Vehicle",
+        description: "Rotor drag-torque to thrust ratio k_m/k_f",
+        label: None,
+        get: |p| p.airframe.torque_to_thrust,
+        write: |p, v| p.airframe.torque_to_thrust = v,
+    },
+    Param {
+        name: "THR_MAX",
+        key: None,
+        unit: "N",
+        default: 11.0,
+        min: 0.5,
+        max: 2000.0,
+        integer: false,
+        decimals: 2,
+        group: "Vehicle",
+        description: "Largest collective thrust commanded; above VEH_MASS*g, at most 4*VEH_ROTOR_TMAX",
+        label: None,
+        get: |p| p.thrust.thrust_max,
+        write: |p, v| p.thrust.thrust_max = v,
+    },
+];
+
+/// The names of [`TABLE`], in index order (derived from it, for code that needs a list).
+pub const NAMES: [&str; COUNT] = {
+    let mut n = [""; COUNT];
+    let mut i = 0;
+    while i < COUNT {
+        n[i] = TABLE[i].name;
+        i += 1;
+    }
+    n
+};
+
+/// Index of parameter `name` in [`TABLE`] (MAVLink `param_index`).
+pub fn index_of(name: &str) -> Option<usize> {
+    TABLE.iter().position(|p| p.name == name)
+}
+
+/// The parameter called `name`.
+pub fn find(name: &str) -> Option<&'static Param> {
+    TABLE.iter().find(|p| p.name == name)
+}
+
+/// The parameter with the scene `[controller]` / command-line key `key`.
+pub fn by_key(key: &str) -> Option<&'static Param> {
+    TABLE.iter().find(|p| p.key == Some(key))
+}
+
 /// Current value of `name` in `p`.
 pub fn get(p: &ControllerParams, name: &str) -> Option<f32> {
-    Some(match name {
-        "CBF_MU" => p.cbf.mu,
-        "CBF_DELTA" => p.cbf.delta,
-        "CBF_DELTA1" => p.cbf.delta1,
-        "CBF_ACC_BOUND" => p.cbf.accel_bound,
-        "CBF_VEL_MARGIN" => p.cbf.velocity_margin,
-        "CBF_VARIANT" => variant_code(p.filter_variant),
-        "TRK_KP" => p.tracking.kp[0],
-        "TRK_KD" => p.tracking.kd[0],
-        "WP_SPEED" => p.waypoint.cruise_speed,
-        "FS_OBST_REQ" => f32::from(u8::from(p.failsafe.obstacles_required)),
-        "VEH_MASS" => p.airframe.mass,
-        "VEH_IXX" => p.airframe.inertia[0],
-        "VEH_IYY" => p.airframe.inertia[1],
-        "VEH_IZZ" => p.airframe.inertia[2],
-        "VEH_ARM" => p.airframe.arm_length,
-        "VEH_ROTOR_TMAX" => p.airframe.rotor_thrust_max,
-        "VEH_KAPPA" => p.airframe.torque_to_thrust,
-        "THR_MAX" => p.thrust.thrust_max,
-        _ => return None,
-    })
+    find(name).map(|d| (d.get)(p))
 }
 
-/// Why a value was not taken.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ParamRejected {
-    /// No such parameter.
-    Unknown,
-    /// Not finite, not an allowed value, or the resulting set does not validate.
-    Invalid,
-    /// Not now (e.g. while armed).
-    NotNow,
+/// Sets `name` to `value` in `p` if the value is in that parameter's range (see the
+/// module docs: no other parameter is consulted); returns the value now in `p`.
+/// A refusal leaves `p` unchanged.
+pub fn set(p: &mut ControllerParams, name: &str, value: f32) -> Result<f32, ParamRejected> {
+    let d = find(name).ok_or(ParamRejected::Unknown)?;
+    let v = d.check(value)?;
+    (d.write)(p, v);
+    Ok((d.get)(p))
 }
 
-/// Writes `value` into `p` (no validation of the whole set; see [`ControllerParams::validate`]).
-pub fn set(p: &mut ControllerParams, name: &str, value: f32) -> Result<(), ParamRejected> {
-    if !value.is_finite() {
-        return Err(ParamRejected::Invalid);
-    }
-    match name {
-        "CBF_MU" => p.cbf.mu = value,
-        "CBF_DELTA" => p.cbf.delta = value,
-        "CBF_DELTA1" => p.cbf.delta1 = value,
-        "CBF_ACC_BOUND" => p.cbf.accel_bound = value,
-        "CBF_VEL_MARGIN" => p.cbf.velocity_margin = value,
-        "CBF_VARIANT" => {
-            p.filter_variant = match value as i32 {
-                0 if value == 0.0 => FilterVariant::Paper,
-                1 if value == 1.0 => FilterVariant::Relative,
-                2 if value == 2.0 => FilterVariant::Multi,
-                3 if value == 3.0 => FilterVariant::MultiRelative,
-                _ => return Err(ParamRejected::Invalid),
-            }
-        }
-        "TRK_KP" => p.tracking.kp = [value; 3],
-        "TRK_KD" => p.tracking.kd = [value; 3],
-        "WP_SPEED" => p.waypoint.cruise_speed = value,
-        "FS_OBST_REQ" => {
-            p.failsafe.obstacles_required = if value == 0.0 {
-                false
-            } else if value == 1.0 {
-                true
-            } else {
-                return Err(ParamRejected::Invalid);
-            }
-        }
-        "VEH_MASS" => {
-            p.airframe.mass = value;
-            p.thrust.mass = value;
-        }
-        "VEH_IXX" | "VEH_IYY" | "VEH_IZZ" => {
-            let i = match name {
-                "VEH_IXX" => 0,
-                "VEH_IYY" => 1,
-                _ => 2,
-            };
-            p.airframe.inertia[i] = value;
-            p.attitude.inertia[i] = value;
-        }
-        "VEH_ARM" => p.airframe.arm_length = value,
-        "VEH_ROTOR_TMAX" => p.airframe.rotor_thrust_max = value,
-        "VEH_KAPPA" => p.airframe.torque_to_thrust = value,
-        "THR_MAX" => p.thrust.thrust_max = value,
-        _ => return Err(ParamRejected::Unknown),
-    }
-    Ok(())
-}
-
-/// Why [`plan_updates`] found no way to reach the target.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PlanError {
-    /// The target itself does not validate.
-    InvalidTarget,
-    /// The target differs from the start in a field no parameter sets; the first such
-    /// field is named.
-    NotSettable(&'static str),
-    /// No order of single changes keeps every intermediate set valid; `name` is one of
-    /// the parameters left over.
-    NoValidOrder(&'static str),
-}
-
-/// The changes that take `from` to `to`, in an order in which every intermediate set
-/// validates (each step is one [`set`] as the firmware applies it). Returns the
-/// number of entries written to `out` (`name`, value), at most [`COUNT`]. Bounded:
-/// at most `COUNT²` validations.
-pub fn plan_updates(
-    from: &ControllerParams,
-    to: &ControllerParams,
-    out: &mut [(&'static str, f32); COUNT],
-) -> Result<usize, PlanError> {
-    if to.validate().is_err() {
-        return Err(PlanError::InvalidTarget);
-    }
-    // Every difference must be representable: applying all the target's values to
-    // `from` must give `to` exactly.
-    let mut all = *from;
-    for name in NAMES {
-        if let Some(v) = get(to, name) {
-            set(&mut all, name, v).map_err(|_| PlanError::NotSettable(name))?;
-        }
-    }
-    if all != *to {
-        return Err(PlanError::NotSettable(first_unsettable_field(&all, to)));
-    }
-    let mut pending = [false; COUNT];
-    for (i, name) in NAMES.iter().enumerate() {
-        pending[i] = get(from, name).map(f32::to_bits) != get(to, name).map(f32::to_bits);
-    }
-    let mut cur = *from;
-    let mut n = 0;
-    // Each pass applies at least one pending change or stops: at most COUNT passes.
-    for _ in 0..COUNT {
-        let mut progressed = false;
-        for (i, name) in NAMES.iter().enumerate() {
-            if !pending[i] {
-                continue;
-            }
-            let Some(v) = get(to, name) else { continue };
-            let mut next = cur;
-            if set(&mut next, name, v).is_ok() && next.validate().is_ok() {
-                cur = next;
-                pending[i] = false;
-                out[n] = (name, v);
-                n += 1;
-                progressed = true;
-            }
-        }
-        if !progressed {
-            break;
-        }
-    }
-    match pending.iter().position(|&p| p) {
-        Some(i) => Err(PlanError::NoValidOrder(NAMES[i])),
-        None => Ok(n),
-    }
-}
-
-/// Name of the first top-level field in which `a` and `b` differ (for error messages).
-fn first_unsettable_field(a: &ControllerParams, b: &ControllerParams) -> &'static str {
-    if a.airframe != b.airframe {
-        "airframe"
-    } else if a.tracking != b.tracking {
-        "tracking"
-    } else if a.cbf != b.cbf {
-        "cbf"
-    } else if a.thrust != b.thrust {
-        "thrust"
-    } else if a.attitude != b.attitude {
-        "attitude"
-    } else if a.estimator != b.estimator {
-        "estimator"
-    } else if a.waypoint != b.waypoint {
-        "waypoint"
-    } else if a.failsafe != b.failsafe {
-        "failsafe"
-    } else {
-        "loop rates and timing"
-    }
+/// Whether the set satisfies the constraints between parameters (and every field no
+/// parameter sets): [`ControllerParams::validate`]. Per-parameter ranges cannot
+/// break it except through the two cross-constraints of the module docs.
+pub fn consistency(p: &ControllerParams) -> Result<(), ParamError> {
+    p.validate()
 }
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
+    use proptest::strategy::Strategy;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
     #[test]
-    fn every_name_round_trips() {
-        let mut p = ControllerParams::default();
-        for (i, name) in NAMES.iter().enumerate() {
-            assert!(name.len() <= 16, "{name} is longer than a MAVLink param_id");
-            assert_eq!(index_of(name), Some(i));
-            let v = match *name {
-                "CBF_VARIANT" => 1.0,
-                "FS_OBST_REQ" => 0.0,
-                _ => 0.75,
-            };
-            assert_eq!(set(&mut p, name, v), Ok(()), "{name}");
-            assert_eq!(get(&p, name), Some(v), "{name}");
+    fn names_are_mavlink_ids_and_unique() {
+        for (i, d) in TABLE.iter().enumerate() {
+            assert!(!d.name.is_empty() && d.name.len() <= 16, "{} is not a MAVLink param_id", d.name);
+            assert!(d.name.bytes().all(|b| b.is_ascii_uppercase() || b.is_ascii_digit() || b == b'_'));
+            assert_eq!(index_of(d.name), Some(i), "{} twice", d.name);
+            if let Some(k) = d.key {
+                assert_eq!(by_key(k).map(|q| q.name), Some(d.name), "key {k} twice");
+            }
+            assert!(!d.description.is_empty() && !d.group.is_empty());
         }
-        assert_eq!(p.tracking.kd, [0.75; 3]);
-        assert_eq!(p.filter_variant, FilterVariant::Relative);
-        assert!(!p.failsafe.obstacles_required);
-        // The mass and the inertia are kept consistent in both places.
-        assert_eq!(p.thrust.mass, p.airframe.mass);
-        assert_eq!(p.attitude.inertia, p.airframe.inertia);
     }
 
     #[test]
-    fn bad_values_are_refused() {
+    fn defaults_are_in_range_and_are_the_controller_defaults() {
+        let p = ControllerParams::default();
+        for d in &TABLE {
+            assert!(d.min < d.max, "{}", d.name);
+            assert_eq!(d.check(d.default), Ok(d.default), "{} default out of range", d.name);
+            assert_eq!((d.get)(&p).to_bits(), d.default.to_bits(), "{}", d.name);
+        }
+        assert!(consistency(&p).is_ok());
+    }
+
+    /// Values to try for `d`: both ends, the default and a point inside.
+    fn samples(d: &Param) -> [f32; 4] {
+        let mid = if d.integer { ((d.min + d.max) / 2.0) as i32 as f32 } else { 0.5 * (d.min + d.max) };
+        [d.min, d.max, d.default, mid]
+    }
+
+    #[test]
+    fn each_parameter_round_trips_and_writes_only_itself() {
+        for d in &TABLE {
+            for v in samples(d) {
+                let mut p = ControllerParams::default();
+                let before = p;
+                assert_eq!(set(&mut p, d.name, v), Ok(v), "{} = {v}", d.name);
+                assert_eq!(get(&p, d.name), Some(v));
+                for o in TABLE.iter().filter(|o| o.name != d.name) {
+                    assert_eq!(
+                        (o.get)(&p).to_bits(),
+                        (o.get)(&before).to_bits(),
+                        "{} moved {}",
+                        d.name,
+                        o.name
+                    );
+                }
+            }
+        }
         let mut p = ControllerParams::default();
-        assert_eq!(set(&mut p, "CBF_MU", f32::NAN), Err(ParamRejected::Invalid));
-        assert_eq!(set(&mut p, "VEH_MASS", f32::INFINITY), Err(ParamRejected::Invalid));
-        assert_eq!(set(&mut p, "CBF_VARIANT", 1.5), Err(ParamRejected::Invalid));
-        assert_eq!(set(&mut p, "CBF_VARIANT", 7.0), Err(ParamRejected::Invalid));
-        assert_eq!(set(&mut p, "FS_OBST_REQ", 0.5), Err(ParamRejected::Invalid));
+        set(&mut p, "TRK_KD", 0.75).unwrap();
+        assert_eq!(p.tracking.kd, [0.75; 3]);
+        set(&mut p, "CBF_VARIANT", 1.0).unwrap();
+        assert_eq!(p.filter_variant, FilterVariant::Relative);
+        set(&mut p, "FS_OBST_REQ", 0.0).unwrap();
+        assert!(!p.failsafe.obstacles_required);
+        set(&mut p, "VEH_MASS", 0.6).unwrap();
+        set(&mut p, "VEH_IZZ", 0.004).unwrap();
+        assert_eq!((p.airframe.mass, p.airframe.inertia[2]), (0.6, 0.004));
+    }
+
+    #[test]
+    fn out_of_range_values_are_refused_and_the_old_value_kept() {
+        for d in &TABLE {
+            let below = if d.min > 0.0 { d.min * 0.5 } else { -1.0 };
+            let above = d.max * 2.0;
+            let mut bad = [below, above, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, 0.0];
+            let n = if d.integer {
+                bad[5] = d.min + 0.5;
+                bad[6] = d.max - 0.25;
+                7
+            } else {
+                5
+            };
+            for v in &bad[..n] {
+                let mut p = ControllerParams::default();
+                assert_eq!(set(&mut p, d.name, *v), Err(ParamRejected::Invalid), "{} = {v}", d.name);
+                assert_eq!(p, ControllerParams::default(), "{} = {v} changed the set", d.name);
+            }
+        }
+        let mut p = ControllerParams::default();
         assert_eq!(set(&mut p, "NOPE", 1.0), Err(ParamRejected::Unknown));
         assert_eq!(get(&p, "NOPE"), None);
-        assert_eq!(p, ControllerParams::default());
     }
 
-    fn apply(from: &ControllerParams, plan: &[(&'static str, f32)]) -> ControllerParams {
-        let mut p = *from;
-        for (name, v) in plan {
-            set(&mut p, name, *v).unwrap();
-            assert!(p.validate().is_ok(), "invalid after {name} = {v}");
+    /// Any target within the ranges is reached by single PARAM_SETs in any order, each
+    /// accepted, and the result does not depend on the order (fixed seed).
+    #[test]
+    fn single_sets_in_any_order_reach_the_target() {
+        let mut runner = TestRunner::new_with_rng(
+            Config { cases: 256, failure_persistence: None, ..Config::default() },
+            TestRng::deterministic_rng(RngAlgorithm::ChaCha),
+        );
+        let strategy = (
+            proptest::collection::vec(0.0f32..=1.0, COUNT),
+            proptest::sample::subsequence((0..COUNT).collect::<std::vec::Vec<_>>(), COUNT).prop_shuffle(),
+        );
+        runner
+            .run(&strategy, |(fractions, order)| {
+                let target: std::vec::Vec<f32> = TABLE
+                    .iter()
+                    .zip(&fractions)
+                    .map(|(d, f)| {
+                        let v = d.min + f * (d.max - d.min);
+                        let v = if d.integer { libm::roundf(v) } else { v };
+                        v.clamp(d.min, d.max)
+                    })
+                    .collect();
+                let mut in_order = ControllerParams::default();
+                for (d, v) in TABLE.iter().zip(&target) {
+                    set(&mut in_order, d.name, *v).unwrap();
+                }
+                let mut p = ControllerParams::default();
+                for &i in &order {
+                    let d = &TABLE[i];
+                    proptest::prop_assert_eq!(set(&mut p, d.name, target[i]), Ok(target[i]), "{}", d.name);
+                }
+                for (d, v) in TABLE.iter().zip(&target) {
+                    proptest::prop_assert_eq!(get(&p, d.name), Some(*v));
+                }
+                proptest::prop_assert_eq!(p, in_order);
+                Ok(())
+            })
+            .unwrap();
+    }
+
+    /// The ranges leave only the documented cross-constraints: with every other
+    /// parameter at its default, each parameter's whole range validates except where
+    /// δ1 ≤ δ, δ < hull_radius² (issue 17) or the hover/thrust chain m·g < THR_MAX ≤
+    /// 4·VEH_ROTOR_TMAX breaks.
+    #[test]
+    fn only_the_documented_constraints_link_parameters() {
+        for d in &TABLE {
+            for v in samples(d) {
+                let mut p = ControllerParams::default();
+                set(&mut p, d.name, v).unwrap();
+                let hover = p.airframe.mass * crate::frame::GRAVITY;
+                let linked = p.cbf.delta1 <= p.cbf.delta
+                    || p.cbf.delta < p.hull_radius * p.hull_radius * (1.0 - 1e-6)
+                    || hover >= p.thrust.thrust_max
+                    || p.thrust.thrust_max > 4.0 * p.airframe.rotor_thrust_max;
+                assert_eq!(consistency(&p).is_ok(), !linked, "{} = {v}: {:?}", d.name, consistency(&p));
+            }
         }
-        p
     }
 
     #[test]
-    fn heavier_vehicle_needs_the_thrust_limit_first() {
-        // 1.5 kg: hover thrust 14.7 N exceeds the default THR_MAX (11 N) and the default
-        // rotors' 4 × 3.07 N, so VEH_ROTOR_TMAX, then THR_MAX, then VEH_MASS.
-        let from = ControllerParams::default();
-        let mut to = from;
-        for (name, v) in [("VEH_ROTOR_TMAX", 9.0), ("THR_MAX", 30.0), ("VEH_MASS", 1.5), ("VEH_IZZ", 0.01)] {
-            set(&mut to, name, v).unwrap();
-        }
-        assert!(to.validate().is_ok());
-        // In table order the mass comes first and would be refused.
-        let mut naive = from;
-        set(&mut naive, "VEH_MASS", 1.5).unwrap();
-        assert!(naive.validate().is_err());
-        let mut out = [("", 0.0); COUNT];
-        let n = plan_updates(&from, &to, &mut out).unwrap();
-        assert_eq!(n, 4);
-        assert_eq!(apply(&from, &out[..n]), to);
-        let pos = |name| out[..n].iter().position(|(m, _)| *m == name).unwrap();
-        assert!(pos("THR_MAX") < pos("VEH_MASS") && pos("VEH_ROTOR_TMAX") < pos("THR_MAX"));
-    }
-
-    #[test]
-    fn unchanged_parameters_are_not_sent() {
-        let p = ControllerParams::default();
-        let mut out = [("", 0.0); COUNT];
-        assert_eq!(plan_updates(&p, &p, &mut out), Ok(0));
-    }
-
-    #[test]
-    fn fields_without_a_parameter_are_named() {
-        let from = ControllerParams::default();
-        let mut to = from;
-        to.outer_rate_hz = 200.0;
-        let mut out = [("", 0.0); COUNT];
-        assert_eq!(plan_updates(&from, &to, &mut out), Err(PlanError::NotSettable("loop rates and timing")));
-        let mut to = from;
-        to.tracking.kp[2] = 0.9; // per-axis gains: TRK_KP sets all three
-        assert_eq!(plan_updates(&from, &to, &mut out), Err(PlanError::NotSettable("tracking")));
-        let mut to = from;
-        to.cbf.mu = -1.0;
-        assert_eq!(plan_updates(&from, &to, &mut out), Err(PlanError::InvalidTarget));
+    fn ranges_read_as_words() {
+        use std::string::ToString;
+        let mu = find("CBF_MU").unwrap();
+        assert_eq!(mu.range().to_string(), "0.01 ≤ mu ≤ 100 s");
+        let v = find("CBF_VARIANT").unwrap();
+        assert_eq!(
+            v.range().to_string(),
+            "filter one of 0 (paper) 1 (relative) 2 (multi) 3 (multi-relative)"
+        );
     }
 }

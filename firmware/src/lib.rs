@@ -3,42 +3,31 @@
 //! Embassy flight-control firmware for STM32F405 flight controllers, plus a `board-qemu` build
 //! that runs the same application on QEMU's `netduinoplus2` for processor-in-the-loop tests.
 //!
-//! The library part is hardware-independent and host-tested: the MAVLink link
-//! ([`link`], [`frame_parser`], [`messages`], [`outbound`], [`wire`]), the mission protocol
-//! ([`mission`]), commands ([`command`]), obstacle decoding ([`obstacle_link`]), telemetry
-//! ([`telemetry`]), loop timing ([`loop_timing`]), the lockstep PIL step ([`lockstep`]), DShot
-//! framing ([`dshot`]) and the IMU driver ([`mpu6000`]). Tasks reach the flight-control cascade
-//! only through [`autopilot::Autopilot`].
+//! The library part is hardware-independent and host-tested; one folder per concern:
 //!
-//! Board layers ([`board`], `src/board/*.rs`) build only for `target_os = "none"`; the executors
-//! and tasks live in the binaries (`src/main.rs` for the STM32F405 board,
-//! `src/bin/parapet-firmware-qemu.rs` for QEMU).
+//! | folder | owns | may import |
+//! |---|---|---|
+//! | [`app`] | the boundary to the cascade ([`app::autopilot`]), the real cascade ([`app::cascade`]), how tasks exchange messages ([`app::shared`]), loop timing | `parapet_core` |
+//! | [`link`] | MAVLink framing, inbound/outbound message sets, dispatcher ([`link::Link`]), commands, mission, obstacle batches, parameters, telemetry | `parapet_core` (wire contract `parapet_core::wire`), `mavlink`, [`app`] |
+//! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
+//! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
+//! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
+//!
+//! Tasks reach the flight-control cascade only through [`app::autopilot`]. The board layers
+//! (`src/board/*.rs`) build only for `target_os = "none"`; the executors and tasks live in the
+//! binaries (`src/main.rs` for the STM32F405 board, `src/bin/parapet-firmware-qemu.rs` for QEMU).
 //!
 //! Frames: world NED, body FRD, SI units; see `firmware/README.md` for the wire protocol.
 #![cfg_attr(not(test), no_std)]
 #![warn(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-pub mod autopilot;
+pub mod app;
 #[cfg(target_os = "none")]
 pub mod board;
-pub mod cascade;
-pub mod command;
-pub mod dshot;
-pub mod frame_parser;
+pub mod drivers;
 pub mod link;
-pub mod lockstep;
-pub mod loop_timing;
-pub mod messages;
-pub mod mission;
-pub mod mpu6000;
-pub mod obstacle_link;
-pub mod outbound;
-pub mod params;
 pub mod pil;
-pub mod shared;
-pub mod telemetry;
-pub mod wire;
 
 #[cfg(test)]
 extern crate std;

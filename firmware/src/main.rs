@@ -1,17 +1,23 @@
 //! Parapet flight-control firmware for STM32F405 flight controllers (board: `board::f405`).
 //!
-//! Tasks and priorities (embassy multi-priority pattern):
+//! Tasks and priorities (embassy multi-priority pattern); each owns its state, and they
+//! exchange small `Copy` messages through embassy-sync primitives (no shared controller, no
+//! global lock; a critical section only ever copies one message):
 //! - **inner loop** (interrupt executor on UART4's vector, NVIC priority 6, the highest used):
-//!   waits for the IMU's data-ready interrupt (1 kHz), reads the MPU-6000, runs
-//!   `step_inner` (estimator, attitude, rate control, mixer) and sends the DShot600 frame;
-//!   period and execution time from the DWT cycle counter, overruns counted.
-//! - **outer loop** (interrupt executor on UART5's vector, priority 7): 250 Hz ticker,
-//!   `step_outer` (waypoints, PD, CBF filter, thrust mapping), timed the same way.
-//! - **link** (thread-mode executor, lowest priority): MAVLink over USART3 (DMA ring buffer),
-//!   telemetry streams.
+//!   owns the inner stage (`InnerLoop`: estimator, attitude, rate control, mixer) and the IMU's
+//!   SPI device; waits for the IMU's data-ready interrupt (1 kHz), reads the MPU-6000, takes the
+//!   queued attitude commands / estimator aid / a rebuilt parameter set from the mailboxes,
+//!   steps, publishes its state estimate, sends the DShot600 frame.
+//! - **outer loop** (interrupt executor on UART5's vector, priority 7): owns the outer stage
+//!   (`OuterLoop`: guidance, PD, CBF filter, thrust map, supervisor, parameter store) and the
+//!   MAVLink dispatcher (`Link`: commands, mission, obstacle batches, parameters); wakes on the
+//!   outer-rate ticker (`OuterSchedule`), on a decoded message from the link task, or on a new
+//!   state estimate; publishes attitude commands and the telemetry snapshot.
+//! - **link** (thread-mode executor, lowest priority): USART3 (DMA ring buffer), MAVLink framing
+//!   and decoding; decoded messages go to the outer task through a `Channel`, replies come back
+//!   through another; builds the telemetry streams from the published snapshot.
 //!
-//! The cascade lives in one critical-section mutex ([`parapet_firmware::shared`]); loop reports
-//! are published through [`parapet_firmware::shared::SharedCell`]s. No `static mut`.
+//! Loop reports are `Signal`s, error counters atomics. No `static mut`.
 //! `cargo run -p parapet-firmware --release` flashes through probe-rs; logs are defmt over RTT.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
@@ -19,43 +25,61 @@
 
 #[cfg(target_os = "none")]
 mod firmware {
+    use core::sync::atomic::{AtomicU32, Ordering};
+
     use defmt_rtt as _;
     use embassy_executor::{Executor, InterruptExecutor};
-    use embassy_futures::select::{select, Either};
+    use embassy_futures::select::{select, select3, Either, Either3};
     use embassy_stm32::interrupt;
     use embassy_stm32::interrupt::{InterruptExt, Priority};
     use embassy_stm32::usart::{RingBufferedUartRx, UartTx};
+    use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
+    use embassy_sync::channel::Channel;
+    use embassy_sync::mutex::Mutex;
+    use embassy_sync::signal::Signal;
     use embassy_time::{Duration, Instant, Ticker, Timer};
     use parapet_core::controller::ControllerParams;
+    use parapet_core::schedule::OuterSchedule;
     use parapet_core::Vec3;
-    use parapet_firmware::autopilot::{Autopilot, ImuSample, MotorCommand};
+    use parapet_firmware::app::autopilot::{ImuSample, MotorCommand, TelemetrySnapshot};
+    use parapet_firmware::app::cascade::{InnerStage, OuterStage};
+    use parapet_firmware::app::loop_timing::{LoopReport, LoopTimer};
+    use parapet_firmware::app::mailbox::Mailboxes;
     use parapet_firmware::board::f405::{
-        self, DshotMotors, ImuSpi, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
+        self, imu_spi_config, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
     };
-    use parapet_firmware::cascade::Cascade;
-    use parapet_firmware::link::{FixClock, Link};
-    use parapet_firmware::loop_timing::{LoopReport, LoopTimer};
-    use parapet_firmware::mpu6000::{ImuError, Mpu6000};
-    use parapet_firmware::outbound::Outbound;
-    use parapet_firmware::shared::{SharedAutopilot, SharedCell};
-    use parapet_firmware::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
-    use parapet_firmware::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+    use parapet_firmware::drivers::mpu6000::ImuError;
+    use parapet_firmware::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+    use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+    use parapet_firmware::link::messages::frame_extra_crc;
+    use parapet_firmware::link::outbound::Outbound;
+    use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
+    use parapet_firmware::link::{FixClock, Link, Received};
     use static_cell::StaticCell;
 
     /// Inner-loop period, µs (1 kHz, paced by the IMU's data-ready line).
     const INNER_PERIOD_US: u32 = 1000;
-    /// Outer-loop rate, Hz.
-    const OUTER_RATE_HZ: u64 = 250;
     /// Missing data-ready edges tolerated before the sample is read anyway, µs.
     const IMU_TIMEOUT_US: u64 = 2000;
     /// Loop reports are published (and a new window started) after this many steps.
     const REPORT_EVERY_INNER: u32 = 500;
     const REPORT_EVERY_OUTER: u32 = 125;
+    /// Decoded messages in flight from the link task to the outer task.
+    const INBOUND_DEPTH: usize = 4;
+    /// Replies in flight from the outer task to the link task.
+    const REPLY_DEPTH: usize = 8;
 
-    static CASCADE: SharedAutopilot<Cascade> = SharedAutopilot::new();
-    static INNER_REPORT: SharedCell<LoopReport> = SharedCell::new(LoopReport::ZERO);
-    static OUTER_REPORT: SharedCell<LoopReport> = SharedCell::new(LoopReport::ZERO);
-    static IMU_ERRORS: SharedCell<u32> = SharedCell::new(0);
+    /// The stages' mailboxes (see `parapet_firmware::app::mailbox`).
+    static MAILBOXES: Mailboxes<CriticalSectionRawMutex> = Mailboxes::new();
+    /// Link task → outer task: decoded frames, in order.
+    static INBOUND: Channel<CriticalSectionRawMutex, (u64, Received), INBOUND_DEPTH> = Channel::new();
+    /// Outer task → link task: replies (acks, mission requests, parameter values).
+    static REPLIES: Channel<CriticalSectionRawMutex, Outbound, REPLY_DEPTH> = Channel::new();
+    /// Outer task → link task: the dispatcher's error counters.
+    static LINK_COUNTERS: Signal<CriticalSectionRawMutex, ErrorCounters> = Signal::new();
+    static INNER_REPORT: Signal<CriticalSectionRawMutex, LoopReport> = Signal::new();
+    static OUTER_REPORT: Signal<CriticalSectionRawMutex, LoopReport> = Signal::new();
+    static IMU_ERRORS: AtomicU32 = AtomicU32::new(0);
     static EXECUTOR_HIGH: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
@@ -101,21 +125,19 @@ mod firmware {
                 halt("board init")
             }
         };
-        match Cascade::new(ControllerParams::default()) {
-            Ok(c) => CASCADE.install(c),
-            Err(_) => halt("controller parameters rejected"),
-        }
-        defmt::info!("parapet-firmware: board up, cascade installed");
+        let params = ControllerParams::default();
+        let Ok((outer, inner)) = OuterStage::new(params) else { halt("controller parameters rejected") };
+        defmt::info!("parapet-firmware: board up, cascade built");
 
         interrupt::UART4.set_priority(Priority::P6);
         let high = EXECUTOR_HIGH.start(interrupt::UART4);
-        match inner_loop(board.imu, board.imu_ready, board.motors) {
+        match inner_loop(InnerStage::new(inner), board.imu, board.imu_ready, board.motors) {
             Ok(t) => high.spawn(t),
             Err(_) => halt("spawn inner loop"),
         }
         interrupt::UART5.set_priority(Priority::P7);
         let med = EXECUTOR_MED.start(interrupt::UART5);
-        match outer_loop() {
+        match outer_loop(outer, OuterSchedule::new(&params)) {
             Ok(t) => med.spawn(t),
             Err(_) => halt("spawn outer loop"),
         }
@@ -126,13 +148,17 @@ mod firmware {
         })
     }
 
-    /// Attitude/rate loop at the IMU's 1 kHz data-ready rate.
+    /// Attitude + rate loop at the IMU rate.
     #[embassy_executor::task]
     async fn inner_loop(
-        mut imu: Mpu6000<ImuSpi>,
+        mut stage: InnerStage,
+        imu: ImuParts,
         mut ready: embassy_stm32::exti::ExtiInput<'static, embassy_stm32::mode::Async>,
         mut motors: DshotMotors,
     ) {
+        // This task is SPI1's only user: the bus mutex never masks interrupts.
+        let bus: Mutex<NoopRawMutex, _> = Mutex::new(imu.bus);
+        let mut imu = ImuParts::device(&bus, imu.cs);
         let mut delay = embassy_time::Delay;
         let mut imu_ok = false;
         while !imu_ok {
@@ -150,10 +176,8 @@ mod firmware {
                 }
             }
         }
-        imu.bus_mut().set_frequency(IMU_SPI_FAST_HZ);
+        imu.bus_mut().set_config(imu_spi_config(IMU_SPI_FAST_HZ));
         let mut timer = LoopTimer::new(INNER_PERIOD_US, SYSCLK_HZ / 1_000_000);
-        let mut ap = CASCADE.handle();
-        let mut imu_errors: u32 = 0;
         loop {
             // Paced by data-ready; a missing edge (IMU stalled) still runs the step, so the
             // cascade sees the stale/failed sample and the motors keep being refreshed.
@@ -162,74 +186,110 @@ mod firmware {
             let sample = match imu.read().await {
                 Ok(s) => s,
                 Err(_) => {
-                    imu_errors = imu_errors.saturating_add(1);
-                    IMU_ERRORS.set(imu_errors);
+                    IMU_ERRORS.fetch_add(1, Ordering::Relaxed);
                     // A non-finite sample makes the cascade take its bad-input failsafe.
                     ImuSample { gyro_frd: Vec3::repeat(f32::NAN), accel_frd: Vec3::repeat(f32::NAN) }
                 }
             };
-            let cmd = ap.step_inner(now_us(), &sample);
+            let cmd = stage.step(now_us(), &sample, &MAILBOXES).sanitized();
             motors.write(&cmd).await;
             timer.end(cycles());
             if timer.report().steps >= REPORT_EVERY_INNER {
-                INNER_REPORT.set(timer.take_report());
+                INNER_REPORT.signal(timer.take_report());
             }
         }
     }
 
-    /// Position + CBF loop at 250 Hz.
+    /// Position + CBF loop at the outer rate, plus the MAVLink dispatcher.
     #[embassy_executor::task]
-    async fn outer_loop() {
-        let mut ticker = Ticker::every(Duration::from_hz(OUTER_RATE_HZ));
-        let mut timer = LoopTimer::new((1_000_000 / OUTER_RATE_HZ) as u32, SYSCLK_HZ / 1_000_000);
-        let mut ap = CASCADE.handle();
+    async fn outer_loop(mut stage: OuterStage, schedule: OuterSchedule) {
+        let period_us = schedule.period_us();
+        let mut ticker = Ticker::every(Duration::from_micros(period_us));
+        let mut timer = LoopTimer::new(period_us.min(u64::from(u32::MAX)) as u32, SYSCLK_HZ / 1_000_000);
+        let mut link = Link::new(VEHICLE_SYSTEM_ID, FixClock::Arrival);
         loop {
-            ticker.next().await;
-            timer.start(cycles());
-            ap.step_outer(now_us());
-            timer.end(cycles());
-            if timer.report().steps >= REPORT_EVERY_OUTER {
-                OUTER_REPORT.set(timer.take_report());
+            match select3(ticker.next(), INBOUND.receive(), MAILBOXES.estimate.wait()).await {
+                Either3::First(()) => {
+                    timer.start(cycles());
+                    let now = now_us();
+                    stage.on_estimate(&MAILBOXES);
+                    link.poll(now, &mut stage.port(&MAILBOXES));
+                    stage.step(now, &MAILBOXES);
+                    timer.end(cycles());
+                    if timer.report().steps >= REPORT_EVERY_OUTER {
+                        OUTER_REPORT.signal(timer.take_report());
+                    }
+                    LINK_COUNTERS.signal(ErrorCounters::from_link(&link));
+                }
+                Either3::Second((t, r)) => link.receive(r, t, &mut stage.port(&MAILBOXES)),
+                Either3::Third(est) => stage.take_estimate(est, &MAILBOXES),
+            }
+            while let Some(r) = link.pop_reply() {
+                // A full reply queue drops the reply (the peer retries).
+                let _ = REPLIES.try_send(r);
             }
         }
     }
 
-    /// MAVLink over the companion UART: inbound messages, replies and telemetry.
+    /// MAVLink over the companion UART: framing, decoding, replies and telemetry.
     #[embassy_executor::task]
     async fn link_task(
         mut tx: UartTx<'static, embassy_stm32::mode::Async>,
         mut rx: RingBufferedUartRx<'static>,
     ) {
-        let mut link = Link::new(VEHICLE_SYSTEM_ID, FixClock::Arrival);
+        let mut parser = FrameParser::new();
         let mut writer = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
         let mut telemetry = TelemetryScheduler::new();
-        let mut ap = CASCADE.handle();
+        let mut snapshot = TelemetrySnapshot::BOOT;
+        let (mut inner, mut outer) = (LoopReport::ZERO, LoopReport::ZERO);
+        let mut counters = ErrorCounters::default();
         let mut buf = [0u8; 64];
         let mut uart_errors: u32 = 0;
         loop {
             match select(rx.read(&mut buf), Timer::after_millis(5)).await {
-                Either::First(Ok(n)) => link.push_bytes(&buf[..n.min(buf.len())], now_us(), &mut ap),
+                Either::First(Ok(n)) => {
+                    let now = now_us();
+                    for &b in buf.get(..n).unwrap_or(&[]) {
+                        // At most one frame completes per byte.
+                        let mut got = None;
+                        parser.push(b, &frame_extra_crc, &mut |f: &RawFrame<'_>| got = Some(Received::of(f)));
+                        if let Some(r) = got {
+                            INBOUND.send((now, r)).await;
+                        }
+                    }
+                }
                 Either::First(Err(_)) => uart_errors = uart_errors.saturating_add(1),
                 Either::Second(()) => {}
             }
-            let now = now_us();
-            link.poll(now, &mut ap);
-            while let Some(r) = link.pop_reply() {
+            while let Ok(r) = REPLIES.try_receive() {
                 send(&mut tx, &mut writer, &r).await;
             }
+            if let Some(s) = MAILBOXES.snapshot.try_take() {
+                snapshot = s;
+            }
+            if let Some(r) = INNER_REPORT.try_take() {
+                inner = r;
+            }
+            if let Some(r) = OUTER_REPORT.try_take() {
+                outer = r;
+            }
+            if let Some(c) = LINK_COUNTERS.try_take() {
+                counters = c;
+            }
+            let parser_stats: ParserStats = parser.stats();
             let inputs = TelemetryInputs {
-                snapshot: ap.telemetry(),
-                inner: INNER_REPORT.get(),
-                outer: OUTER_REPORT.get(),
-                parser: link.parser_stats(),
+                snapshot,
+                inner,
+                outer,
+                parser: parser_stats,
                 counters: ErrorCounters {
-                    imu_errors: IMU_ERRORS.get(),
+                    imu_errors: IMU_ERRORS.load(Ordering::Relaxed),
                     uart_errors,
-                    ..ErrorCounters::from_link(&link)
+                    ..counters
                 },
             };
             let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
-            telemetry.poll(now, &inputs, |m| {
+            telemetry.poll(now_us(), &inputs, |m| {
                 // 20 > the at most 16 messages of one poll.
                 let _ = queued.push(m);
             });

@@ -35,14 +35,21 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MavlinkVersion, MessageData};
 use parapet_core::controller::ControllerParams;
-use parapet_firmware::cascade::Cascade;
-use parapet_firmware::frame_parser::FrameParser;
-use parapet_firmware::lockstep::InstructionCalibration;
-use parapet_firmware::messages::frame_extra_crc;
-use parapet_firmware::obstacle_link::CLEAR_ID;
+use parapet_core::wire::names;
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::frame_parser::FrameParser;
+use parapet_firmware::link::framing::FrameWriter;
+use parapet_firmware::link::messages::frame_extra_crc;
+use parapet_firmware::link::obstacles::CLEAR_ID;
+use parapet_firmware::link::telemetry::name_is;
+use parapet_firmware::pil::lockstep::InstructionCalibration;
 use parapet_firmware::pil::{BytePort, PilApp, TickCounter};
-use parapet_firmware::telemetry::name_is;
-use parapet_firmware::wire::FrameWriter;
+
+/// Longest section with interrupts masked that a control step may contain, instructions: the
+/// critical section of one mailbox operation, i.e. copying the largest message (the telemetry
+/// snapshot, ≈ 150 bytes: ≈ 80 load/store instructions) plus the primitive's bookkeeping and
+/// waker check. The outer step alone is ≈ 5 000 instructions, the inner step ≈ 2 000.
+const MASKED_BOUND: i32 = 400;
 
 /// Kills QEMU on every exit path.
 struct Qemu(Child);
@@ -253,6 +260,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     // Lockstep: 2 s of simulated time at 1 kHz, vehicle at rest; arm at 0.5 s.
     let steps = 2000u64;
     let mut ins = Vec::new();
+    let mut masked = Vec::new();
     let mut acks = Vec::new();
     let mut link_crc_errors = 0.0f32;
     let mut corrupted = 0;
@@ -371,8 +379,10 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                 }
                 NAMED_VALUE_INT_DATA::ID => {
                     let m: NAMED_VALUE_INT_DATA = de(&p);
-                    if name_is(&m.name, "ins_step") {
+                    if name_is(&m.name, names::INS_STEP) {
                         ins.push(m.value);
+                    } else if name_is(&m.name, names::INS_MASKED) {
+                        masked.push(m.value);
                     }
                 }
                 COMMAND_ACK_DATA::ID => acks.push(de::<COMMAND_ACK_DATA>(&p).result),
@@ -402,6 +412,16 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         (steps as f64 * 1e-3) / wall
     );
     assert!(mean > 100.0, "implausible instruction count {mean}");
+    // Interrupts masked: only the mailboxes' critical sections (one message copy each), never a
+    // control computation.
+    assert_eq!(masked.len() as u64, steps);
+    let masked_max = masked.iter().copied().max().unwrap_or(0);
+    println!("longest section with interrupts masked per control step: max {masked_max} instructions (bound {MASKED_BOUND})");
+    assert!(masked_max > 0, "the mailboxes' critical sections must be measured");
+    assert!(
+        masked_max <= MASKED_BOUND,
+        "a control step ran {masked_max} instructions with interrupts masked"
+    );
     assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED; 2], "arm and hold accepted");
     let c = last_ctl.expect("answers");
     assert!(c.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));

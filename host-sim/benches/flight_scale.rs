@@ -5,17 +5,20 @@
 //! 10³, 10⁴ and 10⁵ trunks (generator seed 0), `REPS` times each
 //! (alternating), and prints per scene: the index build (`NearestTracker::new`,
 //! thread CPU), the flight's simulated time, the best and median **thread-CPU**
-//! real-time factor (simulated s / CPU s of `runner::run`, not inflated by
+//! real-time factor (simulated s / CPU s of `fc::control::run`, not inflated by
 //! waiting for a core) and the median wall-clock factor (`summary.wall_time_s`,
 //! as `parapet run` prints it), and the summary numbers (to check the flight is
 //! the one `parapet run` flies).
 
 use std::path::Path;
 
-use parapet_sim::planner::{plan, PlanProblem, PlannerParams};
-use parapet_sim::runner::{run, RunConfig};
-use parapet_sim::scene::{to_f64, NearestTracker, Scene};
-use parapet_sim::world::generate::{generate, GenParams, Kind};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::RunConfig;
+use parapet_sim::plan::generate::generate;
+use parapet_sim::plan::{plan, PlanProblem, PlannerParams};
+use parapet_sim::world::generate::{GenParams, Kind};
+use parapet_sim::world::scene::{to_f64, Scene};
+use parapet_sim::world::NearestTracker;
 
 const REPS: usize = 7;
 

@@ -20,8 +20,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use parapet_sim::planner::{plan, PlanProblem, PlannerParams};
-use parapet_sim::scene::Scene;
+use parapet_sim::plan::{plan, PlanProblem, PlannerParams};
+use parapet_sim::world::scene::Scene;
 
 fn scenes() -> Vec<(String, PlanProblem)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");

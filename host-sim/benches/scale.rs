@@ -19,9 +19,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-use parapet_sim::planner::{index_for, plan, plan_with_index, PlanProblem, PlannerParams};
-use parapet_sim::scene::Scene;
-use parapet_sim::world::generate::{generate, GenParams, Kind};
+use parapet_sim::plan::generate::generate;
+use parapet_sim::plan::{index_for, plan, plan_with_index, PlanProblem, PlannerParams};
+use parapet_sim::world::generate::{GenParams, Kind};
+use parapet_sim::world::scene::Scene;
 use plotters::prelude::*;
 
 mod common;

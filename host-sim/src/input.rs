@@ -12,8 +12,10 @@
 //! [`limits`] holds every cap the tools enforce on user input (durations, steps,
 //! sweep sizes, …) so `--help`, `scenes/README.md` and the checks use one number.
 //!
-//! May import: std and `parapet-core`'s public constants (used by every other
-//! host-sim module, so nothing else of host-sim).
+//! [`exact`] reads fixed-length arrays from files with their length checked.
+//!
+//! May import: std, serde and `parapet-core`'s public constants (used by every
+//! other host-sim module, so nothing else of host-sim).
 
 use std::fmt;
 
@@ -118,7 +120,7 @@ pub mod limits {
     /// Smallest plant integration step (`[sim] dt`, `replay --dt`), s.
     pub const MIN_DT_S: f64 = 1e-5;
     /// Largest plant integration step, s: the inner-loop period (the plant takes
-    /// round(1 ms / dt) steps per inner step). Equals `runner::INNER_DT`.
+    /// round(1 ms / dt) steps per inner step). Equals `sim::INNER_DT`.
     pub const MAX_DT_S: f64 = 1e-3;
     /// Most plant integration steps of one run or replay (duration / dt).
     pub const MAX_PLANT_STEPS: f64 = 4e8;
@@ -174,6 +176,8 @@ pub mod limits {
 
     /// Most sensor-noise seeds of a sweep (`--seeds K`: K ≤ this).
     pub const SWEEP_MAX_SEEDS: u64 = 10_000;
+    /// Largest number of flights of a campaign (`campaign::spec::MAX_FLIGHTS`).
+    pub const CAMPAIGN_MAX_FLIGHTS: u64 = 1_000_000;
 
     /// Most runs one `parapet sweep` invocation flies (the grid, or its `--shard I/N`
     /// slice); a larger grid must be split with `--shard I/N`.
@@ -223,17 +227,99 @@ pub fn read_text(path: &std::path::Path) -> Result<String, InputError> {
     Ok(text)
 }
 
+/// The `f64` value of an `f32` constant with its shortest decimal form
+/// (`1.4f32` → `1.4`, not `1.399999976158142`); the `f32` round trip is exact.
+pub fn f32_as_f64(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+/// A number written with `D` decimals in a file (`trajectory.csv`, replay output):
+/// serialises as that text.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fixed<const D: usize>(pub f64);
+
+impl<const D: usize> serde::Serialize for Fixed<D> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(&format_args!("{:.*}", D, self.0))
+    }
+}
+
+/// Fixed-length number arrays (`start = [x, y, z]`) read with their length
+/// checked: serde's `[f64; N]` takes the first N elements from a TOML document
+/// and silently drops the rest; these refuse any other length with serde's
+/// "invalid length L, expected an array of N numbers", which the file's error
+/// text locates (line, table, field). Use with `#[serde(deserialize_with = …)]`
+/// (plus `default` for the `Option` forms).
+pub mod exact {
+    use std::fmt;
+
+    use serde::de::{Deserializer, Error, SeqAccess, Visitor};
+    use serde::Deserialize;
+
+    /// `[f64; N]` that refuses arrays of another length.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Exact<const N: usize>(pub [f64; N]);
+
+    struct ArrayVisitor<const N: usize>;
+
+    impl<'de, const N: usize> Visitor<'de> for ArrayVisitor<N> {
+        type Value = [f64; N];
+
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            write!(f, "an array of {N} numbers")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; N], A::Error> {
+            let mut out = [0.0; N];
+            let mut n = 0usize;
+            while let Some(x) = seq.next_element::<f64>()? {
+                if let Some(slot) = out.get_mut(n) {
+                    *slot = x;
+                }
+                n += 1;
+            }
+            if n == N {
+                Ok(out)
+            } else {
+                Err(A::Error::invalid_length(n, &self))
+            }
+        }
+    }
+
+    impl<'de, const N: usize> Deserialize<'de> for Exact<N> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            d.deserialize_seq(ArrayVisitor::<N>).map(Exact)
+        }
+    }
+
+    /// A required `[f64; N]` field.
+    pub fn array<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        Exact::<N>::deserialize(d).map(|a| a.0)
+    }
+
+    /// An optional `[f64; N]` field (with `#[serde(default)]`).
+    pub fn option_array<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<[f64; N]>, D::Error> {
+        Option::<Exact<N>>::deserialize(d).map(|o| o.map(|a| a.0))
+    }
+
+    /// An optional list of `[f64; N]` (with `#[serde(default)]`).
+    pub fn option_arrays<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<Vec<[f64; N]>>, D::Error> {
+        Option::<Vec<Exact<N>>>::deserialize(d).map(|o| o.map(|v| v.into_iter().map(|a| a.0).collect()))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn limits_agree_with_the_code_they_describe() {
-        assert_eq!(limits::MAX_DT_S, crate::runner::INNER_DT);
-        assert_eq!(
-            limits::PLANNER_BUDGET_S * 1000.0,
-            crate::planner::PlannerParams::default().time_budget_ms
-        );
+        assert_eq!(limits::MAX_DT_S, crate::sim::INNER_DT);
+        assert_eq!(limits::PLANNER_BUDGET_S * 1000.0, crate::plan::PlannerParams::default().time_budget_ms);
         let timeout_us = parapet_core::failsafe::FailsafeParams::default().position_timeout_us;
         assert!((limits::MAX_POSITION_LATENCY_S * 1e6).round() as u64 <= timeout_us / 2);
     }

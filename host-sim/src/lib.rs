@@ -1,40 +1,30 @@
 //! parapet-sim: 6-DOF quadrotor simulator, scenes, planner and the `parapet` CLI.
 //!
-//! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz.
-//! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
-//! * [`scene`]: scene files (TOML, ENU z-up) → NED obstacles, mission, overrides.
-//! * [`replay`]: open-loop replay of rotor speeds from a CSV.
-//! * [`planner`]: offline RRT-Connect + shortcutting planner (static obstacles, NED).
-//! * [`pathfile`]: path files (JSON, ENU z-up) written by `parapet plan`.
-//! * [`runner`]: the closed loop plant → sensors → controller, metrics.
-//! * [`pil`]: processor-in-the-loop: the QEMU firmware flies the scene over MAVLink lockstep.
-//! * [`cli`]: the `parapet` command line (`run`, `plan`, `replay`).
-//! * [`report`]: summary.json, trajectory.csv, plots, summary table.
+//! Folders by concern, listed bottom-up: a module may import only the modules
+//! listed before it (the layering is checked by `tests/layering.rs`, which
+//! fails on an import cycle between any two sibling modules).
+//!
 //! * [`input`]: the one error type for bad user input, and the documented limits.
-//! * [`output`]: stdout that survives a closed pipe; outputs never replace inputs.
-//! * [`help`]: the long help texts (defaults, limits, examples, exit codes).
-//! * [`validate`]: up-front checks of a run's settings against the core's limits.
-//! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
-//! * [`campaign`]: `parapet campaign`: Monte Carlo campaigns of disturbed flights, shards and merge.
-//! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
-//! * [`world`]: spatial index of the static obstacles, nearest-obstacle tracker, scene checks, generator.
+//! * [`sim`]: the simulated vehicle and its environment: 6-DOF plant, sensors,
+//!   wind / mismatch / faults, open-loop replay.
+//! * [`world`]: scene files, obstacle motion, the spatial index and
+//!   nearest-obstacle queries, scene checks, the scene generator.
+//! * [`plan`]: the offline planner (RRT-Connect + shortcutting) and path files.
+//! * [`report`]: summary.json, trajectory.csv, plots, summary table.
+//! * [`flight`]: the closed loop plant → sensors → flight stack, its settings,
+//!   metrics, up-front validation and pre-flight checks.
+//! * [`fc`]: the flight stacks the loop flies: the in-process `parapet-core`
+//!   controller, the processor-in-the-loop firmware in QEMU and its host twin.
+//! * [`cli`]: the `parapet` command line (`run`, `pil`, `plan`, `replay`,
+//!   `scene generate`), help texts, errors and exit codes.
+//! * [`sweep`], [`campaign`]: parameter sweeps and Monte Carlo campaigns.
 pub mod campaign;
 pub mod cli;
-pub mod control;
-pub mod disturbance;
-pub mod help;
+pub mod fc;
+pub mod flight;
 pub mod input;
-pub mod output;
-pub mod pathfile;
-pub mod pil;
-pub mod planner;
-pub mod plant;
-pub mod preflight;
-pub mod replay;
+pub mod plan;
 pub mod report;
-pub mod runner;
-pub mod scene;
-pub mod sensors;
+pub mod sim;
 pub mod sweep;
-pub mod validate;
 pub mod world;

@@ -284,7 +284,7 @@ fn durations_beyond_the_cap_are_refused_and_memory_follows_the_flight() {
         let r = parapet(&["run", "--scene", &f, "--straight", "--duration", dur, "--out", o]);
         refused(&r, &["option --duration", &cap, "--max-duration"]);
     }
-    let r = parapet(&["run", "--scene", &f, "--straight", "--speed", "1e-5", "--out", o]);
+    let r = parapet(&["run", "--scene", &f, "--straight", "--speed", "1e-3", "--out", o]);
     refused(&r, &["option --duration", "default duration", &cap]);
     let long = write_scene(&d, &GOOD.replace("speed = 0.5", "speed = 0.5\n[sim]\nduration = 1e7"));
     let r = parapet(&["run", "--scene", &long, "--straight", "--out", o]);
@@ -535,7 +535,11 @@ fn parameters_print_as_written() {
     let out = d.join("o");
     let r = parapet(&["run", "--scene", &f, "--straight", "--duration", "1", "--out", out.to_str().unwrap()]);
     assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
-    assert!(stdout(&r).contains("mu 1.4 delta 0.05 delta1 0.1 kp 0.5 kd 0.8"), "{}", stdout(&r));
+    assert!(
+        stdout(&r).contains("mu 1.4 s, delta 0.05 m^2, delta1 0.1 m^2, kp 0.5 1/s^2, kd 0.8 1/s"),
+        "{}",
+        stdout(&r)
+    );
     let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(text.contains("\"mu\": 1.4,") && text.contains("\"delta\": 0.05,"), "{text}");
 }

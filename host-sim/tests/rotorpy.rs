@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_sim::cli::load_vehicle;
-use parapet_sim::replay::{parse_rotor_csv, replay, ReplayOptions};
+use parapet_sim::sim::replay::{parse_rotor_csv, replay, ReplayOptions};
 
 fn data(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/rotorpy").join(name)
@@ -53,7 +53,7 @@ fn replay_with_aerodynamics_agrees_with_rotorpy_within_1_cm() {
     assert!(da < 0.01, "attitude error {da} rad");
     // The check has teeth: without the aerodynamic terms (or the wind) the same
     // inputs end far from RotorPy.
-    let plain = parapet_sim::plant::VehicleParams {
+    let plain = parapet_sim::sim::plant::VehicleParams {
         rotor_drag_kd: 0.0,
         rotor_drag_kz: 0.0,
         parasitic_drag: [0.0; 3],

@@ -6,11 +6,15 @@
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::obstacle::Shape;
-use parapet_sim::planner::{path_is_valid, plan, PlanProblem, PlannerParams, DEFAULT_MARGIN_M};
-use parapet_sim::runner::{nearest_with_ground, sense_and_h_bar, sense_obstacles, true_h_bar, OuterScratch};
-use parapet_sim::scene::{to_f32, Motion, NearestTracker, Scene, SceneObstacle};
-use parapet_sim::sensors::{SensorParams, Sensors};
-use parapet_sim::world::generate::{generate, GenParams, Kind, ENDPOINT_CLEARANCE_M};
+use parapet_sim::flight::runner::{
+    nearest_with_ground, sense_and_h_bar, sense_obstacles, true_h_bar, OuterScratch,
+};
+use parapet_sim::plan::generate::generate;
+use parapet_sim::plan::{path_is_valid, plan, PlanProblem, PlannerParams, DEFAULT_MARGIN_M};
+use parapet_sim::sim::sensors::{SensorParams, Sensors};
+use parapet_sim::world::generate::{GenParams, Kind, ENDPOINT_CLEARANCE_M};
+use parapet_sim::world::scene::{to_f32, Motion, Scene, SceneObstacle};
+use parapet_sim::world::NearestTracker;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -3,7 +3,7 @@
 //! * `plant/rk4_step` — one 1 ms RK4 step of the 6-DOF plant (`Plant::step`),
 //!   default vehicle hovering.
 //! * `plant/office_flight` — a whole closed-loop flight of the office scene
-//!   (`runner::run`: plant at 1 kHz, sensors, `FlightController` inner 1 kHz /
+//!   (`fc::control::run`: plant at 1 kHz, sensors, `FlightController` inner 1 kHz /
 //!   outer 250 Hz, multi-relative filter, proximity sensing of all 26 obstacles,
 //!   clearance and barrier metrics, samples recorded), duration limit 60 s, on
 //!   the shipped path `scenes/office_path.json` (a planner path, fixed so the
@@ -34,13 +34,15 @@ use std::time::Instant;
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use nalgebra::Vector3;
 use parapet_core::cbf::SafetyFilter;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::plant::{Plant, VehicleParams};
-use parapet_sim::runner::{
-    nearest_with_ground, run, sense_and_h_bar, sense_obstacles, OuterScratch, RunConfig,
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{
+    nearest_with_ground, sense_and_h_bar, sense_obstacles, OuterScratch, RunConfig,
 };
-use parapet_sim::scene::{to_f64, NearestTracker, Scene};
-use parapet_sim::sensors::Sensors;
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::sim::plant::{Plant, VehicleParams};
+use parapet_sim::sim::sensors::Sensors;
+use parapet_sim::world::scene::{to_f64, Scene};
+use parapet_sim::world::NearestTracker;
 
 /// The office scene and its shipped path, with a 60 s duration limit.
 fn office() -> (Scene, RunConfig) {

@@ -1,15 +1,16 @@
-//! Closed-loop flights under disturbances (`parapet_sim::disturbance`): a
+//! Closed-loop flights under disturbances (`parapet_sim::sim::disturbance`): a
 //! hovering vehicle in steady wind tilts as the drag equation says, a heavier
 //! plant than the controller believes sags as the PD law predicts, a rotor
 //! fault and sensor faults change the flight, and every disturbed flight is
 //! deterministic for its seed.
 
 use nalgebra::Vector3;
-use parapet_sim::disturbance::faults::{FaultParams, RotorFault};
-use parapet_sim::disturbance::Mismatch;
-use parapet_sim::plant::GRAVITY;
-use parapet_sim::runner::{run, RunConfig, RunOutput};
-use parapet_sim::scene::Scene;
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
+use parapet_sim::sim::disturbance::faults::{FaultParams, RotorFault};
+use parapet_sim::sim::disturbance::Mismatch;
+use parapet_sim::sim::plant::GRAVITY;
+use parapet_sim::world::scene::Scene;
 
 /// An empty room, 2 m up; the path leads 3 m north (10 s at 0.3 m/s) and holds there.
 fn hover_scene(extra: &str) -> Scene {

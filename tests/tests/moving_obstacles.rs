@@ -22,9 +22,10 @@ use std::path::PathBuf;
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterVariant, SafetyFilter};
 use parapet_core::obstacle::ObstaclePoint;
-use parapet_sim::runner::{run, sense_obstacles, RunConfig, RunOutput};
-use parapet_sim::scene::{to_f32, Scene};
-use parapet_sim::sensors::{SensorParams, Sensors};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{sense_obstacles, RunConfig, RunOutput};
+use parapet_sim::sim::sensors::{SensorParams, Sensors};
+use parapet_sim::world::scene::{to_f32, Scene};
 
 const SPEEDS: [f64; 3] = [0.2, 0.3, 0.5];
 const OFFSETS: [f64; 5] = [0.0, 0.1, 0.2, 0.3, 0.4];
@@ -119,7 +120,7 @@ fn check_relative(c: &Case) -> Result<(), String> {
     }
     // The person's closing speed is at most 0.5 + ~0.35 m/s, so the constraint asks for
     // at most (2/μ)·0.85 ≈ 1.9 m/s² along the normal, well within u_max = 6 m/s².
-    if c.out.samples.iter().any(|k| k.unavoidable) {
+    if c.out.samples.iter().any(|k| k.filter.unavoidable) {
         return Err(format!("{tag}: the filter flagged `unavoidable`"));
     }
     if su.filter_active_fraction <= 0.0 {
@@ -277,12 +278,12 @@ fn simulator_reports_the_true_obstacle_velocity() {
 fn unavoidable_flag_marks_where_the_guarantee_ends() {
     let ok = fly_case(2.0, 0.0, FilterVariant::Relative, 0, 0.0);
     assert!(!ok.out.summary.collided && ok.rel_h_bar >= -EPS, "2 m/s: {:?}", ok.out.summary);
-    assert!(ok.out.samples.iter().all(|k| !k.unavoidable), "2 m/s is within u_max");
+    assert!(ok.out.samples.iter().all(|k| !k.filter.unavoidable), "2 m/s is within u_max");
 
     let fast = fly_case(6.0, 0.0, FilterVariant::Relative, 0, 0.0);
     let su = &fast.out.summary;
     assert!(su.collided, "6 m/s head-on: expected the collision the flag predicts: {su:?}");
-    let flagged = fast.out.samples.iter().find(|k| k.unavoidable).map(|k| k.t);
+    let flagged = fast.out.samples.iter().find(|k| k.filter.unavoidable).map(|k| k.t);
     let hit = su.first_collision_time_s.unwrap_or(0.0);
     assert!(flagged.is_some_and(|t| t < hit - 0.1), "flag at {flagged:?}, collision at {hit} s");
 }

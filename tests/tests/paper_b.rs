@@ -8,8 +8,8 @@
 mod paper_common;
 use paper_common::{fly, scene};
 use parapet_core::Vec3;
-use parapet_sim::runner::RunOutput;
-use parapet_sim::scene::{to_f32, Scene};
+use parapet_sim::flight::runner::RunOutput;
+use parapet_sim::world::scene::{to_f32, Scene};
 
 fn straight(s: &Scene) -> Vec<nalgebra::Vector3<f64>> {
     vec![s.start, s.goal]

@@ -6,8 +6,8 @@
 
 mod paper_common;
 use paper_common::{fly, path_file, scene};
-use parapet_sim::runner::RunOutput;
-use parapet_sim::scene::Scene;
+use parapet_sim::flight::runner::RunOutput;
+use parapet_sim::world::scene::Scene;
 
 fn office() -> (Scene, Vec<nalgebra::Vector3<f64>>) {
     (scene("office.toml"), path_file("office_path.json"))

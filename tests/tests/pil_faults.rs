@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use parapet_sim::pil::{run_pil, FaultInjection, PilLink, PilOptions};
-use parapet_sim::runner::run_with;
+use parapet_sim::fc::pil::{run_pil, FaultInjection, PilLink, PilOptions};
+use parapet_sim::flight::runner::run_with;
 use parapet_tests::pil_support::{config, firmware, scene};
 
 #[test]

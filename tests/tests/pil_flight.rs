@@ -2,14 +2,15 @@
 //! `qemu-system-arm -machine netduinoplus2 -icount shift=0` against the 6-DOF plant.
 //!
 //! The ELF comes from `PARAPET_FIRMWARE_QEMU_ELF` (set by `cargo xtask test`); when unset the
-//! test builds it with cargo. Without `qemu-system-arm` on PATH the tests fail with the install
-//! command when the variable is set, else print a loud SKIP.
+//! test builds it with cargo. Without `qemu-system-arm` (or with the variable naming no file) the
+//! tests FAIL with the install command when `CI` or the variable is set, else print a loud SKIP
+//! (`parapet_tests::pil_support::pil_prerequisites`).
 //!
 //! Timing: QEMU lockstep runs at a real-time factor of ≈ 0.1–0.2 on the CI machine, so the scene
 //! is short (2.4 m at 0.4 m/s, ≈ 9 s of simulated flight).
 
-use parapet_sim::pil::{max_deviation, run_pil, run_twin, PilOptions};
-use parapet_sim::runner::run;
+use parapet_sim::fc::control::run;
+use parapet_sim::fc::pil::{max_deviation, run_pil, run_twin, PilOptions};
 use parapet_tests::pil_support::{config, firmware, scene};
 
 /// Longest simulated flight of the short scene, s.

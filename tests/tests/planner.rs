@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 
 use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::planner::{path_is_valid, plan, PlanError, PlanProblem, PlannerParams};
-use parapet_sim::scene::Scene;
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::plan::{path_is_valid, plan, PlanError, PlanProblem, PlannerParams};
+use parapet_sim::world::scene::Scene;
 
 /// Sampling step of the independent check, m.
 const CHECK_STEP_M: f32 = 0.01;
@@ -82,7 +82,7 @@ fn shipped_scenes_give_collision_free_paths() {
             assert!(path.waypoints.len() <= params.max_waypoints);
             let straight = (problem.goal - problem.start).norm();
             assert!(path.length_m >= straight - 1e-3);
-            assert!((path.length_m - parapet_sim::planner::path_length(&path.waypoints)).abs() < 1e-3);
+            assert!((path.length_m - parapet_sim::plan::path_length(&path.waypoints)).abs() < 1e-3);
             assert!(
                 path_is_valid(&problem, params.margin, &path.waypoints),
                 "{}: seed {seed}",

@@ -26,9 +26,10 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::runner::{path_length, run, RunConfig, RunOutput};
-use parapet_sim::scene::{to_f64, Scene};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{path_length, RunConfig, RunOutput};
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::world::scene::{to_f64, Scene};
 
 const EPS: f64 = 2e-3;
 const SCENES: [&str; 2] = ["dogleg_corridor", "door_lintel"];
@@ -81,7 +82,7 @@ fn the_scenes_put_several_barriers_near_at_once() {
             }
         }
         let out = fly(&s, &path, FilterVariant::Multi, s.speed, 0.1, 0);
-        let n_max = out.samples.iter().map(|k| k.n_constraints).max().unwrap_or(0);
+        let n_max = out.samples.iter().map(|k| k.filter.n_constraints).max().unwrap_or(0);
         assert!(n_max >= 2, "{name}: at most {n_max} barrier(s) enforced at once");
     }
 }

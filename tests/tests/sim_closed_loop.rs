@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use parapet_sim::runner::{run, RunConfig, RunOutput};
-use parapet_sim::scene::Scene;
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
+use parapet_sim::world::scene::Scene;
 
 fn scene(name: &str) -> Scene {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name);
@@ -101,16 +102,16 @@ fn moving_person_is_reported_and_avoided_or_recorded() {
     assert!(sum.sim_time_s > 10.0);
     assert_eq!(sum.collided, sum.min_clearance_m < 0.0);
     // The filter saw the person (obstacle 0) at some point.
-    assert!(out.samples.iter().any(|k| k.active_obstacle == Some(0)));
+    assert!(out.samples.iter().any(|k| k.filter.active_id == Some(0)));
 }
 
 #[test]
 fn default_office_flight_is_safe_and_reaches_the_goal() {
     // The README's main command: the office scene, planned with seed 0, default filter.
-    use parapet_sim::planner::{plan, PlanProblem, PlannerParams};
+    use parapet_sim::plan::{plan, PlanProblem, PlannerParams};
     let s = scene("office.toml");
     let planned = plan(&PlanProblem::from_scene(&s), &PlannerParams::default()).unwrap();
-    let path = planned.waypoints.iter().map(parapet_sim::scene::to_f64).collect();
+    let path = planned.waypoints.iter().map(parapet_sim::world::scene::to_f64).collect();
     let cfg = RunConfig::for_scene(&s, path).unwrap();
     let out = run(&s, &cfg, &mut |_| {}).unwrap();
     let sum = &out.summary;

@@ -18,7 +18,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Instant, SystemTime};
 
 use crate::{cargo, root};
 
@@ -200,7 +200,8 @@ fn m4_mean(line: &str) -> Option<u64> {
     line.split("mean ").nth(1)?.split_whitespace().next()?.parse().ok()
 }
 
-/// Build `tests/cortex-m4` and run it in QEMU; its output lines (`None` without QEMU).
+/// Build `tests/cortex-m4` and run it in QEMU ([`crate::m4`]); its output lines (`None` without
+/// QEMU). A failed check fails the benchmark too.
 fn cortex_m4() -> Result<Option<Vec<String>>, String> {
     let qemu_ok = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
     if !qemu_ok {
@@ -208,48 +209,8 @@ fn cortex_m4() -> Result<Option<Vec<String>>, String> {
         return Ok(None);
     }
     crate::ensure_target()?;
-    let dir = root().join("tests").join("cortex-m4");
-    eprintln!("\n== xtask: build the Cortex-M4F instruction-count program (tests/cortex-m4)");
-    let status = cargo()
-        .args(["build", "--release"])
-        .current_dir(&dir)
-        .status()
-        .map_err(|e| format!("cargo build in {}: {e}", dir.display()))?;
-    if !status.success() {
-        return Err(format!("building tests/cortex-m4 failed ({status})"));
-    }
-    let elf = target_dir().join(crate::TARGET).join("release").join("parapet-bench-m4");
-    eprintln!("== xtask: run it in qemu-system-arm -machine netduinoplus2 -icount shift=0");
-    let mut child = Command::new("qemu-system-arm")
-        .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-icount", "shift=0"])
-        .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
-        .arg(&elf)
-        .stdout(Stdio::null())
-        // QEMU writes the semihosting console to its stderr.
-        .stderr(Stdio::piped())
-        .stdin(Stdio::null())
-        .spawn()
-        .map_err(|e| format!("qemu-system-arm: {e}"))?;
-    let out = child.stderr.take();
-    let reader = std::thread::spawn(move || {
-        out.map(|o| BufReader::new(o).lines().map_while(Result::ok).collect::<Vec<_>>()).unwrap_or_default()
-    });
-    let deadline = Instant::now() + Duration::from_secs(600);
-    let status = loop {
-        if let Some(st) = child.try_wait().map_err(|e| format!("qemu: {e}"))? {
-            break st;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Err("the Cortex-M4F program did not finish within 600 s".into());
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let lines = reader.join().map_err(|_| "reading QEMU's output failed".to_string())?;
-    if !status.success() || !lines.iter().any(|l| l == "done") {
-        return Err(format!("the Cortex-M4F program failed ({status}): {}", lines.join(" / ")));
-    }
+    let (lines, status) = crate::m4::build_and_run()?;
+    crate::m4::verify(&lines, status.success())?;
     Ok(Some(lines))
 }
 

@@ -4,7 +4,8 @@
 //!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
 //!   apt-get when missing and root), runs every host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
-//!   firmware's flash/RAM budget, and runs the processor-in-the-loop flight and the
+//!   firmware's flash/RAM budget, checks `parapet_core::fmath` on the Cortex-M4F in QEMU bit for
+//!   bit against the host (`tests/cortex-m4`, see `m4.rs`), and runs the processor-in-the-loop flight and the
 //!   Slurm job-array campaign test (`host-sim/slurm/ci_test.sh`; installs slurmctld,
 //!   slurmd and munge via apt-get when missing).
 //!   After the host tests, a bounded coverage-guided fuzz run of every `tests/fuzz` target
@@ -12,6 +13,10 @@
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
 //!   and `docs/reliability.md`).
 //! * `cargo xtask size` — print the firmware's flash and static-RAM use.
+//! * `cargo xtask m4` — only the Cortex-M4F fmath bit-exactness step of `cargo xtask test`
+//!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
+//! * `cargo xtask params [--out FILE]` — the parameter table as ground-station metadata JSON
+//!   (see `params.rs`).
 //! * `cargo xtask bench [--long]` — run every criterion benchmark (short
 //!   measurement times unless `--long`) and print one summary table (see `bench.rs`).
 //!
@@ -21,6 +26,8 @@
 mod bench;
 mod elf;
 mod fuzz;
+mod m4;
+mod params;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -38,9 +45,11 @@ fn main() -> ExitCode {
         Some("size") => size().map(|_| ()),
         Some("bench") => bench::bench(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
+        Some("params") => params::params(&args[1..]),
+        Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]>"
+                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|m4>"
             );
             return ExitCode::from(2);
         }
@@ -236,6 +245,8 @@ fn test() -> Result<(), String> {
             .args(["test", "-p", "parapet-firmware", "--test", "qemu_pil", "--", "--ignored"])
             .env("PARAPET_QEMU_ELF", &qemu_elf),
     )?;
+    // fmath (VSQRT.F32, sincosf, ...) on the Cortex-M4F, bit for bit against the host build.
+    m4::check()?;
     run(
         "build parapet-core for Cortex-M4F",
         cargo().args(["build", "--release", "-p", "parapet-core", "--target", TARGET]),

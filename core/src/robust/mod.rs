@@ -19,8 +19,9 @@
 //!   filter as two more (convex, static) obstacle points.
 //! * **Stall** ([`stall::StallDetector`]): no progress with the filter active.
 //!
-//! May import: `crate::cbf`, `crate::obstacle`, `crate::attitude`, `crate::fmath`,
-//! [`crate::Vec3`]. Imported by `crate::controller` (outer loop) and tests.
+//! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::attitude`
+//! (its parameter type only), `crate::fmath`, [`crate::Vec3`]. Imported by the outer loop
+//! ([`crate::outer`]) and [`crate::config`].
 
 pub mod stall;
 

@@ -1,11 +1,14 @@
 //! Stall (deadlock) detection: flying the mission more than
-//! `controller::STALL_TRACKING_ERROR_M` from the reference, the safety filter
+//! [`STALL_TRACKING_ERROR_M`] from the reference, the safety filter
 //! intervenes, and the vehicle has not moved `stall_distance_m` for
 //! `stall_time_s`. The controller's defined action on `deadlock`: report it
 //! (telemetry) and hold the position where it stalled (the mission ends there;
 //! a new `start_mission` or path resumes). May import: [`crate::Vec3`].
 
 use crate::Vec3;
+
+/// Tracking error above which a mission step can count towards a stall, m.
+pub const STALL_TRACKING_ERROR_M: f32 = 0.3;
 
 /// Detector state (no allocation, O(1) per step).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -14,12 +14,12 @@ mod firmware {
     use embassy_executor::Spawner;
     use mavlink::dialects::ardupilotmega::MavSeverity;
     use parapet_core::controller::ControllerParams;
+    use parapet_firmware::app::cascade::Cascade;
     use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Usart1};
-    use parapet_firmware::cascade::Cascade;
-    use parapet_firmware::outbound::Outbound;
+    use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+    use parapet_firmware::link::outbound::Outbound;
+    use parapet_firmware::link::telemetry::status_text;
     use parapet_firmware::pil::{PilApp, CALIBRATION_ITERATIONS};
-    use parapet_firmware::telemetry::status_text;
-    use parapet_firmware::wire::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 
     /// Handshake heartbeat period: 10 ms of virtual time at the 168 MHz SysTick clock.
     const HEARTBEAT_PERIOD_TICKS: u32 = 1_680_000;
@@ -75,7 +75,7 @@ mod firmware {
     fn panic(_info: &core::panic::PanicInfo) -> ! {
         cortex_m::interrupt::disable();
         // No motors in QEMU: report and stop answering (the host detects the silence).
-        report_and_halt("PANIC");
+        report_and_halt(parapet_core::wire::names::PANIC_TEXT);
     }
 }
 

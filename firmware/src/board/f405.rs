@@ -18,6 +18,7 @@
 //! `MOTOR_PINS` below) accordingly; the IMU axis map [`IMU_AXES`] is the board's `CW180`
 //! mounting (Betaflight `GYRO_1_ALIGN CW180_DEG`); check both on the bench before flight.
 
+use embassy_embedded_hal::shared_bus::asynch::spi::SpiDeviceWithConfig;
 use embassy_stm32::exti::{self, ExtiInput};
 use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::mode::Async;
@@ -29,11 +30,12 @@ use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::timer::Channel;
 use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
 use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
-use embedded_hal_async::spi::{ErrorType, Operation, SpiBus, SpiDevice};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::mutex::Mutex;
 
-use crate::autopilot::MotorCommand;
-use crate::dshot;
-use crate::mpu6000::{AxisMap, Mpu6000};
+use crate::app::autopilot::MotorCommand;
+use crate::drivers::dshot;
+use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 
 /// Companion UART baud rate.
 pub const COMPANION_BAUD: u32 = 921_600;
@@ -82,49 +84,38 @@ pub fn clock_config() -> Config {
     config
 }
 
-/// The IMU's SPI device: SPI1 with a GPIO chip select (one device on the bus).
-pub struct ImuSpi {
-    bus: Spi<'static, Async, spi::mode::Master>,
-    cs: Output<'static>,
+/// SPI1, the IMU's bus (one device on it).
+pub type ImuSpiBus = Spi<'static, Async, spi::mode::Master>;
+/// The bus behind an async mutex, as [`ImuSpi`] shares it. The inner-loop task owns it (no other
+/// task touches SPI1), so the mutex is a [`NoopRawMutex`]: it never masks interrupts.
+pub type ImuSpiBusMutex = Mutex<NoopRawMutex, ImuSpiBus>;
+/// The IMU's SPI device: `embassy-embedded-hal`'s device on [`ImuSpiBus`] with the GPIO chip
+/// select PC2 and its own bus configuration (set before every transaction).
+pub type ImuSpi<'a> = SpiDeviceWithConfig<'a, NoopRawMutex, ImuSpiBus, Output<'static>>;
+
+/// The IMU's SPI configuration at `hz`: mode 3 ([`IMU_SPI_SLOW_HZ`] for register writes,
+/// [`IMU_SPI_FAST_HZ`] for sample reads).
+pub fn imu_spi_config(hz: u32) -> spi::Config {
+    let mut cfg = spi::Config::default();
+    cfg.mode = spi::MODE_3;
+    cfg.frequency = Hertz(hz);
+    cfg
 }
 
-impl ErrorType for ImuSpi {
-    type Error = spi::Error;
+/// The IMU's bus and chip select, for the inner-loop task to build its [`ImuSpi`] and the
+/// `Mpu6000` driver on ([`ImuParts::device`]).
+pub struct ImuParts {
+    /// SPI1.
+    pub bus: ImuSpiBus,
+    /// Chip select (high = idle).
+    pub cs: Output<'static>,
 }
 
-impl SpiDevice for ImuSpi {
-    async fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), Self::Error> {
-        self.cs.set_low();
-        let mut result = Ok(());
-        for op in operations.iter_mut() {
-            result = match op {
-                Operation::Read(buf) => SpiBus::read(&mut self.bus, buf).await,
-                Operation::Write(buf) => SpiBus::write(&mut self.bus, buf).await,
-                Operation::Transfer(r, w) => SpiBus::transfer(&mut self.bus, r, w).await,
-                Operation::TransferInPlace(buf) => SpiBus::transfer_in_place(&mut self.bus, buf).await,
-                Operation::DelayNs(ns) => {
-                    embassy_time::Timer::after_micros(u64::from(*ns).div_ceil(1000)).await;
-                    Ok(())
-                }
-            };
-            if result.is_err() {
-                break;
-            }
-        }
-        let flushed = SpiBus::<u8>::flush(&mut self.bus).await;
-        self.cs.set_high();
-        result.and(flushed)
-    }
-}
-
-impl ImuSpi {
-    /// Switches the SPI clock (slow for register writes, fast for sample reads).
-    pub fn set_frequency(&mut self, hz: u32) {
-        let mut cfg = spi::Config::default();
-        cfg.mode = spi::MODE_3;
-        cfg.frequency = Hertz(hz);
-        // Only fails for an unsupported mode/frequency combination, which these constants are not.
-        let _ = self.bus.set_config(&cfg);
+impl ImuParts {
+    /// The MPU-6000 driver on `bus` (the [`ImuSpiBusMutex`] made from [`ImuParts::bus`]) at the
+    /// slow register-write clock.
+    pub fn device<'a>(bus: &'a ImuSpiBusMutex, cs: Output<'static>) -> Mpu6000<ImuSpi<'a>> {
+        Mpu6000::new(SpiDeviceWithConfig::new(bus, cs, imu_spi_config(IMU_SPI_SLOW_HZ)), IMU_AXES)
     }
 }
 
@@ -162,8 +153,8 @@ pub fn force_motors_off() {
 
 /// The board's drivers, ready for the tasks.
 pub struct Board {
-    /// MPU-6000 on SPI1 (initialised by the inner-loop task).
-    pub imu: Mpu6000<ImuSpi>,
+    /// SPI1 and the MPU-6000's chip select (the inner-loop task builds the driver on them).
+    pub imu: ImuParts,
     /// Data-ready line of the IMU.
     pub imu_ready: ExtiInput<'static, Async>,
     /// Motor outputs.
@@ -185,12 +176,10 @@ pub enum BoardError {
 pub fn init(rx_ring: &'static mut [u8; COMPANION_RX_RING]) -> Result<Board, BoardError> {
     let p = embassy_stm32::init(clock_config());
 
-    let mut spi_cfg = spi::Config::default();
-    spi_cfg.mode = spi::MODE_3;
-    spi_cfg.frequency = Hertz(IMU_SPI_SLOW_HZ);
-    let bus = Spi::new(p.SPI1, p.PA5, p.PA7, p.PA6, p.DMA2_CH3, p.DMA2_CH0, Irqs, spi_cfg);
+    let bus =
+        Spi::new(p.SPI1, p.PA5, p.PA7, p.PA6, p.DMA2_CH3, p.DMA2_CH0, Irqs, imu_spi_config(IMU_SPI_SLOW_HZ));
     let cs = Output::new(p.PC2, Level::High, Speed::VeryHigh);
-    let imu = Mpu6000::new(ImuSpi { bus, cs }, IMU_AXES);
+    let imu = ImuParts { bus, cs };
     let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
 
     let pwm = SimplePwm::new(

@@ -13,10 +13,14 @@
 //!   free from the core clock (24-bit down-counter, reload 0xFF_FFFF) and, under
 //!   `qemu -icount shift=0` (one instruction = 1 ns of virtual time), measures the instruction
 //!   count of each control step, calibrated against a loop of known instruction count.
+//! - **Masked sections**: this board supplies the `critical-section` implementation itself
+//!   ([`MeasuredCriticalSection`]: PRIMASK like cortex-m's single-core one, plus the SysTick
+//!   ticks from the outermost acquire to its release), so the PIL application can report the
+//!   longest section with interrupts masked of every control step (`ins_masked`).
 //! - No RCC/DMA/GPIO access; no defmt/RTT (nothing reads it in QEMU).
 
 use core::ptr::{read_volatile, write_volatile};
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
@@ -24,9 +28,9 @@ use embassy_sync::pipe::Pipe;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 
-use crate::lockstep::{systick_elapsed, InstructionCalibration};
-use crate::outbound::Outbound;
-use crate::wire::FrameWriter;
+use crate::link::framing::FrameWriter;
+use crate::link::outbound::Outbound;
+use crate::pil::lockstep::{systick_elapsed, InstructionCalibration};
 
 const USART1_BASE: usize = 0x4001_1000;
 const SR: usize = USART1_BASE;
@@ -176,6 +180,48 @@ pub fn panic_write(bytes: &[u8]) {
     }
 }
 
+/// SysTick value at the outermost open critical section's acquire.
+static MASKED_START: AtomicU32 = AtomicU32::new(0);
+/// Longest critical section since the last [`take_masked_max_ticks`], SysTick ticks.
+static MASKED_MAX: AtomicU32 = AtomicU32::new(0);
+
+/// The `critical-section` implementation of this board: masks interrupts with PRIMASK (single
+/// core, like cortex-m's `critical-section-single-core`) and measures each outermost section
+/// on SysTick (instructions under `-icount shift=0`, see [`InstructionCounter`]).
+pub struct MeasuredCriticalSection;
+critical_section::set_impl!(MeasuredCriticalSection);
+
+// SAFETY: single-core Cortex-M4: masking interrupts with PRIMASK excludes every other context;
+// the restore state says whether this acquire masked them (outermost) so nesting is sound.
+unsafe impl critical_section::Impl for MeasuredCriticalSection {
+    unsafe fn acquire() -> critical_section::RawRestoreState {
+        let was_enabled = cortex_m::register::primask::read().is_active();
+        cortex_m::interrupt::disable();
+        if was_enabled {
+            MASKED_START.store(SYST::get_current(), Ordering::Relaxed);
+        }
+        was_enabled
+    }
+
+    unsafe fn release(was_enabled: critical_section::RawRestoreState) {
+        if was_enabled {
+            let ticks =
+                systick_elapsed(MASKED_START.load(Ordering::Relaxed), SYST::get_current(), SYSTICK_RELOAD);
+            if ticks > MASKED_MAX.load(Ordering::Relaxed) {
+                MASKED_MAX.store(ticks, Ordering::Relaxed);
+            }
+            // SAFETY: this acquire masked them; no outer section is open.
+            unsafe { cortex_m::interrupt::enable() };
+        }
+    }
+}
+
+/// Longest critical section since the previous call, SysTick ticks (and starts a new window).
+pub fn take_masked_max_ticks() -> u32 {
+    // Not through `critical_section` (that would measure itself): a plain masked swap.
+    cortex_m::interrupt::free(|_| MASKED_MAX.swap(0, Ordering::Relaxed))
+}
+
 /// Free-running SysTick used as the instruction counter.
 pub struct InstructionCounter {
     _syst: SYST,
@@ -251,5 +297,8 @@ impl crate::pil::TickCounter for InstructionCounter {
     }
     fn since(&self, start: u32) -> u32 {
         InstructionCounter::since(self, start)
+    }
+    fn take_masked_max(&self) -> u32 {
+        take_masked_max_ticks()
     }
 }

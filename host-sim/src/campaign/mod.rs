@@ -19,7 +19,7 @@
 //! Memory: one row per flight (the samples of a flight are dropped when it ends);
 //! time: the flights' durations are bounded as `parapet run`'s.
 //!
-//! May import: `crate::cli` (run options, errors), `crate::runner`, `crate::disturbance`,
+//! May import: `crate::cli` (run options, errors), `crate::flight::runner`, `crate::sim::disturbance`,
 //! `crate::input`, rayon, indicatif, clap, serde.
 
 pub mod output;
@@ -125,11 +125,13 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     // The drawn plant as `--disturbances` would check it (so the worst-flight command flies too).
     if let Some(p) = &cfg.disturbances.plant {
         let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
-        if let Err((field, value, allowed)) = checked.and_then(|_| crate::disturbance::check_integrable(p)) {
+        if let Err((field, value, allowed)) =
+            checked.and_then(|_| crate::sim::disturbance::check_integrable(p))
+        {
             return failed(row, format!("the drawn [plant] field `{field}`: {value} {allowed}"));
         }
     }
-    match crate::runner::run(&scene, &cfg, &mut |_| {}) {
+    match crate::fc::control::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
             let s = &out.summary;
@@ -144,9 +146,9 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
                 min_clearance_m: s.min_clearance_m,
                 min_h_bar: s.min_h_bar,
                 tracking_rms_m: s.tracking_rms_m,
-                filter_active_steps: count(&|x| x.filter_active),
-                unavoidable_steps: count(&|x| x.unavoidable),
-                infeasible_steps: count(&|x| x.infeasible),
+                filter_active_steps: count(&|x| x.filter.intervened),
+                unavoidable_steps: count(&|x| x.filter.unavoidable),
+                infeasible_steps: count(&|x| x.filter.infeasible),
                 deadlock_steps: count(&|x| x.safety.deadlock),
                 obstacles_dropped_steps: count(&|x| x.safety.obstacles_dropped > 0),
                 outer_steps: out.samples.len() as u64,

@@ -12,10 +12,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use plotters::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// The outcome of one flight.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Its `campaign.csv` columns are the fields in order ([`OUTCOME_COLUMNS`]); numbers are
+/// written in Rust's shortest round-trip form.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Outcome {
     /// The hull touched an obstacle or the ground.
     pub collided: bool,
@@ -26,10 +28,13 @@ pub struct Outcome {
     /// `goal`, `path_end`, `duration`, `collision`, or `error`.
     pub end_reason: String,
     /// Minimum clearance, m.
+    #[serde(with = "shortest")]
     pub min_clearance_m: f64,
     /// Minimum true h̄, m².
+    #[serde(with = "shortest")]
     pub min_h_bar: f64,
     /// Tracking RMS, m.
+    #[serde(with = "shortest")]
     pub tracking_rms_m: f64,
     /// Outer steps in which the filter changed u*.
     pub filter_active_steps: u64,
@@ -44,8 +49,10 @@ pub struct Outcome {
     /// Outer steps flown.
     pub outer_steps: u64,
     /// Simulated time, s.
+    #[serde(with = "shortest")]
     pub sim_time_s: f64,
     /// Time to the goal, s.
+    #[serde(with = "shortest_opt")]
     pub time_to_goal_s: Option<f64>,
     /// Why the flight could not be flown (`end_reason` = `error`), else empty.
     pub error: String,
@@ -66,7 +73,8 @@ pub struct Row {
     pub outcome: Outcome,
 }
 
-const OUTCOME_COLUMNS: [&str; 16] = [
+/// The outcome columns of `campaign.csv` (the fields of [`Outcome`], in order).
+pub const OUTCOME_COLUMNS: [&str; 16] = [
     "collided",
     "collision_with",
     "reached_goal",
@@ -93,34 +101,52 @@ pub fn header(names: &[String]) -> Vec<String> {
     h
 }
 
-impl Row {
-    /// The CSV fields (numbers in Rust's shortest round-trip form).
-    pub fn record(&self) -> Vec<String> {
-        let o = &self.outcome;
-        let mut r = vec![self.flight.to_string(), self.scene.clone(), self.seed.to_string()];
-        r.extend(self.values.iter().map(|v| format!("{v}")));
-        r.extend([
-            o.collided.to_string(),
-            o.collision_with.clone(),
-            o.reached_goal.to_string(),
-            o.end_reason.clone(),
-            format!("{}", o.min_clearance_m),
-            format!("{}", o.min_h_bar),
-            format!("{}", o.tracking_rms_m),
-            o.filter_active_steps.to_string(),
-            o.unavoidable_steps.to_string(),
-            o.infeasible_steps.to_string(),
-            o.deadlock_steps.to_string(),
-            o.obstacles_dropped_steps.to_string(),
-            o.outer_steps.to_string(),
-            format!("{}", o.sim_time_s),
-            o.time_to_goal_s.map(|t| format!("{t}")).unwrap_or_default(),
-            o.error.clone(),
-        ]);
-        r
+/// An `f64` in Rust's shortest round-trip form (`Display`), as `campaign.csv` writes numbers.
+struct Shortest(f64);
+
+impl Serialize for Shortest {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(&self.0)
+    }
+}
+
+mod shortest {
+    use super::{Deserialize, Deserializer, Serialize, Serializer, Shortest};
+
+    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+        Shortest(*x).serialize(s)
     }
 
-    /// Parse a record written by [`Row::record`] with `n` drawn values.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        f64::deserialize(d)
+    }
+}
+
+mod shortest_opt {
+    use super::{Deserialize, Deserializer, Serialize, Serializer, Shortest};
+
+    pub fn serialize<S: Serializer>(x: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        x.map(Shortest).serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        Option::<f64>::deserialize(d)
+    }
+}
+
+impl Row {
+    /// The CSV record: flight, scene, seed, the drawn values, then the [`Outcome`] fields.
+    fn record(&self) -> (u64, &str, u64, Vec<Shortest>, &Outcome) {
+        (
+            self.flight,
+            &self.scene,
+            self.seed,
+            self.values.iter().map(|v| Shortest(*v)).collect(),
+            &self.outcome,
+        )
+    }
+
+    /// Parse a record written by [`write_csv`] with `n` drawn values.
     pub fn parse(rec: &csv::StringRecord, n: usize) -> Result<Row> {
         if rec.len() != 3 + n + OUTCOME_COLUMNS.len() {
             return Err(anyhow!("expected {} columns, got {}", 3 + n + OUTCOME_COLUMNS.len(), rec.len()));
@@ -128,34 +154,12 @@ impl Row {
         let f = |i: usize| rec.get(i).unwrap_or("");
         let num = |i: usize| f(i).parse::<f64>().map_err(|e| anyhow!("column {}: `{}`: {e}", i + 1, f(i)));
         let int = |i: usize| f(i).parse::<u64>().map_err(|e| anyhow!("column {}: `{}`: {e}", i + 1, f(i)));
-        let boolean =
-            |i: usize| f(i).parse::<bool>().map_err(|e| anyhow!("column {}: `{}`: {e}", i + 1, f(i)));
         let values = (0..n).map(|k| num(3 + k)).collect::<Result<Vec<_>>>()?;
-        let b = 3 + n;
-        Ok(Row {
-            flight: int(0)?,
-            scene: f(1).to_string(),
-            seed: int(2)?,
-            values,
-            outcome: Outcome {
-                collided: boolean(b)?,
-                collision_with: f(b + 1).to_string(),
-                reached_goal: boolean(b + 2)?,
-                end_reason: f(b + 3).to_string(),
-                min_clearance_m: num(b + 4)?,
-                min_h_bar: num(b + 5)?,
-                tracking_rms_m: num(b + 6)?,
-                filter_active_steps: int(b + 7)?,
-                unavoidable_steps: int(b + 8)?,
-                infeasible_steps: int(b + 9)?,
-                deadlock_steps: int(b + 10)?,
-                obstacles_dropped_steps: int(b + 11)?,
-                outer_steps: int(b + 12)?,
-                sim_time_s: num(b + 13)?,
-                time_to_goal_s: if f(b + 14).is_empty() { None } else { Some(num(b + 14)?) },
-                error: f(b + 15).to_string(),
-            },
-        })
+        let tail: csv::StringRecord = rec.iter().skip(3 + n).collect();
+        let header: csv::StringRecord = OUTCOME_COLUMNS.iter().collect();
+        let outcome: Outcome =
+            tail.deserialize(Some(&header)).map_err(|e| anyhow!("outcome columns: {e}"))?;
+        Ok(Row { flight: int(0)?, scene: f(1).to_string(), seed: int(2)?, values, outcome })
     }
 
     fn flown(&self) -> bool {
@@ -165,10 +169,15 @@ impl Row {
 
 /// Write `rows` (sorted by flight) as `campaign.csv` at `path`.
 pub fn write_csv(path: &Path, names: &[String], rows: &[Row]) -> Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    // The header names the drawn quantities, so it is written as a record; the rows are
+    // serde records (tuple of the fixed columns, the values and the Outcome struct).
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_path(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
     w.write_record(header(names))?;
     for r in rows {
-        w.write_record(r.record())?;
+        w.serialize(r.record())?;
     }
     w.flush().with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())

@@ -30,7 +30,7 @@
 //! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
 //! seed is a mix of (campaign seed, i). Adding a quantity does not change the others.
 //!
-//! May import: `crate::disturbance`, `crate::input`, the external crates.
+//! May import: `crate::sim::disturbance`, `crate::input`, the external crates.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -39,14 +39,14 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::disturbance::faults::RotorFault;
-use crate::disturbance::wind::Gust;
-use crate::disturbance::{Disturbances, Mismatch};
 use crate::input::InputError;
-use crate::plant::VehicleParams;
+use crate::sim::disturbance::faults::RotorFault;
+use crate::sim::disturbance::wind::Gust;
+use crate::sim::disturbance::{Disturbances, Mismatch};
+use crate::sim::plant::VehicleParams;
 
 /// Largest number of flights of a campaign.
-pub const MAX_FLIGHTS: u64 = 1_000_000;
+pub const MAX_FLIGHTS: u64 = crate::input::limits::CAMPAIGN_MAX_FLIGHTS;
 
 /// Every quantity a campaign can draw.
 pub const QUANTITIES: &[&str] = &[
@@ -235,8 +235,9 @@ impl Campaign {
     /// Read and check a campaign file.
     pub fn load(path: &Path) -> Result<Campaign, InputError> {
         let src = crate::input::read_text(path)?;
-        let table: toml::Table = toml::from_str(&src)
-            .map_err(|e| InputError::file(path.display(), crate::scene::describe_toml_error(&src, &e)))?;
+        let table: toml::Table = toml::from_str(&src).map_err(|e| {
+            InputError::file(path.display(), crate::world::scene::describe_toml_error(&src, &e))
+        })?;
         let dir = path.parent().unwrap_or(Path::new(""));
         let top = |field: &str, reason: &str| InputError::file(path.display(), reason).field(field);
         for k in table.keys() {

@@ -19,7 +19,8 @@ use super::grid::{Grid, Shard};
 use super::heatmap::{self, Aggregator};
 use super::manifest::{self, Identity, Manifest};
 use super::record::{self, SweepRecord};
-use super::{bad_input, create_out, exit_codes_help, output_files, refuse_overwrite, say, some_failed};
+use super::{bad_input, create_out, output_files, refuse_overwrite, say, some_failed};
+use crate::cli::exit_codes_help;
 use crate::cli::CliError;
 use crate::input::InputError;
 

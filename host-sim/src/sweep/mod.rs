@@ -13,7 +13,7 @@
 //! `--yes` threshold) and the base configuration passes `preflight::check`
 //! (exit 2 otherwise). A run that fails on its own parameters (pre-flight or in
 //! flight) becomes a `failed` row with its error; the other rows are kept and the
-//! command exits with [`EXIT_SOME_FAILED`]. Rows stream to `sweep.csv` in grid
+//! command exits with [`crate::cli::EXIT_SOME_FAILED`]. Rows stream to `sweep.csv` in grid
 //! order as chunks of runs finish; memory is one chunk of rows plus one small
 //! record per heatmap cell.
 //!
@@ -51,22 +51,19 @@ pub use manifest::{Identity, Manifest};
 pub use merge::{cmd_sweep_merge, SweepMergeArgs};
 pub use record::{SweepRecord, COLUMNS};
 
-use crate::cli::CliError;
+use crate::cli::{exit_codes_help, CliError};
+use crate::fc::control::run;
+use crate::flight::preflight::PreflightOptions;
+use crate::flight::runner::{default_duration, RunConfig};
+use crate::flight::validate::Given;
 use crate::input::limits::{
     MAX_DURATION_CEILING_S, MAX_DURATION_S, SWEEP_CONFIRM_RUNS, SWEEP_MAX_JOBS, SWEEP_MAX_RUNS,
     SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
 };
 use crate::input::InputError;
-use crate::pathfile::PathFile;
-use crate::planner::{plan, PlanProblem, PlannerParams};
-use crate::preflight::PreflightOptions;
-use crate::runner::{default_duration, run, RunConfig};
-use crate::scene::{to_f64, Scene};
-use crate::validate::Given;
-
-/// Exit code of `parapet sweep` when some runs failed (their rows say why; the
-/// others are complete).
-pub const EXIT_SOME_FAILED: i32 = 4;
+use crate::plan::pathfile::PathFile;
+use crate::plan::{plan, PlanProblem, PlannerParams};
+use crate::world::scene::{to_f64, Scene};
 
 /// Simulated seconds per wall-clock second and thread, for the `--yes` estimate:
 /// release build (office sweep in `docs/performance.md`: 96 flights of ~61 s in
@@ -108,17 +105,6 @@ Examples:
             "sweep: some runs failed (status failed in sweep.csv, with the error); the others are kept"
         )
     )
-}
-
-/// The shared exit-code text, with code [`EXIT_SOME_FAILED`] explained by `what`
-/// unless the shared text already lists it.
-pub(crate) fn exit_codes_help(what: &str) -> String {
-    let shared = crate::cli::EXIT_CODES_HELP;
-    if shared.contains(&format!("\n  {EXIT_SOME_FAILED} ")) {
-        shared.to_string()
-    } else {
-        format!("{shared}\n  {EXIT_SOME_FAILED}    {what}")
-    }
 }
 
 fn parse_range(s: &str) -> Result<GridRange, String> {
@@ -261,8 +247,8 @@ impl SweepSetup {
     /// `validate::check_run` and `preflight::check` for run `p`.
     pub fn check(&self, p: &GridPoint) -> Result<(), InputError> {
         let (scene, cfg) = self.config(p);
-        crate::validate::check_run(&scene, &cfg, &self.given)?;
-        crate::preflight::check(&scene, &cfg, &self.preflight)
+        crate::flight::validate::check_run(&scene, &cfg, &self.given)?;
+        crate::flight::preflight::check(&scene, &cfg, &self.preflight)
     }
 
     fn failed_row(&self, p: &GridPoint, error: String) -> SweepRecord {
@@ -577,7 +563,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let straight = [scene.goal];
     check_size(&grid, &a, &|v| rule(&straight, v), jobs)?;
     // The start must be flyable before the planner is asked for a path from it.
-    crate::preflight::check_start(&scene).map_err(bad_input)?;
+    crate::flight::preflight::check_start(&scene).map_err(bad_input)?;
 
     let (path, source) = sweep_path(&scene, &a)?;
     if path.len() > parapet_core::controller::PATH_CAPACITY {
@@ -615,7 +601,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         path_file: a.path.as_ref().map(|p| p.display().to_string()),
         foreign_path: a.foreign_path,
     };
-    crate::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
+    crate::flight::preflight::check(&scene, &base, &preflight).map_err(bad_input)?;
     let mut options = vec!["mu", "delta1", "speed"];
     if a.duration.is_some() {
         options.push("duration");
@@ -741,7 +727,7 @@ mod tests {
     #[test]
     fn exit_code_4_is_listed_exactly_once() {
         let h = exit_codes_help("some runs failed");
-        assert_eq!(h.matches(&format!("\n  {EXIT_SOME_FAILED} ")).count(), 1, "{h}");
+        assert_eq!(h.matches(&format!("\n  {} ", crate::cli::EXIT_SOME_FAILED)).count(), 1, "{h}");
         assert!(h.starts_with(crate::cli::EXIT_CODES_HELP));
     }
 }

@@ -1,5 +1,5 @@
 //! Scene-loader checks that need the whole obstacle list: duplicated and
-//! degenerate obstacles. Called by [`crate::scene::Scene::parse`] after each
+//! degenerate obstacles. Called by [`crate::world::scene::Scene::parse`] after each
 //! obstacle has been converted (and its own fields checked).
 //!
 //! * **Degenerate:** a radius, height or box side below [`MIN_OBSTACLE_SIZE_M`]
@@ -10,13 +10,13 @@
 //!   the simulator stores it, `f32`) and the same motion; one of them is
 //!   redundant and every query would count it twice.
 //!
-//! Owns the checks. May import: `parapet-core` (shapes), `crate::scene` (types).
+//! Owns the checks. May import: `parapet-core` (shapes), [`super::obstacle`].
 
 use std::collections::HashMap;
 
 use parapet_core::obstacle::Shape;
 
-use crate::scene::SceneObstacle;
+use super::obstacle::SceneObstacle;
 
 /// Smallest radius, height or box side accepted, m.
 pub const MIN_OBSTACLE_SIZE_M: f64 = 1e-3;
@@ -91,7 +91,7 @@ pub fn obstacles(obstacles: &[SceneObstacle]) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::Scene;
+    use crate::world::scene::Scene;
 
     const HEAD: &str = "name = \"t\"\n[bounds]\nmin = [-10, -10, 0]\nmax = [10, 10, 5]\n\
                         [mission]\nstart = [0, 0, 1]\ngoal = [5, 0, 1]\nspeed = 0.3\n";

@@ -27,7 +27,8 @@
 //! obstacles are written in Morton order of 4 m cells (neighbours, near indices).
 //!
 //! Owns the generator. May import: `parapet-core` (shapes), [`super::index`],
-//! `crate::scene`, `crate::planner`, `crate::input` (errors).
+//! `crate::world::scene`, `crate::input` (errors). The planner's check comes in
+//! as a function ([`generate_with`]); `crate::plan::generate` passes the planner.
 
 use std::fmt::Write as _;
 
@@ -37,8 +38,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::index::StaticIndex;
 use crate::input::InputError;
-use crate::planner::{plan, PlanProblem, PlannerParams};
-use crate::scene::{enu_arr_to_ned, to_f32, Scene};
+use crate::world::scene::{enu_arr_to_ned, to_f32, Scene};
 
 /// Mission placements tried before giving up.
 pub const MISSION_TRIES: usize = 20;
@@ -341,9 +341,18 @@ pub struct Generated {
     pub plan_length_m: f32,
 }
 
-/// Generate a scene (see the module docs). Errors: parameters out of range
-/// (named option, value, allowed range), or no mission placement with a path.
-pub fn generate(p: &GenParams) -> Result<Generated, InputError> {
+/// What the check that a path exists found: planner iterations and path length, m;
+/// or why there is none.
+pub type PathCheck = Result<(u32, f32), String>;
+
+/// Generate a scene (see the module docs) with `path_exists` as the check that a
+/// mission placement is connected (the planner's: `crate::plan::generate::generate`).
+/// Errors: parameters out of range (named option, value, allowed range), or no
+/// mission placement with a path.
+pub fn generate_with(
+    p: &GenParams,
+    path_exists: &mut dyn FnMut(&Scene, u64) -> PathCheck,
+) -> Result<Generated, InputError> {
     check_params(p)?;
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
     let (raw, side) = obstacles(p, &mut rng);
@@ -387,17 +396,11 @@ pub fn generate(p: &GenParams) -> Result<Generated, InputError> {
         }
         let toml = write_toml(p, &obs, lo, hi, start, goal);
         let scene = Scene::parse(&toml, "generated scene").map_err(InputError::from)?;
-        let params = PlannerParams { seed: p.seed, ..PlannerParams::default() };
-        match plan(&PlanProblem::from_scene(&scene), &params) {
-            Ok(path) => {
-                return Ok(Generated {
-                    toml,
-                    scene,
-                    plan_iterations: path.iterations,
-                    plan_length_m: path.length_m,
-                })
+        match path_exists(&scene, p.seed) {
+            Ok((plan_iterations, plan_length_m)) => {
+                return Ok(Generated { toml, scene, plan_iterations, plan_length_m })
             }
-            Err(e) => last_err = e.to_string(),
+            Err(e) => last_err = e,
         }
     }
     Err(InputError::option("seed", format!(
@@ -444,121 +447,4 @@ fn write_toml(
     let _ = writeln!(s, "[bounds]\nmin = {}\nmax = {}", a(lo), a(hi));
     let _ = writeln!(s, "[mission]\nstart = {}\ngoal = {}\nspeed = {}", a(start), a(goal), p.speed);
     s
-}
-
-/// `parapet scene …`.
-#[derive(Debug, clap::Args)]
-pub struct SceneArgs {
-    #[command(subcommand)]
-    command: SceneCommand,
-}
-
-#[derive(Debug, clap::Subcommand)]
-enum SceneCommand {
-    /// Generate a procedural scene (forest, city, warehouse, clutter), seeded, with a mission
-    /// the planner connects, and write it as a scene TOML.
-    #[command(after_help = crate::help::scene_generate())]
-    Generate(GenerateArgs),
-}
-
-/// `parapet scene generate` options (defaults: [`GenParams::default`]).
-#[derive(Debug, clap::Args)]
-pub struct GenerateArgs {
-    /// Kind of scene.
-    #[arg(long, value_enum, default_value = "forest")]
-    kind: Kind,
-    /// Number of obstacles (1 ≤ n ≤ 1,000,000).
-    #[arg(long, default_value_t = 1000)]
-    obstacles: usize,
-    /// RNG seed (same options and seed, same file).
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// forest: trunks per m²; clutter: obstacles per m² of floor (0 < d ≤ 2).
-    #[arg(long, default_value_t = 0.05)]
-    density: f64,
-    /// forest: smallest trunk radius, m.
-    #[arg(long, default_value_t = 0.1)]
-    radius_min: f64,
-    /// forest: largest trunk radius, m.
-    #[arg(long, default_value_t = 0.4)]
-    radius_max: f64,
-    /// city: street width, m.
-    #[arg(long, default_value_t = 8.0)]
-    street: f64,
-    /// city: block side, m.
-    #[arg(long, default_value_t = 20.0)]
-    block: f64,
-    /// warehouse: aisle width, m.
-    #[arg(long, default_value_t = 3.0)]
-    aisle: f64,
-    /// Distance from the mission start to the goal, m (at most 80 % of the scene's side).
-    #[arg(long, default_value_t = 60.0)]
-    mission_length: f64,
-    /// Height of the flight volume, m.
-    #[arg(long, default_value_t = 5.0)]
-    ceiling: f64,
-    /// Mission reference speed, m/s.
-    #[arg(long, default_value_t = 0.5)]
-    speed: f64,
-    /// Output scene file (TOML); an existing file only with --force.
-    #[arg(long)]
-    out: std::path::PathBuf,
-    /// Replace an existing --out file.
-    #[arg(long)]
-    force: bool,
-}
-
-impl GenerateArgs {
-    fn params(&self) -> GenParams {
-        GenParams {
-            kind: self.kind,
-            seed: self.seed,
-            obstacles: self.obstacles,
-            density: self.density,
-            radius_min: self.radius_min,
-            radius_max: self.radius_max,
-            street: self.street,
-            block: self.block,
-            aisle: self.aisle,
-            mission_length: self.mission_length,
-            ceiling: self.ceiling,
-            speed: self.speed,
-        }
-    }
-}
-
-/// Run `parapet scene …`: returns the line to print.
-pub fn cmd_scene(a: SceneArgs) -> Result<String, crate::cli::CliError> {
-    let SceneCommand::Generate(g) = a.command;
-    if g.out.is_dir() {
-        return Err(InputError::option("out", "is a directory, not a file").value(g.out.display()).into());
-    }
-    if g.out.exists() && !g.force {
-        return Err(InputError::option("out", "the file exists")
-            .value(g.out.display())
-            .allowed("a new file, or --force to replace it")
-            .into());
-    }
-    let t0 = std::time::Instant::now();
-    let made = generate(&g.params())?;
-    if let Some(dir) = g.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            crate::cli::CliError::Failed(anyhow::anyhow!("cannot create {}: {e}", dir.display()))
-        })?;
-    }
-    std::fs::write(&g.out, &made.toml).map_err(|e| {
-        crate::cli::CliError::Failed(anyhow::anyhow!("cannot write {}: {e}", g.out.display()))
-    })?;
-    Ok(format!(
-        "{}: {} obstacles, bounds {:?} .. {:?} m, mission {:.1} m apart, path {:.1} m ({} iterations), {:.0} ms -> {}\n",
-        made.scene.name,
-        made.scene.obstacles.len(),
-        made.scene.bounds_enu.0,
-        made.scene.bounds_enu.1,
-        (made.scene.goal - made.scene.start).norm(),
-        made.plan_length_m,
-        made.plan_iterations,
-        t0.elapsed().as_secs_f64() * 1e3,
-        g.out.display()
-    ))
 }

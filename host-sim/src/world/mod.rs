@@ -1,7 +1,12 @@
-//! Worlds at scale: the spatial index of a scene's static obstacles, the
-//! nearest-obstacle tracker built on it, scene checks, and the procedural
-//! scene generator.
+//! The world a flight happens in: scene files, obstacle motion, the spatial
+//! index of a scene's static obstacles, the nearest-obstacle tracker built on
+//! it, scene checks, and the procedural scene generator.
 //!
+//! * [`scene`]: [`scene::Scene`], a loaded scene file (TOML, ENU z-up) → NED obstacles,
+//!   mission, overrides; the f64 ↔ f32 and ENU ↔ NED conversions.
+//! * [`schema`]: the file's tables as serde reads them, per-table checks, error texts.
+//! * [`frame`]: f64 ↔ f32 vectors, ENU arrays ↔ NED.
+//! * [`obstacle`]: [`obstacle::SceneObstacle`] and its [`obstacle::Motion`].
 //! * [`index`]: [`index::StaticIndex`], a BVH (parry3d-f64) over the static
 //!   obstacles' bounding boxes with exact nearest / within-radius / box queries
 //!   (the narrow phase is the core's `Shape::closest_point`, so results equal
@@ -14,11 +19,16 @@
 //! * [`generate`]: `parapet scene generate` — forest, city, warehouse and
 //!   clutter scenes, seeded, with a mission the planner connects.
 //!
-//! May import: `parapet-core`, parry3d-f64, and of host-sim `scene` (types),
-//! `planner` (generate only), `input` (errors).
+//! May import: `parapet-core`, parry3d-f64, and of host-sim [`crate::input`]
+//! (errors, limits) and [`crate::sim`] (the vehicle, sensor and disturbance
+//! settings a scene file overrides).
 pub mod check;
+pub mod frame;
 pub mod generate;
 pub mod index;
+pub mod obstacle;
+pub mod scene;
+pub mod schema;
 pub mod tracker;
 
 pub use index::StaticIndex;

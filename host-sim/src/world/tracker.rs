@@ -4,7 +4,7 @@
 //! `true_h_bar`) bit for bit and cheap at any obstacle count.
 //!
 //! Owns the tracker. May import: `parapet-core` (shapes), [`super::index`],
-//! `crate::scene` (scene types).
+//! `crate::world::scene` (scene types).
 
 use std::sync::Arc;
 
@@ -12,8 +12,10 @@ use nalgebra::Vector3;
 use parapet_core::obstacle::Shape;
 use parapet_core::Vec3;
 
+use super::frame::to_f32;
 use super::index::{round_off_margin, StaticIndex};
-use crate::scene::{to_f32, Scene, SceneObstacle};
+use super::obstacle::SceneObstacle;
+use super::scene::Scene;
 
 /// Scenes with at least this many static obstacles use the spatial index;
 /// smaller ones keep every obstacle in the candidate set (a scan of a few
@@ -319,7 +321,7 @@ pub fn index_of(scene: &Scene) -> StaticIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Motion;
+    use crate::world::scene::Motion;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

@@ -26,6 +26,8 @@
 use core::fmt::Write;
 use core::hint::black_box;
 
+mod check;
+
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
@@ -436,7 +438,7 @@ fn bench_cascade_parts(c: &Counter) {
             black_box(black_box(&est).tilt());
         }),
     );
-    let mut att = match AttitudeController::new(params.attitude) {
+    let mut att = match AttitudeController::new(params.attitude, params.airframe.inertia) {
         Ok(a) => a,
         Err(_) => exit(false),
     };
@@ -462,7 +464,7 @@ fn bench_cascade_parts(c: &Counter) {
     report(
         "thrust::map_acceleration",
         c.measure(|| {
-            black_box(map_acceleration(&params.thrust, black_box(&u), 0.2, 0.05, -0.03));
+            black_box(map_acceleration(&params.thrust, params.airframe.mass, black_box(&u), 0.2, 0.05, -0.03));
         }),
     );
     let mut tracker = PdTracker::new(params.tracking);
@@ -482,50 +484,6 @@ fn bench_cascade_parts(c: &Counter) {
                 0.004,
             ));
         }),
-    );
-}
-
-/// `fmath::sqrtf` (VSQRT.F32) must equal `libm::sqrtf` bit for bit, and `minf`/`maxf` libm's
-/// `fminf`/`fmaxf`, on this target: checked over a geometric sweep of 0..f32::MAX, random
-/// values and the special cases. A mismatch stops the program with a failure exit.
-fn check_fmath() {
-    let mut rng = SplitMix64(99);
-    let mut x = f32::MIN_POSITIVE / 8.0; // subnormals too
-    let mut n = 0u32;
-    let mut check = |x: f32| {
-        let (a, b) = (fmath::sqrtf(x), libm::sqrtf(x));
-        if a.to_bits() != b.to_bits() && !(a.is_nan() && b.is_nan()) {
-            let _ = writeln!(Console, "fmath::sqrtf({x:e}) = {a:e} but libm::sqrtf = {b:e}");
-            exit(false);
-        }
-        n += 1;
-    };
-    while x < f32::MAX / 1.01 {
-        check(x);
-        x *= 1.01;
-    }
-    for _ in 0..20_000 {
-        check(f32::from_bits((rng.next_u64() >> 32) as u32 & 0x7FFF_FFFF));
-        check(rng.uniform(0.0, 100.0));
-    }
-    for s in [0.0, -0.0, -1.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
-        check(s);
-    }
-    let vals = [-2.0f32, -0.0, 0.0, 1.5, 7.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
-    for &a in &vals {
-        for &b in &vals {
-            let ok = |p: f32, q: f32| p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan());
-            if !ok(fmath::minf(a, b), black_box(a).min(black_box(b)))
-                || !ok(fmath::maxf(a, b), black_box(a).max(black_box(b)))
-            {
-                let _ = writeln!(Console, "fmath::minf/maxf({a}, {b}) differ from f32::min/max");
-                exit(false);
-            }
-        }
-    }
-    let _ = writeln!(
-        Console,
-        "fmath check: sqrtf = libm::sqrtf bit for bit on {n} inputs; minf/maxf = f32::min/max"
     );
 }
 
@@ -640,7 +598,7 @@ fn main() -> ! {
     };
     let c = Counter::new(cp.SYST);
     let _ = writeln!(Console, "empty measurement: {} instructions per {REPS} turns", c.overhead);
-    check_fmath();
+    check::fmath_bit_exact();
     bench_blocks(&c);
     bench_cascade_parts(&c);
     bench_filter(&c);

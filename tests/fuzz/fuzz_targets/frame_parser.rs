@@ -15,9 +15,9 @@
 
 use libfuzzer_sys::fuzz_target;
 use mavlink::dialects::ardupilotmega::{MavCmd, COMMAND_LONG_DATA, HEARTBEAT_DATA, MISSION_COUNT_DATA};
-use parapet_firmware::frame_parser::{FrameParser, RawFrame, MAX_FRAME_LEN, WORK_PER_BYTE};
-use parapet_firmware::messages::frame_extra_crc;
-use parapet_firmware::wire::FrameWriter;
+use parapet_firmware::link::frame_parser::{FrameParser, RawFrame, MAX_FRAME_LEN, WORK_PER_BYTE};
+use parapet_firmware::link::messages::frame_extra_crc;
+use parapet_firmware::link::framing::FrameWriter;
 
 /// (msg id, seq, payload, length on the wire) of a decoded frame.
 type Decoded = (u32, u8, Vec<u8>, usize);

@@ -27,12 +27,12 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{calculate_crc, MavlinkVersion, MessageData, MAV_STX_V2};
 use parapet_core::controller::ControllerParams;
-use parapet_firmware::autopilot::Autopilot;
-use parapet_firmware::cascade::Cascade;
-use parapet_firmware::frame_parser::{FrameParser, WORK_PER_BYTE};
-use parapet_firmware::lockstep::InstructionCalibration;
-use parapet_firmware::messages::frame_extra_crc;
-use parapet_firmware::params::NAMES;
+use parapet_firmware::app::autopilot::Autopilot;
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::frame_parser::{FrameParser, WORK_PER_BYTE};
+use parapet_firmware::pil::lockstep::InstructionCalibration;
+use parapet_firmware::link::messages::frame_extra_crc;
+use parapet_firmware::link::params::NAMES;
 use parapet_firmware::pil::{BytePort, PilApp, TickCounter};
 
 /// The firmware's inbound message set (ids).
@@ -150,7 +150,7 @@ fuzz_target!(|data: &[u8]| {
         let v = ap.get_param(name);
         assert!(v.is_some_and(f32::is_finite), "parameter {name} = {v:?}");
     }
-    assert!(ap.controller().params().validate().is_ok(), "the parameter set no longer validates");
+    assert!(ap.flown_params().validate().is_ok(), "the parameter set flown no longer validates");
 
     // 5. Framer work.
     let work = app.link().parser_work();

@@ -1,11 +1,11 @@
-//! Fuzz target `path_json`: arbitrary text into `parapet_sim::pathfile::PathFile::parse`.
+//! Fuzz target `path_json`: arbitrary text into `parapet_sim::plan::pathfile::PathFile::parse`.
 //!
 //! Invariants: no panic; an accepted path has at least one waypoint, every coordinate finite
 //! and a finite, non-negative length.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use parapet_sim::pathfile::PathFile;
+use parapet_sim::plan::pathfile::PathFile;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };

@@ -1,11 +1,11 @@
-//! Fuzz target `replay_csv`: arbitrary text into `parapet_sim::replay::parse_rotor_csv`.
+//! Fuzz target `replay_csv`: arbitrary text into `parapet_sim::sim::replay::parse_rotor_csv`.
 //!
 //! Invariants: no panic; accepted samples are non-empty, every number finite, times strictly
 //! increasing and rotor speeds >= 0 (the module's documented input format).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use parapet_sim::replay::parse_rotor_csv;
+use parapet_sim::sim::replay::parse_rotor_csv;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };

@@ -1,4 +1,4 @@
-//! Fuzz target `scene_toml`: arbitrary text into `parapet_sim::scene::Scene::parse`.
+//! Fuzz target `scene_toml`: arbitrary text into `parapet_sim::world::scene::Scene::parse`.
 //!
 //! Invariants: no panic; an accepted scene has finite bounds with min < max on every axis,
 //! finite start and goal, a finite positive speed and finite obstacle data (as the loader
@@ -6,7 +6,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use parapet_sim::scene::Scene;
+use parapet_sim::world::scene::Scene;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };

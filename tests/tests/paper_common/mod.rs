@@ -6,9 +6,10 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
-use parapet_sim::pathfile::PathFile;
-use parapet_sim::runner::{run, RunConfig, RunOutput};
-use parapet_sim::scene::{to_f64, Scene};
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
+use parapet_sim::plan::pathfile::PathFile;
+use parapet_sim::world::scene::{to_f64, Scene};
 
 /// `scenes/<name>`.
 pub fn scene_path(name: &str) -> PathBuf {

@@ -1,0 +1,222 @@
+//! The controller's parameters: [`ControllerParams`] (every stage's parameter struct plus
+//! the loop rates and the mode limits, with the paper's defaults) and their validation
+//! ([`ParamError`]). The named MAVLink view of these fields is [`crate::params`]; each stage
+//! takes its own part ([`crate::outer::OuterParams`], [`crate::inner::InnerParams`]).
+//!
+//! May import: the stages' parameter types ([`crate::outer`], [`crate::inner`],
+//! [`crate::safety`], [`crate::robust`], [`crate::supervisor`]), never their loops or the controller facade.
+
+use crate::airframe::Airframe;
+use crate::attitude::{AttitudeController, AttitudeError, AttitudeParams};
+use crate::cbf::{CbfError, CbfParams, FilterVariant};
+use crate::estimator::{EstimatorError, EstimatorParams};
+use crate::failsafe::FailsafeParams;
+use crate::frame::GRAVITY;
+use crate::mixer::{Mixer, MixerError};
+use crate::robust::{RobustError, RobustParams};
+use crate::thrust::ThrustParams;
+use crate::tracking::TrackingParams;
+use crate::waypoint::{PathError, WaypointParams};
+
+/// All controller parameters, with the paper's defaults (office experiment).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControllerParams {
+    /// Vehicle (mass, inertia, rotor layout and limits). Default: the paper's 0.5 kg quadrotor.
+    pub airframe: Airframe,
+    /// PD tracking (eq. 2). Default kp 0.5 1/s², kd 0.8 1/s (paper, office), other limits as
+    /// [`TrackingParams::default`], but the **vertical integral off** (`ki_z = 0`): with the
+    /// paper's gentle kp/kd the integral winds up during a height change (measured on the
+    /// closed-loop test model, 1 m climb: ki_z 0.02 → 20 % overshoot, 0.05 → 31 %, 0.3 → 89 %;
+    /// 0 → 12 %). Enable it (with stiffer kp/kd) when the mass or thrust model is uncertain.
+    pub tracking: TrackingParams,
+    /// CBF filter. Default μ 1.4 s, δ 0.05 m², δ1 0.1 m² (paper, office). The filter
+    /// runs at the outer rate: for every variant but `Paper` (kept exactly as published)
+    /// the controller raises `cbf.sample_time` to at least the outer period, so the
+    /// event rule does not engage a sample late (see `cbf::CbfParams::sample_time`).
+    pub cbf: CbfParams,
+    /// Filter law. Default [`FilterVariant::default`].
+    pub filter_variant: FilterVariant,
+    /// Plant-aware wrapping of the filter (lag, disturbance observer, ground and
+    /// ceiling, stall), used by every variant but `Paper`. Default [`RobustParams::default`].
+    pub robust: RobustParams,
+    /// Radius of the sphere bounding the vehicle, m: `cbf.delta` must be at least
+    /// its square (refused otherwise, [`ParamError::DeltaBelowHull`]). Default √0.05 m.
+    pub hull_radius: f32,
+    /// Thrust/attitude mapping limits (eq. 4-5; the mass is `airframe.mass`).
+    pub thrust: ThrustParams,
+    /// Attitude and rate loops (the inertia is `airframe.inertia`).
+    pub attitude: AttitudeParams,
+    /// Attitude estimator.
+    pub estimator: EstimatorParams,
+    /// Waypoint follower. Default cruise 0.25 m/s (paper, office), no corner smoothing.
+    pub waypoint: WaypointParams,
+    /// Failsafe limits.
+    pub failsafe: FailsafeParams,
+    /// Nominal outer-loop rate, Hz. Default 250.
+    pub outer_rate_hz: f32,
+    /// Nominal inner-loop rate, Hz. Default 1000.
+    pub inner_rate_hz: f32,
+    /// Vertical speed of the takeoff ramp, m/s. Default 0.5.
+    pub takeoff_speed: f32,
+    /// Largest takeoff height, m. Default 10.
+    pub takeoff_height_max: f32,
+    /// Descent speed when landing with a position fix, m/s. Default 0.3.
+    pub land_speed: f32,
+    /// Largest lead of the landing reference below the vehicle, m. Default 0.3.
+    pub land_lead: f32,
+    /// Speed below which a pinned landing reference means "landed", m/s. Default 0.1.
+    pub landed_speed: f32,
+    /// Time the landed condition must hold, µs. Default 1 000 000.
+    pub landed_time_us: u64,
+    /// Thrust as a fraction of hover thrust when landing without a fix. Default 0.9.
+    pub land_thrust_factor: f32,
+    /// Time in Land without a position fix after which the vehicle is taken as landed, µs. Default 10 000 000.
+    pub land_no_fix_time_us: u64,
+    /// Motor command while armed on the ground, 0..1. Default 0.1.
+    pub idle_throttle: f32,
+    /// Deceleration used to stop the last good velocity when the position fix is lost
+    /// (Brake/Land without a fix), m/s², in (0, 5]. Default 1.0.
+    pub blind_brake_accel: f32,
+    /// Time constant of the low-pass on the fix-derived acceleration fed to the estimator, s. Default 0.05.
+    pub accel_comp_tau_s: f32,
+}
+
+/// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
+pub const DEFAULT_HULL_RADIUS: f32 = 0.223_606_8;
+
+impl Default for ControllerParams {
+    fn default() -> Self {
+        let airframe = Airframe::default();
+        ControllerParams {
+            airframe,
+            tracking: TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.5, 0.8) },
+            cbf: CbfParams::default(),
+            filter_variant: FilterVariant::default(),
+            robust: RobustParams::default(),
+            hull_radius: DEFAULT_HULL_RADIUS,
+            thrust: ThrustParams::default(),
+            attitude: AttitudeParams::default(),
+            estimator: EstimatorParams::default(),
+            waypoint: WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 },
+            failsafe: FailsafeParams::default(),
+            outer_rate_hz: 250.0,
+            inner_rate_hz: 1000.0,
+            takeoff_speed: 0.5,
+            takeoff_height_max: 10.0,
+            land_speed: 0.3,
+            land_lead: 0.3,
+            landed_speed: 0.1,
+            landed_time_us: 1_000_000,
+            land_thrust_factor: 0.9,
+            land_no_fix_time_us: 10_000_000,
+            idle_throttle: 0.1,
+            blind_brake_accel: 1.0,
+            accel_comp_tau_s: 0.05,
+        }
+    }
+}
+
+/// Why parameters were rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ParamError {
+    /// Plant-aware wrapping parameters.
+    Robust(RobustError),
+    /// `cbf.delta` is below the squared hull radius: the filter would let obstacles
+    /// inside the hull. Both values are given (m²).
+    DeltaBelowHull {
+        /// The δ given, m².
+        delta: f32,
+        /// `hull_radius²`, m² (the smallest δ accepted).
+        hull_sq: f32,
+    },
+    /// CBF parameters.
+    Cbf(CbfError),
+    /// Attitude/rate parameters.
+    Attitude(AttitudeError),
+    /// Estimator parameters.
+    Estimator(EstimatorError),
+    /// Airframe unusable by the mixer.
+    Mixer(MixerError),
+    /// Waypoint parameters.
+    Waypoint(PathError),
+    /// Failsafe limits.
+    Failsafe,
+    /// Tracking gains/limits not finite and ≥ 0.
+    Tracking,
+    /// Thrust mapping limits invalid (0 < thrust_min < m·g < thrust_max ≤ 4·f_max, tilt in (0, 1.5)).
+    Thrust,
+    /// A rate, speed, time or factor is not finite and positive / in range.
+    Loop,
+}
+
+impl ControllerParams {
+    /// Check every parameter (see [`ParamError`]).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.cbf.validate().map_err(ParamError::Cbf)?;
+        self.robust.validate().map_err(ParamError::Robust)?;
+        let hull_sq = self.hull_radius * self.hull_radius;
+        // A relative tolerance of 1e-6 accepts δ = r² computed in either precision.
+        if !(self.hull_radius.is_finite() && self.hull_radius > 0.0)
+            || self.cbf.delta < hull_sq * (1.0 - 1e-6)
+        {
+            return Err(ParamError::DeltaBelowHull { delta: self.cbf.delta, hull_sq });
+        }
+        // The attitude gains with the airframe's inertia (checked where the rate loop uses it).
+        AttitudeController::new(self.attitude, self.airframe.inertia).map_err(ParamError::Attitude)?;
+        self.estimator.validate().map_err(ParamError::Estimator)?;
+        Mixer::new(&self.airframe).map_err(ParamError::Mixer)?;
+        self.waypoint.validate().map_err(ParamError::Waypoint)?;
+        if !self.failsafe.is_valid() {
+            return Err(ParamError::Failsafe);
+        }
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let pos = |x: f32| x.is_finite() && x > 0.0;
+        let t = &self.tracking;
+        if !(t.kp.iter().chain(t.kd.iter()).all(|&x| nonneg(x))
+            && nonneg(t.ki_z)
+            && nonneg(t.integral_limit_z)
+            && pos(t.accel_max_xy)
+            && pos(t.accel_max_up)
+            && pos(t.accel_max_down))
+        {
+            return Err(ParamError::Tracking);
+        }
+        let a = &self.airframe;
+        let th = &self.thrust;
+        let hover = a.mass * GRAVITY;
+        if !(pos(a.mass)
+            && a.inertia.iter().all(|&j| pos(j))
+            && pos(th.thrust_min)
+            && th.thrust_min < hover
+            && th.thrust_max.is_finite()
+            && th.thrust_max > hover
+            && th.thrust_max <= 4.0 * a.rotor_thrust_max
+            && pos(th.tilt_max)
+            && th.tilt_max < 1.5)
+        {
+            return Err(ParamError::Thrust);
+        }
+        let ok = pos(self.outer_rate_hz)
+            && pos(self.inner_rate_hz)
+            && pos(self.takeoff_speed)
+            && pos(self.takeoff_height_max)
+            && pos(self.land_speed)
+            && pos(self.land_lead)
+            && pos(self.landed_speed)
+            && self.landed_time_us > 0
+            && pos(self.land_thrust_factor)
+            && self.land_thrust_factor <= 1.0
+            && self.land_no_fix_time_us > 0
+            && nonneg(self.idle_throttle)
+            && self.idle_throttle <= 1.0
+            && pos(self.blind_brake_accel)
+            && self.blind_brake_accel <= 5.0
+            && pos(self.accel_comp_tau_s);
+        if ok {
+            Ok(())
+        } else {
+            Err(ParamError::Loop)
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! Guidance: the nominal reference of the outer loop while Armed — on the ground, a
+//! takeoff ramp, holding a point, or flying the stored path ([`crate::waypoint`]).
+//!
+//! Rate: the outer loop's (default 250 Hz), plus the commands (takeoff, hold, mission,
+//! new path). The yaw reference is the estimated yaw at arming, held constant.
+//!
+//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], the command errors of
+//! [`crate::outer`], the crate root foundation.
+
+use super::CommandError;
+use crate::fmath::norm3;
+use crate::frame::is_finite3;
+use crate::tracking::Reference;
+use crate::waypoint::{PathError, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY};
+use crate::Vec3;
+
+/// Capacity of the controller's path, waypoints.
+pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;
+
+/// Which guidance produced the reference (telemetry).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GuidanceMode {
+    /// Motors off (Disarmed or MotorsOff).
+    #[default]
+    Off,
+    /// Armed on the ground, motors at idle.
+    Ground,
+    /// Holding a point.
+    Hold,
+    /// Takeoff ramp.
+    Takeoff,
+    /// Flying the path.
+    Mission,
+    /// Failsafe braking (holding the last good position).
+    Brake,
+    /// Landing.
+    Land,
+    /// No fresh position fix: level attitude, open-loop thrust.
+    NoFix,
+}
+
+impl GuidanceMode {
+    /// The variant's name ("Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix").
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            GuidanceMode::Off => "Off",
+            GuidanceMode::Ground => "Ground",
+            GuidanceMode::Hold => "Hold",
+            GuidanceMode::Takeoff => "Takeoff",
+            GuidanceMode::Mission => "Mission",
+            GuidanceMode::Brake => "Brake",
+            GuidanceMode::Land => "Land",
+            GuidanceMode::NoFix => "NoFix",
+        }
+    }
+}
+
+/// Guidance parameters (a part of [`crate::controller::ControllerParams`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuidanceParams {
+    /// Waypoint follower.
+    pub waypoint: WaypointParams,
+    /// Vertical speed of the takeoff ramp, m/s.
+    pub takeoff_speed: f32,
+    /// Largest takeoff height, m.
+    pub takeoff_height_max: f32,
+}
+
+/// Nominal guidance while Armed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mode {
+    /// On the ground, motors idle.
+    Ground,
+    /// Hold a fixed point (position step).
+    Hold(Vec3),
+    /// Straight ramp `from → to` at `speed`, started at `t0_us`.
+    Ramp { from: Vec3, to: Vec3, t0_us: u64, speed: f32 },
+    /// Fly the stored path, started at `t0_us`.
+    Mission { t0_us: u64 },
+}
+
+/// The guidance stage (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct Guidance {
+    params: GuidanceParams,
+    follower: WaypointFollower<PATH_CAPACITY>,
+    mode: Mode,
+    yaw_ref: f32,
+    home: Vec3,
+}
+
+fn age(now: u64, t: u64) -> u64 {
+    now.saturating_sub(t)
+}
+
+impl Guidance {
+    /// Guidance on the ground with an empty path.
+    pub fn new(params: GuidanceParams) -> Result<Self, PathError> {
+        Ok(Guidance {
+            follower: WaypointFollower::new(params.waypoint)?,
+            params,
+            mode: Mode::Ground,
+            yaw_ref: 0.0,
+            home: Vec3::zeros(),
+        })
+    }
+
+    /// `true` on the ground (armed and idle, or not armed).
+    pub fn on_ground(&self) -> bool {
+        self.mode == Mode::Ground
+    }
+
+    /// Back on the ground (disarmed, motors off).
+    pub fn ground(&mut self) {
+        self.mode = Mode::Ground;
+    }
+
+    /// Armed at `home` (NED) facing `yaw_ref` (rad): on the ground.
+    pub fn arm(&mut self, home: Vec3, yaw_ref: f32) {
+        self.mode = Mode::Ground;
+        self.yaw_ref = yaw_ref;
+        self.home = home;
+    }
+
+    /// The yaw reference (the estimated yaw at arming), rad.
+    pub fn yaw_ref(&self) -> f32 {
+        self.yaw_ref
+    }
+
+    /// Hold `target` with zero velocity at the reference yaw.
+    pub fn hold_ref(&self, target: Vec3) -> Reference {
+        Reference {
+            position: target,
+            velocity: Vec3::zeros(),
+            acceleration: Vec3::zeros(),
+            yaw: self.yaw_ref,
+        }
+    }
+
+    fn ramp_ref(&self, from: Vec3, to: Vec3, elapsed_us: u64, speed: f32) -> (Reference, bool) {
+        let d = to - from;
+        let len = norm3(&d);
+        let s = speed * (elapsed_us as f32 * 1e-6);
+        if len.is_nan() || len <= 0.0 || s >= len {
+            return (self.hold_ref(to), true);
+        }
+        let dir = d / len;
+        let r = Reference {
+            position: from + dir * s,
+            velocity: dir * speed,
+            acceleration: Vec3::zeros(),
+            yaw: self.yaw_ref,
+        };
+        (r, false)
+    }
+
+    /// The nominal reference at `now_us` (`None` on the ground); a finished takeoff ramp
+    /// turns into a hold. `progress` is updated while flying the path.
+    pub fn reference(&mut self, now_us: u64, progress: &mut Progress) -> (GuidanceMode, Option<Reference>) {
+        match self.mode {
+            Mode::Ground => (GuidanceMode::Ground, None),
+            Mode::Hold(target) => (GuidanceMode::Hold, Some(self.hold_ref(target))),
+            Mode::Ramp { from, to, t0_us, speed } => {
+                let (r, done) = self.ramp_ref(from, to, age(now_us, t0_us), speed);
+                if done {
+                    self.mode = Mode::Hold(to);
+                }
+                (GuidanceMode::Takeoff, Some(r))
+            }
+            Mode::Mission { t0_us } => {
+                let s = self.follower.sample(age(now_us, t0_us) as f32 * 1e-6);
+                *progress = s.progress;
+                let r = Reference {
+                    position: s.position,
+                    velocity: s.velocity,
+                    acceleration: s.acceleration,
+                    yaw: self.yaw_ref,
+                };
+                (GuidanceMode::Mission, Some(r))
+            }
+        }
+    }
+
+    /// Replace the path; while flying the mission, restart it at `now_us` from `origin`
+    /// (the current reference position), or hold `origin` if it cannot start.
+    pub fn set_path(
+        &mut self,
+        waypoints_ned: &[Vec3],
+        now_us: u64,
+        origin: Vec3,
+    ) -> Result<(), CommandError> {
+        self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
+        if let Mode::Mission { .. } = self.mode {
+            if self.follower.start(origin).is_ok() {
+                self.mode = Mode::Mission { t0_us: now_us };
+            } else {
+                self.mode = Mode::Hold(origin);
+            }
+        }
+        Ok(())
+    }
+
+    /// Take off to `height_m` (m, in (0, takeoff_height_max]) above home: a ramp at
+    /// `takeoff_speed` from `position` (the fresh position estimate, needed) when on the
+    /// ground, else from `reference`.
+    pub fn takeoff(
+        &mut self,
+        now_us: u64,
+        height_m: f32,
+        position: Option<Vec3>,
+        reference: Vec3,
+    ) -> Result<(), CommandError> {
+        if !(height_m.is_finite() && height_m > 0.0 && height_m <= self.params.takeoff_height_max) {
+            return Err(CommandError::BadHeight);
+        }
+        let p = position.ok_or(CommandError::NoPosition)?;
+        let from = match self.mode {
+            Mode::Ground => p,
+            _ => reference,
+        };
+        let to = Vec3::new(from.x, from.y, self.home.z - height_m);
+        self.mode = Mode::Ramp { from, to, t0_us: now_us, speed: self.params.takeoff_speed };
+        Ok(())
+    }
+
+    /// `hold_position`'s target check.
+    pub fn check_target(target: &Vec3) -> Result<(), CommandError> {
+        if is_finite3(target) {
+            Ok(())
+        } else {
+            Err(CommandError::BadTarget)
+        }
+    }
+
+    /// Hold `target` from now on.
+    pub fn hold(&mut self, target: Vec3) {
+        self.mode = Mode::Hold(target);
+    }
+
+    /// Fly the stored path from `origin` (the current reference position), from `now_us`.
+    pub fn start_mission(&mut self, now_us: u64, origin: Vec3) -> Result<(), CommandError> {
+        if self.mode == Mode::Ground {
+            return Err(CommandError::NotFlying);
+        }
+        self.follower.start(origin).map_err(CommandError::Path)?;
+        self.mode = Mode::Mission { t0_us: now_us };
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+
+    #[test]
+    fn guidance_mode_names_are_the_variant_names() {
+        use GuidanceMode::*;
+        for m in [Off, Ground, Hold, Takeoff, Mission, Brake, Land, NoFix] {
+            assert_eq!(m.as_str(), std::format!("{m:?}"));
+        }
+    }
+}

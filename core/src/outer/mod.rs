@@ -1,0 +1,538 @@
+//! The outer loop (default 250 Hz): guidance → PD tracking → safety filter →
+//! thrust/attitude map, producing the [`AttitudeCommand`] the inner loop flies.
+//!
+//! ```text
+//!  PositionFix, obstacles ─▶ inputs ─p, ṗ─┐
+//!  supervisor (failsafe, brake, land) ────┤
+//!  guidance (ground / takeoff / hold / path) ─p_d, ṗ_d, p̈_d─▶ PD (eq. 2) ─u*─▶ CBF filter ─u─▶ thrust map (eq. 4-5) ─▶ AttitudeCommand
+//!  StateEstimate (φ̂, θ̂, tilt, bad IMU samples, tilt trip) ◀── inner loop
+//! ```
+//!
+//! Owns [`guidance`] (nominal reference while Armed), [`inputs`] (position fix, obstacle
+//! set), [`waypoint`] (the path follower), [`tracking`] (PD tracking, eq. 2), [`thrust`]
+//! (acceleration → collective thrust and attitude, eq. 4-5), and [`OuterLoop`], which runs
+//! them with the [`crate::supervisor::Supervisor`] and the [`crate::safety`] filter. It
+//! reads the inner loop only through the [`StateEstimate`] message
+//! ([`OuterLoop::on_estimate`]) and hands it only the [`AttitudeCommand`] and
+//! [`crate::msg::EstimatorAid`] messages.
+//!
+//! May import: the crate root foundation ([`crate::frame`], [`crate::fmath`],
+//! [`crate::airframe`], [`crate::Vec3`]), [`crate::msg`], [`crate::safety`] (with
+//! [`crate::obstacle_set`] and [`crate::robust`], the filter's set policy and plant-aware
+//! wrapping) and [`crate::supervisor`]. Never [`crate::inner`], [`crate::config`] or the facade.
+
+pub mod guidance;
+pub mod inputs;
+pub mod thrust;
+pub mod tracking;
+pub mod waypoint;
+
+use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter};
+use crate::failsafe::ArmRefusal;
+use crate::failsafe::{DataHealth, FailsafeState, Transition};
+use crate::fmath::minf;
+use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
+use crate::obstacle::ObstaclePoint;
+use crate::obstacle_set::{Ranking, SetReport};
+use crate::robust::stall::STALL_TRACKING_ERROR_M;
+use crate::robust::{PlantAware, RobustParams, RobustTelemetry, StepInput};
+use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
+use crate::Vec3;
+use guidance::{Guidance, GuidanceMode, GuidanceParams};
+use inputs::{InputParams, Inputs};
+use thrust::{map_acceleration, ThrustParams};
+use tracking::{PdTracker, Reference, TrackingParams};
+use waypoint::{PathError, Progress};
+
+/// Why a command was refused (the controller state is unchanged).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandError {
+    /// Arming refused.
+    Arm(ArmRefusal),
+    /// The command needs the Armed state (nominal operation).
+    NotArmed,
+    /// Already disarmed.
+    AlreadyDisarmed,
+    /// Takeoff height not finite or outside (0, takeoff_height_max].
+    BadHeight,
+    /// Target position not finite.
+    BadTarget,
+    /// Mission needs a flying vehicle (take off first).
+    NotFlying,
+    /// Path rejected.
+    Path(PathError),
+    /// No fresh position fix.
+    NoPosition,
+}
+
+/// The outer loop's parameters (a part of [`crate::controller::ControllerParams`], see
+/// `ControllerParams::outer_params`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OuterParams {
+    /// Nominal rate, Hz (the step's `dt` when there is no previous step; `dt` is capped at
+    /// 4 nominal periods).
+    pub rate_hz: f32,
+    /// PD tracking.
+    pub tracking: TrackingParams,
+    /// Safety filter (for every variant but `Paper` with the sample time raised to the
+    /// outer period).
+    pub cbf: CbfParams,
+    /// Filter law.
+    pub filter_variant: FilterVariant,
+    /// Plant-aware wrapping of the filter (every variant but `Paper`; [`crate::robust`]).
+    pub robust: RobustParams,
+    /// Actuation-lag time constant derived from the attitude gains, s ([`crate::robust::lag_time_constant`]).
+    pub lag_tau: f32,
+    /// Thrust/attitude map.
+    pub thrust: ThrustParams,
+    /// Vehicle mass, kg (the airframe's).
+    pub mass: f32,
+    /// Guidance.
+    pub guidance: GuidanceParams,
+    /// Inputs.
+    pub inputs: InputParams,
+    /// Supervisor.
+    pub supervisor: SupervisorParams,
+}
+
+/// The outer loop's part of the telemetry (updated by every outer step and command).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OuterTelemetry {
+    /// Time of the last outer step, µs.
+    pub t_us: u64,
+    /// Failsafe state.
+    pub state: FailsafeState,
+    /// Last failsafe transition.
+    pub last_transition: Option<Transition>,
+    /// Number of failsafe transitions.
+    pub transitions: u32,
+    /// Guidance in use at the last outer step.
+    pub mode: GuidanceMode,
+    /// Reference `p_d`, `ṗ_d`, `p̈_d` (NED) and yaw.
+    pub reference: Reference,
+    /// Progress along the path (when flying the mission).
+    pub progress: Progress,
+    /// Position used by the outer loop (fix extrapolated), NED m.
+    pub position: Vec3,
+    /// Velocity used by the outer loop, NED m/s.
+    pub velocity: Vec3,
+    /// Nominal acceleration `u*` (PD output), NED m/s².
+    pub u_nominal: Vec3,
+    /// Filtered acceleration `u` (CBF output), NED m/s².
+    pub u_filtered: Vec3,
+    /// Attitude/thrust setpoint for the inner loop.
+    pub attitude_sp: AttitudeSetpoint,
+    /// Safety-filter diagnostics of the last outer step.
+    pub filter: FilterDiagnostics,
+    /// Age of the last valid position fix at the last outer step, µs.
+    pub position_age_us: Option<u64>,
+    /// Age of the last obstacle update at the last outer step, µs.
+    pub obstacle_age_us: Option<u64>,
+    /// Obstacle points in the set.
+    pub obstacle_count: u8,
+    /// Obstacle points dropped (set full) or rejected (non-finite) in the last update.
+    pub obstacles_dropped: u8,
+    /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
+    pub obstacle_set: SetReport,
+    /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
+    pub robust: RobustTelemetry,
+    /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
+    pub non_finite_inputs: u32,
+    /// Outer steps run.
+    pub count: u32,
+}
+
+/// Why the outer loop could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OuterError {
+    /// Filter parameters.
+    Cbf(CbfError),
+    /// Waypoint parameters.
+    Waypoint(PathError),
+}
+
+/// The outer loop with its supervisor (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct OuterLoop {
+    params: OuterParams,
+    inputs: Inputs,
+    guidance: Guidance,
+    supervisor: Supervisor,
+    tracker: PdTracker,
+    filter: SafetyFilter,
+    /// `Some` for every variant but `Paper`.
+    plant: Option<PlantAware>,
+    stage: MotorStage,
+    sp: AttitudeSetpoint,
+    last_us: Option<u64>,
+    estimate: StateEstimate,
+    seen_rejected: u32,
+    telemetry: OuterTelemetry,
+}
+
+fn age(now: u64, t: u64) -> u64 {
+    now.saturating_sub(t)
+}
+
+impl OuterLoop {
+    /// A disarmed outer loop; `estimate` is the inner loop's initial state estimate.
+    /// `params` must come from validated parameters
+    /// ([`crate::controller::ControllerParams::validate`]).
+    pub fn new(params: OuterParams, estimate: StateEstimate) -> Result<Self, OuterError> {
+        let filter = SafetyFilter::new(params.cbf, params.filter_variant).map_err(OuterError::Cbf)?;
+        let (_, diag0) = filter.apply(&Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), &[]);
+        let telemetry = OuterTelemetry {
+            t_us: 0,
+            state: FailsafeState::Disarmed,
+            last_transition: None,
+            transitions: 0,
+            mode: GuidanceMode::Off,
+            reference: Reference::default(),
+            progress: Progress::default(),
+            position: Vec3::zeros(),
+            velocity: Vec3::zeros(),
+            u_nominal: Vec3::zeros(),
+            u_filtered: Vec3::zeros(),
+            attitude_sp: AttitudeSetpoint::default(),
+            filter: diag0,
+            position_age_us: None,
+            obstacle_age_us: None,
+            obstacle_count: 0,
+            obstacles_dropped: 0,
+            obstacle_set: SetReport::default(),
+            robust: RobustTelemetry::default(),
+            non_finite_inputs: 0,
+            count: 0,
+        };
+        let plant = (params.filter_variant != FilterVariant::Paper)
+            .then(|| PlantAware::new(params.robust, params.lag_tau));
+        Ok(OuterLoop {
+            inputs: Inputs::new(params.inputs),
+            guidance: Guidance::new(params.guidance).map_err(OuterError::Waypoint)?,
+            supervisor: Supervisor::new(params.supervisor),
+            tracker: PdTracker::new(params.tracking),
+            filter,
+            plant,
+            stage: MotorStage::Off,
+            sp: AttitudeSetpoint::default(),
+            last_us: None,
+            seen_rejected: estimate.rejected_samples,
+            estimate,
+            telemetry,
+            params,
+        })
+    }
+
+    /// Parameters in use.
+    pub fn params(&self) -> &OuterParams {
+        &self.params
+    }
+
+    /// The telemetry of the outer loop.
+    pub fn telemetry(&self) -> &OuterTelemetry {
+        &self.telemetry
+    }
+
+    /// Failsafe state.
+    pub fn state(&self) -> FailsafeState {
+        self.supervisor.state()
+    }
+
+    /// Obstacle points currently used by the filter.
+    pub fn obstacles(&self) -> &[ObstaclePoint] {
+        self.inputs.obstacles()
+    }
+
+    /// The message for the inner loop: publish it after every [`Self::step`] and every
+    /// command (and after an [`Self::on_estimate`] that returns `true`).
+    pub fn command(&self) -> AttitudeCommand {
+        AttitudeCommand { stage: self.stage, setpoint: self.sp, accel_ned: self.telemetry.u_filtered }
+    }
+
+    /// The estimator aid for the inner loop: publish it after every [`Self::update_position`].
+    pub fn aid(&self) -> EstimatorAid {
+        self.inputs.aid()
+    }
+
+    /// Latest step time seen, µs: this loop's or the inner loop's (from the estimate).
+    fn clock_us(&self) -> Option<u64> {
+        match (self.estimate.t_us, self.last_us) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Take the inner loop's latest state estimate: new rejected IMU samples count as bad
+    /// inputs, a tilt trip cuts the motors (MotorsOff). Returns `true` when the command for
+    /// the inner loop changed (publish [`Self::command`]).
+    pub fn on_estimate(&mut self, est: &StateEstimate) -> bool {
+        let new_rejected = est.rejected_samples.wrapping_sub(self.seen_rejected);
+        self.seen_rejected = est.rejected_samples;
+        self.supervisor.note_faults(new_rejected);
+        self.telemetry.non_finite_inputs = self.supervisor.non_finite_inputs();
+        self.estimate = *est;
+        let stage = self.stage;
+        if let Some(trip) = est.tilt_trip {
+            if let Some(tr) = self.supervisor.check_tilt(trip.t_us, trip.tilt) {
+                self.record(tr);
+            }
+        }
+        self.stage != stage
+    }
+
+    fn note_fault(&mut self) {
+        self.supervisor.note_faults(1);
+        self.telemetry.non_finite_inputs = self.supervisor.non_finite_inputs();
+    }
+
+    fn record(&mut self, tr: Transition) {
+        let tel = &mut self.telemetry;
+        tel.last_transition = Some(tr);
+        tel.transitions = self.supervisor.transition_count();
+        tel.state = tr.to;
+        if let FailsafeState::Disarmed | FailsafeState::MotorsOff = tr.to {
+            self.stage = MotorStage::Off;
+            self.guidance.ground();
+            self.tracker.reset();
+        }
+        let at = EntryContext {
+            position: self.inputs.position_estimate(tr.t_us).map(|(p, _)| p),
+            last_fix: self.inputs.last_fix_position(),
+            on_ground: self.guidance.on_ground(),
+        };
+        self.supervisor.on_enter(tr, &at);
+    }
+
+    fn health(&self, now_us: u64) -> DataHealth {
+        let (position_age_us, obstacle_age_us) = self.inputs.ages(now_us);
+        DataHealth {
+            position_age_us,
+            obstacle_age_us,
+            non_finite: self.supervisor.fault_pending(),
+            obstacle_in_hull: None,
+        }
+    }
+
+    /// Store an external position fix (see [`crate::controller::FlightController::update_position`]).
+    pub fn update_position(&mut self, fix: PositionFix) {
+        if !self.inputs.update_position(fix, self.clock_us()) {
+            self.note_fault();
+        }
+    }
+
+    /// Replace the obstacle set (see [`crate::controller::FlightController::update_obstacles`]).
+    pub fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
+        let variant = self.filter.variant;
+        let ranking = if variant.is_multi() {
+            Ranking::Critical { mu: self.filter.params.mu, relative: variant.uses_relative_velocity() }
+        } else {
+            Ranking::Nearest
+        };
+        let delta1 = self.filter.params.delta1;
+        let intake = self.inputs.update_obstacles(now_us, obstacles, self.clock_us(), ranking, delta1);
+        if intake.bad_inputs {
+            self.note_fault();
+        }
+        if let Some(dropped) = intake.dropped {
+            self.telemetry.obstacle_count = self.inputs.obstacles().len() as u8;
+            self.telemetry.obstacles_dropped = dropped;
+        }
+        if let Some(rep) = intake.report {
+            self.telemetry.obstacle_set = rep;
+        }
+    }
+
+    /// Replace the path (see [`crate::controller::FlightController::set_path`]).
+    pub fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), CommandError> {
+        let now = self.last_us.unwrap_or(0);
+        self.guidance.set_path(waypoints_ned, now, self.telemetry.reference.position)
+    }
+
+    /// Arm (see [`crate::controller::FlightController::arm`]).
+    pub fn arm(&mut self, now_us: u64) -> Result<(), CommandError> {
+        let mut health = self.health(now_us);
+        let position = self.inputs.position_estimate(now_us).map(|(p, _)| p);
+        health.obstacle_in_hull = position.and_then(|p| self.inputs.obstacle_in_hull(&p));
+        let est = self.estimate;
+        let tr =
+            self.supervisor.arm(now_us, &health, est.initialised, est.tilt).map_err(CommandError::Arm)?;
+        self.guidance.arm(position.unwrap_or_else(Vec3::zeros), est.attitude.yaw);
+        self.stage = MotorStage::Idle;
+        self.tracker.reset();
+        self.record(tr);
+        Ok(())
+    }
+
+    /// Disarm: motors off at once, from any state.
+    pub fn disarm(&mut self, now_us: u64) -> Result<(), CommandError> {
+        let tr = self.supervisor.disarm(now_us).ok_or(CommandError::AlreadyDisarmed)?;
+        self.record(tr);
+        Ok(())
+    }
+
+    fn require_armed(&self) -> Result<(), CommandError> {
+        if self.supervisor.state() == FailsafeState::Armed {
+            Ok(())
+        } else {
+            Err(CommandError::NotArmed)
+        }
+    }
+
+    /// Take off (see [`crate::controller::FlightController::takeoff`]).
+    pub fn takeoff(&mut self, now_us: u64, height_m: f32) -> Result<(), CommandError> {
+        self.require_armed()?;
+        let position = self.inputs.position_estimate(now_us).map(|(p, _)| p);
+        self.guidance.takeoff(now_us, height_m, position, self.telemetry.reference.position)
+    }
+
+    /// Hold `target` (see [`crate::controller::FlightController::hold_position`]).
+    pub fn hold_position(&mut self, now_us: u64, target: Vec3) -> Result<(), CommandError> {
+        self.require_armed()?;
+        Guidance::check_target(&target)?;
+        self.inputs.position_estimate(now_us).ok_or(CommandError::NoPosition)?;
+        self.guidance.hold(target);
+        Ok(())
+    }
+
+    /// Fly the stored path (see [`crate::controller::FlightController::start_mission`]).
+    pub fn start_mission(&mut self, now_us: u64) -> Result<(), CommandError> {
+        self.require_armed()?;
+        self.guidance.start_mission(now_us, self.telemetry.reference.position)?;
+        self.telemetry.robust.deadlock = false;
+        if let Some(pa) = self.plant.as_mut() {
+            pa.reset_stall();
+        }
+        Ok(())
+    }
+
+    /// Land (from Armed or Brake).
+    pub fn land(&mut self, now_us: u64) -> Result<(), CommandError> {
+        let tr = self.supervisor.land(now_us).ok_or(CommandError::NotArmed)?;
+        self.record(tr);
+        Ok(())
+    }
+
+    /// One outer step at `now_us`: data check, reference, PD tracking, CBF filter,
+    /// thrust/attitude map. Bounded; never panics. Returns the command for the inner loop.
+    pub fn step(&mut self, now_us: u64) -> AttitudeCommand {
+        let nominal_dt = 1.0 / self.params.rate_hz;
+        let dt = match self.last_us {
+            Some(t) if now_us >= t => minf(age(now_us, t) as f32 * 1e-6, 4.0 * nominal_dt),
+            Some(_) => 0.0,
+            None => nominal_dt,
+        };
+        self.last_us = Some(now_us);
+        self.telemetry.t_us = now_us;
+        self.telemetry.count = self.telemetry.count.wrapping_add(1);
+
+        let fresh = self.inputs.position_estimate(now_us);
+        self.supervisor.track_fix(now_us, fresh);
+        let health = self.health(now_us);
+        self.telemetry.position_age_us = health.position_age_us;
+        self.telemetry.obstacle_age_us = health.obstacle_age_us;
+        if let Some(tr) = self.supervisor.check_data(now_us, &health, fresh) {
+            self.record(tr);
+        }
+        let state = self.supervisor.state();
+        self.telemetry.state = state;
+
+        // Reference and output stage.
+        let mut progress = self.telemetry.progress;
+        let (mode, reference) = match state {
+            FailsafeState::Disarmed | FailsafeState::MotorsOff => (GuidanceMode::Off, None),
+            FailsafeState::Armed => self.guidance.reference(now_us, &mut progress),
+            FailsafeState::Brake if self.guidance.on_ground() => (GuidanceMode::Ground, None),
+            FailsafeState::Brake => {
+                (GuidanceMode::Brake, Some(self.guidance.hold_ref(self.supervisor.brake_point())))
+            }
+            FailsafeState::Land if self.supervisor.land_from_ground() => (GuidanceMode::Ground, None),
+            FailsafeState::Land => {
+                let target = self.supervisor.land_target(dt, fresh);
+                let mut r = self.guidance.hold_ref(target);
+                r.velocity = Vec3::new(0.0, 0.0, self.supervisor.params().land_speed);
+                (GuidanceMode::Land, Some(r))
+            }
+        };
+        self.telemetry.progress = progress;
+        self.stage = match mode {
+            GuidanceMode::Off => MotorStage::Off,
+            GuidanceMode::Ground => MotorStage::Idle,
+            _ => MotorStage::Fly,
+        };
+        let Some(reference) = reference else {
+            self.telemetry.mode = mode;
+            self.tracker.reset();
+            if let Some(pa) = self.plant.as_mut() {
+                pa.reset();
+            }
+            return self.command();
+        };
+        self.telemetry.reference = reference;
+        let att = self.estimate.attitude;
+        let yaw_ref = self.guidance.yaw_ref();
+        match fresh {
+            Some((p, v)) => {
+                let u_pd = self.tracker.update(&reference, &p, &v, dt);
+                let (u_star, u, diag) = match self.plant.as_mut() {
+                    None => {
+                        let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.inputs.obstacles());
+                        (u_pd, u, diag)
+                    }
+                    Some(pa) => {
+                        // Stall armed: flying the mission and held away from the reference
+                        // (the reference may have reached the goal; the vehicle has not).
+                        let lag = (p - reference.position).norm_squared();
+                        let input = StepInput {
+                            now_us,
+                            dt,
+                            p,
+                            v,
+                            u_pd,
+                            obstacles: self.inputs.obstacles(),
+                            boundaries: matches!(
+                                mode,
+                                GuidanceMode::Mission | GuidanceMode::Hold | GuidanceMode::Brake
+                            ),
+                            mission_running: mode == GuidanceMode::Mission
+                                && lag > STALL_TRACKING_ERROR_M * STALL_TRACKING_ERROR_M,
+                        };
+                        let (u_star, u, diag, mut rt) = pa.apply(&self.filter, &input);
+                        // Deadlock: latched until the next mission start; the vehicle holds
+                        // where it stalled (docs/filter.md §11).
+                        if rt.deadlock && !self.telemetry.robust.deadlock {
+                            self.guidance.hold(p);
+                        }
+                        rt.deadlock |= self.telemetry.robust.deadlock;
+                        self.telemetry.robust = rt;
+                        (u_star, u, diag)
+                    }
+                };
+                self.sp =
+                    map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
+                let tel = &mut self.telemetry;
+                tel.mode = mode;
+                tel.position = p;
+                tel.velocity = v;
+                tel.u_nominal = u_star;
+                tel.u_filtered = u;
+                tel.filter = diag;
+            }
+            None => {
+                let u = self.supervisor.blind_accel(now_us);
+                self.tracker.reset();
+                if let Some(pa) = self.plant.as_mut() {
+                    pa.open_loop(&u, dt);
+                }
+                self.sp =
+                    map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
+                let tel = &mut self.telemetry;
+                tel.mode = GuidanceMode::NoFix;
+                tel.u_nominal = u;
+                tel.u_filtered = u;
+            }
+        }
+        self.telemetry.attitude_sp = self.sp;
+        self.command()
+    }
+}

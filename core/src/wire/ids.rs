@@ -1,0 +1,45 @@
+//! Identifiers, magic numbers and fixed-point scalings of the link.
+
+/// MAVLink system id of the vehicle.
+pub const VEHICLE_SYSTEM_ID: u8 = 1;
+/// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
+pub const AUTOPILOT_COMPONENT_ID: u8 = 1;
+/// MAVLink system id the host (simulator / ground station of the PIL link) sends as.
+pub const HOST_SYSTEM_ID: u8 = 255;
+/// MAVLink component id the host sends as (MAV_COMP_ID_MISSIONPLANNER).
+pub const HOST_COMPONENT_ID: u8 = 190;
+
+/// `obstacle_id` of OBSTACLE_DISTANCE_3D that carries no point: it closes the previous batch and
+/// opens an empty one (no obstacle in view).
+pub const CLEAR_ID: u16 = u16::MAX;
+
+/// COMMAND_LONG COMPONENT_ARM_DISARM `param2` that forces a disarm in flight.
+pub const FORCE_DISARM_MAGIC: f32 = 21196.0;
+
+/// MISSION_ITEM_INT `x`, `y` scale in `MAV_FRAME_LOCAL_NED`: metres × 10⁴ (`z` is metres, `f32`).
+pub const LOCAL_XY_SCALE: f32 = 1.0e4;
+
+/// Waypoint coordinate (m) → MISSION_ITEM_INT `x`/`y`: rounded to the nearest 10⁻⁴ m
+/// (saturating at the `i32` range; NaN → 0).
+pub fn local_xy_to_wire(metres: f64) -> i32 {
+    libm::round(metres * f64::from(LOCAL_XY_SCALE)) as i32
+}
+
+/// MISSION_ITEM_INT `x`/`y` → waypoint coordinate, m (the quantised value the vehicle flies).
+pub fn local_xy_from_wire(v: i32) -> f32 {
+    v as f32 / LOCAL_XY_SCALE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn local_xy_round_trip_is_the_quantisation() {
+        assert_eq!(local_xy_to_wire(1.23456), 12346);
+        assert_eq!(local_xy_to_wire(-1.23454), -12345);
+        assert_eq!(local_xy_from_wire(local_xy_to_wire(-2.5)), -2.5);
+        assert_eq!(local_xy_to_wire(f64::NAN), 0);
+        assert_eq!(local_xy_to_wire(1e9), i32::MAX);
+    }
+}

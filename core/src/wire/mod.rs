@@ -1,0 +1,22 @@
+//! The wire contract between the firmware and the host: everything both sides of the MAVLink
+//! link must agree on, defined once. The firmware (`firmware/src/link/`, `firmware/src/pil/`)
+//! encodes with it; the host's processor-in-the-loop code (`host-sim/src/fc/`) decodes with it
+//! and its firmware twin replays the same lockstep rule and motor sanitiser.
+//!
+//! - [`ids`]: system/component ids, the empty-obstacle-batch id [`ids::CLEAR_ID`], magic numbers
+//!   and fixed-point scalings.
+//! - [`names`]: telemetry and instrumentation names (`DEBUG_VECT` / `NAMED_VALUE_INT` keys).
+//! - [`codes`]: small codes carried in message fields: flight phase (HEARTBEAT `custom_mode`),
+//!   filter region and flags (`CBF`, `CBF_FLAGS`), active obstacle id, failsafe codes, the
+//!   ODOMETRY yaw quaternion.
+//! - [`lockstep`]: the lockstep rule (which HIL_SENSOR runs the outer loop) and the motor
+//!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
+//!
+//! Message types themselves come from the `mavlink` crate on both sides (this module is
+//! `no_std` and does not depend on it). May import: [`crate::cbf`] (region codes) and
+//! [`crate::fmath`]; nothing else of the crate.
+
+pub mod codes;
+pub mod ids;
+pub mod lockstep;
+pub mod names;

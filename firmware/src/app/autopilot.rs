@@ -1,0 +1,310 @@
+//! The boundary between the firmware's tasks and the flight-control cascade.
+//!
+//! Tasks talk to the cascade only through [`Autopilot`] (and [`ControlSteps`]), so the task logic (link dispatch, loop
+//! scheduling, lockstep) is tested on the host against a test double, and the real cascade
+//! (`parapet_core::controller::FlightController`) plugs in through one adapter
+//! ([`crate::app::cascade`]).
+//!
+//! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
+
+use parapet_core::obstacle::ObstaclePoint;
+
+pub use parapet_core::params::ParamRejected;
+use parapet_core::Vec3;
+
+/// One IMU sample in the body FRD frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSample {
+    /// Angular rate, body FRD, rad/s.
+    pub gyro_frd: Vec3,
+    /// Specific force (what an accelerometer measures: at rest ≈ (0, 0, −9.81)), body FRD, m/s².
+    pub accel_frd: Vec3,
+}
+
+impl ImuSample {
+    /// `true` when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.gyro_frd.iter().chain(self.accel_frd.iter()).all(|x| x.is_finite())
+    }
+}
+
+/// External position/velocity estimate (motion capture, VIO, simulator).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionFix {
+    /// Measurement time on the firmware's clock, µs.
+    pub t_us: u64,
+    /// Position, world NED, m.
+    pub position_ned: Vec3,
+    /// Velocity, world NED, m/s.
+    pub velocity_ned: Vec3,
+    /// Heading (ZYX yaw, rad) if the source measures it (ODOMETRY `q`); corrects the
+    /// estimator's yaw drift.
+    pub yaw: Option<f32>,
+}
+
+/// Motor command for the four rotors and its sanitiser: the wire contract's
+/// (`parapet_core::wire::lockstep`), so the host twin applies exactly the same rule.
+pub use parapet_core::wire::lockstep::MotorCommand;
+
+/// Commands from COMMAND_LONG (see [`crate::link::command`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum VehicleCommand {
+    /// Arm the motors (idle on the ground).
+    Arm,
+    /// Disarm; `force` disarms even in flight (MAVLink magic 21196).
+    Disarm {
+        /// Disarm in flight.
+        force: bool,
+    },
+    /// Take off to `height_m` above the current position (m, positive up); `None`: cascade default.
+    Takeoff {
+        /// Climb height, m, > 0.
+        height_m: Option<f32>,
+    },
+    /// Land at the current horizontal position.
+    Land,
+    /// Fly the uploaded waypoint path.
+    StartMission,
+    /// Hold a position: `target_ned` (world NED, m), or the current estimate when `None`.
+    Hold {
+        /// Point to hold.
+        target_ned: Option<Vec3>,
+    },
+}
+
+/// A command the cascade refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CommandRejected {
+    /// Not possible in the current state (e.g. takeoff while disarmed): MAV_RESULT_TEMPORARILY_REJECTED.
+    NotNow,
+    /// Parameters out of range: MAV_RESULT_DENIED.
+    Invalid,
+}
+
+/// A waypoint path the cascade refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathRejected {
+    /// More waypoints than the cascade stores.
+    TooLong,
+    /// A waypoint is not finite or otherwise invalid.
+    Invalid,
+}
+
+/// The safety filter's diagnostics of the last outer step: the core's one diagnostics type
+/// (region, active obstacle, h̄, flags), carried unchanged to the link.
+pub use parapet_core::cbf::FilterDiagnostics;
+/// Safety-filter region (`DEBUG_VECT "CBF".y`, code [`FilterRegion::code`]): the core's type.
+pub use parapet_core::cbf::Region as FilterRegion;
+
+/// Filter diagnostics before the first outer step: no obstacle, h̄ = +∞.
+pub const FILTER_IDLE: FilterDiagnostics = FilterDiagnostics {
+    region: FilterRegion::NoObstacle,
+    active_id: None,
+    h_bar: f32::INFINITY,
+    intervened: false,
+    n_constraints: 0,
+    n_near: 0,
+    unavoidable: false,
+    infeasible: false,
+    fault: None,
+};
+
+/// The outer loop's setpoints of the last outer step (NED).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SetpointReport {
+    /// Reference position p_d, m.
+    pub position_ned: Vec3,
+    /// Reference velocity ṗ_d, m/s.
+    pub velocity_ned: Vec3,
+    /// Nominal acceleration u* of the PD law (before the filter), m/s² (gravity excluded).
+    pub accel_nominal_ned: Vec3,
+    /// Acceleration after the safety filter u, m/s² (gravity excluded).
+    pub accel_filtered_ned: Vec3,
+}
+
+impl SetpointReport {
+    /// Before the first outer step: all zero.
+    pub const ZERO: Self = Self {
+        position_ned: Vec3::new(0.0, 0.0, 0.0),
+        velocity_ned: Vec3::new(0.0, 0.0, 0.0),
+        accel_nominal_ned: Vec3::new(0.0, 0.0, 0.0),
+        accel_filtered_ned: Vec3::new(0.0, 0.0, 0.0),
+    };
+}
+
+/// Flight phase, reported as HEARTBEAT `custom_mode` (the wire contract's codes).
+pub use parapet_core::wire::codes::FlightPhase;
+
+/// A failsafe state (reported in STATUSTEXT on every transition).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Failsafe {
+    /// Stable numeric code (`NAMED_VALUE_INT "failsafe"`).
+    pub code: u8,
+    /// Short human-readable reason (≤ 50 bytes for STATUSTEXT).
+    pub reason: &'static str,
+}
+
+/// What the link reports about the cascade.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TelemetrySnapshot {
+    /// Motors enabled.
+    pub armed: bool,
+    /// Current phase.
+    pub phase: FlightPhase,
+    /// Active failsafe, if any.
+    pub failsafe: Option<Failsafe>,
+    /// Estimated roll, pitch, yaw (ZYX Euler, FRD w.r.t. NED), rad.
+    pub attitude_rpy: Vec3,
+    /// Estimated body rates, FRD, rad/s.
+    pub body_rates_frd: Vec3,
+    /// Position estimate, NED, m.
+    pub position_ned: Vec3,
+    /// Velocity estimate, NED, m/s.
+    pub velocity_ned: Vec3,
+    /// Safety filter diagnostics.
+    pub filter: FilterDiagnostics,
+    /// Outer-loop setpoints.
+    pub setpoint: SetpointReport,
+}
+
+impl TelemetrySnapshot {
+    /// Before the cascade is running: disarmed, everything zero.
+    pub const BOOT: Self = Self {
+        armed: false,
+        phase: FlightPhase::Disarmed,
+        failsafe: None,
+        attitude_rpy: Vec3::new(0.0, 0.0, 0.0),
+        body_rates_frd: Vec3::new(0.0, 0.0, 0.0),
+        position_ned: Vec3::new(0.0, 0.0, 0.0),
+        velocity_ned: Vec3::new(0.0, 0.0, 0.0),
+        filter: FILTER_IDLE,
+        setpoint: SetpointReport::ZERO,
+    };
+}
+
+/// The flight-control cascade as the link sees it (the host simulator's trait of the same role
+/// is `parapet_sim::flight::stack::FlightStack`). Every method is bounded in time and never
+/// panics; bad inputs get the cascade's defined safe response.
+pub trait Autopilot {
+    /// New position/velocity estimate.
+    fn update_position(&mut self, fix: &PositionFix);
+    /// Replaces the obstacle points (world NED) seen at `now_us`.
+    fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
+    /// Replaces the waypoint path (world NED, m).
+    fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected>;
+    /// Executes a vehicle command.
+    fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
+    /// Current telemetry.
+    fn telemetry(&self) -> TelemetrySnapshot;
+    /// Sets parameter `name` (see [`parapet_core::params`]); returns the value now in effect.
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected>;
+    /// Current value of parameter `name`.
+    fn get_param(&self, name: &str) -> Option<f32>;
+}
+
+/// Both loops in one context (the lockstep PIL step, host tests): [`Autopilot`] plus the
+/// control steps.
+pub trait ControlSteps: Autopilot {
+    /// Inner loop: estimator + attitude + rate control + mixer. `now_us`: firmware clock, µs.
+    fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
+    /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
+    fn step_outer(&mut self, now_us: u64);
+}
+
+#[cfg(test)]
+pub(crate) mod test_double {
+    //! A recording [`Autopilot`] for the task-logic tests.
+    use super::*;
+    use std::vec::Vec;
+
+    /// Records every call; behaves like a trivial vehicle.
+    #[derive(Default)]
+    pub struct RecordingAutopilot {
+        pub inner_steps: Vec<u64>,
+        pub outer_steps: Vec<u64>,
+        pub fixes: Vec<PositionFix>,
+        pub obstacle_batches: Vec<Vec<ObstaclePoint>>,
+        pub paths: Vec<Vec<Vec3>>,
+        pub commands: Vec<VehicleCommand>,
+        pub armed: bool,
+        pub failsafe: Option<Failsafe>,
+        pub max_path: usize,
+        pub params: Vec<(std::string::String, f32)>,
+    }
+
+    impl RecordingAutopilot {
+        pub fn new() -> Self {
+            Self { max_path: 16, ..Default::default() }
+        }
+    }
+
+    impl ControlSteps for RecordingAutopilot {
+        fn step_inner(&mut self, now_us: u64, _imu: &ImuSample) -> MotorCommand {
+            self.inner_steps.push(now_us);
+            MotorCommand { throttle: [0.5; 4], armed: self.armed }
+        }
+        fn step_outer(&mut self, now_us: u64) {
+            self.outer_steps.push(now_us);
+        }
+    }
+
+    impl Autopilot for RecordingAutopilot {
+        fn update_position(&mut self, fix: &PositionFix) {
+            self.fixes.push(*fix);
+        }
+        fn update_obstacles(&mut self, _now_us: u64, obstacles: &[ObstaclePoint]) {
+            self.obstacle_batches.push(obstacles.to_vec());
+        }
+        fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
+            if waypoints_ned.len() > self.max_path {
+                return Err(PathRejected::TooLong);
+            }
+            self.paths.push(waypoints_ned.to_vec());
+            Ok(())
+        }
+        fn command(&mut self, _now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
+            self.commands.push(cmd);
+            match cmd {
+                VehicleCommand::Arm => self.armed = true,
+                VehicleCommand::Disarm { .. } => self.armed = false,
+                VehicleCommand::Takeoff { .. } if !self.armed => return Err(CommandRejected::NotNow),
+                VehicleCommand::StartMission if self.paths.is_empty() => return Err(CommandRejected::NotNow),
+                _ => {}
+            }
+            Ok(())
+        }
+        fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+            if parapet_core::params::index_of(name).is_none() {
+                return Err(ParamRejected::Unknown);
+            }
+            if self.armed {
+                return Err(ParamRejected::NotNow);
+            }
+            self.params.retain(|(n, _)| n != name);
+            self.params.push((name.into(), value));
+            Ok(value)
+        }
+        fn get_param(&self, name: &str) -> Option<f32> {
+            parapet_core::params::index_of(name)?;
+            Some(self.params.iter().find(|(n, _)| n == name).map_or(0.0, |p| p.1))
+        }
+        fn telemetry(&self) -> TelemetrySnapshot {
+            TelemetrySnapshot {
+                armed: self.armed,
+                phase: if self.armed { FlightPhase::Idle } else { FlightPhase::Disarmed },
+                failsafe: self.failsafe,
+                attitude_rpy: Vec3::new(0.1, -0.2, 0.3),
+                body_rates_frd: Vec3::zeros(),
+                position_ned: Vec3::new(1.0, 2.0, -3.0),
+                velocity_ned: Vec3::zeros(),
+                filter: FILTER_IDLE,
+                setpoint: SetpointReport {
+                    position_ned: Vec3::new(1.5, 2.0, -3.0),
+                    velocity_ned: Vec3::new(0.25, 0.0, 0.0),
+                    accel_nominal_ned: Vec3::new(-1.0, 0.5, 0.0),
+                    accel_filtered_ned: Vec3::new(-0.5, 0.5, 0.0),
+                },
+            }
+        }
+    }
+}

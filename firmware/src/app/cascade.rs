@@ -1,0 +1,610 @@
+//! The real flight-control cascade, as two stages that exchange messages through
+//! [`Mailboxes`] (see [`crate::app::mailbox`]):
+//!
+//! - [`OuterStage`]: `parapet_core::outer::OuterLoop` (guidance, PD tracking, CBF filter,
+//!   thrust/attitude map, supervisor) plus the parameter set a ground station edits. It takes
+//!   everything the link delivers (fixes, obstacles, path, commands, parameters) through
+//!   [`OuterPort`], its [`Autopilot`] view, and publishes attitude commands, the estimator aid
+//!   and the telemetry snapshot.
+//! - [`InnerStage`]: `parapet_core::inner::InnerLoop` (estimator, attitude and rate control,
+//!   mixer). Each step takes the queued commands, the latest aid and a new parameter set if
+//!   any, runs, and publishes its state estimate.
+//!
+//! On the board each stage is owned by its own task (`src/main.rs`). [`Cascade`] owns both
+//! stages and their mailboxes and runs them in one context in the order of
+//! `parapet_core::controller::FlightController` (inner step, estimate to the outer loop, outer
+//! step): the PIL application and the host tests use it.
+//!
+//! Parameters (see `crate::link::params`): a PARAM_SET is checked against that parameter's
+//! range only and written to the stored set, which PARAM_VALUE reports. The loops are
+//! rebuilt from the stored set whenever the set is consistent ([`ControllerParams::validate`]:
+//! δ1 > δ, m·g < THR_MAX ≤ 4·VEH_ROTOR_TMAX) — the outer loop in the outer task, the inner loop
+//! by the inner task from the parameters it is sent, never with interrupts masked; while it is
+//! not consistent, the loops keep the last consistent set and arming is refused
+//! (MAV_RESULT_TEMPORARILY_REJECTED), so no order of PARAM_SETs is ever needed.
+//!
+//! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`].
+
+use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
+use parapet_core::controller::{CommandError, ControllerParams, FlightController, GuidanceMode, ParamError};
+use parapet_core::failsafe::{FailsafeState, TransitionReason};
+use parapet_core::inner::InnerLoop;
+use parapet_core::msg::{ImuSample as CoreImuSample, PositionFix as CoreFix, StateEstimate};
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::outer::{OuterLoop, OuterTelemetry};
+use parapet_core::params;
+use parapet_core::waypoint::PathError;
+use parapet_core::wire::codes;
+use parapet_core::Vec3;
+
+use crate::app::autopilot::{
+    Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand, ParamRejected,
+    PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
+};
+use crate::app::mailbox::Mailboxes;
+
+/// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
+pub const DEFAULT_TAKEOFF_HEIGHT_M: f32 = 1.0;
+
+fn rejected(e: CommandError) -> CommandRejected {
+    match e {
+        CommandError::BadHeight | CommandError::BadTarget | CommandError::Path(_) => CommandRejected::Invalid,
+        CommandError::Arm(_)
+        | CommandError::NotArmed
+        | CommandError::AlreadyDisarmed
+        | CommandError::NotFlying
+        | CommandError::NoPosition => CommandRejected::NotNow,
+    }
+}
+
+/// The telemetry snapshot of the outer loop's record and the inner loop's latest estimate.
+pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
+    let commanded_land = t.last_transition.is_some_and(|tr| tr.reason == TransitionReason::LandCommand);
+    let failsafe = match t.state {
+        FailsafeState::Brake => Some(codes::failsafe::BRAKE),
+        FailsafeState::Land if !commanded_land => Some(codes::failsafe::LAND),
+        FailsafeState::MotorsOff => Some(codes::failsafe::MOTORS_OFF),
+        _ => None,
+    }
+    .map(|code| Failsafe { code, reason: t.last_transition.map_or("unknown", |tr| tr.reason.as_str()) });
+    let phase = match (t.state, t.mode) {
+        (FailsafeState::Disarmed | FailsafeState::MotorsOff, _) => FlightPhase::Disarmed,
+        (FailsafeState::Brake, _) => FlightPhase::Failsafe,
+        (FailsafeState::Land, _) => FlightPhase::Landing,
+        (FailsafeState::Armed, GuidanceMode::Takeoff) => FlightPhase::Takeoff,
+        (FailsafeState::Armed, GuidanceMode::Mission) => FlightPhase::Mission,
+        (FailsafeState::Armed, GuidanceMode::Hold) => FlightPhase::Hover,
+        (FailsafeState::Armed, GuidanceMode::Land) => FlightPhase::Landing,
+        (FailsafeState::Armed, _) => FlightPhase::Idle,
+    };
+    let a = &est.attitude;
+    TelemetrySnapshot {
+        armed: t.state.motors_enabled(),
+        phase,
+        failsafe,
+        attitude_rpy: Vec3::new(a.roll, a.pitch, a.yaw),
+        body_rates_frd: est.rate,
+        position_ned: t.position,
+        velocity_ned: t.velocity,
+        filter: t.filter,
+        setpoint: SetpointReport {
+            position_ned: t.reference.position,
+            velocity_ned: t.reference.velocity,
+            accel_nominal_ned: t.u_nominal,
+            accel_filtered_ned: t.u_filtered,
+        },
+    }
+}
+
+/// The outer stage (see the module docs); its [`Autopilot`] view is [`OuterPort`].
+#[derive(Clone, Debug)]
+pub struct OuterStage {
+    outer: OuterLoop,
+    /// The parameter set the loops fly (the last consistent stored set).
+    flown: ControllerParams,
+    /// The parameter set PARAM_SET edits and PARAM_VALUE reports.
+    stored: ControllerParams,
+    /// The inner loop's latest estimate.
+    estimate: StateEstimate,
+}
+
+impl OuterStage {
+    /// The outer stage for `params` and the inner loop to give the inner stage.
+    pub fn new(params: ControllerParams) -> Result<(Self, InnerLoop), ParamError> {
+        let (outer, inner) = FlightController::new(params)?.into_loops();
+        let estimate = inner.estimate();
+        Ok((Self { outer, flown: params, stored: params, estimate }, inner))
+    }
+
+    /// `true` when the stored parameter set is the one the loops fly (it satisfies the
+    /// cross-parameter constraints); arming is refused otherwise.
+    pub fn params_consistent(&self) -> bool {
+        self.stored == self.flown
+    }
+
+    /// The parameter set the loops fly.
+    pub fn flown_params(&self) -> &ControllerParams {
+        &self.flown
+    }
+
+    /// The outer loop (read-only).
+    pub fn outer(&self) -> &OuterLoop {
+        &self.outer
+    }
+
+    /// Takes the inner loop's latest estimate, if a new one was published (a tilt trip or new
+    /// rejected samples may change the command, which is then published).
+    pub fn on_estimate<M: RawMutex>(&mut self, mb: &Mailboxes<M>) {
+        if let Some(est) = mb.estimate.try_take() {
+            self.take_estimate(est, mb);
+        }
+    }
+
+    /// Takes `est` (already received from [`Mailboxes::estimate`]); publishes the command
+    /// when it changed. The snapshot follows with the next outer step.
+    pub fn take_estimate<M: RawMutex>(&mut self, est: StateEstimate, mb: &Mailboxes<M>) {
+        self.estimate = est;
+        if self.outer.on_estimate(&est) {
+            mb.send_command(self.outer.command());
+        }
+    }
+
+    /// One outer step at `now_us`; publishes the attitude command and the snapshot.
+    pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
+        mb.send_command(self.outer.step(now_us));
+        mb.snapshot.signal(snapshot(self.outer.telemetry(), &self.estimate));
+    }
+
+    /// The telemetry snapshot now.
+    pub fn snapshot(&self) -> TelemetrySnapshot {
+        snapshot(self.outer.telemetry(), &self.estimate)
+    }
+
+    /// The [`Autopilot`] view of this stage, publishing to `mb`.
+    pub fn port<'a, M: RawMutex>(&'a mut self, mb: &'a Mailboxes<M>) -> OuterPort<'a, M> {
+        OuterPort { stage: self, mb }
+    }
+}
+
+/// [`OuterStage`] with its mailboxes: what the link talks to.
+pub struct OuterPort<'a, M: RawMutex> {
+    stage: &'a mut OuterStage,
+    mb: &'a Mailboxes<M>,
+}
+
+impl<M: RawMutex> OuterPort<'_, M> {
+    /// Rebuilds both loops from `p` (consistent): the outer one here, the inner one from the
+    /// parameters sent to the inner stage. Commands still queued for the old inner loop and its
+    /// last estimate are dropped first, so the new loops start like a new controller.
+    fn rebuild(&mut self, p: ControllerParams) -> Result<(), ParamError> {
+        let (outer, inner) = FlightController::new(p)?.into_loops();
+        self.mb.commands.clear();
+        self.mb.inner_params.signal(*inner.params());
+        self.mb.estimate.reset();
+        let s = &mut *self.stage;
+        s.outer = outer;
+        s.estimate = inner.estimate();
+        s.flown = p;
+        self.mb.snapshot.signal(s.snapshot());
+        Ok(())
+    }
+}
+
+impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
+    fn update_position(&mut self, fix: &PositionFix) {
+        let s = &mut *self.stage;
+        s.outer.update_position(CoreFix {
+            t_us: fix.t_us,
+            position: fix.position_ned,
+            velocity: fix.velocity_ned,
+            yaw: fix.yaw,
+        });
+        self.mb.aid.signal(s.outer.aid());
+    }
+
+    fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
+        self.stage.outer.update_obstacles(now_us, obstacles);
+    }
+
+    fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
+        self.stage.outer.set_path(waypoints_ned).map_err(|e| match e {
+            CommandError::Path(PathError::TooMany { .. }) => PathRejected::TooLong,
+            _ => PathRejected::Invalid,
+        })
+    }
+
+    fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
+        let s = &mut *self.stage;
+        let consistent = s.params_consistent();
+        let o = &mut s.outer;
+        let r = match cmd {
+            VehicleCommand::Arm if !consistent => return Err(CommandRejected::NotNow),
+            VehicleCommand::Arm => o.arm(now_us),
+            VehicleCommand::Disarm { force } => {
+                let airborne = !matches!(o.telemetry().mode, GuidanceMode::Off | GuidanceMode::Ground);
+                if airborne && !force {
+                    return Err(CommandRejected::NotNow);
+                }
+                o.disarm(now_us)
+            }
+            VehicleCommand::Takeoff { height_m } => {
+                let h = height_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M.min(s.flown.takeoff_height_max));
+                o.takeoff(now_us, h)
+            }
+            VehicleCommand::Land => o.land(now_us),
+            VehicleCommand::StartMission => o.start_mission(now_us),
+            VehicleCommand::Hold { target_ned } => {
+                let target = target_ned.unwrap_or(o.telemetry().position);
+                o.hold_position(now_us, target)
+            }
+        };
+        // Arm, disarm and land change the output stage at once (as the controller facade).
+        if r.is_ok()
+            && matches!(cmd, VehicleCommand::Arm | VehicleCommand::Disarm { .. } | VehicleCommand::Land)
+        {
+            self.mb.send_command(o.command());
+        }
+        self.mb.snapshot.signal(s.snapshot());
+        r.map_err(rejected)
+    }
+
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+        let mut p = self.stage.stored;
+        let v = params::set(&mut p, name, value)?;
+        if self.stage.outer.state() != FailsafeState::Disarmed {
+            return Err(ParamRejected::NotNow);
+        }
+        self.stage.stored = p;
+        // An inconsistent set is stored only (arming refused until it is consistent).
+        let _ = self.rebuild(p);
+        Ok(v)
+    }
+
+    fn get_param(&self, name: &str) -> Option<f32> {
+        params::get(&self.stage.stored, name)
+    }
+
+    fn telemetry(&self) -> TelemetrySnapshot {
+        self.stage.snapshot()
+    }
+}
+
+/// The inner stage (see the module docs).
+#[derive(Clone, Debug)]
+pub struct InnerStage {
+    inner: InnerLoop,
+}
+
+impl InnerStage {
+    /// The stage around `inner` (from [`OuterStage::new`]).
+    pub fn new(inner: InnerLoop) -> Self {
+        Self { inner }
+    }
+
+    /// The inner loop (read-only).
+    pub fn inner(&self) -> &InnerLoop {
+        &self.inner
+    }
+
+    /// One inner step at `now_us` with `imu`: takes a rebuilt parameter set, the queued
+    /// commands and the latest aid from `mb`, runs, and publishes the estimate.
+    pub fn step<M: RawMutex>(&mut self, now_us: u64, imu: &ImuSample, mb: &Mailboxes<M>) -> MotorCommand {
+        if let Some(p) = mb.inner_params.try_take() {
+            // Sent only for parameter sets the outer stage built a controller from.
+            if let Ok(l) = InnerLoop::new(p) {
+                self.inner = l;
+            }
+        }
+        for _ in 0..crate::app::mailbox::COMMAND_DEPTH {
+            match mb.commands.try_receive() {
+                Ok(c) => self.inner.set_command(c),
+                Err(_) => break,
+            }
+        }
+        if let Some(aid) = mb.aid.try_take() {
+            self.inner.set_aid(aid);
+        }
+        let out = self.inner.step(now_us, &CoreImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd });
+        mb.estimate.signal(self.inner.estimate());
+        MotorCommand { throttle: out.throttle, armed: out.armed }
+    }
+}
+
+/// Both stages and their mailboxes in one context (PIL application, host tests): the same
+/// messages in the order of the controller facade.
+pub struct Cascade {
+    outer: OuterStage,
+    inner: InnerStage,
+    mb: Mailboxes<CriticalSectionRawMutex>,
+}
+
+impl Cascade {
+    /// Cascade with `params` (validated by the controller).
+    pub fn new(params: ControllerParams) -> Result<Self, ParamError> {
+        let (outer, inner) = OuterStage::new(params)?;
+        Ok(Self { outer, inner: InnerStage::new(inner), mb: Mailboxes::new() })
+    }
+
+    /// `true` when the stored parameter set is the one flown (see [`OuterStage`]).
+    pub fn params_consistent(&self) -> bool {
+        self.outer.params_consistent()
+    }
+
+    /// The parameter set flown.
+    pub fn flown_params(&self) -> &ControllerParams {
+        self.outer.flown_params()
+    }
+
+    /// The outer stage.
+    pub fn outer(&self) -> &OuterStage {
+        &self.outer
+    }
+
+    /// The inner stage.
+    pub fn inner(&self) -> &InnerStage {
+        &self.inner
+    }
+
+    fn port(&mut self) -> OuterPort<'_, CriticalSectionRawMutex> {
+        self.outer.port(&self.mb)
+    }
+}
+
+impl ControlSteps for Cascade {
+    fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand {
+        let m = self.inner.step(now_us, imu, &self.mb);
+        self.outer.on_estimate(&self.mb);
+        m
+    }
+
+    fn step_outer(&mut self, now_us: u64) {
+        self.outer.step(now_us, &self.mb);
+    }
+}
+
+impl Autopilot for Cascade {
+    fn update_position(&mut self, fix: &PositionFix) {
+        self.port().update_position(fix);
+    }
+    fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
+        self.port().update_obstacles(now_us, obstacles);
+    }
+    fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
+        self.port().set_path(waypoints_ned)
+    }
+    fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
+        self.port().command(now_us, cmd)
+    }
+    fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
+        self.port().set_param(name, value)
+    }
+    fn get_param(&self, name: &str) -> Option<f32> {
+        params::get(&self.outer.stored, name)
+    }
+    fn telemetry(&self) -> TelemetrySnapshot {
+        self.outer.snapshot()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The two stages exchanging messages through the mailboxes compute exactly what the
+    /// controller facade computes (same calls, same order): bit-identical motor commands over
+    /// arming, a takeoff with an obstacle in view, a hold and a landing, with a tilted IMU.
+    #[test]
+    fn stages_through_mailboxes_match_the_controller_facade_bit_for_bit() {
+        let p = ControllerParams::default();
+        let Ok(mut fc) = FlightController::new(p) else { panic!("defaults") };
+        let Ok(mut st) = Cascade::new(p) else { panic!("defaults") };
+        let obstacle = [ObstaclePoint { id: 3, point: Vec3::new(0.6, 0.1, -0.8), velocity: None }];
+        for k in 0..3000u64 {
+            let t = 1_000_000 + k * 1000;
+            if k % 4 == 0 {
+                let pos = Vec3::new(0.0, 0.0, -(k as f32) * 1e-4);
+                let fix =
+                    PositionFix { t_us: t, position_ned: pos, velocity_ned: Vec3::zeros(), yaw: Some(0.01) };
+                fc.update_position(CoreFix {
+                    t_us: t,
+                    position: pos,
+                    velocity: Vec3::zeros(),
+                    yaw: Some(0.01),
+                });
+                st.update_position(&fix);
+                fc.update_obstacles(t, &obstacle);
+                st.update_obstacles(t, &obstacle);
+            }
+            let cmd = match k {
+                500 => Some(VehicleCommand::Arm),
+                1000 => Some(VehicleCommand::Takeoff { height_m: Some(1.0) }),
+                2000 => Some(VehicleCommand::Hold { target_ned: Some(Vec3::new(0.1, 0.0, -0.5)) }),
+                2600 => Some(VehicleCommand::Land),
+                _ => None,
+            };
+            if let Some(c) = cmd {
+                let r_fc = match c {
+                    VehicleCommand::Arm => fc.arm(t),
+                    VehicleCommand::Takeoff { height_m } => fc.takeoff(t, height_m.unwrap_or(1.0)),
+                    VehicleCommand::Hold { target_ned } => {
+                        fc.hold_position(t, target_ned.unwrap_or_default())
+                    }
+                    _ => fc.land(t),
+                };
+                assert_eq!(st.command(t, c).is_ok(), r_fc.is_ok(), "step {k}: {c:?}");
+            }
+            let w = 0.02 * ((k as f32) * 0.01).sin();
+            let imu =
+                ImuSample { gyro_frd: Vec3::new(w, -w, 0.5 * w), accel_frd: Vec3::new(0.1 * w, 0.0, -9.81) };
+            let a = fc.step_inner(t, &CoreImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd });
+            let b = st.step_inner(t, &imu);
+            assert_eq!(a.throttle.map(f32::to_bits), b.throttle.map(f32::to_bits), "step {k}");
+            assert_eq!(a.armed, b.armed, "step {k}");
+            if k % 4 == 0 {
+                fc.step_outer(t);
+                st.step_outer(t);
+            }
+        }
+        let (ta, tb) = (fc.telemetry(), st.telemetry());
+        assert_eq!(ta.state, FailsafeState::Land, "the landing was flown");
+        assert_eq!(ta.position, tb.position_ned);
+        assert_eq!(ta.u_filtered.map(f32::to_bits), tb.setpoint.accel_filtered_ned.map(f32::to_bits));
+        assert_eq!(ta.filter, tb.filter);
+    }
+
+    /// A heavier vehicle in table order (mass first, which alone cannot hover on the boot
+    /// THR_MAX) and in reverse order: every PARAM_SET is taken, the stored set is flown once
+    /// it is consistent, whatever the order.
+    #[test]
+    fn parameter_changes_need_no_order() {
+        let changes = [("VEH_MASS", 1.5), ("VEH_IZZ", 0.01), ("VEH_ROTOR_TMAX", 9.0), ("THR_MAX", 30.0)];
+        for reverse in [false, true] {
+            let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("defaults") };
+            let mut order = changes;
+            if reverse {
+                order.reverse();
+            }
+            for (i, (name, v)) in order.iter().enumerate() {
+                assert_eq!(ap.set_param(name, *v), Ok(*v), "{name}");
+                assert_eq!(ap.params_consistent(), i == order.len() - 1 || (reverse && i >= 1), "{name}");
+            }
+            let p = ap.flown_params();
+            assert_eq!((p.airframe.mass, p.thrust.thrust_max, p.airframe.rotor_thrust_max), (1.5, 30.0, 9.0));
+        }
+    }
+    use crate::link::framing::FrameWriter;
+    use crate::link::obstacles::CLEAR_ID;
+    use crate::link::outbound::Outbound;
+    use crate::link::{FixClock, Link};
+    use crate::pil::lockstep::LockstepScheduler;
+    use mavlink::dialects::ardupilotmega::{
+        MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
+        ODOMETRY_DATA,
+    };
+
+    /// The ODOMETRY yaw reaches the estimator (as in `parapet run`): the first external yaw
+    /// sets the heading; without one the heading stays where the accelerometer start left it.
+    #[test]
+    fn position_fix_yaw_sets_the_estimated_heading() {
+        let heading = |yaw: Option<f32>| {
+            let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("default params") };
+            let imu = ImuSample { gyro_frd: Vec3::zeros(), accel_frd: Vec3::new(0.0, 0.0, -9.81) };
+            for k in 0..50u64 {
+                let t = 1_000_000 + k * 1000;
+                if k % 4 == 0 {
+                    let fix = PositionFix {
+                        t_us: t,
+                        position_ned: Vec3::zeros(),
+                        velocity_ned: Vec3::zeros(),
+                        yaw,
+                    };
+                    ap.update_position(&fix);
+                }
+                let _ = ap.step_inner(t, &imu);
+            }
+            ap.telemetry().attitude_rpy.z
+        };
+        assert!((heading(Some(1.0)) - 1.0).abs() < 1e-3, "{}", heading(Some(1.0)));
+        assert!(heading(None).abs() < 1e-3, "{}", heading(None));
+    }
+
+    /// The lockstep path with the real cascade on a vehicle at rest: arm is accepted once the
+    /// position and obstacle data are fresh, the motors then idle, and a takeoff command spins
+    /// them up (the cascade is the one the firmware flies).
+    #[test]
+    fn arm_and_takeoff_through_the_link_with_the_real_cascade() {
+        let mut ap = match Cascade::new(ControllerParams::default()) {
+            Ok(c) => c,
+            Err(e) => panic!("default params rejected: {e:?}"),
+        };
+        // Parameters apply while disarmed (the cascade is rebuilt with them).
+        assert_eq!(ap.set_param("CBF_MU", 1.2), Ok(1.2));
+        assert_eq!(ap.get_param("CBF_MU"), Some(1.2));
+        assert_eq!(ap.flown_params().cbf.mu, 1.2);
+        // Out of range: refused, the old value stays.
+        assert_eq!(ap.set_param("CBF_MU", -1.0), Err(ParamRejected::Invalid));
+        assert_eq!(ap.set_param("CBF_VARIANT", 2.5), Err(ParamRejected::Invalid));
+        assert_eq!(ap.get_param("CBF_MU"), Some(1.2));
+        // In range but δ1 < δ: stored, not flown, and arming is refused until it is fixed.
+        assert_eq!(ap.set_param("CBF_DELTA1", 0.01), Ok(0.01));
+        assert_eq!(ap.get_param("CBF_DELTA1"), Some(0.01));
+        assert!(!ap.params_consistent());
+        assert_eq!(ap.flown_params().cbf.delta1, 0.1);
+        assert_eq!(ap.command(0, VehicleCommand::Arm), Err(CommandRejected::NotNow));
+        assert_eq!(ap.set_param("CBF_DELTA1", 0.1), Ok(0.1));
+        assert!(ap.params_consistent());
+        let mut link = Link::new(1, FixClock::Message);
+        let mut sched = LockstepScheduler::default();
+        let mut host = FrameWriter::new(255, 190);
+        let mut acks = std::vec::Vec::new();
+        let mut last_motors = MotorCommand::OFF;
+        for k in 0..1500u64 {
+            let t = 1_000_000 + k * 1000;
+            if k % 4 == 0 {
+                let odo = ODOMETRY_DATA {
+                    time_usec: t,
+                    q: [1.0, 0.0, 0.0, 0.0],
+                    frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                    child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                    ..Default::default()
+                };
+                link.push_bytes(host.encode(&odo).raw_bytes(), t, &mut ap);
+                let clear = OBSTACLE_DISTANCE_3D_DATA {
+                    time_boot_ms: (t / 1000) as u32,
+                    obstacle_id: CLEAR_ID,
+                    frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    ..Default::default()
+                };
+                link.push_bytes(host.encode(&clear).raw_bytes(), t, &mut ap);
+            }
+            let cmd = |c: MavCmd, p1: f32, p7: f32| COMMAND_LONG_DATA {
+                param1: p1,
+                param7: p7,
+                command: c,
+                target_system: 1,
+                ..Default::default()
+            };
+            if k == 500 {
+                link.push_bytes(
+                    host.encode(&cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0)).raw_bytes(),
+                    t,
+                    &mut ap,
+                );
+            }
+            if k == 1000 {
+                link.push_bytes(
+                    host.encode(&cmd(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 1.0)).raw_bytes(),
+                    t,
+                    &mut ap,
+                );
+            }
+            let hil = HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() };
+            link.push_bytes(host.encode(&hil).raw_bytes(), t, &mut ap);
+            let Some(sample) = link.take_hil_sample() else { panic!("HIL_SENSOR not decoded at step {k}") };
+            let out = sched.step(&sample, &mut link, &mut ap);
+            while let Some(r) = link.pop_reply() {
+                if let Outbound::CommandAck(a) = r {
+                    acks.push(a.result);
+                }
+            }
+            if k == 999 {
+                assert!(out.motors.armed, "armed at idle before takeoff");
+                assert!(out.motors.throttle.iter().all(|&x| x > 0.0 && x < 0.3), "{:?}", out.motors);
+            }
+            last_motors = out.motors;
+        }
+        assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED, MavResult::MAV_RESULT_ACCEPTED]);
+        // Parameters are refused while armed, and a hold command switches to hover.
+        assert_eq!(ap.set_param("CBF_MU", 0.9), Err(ParamRejected::NotNow));
+        assert_eq!(ap.command(2_500_000, VehicleCommand::Hold { target_ned: None }), Ok(()));
+        ap.step_outer(2_500_000);
+        assert_eq!(ap.telemetry().phase, FlightPhase::Hover);
+        assert_eq!(
+            ap.command(2_500_000, VehicleCommand::Disarm { force: false }),
+            Err(CommandRejected::NotNow)
+        );
+        assert!(last_motors.armed);
+        let s = ap.telemetry();
+        assert!(s.failsafe.is_none(), "{s:?}");
+    }
+}

@@ -1,0 +1,124 @@
+//! How the cascade's stages exchange their messages: embassy-sync primitives instead of one
+//! shared, locked controller. Each message is a small `Copy` value (`parapet_core::msg`), so a
+//! critical section only ever copies one message in or out; no control computation runs with
+//! interrupts masked.
+//!
+//! | mailbox | from → to | primitive | why |
+//! |---|---|---|---|
+//! | [`Mailboxes::commands`] | outer → inner | `Channel` (depth [`COMMAND_DEPTH`]) | every `AttitudeCommand` in order: taking one with the motors not flying resets the attitude controller, so none may be skipped |
+//! | [`Mailboxes::aid`] | outer → inner | `Signal` | the estimator aid of the latest position fix (latest wins) |
+//! | [`Mailboxes::inner_params`] | outer → inner | `Signal` | a new parameter set: the inner task rebuilds its loop itself, outside any critical section |
+//! | [`Mailboxes::estimate`] | inner → outer | `Signal` | the latest `StateEstimate` (cumulative counters, sticky tilt trip: latest wins) |
+//! | [`Mailboxes::snapshot`] | outer → link | `Signal` | the telemetry snapshot ([`TelemetrySnapshot`], `Copy`) |
+//!
+//! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
+//! tasks that own it (`src/main.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
+//! [`crate::app::autopilot`].
+
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::channel::{Channel, TrySendError};
+use embassy_sync::signal::Signal;
+use parapet_core::inner::InnerParams;
+use parapet_core::msg::{AttitudeCommand, EstimatorAid, StateEstimate};
+
+use crate::app::autopilot::TelemetrySnapshot;
+
+/// Attitude commands queued for the inner loop (the outer loop publishes at most two per outer
+/// step; the inner loop, at higher priority, drains them every inner step).
+pub const COMMAND_DEPTH: usize = 4;
+
+/// The mailboxes between the stages (see the module docs). `M`: the raw mutex of every
+/// primitive (`CriticalSectionRawMutex` between tasks of different priorities).
+pub struct Mailboxes<M: RawMutex> {
+    /// Outer → inner: attitude commands, in order.
+    pub commands: Channel<M, AttitudeCommand, COMMAND_DEPTH>,
+    /// Outer → inner: estimator aid of the latest fix.
+    pub aid: Signal<M, EstimatorAid>,
+    /// Outer → inner: parameters of a rebuilt inner loop.
+    pub inner_params: Signal<M, InnerParams>,
+    /// Inner → outer: latest state estimate.
+    pub estimate: Signal<M, StateEstimate>,
+    /// Outer → link: latest telemetry snapshot.
+    pub snapshot: Signal<M, TelemetrySnapshot>,
+}
+
+impl<M: RawMutex> Default for Mailboxes<M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<M: RawMutex> Mailboxes<M> {
+    /// Empty mailboxes.
+    pub const fn new() -> Self {
+        Self {
+            commands: Channel::new(),
+            aid: Signal::new(),
+            inner_params: Signal::new(),
+            estimate: Signal::new(),
+            snapshot: Signal::new(),
+        }
+    }
+
+    /// Queues `command` for the inner loop. Should the queue be full (the inner loop stalled),
+    /// the oldest commands are dropped: the latest always gets through.
+    pub fn send_command(&self, command: AttitudeCommand) {
+        let mut c = command;
+        for _ in 0..=COMMAND_DEPTH {
+            match self.commands.try_send(c) {
+                Ok(()) => return,
+                Err(TrySendError::Full(back)) => {
+                    c = back;
+                    let _ = self.commands.try_receive();
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+    use parapet_core::msg::MotorStage;
+
+    #[test]
+    fn commands_keep_their_order_and_the_latest_survives_a_full_queue() {
+        let mb: Mailboxes<CriticalSectionRawMutex> = Mailboxes::new();
+        let cmd = |stage| AttitudeCommand { stage, ..Default::default() };
+        mb.send_command(cmd(MotorStage::Idle));
+        mb.send_command(cmd(MotorStage::Fly));
+        assert_eq!(mb.commands.try_receive().map(|c| c.stage), Ok(MotorStage::Idle));
+        assert_eq!(mb.commands.try_receive().map(|c| c.stage), Ok(MotorStage::Fly));
+        assert!(mb.commands.try_receive().is_err());
+        for _ in 0..COMMAND_DEPTH {
+            mb.send_command(cmd(MotorStage::Idle));
+        }
+        mb.send_command(cmd(MotorStage::Off));
+        let mut last = None;
+        while let Ok(c) = mb.commands.try_receive() {
+            last = Some(c.stage);
+        }
+        assert_eq!(last, Some(MotorStage::Off));
+    }
+}
+
+#[cfg(test)]
+mod sizes {
+    use super::*;
+
+    /// The masked-section bound of the PIL test (`firmware/tests/qemu_pil.rs`, `MASKED_BOUND`)
+    /// assumes every mailbox message is a small copy.
+    #[test]
+    fn every_message_is_small() {
+        let sizes = [
+            core::mem::size_of::<AttitudeCommand>(),
+            core::mem::size_of::<EstimatorAid>(),
+            core::mem::size_of::<InnerParams>(),
+            core::mem::size_of::<StateEstimate>(),
+            core::mem::size_of::<TelemetrySnapshot>(),
+        ];
+        std::println!("mailbox message sizes (host): {sizes:?}");
+        assert!(sizes.iter().all(|&s| s <= 256), "{sizes:?}");
+    }
+}

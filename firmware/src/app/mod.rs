@@ -1,0 +1,12 @@
+//! The application: the boundary between the link and the flight-control cascade
+//! ([`autopilot`]), the cascade as an outer and an inner stage ([`cascade`]), the mailboxes
+//! through which the stages and tasks exchange messages ([`mailbox`]) and loop timing
+//! ([`loop_timing`]).
+//!
+//! May import: `parapet_core` only (the tests also drive it through [`crate::link`]). Not the link, the
+//! PIL application, drivers or boards.
+
+pub mod autopilot;
+pub mod cascade;
+pub mod loop_timing;
+pub mod mailbox;

@@ -1,0 +1,182 @@
+//! COMMAND_LONG → [`VehicleCommand`] and the COMMAND_ACK answer.
+//!
+//! | MAV_CMD | params | action |
+//! |---|---|---|
+//! | COMPONENT_ARM_DISARM (400) | p1 = 1 arm, 0 disarm; p2 = 21196 force | arm / disarm |
+//! | NAV_TAKEOFF (22) | p7 = height above the current position, m (positive up; NaN/0: default) | take off |
+//! | NAV_LAND (21) | – | land in place |
+//! | MISSION_START (300) | – | fly the uploaded path |
+//! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
+//!
+//! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system are
+//! ignored (no answer); target system 0 is broadcast.
+
+use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA};
+
+use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
+
+/// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
+pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
+/// Highest accepted takeoff height, m.
+pub const MAX_TAKEOFF_HEIGHT_M: f32 = 100.0;
+
+/// Decodes a COMMAND_LONG; `Err` holds the result to report without executing.
+pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResult> {
+    match cmd.command {
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+            if cmd.param1 == 1.0 {
+                Ok(VehicleCommand::Arm)
+            } else if cmd.param1 == 0.0 {
+                Ok(VehicleCommand::Disarm { force: cmd.param2 == FORCE_DISARM_MAGIC })
+            } else {
+                Err(MavResult::MAV_RESULT_DENIED)
+            }
+        }
+        MavCmd::MAV_CMD_NAV_TAKEOFF => {
+            let h = cmd.param7;
+            if h.is_nan() || h == 0.0 {
+                Ok(VehicleCommand::Takeoff { height_m: None })
+            } else if h > 0.0 && h <= MAX_TAKEOFF_HEIGHT_M {
+                Ok(VehicleCommand::Takeoff { height_m: Some(h) })
+            } else {
+                Err(MavResult::MAV_RESULT_DENIED)
+            }
+        }
+        MavCmd::MAV_CMD_NAV_LAND => Ok(VehicleCommand::Land),
+        MavCmd::MAV_CMD_MISSION_START => Ok(VehicleCommand::StartMission),
+        MavCmd::MAV_CMD_OVERRIDE_GOTO => {
+            // p1 MAV_GOTO_DO_HOLD (0); p2 HOLD_AT_CURRENT_POSITION (2) or
+            // HOLD_AT_SPECIFIED_POSITION (3) with p3 = MAV_FRAME_LOCAL_NED (1), p5..p7 = x, y, z.
+            if cmd.param1 != 0.0 {
+                return Err(MavResult::MAV_RESULT_DENIED);
+            }
+            if cmd.param2 == 2.0 {
+                return Ok(VehicleCommand::Hold { target_ned: None });
+            }
+            let p = parapet_core::Vec3::new(cmd.param5, cmd.param6, cmd.param7);
+            if cmd.param2 == 3.0 && cmd.param3 == 1.0 && p.iter().all(|x| x.is_finite()) {
+                Ok(VehicleCommand::Hold { target_ned: Some(p) })
+            } else {
+                Err(MavResult::MAV_RESULT_DENIED)
+            }
+        }
+        _ => Err(MavResult::MAV_RESULT_UNSUPPORTED),
+    }
+}
+
+/// Handles a COMMAND_LONG addressed to `own_system`: executes it and returns the COMMAND_ACK, or
+/// `None` when the command is for another system.
+pub fn handle_command<A: Autopilot>(
+    cmd: &COMMAND_LONG_DATA,
+    own_system: u8,
+    now_us: u64,
+    autopilot: &mut A,
+) -> Option<COMMAND_ACK_DATA> {
+    if cmd.target_system != 0 && cmd.target_system != own_system {
+        return None;
+    }
+    let result = match decode_command(cmd) {
+        Ok(vc) => match autopilot.command(now_us, vc) {
+            Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+            Err(CommandRejected::NotNow) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            Err(CommandRejected::Invalid) => MavResult::MAV_RESULT_DENIED,
+        },
+        Err(r) => r,
+    };
+    Some(COMMAND_ACK_DATA { command: cmd.command, result })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+
+    fn cmd(command: MavCmd, p1: f32, p2: f32, p7: f32) -> COMMAND_LONG_DATA {
+        COMMAND_LONG_DATA {
+            param1: p1,
+            param2: p2,
+            param7: p7,
+            command,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn decodes_the_supported_commands() {
+        use MavCmd::*;
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0, 0.0)),
+            Ok(VehicleCommand::Arm)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 21196.0, 0.0)),
+            Ok(VehicleCommand::Disarm { force: true })
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0, 0.0)),
+            Ok(VehicleCommand::Disarm { force: false })
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_COMPONENT_ARM_DISARM, 0.5, 0.0, 0.0)),
+            Err(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 1.5)),
+            Ok(VehicleCommand::Takeoff { height_m: Some(1.5) })
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, f32::NAN)),
+            Ok(VehicleCommand::Takeoff { height_m: None })
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, -2.0)),
+            Err(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, f32::INFINITY)),
+            Err(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(decode_command(&cmd(MAV_CMD_NAV_LAND, 0.0, 0.0, 0.0)), Ok(VehicleCommand::Land));
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_MISSION_START, 0.0, 0.0, 0.0)),
+            Ok(VehicleCommand::StartMission)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 0.0, 0.0, 0.0)),
+            Err(MavResult::MAV_RESULT_UNSUPPORTED)
+        );
+        let mut goto = cmd(MAV_CMD_OVERRIDE_GOTO, 0.0, 3.0, -1.5);
+        goto.param3 = 1.0;
+        goto.param5 = 1.0;
+        goto.param6 = 2.0;
+        assert_eq!(
+            decode_command(&goto),
+            Ok(VehicleCommand::Hold { target_ned: Some(parapet_core::Vec3::new(1.0, 2.0, -1.5)) })
+        );
+        goto.param3 = 0.0; // global frame: refused
+        assert_eq!(decode_command(&goto), Err(MavResult::MAV_RESULT_DENIED));
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_OVERRIDE_GOTO, 0.0, 2.0, 0.0)),
+            Ok(VehicleCommand::Hold { target_ned: None })
+        );
+    }
+
+    #[test]
+    fn acks_reflect_the_autopilot_answer_and_other_systems_are_ignored() {
+        let mut ap = RecordingAutopilot::new();
+        let ack = handle_command(&cmd(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 1.0), 1, 0, &mut ap);
+        assert_eq!(ack.map(|a| a.result), Some(MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
+        let ack = handle_command(&cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0, 0.0), 1, 0, &mut ap);
+        assert_eq!(ack.map(|a| a.result), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert!(ap.armed);
+        let mut other = cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0, 0.0);
+        other.target_system = 7;
+        assert_eq!(handle_command(&other, 1, 0, &mut ap), None);
+        assert!(ap.armed);
+        other.target_system = 0;
+        assert!(handle_command(&other, 1, 0, &mut ap).is_some());
+        assert!(!ap.armed);
+    }
+}

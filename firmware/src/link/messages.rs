@@ -1,0 +1,109 @@
+//! The inbound message set of the link: which MAVLink messages the firmware accepts and their
+//! decoding from CRC-checked frames.
+//!
+//! Only these ids are decoded; other ids of the dialect are CRC-checked by the framer and then
+//! ignored (counted), ids outside the dialect are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
+//! firmware links only the deserialisers it needs, not the whole dialect.
+
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{
+    COMMAND_LONG_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA, MISSION_ACK_DATA,
+    MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
+    ODOMETRY_DATA,
+};
+use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
+use mavlink::{MavlinkVersion, Message, MessageData};
+
+use crate::link::frame_parser::RawFrame;
+
+/// A decoded inbound message.
+#[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)] // one message at a time, on the stack of the link task
+pub enum Inbound {
+    /// Peer heartbeat (the ground station or companion is alive).
+    Heartbeat(HEARTBEAT_DATA),
+    /// Simulated IMU (lockstep PIL link only).
+    HilSensor(HIL_SENSOR_DATA),
+    /// External position/velocity estimate (motion capture, VIO, simulator).
+    Odometry(ODOMETRY_DATA),
+    /// One obstacle point.
+    Obstacle(OBSTACLE_DISTANCE_3D_DATA),
+    /// Named vector; `OBV<id>` carries an obstacle's velocity (see [`crate::link::obstacles`]).
+    DebugVect(DEBUG_VECT_DATA),
+    /// Start of a mission upload.
+    MissionCount(MISSION_COUNT_DATA),
+    /// One mission item.
+    MissionItemInt(MISSION_ITEM_INT_DATA),
+    /// Mission acknowledgement from the peer.
+    MissionAck(MISSION_ACK_DATA),
+    /// Clear the stored mission.
+    MissionClearAll(MISSION_CLEAR_ALL_DATA),
+    /// Command (arm, disarm, takeoff, land, mission start, hold).
+    CommandLong(COMMAND_LONG_DATA),
+    /// Set a parameter.
+    ParamSet(PARAM_SET_DATA),
+    /// Read a parameter.
+    ParamRequestRead(PARAM_REQUEST_READ_DATA),
+}
+
+/// Why a CRC-valid frame could not be decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecodeError {
+    /// The payload holds an invalid enum/bitflag value.
+    InvalidPayload,
+    /// The id is not in the inbound set.
+    NotHandled,
+}
+
+/// CRC_EXTRA byte of the inbound message ids; `None` for ids the firmware does not handle.
+pub fn extra_crc(msg_id: u32) -> Option<u8> {
+    Some(match msg_id {
+        HEARTBEAT_DATA::ID => HEARTBEAT_DATA::EXTRA_CRC,
+        HIL_SENSOR_DATA::ID => HIL_SENSOR_DATA::EXTRA_CRC,
+        ODOMETRY_DATA::ID => ODOMETRY_DATA::EXTRA_CRC,
+        OBSTACLE_DISTANCE_3D_DATA::ID => OBSTACLE_DISTANCE_3D_DATA::EXTRA_CRC,
+        DEBUG_VECT_DATA::ID => DEBUG_VECT_DATA::EXTRA_CRC,
+        MISSION_COUNT_DATA::ID => MISSION_COUNT_DATA::EXTRA_CRC,
+        MISSION_ITEM_INT_DATA::ID => MISSION_ITEM_INT_DATA::EXTRA_CRC,
+        MISSION_ACK_DATA::ID => MISSION_ACK_DATA::EXTRA_CRC,
+        MISSION_CLEAR_ALL_DATA::ID => MISSION_CLEAR_ALL_DATA::EXTRA_CRC,
+        COMMAND_LONG_DATA::ID => COMMAND_LONG_DATA::EXTRA_CRC,
+        PARAM_SET_DATA::ID => PARAM_SET_DATA::EXTRA_CRC,
+        PARAM_REQUEST_READ_DATA::ID => PARAM_REQUEST_READ_DATA::EXTRA_CRC,
+        _ => return None,
+    })
+}
+
+/// CRC_EXTRA for the framer: the inbound set first, then every other message of the ArduPilot
+/// dialect (so frames the firmware ignores are still CRC-checked and a corrupted one cannot make
+/// the framer skip valid frames by a wrong length). `None` only for ids outside the dialect.
+pub fn frame_extra_crc(msg_id: u32) -> Option<u8> {
+    extra_crc(msg_id).or_else(|| {
+        let c = <MavMessage as Message>::extra_crc(msg_id);
+        (c != 0).then_some(c)
+    })
+}
+
+fn de<D: MessageData>(payload: &[u8]) -> Result<D, DecodeError> {
+    D::deser(MavlinkVersion::V2, payload).map_err(|_| DecodeError::InvalidPayload)
+}
+
+/// Decodes a CRC-checked frame of the inbound set.
+pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
+    let p = frame.payload;
+    Ok(match frame.msg_id {
+        HEARTBEAT_DATA::ID => Inbound::Heartbeat(de(p)?),
+        HIL_SENSOR_DATA::ID => Inbound::HilSensor(de(p)?),
+        ODOMETRY_DATA::ID => Inbound::Odometry(de(p)?),
+        OBSTACLE_DISTANCE_3D_DATA::ID => Inbound::Obstacle(de(p)?),
+        DEBUG_VECT_DATA::ID => Inbound::DebugVect(de(p)?),
+        MISSION_COUNT_DATA::ID => Inbound::MissionCount(de(p)?),
+        MISSION_ITEM_INT_DATA::ID => Inbound::MissionItemInt(de(p)?),
+        MISSION_ACK_DATA::ID => Inbound::MissionAck(de(p)?),
+        MISSION_CLEAR_ALL_DATA::ID => Inbound::MissionClearAll(de(p)?),
+        COMMAND_LONG_DATA::ID => Inbound::CommandLong(de(p)?),
+        PARAM_SET_DATA::ID => Inbound::ParamSet(de(p)?),
+        PARAM_REQUEST_READ_DATA::ID => Inbound::ParamRequestRead(de(p)?),
+        _ => return Err(DecodeError::NotHandled),
+    })
+}

@@ -1,0 +1,308 @@
+//! Mission upload (MAVLink mission protocol, vehicle side): MISSION_COUNT → MISSION_REQUEST_INT
+//! (seq 0..n−1) ↔ MISSION_ITEM_INT → MISSION_ACK.
+//!
+//! Accepted items: `MAV_CMD_NAV_WAYPOINT` in `MAV_FRAME_LOCAL_NED` (x, y = metres × 10⁴ as int32,
+//! per the MAVLink local-frame convention for MISSION_ITEM_INT; z = metres, down positive). The
+//! path is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
+//! whether the cascade took it.
+//!
+//! Capacity: [`MAX_WAYPOINTS`] items (MISSION_COUNT above that → MAV_MISSION_NO_SPACE). A stalled
+//! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
+//! (MAV_MISSION_OPERATION_CANCELLED) after [`MAX_RETRIES`] re-requests.
+
+use heapless::Vec as HVec;
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavMissionResult, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    MISSION_REQUEST_INT_DATA,
+};
+use parapet_core::Vec3;
+
+/// Most waypoints one upload may carry.
+pub const MAX_WAYPOINTS: usize = 64;
+/// Re-request period of a stalled upload, µs.
+pub const RETRY_INTERVAL_US: u64 = 500_000;
+/// Re-requests before the upload is cancelled.
+pub const MAX_RETRIES: u8 = 4;
+use parapet_core::wire::ids::local_xy_from_wire;
+/// Scale of MISSION_ITEM_INT x/y in local frames (int32 = metres × 10⁴).
+pub use parapet_core::wire::ids::LOCAL_XY_SCALE;
+
+/// What the vehicle must send (or do) after an input.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MissionReply {
+    /// Ask for item `seq`.
+    Request(MISSION_REQUEST_INT_DATA),
+    /// Finish (or refuse) the upload with this result.
+    Ack(MISSION_ACK_DATA),
+    /// All items arrived: install [`MissionUpload::path`] in the cascade, then send
+    /// [`MissionUpload::ack_for`] with the outcome.
+    Complete,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    Idle,
+    Receiving { count: u16, next: u16, partner_sys: u8, partner_comp: u8, last_us: u64, retries: u8 },
+}
+
+/// Vehicle side of the mission upload.
+pub struct MissionUpload {
+    state: State,
+    items: HVec<Vec3, MAX_WAYPOINTS>,
+    partner: (u8, u8),
+}
+
+impl Default for MissionUpload {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MissionUpload {
+    /// Idle, no path.
+    pub const fn new() -> Self {
+        Self { state: State::Idle, items: HVec::new(), partner: (0, 0) }
+    }
+
+    /// `true` while an upload is in progress.
+    pub fn is_receiving(&self) -> bool {
+        matches!(self.state, State::Receiving { .. })
+    }
+
+    /// The waypoints of the last completed upload, NED, m.
+    pub fn path(&self) -> &[Vec3] {
+        &self.items
+    }
+
+    /// MISSION_ACK addressed to the last upload partner.
+    pub fn ack_for(&self, result: MavMissionResult) -> MISSION_ACK_DATA {
+        MISSION_ACK_DATA { target_system: self.partner.0, target_component: self.partner.1, mavtype: result }
+    }
+
+    fn request(&self, seq: u16) -> MissionReply {
+        MissionReply::Request(MISSION_REQUEST_INT_DATA {
+            seq,
+            target_system: self.partner.0,
+            target_component: self.partner.1,
+        })
+    }
+
+    fn fail(&mut self, result: MavMissionResult) -> MissionReply {
+        self.state = State::Idle;
+        self.items.clear();
+        MissionReply::Ack(self.ack_for(result))
+    }
+
+    /// MISSION_COUNT from (`sys`, `comp`) at `now_us`. A new count restarts any upload.
+    pub fn on_count(&mut self, msg: &MISSION_COUNT_DATA, sys: u8, comp: u8, now_us: u64) -> MissionReply {
+        self.partner = (sys, comp);
+        self.items.clear();
+        if usize::from(msg.count) > MAX_WAYPOINTS {
+            return self.fail(MavMissionResult::MAV_MISSION_NO_SPACE);
+        }
+        if msg.count == 0 {
+            self.state = State::Idle;
+            return MissionReply::Complete;
+        }
+        self.state = State::Receiving {
+            count: msg.count,
+            next: 0,
+            partner_sys: sys,
+            partner_comp: comp,
+            last_us: now_us,
+            retries: 0,
+        };
+        self.request(0)
+    }
+
+    /// MISSION_ITEM_INT from (`sys`, `comp`) at `now_us`; `None` when the item is ignored
+    /// (no upload in progress, or from another partner).
+    pub fn on_item(
+        &mut self,
+        msg: &MISSION_ITEM_INT_DATA,
+        sys: u8,
+        comp: u8,
+        now_us: u64,
+    ) -> Option<MissionReply> {
+        let State::Receiving { count, next, partner_sys, partner_comp, .. } = self.state else {
+            return None;
+        };
+        if (sys, comp) != (partner_sys, partner_comp) {
+            return None;
+        }
+        if msg.seq < next {
+            // Duplicate (our request crossed a resend): ask again for what we need.
+            return Some(self.request(next));
+        }
+        if msg.seq > next {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
+        }
+        if msg.command != MavCmd::MAV_CMD_NAV_WAYPOINT {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED));
+        }
+        if msg.frame != MavFrame::MAV_FRAME_LOCAL_NED {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME));
+        }
+        if !msg.z.is_finite() {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_PARAM7));
+        }
+        let wp = Vec3::new(local_xy_from_wire(msg.x), local_xy_from_wire(msg.y), msg.z);
+        if self.items.push(wp).is_err() {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
+        }
+        let next = next + 1;
+        if next >= count {
+            self.state = State::Idle;
+            return Some(MissionReply::Complete);
+        }
+        self.state = State::Receiving { count, next, partner_sys, partner_comp, last_us: now_us, retries: 0 };
+        Some(self.request(next))
+    }
+
+    /// Periodic check (call at ≥ 10 Hz): re-requests a stalled item or cancels the upload.
+    pub fn poll(&mut self, now_us: u64) -> Option<MissionReply> {
+        let State::Receiving { count, next, partner_sys, partner_comp, last_us, retries } = self.state else {
+            return None;
+        };
+        if now_us.saturating_sub(last_us) < RETRY_INTERVAL_US {
+            return None;
+        }
+        if retries >= MAX_RETRIES {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_OPERATION_CANCELLED));
+        }
+        self.state = State::Receiving {
+            count,
+            next,
+            partner_sys,
+            partner_comp,
+            last_us: now_us,
+            retries: retries + 1,
+        };
+        Some(self.request(next))
+    }
+
+    /// MISSION_CLEAR_ALL: drops the stored path and any upload.
+    pub fn clear(&mut self) {
+        self.state = State::Idle;
+        self.items.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn item(seq: u16, x: f32, y: f32, z: f32) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            x: parapet_core::wire::ids::local_xy_to_wire(f64::from(x)),
+            y: parapet_core::wire::ids::local_xy_to_wire(f64::from(y)),
+            z,
+            seq,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        }
+    }
+
+    fn count(n: u16) -> MISSION_COUNT_DATA {
+        MISSION_COUNT_DATA { count: n, target_system: 1, target_component: 1 }
+    }
+
+    fn req_seq(r: Option<MissionReply>) -> Option<u16> {
+        match r {
+            Some(MissionReply::Request(q)) => Some(q.seq),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn full_upload_in_order() {
+        let mut m = MissionUpload::new();
+        assert_eq!(req_seq(Some(m.on_count(&count(3), 255, 190, 0))), Some(0));
+        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 10)), Some(1));
+        assert_eq!(req_seq(m.on_item(&item(1, 2.5, -1.25, -1.5), 255, 190, 20)), Some(2));
+        assert_eq!(m.on_item(&item(2, 3.0, 1.0, -2.0), 255, 190, 30), Some(MissionReply::Complete));
+        assert_eq!(m.path().len(), 3);
+        assert!((m.path()[1] - Vec3::new(2.5, -1.25, -1.5)).norm() < 1e-4);
+        let ack = m.ack_for(MavMissionResult::MAV_MISSION_ACCEPTED);
+        assert_eq!((ack.target_system, ack.target_component), (255, 190));
+        assert!(!m.is_receiving());
+    }
+
+    #[test]
+    fn duplicates_are_re_requested_and_gaps_abort() {
+        let mut m = MissionUpload::new();
+        m.on_count(&count(3), 255, 190, 0);
+        m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0);
+        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0)), Some(1));
+        match m.on_item(&item(2, 1.0, 0.0, -1.0), 255, 190, 0) {
+            Some(MissionReply::Ack(a)) => {
+                assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(!m.is_receiving());
+    }
+
+    #[test]
+    fn refuses_wrong_frame_command_size_and_other_partners() {
+        let mut m = MissionUpload::new();
+        match m.on_count(&count(MAX_WAYPOINTS as u16 + 1), 255, 190, 0) {
+            MissionReply::Ack(a) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_NO_SPACE),
+            other => panic!("{other:?}"),
+        }
+        m.on_count(&count(2), 255, 190, 0);
+        assert_eq!(m.on_item(&item(0, 1.0, 0.0, -1.0), 7, 1, 0), None);
+        let mut bad = item(0, 1.0, 0.0, -1.0);
+        bad.frame = MavFrame::MAV_FRAME_GLOBAL;
+        match m.on_item(&bad, 255, 190, 0) {
+            Some(MissionReply::Ack(a)) => {
+                assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME)
+            }
+            other => panic!("{other:?}"),
+        }
+        m.on_count(&count(1), 255, 190, 0);
+        let mut bad = item(0, 1.0, 0.0, f32::NAN);
+        bad.z = f32::NAN;
+        match m.on_item(&bad, 255, 190, 0) {
+            Some(MissionReply::Ack(a)) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_INVALID_PARAM7),
+            other => panic!("{other:?}"),
+        }
+        m.on_count(&count(1), 255, 190, 0);
+        let mut bad = item(0, 1.0, 0.0, -1.0);
+        bad.command = MavCmd::MAV_CMD_NAV_LAND;
+        match m.on_item(&bad, 255, 190, 0) {
+            Some(MissionReply::Ack(a)) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn stalled_upload_is_retried_then_cancelled() {
+        let mut m = MissionUpload::new();
+        m.on_count(&count(2), 255, 190, 0);
+        assert_eq!(m.poll(RETRY_INTERVAL_US - 1), None);
+        let mut t = 0;
+        for _ in 0..MAX_RETRIES {
+            t += RETRY_INTERVAL_US;
+            assert_eq!(req_seq(m.poll(t)), Some(0));
+        }
+        t += RETRY_INTERVAL_US;
+        match m.poll(t) {
+            Some(MissionReply::Ack(a)) => {
+                assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED)
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(!m.is_receiving());
+    }
+
+    #[test]
+    fn empty_mission_completes_immediately() {
+        let mut m = MissionUpload::new();
+        assert_eq!(m.on_count(&count(0), 255, 190, 0), MissionReply::Complete);
+        assert!(m.path().is_empty());
+    }
+}

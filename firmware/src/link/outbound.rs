@@ -1,0 +1,82 @@
+//! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
+
+use mavlink::dialects::ardupilotmega::PARAM_VALUE_DATA;
+use mavlink::dialects::ardupilotmega::{
+    ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
+    LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
+    NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+};
+use mavlink::MAVLinkV2MessageRaw;
+
+use crate::link::framing::FrameWriter;
+
+/// A message to send.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outbound {
+    /// HEARTBEAT.
+    Heartbeat(HEARTBEAT_DATA),
+    /// ATTITUDE.
+    Attitude(ATTITUDE_DATA),
+    /// LOCAL_POSITION_NED.
+    LocalPositionNed(LOCAL_POSITION_NED_DATA),
+    /// POSITION_TARGET_LOCAL_NED (outer-loop reference and filtered acceleration).
+    PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA),
+    /// DEBUG_VECT (filter diagnostics, loop timing, link statistics).
+    DebugVect(DEBUG_VECT_DATA),
+    /// NAMED_VALUE_INT (flags, counters, PIL instruction counts).
+    NamedValueInt(NAMED_VALUE_INT_DATA),
+    /// NAMED_VALUE_FLOAT.
+    NamedValueFloat(NAMED_VALUE_FLOAT_DATA),
+    /// STATUSTEXT (failsafe transitions).
+    StatusText(STATUSTEXT_DATA),
+    /// COMMAND_ACK.
+    CommandAck(COMMAND_ACK_DATA),
+    /// MISSION_REQUEST_INT.
+    MissionRequestInt(MISSION_REQUEST_INT_DATA),
+    /// MISSION_ACK.
+    MissionAck(MISSION_ACK_DATA),
+    /// HIL_ACTUATOR_CONTROLS (lockstep answer).
+    HilActuatorControls(HIL_ACTUATOR_CONTROLS_DATA),
+    /// PARAM_VALUE (answer to PARAM_SET / PARAM_REQUEST_READ).
+    ParamValue(PARAM_VALUE_DATA),
+}
+
+impl Outbound {
+    /// Encodes the message as the next frame of `writer`.
+    pub fn encode(&self, writer: &mut FrameWriter) -> MAVLinkV2MessageRaw {
+        match self {
+            Outbound::Heartbeat(m) => writer.encode(m),
+            Outbound::Attitude(m) => writer.encode(m),
+            Outbound::LocalPositionNed(m) => writer.encode(m),
+            Outbound::PositionTargetLocalNed(m) => writer.encode(m),
+            Outbound::DebugVect(m) => writer.encode(m),
+            Outbound::NamedValueInt(m) => writer.encode(m),
+            Outbound::NamedValueFloat(m) => writer.encode(m),
+            Outbound::StatusText(m) => writer.encode(m),
+            Outbound::CommandAck(m) => writer.encode(m),
+            Outbound::MissionRequestInt(m) => writer.encode(m),
+            Outbound::MissionAck(m) => writer.encode(m),
+            Outbound::HilActuatorControls(m) => writer.encode(m),
+            Outbound::ParamValue(m) => writer.encode(m),
+        }
+    }
+}
+
+/// A NUL-padded MAVLink name field from `s` (truncated to `N` bytes).
+pub fn name<const N: usize>(s: &str) -> mavlink::types::CharArray<N> {
+    let mut b = [0u8; N];
+    for (d, c) in b.iter_mut().zip(s.bytes()) {
+        *d = c;
+    }
+    b.into()
+}
+
+/// NAMED_VALUE_INT helper.
+pub fn named_int(time_boot_ms: u32, key: &str, value: i32) -> Outbound {
+    Outbound::NamedValueInt(NAMED_VALUE_INT_DATA { time_boot_ms, value, name: name(key) })
+}
+
+/// DEBUG_VECT helper.
+pub fn debug_vect(time_usec: u64, key: &str, x: f32, y: f32, z: f32) -> Outbound {
+    Outbound::DebugVect(DEBUG_VECT_DATA { time_usec, x, y, z, name: name(key) })
+}

@@ -1,0 +1,402 @@
+//! Telemetry streams: what is sent, how often, and how the cascade's state maps onto MAVLink.
+//!
+//! | stream | message | rate | content |
+//! |---|---|---|---|
+//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; base_mode SAFETY_ARMED when armed, GUIDED+AUTO; custom_mode = [`FlightPhase`] code; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | attitude | ATTITUDE | 50 Hz | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
+//! | position | LOCAL_POSITION_NED | 25 Hz | position NED m, velocity NED m/s |
+//! | filter | DEBUG_VECT `CBF` | 25 Hz | x = h̄ (m², min over obstacles; +∞ none), y = region code (0 none, 1 far, 2 nominal-safe, 3 perpendicular/intervening, 4 fault), z = active obstacle id (−1 none) |
+//! | filter flags | NAMED_VALUE_INT `CBF_FLAGS` | 25 Hz | bit0 intervened, bit1 unavoidable, bit2 infeasible, bits 8..15 active constraints |
+//! | setpoint | POSITION_TARGET_LOCAL_NED | 25 Hz | frame LOCAL_NED; x, y, z = reference position m; vx, vy, vz = reference velocity m/s; afx, afy, afz = filtered acceleration u m/s² (gravity excluded); type_mask ignores yaw and yaw rate |
+//! | nominal command | DEBUG_VECT `U_NOM` | 25 Hz | x, y, z = nominal acceleration u* NED m/s² (before the filter) |
+//! | inner loop | DEBUG_VECT `LOOP_IN` | 2 Hz | x = mean period µs, y = max period µs, z = max execution µs (window since last report) |
+//! | outer loop | DEBUG_VECT `LOOP_OUT` | 2 Hz | same for the position + CBF loop |
+//! | overruns | NAMED_VALUE_INT `OVR_IN` / `OVR_OUT` | 2 Hz | overruns since boot |
+//! | link | DEBUG_VECT `LINK` | 1 Hz | x = frames ok, y = CRC errors, z = malformed frames |
+//! | drops | DEBUG_VECT `LINK_DROP` | 1 Hz | x = replies dropped (queue full), y = inbound messages rejected, z = obstacle points rejected/dropped |
+//! | hardware | DEBUG_VECT `HW_ERR` | 1 Hz | x = IMU read errors, y = UART receive errors |
+//! | failsafe | STATUSTEXT + NAMED_VALUE_INT `FAILSAFE` | on every transition | severity CRITICAL on entry ("FAILSAFE: reason"), NOTICE on exit ("FAILSAFE cleared") |
+//!
+//! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
+
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavFrame, MavModeFlag, MavSeverity, MavState, MavType, PositionTargetTypemask,
+    ATTITUDE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+};
+
+use crate::app::autopilot::{Failsafe, TelemetrySnapshot};
+use crate::app::loop_timing::LoopReport;
+use crate::link::frame_parser::ParserStats;
+use crate::link::outbound::{debug_vect, named_int, Outbound};
+use parapet_core::wire::{codes, names};
+
+/// Everything the telemetry streams read.
+#[derive(Clone, Copy, Debug)]
+pub struct TelemetryInputs {
+    /// Cascade state.
+    pub snapshot: TelemetrySnapshot,
+    /// Inner loop timing (window since the last `LOOP_IN`).
+    pub inner: LoopReport,
+    /// Outer loop timing.
+    pub outer: LoopReport,
+    /// Framer counters.
+    pub parser: ParserStats,
+    /// Error counters.
+    pub counters: ErrorCounters,
+}
+
+/// Error counters reported at 1 Hz (`DEBUG_VECT LINK_DROP` and `HW_ERR`), all since boot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ErrorCounters {
+    /// Replies dropped because the reply queue was full.
+    pub replies_dropped: u32,
+    /// Inbound messages rejected: undecodable payloads, bad ODOMETRY, unknown parameters.
+    pub inputs_rejected: u32,
+    /// Obstacle points rejected (unsupported frame, non-finite) or dropped (batch full).
+    pub obstacles_rejected: u32,
+    /// IMU read failures (board) — each fed the cascade a NaN sample.
+    pub imu_errors: u32,
+    /// UART receive errors (board: overrun, framing, noise).
+    pub uart_errors: u32,
+}
+
+impl ErrorCounters {
+    /// The link's counters (board counters zero).
+    pub fn from_link(link: &crate::link::Link) -> Self {
+        let l = link.stats();
+        let o = link.obstacle_stats();
+        Self {
+            replies_dropped: l.replies_dropped,
+            inputs_rejected: l
+                .decode_errors
+                .saturating_add(l.odometry_rejected)
+                .saturating_add(l.unknown_params),
+            obstacles_rejected: o
+                .rejected_frame
+                .saturating_add(o.rejected_non_finite)
+                .saturating_add(o.dropped_full),
+            imu_errors: 0,
+            uart_errors: 0,
+        }
+    }
+}
+
+/// Stream periods, µs.
+const HEARTBEAT_US: u64 = 1_000_000;
+const ATTITUDE_US: u64 = 20_000;
+const POSITION_US: u64 = 40_000;
+const FILTER_US: u64 = 40_000;
+const LOOPS_US: u64 = 500_000;
+const LINK_US: u64 = 1_000_000;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stream {
+    Heartbeat,
+    Attitude,
+    Position,
+    Filter,
+    Loops,
+    Link,
+}
+
+const STREAMS: [(Stream, u64); 6] = [
+    (Stream::Heartbeat, HEARTBEAT_US),
+    (Stream::Attitude, ATTITUDE_US),
+    (Stream::Position, POSITION_US),
+    (Stream::Filter, FILTER_US),
+    (Stream::Loops, LOOPS_US),
+    (Stream::Link, LINK_US),
+];
+
+/// Decides which telemetry messages are due and builds them.
+pub struct TelemetryScheduler {
+    next_due_us: [u64; 6],
+    last_failsafe: Option<Failsafe>,
+    /// `true` when the loop-timing stream fired in the last [`TelemetryScheduler::poll`] (the
+    /// caller then starts new loop-timing windows).
+    pub loops_reported: bool,
+}
+
+impl Default for TelemetryScheduler {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// HEARTBEAT for the state in `s`.
+pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
+    let mut base = MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+    if s.armed {
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    let system_status = if s.failsafe.is_some() {
+        MavState::MAV_STATE_CRITICAL
+    } else if s.armed {
+        MavState::MAV_STATE_ACTIVE
+    } else {
+        MavState::MAV_STATE_STANDBY
+    };
+    HEARTBEAT_DATA {
+        custom_mode: s.phase.code(),
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+        base_mode: base,
+        system_status,
+        mavlink_version: 3,
+    }
+}
+
+/// STATUSTEXT with `text` (truncated to 50 bytes).
+pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEXT_DATA {
+    let mut buf = [0u8; 50];
+    for (d, c) in buf.iter_mut().zip(prefix.bytes().chain(text.bytes())) {
+        *d = c;
+    }
+    STATUSTEXT_DATA { severity, text: buf.into() }
+}
+
+impl TelemetryScheduler {
+    /// Every stream due immediately.
+    pub const fn new() -> Self {
+        Self { next_due_us: [0; 6], last_failsafe: None, loops_reported: false }
+    }
+
+    /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
+    /// `emit`. Bounded: at most 16 messages per call (2 failsafe, 1 + 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
+        let ms = (now_us / 1000) as u32;
+        let s = &inp.snapshot;
+        self.loops_reported = false;
+        if s.failsafe != self.last_failsafe {
+            match s.failsafe {
+                Some(f) => {
+                    emit(Outbound::StatusText(status_text(
+                        MavSeverity::MAV_SEVERITY_CRITICAL,
+                        "FAILSAFE: ",
+                        f.reason,
+                    )));
+                    emit(named_int(ms, names::FAILSAFE, i32::from(f.code)));
+                }
+                None => {
+                    emit(Outbound::StatusText(status_text(
+                        MavSeverity::MAV_SEVERITY_NOTICE,
+                        "FAILSAFE cleared",
+                        "",
+                    )));
+                    emit(named_int(ms, names::FAILSAFE, 0));
+                }
+            }
+            self.last_failsafe = s.failsafe;
+        }
+        for (k, (stream, period)) in STREAMS.iter().enumerate() {
+            if now_us < self.next_due_us[k] {
+                continue;
+            }
+            // Keep the phase, but never try to catch up on missed periods.
+            // Saturating: on the lockstep link the time comes from the host (any u64).
+            self.next_due_us[k] = if now_us - self.next_due_us[k] >= *period || self.next_due_us[k] == 0 {
+                now_us.saturating_add(*period)
+            } else {
+                self.next_due_us[k].saturating_add(*period)
+            };
+            match stream {
+                Stream::Heartbeat => emit(Outbound::Heartbeat(heartbeat(s))),
+                Stream::Attitude => emit(Outbound::Attitude(ATTITUDE_DATA {
+                    time_boot_ms: ms,
+                    roll: s.attitude_rpy.x,
+                    pitch: s.attitude_rpy.y,
+                    yaw: s.attitude_rpy.z,
+                    rollspeed: s.body_rates_frd.x,
+                    pitchspeed: s.body_rates_frd.y,
+                    yawspeed: s.body_rates_frd.z,
+                })),
+                Stream::Position => emit(Outbound::LocalPositionNed(LOCAL_POSITION_NED_DATA {
+                    time_boot_ms: ms,
+                    x: s.position_ned.x,
+                    y: s.position_ned.y,
+                    z: s.position_ned.z,
+                    vx: s.velocity_ned.x,
+                    vy: s.velocity_ned.y,
+                    vz: s.velocity_ned.z,
+                })),
+                Stream::Filter => {
+                    let f = &s.filter;
+                    let (region, id) =
+                        (codes::region_to_wire(f.region), codes::active_id_to_wire(f.active_id));
+                    emit(debug_vect(now_us, names::CBF, f.h_bar, region, id));
+                    let flags = codes::CbfFlags {
+                        intervened: f.intervened,
+                        unavoidable: f.unavoidable,
+                        infeasible: f.infeasible,
+                        n_constraints: f.n_constraints,
+                    };
+                    emit(named_int(ms, names::CBF_FLAGS, flags.encode()));
+                    let sp = &s.setpoint;
+                    emit(Outbound::PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA {
+                        time_boot_ms: ms,
+                        x: sp.position_ned.x,
+                        y: sp.position_ned.y,
+                        z: sp.position_ned.z,
+                        vx: sp.velocity_ned.x,
+                        vy: sp.velocity_ned.y,
+                        vz: sp.velocity_ned.z,
+                        afx: sp.accel_filtered_ned.x,
+                        afy: sp.accel_filtered_ned.y,
+                        afz: sp.accel_filtered_ned.z,
+                        yaw: 0.0,
+                        yaw_rate: 0.0,
+                        type_mask: PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
+                            | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+                        coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    }));
+                    let u = &sp.accel_nominal_ned;
+                    emit(debug_vect(now_us, names::U_NOM, u.x, u.y, u.z));
+                }
+                Stream::Loops => {
+                    let (i, o) = (&inp.inner, &inp.outer);
+                    emit(debug_vect(
+                        now_us,
+                        names::LOOP_IN,
+                        i.period_mean_us,
+                        i.period_max_us,
+                        i.exec_max_us,
+                    ));
+                    emit(debug_vect(
+                        now_us,
+                        names::LOOP_OUT,
+                        o.period_mean_us,
+                        o.period_max_us,
+                        o.exec_max_us,
+                    ));
+                    emit(named_int(ms, names::OVR_IN, i.overruns.min(i32::MAX as u32) as i32));
+                    emit(named_int(ms, names::OVR_OUT, o.overruns.min(i32::MAX as u32) as i32));
+                    self.loops_reported = true;
+                }
+                Stream::Link => {
+                    let p = &inp.parser;
+                    emit(debug_vect(
+                        now_us,
+                        names::LINK,
+                        p.frames_ok as f32,
+                        p.crc_errors as f32,
+                        p.malformed as f32,
+                    ));
+                    let c = &inp.counters;
+                    emit(debug_vect(
+                        now_us,
+                        names::LINK_DROP,
+                        c.replies_dropped as f32,
+                        c.inputs_rejected as f32,
+                        c.obstacles_rejected as f32,
+                    ));
+                    emit(debug_vect(now_us, names::HW_ERR, c.imu_errors as f32, c.uart_errors as f32, 0.0));
+                }
+            }
+        }
+    }
+}
+
+/// Name check helper for tests and the host tools: `true` when a MAVLink name field equals `key`.
+pub fn name_is<const N: usize>(field: &mavlink::types::CharArray<N>, key: &str) -> bool {
+    names::name_is(&field[..], key)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::app::autopilot::Autopilot;
+    use std::vec::Vec;
+
+    fn inputs(ap: &RecordingAutopilot) -> TelemetryInputs {
+        TelemetryInputs {
+            snapshot: ap.telemetry(),
+            inner: LoopReport::default(),
+            outer: LoopReport::default(),
+            parser: ParserStats::default(),
+            counters: ErrorCounters::default(),
+        }
+    }
+
+    #[test]
+    fn times_near_u64_max_do_not_overflow() {
+        // Found by the `link` fuzz target: a HIL_SENSOR time_usec near u64::MAX overflowed the
+        // next due time (a panic with overflow checks, a wrapped schedule without).
+        let ap = RecordingAutopilot::new();
+        let mut t = TelemetryScheduler::new();
+        let mut n = 0;
+        for now in [u64::MAX - 5, u64::MAX - 1, u64::MAX] {
+            t.poll(now, &inputs(&ap), |_| n += 1);
+        }
+        assert!(n > 0);
+    }
+
+    #[test]
+    fn rates_over_one_second() {
+        let ap = RecordingAutopilot::new();
+        let mut t = TelemetryScheduler::new();
+        let mut out = Vec::new();
+        // 1 kHz calls for exactly one second.
+        for k in 0..1000u64 {
+            t.poll(1 + k * 1000, &inputs(&ap), |m| out.push(m));
+        }
+        let count = |f: &dyn Fn(&Outbound) -> bool| out.iter().filter(|m| f(m)).count();
+        assert_eq!(count(&|m| matches!(m, Outbound::Heartbeat(_))), 1);
+        assert_eq!(count(&|m| matches!(m, Outbound::Attitude(_))), 50);
+        assert_eq!(count(&|m| matches!(m, Outbound::LocalPositionNed(_))), 25);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "CBF"))), 25);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "U_NOM"))), 25);
+        assert_eq!(count(&|m| matches!(m, Outbound::PositionTargetLocalNed(_))), 25);
+        let sp = out.iter().find_map(|m| match m {
+            Outbound::PositionTargetLocalNed(p) => Some(p.clone()),
+            _ => None,
+        });
+        let sp = sp.expect("a setpoint");
+        assert_eq!((sp.x, sp.vx, sp.afx, sp.afy), (1.5, 0.25, -0.5, 0.5));
+        assert_eq!(sp.coordinate_frame, MavFrame::MAV_FRAME_LOCAL_NED);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LOOP_IN"))), 2);
+        assert_eq!(count(&|m| matches!(m, Outbound::StatusText(_))), 0);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "LINK_DROP"))), 1);
+        assert_eq!(count(&|m| matches!(m, Outbound::DebugVect(d) if name_is(&d.name, "HW_ERR"))), 1);
+    }
+
+    #[test]
+    fn failsafe_transitions_send_statustext_once() {
+        let mut ap = RecordingAutopilot::new();
+        let mut t = TelemetryScheduler::new();
+        let mut out = Vec::new();
+        t.poll(1, &inputs(&ap), |m| out.push(m));
+        ap.failsafe = Some(Failsafe { code: 3, reason: "position stale" });
+        out.clear();
+        t.poll(2, &inputs(&ap), |m| out.push(m));
+        t.poll(3, &inputs(&ap), |m| out.push(m));
+        let texts: Vec<_> = out
+            .iter()
+            .filter_map(|m| match m {
+                Outbound::StatusText(s) => Some(s),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(texts.len(), 1);
+        assert_eq!(texts[0].severity, MavSeverity::MAV_SEVERITY_CRITICAL);
+        assert_eq!(texts[0].text.to_str().ok(), Some("FAILSAFE: position stale"));
+        ap.failsafe = None;
+        out.clear();
+        t.poll(4, &inputs(&ap), |m| out.push(m));
+        assert!(out
+            .iter()
+            .any(|m| matches!(m, Outbound::StatusText(s) if s.severity == MavSeverity::MAV_SEVERITY_NOTICE)));
+    }
+
+    #[test]
+    fn heartbeat_reflects_arming() {
+        let mut ap = RecordingAutopilot::new();
+        let h = heartbeat(&ap.telemetry());
+        assert!(!h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+        assert_eq!(h.system_status, MavState::MAV_STATE_STANDBY);
+        ap.armed = true;
+        let h = heartbeat(&ap.telemetry());
+        assert!(h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+        assert_eq!(h.system_status, MavState::MAV_STATE_ACTIVE);
+    }
+}

@@ -1,0 +1,355 @@
+//! The processor-in-the-loop application: handshake, then lockstep over one byte link.
+//!
+//! Hardware-independent (the QEMU board supplies a [`BytePort`] on USART1 and a
+//! [`TickCounter`] on SysTick), so the whole protocol is host-tested. The protocol itself is
+//! specified in `firmware/README.md` ("QEMU lockstep protocol").
+
+use mavlink::dialects::ardupilotmega::{MavSeverity, HEARTBEAT_DATA};
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::names;
+
+use crate::app::autopilot::ControlSteps;
+use crate::app::loop_timing::{LoopReport, LoopTimer};
+use crate::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+use crate::link::outbound::{named_int, Outbound};
+use crate::link::telemetry::{heartbeat, status_text, ErrorCounters, TelemetryInputs, TelemetryScheduler};
+use crate::link::{FixClock, Link};
+use crate::pil::lockstep::{InstructionCalibration, LockstepScheduler};
+
+/// Instructions of the start-up calibration loop (2 × 50 000 iterations of a 2-instruction loop
+/// difference, see `board::qemu::InstructionCounter::calibrate`).
+pub const CALIBRATION_ITERATIONS: u32 = 50_000;
+
+/// A byte link polled by the application.
+pub trait BytePort {
+    /// One received byte, if any.
+    fn try_read(&mut self) -> Option<u8>;
+    /// Sends `bytes` (blocking).
+    fn write(&mut self, bytes: &[u8]);
+}
+
+/// A free-running tick counter (SysTick under `qemu -icount`).
+pub trait TickCounter {
+    /// Current raw value.
+    fn now(&self) -> u32;
+    /// Ticks elapsed since `start`.
+    fn since(&self, start: u32) -> u32;
+    /// Ticks of the longest section with interrupts masked since the previous call (a board
+    /// that measures its critical sections, `board::qemu`); 0 when not measured.
+    fn take_masked_max(&self) -> u32 {
+        0
+    }
+}
+
+/// Counters of the PIL application.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PilStats {
+    /// Heartbeats sent during the handshake.
+    pub handshake_heartbeats: u32,
+    /// Control steps answered.
+    pub steps: u32,
+    /// Largest instruction count of one control step.
+    pub max_step_instructions: u32,
+    /// Longest section with interrupts masked during a control step, instructions.
+    pub max_masked_instructions: u32,
+}
+
+/// The PIL application state.
+pub struct PilApp<A: ControlSteps> {
+    autopilot: A,
+    link: Link,
+    scheduler: LockstepScheduler,
+    telemetry: TelemetryScheduler,
+    writer: FrameWriter,
+    calibration: InstructionCalibration,
+    inner_timer: LoopTimer,
+    outer_timer: LoopTimer,
+    stats: PilStats,
+    last_t_us: u64,
+}
+
+impl<A: ControlSteps> PilApp<A> {
+    /// Application around `autopilot` with the start-up `calibration`.
+    pub fn new(autopilot: A, calibration: InstructionCalibration) -> Self {
+        Self {
+            autopilot,
+            link: Link::new(VEHICLE_SYSTEM_ID, FixClock::Message),
+            scheduler: LockstepScheduler::default(),
+            telemetry: TelemetryScheduler::new(),
+            writer: FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID),
+            calibration,
+            // Periods are measured in simulated µs (1 "cycle" per µs).
+            inner_timer: LoopTimer::new(1000, 1),
+            outer_timer: LoopTimer::new(
+                OuterSchedule::DEFAULT.period_us().min(u64::from(u32::MAX)) as u32,
+                1,
+            ),
+            stats: PilStats::default(),
+            last_t_us: 0,
+        }
+    }
+
+    fn send(&mut self, port: &mut impl BytePort, msg: &Outbound) {
+        let raw = msg.encode(&mut self.writer);
+        port.write(raw.raw_bytes());
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> PilStats {
+        self.stats
+    }
+
+    /// The link (counters).
+    pub fn link(&self) -> &Link {
+        &self.link
+    }
+
+    /// The autopilot.
+    pub fn autopilot(&self) -> &A {
+        &self.autopilot
+    }
+
+    /// One handshake round: sends a HEARTBEAT, then polls the port for `period_ticks`. Returns
+    /// `true` (after sending the calibration and a ready STATUSTEXT) once the first valid frame
+    /// arrived; the bytes of that frame are processed normally.
+    pub fn handshake_round(
+        &mut self,
+        port: &mut impl BytePort,
+        ticks: &impl TickCounter,
+        period_ticks: u32,
+    ) -> bool {
+        let hb: HEARTBEAT_DATA = heartbeat(&self.autopilot.telemetry());
+        self.send(port, &Outbound::Heartbeat(hb));
+        self.stats.handshake_heartbeats = self.stats.handshake_heartbeats.saturating_add(1);
+        let t0 = ticks.now();
+        while ticks.since(t0) < period_ticks {
+            if let Some(b) = port.try_read() {
+                self.link.push_byte(b, 0, &mut self.autopilot);
+                if self.link.peer_seen() {
+                    self.after_handshake(port);
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    fn after_handshake(&mut self, port: &mut impl BytePort) {
+        let c = self.calibration;
+        self.send(port, &named_int(0, names::INS_CAL_N, c.instructions.min(i32::MAX as u32) as i32));
+        self.send(port, &named_int(0, names::INS_CAL, c.ticks.min(i32::MAX as u32) as i32));
+        let ready = status_text(MavSeverity::MAV_SEVERITY_INFO, names::PIL_READY_TEXT, "");
+        self.send(port, &Outbound::StatusText(ready));
+    }
+
+    /// Processes every byte available now; answers each HIL_SENSOR (see [`crate::pil::lockstep`]).
+    /// Returns the number of control steps answered.
+    pub fn poll(&mut self, port: &mut impl BytePort, ticks: &impl TickCounter) -> u32 {
+        let mut answered = 0;
+        while let Some(b) = port.try_read() {
+            let now = self.scheduler_time();
+            self.link.push_byte(b, now, &mut self.autopilot);
+            while let Some(r) = self.link.pop_reply() {
+                self.send(port, &r);
+            }
+            if let Some(sample) = self.link.take_hil_sample() {
+                self.answer(port, ticks, &sample);
+                answered += 1;
+            }
+        }
+        answered
+    }
+
+    fn scheduler_time(&self) -> u64 {
+        self.last_t_us
+    }
+
+    fn answer(
+        &mut self,
+        port: &mut impl BytePort,
+        ticks: &impl TickCounter,
+        sample: &crate::link::HilSample,
+    ) {
+        let t = sample.time_usec;
+        let t32 = t as u32;
+        self.inner_timer.start(t32);
+        let _ = ticks.take_masked_max();
+        let t0 = ticks.now();
+        let out = self.scheduler.step_timed(sample, &mut self.link, &mut self.autopilot, ticks);
+        let spent = ticks.since(t0);
+        let masked = self.calibration.instructions_for(ticks.take_masked_max());
+        self.inner_timer.end(t32);
+        if out.ran_outer {
+            self.outer_timer.start(t32);
+            self.outer_timer.end(t32);
+        }
+        let ins = self.calibration.instructions_for(spent);
+        self.stats.steps = self.stats.steps.saturating_add(1);
+        self.stats.max_step_instructions = self.stats.max_step_instructions.max(ins);
+        self.stats.max_masked_instructions = self.stats.max_masked_instructions.max(masked);
+        self.last_t_us = t;
+        self.link.poll(t, &mut self.autopilot);
+        while let Some(r) = self.link.pop_reply() {
+            self.send(port, &r);
+        }
+        let inputs = TelemetryInputs {
+            snapshot: self.autopilot.telemetry(),
+            inner: self.inner_timer.report(),
+            outer: self.outer_timer.report(),
+            parser: self.link.parser_stats(),
+            counters: ErrorCounters::from_link(&self.link),
+        };
+        let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
+        self.telemetry.poll(t, &inputs, |m| {
+            // 20 > the at most 16 messages one poll emits.
+            let _ = queued.push(m);
+        });
+        if self.telemetry.loops_reported {
+            let _: LoopReport = self.inner_timer.take_report();
+            let _: LoopReport = self.outer_timer.take_report();
+        }
+        for m in &queued {
+            self.send(port, m);
+        }
+        if let Some(outer) = out.outer_ticks {
+            let ins_outer = self.calibration.instructions_for(outer);
+            self.send(
+                port,
+                &named_int((t / 1000) as u32, names::INS_OUTER, ins_outer.min(i32::MAX as u32) as i32),
+            );
+        }
+        self.send(port, &named_int((t / 1000) as u32, names::INS_MASKED, masked.min(i32::MAX as u32) as i32));
+        self.send(port, &named_int((t / 1000) as u32, names::INS_STEP, ins.min(i32::MAX as u32) as i32));
+        self.send(port, &Outbound::HilActuatorControls(out.controls));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::link::frame_parser::FrameParser;
+    use crate::link::messages::frame_extra_crc;
+    use mavlink::dialects::ardupilotmega::{
+        HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
+    };
+    use mavlink::{MavlinkVersion, MessageData};
+    use std::cell::Cell;
+    use std::collections::VecDeque;
+    use std::vec::Vec;
+
+    #[derive(Default)]
+    struct FakePort {
+        rx: VecDeque<u8>,
+        tx: Vec<u8>,
+    }
+    impl BytePort for FakePort {
+        fn try_read(&mut self) -> Option<u8> {
+            self.rx.pop_front()
+        }
+        fn write(&mut self, bytes: &[u8]) {
+            self.tx.extend_from_slice(bytes);
+        }
+    }
+
+    /// Counts down by 7 per read (like SysTick); every masked-section window reports 14 ticks
+    /// (as if a critical section of 14 ticks ran in it).
+    struct FakeTicks(Cell<u32>);
+    impl TickCounter for FakeTicks {
+        fn take_masked_max(&self) -> u32 {
+            14
+        }
+        fn now(&self) -> u32 {
+            let v = self.0.get().wrapping_sub(7);
+            self.0.set(v);
+            v
+        }
+        fn since(&self, start: u32) -> u32 {
+            start.wrapping_sub(self.now())
+        }
+    }
+
+    fn frames(bytes: &[u8]) -> Vec<(u32, Vec<u8>)> {
+        let mut p = FrameParser::new();
+        let mut out = Vec::new();
+        p.push_bytes(bytes, frame_extra_crc, |f| out.push((f.msg_id, f.payload.to_vec())));
+        out
+    }
+
+    #[test]
+    fn handshake_then_lockstep_answers_each_sensor_sample() {
+        let cal = InstructionCalibration { instructions: 100_000, ticks: 16_800 };
+        let mut app = PilApp::new(RecordingAutopilot::new(), cal);
+        let mut port = FakePort::default();
+        let ticks = FakeTicks(Cell::new(1_000_000));
+        assert!(!app.handshake_round(&mut port, &ticks, 700));
+        assert!(!app.handshake_round(&mut port, &ticks, 700));
+        let sent = frames(&port.tx);
+        assert_eq!(sent.len(), 2);
+        assert!(sent.iter().all(|(id, _)| *id == HEARTBEAT_DATA::ID));
+
+        let mut host = FrameWriter::new(255, 190);
+        port.rx.extend(host.encode(&HEARTBEAT_DATA::default()).raw_bytes());
+        port.tx.clear();
+        assert!(app.handshake_round(&mut port, &ticks, 700));
+        let sent = frames(&port.tx);
+        let ints: Vec<NAMED_VALUE_INT_DATA> = sent
+            .iter()
+            .filter(|(id, _)| *id == NAMED_VALUE_INT_DATA::ID)
+            .filter_map(|(_, p)| NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, p).ok())
+            .collect();
+        assert!(ints
+            .iter()
+            .any(|m| crate::link::telemetry::name_is(&m.name, "ins_cal") && m.value == 16_800));
+        assert!(ints
+            .iter()
+            .any(|m| crate::link::telemetry::name_is(&m.name, "ins_cal_n") && m.value == 100_000));
+
+        for k in 0..3u64 {
+            port.tx.clear();
+            let t = 2_000_000 + k * 1000;
+            port.rx.extend(
+                host.encode(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() }).raw_bytes(),
+            );
+            assert_eq!(app.poll(&mut port, &ticks), 1);
+            let sent = frames(&port.tx);
+            let (last_id, last) = sent.last().cloned().unwrap_or_default();
+            assert_eq!(last_id, HIL_ACTUATOR_CONTROLS_DATA::ID);
+            let ctl = HIL_ACTUATOR_CONTROLS_DATA::deser(MavlinkVersion::V2, &last).expect("decodes");
+            assert_eq!(ctl.time_usec, t);
+            let int_at = |i: usize| {
+                let (id, m) = &sent[i];
+                assert_eq!(*id, NAMED_VALUE_INT_DATA::ID);
+                NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m).expect("decodes")
+            };
+            let step = int_at(sent.len() - 2);
+            assert!(crate::link::telemetry::name_is(&step.name, "ins_step"));
+            // The longest masked section of the step comes before `ins_step`: 14 ticks ≈ 83.
+            let masked = int_at(sent.len() - 3);
+            assert!(crate::link::telemetry::name_is(&masked.name, "ins_masked"));
+            assert_eq!(masked.value, 83);
+            if k == 0 {
+                // The first sample runs the outer loop, timed by its own read pair (7 fake ticks →
+                // 7 × 100000 / 16800 ≈ 42, reported as `ins_outer` before `ins_step`); the whole
+                // step spans three reads after its start: 21 ticks ≈ 125 instructions.
+                let outer = int_at(sent.len() - 4);
+                assert!(crate::link::telemetry::name_is(&outer.name, "ins_outer"));
+                assert_eq!(outer.value, 42);
+                assert_eq!(step.value, 125);
+            } else {
+                // Inner only: one tick read pair around the step = 7 fake ticks ≈ 42.
+                assert_eq!(step.value, 42);
+                assert!(!sent.iter().any(|(id, m)| *id == NAMED_VALUE_INT_DATA::ID
+                    && NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, m)
+                        .is_ok_and(|m| crate::link::telemetry::name_is(&m.name, "ins_outer"))));
+            }
+        }
+        assert_eq!(app.autopilot().inner_steps, vec![2_000_000, 2_001_000, 2_002_000]);
+        assert_eq!(app.stats().steps, 3);
+        assert_eq!(app.stats().max_masked_instructions, 83);
+        // Nothing pending: no answer.
+        port.tx.clear();
+        assert_eq!(app.poll(&mut port, &ticks), 0);
+        assert!(port.tx.is_empty());
+    }
+}

@@ -1,0 +1,707 @@
+//! The `parapet` commands `run`, `pil`, `plan`, `replay` and `scene` ([`scene`]),
+//! the shared command plumbing (errors and exit codes, run options, output) and
+//! the help texts ([`help`]). The `parapet` parser and dispatch is the binary
+//! (`src/main.rs`), above this module, [`crate::sweep`] and [`crate::campaign`]
+//! (which use [`CliError`] and [`run_config_from_args`]).
+//!
+//! Exit codes ([`EXIT_CODES_HELP`]): 0 success, 1 internal failure, 2 bad input
+//! (a file, table, field or option named in the message with the value and the
+//! allowed range), 3 no path found by the planner. Bad input is an
+//! [`InputError`]; library error enums are never shown as debug text.
+//!
+//! Standard output goes through [`out`] ([`crate::cli::output`]): a closed pipe
+//! (`parapet run | head`) ends the command quietly with exit 0, never a panic.
+//! Outputs never replace an input file ([`refuse_overwrite`]).
+//!
+//! May import: every host-sim module except [`crate::sweep`] and [`crate::campaign`].
+
+pub mod help;
+pub mod output;
+pub mod scene;
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use anyhow::anyhow;
+use clap::{Args, Parser};
+use nalgebra::Vector3;
+use parapet_core::cbf::FilterVariant;
+
+pub use crate::cli::output::{out, refuse_overwrite};
+pub use crate::sim::replay::load_vehicle;
+
+use crate::fc::control::run;
+use crate::flight::runner::RunConfig;
+use crate::input::{limits, num, InputError};
+use crate::plan::pathfile::PathFile;
+use crate::plan::{plan, PlanProblem, PlannedPath, PlannerParams};
+use crate::report::{report_files, summary_table, write_report, RunRecord};
+use crate::sim::plant::VehicleParams;
+use crate::sim::replay::{parse_rotor_csv, replay, ReplayOptions};
+use crate::world::scene::{to_f64, Scene};
+
+/// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
+/// level and of each subcommand. Every command returns these and only these.
+pub const EXIT_CODES_HELP: &str = "\
+Exit codes:
+  0    success: the command finished (a flight that collides or misses the goal still
+       exits 0; its outcome is in the summary); also when stdout is closed early
+       (`parapet run | head`)
+  1    failure that is not the input's fault (I/O error writing a report, firmware or QEMU failure)
+  2    bad input: a file, table, field or option is named with the value and the allowed range
+  3    no path: the planner found no collision-free path within its budget";
+
+/// Exit code of `parapet sweep`, `sweep-merge` and `campaign` when some runs failed (their rows say why; the
+/// others are complete).
+pub const EXIT_SOME_FAILED: i32 = 4;
+
+/// The shared exit-code text, with code [`EXIT_SOME_FAILED`] explained by `what`
+/// unless the shared text already lists it.
+pub fn exit_codes_help(what: &str) -> String {
+    let shared = EXIT_CODES_HELP;
+    if shared.contains(&format!("\n  {EXIT_SOME_FAILED} ")) {
+        shared.to_string()
+    } else {
+        format!("{shared}\n  {EXIT_SOME_FAILED}    {what}")
+    }
+}
+
+/// Default scene of `parapet run` and `parapet plan`.
+pub const DEFAULT_SCENE: &str = "scenes/office.toml";
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Scene file (TOML, ENU z-up; see scenes/README.md).
+    #[arg(long, default_value = DEFAULT_SCENE)]
+    scene: PathBuf,
+    /// Fly this path file (JSON from `parapet plan`) instead of planning.
+    #[arg(long)]
+    path: Option<PathBuf>,
+    /// Fly the straight line start → goal instead of planning (for tests and demos).
+    #[arg(long, conflicts_with = "path")]
+    straight: bool,
+    /// [preflight] Fly a `--path` whose first/last waypoint is not within 0.5 m of the
+    /// scene's mission start/goal (a path meant for elsewhere). Without it such a path is
+    /// refused (exit 2). Bounds and collision checks of the start and waypoints still apply;
+    /// `reached_goal` still means the scene's goal.
+    #[arg(long)]
+    foreign_path: bool,
+    /// Disable the CBF safety filter (nominal PD tracking only).
+    #[arg(long)]
+    no_cbf: bool,
+    /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
+    #[arg(long, value_parser = parse_variant)]
+    filter: Option<FilterVariant>,
+    #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
+    mu: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = default_help("Safety level δ, m² (hull radius squared)", "delta"))]
+    delta: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = default_help("Engagement level δ1 (> δ), m²", "delta1"))]
+    delta1: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = default_help("PD position gain k_p, 1/s²", "kp"))]
+    kp: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = default_help("PD velocity gain k_d, 1/s", "kd"))]
+    kd: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = format!(
+        "Reference speed along the path, m/s, in (0, {}] [default: the scene's]", limits::MAX_SPEED_MPS))]
+    speed: Option<f64>,
+    /// Random seed (sensor noise and planner).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Duration limit, s (default: the scene's, else 1.5 × the flown length (start → first
+    /// waypoint → … → last) / speed + 15 s).
+    #[arg(long, allow_negative_numbers = true)]
+    duration: Option<f64>,
+    #[arg(long, allow_negative_numbers = true, help = format!(
+        "Raise the duration cap, s [default: {} s; at most {} s]",
+        limits::MAX_DURATION_S, limits::MAX_DURATION_CEILING_S))]
+    max_duration: Option<f64>,
+    /// Sensor noise on (default, unless the scene's [sensors] table says otherwise).
+    #[arg(long, conflicts_with = "no_noise")]
+    noise: bool,
+    /// Sensor noise off.
+    #[arg(long)]
+    no_noise: bool,
+    /// Proximity-sensor range, m (default: the scene's, else 3).
+    #[arg(long, allow_negative_numbers = true)]
+    sensing_range: Option<f64>,
+    /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    disturb: crate::sim::disturbance::args::DisturbanceArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct PilArgs {
+    #[command(flatten)]
+    run: RunArgs,
+    /// Firmware ELF (`parapet-firmware-qemu`, the board-qemu build). Default: build it with
+    /// cargo (release, thumbv7em-none-eabihf, --no-default-features --features board-qemu).
+    #[arg(long)]
+    firmware: Option<PathBuf>,
+    /// Wall-clock seconds without an answer from the firmware before the run fails.
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
+    timeout: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// Scene file (TOML, ENU z-up).
+    #[arg(long, default_value = DEFAULT_SCENE)]
+    scene: PathBuf,
+    /// Planner seed (same seed, same path).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output path file (JSON, ENU z-up); never the scene file, and an existing file only
+    /// if it is a parapet path file (or with --force).
+    #[arg(long, default_value = "out/path.json")]
+    out: PathBuf,
+    /// Replace an existing --out file even if it is not a path file (never an input).
+    #[arg(long)]
+    force: bool,
+    /// Wall-clock budget of the tree search, s (0 < t ≤ 3600).
+    #[arg(long, default_value_t = crate::input::limits::PLANNER_BUDGET_S)]
+    time_limit: f64,
+    /// RRT-Connect iteration budget (1 ≤ n ≤ 100000000).
+    #[arg(long, default_value_t = PlannerParams::default().max_iterations)]
+    max_iterations: u32,
+}
+
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// Vehicle parameters: a TOML file with VehicleParams keys at the top level or in a
+    /// [vehicle] table; a scene file works (its [vehicle] table, defaults for missing keys).
+    /// Default: the built-in vehicle.
+    #[arg(long)]
+    vehicle: Option<PathBuf>,
+    /// Input CSV: header t,w1,w2,w3,w4 (s, rad/s; rotor order 1..4 = FR, RL, FL, RR).
+    #[arg(long)]
+    inputs: PathBuf,
+    /// Output CSV of states (NED position/velocity, quaternion FRD→NED, FRD body rates);
+    /// must not be an input file.
+    #[arg(long)]
+    out: PathBuf,
+    /// Integration step, s.
+    #[arg(long, default_value_t = 0.001, allow_negative_numbers = true)]
+    dt: f64,
+    /// Start position, NED, m, as x,y,z (e.g. `--start 1,2,-1.5`: 1.5 m up).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    start: [f64; 3],
+    /// Treat the speeds as commands through the first-order motor model (default: imposed directly).
+    #[arg(long)]
+    motor_lag: bool,
+    /// With --motor-lag: every rotor's speed at the first row's time, rad/s (default: the
+    /// first row's speeds).
+    #[arg(long, requires = "motor_lag", allow_negative_numbers = true)]
+    initial_speed: Option<f64>,
+    /// Steady wind, NED, m/s, as x,y,z (default 0,0,0: still air).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    wind: [f64; 3],
+    /// Simulate the ground plane z = 0 (default off: free space).
+    #[arg(long)]
+    ground: bool,
+}
+
+/// The help line of a controller option with its built-in default (from the
+/// core's constants, shortest decimals).
+fn default_help(what: &str, name: &str) -> String {
+    let c = parapet_core::cbf::CbfParams::default();
+    let f = crate::input::f32_as_f64;
+    let d = match name {
+        "mu" => f(c.mu),
+        "delta" => f(c.delta),
+        "delta1" => f(c.delta1),
+        "kp" => crate::flight::runner::DEFAULT_KP,
+        _ => crate::flight::runner::DEFAULT_KD,
+    };
+    format!("{what} [default: the scene's [controller] {name}, else {d}]")
+}
+
+/// `x,y,z` (three finite numbers, commas, optional spaces).
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected x,y,z (three numbers), got {s:?}"));
+    }
+    let mut v = [0.0; 3];
+    for (k, p) in parts.iter().enumerate() {
+        v[k] = p
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{p:?} is not a finite number"))?;
+    }
+    Ok(v)
+}
+
+fn parse_variant(s: &str) -> Result<FilterVariant, String> {
+    s.parse().map_err(|_| format!("unknown filter {s:?}: expected paper, relative, multi or multi-relative"))
+}
+
+/// A failure with its exit code.
+#[derive(Debug)]
+pub enum CliError {
+    /// Bad input (exit code 2): the message names the file / field / option.
+    BadInput(String),
+    /// No path found (exit code 3).
+    NoPath(String),
+    /// Anything else (exit code 1).
+    Failed(anyhow::Error),
+    /// `sweep` / `sweep-merge`: some runs failed, the others are written
+    /// (exit code [`EXIT_SOME_FAILED`] = 4).
+    SomeFailed(String),
+    /// Standard output was closed by the reader (`| head`): stop quietly, exit 0.
+    StdoutClosed,
+}
+
+impl CliError {
+    /// Process exit code.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            CliError::BadInput(_) => 2,
+            CliError::NoPath(_) => 3,
+            CliError::Failed(_) => 1,
+            CliError::StdoutClosed => 0,
+            CliError::SomeFailed(_) => EXIT_SOME_FAILED,
+        }
+    }
+}
+
+impl std::fmt::Display for CliError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CliError::BadInput(m) | CliError::NoPath(m) | CliError::SomeFailed(m) => f.write_str(m),
+            CliError::Failed(e) => write!(f, "{e:#}"),
+            CliError::StdoutClosed => f.write_str("standard output closed"),
+        }
+    }
+}
+
+impl From<InputError> for CliError {
+    fn from(e: InputError) -> Self {
+        CliError::BadInput(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for CliError {
+    fn from(e: anyhow::Error) -> Self {
+        CliError::Failed(e)
+    }
+}
+
+/// Resolve a scene path: as given; for the default scene missing from the
+/// current directory, the source tree's copy (this binary's build tree), with a
+/// note on stderr naming the file used; refused when that is missing too.
+fn resolve_scene(p: &Path) -> Result<PathBuf, CliError> {
+    if p.exists() || p != Path::new(DEFAULT_SCENE) {
+        return Ok(p.to_path_buf());
+    }
+    let cwd = std::env::current_dir().map(|d| d.display().to_string()).unwrap_or_else(|_| "?".into());
+    let alt = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(DEFAULT_SCENE);
+    match alt.canonicalize() {
+        Ok(file) if file.is_file() => {
+            eprintln!(
+                "note: {DEFAULT_SCENE} is not in the current directory ({cwd}); using {} \
+                 (pass --scene FILE to choose)",
+                file.display()
+            );
+            Ok(file)
+        }
+        _ => Err(InputError::option(
+            "scene",
+            format!(
+                "the default scene {DEFAULT_SCENE} is neither in the current directory ({cwd}) nor at {}; \
+                 pass --scene FILE",
+                alt.display()
+            ),
+        )
+        .into()),
+    }
+}
+
+fn load_scene(p: &Path) -> Result<Scene, CliError> {
+    Scene::load(&resolve_scene(p)?).map_err(|e| CliError::BadInput(e.to_string()))
+}
+
+fn plan_scene(scene: &Scene, seed: u64) -> Result<PlannedPath, CliError> {
+    plan_scene_with(scene, PlannerParams { seed, ..PlannerParams::default() })
+}
+
+fn plan_scene_with(scene: &Scene, params: PlannerParams) -> Result<PlannedPath, CliError> {
+    let problem = PlanProblem::from_scene(scene);
+    plan(&problem, &params).map_err(|e| {
+        let msg = format!("{}: planning failed: {e}", scene.source);
+        if e.exit_code() == 3 {
+            CliError::NoPath(msg)
+        } else {
+            CliError::BadInput(msg)
+        }
+    })
+}
+
+fn positive(name: &str, x: Option<f64>) -> Result<Option<f64>, CliError> {
+    match x {
+        Some(v) if !(v.is_finite() && v > 0.0) => {
+            Err(InputError::option(name, "must be finite and > 0").value(num(v)).allowed("> 0").into())
+        }
+        other => Ok(other),
+    }
+}
+
+/// The options of `a` given on the command line and the duration cap, for
+/// [`crate::flight::validate::check_run`].
+fn given(a: &RunArgs) -> Result<crate::flight::validate::Given, CliError> {
+    let mut options = Vec::new();
+    for (name, x) in [
+        ("mu", a.mu),
+        ("delta", a.delta),
+        ("delta1", a.delta1),
+        ("kp", a.kp),
+        ("kd", a.kd),
+        ("speed", a.speed),
+        ("duration", a.duration),
+        ("sensing-range", a.sensing_range),
+    ] {
+        if x.is_some() {
+            options.push(name);
+        }
+    }
+    let ceiling = limits::MAX_DURATION_CEILING_S;
+    let max_duration = match positive("max-duration", a.max_duration)? {
+        Some(m) if m > ceiling => {
+            return Err(InputError::option("max-duration", "beyond the largest duration cap")
+                .value(num(m))
+                .allowed(format!("0 < max-duration ≤ {ceiling} s"))
+                .into())
+        }
+        Some(m) => m,
+        None => limits::MAX_DURATION_S,
+    };
+    Ok(crate::flight::validate::Given { options, max_duration })
+}
+
+/// Scene and run configuration from the `run` options (shared by `run` and `pil`).
+fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
+    let mut scene = load_scene(&a.scene)?;
+    // [preflight] the start is flyable (before planning from it); --foreign-path needs --path.
+    crate::flight::preflight::check_start(&scene).map_err(|e| CliError::BadInput(e.to_string()))?;
+    if a.foreign_path && a.path.is_none() {
+        return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
+    }
+    if let Some(s) = positive("speed", a.speed)? {
+        scene.speed = s;
+    }
+    let (path, source, planning_ms) = if let Some(p) = &a.path {
+        let f = PathFile::read(p).map_err(|e| CliError::BadInput(e.to_string()))?;
+        let wps: Vec<Vector3<f64>> = f.waypoints_ned().iter().map(to_f64).collect();
+        if wps.is_empty() {
+            return Err(CliError::BadInput(format!("{}: field `waypoints`: empty", p.display())));
+        }
+        (wps, "file", None)
+    } else if a.straight {
+        (vec![scene.start, scene.goal], "straight", None)
+    } else {
+        let planned = plan_scene(&scene, a.seed)?;
+        let wps = planned.waypoints.iter().map(to_f64).collect();
+        (wps, "planner", Some(planned.planning_time_ms))
+    };
+    let capacity = limits::MAX_WAYPOINTS;
+    if path.len() > capacity {
+        let from =
+            a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
+        return Err(InputError::file(from, "more waypoints than the controller's path capacity")
+            .field("waypoints")
+            .value(path.len())
+            .allowed(format!("at most {capacity} waypoints"))
+            .into());
+    }
+    let mut cfg = RunConfig::for_scene(&scene, path)
+        .map_err(|e| CliError::BadInput(format!("{}: {e}", scene.source)))?;
+    // [disturbances] --disturbances FILE, --wind, --turbulence, --gust over the scene's tables.
+    a.disturb.apply(&mut cfg.disturbances, &scene.vehicle)?;
+    cfg.path_source = source.into();
+    cfg.planning_time_ms = planning_ms;
+    cfg.cbf = !a.no_cbf;
+    if let Some(v) = a.filter {
+        cfg.variant = v;
+    }
+    // Controller options: their ranges are the parameter table's, checked (naming the
+    // option, the value and the range) by check_run below with the scene's values.
+    for (x, field) in [
+        (a.mu, &mut cfg.params.mu),
+        (a.delta, &mut cfg.params.delta),
+        (a.delta1, &mut cfg.params.delta1),
+        (a.kp, &mut cfg.params.kp),
+        (a.kd, &mut cfg.params.kd),
+    ] {
+        if let Some(x) = x {
+            *field = x;
+        }
+    }
+    if let Some(x) = positive("duration", a.duration)? {
+        cfg.duration = x;
+    } else if scene.sim.duration.is_none() {
+        // [preflight] the default covers the whole flown path, start → first waypoint included.
+        cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
+    }
+    if let Some(x) = positive("sensing-range", a.sensing_range)? {
+        cfg.sensing_range = x;
+    }
+    if a.no_noise {
+        cfg.sensors.noise = false;
+    } else if a.noise {
+        cfg.sensors.noise = true;
+    }
+    cfg.seed = a.seed;
+    // Every setting against the core's limits and the caps, naming its origin.
+    crate::flight::validate::check_run(&scene, &cfg, &given(a)?)?;
+    cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
+    // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
+    let opts = crate::flight::preflight::PreflightOptions {
+        path_file: a.path.as_ref().map(|p| p.display().to_string()),
+        foreign_path: a.foreign_path,
+    };
+    crate::flight::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
+    Ok((scene, cfg))
+}
+
+/// The scene and run configuration of a `parapet run` command line (`args`: the
+/// options after `run`), exactly as `parapet run` flies it (`parapet campaign`
+/// flies its flights through this, so a flight's command reproduces it).
+pub fn run_config_from_args(args: &[String]) -> Result<(Scene, RunConfig), CliError> {
+    let argv = ["parapet run".to_string()].into_iter().chain(args.iter().cloned());
+    match RunCommandLine::try_parse_from(argv) {
+        Ok(RunCommandLine { run }) => run_setup(&run),
+        Err(e) => Err(CliError::BadInput(e.to_string())),
+    }
+}
+
+/// The options of `parapet run` alone (the binary's parser has every subcommand).
+#[derive(Debug, Parser)]
+#[command(name = "parapet run", bin_name = "parapet run", allow_negative_numbers = true)]
+struct RunCommandLine {
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+/// Run `f` with a progress bar (simulated seconds) on a terminal.
+fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> T {
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let pb = indicatif::ProgressBar::new((duration * 10.0).ceil() as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} sim {msg} [{bar:40}] {elapsed_precise}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb
+    });
+    let mut on_progress = |t: f64| {
+        if let Some(pb) = &bar {
+            pb.set_position((t * 10.0) as u64);
+            pb.set_message(format!("{t:6.1} s"));
+        }
+    };
+    let r = f(&mut on_progress);
+    if let Some(pb) = bar {
+        pb.finish_and_clear();
+    }
+    r
+}
+
+pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
+    let (scene, cfg) = run_setup(&a)?;
+    let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
+    check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
+    let result = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
+    let rec =
+        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
+    let (_, warnings) = write_report(&dir, &rec)?;
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    out(&format!("{}  report: {}\n", summary_table(&result.summary), dir.display()))
+}
+
+/// The report directory `dir` of `run` / `pil`: not an existing file, and none
+/// of the report's files is the scene or the path file.
+fn check_report_dir(
+    dir: &Path,
+    scene: &Scene,
+    path: Option<&Path>,
+    disturbances: Option<&Path>,
+) -> Result<(), CliError> {
+    if dir.is_file() {
+        return Err(InputError::option("out", "is an existing file, not a directory")
+            .value(dir.display())
+            .allowed("a directory (created if missing)")
+            .into());
+    }
+    let mut inputs: Vec<(&str, &Path)> = vec![("scene file", Path::new(&scene.source))];
+    if let Some(p) = path {
+        inputs.push(("path file", p));
+    }
+    if let Some(p) = disturbances {
+        inputs.push(("disturbances file", p));
+    }
+    refuse_overwrite("out", &report_files(dir), &inputs)
+}
+
+pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
+    use crate::fc::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
+    let (scene, cfg) = run_setup(&a.run)?;
+    let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
+    if timeout > limits::MAX_PIL_TIMEOUT_S {
+        return Err(InputError::option("timeout", "longer than the largest firmware timeout")
+            .value(num(timeout))
+            .allowed(format!("0 < timeout ≤ {} s", limits::MAX_PIL_TIMEOUT_S))
+            .into());
+    }
+    let elf = match &a.firmware {
+        Some(p) if !p.is_file() => {
+            return Err(CliError::BadInput(format!("option --firmware: {} is not a file", p.display())))
+        }
+        // QEMU would boot any bytes and die with a register dump (exit 1).
+        Some(p) if !crate::fc::pil::is_elf(p) => {
+            return Err(CliError::BadInput(format!(
+                "option --firmware: {} is not an ELF file (it does not start with 0x7f 'E' 'L' 'F'); \
+                 give the `parapet-firmware-qemu` build",
+                p.display()
+            )))
+        }
+        Some(p) => p.clone(),
+        None => build_firmware()?,
+    };
+    let mut opts = PilOptions::new(elf);
+    opts.timeout = std::time::Duration::from_secs_f64(timeout);
+    opts.resend_after = opts.resend_after.min(opts.timeout / 2);
+    let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
+    check_report_dir(&dir, &scene, a.run.path.as_deref(), a.run.disturb.disturbances.as_deref())?;
+    let (result, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
+    let rec =
+        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
+    let (_, warnings) = write_report(&dir, &rec)?;
+    add_figures_to_summary(&dir, &fig)?;
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    let ins = &fig.instructions_per_control_step;
+    out(&format!(
+        "{}  PIL: {} steps, real-time factor {:.3}; frames sent {}, received {}, dropped {}; \
+         instructions/step mean {:.0}, max {} (≥ {:.0} µs at 168 MHz)\n  report: {}\n",
+        summary_table(&result.summary),
+        fig.flight_steps,
+        fig.real_time_factor,
+        fig.frames_sent,
+        fig.frames_received,
+        fig.frames_dropped,
+        ins.mean,
+        ins.max,
+        ins.max_time_at_168mhz_us,
+        dir.display()
+    ))
+}
+
+pub fn cmd_plan(a: PlanArgs) -> Result<(), CliError> {
+    let scene_file = resolve_scene(&a.scene)?;
+    refuse_overwrite("out", std::slice::from_ref(&a.out), &[("scene file", scene_file.as_path())])?;
+    if a.out.is_dir() {
+        return Err(InputError::option("out", "is a directory, not a file").value(a.out.display()).into());
+    }
+    if a.out.exists() && !a.force && PathFile::read(&a.out).is_err() {
+        return Err(InputError::option("out", "the file exists and is not a parapet path file")
+            .value(a.out.display())
+            .allowed("a new file, a path file written by parapet, or --force to replace it")
+            .into());
+    }
+    if !(a.time_limit.is_finite() && a.time_limit > 0.0 && a.time_limit <= 3600.0) {
+        return Err(InputError::option("time-limit", "planner wall-clock budget out of range")
+            .value(num(a.time_limit))
+            .allowed("0 < time-limit ≤ 3600 s")
+            .into());
+    }
+    if !(1..=100_000_000).contains(&a.max_iterations) {
+        return Err(InputError::option("max-iterations", "planner iteration budget out of range")
+            .value(a.max_iterations)
+            .allowed("1 ≤ max-iterations ≤ 100000000")
+            .into());
+    }
+    let scene = load_scene(&scene_file)?;
+    let params = PlannerParams {
+        seed: a.seed,
+        time_budget_ms: a.time_limit * 1e3,
+        max_iterations: a.max_iterations,
+        ..PlannerParams::default()
+    };
+    let planned = plan_scene_with(&scene, params)?;
+    let file = PathFile::from_planned(&scene.name, &planned);
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    file.write(&a.out).map_err(|e| anyhow!("{e}"))?;
+    out(&format!(
+        "{}: {} waypoints, {:.2} m, {:.2} ms, {} iterations, seed {} -> {}\n",
+        scene.name,
+        planned.waypoints.len(),
+        planned.length_m,
+        planned.planning_time_ms,
+        planned.iterations,
+        planned.seed,
+        a.out.display()
+    ))
+}
+
+pub fn cmd_replay(a: ReplayArgs) -> Result<(), CliError> {
+    let mut inputs: Vec<(&str, &Path)> = vec![("input CSV", a.inputs.as_path())];
+    if let Some(v) = &a.vehicle {
+        inputs.push(("vehicle file", v.as_path()));
+    }
+    refuse_overwrite("out", std::slice::from_ref(&a.out), &inputs)?;
+    if !(limits::MIN_DT_S..=limits::MAX_DT_S).contains(&a.dt) {
+        return Err(InputError::option("dt", "integration step out of range")
+            .value(num(a.dt))
+            .allowed(format!("{:e} ≤ dt ≤ {:e} s", limits::MIN_DT_S, limits::MAX_DT_S))
+            .into());
+    }
+    if let Some(k) = a.start.iter().position(|x| x.abs() > limits::MAX_COORDINATE_M) {
+        return Err(InputError::option("start", "coordinate out of range")
+            .value(num(a.start[k]))
+            .allowed(format!("|x| ≤ {} m", limits::MAX_COORDINATE_M))
+            .into());
+    }
+    // The same cap as `run --wind` (a 1e300 m/s wind flew to 1e302 m).
+    let max_wind = crate::sim::disturbance::wind::MAX_WIND_MPS;
+    if let Some(k) = a.wind.iter().position(|x| x.abs() > max_wind) {
+        return Err(InputError::option("wind", "wind component out of range")
+            .value(num(a.wind[k]))
+            .allowed(format!("|x| ≤ {max_wind} m/s"))
+            .into());
+    }
+    let vehicle = match &a.vehicle {
+        Some(p) => load_vehicle(p)?,
+        None => VehicleParams::default(),
+    };
+    if let Some(w) = a.initial_speed.filter(|w| !(0.0..=vehicle.omega_max).contains(w)) {
+        return Err(InputError::option("initial-speed", "rotor speed out of the vehicle's range")
+            .value(num(w))
+            .allowed(format!("0 ≤ initial-speed ≤ omega_max = {} rad/s", num(vehicle.omega_max)))
+            .into());
+    }
+    let src = crate::input::read_text(&a.inputs)?;
+    let rows =
+        parse_rotor_csv(&src).map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;
+    let opts = ReplayOptions {
+        dt: a.dt,
+        start_ned: Vector3::new(a.start[0], a.start[1], a.start[2]),
+        motor_lag: a.motor_lag,
+        ground: a.ground,
+        initial_speed: a.initial_speed.map(|w| [w; 4]),
+        wind_ned: Vector3::from(a.wind),
+    };
+    let csv = replay(vehicle, &rows, &opts)
+        .map_err(|e| CliError::BadInput(format!("{}: {e}", a.inputs.display())))?;
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
+    }
+    std::fs::write(&a.out, csv).map_err(|e| anyhow!("cannot write {}: {e}", a.out.display()))?;
+    out(&format!("replayed {} samples -> {}\n", rows.len(), a.out.display()))
+}

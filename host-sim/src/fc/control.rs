@@ -1,0 +1,138 @@
+//! Adapter between the runner and [`parapet_core::controller::FlightController`]:
+//! f64 simulator types ↔ f32 core types, simulator time ↔ controller clock,
+//! and the start-up sequence.
+//!
+//! * **Clock**: [`crate::flight::stack::clock_us`].
+//! * **Start-up** (at t = 0, vehicle hovering at the start): one IMU sample
+//!   initialises the estimator, a position fix and the obstacle report are
+//!   given, then `arm`, `hold_position(start)`, one outer step (the reference
+//!   becomes the start) and `start_mission`.
+//! * **Position fixes** carry the time they were measured (so the controller's
+//!   latency compensation by extrapolation applies) and the true yaw (a motion
+//!   capture system measures it).
+//! * **`--no-cbf`**: the controller is told that no obstacle is in range (an
+//!   empty report), so its filter passes the nominal input through unchanged
+//!   (region "none"). The controller itself is the same.
+
+use anyhow::{anyhow, Result};
+use nalgebra::Vector3;
+use parapet_core::cbf::CbfParams;
+use parapet_core::controller::{CommandError, ControllerParams, FlightController, PositionFix, Telemetry};
+use parapet_core::estimator::ImuSample;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::Vec3;
+
+use crate::flight::runner::{controller_params, run_with, RunConfig, RunOutput};
+use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::{to_f32, Scene};
+
+/// The flight controller as the runner drives it.
+pub struct Controller {
+    fc: FlightController,
+    cbf: bool,
+}
+
+impl Controller {
+    /// Build the controller and give it the path. Errors name the rejected parameter or path.
+    pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
+        Self::with_params(scene, cfg, controller_params(scene, cfg, cbf, cfg.variant))
+    }
+
+    /// [`new`](Self::new) with explicit controller parameters (e.g. [`controller_params`]
+    /// with a slowed attitude loop, for tests).
+    pub fn with_params(scene: &Scene, cfg: &RunConfig, params: ControllerParams) -> Result<Self> {
+        let mut fc = FlightController::new(params)
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &params, e)))?;
+        let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();
+        fc.set_path(&wps).map_err(|e| {
+            anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
+        })?;
+        Ok(Controller { fc, cbf: cfg.cbf })
+    }
+
+    fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
+        if self.cbf {
+            self.fc.update_obstacles(now, obstacles);
+        } else {
+            self.fc.update_obstacles(now, &[]);
+        }
+    }
+
+    /// Latest telemetry.
+    pub fn telemetry(&self) -> Telemetry {
+        self.fc.telemetry()
+    }
+}
+
+impl FlightStack for Controller {
+    /// Start-up at simulated time `t` (see the module docs).
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()> {
+        let now = clock_us(t);
+        self.fc.step_inner(now, &imu_sample(imu));
+        self.position_fix(fix);
+        self.report_obstacles(now, obstacles);
+        self.fc.arm(now).map_err(|e| match e {
+            CommandError::Arm(r) => anyhow!("the flight controller refused to arm at the start: {r}"),
+            other => anyhow!(
+                "the flight controller refused to arm at the start: {}",
+                crate::flight::validate::describe_command_error(other)
+            ),
+        })?;
+        self.fc
+            .hold_position(now, to_f32(&start))
+            .map_err(|e| anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e)))?;
+        self.fc.step_outer(now);
+        self.fc.start_mission(now).map_err(|e| {
+            anyhow!("mission start refused: {}", crate::flight::validate::describe_command_error(e))
+        })?;
+        Ok(())
+    }
+
+    /// A position/velocity/yaw fix (measured at `fix.t_measured`).
+    fn position_fix(&mut self, fix: PositionReading) {
+        self.fc.update_position(PositionFix {
+            t_us: clock_us(fix.t_measured),
+            position: to_f32(&fix.position),
+            velocity: to_f32(&fix.velocity),
+            yaw: Some(fix.yaw as f32),
+        });
+    }
+
+    /// One outer step at simulated time `t` with the obstacles the proximity sensor reports.
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+        let now = clock_us(t);
+        self.report_obstacles(now, obstacles);
+        self.fc.step_outer(now);
+        OuterOut::from_telemetry(&self.fc.telemetry())
+    }
+
+    /// One inner step at simulated time `t`: IMU in, throttles out.
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+        self.fc.step_inner(clock_us(t), &imu_sample(imu)).throttle
+    }
+
+    fn state_name(&self) -> String {
+        format!("{:?}", self.fc.state())
+    }
+}
+
+fn imu_sample(imu: &ImuReading) -> ImuSample {
+    ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) }
+}
+
+/// Fly `scene` with `cfg` and the in-process [`Controller`] (`parapet-core`'s
+/// `FlightController`). `progress` is called with the simulated time (s) about
+/// 10 times per simulated second.
+pub fn run(scene: &Scene, cfg: &RunConfig, progress: &mut dyn FnMut(f64)) -> Result<RunOutput> {
+    let cbf = cfg.cbf_params()?;
+    let mut ctrl = Controller::new(scene, cfg, cbf)?;
+    run_with(scene, cfg, &mut ctrl, progress)
+}

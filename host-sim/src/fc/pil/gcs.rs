@@ -1,0 +1,221 @@
+//! The ground-station side of the link: what the host sends the firmware and
+//! how (MAVLink messages of the wire contract `parapet_core::wire`), and the
+//! settings it uploads: the parameters ([`firmware_params`]), the mission as the
+//! firmware stores it ([`quantised_path`]), the start-up timing ([`preroll_start`]).
+//!
+//! May import: `parapet-core` (params, wire contract), mavlink,
+//! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`]
+//! (readings), [`crate::world::scene`].
+
+use anyhow::{anyhow, Result};
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavMessage, MavParamType, COMMAND_LONG_DATA, DEBUG_VECT_DATA, HIL_SENSOR_DATA,
+    MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
+};
+use nalgebra::Vector3;
+use parapet_core::controller::ControllerParams;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::params;
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::codes::odometry_quaternion;
+use parapet_core::wire::ids::{
+    local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, VEHICLE_SYSTEM_ID,
+};
+use parapet_core::wire::names::OBSTACLE_VELOCITY_PREFIX;
+use parapet_core::Vec3;
+
+use crate::flight::runner::RunConfig;
+use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::Scene;
+
+/// Warm-up of the estimator before arming, steps (1 ms).
+pub(super) const WARMUP_STEPS: u64 = 300;
+
+/// The controller parameters the firmware flies with for `scene` and `cfg`: exactly those of
+/// `parapet run` ([`crate::flight::runner::controller_params`]: the scene's vehicle, the run's CBF,
+/// tracking and speed settings), with the PARAM_SETs that take the firmware from its boot
+/// defaults (`ControllerParams::default()`) there: every entry of the parameter table
+/// ([`parapet_core::params::TABLE`]) whose value differs, in table order. No order is needed:
+/// the firmware checks each value against its own range only and flies the stored set once it
+/// is consistent, which it is after the last one. Errors: the set is invalid (in words), a value
+/// is outside its parameter's range, or a setting differs in a field no parameter sets.
+pub fn firmware_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+) -> Result<(ControllerParams, Vec<(&'static str, f32)>)> {
+    let p = crate::flight::runner::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    p.validate().map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)))?;
+    let mut fw = ControllerParams::default();
+    let mut updates = Vec::new();
+    for d in &params::TABLE {
+        let v = (d.get)(&p);
+        if v.to_bits() == (d.get)(&fw).to_bits() {
+            continue;
+        }
+        params::set(&mut fw, d.name, v).map_err(|_| {
+            anyhow!("the run's {} = {v} is outside the firmware's parameter range ({})", d.name, d.range())
+        })?;
+        updates.push((d.name, v));
+    }
+    if fw != p {
+        return Err(anyhow!(
+            "the run's controller settings differ from the firmware's defaults in a field no \
+             parameter sets (e.g. per-axis gains or loop rates)"
+        ));
+    }
+    Ok((p, updates))
+}
+
+/// The path as the firmware stores it after MISSION_ITEM_INT (x, y quantised to 0.1 mm), NED.
+pub fn quantised_path(path: &[Vector3<f64>]) -> Vec<Vec3> {
+    path.iter()
+        .map(|w| {
+            let (x, y) = mission_xy(w);
+            Vec3::new(local_xy_from_wire(x), local_xy_from_wire(y), w.z as f32)
+        })
+        .collect()
+}
+
+fn mission_xy(w: &Vector3<f64>) -> (i32, i32) {
+    (local_xy_to_wire(w.x), local_xy_to_wire(w.y))
+}
+
+/// First pre-roll step time, µs, for a path of `n_wp` waypoints (a multiple of the outer period
+/// before `t0_us`).
+pub(super) fn preroll_start(t0_us: u64, n_params: usize, n_wp: usize, sched: &OuterSchedule) -> u64 {
+    let div = sched.divider();
+    let steps = (n_params + 2 * n_wp + 8) as u64 + WARMUP_STEPS + div;
+    let steps = steps.div_ceil(div) * div;
+    t0_us.saturating_sub(steps * 1000)
+}
+
+/// ODOMETRY with a fix measured at `t_us`: position, velocity (NED) and the heading as the
+/// level quaternion of the wire contract.
+pub(super) fn odometry(t_us: u64, fix: &PositionReading) -> MavMessage {
+    MavMessage::ODOMETRY(ODOMETRY_DATA {
+        time_usec: t_us,
+        x: fix.position.x as f32,
+        y: fix.position.y as f32,
+        z: fix.position.z as f32,
+        vx: fix.velocity.x as f32,
+        vy: fix.velocity.y as f32,
+        vz: fix.velocity.z as f32,
+        q: odometry_quaternion(fix.yaw as f32),
+        frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+        child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+        ..Default::default()
+    })
+}
+
+/// The obstacle batch of an outer step: per point its velocity (`DEBUG_VECT OBV<id>`, moving
+/// obstacles only) then the point (OBSTACLE_DISTANCE_3D); an empty batch is one
+/// OBSTACLE_DISTANCE_3D with [`CLEAR_ID`].
+pub(super) fn obstacle_batch(t_us: u64, shown: &[ObstaclePoint]) -> Vec<MavMessage> {
+    let time_boot_ms = (t_us / 1000) as u32;
+    if shown.is_empty() {
+        return vec![MavMessage::OBSTACLE_DISTANCE_3D(OBSTACLE_DISTANCE_3D_DATA {
+            time_boot_ms,
+            obstacle_id: CLEAR_ID,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            ..Default::default()
+        })];
+    }
+    let mut out = Vec::with_capacity(2 * shown.len());
+    for o in shown {
+        if let Some(v) = o.velocity.filter(|v| v.iter().any(|c| *c != 0.0)) {
+            out.push(MavMessage::DEBUG_VECT(DEBUG_VECT_DATA {
+                time_usec: t_us,
+                x: v.x,
+                y: v.y,
+                z: v.z,
+                name: char_array(&format!("{OBSTACLE_VELOCITY_PREFIX}{}", o.id)),
+            }));
+        }
+        out.push(MavMessage::OBSTACLE_DISTANCE_3D(OBSTACLE_DISTANCE_3D_DATA {
+            time_boot_ms,
+            obstacle_id: o.id,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            x: o.point.x,
+            y: o.point.y,
+            z: o.point.z,
+            ..Default::default()
+        }));
+    }
+    out
+}
+
+/// COMMAND_LONG `command` with parameters `p` to the vehicle's autopilot.
+pub(super) fn command_long(command: MavCmd, p: [f32; 7]) -> MavMessage {
+    MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        param1: p[0],
+        param2: p[1],
+        param3: p[2],
+        param4: p[3],
+        param5: p[4],
+        param6: p[5],
+        param7: p[6],
+        command,
+        target_system: VEHICLE_SYSTEM_ID,
+        target_component: AUTOPILOT_COMPONENT_ID,
+        confirmation: 0,
+    })
+}
+
+/// PARAM_SET `name = value` (REAL32).
+pub(super) fn param_set(name: &str, value: f32) -> MavMessage {
+    MavMessage::PARAM_SET(PARAM_SET_DATA {
+        param_value: value,
+        target_system: VEHICLE_SYSTEM_ID,
+        target_component: AUTOPILOT_COMPONENT_ID,
+        param_id: char_array(name),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    })
+}
+
+/// MISSION_COUNT of a path of `n` waypoints.
+pub(super) fn mission_count(n: usize) -> MavMessage {
+    MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+        count: n as u16,
+        target_system: VEHICLE_SYSTEM_ID,
+        target_component: AUTOPILOT_COMPONENT_ID,
+    })
+}
+
+/// MISSION_ITEM_INT `seq` at waypoint `w` (NED; x, y in the wire's 10⁻⁴ m).
+pub(super) fn mission_item(seq: u16, w: &Vector3<f64>) -> MavMessage {
+    let (x, y) = mission_xy(w);
+    MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+        x,
+        y,
+        z: w.z as f32,
+        seq,
+        command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+        frame: MavFrame::MAV_FRAME_LOCAL_NED,
+        target_system: VEHICLE_SYSTEM_ID,
+        target_component: AUTOPILOT_COMPONENT_ID,
+        autocontinue: 1,
+        ..Default::default()
+    })
+}
+
+/// HIL_SENSOR of the step at `t_us` (the lockstep trigger).
+pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading) -> MavMessage {
+    MavMessage::HIL_SENSOR(HIL_SENSOR_DATA {
+        time_usec: t_us,
+        xgyro: imu.gyro.x as f32,
+        ygyro: imu.gyro.y as f32,
+        zgyro: imu.gyro.z as f32,
+        xacc: imu.accel.x as f32,
+        yacc: imu.accel.y as f32,
+        zacc: imu.accel.z as f32,
+        ..Default::default()
+    })
+}
+
+fn char_array<const N: usize>(s: &str) -> mavlink::types::CharArray<N> {
+    let mut b = [0u8; N];
+    for (d, c) in b.iter_mut().zip(s.bytes()) {
+        *d = c;
+    }
+    b.into()
+}

@@ -1,0 +1,543 @@
+//! [`PilLink`]: the firmware in QEMU behind the [`FlightStack`] interface. Owns
+//! the lockstep exchange (queued frames, HIL_SENSOR, wait for the step's
+//! HIL_ACTUATOR_CONTROLS, re-send, time out), the handshake and the start-up
+//! sequence (parameters, mission upload, warm-up, arming), and the latching of
+//! failures (see the module docs of [`super`]).
+//!
+//! May import: `parapet-core` (wire contract, schedule, waypoint follower),
+//! mavlink, the other [`super`] modules, [`crate::flight`], [`crate::sim::sensors`],
+//! [`crate::world::scene`].
+
+use std::io::Write;
+use std::net::{Shutdown, TcpStream};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavMessage, MavMissionResult, MavModeFlag, MavResult, HEARTBEAT_DATA,
+};
+use mavlink::{MAVLinkV2MessageRaw, MavHeader};
+use nalgebra::Vector3;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::waypoint::WaypointFollower;
+use parapet_core::wire::codes::FlightPhase;
+use parapet_core::wire::ids::{HOST_COMPONENT_ID, HOST_SYSTEM_ID, VEHICLE_SYSTEM_ID};
+use parapet_core::wire::lockstep::MotorCommand;
+use parapet_core::wire::names::{self, PANIC_TEXT, PIL_READY_TEXT};
+
+use super::faults::Injector;
+use super::firmware::firmware_build_command;
+use super::gcs::{
+    command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch, odometry,
+    param_set, preroll_start, quantised_path, WARMUP_STEPS,
+};
+use super::qemu::{reader_thread, start_qemu, Inbound, QemuGuard};
+use super::telemetry::{figures, observe, FirmwareTelemetry, PilFigures};
+use super::PilOptions;
+use crate::flight::runner::RunConfig;
+use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::{to_f32, Scene};
+
+/// Answer of one lockstep step.
+#[derive(Debug, Default)]
+struct StepAnswer {
+    throttle: [f32; 4],
+    replies: Vec<MavMessage>,
+}
+
+/// The firmware in QEMU behind the [`FlightStack`] interface.
+pub struct PilLink {
+    qemu: QemuGuard,
+    sock: TcpStream,
+    rx: Receiver<Inbound>,
+    opts: PilOptions,
+    seq: u8,
+    queue: Vec<Vec<u8>>,
+    injector: Injector,
+    in_flight: bool,
+    last_fw_seq: Option<u8>,
+    fig: PilFigures,
+    ins: Vec<(u64, bool)>,
+    /// `ins_outer` of the flight steps, and the one of the step being answered.
+    ins_outer: Vec<u64>,
+    pending_outer: Option<(u64, u64)>,
+    /// PARAM_SETs of the start-up (name, value), in order.
+    param_updates: Vec<(&'static str, f32)>,
+    path: Vec<Vector3<f64>>,
+    cbf: bool,
+    follower: WaypointFollower<{ parapet_core::controller::PATH_CAPACITY }>,
+    mission_t0_us: Option<u64>,
+    mission_start_pending: bool,
+    telemetry: FirmwareTelemetry,
+    /// The firmware's outer-loop schedule (from its parameters).
+    schedule: OuterSchedule,
+    last_t_us: u64,
+    fault: Option<String>,
+    flight_wall: Duration,
+    flight_sim_steps: u64,
+}
+
+impl PilLink {
+    /// Start QEMU with the firmware, connect, handshake. `scene` and `cfg` give the parameters
+    /// (see [`firmware_params`]) and the path (sent in [`FlightStack::start`]).
+    pub fn spawn(scene: &Scene, cfg: &RunConfig, opts: PilOptions) -> Result<PilLink> {
+        let (params, param_updates) = firmware_params(scene, cfg)?;
+        if cfg.path.len() > parapet_core::controller::PATH_CAPACITY {
+            bail!("the path has {} waypoints; the firmware stores at most 64", cfg.path.len());
+        }
+        if !opts.firmware.is_file() {
+            bail!(
+                "firmware ELF {} not found; build it with: {:?} (or omit --firmware to build it)",
+                opts.firmware.display(),
+                firmware_build_command()
+            );
+        }
+        let wall = Instant::now();
+        let (qemu, sock) = start_qemu(&opts)?;
+        sock.set_nodelay(true).context("TCP_NODELAY")?;
+        sock.set_write_timeout(Some(opts.timeout)).context("socket write timeout")?;
+        let read_half = sock.try_clone().context("socket clone")?;
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || reader_thread(read_half, tx));
+        let mut follower = WaypointFollower::new(params.waypoint).map_err(|e| {
+            anyhow!("waypoint parameters: {}", crate::flight::validate::describe_path_error(e))
+        })?;
+        follower
+            .set_path(&quantised_path(&cfg.path))
+            .map_err(|e| anyhow!("path rejected: {}", crate::flight::validate::describe_path_error(e)))?;
+        let mut link = PilLink {
+            qemu,
+            sock,
+            rx,
+            seq: 0,
+            queue: Vec::new(),
+            injector: Injector::new(opts.faults.clone()),
+            opts,
+            in_flight: false,
+            last_fw_seq: None,
+            fig: PilFigures::default(),
+            ins: Vec::new(),
+            ins_outer: Vec::new(),
+            pending_outer: None,
+            param_updates,
+            path: cfg.path.clone(),
+            cbf: cfg.cbf,
+            follower,
+            mission_t0_us: None,
+            mission_start_pending: false,
+            telemetry: FirmwareTelemetry::default(),
+            schedule: OuterSchedule::new(&params),
+            last_t_us: 0,
+            fault: None,
+            flight_wall: Duration::ZERO,
+            flight_sim_steps: 0,
+        };
+        link.fig.firmware = link.opts.firmware.display().to_string();
+        link.handshake().map_err(|e| link.with_qemu_log(e))?;
+        link.fig.startup_wall_s = wall.elapsed().as_secs_f64();
+        Ok(link)
+    }
+
+    /// Process id of QEMU (for fault-injection tests: SIGSTOP / kill).
+    pub fn qemu_pid(&self) -> u32 {
+        self.qemu.child.id()
+    }
+
+    /// The latched failure, if the link failed during the flight.
+    pub fn fault(&self) -> Option<&str> {
+        self.fault.as_deref()
+    }
+
+    fn with_qemu_log(&self, e: anyhow::Error) -> anyhow::Error {
+        let log = self.qemu.stderr_text();
+        if log.is_empty() {
+            e
+        } else {
+            e.context(format!("QEMU stderr: {log}"))
+        }
+    }
+
+    /// Figures so far.
+    pub fn figures(&self) -> PilFigures {
+        figures(&self.fig, &self.ins, &self.ins_outer, self.flight_wall, self.flight_sim_steps)
+    }
+
+    fn header(&mut self) -> MavHeader {
+        let h = MavHeader {
+            system_id: u32::from(HOST_SYSTEM_ID),
+            component_id: HOST_COMPONENT_ID,
+            sequence: self.seq,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        h
+    }
+
+    /// Queue `m` for the next step (sent before its HIL_SENSOR).
+    fn queue(&mut self, m: &MavMessage) {
+        let bytes = self.frame(m);
+        self.queue.push(bytes);
+    }
+
+    /// `m` as a MAVLink v2 frame with the next sequence number.
+    fn frame(&mut self, m: &MavMessage) -> Vec<u8> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        let h = self.header();
+        raw.serialize_message(h, m);
+        raw.raw_bytes().to_vec()
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> Result<()> {
+        self.sock
+            .write_all(bytes)
+            .context("cannot write to QEMU's serial socket (firmware stalled or QEMU gone)")
+    }
+
+    /// Next inbound message within `timeout`.
+    fn recv(&mut self, timeout: Duration) -> Result<Option<MavMessage>> {
+        match self.rx.recv_timeout(timeout) {
+            Ok(Inbound::Msg(h, m)) => {
+                if h.system_id == u32::from(VEHICLE_SYSTEM_ID) {
+                    if let Some(last) = self.last_fw_seq {
+                        self.fig.host_sequence_gaps +=
+                            u64::from(h.sequence.wrapping_sub(last.wrapping_add(1)));
+                    }
+                    self.last_fw_seq = Some(h.sequence);
+                }
+                self.fig.frames_received += 1;
+                observe(&m, &mut self.telemetry, &mut self.fig);
+                Ok(Some(*m))
+            }
+            Ok(Inbound::DecodeError) => {
+                self.fig.host_decode_errors += 1;
+                Ok(None)
+            }
+            Ok(Inbound::Closed(why)) => Err(self.with_qemu_log(anyhow!("QEMU closed the link: {why}"))),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(anyhow!("link reader stopped")),
+        }
+    }
+
+    fn handshake(&mut self) -> Result<()> {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                bail!("no HEARTBEAT from the firmware within 20 s of connecting");
+            }
+            if let Some(MavMessage::HEARTBEAT(_)) = self.recv(left.min(Duration::from_millis(200)))? {
+                break;
+            }
+        }
+        self.queue(&MavMessage::HEARTBEAT(HEARTBEAT_DATA::default()));
+        let frames = std::mem::take(&mut self.queue);
+        for f in &frames {
+            self.write_all(f)?;
+            self.fig.frames_sent += 1;
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut ready = false;
+        while !ready {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                bail!("no \"{PIL_READY_TEXT}\" within 10 s of the host HEARTBEAT");
+            }
+            if let Some(MavMessage::STATUSTEXT(s)) = self.recv(left.min(Duration::from_millis(200)))? {
+                ready = String::from_utf8_lossy(&s.text[..]).contains(PIL_READY_TEXT);
+            }
+        }
+        let i = &self.fig.instructions_per_control_step;
+        if i.calibration_ticks <= 0 || i.calibration_instructions <= 0 {
+            bail!(
+                "the firmware sent no instruction calibration ({}, {}) before \"{PIL_READY_TEXT}\"",
+                names::INS_CAL,
+                names::INS_CAL_N
+            );
+        }
+        Ok(())
+    }
+
+    /// One lockstep step at firmware time `t_us`: queued frames, HIL_SENSOR, wait for the answer.
+    fn step(&mut self, t_us: u64, imu: &ImuReading) -> Result<StepAnswer> {
+        let inject = self.in_flight;
+        let frames = std::mem::take(&mut self.queue);
+        let mut out = self.injector.frames(frames, inject, &mut self.fig);
+        let trigger = self.frame(&hil_sensor(t_us, imu));
+        if self.injector.lose_trigger(inject, self.flight_sim_steps + 1) {
+            self.fig.injected_dropped += 1;
+        } else {
+            out.extend_from_slice(&trigger);
+            self.fig.frames_sent += 1;
+        }
+        self.write_all(&out)?;
+        let sent = Instant::now();
+        let mut last_send = sent;
+        let mut ans = StepAnswer::default();
+        loop {
+            let now = Instant::now();
+            if now.duration_since(sent) >= self.opts.timeout {
+                bail!(
+                    "the firmware stopped answering: no HIL_ACTUATOR_CONTROLS for t = {t_us} µs within {:.1} s",
+                    self.opts.timeout.as_secs_f64()
+                );
+            }
+            if now.duration_since(last_send) >= self.opts.resend_after {
+                self.write_all(&trigger)?;
+                self.fig.frames_sent += 1;
+                self.fig.steps_resent += 1;
+                last_send = now;
+            }
+            let wait = (sent + self.opts.timeout)
+                .min(last_send + self.opts.resend_after)
+                .saturating_duration_since(now)
+                .max(Duration::from_millis(1));
+            let Some(m) = self.recv(wait)? else { continue };
+            match m {
+                MavMessage::HIL_ACTUATOR_CONTROLS(c) if c.time_usec == t_us => {
+                    let armed = c.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+                    ans.throttle = MotorCommand::from_actuator_controls(&c.controls, armed).throttle;
+                    break;
+                }
+                MavMessage::HIL_ACTUATOR_CONTROLS(_) => {} // answer to a re-sent older step
+                MavMessage::NAMED_VALUE_INT(n)
+                    if n.name.to_str().unwrap_or("") == names::INS_OUTER
+                        && n.time_boot_ms as u64 == t_us / 1000
+                        && self.in_flight =>
+                {
+                    self.pending_outer = Some((t_us, n.value.max(0) as u64));
+                }
+                MavMessage::NAMED_VALUE_INT(n)
+                    if n.name.to_str().unwrap_or("") == names::INS_STEP
+                        && n.time_boot_ms as u64 == t_us / 1000
+                        && self.in_flight =>
+                {
+                    // `ins_outer` comes first in the answer of a step that ran the outer loop.
+                    let outer = self.pending_outer.take().filter(|p| p.0 == t_us).map(|p| p.1);
+                    self.ins_outer.extend(outer);
+                    self.ins.push((n.value.max(0) as u64, outer.is_some()));
+                }
+                m @ (MavMessage::COMMAND_ACK(_)
+                | MavMessage::MISSION_REQUEST_INT(_)
+                | MavMessage::MISSION_ACK(_)
+                | MavMessage::PARAM_VALUE(_)) => ans.replies.push(m),
+                MavMessage::STATUSTEXT(s) if String::from_utf8_lossy(&s.text[..]).contains(PANIC_TEXT) => {
+                    bail!("the firmware panicked (STATUSTEXT PANIC) at t = {t_us} µs");
+                }
+                _ => {}
+            }
+        }
+        self.last_t_us = t_us;
+        Ok(ans)
+    }
+
+    fn queue_odometry(&mut self, t_us: u64, fix: &PositionReading) {
+        self.queue(&odometry(t_us, fix));
+    }
+
+    fn queue_obstacles(&mut self, t_us: u64, obstacles: &[ObstaclePoint]) {
+        let shown: &[ObstaclePoint] = if self.cbf { obstacles } else { &[] };
+        for m in obstacle_batch(t_us, shown) {
+            self.queue(&m);
+        }
+    }
+
+    fn command(&mut self, command: MavCmd, p: [f32; 7]) {
+        self.queue(&command_long(command, p));
+    }
+
+    /// Start-up before `t0_us` (see the module docs).
+    fn startup(
+        &mut self,
+        t0_us: u64,
+        start: Vector3<f64>,
+        fix: &PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()> {
+        let table = self.param_updates.clone();
+        let path = self.path.clone();
+        let sched = self.schedule;
+        let (period, div) = (sched.period_us(), sched.divider());
+        let mut t = preroll_start(t0_us, table.len(), path.len(), &sched);
+        let mut steps = 0u64;
+        // Parameters, one per step, each checked.
+        for (name, value) in table {
+            self.queue(&param_set(name, value));
+            let ans = self.step(t, imu)?;
+            t += 1000;
+            steps += 1;
+            let got = ans.replies.iter().find_map(|m| match m {
+                MavMessage::PARAM_VALUE(v) if v.param_id.to_str().unwrap_or("") == name => {
+                    Some(v.param_value)
+                }
+                _ => None,
+            });
+            match got {
+                Some(v) if v == value => {}
+                Some(v) => bail!("the firmware refused parameter {name} = {value} (value in effect {v})"),
+                None => bail!("no PARAM_VALUE answer to PARAM_SET {name}"),
+            }
+        }
+        // Mission upload.
+        self.queue(&mission_count(path.len()));
+        let mut accepted = false;
+        for _ in 0..(4 * path.len() + 8) {
+            let ans = self.step(t, imu)?;
+            t += 1000;
+            steps += 1;
+            for m in &ans.replies {
+                match m {
+                    MavMessage::MISSION_REQUEST_INT(r) => {
+                        let w = path
+                            .get(r.seq as usize)
+                            .ok_or_else(|| anyhow!("the firmware requested mission item {}", r.seq))?;
+                        self.queue(&mission_item(r.seq, w));
+                    }
+                    MavMessage::MISSION_ACK(a) if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED => {
+                        accepted = true
+                    }
+                    MavMessage::MISSION_ACK(a) => bail!("the firmware refused the mission: {:?}", a.mavtype),
+                    _ => {}
+                }
+            }
+            if accepted {
+                break;
+            }
+        }
+        if !accepted {
+            bail!("mission upload did not complete");
+        }
+        let warmup_from = t0_us - (WARMUP_STEPS + div) * 1000;
+        if t > warmup_from {
+            bail!("internal: pre-roll too short for the start-up");
+        }
+        // Warm-up with fixes and obstacles at the outer rate; arm and hold the start at T0 − 4 ms.
+        while t < t0_us {
+            if (t0_us - t).is_multiple_of(period) && t > warmup_from {
+                self.queue_odometry(t, fix);
+                self.queue_obstacles(t, obstacles);
+            }
+            let arm_step = t == t0_us - period;
+            if arm_step {
+                self.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+                let s = to_f32(&start);
+                self.command(MavCmd::MAV_CMD_OVERRIDE_GOTO, [0.0, 3.0, 1.0, 0.0, s.x, s.y, s.z]);
+            }
+            let ans = self.step(t, imu)?;
+            steps += 1;
+            if arm_step {
+                let acks: Vec<_> = ans
+                    .replies
+                    .iter()
+                    .filter_map(|m| match m {
+                        MavMessage::COMMAND_ACK(a) => Some((a.command, a.result)),
+                        _ => None,
+                    })
+                    .collect();
+                for cmd in [MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, MavCmd::MAV_CMD_OVERRIDE_GOTO] {
+                    match acks.iter().find(|a| a.0 == cmd) {
+                        Some((_, MavResult::MAV_RESULT_ACCEPTED)) => {}
+                        Some((_, r)) => bail!("the firmware refused {cmd:?}: {r:?}"),
+                        None => bail!("no COMMAND_ACK for {cmd:?}"),
+                    }
+                }
+            }
+            t += 1000;
+        }
+        self.fig.startup_steps = steps;
+        // MISSION_START goes with the first flight step (processed at T0 − 1 ms).
+        self.mission_start_pending = true;
+        self.mission_t0_us = Some(t0_us - 1000);
+        // Armed and holding (both acknowledged); the 1 Hz HEARTBEAT takes over from here.
+        (self.telemetry.armed, self.telemetry.phase) = (true, FlightPhase::Mission.code());
+        self.follower
+            .start(to_f32(&start))
+            .map_err(|e| anyhow!("follower: {}", crate::flight::validate::describe_path_error(e)))?;
+        self.in_flight = true;
+        Ok(())
+    }
+
+    fn latch(&mut self, e: anyhow::Error) {
+        if self.fault.is_none() {
+            self.fault = Some(format!("{:#}", self.with_qemu_log(e)));
+        }
+    }
+}
+
+impl Drop for PilLink {
+    fn drop(&mut self) {
+        let _ = self.sock.shutdown(Shutdown::Both);
+    }
+}
+
+impl FlightStack for PilLink {
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()> {
+        let r = self.startup(clock_us(t), start, &fix, obstacles, imu);
+        r.map_err(|e| self.with_qemu_log(e))
+    }
+
+    fn position_fix(&mut self, fix: PositionReading) {
+        if self.fault.is_none() {
+            self.queue_odometry(clock_us(fix.t_measured), &fix);
+        }
+    }
+
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+        let now = clock_us(t);
+        if self.fault.is_none() {
+            self.queue_obstacles(now, obstacles);
+            if self.mission_start_pending {
+                self.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]);
+            }
+        }
+        let age = now.saturating_sub(self.mission_t0_us.unwrap_or(now));
+        let s = self.follower.sample(age as f32 * 1e-6);
+        self.telemetry.outer_out(&s)
+    }
+
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+        if self.fault.is_some() {
+            return [0.0; 4];
+        }
+        let wall = Instant::now();
+        let r = self.step(clock_us(t), imu);
+        self.flight_wall += wall.elapsed();
+        self.flight_sim_steps += 1;
+        match r {
+            Ok(ans) => {
+                if self.mission_start_pending {
+                    self.mission_start_pending = false;
+                    let ok = ans.replies.iter().any(|m| {
+                        matches!(m, MavMessage::COMMAND_ACK(a) if a.command == MavCmd::MAV_CMD_MISSION_START
+                            && a.result == MavResult::MAV_RESULT_ACCEPTED)
+                    });
+                    if !ok {
+                        self.latch(anyhow!("the firmware did not accept MISSION_START: {:?}", ans.replies));
+                        return [0.0; 4];
+                    }
+                }
+                ans.throttle
+            }
+            Err(e) => {
+                self.latch(e);
+                [0.0; 4]
+            }
+        }
+    }
+
+    fn state_name(&self) -> String {
+        if let Some(f) = &self.fault {
+            return format!("LinkFailed: {f}");
+        }
+        self.telemetry.state_name().into()
+    }
+}

@@ -1,0 +1,288 @@
+//! What the host reads from the firmware: the telemetry decoded with the wire
+//! contract's names and codes (`parapet_core::wire`) — filter diagnostics, the
+//! nominal and filtered acceleration, the flight phase, the link counters, the
+//! instruction counts — and the PIL figures of `summary.json`.
+//!
+//! May import: `parapet-core` (wire contract, filter types), mavlink, serde,
+//! [`crate::flight::stack`] (what an outer step reports).
+
+use std::time::Duration;
+
+use mavlink::dialects::ardupilotmega::{MavMessage, MavModeFlag, MavState};
+use nalgebra::Vector3;
+use parapet_core::cbf::{FilterDiagnostics, Region};
+use parapet_core::waypoint::PathSample;
+use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
+use parapet_core::wire::names;
+use serde::Serialize;
+
+use crate::flight::stack::OuterOut;
+use crate::world::scene::to_f64;
+
+/// Instructions per control step (firmware's `ins_step`: inner step + outer step when due +
+/// obstacle batch, counted by the `-icount shift=0` SysTick and calibrated by the firmware with
+/// `ins_cal_n` instructions = `ins_cal` ticks).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct InstructionFigures {
+    /// Mean over the flight steps.
+    pub mean: f64,
+    /// Max over the flight steps.
+    pub max: u64,
+    /// Mean over the steps with an outer step.
+    pub mean_outer_steps: f64,
+    /// Mean over the inner-only steps.
+    pub mean_inner_only_steps: f64,
+    /// The outer step alone (`step_outer`: waypoint, PD, CBF filter, thrust mapping; the
+    /// firmware's `ins_outer`), mean over the outer steps.
+    pub mean_outer_loop: f64,
+    /// The outer step alone, max.
+    pub max_outer_loop: u64,
+    /// Steps counted.
+    pub steps: u64,
+    /// Calibration: instructions of the calibration loop (`ins_cal_n`).
+    pub calibration_instructions: i64,
+    /// Calibration: SysTick ticks they took (`ins_cal`).
+    pub calibration_ticks: i64,
+    /// Lower bound of the worst step on a 168 MHz Cortex-M4 (max / 168), µs.
+    pub max_time_at_168mhz_us: f64,
+}
+
+/// PIL figures added to `summary.json` (object `pil`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PilFigures {
+    /// Firmware ELF flown.
+    pub firmware: String,
+    /// MAVLink frames the host sent (injected drops not counted; re-sent HIL_SENSORs counted).
+    pub frames_sent: u64,
+    /// CRC-valid MAVLink frames received from the firmware.
+    pub frames_received: u64,
+    /// Frames lost on the link: host-side (firmware frames missing by sequence number, or
+    /// undecodable) + the firmware's counters (CRC errors + malformed, last `DEBUG_VECT LINK`;
+    /// replies dropped + inbound messages rejected, last `DEBUG_VECT LINK_DROP`).
+    pub frames_dropped: u64,
+    /// Firmware frames the host found missing (sequence gaps).
+    pub host_sequence_gaps: u64,
+    /// Firmware frames the host could not decode.
+    pub host_decode_errors: u64,
+    /// Firmware's count of host frames with a bad CRC (last `LINK` report; 1 Hz).
+    pub firmware_crc_errors: u64,
+    /// Firmware's count of malformed host frames (last `LINK` report).
+    pub firmware_malformed: u64,
+    /// Firmware's count of good host frames (last `LINK` report).
+    pub firmware_frames_ok: u64,
+    /// Firmware's replies dropped because its reply queue was full (last `LINK_DROP`, 1 Hz).
+    pub firmware_replies_dropped: u64,
+    /// Firmware's count of rejected inbound messages (undecodable, bad ODOMETRY, unknown
+    /// parameter; last `LINK_DROP`).
+    pub firmware_inputs_rejected: u64,
+    /// Firmware's count of obstacle points rejected or dropped (batch full; last `LINK_DROP`).
+    pub firmware_obstacles_rejected: u64,
+    /// Host frames corrupted on purpose (fault injection).
+    pub injected_corrupted: u64,
+    /// Host frames dropped on purpose (fault injection, HIL_SENSORs included).
+    pub injected_dropped: u64,
+    /// HIL_SENSORs re-sent after [`PilOptions::resend_after`] without an answer.
+    pub steps_resent: u64,
+    /// Lockstep steps of the flight (after the start-up).
+    pub flight_steps: u64,
+    /// Lockstep steps of the start-up (parameters, mission upload, warm-up, arming).
+    pub startup_steps: u64,
+    /// Instructions per control step.
+    pub instructions_per_control_step: InstructionFigures,
+    /// Simulated time flown / wall time of the flight steps.
+    pub real_time_factor: f64,
+    /// Mean wall time per flight step, ms.
+    pub wall_per_step_ms: f64,
+    /// Wall time of the handshake and start-up, s.
+    pub startup_wall_s: f64,
+    /// Firmware failsafe / status messages seen (STATUSTEXT).
+    pub status_texts: Vec<String>,
+}
+
+/// Latest filter report of the firmware.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FilterTelemetry {
+    /// Smallest h̄ (`DEBUG_VECT CBF.x`), m²; +∞ before the first report.
+    pub(super) h_bar: f32,
+    /// Region (`CBF.y`).
+    pub(super) region: Region,
+    /// Active obstacle (`CBF.z`).
+    pub(super) active: Option<u16>,
+    /// `NAMED_VALUE_INT CBF_FLAGS`.
+    pub(super) flags: CbfFlags,
+    /// Nominal acceleration u* (`DEBUG_VECT U_NOM`), NED m/s²; NaN before the first report.
+    pub(super) u_nominal: Vector3<f64>,
+    /// Filtered acceleration u (POSITION_TARGET_LOCAL_NED afx..afz), NED m/s²; NaN before.
+    pub(super) u_filtered: Vector3<f64>,
+}
+
+impl Default for FilterTelemetry {
+    fn default() -> Self {
+        FilterTelemetry {
+            h_bar: f32::INFINITY,
+            region: Region::NoObstacle,
+            active: None,
+            flags: CbfFlags::default(),
+            u_nominal: Vector3::repeat(f64::NAN),
+            u_filtered: Vector3::repeat(f64::NAN),
+        }
+    }
+}
+
+/// The firmware's latest reports: filter, flight phase (HEARTBEAT `custom_mode`), armed,
+/// critical.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct FirmwareTelemetry {
+    pub(super) filter: FilterTelemetry,
+    pub(super) phase: u32,
+    pub(super) armed: bool,
+    pub(super) critical: bool,
+}
+
+impl FirmwareTelemetry {
+    /// What the recorder gets from an outer step: the firmware's latest filter report and
+    /// phase, with the reference `s` recomputed on the host.
+    pub(super) fn outer_out(&self, s: &PathSample) -> OuterOut {
+        let f = self.filter;
+        OuterOut {
+            reference: to_f64(&s.position),
+            // The fields the firmware reports (CBF, CBF_FLAGS); it sends neither n_near nor
+            // the fault kind (the region says Fault).
+            filter: FilterDiagnostics {
+                region: f.region,
+                active_id: f.active,
+                h_bar: f.h_bar,
+                intervened: f.flags.intervened,
+                n_constraints: f.flags.n_constraints,
+                n_near: 0,
+                unavoidable: f.flags.unavoidable,
+                infeasible: f.flags.infeasible,
+                fault: None,
+            },
+            path_done: s.progress.done,
+            u_nominal: f.u_nominal,
+            u_filtered: f.u_filtered,
+            mode: phase_mode(self.phase),
+            // Not carried by the link's filter message.
+            safety: crate::report::SafetyFlags::default(),
+        }
+    }
+
+    /// Failsafe state name for the summary (as the host controller's).
+    pub(super) fn state_name(&self) -> &'static str {
+        match (self.armed, self.critical, FlightPhase::from_code(self.phase)) {
+            (_, true, _) => "Failsafe",
+            (false, _, _) => "Disarmed",
+            (true, _, Some(FlightPhase::Failsafe)) => "Failsafe",
+            (true, _, _) => "Armed",
+        }
+    }
+}
+
+/// Telemetry bookkeeping for every inbound message.
+pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFigures) {
+    match m {
+        MavMessage::DEBUG_VECT(d) => match d.name.to_str().unwrap_or("") {
+            names::U_NOM => t.filter.u_nominal = Vector3::new(d.x, d.y, d.z).cast(),
+            names::CBF => {
+                t.filter.h_bar = d.x;
+                t.filter.region = region_from_wire(d.y);
+                t.filter.active = active_id_from_wire(d.z);
+            }
+            names::LINK => {
+                fig.firmware_frames_ok = d.x.max(0.0) as u64;
+                fig.firmware_crc_errors = d.y.max(0.0) as u64;
+                fig.firmware_malformed = d.z.max(0.0) as u64;
+            }
+            names::LINK_DROP => {
+                fig.firmware_replies_dropped = d.x.max(0.0) as u64;
+                fig.firmware_inputs_rejected = d.y.max(0.0) as u64;
+                fig.firmware_obstacles_rejected = d.z.max(0.0) as u64;
+            }
+            _ => {}
+        },
+        MavMessage::NAMED_VALUE_INT(n) => {
+            let name = n.name.to_str().unwrap_or("");
+            match name {
+                names::CBF_FLAGS => t.filter.flags = CbfFlags::decode(n.value),
+                names::INS_CAL => fig.instructions_per_control_step.calibration_ticks = n.value.into(),
+                names::INS_CAL_N => {
+                    fig.instructions_per_control_step.calibration_instructions = n.value.into()
+                }
+                _ => {}
+            }
+        }
+        MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
+            t.filter.u_filtered = Vector3::new(p.afx, p.afy, p.afz).cast();
+        }
+        MavMessage::HEARTBEAT(h) => {
+            t.phase = h.custom_mode;
+            t.armed = h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+            t.critical = h.system_status == MavState::MAV_STATE_CRITICAL;
+        }
+        MavMessage::STATUSTEXT(s) => {
+            let text = String::from_utf8_lossy(&s.text[..]).trim_end_matches('\0').to_string();
+            if fig.status_texts.len() < 64 {
+                fig.status_texts.push(format!("{:?}: {text}", s.severity));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The figures of a flight: the counters in `fig` with the totals, the rates over the
+/// flight's `steps` (wall time `wall`) and the instruction statistics of `ins`
+/// (`ins_step`, outer step ran) and `ins_outer`.
+pub(super) fn figures(
+    fig: &PilFigures,
+    ins: &[(u64, bool)],
+    ins_outer: &[u64],
+    wall: Duration,
+    steps: u64,
+) -> PilFigures {
+    let mut f = fig.clone();
+    f.frames_dropped = f.host_sequence_gaps
+        + f.host_decode_errors
+        + f.firmware_crc_errors
+        + f.firmware_malformed
+        + f.firmware_replies_dropped
+        + f.firmware_inputs_rejected;
+    f.flight_steps = steps;
+    let wall = wall.as_secs_f64();
+    if wall > 0.0 {
+        f.real_time_factor = steps as f64 * 1e-3 / wall;
+        f.wall_per_step_ms = wall * 1e3 / steps.max(1) as f64;
+    }
+    let mean = |v: &mut dyn Iterator<Item = u64>| {
+        let (s, n) = v.fold((0.0, 0u64), |(s, n), x| (s + x as f64, n + 1));
+        if n > 0 {
+            s / n as f64
+        } else {
+            0.0
+        }
+    };
+    let i = &mut f.instructions_per_control_step;
+    i.steps = ins.len() as u64;
+    i.mean = mean(&mut ins.iter().map(|x| x.0));
+    i.max = ins.iter().map(|x| x.0).max().unwrap_or(0);
+    i.mean_outer_steps = mean(&mut ins.iter().filter(|x| x.1).map(|x| x.0));
+    i.mean_inner_only_steps = mean(&mut ins.iter().filter(|x| !x.1).map(|x| x.0));
+    i.mean_outer_loop = mean(&mut ins_outer.iter().copied());
+    i.max_outer_loop = ins_outer.iter().copied().max().unwrap_or(0);
+    i.max_time_at_168mhz_us = i.max as f64 / 168.0;
+    f
+}
+
+/// Guidance mode name (as the host controller's `GuidanceMode`) for a HEARTBEAT phase.
+fn phase_mode(phase: u32) -> &'static str {
+    match FlightPhase::from_code(phase) {
+        Some(FlightPhase::Disarmed) => "Off",
+        Some(FlightPhase::Idle) => "Ground",
+        Some(FlightPhase::Takeoff) => "Takeoff",
+        Some(FlightPhase::Hover) => "Hold",
+        Some(FlightPhase::Mission) => "Mission",
+        Some(FlightPhase::Landing) => "Land",
+        Some(FlightPhase::Failsafe) => "Brake",
+        None => "Unknown",
+    }
+}

@@ -1,0 +1,155 @@
+//! [`FirmwareTwin`]: the firmware's cascade and lockstep sequence on the host,
+//! to tell what the ARM build and the link change from what the sequence does.
+//!
+//! May import: `parapet-core` (controller, schedule, wire lockstep rule),
+//! [`super::gcs`] (the firmware's parameters, path and start-up timing),
+//! [`crate::flight`], [`crate::sim::sensors`], [`crate::world::scene`].
+
+use anyhow::{anyhow, Result};
+use nalgebra::Vector3;
+use parapet_core::controller::{FlightController, PositionFix};
+use parapet_core::estimator::ImuSample;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
+
+use super::gcs::{firmware_params, preroll_start, quantised_path, WARMUP_STEPS};
+use crate::flight::runner::{run_with, RunConfig, RunOutput};
+use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::{to_f32, Scene};
+
+/// The pure-host counterpart of [`PilLink`]: the same `parapet-core` `FlightController`, built
+/// with the firmware's parameters ([`firmware_params`]), driven with the firmware's lockstep
+/// sequence (pre-roll, commands at the previous step's time, obstacle batch closed at the step,
+/// inner step before the outer step, fixes without yaw, quantised path). Flying a scene with
+/// this and with [`PilLink`] isolates what the ARM build and the link change.
+pub struct FirmwareTwin {
+    fc: FlightController,
+    cbf: bool,
+    path: Vec<Vector3<f64>>,
+    n_params: usize,
+    pending_obstacles: Option<Vec<ObstaclePoint>>,
+    schedule: OuterSchedule,
+    clock: LockstepClock,
+    last_t_us: u64,
+    mission_start_pending: bool,
+}
+
+impl FirmwareTwin {
+    /// Controller with the firmware's parameters for `scene` and `cfg`.
+    pub fn new(scene: &Scene, cfg: &RunConfig) -> Result<Self> {
+        let (p, updates) = firmware_params(scene, cfg)?;
+        let n_params = updates.len();
+        let mut fc = FlightController::new(p)
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)))?;
+        fc.set_path(&quantised_path(&cfg.path))
+            .map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
+        Ok(FirmwareTwin {
+            fc,
+            cbf: cfg.cbf,
+            path: cfg.path.clone(),
+            n_params,
+            pending_obstacles: None,
+            schedule: OuterSchedule::new(&p),
+            clock: OuterSchedule::new(&p).clock(),
+            last_t_us: 0,
+            mission_start_pending: false,
+        })
+    }
+
+    fn fix(&mut self, t_us: u64, fix: &PositionReading) {
+        self.fc.update_position(PositionFix {
+            t_us,
+            position: to_f32(&fix.position),
+            velocity: to_f32(&fix.velocity),
+            yaw: None,
+        });
+    }
+
+    fn obstacles(&mut self, obstacles: &[ObstaclePoint]) {
+        self.pending_obstacles = Some(if self.cbf { obstacles.to_vec() } else { Vec::new() });
+    }
+
+    /// The firmware's lockstep step (`parapet_core::wire::lockstep`): close the obstacle
+    /// batch, inner step, outer step when the lockstep clock says so, sanitised motors.
+    fn step(&mut self, t_us: u64, imu: &ImuReading) -> [f32; 4] {
+        if let Some(o) = self.pending_obstacles.take() {
+            self.fc.update_obstacles(t_us, &o);
+        }
+        let m = self.fc.step_inner(t_us, &ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) });
+        if self.clock.tick(t_us).run_outer {
+            self.fc.step_outer(t_us);
+        }
+        self.last_t_us = t_us;
+        MotorCommand { throttle: m.throttle, armed: m.armed }.sanitized().throttle
+    }
+}
+
+impl FlightStack for FirmwareTwin {
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()> {
+        let t0 = clock_us(t);
+        let (period, div) = (self.schedule.period_us(), self.schedule.divider());
+        let t_pre = preroll_start(t0, self.n_params, self.path.len(), &self.schedule);
+        // The firmware rebuilds the cascade at each PARAM_SET (processed before the step's
+        // HIL_SENSOR): its history starts with the step of the last one. Its outer schedule
+        // started at the first pre-roll step.
+        let mut tk = t_pre + (self.n_params.max(1) as u64 - 1) * 1000;
+        self.clock = self.schedule.clock().with_next_outer(t_pre + (tk - t_pre).div_ceil(period) * period);
+        let warmup_from = t0 - (WARMUP_STEPS + div) * 1000;
+        while tk < t0 {
+            if (t0 - tk).is_multiple_of(period) && tk > warmup_from {
+                self.fix(tk, &fix);
+                self.obstacles(obstacles);
+            }
+            if tk == t0 - period {
+                let prev = self.last_t_us;
+                self.fc
+                    .arm(prev)
+                    .map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
+                self.fc.hold_position(prev, to_f32(&start)).map_err(|e| {
+                    anyhow!("hold refused: {}", crate::flight::validate::describe_command_error(e))
+                })?;
+            }
+            self.step(tk, imu);
+            tk += 1000;
+        }
+        self.mission_start_pending = true;
+        Ok(())
+    }
+
+    fn position_fix(&mut self, fix: PositionReading) {
+        self.fix(clock_us(fix.t_measured), &fix);
+    }
+
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+        self.obstacles(obstacles);
+        if self.mission_start_pending {
+            self.mission_start_pending = false;
+            let _ = self.fc.start_mission(self.last_t_us);
+        }
+        let _ = t;
+        OuterOut::from_telemetry(&self.fc.telemetry())
+    }
+
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+        self.step(clock_us(t), imu)
+    }
+
+    fn state_name(&self) -> String {
+        format!("{:?}", self.fc.state())
+    }
+}
+
+/// Fly `scene` with the [`FirmwareTwin`] (pure host, firmware parameters and sequence).
+pub fn run_twin(scene: &Scene, cfg: &RunConfig) -> Result<RunOutput> {
+    let mut twin = FirmwareTwin::new(scene, cfg)?;
+    run_with(scene, cfg, &mut twin, &mut |_| {})
+}

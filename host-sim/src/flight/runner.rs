@@ -1,0 +1,886 @@
+//! Closed-loop runner: plant (1 kHz RK4) → sensors → the flight controller of
+//! `parapet-core` (inner loop 1 kHz, outer loop 250 Hz) → motor commands → plant.
+//!
+//! ## Sequence
+//! The vehicle starts hovering at the mission start (level, heading north,
+//! rotors at the hover speed), the controller is armed, given the path and its
+//! mission is started at t = 0. The run stops at the first of:
+//! * **collision**: the hull sphere intersects an obstacle (signed distance
+//!   from the centre of mass to a surface < hull radius), checked every plant step;
+//! * **path end**: the path is done, the vehicle within [`GOAL_TOLERANCE_M`] of
+//!   the path's last waypoint and slower than [`GOAL_SPEED_MPS`]. The goal is
+//!   **reached** (`reached_goal`, end reason `goal`) when the vehicle is then
+//!   also within [`GOAL_TOLERANCE_M`] of the **scene's** mission goal (or the
+//!   path ends there up to [`PATH_END_ROUNDOFF_M`]); a path
+//!   ending elsewhere (`--foreign-path`) ends with `reached_path_end` only
+//!   (end reason `path_end`);
+//! * the **duration** limit (default [`default_duration`]: 1.5 × the flown
+//!   length start → first waypoint → … → last at the reference speed, + 15 s).
+//!
+//! ## What the controller is told
+//! * Position fixes at the outer rate from [`crate::sim::sensors`] (noise, latency).
+//! * IMU samples at the inner rate.
+//! * Obstacles at the outer rate, as a proximity sensor would report them: for
+//!   each obstacle whose surface is within the sensing range of the true
+//!   centre of mass, its closest surface point (moving obstacles at their
+//!   current position) and its velocity, id = a track id
+//!   ([`crate::sim::track_ids`]: the scene index for scenes of at most 65,535
+//!   obstacles; never two equal ids in view, never `CLEAR_ID`).
+//!
+//! ## Metrics (true state, every outer step unless said otherwise)
+//! clearance = signed distance to the nearest obstacle surface or the ground
+//! plane − hull radius (every plant step for the minimum; touching the ground
+//! with the hull is a collision too); h̄ = min over all obstacles of the filter's
+//! barrier `|d|² + μ dᵀḋ − δ` (ḋ relative for the relative variants);
+//! tracking error = |p − p_ref|; filter active = the filter changed `u*`.
+//!
+//! ## Cost
+//! The distance queries (clearance every plant step, proximity report and h̄
+//! every outer step, the reference's clearance) go through
+//! [`NearestTracker`]: obstacles that provably cannot matter are skipped, the
+//! results are the same as the full scans' ([`nearest_with_ground`],
+//! [`sense_obstacles`], [`true_h_bar`]) bit for bit.
+
+use std::time::Instant;
+
+use anyhow::{anyhow, Result};
+use nalgebra::Vector3;
+use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
+use parapet_core::controller::ControllerParams;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::schedule::OuterSchedule;
+use parapet_core::thrust::ThrustParams;
+use parapet_core::tracking::TrackingParams;
+use parapet_core::waypoint::WaypointParams;
+use parapet_core::Vec3;
+
+use crate::flight::stack::FlightStack;
+use crate::input::f32_as_f64;
+use crate::input::limits;
+use crate::report::{RunParams, SafetySteps, Sample, Summary};
+use crate::sim::plant::Plant;
+use crate::sim::sensors::{SensorParams, Sensors};
+use crate::sim::track_ids::TrackIds;
+use crate::sim::INNER_DT;
+use crate::world::scene::{to_f32, Scene};
+use crate::world::NearestTracker;
+
+/// Goal reached: distance to the goal below this, m.
+pub const GOAL_TOLERANCE_M: f64 = 0.1;
+/// Goal reached: speed below this, m/s.
+pub const GOAL_SPEED_MPS: f64 = 0.1;
+/// A path whose last waypoint is this close to the scene's goal (m) ends at the
+/// goal: covers the `f32` round-off of path coordinates (under 1 mm up to 10 km).
+pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
+/// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
+const INNER_HZ: f64 = 1000.0;
+/// Default PD position gain k_p, 1/s² (the paper's office experiment).
+pub const DEFAULT_KP: f64 = 0.5;
+/// Default PD velocity gain k_d, 1/s.
+pub const DEFAULT_KD: f64 = 0.8;
+/// Default proximity-sensor range, m.
+pub const DEFAULT_SENSING_RANGE: f64 = 3.0;
+
+/// Everything a run needs besides the scene.
+#[derive(Clone, Debug)]
+pub struct RunConfig {
+    /// Path to fly, NED, m, start first (at least one waypoint).
+    pub path: Vec<Vector3<f64>>,
+    /// Where the path came from: "planner", "file" or "straight".
+    pub path_source: String,
+    /// Planning time, ms, if planned.
+    pub planning_time_ms: Option<f64>,
+    /// Safety filter on.
+    pub cbf: bool,
+    /// Filter variant.
+    pub variant: FilterVariant,
+    /// Controller parameters as flown (scene/CLI overrides already applied).
+    pub params: RunParams,
+    /// Bound on unknown obstacle acceleration, m/s² (relative variants).
+    pub accel_bound: f64,
+    /// Velocity-uncertainty margin ε_v of the filter, m/s.
+    pub velocity_margin: f64,
+    /// Sensor parameters (noise flag included).
+    pub sensors: SensorParams,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Duration limit, s.
+    pub duration: f64,
+    /// Proximity-sensor range, m.
+    pub sensing_range: f64,
+    /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
+    pub dt: f64,
+    /// Wind, plant vehicle (mismatch) and faults (the scene's, or overridden).
+    pub disturbances: crate::sim::disturbance::Disturbances,
+}
+
+impl RunConfig {
+    /// Defaults for `scene` with the given path: scene controller overrides,
+    /// the scene's sensor table (or defaults), duration `[sim] duration` or
+    /// [`default_duration`] at the scene's speed.
+    pub fn for_scene(scene: &Scene, path: Vec<Vector3<f64>>) -> Result<RunConfig> {
+        let c = &scene.controller;
+        let cbf_default = CbfParams::default();
+        let variant = match &c.filter {
+            Some(name) => name.parse().map_err(|_| anyhow!("unknown filter variant {name:?}"))?,
+            None => FilterVariant::default(),
+        };
+        // The f32 defaults as their shortest decimals (1.4, not 1.399999976158142):
+        // the same f32 values reach the filter, and reports print them as written.
+        let params = RunParams {
+            mu: c.mu.unwrap_or(f32_as_f64(cbf_default.mu)),
+            delta: c.delta.unwrap_or_else(|| default_delta(scene.vehicle.hull_radius)),
+            delta1: c.delta1.unwrap_or(f32_as_f64(cbf_default.delta1)),
+            kp: c.kp.unwrap_or(DEFAULT_KP),
+            kd: c.kd.unwrap_or(DEFAULT_KD),
+            speed: scene.speed,
+        };
+        Ok(RunConfig {
+            duration: scene.sim.duration.unwrap_or_else(|| default_duration(scene, &path, scene.speed)),
+            path,
+            path_source: "straight".into(),
+            planning_time_ms: None,
+            cbf: true,
+            variant,
+            params,
+            accel_bound: c.accel_bound.unwrap_or(0.0),
+            velocity_margin: c.velocity_margin.unwrap_or(0.0),
+            sensors: scene.sensors.clone().unwrap_or_default(),
+            seed: 0,
+            sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),
+            dt: scene.sim.dt.unwrap_or(INNER_DT),
+            disturbances: scene.disturbances.clone(),
+        })
+    }
+
+    /// The CBF parameters of this run (validated).
+    pub fn cbf_params(&self) -> Result<CbfParams> {
+        let p = CbfParams {
+            mu: self.params.mu as f32,
+            delta: self.params.delta as f32,
+            delta1: self.params.delta1 as f32,
+            accel_bound: self.accel_bound as f32,
+            velocity_margin: self.velocity_margin as f32,
+            ..CbfParams::default()
+        };
+        p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
+        Ok(p)
+    }
+}
+
+/// δ when the scene does not set it: the squared hull radius (margin 0; issue 17),
+/// written as the core's default 0.05 for the default hull √0.05.
+pub fn default_delta(hull_radius: f64) -> f64 {
+    let sq = hull_radius * hull_radius;
+    let d = f32_as_f64(CbfParams::default().delta);
+    if (sq - d).abs() <= 1e-9 * d {
+        d
+    } else {
+        sq
+    }
+}
+
+/// The controller parameters of a run: defaults of the core with the scene's
+/// vehicle and the run's tracking / filter / speed settings.
+pub fn controller_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+    cbf: CbfParams,
+    variant: FilterVariant,
+) -> ControllerParams {
+    let af = scene.vehicle.airframe();
+    let d = ControllerParams::default();
+    ControllerParams {
+        airframe: af,
+        // The core's tracking defaults (vertical integral off: with the paper's soft
+        // gains a z integrator is badly damped, and unstable once ki_z > kp·kd) with
+        // the run's kp, kd on every axis.
+        tracking: TrackingParams {
+            kp: [cfg.params.kp as f32; 3],
+            kd: [cfg.params.kd as f32; 3],
+            ..d.tracking
+        },
+        cbf,
+        filter_variant: variant,
+        // The scene's hull bounds δ from below; the lag model uses its motor (issue 17).
+        hull_radius: scene.vehicle.hull_radius as f32,
+        robust: parapet_core::robust::RobustParams { motor_tau: scene.vehicle.motor_tau as f32, ..d.robust },
+        thrust: ThrustParams {
+            // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
+            thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
+            ..d.thrust
+        },
+        waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
+        ..d
+    }
+}
+
+/// Samples reserved up front by [`run_with`] (one minute at the outer rate); more
+/// are added as the flight goes.
+const SAMPLES_RESERVED: u64 = 15_000;
+
+/// The caps that keep one run's time and memory bounded (the CLI refuses the same
+/// values earlier, naming the option or the file): duration finite, > 0 and ≤
+/// [`limits::MAX_DURATION_CEILING_S`]; dt in [[`limits::MIN_DT_S`], [`INNER_DT`]];
+/// at most [`limits::MAX_PLANT_STEPS`] plant steps; position latency in [0,
+/// [`limits::MAX_POSITION_LATENCY_S`]] (the start-up primes one fix per outer step of it).
+pub fn check_bounded(cfg: &RunConfig) -> Result<()> {
+    let d = cfg.duration;
+    if !(d.is_finite() && d > 0.0 && d <= limits::MAX_DURATION_CEILING_S) {
+        return Err(anyhow!("duration must be in (0, {}] s, got {d}", limits::MAX_DURATION_CEILING_S));
+    }
+    if !(cfg.dt.is_finite() && cfg.dt >= limits::MIN_DT_S && cfg.dt <= INNER_DT) {
+        return Err(anyhow!("plant step dt must be in [{}, {INNER_DT}] s, got {}", limits::MIN_DT_S, cfg.dt));
+    }
+    if d / cfg.dt > limits::MAX_PLANT_STEPS {
+        return Err(anyhow!(
+            "duration / dt = {:.3e} plant steps exceed the cap of {:.0e}",
+            d / cfg.dt,
+            limits::MAX_PLANT_STEPS
+        ));
+    }
+    let lat = cfg.sensors.position_latency;
+    if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
+        return Err(anyhow!(
+            "position latency must be in [0, {}] s, got {lat}",
+            limits::MAX_POSITION_LATENCY_S
+        ));
+    }
+    Ok(())
+}
+
+/// Length of a polyline, m.
+pub fn path_length(path: &[Vector3<f64>]) -> f64 {
+    path.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
+}
+
+/// Length of what is flown, m: from the mission start (where the vehicle
+/// hovers at t = 0) to the first waypoint, then along the path.
+pub fn flown_length(start: &Vector3<f64>, path: &[Vector3<f64>]) -> f64 {
+    path.first().map_or(0.0, |w| (w - start).norm()) + path_length(path)
+}
+
+/// Default duration limit, s: 1.5 × the flown length ([`flown_length`]) at
+/// `speed` (m/s) + 15 s for the start-up and the settling at the end.
+pub fn default_duration(scene: &Scene, path: &[Vector3<f64>], speed: f64) -> f64 {
+    1.5 * flown_length(&scene.start, path) / speed + 15.0
+}
+
+/// The outcome of a run: samples at the outer rate and the summary.
+#[derive(Clone, Debug)]
+pub struct RunOutput {
+    /// Recorded samples.
+    pub samples: Vec<Sample>,
+    /// Summary.
+    pub summary: Summary,
+}
+
+/// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
+/// ground plane (z = 0) at time `t`, and the obstacle index (`None` = ground).
+pub fn nearest_with_ground(scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
+    with_ground(scene.nearest(p, t), p)
+}
+
+/// [`nearest_with_ground`] from the obstacles' `(distance, index)` at `p`.
+fn with_ground(nearest: (f64, Option<usize>), p: &Vector3<f64>) -> (f64, Option<usize>) {
+    let ground = -p.z;
+    if ground < nearest.0 {
+        (ground, None)
+    } else {
+        nearest
+    }
+}
+
+/// The true barrier `h̄` (m²) of obstacle `i` whose closest point is `q` (signed
+/// distance `sd`, velocity `vel`) for the vehicle at `pf`, `vf`; inside counts as −δ or less.
+fn h_bar_of(
+    filter: &SafetyFilter,
+    pf: &Vec3,
+    vf: &Vec3,
+    i: usize,
+    q: Vec3,
+    vel: &Vector3<f64>,
+    sd: f32,
+) -> f64 {
+    let delta = filter.params.delta as f64;
+    let op = ObstaclePoint { point: q, velocity: Some(to_f32(vel)), id: i as u16 };
+    let h = match filter.barrier(pf, vf, &op) {
+        Some(b) => b.h as f64 - delta,
+        None => -delta,
+    };
+    if sd < 0.0 {
+        h.min(-delta)
+    } else {
+        h
+    }
+}
+
+/// Min over all obstacles of the filter's barrier `h̄ = h − δ` (m²) at time `t`
+/// for the true state; `+∞` without obstacles. Inside an obstacle counts as −δ or less.
+pub fn true_h_bar(scene: &Scene, filter: &SafetyFilter, t: f64, p: &Vector3<f64>, v: &Vector3<f64>) -> f64 {
+    let (pf, vf) = (to_f32(p), to_f32(v));
+    let mut h_min = f64::INFINITY;
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        let (shape, vel) = o.at(t);
+        let (q, sd) = shape.closest_point(&pf);
+        h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+    }
+    h_min
+}
+
+/// Relative margin on the lower bound of an obstacle's barrier in
+/// [`sense_and_h_bar`] (covers the `f32` round-off of `h`).
+const H_BOUND_MARGIN: f64 = 1e-4;
+
+/// `true` when an obstacle whose distance is at least `l` (m) certainly has a
+/// barrier `h̄` above `h_min` (m²) for a vehicle at speed `s` (`mu_s` = μ s, m):
+/// `h = |d|² + μ dᵀḋ ≥ |d|² − μ s |d|` for a static obstacle, increasing in
+/// `|d|` for `|d| ≥ μ s / 2`; with a relative margin for round-off.
+#[inline]
+fn h_bar_certainly_above(l: f64, mu_s: f64, delta: f64, h_min: f64) -> bool {
+    if !(l > 0.01 && 2.0 * l >= mu_s) {
+        return false;
+    }
+    let (l2, ml) = (l * l, mu_s * l);
+    l2 - ml - delta - H_BOUND_MARGIN * (l2 + ml + delta + 1.0) > h_min
+}
+
+/// Reusable buffers of [`sense_and_h_bar`].
+#[derive(Clone, Debug, Default)]
+pub struct OuterScratch {
+    /// The proximity report (output of [`sense_and_h_bar`]).
+    pub seen: Vec<ObstaclePoint>,
+    /// Obstacles certainly beyond the sensing range.
+    far: Vec<usize>,
+    /// Obstacles evaluated: index, closest point, velocity, signed distance.
+    near: Vec<(usize, Vec3, Vector3<f64>, f32)>,
+    /// Track ids of the obstacles in view (kept from one outer step to the next).
+    pub ids: TrackIds,
+}
+
+/// The proximity report ([`sense_obstacles`], into `scratch.seen`) and the true
+/// barrier ([`true_h_bar`], returned) at one outer step, with the same results:
+/// the closest points are computed once for both, and only for the obstacles
+/// that can matter. `tracker` is the vehicle's (same scene). Time `t` s,
+/// position `p` NED m, velocity `v` NED m/s, sensing range m; returns h̄, m².
+///
+/// Obstacles that may be within `range` (lower bound of the distance ≤ range;
+/// moving obstacles always) are evaluated in index order (the order of the
+/// report and of the sensor-noise draws). The barrier is evaluated for the
+/// nearest of them, then for each other one unless a lower bound of its `h̄`
+/// is above the smallest found so far: `|d|² − μ s |d| − δ` for a static
+/// obstacle (whose `ḋ` is the vehicle's velocity, speed `s`), with `|d|` its
+/// distance (or, beyond the range, the tracker's lower bound of it).
+#[allow(clippy::too_many_arguments)]
+pub fn sense_and_h_bar(
+    scene: &Scene,
+    tracker: &mut NearestTracker,
+    filter: &SafetyFilter,
+    t: f64,
+    p: &Vector3<f64>,
+    v: &Vector3<f64>,
+    range: f64,
+    sensors: &mut Sensors,
+    scratch: &mut OuterScratch,
+) -> f64 {
+    tracker.move_to(p);
+    // Every obstacle that may be within the range is a candidate (scene order).
+    tracker.ensure(range);
+    let (pf, vf) = (to_f32(p), to_f32(v));
+    let OuterScratch { seen, far, near, ids } = scratch;
+    ids.begin_pass();
+    seen.clear();
+    far.clear();
+    near.clear();
+    let mut far_min = f64::INFINITY;
+    for j in 0..tracker.candidates().len() {
+        let i = tracker.candidates()[j];
+        let o = &scene.obstacles[i];
+        let lb = tracker.lower_bound(i);
+        if lb > range {
+            far.push(i);
+            far_min = far_min.min(lb);
+            continue;
+        }
+        let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
+        if (sd as f64) <= range {
+            let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
+            if let Some(id) = ids.id(i) {
+                seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+            }
+        }
+        near.push((i, q, vel, sd));
+    }
+    bound_report(seen, &pf);
+    let mu_s = filter.params.mu as f64 * v.norm();
+    let delta = filter.params.delta as f64;
+    let margin = tracker.margin();
+    let mut h_min = f64::INFINITY;
+    // The nearest first: its barrier is usually the smallest.
+    let first = (0..near.len()).min_by(|&a, &b| near[a].3.total_cmp(&near[b].3));
+    if let Some(j) = first {
+        let (i, q, vel, sd) = near[j];
+        h_min = h_bar_of(filter, &pf, &vf, i, q, &vel, sd);
+    }
+    for (j, &(i, q, vel, sd)) in near.iter().enumerate() {
+        let bounded =
+            scene.obstacles[i].is_static() && h_bar_certainly_above(sd as f64 - margin, mu_s, delta, h_min);
+        if Some(j) != first && !bounded {
+            h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+        }
+    }
+    // The bound grows with the distance: the nearest far obstacle's covers them all
+    // (obstacles outside the candidate set are farther than its bound).
+    let outside = tracker.outside_lower_bound();
+    far_min = far_min.min(outside);
+    if (far.is_empty() && outside == f64::INFINITY)
+        || h_bar_certainly_above(far_min - margin, mu_s, delta, h_min)
+    {
+        return h_min;
+    }
+    if !h_bar_certainly_above(outside - margin, mu_s, delta, h_min) {
+        // Obstacles outside the set, within a reach that doubles until the bound
+        // covers what lies beyond it (1e7 m: every obstacle).
+        let local_far = far.len();
+        let mut reach = 2.0 * range.max(1.0);
+        loop {
+            far.truncate(local_far);
+            tracker.outside_within(reach, far);
+            for &i in &far[local_far..] {
+                if !h_bar_certainly_above(tracker.lower_bound(i) - margin, mu_s, delta, h_min) {
+                    let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
+                    h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+                }
+            }
+            if reach >= 1e7 || h_bar_certainly_above(reach - 2.0 * margin, mu_s, delta, h_min) {
+                break;
+            }
+            reach *= 2.0;
+        }
+        far.truncate(local_far);
+    }
+    for &i in far.iter() {
+        // Far obstacles are static (moving ones have no bound).
+        if !h_bar_certainly_above(tracker.lower_bound(i) - margin, mu_s, delta, h_min) {
+            let (vel, q, sd) = tracker.closest(scene, i, &pf, t);
+            h_min = h_min.min(h_bar_of(filter, &pf, &vf, i, q, &vel, sd));
+        }
+    }
+    h_min
+}
+
+/// What the proximity sensor reports at time `t` from true position `p`: for
+/// each obstacle whose surface is within `range` (m; at most
+/// [`limits::MAX_OBSTACLES_REPORTED`], [`bound_report`]), the closest surface point
+/// and the obstacle's velocity (NED), id = a track id of a fresh table (the first pass of
+/// [`sense_and_h_bar`]'s; the scene index below 65,535 obstacles). Moving obstacles'
+/// velocities pass through [`Sensors::obstacle_velocity`] (optional noise);
+/// static obstacles are reported with velocity exactly zero.
+pub fn sense_obstacles(
+    scene: &Scene,
+    t: f64,
+    p: &Vector3<f64>,
+    range: f64,
+    sensors: &mut Sensors,
+) -> Vec<ObstaclePoint> {
+    let pf = to_f32(p);
+    let mut out = Vec::new();
+    let mut ids = TrackIds::new();
+    ids.begin_pass();
+    for (i, o) in scene.obstacles.iter().enumerate() {
+        let (shape, vel) = o.at(t);
+        let (q, sd) = shape.closest_point(&pf);
+        if (sd as f64) <= range {
+            let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
+            if let Some(id) = ids.id(i) {
+                out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+            }
+        }
+    }
+    bound_report(&mut out, &pf);
+    out
+}
+
+/// Bound a proximity report to [`limits::MAX_OBSTACLES_REPORTED`] points: beyond it the
+/// nearest to `p` (NED) are kept (ties: the earlier), in report order. Every point in
+/// range reaches the controller up to the bound; the controller's set then keeps the
+/// most critical (`parapet_core::obstacle_set`, issue 17).
+pub fn bound_report(seen: &mut Vec<ObstaclePoint>, p: &Vec3) {
+    let max = limits::MAX_OBSTACLES_REPORTED;
+    if seen.len() <= max {
+        return;
+    }
+    let mut d: Vec<(f32, usize)> =
+        seen.iter().enumerate().map(|(i, o)| ((o.point - p).norm_squared(), i)).collect();
+    d.select_nth_unstable_by(max - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut keep = vec![false; seen.len()];
+    for &(_, i) in d.iter().take(max) {
+        keep[i] = true;
+    }
+    let mut k = keep.into_iter();
+    seen.retain(|_| k.next().unwrap_or(false));
+}
+
+/// Fly `scene` with `cfg` and any [`FlightStack`] (in-process: `crate::fc::control::run`;
+/// firmware in the loop: `crate::fc::pil`).
+pub fn run_with(
+    scene: &Scene,
+    cfg: &RunConfig,
+    ctrl: &mut dyn FlightStack,
+    progress: &mut dyn FnMut(f64),
+) -> Result<RunOutput> {
+    // The world's spatial index is built with the world, like loading the scene,
+    // before the flight's wall clock starts (40 ms of CPU for 10^5 obstacles).
+    let world_tracker = NearestTracker::new(scene);
+    let wall = Instant::now();
+    if cfg.path.is_empty() {
+        return Err(anyhow!("empty path"));
+    }
+    check_bounded(cfg)?;
+    let substeps = (INNER_DT / cfg.dt).round().max(1.0) as usize;
+    let dt = INNER_DT / substeps as f64;
+    let cbf = cfg.cbf_params()?;
+    let filter = SafetyFilter::new(cbf, cfg.variant).map_err(|e| anyhow!("filter: {e}"))?;
+    // The core's one outer-loop schedule (250 Hz: every 4th inner step) of the parameters flown.
+    let schedule = OuterSchedule::new(&controller_params(scene, cfg, cbf, cfg.variant));
+    let divider = schedule.divider();
+    let hull = scene.vehicle.hull_radius;
+
+    // The plant flies the `[plant]` vehicle (mismatch), the controller knows the scene's.
+    let plant_vehicle = cfg.disturbances.plant_vehicle(&scene.vehicle);
+    let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
+    plant.set_hover(scene.start, 0.0);
+    let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
+    let mut live = crate::sim::disturbance::Live::new(&cfg.disturbances, cfg.seed);
+    // Start-up: the vehicle has been hovering at the start; prime the position
+    // measurement's latency buffer with that hover, then arm and start.
+    let mut fix = None;
+    let prime = (cfg.sensors.position_latency / (INNER_DT * divider as f64)).ceil() as i64 + 1;
+    for j in (0..=prime).rev() {
+        let tj = -(j as f64) * INNER_DT * divider as f64;
+        if let Some(f) = sensors.position(tj, &plant) {
+            fix = Some(f);
+        }
+    }
+    let fix = fix.ok_or_else(|| anyhow!("no position fix at start-up"))?;
+    let seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range, &mut sensors);
+    let imu0 = sensors.imu(&plant);
+    ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
+
+    // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
+    let mut tracker = world_tracker;
+    let mut ref_tracker = NearestTracker::with_index(scene, tracker.index());
+    let mut scratch = OuterScratch::default();
+    // Signed distance to the nearest obstacle or the ground at the current plant state.
+    let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
+
+    let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
+    // Memory grows with the time flown, not with the duration limit: reserve at
+    // most a minute of samples up front.
+    let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
+    let (mut collided_at, mut collision_obstacle) = (None, None);
+    let mut goal_at = None;
+    let mut min_clear = f64::INFINITY;
+    let (mut sq_err, mut n_outer, mut n_active) = (0.0, 0u64, 0u64);
+    let mut steps = 0u64;
+    let mut t = 0.0;
+    let mut next_progress = 0.0;
+    // The path's end (where the run stops) and the scene's goal (what `reached_goal` means).
+    let path_end = *cfg.path.last().unwrap_or(&scene.goal);
+
+    for k in 0..n_inner {
+        t = k as f64 / INNER_HZ;
+        if schedule.is_outer_step(k) {
+            // Euler angles of the true state, once for the position fix and the sample.
+            let (roll, pitch, yaw) = plant.state.euler();
+            if let Some(fix) = sensors.position_with_yaw(t, &plant, yaw) {
+                ctrl.position_fix(fix);
+            }
+            let (pos, vel) = (plant.state.pos, plant.state.vel);
+            let h_bar = sense_and_h_bar(
+                scene,
+                &mut tracker,
+                &filter,
+                t,
+                &pos,
+                &vel,
+                cfg.sensing_range,
+                &mut sensors,
+                &mut scratch,
+            );
+            sensors.obstacle_report(t, &mut scratch.seen);
+            let out = ctrl.outer(t, &scratch.seen);
+            let sd = sd_now;
+            let ref_clear =
+                with_ground(ref_tracker.nearest(scene, &out.reference, t), &out.reference).0 - hull;
+            let err = (plant.state.pos - out.reference).norm();
+            sq_err += err * err;
+            n_outer += 1;
+            if out.filter.intervened {
+                n_active += 1;
+            }
+            samples.push(Sample {
+                t,
+                ref_pos: out.reference,
+                pos: plant.state.pos,
+                vel: plant.state.vel,
+                rpy: [roll, pitch, yaw],
+                filter: out.filter,
+                clearance: sd - hull,
+                ref_clearance: ref_clear,
+                h_bar,
+                u_nominal: out.u_nominal,
+                u_filtered: out.u_filtered,
+                mode: out.mode,
+                wind: live.wind(),
+                safety: out.safety,
+            });
+            if goal_at.is_none()
+                && (plant.state.pos - path_end).norm() < GOAL_TOLERANCE_M
+                && plant.state.vel.norm() < GOAL_SPEED_MPS
+                && out.path_done
+            {
+                goal_at = Some(t);
+                break;
+            }
+            if t >= next_progress {
+                progress(t);
+                next_progress = t + 0.1;
+            }
+        }
+        let imu = sensors.imu(&plant);
+        let throttle = ctrl.inner(t, &imu);
+        plant.set_throttles(throttle);
+        live.apply(t, INNER_DT, &mut plant);
+        for _ in 0..substeps {
+            plant.step(dt);
+            steps += 1;
+        }
+        let t_next = (k + 1) as f64 / INNER_HZ;
+        let pos = plant.state.pos;
+        tracker.move_to(&pos);
+        // The exact distance is needed for the next outer step's sample, and
+        // whenever it may be a new minimum or a collision (min_clear ≥ 0: a
+        // collision ends the run); otherwise a lower bound rules both out.
+        let skip =
+            !schedule.is_outer_step(k + 1) && tracker.nearest_lower_bound().min(-pos.z) - hull > min_clear;
+        if !skip {
+            let (sd, idx) = with_ground(tracker.nearest(scene, &pos, t_next), &pos);
+            sd_now = sd;
+            min_clear = min_clear.min(sd - hull);
+            if sd < hull {
+                collided_at = Some(t_next);
+                collision_obstacle = idx;
+                t = t_next;
+                break;
+            }
+        }
+        if !plant.state.pos.iter().all(|x| x.is_finite()) {
+            return Err(anyhow!("the plant state became non-finite at t = {t:.3} s"));
+        }
+    }
+    if collided_at.is_none() && goal_at.is_none() {
+        t = n_inner as f64 / INNER_HZ;
+    }
+    let reached_path_end = goal_at.is_some();
+    let goal_dist = (plant.state.pos - scene.goal).norm();
+    // A path ending at the goal up to the f32 round-off of its waypoints counts as
+    // ending there (the path-end test decides); otherwise the scene goal's own test.
+    let ends_at_goal = (path_end - scene.goal).norm() <= PATH_END_ROUNDOFF_M;
+    let goal_at = goal_at.filter(|_| ends_at_goal || goal_dist < GOAL_TOLERANCE_M);
+    let min_h_bar = samples.iter().map(|s| s.h_bar).fold(f64::INFINITY, f64::min);
+    let summary = Summary {
+        scene: scene.name.clone(),
+        scene_file: scene.source.clone(),
+        filter: if cfg.cbf { cfg.variant.as_str().to_string() } else { "none".into() },
+        cbf_enabled: cfg.cbf,
+        collided: collided_at.is_some(),
+        first_collision_time_s: collided_at,
+        collision_obstacle,
+        collision_with: collided_at.map(|_| match collision_obstacle {
+            Some(i) => match &scene.obstacles[i].name {
+                Some(n) => format!("obstacles[{i}] ({n})"),
+                None => format!("obstacles[{i}]"),
+            },
+            None => "ground".to_string(),
+        }),
+        min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
+        min_h_bar,
+        min_filter_h_bar: Some(
+            samples.iter().map(|s| f64::from(s.filter.h_bar)).fold(f64::INFINITY, f64::min),
+        )
+        .filter(|x| x.is_finite()),
+        reached_goal: goal_at.is_some(),
+        time_to_goal_s: goal_at,
+        final_distance_to_goal_m: goal_dist,
+        reached_path_end,
+        final_distance_to_path_end_m: (plant.state.pos - path_end).norm(),
+        tracking_rms_m: if n_outer > 0 { (sq_err / n_outer as f64).sqrt() } else { 0.0 },
+        filter_active_fraction: if n_outer > 0 { n_active as f64 / n_outer as f64 } else { 0.0 },
+        end_reason: if collided_at.is_some() {
+            "collision"
+        } else if goal_at.is_some() {
+            "goal"
+        } else if reached_path_end {
+            "path_end"
+        } else {
+            "duration"
+        }
+        .into(),
+        sim_time_s: t,
+        wall_time_s: wall.elapsed().as_secs_f64(),
+        steps,
+        planning_time_ms: cfg.planning_time_ms,
+        path_length_m: path_length(&cfg.path),
+        path_source: cfg.path_source.clone(),
+        path_waypoints: cfg.path.len(),
+        params: cfg.params.clone(),
+        final_controller_state: ctrl.state_name(),
+        seed: cfg.seed,
+        noise: cfg.sensors.noise,
+        safety_steps: SafetySteps::of(&samples),
+    };
+    Ok(RunOutput { samples, summary })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fc::control::run;
+    use crate::world::scene::{Motion, SceneObstacle};
+    use parapet_core::obstacle::Shape;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The office with a walking obstacle added (waypoints), so the proximity
+    /// report draws velocity noise.
+    fn office_with_walker() -> Scene {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut s = Scene::load(&dir.join("office.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let a = s.start + Vector3::new(0.5, 0.5, 0.0);
+        s.obstacles.push(SceneObstacle {
+            name: Some("walker".into()),
+            shape: Shape::sphere(to_f32(&a), 0.3),
+            motion: Motion::Waypoints(vec![(0.0, a), (20.0, a + Vector3::new(4.0, 1.0, 0.0))]),
+        });
+        s
+    }
+
+    #[test]
+    fn the_report_is_bounded_and_keeps_the_nearest_in_order() {
+        let n = limits::MAX_OBSTACLES_REPORTED + 100;
+        // Points at distance 1 + (i·7919 mod n)/n from the origin, so the nearest are scattered.
+        let mut seen: Vec<ObstaclePoint> = (0..n)
+            .map(|i| {
+                let r = 1.0 + ((i * 7919) % n) as f32 / n as f32;
+                ObstaclePoint::fixed(Vec3::new(r, 0.0, 0.0), i as u16)
+            })
+            .collect();
+        let all = seen.clone();
+        bound_report(&mut seen, &Vec3::zeros());
+        assert_eq!(seen.len(), limits::MAX_OBSTACLES_REPORTED);
+        let far = seen.iter().map(|o| o.point.x).fold(0.0, f32::max);
+        assert!(all.iter().filter(|o| !seen.contains(o)).all(|o| o.point.x >= far));
+        assert!(seen.windows(2).all(|w| w[0].id < w[1].id), "report order kept");
+        let mut short = all[..10].to_vec();
+        bound_report(&mut short, &Vec3::zeros());
+        assert_eq!(short, all[..10]);
+    }
+
+    #[test]
+    fn memory_follows_the_flight_not_the_duration_limit() {
+        let src = "name = \"m\"\n[bounds]\nmin = [-1, -1, 0]\nmax = [3, 1, 2]\n\
+                   [mission]\nstart = [0, 0, 1]\ngoal = [1, 0, 1]\nspeed = 0.5\n[sensors]\nnoise = false\n";
+        let scene = Scene::parse(src, "m.toml").unwrap_or_else(|e| panic!("{e}"));
+        let mut cfg =
+            RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
+        // A whole simulated day allowed (21.6 M samples if reserved up front).
+        cfg.duration = limits::MAX_DURATION_CEILING_S;
+        let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.summary.end_reason, "goal");
+        assert!(out.samples.capacity() <= SAMPLES_RESERVED as usize, "{}", out.samples.capacity());
+    }
+
+    #[test]
+    fn runs_beyond_the_caps_are_refused_before_any_step() {
+        let scene = office_with_walker();
+        let base =
+            RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
+        assert!(check_bounded(&base).is_ok());
+        type Edit = fn(&mut RunConfig);
+        let cases: [(&str, Edit); 6] = [
+            ("duration", |c| c.duration = 1e20),
+            ("duration", |c| c.duration = f64::NAN),
+            ("dt", |c| c.dt = 1e-7),
+            ("dt", |c| c.dt = 0.002),
+            ("plant steps", |c| {
+                c.duration = limits::MAX_DURATION_CEILING_S;
+                c.dt = limits::MIN_DT_S;
+            }),
+            ("latency", |c| c.sensors.position_latency = 1e9),
+        ];
+        for (what, f) in cases {
+            let mut cfg = base.clone();
+            f(&mut cfg);
+            let e = run(&scene, &cfg, &mut |_| {}).unwrap_err().to_string();
+            assert!(e.contains(what), "{what}: {e}");
+        }
+    }
+
+    #[test]
+    fn shared_sensing_and_barrier_equal_the_full_scans() {
+        let scene = office_with_walker();
+        let params = SensorParams { obstacle_velocity_noise: 0.05, ..SensorParams::default() };
+        for variant in [FilterVariant::default(), FilterVariant::Paper] {
+            let filter = SafetyFilter::new(CbfParams::default(), variant).expect("default filter");
+            let (mut full_sensors, mut fast_sensors) =
+                (Sensors::new(params.clone(), 5), Sensors::new(params.clone(), 5));
+            let mut tracker = NearestTracker::new(&scene);
+            let mut scratch = OuterScratch::default();
+            let mut rng = ChaCha8Rng::seed_from_u64(11);
+            let (lo, hi) = scene.bounds_ned();
+            let mut p = scene.start;
+            let mut v = Vector3::zeros();
+            let n = 20_000;
+            let (mut skipped_some, mut reported) = (0, 0);
+            for k in 0..n {
+                let t = k as f64 * 0.004;
+                // Mostly a flight (velocity changes slowly), sometimes a jump or a fast vehicle.
+                let r: f64 = rng.random();
+                if r < 0.005 {
+                    p = Vector3::from_fn(|i, _| rng.random_range(lo[i]..hi[i]));
+                } else if r < 0.02 {
+                    v = Vector3::from_fn(|_, _| rng.random_range(-3.0..3.0));
+                } else {
+                    v += Vector3::from_fn(|_, _| rng.random_range(-0.05..0.05));
+                    v = v.cap_magnitude(1.5);
+                }
+                p += v * 0.004;
+                let full = sense_obstacles(&scene, t, &p, 3.0, &mut full_sensors);
+                let h_full = true_h_bar(&scene, &filter, t, &p, &v);
+                let before = tracker.evaluations;
+                let h_fast = sense_and_h_bar(
+                    &scene,
+                    &mut tracker,
+                    &filter,
+                    t,
+                    &p,
+                    &v,
+                    3.0,
+                    &mut fast_sensors,
+                    &mut scratch,
+                );
+                assert_eq!(scratch.seen, full, "step {k} at {p:?}");
+                assert_eq!(h_fast.to_bits(), h_full.to_bits(), "step {k} at {p:?}: {h_fast} vs {h_full}");
+                skipped_some += usize::from(tracker.evaluations - before < scene.obstacles.len() as u64);
+                reported += scratch.seen.len();
+            }
+            // The noise streams stayed in step, and the test saw reports and skips.
+            assert_eq!(
+                full_sensors.obstacle_velocity(Vector3::zeros()),
+                fast_sensors.obstacle_velocity(Vector3::zeros())
+            );
+            assert!(reported > n && skipped_some > n / 2, "reported {reported}, skipped in {skipped_some}");
+        }
+    }
+}

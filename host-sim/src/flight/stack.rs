@@ -1,0 +1,92 @@
+//! What the closed loop needs from a flight stack ([`FlightStack`]), what one
+//! outer step reports to the recorder ([`OuterOut`]), and the controller clock.
+//!
+//! * **Clock**: controller time (µs) = (simulated time + [`CLOCK_OFFSET_S`]) · 10⁶,
+//!   so that position fixes measured before t = 0 (latency priming) keep
+//!   non-negative timestamps.
+//!
+//! Owns the interface between [`super::runner`] and the flight stacks of
+//! [`crate::fc`] (which implement it). May import: `parapet-core`,
+//! [`crate::sim::sensors`] (readings).
+
+use anyhow::Result;
+use nalgebra::Vector3;
+use parapet_core::cbf::FilterDiagnostics;
+use parapet_core::controller::Telemetry;
+use parapet_core::obstacle::ObstaclePoint;
+
+use crate::report::SafetyFlags;
+use crate::sim::sensors::{ImuReading, PositionReading};
+use crate::world::scene::to_f64;
+
+/// Offset of the controller clock from simulated time, s.
+pub const CLOCK_OFFSET_S: f64 = 1.0;
+
+/// Controller clock (µs) at simulated time `t` (s).
+pub fn clock_us(t: f64) -> u64 {
+    ((t + CLOCK_OFFSET_S).max(0.0) * 1e6).round() as u64
+}
+
+/// What one outer step produced, for the recorder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OuterOut {
+    /// Reference position, NED, m.
+    pub reference: Vector3<f64>,
+    /// The safety filter's diagnostics of the step (the core's one type; `h_bar` is the
+    /// filter's own min h̄ over the obstacles it was given, from the controller's estimate).
+    pub filter: FilterDiagnostics,
+    /// The path follower has reached the end of the path.
+    pub path_done: bool,
+    /// Nominal acceleration u* (PD output), NED, m/s².
+    pub u_nominal: Vector3<f64>,
+    /// Filtered acceleration u (filter output), NED, m/s².
+    pub u_filtered: Vector3<f64>,
+    /// Guidance mode of the controller (e.g. "Mission", "Brake").
+    pub mode: &'static str,
+    /// Deadlock and obstacle-set flags (issue 17).
+    pub safety: SafetyFlags,
+}
+
+impl OuterOut {
+    /// The recorder's view of the controller's telemetry after an outer step.
+    pub fn from_telemetry(tel: &Telemetry) -> Self {
+        OuterOut {
+            reference: to_f64(&tel.reference.position),
+            filter: tel.filter,
+            path_done: tel.progress.done,
+            u_nominal: to_f64(&tel.u_nominal),
+            u_filtered: to_f64(&tel.u_filtered),
+            mode: tel.mode.as_str(),
+            safety: SafetyFlags {
+                deadlock: tel.robust.deadlock,
+                obstacles_dropped: tel.obstacle_set.dropped,
+                obstacles_dropped_near: tel.obstacle_set.dropped_near,
+            },
+        }
+    }
+}
+
+/// What the runner needs from a flight controller, in simulated time `t` (s).
+/// Implemented by `crate::fc::control::Controller` (in-process `FlightController`),
+/// `crate::fc::pil::PilLink` (the firmware in QEMU) and `crate::fc::pil::FirmwareTwin`. Call order per 1 ms step:
+/// every 4th step `position_fix` (when a fix is due) then `outer`; every step `inner`.
+pub trait FlightStack {
+    /// Start-up at `t` with the vehicle hovering at `start` (NED): initialise,
+    /// arm, hold `start`, start the mission.
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> Result<()>;
+    /// A position/velocity/yaw fix measured at `fix.t_measured`.
+    fn position_fix(&mut self, fix: PositionReading);
+    /// Outer step at `t` with the sensed obstacles; returns what the recorder needs.
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut;
+    /// Inner step at `t`: IMU in, motor throttles (0..1, rotors 1..4) out.
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4];
+    /// Name of the controller's failsafe state (e.g. "Armed").
+    fn state_name(&self) -> String;
+}

@@ -1,0 +1,812 @@
+//! Run report: `summary.json`, `trajectory.csv`, plots (SVG and PNG) and a
+//! short summary table on stdout.
+//!
+//! Everything written here is in the file/plot frame **ENU** (x east, y
+//! north, z up, m; accelerations m/s² in ENU too); attitude angles are the
+//! vehicle's true roll/pitch/yaw of FRD relative to NED (rad).
+//!
+//! `trajectory.csv` columns (one row per outer step, 250 Hz): `t` (s since the
+//! mission start); `ref_*` reference (planned) position; `x,y,z` true position;
+//! `v*` true velocity; `roll,pitch,yaw`; `region` (none, far, nominal_safe,
+//! filtering, fault); `active_obstacle` (scene index or empty);
+//! `filter_active` (0/1); `clearance` (m, true, nearest obstacle or ground
+//! minus hull radius); `h_bar` (m², true state, min over all obstacles);
+//! `u_nom_*` PD output u*; `u_*` filter output; `filter_h_bar` (the
+//! controller's own min h̄ from its estimate and the sensed obstacles);
+//! `n_constraints`, `unavoidable`, `infeasible` (filter diagnostics); `mode`
+//! (controller guidance mode); `wind_x,wind_y,wind_z` the wind at the vehicle (m/s,
+//! ENU; 0 in still air, see `crate::sim::disturbance`); `deadlock` (0/1, the controller's
+//! stall flag), `obstacles_dropped` and `obstacles_dropped_near` (points the
+//! controller's obstacle set dropped at capacity in that step, and of them those with
+//! `h ≤ δ1`; `parapet_core::obstacle_set`). `summary.json`'s `safety_steps` counts the
+//! outer steps with each flag.
+//!
+//! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
+//! May import: `parapet-core`, [`crate::input`], [`crate::world`] (the scene
+//! drawn in the plots), plotters, serde.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context, Result};
+use nalgebra::Vector3;
+use parapet_core::cbf::{FilterDiagnostics, Region};
+use parapet_core::obstacle::Shape;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use serde::Serialize;
+
+use crate::input::Fixed;
+use crate::world::scene::{ned_to_enu_arr, to_f64, Scene};
+
+/// Controller parameters of a run, as flown.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunParams {
+    /// Barrier velocity weight μ, s.
+    pub mu: f64,
+    /// Safety level δ, m².
+    pub delta: f64,
+    /// Engagement level δ1, m².
+    pub delta1: f64,
+    /// PD position gain, 1/s².
+    pub kp: f64,
+    /// PD velocity gain, 1/s.
+    pub kd: f64,
+    /// Reference speed along the path, m/s.
+    pub speed: f64,
+}
+
+impl RunParams {
+    /// The flown value of the parameter-table entry with scene/option key `key`
+    /// ([`parapet_core::params::Param::key`]), if the run records it.
+    pub fn value(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "mu" => self.mu,
+            "delta" => self.delta,
+            "delta1" => self.delta1,
+            "kp" => self.kp,
+            "kd" => self.kd,
+            "speed" => self.speed,
+            _ => return None,
+        })
+    }
+
+    /// The recorded values in parameter-table order with their units, e.g.
+    /// `mu 1.4 s, delta 0.05 m^2, …, speed 0.25 m/s`.
+    pub fn listed(&self) -> String {
+        let items: Vec<String> = parapet_core::params::TABLE
+            .iter()
+            .filter_map(|p| p.key.and_then(|k| self.value(k).map(|v| format!("{k} {v} {}", p.unit))))
+            .collect();
+        items.join(", ")
+    }
+}
+
+/// The machine-readable summary of a run (`summary.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// Scene name.
+    pub scene: String,
+    /// Scene file.
+    pub scene_file: String,
+    /// Filter variant name, or `"none"` with `--no-cbf`.
+    pub filter: String,
+    /// Whether the safety filter was on.
+    pub cbf_enabled: bool,
+    /// The hull sphere intersected an obstacle.
+    pub collided: bool,
+    /// Time of the first collision, s (null if none).
+    pub first_collision_time_s: Option<f64>,
+    /// Index (0-based, scene file order) of the obstacle hit first (null if none or the ground).
+    pub collision_obstacle: Option<usize>,
+    /// What was hit first: `"obstacles[i] (name)"` or `"ground"` (null if nothing).
+    pub collision_with: Option<String>,
+    /// Minimum over the flight of (distance from the centre of mass to the
+    /// nearest obstacle surface or the ground − hull radius), m. Negative = collision.
+    pub min_clearance_m: f64,
+    /// Minimum over the flight and over all obstacles of the barrier
+    /// `h̄ = |d|² + μ dᵀḋ − δ` (m²) on the true state, with the filter's notion of ḋ.
+    pub min_h_bar: f64,
+    /// Minimum over the flight of the controller's own h̄ (its position/velocity
+    /// estimate, the obstacles it was told about), m²; null when it never saw one.
+    pub min_filter_h_bar: Option<f64>,
+    /// The **scene's** mission goal reached: the path done, the vehicle slow and
+    /// within the tolerance of `[mission] goal` (not merely of the path's end).
+    pub reached_goal: bool,
+    /// Time from mission start to reaching the scene's goal, s (null if not reached).
+    pub time_to_goal_s: Option<f64>,
+    /// Distance from the vehicle to the scene's mission goal at the end of the run, m.
+    pub final_distance_to_goal_m: f64,
+    /// The path's last waypoint reached (path done, slow, within the tolerance);
+    /// equals `reached_goal` for a path of the scene, differs for a `--foreign-path`.
+    pub reached_path_end: bool,
+    /// Distance from the vehicle to the path's last waypoint at the end of the run, m.
+    pub final_distance_to_path_end_m: f64,
+    /// RMS of |actual − reference position| over the flight, m.
+    pub tracking_rms_m: f64,
+    /// Share of outer-loop steps where the filter changed the nominal input.
+    pub filter_active_fraction: f64,
+    /// Why the run ended: "goal" (the scene's), "path_end" (the path's end, away
+    /// from the scene's goal), "collision" or "duration".
+    pub end_reason: String,
+    /// Simulated time, s.
+    pub sim_time_s: f64,
+    /// Wall-clock time of the simulation (without planning and report), s.
+    pub wall_time_s: f64,
+    /// Plant integration steps.
+    pub steps: u64,
+    /// Planning time, ms (null when the path came from a file or was a straight line).
+    pub planning_time_ms: Option<f64>,
+    /// Length of the planned path (start → goal), m.
+    pub path_length_m: f64,
+    /// Where the path came from: "planner", "file" or "straight".
+    pub path_source: String,
+    /// Number of waypoints of the path.
+    pub path_waypoints: usize,
+    /// Controller parameters.
+    pub params: RunParams,
+    /// Failsafe state of the controller at the end of the run (normally "Armed").
+    pub final_controller_state: String,
+    /// Random seed (sensor noise; planner).
+    pub seed: u64,
+    /// Whether sensor noise was on.
+    pub noise: bool,
+    /// Outer steps with each safety flag (unavoidable, infeasible, deadlock, dropped obstacles).
+    pub safety_steps: SafetySteps,
+}
+
+/// Safety flags of one outer step beyond the filter's own (issue 17).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SafetyFlags {
+    /// The controller's stall detector reports a deadlock.
+    pub deadlock: bool,
+    /// Obstacle points dropped by the controller's set at capacity.
+    pub obstacles_dropped: u16,
+    /// Of those, points whose barrier had `h ≤ δ1` (the filter would have considered them).
+    pub obstacles_dropped_near: u16,
+}
+
+/// Outer steps of a run with each safety flag (`summary.json`, `safety_steps`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SafetySteps {
+    /// Outer steps flown.
+    pub outer: u64,
+    /// Steps where the filter changed the nominal input.
+    pub filter_active: u64,
+    /// Steps with the `unavoidable` flag (a constraint needs more than u_max).
+    pub unavoidable: u64,
+    /// Steps with the `infeasible` flag (the enforced constraints had no common solution).
+    pub infeasible: u64,
+    /// Steps with the `deadlock` flag.
+    pub deadlock: u64,
+    /// Steps where the obstacle set dropped at least one point.
+    pub obstacles_dropped: u64,
+    /// Steps where it dropped at least one point with `h ≤ δ1`.
+    pub obstacles_dropped_near: u64,
+    /// Most points dropped in one step.
+    pub max_obstacles_dropped: u16,
+    /// Time of the first `unavoidable` step, s (null if none).
+    pub first_unavoidable_time_s: Option<f64>,
+    /// Time of the first `deadlock` step, s (null if none).
+    pub first_deadlock_time_s: Option<f64>,
+}
+
+impl SafetySteps {
+    /// The counts over `samples`.
+    pub fn of(samples: &[Sample]) -> Self {
+        let mut c = SafetySteps::default();
+        for k in samples {
+            c.outer += 1;
+            c.filter_active += u64::from(k.filter.intervened);
+            c.unavoidable += u64::from(k.filter.unavoidable);
+            c.infeasible += u64::from(k.filter.infeasible);
+            c.deadlock += u64::from(k.safety.deadlock);
+            c.obstacles_dropped += u64::from(k.safety.obstacles_dropped > 0);
+            c.obstacles_dropped_near += u64::from(k.safety.obstacles_dropped_near > 0);
+            c.max_obstacles_dropped = c.max_obstacles_dropped.max(k.safety.obstacles_dropped);
+            if k.filter.unavoidable && c.first_unavoidable_time_s.is_none() {
+                c.first_unavoidable_time_s = Some(k.t);
+            }
+            if k.safety.deadlock && c.first_deadlock_time_s.is_none() {
+                c.first_deadlock_time_s = Some(k.t);
+            }
+        }
+        c
+    }
+}
+
+/// One recorded sample (outer-loop rate). Vectors NED.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Time since mission start, s.
+    pub t: f64,
+    /// Reference position, NED, m.
+    pub ref_pos: Vector3<f64>,
+    /// True position, NED, m.
+    pub pos: Vector3<f64>,
+    /// True velocity, NED, m/s.
+    pub vel: Vector3<f64>,
+    /// Roll, pitch, yaw (FRD w.r.t. NED), rad.
+    pub rpy: [f64; 3],
+    /// The safety filter's diagnostics of the step (region, active obstacle, intervened,
+    /// the controller's own min h̄ from its estimate and the sensed obstacles, constraints
+    /// enforced, unavoidable / infeasible flags): the core's one type.
+    pub filter: FilterDiagnostics,
+    /// True clearance (distance to nearest surface − hull radius), m.
+    pub clearance: f64,
+    /// Clearance of the reference position, m.
+    pub ref_clearance: f64,
+    /// Min h̄ over all obstacles on the true state, m².
+    pub h_bar: f64,
+    /// Nominal acceleration u* (PD), NED, m/s².
+    pub u_nominal: Vector3<f64>,
+    /// Filtered acceleration u, NED, m/s².
+    pub u_filtered: Vector3<f64>,
+    /// Controller guidance mode.
+    pub mode: &'static str,
+    /// Wind at the vehicle, NED, m/s.
+    pub wind: Vector3<f64>,
+    /// Deadlock and obstacle-set flags.
+    pub safety: SafetyFlags,
+}
+
+/// Everything the report needs.
+pub struct RunRecord<'a> {
+    /// The scene flown.
+    pub scene: &'a Scene,
+    /// Planned path, NED, start first.
+    pub path: &'a [Vector3<f64>],
+    /// Flown samples.
+    pub samples: &'a [Sample],
+    /// The summary.
+    pub summary: &'a Summary,
+}
+
+/// Plots of the report: each is written as `<name>.svg` and `<name>.png`.
+pub const PLOTS: [&str; 3] = ["top_view", "clearance", "filter_activity"];
+
+/// Every file [`write_report`] may write into its directory (so the CLI can
+/// refuse an output directory where one of them is an input).
+pub fn report_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v = vec![dir.join("summary.json"), dir.join("trajectory.csv")];
+    for name in PLOTS {
+        v.push(dir.join(format!("{name}.svg")));
+        v.push(dir.join(format!("{name}.png")));
+    }
+    v
+}
+
+/// Write `summary.json`, `trajectory.csv` and the plots into `dir` (created if
+/// needed). Returns the files written; a plot that fails (e.g. no usable font)
+/// is reported in the returned warnings instead of failing the run.
+pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<String>)> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut files = Vec::new();
+    let summary_path = dir.join("summary.json");
+    let json = serde_json::to_string_pretty(rec.summary)? + "\n";
+    std::fs::write(&summary_path, json)
+        .with_context(|| format!("cannot write {}", summary_path.display()))?;
+    files.push(summary_path);
+    let csv_path = dir.join("trajectory.csv");
+    // Streamed row by row: no second copy of the flight in memory.
+    std::fs::File::create(&csv_path)
+        .map(std::io::BufWriter::new)
+        .and_then(|mut w| {
+            write_trajectory_csv(&mut w, rec.samples)?;
+            std::io::Write::flush(&mut w)
+        })
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    files.push(csv_path);
+    let mut warnings = Vec::new();
+    for name in PLOTS {
+        match plot_both(dir, name, rec) {
+            Ok(mut v) => files.append(&mut v),
+            Err(e) => warnings.push(format!("plot {name}: {e:#}")),
+        }
+    }
+    Ok((files, warnings))
+}
+
+/// The trajectory CSV text (ENU).
+pub fn trajectory_csv(samples: &[Sample]) -> String {
+    let mut v = Vec::new();
+    // Writing into a Vec cannot fail; the text is ASCII.
+    let _ = write_trajectory_csv(&mut v, samples);
+    String::from_utf8_lossy(&v).into_owned()
+}
+
+/// One row of `trajectory.csv` (columns in the module docs; ENU).
+#[derive(Serialize)]
+struct TrajectoryRow {
+    t: Fixed<4>,
+    ref_x: Fixed<4>,
+    ref_y: Fixed<4>,
+    ref_z: Fixed<4>,
+    x: Fixed<4>,
+    y: Fixed<4>,
+    z: Fixed<4>,
+    vx: Fixed<4>,
+    vy: Fixed<4>,
+    vz: Fixed<4>,
+    roll: Fixed<5>,
+    pitch: Fixed<5>,
+    yaw: Fixed<5>,
+    region: &'static str,
+    active_obstacle: Option<u16>,
+    filter_active: u8,
+    clearance: Fixed<4>,
+    h_bar: Fixed<5>,
+    u_nom_x: Fixed<4>,
+    u_nom_y: Fixed<4>,
+    u_nom_z: Fixed<4>,
+    u_x: Fixed<4>,
+    u_y: Fixed<4>,
+    u_z: Fixed<4>,
+    filter_h_bar: Fixed<5>,
+    n_constraints: u8,
+    unavoidable: u8,
+    infeasible: u8,
+    mode: &'static str,
+    wind_x: Fixed<4>,
+    wind_y: Fixed<4>,
+    wind_z: Fixed<4>,
+    deadlock: u8,
+    obstacles_dropped: u16,
+    obstacles_dropped_near: u16,
+}
+
+impl TrajectoryRow {
+    fn of(k: &Sample) -> Self {
+        let [ref_x, ref_y, ref_z] = ned_to_enu_arr(&k.ref_pos).map(Fixed);
+        let [x, y, z] = ned_to_enu_arr(&k.pos).map(Fixed);
+        let [vx, vy, vz] = ned_to_enu_arr(&k.vel).map(Fixed);
+        let [roll, pitch, yaw] = k.rpy.map(Fixed);
+        let [u_nom_x, u_nom_y, u_nom_z] = ned_to_enu_arr(&k.u_nominal).map(Fixed);
+        let [u_x, u_y, u_z] = ned_to_enu_arr(&k.u_filtered).map(Fixed);
+        let [wind_x, wind_y, wind_z] = ned_to_enu_arr(&k.wind).map(Fixed);
+        let f = &k.filter;
+        TrajectoryRow {
+            t: Fixed(k.t),
+            ref_x,
+            ref_y,
+            ref_z,
+            x,
+            y,
+            z,
+            vx,
+            vy,
+            vz,
+            roll,
+            pitch,
+            yaw,
+            region: region_name(f.region),
+            active_obstacle: f.active_id,
+            filter_active: u8::from(f.intervened),
+            clearance: Fixed(k.clearance),
+            h_bar: Fixed(k.h_bar),
+            u_nom_x,
+            u_nom_y,
+            u_nom_z,
+            u_x,
+            u_y,
+            u_z,
+            filter_h_bar: Fixed(f64::from(f.h_bar)),
+            n_constraints: f.n_constraints,
+            unavoidable: u8::from(f.unavoidable),
+            infeasible: u8::from(f.infeasible),
+            mode: k.mode,
+            wind_x,
+            wind_y,
+            wind_z,
+            deadlock: u8::from(k.safety.deadlock),
+            obstacles_dropped: k.safety.obstacles_dropped,
+            obstacles_dropped_near: k.safety.obstacles_dropped_near,
+        }
+    }
+}
+
+/// Write the trajectory CSV (ENU) to `w`, one row at a time (csv crate, serde records).
+pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> std::io::Result<()> {
+    let mut out = csv::Writer::from_writer(w);
+    for k in samples {
+        out.serialize(TrajectoryRow::of(k)).map_err(std::io::Error::other)?;
+    }
+    if samples.is_empty() {
+        // The header of an empty file (serde writes it with the first record).
+        out.write_record(TRAJECTORY_COLUMNS).map_err(std::io::Error::other)?;
+    }
+    out.flush()
+}
+
+/// Column names of `trajectory.csv`.
+pub const TRAJECTORY_COLUMNS: [&str; 32] = [
+    "t",
+    "ref_x",
+    "ref_y",
+    "ref_z",
+    "x",
+    "y",
+    "z",
+    "vx",
+    "vy",
+    "vz",
+    "roll",
+    "pitch",
+    "yaw",
+    "region",
+    "active_obstacle",
+    "filter_active",
+    "clearance",
+    "h_bar",
+    "u_nom_x",
+    "u_nom_y",
+    "u_nom_z",
+    "u_x",
+    "u_y",
+    "u_z",
+    "filter_h_bar",
+    "n_constraints",
+    "unavoidable",
+    "infeasible",
+    "mode",
+    "wind_x",
+    "wind_y",
+    "wind_z",
+];
+
+/// Region name for reports and `trajectory.csv`.
+pub fn region_name(r: Region) -> &'static str {
+    match r {
+        Region::NoObstacle => "none",
+        Region::Far => "far",
+        Region::NominalSafe => "nominal_safe",
+        Region::Perpendicular => "filtering",
+        Region::Fault => "fault",
+    }
+}
+
+/// The short summary table printed after a run.
+pub fn summary_table(s: &Summary) -> String {
+    let opt = |x: Option<f64>, unit: &str| x.map(|v| format!("{v:.2} {unit}")).unwrap_or_else(|| "-".into());
+    let rows: Vec<(&str, String)> = vec![
+        ("scene", format!("{} ({})", s.scene, s.scene_file)),
+        ("filter", s.filter.clone()),
+        ("params", s.params.listed()),
+        (
+            "path",
+            format!(
+                "{} : {} waypoints, {:.2} m, planning {}",
+                s.path_source,
+                s.path_waypoints,
+                s.path_length_m,
+                opt(s.planning_time_ms, "ms")
+            ),
+        ),
+        ("end", s.end_reason.clone()),
+        (
+            "reached goal",
+            format!(
+                "{} (t = {}; scene goal, final distance {:.3} m)",
+                s.reached_goal,
+                opt(s.time_to_goal_s, "s"),
+                s.final_distance_to_goal_m
+            ),
+        ),
+        (
+            "path end",
+            format!(
+                "{} (last waypoint, final distance {:.3} m)",
+                if s.reached_path_end { "reached" } else { "not reached" },
+                s.final_distance_to_path_end_m
+            ),
+        ),
+        (
+            "collided",
+            format!(
+                "{} (t = {}{})",
+                s.collided,
+                opt(s.first_collision_time_s, "s"),
+                s.collision_with.as_ref().map(|w| format!(", {w}")).unwrap_or_default()
+            ),
+        ),
+        ("min clearance", format!("{:.3} m", s.min_clearance_m)),
+        ("min h_bar", format!("{:.4} m²", s.min_h_bar)),
+        ("tracking RMS", format!("{:.3} m", s.tracking_rms_m)),
+        ("filter active", format!("{:.1} % of outer steps", 100.0 * s.filter_active_fraction)),
+        (
+            "safety flags",
+            format!(
+                "steps unavoidable {}, infeasible {}, deadlock {}, obstacles dropped {} (near {})",
+                s.safety_steps.unavoidable,
+                s.safety_steps.infeasible,
+                s.safety_steps.deadlock,
+                s.safety_steps.obstacles_dropped,
+                s.safety_steps.obstacles_dropped_near
+            ),
+        ),
+        ("simulated", format!("{:.2} s in {:.2} s wall, {} steps", s.sim_time_s, s.wall_time_s, s.steps)),
+    ];
+    let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+    let mut out = String::new();
+    for (k, v) in rows {
+        let _ = writeln!(out, "  {k:<w$}  {v}");
+    }
+    out
+}
+
+fn plot_both(dir: &Path, name: &str, rec: &RunRecord) -> Result<Vec<PathBuf>> {
+    let (w, h) = plot_size(name, rec);
+    let svg = dir.join(format!("{name}.svg"));
+    {
+        let root = SVGBackend::new(&svg, (w, h)).into_drawing_area();
+        draw_any(name, &root, rec)?;
+        root.present().map_err(e)?;
+    }
+    let png = dir.join(format!("{name}.png"));
+    {
+        let root = BitMapBackend::new(&png, (w, h)).into_drawing_area();
+        draw_any(name, &root, rec)?;
+        root.present().map_err(e)?;
+    }
+    Ok(vec![svg, png])
+}
+
+fn draw_any<DB: DrawingBackend>(name: &str, root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    match name {
+        "top_view" => draw_top_view_any(root, rec),
+        "clearance" => draw_clearance_any(root, rec),
+        _ => draw_filter_activity_any(root, rec),
+    }
+}
+
+fn plot_size(name: &str, rec: &RunRecord) -> (u32, u32) {
+    if name == "top_view" {
+        let (mn, mx) = rec.scene.bounds_enu;
+        let (dx, dy) = ((mx[0] - mn[0]).max(0.1), (mx[1] - mn[1]).max(0.1));
+        let w = 1000.0;
+        let h = (w * dy / dx).clamp(300.0, 1400.0) + 60.0;
+        (w as u32, h as u32)
+    } else {
+        (1000, 400)
+    }
+}
+
+pub(crate) fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
+    anyhow!("{err}")
+}
+
+/// Height of the top of a shape above the ground, m.
+fn top_height(shape: &Shape) -> f64 {
+    match shape {
+        Shape::Point { center } => -center[2] as f64,
+        Shape::Sphere { center, radius } => -(center[2] - radius) as f64,
+        Shape::Box { min, .. } => -min[2] as f64,
+        Shape::Cylinder { base, height, .. } => -(base[2] - height) as f64,
+    }
+}
+
+/// Outline of a shape's top view (ENU x, y), closed polygon.
+fn outline(shape: &Shape) -> Vec<(f64, f64)> {
+    let circle = |c: Vector3<f64>, r: f64| -> Vec<(f64, f64)> {
+        let c = ned_to_enu_arr(&c);
+        (0..=48)
+            .map(|k| {
+                let a = k as f64 / 48.0 * std::f64::consts::TAU;
+                (c[0] + r * a.cos(), c[1] + r * a.sin())
+            })
+            .collect()
+    };
+    match shape {
+        Shape::Point { center } => circle(to_f64(&(*center).into()), 0.02),
+        Shape::Sphere { center, radius } => circle(to_f64(&(*center).into()), *radius as f64),
+        Shape::Cylinder { base, radius, .. } => circle(to_f64(&(*base).into()), *radius as f64),
+        Shape::Box { min, max } => {
+            let a = ned_to_enu_arr(&to_f64(&(*min).into()));
+            let b = ned_to_enu_arr(&to_f64(&(*max).into()));
+            let (x0, x1) = (a[0].min(b[0]), a[0].max(b[0]));
+            let (y0, y1) = (a[1].min(b[1]), a[1].max(b[1]));
+            vec![(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+        }
+    }
+}
+
+fn draw_top_view_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let (mn, mx) = rec.scene.bounds_enu;
+    let title = format!(
+        "{} — {} (planned green, flown blue; light grey: below flight level{})",
+        rec.summary.scene,
+        rec.summary.filter,
+        if rec.summary.collided { ", collision ×" } else { "" }
+    );
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(45)
+        .build_cartesian_2d(mn[0]..mx[0], mn[1]..mx[1])
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("east x [m]")
+        .y_desc("north y [m]")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(e)?;
+    let t_end = rec.samples.last().map(|s| s.t).unwrap_or(0.0);
+    for o in &rec.scene.obstacles {
+        let moving = !o.is_static();
+        // Obstacles whose top is below the start height (desks, low furniture) are
+        // drawn lighter: the vehicle may fly over them.
+        let low = top_height(&o.shape) < -rec.scene.start.z - rec.scene.vehicle.hull_radius;
+        let fill = match (moving, low) {
+            (true, _) => RGBColor(230, 160, 160),
+            (false, true) => RGBColor(215, 215, 215),
+            (false, false) => RGBColor(160, 160, 160),
+        };
+        if moving {
+            // Track of its reference point, faint poses every 1/6 of the run, the
+            // pose at the end, and (solid) the pose at the closest approach to the
+            // vehicle together with the vehicle's hull circle at that instant.
+            let track: Vec<(f64, f64)> = (0..=50)
+                .map(|k| {
+                    let c = crate::world::scene::reference_point(&o.at(t_end * k as f64 / 50.0).0);
+                    let a = ned_to_enu_arr(&c);
+                    (a[0], a[1])
+                })
+                .collect();
+            chart.draw_series(std::iter::once(PathElement::new(track, fill.stroke_width(1)))).map_err(e)?;
+            for k in 0..=6 {
+                let pose = outline(&o.at(t_end * k as f64 / 6.0).0);
+                chart.draw_series(std::iter::once(Polygon::new(pose, fill.mix(0.3).filled()))).map_err(e)?;
+            }
+            let pf = |v: &Vector3<f64>| crate::world::scene::to_f32(v);
+            let closest = rec.samples.iter().min_by(|a, b| {
+                let da = o.at(a.t).0.signed_distance(&pf(&a.pos));
+                let db = o.at(b.t).0.signed_distance(&pf(&b.pos));
+                da.total_cmp(&db)
+            });
+            if let Some(k) = closest {
+                let pose = outline(&o.at(k.t).0);
+                chart.draw_series(std::iter::once(Polygon::new(pose, fill.filled()))).map_err(e)?;
+                let hull = outline(&Shape::sphere(pf(&k.pos), rec.scene.vehicle.hull_radius as f32));
+                chart
+                    .draw_series(std::iter::once(PathElement::new(hull, BLUE.stroke_width(1))))
+                    .map_err(e)?;
+            }
+        } else {
+            chart.draw_series(std::iter::once(Polygon::new(outline(&o.shape), fill.filled()))).map_err(e)?;
+        }
+    }
+    let to2 = |v: &Vector3<f64>| {
+        let a = ned_to_enu_arr(v);
+        (a[0], a[1])
+    };
+    let green = RGBColor(0, 160, 0);
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            rec.path.iter().map(to2).collect::<Vec<_>>(),
+            green.stroke_width(2),
+        )))
+        .map_err(e)?;
+    chart.draw_series(rec.path.iter().map(|p| Circle::new(to2(p), 3, green.filled()))).map_err(e)?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            rec.samples.iter().map(|s| to2(&s.pos)).collect::<Vec<_>>(),
+            BLUE.stroke_width(2),
+        )))
+        .map_err(e)?;
+    if let Some(t) = rec.summary.first_collision_time_s {
+        if let Some(s) = rec.samples.iter().find(|s| s.t >= t).or(rec.samples.last()) {
+            chart.draw_series(std::iter::once(Cross::new(to2(&s.pos), 8, RED.stroke_width(3)))).map_err(e)?;
+        }
+    }
+    let (s, g) = (to2(&rec.scene.start), to2(&rec.scene.goal));
+    chart.draw_series(std::iter::once(TriangleMarker::new(s, 8, BLACK.filled()))).map_err(e)?;
+    chart.draw_series(std::iter::once(Circle::new(g, 8, BLACK.stroke_width(2)))).map_err(e)?;
+    Ok(())
+}
+
+fn time_range(rec: &RunRecord) -> std::ops::Range<f64> {
+    0.0..rec.samples.last().map(|s| s.t).unwrap_or(1.0).max(1e-3)
+}
+
+fn draw_clearance_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let finite = |x: f64| if x.is_finite() { x } else { 5.0 };
+    let ymax = rec
+        .samples
+        .iter()
+        .map(|s| finite(s.clearance).max(finite(s.ref_clearance)))
+        .fold(0.5f64, f64::max)
+        .min(5.0);
+    let ymin = rec.samples.iter().map(|s| finite(s.clearance)).fold(-0.05f64, f64::min);
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Clearance (distance to nearest surface − hull radius): flown blue, planned green; bound 0 red",
+            ("sans-serif", 16),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(50)
+        .build_cartesian_2d(time_range(rec), ymin..ymax * 1.05)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("clearance [m]").draw().map_err(e)?;
+    let tr = time_range(rec);
+    chart
+        .draw_series(LineSeries::new(vec![(tr.start, 0.0), (tr.end, 0.0)], RED.stroke_width(2)))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            rec.samples.iter().map(|s| (s.t, finite(s.ref_clearance).min(ymax * 1.05))),
+            RGBColor(0, 160, 0),
+        ))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            rec.samples.iter().map(|s| (s.t, finite(s.clearance).min(ymax * 1.05))),
+            BLUE.stroke_width(2),
+        ))
+        .map_err(e)?;
+    Ok(())
+}
+
+fn draw_filter_activity_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Filter activity: region (0 none, 1 far D_δ1, 2 nominal safe D_u*, 3 filtering D_⊥, 4 fault); red = intervened",
+            ("sans-serif", 15),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(40)
+        .build_cartesian_2d(time_range(rec), -0.5f64..4.5f64)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("region").draw().map_err(e)?;
+    let pts: Vec<(f64, f64)> = rec.samples.iter().map(|s| (s.t, s.filter.region.code() as f64)).collect();
+    chart.draw_series(LineSeries::new(pts, BLUE)).map_err(e)?;
+    chart
+        .draw_series(
+            rec.samples
+                .iter()
+                .filter(|s| s.filter.intervened)
+                .map(|s| Rectangle::new([(s.t, -0.45), (s.t + 0.004, -0.1)], RED.filled())),
+        )
+        .map_err(e)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every recorded run parameter is a parameter-table key, listed with its unit.
+    #[test]
+    fn run_parameters_come_from_the_table() {
+        let p = RunParams { mu: 1.4, delta: 0.05, delta1: 0.1, kp: 0.5, kd: 0.8, speed: 0.25 };
+        let json = serde_json::to_value(&p).unwrap();
+        let fields = json.as_object().unwrap();
+        for (k, v) in fields {
+            let entry = parapet_core::params::by_key(k).unwrap_or_else(|| panic!("{k} not in the table"));
+            assert_eq!(p.value(k), v.as_f64(), "{k}");
+            assert!(p.listed().contains(&format!("{k} {} {}", v, entry.unit)), "{}", p.listed());
+        }
+        assert_eq!(
+            p.listed(),
+            "mu 1.4 s, delta 0.05 m^2, delta1 0.1 m^2, kp 0.5 1/s^2, kd 0.8 1/s, speed 0.25 m/s"
+        );
+    }
+}

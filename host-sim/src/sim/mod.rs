@@ -1,0 +1,18 @@
+//! The simulated vehicle and its environment (no controller, no scene).
+//!
+//! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz, RotorPy-style aerodynamics.
+//! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
+//! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
+//! * [`replay`]: open-loop replay of rotor speeds from a CSV.
+//! * [`track_ids`]: the `u16` track ids of the obstacles in view (scenes beyond 65,535 obstacles).
+//!
+//! Owns the physics and sensor models. May import: `parapet-core`, and of
+//! host-sim only [`crate::input`] (errors, limits).
+/// Plant step and inner-loop period, s (1 kHz).
+pub const INNER_DT: f64 = 0.001;
+
+pub mod disturbance;
+pub mod plant;
+pub mod replay;
+pub mod sensors;
+pub mod track_ids;
