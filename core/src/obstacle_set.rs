@@ -42,6 +42,9 @@
 //! worst: at most `3N` key comparisons per point, O(M·N) for M points (M bounded by the
 //! caller's batch). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
 //!
+//! [`Selector`] applies the policy one point at a time (a sensor batch as it arrives, e.g.
+//! the firmware's obstacle link); [`select`] applies it to a slice.
+//!
 //! **Report** ([`SetReport`]): points offered, kept, dropped at capacity, and of the
 //! dropped ones how many had `h ≤ δ1` ("near": a barrier the filter would have
 //! considered this step), with the smallest dropped key. A dropped near point means the
@@ -50,7 +53,7 @@
 //! May import: `crate::obstacle` (points and the set), `crate::cbf` (the input limit), `crate::Vec3`.
 
 use crate::cbf::INPUT_LIMIT;
-use crate::obstacle::{ObstaclePoint, ObstacleSet};
+use crate::obstacle::{ObstaclePoint, ObstacleSet, DEFAULT_OBSTACLE_CAPACITY};
 use crate::Vec3;
 
 /// How points are ranked when the set is full.
@@ -88,7 +91,7 @@ pub struct SetReport {
 }
 
 /// Per-slot ranking state: (tier, key).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Rank {
     tier: u8,
     key: f32,
@@ -124,6 +127,133 @@ fn key_of(ranking: Ranking, p: &Vec3, v: &Vec3, o: &ObstaclePoint) -> (f32, f32)
     }
 }
 
+/// What [`Selector::offer`] did with a point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Offer {
+    /// Stored (possibly in place of a less critical point, counted as dropped).
+    Kept,
+    /// Not stored: the set is full of more critical points.
+    Dropped,
+    /// Non-finite or beyond ±`INPUT_LIMIT` (or the vehicle state is): not ranked.
+    Rejected,
+}
+
+/// The policy applied one point at a time (e.g. as a sensor batch arrives): offer the
+/// points, then take the set and the report. [`select`] is this over a slice.
+#[derive(Clone, Debug)]
+pub struct Selector<const N: usize = DEFAULT_OBSTACLE_CAPACITY> {
+    set: ObstacleSet<N>,
+    ranks: [Rank; N],
+    /// Index of the worst stored entry (valid when the set is full).
+    worst: usize,
+    report: SetReport,
+    ranking: Ranking,
+    delta1: f32,
+    p: Vec3,
+    v: Vec3,
+    state_ok: bool,
+}
+
+impl<const N: usize> Selector<N> {
+    /// An empty selection for a vehicle at `p` moving at `v` (NED, m and m/s); `delta1`
+    /// (m²) classifies dropped points as near.
+    pub fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
+        Selector {
+            set: ObstacleSet::new(),
+            ranks: [Rank { tier: 0, key: 0.0 }; N],
+            worst: 0,
+            report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
+            ranking,
+            delta1,
+            p: *p,
+            v: *v,
+            state_ok: plausible(p) && plausible(v),
+        }
+    }
+
+    /// The points kept so far.
+    pub fn set(&self) -> &ObstacleSet<N> {
+        &self.set
+    }
+
+    /// The report so far (`kept` = points stored now).
+    pub fn report(&self) -> SetReport {
+        SetReport { kept: self.set.len() as u16, ..self.report }
+    }
+
+    /// The kept points and the report.
+    pub fn finish(self) -> (ObstacleSet<N>, SetReport) {
+        let rep = self.report();
+        (self.set, rep)
+    }
+
+    /// Offer one point. Bounded: O(1) when it cannot enter, else two O(N) scans.
+    pub fn offer(&mut self, o: &ObstaclePoint) -> Offer {
+        let (key, h) = key_of(self.ranking, &self.p, &self.v, o);
+        let point_ok = plausible(&o.point) && o.velocity.is_none_or(|w| plausible(&w));
+        if !self.state_ok || !point_ok || !key.is_finite() || !h.is_finite() {
+            self.report.rejected = self.report.rejected.saturating_add(1);
+            return Offer::Rejected;
+        }
+        self.report.offered = self.report.offered.saturating_add(1);
+        let len = self.set.len();
+        let full = len >= N;
+        let mut r = Rank { tier: 0, key };
+        // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
+        // cannot take it (whatever its id: see the module docs).
+        if full && self.ranks.get(self.worst).is_some_and(|w| w.tier == 0 && key >= w.key) {
+            drop_point(&mut self.report, key, h, self.delta1);
+            return Offer::Dropped;
+        }
+        if matches!(self.ranking, Ranking::Critical { .. }) {
+            let sibling = self
+                .set
+                .as_slice()
+                .iter()
+                .zip(self.ranks.iter())
+                .position(|(q, rq)| q.id == o.id && rq.tier == 0);
+            if let Some(s) = sibling {
+                match self.ranks.get_mut(s) {
+                    Some(rs) if key < rs.key => rs.tier = 1,
+                    _ => r.tier = 1,
+                }
+            }
+        }
+        if !full {
+            if self.set.points_mut().push(*o).is_err() {
+                return Offer::Dropped; // unreachable: len < N
+            }
+            if let Some(slot) = self.ranks.get_mut(len) {
+                *slot = r;
+            }
+            self.worst = worst_index(self.ranks.get(..len + 1).unwrap_or(&[]));
+            return Offer::Kept;
+        }
+        let ranks = self.ranks.get(..len).unwrap_or(&[]);
+        self.worst = worst_index(ranks);
+        let (Some(w), Some(q)) =
+            (ranks.get(self.worst).copied(), self.set.as_slice().get(self.worst).copied())
+        else {
+            return Offer::Dropped;
+        };
+        if !w.worse_than(&r) {
+            drop_point(&mut self.report, key, h, self.delta1);
+            return Offer::Dropped;
+        }
+        let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
+        drop_point(&mut self.report, wkey, wh, self.delta1);
+        if let (Some(slot), Some(rs)) =
+            (self.set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
+        {
+            *slot = *o;
+            *rs = r;
+        }
+        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+        Offer::Kept
+    }
+}
+
 /// Replace the contents of `set` with the points of `offered` selected by `ranking`
 /// for a vehicle at `p` moving at `v` (NED, m and m/s); `delta1` (m²) classifies dropped
 /// points as near. See the module docs for the policy and the bound.
@@ -135,66 +265,12 @@ pub fn select<const N: usize>(
     v: &Vec3,
     offered: &[ObstaclePoint],
 ) -> SetReport {
-    set.clear();
-    let mut rep = SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() };
-    let state_ok = plausible(p) && plausible(v);
-    let mut ranks = [Rank { tier: 0, key: 0.0 }; N];
-    // Index of the worst stored entry (valid when the set is full).
-    let mut worst = 0usize;
-    let tiers = matches!(ranking, Ranking::Critical { .. });
+    let mut s = Selector::<N>::new(ranking, delta1, p, v);
     for o in offered {
-        let (key, h) = key_of(ranking, p, v, o);
-        let point_ok = plausible(&o.point) && o.velocity.is_none_or(|w| plausible(&w));
-        if !state_ok || !point_ok || !key.is_finite() || !h.is_finite() {
-            rep.rejected = rep.rejected.saturating_add(1);
-            continue;
-        }
-        rep.offered = rep.offered.saturating_add(1);
-        let full = set.len() >= N;
-        let mut r = Rank { tier: 0, key };
-        // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
-        // cannot take it (whatever its id: see the module docs).
-        if full && ranks.get(worst).is_some_and(|w| w.tier == 0 && key >= w.key) {
-            drop_point(&mut rep, key, h, delta1);
-            continue;
-        }
-        let len = set.len();
-        if tiers {
-            let sibling =
-                set.as_slice().iter().zip(ranks.iter()).position(|(q, rq)| q.id == o.id && rq.tier == 0);
-            if let Some(s) = sibling {
-                match ranks.get_mut(s) {
-                    Some(rs) if key < rs.key => rs.tier = 1,
-                    _ => r.tier = 1,
-                }
-            }
-        }
-        if !full {
-            if set.points_mut().push(*o).is_ok() {
-                if let Some(slot) = ranks.get_mut(len) {
-                    *slot = r;
-                }
-                worst = worst_index(ranks.get(..set.len()).unwrap_or(&[]));
-            }
-            continue;
-        }
-        worst = worst_index(ranks.get(..len).unwrap_or(&[]));
-        let (Some(w), Some(q)) = (ranks.get(worst).copied(), set.as_slice().get(worst).copied()) else {
-            continue;
-        };
-        if w.worse_than(&r) {
-            let (wkey, wh) = key_of(ranking, p, v, &q);
-            drop_point(&mut rep, wkey, wh, delta1);
-            if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(worst), ranks.get_mut(worst)) {
-                *slot = *o;
-                *rs = r;
-            }
-            worst = worst_index(ranks.get(..len).unwrap_or(&[]));
-        } else {
-            drop_point(&mut rep, key, h, delta1);
-        }
+        s.offer(o);
     }
-    rep.kept = set.len() as u16;
+    let (kept, rep) = s.finish();
+    *set = kept;
     rep
 }
 
@@ -406,6 +482,26 @@ mod tests {
                 .count();
             assert_eq!(r.dropped_near as usize, near, "case {case}");
         }
+    }
+
+    #[test]
+    fn the_selector_says_what_it_did_with_each_point() {
+        let mut s = Selector::<2>::new(
+            Ranking::Critical { mu: 1.0, relative: false },
+            0.1,
+            &Vec3::zeros(),
+            &Vec3::zeros(),
+        );
+        assert_eq!(s.offer(&pt(2.0, 0.0, 1)), Offer::Kept);
+        assert_eq!(s.offer(&pt(3.0, 0.0, 2)), Offer::Kept);
+        assert_eq!(s.offer(&pt(4.0, 0.0, 3)), Offer::Dropped);
+        assert_eq!(s.offer(&pt(1.0, 0.0, 4)), Offer::Kept); // replaces id 2
+        assert_eq!(s.offer(&pt(f32::NAN, 0.0, 5)), Offer::Rejected);
+        assert_eq!(ids(s.set()), vec![1, 4]);
+        let (set, r) = s.finish();
+        assert_eq!(set.len(), 2);
+        assert_eq!((r.offered, r.kept, r.dropped, r.rejected), (4, 2, 2, 1));
+        assert_eq!(r.min_dropped_key, 9.0);
     }
 
     #[test]
