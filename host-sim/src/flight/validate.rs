@@ -14,9 +14,9 @@
 //! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
-use parapet_core::params;
 use parapet_core::controller::{CommandError, ControllerParams, ParamError};
 use parapet_core::frame::GRAVITY;
+use parapet_core::params;
 use parapet_core::waypoint::{self, PathError};
 
 use crate::flight::runner::{controller_params, RunConfig};
@@ -493,10 +493,12 @@ speed = 0.5
 
     #[test]
     fn options_are_checked_against_the_parameter_table() {
-        let (s, base) = setup("");
+        // A 1 cm hull, so the table's smallest δ (1e-4 m²) is not refused as below hull² (issue 17).
+        let (s, base) = setup("[vehicle]\nhull_radius = 0.01\n");
         for name in ["mu", "delta", "kp", "kd"] {
             let range = params::by_key(name).unwrap();
-            for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)] {
+            for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)]
+            {
                 let mut cfg = base.clone();
                 match name {
                     "mu" => cfg.params.mu = x,
@@ -519,6 +521,13 @@ speed = 0.5
                 );
             }
         }
+        // δ below the hull's square: refused, naming both values (issue 17).
+        let (s, mut cfg) = setup("");
+        cfg.params.delta = 0.01;
+        let m = check_run(&s, &cfg, &Given { options: vec!["delta"], ..Given::default() })
+            .unwrap_err()
+            .to_string();
+        assert!(m.contains("delta = 0.01") && m.contains("0.049999997") && m.contains("hull_radius"), "{m}");
         // A tiny cap prints as a number, not 300 zeros.
         let mut cfg = base.clone();
         cfg.duration = 45.0;
