@@ -16,7 +16,8 @@
 //!   estimate's error bound `ē` is added to the robust term `A` (ISSf).
 //!   With feed-forward on, the nominal command is `u* − d̂` (removes the PD sag).
 //! * **Ground and ceiling** ([`Boundaries`]): horizontal planes given to the
-//!   filter as two more (convex, static) obstacle points.
+//!   filter as two more (convex, static) obstacle points (multi variants only: the
+//!   closest-obstacle law would enforce the plane instead of the obstacle that matters).
 //! * **Stall** ([`stall::StallDetector`]): no progress with the filter active.
 //!
 //! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::attitude`
@@ -451,7 +452,10 @@ impl PlantAware {
         let (xi, xi_dot) = predicted_state(&s.p, &s.v, &a, &d_hat, self.tau);
         let bounds = Boundaries { ground_height: rp.ground_height, ceiling_height: rp.ceiling_height };
         let mut pts: heapless::Vec<ObstaclePoint, MAX_FILTER_POINTS> = heapless::Vec::new();
-        let extra = bounds.points(&xi).filter(|_| s.boundaries);
+        // The planes need the multi variants: the closest-obstacle law (eq. 14) would enforce
+        // the ground instead of a nearer-in-h obstacle (a 2 m/s walker was ignored that way).
+        let with_bounds = s.boundaries && filter.variant.is_multi();
+        let extra = bounds.points(&xi).filter(|_| with_bounds);
         // The relative flat output is (p + τṗ) − (p̄ + τv̄): a moving obstacle is predicted
         // by the same τ (for the variants that use obstacle velocities). The point is the
         // closest one to p, not to ξ; for an extended obstacle the one closest to ξ lies
@@ -490,7 +494,7 @@ impl PlantAware {
         let (w, mut diag) = f.apply(&xi, &xi_dot, &w_nom, &pts);
         let u = w - d_hat;
         self.lag.update(&u, s.dt, self.tau);
-        let h_bar_now = min_h_bar(filter, &s.p, &s.v, s.obstacles, s.boundaries.then_some(&bounds));
+        let h_bar_now = min_h_bar(filter, &s.p, &s.v, s.obstacles, with_bounds.then_some(&bounds));
         diag.h_bar = h_bar_now;
         let stalled = self.stall.update(
             s.now_us,
