@@ -37,9 +37,12 @@
 //! prefix. (A point of X whose better sibling was dropped earlier is ranked tier 0 but
 //! cannot enter: the set was then full of tier-0 points with smaller keys.)
 //!
-//! **Bound.** No allocation; per offered point one O(1) comparison with the cached worst
-//! stored entry, and when the point enters, one O(N) scan for its id and one for the new
-//! worst: at most `3N` key comparisons per point, O(M·N) for M points (M bounded by the
+//! **Bound.** No allocation. Below capacity a point costs its key and a push (the usual
+//! case: nothing is ranked). When the set first overflows, the tiers of the stored points
+//! are assigned once (O(N²) id comparisons, what the streaming demotions would have given);
+//! after that each offered point costs one O(1) comparison with the cached worst stored
+//! entry, and when it may enter one O(N) scan for its id and one for the new worst: at
+//! most `3N` key comparisons per point, O(N² + M·N) for M points (M bounded by the
 //! caller's batch). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
 //!
 //! [`Selector`] applies the policy one point at a time (a sensor batch as it arrives, e.g.
@@ -139,14 +142,16 @@ pub enum Offer {
     Rejected,
 }
 
-/// The policy applied one point at a time (e.g. as a sensor batch arrives): offer the
-/// points, then take the set and the report. [`select`] is this over a slice.
+/// The ranking state of one selection, kept beside the set it fills (so that [`select`]
+/// works in place and [`Selector`] owns both).
 #[derive(Clone, Debug)]
-pub struct Selector<const N: usize = DEFAULT_OBSTACLE_CAPACITY> {
-    set: ObstacleSet<N>,
+struct Ranker<const N: usize> {
     ranks: [Rank; N],
-    /// Index of the worst stored entry (valid when the set is full).
+    /// Index of the worst stored entry (valid once the set is full).
     worst: usize,
+    /// The tiers of the stored entries are valid (computed when the set first fills:
+    /// below capacity nothing is dropped and the tiers are not needed).
+    tiered: bool,
     report: SetReport,
     ranking: Ranking,
     delta1: f32,
@@ -155,14 +160,12 @@ pub struct Selector<const N: usize = DEFAULT_OBSTACLE_CAPACITY> {
     state_ok: bool,
 }
 
-impl<const N: usize> Selector<N> {
-    /// An empty selection for a vehicle at `p` moving at `v` (NED, m and m/s); `delta1`
-    /// (m²) classifies dropped points as near.
-    pub fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
-        Selector {
-            set: ObstacleSet::new(),
+impl<const N: usize> Ranker<N> {
+    fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
+        Ranker {
             ranks: [Rank { tier: 0, key: 0.0 }; N],
             worst: 0,
+            tiered: false,
             report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
             ranking,
             delta1,
@@ -172,24 +175,29 @@ impl<const N: usize> Selector<N> {
         }
     }
 
-    /// The points kept so far.
-    pub fn set(&self) -> &ObstacleSet<N> {
-        &self.set
+    /// The tiers of a full set holding every point offered so far, in offer order: tier 1
+    /// for a point whose id has an earlier point with a key ≤ its own or a later one with a
+    /// smaller key (what the streaming demotions give). O(N²) once per selection.
+    fn assign_tiers(&mut self, set: &ObstacleSet<N>) {
+        self.tiered = true;
+        if !matches!(self.ranking, Ranking::Critical { .. }) {
+            return;
+        }
+        let pts = set.as_slice();
+        for (i, q) in pts.iter().enumerate() {
+            let Some(ki) = self.ranks.get(i).map(|r| r.key) else { continue };
+            let better = pts
+                .iter()
+                .zip(self.ranks.iter())
+                .enumerate()
+                .any(|(j, (o, rj))| j != i && o.id == q.id && (rj.key < ki || (rj.key == ki && j < i)));
+            if let Some(r) = self.ranks.get_mut(i) {
+                r.tier = u8::from(better);
+            }
+        }
     }
 
-    /// The report so far (`kept` = points stored now).
-    pub fn report(&self) -> SetReport {
-        SetReport { kept: self.set.len() as u16, ..self.report }
-    }
-
-    /// The kept points and the report.
-    pub fn finish(self) -> (ObstacleSet<N>, SetReport) {
-        let rep = self.report();
-        (self.set, rep)
-    }
-
-    /// Offer one point. Bounded: O(1) when it cannot enter, else two O(N) scans.
-    pub fn offer(&mut self, o: &ObstaclePoint) -> Offer {
+    fn offer(&mut self, set: &mut ObstacleSet<N>, o: &ObstaclePoint) -> Offer {
         let (key, h) = key_of(self.ranking, &self.p, &self.v, o);
         let point_ok = plausible(&o.point) && o.velocity.is_none_or(|w| plausible(&w));
         if !self.state_ok || !point_ok || !key.is_finite() || !h.is_finite() {
@@ -197,22 +205,31 @@ impl<const N: usize> Selector<N> {
             return Offer::Rejected;
         }
         self.report.offered = self.report.offered.saturating_add(1);
-        let len = self.set.len();
-        let full = len >= N;
-        let mut r = Rank { tier: 0, key };
+        let len = set.len();
+        if len < N {
+            // Below capacity: stored in offer order, nothing ranked yet.
+            if set.points_mut().push(*o).is_err() {
+                return Offer::Dropped; // unreachable: len < N
+            }
+            if let Some(slot) = self.ranks.get_mut(len) {
+                *slot = Rank { tier: 0, key };
+            }
+            return Offer::Kept;
+        }
+        if !self.tiered {
+            self.assign_tiers(set);
+            self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+        }
         // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
         // cannot take it (whatever its id: see the module docs).
-        if full && self.ranks.get(self.worst).is_some_and(|w| w.tier == 0 && key >= w.key) {
+        if self.ranks.get(self.worst).is_some_and(|w| w.tier == 0 && key >= w.key) {
             drop_point(&mut self.report, key, h, self.delta1);
             return Offer::Dropped;
         }
+        let mut r = Rank { tier: 0, key };
         if matches!(self.ranking, Ranking::Critical { .. }) {
-            let sibling = self
-                .set
-                .as_slice()
-                .iter()
-                .zip(self.ranks.iter())
-                .position(|(q, rq)| q.id == o.id && rq.tier == 0);
+            let sibling =
+                set.as_slice().iter().zip(self.ranks.iter()).position(|(q, rq)| q.id == o.id && rq.tier == 0);
             if let Some(s) = sibling {
                 match self.ranks.get_mut(s) {
                     Some(rs) if key < rs.key => rs.tier = 1,
@@ -220,20 +237,9 @@ impl<const N: usize> Selector<N> {
                 }
             }
         }
-        if !full {
-            if self.set.points_mut().push(*o).is_err() {
-                return Offer::Dropped; // unreachable: len < N
-            }
-            if let Some(slot) = self.ranks.get_mut(len) {
-                *slot = r;
-            }
-            self.worst = worst_index(self.ranks.get(..len + 1).unwrap_or(&[]));
-            return Offer::Kept;
-        }
         let ranks = self.ranks.get(..len).unwrap_or(&[]);
         self.worst = worst_index(ranks);
-        let (Some(w), Some(q)) =
-            (ranks.get(self.worst).copied(), self.set.as_slice().get(self.worst).copied())
+        let (Some(w), Some(q)) = (ranks.get(self.worst).copied(), set.as_slice().get(self.worst).copied())
         else {
             return Offer::Dropped;
         };
@@ -243,8 +249,7 @@ impl<const N: usize> Selector<N> {
         }
         let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
         drop_point(&mut self.report, wkey, wh, self.delta1);
-        if let (Some(slot), Some(rs)) =
-            (self.set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
+        if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
         {
             *slot = *o;
             *rs = r;
@@ -252,11 +257,53 @@ impl<const N: usize> Selector<N> {
         self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
         Offer::Kept
     }
+
+    fn report(&self, kept: usize) -> SetReport {
+        SetReport { kept: kept as u16, ..self.report }
+    }
+}
+
+/// The policy applied one point at a time (e.g. as a sensor batch arrives): offer the
+/// points, then take the set and the report. [`select`] is the same over a slice, in place.
+#[derive(Clone, Debug)]
+pub struct Selector<const N: usize = DEFAULT_OBSTACLE_CAPACITY> {
+    set: ObstacleSet<N>,
+    ranker: Ranker<N>,
+}
+
+impl<const N: usize> Selector<N> {
+    /// An empty selection for a vehicle at `p` moving at `v` (NED, m and m/s); `delta1`
+    /// (m²) classifies dropped points as near.
+    pub fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
+        Selector { set: ObstacleSet::new(), ranker: Ranker::new(ranking, delta1, p, v) }
+    }
+
+    /// The points kept so far.
+    pub fn set(&self) -> &ObstacleSet<N> {
+        &self.set
+    }
+
+    /// The report so far (`kept` = points stored now).
+    pub fn report(&self) -> SetReport {
+        self.ranker.report(self.set.len())
+    }
+
+    /// The kept points and the report.
+    pub fn finish(self) -> (ObstacleSet<N>, SetReport) {
+        let rep = self.report();
+        (self.set, rep)
+    }
+
+    /// Offer one point. Bounded: O(1) below capacity or when it cannot enter, else two
+    /// O(N) scans (plus one O(N²) tier assignment when the set first overflows).
+    pub fn offer(&mut self, o: &ObstaclePoint) -> Offer {
+        self.ranker.offer(&mut self.set, o)
+    }
 }
 
 /// Replace the contents of `set` with the points of `offered` selected by `ranking`
 /// for a vehicle at `p` moving at `v` (NED, m and m/s); `delta1` (m²) classifies dropped
-/// points as near. See the module docs for the policy and the bound.
+/// points as near. In place; see the module docs for the policy and the bound.
 pub fn select<const N: usize>(
     set: &mut ObstacleSet<N>,
     ranking: Ranking,
@@ -265,13 +312,12 @@ pub fn select<const N: usize>(
     v: &Vec3,
     offered: &[ObstaclePoint],
 ) -> SetReport {
-    let mut s = Selector::<N>::new(ranking, delta1, p, v);
+    set.clear();
+    let mut r = Ranker::<N>::new(ranking, delta1, p, v);
     for o in offered {
-        s.offer(o);
+        r.offer(set, o);
     }
-    let (kept, rep) = s.finish();
-    *set = kept;
-    rep
+    r.report(set.len())
 }
 
 #[inline]
