@@ -13,7 +13,9 @@ use crate::estimator::{EstimatorError, EstimatorParams};
 use crate::failsafe::FailsafeParams;
 use crate::frame::GRAVITY;
 use crate::mixer::{Mixer, MixerError};
+use crate::outer::guidance::GuidanceParams;
 use crate::robust::{RobustError, RobustParams};
+use crate::supervisor::LandingParams;
 use crate::thrust::ThrustParams;
 use crate::tracking::TrackingParams;
 use crate::waypoint::{PathError, WaypointParams};
@@ -56,27 +58,12 @@ pub struct ControllerParams {
     pub outer_rate_hz: f32,
     /// Nominal inner-loop rate, Hz. Default 1000.
     pub inner_rate_hz: f32,
-    /// Vertical speed of the takeoff ramp, m/s. Default 0.5.
-    pub takeoff_speed: f32,
-    /// Largest takeoff height, m. Default 10.
-    pub takeoff_height_max: f32,
-    /// Descent speed when landing with a position fix, m/s. Default 0.3.
-    pub land_speed: f32,
-    /// Largest lead of the landing reference below the vehicle, m. Default 0.3.
-    pub land_lead: f32,
-    /// Speed below which a pinned landing reference means "landed", m/s. Default 0.1.
-    pub landed_speed: f32,
-    /// Time the landed condition must hold, µs. Default 1 000 000.
-    pub landed_time_us: u64,
-    /// Thrust as a fraction of hover thrust when landing without a fix. Default 0.9.
-    pub land_thrust_factor: f32,
-    /// Time in Land without a position fix after which the vehicle is taken as landed, µs. Default 10 000 000.
-    pub land_no_fix_time_us: u64,
+    /// Takeoff ramp (speed 0.5 m/s, at most 10 m).
+    pub guidance: GuidanceParams,
+    /// Landing and braking (descent 0.3 m/s, …; see [`LandingParams`]).
+    pub landing: LandingParams,
     /// Motor command while armed on the ground, 0..1. Default 0.1.
     pub idle_throttle: f32,
-    /// Deceleration used to stop the last good velocity when the position fix is lost
-    /// (Brake/Land without a fix), m/s², in (0, 5]. Default 1.0.
-    pub blind_brake_accel: f32,
     /// Time constant of the low-pass on the fix-derived acceleration fed to the estimator, s. Default 0.05.
     pub accel_comp_tau_s: f32,
 }
@@ -101,16 +88,9 @@ impl Default for ControllerParams {
             failsafe: FailsafeParams::default(),
             outer_rate_hz: 250.0,
             inner_rate_hz: 1000.0,
-            takeoff_speed: 0.5,
-            takeoff_height_max: 10.0,
-            land_speed: 0.3,
-            land_lead: 0.3,
-            landed_speed: 0.1,
-            landed_time_us: 1_000_000,
-            land_thrust_factor: 0.9,
-            land_no_fix_time_us: 10_000_000,
+            guidance: GuidanceParams::default(),
+            landing: LandingParams::default(),
             idle_throttle: 0.1,
-            blind_brake_accel: 1.0,
             accel_comp_tau_s: 0.05,
         }
     }
@@ -197,21 +177,22 @@ impl ControllerParams {
         {
             return Err(ParamError::Thrust);
         }
+        let (g, l) = (&self.guidance, &self.landing);
         let ok = pos(self.outer_rate_hz)
             && pos(self.inner_rate_hz)
-            && pos(self.takeoff_speed)
-            && pos(self.takeoff_height_max)
-            && pos(self.land_speed)
-            && pos(self.land_lead)
-            && pos(self.landed_speed)
-            && self.landed_time_us > 0
-            && pos(self.land_thrust_factor)
-            && self.land_thrust_factor <= 1.0
-            && self.land_no_fix_time_us > 0
+            && pos(g.takeoff_speed)
+            && pos(g.takeoff_height_max)
+            && pos(l.land_speed)
+            && pos(l.land_lead)
+            && pos(l.landed_speed)
+            && l.landed_time_us > 0
+            && pos(l.land_thrust_factor)
+            && l.land_thrust_factor <= 1.0
+            && l.land_no_fix_time_us > 0
             && nonneg(self.idle_throttle)
             && self.idle_throttle <= 1.0
-            && pos(self.blind_brake_accel)
-            && self.blind_brake_accel <= 5.0
+            && pos(l.blind_brake_accel)
+            && l.blind_brake_accel <= 5.0
             && pos(self.accel_comp_tau_s);
         if ok {
             Ok(())

@@ -60,7 +60,6 @@ use crate::mixer::MixerOutput;
 use crate::msg::{AttitudeSetpoint, Euler, ImuSample, ImuStatus};
 use crate::obstacle::ObstaclePoint;
 use crate::obstacle_set::SetReport;
-use crate::outer::guidance::GuidanceParams;
 use crate::outer::inputs::InputParams;
 use crate::outer::{OuterError, OuterLoop, OuterParams};
 use crate::robust::{lag_time_constant, RobustTelemetry};
@@ -165,27 +164,15 @@ impl ControllerParams {
             filter_variant: self.filter_variant,
             thrust: self.thrust,
             mass: self.airframe.mass,
-            guidance: GuidanceParams {
-                waypoint: self.waypoint,
-                takeoff_speed: self.takeoff_speed,
-                takeoff_height_max: self.takeoff_height_max,
-            },
+            guidance: self.guidance,
+            waypoint: self.waypoint,
             inputs: InputParams {
                 position_timeout_us: self.failsafe.position_timeout_us,
                 obstacle_timeout_us: self.failsafe.obstacle_timeout_us,
                 accel_comp_tau_s: self.accel_comp_tau_s,
                 hull_delta: self.cbf.delta,
             },
-            supervisor: SupervisorParams {
-                failsafe: self.failsafe,
-                land_speed: self.land_speed,
-                land_lead: self.land_lead,
-                landed_speed: self.landed_speed,
-                landed_time_us: self.landed_time_us,
-                land_thrust_factor: self.land_thrust_factor,
-                land_no_fix_time_us: self.land_no_fix_time_us,
-                blind_brake_accel: self.blind_brake_accel,
-            },
+            supervisor: SupervisorParams { failsafe: self.failsafe, landing: self.landing },
         }
     }
 

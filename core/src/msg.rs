@@ -112,7 +112,6 @@ pub enum MotorStage {
 
 /// The outer loop's product, read by the inner loop.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AttitudeCommand {
     /// Output stage.
     pub stage: MotorStage,

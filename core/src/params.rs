@@ -283,7 +283,7 @@ pub const TABLE: [Param; COUNT] = [
         unit: "m/s",
         default: 0.25,
         min: 0.001,
-        max: 100.0,
+        max: crate::outer::waypoint::PARAM_LIMIT,
         integer: false,
         decimals: 2,
         group: "Mission",

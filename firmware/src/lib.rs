@@ -13,6 +13,7 @@
 //! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
 //! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
 //!
+//! No import cycle between sibling modules (checked by the workspace's `tests/tests/layering.rs`).
 //! Tasks reach the flight-control cascade only through [`app::autopilot`]. The board layers
 //! (`src/board/*.rs`) build only for `target_os = "none"`; the executors and tasks live in the
 //! binaries (`src/main.rs` for the STM32F405 board, `src/bin/parapet-firmware-qemu.rs` for QEMU).

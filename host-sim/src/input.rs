@@ -20,7 +20,7 @@
 use std::fmt;
 
 /// Input that cannot be used. `Display`:
-/// `"<where>: [<table>] field `<field>`: <reason> (got <value>; allowed <allowed>)"`,
+/// ``"<where>: [<table>] field `<field>`: <reason> (got <value>; allowed <allowed>)"``,
 /// with the parts that do not apply left out.
 ///
 /// The optional parts are `Box<str>` so the whole error stays under clippy's

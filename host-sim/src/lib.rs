@@ -1,8 +1,9 @@
 //! parapet-sim: 6-DOF quadrotor simulator, scenes, planner and the `parapet` CLI.
 //!
 //! Folders by concern, listed bottom-up: a module may import only the modules
-//! listed before it (the layering is checked by `tests/layering.rs`, which
-//! fails on an import cycle between any two sibling modules).
+//! listed before it (the layering is checked by the workspace's
+//! `tests/tests/layering.rs`, which fails on an import cycle between any two
+//! sibling modules).
 //!
 //! * [`input`]: the one error type for bad user input, and the documented limits.
 //! * [`sim`]: the simulated vehicle and its environment: 6-DOF plant, sensors,

@@ -457,7 +457,7 @@ fn help_shows_defaults_limits_examples_and_exit_codes() {
         "else 1.4]",
         "duration ≤ 3600 s",
         ceiling.as_str(),
-        "(0, 100] m/s",
+        "0.001 ≤ speed ≤ 100 m/s",
         "1e5 m",
         "64 waypoints",
         "32 obstacles",

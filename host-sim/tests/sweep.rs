@@ -457,8 +457,8 @@ fn durations_beyond_the_cap_are_refused_or_failed_rows() {
     assert_eq!(r.status.code(), Some(2), "{}", err(&r));
     assert!(err(&r).contains("--max-duration") && err(&r).contains("86400"), "{}", err(&r));
     assert!(!o.join("sweep.csv").exists());
-    // A grid speed whose default duration is beyond the cap (6 m at 1e-5 m/s): that run
-    // is a failed row, the other (0.3 m/s, 45 s) flies.
+    // A grid speed whose default duration is beyond the cap (6 m at 1 mm/s, the parameter
+    // table's lowest WP_SPEED): that run is a failed row, the other (0.3 m/s, 45 s) flies.
     let out = o.display().to_string();
     let r = parapet(&[
         "sweep",
@@ -472,7 +472,7 @@ fn durations_beyond_the_cap_are_refused_or_failed_rows() {
         "--delta1",
         "0.2",
         "--speed",
-        "0.00001:0.3:2",
+        "0.001:0.3:2",
         "--out",
         &out,
     ]);

@@ -25,7 +25,8 @@
 //! (at most [`MAX_ACTIVE_BARRIERS`]) most critical of those with `h ≤ δ1` (event
 //! rule with the controller's sample time), the `Paper` variant only the closest.
 
-use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter, MAX_ACTIVE_BARRIERS};
+use parapet_core::cbf::{FilterVariant, SafetyFilter, MAX_ACTIVE_BARRIERS};
+use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::qp3::HalfSpace;
 use parapet_core::Vec3;
@@ -40,9 +41,6 @@ pub const FORWARD_HALF_ANGLE_DEG: f32 = 75.0;
 
 /// Half-angle meaning "all around the vehicle", degrees.
 pub const ALL_AROUND_DEG: f32 = 180.0;
-
-/// Sample time the controller gives the `Multi` filter (outer loop 250 Hz), s.
-pub const OUTER_PERIOD_S: f32 = 1.0 / 250.0;
 
 /// SplitMix64: a tiny seeded generator, so the problems are the same on every machine.
 #[derive(Clone, Debug)]
@@ -138,14 +136,12 @@ pub fn problems(k: usize, n: usize, seed: u64, half_angle_deg: f32) -> Vec<Filte
         .collect()
 }
 
-/// The filter as the controller runs it: default (paper office) parameters; for
-/// every variant but `Paper` the sample time of the 250 Hz outer loop.
+/// The filter as the controller runs it: default (paper office) parameters, with the
+/// controller's rule for the sample time (for every variant but `Paper` the period of the
+/// 250 Hz outer loop, `ControllerParams::outer_params`).
 pub fn filter(variant: FilterVariant) -> SafetyFilter {
-    let mut params = CbfParams::default();
-    if variant != FilterVariant::Paper {
-        params.sample_time = OUTER_PERIOD_S;
-    }
-    SafetyFilter::new(params, variant).expect("the default filter parameters are valid")
+    let params = ControllerParams { filter_variant: variant, ..ControllerParams::default() }.outer_params();
+    SafetyFilter::new(params.cbf, variant).expect("the default filter parameters are valid")
 }
 
 /// Constraint (8) of every obstacle of `pr` (own velocity), in obstacle order.

@@ -4,6 +4,7 @@
 
 pub mod bench_states;
 pub mod double_integrator;
+pub mod layering;
 pub mod pil_support;
 pub mod reference_qp;
 

@@ -44,6 +44,15 @@ fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     // step, each smaller than its whole step.
     assert!(ins.mean_outer_loop > 100.0 && ins.mean_outer_loop < ins.mean_outer_steps, "{ins:?}");
     assert!(ins.max_outer_loop <= ins.max);
+    // No control step runs with interrupts masked longer than one message copy: the QEMU board
+    // measures every critical section (`ins_masked`); the firmware's tasks share nothing but
+    // mailbox messages (firmware/tests/qemu_pil.rs states the same bound).
+    assert_eq!(ins.masked_steps, fig.flight_steps, "one ins_masked per step");
+    assert!(
+        ins.max_masked > 0 && ins.max_masked <= 400,
+        "longest masked section {} instructions",
+        ins.max_masked
+    );
     assert!(fig.real_time_factor > 0.0);
 
     // Pure host, same core, same parameters and sequence as the firmware.
@@ -76,7 +85,7 @@ fn pil_flies_past_the_obstacle_and_agrees_with_the_host() {
     let (dev_run, n_run) = max_deviation(&pil, &host);
     println!("PIL vs parapet run: max position deviation {dev_run:.4} m over {n_run} samples");
     // Differences by design (measured ≈ 1 mm): the firmware applies an outer step's setpoint
-    // one inner step later, starts the mission 1 ms earlier, ignores the fix's yaw, warms its
+    // one inner step later, starts the mission 1 ms earlier, warms its
     // estimator up for 300 ms; the path is quantised to 0.1 mm by MISSION_ITEM_INT.
     assert!(dev_run < 0.05, "PIL and `parapet run` differ by {dev_run} m");
 }

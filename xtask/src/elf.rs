@@ -1,5 +1,8 @@
 //! Minimal ELF32 little-endian section-header reader: flash and static-RAM use of
-//! a Cortex-M image, without depending on binutils being installed.
+//! a Cortex-M image, without depending on binutils being installed. The one
+//! ELF-size implementation of the repository: `cargo xtask size [ELF]
+//! [--flash-max BYTES] [--ram-max BYTES]` (the release firmware when no ELF is
+//! given; exit 1 over a limit).
 
 /// Bytes a firmware image occupies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,6 +67,49 @@ pub fn sizes(b: &[u8]) -> Result<Sizes, String> {
     Ok(s)
 }
 
+/// `cargo xtask size` options.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct SizeArgs {
+    /// The ELF to measure; `None`: build and measure the release firmware.
+    pub elf: Option<std::path::PathBuf>,
+    /// Flash limit, bytes.
+    pub flash_max: Option<u64>,
+    /// Static-RAM limit (.data + .bss), bytes.
+    pub ram_max: Option<u64>,
+}
+
+/// Parse `[ELF] [--flash-max BYTES] [--ram-max BYTES]`.
+pub fn parse_args(args: &[String]) -> Result<SizeArgs, String> {
+    let mut a = SizeArgs::default();
+    let mut it = args.iter();
+    while let Some(x) = it.next() {
+        let mut limit = |name: &str| -> Result<u64, String> {
+            let v = it.next().ok_or_else(|| format!("{name} needs a value (bytes)"))?;
+            v.parse().map_err(|_| format!("{name}: not a byte count: {v:?}"))
+        };
+        match x.as_str() {
+            "--flash-max" => a.flash_max = Some(limit("--flash-max")?),
+            "--ram-max" => a.ram_max = Some(limit("--ram-max")?),
+            s if s.starts_with("--") => return Err(format!("unknown option {s}")),
+            s if a.elf.is_none() => a.elf = Some(s.into()),
+            s => return Err(format!("more than one ELF given ({s})")),
+        }
+    }
+    Ok(a)
+}
+
+/// The limits `s` exceeds, in words (empty: within every limit).
+pub fn over_limits(s: &Sizes, a: &SizeArgs) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(m) = a.flash_max.filter(|m| s.flash > *m) {
+        out.push(format!("flash {} B > {m} B", s.flash));
+    }
+    if let Some(m) = a.ram_max.filter(|m| s.ram() > *m) {
+        out.push(format!("static RAM {} B > {m} B", s.ram()));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,5 +139,22 @@ mod tests {
         sec(2, 1, SHF_ALLOC | SHF_WRITE, 100);
         sec(3, SHT_NOBITS, SHF_ALLOC | SHF_WRITE, 400);
         assert_eq!(sizes(&b), Ok(Sizes { flash: 1100, data: 100, bss: 400 }));
+    }
+
+    #[test]
+    fn size_options_and_limits() {
+        let args = |v: &[&str]| parse_args(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        let a = args(&["fw.elf", "--flash-max", "1000", "--ram-max", "600"]).unwrap();
+        assert_eq!(a.elf.as_deref(), Some(std::path::Path::new("fw.elf")));
+        let s = Sizes { flash: 1100, data: 100, bss: 400 };
+        assert_eq!(over_limits(&s, &a), vec!["flash 1100 B > 1000 B".to_string()]);
+        assert!(
+            over_limits(&s, &SizeArgs { flash_max: Some(1100), ram_max: Some(500), ..a.clone() }).is_empty()
+        );
+        assert_eq!(args(&[]).unwrap(), SizeArgs::default());
+        assert!(args(&["--flash-max"]).is_err());
+        assert!(args(&["--ram-max", "lots"]).is_err());
+        assert!(args(&["a.elf", "b.elf"]).is_err());
+        assert!(args(&["--stack"]).is_err());
     }
 }

@@ -12,7 +12,8 @@
 //!   (see `fuzz.rs`).
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
 //!   and `docs/reliability.md`).
-//! * `cargo xtask size` — print the firmware's flash and static-RAM use.
+//! * `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES]` — print the flash and
+//!   static-RAM use of the release firmware (or of `ELF`); exit 1 over a limit.
 //! * `cargo xtask m4` — only the Cortex-M4F fmath bit-exactness step of `cargo xtask test`
 //!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
 //! * `cargo xtask params [--out FILE]` — the parameter table as ground-station metadata JSON
@@ -42,14 +43,14 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("test") => test(),
-        Some("size") => size().map(|_| ()),
+        Some("size") => size_cmd(&args[1..]),
         Some("bench") => bench::bench(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("params") => params::params(&args[1..]),
         Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|m4>"
+                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|m4>"
             );
             return ExitCode::from(2);
         }
@@ -176,10 +177,35 @@ fn build_firmware() -> Result<PathBuf, String> {
     Ok(firmware_elf(None))
 }
 
+/// `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES]`.
+fn size_cmd(args: &[String]) -> Result<(), String> {
+    let a = elf::parse_args(args)?;
+    let elf = match &a.elf {
+        Some(p) => p.clone(),
+        None => {
+            ensure_target()?;
+            build_firmware()?
+        }
+    };
+    let s = print_size(&elf)?;
+    let over = elf::over_limits(&s, &a);
+    if over.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{}: over the limit: {}", elf.display(), over.join(", ")))
+    }
+}
+
 fn size() -> Result<(u64, u64), String> {
     ensure_target()?;
     let elf = build_firmware()?;
-    let bytes = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let s = print_size(&elf)?;
+    Ok((s.flash, s.ram()))
+}
+
+/// Print the flash and static-RAM use of `elf`.
+fn print_size(elf: &Path) -> Result<elf::Sizes, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let s = elf::sizes(&bytes).map_err(|e| format!("{}: {e}", elf.display()))?;
     println!(
         "firmware {}: flash {} B ({:.1} KiB of {} KiB), static RAM {} B ({:.1} KiB of {} KiB; .data {} + .bss {})",
@@ -193,7 +219,7 @@ fn size() -> Result<(u64, u64), String> {
         s.data,
         s.bss
     );
-    Ok((s.flash, s.ram()))
+    Ok(s)
 }
 
 /// Build the `board-qemu` firmware (QEMU netduinoplus2, processor-in-the-loop) and return its ELF.

@@ -56,15 +56,20 @@ impl GuidanceMode {
     }
 }
 
-/// Guidance parameters (a part of [`crate::controller::ControllerParams`]).
+/// Guidance parameters (the `guidance` part of [`crate::controller::ControllerParams`];
+/// the path follower's are `waypoint`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GuidanceParams {
-    /// Waypoint follower.
-    pub waypoint: WaypointParams,
-    /// Vertical speed of the takeoff ramp, m/s.
+    /// Vertical speed of the takeoff ramp, m/s. Default 0.5.
     pub takeoff_speed: f32,
-    /// Largest takeoff height, m.
+    /// Largest takeoff height, m. Default 10.
     pub takeoff_height_max: f32,
+}
+
+impl Default for GuidanceParams {
+    fn default() -> Self {
+        GuidanceParams { takeoff_speed: 0.5, takeoff_height_max: 10.0 }
+    }
 }
 
 /// Nominal guidance while Armed.
@@ -95,10 +100,10 @@ fn age(now: u64, t: u64) -> u64 {
 }
 
 impl Guidance {
-    /// Guidance on the ground with an empty path.
-    pub fn new(params: GuidanceParams) -> Result<Self, PathError> {
+    /// Guidance on the ground with an empty path for a follower with `waypoint`.
+    pub fn new(params: GuidanceParams, waypoint: WaypointParams) -> Result<Self, PathError> {
         Ok(Guidance {
-            follower: WaypointFollower::new(params.waypoint)?,
+            follower: WaypointFollower::new(waypoint)?,
             params,
             mode: Mode::Ground,
             yaw_ref: 0.0,

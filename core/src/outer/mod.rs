@@ -42,7 +42,7 @@ use guidance::{Guidance, GuidanceMode, GuidanceParams};
 use inputs::{InputParams, Inputs};
 use thrust::{map_acceleration, ThrustParams};
 use tracking::{PdTracker, Reference, TrackingParams};
-use waypoint::{PathError, Progress};
+use waypoint::{PathError, Progress, WaypointParams};
 
 /// Why a command was refused (the controller state is unchanged).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +90,8 @@ pub struct OuterParams {
     pub mass: f32,
     /// Guidance.
     pub guidance: GuidanceParams,
+    /// Path follower.
+    pub waypoint: WaypointParams,
     /// Inputs.
     pub inputs: InputParams,
     /// Supervisor.
@@ -209,7 +211,7 @@ impl OuterLoop {
             .then(|| PlantAware::new(params.robust, params.lag_tau));
         Ok(OuterLoop {
             inputs: Inputs::new(params.inputs),
-            guidance: Guidance::new(params.guidance).map_err(OuterError::Waypoint)?,
+            guidance: Guidance::new(params.guidance, params.waypoint).map_err(OuterError::Waypoint)?,
             supervisor: Supervisor::new(params.supervisor),
             tracker: PdTracker::new(params.tracking),
             filter,
@@ -450,7 +452,7 @@ impl OuterLoop {
             FailsafeState::Land => {
                 let target = self.supervisor.land_target(dt, fresh);
                 let mut r = self.guidance.hold_ref(target);
-                r.velocity = Vec3::new(0.0, 0.0, self.supervisor.params().land_speed);
+                r.velocity = Vec3::new(0.0, 0.0, self.supervisor.params().landing.land_speed);
                 (GuidanceMode::Land, Some(r))
             }
         };

@@ -273,7 +273,9 @@ pub struct FilterDiagnostics {
 }
 
 impl FilterDiagnostics {
-    fn new(region: Region) -> Self {
+    /// Nothing decided yet in `region`: no active obstacle, `h̄ = +∞`, no flags (with
+    /// [`Region::NoObstacle`]: the diagnostics before the first filter step).
+    pub const fn new(region: Region) -> Self {
         FilterDiagnostics {
             region,
             active_id: None,

@@ -28,25 +28,48 @@ use crate::frame::GRAVITY;
 use crate::Vec3;
 use failsafe::{ArmRefusal, DataHealth, Failsafe, FailsafeParams, FailsafeState, Transition};
 
-/// The supervisor's parameters (a part of [`crate::controller::ControllerParams`]).
+/// Landing and braking (the `landing` part of [`crate::controller::ControllerParams`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LandingParams {
+    /// Descent speed when landing with a position fix, m/s. Default 0.3.
+    pub land_speed: f32,
+    /// Largest lead of the landing reference below the vehicle, m. Default 0.3.
+    pub land_lead: f32,
+    /// Speed below which a pinned landing reference means "landed", m/s. Default 0.1.
+    pub landed_speed: f32,
+    /// Time the landed condition must hold, µs. Default 1 000 000.
+    pub landed_time_us: u64,
+    /// Thrust as a fraction of hover thrust when landing without a fix. Default 0.9.
+    pub land_thrust_factor: f32,
+    /// Time in Land without a position fix after which the vehicle is taken as landed, µs.
+    /// Default 10 000 000.
+    pub land_no_fix_time_us: u64,
+    /// Deceleration used to stop the last good velocity when the position fix is lost
+    /// (Brake/Land without a fix), m/s², in (0, 5]. Default 1.0.
+    pub blind_brake_accel: f32,
+}
+
+impl Default for LandingParams {
+    fn default() -> Self {
+        LandingParams {
+            land_speed: 0.3,
+            land_lead: 0.3,
+            landed_speed: 0.1,
+            landed_time_us: 1_000_000,
+            land_thrust_factor: 0.9,
+            land_no_fix_time_us: 10_000_000,
+            blind_brake_accel: 1.0,
+        }
+    }
+}
+
+/// The supervisor's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SupervisorParams {
     /// Failsafe limits.
     pub failsafe: FailsafeParams,
-    /// Descent speed when landing with a position fix, m/s.
-    pub land_speed: f32,
-    /// Largest lead of the landing reference below the vehicle, m.
-    pub land_lead: f32,
-    /// Speed below which a pinned landing reference means "landed", m/s.
-    pub landed_speed: f32,
-    /// Time the landed condition must hold, µs.
-    pub landed_time_us: u64,
-    /// Thrust as a fraction of hover thrust when landing without a fix.
-    pub land_thrust_factor: f32,
-    /// Time in Land without a position fix after which the vehicle is taken as landed, µs.
-    pub land_no_fix_time_us: u64,
-    /// Deceleration used to stop the last good velocity when the position fix is lost, m/s².
-    pub blind_brake_accel: f32,
+    /// Landing and braking.
+    pub landing: LandingParams,
 }
 
 /// Where the vehicle is when the supervisor enters a state (for the brake point and the
@@ -227,10 +250,10 @@ impl Supervisor {
         match fresh {
             Some((p, v)) => {
                 self.no_fix_since_us = None;
-                let pinned = self.land_ref.z - p.z >= 0.9 * self.params.land_lead;
-                if pinned && norm3(&v) < self.params.landed_speed {
+                let pinned = self.land_ref.z - p.z >= 0.9 * self.params.landing.land_lead;
+                if pinned && norm3(&v) < self.params.landing.landed_speed {
                     let since = *self.landed_since_us.get_or_insert(now_us);
-                    age(now_us, since) >= self.params.landed_time_us
+                    age(now_us, since) >= self.params.landing.landed_time_us
                 } else {
                     self.landed_since_us = None;
                     false
@@ -238,7 +261,7 @@ impl Supervisor {
             }
             None => {
                 let since = (*self.no_fix_since_us.get_or_insert(now_us)).max(entered);
-                age(now_us, since) >= self.params.land_no_fix_time_us
+                age(now_us, since) >= self.params.landing.land_no_fix_time_us
             }
         }
     }
@@ -255,8 +278,10 @@ impl Supervisor {
                 self.land_ref_valid = true;
             }
             // Descend at land_speed, leading the vehicle by at most land_lead.
-            self.land_ref.z =
-                minf(self.land_ref.z + self.params.land_speed * dt, p.z + self.params.land_lead);
+            self.land_ref.z = minf(
+                self.land_ref.z + self.params.landing.land_speed * dt,
+                p.z + self.params.landing.land_lead,
+            );
         } else {
             self.land_ref_valid = false;
         }
@@ -267,12 +292,15 @@ impl Supervisor {
     /// good velocity v0 at `blind_brake_accel` (for |v0|/a seconds, the double-integrator
     /// stopping time), then level attitude at hover thrust (or slightly less when landing).
     pub fn blind_accel(&self, now_us: u64) -> Vec3 {
-        let factor =
-            if self.failsafe.state() == FailsafeState::Land { self.params.land_thrust_factor } else { 1.0 };
+        let factor = if self.failsafe.state() == FailsafeState::Land {
+            self.params.landing.land_thrust_factor
+        } else {
+            1.0
+        };
         let mut u = Vec3::new(0.0, 0.0, (1.0 - factor) * GRAVITY);
         let v0 = self.blind_velocity.unwrap_or_else(Vec3::zeros);
         let speed = norm3(&v0);
-        let a_b = self.params.blind_brake_accel;
+        let a_b = self.params.landing.blind_brake_accel;
         let blind_s = self.no_fix_since_us.map_or(0.0, |t| age(now_us, t) as f32 * 1e-6);
         if speed > 1e-3 && blind_s < speed / a_b {
             u -= v0 * (a_b / speed);

@@ -2,8 +2,8 @@
 //!
 //! Tasks talk to the cascade only through [`Autopilot`] (and [`ControlSteps`]), so the task logic (link dispatch, loop
 //! scheduling, lockstep) is tested on the host against a test double, and the real cascade
-//! (`parapet_core::controller::FlightController`) plugs in through one adapter
-//! ([`crate::app::cascade`]).
+//! (the core's outer and inner loops as two stages exchanging messages) plugs in through
+//! [`crate::app::cascade`].
 //!
 //! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
 
@@ -97,17 +97,7 @@ pub use parapet_core::cbf::FilterDiagnostics;
 pub use parapet_core::cbf::Region as FilterRegion;
 
 /// Filter diagnostics before the first outer step: no obstacle, h̄ = +∞.
-pub const FILTER_IDLE: FilterDiagnostics = FilterDiagnostics {
-    region: FilterRegion::NoObstacle,
-    active_id: None,
-    h_bar: f32::INFINITY,
-    intervened: false,
-    n_constraints: 0,
-    n_near: 0,
-    unavoidable: false,
-    infeasible: false,
-    fault: None,
-};
+pub const FILTER_IDLE: FilterDiagnostics = FilterDiagnostics::new(FilterRegion::NoObstacle);
 
 /// The outer loop's setpoints of the last outer step (NED).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -228,7 +228,7 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
                 o.disarm(now_us)
             }
             VehicleCommand::Takeoff { height_m } => {
-                let h = height_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M.min(s.flown.takeoff_height_max));
+                let h = height_m.unwrap_or(DEFAULT_TAKEOFF_HEIGHT_M.min(s.flown.guidance.takeoff_height_max));
                 o.takeoff(now_us, h)
             }
             VehicleCommand::Land => o.land(now_us),

@@ -19,7 +19,8 @@
 //! Memory: one row per flight (the samples of a flight are dropped when it ends);
 //! time: the flights' durations are bounded as `parapet run`'s.
 //!
-//! May import: `crate::cli` (run options, errors), `crate::flight::runner`, `crate::sim::disturbance`,
+//! May import: `crate::cli` (run options, errors), `crate::fc` (the in-process run), `crate::flight::runner`,
+//! `crate::report`, `crate::sim::disturbance`,
 //! `crate::input`, rayon, indicatif, clap, serde.
 
 pub mod output;

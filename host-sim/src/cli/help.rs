@@ -3,10 +3,21 @@
 //! examples and exit codes. Every number comes from the constant that the code
 //! enforces ([`crate::input::limits`], the core's defaults), never retyped.
 //!
-//! May import: `cli` (exit codes), `input`, `validate`, `runner`.
+//! May import: `cli` (exit codes), `input`, `flight::{validate, runner}`.
 
 use crate::cli::{DEFAULT_SCENE, EXIT_CODES_HELP};
 use crate::input::limits as l;
+
+/// The ranges of the controller settings a scene or an option may give: every
+/// parameter-table entry with a key (`parapet_core::params::TABLE`), codes excluded.
+fn controller_ranges() -> String {
+    let ranges: Vec<String> = parapet_core::params::TABLE
+        .iter()
+        .filter(|p| p.key.is_some() && !p.integer)
+        .map(|p| p.range().to_string())
+        .collect();
+    ranges.join(", ")
+}
 
 /// Limits that apply to every flight (`run`, `pil`, and the runs of `sweep`).
 pub fn flight_limits() -> String {
@@ -15,7 +26,8 @@ pub fn flight_limits() -> String {
 Limits (refused with exit 2, naming the option or file, table and field):
   duration ≤ {dur} s (--duration, [sim] duration, or the default; --max-duration raises the cap up to {ceil} s)
   [sim] dt in [{mindt:e}, {maxdt:e}] s; duration / dt ≤ {steps:e} plant steps
-  speed in (0, {speed}] m/s; coordinates (bounds, mission, obstacles, path waypoints) |x| ≤ {coord:e} m
+  controller settings (scene [controller], options): {ranges}
+  coordinates (bounds, mission, obstacles, path waypoints) |x| ≤ {coord:e} m
   [sensors] position_latency ≤ {lat} s (the controller's position timeout is {timeout} s); noise ≤ {noise}
   a path has at most {wps} waypoints; the sensor reports up to {rep} obstacles in range at once (the
   nearest beyond that) and the controller keeps the most critical {obs} obstacles;
@@ -26,7 +38,7 @@ Limits (refused with exit 2, naming the option or file, table and field):
         mindt = l::MIN_DT_S,
         maxdt = l::MAX_DT_S,
         steps = l::MAX_PLANT_STEPS,
-        speed = l::MAX_SPEED_MPS,
+        ranges = controller_ranges(),
         coord = l::MAX_COORDINATE_M,
         lat = l::MAX_POSITION_LATENCY_S,
         timeout = crate::input::num(l::position_timeout_s()),

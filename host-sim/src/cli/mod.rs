@@ -102,8 +102,7 @@ pub struct RunArgs {
     kp: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = default_help("PD velocity gain k_d, 1/s", "kd"))]
     kd: Option<f64>,
-    #[arg(long, allow_negative_numbers = true, help = format!(
-        "Reference speed along the path, m/s, in (0, {}] [default: the scene's]", limits::MAX_SPEED_MPS))]
+    #[arg(long, allow_negative_numbers = true, help = speed_help())]
     speed: Option<f64>,
     /// Random seed (sensor noise and planner).
     #[arg(long, default_value_t = 0)]
@@ -203,18 +202,16 @@ pub struct ReplayArgs {
     ground: bool,
 }
 
-/// The help line of a controller option with its built-in default (from the
-/// core's constants, shortest decimals).
+/// The help line of `--speed` with the parameter table's range.
+fn speed_help() -> String {
+    let range = parapet_core::params::by_key("speed").map(|p| p.range().to_string()).unwrap_or_default();
+    format!("Reference speed along the path, m/s, {range} [default: the scene's]")
+}
+
+/// The help line of a controller option with its built-in default (the parameter
+/// table's, shortest decimals).
 fn default_help(what: &str, name: &str) -> String {
-    let c = parapet_core::cbf::CbfParams::default();
-    let f = crate::input::f32_as_f64;
-    let d = match name {
-        "mu" => f(c.mu),
-        "delta" => f(c.delta),
-        "delta1" => f(c.delta1),
-        "kp" => crate::flight::runner::DEFAULT_KP,
-        _ => crate::flight::runner::DEFAULT_KD,
-    };
+    let d = crate::flight::runner::table_default(name);
     format!("{what} [default: the scene's [controller] {name}, else {d}]")
 }
 

@@ -13,6 +13,9 @@
 //! * **`--no-cbf`**: the controller is told that no obstacle is in range (an
 //!   empty report), so its filter passes the nominal input through unchanged
 //!   (region "none"). The controller itself is the same.
+//!
+//! May import: `parapet-core`, [`crate::flight`] (run settings, the loop, `FlightStack`),
+//! [`crate::sim::sensors`] (readings), [`crate::world::scene`].
 
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;

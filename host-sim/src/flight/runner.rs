@@ -40,6 +40,9 @@
 //! [`NearestTracker`]: obstacles that provably cannot matter are skipped, the
 //! results are the same as the full scans' ([`nearest_with_ground`],
 //! [`sense_obstacles`], [`true_h_bar`]) bit for bit.
+//!
+//! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
+//! [`crate::report`] (samples, summary), [`super::stack`].
 
 use std::time::Instant;
 
@@ -74,10 +77,13 @@ pub const GOAL_SPEED_MPS: f64 = 0.1;
 pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
 /// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
 const INNER_HZ: f64 = 1000.0;
-/// Default PD position gain k_p, 1/s² (the paper's office experiment).
-pub const DEFAULT_KP: f64 = 0.5;
-/// Default PD velocity gain k_d, 1/s.
-pub const DEFAULT_KD: f64 = 0.8;
+/// The built-in default of the controller setting with scene/option key `key`: the
+/// parameter table's ([`parapet_core::params`], = `ControllerParams::default()`), as its
+/// shortest decimal (1.4, not 1.399999976158142). NaN for a key the table does not have
+/// (refused by the run check).
+pub fn table_default(key: &str) -> f64 {
+    parapet_core::params::by_key(key).map_or(f64::NAN, |p| f32_as_f64(p.default))
+}
 /// Default proximity-sensor range, m.
 pub const DEFAULT_SENSING_RANGE: f64 = 3.0;
 
@@ -120,19 +126,19 @@ impl RunConfig {
     /// [`default_duration`] at the scene's speed.
     pub fn for_scene(scene: &Scene, path: Vec<Vector3<f64>>) -> Result<RunConfig> {
         let c = &scene.controller;
-        let cbf_default = CbfParams::default();
         let variant = match &c.filter {
             Some(name) => name.parse().map_err(|_| anyhow!("unknown filter variant {name:?}"))?,
             None => FilterVariant::default(),
         };
-        // The f32 defaults as their shortest decimals (1.4, not 1.399999976158142):
-        // the same f32 values reach the filter, and reports print them as written.
+        // The table's f32 defaults as their shortest decimals: the same f32 values reach
+        // the filter, and reports print them as written.
+        let d = table_default;
         let params = RunParams {
-            mu: c.mu.unwrap_or(f32_as_f64(cbf_default.mu)),
+            mu: c.mu.unwrap_or_else(|| d("mu")),
             delta: c.delta.unwrap_or_else(|| default_delta(scene.vehicle.hull_radius)),
-            delta1: c.delta1.unwrap_or(f32_as_f64(cbf_default.delta1)),
-            kp: c.kp.unwrap_or(DEFAULT_KP),
-            kd: c.kd.unwrap_or(DEFAULT_KD),
+            delta1: c.delta1.unwrap_or_else(|| d("delta1")),
+            kp: c.kp.unwrap_or_else(|| d("kp")),
+            kd: c.kd.unwrap_or_else(|| d("kd")),
             speed: scene.speed,
         };
         Ok(RunConfig {
@@ -143,8 +149,8 @@ impl RunConfig {
             cbf: true,
             variant,
             params,
-            accel_bound: c.accel_bound.unwrap_or(0.0),
-            velocity_margin: c.velocity_margin.unwrap_or(0.0),
+            accel_bound: c.accel_bound.unwrap_or_else(|| d("accel_bound")),
+            velocity_margin: c.velocity_margin.unwrap_or_else(|| d("velocity_margin")),
             sensors: scene.sensors.clone().unwrap_or_default(),
             seed: 0,
             sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),

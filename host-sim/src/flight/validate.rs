@@ -11,7 +11,7 @@
 //!
 //! Owns: [`Given`], [`check_run`], and the words for the core's error enums
 //! ([`describe_param_error`], [`describe_path_error`], [`describe_command_error`]).
-//! May import: `input`, `scene`, `runner`, `control`, `parapet-core`.
+//! May import: `input`, `world::scene`, `flight::runner`, `parapet-core`.
 
 use parapet_core::cbf::CbfParams;
 use parapet_core::controller::{CommandError, ControllerParams, ParamError};
@@ -282,7 +282,7 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .table("mission")
                 .field("speed")
                 .value(num(scene.speed))
-                .allowed(format!("0 < speed ≤ {} m/s", waypoint::PARAM_LIMIT))
+                .allowed(params::by_key("speed").map(|p| p.range().to_string()).unwrap_or_default())
         }
         ParamError::Tracking => InputError::file(file, "PD gains rejected by the tracking controller")
             .table("controller")

@@ -120,6 +120,9 @@
 //! give the same path, bit for bit, whenever the search ends by finding a
 //! path or by the iteration budget. Only a search cut short by the wall-clock
 //! `time_budget_ms` depends on the machine's speed.
+//!
+//! Owns the planner and [`pathfile`]; [`generate`] checks generated scenes with it.
+//! May import: `parapet-core` (shapes), [`crate::world`] (scene, index), [`crate::input`].
 
 use std::borrow::Cow;
 use std::time::Instant;

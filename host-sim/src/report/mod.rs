@@ -8,7 +8,9 @@
 //! `trajectory.csv` columns (one row per outer step, 250 Hz): `t` (s since the
 //! mission start); `ref_*` reference (planned) position; `x,y,z` true position;
 //! `v*` true velocity; `roll,pitch,yaw`; `region` (none, far, nominal_safe,
-//! filtering, fault); `active_obstacle` (scene index or empty);
+//! filtering, fault); `active_obstacle` (the track id of the obstacle the
+//! filter acted on — its scene index in scenes of at most 65,535 obstacles, see
+//! `crate::sim::track_ids` — or empty);
 //! `filter_active` (0/1); `clearance` (m, true, nearest obstacle or ground
 //! minus hull radius); `h_bar` (m², true state, min over all obstacles);
 //! `u_nom_*` PD output u*; `u_*` filter output; `filter_h_bar` (the

@@ -38,6 +38,8 @@
 //! * Integration: classic fixed-step RK4 of the 17-dimensional state
 //!   (p, v, q, ω_b, rotor speeds), the quaternion renormalised after each step.
 //!   The step (default 1 ms, 1 kHz) is a parameter of [`Plant::step`].
+//!
+//! May import: `parapet-core` (airframe, frame), nalgebra, serde, [`crate::input`].
 
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 use parapet_core::airframe::{Airframe, ROTOR_XY_UNIT, ROTOR_YAW_SIGN};

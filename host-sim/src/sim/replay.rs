@@ -39,6 +39,8 @@
 //! (last t − first t), times within ±10¹⁰ s (Unix time fits); dt in
 //! [`MIN_DT_S`, `MAX_DT_S`] and at most `MAX_PLANT_STEPS` integration steps,
 //! so a replay's time and memory are bounded by its input.
+//!
+//! May import: [`crate::sim::plant`], [`crate::input`], csv, serde.
 
 use std::path::Path;
 

@@ -26,7 +26,7 @@
 //! [`manifest`] (`sweep.json`, merge checks), [`merge`] (`sweep-merge`),
 //! [`heatmap`] (aggregation, plots). This file: `parapet sweep` (options, checks,
 //! flying the runs).
-//! May import: `crate::{cli, input, pathfile, planner, preflight, runner, scene}`,
+//! May import: `crate::{cli, fc, flight, input, plan, world}`,
 //! clap, rayon, indicatif, anyhow.
 
 pub mod grid;

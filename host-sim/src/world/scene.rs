@@ -29,6 +29,9 @@
 //! `MAX_POSITION_LATENCY_S` (0.1 s), noise ≤ `MAX_SENSOR_NOISE`, files ≤
 //! `MAX_INPUT_FILE_BYTES`. The duration cap depends on `--max-duration` and is
 //! checked by [`crate::flight::validate::check_run`].
+//!
+//! May import: `parapet-core`, [`super`]'s `schema`, `obstacle`, `frame`, `check`,
+//! [`crate::input`], [`crate::sim`] (vehicle, sensor and disturbance settings).
 
 use std::path::Path;
 
@@ -39,7 +42,7 @@ pub use super::frame::{enu_arr_to_ned, ned_to_enu_arr, to_f32, to_f64};
 pub use super::obstacle::{reference_point, Motion, SceneObstacle};
 pub(crate) use super::schema::describe_toml_error;
 use super::schema::{bad, convert_obstacle, validate_controller, validate_sensors, within_limit, RawScene};
-pub use super::schema::{ControllerOverrides, SimSettings, FILTER_NAMES};
+pub use super::schema::{ControllerOverrides, SimSettings};
 use crate::input::{limits, InputError};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
@@ -133,11 +136,13 @@ impl Scene {
                 return Err(err(format!("[mission]: field `{field}`: {a:?} is outside the bounds")));
             }
         }
-        let speed_range = format!("0 < speed ≤ {} m/s", limits::MAX_SPEED_MPS);
-        if !(raw.mission.speed > 0.0 && raw.mission.speed <= limits::MAX_SPEED_MPS) {
+        // The reference speed's range is the parameter table's (WP_SPEED).
+        let speed = parapet_core::params::by_key("speed");
+        if !speed.is_some_and(|p| super::schema::param_accepts(p, raw.mission.speed)) {
+            let range = speed.map_or_else(String::new, |p| p.range().to_string());
             return Err(err(format!(
                 "[mission]: {}",
-                bad("speed", "reference speed out of range", raw.mission.speed, &speed_range)
+                bad("speed", "reference speed out of range", raw.mission.speed, &range)
             )));
         }
         let vehicle = raw.vehicle.unwrap_or_default();

@@ -1,7 +1,7 @@
 //! The scene file's schema: the TOML tables as serde reads them
-//! ([`RawScene`] and its parts, [`ControllerOverrides`], [`SimSettings`]), the
+//! (`RawScene` and its parts, [`ControllerOverrides`], [`SimSettings`]), the
 //! per-table checks and the conversion of an obstacle table to a
-//! [`SceneObstacle`], and the error texts ("line N, <table>, field `k`: …").
+//! [`SceneObstacle`], and the error texts (`line N, <table>, field k: …`).
 //!
 //! Owns the file format (documented in `scenes/README.md`). May import:
 //! `parapet-core` (shapes), [`crate::input`] (limits, number format),
@@ -16,9 +16,6 @@ use crate::input::{exact, limits, num};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
 use parapet_core::obstacle::Shape;
-
-/// The filter variant names accepted in `[controller] filter`.
-pub const FILTER_NAMES: [&str; 4] = ["paper", "relative", "multi", "multi-relative"];
 
 /// Optional controller overrides (`[controller]` table). Missing values keep
 /// the controller defaults (or the command-line values, which win over the scene).
@@ -35,7 +32,8 @@ pub struct ControllerOverrides {
     pub kp: Option<f64>,
     /// PD velocity gain k_d, 1/s (all axes).
     pub kd: Option<f64>,
-    /// Filter variant: one of [`FILTER_NAMES`].
+    /// Filter variant: a `parapet_core::cbf::FilterVariant` name (`paper`, `relative`, `multi`,
+    /// `multi-relative`; the parameter table's `CBF_VARIANT`).
     pub filter: Option<String>,
     /// Bound A on the unknown obstacle acceleration, m/s² (relative variants).
     pub accel_bound: Option<f64>,
@@ -199,8 +197,9 @@ pub(crate) fn validate_controller(c: &ControllerOverrides) -> Result<(), String>
         }
     }
     if let Some(f) = &c.filter {
-        if !FILTER_NAMES.contains(&f.as_str()) {
-            return Err(format!("field `filter`: unknown variant {f:?}, expected one of {FILTER_NAMES:?}"));
+        if f.parse::<parapet_core::cbf::FilterVariant>().is_err() {
+            let names = parapet_core::cbf::FilterVariant::ALL.map(|v| v.as_str());
+            return Err(format!("field `filter`: unknown variant {f:?}, expected one of {names:?}"));
         }
     }
     Ok(())
@@ -406,7 +405,12 @@ mod tests {
             assert!(parapet_core::params::by_key(key).is_some(), "{key} is not in the parameter table");
         }
         assert_eq!(parapet_core::params::by_key("filter").map(|p| p.name), Some("CBF_VARIANT"));
-        assert!(FILTER_NAMES.iter().all(|f| f.parse::<parapet_core::cbf::FilterVariant>().is_ok()));
+        let with_filter = |f: &str| {
+            validate_controller(&ControllerOverrides { filter: Some(f.into()), ..Default::default() })
+        };
+        let e = with_filter("fast").unwrap_err();
+        assert!(e.contains("\"fast\"") && e.contains("multi-relative"), "{e}");
+        assert_eq!(with_filter("relative"), Ok(()));
     }
 
     #[test]

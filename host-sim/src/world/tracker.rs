@@ -4,7 +4,7 @@
 //! `true_h_bar`) bit for bit and cheap at any obstacle count.
 //!
 //! Owns the tracker. May import: `parapet-core` (shapes), [`super::index`],
-//! `crate::world::scene` (scene types).
+//! [`super::scene`], [`super::obstacle`], [`super::frame`].
 
 use std::sync::Arc;
 

@@ -32,7 +32,7 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::entry;
 use parapet_core::attitude::{AttitudeController, Euler};
-use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
+use parapet_core::cbf::{FilterVariant, SafetyFilter};
 use parapet_core::controller::{ControllerParams, FlightController, GuidanceMode, PositionFix};
 use parapet_core::estimator::AttitudeEstimator;
 use parapet_core::estimator::ImuSample;
@@ -279,17 +279,10 @@ fn next_problem(rng: &mut SplitMix64, k: usize) -> Problem {
     Problem { p, v, u_nom, obstacles, k }
 }
 
-/// The filter as the controller configures it (`ControllerParams::outer_params`): for every
-/// variant but `Paper` the outer period as sample time, the class-K γ and the observer's ē in A.
+/// The filter with the controller's rule for the sample time (`ControllerParams::outer_params`).
 fn filter(variant: FilterVariant) -> SafetyFilter {
-    let mut params = CbfParams::default();
-    if variant != FilterVariant::Paper {
-        let rp = RobustParams::default();
-        params.sample_time = 1.0 / 250.0;
-        params.gamma = rp.gamma;
-        params.accel_bound += rp.dob_margin;
-    }
-    match SafetyFilter::new(params, variant) {
+    let params = ControllerParams { filter_variant: variant, ..ControllerParams::default() }.outer_params();
+    match SafetyFilter::new(params.cbf, variant) {
         Ok(f) => f,
         Err(_) => exit(false),
     }
@@ -515,7 +508,14 @@ fn bench_cascade_parts(c: &Counter) {
     report(
         "thrust::map_acceleration",
         c.measure(|| {
-            black_box(map_acceleration(&params.thrust, params.airframe.mass, black_box(&u), 0.2, 0.05, -0.03));
+            black_box(map_acceleration(
+                &params.thrust,
+                params.airframe.mass,
+                black_box(&u),
+                0.2,
+                0.05,
+                -0.03,
+            ));
         }),
     );
     let mut tracker = PdTracker::new(params.tracking);

@@ -1,7 +1,7 @@
 //! The ground-station side of the link: what the host sends the firmware and
 //! how (MAVLink messages of the wire contract `parapet_core::wire`), and the
 //! settings it uploads: the parameters ([`firmware_params`]), the mission as the
-//! firmware stores it ([`quantised_path`]), the start-up timing ([`preroll_start`]).
+//! firmware stores it ([`quantised_path`]), the start-up timing (`preroll_start`).
 //!
 //! May import: `parapet-core` (params, wire contract), mavlink,
 //! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`]

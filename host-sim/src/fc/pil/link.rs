@@ -309,6 +309,15 @@ impl PilLink {
                     self.pending_outer = Some((t_us, n.value.max(0) as u64));
                 }
                 MavMessage::NAMED_VALUE_INT(n)
+                    if n.name.to_str().unwrap_or("") == names::INS_MASKED
+                        && n.time_boot_ms as u64 == t_us / 1000
+                        && self.in_flight =>
+                {
+                    let i = &mut self.fig.instructions_per_control_step;
+                    i.max_masked = i.max_masked.max(n.value.max(0) as u64);
+                    i.masked_steps += 1;
+                }
+                MavMessage::NAMED_VALUE_INT(n)
                     if n.name.to_str().unwrap_or("") == names::INS_STEP
                         && n.time_boot_ms as u64 == t_us / 1000
                         && self.in_flight =>

@@ -9,11 +9,11 @@
 //! waits for the HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.
 //! MAVLink v2 encoding/decoding is the `mavlink` crate (the firmware's version and dialect).
 //!
-//! [`PilLink`] implements [`FlightStack`], so [`crate::flight::runner::run_with`] drives the firmware
+//! [`PilLink`] implements [`FlightStack`](crate::flight::stack::FlightStack), so [`crate::flight::runner::run_with`] drives the firmware
 //! exactly like the in-process controller and the report is the same as `parapet run`'s.
 //!
 //! ## Start-up (before simulated t = 0, plant frozen in hover at the start)
-//! Firmware clock = [`clock_us`] (simulated time + 1 s). Pre-roll steps from
+//! Firmware clock = [`clock_us`](crate::flight::stack::clock_us) (simulated time + 1 s). Pre-roll steps from
 //! `T0 − preroll` (a multiple of the 4 ms outer period, so the firmware's outer steps fall on
 //! the runner's outer steps): PARAM_SET of the run's controller settings (each checked against
 //! its PARAM_VALUE), mission upload (MISSION_COUNT / MISSION_ITEM_INT per request /
@@ -34,7 +34,7 @@
 //! ## Failure handling
 //! QEMU runs in a guard that kills it on drop (every exit path). No answer to a HIL_SENSOR
 //! within [`PilOptions::resend_after`] → the HIL_SENSOR is re-sent (same t; the firmware
-//! answers it); no answer within [`PilOptions::timeout`] → error. As [`FlightStack`] cannot
+//! answers it); no answer within [`PilOptions::timeout`] → error. As `FlightStack` cannot
 //! return errors, a failure latches: the link outputs zero throttle from then on (the run
 //! ends quickly with a ground contact) and [`run_pil`] returns the error.
 //!
@@ -51,7 +51,7 @@
 //! are the wire contract `parapet_core::wire`, shared with the firmware.
 //!
 //! May import: `parapet-core`, mavlink, [`crate::flight`], [`crate::sim::sensors`],
-//! [`crate::world::scene`], [`crate::report`] (none yet); the children import each other
+//! [`crate::world::scene`]; the children import each other
 //! only downwards (link → gcs, telemetry, faults, qemu, firmware; twin → gcs).
 
 pub mod faults;

@@ -11,6 +11,7 @@ use std::time::Duration;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavModeFlag, MavState};
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
+use parapet_core::controller::GuidanceMode;
 use parapet_core::waypoint::PathSample;
 use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
 use parapet_core::wire::names;
@@ -37,6 +38,11 @@ pub struct InstructionFigures {
     pub mean_outer_loop: f64,
     /// The outer step alone, max.
     pub max_outer_loop: u64,
+    /// Longest section with interrupts masked in any flight step (the firmware's
+    /// `ins_masked`: its critical sections, i.e. mailbox message copies), instructions.
+    pub max_masked: u64,
+    /// Flight steps that reported `ins_masked`.
+    pub masked_steps: u64,
     /// Steps counted.
     pub steps: u64,
     /// Calibration: instructions of the calibration loop (`ins_cal_n`).
@@ -81,7 +87,7 @@ pub struct PilFigures {
     pub injected_corrupted: u64,
     /// Host frames dropped on purpose (fault injection, HIL_SENSORs included).
     pub injected_dropped: u64,
-    /// HIL_SENSORs re-sent after [`PilOptions::resend_after`] without an answer.
+    /// HIL_SENSORs re-sent after [`PilOptions::resend_after`](super::PilOptions::resend_after) without an answer.
     pub steps_resent: u64,
     /// Lockstep steps of the flight (after the start-up).
     pub flight_steps: u64,
@@ -147,17 +153,15 @@ impl FirmwareTelemetry {
         OuterOut {
             reference: to_f64(&s.position),
             // The fields the firmware reports (CBF, CBF_FLAGS); it sends neither n_near nor
-            // the fault kind (the region says Fault).
+            // the fault kind (the region says Fault), which keep the core's initial values.
             filter: FilterDiagnostics {
-                region: f.region,
                 active_id: f.active,
                 h_bar: f.h_bar,
                 intervened: f.flags.intervened,
                 n_constraints: f.flags.n_constraints,
-                n_near: 0,
                 unavoidable: f.flags.unavoidable,
                 infeasible: f.flags.infeasible,
-                fault: None,
+                ..FilterDiagnostics::new(f.region)
             },
             path_done: s.progress.done,
             u_nominal: f.u_nominal,
@@ -273,16 +277,78 @@ pub(super) fn figures(
     f
 }
 
-/// Guidance mode name (as the host controller's `GuidanceMode`) for a HEARTBEAT phase.
+/// Guidance mode name (the core's `GuidanceMode::as_str`, as the in-process controller reports it)
+/// for a HEARTBEAT phase.
 fn phase_mode(phase: u32) -> &'static str {
-    match FlightPhase::from_code(phase) {
-        Some(FlightPhase::Disarmed) => "Off",
-        Some(FlightPhase::Idle) => "Ground",
-        Some(FlightPhase::Takeoff) => "Takeoff",
-        Some(FlightPhase::Hover) => "Hold",
-        Some(FlightPhase::Mission) => "Mission",
-        Some(FlightPhase::Landing) => "Land",
-        Some(FlightPhase::Failsafe) => "Brake",
-        None => "Unknown",
+    let mode = match FlightPhase::from_code(phase) {
+        Some(FlightPhase::Disarmed) => GuidanceMode::Off,
+        Some(FlightPhase::Idle) => GuidanceMode::Ground,
+        Some(FlightPhase::Takeoff) => GuidanceMode::Takeoff,
+        Some(FlightPhase::Hover) => GuidanceMode::Hold,
+        Some(FlightPhase::Mission) => GuidanceMode::Mission,
+        Some(FlightPhase::Landing) => GuidanceMode::Land,
+        Some(FlightPhase::Failsafe) => GuidanceMode::Brake,
+        None => return "Unknown",
+    };
+    mode.as_str()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mavlink::dialects::ardupilotmega::{DEBUG_VECT_DATA, HEARTBEAT_DATA, NAMED_VALUE_INT_DATA};
+    use parapet_core::wire::codes::{active_id_to_wire, region_to_wire};
+
+    fn name<const N: usize>(s: &str) -> mavlink::types::CharArray<N> {
+        let mut b = [0u8; N];
+        b[..s.len()].copy_from_slice(s.as_bytes());
+        b.into()
+    }
+
+    /// The firmware's CBF / CBF_FLAGS / HEARTBEAT reports decode into the core's diagnostics
+    /// type with the wire contract's codes.
+    #[test]
+    fn filter_reports_decode_into_the_core_diagnostics() {
+        let (mut t, mut fig) = (FirmwareTelemetry::default(), PilFigures::default());
+        let cbf = DEBUG_VECT_DATA {
+            name: name(names::CBF),
+            x: 0.25,
+            y: region_to_wire(Region::Perpendicular),
+            z: active_id_to_wire(Some(7)),
+            ..Default::default()
+        };
+        observe(&MavMessage::DEBUG_VECT(cbf), &mut t, &mut fig);
+        let flags = CbfFlags { intervened: true, unavoidable: false, infeasible: true, n_constraints: 2 };
+        let nv = NAMED_VALUE_INT_DATA {
+            name: name(names::CBF_FLAGS),
+            value: flags.encode(),
+            ..Default::default()
+        };
+        observe(&MavMessage::NAMED_VALUE_INT(nv), &mut t, &mut fig);
+        let hb = HEARTBEAT_DATA { custom_mode: FlightPhase::Mission.code(), ..Default::default() };
+        observe(&MavMessage::HEARTBEAT(hb), &mut t, &mut fig);
+        let z = parapet_core::Vec3::zeros();
+        let s = PathSample { position: z, velocity: z, acceleration: z, progress: Default::default() };
+        let out = t.outer_out(&s);
+        assert_eq!(out.filter.region, Region::Perpendicular);
+        assert_eq!(out.filter.active_id, Some(7));
+        assert_eq!(out.filter.h_bar, 0.25);
+        assert!(out.filter.intervened && out.filter.infeasible && !out.filter.unavoidable);
+        assert_eq!(out.filter.n_constraints, 2);
+        assert_eq!(out.mode, GuidanceMode::Mission.as_str());
+        // A non-finite region code is a fault, never a benign region.
+        let bad = DEBUG_VECT_DATA { name: name(names::CBF), y: f32::NAN, z: -1.0, ..Default::default() };
+        observe(&MavMessage::DEBUG_VECT(bad), &mut t, &mut fig);
+        assert_eq!(t.outer_out(&s).filter.region, Region::Fault);
+        assert_eq!(t.outer_out(&s).filter.active_id, None);
+    }
+
+    #[test]
+    fn every_phase_has_a_guidance_mode_name() {
+        for p in FlightPhase::ALL {
+            assert_ne!(phase_mode(p.code()), "Unknown", "{p:?}");
+        }
+        assert_eq!(phase_mode(99), "Unknown");
+        assert_eq!(phase_mode(FlightPhase::Failsafe.code()), GuidanceMode::Brake.as_str());
     }
 }

@@ -11,6 +11,7 @@ use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::codes::{odometry_quaternion, odometry_yaw};
 use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
 
 use super::gcs::{firmware_params, preroll_start, quantised_path, WARMUP_STEPS};
@@ -19,11 +20,12 @@ use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
 
-/// The pure-host counterpart of [`PilLink`]: the same `parapet-core` `FlightController`, built
+/// The pure-host counterpart of [`PilLink`](super::PilLink): the same `parapet-core` `FlightController`, built
 /// with the firmware's parameters ([`firmware_params`]), driven with the firmware's lockstep
 /// sequence (pre-roll, commands at the previous step's time, obstacle batch closed at the step,
-/// inner step before the outer step, fixes without yaw, quantised path). Flying a scene with
-/// this and with [`PilLink`] isolates what the ARM build and the link change.
+/// inner step before the outer step, fixes with the yaw the firmware decodes from ODOMETRY's
+/// quaternion, quantised path). Flying a scene with
+/// this and with `PilLink` isolates what the ARM build and the link change.
 pub struct FirmwareTwin {
     fc: FlightController,
     cbf: bool,
@@ -63,7 +65,9 @@ impl FirmwareTwin {
             t_us,
             position: to_f32(&fix.position),
             velocity: to_f32(&fix.velocity),
-            yaw: None,
+            // What the firmware feeds its estimator: the yaw of the ODOMETRY quaternion the
+            // PIL link sends (`gcs::odometry`).
+            yaw: odometry_yaw(odometry_quaternion(fix.yaw as f32)),
         });
     }
 
