@@ -157,7 +157,7 @@ impl ControllerParams {
         }
         OuterParams {
             robust: self.robust,
-            lag_tau: lag_time_constant(&self.attitude, self.robust.motor_tau),
+            lag_tau: lag_time_constant(&self.attitude.att_p, self.robust.motor_tau),
             rate_hz: self.outer_rate_hz,
             tracking: self.tracking,
             cbf,

@@ -82,7 +82,7 @@ fn fly(c: &Case) -> Option<Outcome> {
     let rp = RobustParams::default();
     let params = CbfParams { accel_bound: params.accel_bound + rp.dob_margin, ..params };
     let filter = SafetyFilter::new(params, FilterVariant::MultiRelative).ok()?;
-    let tau_model = lag_time_constant(&parapet_core::attitude::AttitudeParams::default(), rp.motor_tau);
+    let tau_model = lag_time_constant(&parapet_core::attitude::AttitudeParams::default().att_p, rp.motor_tau);
     let tau_true = tau_model * c.tau_scale;
     let mut pa = PlantAware::new(rp, tau_model);
     let shapes: Vec<Shape> = c.spheres.iter().map(|&(q, r)| Shape::sphere(q, r)).collect();

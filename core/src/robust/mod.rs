@@ -20,15 +20,14 @@
 //!   closest-obstacle law would enforce the plane instead of the obstacle that matters).
 //! * **Stall** ([`stall::StallDetector`]): no progress with the filter active.
 //!
-//! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::attitude`
-//! (its parameter type only), `crate::fmath`, [`crate::Vec3`]. Imported by the outer loop
+//! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::fmath`,
+//! [`crate::Vec3`] (not the loops: τ comes from the attitude gains as numbers). Imported by the outer loop
 //! ([`crate::outer`]) and [`crate::config`].
 
 pub mod stall;
 
 use stall::StallDetector;
 
-use crate::attitude::AttitudeParams;
 use crate::fmath::{maxf, minf, norm3};
 use crate::obstacle::ObstaclePoint;
 use crate::Vec3;
@@ -152,8 +151,9 @@ pub const LAG_PER_INVERSE_ATT_GAIN: f32 = 0.7;
 /// (The loop's mean delay `1/k_att + 1/k_rate + τ_m` = 0.199 s overestimates it, and
 /// over-predicting made a sphere overtaking from behind collide.) Non-positive
 /// gains give no attitude contribution.
-pub fn lag_time_constant(att: &AttitudeParams, motor_tau_s: f32) -> f32 {
-    let k_att = att.att_p[0].min(att.att_p[1]);
+/// `att_p`: the attitude P gains (roll, pitch, yaw), 1/s (`AttitudeParams::att_p`).
+pub fn lag_time_constant(att_p: &[f32; 3], motor_tau_s: f32) -> f32 {
+    let k_att = att_p[0].min(att_p[1]);
     let att_part = if k_att > 0.0 { LAG_PER_INVERSE_ATT_GAIN / k_att } else { 0.0 };
     maxf(att_part + motor_tau_s - DEFAULT_MOTOR_TAU_S, 0.0)
 }
@@ -552,9 +552,10 @@ mod tests {
 
     #[test]
     fn default_lag_follows_the_gains() {
-        let tau = lag_time_constant(&AttitudeParams::default(), RobustParams::default().motor_tau);
+        // The default attitude gains (AttitudeParams::default().att_p).
+        let tau = lag_time_constant(&[6.5, 6.5, 2.8], RobustParams::default().motor_tau);
         assert!((tau - 0.7 / 6.5).abs() < 1e-6, "{tau}");
-        let slow = AttitudeParams { att_p: [6.5 * 0.3, 6.5 * 0.3, 2.8], ..AttitudeParams::default() };
+        let slow = [6.5 * 0.3, 6.5 * 0.3, 2.8];
         assert!((lag_time_constant(&slow, 0.05) - (0.7 / 1.95 + 0.03)).abs() < 1e-6);
         assert!(RobustParams::default().validate().is_ok());
         let bad = RobustParams { ceiling_height: -1.0, ..RobustParams::default() };

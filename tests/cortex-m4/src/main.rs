@@ -327,7 +327,7 @@ fn bench_filter(c: &Counter) {
 fn bench_plant_aware(c: &Counter) {
     let f = filter(FilterVariant::MultiRelative);
     let rp = RobustParams::default();
-    let tau = lag_time_constant(&parapet_core::attitude::AttitudeParams::default(), rp.motor_tau);
+    let tau = lag_time_constant(&parapet_core::attitude::AttitudeParams::default().att_p, rp.motor_tau);
     for k in [1usize, 4, 16, 32] {
         let mut rng = SplitMix64(SEED ^ (k as u64).wrapping_mul(0x1000_0000_01B3));
         let (mut all, mut hit) = (Stats::default(), Stats::default());
