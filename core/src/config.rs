@@ -4,7 +4,7 @@
 //! takes its own part ([`crate::outer::OuterParams`], [`crate::inner::InnerParams`]).
 //!
 //! May import: the stages' parameter types ([`crate::outer`], [`crate::inner`],
-//! [`crate::safety`], [`crate::supervisor`]), never their loops or the controller facade.
+//! [`crate::safety`], [`crate::robust`], [`crate::supervisor`]), never their loops or the controller facade.
 
 use crate::airframe::Airframe;
 use crate::attitude::{AttitudeController, AttitudeError, AttitudeParams};
@@ -14,6 +14,7 @@ use crate::failsafe::FailsafeParams;
 use crate::frame::GRAVITY;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
+use crate::robust::{RobustError, RobustParams};
 use crate::supervisor::LandingParams;
 use crate::thrust::ThrustParams;
 use crate::tracking::TrackingParams;
@@ -37,6 +38,12 @@ pub struct ControllerParams {
     pub cbf: CbfParams,
     /// Filter law. Default [`FilterVariant::default`].
     pub filter_variant: FilterVariant,
+    /// Plant-aware wrapping of the filter (lag, disturbance observer, ground and
+    /// ceiling, stall), used by every variant but `Paper`. Default [`RobustParams::default`].
+    pub robust: RobustParams,
+    /// Radius of the sphere bounding the vehicle, m: `cbf.delta` must be at least
+    /// its square (refused otherwise, [`ParamError::DeltaBelowHull`]). Default √0.05 m.
+    pub hull_radius: f32,
     /// Thrust/attitude mapping limits (eq. 4-5; the mass is `airframe.mass`).
     pub thrust: ThrustParams,
     /// Attitude and rate loops (the inertia is `airframe.inertia`).
@@ -61,6 +68,9 @@ pub struct ControllerParams {
     pub accel_comp_tau_s: f32,
 }
 
+/// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
+pub const DEFAULT_HULL_RADIUS: f32 = 0.223_606_8;
+
 impl Default for ControllerParams {
     fn default() -> Self {
         let airframe = Airframe::default();
@@ -69,6 +79,8 @@ impl Default for ControllerParams {
             tracking: TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.5, 0.8) },
             cbf: CbfParams::default(),
             filter_variant: FilterVariant::default(),
+            robust: RobustParams::default(),
+            hull_radius: DEFAULT_HULL_RADIUS,
             thrust: ThrustParams::default(),
             attitude: AttitudeParams::default(),
             estimator: EstimatorParams::default(),
@@ -85,9 +97,19 @@ impl Default for ControllerParams {
 }
 
 /// Why parameters were rejected.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamError {
+    /// Plant-aware wrapping parameters.
+    Robust(RobustError),
+    /// `cbf.delta` is below the squared hull radius: the filter would let obstacles
+    /// inside the hull. Both values are given (m²).
+    DeltaBelowHull {
+        /// The δ given, m².
+        delta: f32,
+        /// `hull_radius²`, m² (the smallest δ accepted).
+        hull_sq: f32,
+    },
     /// CBF parameters.
     Cbf(CbfError),
     /// Attitude/rate parameters.
@@ -112,6 +134,14 @@ impl ControllerParams {
     /// Check every parameter (see [`ParamError`]).
     pub fn validate(&self) -> Result<(), ParamError> {
         self.cbf.validate().map_err(ParamError::Cbf)?;
+        self.robust.validate().map_err(ParamError::Robust)?;
+        let hull_sq = self.hull_radius * self.hull_radius;
+        // A relative tolerance of 1e-6 accepts δ = r² computed in either precision.
+        if !(self.hull_radius.is_finite() && self.hull_radius > 0.0)
+            || self.cbf.delta < hull_sq * (1.0 - 1e-6)
+        {
+            return Err(ParamError::DeltaBelowHull { delta: self.cbf.delta, hull_sq });
+        }
         // The attitude gains with the airframe's inertia (checked where the rate loop uses it).
         AttitudeController::new(self.attitude, self.airframe.inertia).map_err(ParamError::Attitude)?;
         self.estimator.validate().map_err(ParamError::Estimator)?;

@@ -59,8 +59,10 @@ use crate::inner::{InnerError, InnerLoop, InnerParams};
 use crate::mixer::MixerOutput;
 use crate::msg::{AttitudeSetpoint, Euler, ImuSample, ImuStatus};
 use crate::obstacle::ObstaclePoint;
+use crate::obstacle_set::SetReport;
 use crate::outer::inputs::InputParams;
 use crate::outer::{OuterError, OuterLoop, OuterParams};
+use crate::robust::{lag_time_constant, RobustTelemetry};
 use crate::supervisor::SupervisorParams;
 use crate::tracking::Reference;
 use crate::waypoint::Progress;
@@ -125,6 +127,10 @@ pub struct Telemetry {
     pub obstacle_count: u8,
     /// Obstacle points dropped (set full) or rejected (non-finite) in the last update.
     pub obstacles_dropped: u8,
+    /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
+    pub obstacle_set: SetReport,
+    /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
+    pub robust: RobustTelemetry,
     /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
     pub non_finite_inputs: u32,
     /// Outer steps run.
@@ -136,13 +142,22 @@ pub struct Telemetry {
 impl ControllerParams {
     /// The outer loop's part. For every filter variant but `Paper` (kept exactly as
     /// published) the filter's `sample_time` is raised to at least the outer period, so the
-    /// event rule does not engage a sample late (see `cbf::CbfParams::sample_time`).
+    /// event rule does not engage a sample late (see `cbf::CbfParams::sample_time`), γ to at
+    /// least `robust.gamma` and A by the observer's `robust.dob_margin` (issue 17).
     pub fn outer_params(&self) -> OuterParams {
         let mut cbf = self.cbf;
         if self.filter_variant != FilterVariant::Paper {
             cbf.sample_time = maxf(cbf.sample_time, 1.0 / self.outer_rate_hz);
+            // Plant-aware (docs/filter.md §9-§12): class-K relaxation, and the observer's
+            // error bound ē joins the robust term A.
+            cbf.gamma = maxf(cbf.gamma, self.robust.gamma);
+            if self.robust.dob_bandwidth > 0.0 {
+                cbf.accel_bound += self.robust.dob_margin;
+            }
         }
         OuterParams {
+            robust: self.robust,
+            lag_tau: lag_time_constant(&self.attitude.att_p, self.robust.motor_tau),
             rate_hz: self.outer_rate_hz,
             tracking: self.tracking,
             cbf,
@@ -266,6 +281,8 @@ impl FlightController {
             obstacle_age_us: o.obstacle_age_us,
             obstacle_count: o.obstacle_count,
             obstacles_dropped: o.obstacles_dropped,
+            obstacle_set: o.obstacle_set,
+            robust: o.robust,
             non_finite_inputs: o.non_finite_inputs,
             outer_count: o.count,
             inner_count: i.count,

@@ -23,6 +23,10 @@
 //! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
 //!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
+//! - [`obstacle_set`]: which offered points the set keeps at capacity (most
+//!   critical first, one per obstacle) and the report of what was dropped.
+//! - [`robust`]: the plant-aware wrapping of the filter (actuation lag, disturbance
+//!   observer, ground/ceiling barriers, stall detection; issue 17).
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
 //! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
 //!
@@ -44,8 +48,10 @@ pub mod fmath;
 pub mod frame;
 pub mod inner;
 pub mod msg;
+pub mod obstacle_set;
 pub mod outer;
 pub mod params;
+pub mod robust;
 pub mod safety;
 pub mod schedule;
 pub mod supervisor;

@@ -18,10 +18,11 @@
 //! The ranges are chosen so that each field's own rule in
 //! [`ControllerParams::validate`] holds for every in-range value (e.g. `VEH_MASS`
 //! ≥ 0.07 kg keeps the hover thrust above the built-in minimum thrust 0.6 N). Only
-//! two constraints link parameters, and they are checked **at use**, on the whole
+//! three constraints link parameters, and they are checked **at use**, on the whole
 //! set, by [`ControllerParams::validate`] (see [`consistency`]):
 //!
 //! * `CBF_DELTA1` > `CBF_DELTA` (the filter engages above the safety level);
+//! * `CBF_DELTA` ≥ `VEH_HULL_R`² (the safe set excludes obstacles inside the hull; issue 17);
 //! * `VEH_MASS`·g < `THR_MAX` ≤ 4·`VEH_ROTOR_TMAX` (the vehicle can hover, and the
 //!   collective limit is one the rotors can give).
 //!
@@ -163,7 +164,7 @@ fn variant_of(code: i32) -> Option<FilterVariant> {
 }
 
 /// Number of parameters.
-pub const COUNT: usize = 18;
+pub const COUNT: usize = 21;
 
 /// The parameters, in MAVLink `param_index` order.
 pub const TABLE: [Param; COUNT] = [
@@ -453,6 +454,52 @@ pub const TABLE: [Param; COUNT] = [
         get: |p| p.thrust.thrust_max,
         write: |p, v| p.thrust.thrust_max = v,
     },
+    // Issue 17: the hull that bounds δ, and the ground / ceiling planes the filter keeps.
+    Param {
+        name: "VEH_HULL_R",
+        key: None,
+        unit: "m",
+        default: crate::config::DEFAULT_HULL_RADIUS,
+        min: 0.01,
+        max: 5.0,
+        integer: false,
+        decimals: 4,
+        group: "Vehicle",
+        description: "Radius of the sphere bounding the vehicle; CBF_DELTA must be at least its square",
+        label: None,
+        get: |p| p.hull_radius,
+        write: |p, v| p.hull_radius = v,
+    },
+    Param {
+        name: "GND_HEIGHT",
+        key: None,
+        unit: "m",
+        default: 0.0,
+        min: -100.0,
+        max: 100.0,
+        integer: false,
+        decimals: 3,
+        group: "CBF",
+        description: "Ground height (up); the filter keeps the plane z = -GND_HEIGHT as a barrier in flight",
+        label: None,
+        get: |p| p.robust.ground_height,
+        write: |p, v| p.robust.ground_height = v,
+    },
+    Param {
+        name: "CEIL_HEIGHT",
+        key: None,
+        unit: "m",
+        default: 0.0,
+        min: 0.0,
+        max: 1000.0,
+        integer: false,
+        decimals: 3,
+        group: "CBF",
+        description: "Ceiling height (up) kept as a barrier in flight; 0 = no ceiling",
+        label: None,
+        get: |p| p.robust.ceiling_height,
+        write: |p, v| p.robust.ceiling_height = v,
+    },
 ];
 
 /// The names of [`TABLE`], in index order (derived from it, for code that needs a list).
@@ -574,7 +621,7 @@ mod tests {
     #[test]
     fn out_of_range_values_are_refused_and_the_old_value_kept() {
         for d in &TABLE {
-            let below = if d.min > 0.0 { d.min * 0.5 } else { -1.0 };
+            let below = if d.min > 0.0 { d.min * 0.5 } else { d.min - 1.0 };
             let above = d.max * 2.0;
             let mut bad = [below, above, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, 0.0];
             let n = if d.integer {
@@ -638,7 +685,8 @@ mod tests {
 
     /// The ranges leave only the documented cross-constraints: with every other
     /// parameter at its default, each parameter's whole range validates except where
-    /// δ1 ≤ δ or the hover/thrust chain m·g < THR_MAX ≤ 4·VEH_ROTOR_TMAX breaks.
+    /// δ1 ≤ δ, δ < hull_radius² (issue 17) or the hover/thrust chain m·g < THR_MAX ≤
+    /// 4·VEH_ROTOR_TMAX breaks.
     #[test]
     fn only_the_documented_constraints_link_parameters() {
         for d in &TABLE {
@@ -647,6 +695,7 @@ mod tests {
                 set(&mut p, d.name, v).unwrap();
                 let hover = p.airframe.mass * crate::frame::GRAVITY;
                 let linked = p.cbf.delta1 <= p.cbf.delta
+                    || p.cbf.delta < p.hull_radius * p.hull_radius * (1.0 - 1e-6)
                     || hover >= p.thrust.thrust_max
                     || p.thrust.thrust_max > 4.0 * p.airframe.rotor_thrust_max;
                 assert_eq!(consistency(&p).is_ok(), !linked, "{} = {v}: {:?}", d.name, consistency(&p));

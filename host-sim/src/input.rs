@@ -139,9 +139,13 @@ pub mod limits {
     pub const MAX_COORDINATE_M: f64 = waypoint::COORDINATE_LIMIT as f64;
     /// Most waypoints in a path (planned or `--path`): the controller's `PATH_CAPACITY`.
     pub const MAX_WAYPOINTS: usize = controller::PATH_CAPACITY;
-    /// Most obstacles reported to the controller at once (the nearest are kept):
-    /// `controller::OBSTACLE_CAPACITY`. A scene may hold more.
+    /// Most obstacle points the controller keeps at once (the most critical of those
+    /// reported, `parapet_core::obstacle_set`): `controller::OBSTACLE_CAPACITY`.
     pub const MAX_OBSTACLES_SENSED: usize = controller::OBSTACLE_CAPACITY;
+    /// Most obstacles the simulated proximity sensor reports in one outer step (every
+    /// obstacle within the sensing range up to this; beyond it the nearest). A scene may
+    /// hold more.
+    pub const MAX_OBSTACLES_REPORTED: usize = 4096;
     /// Most barriers the `multi` filters enforce at once: `cbf::MAX_ACTIVE_BARRIERS`.
     pub const MAX_BARRIERS: usize = cbf::MAX_ACTIVE_BARRIERS;
     /// Wall-clock budget of the planner's tree search, s (`PlannerParams::time_budget_ms`).

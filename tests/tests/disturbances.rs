@@ -5,6 +5,7 @@
 //! deterministic for its seed.
 
 use nalgebra::Vector3;
+use parapet_core::cbf::FilterVariant;
 use parapet_sim::fc::control::run;
 use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::sim::disturbance::faults::{FaultParams, RotorFault};
@@ -22,10 +23,18 @@ fn hover_scene(extra: &str) -> Scene {
     Scene::parse(&src, "hover.toml").unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Hover flight with the `paper` filter: the PD law alone, whose sag and drift the
+/// equations below predict (the default variants' disturbance observer removes them,
+/// [`the_default_filter_removes_sag_and_wind_drift`]).
 fn hover(scene: &Scene, duration: f64, seed: u64) -> RunOutput {
+    hover_with(scene, duration, seed, FilterVariant::Paper)
+}
+
+fn hover_with(scene: &Scene, duration: f64, seed: u64, variant: FilterVariant) -> RunOutput {
     let mut cfg = RunConfig::for_scene(scene, vec![scene.start, scene.goal]).unwrap();
     cfg.duration = duration;
     cfg.seed = seed;
+    cfg.variant = variant;
     run(scene, &cfg, &mut |_| {}).unwrap()
 }
 
@@ -53,6 +62,7 @@ fn a_heavier_plant_than_the_controller_knows_sags_as_the_pd_law_predicts() {
     let base = hover_scene("");
     let mut cfg = RunConfig::for_scene(&base, vec![base.start, base.goal]).unwrap();
     cfg.duration = 40.0;
+    cfg.variant = FilterVariant::Paper;
     cfg.disturbances.plant = Some(Mismatch { mass: 1.04, ..Default::default() }.apply(&base.vehicle));
     let out = run(&base, &cfg, &mut |_| {}).unwrap();
     let last = out.samples.last().unwrap();
@@ -64,6 +74,21 @@ fn a_heavier_plant_than_the_controller_knows_sags_as_the_pd_law_predicts() {
     let s = hover_scene("[plant]\nmass = 0.52\n");
     let from_file = hover(&s, 40.0, 0);
     assert_eq!(from_file.samples.last().unwrap().pos, last.pos);
+}
+
+/// Issue 17: the default filter's disturbance observer feeds `−d̂` forward, so the weight
+/// error and the wind's drag no longer displace the hover (the PD law alone: 0.78 m sag,
+/// 0.8 m drift, above).
+#[test]
+fn the_default_filter_removes_sag_and_wind_drift() {
+    let heavy = hover_scene("[plant]\nmass = 0.52\n");
+    let out = hover_with(&heavy, 40.0, 0, FilterVariant::default());
+    let sag = out.samples.last().unwrap().pos.z - heavy.goal.z;
+    assert!(sag.abs() < 0.01, "sag {sag} m");
+    let windy = hover_scene("[wind]\nspeed = 2.0\ndirection_deg = 270\n");
+    let out = hover_with(&windy, 40.0, 0, FilterVariant::default());
+    let drift = out.samples.last().unwrap().pos.y - windy.goal.y;
+    assert!(drift.abs() < 0.01, "drift {drift} m");
 }
 
 #[test]

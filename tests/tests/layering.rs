@@ -29,9 +29,12 @@ const CORE_ALIASES: &[(&str, &str)] = &[
 /// What each core folder may import besides itself (root-level children of `core/src`).
 const CORE_RULES: &[(&str, &[&str])] = &[
     ("inner", &["airframe", "frame", "fmath", "msg"]),
-    ("outer", &["airframe", "frame", "fmath", "msg", "safety", "supervisor"]),
+    ("outer", &["airframe", "frame", "fmath", "msg", "safety", "supervisor", "obstacle_set", "robust"]),
     ("supervisor", &["airframe", "frame", "fmath", "msg"]),
     ("safety", &["airframe", "frame", "fmath"]),
+    // Issue 17: the obstacle-set policy and the plant-aware wrapping sit on the filter.
+    ("obstacle_set", &["frame", "fmath", "safety"]),
+    ("robust", &["airframe", "frame", "fmath", "safety"]),
     ("msg", &[]),
 ];
 

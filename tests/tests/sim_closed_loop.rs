@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use parapet_core::cbf::FilterVariant;
 use parapet_sim::fc::control::run;
 use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::world::scene::Scene;
@@ -57,8 +58,15 @@ fn same_seed_same_flight_and_noise_changes_it() {
 /// Sensor noise off: an accelerometer bias b tilts the attitude estimate by b/g and,
 /// with the soft k_p, moves the vehicle by g·(b/g)/k_p = b/k_p (4 cm for 0.02 m/s²).
 fn mid_flight_error(s: &Scene) -> (f64, RunOutput) {
+    mid_flight_error_with(s, FilterVariant::Paper)
+}
+
+/// Mean tracking error over 12-18 s with `variant` (the paper's: the PD law alone; the
+/// default variants' disturbance observer cancels the drag, issue 17).
+fn mid_flight_error_with(s: &Scene, variant: FilterVariant) -> (f64, RunOutput) {
     let mut cfg = RunConfig::for_scene(s, vec![s.start, s.goal]).unwrap();
     cfg.sensors.noise = false;
+    cfg.variant = variant;
     let out = run(s, &cfg, &mut |_| {}).unwrap();
     let mid: Vec<f64> =
         out.samples.iter().filter(|k| k.t > 12.0 && k.t < 18.0).map(|k| (k.pos - k.ref_pos).norm()).collect();
@@ -85,6 +93,11 @@ fn free_flight_tracking_lag_is_the_drag_over_kp() {
     // Time to goal ≈ path time (6 m at 0.3 m/s = 20 s) plus the settling.
     let t = sum.time_to_goal_s.unwrap();
     assert!(t > 20.0 && t < 40.0, "time to goal {t}");
+
+    // Issue 17: the default filter feeds the observer's −d̂ forward and cancels the drag.
+    let (e_default, _) = mid_flight_error_with(&s, FilterVariant::default());
+    println!("drag lag with the default filter {e_default:.3} m");
+    assert!(e_default < 0.1 * expected, "default-filter lag {e_default} vs PD {expected}");
 
     s.vehicle.drag = [0.0; 3];
     let (e_free, _) = mid_flight_error(&s);

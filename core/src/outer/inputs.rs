@@ -7,12 +7,14 @@
 //! timeout). Inputs that are NaN/Inf, beyond ±[`INPUT_LIMIT`] or time-stamped in the future
 //! are reported as bad inputs (the supervisor brakes).
 //!
-//! May import: [`crate::safety::obstacle`], [`crate::msg`], the crate root foundation.
+//! May import: [`crate::safety::obstacle`], [`crate::obstacle_set`], [`crate::msg`], the crate
+//! root foundation.
 
 use crate::cbf::INPUT_LIMIT;
 use crate::frame::{clampf, GRAVITY};
 use crate::msg::{EstimatorAid, PositionFix};
-use crate::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
+use crate::obstacle::{ObstaclePoint, ObstacleSet};
+use crate::obstacle_set::{self, Ranking, SetReport};
 use crate::Vec3;
 
 /// Capacity of the controller's obstacle set.
@@ -32,12 +34,14 @@ pub struct InputParams {
 }
 
 /// What an obstacle update did.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObstacleIntake {
     /// Bad inputs in the update (non-finite or out-of-range points, a future time stamp).
     pub bad_inputs: bool,
     /// Points dropped (set full) or rejected; `None` when the whole update was ignored.
     pub dropped: Option<u8>,
+    /// What the set policy kept and dropped ([`crate::obstacle_set`]); `None` when ignored.
+    pub report: Option<SetReport>,
 }
 
 /// The inputs (see the module documentation).
@@ -155,34 +159,20 @@ impl Inputs {
         now_us: u64,
         obstacles: &[ObstaclePoint],
         clock_us: Option<u64>,
+        ranking: Ranking,
+        delta1: f32,
     ) -> ObstacleIntake {
         if is_future(clock_us, now_us, self.params.obstacle_timeout_us) {
-            return ObstacleIntake { bad_inputs: true, dropped: None };
+            return ObstacleIntake { bad_inputs: true, dropped: None, report: None };
         }
-        let vehicle = self
-            .position_estimate(now_us)
-            .map(|(p, _)| p)
-            .or(self.fix.map(|f| f.position))
-            .unwrap_or_else(Vec3::zeros);
-        self.obstacles.clear();
-        let mut dropped = 0u8;
-        let mut fault = false;
-        for o in obstacles {
-            if !plausible(&o.point) || !o.velocity.is_none_or(|v| plausible(&v)) {
-                dropped = dropped.saturating_add(1);
-                fault = true;
-                continue;
-            }
-            match self.obstacles.insert_nearest(&vehicle, *o) {
-                InsertOutcome::Added | InsertOutcome::ReplacedFarthest => {}
-                InsertOutcome::DroppedFarther => dropped = dropped.saturating_add(1),
-                InsertOutcome::RejectedNonFinite => {
-                    dropped = dropped.saturating_add(1);
-                    fault = true;
-                }
-            }
-        }
+        let estimate = self.position_estimate(now_us);
+        let vehicle = estimate.map(|(p, _)| p).or(self.fix.map(|f| f.position)).unwrap_or_else(Vec3::zeros);
+        let v_est = estimate.map_or_else(Vec3::zeros, |(_, v)| v);
+        // Obstacle-set policy at capacity (crate::obstacle_set): the published nearest-first
+        // for the closest-obstacle variants, most critical first for the multi ones.
+        let rep = obstacle_set::select(&mut self.obstacles, ranking, delta1, &vehicle, &v_est, obstacles);
         self.obstacle_t_us = Some(now_us);
-        ObstacleIntake { bad_inputs: fault, dropped: Some(dropped) }
+        let dropped = u8::try_from(rep.dropped.saturating_add(rep.rejected)).unwrap_or(u8::MAX);
+        ObstacleIntake { bad_inputs: rep.rejected > 0, dropped: Some(dropped), report: Some(rep) }
     }
 }

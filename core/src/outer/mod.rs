@@ -17,8 +17,9 @@
 //! [`crate::msg::EstimatorAid`] messages.
 //!
 //! May import: the crate root foundation ([`crate::frame`], [`crate::fmath`],
-//! [`crate::airframe`], [`crate::Vec3`]), [`crate::msg`], [`crate::safety`] and
-//! [`crate::supervisor`]. Never [`crate::inner`], [`crate::config`] or the facade.
+//! [`crate::airframe`], [`crate::Vec3`]), [`crate::msg`], [`crate::safety`] (with
+//! [`crate::obstacle_set`] and [`crate::robust`], the filter's set policy and plant-aware
+//! wrapping) and [`crate::supervisor`]. Never [`crate::inner`], [`crate::config`] or the facade.
 
 pub mod guidance;
 pub mod inputs;
@@ -32,6 +33,9 @@ use crate::failsafe::{DataHealth, FailsafeState, Transition};
 use crate::fmath::minf;
 use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
 use crate::obstacle::ObstaclePoint;
+use crate::obstacle_set::{Ranking, SetReport};
+use crate::robust::stall::STALL_TRACKING_ERROR_M;
+use crate::robust::{PlantAware, RobustParams, RobustTelemetry, StepInput};
 use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
 use crate::Vec3;
 use guidance::{Guidance, GuidanceMode, GuidanceParams};
@@ -76,6 +80,10 @@ pub struct OuterParams {
     pub cbf: CbfParams,
     /// Filter law.
     pub filter_variant: FilterVariant,
+    /// Plant-aware wrapping of the filter (every variant but `Paper`; [`crate::robust`]).
+    pub robust: RobustParams,
+    /// Actuation-lag time constant derived from the attitude gains, s ([`crate::robust::lag_time_constant`]).
+    pub lag_tau: f32,
     /// Thrust/attitude map.
     pub thrust: ThrustParams,
     /// Vehicle mass, kg (the airframe's).
@@ -127,6 +135,10 @@ pub struct OuterTelemetry {
     pub obstacle_count: u8,
     /// Obstacle points dropped (set full) or rejected (non-finite) in the last update.
     pub obstacles_dropped: u8,
+    /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
+    pub obstacle_set: SetReport,
+    /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
+    pub robust: RobustTelemetry,
     /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
     pub non_finite_inputs: u32,
     /// Outer steps run.
@@ -151,6 +163,8 @@ pub struct OuterLoop {
     supervisor: Supervisor,
     tracker: PdTracker,
     filter: SafetyFilter,
+    /// `Some` for every variant but `Paper`.
+    plant: Option<PlantAware>,
     stage: MotorStage,
     sp: AttitudeSetpoint,
     last_us: Option<u64>,
@@ -188,15 +202,20 @@ impl OuterLoop {
             obstacle_age_us: None,
             obstacle_count: 0,
             obstacles_dropped: 0,
+            obstacle_set: SetReport::default(),
+            robust: RobustTelemetry::default(),
             non_finite_inputs: 0,
             count: 0,
         };
+        let plant = (params.filter_variant != FilterVariant::Paper)
+            .then(|| PlantAware::new(params.robust, params.lag_tau));
         Ok(OuterLoop {
             inputs: Inputs::new(params.inputs),
             guidance: Guidance::new(params.guidance, params.waypoint).map_err(OuterError::Waypoint)?,
             supervisor: Supervisor::new(params.supervisor),
             tracker: PdTracker::new(params.tracking),
             filter,
+            plant,
             stage: MotorStage::Off,
             sp: AttitudeSetpoint::default(),
             last_us: None,
@@ -306,13 +325,23 @@ impl OuterLoop {
 
     /// Replace the obstacle set (see [`crate::controller::FlightController::update_obstacles`]).
     pub fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
-        let intake = self.inputs.update_obstacles(now_us, obstacles, self.clock_us());
+        let variant = self.filter.variant;
+        let ranking = if variant.is_multi() {
+            Ranking::Critical { mu: self.filter.params.mu, relative: variant.uses_relative_velocity() }
+        } else {
+            Ranking::Nearest
+        };
+        let delta1 = self.filter.params.delta1;
+        let intake = self.inputs.update_obstacles(now_us, obstacles, self.clock_us(), ranking, delta1);
         if intake.bad_inputs {
             self.note_fault();
         }
         if let Some(dropped) = intake.dropped {
             self.telemetry.obstacle_count = self.inputs.obstacles().len() as u8;
             self.telemetry.obstacles_dropped = dropped;
+        }
+        if let Some(rep) = intake.report {
+            self.telemetry.obstacle_set = rep;
         }
     }
 
@@ -371,7 +400,12 @@ impl OuterLoop {
     /// Fly the stored path (see [`crate::controller::FlightController::start_mission`]).
     pub fn start_mission(&mut self, now_us: u64) -> Result<(), CommandError> {
         self.require_armed()?;
-        self.guidance.start_mission(now_us, self.telemetry.reference.position)
+        self.guidance.start_mission(now_us, self.telemetry.reference.position)?;
+        self.telemetry.robust.deadlock = false;
+        if let Some(pa) = self.plant.as_mut() {
+            pa.reset_stall();
+        }
+        Ok(())
     }
 
     /// Land (from Armed or Brake).
@@ -431,6 +465,9 @@ impl OuterLoop {
         let Some(reference) = reference else {
             self.telemetry.mode = mode;
             self.tracker.reset();
+            if let Some(pa) = self.plant.as_mut() {
+                pa.reset();
+            }
             return self.command();
         };
         self.telemetry.reference = reference;
@@ -438,8 +475,41 @@ impl OuterLoop {
         let yaw_ref = self.guidance.yaw_ref();
         match fresh {
             Some((p, v)) => {
-                let u_star = self.tracker.update(&reference, &p, &v, dt);
-                let (u, diag) = self.filter.apply(&p, &v, &u_star, self.inputs.obstacles());
+                let u_pd = self.tracker.update(&reference, &p, &v, dt);
+                let (u_star, u, diag) = match self.plant.as_mut() {
+                    None => {
+                        let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.inputs.obstacles());
+                        (u_pd, u, diag)
+                    }
+                    Some(pa) => {
+                        // Stall armed: flying the mission and held away from the reference
+                        // (the reference may have reached the goal; the vehicle has not).
+                        let lag = (p - reference.position).norm_squared();
+                        let input = StepInput {
+                            now_us,
+                            dt,
+                            p,
+                            v,
+                            u_pd,
+                            obstacles: self.inputs.obstacles(),
+                            boundaries: matches!(
+                                mode,
+                                GuidanceMode::Mission | GuidanceMode::Hold | GuidanceMode::Brake
+                            ),
+                            mission_running: mode == GuidanceMode::Mission
+                                && lag > STALL_TRACKING_ERROR_M * STALL_TRACKING_ERROR_M,
+                        };
+                        let (u_star, u, diag, mut rt) = pa.apply(&self.filter, &input);
+                        // Deadlock: latched until the next mission start; the vehicle holds
+                        // where it stalled (docs/filter.md §11).
+                        if rt.deadlock && !self.telemetry.robust.deadlock {
+                            self.guidance.hold(p);
+                        }
+                        rt.deadlock |= self.telemetry.robust.deadlock;
+                        self.telemetry.robust = rt;
+                        (u_star, u, diag)
+                    }
+                };
                 self.sp =
                     map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;
@@ -453,6 +523,9 @@ impl OuterLoop {
             None => {
                 let u = self.supervisor.blind_accel(now_us);
                 self.tracker.reset();
+                if let Some(pa) = self.plant.as_mut() {
+                    pa.open_loop(&u, dt);
+                }
                 self.sp =
                     map_acceleration(&self.params.thrust, self.params.mass, &u, yaw_ref, att.roll, att.pitch);
                 let tel = &mut self.telemetry;

@@ -54,6 +54,8 @@ pub enum CbfError {
     SampleTimeOutOfRange,
     /// The velocity margin must be finite and ≥ 0.
     VelocityMarginNegative,
+    /// The class-K relaxation rate γ must be finite and ≥ 0.
+    GammaNegative,
 }
 
 impl core::fmt::Display for CbfError {
@@ -66,6 +68,7 @@ impl core::fmt::Display for CbfError {
             CbfError::UMaxNotPositive => "u_max must be finite and > 0",
             CbfError::SampleTimeOutOfRange => "sample_time must be finite and in [0, 1] s",
             CbfError::VelocityMarginNegative => "velocity_margin must be finite and >= 0",
+            CbfError::GammaNegative => "gamma must be finite and >= 0",
         })
     }
 }
@@ -98,6 +101,13 @@ pub struct CbfParams {
     /// nominal input, `h + T·min(0, ḣ(u*))`, is ≤ δ1, so the filter does not engage a
     /// sample too late. T = 0 is the paper's continuous-time rule `h ≤ δ1`. Default 0.
     pub sample_time: f32,
+    /// γ, 1/s: class-K relaxation of an enforced barrier, `ḣ ≥ −γ(h − δ)` instead of
+    /// `ḣ ≥ 0`: the constraint becomes `nᵀu ≥ c − γ(h − δ)/(μ|d|)`, so the vehicle may
+    /// approach a barrier down to δ (exponentially slowly) instead of freezing where it
+    /// first came within δ1 (deadlock in narrow spaces, `docs/filter.md` §9). Below δ the
+    /// same term pushes back out. The event rule (δ1, [`sample_time`](Self::sample_time))
+    /// is unchanged. Default 0 (the paper's `ḣ ≥ 0`).
+    pub gamma: f32,
 }
 
 impl Default for CbfParams {
@@ -110,6 +120,7 @@ impl Default for CbfParams {
             u_max: 6.0,
             velocity_margin: 0.0,
             sample_time: 0.0,
+            gamma: 0.0,
         }
     }
 }
@@ -143,6 +154,9 @@ impl CbfParams {
         }
         if !(self.velocity_margin.is_finite() && self.velocity_margin >= 0.0) {
             return Err(CbfError::VelocityMarginNegative);
+        }
+        if !(self.gamma.is_finite() && self.gamma >= 0.0) {
+            return Err(CbfError::GammaNegative);
         }
         Ok(())
     }
@@ -378,6 +392,19 @@ impl SafetyFilter {
         b.h + t * minf(h_dot, 0.0)
     }
 
+    /// The enforced constraint of a near barrier: `b.constraint` with the class-K
+    /// relaxation `c − γ(h − δ)/(μ|d|)` (§9 of `docs/filter.md`); `b.constraint` itself
+    /// when γ = 0. `dist = |d|` (> 0).
+    #[inline(always)]
+    fn enforced(&self, b: &Barrier, dist: f32) -> HalfSpace {
+        let gamma = self.params.gamma;
+        if gamma <= 0.0 {
+            return b.constraint;
+        }
+        let relax = gamma * (b.h - self.params.delta) / (self.params.mu * dist);
+        HalfSpace { n: b.constraint.n, c: b.constraint.c - relax }
+    }
+
     /// `true` when the event-rule value ([`trigger_value`](Self::trigger_value)) of an
     /// obstacle is certainly above δ1, decided without building its barrier (no division):
     /// with `r = |d|`, `ḣ(u) = μ dᵀu + 2dᵀḋ − r(2ε_v + μA) + μ(nᵀḋ)²`, so dropping the last
@@ -478,8 +505,9 @@ impl SafetyFilter {
                 continue; // only its h (h_bar) and |d|² (closest) were needed
             }
             let dist = sqrtf(dist_sq);
-            let b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
+            let mut b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
             if near_for_sure || self.trigger_at(&b, dist, u_nom) <= delta1 {
+                b.constraint = self.enforced(&b, dist);
                 diag.n_near = diag.n_near.saturating_add(1);
                 // Keep the K smallest h: replace the largest when full (multi variants;
                 // the others use only the closest obstacle's barrier, below).
@@ -510,7 +538,7 @@ impl SafetyFilter {
             if trigger > delta1 {
                 return (*u_nom, diag); // D_δ1
             }
-            let HalfSpace { n, c } = b.constraint;
+            let HalfSpace { n, c } = self.enforced(&b, sqrtf(b.dist_sq));
             diag.n_constraints = 1;
             diag.unavoidable = c > u_max;
             if n.dot(u_nom) > c {
@@ -771,7 +799,7 @@ mod tests {
             if trigger > f.params.delta1 {
                 return (*u_nom, diag);
             }
-            let HalfSpace { n, c } = b.constraint;
+            let HalfSpace { n, c } = f.enforced(&b, sqrtf(b.dist_sq));
             diag.n_constraints = 1;
             diag.unavoidable = c > u_max;
             if n.dot(u_nom) > c {
@@ -789,8 +817,8 @@ mod tests {
         let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
         let mut most_critical = (f32::INFINITY, 0u16);
         for (slot, (b, id)) in cons.iter_mut().zip(near.iter()) {
-            *slot = b.constraint;
-            diag.unavoidable |= b.constraint.c > u_max;
+            *slot = f.enforced(b, sqrtf(b.dist_sq));
+            diag.unavoidable |= slot.c > u_max;
             if b.h < most_critical.0 {
                 most_critical = (b.h, *id);
             }
@@ -844,8 +872,10 @@ mod tests {
                 margin in prop_oneof![Just(0.0f32), 0.0f32..0.2],
                 accel in prop_oneof![Just(0.0f32), 0.0f32..2.0],
                 delta1 in 0.06f32..0.4,
+                gamma in prop_oneof![Just(0.0f32), 0.0f32..3.0],
             ) {
                 let params = CbfParams {
+                    gamma,
                     sample_time: t,
                     velocity_margin: margin,
                     accel_bound: accel,
@@ -861,6 +891,30 @@ mod tests {
                 prop_assert_eq!(da, db);
             }
         }
+    }
+
+    #[test]
+    fn gamma_lets_the_vehicle_approach_down_to_delta_and_pushes_back_below() {
+        // At rest 0.3 m from a point (h = 0.09, δ = 0.05, δ1 = 0.1), nominal pulls at it.
+        let obs = [ObstaclePoint::fixed(Vec3::zeros(), 3)];
+        let u = Vec3::new(-1.0, 0.0, 0.0);
+        for variant in FilterVariant::ALL {
+            let mk = |gamma: f32| {
+                let p = CbfParams { gamma, ..CbfParams::new(1.4, 0.05, 0.1).unwrap() };
+                SafetyFilter::new(p, variant).unwrap()
+            };
+            let (frozen, _) = mk(0.0).apply(&Vec3::new(0.3, 0.0, 0.0), &Vec3::zeros(), &u, &obs);
+            assert!(frozen.x.abs() < 1e-6, "{variant:?}: γ = 0 freezes ({frozen})");
+            // γ = 2: nᵀu ≥ −γ(h − δ)/(μ|d|) = −2·0.04/(1.4·0.3) = −0.190476.
+            let (relaxed, d) = mk(2.0).apply(&Vec3::new(0.3, 0.0, 0.0), &Vec3::zeros(), &u, &obs);
+            assert!((relaxed.x + 0.190476).abs() < 1e-5, "{variant:?}: {relaxed}");
+            assert!(d.intervened);
+            // Inside the hull (h = 0.04 < δ): the same term pushes out, 2·0.01/(1.4·0.2).
+            let (out, _) = mk(2.0).apply(&Vec3::new(0.2, 0.0, 0.0), &Vec3::zeros(), &u, &obs);
+            assert!((out.x - 0.0714286).abs() < 1e-5, "{variant:?}: {out}");
+        }
+        let bad = CbfParams { gamma: -1.0, ..CbfParams::default() };
+        assert_eq!(bad.validate(), Err(CbfError::GammaNegative));
     }
 
     #[test]

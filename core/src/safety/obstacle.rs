@@ -267,6 +267,10 @@ impl<const N: usize> ObstacleSet<N> {
     pub fn as_slice(&self) -> &[ObstaclePoint] {
         &self.points
     }
+    /// The storage, for the selection policies of [`crate::obstacle_set`].
+    pub(crate) fn points_mut(&mut self) -> &mut heapless::Vec<ObstaclePoint, N> {
+        &mut self.points
+    }
     /// Number of stored points.
     pub fn len(&self) -> usize {
         self.points.len()

@@ -150,6 +150,8 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
                 filter_active_steps: count(&|x| x.filter.intervened),
                 unavoidable_steps: count(&|x| x.filter.unavoidable),
                 infeasible_steps: count(&|x| x.filter.infeasible),
+                deadlock_steps: count(&|x| x.safety.deadlock),
+                obstacles_dropped_steps: count(&|x| x.safety.obstacles_dropped > 0),
                 outer_steps: out.samples.len() as u64,
                 sim_time_s: s.sim_time_s,
                 time_to_goal_s: s.time_to_goal_s,

@@ -42,6 +42,10 @@ pub struct Outcome {
     pub unavoidable_steps: u64,
     /// Outer steps with the infeasible flag.
     pub infeasible_steps: u64,
+    /// Outer steps with the deadlock flag (issue 17).
+    pub deadlock_steps: u64,
+    /// Outer steps in which the controller's obstacle set dropped points at capacity.
+    pub obstacles_dropped_steps: u64,
     /// Outer steps flown.
     pub outer_steps: u64,
     /// Simulated time, s.
@@ -70,7 +74,7 @@ pub struct Row {
 }
 
 /// The outcome columns of `campaign.csv` (the fields of [`Outcome`], in order).
-pub const OUTCOME_COLUMNS: [&str; 14] = [
+pub const OUTCOME_COLUMNS: [&str; 16] = [
     "collided",
     "collision_with",
     "reached_goal",
@@ -81,6 +85,8 @@ pub const OUTCOME_COLUMNS: [&str; 14] = [
     "filter_active_steps",
     "unavoidable_steps",
     "infeasible_steps",
+    "deadlock_steps",
+    "obstacles_dropped_steps",
     "outer_steps",
     "sim_time_s",
     "time_to_goal_s",
@@ -243,6 +249,11 @@ pub struct Rates {
     pub failed: u64,
     /// Flights that collided.
     pub collisions: u64,
+    /// Collided flights whose filter never raised `unavoidable` before the contact
+    /// (the flight ends at the contact): the collisions the filter did not foresee.
+    pub collisions_unflagged: u64,
+    /// Share of flown flights in which the controller reported a deadlock.
+    pub deadlock_rate: f64,
     /// collisions / flown.
     pub collision_rate: f64,
     /// 95 % Clopper–Pearson upper bound of the collision rate.
@@ -275,6 +286,11 @@ fn rates(rows: &[&Row]) -> Rates {
         flights: rows.len() as u64,
         failed: rows.len() as u64 - n,
         collisions: k,
+        collisions_unflagged: flown
+            .iter()
+            .filter(|r| r.outcome.collided && r.outcome.unavoidable_steps == 0)
+            .count() as u64,
+        deadlock_rate: share(&|r| r.outcome.deadlock_steps > 0),
         collision_rate: if n == 0 { 0.0 } else { k as f64 / n as f64 },
         collision_rate_upper_95: clopper_pearson_upper(k, n),
         goal_rate: share(&|r| r.outcome.reached_goal),

@@ -29,7 +29,8 @@ Limits (refused with exit 2, naming the option or file, table and field):
   controller settings (scene [controller], options): {ranges}
   coordinates (bounds, mission, obstacles, path waypoints) |x| ≤ {coord:e} m
   [sensors] position_latency ≤ {lat} s (the controller's position timeout is {timeout} s); noise ≤ {noise}
-  a path has at most {wps} waypoints; the controller is told about the nearest {obs} obstacles at once;
+  a path has at most {wps} waypoints; the sensor reports up to {rep} obstacles in range at once (the
+  nearest beyond that) and the controller keeps the most critical {obs} obstacles;
   the multi filters enforce at most {bars} barriers at once; the planner's search budget is {budget} s
   input files ≤ {bytes} bytes",
         dur = l::MAX_DURATION_S,
@@ -44,6 +45,7 @@ Limits (refused with exit 2, naming the option or file, table and field):
         noise = l::MAX_SENSOR_NOISE,
         wps = l::MAX_WAYPOINTS,
         obs = l::MAX_OBSTACLES_SENSED,
+        rep = l::MAX_OBSTACLES_REPORTED,
         bars = l::MAX_BARRIERS,
         budget = l::PLANNER_BUDGET_S,
         bytes = l::MAX_INPUT_FILE_BYTES,

@@ -20,7 +20,7 @@
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::CbfParams;
-use parapet_core::controller::{CommandError, FlightController, PositionFix, Telemetry};
+use parapet_core::controller::{CommandError, ControllerParams, FlightController, PositionFix, Telemetry};
 use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
@@ -39,7 +39,12 @@ pub struct Controller {
 impl Controller {
     /// Build the controller and give it the path. Errors name the rejected parameter or path.
     pub fn new(scene: &Scene, cfg: &RunConfig, cbf: CbfParams) -> Result<Self> {
-        let params = controller_params(scene, cfg, cbf, cfg.variant);
+        Self::with_params(scene, cfg, controller_params(scene, cfg, cbf, cfg.variant))
+    }
+
+    /// [`new`](Self::new) with explicit controller parameters (e.g. [`controller_params`]
+    /// with a slowed attitude loop, for tests).
+    pub fn with_params(scene: &Scene, cfg: &RunConfig, params: ControllerParams) -> Result<Self> {
         let mut fc = FlightController::new(params)
             .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &params, e)))?;
         let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();

@@ -60,7 +60,7 @@ use parapet_core::Vec3;
 use crate::flight::stack::FlightStack;
 use crate::input::f32_as_f64;
 use crate::input::limits;
-use crate::report::{RunParams, Sample, Summary};
+use crate::report::{RunParams, SafetySteps, Sample, Summary};
 use crate::sim::plant::Plant;
 use crate::sim::sensors::{SensorParams, Sensors};
 use crate::sim::track_ids::TrackIds;
@@ -135,7 +135,7 @@ impl RunConfig {
         let d = table_default;
         let params = RunParams {
             mu: c.mu.unwrap_or_else(|| d("mu")),
-            delta: c.delta.unwrap_or_else(|| d("delta")),
+            delta: c.delta.unwrap_or_else(|| default_delta(scene.vehicle.hull_radius)),
             delta1: c.delta1.unwrap_or_else(|| d("delta1")),
             kp: c.kp.unwrap_or_else(|| d("kp")),
             kd: c.kd.unwrap_or_else(|| d("kd")),
@@ -174,6 +174,18 @@ impl RunConfig {
     }
 }
 
+/// δ when the scene does not set it: the squared hull radius (margin 0; issue 17),
+/// written as the core's default 0.05 for the default hull √0.05.
+pub fn default_delta(hull_radius: f64) -> f64 {
+    let sq = hull_radius * hull_radius;
+    let d = f32_as_f64(CbfParams::default().delta);
+    if (sq - d).abs() <= 1e-9 * d {
+        d
+    } else {
+        sq
+    }
+}
+
 /// The controller parameters of a run: defaults of the core with the scene's
 /// vehicle and the run's tracking / filter / speed settings.
 pub fn controller_params(
@@ -196,6 +208,9 @@ pub fn controller_params(
         },
         cbf,
         filter_variant: variant,
+        // The scene's hull bounds δ from below; the lag model uses its motor (issue 17).
+        hull_radius: scene.vehicle.hull_radius as f32,
+        robust: parapet_core::robust::RobustParams { motor_tau: scene.vehicle.motor_tau as f32, ..d.robust },
         thrust: ThrustParams {
             // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
             thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,
@@ -402,6 +417,7 @@ pub fn sense_and_h_bar(
         }
         near.push((i, q, vel, sd));
     }
+    bound_report(seen, &pf);
     let mu_s = filter.params.mu as f64 * v.norm();
     let delta = filter.params.delta as f64;
     let margin = tracker.margin();
@@ -460,7 +476,8 @@ pub fn sense_and_h_bar(
 }
 
 /// What the proximity sensor reports at time `t` from true position `p`: for
-/// each obstacle whose surface is within `range` (m), the closest surface point
+/// each obstacle whose surface is within `range` (m; at most
+/// [`limits::MAX_OBSTACLES_REPORTED`], [`bound_report`]), the closest surface point
 /// and the obstacle's velocity (NED), id = a track id of a fresh table (the first pass of
 /// [`sense_and_h_bar`]'s; the scene index below 65,535 obstacles). Moving obstacles'
 /// velocities pass through [`Sensors::obstacle_velocity`] (optional noise);
@@ -486,7 +503,28 @@ pub fn sense_obstacles(
             }
         }
     }
+    bound_report(&mut out, &pf);
     out
+}
+
+/// Bound a proximity report to [`limits::MAX_OBSTACLES_REPORTED`] points: beyond it the
+/// nearest to `p` (NED) are kept (ties: the earlier), in report order. Every point in
+/// range reaches the controller up to the bound; the controller's set then keeps the
+/// most critical (`parapet_core::obstacle_set`, issue 17).
+pub fn bound_report(seen: &mut Vec<ObstaclePoint>, p: &Vec3) {
+    let max = limits::MAX_OBSTACLES_REPORTED;
+    if seen.len() <= max {
+        return;
+    }
+    let mut d: Vec<(f32, usize)> =
+        seen.iter().enumerate().map(|(i, o)| ((o.point - p).norm_squared(), i)).collect();
+    d.select_nth_unstable_by(max - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut keep = vec![false; seen.len()];
+    for &(_, i) in d.iter().take(max) {
+        keep[i] = true;
+    }
+    let mut k = keep.into_iter();
+    seen.retain(|_| k.next().unwrap_or(false));
 }
 
 /// Fly `scene` with `cfg` and any [`FlightStack`] (in-process: `crate::fc::control::run`;
@@ -601,6 +639,7 @@ pub fn run_with(
                 u_filtered: out.u_filtered,
                 mode: out.mode,
                 wind: live.wind(),
+                safety: out.safety,
             });
             if goal_at.is_none()
                 && (plant.state.pos - path_end).norm() < GOAL_TOLERANCE_M
@@ -705,6 +744,7 @@ pub fn run_with(
         final_controller_state: ctrl.state_name(),
         seed: cfg.seed,
         noise: cfg.sensors.noise,
+        safety_steps: SafetySteps::of(&samples),
     };
     Ok(RunOutput { samples, summary })
 }
@@ -730,6 +770,27 @@ mod tests {
             motion: Motion::Waypoints(vec![(0.0, a), (20.0, a + Vector3::new(4.0, 1.0, 0.0))]),
         });
         s
+    }
+
+    #[test]
+    fn the_report_is_bounded_and_keeps_the_nearest_in_order() {
+        let n = limits::MAX_OBSTACLES_REPORTED + 100;
+        // Points at distance 1 + (i·7919 mod n)/n from the origin, so the nearest are scattered.
+        let mut seen: Vec<ObstaclePoint> = (0..n)
+            .map(|i| {
+                let r = 1.0 + ((i * 7919) % n) as f32 / n as f32;
+                ObstaclePoint::fixed(Vec3::new(r, 0.0, 0.0), i as u16)
+            })
+            .collect();
+        let all = seen.clone();
+        bound_report(&mut seen, &Vec3::zeros());
+        assert_eq!(seen.len(), limits::MAX_OBSTACLES_REPORTED);
+        let far = seen.iter().map(|o| o.point.x).fold(0.0, f32::max);
+        assert!(all.iter().filter(|o| !seen.contains(o)).all(|o| o.point.x >= far));
+        assert!(seen.windows(2).all(|w| w[0].id < w[1].id), "report order kept");
+        let mut short = all[..10].to_vec();
+        bound_report(&mut short, &Vec3::zeros());
+        assert_eq!(short, all[..10]);
     }
 
     #[test]

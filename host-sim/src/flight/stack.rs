@@ -15,6 +15,7 @@ use parapet_core::cbf::FilterDiagnostics;
 use parapet_core::controller::Telemetry;
 use parapet_core::obstacle::ObstaclePoint;
 
+use crate::report::SafetyFlags;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::to_f64;
 
@@ -42,6 +43,8 @@ pub struct OuterOut {
     pub u_filtered: Vector3<f64>,
     /// Guidance mode of the controller (e.g. "Mission", "Brake").
     pub mode: &'static str,
+    /// Deadlock and obstacle-set flags (issue 17).
+    pub safety: SafetyFlags,
 }
 
 impl OuterOut {
@@ -54,6 +57,11 @@ impl OuterOut {
             u_nominal: to_f64(&tel.u_nominal),
             u_filtered: to_f64(&tel.u_filtered),
             mode: tel.mode.as_str(),
+            safety: SafetyFlags {
+                deadlock: tel.robust.deadlock,
+                obstacles_dropped: tel.obstacle_set.dropped,
+                obstacles_dropped_near: tel.obstacle_set.dropped_near,
+            },
         }
     }
 }

@@ -315,6 +315,21 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .table("vehicle")
                 .field("inertia")
         }
+        ParamError::DeltaBelowHull { delta, hull_sq } => InputError::file(
+            file,
+            format!(
+                "delta = {delta} m² is below the squared hull radius {hull_sq} m² \
+                 ([vehicle] hull_radius = {} m): the filter would let obstacles inside the hull",
+                num(v.hull_radius)
+            ),
+        )
+        .table("controller")
+        .field("delta")
+        .value(format!("{delta}"))
+        .allowed(format!("delta >= hull_radius² = {hull_sq} m²")),
+        ParamError::Robust(r) => {
+            InputError::file(file, format!("plant-aware filter parameters rejected: {r}")).table("controller")
+        }
         ParamError::Estimator(_) | ParamError::Failsafe | ParamError::Loop => InputError::file(
             file,
             "the flight controller's built-in parameters were rejected (a parapet bug)",
@@ -478,7 +493,8 @@ speed = 0.5
 
     #[test]
     fn options_are_checked_against_the_parameter_table() {
-        let (s, base) = setup("");
+        // A 1 cm hull, so the table's smallest δ (1e-4 m²) is not refused as below hull² (issue 17).
+        let (s, base) = setup("[vehicle]\nhull_radius = 0.01\n");
         for name in ["mu", "delta", "kp", "kd"] {
             let range = params::by_key(name).unwrap();
             for (x, ok) in [(1e-300, false), (range.min as f64 * 0.99, false), (f32_as_f64(range.min), true)]
@@ -505,6 +521,13 @@ speed = 0.5
                 );
             }
         }
+        // δ below the hull's square: refused, naming both values (issue 17).
+        let (s, mut cfg) = setup("");
+        cfg.params.delta = 0.01;
+        let m = check_run(&s, &cfg, &Given { options: vec!["delta"], ..Given::default() })
+            .unwrap_err()
+            .to_string();
+        assert!(m.contains("delta = 0.01") && m.contains("0.049999997") && m.contains("hull_radius"), "{m}");
         // A tiny cap prints as a number, not 300 zeros.
         let mut cfg = base.clone();
         cfg.duration = 45.0;

@@ -17,7 +17,11 @@
 //! controller's own min h̄ from its estimate and the sensed obstacles);
 //! `n_constraints`, `unavoidable`, `infeasible` (filter diagnostics); `mode`
 //! (controller guidance mode); `wind_x,wind_y,wind_z` the wind at the vehicle (m/s,
-//! ENU; 0 in still air, see `crate::sim::disturbance`).
+//! ENU; 0 in still air, see `crate::sim::disturbance`); `deadlock` (0/1, the controller's
+//! stall flag), `obstacles_dropped` and `obstacles_dropped_near` (points the
+//! controller's obstacle set dropped at capacity in that step, and of them those with
+//! `h ≤ δ1`; `parapet_core::obstacle_set`). `summary.json`'s `safety_steps` counts the
+//! outer steps with each flag.
 //!
 //! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
 //! May import: `parapet-core`, [`crate::input`], [`crate::world`] (the scene
@@ -149,6 +153,68 @@ pub struct Summary {
     pub seed: u64,
     /// Whether sensor noise was on.
     pub noise: bool,
+    /// Outer steps with each safety flag (unavoidable, infeasible, deadlock, dropped obstacles).
+    pub safety_steps: SafetySteps,
+}
+
+/// Safety flags of one outer step beyond the filter's own (issue 17).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SafetyFlags {
+    /// The controller's stall detector reports a deadlock.
+    pub deadlock: bool,
+    /// Obstacle points dropped by the controller's set at capacity.
+    pub obstacles_dropped: u16,
+    /// Of those, points whose barrier had `h ≤ δ1` (the filter would have considered them).
+    pub obstacles_dropped_near: u16,
+}
+
+/// Outer steps of a run with each safety flag (`summary.json`, `safety_steps`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SafetySteps {
+    /// Outer steps flown.
+    pub outer: u64,
+    /// Steps where the filter changed the nominal input.
+    pub filter_active: u64,
+    /// Steps with the `unavoidable` flag (a constraint needs more than u_max).
+    pub unavoidable: u64,
+    /// Steps with the `infeasible` flag (the enforced constraints had no common solution).
+    pub infeasible: u64,
+    /// Steps with the `deadlock` flag.
+    pub deadlock: u64,
+    /// Steps where the obstacle set dropped at least one point.
+    pub obstacles_dropped: u64,
+    /// Steps where it dropped at least one point with `h ≤ δ1`.
+    pub obstacles_dropped_near: u64,
+    /// Most points dropped in one step.
+    pub max_obstacles_dropped: u16,
+    /// Time of the first `unavoidable` step, s (null if none).
+    pub first_unavoidable_time_s: Option<f64>,
+    /// Time of the first `deadlock` step, s (null if none).
+    pub first_deadlock_time_s: Option<f64>,
+}
+
+impl SafetySteps {
+    /// The counts over `samples`.
+    pub fn of(samples: &[Sample]) -> Self {
+        let mut c = SafetySteps::default();
+        for k in samples {
+            c.outer += 1;
+            c.filter_active += u64::from(k.filter.intervened);
+            c.unavoidable += u64::from(k.filter.unavoidable);
+            c.infeasible += u64::from(k.filter.infeasible);
+            c.deadlock += u64::from(k.safety.deadlock);
+            c.obstacles_dropped += u64::from(k.safety.obstacles_dropped > 0);
+            c.obstacles_dropped_near += u64::from(k.safety.obstacles_dropped_near > 0);
+            c.max_obstacles_dropped = c.max_obstacles_dropped.max(k.safety.obstacles_dropped);
+            if k.filter.unavoidable && c.first_unavoidable_time_s.is_none() {
+                c.first_unavoidable_time_s = Some(k.t);
+            }
+            if k.safety.deadlock && c.first_deadlock_time_s.is_none() {
+                c.first_deadlock_time_s = Some(k.t);
+            }
+        }
+        c
+    }
 }
 
 /// One recorded sample (outer-loop rate). Vectors NED.
@@ -182,6 +248,8 @@ pub struct Sample {
     pub mode: &'static str,
     /// Wind at the vehicle, NED, m/s.
     pub wind: Vector3<f64>,
+    /// Deadlock and obstacle-set flags.
+    pub safety: SafetyFlags,
 }
 
 /// Everything the report needs.
@@ -284,6 +352,9 @@ struct TrajectoryRow {
     wind_x: Fixed<4>,
     wind_y: Fixed<4>,
     wind_z: Fixed<4>,
+    deadlock: u8,
+    obstacles_dropped: u16,
+    obstacles_dropped_near: u16,
 }
 
 impl TrajectoryRow {
@@ -329,6 +400,9 @@ impl TrajectoryRow {
             wind_x,
             wind_y,
             wind_z,
+            deadlock: u8::from(k.safety.deadlock),
+            obstacles_dropped: k.safety.obstacles_dropped,
+            obstacles_dropped_near: k.safety.obstacles_dropped_near,
         }
     }
 }
@@ -441,6 +515,17 @@ pub fn summary_table(s: &Summary) -> String {
         ("min h_bar", format!("{:.4} m²", s.min_h_bar)),
         ("tracking RMS", format!("{:.3} m", s.tracking_rms_m)),
         ("filter active", format!("{:.1} % of outer steps", 100.0 * s.filter_active_fraction)),
+        (
+            "safety flags",
+            format!(
+                "steps unavoidable {}, infeasible {}, deadlock {}, obstacles dropped {} (near {})",
+                s.safety_steps.unavoidable,
+                s.safety_steps.infeasible,
+                s.safety_steps.deadlock,
+                s.safety_steps.obstacles_dropped,
+                s.safety_steps.obstacles_dropped_near
+            ),
+        ),
         ("simulated", format!("{:.2} s in {:.2} s wall, {} steps", s.sim_time_s, s.wall_time_s, s.steps)),
     ];
     let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);

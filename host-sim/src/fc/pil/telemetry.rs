@@ -167,6 +167,8 @@ impl FirmwareTelemetry {
             u_nominal: f.u_nominal,
             u_filtered: f.u_filtered,
             mode: phase_mode(self.phase),
+            // Not carried by the link's filter message.
+            safety: crate::report::SafetyFlags::default(),
         }
     }
 
