@@ -144,20 +144,27 @@ pub fn filter(variant: FilterVariant) -> SafetyFilter {
     SafetyFilter::new(params.cbf, variant).expect("the default filter parameters are valid")
 }
 
-/// Constraint (8) of every obstacle of `pr` (own velocity), in obstacle order.
+/// Constraint (8) of every obstacle of `pr` (own velocity), in obstacle order, in the form
+/// the filter `f` enforces it (with its class-K relaxation, `SafetyFilter::enforced_constraint`),
+/// so the all-K QP and the filter's own set are the same kind of constraint.
 pub fn all_constraints(f: &SafetyFilter, pr: &FilterProblem) -> Vec<HalfSpace> {
-    pr.obstacles.iter().filter_map(|o| f.barrier(&pr.p, &pr.v, o).map(|b| b.constraint)).collect()
+    pr.obstacles
+        .iter()
+        .filter_map(|o| f.barrier(&pr.p, &pr.v, o).map(|b| f.enforced_constraint(&b)))
+        .collect()
 }
 
 /// The constraints a `Multi`/`MultiRelative` filter enforces on `pr`: the (at most
-/// [`MAX_ACTIVE_BARRIERS`]) smallest-`h` barriers among those whose trigger value is ≤ δ1.
+/// [`MAX_ACTIVE_BARRIERS`]) smallest-`h` barriers among those whose trigger value is ≤ δ1,
+/// each with the filter's class-K relaxation (`SafetyFilter::enforced_constraint`; γ > 0
+/// in the controller's default parameters since issue 17).
 pub fn enforced_constraints(f: &SafetyFilter, pr: &FilterProblem) -> Vec<HalfSpace> {
     let mut near: Vec<(f32, HalfSpace)> = pr
         .obstacles
         .iter()
         .filter_map(|o| f.barrier(&pr.p, &pr.v, o))
         .filter(|b| f.trigger_value(b, &pr.u_nom) <= f.params.delta1)
-        .map(|b| (b.h, b.constraint))
+        .map(|b| (b.h, f.enforced_constraint(&b)))
         .collect();
     near.sort_by(|a, b| a.0.total_cmp(&b.0));
     near.into_iter().take(MAX_ACTIVE_BARRIERS).map(|(_, c)| c).collect()

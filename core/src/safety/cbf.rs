@@ -392,6 +392,13 @@ impl SafetyFilter {
         b.h + t * minf(h_dot, 0.0)
     }
 
+    /// The constraint the multi variants enforce for a near barrier `b`: constraint (8)
+    /// with the class-K relaxation of [`CbfParams::gamma`] (`b.constraint` itself when
+    /// γ = 0). For tests and tools that rebuild the filter's constraint set.
+    pub fn enforced_constraint(&self, b: &Barrier) -> HalfSpace {
+        self.enforced(b, sqrtf(b.dist_sq))
+    }
+
     /// The enforced constraint of a near barrier: `b.constraint` with the class-K
     /// relaxation `c − γ(h − δ)/(μ|d|)` (§9 of `docs/filter.md`); `b.constraint` itself
     /// when γ = 0. `dist = |d|` (> 0).
