@@ -24,14 +24,22 @@
 //! batch is handed to the cascade (`update_obstacles`, replacing the previous set) when a point
 //! with a different `time_boot_ms` arrives or when [`ObstacleAssembler::flush`] is called (the
 //! lockstep link flushes on HIL_SENSOR; the radio link after [`BATCH_TIMEOUT_US`] without a point).
-//! Capacity: [`parapet_core::obstacle::DEFAULT_OBSTACLE_CAPACITY`] points per batch; when full the
-//! points nearest the vehicle are kept (`ObstacleSet::insert_nearest`).
+//! Capacity: [`parapet_core::obstacle::DEFAULT_OBSTACLE_CAPACITY`] points per batch. Each point is
+//! streamed through the controller's own set policy ([`parapet_core::obstacle_set::Selector`],
+//! opened with the vehicle's position and velocity estimate when the batch opens and the ranking
+//! the controller uses for the configured `CBF_VARIANT`: most critical first with the relative
+//! velocity for the multi variants, nearest first for the closest-obstacle ones), so a closing
+//! wall is not dropped behind nearer side points before the controller ranks them (issue 17).
+//! Points the policy drops are counted in [`ObstacleStats::dropped_full`] (and `dropped_near` when
+//! their barrier was within `CBF_DELTA1`).
 
 use heapless::Vec as HVec;
 use mavlink::dialects::ardupilotmega::{MavFrame, DEBUG_VECT_DATA, OBSTACLE_DISTANCE_3D_DATA};
 use parapet_core::frame::enu_to_ned;
 use parapet_core::nalgebra::Rotation3;
-use parapet_core::obstacle::{InsertOutcome, ObstaclePoint, ObstacleSet};
+use parapet_core::obstacle::{ObstaclePoint, DEFAULT_OBSTACLE_CAPACITY};
+use parapet_core::obstacle_set::{Offer, Ranking, Selector};
+use parapet_core::safety::cbf::FilterVariant;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::Autopilot;
@@ -54,15 +62,18 @@ pub struct ObstacleStats {
     pub rejected_frame: u32,
     /// Points (or the vehicle state needed to convert them) not finite.
     pub rejected_non_finite: u32,
-    /// Points dropped because the batch was full of nearer points.
+    /// Points dropped because the batch was full of more critical points.
     pub dropped_full: u32,
+    /// Of those, points whose barrier was within `CBF_DELTA1` (the filter would have used them).
+    pub dropped_near: u32,
     /// Batches handed to the cascade.
     pub batches: u32,
 }
 
 /// Collects obstacle points into batches.
 pub struct ObstacleAssembler {
-    batch: ObstacleSet,
+    /// The open batch's selection (`None`: no batch open).
+    batch: Option<Selector<DEFAULT_OBSTACLE_CAPACITY>>,
     batch_time_ms: Option<u32>,
     last_point_us: u64,
     velocities: HVec<(u16, Vec3), MAX_PENDING_VELOCITIES>,
@@ -93,11 +104,30 @@ fn velocity_id(name: &[u8]) -> Option<u16> {
     u16::try_from(v).ok()
 }
 
+/// The controller's ranking for the configured filter (`CBF_VARIANT`, `CBF_MU`) and its
+/// `CBF_DELTA1`, as `parapet_core::outer` ranks its set; the defaults when a parameter is absent.
+fn ranking_of<A: Autopilot>(ap: &A) -> (Ranking, f32) {
+    let variant = match ap.get_param("CBF_VARIANT").map(|v| v as i32) {
+        Some(0) => FilterVariant::Paper,
+        Some(1) => FilterVariant::Relative,
+        Some(2) => FilterVariant::Multi,
+        _ => FilterVariant::MultiRelative,
+    };
+    let mu = ap.get_param("CBF_MU").unwrap_or(1.4);
+    let delta1 = ap.get_param("CBF_DELTA1").unwrap_or(0.1);
+    let ranking = if variant.is_multi() {
+        Ranking::Critical { mu, relative: variant.uses_relative_velocity() }
+    } else {
+        Ranking::Nearest
+    };
+    (ranking, delta1)
+}
+
 impl ObstacleAssembler {
     /// Empty, no batch open.
     pub const fn new() -> Self {
         Self {
-            batch: ObstacleSet::new(),
+            batch: None,
             batch_time_ms: None,
             last_point_us: 0,
             velocities: HVec::new(),
@@ -106,6 +136,7 @@ impl ObstacleAssembler {
                 rejected_frame: 0,
                 rejected_non_finite: 0,
                 dropped_full: 0,
+                dropped_near: 0,
                 batches: 0,
             },
         }
@@ -140,12 +171,16 @@ impl ObstacleAssembler {
         if self.batch_time_ms.is_some_and(|t| t != msg.time_boot_ms) {
             self.flush(now_us, ap);
         }
+        let tel = ap.telemetry();
+        if self.batch.is_none() {
+            let (ranking, delta1) = ranking_of(ap);
+            self.batch = Some(Selector::new(ranking, delta1, &tel.position_ned, &tel.velocity_ned));
+        }
         self.batch_time_ms = Some(msg.time_boot_ms);
         self.last_point_us = now_us;
         if msg.obstacle_id == CLEAR_ID {
             return;
         }
-        let tel = ap.telemetry();
         let raw = Vec3::new(msg.x, msg.y, msg.z);
         let point = match msg.frame {
             MavFrame::MAV_FRAME_LOCAL_NED => raw,
@@ -165,24 +200,28 @@ impl ObstacleAssembler {
             .position(|(i, _)| *i == msg.obstacle_id)
             .map(|k| self.velocities.remove(k).1);
         let p = ObstaclePoint { point, velocity, id: msg.obstacle_id };
-        match self.batch.insert_nearest(&tel.position_ned, p) {
-            InsertOutcome::Added | InsertOutcome::ReplacedFarthest => {
-                self.stats.points = self.stats.points.saturating_add(1)
-            }
-            InsertOutcome::DroppedFarther => {
-                self.stats.dropped_full = self.stats.dropped_full.saturating_add(1)
-            }
-            InsertOutcome::RejectedNonFinite => {
-                self.stats.rejected_non_finite = self.stats.rejected_non_finite.saturating_add(1)
-            }
+        let Some(sel) = self.batch.as_mut() else { return };
+        let before = sel.report();
+        let outcome = sel.offer(&p);
+        let after = sel.report();
+        let s = &mut self.stats;
+        // A kept point may displace a less critical one: count every drop the policy made.
+        s.dropped_full =
+            s.dropped_full.saturating_add(u32::from(after.dropped.saturating_sub(before.dropped)));
+        s.dropped_near =
+            s.dropped_near.saturating_add(u32::from(after.dropped_near.saturating_sub(before.dropped_near)));
+        match outcome {
+            Offer::Kept => s.points = s.points.saturating_add(1),
+            Offer::Dropped => {}
+            Offer::Rejected => s.rejected_non_finite = s.rejected_non_finite.saturating_add(1),
         }
     }
 
     /// Hands the open batch (if any) to the cascade and closes it.
     pub fn flush<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         if self.batch_time_ms.take().is_some() {
-            ap.update_obstacles(now_us, self.batch.as_slice());
-            self.batch.clear();
+            let points = self.batch.take().map(Selector::finish);
+            ap.update_obstacles(now_us, points.as_ref().map_or(&[][..], |(set, _)| set.as_slice()));
             self.stats.batches = self.stats.batches.saturating_add(1);
         }
     }
@@ -268,6 +307,62 @@ mod tests {
         assert_eq!(ap.obstacle_batches[0][0].velocity, Some(Vec3::new(0.3, -0.1, 0.0)));
         assert_eq!(ap.obstacle_batches[0][1].velocity, None);
         assert_eq!(ap.obstacle_batches[1][0].velocity, None);
+    }
+
+    /// Through the whole link: 32 static points 1.8 m beside the vehicle, then one obstacle
+    /// 2.5 m ahead closing at 1 m/s. Nearest-first would drop it (it is the farthest point);
+    /// the controller's policy (multi-relative, μ 1.4 s: h = 6.25 − 1.4·2.5·1 = 2.75 m² <
+    /// 3.24 m²) keeps it and drops a side point, and the drop is counted.
+    #[test]
+    fn link_keeps_a_closing_obstacle_behind_nearer_side_points() {
+        use crate::link::framing::FrameWriter;
+        use crate::link::router::{FixClock, Link};
+        let mut ap = RecordingAutopilot::new();
+        for (n, v) in [("CBF_VARIANT", 3.0), ("CBF_MU", 1.4), ("CBF_DELTA1", 0.1)] {
+            ap.set_param(n, v).unwrap();
+        }
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = FrameWriter::new(255, 190);
+        let vehicle = Vec3::new(1.0, 2.0, -3.0); // the test double's position
+        for k in 0..32u16 {
+            let a = f32::from(k) * core::f32::consts::TAU / 32.0;
+            let q = vehicle + Vec3::new(0.0, 1.8 * a.cos(), 1.8 * a.sin());
+            let m = pt(7, k, MavFrame::MAV_FRAME_LOCAL_NED, q.x, q.y, q.z);
+            l.push_bytes(w.encode(&m).raw_bytes(), 0, &mut ap);
+        }
+        l.push_bytes(w.encode(&vel(99, [-1.0, 0.0, 0.0])).raw_bytes(), 0, &mut ap);
+        let wall = vehicle + Vec3::new(2.5, 0.0, 0.0);
+        l.push_bytes(
+            w.encode(&pt(7, 99, MavFrame::MAV_FRAME_LOCAL_NED, wall.x, wall.y, wall.z)).raw_bytes(),
+            0,
+            &mut ap,
+        );
+        l.flush_obstacles(0, &mut ap);
+        let b = &ap.obstacle_batches[0];
+        assert_eq!(b.len(), DEFAULT_OBSTACLE_CAPACITY);
+        assert!(b.iter().any(|o| o.id == 99 && o.velocity == Some(Vec3::new(-1.0, 0.0, 0.0))));
+        assert_eq!(l.obstacle_stats().dropped_full, 1);
+        assert_eq!(l.obstacle_stats().dropped_near, 0);
+
+        // The closest-obstacle variants keep the published nearest-first policy.
+        ap.set_param("CBF_VARIANT", 1.0).unwrap();
+        for k in 0..32u16 {
+            let a = f32::from(k) * core::f32::consts::TAU / 32.0;
+            let q = vehicle + Vec3::new(0.0, 1.8 * a.cos(), 1.8 * a.sin());
+            l.push_bytes(
+                w.encode(&pt(8, k, MavFrame::MAV_FRAME_LOCAL_NED, q.x, q.y, q.z)).raw_bytes(),
+                0,
+                &mut ap,
+            );
+        }
+        l.push_bytes(
+            w.encode(&pt(8, 99, MavFrame::MAV_FRAME_LOCAL_NED, wall.x, wall.y, wall.z)).raw_bytes(),
+            0,
+            &mut ap,
+        );
+        l.flush_obstacles(0, &mut ap);
+        assert!(ap.obstacle_batches[1].iter().all(|o| o.id != 99));
+        assert_eq!(l.obstacle_stats().dropped_full, 2);
     }
 
     #[test]
