@@ -513,10 +513,31 @@ pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let rec =
         RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
     let (_, warnings) = write_report(&dir, &rec)?;
+    write_flight_log(&dir, &scene, &cfg, &result.samples, "run")?;
     for w in warnings {
         eprintln!("warning: {w}");
     }
     out(&format!("{}  report: {}\n", summary_table(&result.summary), dir.display()))
+}
+
+/// `flight.ulg` (ULog, `crate::report::ulog`) of a run flown by `stack` (`run` / `pil`) in `dir`.
+fn write_flight_log(
+    dir: &Path,
+    scene: &Scene,
+    cfg: &RunConfig,
+    samples: &[crate::report::Sample],
+    stack: &str,
+) -> Result<(), CliError> {
+    let params = crate::flight::runner::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    let infos = [("parapet_stack", stack.to_string()), ("parapet_scene", scene.name.clone())];
+    crate::report::ulog::write_flight_ulog(
+        &dir.join(crate::report::ulog::FLIGHT_LOG),
+        samples,
+        &params,
+        &infos,
+        crate::flight::stack::clock_us,
+    )?;
+    Ok(())
 }
 
 /// The report directory `dir` of `run` / `pil`: not an existing file, and none
@@ -577,6 +598,7 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     let rec =
         RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
     let (_, warnings) = write_report(&dir, &rec)?;
+    write_flight_log(&dir, &scene, &cfg, &result.samples, "pil")?;
     add_figures_to_summary(&dir, &fig)?;
     for w in warnings {
         eprintln!("warning: {w}");

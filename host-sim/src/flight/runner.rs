@@ -591,6 +591,8 @@ pub fn run_with(
     let mut steps = 0u64;
     let mut t = 0.0;
     let mut next_progress = 0.0;
+    // Throttles of the last inner step (0 before the first), recorded with each sample.
+    let mut last_throttle = [0.0f32; 4];
     // The path's end (where the run stops) and the scene's goal (what `reached_goal` means).
     let path_end = *cfg.path.last().unwrap_or(&scene.goal);
 
@@ -640,6 +642,7 @@ pub fn run_with(
                 mode: out.mode,
                 wind: live.wind(),
                 safety: out.safety,
+                motors: last_throttle,
             });
             if goal_at.is_none()
                 && (plant.state.pos - path_end).norm() < GOAL_TOLERANCE_M
@@ -656,6 +659,7 @@ pub fn run_with(
         }
         let imu = sensors.imu(&plant);
         let throttle = ctrl.inner(t, &imu);
+        last_throttle = throttle;
         plant.set_throttles(throttle);
         live.apply(t, INNER_DT, &mut plant);
         for _ in 0..substeps {

@@ -27,6 +27,8 @@
 //! May import: `parapet-core`, [`crate::input`], [`crate::world`] (the scene
 //! drawn in the plots), plotters, serde.
 
+pub mod ulog;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -250,6 +252,8 @@ pub struct Sample {
     pub wind: Vector3<f64>,
     /// Deadlock and obstacle-set flags.
     pub safety: SafetyFlags,
+    /// Motor throttles (0..1, rotors 1-4) commanded in the last inner step before the sample.
+    pub motors: [f32; 4],
 }
 
 /// Everything the report needs.
@@ -270,7 +274,7 @@ pub const PLOTS: [&str; 3] = ["top_view", "clearance", "filter_activity"];
 /// Every file [`write_report`] may write into its directory (so the CLI can
 /// refuse an output directory where one of them is an input).
 pub fn report_files(dir: &Path) -> Vec<PathBuf> {
-    let mut v = vec![dir.join("summary.json"), dir.join("trajectory.csv")];
+    let mut v = vec![dir.join("summary.json"), dir.join("trajectory.csv"), dir.join(ulog::FLIGHT_LOG)];
     for name in PLOTS {
         v.push(dir.join(format!("{name}.svg")));
         v.push(dir.join(format!("{name}.png")));
