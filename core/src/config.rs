@@ -14,6 +14,7 @@ use crate::failsafe::FailsafeParams;
 use crate::frame::GRAVITY;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
+use crate::perception::MemoryParams;
 use crate::robust::{RobustError, RobustParams};
 use crate::supervisor::LandingParams;
 use crate::thrust::ThrustParams;
@@ -66,6 +67,9 @@ pub struct ControllerParams {
     pub idle_throttle: f32,
     /// Time constant of the low-pass on the fix-derived acceleration fed to the estimator, s. Default 0.05.
     pub accel_comp_tau_s: f32,
+    /// Obstacle memory of the range-sensor perception (issue 19; used by the caller that
+    /// feeds scans, not by the truth-fed default). Default [`MemoryParams::default`].
+    pub perception: MemoryParams,
 }
 
 /// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
@@ -92,7 +96,16 @@ impl Default for ControllerParams {
             landing: LandingParams::default(),
             idle_throttle: 0.1,
             accel_comp_tau_s: 0.05,
+            perception: MemoryParams::default(),
         }
+    }
+}
+
+impl ControllerParams {
+    /// The obstacle memory's parameters (`perception`) with the ground plane of the
+    /// plant-aware filter (`robust.ground_height`, `GND_HEIGHT`).
+    pub fn memory_params(&self) -> MemoryParams {
+        MemoryParams { ground_height: self.robust.ground_height, ..self.perception }
     }
 }
 

@@ -28,6 +28,9 @@
 //! - [`robust`]: the plant-aware wrapping of the filter (actuation lag, disturbance
 //!   observer, ground/ceiling barriers, stall detection; issue 17).
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
+//! - [`perception`]: range scans → a bounded world-frame obstacle memory (voxel merge,
+//!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
+//!   the filter's obstacle points (issue 19).
 //! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
 //!
 //! The modules of the folders are re-exported at the root (`parapet_core::cbf`,
@@ -51,6 +54,7 @@ pub mod msg;
 pub mod obstacle_set;
 pub mod outer;
 pub mod params;
+pub mod perception;
 pub mod robust;
 pub mod safety;
 pub mod schedule;

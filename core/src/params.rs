@@ -164,7 +164,7 @@ fn variant_of(code: i32) -> Option<FilterVariant> {
 }
 
 /// Number of parameters.
-pub const COUNT: usize = 21;
+pub const COUNT: usize = 26;
 
 /// The parameters, in MAVLink `param_index` order.
 pub const TABLE: [Param; COUNT] = [
@@ -499,6 +499,82 @@ pub const TABLE: [Param; COUNT] = [
         label: None,
         get: |p| p.robust.ceiling_height,
         write: |p, v| p.robust.ceiling_height = v,
+    },
+    // Issue 19: the obstacle memory of the range-sensor perception (`crate::perception`).
+    Param {
+        name: "PCP_VOXEL",
+        key: Some("mem_voxel"),
+        unit: "m",
+        default: 0.2,
+        min: 0.02,
+        max: 5.0,
+        integer: false,
+        decimals: 3,
+        group: "Perception",
+        description: "Obstacle memory voxel edge: range returns in one cube merge into one point",
+        label: None,
+        get: |p| p.perception.voxel,
+        write: |p, v| p.perception.voxel = v,
+    },
+    Param {
+        name: "PCP_FORGET",
+        key: Some("mem_forget"),
+        unit: "s",
+        default: 5.0,
+        min: 0.05,
+        max: 600.0,
+        integer: false,
+        decimals: 2,
+        group: "Perception",
+        description: "An obstacle cell not seen again for this long is forgotten",
+        label: None,
+        get: |p| p.perception.forget_s,
+        write: |p, v| p.perception.forget_s = v,
+    },
+    Param {
+        name: "PCP_CLR_MARGIN",
+        key: Some("mem_clear_margin"),
+        unit: "m",
+        default: 0.3,
+        min: 0.0,
+        max: 5.0,
+        integer: false,
+        decimals: 3,
+        group: "Perception",
+        description: "A beam clears a cell it passes when its return lies this far beyond the cell",
+        label: None,
+        get: |p| p.perception.clear_margin,
+        write: |p, v| p.perception.clear_margin = v,
+    },
+    Param {
+        name: "PCP_TRK_SIZE",
+        key: Some("mem_track_size"),
+        unit: "m",
+        default: 0.8,
+        min: 0.0,
+        max: 10.0,
+        integer: false,
+        decimals: 2,
+        group: "Perception",
+        description: "Clusters up to this size are tracked for their velocity; larger ones are static",
+        label: None,
+        get: |p| p.perception.track_size,
+        write: |p, v| p.perception.track_size = v,
+    },
+    Param {
+        name: "PCP_FOV_MARGIN",
+        key: Some("fov_margin"),
+        unit: "m",
+        default: 0.25,
+        min: 0.0,
+        max: 5.0,
+        integer: false,
+        decimals: 3,
+        group: "Perception",
+        description: "Frontier point beyond the observed free range (>= hull radius); 0 = off",
+        label: None,
+        get: |p| p.perception.fov_margin,
+        write: |p, v| p.perception.fov_margin = v,
     },
 ];
 

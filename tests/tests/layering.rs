@@ -35,6 +35,8 @@ const CORE_RULES: &[(&str, &[&str])] = &[
     // Issue 17: the obstacle-set policy and the plant-aware wrapping sit on the filter.
     ("obstacle_set", &["frame", "fmath", "safety"]),
     ("robust", &["airframe", "frame", "fmath", "safety"]),
+    // Issue 19: the obstacle memory turns range scans into points for the filter's set.
+    ("perception", &["frame", "fmath", "safety", "obstacle_set"]),
     ("msg", &[]),
 ];
 

@@ -1,0 +1,863 @@
+//! The obstacle memory: a fixed-capacity voxel store of range returns in world NED, with
+//! ageing, see-through clearing, cluster tracks and the field-of-view frontier.
+//!
+//! **Cells (merge).** Space is cut into cubes of edge `voxel` (`MemoryParams::voxel`,
+//! default 0.2 m); all returns falling into one cube merge into one cell, which keeps the
+//! axis-aligned bounding box of its returns and the time of the last one. The point a cell
+//! hands the filter is the point of that box **nearest to the vehicle** (the vehicle
+//! position clamped to the box): every return merged into the cell is at least as far, so
+//! the merge is conservative, and it is exact for a single return. The box lies inside its
+//! cube, so the point is never farther than the cube's diagonal (√3·voxel) from the
+//! returns it stands for, and never outside the cube. One wall seen by a 72-beam scan is at
+//! most one cell per cube it crosses.
+//!
+//! **Forgetting.** A cell not hit for `forget_s` (default 5 s) is removed; a wall seen once
+//! and then behind the vehicle (out of every sensor's view) is kept that long. A cell is
+//! also removed when a later beam passes through it (*see-through clearing*): the beam's
+//! central ray crosses the cell's box (inflated by voxel/4) and its return — or
+//! `max_range` for a beam with no return — lies at least `clear_margin` beyond the box's
+//! exit. Beams without information ([`Range::Unknown`]) clear nothing. Each cell is tested
+//! against the one beam of the scan nearest its direction (O(1) per cell).
+//!
+//! **Full.** With `N` cells stored a return for a new cube replaces the stored cell
+//! farthest from the vehicle when that is farther than the return; otherwise the return is
+//! dropped and counted ([`ScanReport::dropped_full`]). So the memory always holds the `N`
+//! cells nearest to the vehicle (at the time of insertion) of those it has seen and not
+//! forgotten.
+//!
+//! **Moving clusters** (see [`super::track`]): small segments of the scan row nearest to
+//! horizontal are tracked; their cells carry the track, and cells of a track that the
+//! track's cluster did not hit again in a scan that updated the track are removed (the
+//! object moved on). A confirmed moving track hands its cells out with its velocity and
+//! extrapolated by it: `q + w·age`.
+//!
+//! **Ground.** Returns lower than `ground_clip` above the ground plane are not stored (the
+//! ground barrier of `crate::robust` handles the ground); they still clear along their beam.
+//!
+//! **Cost** of [`ObstacleMemory::insert_scan`] for B beams and N cells: clearing O(N) (one
+//! `atan2` pair and one slab test per cell), insertion O(B·N) comparisons of cell keys in the
+//! worst case (a return merging into the cell of the previous return costs O(1): one wall
+//! seen by consecutive beams), tracking O(B + MAX_SEGMENTS·MAX_TRACKS + N), the frontier
+//! O(B). Measured on the Cortex-M4F: `cargo xtask m4` (`tests/cortex-m4`, case
+//! `memory_72`).
+//!
+//! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
+//! `crate::fmath`, `crate::Vec3`, the parent module.
+
+use super::frontier::{ignore_beyond, Frontier};
+use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
+use super::{MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FRONTIER_ID, STATIC_ID};
+use crate::cbf::INPUT_LIMIT;
+use crate::fmath::hypotf;
+use crate::obstacle::{ObstaclePoint, ObstacleSet};
+use crate::obstacle_set::{Ranking, Selector, SetReport};
+use crate::Vec3;
+
+const NO_TRACK: u8 = u8::MAX;
+const NO_SEG: u8 = u8::MAX;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cell {
+    key: [i32; 3],
+    lo: Vec3,
+    hi: Vec3,
+    t_us: u64,
+    track: u8,
+}
+
+/// A stored cell as seen from outside (plots, tests).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellView {
+    /// Bounding box of the merged returns, NED, m.
+    pub lo: Vec3,
+    /// Bounding box of the merged returns, NED, m.
+    pub hi: Vec3,
+    /// Time of the last return, µs.
+    pub t_us: u64,
+    /// Track slot, `None` for static cells.
+    pub track: Option<u8>,
+}
+
+/// What one [`ObstacleMemory::insert_scan`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ScanReport {
+    /// The scan was rejected whole (invalid geometry, wrong number of ranges, non-finite or
+    /// implausible pose or mount): nothing changed.
+    pub rejected: bool,
+    /// Returns merged into a cell (new or existing).
+    pub stored: u16,
+    /// Cells created.
+    pub new_cells: u16,
+    /// Cells removed by see-through clearing.
+    pub cleared: u16,
+    /// Cells removed because they were older than `forget_s`.
+    pub expired: u16,
+    /// Cells of a moving track removed because the track's cluster moved on.
+    pub moved: u16,
+    /// Returns dropped: the memory was full of nearer cells.
+    pub dropped_full: u16,
+    /// Returns on the ground (not stored).
+    pub ground: u16,
+    /// Clusters assigned to tracks.
+    pub clusters: u8,
+}
+
+/// Counters since start (saturating).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MemoryStats {
+    /// Scans accepted.
+    pub scans: u32,
+    /// Scans rejected.
+    pub rejected: u32,
+    /// Returns dropped at capacity.
+    pub dropped_full: u32,
+}
+
+/// The memory (see the module documentation). `N`: cells.
+#[derive(Clone, Debug)]
+pub struct ObstacleMemory<const N: usize = DEFAULT_MEMORY_CAPACITY> {
+    params: MemoryParams,
+    cells: heapless::Vec<Cell, N>,
+    tracker: Tracker,
+    frontier: Frontier,
+    stats: MemoryStats,
+    now_us: Option<u64>,
+}
+
+fn plausible(v: &Vec3) -> bool {
+    v.x.abs() <= INPUT_LIMIT && v.y.abs() <= INPUT_LIMIT && v.z.abs() <= INPUT_LIMIT
+}
+
+fn clamp3(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
+    Vec3::new(p.x.clamp(lo.x, hi.x), p.y.clamp(lo.y, hi.y), p.z.clamp(lo.z, hi.z))
+}
+
+/// Parameters of the segment through the inflated box `[lo, hi]` on the ray `o + s·u`:
+/// `Some((enter, exit))` when the ray meets it (slab test).
+fn slab(o: &Vec3, u: &Vec3, lo: &Vec3, hi: &Vec3) -> Option<(f32, f32)> {
+    let mut t0 = f32::NEG_INFINITY;
+    let mut t1 = f32::INFINITY;
+    for k in 0..3 {
+        let (ok, uk, lk, hk) = (o[k], u[k], lo[k], hi[k]);
+        if uk.abs() < 1e-9 {
+            if ok < lk || ok > hk {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((lk - ok) / uk, (hk - ok) / uk);
+        let (a, b) = if a < b { (a, b) } else { (b, a) };
+        if a > t0 {
+            t0 = a;
+        }
+        if b < t1 {
+            t1 = b;
+        }
+    }
+    (t0 <= t1 && t1 >= 0.0).then_some((t0, t1))
+}
+
+/// The segment being built in the tracking row.
+#[derive(Clone, Copy)]
+struct Segment {
+    sum: Vec3,
+    n: u16,
+    lo: Vec3,
+    hi: Vec3,
+    last: Vec3,
+}
+
+impl<const N: usize> ObstacleMemory<N> {
+    /// Empty. Invalid `params` ([`MemoryParams::valid`]) are replaced by the defaults.
+    pub fn new(params: MemoryParams) -> Self {
+        ObstacleMemory {
+            params: if params.valid() { params } else { MemoryParams::default() },
+            cells: heapless::Vec::new(),
+            tracker: Tracker::new(),
+            frontier: Frontier::new(),
+            stats: MemoryStats::default(),
+            now_us: None,
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &MemoryParams {
+        &self.params
+    }
+
+    /// Replaces the parameters (refused, returning `false`, when not [`MemoryParams::valid`]);
+    /// a new voxel size applies to cells created from now on.
+    pub fn set_params(&mut self, params: MemoryParams) -> bool {
+        if params.valid() {
+            self.params = params;
+        }
+        params.valid()
+    }
+
+    /// Counters since start.
+    pub fn stats(&self) -> MemoryStats {
+        self.stats
+    }
+
+    /// Cells stored.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// No cell stored.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// The stored cells.
+    pub fn cells(&self) -> impl Iterator<Item = CellView> + '_ {
+        self.cells.iter().map(|c| CellView {
+            lo: c.lo,
+            hi: c.hi,
+            t_us: c.t_us,
+            track: (c.track != NO_TRACK).then_some(c.track),
+        })
+    }
+
+    /// The tracks (slot, track) in use.
+    pub fn tracks(&self) -> impl Iterator<Item = (u8, super::track::Track)> + '_ {
+        (0..MAX_TRACKS).filter_map(|i| self.tracker.get(i).map(|t| (i as u8, *t)))
+    }
+
+    /// The observed free range along the horizontal unit direction `u` from `p`, m.
+    pub fn free_along(&self, p: &Vec3, u: &Vec3) -> f32 {
+        self.frontier.free_along(p, u)
+    }
+
+    fn forget_us(&self) -> u64 {
+        (self.params.forget_s * 1e6) as u64
+    }
+
+    fn expire(&mut self, now: u64) -> u16 {
+        let f = self.forget_us();
+        let before = self.cells.len();
+        self.cells.retain(|c| now.saturating_sub(c.t_us) <= f);
+        (before - self.cells.len()) as u16
+    }
+
+    /// Adds one scan (see the module documentation). Bounded: O(N + B·N) for B beams.
+    pub fn insert_scan(&mut self, scan: &Scan) -> ScanReport {
+        let g = &scan.geometry;
+        let pose_ok = plausible(&scan.pose.position)
+            && scan.pose.rotation.iter().all(|x| x.is_finite())
+            && plausible(&scan.mount.position)
+            && scan.mount.rotation.iter().all(|x| x.is_finite());
+        if !g.valid() || scan.ranges.len() != g.beams() || !pose_ok {
+            self.stats.rejected = self.stats.rejected.saturating_add(1);
+            return ScanReport { rejected: true, ..ScanReport::default() };
+        }
+        let t = scan.t_us;
+        let now = self.now_us.map_or(t, |n| n.max(t));
+        self.now_us = Some(now);
+        let mut rep = ScanReport { expired: self.expire(now), ..ScanReport::default() };
+        let origin = scan.pose.position + scan.pose.rotation * scan.mount.position;
+        let r_ws = scan.pose.rotation * scan.mount.rotation;
+        let vehicle = scan.pose.position;
+        let voxel = self.params.voxel;
+
+        // 1. See-through clearing: each cell against the beam nearest its direction.
+        let tol = 0.25 * voxel;
+        let mut i = self.cells.len();
+        while i > 0 {
+            i -= 1;
+            let Some(c) = self.cells.get(i).copied() else { continue };
+            if self.beam_clears(&origin, &r_ws, scan, &c, tol) {
+                self.cells.swap_remove(i);
+                rep.cleared = rep.cleared.saturating_add(1);
+            }
+        }
+
+        // 2. Insertion (with the segments of the tracking row).
+        let mut seg_of_cell = [NO_SEG; N];
+        let mut clusters: [(Vec3, u8); MAX_SEGMENTS] = [(Vec3::zeros(), NO_TRACK); MAX_SEGMENTS];
+        let mut n_clusters = 0usize;
+        let track_row = {
+            let r = libm::roundf(-g.el0 / g.del);
+            if r <= 0.0 {
+                0
+            } else if r >= f32::from(g.n_el - 1) {
+                g.n_el - 1
+            } else {
+                r as u16
+            }
+        };
+        let mut seg: Option<Segment> = None;
+        let mut last_cell: Option<usize> = None;
+        let gap = SEGMENT_GAP * voxel;
+        let mut k = 0usize;
+        for row in 0..g.n_el {
+            for col in 0..g.n_az {
+                let range = scan.ranges.get(k).copied().unwrap_or(Range::Unknown);
+                k += 1;
+                let w = match range {
+                    Range::Hit(r) if r >= g.min_range && r < g.max_range => {
+                        Some(origin + r_ws * (g.direction(row, col) * r))
+                    }
+                    _ => None,
+                };
+                let w = w.filter(plausible);
+                let w = match w {
+                    Some(w) if -w.z - self.params.ground_height < self.params.ground_clip => {
+                        rep.ground = rep.ground.saturating_add(1);
+                        None
+                    }
+                    other => other,
+                };
+                let in_row = row == track_row;
+                // Close the open segment when this beam does not continue it.
+                if in_row {
+                    let continues = match (&seg, &w) {
+                        (Some(s), Some(w)) => (w - s.last).norm() <= gap,
+                        _ => false,
+                    };
+                    if !continues {
+                        if let Some(s) = seg.take() {
+                            self.close_segment(&s, &mut clusters, &mut n_clusters, &mut seg_of_cell);
+                        }
+                    }
+                }
+                let Some(w) = w else { continue };
+                let Some(ci) = self.store(&w, &vehicle, t, &mut last_cell, &mut rep) else { continue };
+                if in_row {
+                    let s = seg.get_or_insert(Segment { sum: Vec3::zeros(), n: 0, lo: w, hi: w, last: w });
+                    s.sum += w;
+                    s.n = s.n.saturating_add(1);
+                    s.lo = s.lo.inf(&w);
+                    s.hi = s.hi.sup(&w);
+                    s.last = w;
+                    if let Some(m) = seg_of_cell.get_mut(ci) {
+                        // Segment number: clusters closed so far + this one (resolved at close).
+                        *m = SEG_OPEN;
+                    }
+                }
+            }
+            if row == track_row {
+                if let Some(s) = seg.take() {
+                    self.close_segment(&s, &mut clusters, &mut n_clusters, &mut seg_of_cell);
+                }
+            }
+        }
+
+        // 3. Tracks: assign clusters, tag their cells, drop what moving tracks left behind.
+        let alpha = self.params.track_alpha;
+        let gate = self.params.track_gate;
+        let mut taken: u16 = 0;
+        for c in clusters.iter_mut().take(n_clusters) {
+            let slot = self.tracker.update(&c.0, t, alpha, gate, taken);
+            taken |= 1 << slot;
+            c.1 = slot as u8;
+            rep.clusters = rep.clusters.saturating_add(1);
+        }
+        let mut i = self.cells.len();
+        while i > 0 {
+            i -= 1;
+            let mark = seg_of_cell.get(i).copied().unwrap_or(NO_SEG);
+            let Some(cell) = self.cells.get_mut(i) else { continue };
+            if mark == SEG_WALL {
+                cell.track = NO_TRACK;
+            } else if let Some(&(_, slot)) = clusters.get(usize::from(mark)) {
+                cell.track = slot;
+            } else if cell.track != NO_TRACK && taken & (1 << cell.track) != 0 {
+                self.cells.swap_remove(i);
+                rep.moved = rep.moved.saturating_add(1);
+            }
+        }
+        self.tracker.expire(now, self.forget_us());
+
+        // 4. The free ranges for the field-of-view frontier.
+        self.frontier.record(&origin, &r_ws, g, scan.ranges);
+
+        self.stats.scans = self.stats.scans.saturating_add(1);
+        self.stats.dropped_full = self.stats.dropped_full.saturating_add(u32::from(rep.dropped_full));
+        rep
+    }
+
+    /// Whether the scan's beam nearest to cell `c`'s direction passes through it.
+    fn beam_clears(
+        &self,
+        origin: &Vec3,
+        r_ws: &nalgebra::Matrix3<f32>,
+        scan: &Scan,
+        c: &Cell,
+        tol: f32,
+    ) -> bool {
+        let g = &scan.geometry;
+        let centre = (c.lo + c.hi) * 0.5;
+        let q = r_ws.transpose() * (centre - origin);
+        if q.norm_squared() < 1e-6 {
+            return false;
+        }
+        let az = libm::atan2f(q.y, q.x);
+        let el = libm::atan2f(-q.z, hypotf(q.x, q.y));
+        let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
+        if g.wraps() {
+            col = col.rem_euclid(i32::from(g.n_az));
+        }
+        let row = libm::roundf((el - g.el0) / g.del) as i32;
+        if col < 0 || col >= i32::from(g.n_az) || row < 0 || row >= i32::from(g.n_el) {
+            return false;
+        }
+        let (row, col) = (row as u16, col as u16);
+        let k = usize::from(row) * usize::from(g.n_az) + usize::from(col);
+        let free = match scan.ranges.get(k) {
+            Some(Range::Hit(r)) if *r >= g.min_range && *r < g.max_range => *r,
+            Some(Range::Clear) => g.max_range,
+            _ => return false,
+        };
+        let u = r_ws * g.direction(row, col);
+        let t = Vec3::new(tol, tol, tol);
+        match slab(origin, &u, &(c.lo - t), &(c.hi + t)) {
+            Some((_, exit)) => exit + self.params.clear_margin <= free,
+            None => false,
+        }
+    }
+
+    /// Merges return `w` into its cell (creating or, when full, replacing the farthest);
+    /// returns the cell index, `None` when dropped.
+    fn store(
+        &mut self,
+        w: &Vec3,
+        vehicle: &Vec3,
+        t: u64,
+        last: &mut Option<usize>,
+        rep: &mut ScanReport,
+    ) -> Option<usize> {
+        let inv = 1.0 / self.params.voxel;
+        let key =
+            [libm::floorf(w.x * inv) as i32, libm::floorf(w.y * inv) as i32, libm::floorf(w.z * inv) as i32];
+        let found = match last.filter(|&i| self.cells.get(i).is_some_and(|c| c.key == key)) {
+            Some(i) => Some(i),
+            None => self.cells.iter().position(|c| c.key == key),
+        };
+        let idx = match found {
+            Some(i) => {
+                if let Some(c) = self.cells.get_mut(i) {
+                    c.lo = c.lo.inf(w);
+                    c.hi = c.hi.sup(w);
+                    c.t_us = c.t_us.max(t);
+                }
+                i
+            }
+            None => {
+                let cell = Cell { key, lo: *w, hi: *w, t_us: t, track: NO_TRACK };
+                if self.cells.push(cell).is_ok() {
+                    rep.new_cells = rep.new_cells.saturating_add(1);
+                    self.cells.len() - 1
+                } else {
+                    let dw = (w - vehicle).norm_squared();
+                    let far = self
+                        .cells
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| (i, (clamp3(vehicle, &c.lo, &c.hi) - vehicle).norm_squared()))
+                        .fold(None, |a: Option<(usize, f32)>, b| match a {
+                            Some(x) if x.1 >= b.1 => Some(x),
+                            _ => Some(b),
+                        });
+                    match far {
+                        Some((i, d)) if d > dw => {
+                            if let Some(c) = self.cells.get_mut(i) {
+                                *c = cell;
+                            }
+                            rep.dropped_full = rep.dropped_full.saturating_add(1); // the evicted cell
+                            rep.new_cells = rep.new_cells.saturating_add(1);
+                            i
+                        }
+                        _ => {
+                            rep.dropped_full = rep.dropped_full.saturating_add(1);
+                            return None;
+                        }
+                    }
+                }
+            }
+        };
+        rep.stored = rep.stored.saturating_add(1);
+        *last = Some(idx);
+        Some(idx)
+    }
+
+    /// Ends a segment of the tracking row: a cluster (≤ `track_size`, room left) gets the
+    /// next cluster number on its cells, a wall marks them static.
+    fn close_segment(
+        &self,
+        s: &Segment,
+        clusters: &mut [(Vec3, u8); MAX_SEGMENTS],
+        n: &mut usize,
+        seg_of_cell: &mut [u8; N],
+    ) {
+        let small = s.n > 0 && (s.hi - s.lo).norm() <= self.params.track_size;
+        let mark = if small && *n < MAX_SEGMENTS {
+            if let Some(c) = clusters.get_mut(*n) {
+                *c = (s.sum / f32::from(s.n), NO_TRACK);
+            }
+            *n += 1;
+            (*n - 1) as u8
+        } else {
+            SEG_WALL
+        };
+        for m in seg_of_cell.iter_mut() {
+            if *m == SEG_OPEN {
+                *m = mark;
+            }
+        }
+    }
+
+    /// Calls `f` with the obstacle points for a vehicle at `p` moving at `v` (NED) at
+    /// `t_us`: one per cell not older than `forget_s` (the box point nearest `p`; moving
+    /// tracks extrapolated, with their velocity), then the frontier point (when the
+    /// direction of motion has not been observed free far enough). O(N).
+    pub fn for_each_point(
+        &mut self,
+        t_us: u64,
+        p: &Vec3,
+        v: &Vec3,
+        mu: f32,
+        mut f: impl FnMut(&ObstaclePoint),
+    ) {
+        let forget = self.forget_us();
+        for c in self.cells.iter() {
+            let age_us = t_us.saturating_sub(c.t_us);
+            if age_us > forget {
+                continue;
+            }
+            let w = (c.track != NO_TRACK)
+                .then(|| self.tracker.get(usize::from(c.track)).and_then(|tr| tr.measured_velocity()))
+                .flatten();
+            let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
+            let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
+            let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
+            f(&ObstaclePoint { point: q, velocity: w, id });
+        }
+        if self.now_us.is_some() {
+            let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
+            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far) {
+                f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID });
+            }
+        }
+    }
+
+    /// The points of [`Self::for_each_point`] selected by the controller's set policy
+    /// (`crate::obstacle_set`, `M` most critical) and the selection report.
+    pub fn select<const M: usize>(
+        &mut self,
+        t_us: u64,
+        p: &Vec3,
+        v: &Vec3,
+        ranking: Ranking,
+        delta1: f32,
+    ) -> (ObstacleSet<M>, SetReport) {
+        let mu = match ranking {
+            Ranking::Critical { mu, .. } => mu,
+            Ranking::Nearest => 1.4,
+        };
+        let mut sel = Selector::<M>::new(ranking, delta1, p, v);
+        self.for_each_point(t_us, p, v, mu, |o| {
+            sel.offer(o);
+        });
+        sel.finish()
+    }
+}
+
+/// Marks of `seg_of_cell`: the cell belongs to the open segment / to a wall.
+const SEG_OPEN: u8 = 254;
+const SEG_WALL: u8 = 253;
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::super::{Pose, ScanGeometry, SensorMount};
+    use super::*;
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    use std::vec::Vec;
+
+    /// Vertical cylinders `(centre x, centre y, radius)` and the wall `x = wall_x` (when `Some`).
+    struct World {
+        cyl: Vec<(f32, f32, f32)>,
+        wall_x: Option<f32>,
+    }
+
+    impl World {
+        /// Exact ray cast from `o` along unit `u` (horizontal geometry, infinite height).
+        fn cast(&self, o: &Vec3, u: &Vec3, g: &ScanGeometry) -> Range {
+            let mut best = f32::INFINITY;
+            if let Some(x) = self.wall_x {
+                if u.x > 1e-6 {
+                    best = best.min((x - o.x) / u.x);
+                }
+            }
+            for &(cx, cy, r) in &self.cyl {
+                let (dx, dy) = (o.x - cx, o.y - cy);
+                let a = u.x * u.x + u.y * u.y;
+                let b = 2.0 * (dx * u.x + dy * u.y);
+                let c = dx * dx + dy * dy - r * r;
+                let disc = b * b - 4.0 * a * c;
+                if a > 1e-9 && disc >= 0.0 {
+                    let s = (-b - disc.sqrt()) / (2.0 * a);
+                    if s > 0.0 {
+                        best = best.min(s);
+                    }
+                }
+            }
+            if best < g.min_range {
+                Range::Unknown
+            } else if best < g.max_range {
+                Range::Hit(best)
+            } else {
+                Range::Clear
+            }
+        }
+
+        fn scan<const N: usize>(
+            &self,
+            m: &mut ObstacleMemory<N>,
+            t_us: u64,
+            p: Vec3,
+            yaw: f32,
+            g: ScanGeometry,
+        ) -> ScanReport {
+            let pose = Pose::from_rpy(p, 0.0, 0.0, yaw);
+            let mount = SensorMount::centered();
+            let mut ranges = Vec::new();
+            for row in 0..g.n_el {
+                for col in 0..g.n_az {
+                    let u = pose.rotation * (mount.rotation * g.direction(row, col));
+                    ranges.push(self.cast(&p, &u, &g));
+                }
+            }
+            m.insert_scan(&Scan { t_us, pose, mount, geometry: g, ranges: &ranges })
+        }
+    }
+
+    fn lidar() -> ScanGeometry {
+        ScanGeometry::planar_360(72, 0.03, 0.1, 8.0)
+    }
+
+    fn camera() -> ScanGeometry {
+        // A forward fan (e.g. one row of a depth camera), 87°, 16 beams.
+        ScanGeometry::grid(16, 1, 1.518, 0.05, 0.2, 6.0)
+    }
+
+    fn points<const N: usize>(m: &mut ObstacleMemory<N>, t: u64, p: &Vec3) -> Vec<ObstaclePoint> {
+        let mut out = Vec::new();
+        m.for_each_point(t, p, &Vec3::zeros(), 1.4, |o| out.push(*o));
+        out
+    }
+
+    const P: Vec3 = Vec3::new(0.0, 0.0, -1.0);
+
+    #[test]
+    fn a_wall_seen_once_is_kept_behind_the_vehicle_for_the_forget_time() {
+        let params = MemoryParams { forget_s: 3.0, ..MemoryParams::default() };
+        let mut m = ObstacleMemory::<128>::new(params);
+        let w = World { cyl: Vec::new(), wall_x: Some(2.0) };
+        let rep = w.scan(&mut m, 1_000_000, P, 0.0, camera());
+        assert!(rep.new_cells > 0 && !rep.rejected);
+        // Turned around (the camera now looks away from the wall), 2.9 s later: still there.
+        let empty = World { cyl: Vec::new(), wall_x: None };
+        for k in 1..=29u64 {
+            let r = empty.scan(&mut m, 1_000_000 + k * 100_000, P, core::f32::consts::PI, camera());
+            assert_eq!(r.cleared, 0);
+        }
+        let pts = points(&mut m, 3_900_000, &P);
+        let cells: Vec<_> = pts.iter().filter(|o| o.id == STATIC_ID).collect();
+        assert!(!cells.is_empty());
+        let nearest = cells.iter().map(|o| (o.point - P).norm()).fold(f32::INFINITY, f32::min);
+        // The nearest return lies half a beam spacing off the axis: 2/cos(daz/2).
+        assert!((nearest - 2.0).abs() < 0.01, "{nearest}");
+        // Past the forget time: gone.
+        empty.scan(&mut m, 4_100_000, P, core::f32::consts::PI, camera());
+        assert!(m.is_empty());
+    }
+
+    #[test]
+    fn a_beam_through_a_cell_clears_it_and_an_unknown_beam_does_not() {
+        let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
+        let pole = World { cyl: std::vec![(2.0, 0.0, 0.1)], wall_x: None };
+        pole.scan(&mut m, 1_000, P, 0.0, lidar());
+        assert!(!m.is_empty());
+        let n = m.len();
+        // The pole is gone; a dropout scan (all Unknown) keeps it.
+        let g = lidar();
+        let ranges = [Range::Unknown; 72];
+        let pose = Pose::from_rpy(P, 0.0, 0.0, 0.0);
+        let scan = Scan { t_us: 2_000, pose, mount: SensorMount::centered(), geometry: g, ranges: &ranges };
+        assert_eq!(m.insert_scan(&scan).cleared, 0);
+        assert_eq!(m.len(), n);
+        // A clear scan sees through it.
+        let empty = World { cyl: Vec::new(), wall_x: None };
+        let r = empty.scan(&mut m, 3_000, P, 0.0, lidar());
+        assert_eq!(r.cleared as usize, n);
+        assert!(m.is_empty());
+        // A return just behind the cell (closer than clear_margin) does not clear it.
+        pole.scan(&mut m, 4_000, P, 0.0, lidar());
+        let behind = World { cyl: std::vec![(2.25, 0.0, 0.1)], wall_x: None };
+        let r = behind.scan(&mut m, 5_000, P, 0.0, lidar());
+        assert_eq!(r.cleared, 0);
+    }
+
+    /// Proptest (fixed seed): a wall at a random distance and bearing offset seen by the
+    /// lidar from random positions: the cells are at most the cubes the wall crosses, every
+    /// point handed out lies in its cube and is no farther from the vehicle than the
+    /// returns of that cube (conservative merge).
+    #[test]
+    fn voxel_merge_is_bounded_and_conservative() {
+        let mut runner = TestRunner::new_with_rng(
+            Config { cases: 128, failure_persistence: None, ..Config::default() },
+            TestRng::from_seed(RngAlgorithm::ChaCha, &[19; 32]),
+        );
+        let strat = (0.5f32..4.0, -1.0f32..1.0, -1.0f32..1.0, 0.05f32..0.5);
+        runner
+            .run(&strat, |(wall, px, py, voxel)| {
+                let mut m = ObstacleMemory::<512>::new(MemoryParams { voxel, ..MemoryParams::default() });
+                let p = Vec3::new(px.min(wall - 0.3), py, -1.0);
+                let w = World { cyl: Vec::new(), wall_x: Some(wall) };
+                let g = lidar();
+                w.scan(&mut m, 1_000, p, 0.3, g);
+                // Returns of the scan, recomputed.
+                let pose = Pose::from_rpy(p, 0.0, 0.0, 0.3);
+                let mut hits = Vec::new();
+                for col in 0..g.n_az {
+                    let u = pose.rotation * g.direction(0, col);
+                    if let Range::Hit(r) = w.cast(&p, &u, &g) {
+                        hits.push(p + u * r);
+                    }
+                }
+                // Cubes crossed: distinct keys of the returns.
+                let mut keys: Vec<[i32; 3]> = hits
+                    .iter()
+                    .map(|h| {
+                        [
+                            (h.x / voxel).floor() as i32,
+                            (h.y / voxel).floor() as i32,
+                            (h.z / voxel).floor() as i32,
+                        ]
+                    })
+                    .collect();
+                keys.sort();
+                keys.dedup();
+                prop_assert_eq!(m.len(), keys.len());
+                prop_assert!(m.len() <= hits.len());
+                for c in m.cells() {
+                    let q = clamp3(&p, &c.lo, &c.hi);
+                    let key = [
+                        (q.x / voxel).floor() as i32,
+                        (q.y / voxel).floor() as i32,
+                        (q.z / voxel).floor() as i32,
+                    ];
+                    let mine: Vec<_> = hits
+                        .iter()
+                        .filter(|h| {
+                            [
+                                (h.x / voxel).floor() as i32,
+                                (h.y / voxel).floor() as i32,
+                                (h.z / voxel).floor() as i32,
+                            ] == key
+                        })
+                        .collect();
+                    prop_assert!(!mine.is_empty(), "a cell's point lies in the cube of its returns");
+                    let dq = (q - p).norm();
+                    for h in mine {
+                        prop_assert!(dq <= (h - p).norm() + 1e-5);
+                        prop_assert!((h - q).norm() <= 3f32.sqrt() * voxel + 1e-5);
+                    }
+                }
+                Ok(())
+            })
+            .unwrap();
+    }
+
+    #[test]
+    fn a_full_memory_keeps_the_nearest_cells() {
+        let mut m = ObstacleMemory::<8>::new(MemoryParams::default());
+        // 20 poles at 1..5 m on a ring of bearings: only the 8 nearest stay.
+        let cyl: Vec<_> = (0..20)
+            .map(|i| {
+                let a = i as f32 * core::f32::consts::TAU / 20.0;
+                let r = 1.0 + 0.2 * i as f32;
+                (r * a.cos(), r * a.sin(), 0.02)
+            })
+            .collect();
+        let w = World { cyl, wall_x: None };
+        let g = ScanGeometry::planar_360(360, 0.03, 0.1, 8.0);
+        let rep = w.scan(&mut m, 1_000, P, 0.0, g);
+        assert_eq!(m.len(), 8);
+        assert!(rep.dropped_full > 0);
+        let far = m.cells().map(|c| (clamp3(&P, &c.lo, &c.hi) - P).norm()).fold(0.0, f32::max);
+        assert!(far < 1.0 + 0.2 * 8.0, "kept a far cell: {far}");
+        assert_eq!(m.stats().dropped_full, u32::from(rep.dropped_full));
+    }
+
+    /// A person-sized cylinder crossing at 1 m/s 3 m ahead, lidar at 10 Hz: the memory's
+    /// point for it carries a velocity within 0.25 m/s of the truth after 2 s, and the
+    /// cells it left behind are gone.
+    #[test]
+    fn a_moving_cluster_gets_a_measured_velocity() {
+        let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
+        let g = ScanGeometry::planar_360(360, 0.03, 0.1, 8.0);
+        let vel = Vec3::new(0.0, 1.0, 0.0);
+        let mut last = Vec::new();
+        for k in 0..=20u64 {
+            let y = -1.5 + k as f32 * 0.1;
+            let w = World { cyl: std::vec![(3.0, y, 0.25)], wall_x: None };
+            w.scan(&mut m, 1_000_000 + k * 100_000, P, 0.0, g);
+            last = points(&mut m, 1_000_000 + k * 100_000, &P);
+        }
+        let moving: Vec<_> = last.iter().filter(|o| o.id >= CELL_ID_BASE && o.id < FRONTIER_ID).collect();
+        assert!(!moving.is_empty(), "{last:?}");
+        for o in &moving {
+            let v = o.velocity.expect("a confirmed moving track");
+            assert!((v - vel).norm() < 0.25, "{v:?}");
+            assert!((o.point.y - 0.5).abs() < 0.5, "{:?}", o.point);
+        }
+        // No cells left along the path (y < 0): the track removed them.
+        assert!(m.cells().all(|c| c.hi.y > -0.2), "{:?}", m.cells().collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn bad_scans_are_rejected_whole() {
+        let mut m = ObstacleMemory::<16>::new(MemoryParams::default());
+        let g = lidar();
+        let ranges = [Range::Hit(1.0); 71];
+        let pose = Pose::from_rpy(P, 0.0, 0.0, 0.0);
+        let s = Scan { t_us: 0, pose, mount: SensorMount::centered(), geometry: g, ranges: &ranges };
+        assert!(m.insert_scan(&s).rejected);
+        let ranges = [Range::Hit(1.0); 72];
+        let bad = Pose::from_rpy(Vec3::new(f32::NAN, 0.0, 0.0), 0.0, 0.0, 0.0);
+        let s = Scan { t_us: 0, pose: bad, mount: SensorMount::centered(), geometry: g, ranges: &ranges };
+        assert!(m.insert_scan(&s).rejected);
+        let mut g2 = g;
+        g2.max_range = 0.05;
+        let s = Scan { t_us: 0, pose, mount: SensorMount::centered(), geometry: g2, ranges: &ranges };
+        assert!(m.insert_scan(&s).rejected);
+        assert!(m.is_empty());
+        assert_eq!(m.stats().rejected, 3);
+        // Non-finite ranges are ignored beam by beam.
+        let ranges = [Range::Hit(f32::NAN); 72];
+        let s = Scan { t_us: 0, pose, mount: SensorMount::centered(), geometry: g, ranges: &ranges };
+        assert!(!m.insert_scan(&s).rejected);
+        assert!(m.is_empty());
+    }
+
+    #[test]
+    fn ground_returns_are_not_obstacles() {
+        let mut m = ObstacleMemory::<64>::new(MemoryParams::default());
+        // Looking 30° down from 1 m: every beam hits the floor.
+        let g = ScanGeometry::grid(8, 1, 0.8, 0.05, 0.1, 6.0);
+        let pose = Pose::from_rpy(P, 0.0, 0.0, 0.0);
+        let mount = SensorMount::new(Vec3::zeros(), 0.0, -core::f32::consts::FRAC_PI_6, 0.0);
+        let mut ranges = Vec::new();
+        for col in 0..g.n_az {
+            let u = pose.rotation * (mount.rotation * g.direction(0, col));
+            ranges.push(Range::Hit(1.0 / u.z));
+        }
+        let r = m.insert_scan(&Scan { t_us: 0, pose, mount, geometry: g, ranges: &ranges });
+        assert_eq!(r.ground, 8);
+        assert!(m.is_empty());
+    }
+}

@@ -1,0 +1,273 @@
+//! Perception (issue 19): range returns → a bounded world-frame obstacle memory → the
+//! obstacle points the safety filter reads.
+//!
+//! A range sensor (planar lidar, depth camera, multi-zone time of flight, a single distance
+//! sensor, a companion computer's `OBSTACLE_DISTANCE`) delivers a [`Scan`]: a grid of beams
+//! on an azimuth × elevation lattice of the sensor frame ([`ScanGeometry`]) with one
+//! [`Range`] per beam, time-stamped, taken from a [`SensorMount`] on the vehicle whose
+//! [`Pose`] at that time stamp the caller supplies. [`ObstacleMemory`] turns scans into
+//! world-NED obstacle cells with an age ([`memory`]), tracks small moving clusters and
+//! estimates their velocity ([`track`]), keeps the free range it has observed around the
+//! vehicle ([`frontier`]) and hands out, for the vehicle's current position and velocity,
+//! the obstacle points to offer the filter ([`ObstacleMemory::points`]): one per cell, plus
+//! one virtual *frontier* point in the direction of motion when that direction has not been
+//! observed free far enough ("unseen space is not free space", `docs/filter.md` § 14).
+//!
+//! ## Frames
+//! World NED; vehicle body FRD ([`Pose`]: position and the body → world rotation);
+//! sensor frame = FRD-like with x along the boresight, y right, z down ([`SensorMount`]:
+//! position in the body frame and the sensor → body rotation). A beam with azimuth `a`
+//! (positive to the right, i.e. about +z of the sensor) and elevation `e` (positive up)
+//! points along `(cos e cos a, cos e sin a, −sin e)` in the sensor frame.
+//!
+//! ## Bounds
+//! No allocation, no panics, every loop bounded by the memory capacity `N`, [`MAX_BEAMS`]
+//! beams per scan, [`track::MAX_TRACKS`] tracks, [`frontier::SECTORS`] sectors (see
+//! [`ObstacleMemory::insert_scan`] for the cost). Written by hand (no crate): a no_std,
+//! fixed-capacity, bounded-time voxel store with see-through clearing is not available
+//! as a well-kept crate.
+//!
+//! May import: `crate::obstacle` (points), `crate::fmath`, `crate::frame`, `crate::Vec3`.
+
+pub mod frontier;
+pub mod memory;
+pub mod track;
+
+pub use memory::{CellView, MemoryStats, ObstacleMemory, ScanReport};
+
+use crate::Vec3;
+use nalgebra::Matrix3;
+
+/// Most beams one scan may carry (a 32 × 24 depth image, 1024 single beams); a longer scan
+/// is rejected whole ([`ScanReport::rejected`]).
+pub const MAX_BEAMS: usize = 1024;
+
+/// Capacity of the memory the controller's perception uses by default (cells).
+pub const DEFAULT_MEMORY_CAPACITY: usize = 128;
+
+/// Obstacle id of the virtual frontier point (unseen space ahead, see [`frontier`]).
+pub const FRONTIER_ID: u16 = 65_534;
+
+/// First obstacle id of the memory's cells: a cell's point carries `CELL_ID_BASE + slot`
+/// of its track, or [`STATIC_ID`] for untracked (static) cells.
+pub const CELL_ID_BASE: u16 = 60_000;
+
+/// Obstacle id of every untracked (static) memory cell. Cells are parts of extended
+/// obstacles, so they share one id: the set policy keeps the most critical ones
+/// (`crate::obstacle_set`).
+pub const STATIC_ID: u16 = 59_999;
+
+/// One beam's result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Range {
+    /// A return at this range, m (used when `min_range ≤ r < max_range`, else [`Range::Unknown`]).
+    Hit(f32),
+    /// No return within `max_range`: the beam is free up to `max_range` (information too).
+    Clear,
+    /// No information (dropout, below the minimum range, saturated): the beam neither adds
+    /// nor clears anything.
+    Unknown,
+}
+
+/// Where a sensor sits on the vehicle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorMount {
+    /// Sensor origin in the body frame (FRD), m.
+    pub position: Vec3,
+    /// Sensor frame → body frame rotation.
+    pub rotation: Matrix3<f32>,
+}
+
+impl SensorMount {
+    /// A sensor at `position` (body FRD, m) rotated by ZYX Euler angles `roll, pitch, yaw`
+    /// (rad) from the body axes (`yaw` π/2: looking right).
+    pub fn new(position: Vec3, roll: f32, pitch: f32, yaw: f32) -> Self {
+        SensorMount { position, rotation: rotation_zyx(roll, pitch, yaw) }
+    }
+
+    /// At the body origin, looking forward.
+    pub fn centered() -> Self {
+        SensorMount { position: Vec3::zeros(), rotation: Matrix3::identity() }
+    }
+}
+
+/// The vehicle pose at a scan's time stamp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Position, NED, m.
+    pub position: Vec3,
+    /// Body (FRD) → world (NED) rotation.
+    pub rotation: Matrix3<f32>,
+}
+
+impl Pose {
+    /// Position (NED, m) and ZYX Euler attitude (roll, pitch, yaw, rad).
+    pub fn from_rpy(position: Vec3, roll: f32, pitch: f32, yaw: f32) -> Self {
+        Pose { position, rotation: rotation_zyx(roll, pitch, yaw) }
+    }
+}
+
+/// `R_z(yaw) · R_y(pitch) · R_x(roll)` (the project's ZYX convention, `crate::frame`).
+pub fn rotation_zyx(roll: f32, pitch: f32, yaw: f32) -> Matrix3<f32> {
+    nalgebra::Rotation3::from_euler_angles(roll, pitch, yaw).into_inner()
+}
+
+/// The beam lattice of a scan in the sensor frame. Beam `(row, col)` has azimuth
+/// `az0 + col·daz` and elevation `el0 + row·del`; the ranges are row-major
+/// (`row·n_az + col`). A full circle (`n_az·daz ≥ 2π`) wraps in azimuth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScanGeometry {
+    /// Azimuth of column 0, rad (positive to the right).
+    pub az0: f32,
+    /// Azimuth spacing, rad (> 0; for one column: the beam's full width).
+    pub daz: f32,
+    /// Columns (≥ 1).
+    pub n_az: u16,
+    /// Elevation of row 0, rad (positive up).
+    pub el0: f32,
+    /// Elevation spacing, rad (> 0; for one row: the beam's full height, e.g. the lidar's
+    /// vertical divergence).
+    pub del: f32,
+    /// Rows (≥ 1).
+    pub n_el: u16,
+    /// Returns closer than this are [`Range::Unknown`], m.
+    pub min_range: f32,
+    /// Returns at or beyond this are [`Range::Clear`], m.
+    pub max_range: f32,
+}
+
+impl ScanGeometry {
+    /// A planar scan of `n` beams over the full circle, beam 0 along the boresight.
+    pub fn planar_360(n: u16, vertical_width: f32, min_range: f32, max_range: f32) -> Self {
+        let daz = core::f32::consts::TAU / f32::from(n.max(1));
+        ScanGeometry { az0: 0.0, daz, n_az: n, el0: 0.0, del: vertical_width, n_el: 1, min_range, max_range }
+    }
+
+    /// A `w × h` grid covering `hfov × vfov` (rad), centred on the boresight (a depth camera
+    /// decimated to `w × h`, a multi-zone time-of-flight sensor; `1 × 1`: a single beam of
+    /// that width).
+    pub fn grid(w: u16, h: u16, hfov: f32, vfov: f32, min_range: f32, max_range: f32) -> Self {
+        let daz = hfov / f32::from(w.max(1));
+        let del = vfov / f32::from(h.max(1));
+        ScanGeometry {
+            az0: -0.5 * hfov + 0.5 * daz,
+            daz,
+            n_az: w,
+            el0: -0.5 * vfov + 0.5 * del,
+            del,
+            n_el: h,
+            min_range,
+            max_range,
+        }
+    }
+
+    /// Number of beams.
+    pub fn beams(&self) -> usize {
+        usize::from(self.n_az) * usize::from(self.n_el)
+    }
+
+    /// Whether the columns close the circle.
+    pub fn wraps(&self) -> bool {
+        f32::from(self.n_az) * self.daz >= core::f32::consts::TAU - 1e-4
+    }
+
+    /// Sensor-frame unit direction of beam `(row, col)`.
+    pub fn direction(&self, row: u16, col: u16) -> Vec3 {
+        let a = self.az0 + f32::from(col) * self.daz;
+        let e = self.el0 + f32::from(row) * self.del;
+        let (sa, ca) = crate::fmath::sincosf(a);
+        let (se, ce) = crate::fmath::sincosf(e);
+        Vec3::new(ce * ca, ce * sa, -se)
+    }
+
+    /// Finite, positive spacings and counts, `0 ≤ min_range < max_range`, at most
+    /// [`MAX_BEAMS`] beams.
+    pub fn valid(&self) -> bool {
+        let finite = [self.az0, self.daz, self.el0, self.del, self.min_range, self.max_range]
+            .iter()
+            .all(|x| x.is_finite());
+        finite
+            && self.daz > 0.0
+            && self.del > 0.0
+            && self.n_az >= 1
+            && self.n_el >= 1
+            && self.beams() <= MAX_BEAMS
+            && self.min_range >= 0.0
+            && self.max_range > self.min_range
+    }
+}
+
+/// One scan: its time stamp, the sensor, the vehicle pose at that time, the lattice and the
+/// ranges (row-major, `geometry.beams()` of them).
+#[derive(Clone, Copy, Debug)]
+pub struct Scan<'a> {
+    /// Time of the scan on the controller clock, µs.
+    pub t_us: u64,
+    /// Vehicle pose at `t_us`.
+    pub pose: Pose,
+    /// The sensor's mounting.
+    pub mount: SensorMount,
+    /// The beam lattice.
+    pub geometry: ScanGeometry,
+    /// One range per beam, row-major.
+    pub ranges: &'a [Range],
+}
+
+/// Memory parameters (part of [`crate::config::ControllerParams`]: `PCP_*` in the parameter table).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MemoryParams {
+    /// Voxel edge, m: returns in one cell merge into one point. Default 0.2 m.
+    pub voxel: f32,
+    /// A cell not hit again for this long is forgotten, s. Default 5 s.
+    pub forget_s: f32,
+    /// A beam clears a cell it passes through only when its return (or `max_range`) lies
+    /// this far beyond the cell, m. Default 0.3 m.
+    pub clear_margin: f32,
+    /// Clusters (segments of a planar scan) at most this large are tracked for their
+    /// velocity; larger ones (walls) are static, m. Default 0.8 m.
+    pub track_size: f32,
+    /// α of the α-β velocity tracker (β = α²/(2 − α), critically damped). Default 0.5.
+    pub track_alpha: f32,
+    /// A track's predicted centroid must lie within this of a cluster to take it, m. Default 0.5 m.
+    pub track_gate: f32,
+    /// Returns lower than this above the ground plane `z = −ground_height` are the ground
+    /// (handled by the ground barrier), not obstacles, m. Default 0.1 m.
+    pub ground_clip: f32,
+    /// Ground height, m up (the robust layer's `ground_height`). Default 0.
+    pub ground_height: f32,
+    /// The frontier point lies this far beyond the observed free range (≥ the hull radius
+    /// √δ, so the hull stays in observed space), m; 0 turns the frontier off. Default 0.25 m.
+    pub fov_margin: f32,
+}
+
+impl Default for MemoryParams {
+    fn default() -> Self {
+        MemoryParams {
+            voxel: 0.2,
+            forget_s: 5.0,
+            clear_margin: 0.3,
+            track_size: 0.8,
+            track_alpha: 0.5,
+            track_gate: 0.5,
+            ground_clip: 0.1,
+            ground_height: 0.0,
+            fov_margin: 0.25,
+        }
+    }
+}
+
+impl MemoryParams {
+    /// Every field finite and in its range (voxel 0.02–5 m, forget 0.05–600 s, α in (0, 1], …).
+    pub fn valid(&self) -> bool {
+        (0.02..=5.0).contains(&self.voxel)
+            && (0.05..=600.0).contains(&self.forget_s)
+            && (0.0..=5.0).contains(&self.clear_margin)
+            && (0.0..=10.0).contains(&self.track_size)
+            && self.track_alpha > 0.0
+            && self.track_alpha <= 1.0
+            && (0.01..=10.0).contains(&self.track_gate)
+            && (0.0..=10.0).contains(&self.ground_clip)
+            && self.ground_height.is_finite()
+            && (0.0..=5.0).contains(&self.fov_margin)
+    }
+}
