@@ -45,6 +45,9 @@ enum Command {
     /// Scene tools: `parapet scene generate` writes procedural forest, city, warehouse and
     /// clutter scenes (seeded, with a mission the planner connects).
     Scene(cli::scene::SceneArgs),
+    /// Parameter files: `parapet params export FILE` / `import FILE` (QGroundControl `.params`,
+    /// tab-separated; the metadata JSON is `cargo xtask params`).
+    Params(cli::params::ParamsArgs),
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
     /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
@@ -76,6 +79,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Sweep(a) => sweep::cmd_sweep(a),
         Command::SweepMerge(a) => sweep::cmd_sweep_merge(a),
         Command::Scene(a) => cli::output::out(&cli::scene::cmd_scene(a)?),
+        Command::Params(a) => cli::output::out(&cli::params::cmd_params(a)?),
         Command::Campaign(a) => campaign::cmd_campaign(a),
         Command::CampaignMerge(a) => campaign::cmd_campaign_merge(a),
     }

@@ -17,6 +17,7 @@
 
 pub mod help;
 pub mod output;
+pub mod params;
 pub mod scene;
 
 use std::io::IsTerminal;
