@@ -3,6 +3,7 @@
 //! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz, RotorPy-style aerodynamics.
 //! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
+//! * [`range`]: range sensors (lidar, depth camera, ToF): description, beam pattern, noise, dropouts.
 //! * [`replay`]: open-loop replay of rotor speeds from a CSV.
 //! * [`track_ids`]: the `u16` track ids of the obstacles in view (scenes beyond 65,535 obstacles).
 //!
@@ -13,6 +14,7 @@ pub const INNER_DT: f64 = 0.001;
 
 pub mod disturbance;
 pub mod plant;
+pub mod range;
 pub mod replay;
 pub mod sensors;
 pub mod track_ids;

@@ -157,6 +157,12 @@ impl StaticIndex {
         self.ids.is_empty()
     }
 
+    /// The BVH (leaf `l` is [`leaf`](Self::leaf)`(l)`), for queries written
+    /// elsewhere (the ray casts of [`super::raycast`]).
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
     /// Largest coordinate magnitude of the indexed obstacles, m.
     pub fn extent(&self) -> f64 {
         self.extent

@@ -15,6 +15,8 @@
 //!   proximity queries along a moving point (the simulator's vehicle and
 //!   reference): a local candidate set from the index plus the moving
 //!   obstacles, and per-obstacle Lipschitz bounds.
+//! * [`raycast`]: exact ray casts on the obstacles (index + moving ones) and the
+//!   ground, for the simulated range sensors.
 //! * [`check`]: scene-loader checks for duplicated and degenerate obstacles.
 //! * [`generate`]: `parapet scene generate` — forest, city, warehouse and
 //!   clutter scenes, seeded, with a mission the planner connects.
@@ -27,6 +29,7 @@ pub mod frame;
 pub mod generate;
 pub mod index;
 pub mod obstacle;
+pub mod raycast;
 pub mod scene;
 pub mod schema;
 pub mod tracker;

@@ -1,0 +1,442 @@
+//! Range-sensor models: what a simulated lidar, depth camera or time-of-flight
+//! sensor is ([`RangeSensorSpec`], a scene's `[[sensor]]` table or a preset of
+//! `parapet run --perception`), its beam pattern in the body frame and its
+//! measurement errors (range noise, dropouts, min/max range).
+//!
+//! **Frames.** The mounting offset is in the vehicle's body frame FRD (x
+//! forward, y right, z down, m), the mounting `yaw` (positive to the right)
+//! and `pitch` (positive up) in degrees. A beam of azimuth `a` (positive right)
+//! and elevation `e` (positive up) in the sensor frame points along
+//! `(cos e cos a, cos e sin a, −sin e)` (FRD) before the mounting rotation.
+//! The beams form a `columns × rows` grid, evenly spaced in angle over
+//! `fov_h × fov_v` degrees (a 360° lidar: `columns` beams at `360/columns`°
+//! steps starting straight ahead; otherwise centred on the boresight, the
+//! first column the leftmost, the first row the top one). A depth camera is
+//! modelled by its pixel rays at a decimated resolution; its value is the
+//! range along the ray (not the z-depth).
+//!
+//! **Measurement.** Every beam sees the exact first hit of its ray (the
+//! caller's ray cast) up to `max_range`; then, with the seeded generator of
+//! the sensor: with probability `dropout` the beam returns nothing; otherwise
+//! Gaussian noise of σ `noise` m is added, and a value outside
+//! `[min_range, max_range]` is no return (too close for the sensor, or nothing
+//! within range). A return is a range; "no return" carries no information
+//! (it is not "free space up to max").
+//!
+//! Presets (`--perception lidar|lidar360|camera|tof`): see [`preset`].
+//!
+//! Owns the sensor description and error model. May import: [`crate::input`]
+//! (limits, number format), rand, serde, nalgebra.
+
+use nalgebra::{Rotation3, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// Most beams one sensor may have (`columns × rows`).
+pub const MAX_BEAMS: usize = 4096;
+/// Most range sensors a vehicle may carry.
+pub const MAX_SENSORS: usize = 16;
+/// Highest sensor rate, Hz (the outer loop's 250 Hz: a sensor samples at outer steps).
+pub const MAX_RATE_HZ: f64 = 250.0;
+/// Longest sensor latency, s.
+pub const MAX_LATENCY_S: f64 = 1.0;
+/// Longest maximum range, m.
+pub const MAX_RANGE_M: f64 = 100.0;
+/// Largest range noise σ, m.
+pub const MAX_NOISE_M: f64 = 1.0;
+
+/// The kinds of range sensor (they differ in their defaults only).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RangeKind {
+    /// A planar scanning lidar, 360°.
+    Lidar,
+    /// A depth camera (pixel rays at a decimated resolution).
+    Camera,
+    /// A multi-zone time-of-flight sensor (or a single-beam ranger with 1 × 1 zones).
+    Tof,
+}
+
+/// One range sensor: a `[[sensor]]` table of a scene file (every field but
+/// `kind` optional, defaulting to the kind's preset).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RangeSensorSpec {
+    /// Kind (selects the defaults).
+    pub kind: RangeKind,
+    /// Name in `ranges.csv` and messages (default: the kind and its position in the list).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Mounting offset from the centre of mass, body FRD, m.
+    #[serde(default)]
+    pub offset: Option<[f64; 3]>,
+    /// Mounting yaw, degrees, positive to the right.
+    #[serde(default)]
+    pub yaw: Option<f64>,
+    /// Mounting pitch, degrees, positive up.
+    #[serde(default)]
+    pub pitch: Option<f64>,
+    /// Scan rate, Hz.
+    #[serde(default)]
+    pub rate: Option<f64>,
+    /// Latency from the scan to its delivery, s.
+    #[serde(default)]
+    pub latency: Option<f64>,
+    /// Shortest range measured, m.
+    #[serde(default)]
+    pub min_range: Option<f64>,
+    /// Longest range measured, m.
+    #[serde(default)]
+    pub max_range: Option<f64>,
+    /// Range noise, standard deviation, m.
+    #[serde(default)]
+    pub noise: Option<f64>,
+    /// Probability that a beam returns nothing.
+    #[serde(default)]
+    pub dropout: Option<f64>,
+    /// Beams per row.
+    #[serde(default)]
+    pub columns: Option<u32>,
+    /// Rows of beams.
+    #[serde(default)]
+    pub rows: Option<u32>,
+    /// Horizontal field of view, degrees (360 = all around).
+    #[serde(default)]
+    pub fov_h: Option<f64>,
+    /// Vertical field of view, degrees.
+    #[serde(default)]
+    pub fov_v: Option<f64>,
+}
+
+/// A range sensor with every value resolved (defaults applied, validated).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RangeSensor {
+    /// Kind.
+    pub kind: RangeKind,
+    /// Name.
+    pub name: String,
+    /// Mounting offset, body FRD, m.
+    pub offset: [f64; 3],
+    /// Mounting yaw, degrees.
+    pub yaw: f64,
+    /// Mounting pitch, degrees.
+    pub pitch: f64,
+    /// Scan rate, Hz.
+    pub rate: f64,
+    /// Latency, s.
+    pub latency: f64,
+    /// Minimum range, m.
+    pub min_range: f64,
+    /// Maximum range, m.
+    pub max_range: f64,
+    /// Range noise σ, m.
+    pub noise: f64,
+    /// Dropout probability per beam.
+    pub dropout: f64,
+    /// Beams per row.
+    pub columns: u32,
+    /// Rows.
+    pub rows: u32,
+    /// Horizontal field of view, degrees.
+    pub fov_h: f64,
+    /// Vertical field of view, degrees.
+    pub fov_v: f64,
+}
+
+/// The defaults of a kind: a 72-beam 360° lidar at 10 Hz (0.15–12 m, 1 cm,
+/// the `OBSTACLE_DISTANCE` resolution of 5°); a RealSense-D435-like depth
+/// camera, 87° × 58° at 16 × 10 rays, 30 Hz, 0.3–6 m, 2 cm, 50 ms; a
+/// VL53L5CX-like ToF sensor, 8 × 8 zones over 45° × 45°, 15 Hz, 0.02–4 m, 1.5 cm.
+pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
+    let base = RangeSensor {
+        kind,
+        name: String::new(),
+        offset: [0.0; 3],
+        yaw: 0.0,
+        pitch: 0.0,
+        rate: 10.0,
+        latency: 0.02,
+        min_range: 0.15,
+        max_range: 12.0,
+        noise: 0.01,
+        dropout: 0.01,
+        columns: 72,
+        rows: 1,
+        fov_h: 360.0,
+        fov_v: 0.0,
+    };
+    match kind {
+        RangeKind::Lidar => base,
+        RangeKind::Camera => RangeSensor {
+            rate: 30.0,
+            latency: 0.05,
+            min_range: 0.3,
+            max_range: 6.0,
+            noise: 0.02,
+            dropout: 0.02,
+            columns: 16,
+            rows: 10,
+            fov_h: 87.0,
+            fov_v: 58.0,
+            ..base
+        },
+        RangeKind::Tof => RangeSensor {
+            rate: 15.0,
+            latency: 0.02,
+            min_range: 0.02,
+            max_range: 4.0,
+            noise: 0.015,
+            dropout: 0.02,
+            columns: 8,
+            rows: 8,
+            fov_h: 45.0,
+            fov_v: 45.0,
+            ..base
+        },
+    }
+}
+
+/// Names of the `--perception` presets.
+pub const PRESETS: [&str; 4] = ["lidar", "lidar360", "camera", "tof"];
+
+/// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
+/// 1° steps), `camera` (one forward depth camera), `tof` (four 8 × 8 ToF
+/// sensors facing forward, right, back and left, a multi-ranger deck with
+/// multi-zone sensors). `None` for another name.
+pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
+    let named = |mut s: RangeSensor, n: &str| {
+        s.name = n.to_string();
+        s
+    };
+    match name {
+        "lidar" => Some(vec![named(kind_defaults(RangeKind::Lidar), "lidar")]),
+        "lidar360" => {
+            Some(vec![named(RangeSensor { columns: 360, ..kind_defaults(RangeKind::Lidar) }, "lidar360")])
+        }
+        "camera" => Some(vec![named(kind_defaults(RangeKind::Camera), "camera")]),
+        "tof" => Some(
+            [("tof_front", 0.0), ("tof_right", 90.0), ("tof_back", 180.0), ("tof_left", -90.0)]
+                .into_iter()
+                .map(|(n, yaw)| named(RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) }, n))
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// `field `k`: … (got v; allowed …)`, the scene loader's error format.
+fn bad(field: &str, what: &str, value: impl std::fmt::Debug, allowed: &str) -> String {
+    format!("field `{field}`: {what} (got {value:?}; allowed {allowed})")
+}
+
+impl RangeSensorSpec {
+    /// Resolve the defaults and check every value; `index` names the sensor by
+    /// default. Errors name the field, the value and the allowed range.
+    pub fn resolve(&self, index: usize) -> Result<RangeSensor, String> {
+        let d = kind_defaults(self.kind);
+        let kind_name = match self.kind {
+            RangeKind::Lidar => "lidar",
+            RangeKind::Camera => "camera",
+            RangeKind::Tof => "tof",
+        };
+        let s = RangeSensor {
+            kind: self.kind,
+            name: self.name.clone().unwrap_or_else(|| format!("{kind_name}{index}")),
+            offset: self.offset.unwrap_or(d.offset),
+            yaw: self.yaw.unwrap_or(d.yaw),
+            pitch: self.pitch.unwrap_or(d.pitch),
+            rate: self.rate.unwrap_or(d.rate),
+            latency: self.latency.unwrap_or(d.latency),
+            min_range: self.min_range.unwrap_or(d.min_range),
+            max_range: self.max_range.unwrap_or(d.max_range),
+            noise: self.noise.unwrap_or(d.noise),
+            dropout: self.dropout.unwrap_or(d.dropout),
+            columns: self.columns.unwrap_or(d.columns),
+            rows: self.rows.unwrap_or(d.rows),
+            fov_h: self.fov_h.unwrap_or(d.fov_h),
+            fov_v: self.fov_v.unwrap_or(d.fov_v),
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+impl RangeSensor {
+    /// Check every value (see the limits of this module).
+    pub fn validate(&self) -> Result<(), String> {
+        let s = self;
+        if s.name.is_empty() || s.name.len() > 64 || s.name.contains([',', '"', '\n']) {
+            return Err(bad(
+                "name",
+                "not a usable name",
+                &s.name,
+                "1–64 characters, no comma, quote or newline",
+            ));
+        }
+        if !s.offset.iter().all(|x| x.is_finite() && x.abs() <= 10.0) {
+            return Err(bad("offset", "out of range", s.offset, "finite, |x| ≤ 10 m (body FRD)"));
+        }
+        for (f, x) in [("yaw", s.yaw), ("pitch", s.pitch)] {
+            if !(x.is_finite() && x.abs() <= 360.0) {
+                return Err(bad(f, "out of range", x, "−360 ≤ angle ≤ 360 degrees"));
+            }
+        }
+        let within = |f: &str, x: f64, lo: f64, hi: f64, lo_open: bool| -> Result<(), String> {
+            let ok = x.is_finite() && x <= hi && if lo_open { x > lo } else { x >= lo };
+            if ok {
+                Ok(())
+            } else {
+                let op = if lo_open { "<" } else { "≤" };
+                Err(bad(f, "out of range", x, &format!("{lo} {op} {f} ≤ {hi}")))
+            }
+        };
+        within("rate", s.rate, 0.0, MAX_RATE_HZ, true)?;
+        within("latency", s.latency, 0.0, MAX_LATENCY_S, false)?;
+        within("max_range", s.max_range, 0.0, MAX_RANGE_M, true)?;
+        within("min_range", s.min_range, 0.0, s.max_range, false)?;
+        within("noise", s.noise, 0.0, MAX_NOISE_M, false)?;
+        within("dropout", s.dropout, 0.0, 1.0, false)?;
+        within("fov_h", s.fov_h, 0.0, 360.0, false)?;
+        within("fov_v", s.fov_v, 0.0, 180.0, false)?;
+        if s.columns == 0 || s.rows == 0 || (s.columns as usize) * (s.rows as usize) > MAX_BEAMS {
+            return Err(bad(
+                "columns",
+                "beam count out of range",
+                (s.columns, s.rows),
+                &format!("columns ≥ 1, rows ≥ 1, columns × rows ≤ {MAX_BEAMS}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Number of beams.
+    pub fn beams(&self) -> usize {
+        self.columns as usize * self.rows as usize
+    }
+
+    /// Mounting rotation sensor → body (yaw about z down, then pitch up about y).
+    pub fn mount(&self) -> Rotation3<f64> {
+        Rotation3::from_euler_angles(0.0, self.pitch.to_radians(), self.yaw.to_radians())
+    }
+
+    /// Unit beam directions in the body frame FRD, row by row (beam index
+    /// `row × columns + column`), see the module doc.
+    pub fn beam_directions(&self) -> Vec<Vector3<f64>> {
+        let mount = self.mount();
+        let (nc, nr) = (self.columns as usize, self.rows as usize);
+        let full_circle = self.fov_h >= 360.0;
+        let step_h = if full_circle { 360.0 / nc as f64 } else { self.fov_h / nc as f64 };
+        let step_v = self.fov_v / nr as f64;
+        let mut out = Vec::with_capacity(nc * nr);
+        for r in 0..nr {
+            // Rows from the bottom: elevation −fov_v/2 + (r + ½) step.
+            let e = (-0.5 * self.fov_v + (r as f64 + 0.5) * step_v).to_radians();
+            for c in 0..nc {
+                let a = if full_circle {
+                    c as f64 * step_h
+                } else {
+                    -0.5 * self.fov_h + (c as f64 + 0.5) * step_h
+                }
+                .to_radians();
+                // FRD: elevation up is −z; the mounting pitch (about y) is positive nose-up.
+                let d = Vector3::new(e.cos() * a.cos(), e.cos() * a.sin(), -e.sin());
+                out.push(mount * d);
+            }
+        }
+        out
+    }
+
+    /// The measured range of a beam whose exact first hit is `hit` (m, `None`
+    /// = nothing within `max_range`): dropout, noise, then the range limits
+    /// (see the module doc). Draws from `rng` for every beam (a dropout draw,
+    /// and a noise draw when σ > 0), so the stream does not depend on the scene.
+    pub fn measure(&self, hit: Option<f64>, rng: &mut ChaCha8Rng, noise_on: bool) -> Option<f64> {
+        let dropped = self.dropout > 0.0 && rng.random::<f64>() < self.dropout;
+        let n = match Normal::new(0.0, self.noise) {
+            Ok(n) if noise_on && self.noise > 0.0 => n.sample(rng),
+            _ => 0.0,
+        };
+        let r = hit? + n;
+        (!dropped && r >= self.min_range && r <= self.max_range).then_some(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn presets_are_valid_and_point_where_documented() {
+        for name in PRESETS {
+            for s in preset(name).unwrap() {
+                s.validate().unwrap();
+                assert_eq!(s.beam_directions().len(), s.beams());
+            }
+        }
+        assert!(preset("sonar").is_none());
+        let lidar = &preset("lidar").unwrap()[0];
+        let d = lidar.beam_directions();
+        assert_eq!(d.len(), 72);
+        assert!((d[0] - Vector3::x()).norm() < 1e-12);
+        // Beam 18 (90°) points right (+y FRD), all horizontal.
+        assert!((d[18] - Vector3::y()).norm() < 1e-12);
+        assert!(d.iter().all(|v| v.z.abs() < 1e-12 && (v.norm() - 1.0).abs() < 1e-12));
+        let cam = &preset("camera").unwrap()[0];
+        let d = cam.beam_directions();
+        // First row looks down (+z), first column left (−y); the centre forward.
+        assert!(d[0].z > 0.3 && d[0].y < -0.5);
+        let mean: Vector3<f64> = d.iter().sum::<Vector3<f64>>() / d.len() as f64;
+        assert!(mean.y.abs() < 1e-12 && mean.z.abs() < 1e-12 && mean.x > 0.7);
+        let tof = preset("tof").unwrap();
+        assert_eq!(tof.len(), 4);
+        let back: Vector3<f64> = tof[2].beam_directions().iter().sum();
+        assert!(back.normalize().x < -0.99);
+        // Pitch up points up.
+        let up = RangeSensor { pitch: 30.0, ..kind_defaults(RangeKind::Tof) };
+        let m: Vector3<f64> = up.beam_directions().iter().sum();
+        assert!((m.normalize().z + 0.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bad_tables_name_the_field_value_and_range() {
+        let spec = |f: &dyn Fn(&mut RangeSensorSpec)| {
+            let mut s: RangeSensorSpec = toml::from_str("kind = \"lidar\"").unwrap();
+            f(&mut s);
+            s.resolve(0)
+        };
+        assert_eq!(spec(&|_| {}).unwrap().name, "lidar0");
+        let e = spec(&|s| s.rate = Some(0.0)).unwrap_err();
+        assert!(e.contains("`rate`") && e.contains("got 0.0") && e.contains("250"), "{e}");
+        let e = spec(&|s| s.min_range = Some(20.0)).unwrap_err();
+        assert!(e.contains("`min_range`") && e.contains("12"), "{e}");
+        let e = spec(&|s| s.dropout = Some(f64::NAN)).unwrap_err();
+        assert!(e.contains("`dropout`"), "{e}");
+        let e = spec(&|s| s.columns = Some(5000)).unwrap_err();
+        assert!(e.contains("4096"), "{e}");
+        assert!(toml::from_str::<RangeSensorSpec>("kind = \"sonar\"").is_err());
+        assert!(toml::from_str::<RangeSensorSpec>("kind = \"tof\"\nbeams = 3").is_err());
+    }
+
+    #[test]
+    fn measurement_noise_dropout_and_limits() {
+        let s = RangeSensor { noise: 0.05, dropout: 0.1, ..kind_defaults(RangeKind::Lidar) };
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let n = 20_000;
+        let got: Vec<Option<f64>> = (0..n).map(|_| s.measure(Some(5.0), &mut rng, true)).collect();
+        let drops = got.iter().filter(|r| r.is_none()).count() as f64 / n as f64;
+        assert!((drops - 0.1).abs() < 0.01, "dropout rate {drops}");
+        let vals: Vec<f64> = got.iter().flatten().copied().collect();
+        let mean = vals.iter().sum::<f64>() / vals.len() as f64;
+        let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / vals.len() as f64).sqrt();
+        assert!((mean - 5.0).abs() < 0.002 && (sd - 0.05).abs() < 0.002, "{mean} {sd}");
+        // Limits: nothing beyond max or below min; noise off is exact.
+        assert_eq!(s.measure(None, &mut rng, true), None);
+        let exact = RangeSensor { dropout: 0.0, ..s.clone() };
+        assert_eq!(exact.measure(Some(3.0), &mut rng, false), Some(3.0));
+        assert_eq!(exact.measure(Some(0.1), &mut rng, false), None);
+        assert_eq!(exact.measure(Some(12.5), &mut rng, false), None);
+    }
+}
