@@ -3,8 +3,11 @@
 //! * [`control`]: the in-process `parapet-core` `FlightController`.
 //! * [`pil`]: processor-in-the-loop: the QEMU firmware flies the scene over MAVLink
 //!   lockstep, and its pure-host twin.
+//! * [`bridge`]: the SITL side of the PIL: UDP ground-station endpoints, wall-clock pacing,
+//!   `.tlog` (imports none of the others; [`pil`] calls it through `bridge::LinkTap`).
 //!
 //! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
 //! [`crate::report`], [`crate::flight`].
+pub mod bridge;
 pub mod control;
 pub mod pil;
