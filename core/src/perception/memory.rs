@@ -180,6 +180,18 @@ impl<const N: usize> ObstacleMemory<N> {
         }
     }
 
+    /// Empty, with the default parameters (`const`: for statically built owners).
+    pub const fn empty() -> Self {
+        ObstacleMemory {
+            params: MemoryParams::DEFAULT,
+            cells: heapless::Vec::new(),
+            tracker: Tracker::new(),
+            frontier: Frontier::new(),
+            stats: MemoryStats { scans: 0, rejected: 0, dropped_full: 0 },
+            now_us: None,
+        }
+    }
+
     /// The parameters in use.
     pub fn params(&self) -> &MemoryParams {
         &self.params

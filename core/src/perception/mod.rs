@@ -242,21 +242,24 @@ pub struct MemoryParams {
 
 impl Default for MemoryParams {
     fn default() -> Self {
-        MemoryParams {
-            voxel: 0.2,
-            forget_s: 5.0,
-            clear_margin: 0.3,
-            track_size: 0.8,
-            track_alpha: 0.5,
-            track_gate: 0.5,
-            ground_clip: 0.1,
-            ground_height: 0.0,
-            fov_margin: 0.25,
-        }
+        Self::DEFAULT
     }
 }
 
 impl MemoryParams {
+    /// The defaults (as a constant, for `const` constructors).
+    pub const DEFAULT: MemoryParams = MemoryParams {
+        voxel: 0.2,
+        forget_s: 5.0,
+        clear_margin: 0.3,
+        track_size: 0.8,
+        track_alpha: 0.5,
+        track_gate: 0.5,
+        ground_clip: 0.1,
+        ground_height: 0.0,
+        fov_margin: 0.25,
+    };
+
     /// Every field finite and in its range (voxel 0.02–5 m, forget 0.05–600 s, α in (0, 1], …).
     pub fn valid(&self) -> bool {
         (0.02..=5.0).contains(&self.voxel)
