@@ -4,7 +4,9 @@
 //!              arm (checks pass)                   stale position / stale obstacles / NaN-Inf input
 //!  Disarmed ───────────────────────▶ Armed ─────────────────────────────────────────────▶ Brake
 //!     ▲  ▲                             │  land command                                     │
-//!     │  │ landed                      ▼                      brake timeout or land cmd    │
+//!     │  │ landed                      ▼   ▲ data fresh again for resume_after (stale data only) │
+//!     │  │                             │   └───────────────────────────────────────────────────┤
+//!     │  │                             ▼                      brake timeout or land cmd    │
 //!     │  └──────────────────────────  Land ◀───────────────────────────────────────────────┘
 //!     │ disarm command (from any state)
 //!     └─────────────────────────────  MotorsOff ◀── tilt > limit (from Armed, Brake or Land)
@@ -12,9 +14,14 @@
 //!
 //! * **Armed** is nominal operation (on the ground, taking off, holding, flying the mission).
 //! * **Brake**: hold position at the last good position with zero velocity
-//!   (or, without a fresh position fix, level attitude at hover thrust). There is
-//!   **no automatic return** to Armed when the data comes back: a data loss always
-//!   ends in a landing unless the operator lands/disarms first.
+//!   (or, without a fresh position fix, level attitude at hover thrust). A Brake
+//!   entered because the position fix or the obstacle data went **stale** returns to
+//!   Armed (reason `data-recovered`) once every input has been fresh again for
+//!   `resume_after_us` without a bad input, before the brake timeout: a short
+//!   dropout (a position-fix burst just over the position timeout) is bridged by a
+//!   brief hold instead of a landing. A Brake for a NaN/Inf or out-of-range input, a
+//!   loss longer than the brake timeout, or `resume_after_us = 0` ends in a landing
+//!   unless the operator lands/disarms first.
 //! * **Land**: descend at a fixed rate; without a position fix, level attitude and
 //!   thrust slightly below hover. Ends in Disarmed when landing is detected.
 //! * **MotorsOff** (crash): motors stop and stay off until a disarm command.
@@ -78,6 +85,8 @@ pub enum TransitionReason {
     BrakeTimeout,
     /// Landing detected.
     Landed,
+    /// The stale data of a Brake has been fresh again for `resume_after_us`.
+    DataRecovered,
     /// Tilt beyond the crash limit.
     TiltLimit,
 }
@@ -94,6 +103,7 @@ impl TransitionReason {
             TransitionReason::NonFiniteInput => "non-finite-input",
             TransitionReason::BrakeTimeout => "brake-timeout",
             TransitionReason::Landed => "landed",
+            TransitionReason::DataRecovered => "data-recovered",
             TransitionReason::TiltLimit => "tilt-limit",
         }
     }
@@ -123,6 +133,10 @@ pub struct FailsafeParams {
     pub obstacle_timeout_us: u64,
     /// Time in Brake before landing, µs. Default 3 000 000 (3 s).
     pub brake_timeout_us: u64,
+    /// A Brake entered for stale position or obstacle data returns to Armed once all
+    /// data has been fresh (and no bad input seen) for this long, µs; 0 = never (every
+    /// data loss ends in a landing). Default 200 000 (0.2 s).
+    pub resume_after_us: u64,
     /// Tilt (angle between body z and world z) that means a crash, rad. Default 1.05 (60°).
     pub tilt_limit: f32,
     /// `true` (default): obstacle data must be fresh to arm and to stay Armed. `false`
@@ -137,6 +151,7 @@ impl Default for FailsafeParams {
             position_timeout_us: 200_000,
             obstacle_timeout_us: 500_000,
             brake_timeout_us: 3_000_000,
+            resume_after_us: 200_000,
             tilt_limit: 1.05,
             obstacles_required: true,
         }
@@ -178,6 +193,10 @@ pub struct Failsafe {
     since_us: u64,
     last: Option<Transition>,
     count: u32,
+    /// Since when all data has been fresh in a resumable Brake (`None`: not fresh).
+    fresh_since_us: Option<u64>,
+    /// The current Brake was entered for stale data and has seen no bad input.
+    resumable: bool,
 }
 
 /// Why an arm command was refused.
@@ -228,7 +247,15 @@ impl core::fmt::Display for ArmRefusal {
 impl Failsafe {
     /// New machine in Disarmed.
     pub fn new(params: FailsafeParams) -> Self {
-        Failsafe { params, state: FailsafeState::Disarmed, since_us: 0, last: None, count: 0 }
+        Failsafe {
+            params,
+            state: FailsafeState::Disarmed,
+            since_us: 0,
+            last: None,
+            count: 0,
+            fresh_since_us: None,
+            resumable: false,
+        }
     }
 
     /// Parameters in use.
@@ -262,6 +289,9 @@ impl Failsafe {
         self.since_us = t_us;
         self.last = Some(tr);
         self.count = self.count.saturating_add(1);
+        self.fresh_since_us = None;
+        self.resumable = to == FailsafeState::Brake
+            && matches!(reason, TransitionReason::PositionStale | TransitionReason::ObstacleStale);
         tr
     }
 
@@ -334,7 +364,8 @@ impl Failsafe {
     }
 
     /// Data check (call at the outer-loop rate): stale/invalid data in Armed →
-    /// Brake; Brake longer than the timeout → Land; Land with `landed` → Disarmed.
+    /// Brake; a Brake for stale data with the data fresh again for `resume_after_us`
+    /// → Armed; Brake longer than the timeout → Land; Land with `landed` → Disarmed.
     /// At most one transition per call.
     pub fn check_data(&mut self, t_us: u64, health: &DataHealth, landed: bool) -> Option<Transition> {
         match self.state {
@@ -352,7 +383,20 @@ impl Failsafe {
             }
             FailsafeState::Brake => {
                 if t_us.saturating_sub(self.since_us) >= self.params.brake_timeout_us {
-                    Some(self.go(FailsafeState::Land, TransitionReason::BrakeTimeout, t_us))
+                    return Some(self.go(FailsafeState::Land, TransitionReason::BrakeTimeout, t_us));
+                }
+                if health.non_finite {
+                    self.resumable = false;
+                }
+                let fresh = Self::fresh(health.position_age_us, self.params.position_timeout_us)
+                    && self.obstacles_ok(health);
+                if !(self.resumable && self.params.resume_after_us > 0 && fresh) {
+                    self.fresh_since_us = None;
+                    return None;
+                }
+                let since = *self.fresh_since_us.get_or_insert(t_us);
+                if t_us.saturating_sub(since) >= self.params.resume_after_us {
+                    Some(self.go(FailsafeState::Armed, TransitionReason::DataRecovered, t_us))
                 } else {
                     None
                 }
@@ -439,12 +483,64 @@ mod tests {
         let mut f = armed();
         let h = DataHealth { position_age_us: Some(300_000), ..good() };
         check(f.check_data(1_000, &h, false), S::Armed, S::Brake, R::PositionStale);
-        // Still braking before the timeout, even if the data comes back.
-        assert!(f.check_data(1_000 + 2_999_999, &good(), false).is_none());
+        // Still braking before the timeout while the data stays stale.
+        assert!(f.check_data(1_000 + 2_999_999, &h, false).is_none());
         check(f.check_data(1_000 + 3_000_000, &good(), false), S::Brake, S::Land, R::BrakeTimeout);
         assert!(f.check_data(5_000_000, &good(), false).is_none(), "not landed yet");
         check(f.check_data(6_000_000, &good(), true), S::Land, S::Disarmed, R::Landed);
         assert_eq!(f.transition_count(), 4);
+    }
+
+    #[test]
+    fn short_dropout_resumes_after_the_data_is_fresh_again() {
+        let resume = FailsafeParams::default().resume_after_us;
+        for reason in [R::PositionStale, R::ObstacleStale] {
+            let mut f = armed();
+            let stale = match reason {
+                R::PositionStale => DataHealth { position_age_us: Some(250_000), ..good() },
+                _ => DataHealth { obstacle_age_us: None, ..good() },
+            };
+            check(f.check_data(1_000, &stale, false), S::Armed, S::Brake, reason);
+            // Fresh, then stale again: the fresh time restarts.
+            assert!(f.check_data(2_000, &good(), false).is_none());
+            assert!(f.check_data(2_000 + resume - 1, &stale, false).is_none());
+            assert!(f.check_data(3_000, &good(), false).is_none());
+            assert!(f.check_data(3_000 + resume - 1, &good(), false).is_none(), "not yet");
+            check(f.check_data(3_000 + resume, &good(), false), S::Brake, S::Armed, R::DataRecovered);
+            assert_eq!(R::DataRecovered.as_str(), "data-recovered");
+            // A bad input during such a brake: no resume, it lands at the timeout.
+            let t0 = 10_000_000;
+            check(f.check_data(t0, &stale, false), S::Armed, S::Brake, reason);
+            let bad = DataHealth { non_finite: true, ..good() };
+            assert!(f.check_data(t0 + 1_000, &bad, false).is_none());
+            for t in (t0 + 2_000..t0 + 3_000_000).step_by(4_000) {
+                assert!(f.check_data(t, &good(), false).is_none(), "no resume after a bad input");
+            }
+            check(f.check_data(t0 + 3_000_000, &good(), false), S::Brake, S::Land, R::BrakeTimeout);
+        }
+    }
+
+    #[test]
+    fn no_resume_after_a_bad_input_or_when_disabled() {
+        let mut f = armed();
+        check(
+            f.check_data(1, &DataHealth { non_finite: true, ..good() }, false),
+            S::Armed,
+            S::Brake,
+            R::NonFiniteInput,
+        );
+        for t in (2..3_000_000).step_by(4_000) {
+            assert!(f.check_data(t, &good(), false).is_none(), "a bad input never resumes");
+        }
+        check(f.check_data(3_000_001, &good(), false), S::Brake, S::Land, R::BrakeTimeout);
+        let mut f = Failsafe::new(FailsafeParams { resume_after_us: 0, ..FailsafeParams::default() });
+        f.arm(10, &good(), true, 0.0).unwrap();
+        let h = DataHealth { position_age_us: None, ..good() };
+        check(f.check_data(1_000, &h, false), S::Armed, S::Brake, R::PositionStale);
+        for t in (2_000..3_001_000).step_by(4_000) {
+            assert!(f.check_data(t, &good(), false).is_none(), "resume off: brake until the timeout");
+        }
+        check(f.check_data(3_001_000, &good(), false), S::Brake, S::Land, R::BrakeTimeout);
     }
 
     #[test]

@@ -11,6 +11,8 @@
 //! * **Brake**: hold the last good position estimate with zero velocity (the CBF filter stays
 //!   on). Without a fresh fix: stop the last good velocity open-loop (constant deceleration
 //!   `blind_brake_accel` for `|v|/blind_brake_accel` seconds), then level attitude at hover thrust.
+//!   A Brake for stale data returns to Armed (the mission goes on) once the data has been fresh
+//!   again for `resume_after_us` ([`failsafe`]): a short fix dropout is a brief hold, not a landing.
 //! * **Land**: the reference descends at `land_speed` from the position at entry (leading the
 //!   vehicle by at most `land_lead`); landed when the reference is pinned `land_lead` below
 //!   the vehicle and the vehicle is still for `landed_time_us`. Without a fresh fix: the same
