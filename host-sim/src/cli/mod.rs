@@ -19,6 +19,7 @@ pub mod help;
 pub mod output;
 pub mod params;
 pub mod scene;
+pub mod sitl;
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -143,6 +144,8 @@ pub struct PilArgs {
     /// Wall-clock seconds without an answer from the firmware before the run fails.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     timeout: f64,
+    #[command(flatten)]
+    sitl: sitl::SitlArgs,
 }
 
 #[derive(Debug, Args)]
@@ -566,7 +569,7 @@ fn check_report_dir(
 }
 
 pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
-    use crate::fc::pil::{add_figures_to_summary, build_firmware, run_pil, PilOptions};
+    use crate::fc::pil::{add_figures_to_summary, build_firmware, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
     if timeout > limits::MAX_PIL_TIMEOUT_S {
@@ -595,7 +598,10 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     opts.resend_after = opts.resend_after.min(opts.timeout / 2);
     let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
     check_report_dir(&dir, &scene, a.run.path.as_deref(), a.run.disturb.disturbances.as_deref())?;
-    let (result, fig) = with_progress(cfg.duration, |p| run_pil(&scene, &cfg, opts, p))?;
+    let bridge = sitl::bridge(&a.sitl, &dir)?;
+    let (result, fig) =
+        with_progress(cfg.duration, |p| sitl::run_pil_bridged(&scene, &cfg, opts, bridge.clone(), p))?;
+    let sitl_note = sitl::finish(&bridge, &dir)?;
     let rec =
         RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
     let (_, warnings) = write_report(&dir, &rec)?;
@@ -604,6 +610,7 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     for w in warnings {
         eprintln!("warning: {w}");
     }
+    eprintln!("{sitl_note}");
     let ins = &fig.instructions_per_control_step;
     out(&format!(
         "{}  PIL: {} steps, real-time factor {:.3}; frames sent {}, received {}, dropped {}; \

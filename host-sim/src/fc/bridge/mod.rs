@@ -45,10 +45,24 @@ pub trait LinkTap {
     /// Before the step at firmware time `t_us` is written: pace, poll; returns the bytes
     /// to append to the step's stream (frames from the endpoints to the firmware).
     fn before_step(&mut self, t_us: u64) -> Vec<u8>;
-    /// The bytes the host writes to the firmware in the step at `t_us`.
-    fn to_firmware(&mut self, t_us: u64, bytes: &[u8]);
-    /// A frame from the firmware (decoded), received during the step at `t_us`.
-    fn from_firmware(&mut self, t_us: u64, header: &MavHeader, msg: &MavMessage);
+    /// The bytes the host writes to the firmware in the current step (the last
+    /// `before_step`'s; 0 before the first).
+    fn host_bytes(&mut self, bytes: &[u8]);
+    /// A frame from the firmware (decoded), received during the current step.
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage);
+}
+
+/// A tap shared with its owner (who reads its counters and flushes it after the run).
+impl<T: LinkTap> LinkTap for std::rc::Rc<std::cell::RefCell<T>> {
+    fn before_step(&mut self, t_us: u64) -> Vec<u8> {
+        self.borrow_mut().before_step(t_us)
+    }
+    fn host_bytes(&mut self, bytes: &[u8]) {
+        self.borrow_mut().host_bytes(bytes)
+    }
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage) {
+        self.borrow_mut().firmware_frame(header, msg)
+    }
 }
 
 /// `udp:HOST:PORT`, `udp:HOST`, `udp::PORT` or `udp:` (host 127.0.0.1, port `default_port`).
@@ -159,15 +173,17 @@ pub struct Bridge {
     realtime: bool,
     /// First paced step: (firmware time µs, wall instant).
     pace_origin: Option<(u64, Instant)>,
-    tlog: Option<tlog::TlogWriter>,
+    /// The `.tlog` (public for its counters).
+    pub tlog: Option<tlog::TlogWriter>,
     /// Wall time slept for pacing.
     pub slept: Duration,
+    now_us: u64,
 }
 
 impl Bridge {
     /// A bridge to `endpoints`; `realtime` paces firmware time to wall time.
     pub fn new(endpoints: Vec<Endpoint>, realtime: bool, tlog: Option<tlog::TlogWriter>) -> Self {
-        Bridge { endpoints, realtime, pace_origin: None, tlog, slept: Duration::ZERO }
+        Bridge { endpoints, realtime, pace_origin: None, tlog, slept: Duration::ZERO, now_us: 0 }
     }
 
     /// Flush the `.tlog`.
@@ -194,6 +210,7 @@ impl Bridge {
 
 impl LinkTap for Bridge {
     fn before_step(&mut self, t_us: u64) -> Vec<u8> {
+        self.now_us = t_us;
         self.pace(t_us);
         let mut to_fw = Vec::new();
         for i in 0..self.endpoints.len() {
@@ -209,16 +226,16 @@ impl LinkTap for Bridge {
         to_fw
     }
 
-    fn to_firmware(&mut self, t_us: u64, bytes: &[u8]) {
+    fn host_bytes(&mut self, bytes: &[u8]) {
         if let Some(t) = self.tlog.as_mut() {
-            t.record(t_us, bytes);
+            t.record(self.now_us, bytes);
         }
     }
 
-    fn from_firmware(&mut self, t_us: u64, header: &MavHeader, msg: &MavMessage) {
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage) {
         let bytes = frame(*header, msg);
         if let Some(t) = self.tlog.as_mut() {
-            t.record(t_us, &bytes);
+            t.record(self.now_us, &bytes);
         }
         if !is_lockstep(msg) {
             for e in &mut self.endpoints {
@@ -266,8 +283,8 @@ mod tests {
         let e2 = Endpoint::new("api", api.local_addr().expect("addr")).expect("endpoint");
         let mut b = Bridge::new(vec![e1, e2], false, None);
         let h = MavHeader { system_id: 1, component_id: 1, sequence: 7 };
-        b.from_firmware(0, &h, &MavMessage::HIL_ACTUATOR_CONTROLS(HIL_ACTUATOR_CONTROLS_DATA::default()));
-        b.from_firmware(0, &h, &hb());
+        b.firmware_frame(&h, &MavMessage::HIL_ACTUATOR_CONTROLS(HIL_ACTUATOR_CONTROLS_DATA::default()));
+        b.firmware_frame(&h, &hb());
         let mut buf = [0u8; 512];
         for s in [&gcs, &api] {
             let (n, _) = s.recv_from(&mut buf).expect("heartbeat forwarded");
@@ -292,7 +309,7 @@ mod tests {
         let (n, _) = api.recv_from(&mut buf).expect("routed to the other endpoint");
         assert_eq!(&buf[..n], b"\xfd-ping");
         assert_eq!(b.endpoints[0].remote(), client.local_addr().expect("addr"));
-        b.from_firmware(0, &h, &hb());
+        b.firmware_frame(&h, &hb());
         let (n, _) = client.recv_from(&mut buf).expect("answer to the learned peer");
         assert_eq!(n, frame(h, &hb()).len());
     }

@@ -6,7 +6,7 @@
 //!
 //! May import: `parapet-core` (wire contract, schedule, waypoint follower),
 //! mavlink, the other [`super`] modules, [`crate::flight`], [`crate::sim::sensors`],
-//! [`crate::world::scene`].
+//! [`crate::world::scene`], [`crate::fc::bridge`] (the `LinkTap` of a ground-station bridge).
 
 use std::io::Write;
 use std::net::{Shutdown, TcpStream};
@@ -36,6 +36,7 @@ use super::gcs::{
 use super::qemu::{reader_thread, start_qemu, Inbound, QemuGuard};
 use super::telemetry::{figures, observe, FirmwareTelemetry, PilFigures};
 use super::PilOptions;
+use crate::fc::bridge::LinkTap;
 use crate::flight::runner::RunConfig;
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
@@ -78,6 +79,8 @@ pub struct PilLink {
     fault: Option<String>,
     flight_wall: Duration,
     flight_sim_steps: u64,
+    /// Ground-station bridge / `.tlog` (`crate::fc::bridge`), if set.
+    tap: Option<Box<dyn LinkTap>>,
 }
 
 impl PilLink {
@@ -134,11 +137,19 @@ impl PilLink {
             fault: None,
             flight_wall: Duration::ZERO,
             flight_sim_steps: 0,
+            tap: None,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
         link.fig.startup_wall_s = wall.elapsed().as_secs_f64();
         Ok(link)
+    }
+
+    /// Bridge the link to ground stations / record it (`crate::fc::bridge`): the tap sees every
+    /// byte the host writes and every frame the firmware sends, and its frames (from the
+    /// endpoints) go into each step's stream before the HIL_SENSOR.
+    pub fn set_tap(&mut self, tap: Box<dyn LinkTap>) {
+        self.tap = Some(tap);
     }
 
     /// Process id of QEMU (for fault-injection tests: SIGSTOP / kill).
@@ -207,6 +218,9 @@ impl PilLink {
                     self.last_fw_seq = Some(h.sequence);
                 }
                 self.fig.frames_received += 1;
+                if let Some(tap) = self.tap.as_mut() {
+                    tap.firmware_frame(&h, &m);
+                }
                 observe(&m, &mut self.telemetry, &mut self.fig);
                 Ok(Some(*m))
             }
@@ -262,6 +276,12 @@ impl PilLink {
     /// One lockstep step at firmware time `t_us`: queued frames, HIL_SENSOR, wait for the answer.
     fn step(&mut self, t_us: u64, imu: &ImuReading) -> Result<StepAnswer> {
         let inject = self.in_flight;
+        if let Some(tap) = self.tap.as_mut() {
+            let external = tap.before_step(t_us);
+            if !external.is_empty() {
+                self.queue.push(external);
+            }
+        }
         let frames = std::mem::take(&mut self.queue);
         let mut out = self.injector.frames(frames, inject, &mut self.fig);
         let trigger = self.frame(&hil_sensor(t_us, imu));
@@ -270,6 +290,9 @@ impl PilLink {
         } else {
             out.extend_from_slice(&trigger);
             self.fig.frames_sent += 1;
+        }
+        if let Some(tap) = self.tap.as_mut() {
+            tap.host_bytes(&out);
         }
         self.write_all(&out)?;
         let sent = Instant::now();
