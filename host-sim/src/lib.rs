@@ -10,6 +10,8 @@
 //!   wind / mismatch / faults, open-loop replay.
 //! * [`world`]: scene files, obstacle motion, the spatial index and
 //!   nearest-obstacle queries, scene checks, the scene generator.
+//! * [`perception`]: range sensors in the loop (`--perception`): scans by exact
+//!   ray casts, latency, the core's obstacle memory, `ranges.csv`.
 //! * [`plan`]: the offline planner (RRT-Connect + shortcutting) and path files.
 //! * [`report`]: summary.json, trajectory.csv, plots, summary table.
 //! * [`flight`]: the closed loop plant → sensors → flight stack, its settings,
@@ -24,6 +26,7 @@ pub mod cli;
 pub mod fc;
 pub mod flight;
 pub mod input;
+pub mod perception;
 pub mod plan;
 pub mod report;
 pub mod sim;

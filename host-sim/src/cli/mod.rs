@@ -126,6 +126,13 @@ pub struct RunArgs {
     /// Proximity-sensor range, m (default: the scene's, else 3).
     #[arg(long, allow_negative_numbers = true)]
     sensing_range: Option<f64>,
+    /// What the safety filter sees: `truth` (the exact closest points in range, default), or
+    /// range sensors through the obstacle memory: `lidar` (72 beams, 10 Hz), `lidar360`,
+    /// `camera` (forward depth camera 87°×58°, 16×10, 30 Hz), `tof` (four 8×8 ToF, 45°×45°,
+    /// 4 m), `scene` (the scene's [[sensor]] tables), or a comma list (`lidar,camera`).
+    /// See docs/perception.md.
+    #[arg(long, default_value = "truth")]
+    perception: String,
     /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -383,6 +390,53 @@ fn given(a: &RunArgs) -> Result<crate::flight::validate::Given, CliError> {
 }
 
 /// Scene and run configuration from the `run` options (shared by `run` and `pil`).
+/// The range sensors of `--perception` (`None` = `truth`); errors name the option,
+/// the value and what is allowed.
+fn perception_sensors(
+    value: &str,
+    scene: &Scene,
+) -> Result<Option<Vec<crate::sim::range::RangeSensor>>, CliError> {
+    use crate::sim::range::{preset, PRESETS};
+    if value == "truth" {
+        return Ok(None);
+    }
+    let allowed = format!("truth, scene, one of {} or a comma list of them", PRESETS.join(", "));
+    let mut out: Vec<crate::sim::range::RangeSensor> = Vec::new();
+    for name in value.split(',').map(str::trim) {
+        let add = if name == "scene" {
+            if scene.range_sensors.is_empty() {
+                return Err(InputError::option("perception", "the scene has no [[sensor]] table")
+                    .value(value)
+                    .allowed(format!("scene only with [[sensor]] tables in {}", scene.source))
+                    .into());
+            }
+            scene.range_sensors.clone()
+        } else {
+            preset(name).ok_or_else(|| {
+                CliError::from(
+                    InputError::option("perception", "unknown sensor set").value(value).allowed(&allowed),
+                )
+            })?
+        };
+        for s in add {
+            if out.iter().any(|o| o.name == s.name) {
+                return Err(InputError::option("perception", "a sensor is listed twice")
+                    .value(value)
+                    .allowed(format!("each sensor once ({} repeats)", s.name))
+                    .into());
+            }
+            out.push(s);
+        }
+    }
+    if out.len() > crate::sim::range::MAX_SENSORS {
+        return Err(InputError::option("perception", "too many range sensors")
+            .value(out.len())
+            .allowed(format!("at most {}", crate::sim::range::MAX_SENSORS))
+            .into());
+    }
+    Ok(Some(out))
+}
+
 fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     let mut scene = load_scene(&a.scene)?;
     // [preflight] the start is flyable (before planning from it); --foreign-path needs --path.
@@ -446,6 +500,7 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         // [preflight] the default covers the whole flown path, start → first waypoint included.
         cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
     }
+    cfg.perception = perception_sensors(&a.perception, &scene)?;
     if let Some(x) = positive("sensing-range", a.sensing_range)? {
         cfg.sensing_range = x;
     }
@@ -514,8 +569,14 @@ pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
     let result = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
-    let rec =
-        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
+    let rec = RunRecord {
+        scene: &scene,
+        path: &cfg.path,
+        samples: &result.samples,
+        summary: &result.summary,
+        ranges: &result.ranges,
+        range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
+    };
     let (_, warnings) = write_report(&dir, &rec)?;
     write_flight_log(&dir, &scene, &cfg, &result.samples, "run")?;
     for w in warnings {
@@ -602,8 +663,14 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     let (result, fig) =
         with_progress(cfg.duration, |p| sitl::run_pil_bridged(&scene, &cfg, opts, bridge.clone(), p))?;
     let sitl_note = sitl::finish(&bridge, &dir)?;
-    let rec =
-        RunRecord { scene: &scene, path: &cfg.path, samples: &result.samples, summary: &result.summary };
+    let rec = RunRecord {
+        scene: &scene,
+        path: &cfg.path,
+        samples: &result.samples,
+        summary: &result.summary,
+        ranges: &result.ranges,
+        range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
+    };
     let (_, warnings) = write_report(&dir, &rec)?;
     write_flight_log(&dir, &scene, &cfg, &result.samples, "pil")?;
     add_figures_to_summary(&dir, &fig)?;

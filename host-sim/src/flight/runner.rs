@@ -57,9 +57,10 @@ use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::WaypointParams;
 use parapet_core::Vec3;
 
-use crate::flight::stack::FlightStack;
+use crate::flight::stack::{clock_us, FlightStack};
 use crate::input::f32_as_f64;
 use crate::input::limits;
+use crate::perception::Perception;
 use crate::report::{RunParams, SafetySteps, Sample, Summary};
 use crate::sim::plant::Plant;
 use crate::sim::sensors::{SensorParams, Sensors};
@@ -118,6 +119,9 @@ pub struct RunConfig {
     pub dt: f64,
     /// Wind, plant vehicle (mismatch) and faults (the scene's, or overridden).
     pub disturbances: crate::sim::disturbance::Disturbances,
+    /// Range sensors whose scans, through the obstacle memory, replace the
+    /// true closest points (`--perception`, [`crate::perception`]); `None` = ground truth.
+    pub perception: Option<Vec<crate::sim::range::RangeSensor>>,
 }
 
 impl RunConfig {
@@ -156,6 +160,7 @@ impl RunConfig {
             sensing_range: scene.sim.sensing_range.unwrap_or(DEFAULT_SENSING_RANGE),
             dt: scene.sim.dt.unwrap_or(INNER_DT),
             disturbances: scene.disturbances.clone(),
+            perception: None,
         })
     }
 
@@ -279,6 +284,8 @@ pub struct RunOutput {
     pub samples: Vec<Sample>,
     /// Summary.
     pub summary: Summary,
+    /// Every beam of the range sensors (empty without `perception`), for `ranges.csv`.
+    pub ranges: Vec<crate::perception::RangeRecord>,
 }
 
 /// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
@@ -569,7 +576,25 @@ pub fn run_with(
         }
     }
     let fix = fix.ok_or_else(|| anyhow!("no position fix at start-up"))?;
-    let seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range, &mut sensors);
+    let mut seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range, &mut sensors);
+    // Range sensors (`--perception`): their memory's points replace the true ones.
+    let mut perception = cfg.perception.as_ref().map(|list| {
+        let params = controller_params(scene, cfg, cbf, cfg.variant);
+        Perception::new(
+            scene,
+            list,
+            cfg.seed,
+            cfg.sensors.noise,
+            params.memory_params(),
+            cfg.params.mu as f32,
+            true,
+        )
+    });
+    if let Some(p) = perception.as_mut() {
+        let (r, pi, y) = plant.state.euler();
+        let st = &plant.state;
+        p.step(scene, 0.0, clock_us(0.0), &st.pos, &st.vel, &st.att, (r, pi, y), clock_us, &mut seen0);
+    }
     let imu0 = sensors.imu(&plant);
     ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
 
@@ -617,6 +642,20 @@ pub fn run_with(
                 &mut scratch,
             );
             sensors.obstacle_report(t, &mut scratch.seen);
+            if let Some(p) = perception.as_mut() {
+                let st = &plant.state;
+                p.step(
+                    scene,
+                    t,
+                    clock_us(t),
+                    &pos,
+                    &vel,
+                    &st.att,
+                    (roll, pitch, yaw),
+                    clock_us,
+                    &mut scratch.seen,
+                );
+            }
             let out = ctrl.outer(t, &scratch.seen);
             let sd = sd_now;
             let ref_clear =
@@ -750,7 +789,8 @@ pub fn run_with(
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
     };
-    Ok(RunOutput { samples, summary })
+    let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
+    Ok(RunOutput { samples, summary, ranges })
 }
 
 #[cfg(test)]

@@ -23,8 +23,12 @@
 //! `h ≤ δ1`; `parapet_core::obstacle_set`). `summary.json`'s `safety_steps` counts the
 //! outer steps with each flag.
 //!
+//! `ranges.csv` (runs with `--perception`): one row per beam of every scan,
+//! `t,sensor,beam,range,x,y,z` (see `crate::perception::write_ranges_csv`).
+//!
 //! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
-//! May import: `parapet-core`, [`crate::input`], [`crate::world`] (the scene
+//! May import: `parapet-core`, [`crate::input`], [`crate::perception`] and
+//! [`crate::sim::range`] (range records), [`crate::world`] (the scene
 //! drawn in the plots), plotters, serde.
 
 pub mod ulog;
@@ -266,15 +270,28 @@ pub struct RunRecord<'a> {
     pub samples: &'a [Sample],
     /// The summary.
     pub summary: &'a Summary,
+    /// Range-sensor beams (`--perception`; empty for ground truth): written to
+    /// `ranges.csv` and drawn on the top view.
+    pub ranges: &'a [crate::perception::RangeRecord],
+    /// The range sensors (names for `ranges.csv`).
+    pub range_sensors: &'a [crate::sim::range::RangeSensor],
 }
 
 /// Plots of the report: each is written as `<name>.svg` and `<name>.png`.
 pub const PLOTS: [&str; 3] = ["top_view", "clearance", "filter_activity"];
 
+/// The range-sensor beams of a `--perception` run (`crate::perception::write_ranges_csv`).
+pub const RANGES_CSV: &str = "ranges.csv";
+
 /// Every file [`write_report`] may write into its directory (so the CLI can
 /// refuse an output directory where one of them is an input).
 pub fn report_files(dir: &Path) -> Vec<PathBuf> {
-    let mut v = vec![dir.join("summary.json"), dir.join("trajectory.csv"), dir.join(ulog::FLIGHT_LOG)];
+    let mut v = vec![
+        dir.join("summary.json"),
+        dir.join("trajectory.csv"),
+        dir.join(ulog::FLIGHT_LOG),
+        dir.join(RANGES_CSV),
+    ];
     for name in PLOTS {
         v.push(dir.join(format!("{name}.svg")));
         v.push(dir.join(format!("{name}.png")));
@@ -303,6 +320,17 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
         })
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     files.push(csv_path);
+    if !rec.ranges.is_empty() {
+        let path = dir.join(RANGES_CSV);
+        std::fs::File::create(&path)
+            .map(std::io::BufWriter::new)
+            .and_then(|mut w| {
+                crate::perception::write_ranges_csv(&mut w, rec.range_sensors, rec.ranges)?;
+                std::io::Write::flush(&mut w)
+            })
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        files.push(path);
+    }
     let mut warnings = Vec::new();
     for name in PLOTS {
         match plot_both(dir, name, rec) {
@@ -626,9 +654,10 @@ where
     root.fill(&WHITE).map_err(e)?;
     let (mn, mx) = rec.scene.bounds_enu;
     let title = format!(
-        "{} — {} (planned green, flown blue; light grey: below flight level{})",
+        "{} — {} (planned green, flown blue{}; light grey: below flight level{})",
         rec.summary.scene,
         rec.summary.filter,
+        if rec.ranges.is_empty() { "" } else { ", orange: range returns" },
         if rec.summary.collided { ", collision ×" } else { "" }
     );
     let mut chart = ChartBuilder::on(root)
@@ -708,6 +737,17 @@ where
             BLUE.stroke_width(2),
         )))
         .map_err(e)?;
+    // Range returns (`--perception`): at most ~20 000 dots, every k-th return, orange.
+    let hits: Vec<[f32; 3]> = rec.ranges.iter().filter_map(|r| r.point).collect();
+    if !hits.is_empty() {
+        let k = hits.len().div_ceil(20_000);
+        let orange = RGBColor(240, 140, 0).mix(0.5);
+        chart
+            .draw_series(
+                hits.iter().step_by(k).map(|p| Circle::new((p[1] as f64, p[0] as f64), 1, orange.filled())),
+            )
+            .map_err(e)?;
+    }
     if let Some(t) = rec.summary.first_collision_time_s {
         if let Some(s) = rec.samples.iter().find(|s| s.t >= t).or(rec.samples.last()) {
             chart.draw_series(std::iter::once(Cross::new(to2(&s.pos), 8, RED.stroke_width(3)))).map_err(e)?;

@@ -17,11 +17,11 @@
 //!
 //! **Measurement.** Every beam sees the exact first hit of its ray (the
 //! caller's ray cast) up to `max_range`; then, with the seeded generator of
-//! the sensor: with probability `dropout` the beam returns nothing; otherwise
-//! Gaussian noise of σ `noise` m is added, and a value outside
-//! `[min_range, max_range]` is no return (too close for the sensor, or nothing
-//! within range). A return is a range; "no return" carries no information
-//! (it is not "free space up to max").
+//! the sensor: with probability `dropout` the beam returns nothing
+//! ([`Return::Unknown`]); otherwise Gaussian noise of σ `noise` m is added; a
+//! value beyond `max_range` (or no hit) is [`Return::Clear`] (free up to the
+//! maximum range), one below `min_range` [`Return::Unknown`] (too close for
+//! the sensor).
 //!
 //! Presets (`--perception lidar|lidar360|camera|tof`): see [`preset`].
 //!
@@ -348,18 +348,44 @@ impl RangeSensor {
         out
     }
 
-    /// The measured range of a beam whose exact first hit is `hit` (m, `None`
+    /// The measurement of a beam whose exact first hit is `hit` (m, `None`
     /// = nothing within `max_range`): dropout, noise, then the range limits
     /// (see the module doc). Draws from `rng` for every beam (a dropout draw,
     /// and a noise draw when σ > 0), so the stream does not depend on the scene.
-    pub fn measure(&self, hit: Option<f64>, rng: &mut ChaCha8Rng, noise_on: bool) -> Option<f64> {
+    pub fn measure(&self, hit: Option<f64>, rng: &mut ChaCha8Rng, noise_on: bool) -> Return {
         let dropped = self.dropout > 0.0 && rng.random::<f64>() < self.dropout;
         let n = match Normal::new(0.0, self.noise) {
             Ok(n) if noise_on && self.noise > 0.0 => n.sample(rng),
             _ => 0.0,
         };
-        let r = hit? + n;
-        (!dropped && r >= self.min_range && r <= self.max_range).then_some(r)
+        match hit {
+            _ if dropped => Return::Unknown,
+            None => Return::Clear,
+            Some(h) if h + n > self.max_range => Return::Clear,
+            Some(h) if h + n < self.min_range => Return::Unknown,
+            Some(h) => Return::Hit(h + n),
+        }
+    }
+}
+
+/// One beam's measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Return {
+    /// A return at this range, m.
+    Hit(f64),
+    /// Nothing within `max_range`.
+    Clear,
+    /// No information (dropout, closer than `min_range`).
+    Unknown,
+}
+
+impl Return {
+    /// The range of a hit.
+    pub fn range(&self) -> Option<f64> {
+        match self {
+            Return::Hit(r) => Some(*r),
+            _ => None,
+        }
     }
 }
 
@@ -425,7 +451,7 @@ mod tests {
         let s = RangeSensor { noise: 0.05, dropout: 0.1, ..kind_defaults(RangeKind::Lidar) };
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let n = 20_000;
-        let got: Vec<Option<f64>> = (0..n).map(|_| s.measure(Some(5.0), &mut rng, true)).collect();
+        let got: Vec<Option<f64>> = (0..n).map(|_| s.measure(Some(5.0), &mut rng, true).range()).collect();
         let drops = got.iter().filter(|r| r.is_none()).count() as f64 / n as f64;
         assert!((drops - 0.1).abs() < 0.01, "dropout rate {drops}");
         let vals: Vec<f64> = got.iter().flatten().copied().collect();
@@ -433,10 +459,12 @@ mod tests {
         let sd = (vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / vals.len() as f64).sqrt();
         assert!((mean - 5.0).abs() < 0.002 && (sd - 0.05).abs() < 0.002, "{mean} {sd}");
         // Limits: nothing beyond max or below min; noise off is exact.
-        assert_eq!(s.measure(None, &mut rng, true), None);
         let exact = RangeSensor { dropout: 0.0, ..s.clone() };
-        assert_eq!(exact.measure(Some(3.0), &mut rng, false), Some(3.0));
-        assert_eq!(exact.measure(Some(0.1), &mut rng, false), None);
-        assert_eq!(exact.measure(Some(12.5), &mut rng, false), None);
+        assert_eq!(exact.measure(None, &mut rng, true), Return::Clear);
+        assert_eq!(exact.measure(Some(3.0), &mut rng, false), Return::Hit(3.0));
+        assert_eq!(exact.measure(Some(0.1), &mut rng, false), Return::Unknown);
+        assert_eq!(exact.measure(Some(12.5), &mut rng, false), Return::Clear);
+        let always = RangeSensor { dropout: 1.0, ..s.clone() };
+        assert_eq!(always.measure(Some(3.0), &mut rng, false), Return::Unknown);
     }
 }

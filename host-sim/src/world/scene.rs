@@ -87,6 +87,8 @@ pub struct Scene {
     pub disturbances: crate::sim::disturbance::Disturbances,
     /// Obstacles (index = position in the file, 0-based).
     pub obstacles: Vec<SceneObstacle>,
+    /// Range sensors of the `[[sensor]]` tables (`--perception scene`), checked.
+    pub range_sensors: Vec<crate::sim::range::RangeSensor>,
 }
 
 impl From<SceneError> for InputError {
@@ -181,6 +183,7 @@ impl Scene {
             obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
         }
         super::check::obstacles(&obstacles).map_err(err)?;
+        let range_sensors = super::schema::convert_sensors(&raw.sensor).map_err(err)?;
         Ok(Scene {
             name: raw.name,
             description: raw.description,
@@ -195,6 +198,7 @@ impl Scene {
             disturbances,
             sim,
             obstacles,
+            range_sensors,
         })
     }
 

@@ -5,7 +5,7 @@
 //!
 //! Owns the file format (documented in `scenes/README.md`). May import:
 //! `parapet-core` (shapes), [`crate::input`] (limits, number format),
-//! [`crate::sim`] (the `[vehicle]`, `[sensors]`, `[wind]`, `[faults]` tables),
+//! [`crate::sim`] (the `[vehicle]`, `[sensors]`, `[[sensor]]`, `[wind]`, `[faults]` tables),
 //! [`super::obstacle`], [`super::frame`].
 
 use serde::{Deserialize, Serialize};
@@ -80,6 +80,35 @@ pub(crate) struct RawScene {
     pub(crate) faults: Option<crate::sim::disturbance::faults::FaultParams>,
     #[serde(default)]
     pub(crate) obstacles: Vec<RawObstacle>,
+    /// Range sensors (`[[sensor]]`, `crate::sim::range`), for `--perception scene`.
+    #[serde(default)]
+    pub(crate) sensor: Vec<crate::sim::range::RangeSensorSpec>,
+}
+
+/// The `[[sensor]]` tables resolved and checked; errors name the table
+/// (`sensor[i]`), the field, the value and the allowed range.
+pub(crate) fn convert_sensors(
+    raw: &[crate::sim::range::RangeSensorSpec],
+) -> Result<Vec<crate::sim::range::RangeSensor>, String> {
+    use crate::sim::range::MAX_SENSORS;
+    if raw.len() > MAX_SENSORS {
+        return Err(format!(
+            "[[sensor]]: {} tables, at most {MAX_SENSORS} range sensors per vehicle",
+            raw.len()
+        ));
+    }
+    let mut out: Vec<crate::sim::range::RangeSensor> = Vec::with_capacity(raw.len());
+    for (i, r) in raw.iter().enumerate() {
+        let s = r.resolve(i).map_err(|m| format!("sensor[{i}]: {m}"))?;
+        if out.iter().any(|o| o.name == s.name) {
+            return Err(format!(
+                "sensor[{i}]: field `name`: {:?} is used by an earlier sensor (names must differ)",
+                s.name
+            ));
+        }
+        out.push(s);
+    }
+    Ok(out)
 }
 
 #[derive(Deserialize)]
