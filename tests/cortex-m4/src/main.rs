@@ -641,6 +641,64 @@ fn bench_cascade(c: &Counter) {
     );
 }
 
+/// The obstacle memory (issue 19) on the firmware's configuration: `ObstacleMemory<64>`,
+/// a 72-sector planar scan (OBSTACLE_DISTANCE, 5°, 8 m) of a 6 m × 6 m room with a pole,
+/// the vehicle crossing it at 1 m/s, one scan per 0.1 s (40 scans). Per scan: `insert_scan`
+/// (clearing, merge, tracks, frontier) and `select::<32>` (the points for the filter).
+fn bench_memory(c: &Counter) {
+    use parapet_core::obstacle_set::Ranking;
+    use parapet_core::perception::{
+        MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount,
+    };
+    let mut mem = ObstacleMemory::<64>::new(MemoryParams::default());
+    let g = ScanGeometry::planar_360(72, 0.1745, 0.1, 8.0);
+    let (mut ins, mut sel) = (Stats::default(), Stats::default());
+    let mut cells = 0usize;
+    for k in 0..40u32 {
+        let p = Vec3::new(-2.0 + 0.1 * k as f32, 0.2, -1.0);
+        let mut ranges = [Range::Unknown; 72];
+        for (col, r) in ranges.iter_mut().enumerate() {
+            let u = g.direction(0, col as u16);
+            // Walls x = ±3, y = ±3, pole of radius 0.1 at (1.5, 0.5).
+            let mut best = f32::INFINITY;
+            for (a, w) in [(u.x, 3.0 - p.x), (-u.x, 3.0 + p.x), (u.y, 3.0 - p.y), (-u.y, 3.0 + p.y)] {
+                if a > 1e-6 {
+                    best = best.min(w / a);
+                }
+            }
+            let (dx, dy) = (p.x - 1.5, p.y - 0.5);
+            let b = dx * u.x + dy * u.y;
+            let disc = b * b - (dx * dx + dy * dy - 0.01);
+            if disc >= 0.0 {
+                let s = -b - fmath::sqrtf(disc);
+                if s > 0.0 {
+                    best = best.min(s);
+                }
+            }
+            *r = if best < 8.0 { Range::Hit(best) } else { Range::Clear };
+        }
+        let scan = Scan {
+            t_us: 1_000_000 + u64::from(k) * 100_000,
+            pose: Pose::from_rpy(p, 0.0, 0.0, 0.0),
+            mount: SensorMount::centered(),
+            geometry: g,
+            ranges: &ranges,
+        };
+        ins.add(c.measure_once(|| {
+            black_box(mem.insert_scan(black_box(&scan)));
+        }));
+        let v = Vec3::new(1.0, 0.0, 0.0);
+        let ranking = Ranking::Critical { mu: 1.4, relative: true };
+        sel.add(c.measure_once(|| {
+            black_box(mem.select::<32>(scan.t_us, black_box(&p), &v, ranking, 0.1));
+        }));
+        cells = mem.len();
+    }
+    ins.report("ObstacleMemory<64>::insert_scan, 72 sectors");
+    sel.report("ObstacleMemory<64>::select::<32>");
+    let _ = writeln!(Console, "memory cells after 40 scans: {cells}");
+}
+
 #[entry]
 fn main() -> ! {
     let cp = match cortex_m::Peripherals::take() {
@@ -654,6 +712,7 @@ fn main() -> ! {
     bench_cascade_parts(&c);
     bench_filter(&c);
     bench_cascade(&c);
+    bench_memory(&c);
     print("done\n");
     exit(true)
 }
