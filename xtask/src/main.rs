@@ -7,7 +7,8 @@
 //!   firmware's flash/RAM budget, checks `parapet_core::fmath` on the Cortex-M4F in QEMU bit for
 //!   bit against the host (`tests/cortex-m4`, see `m4.rs`), and runs the processor-in-the-loop flight and the
 //!   Slurm job-array campaign test (`host-sim/slurm/ci_test.sh`; installs slurmctld,
-//!   slurmd and munge via apt-get when missing).
+//!   slurmd and munge via apt-get when missing); creates the Python venv of the ground-station
+//!   client tests (`target/venv`, pinned pymavlink/pyulog/MAVProxy/mavsdk, see `venv.rs`).
 //!   After the host tests, a bounded coverage-guided fuzz run of every `tests/fuzz` target
 //!   (see `fuzz.rs`).
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
@@ -29,6 +30,7 @@ mod elf;
 mod fuzz;
 mod m4;
 mod params;
+mod venv;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -258,13 +260,16 @@ fn test() -> Result<(), String> {
     // ELF in qemu-system-arm: both are needed first.
     ensure_qemu()?;
     let qemu_elf = build_qemu_firmware()?;
+    // The ground-station clients (pymavlink, pyulog, MAVProxy, mavsdk) of tests/tests/gcs_clients.rs.
+    let python = venv::ensure()?;
     let cases = std::env::var("PARAPET_PROPTEST_CASES").unwrap_or_else(|_| "10000".into());
     run(
-        "host tests (workspace, processor-in-the-loop included)",
+        "host tests (workspace, processor-in-the-loop and ground-station clients included)",
         cargo()
             .args(["test", "--workspace", "--exclude", "parapet-firmware"])
             .env("PARAPET_PROPTEST_CASES", &cases)
-            .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf),
+            .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf)
+            .env("PARAPET_PYTHON", &python),
     )?;
     slurm_test()?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;

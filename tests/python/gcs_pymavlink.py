@@ -1,0 +1,111 @@
+"""A ground station on `parapet pil --gcs udp:127.0.0.1:PORT` (pymavlink): heartbeat, fetch
+every parameter, set one, download the mission, clear it and check the clear took effect.
+
+usage: gcs_pymavlink.py PORT [basic|full]   (exit 0 = every step passed; the failed step is
+printed). `basic`: heartbeat, telemetry, no lockstep frame leaks to the GCS, a PARAM_REQUEST_READ
+round trip through the bridge. `full` (default): basic, then the parameter and mission services.
+"""
+import sys
+import time
+
+from pymavlink import mavutil
+
+port = int(sys.argv[1])
+mode = sys.argv[2] if len(sys.argv) > 2 else "full"
+m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250, source_component=190)
+
+
+def fail(why):
+    print("FAIL:", why, flush=True)
+    sys.exit(1)
+
+
+def wait(types, timeout, cond=lambda msg: True):
+    end = time.time() + timeout
+    while time.time() < end:
+        msg = m.recv_match(type=types, blocking=True, timeout=0.5)
+        if msg is not None and cond(msg):
+            return msg
+    return None
+
+
+hb = m.wait_heartbeat(timeout=60)
+if hb is None:
+    fail("no HEARTBEAT within 60 s")
+sysid, compid = m.target_system, m.target_component
+print("heartbeat from", sysid, compid, flush=True)
+
+# Telemetry through the bridge; the host's lockstep frames stay inside the host.
+seen = {}
+end = time.time() + 3
+while time.time() < end:
+    msg = m.recv_match(blocking=True, timeout=0.5)
+    if msg is not None:
+        seen[msg.get_type()] = seen.get(msg.get_type(), 0) + 1
+for need in ["ATTITUDE", "LOCAL_POSITION_NED"]:
+    if not seen.get(need):
+        fail(f"no {need} in 3 s: {seen}")
+for leak in ["HIL_ACTUATOR_CONTROLS", "HIL_SENSOR", "ODOMETRY"]:
+    if seen.get(leak):
+        fail(f"lockstep frame {leak} reached the GCS: {seen}")
+m.mav.param_request_read_send(sysid, compid, b"CBF_MU", -1)
+r = wait("PARAM_VALUE", 5, lambda p: p.param_id == "CBF_MU")
+if r is None:
+    fail("PARAM_REQUEST_READ CBF_MU not answered through the bridge")
+print("telemetry", seen, "CBF_MU", r.param_value, flush=True)
+if mode == "basic":
+    print("PASS", flush=True)
+    sys.exit(0)
+
+# Parameters: the whole list, each index once.
+m.mav.param_request_list_send(sysid, compid)
+got, count = {}, None
+end = time.time() + 20
+while time.time() < end and (count is None or len(got) < count):
+    p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
+    if p is not None:
+        count = p.param_count
+        got[p.param_index] = p.param_id
+if count is None:
+    fail("PARAM_REQUEST_LIST not answered")
+if len(got) != count or sorted(got) != list(range(count)):
+    fail(f"param list incomplete: {len(got)} of {count}")
+print(f"params: {count}", flush=True)
+
+# Set one (the velocity margin to its own value + 0: accepted and echoed).
+name = "CBF_MU" if "CBF_MU" in got.values() else next(iter(got.values()))
+m.mav.param_request_read_send(sysid, compid, name.encode(), -1)
+cur = wait("PARAM_VALUE", 5, lambda p: p.param_id == name)
+if cur is None:
+    fail(f"PARAM_REQUEST_READ {name} not answered")
+m.mav.param_set_send(sysid, compid, name.encode(), cur.param_value, mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+echo = wait("PARAM_VALUE", 5, lambda p: p.param_id == name)
+if echo is None or abs(echo.param_value - cur.param_value) > 1e-6:
+    fail(f"PARAM_SET {name} not echoed: {echo}")
+print(f"set {name} = {echo.param_value}", flush=True)
+
+# Mission download.
+m.mav.mission_request_list_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
+c = wait("MISSION_COUNT", 5)
+if c is None:
+    fail("MISSION_REQUEST_LIST not answered")
+if c.count < 2:
+    fail(f"mission count {c.count}, the flown path has at least 2 waypoints")
+for seq in range(c.count):
+    m.mav.mission_request_int_send(sysid, compid, seq, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
+    it = wait("MISSION_ITEM_INT", 5, lambda x, s=seq: x.seq == s)
+    if it is None:
+        fail(f"mission item {seq} not sent")
+m.mav.mission_ack_send(sysid, compid, mavutil.mavlink.MAV_MISSION_ACCEPTED, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
+print(f"mission: {c.count} items", flush=True)
+
+# Clear, then the mission is empty.
+m.mav.mission_clear_all_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
+a = wait("MISSION_ACK", 5)
+if a is None or a.type != mavutil.mavlink.MAV_MISSION_ACCEPTED:
+    fail(f"MISSION_CLEAR_ALL not accepted: {a}")
+m.mav.mission_request_list_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
+c = wait("MISSION_COUNT", 5)
+if c is None or c.count != 0:
+    fail(f"after MISSION_CLEAR_ALL the count is {None if c is None else c.count}, expected 0")
+print("PASS", flush=True)
