@@ -414,32 +414,42 @@ impl SafetyFilter {
 
     /// `true` when the event-rule value ([`trigger_value`](Self::trigger_value)) of an
     /// obstacle is certainly above δ1, decided without building its barrier (no division):
-    /// with `r = |d|`, `ḣ(u) = μ dᵀu + 2dᵀḋ − r(2ε_v + μA) + μ(nᵀḋ)²`, so dropping the last
+    /// with `r = |d|` (given), `ḣ(u) = μ dᵀu + 2dᵀḋ − r(2ε_v + μA) + μ(nᵀḋ)²`, so dropping the last
     /// (non-negative) term gives a lower bound of `h + T·min(0, ḣ(u*))`. The bound must
     /// exceed δ1 by 1e-4 of the magnitudes involved, far above the f32 round-off of either
-    /// side, so the decision is the one the full evaluation would take. `u_norm = |u*|`.
+    /// side, so the decision is the one the full evaluation would take. `k0 = 2ε_v + μA` and
+    /// `w = μ|u*| + 2|ḋ| + k0` come from [`Self::far_weights`]: the same for every obstacle
+    /// without a velocity, so the loop computes them once for those.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn certainly_far(
         &self,
         d: &Vec3,
         dist_sq: f32,
+        r: f32,
         h: f32,
         d_dot: &Vec3,
-        a_bound: f32,
+        k0: f32,
+        w: f32,
         u_nom: &Vec3,
-        u_norm: f32,
     ) -> bool {
         let (t, delta1) = (self.params.sample_time, self.params.delta1);
         if t <= 0.0 {
             return h > delta1; // the trigger value is h itself
         }
         let mu = self.params.mu;
-        let r = sqrtf(dist_sq);
-        let k0 = 2.0 * self.params.velocity_margin + mu * a_bound;
         let bound = h + t * minf(mu * d.dot(u_nom) + 2.0 * d.dot(d_dot) - r * k0, 0.0);
-        let scale = dist_sq + (h - dist_sq).abs() + delta1 + t * r * (mu * u_norm + 2.0 * norm3(d_dot) + k0);
+        let scale = dist_sq + (h - dist_sq).abs() + delta1 + t * r * w;
         bound - delta1 > 1e-4 * scale
+    }
+
+    /// `(k0, w)` of [`Self::certainly_far`] for relative velocity `d_dot` and robust term
+    /// `a_bound`: `k0 = 2ε_v + μA`, `w = μ|u*| + 2|ḋ| + k0` (`u_norm = |u*|`).
+    #[inline(always)]
+    fn far_weights(&self, d_dot: &Vec3, a_bound: f32, u_norm: f32) -> (f32, f32) {
+        let mu = self.params.mu;
+        let k0 = 2.0 * self.params.velocity_margin + mu * a_bound;
+        (k0, mu * u_norm + 2.0 * norm3(d_dot) + k0)
     }
 
     /// Bounded braking command `u = −(2/μ)·ṗ`, saturated to `u_max` (zero if `ṗ` is bad).
@@ -490,6 +500,12 @@ impl SafetyFilter {
         let (mu, delta, delta1) = (self.params.mu, self.params.delta, self.params.delta1);
         let multi = self.variant.is_multi();
         let u_norm = norm3(u_nom);
+        // Index and h of the (first) largest h in `near` once it is full (+∞ before).
+        let (mut worst, mut worst_h) = (0usize, f32::INFINITY);
+        // ḋ = ṗ and the far test's weights for the obstacles without a velocity (the same
+        // values the per-obstacle evaluation gives: ṗ − 0 = ṗ exactly).
+        let (v_fixed, a_fixed) = self.relative_velocity(v, &ObstaclePoint::fixed(Vec3::zeros(), 0));
+        let (k0_fixed, w_fixed) = self.far_weights(&v_fixed, a_fixed, u_norm);
         for (i, o) in obstacles.iter().enumerate() {
             if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
                 return self.fault(v, FilterFault::BadObstacle);
@@ -508,29 +524,49 @@ impl SafetyFilter {
             // h ≤ δ1: near whatever ḣ is (the trigger value h + T·min(0, ḣ) is ≤ h, also
             // in f32, where adding a non-positive number to h cannot round above h).
             let near_for_sure = h <= delta1;
-            if !near_for_sure && self.certainly_far(&d, dist_sq, h, &d_dot, a_bound, u_nom, u_norm) {
-                continue; // only its h (h_bar) and |d|² (closest) were needed
+            // Near for sure, multi, the K kept are full and none has a larger h: it is
+            // counted but cannot replace one of them (the replacement below needs a
+            // strictly smaller h), so its barrier is not needed.
+            if near_for_sure && multi && near.is_full() && h >= worst_h {
+                diag.n_near = diag.n_near.saturating_add(1);
+                continue;
             }
             let dist = sqrtf(dist_sq);
-            let mut b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
+            if !near_for_sure {
+                let (k0, w) = if o.velocity.is_none() {
+                    (k0_fixed, w_fixed)
+                } else {
+                    self.far_weights(&d_dot, a_bound, u_norm)
+                };
+                if self.certainly_far(&d, dist_sq, dist, h, &d_dot, k0, w, u_nom) {
+                    continue; // only its h (h_bar) and |d|² (closest) were needed
+                }
+            }
+            let b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
             if near_for_sure || self.trigger_at(&b, dist, u_nom) <= delta1 {
-                b.constraint = self.enforced(&b, dist);
                 diag.n_near = diag.n_near.saturating_add(1);
-                // Keep the K smallest h: replace the largest when full (multi variants;
-                // the others use only the closest obstacle's barrier, below).
+                // Keep the K smallest h: replace the (first) largest when full (multi
+                // variants; the others use only the closest obstacle's barrier, below).
+                // The class-K relaxation is applied to the K kept, after the loop.
                 if !multi {
                     continue;
                 }
                 if let Err(item) = near.push((b, o.id)) {
-                    let mut worst = 0;
+                    if item.0.h < worst_h {
+                        near[worst] = item;
+                    } else {
+                        continue;
+                    }
+                }
+                // The (first) largest h of the kept ones, once they are K.
+                if near.is_full() {
+                    worst = 0;
                     for (i, (nb, _)) in near.iter().enumerate() {
                         if nb.h > near[worst].0.h {
                             worst = i;
                         }
                     }
-                    if item.0.h < near[worst].0.h {
-                        near[worst] = item;
-                    }
+                    worst_h = near[worst].0.h;
                 }
             }
         }
@@ -565,8 +601,8 @@ impl SafetyFilter {
         let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
         let mut most_critical = (f32::INFINITY, 0u16);
         for (slot, (b, id)) in cons.iter_mut().zip(near.iter()) {
-            *slot = b.constraint;
-            diag.unavoidable |= b.constraint.c > u_max;
+            *slot = self.enforced(b, sqrtf(b.dist_sq));
+            diag.unavoidable |= slot.c > u_max;
             if b.h < most_critical.0 {
                 most_critical = (b.h, *id);
             }
