@@ -97,7 +97,11 @@ pub struct RobustParams {
     /// m/s² (see [`DisturbanceObserver::spread`]). Default 2 (4 blocks the 0.6 m door
     /// at δ1 ≥ 0.2 with sensor noise).
     pub dob_spread_gain: f32,
-    /// Largest `|d̂|`, m/s² (the estimate is clamped). Default 3.
+    /// Largest `|d̂|`, m/s² (the estimate is clamped). Default 6 (= the filter's default
+    /// `u_max`; 3 clamped the weight error of a 30 % heavy vehicle plus turbulence drag, and
+    /// the filter then planned with too little of the disturbance). While `d̂` is at the
+    /// clamp with a barrier enforced, the filter's guarantee does not hold and `unavoidable`
+    /// is raised.
     pub dob_limit: f32,
     /// Subtract `d̂` from the nominal (PD) command as well (integral-like action
     /// against mass, thrust and drag errors). Default true.
@@ -125,7 +129,7 @@ impl Default for RobustParams {
             dob_bandwidth: 20.0,
             dob_margin: 0.05,
             dob_spread_gain: 2.0,
-            dob_limit: 3.0,
+            dob_limit: 6.0,
             dob_feedforward: true,
             ground_height: 0.0,
             ceiling_height: 0.0,
@@ -206,6 +210,7 @@ pub struct DisturbanceObserver {
     d_smooth: Vec3,
     spread: f32,
     primed: bool,
+    saturated: bool,
 }
 
 /// Time constant of the smoothing of `d̂` before its spread is taken, s: removes the
@@ -231,6 +236,7 @@ impl DisturbanceObserver {
             d_smooth: Vec3::new(0.0, 0.0, 0.0),
             spread: 0.0,
             primed: false,
+            saturated: false,
         }
     }
 
@@ -242,6 +248,12 @@ impl DisturbanceObserver {
     /// The estimate `d̂`, m/s² NED.
     pub fn estimate(&self) -> Vec3 {
         self.d_hat
+    }
+
+    /// The last update clamped `|d̂|` to the limit: the disturbance is (likely) larger than
+    /// the estimate, beyond the bound the filter's margin assumes.
+    pub fn saturated(&self) -> bool {
+        self.saturated
     }
 
     /// How much `d̂` varies: the low-pass (τ [`SPREAD_TAU_S`]) of `|d̃ − d̄|`, `d̃` the
@@ -268,6 +280,7 @@ impl DisturbanceObserver {
         if omega <= 0.0 {
             self.d_hat = Vec3::zeros();
             self.v_hat = *v_meas;
+            self.saturated = false;
             return;
         }
         let dt = dt.clamp(0.0, 0.05);
@@ -276,7 +289,8 @@ impl DisturbanceObserver {
         self.v_hat = pred + e * (2.0 * omega * dt).min(1.0);
         self.d_hat += e * (omega * omega * dt);
         let n = norm3(&self.d_hat);
-        if n > limit {
+        self.saturated = n > limit;
+        if self.saturated {
             self.d_hat *= limit / n;
         }
         self.d_smooth += (self.d_hat - self.d_smooth) * (dt / (SPREAD_SMOOTH_S + dt));
@@ -492,6 +506,11 @@ impl PlantAware {
             f.params.accel_bound += minf(extra, rp.dob_limit);
         }
         let (w, mut diag) = f.apply(&xi, &xi_dot, &w_nom, &pts);
+        // A barrier is enforced with d̂ at its clamp: |d − d̂| ≤ ē no longer holds, so the
+        // filter cannot promise the barrier (ISSf bound exceeded): say so before any contact.
+        if self.dob.saturated() && diag.n_constraints > 0 {
+            diag.unavoidable = true;
+        }
         let u = w - d_hat;
         self.lag.update(&u, s.dt, self.tau);
         let h_bar_now = min_h_bar(filter, &s.p, &s.v, s.obstacles, with_bounds.then_some(&bounds));
@@ -602,6 +621,51 @@ mod tests {
             obs.update(&v, &Vec3::zeros(), dt, 2.0, 3.0);
         }
         assert!((obs.estimate().norm() - 3.0).abs() < 1e-4);
+        assert!(obs.saturated(), "at the clamp");
+        // Back within the limit: no longer saturated.
+        for _ in 0..2500 {
+            v += Vec3::new(1.0, 0.0, 0.0) * dt;
+            obs.update(&v, &Vec3::zeros(), dt, 2.0, 3.0);
+        }
+        assert!(!obs.saturated() && (obs.estimate().x - 1.0).abs() < 1e-3, "{}", obs.estimate());
+    }
+
+    #[test]
+    fn a_saturated_observer_with_a_barrier_enforced_raises_unavoidable() {
+        let filter = crate::cbf::SafetyFilter::new(
+            crate::cbf::CbfParams { gamma: 1.0, sample_time: 0.004, ..crate::cbf::CbfParams::default() },
+            crate::cbf::FilterVariant::MultiRelative,
+        )
+        .unwrap();
+        let rp = RobustParams::default();
+        // A wall 0.25 m ahead (+x); the measured velocity grows towards it at twice the
+        // observer's limit (an unmodelled push), the nominal command is zero.
+        let mut pa = PlantAware::new(rp, 0.1);
+        let mut v = Vec3::zeros();
+        let obs = [ObstaclePoint::fixed(Vec3::new(0.25, 0.0, -1.0), 1)];
+        let mut exercised = false;
+        for k in 0..400u64 {
+            v += Vec3::new(2.0 * rp.dob_limit, 0.0, 0.0) * 0.004;
+            let s = StepInput {
+                now_us: k * 4_000,
+                dt: 0.004,
+                p: Vec3::new(0.0, 0.0, -1.0),
+                v,
+                u_pd: Vec3::zeros(),
+                obstacles: &obs,
+                boundaries: false,
+                mission_running: false,
+            };
+            let (_, _, diag, _) = pa.apply(&filter, &s);
+            if pa.dob.saturated() {
+                assert!(
+                    diag.n_constraints == 0 || diag.unavoidable,
+                    "step {k}: saturated, enforced, not flagged"
+                );
+                exercised |= diag.n_constraints > 0;
+            }
+        }
+        assert!(exercised, "the observer saturates with the wall's barrier enforced");
     }
 
     #[test]
