@@ -161,17 +161,23 @@ pub(crate) fn target_dir() -> PathBuf {
     std::env::var("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|_| root().join("target"))
 }
 
+/// The QEMU build is `--release`; the STM32F405 image is the `firmware` profile (release with the
+/// core size-optimised, see the workspace Cargo.toml).
 fn firmware_elf(features: Option<&str>) -> PathBuf {
-    let name = if features == Some("board-qemu") { "parapet-firmware-qemu" } else { "parapet-firmware" };
-    target_dir().join(TARGET).join("release").join(name)
+    if features == Some("board-qemu") {
+        target_dir().join(TARGET).join("release").join("parapet-firmware-qemu")
+    } else {
+        target_dir().join(TARGET).join("firmware").join("parapet-firmware")
+    }
 }
 
 fn build_firmware() -> Result<PathBuf, String> {
     run(
-        "build the firmware (release, STM32F405)",
+        "build the firmware (profile firmware, STM32F405)",
         cargo().args([
             "build",
-            "--release",
+            "--profile",
+            "firmware",
             "-p",
             "parapet-firmware",
             "--target",
