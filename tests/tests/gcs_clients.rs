@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use parapet_sim::cli::sitl::{bridge, run_pil_bridged, SitlArgs};
+use parapet_sim::cli::sitl::{bridge, run_inprocess_bridged, run_pil_bridged, SitlArgs};
 use parapet_sim::fc::control::run;
 use parapet_sim::fc::pil::PilOptions;
 use parapet_sim::flight::runner::controller_params;
@@ -110,7 +110,7 @@ fn pil_with_client(py: &Path, client: &[&str], duration: f64, name: &str) -> Opt
     let s = scene();
     let cfg = config(&s, duration);
     let sitl = SitlArgs { gcs: Some(format!("udp:127.0.0.1:{port}")), api: None, realtime: true };
-    let b = bridge(&sitl, &dir).expect("bridge");
+    let b = bridge(&sitl, &dir, true).expect("bridge");
     let r = run_pil_bridged(&s, &cfg, PilOptions::new(elf), b.clone(), &mut |_| {});
     b.borrow_mut().finish().expect("tlog");
     r.expect("PIL flight with a GCS attached");
@@ -150,4 +150,70 @@ fn pymavlink_parameter_and_mission_services() {
         return;
     };
     assert!(ok && text.contains("PASS"), "pymavlink parameter/mission services:\n{text}");
+}
+
+/// MAVProxy (`mavproxy.py --master udpin:… --cmd "param fetch; wp list"`) completes both
+/// without timeouts (`Received N parameters`, the waypoint list).
+#[test]
+#[ignore = "needs FWGCS: PARAM_REQUEST_LIST and MISSION_REQUEST_LIST in the firmware (issue 20)"]
+fn mavproxy_param_fetch_and_wp_list() {
+    let Some(py) = python() else { return };
+    let bin = py.parent().expect("venv bin").to_path_buf();
+    let logdir = out_dir("mavproxy-state");
+    let sh = script("gcs_mavproxy.sh");
+    let Some(elf) = firmware() else { return };
+    let port = free_port();
+    let child = Command::new("sh")
+        .arg(&sh)
+        .arg(&bin)
+        .arg(port.to_string())
+        .arg(&logdir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("mavproxy");
+    std::thread::sleep(Duration::from_millis(1500));
+    let dir = out_dir("mavproxy");
+    let s = scene();
+    let cfg = config(&s, 25.0);
+    let sitl = SitlArgs { gcs: Some(format!("udp:127.0.0.1:{port}")), api: None, realtime: true };
+    let b = bridge(&sitl, &dir, true).expect("bridge");
+    run_pil_bridged(&s, &cfg, PilOptions::new(elf), b, &mut |_| {})
+        .expect("PIL flight with MAVProxy attached");
+    let o = child.wait_with_output().expect("mavproxy ends");
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    println!("{text}");
+    assert!(o.status.success() && text.contains("PASS"), "MAVProxy:\n{text}");
+}
+
+/// `parapet run --gcs`: pymavlink gets heartbeat and LOCAL_POSITION_NED from the in-process
+/// controller, the whole parameter list (each index once), a PARAM_SET echo and the flown
+/// path as a mission download.
+#[test]
+fn pymavlink_on_the_in_process_run() {
+    let Some(py) = python() else { return };
+    let port = free_port();
+    let child = Command::new(&py)
+        .arg(script("gcs_pymavlink.py"))
+        .arg(port.to_string())
+        .arg("readonly")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("client");
+    std::thread::sleep(Duration::from_millis(500));
+    let s = scene();
+    let cfg = config(&s, 12.0);
+    let sitl = SitlArgs { gcs: Some(format!("udp:127.0.0.1:{port}")), api: None, realtime: true };
+    let b = bridge(&sitl, &out_dir("run-gcs"), false).expect("bridge");
+    let (out, note) = run_inprocess_bridged(&s, &cfg, b, &mut |_| {}).expect("run with a GCS");
+    println!("{note}");
+    // The bridge does not change the flight: the same samples as without it.
+    let plain = run(&s, &cfg, &mut |_| {}).expect("flight");
+    assert_eq!(parapet_sim::fc::pil::max_deviation(&out, &plain), (0.0, plain.samples.len()));
+    assert_eq!(out.samples.len(), plain.samples.len());
+    let o = child.wait_with_output().expect("client ends");
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    println!("{text}");
+    assert!(o.status.success() && text.contains("PASS"), "pymavlink on parapet run --gcs:\n{text}");
 }

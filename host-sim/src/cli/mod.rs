@@ -73,6 +73,9 @@ pub const DEFAULT_SCENE: &str = "scenes/office.toml";
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
+    /// `--gcs`, `--api`, `--realtime` (ground stations; `parapet pil` and `parapet run`).
+    #[command(flatten)]
+    sitl: sitl::SitlArgs,
     /// Scene file (TOML, ENU z-up; see scenes/README.md).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: PathBuf,
@@ -151,8 +154,6 @@ pub struct PilArgs {
     /// Wall-clock seconds without an answer from the firmware before the run fails.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     timeout: f64,
-    #[command(flatten)]
-    sitl: sitl::SitlArgs,
 }
 
 #[derive(Debug, Args)]
@@ -568,7 +569,15 @@ pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     let (scene, cfg) = run_setup(&a)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
-    let result = with_progress(cfg.duration, |p| run(&scene, &cfg, p))?;
+    let result = if a.sitl.is_set() {
+        let bridge = sitl::bridge(&a.sitl, &dir, false)?;
+        let (r, note) =
+            with_progress(cfg.duration, |p| sitl::run_inprocess_bridged(&scene, &cfg, bridge, p))?;
+        eprintln!("{note}");
+        r
+    } else {
+        with_progress(cfg.duration, |p| run(&scene, &cfg, p))?
+    };
     let rec = RunRecord {
         scene: &scene,
         path: &cfg.path,
@@ -659,7 +668,7 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     opts.resend_after = opts.resend_after.min(opts.timeout / 2);
     let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
     check_report_dir(&dir, &scene, a.run.path.as_deref(), a.run.disturb.disturbances.as_deref())?;
-    let bridge = sitl::bridge(&a.sitl, &dir)?;
+    let bridge = sitl::bridge(&a.run.sitl, &dir, true)?;
     let (result, fig) =
         with_progress(cfg.duration, |p| sitl::run_pil_bridged(&scene, &cfg, opts, bridge.clone(), p))?;
     let sitl_note = sitl::finish(&bridge, &dir)?;

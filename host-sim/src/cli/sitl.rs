@@ -1,6 +1,7 @@
-//! `parapet pil --gcs/--api/--realtime`: the command-line side of the SITL bridge
+//! `parapet pil|run --gcs/--api/--realtime`: the command-line side of the SITL bridge
 //! ([`crate::fc::bridge`]): the options, the bridge and `.tlog` of a PIL run, the run with the
-//! bridge tapped into the link. See docs/ground-station.md.
+//! bridge tapped into the link, and `parapet run`'s in-process controller behind the same
+//! bridge ([`crate::fc::bridge::inprocess`]). See docs/ground-station.md.
 //!
 //! May import: [`crate::fc`] (bridge, PIL link), [`crate::flight::runner`],
 //! [`crate::world::scene`], [`super`] (errors), `crate::input`.
@@ -12,6 +13,7 @@ use std::rc::Rc;
 use anyhow::anyhow;
 
 use super::CliError;
+use crate::fc::bridge::inprocess::GcsStack;
 use crate::fc::bridge::{parse_endpoint, tlog::TlogWriter, Bridge, Endpoint, API_PORT, GCS_PORT};
 use crate::fc::pil::{PilFigures, PilLink, PilOptions};
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
@@ -39,8 +41,15 @@ pub struct SitlArgs {
     pub realtime: bool,
 }
 
-/// The bridge of a PIL run (endpoints of `a`, pacing, `.tlog` in `dir`).
-pub fn bridge(a: &SitlArgs, dir: &Path) -> Result<Rc<RefCell<Bridge>>, CliError> {
+impl SitlArgs {
+    /// Any ground-station option given.
+    pub fn is_set(&self) -> bool {
+        self.gcs.is_some() || self.api.is_some() || self.realtime
+    }
+}
+
+/// The bridge of a run (endpoints of `a`, pacing, with `tlog` the `.tlog` in `dir`).
+pub fn bridge(a: &SitlArgs, dir: &Path, tlog: bool) -> Result<Rc<RefCell<Bridge>>, CliError> {
     let mut endpoints = Vec::new();
     for (name, spec, port) in [("gcs", &a.gcs, GCS_PORT), ("api", &a.api, API_PORT)] {
         if let Some(spec) = spec {
@@ -54,10 +63,14 @@ pub fn bridge(a: &SitlArgs, dir: &Path) -> Result<Rc<RefCell<Bridge>>, CliError>
             endpoints.push(ep);
         }
     }
-    std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
-    let path = dir.join(TLOG);
-    let tlog = TlogWriter::create(&path).map_err(|e| anyhow!("cannot create {}: {e}", path.display()))?;
-    Ok(Rc::new(RefCell::new(Bridge::new(endpoints, a.realtime, Some(tlog)))))
+    let tlog = if tlog {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow!("cannot create {}: {e}", dir.display()))?;
+        let path = dir.join(TLOG);
+        Some(TlogWriter::create(&path).map_err(|e| anyhow!("cannot create {}: {e}", path.display()))?)
+    } else {
+        None
+    };
+    Ok(Rc::new(RefCell::new(Bridge::new(endpoints, a.realtime, tlog))))
 }
 
 /// `crate::fc::pil::run_pil` with `bridge` tapped into the link.
@@ -76,6 +89,35 @@ pub fn run_pil_bridged(
     }
     let out = out?;
     Ok((out, link.figures()))
+}
+
+/// `parapet run --gcs …`: the in-process controller behind `bridge`
+/// ([`crate::fc::bridge::inprocess::GcsStack`]); the run and the line for stderr.
+pub fn run_inprocess_bridged(
+    scene: &Scene,
+    cfg: &RunConfig,
+    bridge: Rc<RefCell<Bridge>>,
+    progress: &mut dyn FnMut(f64),
+) -> anyhow::Result<(RunOutput, String)> {
+    let cbf = cfg.cbf_params()?;
+    let ctrl = crate::fc::control::Controller::new(scene, cfg, cbf)?;
+    let params = crate::flight::runner::controller_params(scene, cfg, cbf, cfg.variant);
+    let b = Rc::try_unwrap(bridge).map_err(|_| anyhow!("internal: the bridge is shared"))?.into_inner();
+    let mut stack = GcsStack::new(ctrl, b, params, cfg.path.clone());
+    let out = run_with(scene, cfg, &mut stack, progress)?;
+    let b = stack.bridge();
+    let mut s = String::from("ground stations:");
+    for e in &b.endpoints {
+        s.push_str(&format!(
+            " --{} sending to {} (datagrams sent {}, received {}, dropped {});",
+            e.name,
+            e.remote(),
+            e.sent,
+            e.received,
+            e.dropped
+        ));
+    }
+    Ok((out, s))
 }
 
 /// Flush the `.tlog`; the line for stderr (endpoints and their counters, tlog frames).

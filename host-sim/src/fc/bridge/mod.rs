@@ -19,8 +19,10 @@
 //! step (the rest wait in the socket buffer); datagrams longer than [`MAX_DATAGRAM`] bytes
 //! are dropped and counted.
 //!
-//! May import: std, mavlink, `parapet-core` (wire names).
+//! May import: std, mavlink, `parapet-core` (wire names, parameters); [`inprocess`] (the
+//! `parapet run --gcs` stack) also [`crate::flight::stack`] and [`crate::sim::sensors`].
 
+pub mod inprocess;
 pub mod tlog;
 
 use std::io;

@@ -1,0 +1,395 @@
+//! `parapet run --gcs`: the in-process controller behind the same UDP bridge as the PIL
+//! ([`super::Bridge`]), so a ground station watches a `parapet run` flight as a PIL one.
+//!
+//! [`GcsStack`] wraps any [`FlightStack`] and speaks MAVLink v2 as system 1, component 1
+//! (the firmware's ids) with what the runner gives a stack:
+//!
+//! * sent: HEARTBEAT (1 Hz; quadrotor, `custom_mode` = guidance-mode index of
+//!   `crate::report::ulog::MODES`, `MAV_MODE_FLAG_CUSTOM_MODE_ENABLED`, `SAFETY_ARMED` +
+//!   `AUTO_ENABLED` while armed), LOCAL_POSITION_NED (25 Hz, the latest position fix) and
+//!   POSITION_TARGET_LOCAL_NED (25 Hz: the reference position, the filtered acceleration `u`
+//!   in `afx..afz`), STATUSTEXT on each failsafe-state change;
+//! * served: PARAM_REQUEST_LIST / PARAM_REQUEST_READ (the run's parameters, table order, all
+//!   REAL32); PARAM_SET is refused the protocol's way (the PARAM_VALUE in effect is echoed:
+//!   the run's parameters are fixed); MISSION_REQUEST_LIST / MISSION_REQUEST_INT (the flown
+//!   path as MISSION_ITEM_INT, x/y in the wire's 10⁻⁴ m, LOCAL_NED; the host's `mavlink` build
+//!   has no MAVLink 2 extension fields, so `mission_type` is not seen: every type gets the
+//!   mission); COMMAND_LONG / COMMAND_INT → COMMAND_ACK `MAV_RESULT_UNSUPPORTED` (the host
+//!   flies the mission, as in `parapet pil`; without extensions the ACK has no target).
+//!
+//! Not sent: ATTITUDE (the stack interface carries no attitude estimate), the firmware's
+//! DEBUG_VECT diagnostics. The flight is the wrapped stack's, unchanged.
+//!
+//! May import: mavlink, `parapet-core` (params, wire ids), [`crate::flight::stack`],
+//! [`crate::sim::sensors`], [`super`].
+
+use mavlink::dialects::ardupilotmega::{
+    MavAutopilot, MavCmd, MavFrame, MavMessage, MavMissionResult, MavModeFlag, MavParamType, MavResult,
+    MavSeverity, MavState, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, HEARTBEAT_DATA,
+    LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA,
+    POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+};
+use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+use nalgebra::Vector3;
+use parapet_core::controller::ControllerParams;
+use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::params::TABLE;
+use parapet_core::wire::ids::{local_xy_to_wire, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+
+use super::{Bridge, LinkTap};
+use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::sensors::{ImuReading, PositionReading};
+
+/// Telemetry period of LOCAL_POSITION_NED / POSITION_TARGET_LOCAL_NED, µs (25 Hz).
+pub const TELEMETRY_PERIOD_US: u64 = 40_000;
+/// HEARTBEAT period, µs.
+pub const HEARTBEAT_PERIOD_US: u64 = 1_000_000;
+
+/// Guidance modes in `custom_mode` order (the ULog's `parapet_mode`).
+const MODES: [&str; 8] = ["Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix"];
+
+/// A flight stack with a ground-station link (see the module docs).
+pub struct GcsStack<S: FlightStack> {
+    inner: S,
+    bridge: Bridge,
+    params: ControllerParams,
+    path: Vec<Vector3<f64>>,
+    seq: u8,
+    next_telemetry_us: u64,
+    next_heartbeat_us: u64,
+    fix: Option<PositionReading>,
+    out: Option<OuterOut>,
+    state: String,
+}
+
+impl<S: FlightStack> GcsStack<S> {
+    /// `inner` behind `bridge`; `params` and `path` (NED) are what it flies.
+    pub fn new(inner: S, bridge: Bridge, params: ControllerParams, path: Vec<Vector3<f64>>) -> Self {
+        GcsStack {
+            inner,
+            bridge,
+            params,
+            path,
+            seq: 0,
+            next_telemetry_us: 0,
+            next_heartbeat_us: 0,
+            fix: None,
+            out: None,
+            state: String::new(),
+        }
+    }
+
+    /// The bridge (counters).
+    pub fn bridge(&self) -> &Bridge {
+        &self.bridge
+    }
+
+    fn send(&mut self, m: &MavMessage) {
+        let h = MavHeader {
+            system_id: VEHICLE_SYSTEM_ID.into(),
+            component_id: AUTOPILOT_COMPONENT_ID,
+            sequence: self.seq,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        self.bridge.firmware_frame(&h, m);
+    }
+
+    fn param_value(&mut self, index: usize) {
+        let Some(d) = TABLE.get(index) else { return };
+        let mut id = [0u8; 16];
+        id.iter_mut().zip(d.name.bytes()).for_each(|(b, c)| *b = c);
+        self.send(&MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
+            param_value: (d.get)(&self.params),
+            param_count: TABLE.len() as u16,
+            param_index: index as u16,
+            param_id: id.into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        }));
+    }
+
+    fn for_us(&self, target_system: u8, target_component: u8) -> bool {
+        (target_system == 0 || target_system == VEHICLE_SYSTEM_ID)
+            && (target_component == 0 || target_component == AUTOPILOT_COMPONENT_ID)
+    }
+
+    fn handle(&mut self, h: &MavHeader, m: &MavMessage) {
+        let index_of = |id: &[u8]| {
+            let name = std::str::from_utf8(id).unwrap_or("").trim_end_matches('\0');
+            TABLE.iter().position(|d| d.name == name)
+        };
+        match m {
+            MavMessage::PARAM_REQUEST_LIST(r) if self.for_us(r.target_system, r.target_component) => {
+                (0..TABLE.len()).for_each(|i| self.param_value(i));
+            }
+            MavMessage::PARAM_REQUEST_READ(r) if self.for_us(r.target_system, r.target_component) => {
+                let i =
+                    if r.param_index >= 0 { Some(r.param_index as usize) } else { index_of(&r.param_id[..]) };
+                if let Some(i) = i {
+                    self.param_value(i);
+                }
+            }
+            MavMessage::PARAM_SET(r) if self.for_us(r.target_system, r.target_component) => {
+                if let Some(i) = index_of(&r.param_id[..]) {
+                    self.param_value(i); // fixed for the run: the value in effect
+                }
+            }
+            MavMessage::MISSION_REQUEST_LIST(r) if self.for_us(r.target_system, r.target_component) => {
+                self.send(&MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+                    count: self.path.len() as u16,
+                    target_system: h.system_id as u8,
+                    target_component: h.component_id,
+                }));
+            }
+            MavMessage::MISSION_REQUEST_INT(r) if self.for_us(r.target_system, r.target_component) => {
+                match self.path.get(usize::from(r.seq)).copied() {
+                    Some(w) => self.send(&MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+                        x: local_xy_to_wire(w.x),
+                        y: local_xy_to_wire(w.y),
+                        z: w.z as f32,
+                        seq: r.seq,
+                        command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                        frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                        target_system: h.system_id as u8,
+                        target_component: h.component_id,
+                        autocontinue: 1,
+                        ..Default::default()
+                    })),
+                    None => self.mission_ack(h, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE),
+                }
+            }
+            MavMessage::COMMAND_LONG(c) if self.for_us(c.target_system, c.target_component) => {
+                self.command_ack(h, c.command)
+            }
+            MavMessage::COMMAND_INT(c) if self.for_us(c.target_system, c.target_component) => {
+                self.command_ack(h, c.command)
+            }
+            _ => {}
+        }
+    }
+
+    fn mission_ack(&mut self, h: &MavHeader, result: MavMissionResult) {
+        self.send(&MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            target_system: h.system_id as u8,
+            target_component: h.component_id,
+            mavtype: result,
+        }));
+    }
+
+    fn command_ack(&mut self, _h: &MavHeader, command: MavCmd) {
+        // The host's `mavlink` build has no MAVLink 2 extension fields (target_system /
+        // target_component of COMMAND_ACK): the ACK is broadcast to every endpoint.
+        self.send(&MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command,
+            result: MavResult::MAV_RESULT_UNSUPPORTED,
+        }));
+    }
+
+    fn telemetry(&mut self, t_us: u64) {
+        let state = self.inner.state_name();
+        if state != self.state {
+            let mut text = [0u8; 50];
+            text.iter_mut().zip(format!("state {state}").bytes()).for_each(|(b, c)| *b = c);
+            self.send(&MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity: MavSeverity::MAV_SEVERITY_INFO,
+                text: text.into(),
+            }));
+            self.state = state;
+        }
+        let time_boot_ms = (t_us / 1000) as u32;
+        if t_us >= self.next_heartbeat_us {
+            self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
+            let armed = !self.state.eq_ignore_ascii_case("disarmed") && !self.state.is_empty();
+            let mode = self.out.as_ref().map_or("Off", |o| o.mode);
+            let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+            if armed {
+                base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+            }
+            self.send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                custom_mode: MODES.iter().position(|m| *m == mode).unwrap_or(MODES.len()) as u32,
+                mavtype: MavType::MAV_TYPE_QUADROTOR,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+                base_mode: base,
+                system_status: if armed { MavState::MAV_STATE_ACTIVE } else { MavState::MAV_STATE_STANDBY },
+                mavlink_version: 3,
+            }));
+        }
+        if t_us >= self.next_telemetry_us {
+            self.next_telemetry_us = t_us + TELEMETRY_PERIOD_US;
+            if let Some(f) = self.fix {
+                self.send(&MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+                    time_boot_ms,
+                    x: f.position.x as f32,
+                    y: f.position.y as f32,
+                    z: f.position.z as f32,
+                    vx: f.velocity.x as f32,
+                    vy: f.velocity.y as f32,
+                    vz: f.velocity.z as f32,
+                }));
+            }
+            if let Some(o) = self.out.clone() {
+                self.send(&MavMessage::POSITION_TARGET_LOCAL_NED(POSITION_TARGET_LOCAL_NED_DATA {
+                    time_boot_ms,
+                    x: o.reference.x as f32,
+                    y: o.reference.y as f32,
+                    z: o.reference.z as f32,
+                    afx: o.u_filtered.x as f32,
+                    afy: o.u_filtered.y as f32,
+                    afz: o.u_filtered.z as f32,
+                    coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    type_mask: PositionTargetTypemask::POSITION_TARGET_TYPEMASK_VX_IGNORE
+                        | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_VY_IGNORE
+                        | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_VZ_IGNORE
+                        | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
+                        | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+                    ..Default::default()
+                }));
+            }
+        }
+    }
+}
+
+/// The MAVLink v2 messages in `bytes` (datagrams from the endpoints); bytes that are no
+/// valid frame are skipped by the reader.
+pub fn decode_all(bytes: &[u8]) -> Vec<(MavHeader, MavMessage)> {
+    let mut r = MavlinkReader::new(bytes);
+    let mut out = Vec::new();
+    loop {
+        match r.read_message::<MavMessage>(MavlinkVersion::V2) {
+            Ok(m) => out.push(m),
+            Err(mavlink::error::MessageReadError::Io(_)) => break,
+            Err(_) => {}
+        }
+    }
+    out
+}
+
+impl<S: FlightStack> FlightStack for GcsStack<S> {
+    fn start(
+        &mut self,
+        t: f64,
+        start: Vector3<f64>,
+        fix: PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+    ) -> anyhow::Result<()> {
+        self.fix = Some(fix);
+        self.inner.start(t, start, fix, obstacles, imu)
+    }
+
+    fn position_fix(&mut self, fix: PositionReading) {
+        self.fix = Some(fix);
+        self.inner.position_fix(fix);
+    }
+
+    fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
+        let out = self.inner.outer(t, obstacles);
+        self.out = Some(out.clone());
+        out
+    }
+
+    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
+        let t_us = clock_us(t);
+        let incoming = self.bridge.before_step(t_us);
+        for (h, m) in decode_all(&incoming) {
+            self.handle(&h, &m);
+        }
+        self.telemetry(t_us);
+        self.inner.inner(t, imu)
+    }
+
+    fn state_name(&self) -> String {
+        self.inner.state_name()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fc::bridge::{frame, Endpoint};
+    use mavlink::dialects::ardupilotmega::{COMMAND_LONG_DATA, PARAM_REQUEST_LIST_DATA};
+    use std::net::UdpSocket;
+    use std::time::Duration;
+
+    struct Hover;
+    impl FlightStack for Hover {
+        fn start(
+            &mut self,
+            _: f64,
+            _: Vector3<f64>,
+            _: PositionReading,
+            _: &[ObstaclePoint],
+            _: &ImuReading,
+        ) -> anyhow::Result<()> {
+            Ok(())
+        }
+        fn position_fix(&mut self, _: PositionReading) {}
+        fn outer(&mut self, _: f64, _: &[ObstaclePoint]) -> OuterOut {
+            unreachable!("not called in this test")
+        }
+        fn inner(&mut self, _: f64, _: &ImuReading) -> [f32; 4] {
+            [0.5; 4]
+        }
+        fn state_name(&self) -> String {
+            "Armed".into()
+        }
+    }
+
+    /// A GCS gets HEARTBEAT and LOCAL_POSITION_NED, the whole parameter list and a
+    /// COMMAND_ACK UNSUPPORTED addressed to it; the wrapped stack's throttles pass unchanged.
+    #[test]
+    fn serves_heartbeat_params_and_acks() {
+        let gcs = UdpSocket::bind("127.0.0.1:0").expect("gcs");
+        gcs.set_read_timeout(Some(Duration::from_millis(200))).expect("timeout");
+        let ep = Endpoint::new("gcs", gcs.local_addr().expect("addr")).expect("endpoint");
+        let port = ep.local().expect("local").port();
+        let mut s = GcsStack::new(
+            Hover,
+            Bridge::new(vec![ep], false, None),
+            ControllerParams::default(),
+            vec![Vector3::zeros(); 3],
+        );
+        let fix = PositionReading {
+            t_measured: 0.0,
+            position: Vector3::new(1.0, 2.0, -3.0),
+            velocity: Vector3::zeros(),
+            yaw: 0.0,
+        };
+        s.position_fix(fix);
+        let h = MavHeader { system_id: 250, component_id: 190, sequence: 0 };
+        let req = [
+            frame(
+                h,
+                &MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
+                    target_system: 1,
+                    target_component: 1,
+                }),
+            ),
+            frame(
+                h,
+                &MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                    target_system: 1,
+                    target_component: 1,
+                    command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                    ..Default::default()
+                }),
+            ),
+        ]
+        .concat();
+        gcs.send_to(&req, ("127.0.0.1", port)).expect("send");
+        std::thread::sleep(Duration::from_millis(50));
+        let imu = ImuReading { gyro: Vector3::zeros(), accel: Vector3::zeros() };
+        assert_eq!(s.inner(0.0, &imu), [0.5; 4]);
+        let mut got = Vec::new();
+        let mut buf = [0u8; 600];
+        while let Ok((n, _)) = gcs.recv_from(&mut buf) {
+            got.extend(decode_all(&buf[..n]).into_iter().map(|(_, m)| m));
+        }
+        let params = got.iter().filter(|m| matches!(m, MavMessage::PARAM_VALUE(_))).count();
+        assert_eq!(params, TABLE.len());
+        assert!(got.iter().any(|m| matches!(m, MavMessage::HEARTBEAT(hb)
+            if hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED))));
+        assert!(got.iter().any(|m| matches!(m, MavMessage::LOCAL_POSITION_NED(p) if p.z == -3.0)));
+        assert!(got.iter().any(|m| matches!(m, MavMessage::COMMAND_ACK(a)
+            if a.result == MavResult::MAV_RESULT_UNSUPPORTED && a.command == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM)));
+    }
+}
