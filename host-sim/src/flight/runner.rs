@@ -586,7 +586,15 @@ pub fn run_with(
             cfg.seed,
             cfg.sensors.noise,
             params.memory_params(),
-            cfg.params.mu as f32,
+            if cfg.variant.is_multi() {
+                parapet_core::obstacle_set::Ranking::Critical {
+                    mu: cfg.params.mu as f32,
+                    relative: cfg.variant.uses_relative_velocity(),
+                }
+            } else {
+                parapet_core::obstacle_set::Ranking::Nearest
+            },
+            cfg.params.delta1 as f32,
             true,
         )
     });

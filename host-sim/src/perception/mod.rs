@@ -25,8 +25,8 @@
 //! One `ObstacleMemory<`[`MEMORY_CELLS`]`>` with the controller's memory
 //! parameters (`ControllerParams::memory_params`, `PCP_*`). Its points for the
 //! vehicle's true position and velocity (one per cell, moving tracks with their
-//! estimated velocity, and the field-of-view frontier point) go to the
-//! controller, whose obstacle set keeps the most critical.
+//! estimated velocity, and the field-of-view frontier point), the
+//! [`SELECTED`] most critical by the controller's own ranking, go to the controller.
 //!
 //! Owns: [`Perception`], [`RangeRecord`]. May import: `parapet-core`,
 //! [`crate::sim`] (sensor models, plant state), [`crate::world`] (scene, ray casts).
@@ -35,6 +35,7 @@ use std::collections::VecDeque;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::obstacle_set::Ranking;
 use parapet_core::perception::{MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount};
 use parapet_core::Vec3;
 use rand::SeedableRng;
@@ -46,6 +47,11 @@ use crate::world::scene::Scene;
 
 /// Cells of the host's obstacle memory (the core's default capacity).
 pub const MEMORY_CELLS: usize = parapet_core::perception::DEFAULT_MEMORY_CAPACITY;
+
+/// Points handed to the controller per outer step: the memory's most critical
+/// by the controller's own set policy (`MemoryParams`' `select`), as a companion
+/// computer's batch of 32 `OBSTACLE_DISTANCE_3D` points to the firmware.
+pub const SELECTED: usize = 32;
 
 /// Vertical width (rad) given to a single-row sensor's beams (a planar lidar's
 /// divergence, about 1°), for the memory's lattice.
@@ -91,7 +97,8 @@ pub struct Perception {
     world: RayWorld,
     pending: VecDeque<Pending>,
     memory: Box<ObstacleMemory<MEMORY_CELLS>>,
-    mu: f32,
+    ranking: Ranking,
+    delta1: f32,
     noise_on: bool,
     record: bool,
     records: Vec<RangeRecord>,
@@ -131,15 +138,18 @@ pub fn geometry_of(s: &RangeSensor) -> ScanGeometry {
 
 impl Perception {
     /// The sensors `sensors` on the vehicle of `scene`, seeded with `seed`,
-    /// range noise on when `noise_on`; the memory with `params`, points ranked
-    /// with the barrier weight `mu` (s). `record`: keep every beam for `ranges.csv`.
+    /// range noise on when `noise_on`; the memory with `params`, its points
+    /// selected with the controller's `ranking` and engagement level `delta1`
+    /// (m²). `record`: keep every beam for `ranges.csv`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         scene: &Scene,
         sensors: &[RangeSensor],
         seed: u64,
         noise_on: bool,
         params: MemoryParams,
-        mu: f32,
+        ranking: Ranking,
+        delta1: f32,
         record: bool,
     ) -> Self {
         let sensors = sensors
@@ -166,7 +176,8 @@ impl Perception {
             world: RayWorld::new(scene),
             pending: VecDeque::new(),
             memory: Box::new(ObstacleMemory::new(params)),
-            mu,
+            ranking,
+            delta1,
             noise_on,
             record,
             records: Vec::new(),
@@ -247,7 +258,9 @@ impl Perception {
             self.rejected += u64::from(rep.rejected);
         }
         out.clear();
-        self.memory.for_each_point(t_us, &f32v(pos), &f32v(vel), self.mu, |o| out.push(*o));
+        let (set, _) =
+            self.memory.select::<SELECTED>(t_us, &f32v(pos), &f32v(vel), self.ranking, self.delta1);
+        out.extend_from_slice(set.as_slice());
     }
 
     /// Every beam recorded (when recording).
@@ -331,7 +344,8 @@ mod tests {
         let sc = scene("[[obstacles]]\nkind = \"box\"\nmin = [-5, 3, 0]\nmax = [5, 3.5, 4]\n");
         let lidar =
             RangeSensor { noise: 0.0, dropout: 0.0, latency: 0.02, ..kind_defaults(RangeKind::Lidar) };
-        let mut p = Perception::new(&sc, &[lidar], 1, true, MemoryParams::default(), 1.0, true);
+        let mut p =
+            Perception::new(&sc, &[lidar], 1, true, MemoryParams::default(), Ranking::Nearest, 0.1, true);
         let pos = Vector3::new(0.0, 0.0, -1.0);
         let (att, mut out) = (UnitQuaternion::identity(), Vec::new());
         let us = |t: f64| (t * 1e6) as u64;
@@ -359,8 +373,16 @@ mod tests {
     fn same_seed_same_scans() {
         let sc = scene("[[obstacles]]\nkind = \"sphere\"\ncenter = [1, 2, 1]\nradius = 0.5\n");
         let run = |seed| {
-            let mut p =
-                Perception::new(&sc, &preset("tof").unwrap(), seed, true, MemoryParams::default(), 1.0, true);
+            let mut p = Perception::new(
+                &sc,
+                &preset("tof").unwrap(),
+                seed,
+                true,
+                MemoryParams::default(),
+                Ranking::Nearest,
+                0.1,
+                true,
+            );
             let mut out = Vec::new();
             for k in 0..100 {
                 let t = k as f64 * 0.004;

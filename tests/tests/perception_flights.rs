@@ -1,0 +1,134 @@
+//! Flights with range sensors in the loop (issue 19, `parapet run --perception`):
+//! noise on, the planner's path of the seed (as `parapet run` flies it), the
+//! core's obstacle memory fed by the simulated lidar / forward camera / ToF.
+//!
+//! * `ci_subset_*`: the cases of the full matrix that flew without a collision
+//!   for every seed 0–4 when measured (docs/perception.md), seeds 0 and 1 — a
+//!   regression guard (a collision here is a change, not a tolerance). Reaching
+//!   the goal is not asserted (see docs/perception.md: time to goal).
+//! * `full_matrix` (ignored, the documented command of docs/perception.md):
+//!   six scenes × lidar, camera, ToF × seeds 0–4, asserting no collision; it
+//!   fails today and prints the table of what collided.
+//!
+//! `cargo test -p parapet-tests --release --test perception_flights -- --ignored --nocapture`
+
+use std::path::PathBuf;
+
+use parapet_sim::fc::control::run;
+use parapet_sim::flight::runner::{RunConfig, RunOutput};
+use parapet_sim::plan::{plan, PlanProblem, PlannerParams};
+use parapet_sim::sim::range::preset;
+use parapet_sim::world::scene::{to_f64, Scene};
+
+fn scene(name: &str) -> Scene {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(format!("{name}.toml"));
+    Scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// `parapet run --scene scenes/<name>.toml --perception <sensors> --seed <seed>`.
+fn fly(name: &str, sensors: &str, seed: u64) -> RunOutput {
+    let s = scene(name);
+    let planned = plan(&PlanProblem::from_scene(&s), &PlannerParams { seed, ..PlannerParams::default() })
+        .unwrap_or_else(|e| panic!("{name}: planning failed: {e}"));
+    let path = planned.waypoints.iter().map(to_f64).collect();
+    let mut cfg = RunConfig::for_scene(&s, path).unwrap();
+    cfg.seed = seed;
+    cfg.perception = if sensors == "truth" { None } else { Some(preset(sensors).unwrap()) };
+    assert!(cfg.sensors.noise, "{name}: noise must be on");
+    run(&s, &cfg, &mut |_| {}).unwrap()
+}
+
+fn check(name: &str, sensors: &str, seed: u64) {
+    let out = fly(name, sensors, seed);
+    let s = &out.summary;
+    assert!(
+        !s.collided,
+        "{name} {sensors} seed {seed}: collision with {:?} at {:?} s",
+        s.collision_with, s.first_collision_time_s
+    );
+    // The goal is not asserted: with a limited field of view the frontier's speed cap may
+    // hold the vehicle back until the duration limit (docs/perception.md, time to goal).
+    // The sensors really scanned and the filter worked from their points.
+    assert!(
+        !out.ranges.is_empty() && out.ranges.iter().any(|r| r.range.is_some()),
+        "{name} {sensors}: no returns"
+    );
+    assert!(s.filter_active_fraction > 0.0, "{name} {sensors}: the filter never acted");
+}
+
+#[test]
+fn ci_subset_lidar() {
+    for seed in 0..2 {
+        check("dogleg_corridor", "lidar", seed);
+        check("person_headon", "lidar", seed);
+    }
+}
+
+#[test]
+fn ci_subset_camera() {
+    for seed in 0..2 {
+        check("dogleg_corridor", "camera", seed);
+    }
+}
+
+#[test]
+fn ci_subset_tof() {
+    for seed in 0..2 {
+        check("door_lintel", "tof", seed);
+        check("outdoor_static", "tof", seed);
+    }
+}
+
+#[test]
+fn ranges_follow_the_sensor_rate_and_beams() {
+    // 10 Hz × 72 beams, one scan per 0.1 s from t = 0 (the run's last scan at or before its end).
+    let out = fly("dogleg_corridor", "lidar", 0);
+    let t_end = out.summary.sim_time_s;
+    let scans = (t_end * 10.0 + 1e-9).floor() as usize + 1;
+    assert!(
+        (out.ranges.len() as i64 - (scans * 72) as i64).abs() <= 72,
+        "{} beams for {t_end} s",
+        out.ranges.len()
+    );
+    // Every return lies on a surface: within the noise of the nearest obstacle or the ground.
+    let s = scene("dogleg_corridor");
+    let mut on_surface = 0;
+    let hits: Vec<_> = out.ranges.iter().filter_map(|r| r.point).collect();
+    for p in &hits {
+        let q = nalgebra::Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+        let (d, _) = parapet_sim::flight::runner::nearest_with_ground(&s, &q, 0.0);
+        on_surface += usize::from(d.abs() < 0.05);
+    }
+    assert!(
+        on_surface as f64 > 0.99 * hits.len() as f64,
+        "{on_surface} of {} returns on a surface",
+        hits.len()
+    );
+}
+
+#[test]
+#[ignore = "full matrix, the documented command of docs/perception.md; collides today (see there)"]
+fn full_matrix() {
+    let scenes =
+        ["office", "outdoor_static", "dogleg_corridor", "door_lintel", "person_headon", "sphere_overtaking"];
+    let mut failed = Vec::new();
+    for name in scenes {
+        for sensors in ["lidar", "camera", "tof"] {
+            for seed in 0..5 {
+                let s = fly(name, sensors, seed).summary;
+                println!(
+                    "{name:18} {sensors:7} seed {seed}: collided {} ({:?}), min clearance {:.3} m, goal {:?} s, filter active {:.1} %",
+                    s.collided,
+                    s.collision_with,
+                    s.min_clearance_m,
+                    s.time_to_goal_s,
+                    100.0 * s.filter_active_fraction
+                );
+                if s.collided {
+                    failed.push(format!("{name} {sensors} {seed}"));
+                }
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{} collisions: {failed:?}", failed.len());
+}
