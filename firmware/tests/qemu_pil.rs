@@ -8,24 +8,8 @@
 //! Run: `PARAPET_QEMU_ELF=… cargo test -p parapet-firmware --test qemu_pil -- --ignored --nocapture`.
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
-use std::os::unix::net::UnixStream;
-
-/// The host end of QEMU's serial chardev: TCP (default) or a Unix socket (`PARAPET_QEMU_UNIX=1`).
-trait SerialStream: Read + Write {
-    fn set_timeout(&self, d: Duration) -> std::io::Result<()>;
-}
-impl SerialStream for TcpStream {
-    fn set_timeout(&self, d: Duration) -> std::io::Result<()> {
-        self.set_read_timeout(Some(d))
-    }
-}
-impl SerialStream for UnixStream {
-    fn set_timeout(&self, d: Duration) -> std::io::Result<()> {
-        self.set_read_timeout(Some(d))
-    }
-}
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::{
@@ -63,7 +47,10 @@ impl Drop for Qemu {
 struct Host {
     /// Every byte sent, for the host-side mirror of the firmware.
     sent: Vec<u8>,
-    sock: Box<dyn SerialStream>,
+    /// QEMU's stdin: the firmware's semihosting console input.
+    to_fw: ChildStdin,
+    /// Chunks of QEMU's stdout (the console output), read by a thread (pipes have no timeout).
+    from_fw: mpsc::Receiver<Vec<u8>>,
     parser: FrameParser,
     writer: FrameWriter,
     inbox: std::collections::VecDeque<(u32, Vec<u8>)>,
@@ -77,7 +64,7 @@ impl Host {
 
     fn write(&mut self, b: &[u8]) {
         self.sent.extend_from_slice(b);
-        self.sock.write_all(b).expect("socket write");
+        self.to_fw.write_all(b).expect("write to QEMU's stdin");
     }
 
     fn send_corrupted<D: MessageData>(&mut self, m: &D) {
@@ -103,22 +90,15 @@ impl Host {
                 return Some(f);
             }
             let left = end.checked_duration_since(Instant::now())?;
-            self.sock.set_timeout(left.max(Duration::from_millis(1))).ok()?;
-            let mut buf = [0u8; 512];
-            match self.sock.read(&mut buf) {
-                Ok(0) => return None,
-                Ok(n) => {
+            match self.from_fw.recv_timeout(left.max(Duration::from_millis(1))) {
+                Ok(chunk) => {
                     let inbox = &mut self.inbox;
-                    self.parser.push_bytes(&buf[..n], frame_extra_crc, |f| {
+                    self.parser.push_bytes(&chunk, frame_extra_crc, |f| {
                         inbox.push_back((f.msg_id, f.payload.to_vec()))
                     });
                 }
-                Err(e)
-                    if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) =>
-                {
-                    return None
-                }
-                Err(e) => panic!("socket read: {e}"),
+                Err(mpsc::RecvTimeoutError::Timeout) => return None,
+                Err(mpsc::RecvTimeoutError::Disconnected) => return None,
             }
         }
     }
@@ -174,47 +154,35 @@ fn de<D: MessageData>(p: &[u8]) -> D {
 #[ignore = "needs qemu-system-arm and the board-qemu ELF (PARAPET_QEMU_ELF); run by cargo xtask test"]
 fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
     let elf = std::env::var("PARAPET_QEMU_ELF").expect("set PARAPET_QEMU_ELF to the board-qemu firmware ELF");
-    let unix = std::env::var("PARAPET_QEMU_UNIX").is_ok_and(|v| v == "1");
-    let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
-    let path = std::env::temp_dir().join(format!("parapet-pil-{}-{port}.sock", std::process::id()));
-    let chardev = if unix {
-        format!("socket,id=c0,path={},server=on,wait=off", path.display())
-    } else {
-        format!("socket,id=c0,host=127.0.0.1,port={port},server=on,wait=off,nodelay=on")
-    };
-    let child = Command::new("qemu-system-arm")
-        .args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-kernel", &elf])
-        .args(["-chardev", &chardev])
-        .args(["-serial", "chardev:c0"])
+    // The lockstep link is QEMU's stdin/stdout: the firmware's semihosting console (`:tt`).
+    // No chardev may use stdio (`-serial null`, `-monitor none`, `-display none`), so the
+    // pipes stay blocking and the firmware's SYS_READ waits in read(2) for our bytes.
+    let mut child = Command::new("qemu-system-arm")
+        .args(["-machine", "netduinoplus2", "-display", "none", "-monitor", "none", "-serial", "null"])
+        .args(["-semihosting-config", "enable=on,target=native", "-kernel", &elf])
         .args(["-icount", &std::env::var("PARAPET_QEMU_ICOUNT").unwrap_or_else(|_| "shift=0".into())])
         // Extra QEMU arguments for debugging, e.g. "-d int -D /tmp/qemu.log".
         .args(std::env::var("PARAPET_QEMU_ARGS").unwrap_or_default().split_whitespace())
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
         .spawn()
         .expect("qemu-system-arm starts");
+    let to_fw = child.stdin.take().expect("QEMU stdin pipe");
+    let mut stdout = child.stdout.take().expect("QEMU stdout pipe");
     let _qemu = Qemu(child);
-    let t_start = Instant::now();
-    let sock: Box<dyn SerialStream> = loop {
-        let r: std::io::Result<Box<dyn SerialStream>> = if unix {
-            UnixStream::connect(&path).map(|s| Box::new(s) as Box<dyn SerialStream>)
-        } else {
-            TcpStream::connect(("127.0.0.1", port)).map(|s| {
-                s.set_nodelay(true).ok();
-                Box::new(s) as Box<dyn SerialStream>
-            })
-        };
-        match r {
-            Ok(s) => break s,
-            Err(_) if t_start.elapsed() < Duration::from_secs(10) => {
-                std::thread::sleep(Duration::from_millis(50))
+    let (tx, from_fw) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = stdout.read(&mut buf) {
+            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
+                break;
             }
-            Err(e) => panic!("cannot connect to QEMU's serial socket: {e}"),
         }
-    };
+    });
     let mut h = Host {
         sent: Vec::new(),
-        sock,
+        to_fw,
+        from_fw,
         parser: FrameParser::new(),
         writer: FrameWriter::new(255, 190),
         inbox: Default::default(),

@@ -2,7 +2,7 @@
 //!
 //! Same cascade (`parapet-core`) and application code as the board firmware; the board layer is
 //! `parapet_firmware::board::qemu` and the application `parapet_firmware::pil` (lockstep over
-//! USART1, see `firmware/README.md`). Build:
+//! the semihosting console = QEMU's stdin/stdout, see `firmware/README.md`). Build:
 //! `cargo build -p parapet-firmware --release --target thumbv7em-none-eabihf
 //!  --no-default-features --features board-qemu --bin parapet-firmware-qemu`.
 #![cfg_attr(target_os = "none", no_std)]
@@ -15,14 +15,15 @@ mod firmware {
     use mavlink::dialects::ardupilotmega::MavSeverity;
     use parapet_core::controller::ControllerParams;
     use parapet_firmware::app::cascade::Cascade;
-    use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Usart1};
+    use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Semihost};
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::status_text;
     use parapet_firmware::pil::{PilApp, CALIBRATION_ITERATIONS};
 
-    /// Handshake heartbeat period: 10 ms of virtual time at the 168 MHz SysTick clock.
-    const HEARTBEAT_PERIOD_TICKS: u32 = 1_680_000;
+    /// How long one handshake round reads the bytes already received: 1 ms of virtual time at
+    /// the 168 MHz SysTick clock (≈ 10⁶ instructions, far more than one frame needs).
+    const HEARTBEAT_PERIOD_TICKS: u32 = 168_000;
 
     fn report_and_halt(text: &str) -> ! {
         let mut w = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
@@ -40,7 +41,9 @@ mod firmware {
         };
         let counter = InstructionCounter::new(cp.SYST);
         let calibration = counter.calibrate(CALIBRATION_ITERATIONS);
-        let port = Usart1::new();
+        let Some(port) = Semihost::open() else {
+            report_and_halt("semihosting console refused");
+        };
         let cascade = match Cascade::new(ControllerParams::default()) {
             Ok(c) => c,
             Err(_) => report_and_halt("controller parameters rejected"),
@@ -51,23 +54,17 @@ mod firmware {
         }
     }
 
-    /// The PIL task: heartbeat handshake, then answer every HIL_SENSOR.
+    /// The PIL task: heartbeat handshake (one HEARTBEAT, then one more per batch of host bytes
+    /// without a valid frame), then answer every HIL_SENSOR. Between batches the port sends what
+    /// was collected and waits (the core halted) for the host.
     #[embassy_executor::task]
-    async fn lockstep(mut app: PilApp<Cascade>, mut port: Usart1, counter: InstructionCounter) {
+    async fn lockstep(mut app: PilApp<Cascade>, mut port: Semihost, counter: InstructionCounter) {
         while !app.handshake_round(&mut port, &counter, HEARTBEAT_PERIOD_TICKS) {
-            embassy_futures::yield_now().await;
+            port.wait_readable();
         }
         loop {
             app.poll(&mut port, &counter);
-            port.sleep_until_readable();
-        }
-    }
-
-    /// Every interrupt without its own vector lands here; only USART1 is ever unmasked.
-    #[cortex_m_rt::exception]
-    unsafe fn DefaultHandler(irqn: i16) {
-        if irqn == parapet_firmware::board::qemu::USART1_IRQ as i16 {
-            parapet_firmware::board::qemu::on_usart1_interrupt();
+            port.wait_readable();
         }
     }
 

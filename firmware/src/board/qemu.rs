@@ -1,14 +1,21 @@
 //! Board layer for QEMU's `netduinoplus2` (STM32F405 emulation without RCC, DMA or GPIO).
 //!
-//! - **Link**: USART1 at `0x4001_1000`, driven at register level (QEMU maps the first `-serial`
-//!   to it). QEMU's USART holds one received byte (RXNE) and back-pressures the chardev while it
-//!   is full; bytes that arrive *before* the firmware enables the USART are dropped by QEMU, which
-//!   is why the link starts with a heartbeat handshake (see `firmware/README.md`). Reception is
-//!   interrupt-driven: the USART1 interrupt moves DR into an embassy-sync [`Pipe`] that the
-//!   application task awaits. (Polling the status register instead takes QEMU's I/O lock on
-//!   every read and slows the lockstep ≈ 10×; QEMU lowers the USART interrupt only when DR is
-//!   read.) When the pipe is full the interrupt is masked in the NVIC until the task drained
-//!   it, so the USART back-pressures the host and no byte is lost.
+//! - **Link**: the lockstep byte stream goes over **ARM semihosting** on the console (`:tt`),
+//!   which QEMU 7.2 maps to its own stdin/stdout; the host holds both as pipes (see
+//!   `firmware/README.md`, "QEMU lockstep protocol"): one `SYS_WRITE` per batch of frames
+//!   (everything the firmware sends before it waits for input) and one `SYS_READ` of what the
+//!   host sent so far (up to [`RX_CAPACITY`] bytes). The bytes are exactly the MAVLink frames
+//!   the USART carried before and reach the same application code ([`crate::pil::PilApp`]);
+//!   only the transport changed. Why not USART1: QEMU's USART model holds one received byte,
+//!   so every received byte cost a main-loop round trip and an interrupt, and every sent byte
+//!   one socket write; that was ≈ 19 ms of wall time per 1 ms step (measured,
+//!   `firmware/README.md`, "PIL speed"). `SYS_READ` blocks in the host's `read(2)` while
+//!   nothing was received (the core stands still, no virtual time passes), so waiting costs no
+//!   emulation and no wake-ups. A `SYS_READ` that returns nothing means end of input (the host
+//!   closed the pipe or is gone; also a non-blocking stdin): the firmware then ends QEMU with
+//!   the semihosting exit call, so an emulator whose host died does not spin on.
+//!   Written by hand on the crate's raw `syscall` (not `cortex_m_semihosting::hio`): that
+//!   `write_all` loops without bound when the host writes nothing.
 //! - **Clock**: the control clock is the simulator's (HIL_SENSOR `time_usec`). SysTick runs
 //!   free from the core clock (24-bit down-counter, reload 0xFF_FFFF) and, under
 //!   `qemu -icount shift=0` (one instruction = 1 ns of virtual time), measures the instruction
@@ -17,168 +24,142 @@
 //!   ([`MeasuredCriticalSection`]: PRIMASK like cortex-m's single-core one, plus the SysTick
 //!   ticks from the outermost acquire to its release), so the PIL application can report the
 //!   longest section with interrupts masked of every control step (`ins_masked`).
-//! - No RCC/DMA/GPIO access; no defmt/RTT (nothing reads it in QEMU).
+//! - No RCC/DMA/GPIO access; no defmt/RTT (nothing reads it in QEMU). Without semihosting
+//!   enabled in QEMU the first semihosting call faults (HardFault, no output): the host always
+//!   enables it.
 
-use core::ptr::{read_volatile, write_volatile};
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::pipe::Pipe;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
+use cortex_m_semihosting::{nr, syscall};
 
 use crate::link::framing::FrameWriter;
 use crate::link::outbound::Outbound;
 use crate::pil::lockstep::{systick_elapsed, InstructionCalibration};
 
-const USART1_BASE: usize = 0x4001_1000;
-const SR: usize = USART1_BASE;
-const DR: usize = USART1_BASE + 0x04;
-const CR1: usize = USART1_BASE + 0x0C;
-const SR_RXNE: u32 = 1 << 5;
-const SR_TXE: u32 = 1 << 7;
-const CR1_UE: u32 = 1 << 13;
-const CR1_TE: u32 = 1 << 3;
-const CR1_RE: u32 = 1 << 2;
-const CR1_RXNEIE: u32 = 1 << 5;
-/// NVIC interrupt number of USART1 on the STM32F405.
-pub const USART1_IRQ: u16 = 37;
-
-/// Received bytes, filled by the USART1 interrupt.
-static RX: Pipe<CriticalSectionRawMutex, RX_CAPACITY> = Pipe::new();
-/// Capacity of the receive pipe, bytes (more than one lockstep step of host traffic).
+/// Capacity of the receive buffer, bytes: one `SYS_READ` takes at most this much (QEMU's
+/// semihosting console FIFO holds 1024 bytes).
 pub const RX_CAPACITY: usize = 1024;
-/// The interrupt is masked because the pipe was full.
-static RX_THROTTLED: AtomicBool = AtomicBool::new(false);
+/// Capacity of the transmit buffer, bytes: frames are collected here and written with one
+/// `SYS_WRITE` when the firmware waits for input or the buffer would overflow (more than one
+/// step's answer, ≈ 300–900 bytes).
+pub const TX_CAPACITY: usize = 2048;
+/// Attempts of one `SYS_WRITE` (each writes all or part of the rest; QEMU writes all at once).
+const WRITE_ATTEMPTS: usize = 4;
 
-#[derive(Clone, Copy)]
-struct Usart1Irq;
-// SAFETY: 37 is USART1's position in the STM32F405 vector table (QEMU wires it the same way).
-unsafe impl cortex_m::interrupt::InterruptNumber for Usart1Irq {
-    fn number(self) -> u16 {
-        USART1_IRQ
-    }
+/// The semihosting console as the lockstep byte link. Create it once.
+pub struct Semihost {
+    fd_in: usize,
+    fd_out: usize,
+    rx: [u8; RX_CAPACITY],
+    rx_pos: usize,
+    rx_len: usize,
+    tx: [u8; TX_CAPACITY],
+    tx_len: usize,
 }
 
-/// USART1 interrupt body (call from the vector for IRQ 37): moves the received byte into the
-/// pipe; with the pipe full, masks the interrupt and leaves the byte in DR (back-pressure).
-pub fn on_usart1_interrupt() {
-    if RX.is_full() {
-        RX_THROTTLED.store(true, Ordering::Release);
-        cortex_m::peripheral::NVIC::mask(Usart1Irq);
-        return;
-    }
-    // SAFETY: USART1 registers (see `Usart1::new`); reading DR clears RXNE and lowers the line.
-    unsafe {
-        if read_volatile(SR as *const u32) & SR_RXNE != 0 {
-            let b = read_volatile(DR as *const u32) as u8;
-            // Cannot fail: the pipe has space (checked above; only this handler writes).
-            let _ = RX.try_write(&[b]);
-        }
-    }
+/// `SYS_OPEN` of the console `:tt` (mode 0 = read → stdin, mode 4 = write → stdout).
+fn open_console(mode: usize) -> Option<usize> {
+    let name = b":tt\0";
+    // SAFETY: SYS_OPEN with a NUL-terminated name, its length without the NUL and a mode.
+    let fd = unsafe { syscall!(OPEN, name.as_ptr(), mode, name.len() - 1) };
+    (fd as isize >= 0).then_some(fd)
 }
 
-/// SysTick reload value (full 24 bits).
-pub const SYSTICK_RELOAD: u32 = 0x00FF_FFFF;
-
-/// Register-level USART1 (polling). Owning it means owning USART1; create it once.
-pub struct Usart1 {
-    peeked: Option<u8>,
-}
-
-impl Usart1 {
-    /// Enables USART1 (UE, TE, RE). Baud rate registers are irrelevant under QEMU.
-    pub fn new() -> Self {
-        // SAFETY: fixed, aligned MMIO address of USART1 on the STM32F405; only this driver
-        // touches USART1.
-        unsafe { write_volatile(CR1 as *mut u32, CR1_UE | CR1_TE | CR1_RE | CR1_RXNEIE) };
-        // SAFETY: unmasking USART1 in the NVIC; its handler (`on_usart1_interrupt`) is sound at
-        // any time.
-        unsafe { cortex_m::peripheral::NVIC::unmask(Usart1Irq) };
-        Self { peeked: None }
-    }
-
-    /// Waits until at least one byte was received.
-    pub async fn wait_readable(&mut self) {
-        if self.peeked.is_none() {
-            let mut b = [0u8; 1];
-            if RX.read(&mut b).await == 1 {
-                self.peeked = Some(b[0]);
-            }
-        }
-    }
-
-    /// Sleeps (WFI) until at least one byte was received. Halting the emulated core instead of
-    /// spinning leaves the host CPU to QEMU's I/O thread, which delivers the next byte.
-    /// Interrupts are masked around the check so the wake-up cannot be lost: a pending
-    /// interrupt ends WFI even while masked, and runs when they are unmasked again.
-    pub fn sleep_until_readable(&mut self) {
-        if self.peeked.is_some() {
+/// Writes `bytes` to semihosting file `fd` (bounded retries).
+fn write_fd(fd: usize, bytes: &[u8]) {
+    let mut rest = bytes;
+    for _ in 0..WRITE_ATTEMPTS {
+        if rest.is_empty() {
             return;
         }
-        while RX.is_empty() {
-            cortex_m::interrupt::disable();
-            if RX.is_empty() {
-                cortex_m::asm::wfi();
-            }
-            // SAFETY: re-enables interrupts after the masked check + WFI; no critical section is
-            // open here.
-            unsafe { cortex_m::interrupt::enable() };
+        // SAFETY: SYS_WRITE of `rest` (valid for its length); returns the bytes NOT written.
+        let left = unsafe { syscall!(WRITE, fd, rest.as_ptr(), rest.len()) };
+        let done = rest.len().saturating_sub(left);
+        rest = rest.get(done..).unwrap_or(&[]);
+    }
+}
+
+impl Semihost {
+    /// Opens the console for reading and writing; `None` if QEMU refuses.
+    pub fn open() -> Option<Self> {
+        let fd_in = open_console(nr::open::R)?;
+        let fd_out = open_console(nr::open::W_TRUNC)?;
+        Some(Self {
+            fd_in,
+            fd_out,
+            rx: [0; RX_CAPACITY],
+            rx_pos: 0,
+            rx_len: 0,
+            tx: [0; TX_CAPACITY],
+            tx_len: 0,
+        })
+    }
+
+    /// Writes the collected frames to the host (one `SYS_WRITE`).
+    pub fn flush(&mut self) {
+        if self.tx_len > 0 {
+            write_fd(self.fd_out, self.tx.get(..self.tx_len).unwrap_or(&[]));
+            self.tx_len = 0;
         }
     }
 
-    /// One received byte, if any.
+    /// Sends what was collected, then waits (the core halted by QEMU) until the host sent
+    /// something and reads all of it that fits. Returns at once if bytes are still buffered.
+    pub fn wait_readable(&mut self) {
+        if self.rx_pos < self.rx_len {
+            return;
+        }
+        self.flush();
+        // SAFETY: SYS_READ into `rx` (valid for RX_CAPACITY bytes); returns the bytes NOT read.
+        let left = unsafe { syscall!(READ, self.fd_in, self.rx.as_mut_ptr(), RX_CAPACITY) };
+        self.rx_pos = 0;
+        self.rx_len = RX_CAPACITY.saturating_sub(left);
+        if self.rx_len == 0 {
+            // End of input (see the module doc): nothing will ever arrive.
+            cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_SUCCESS);
+        }
+    }
+
+    /// One received byte, if buffered (never waits).
     pub fn try_read(&mut self) -> Option<u8> {
-        if let Some(b) = self.peeked.take() {
-            return Some(b);
-        }
-        let mut b = [0u8; 1];
-        let got = matches!(RX.try_read(&mut b), Ok(1));
-        if RX_THROTTLED.swap(false, Ordering::AcqRel) {
-            // SAFETY: the handler is sound at any time; the pipe has room again.
-            unsafe { cortex_m::peripheral::NVIC::unmask(Usart1Irq) };
-        }
-        got.then_some(b[0])
+        let b = self.rx.get(self.rx_pos..self.rx_len)?.first().copied()?;
+        self.rx_pos += 1;
+        Some(b)
     }
 
-    /// Writes `bytes`, waiting for TXE before each (QEMU transmits at once).
+    /// Collects `bytes` for the next write (writes first when they do not fit).
     pub fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            write_byte(b);
+        if self.tx_len + bytes.len() > TX_CAPACITY {
+            self.flush();
+        }
+        match self.tx.get_mut(self.tx_len..self.tx_len + bytes.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(bytes);
+                self.tx_len += bytes.len();
+            }
+            // Larger than the whole buffer: straight through.
+            None => write_fd(self.fd_out, bytes),
         }
     }
 
-    /// Encodes and writes one message.
+    /// Encodes and collects one message.
     pub fn send(&mut self, writer: &mut FrameWriter, msg: &Outbound) {
         let raw = msg.encode(writer);
         self.write(raw.raw_bytes());
     }
 }
 
-impl Default for Usart1 {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-fn write_byte(b: u8) {
-    // SAFETY: USART1 registers (see `Usart1::new`). The wait is bounded in practice by the
-    // emulated USART, which sets TXE immediately after a write.
-    unsafe {
-        while read_volatile(SR as *const u32) & SR_TXE == 0 {}
-        write_volatile(DR as *mut u32, u32::from(b));
-    }
-}
-
-/// Panic path: writes `bytes` straight to USART1 (no driver instance needed).
+/// Panic path: writes `bytes` straight to the console (no driver instance needed).
 pub fn panic_write(bytes: &[u8]) {
-    // SAFETY: see `Usart1::new`; enabling an already enabled USART is harmless.
-    unsafe { write_volatile(CR1 as *mut u32, CR1_UE | CR1_TE | CR1_RE) };
-    for &b in bytes {
-        write_byte(b);
+    if let Some(fd) = open_console(nr::open::W_TRUNC) {
+        write_fd(fd, bytes);
     }
 }
+
+/// SysTick reload value (full 24 bits).
+pub const SYSTICK_RELOAD: u32 = 0x00FF_FFFF;
 
 /// SysTick value at the outermost open critical section's acquire.
 static MASKED_START: AtomicU32 = AtomicU32::new(0);
@@ -282,12 +263,12 @@ fn spin(iterations: u32) {
     }
 }
 
-impl crate::pil::BytePort for Usart1 {
+impl crate::pil::BytePort for Semihost {
     fn try_read(&mut self) -> Option<u8> {
-        Usart1::try_read(self)
+        Semihost::try_read(self)
     }
     fn write(&mut self, bytes: &[u8]) {
-        Usart1::write(self, bytes)
+        Semihost::write(self, bytes)
     }
 }
 

@@ -1,6 +1,6 @@
 //! The processor-in-the-loop application: handshake, then lockstep over one byte link.
 //!
-//! Hardware-independent (the QEMU board supplies a [`BytePort`] on USART1 and a
+//! Hardware-independent (the QEMU board supplies a [`BytePort`] on its semihosting console and a
 //! [`TickCounter`] on SysTick), so the whole protocol is host-tested. The protocol itself is
 //! specified in `firmware/README.md` ("QEMU lockstep protocol").
 

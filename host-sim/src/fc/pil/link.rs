@@ -9,7 +9,7 @@
 //! [`crate::world::scene`], [`crate::fc::bridge`] (the `LinkTap` of a ground-station bridge).
 
 use std::io::Write;
-use std::net::{Shutdown, TcpStream};
+use std::process::ChildStdin;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
@@ -33,7 +33,7 @@ use super::gcs::{
     command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch, odometry,
     param_set, preroll_start, quantised_path, WARMUP_STEPS,
 };
-use super::qemu::{reader_thread, start_qemu, Inbound, QemuGuard};
+use super::qemu::{reader_thread, start_qemu, Inbound, LinkPipes, QemuGuard};
 use super::telemetry::{figures, observe, FirmwareTelemetry, PilFigures};
 use super::PilOptions;
 use crate::fc::bridge::LinkTap;
@@ -52,7 +52,8 @@ struct StepAnswer {
 /// The firmware in QEMU behind the [`FlightStack`] interface.
 pub struct PilLink {
     qemu: QemuGuard,
-    sock: TcpStream,
+    /// QEMU's stdin: host → firmware (`None` once closed).
+    to_fw: Option<ChildStdin>,
     rx: Receiver<Inbound>,
     opts: PilOptions,
     seq: u8,
@@ -99,12 +100,9 @@ impl PilLink {
             );
         }
         let wall = Instant::now();
-        let (qemu, sock) = start_qemu(&opts)?;
-        sock.set_nodelay(true).context("TCP_NODELAY")?;
-        sock.set_write_timeout(Some(opts.timeout)).context("socket write timeout")?;
-        let read_half = sock.try_clone().context("socket clone")?;
+        let (qemu, LinkPipes { to_fw, from_fw }) = start_qemu(&opts)?;
         let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || reader_thread(read_half, tx));
+        std::thread::spawn(move || reader_thread(from_fw, tx));
         let mut follower = WaypointFollower::new(params.waypoint).map_err(|e| {
             anyhow!("waypoint parameters: {}", crate::flight::validate::describe_path_error(e))
         })?;
@@ -113,7 +111,7 @@ impl PilLink {
             .map_err(|e| anyhow!("path rejected: {}", crate::flight::validate::describe_path_error(e)))?;
         let mut link = PilLink {
             qemu,
-            sock,
+            to_fw: Some(to_fw),
             rx,
             seq: 0,
             queue: Vec::new(),
@@ -201,9 +199,12 @@ impl PilLink {
     }
 
     fn write_all(&mut self, bytes: &[u8]) -> Result<()> {
-        self.sock
-            .write_all(bytes)
-            .context("cannot write to QEMU's serial socket (firmware stalled or QEMU gone)")
+        // One `write(2)` per batch (the firmware reads what arrived with one `SYS_READ`). A pipe
+        // has no write timeout; the host writes at most one step ahead of the answers and a
+        // step is far below the pipe's 64 KiB, so a stalled firmware is found by the answer
+        // timeout, not here.
+        let Some(pipe) = self.to_fw.as_mut() else { bail!("the link to QEMU is closed") };
+        pipe.write_all(bytes).context("QEMU closed the link (cannot write to its stdin)")
     }
 
     /// Next inbound message within `timeout`.
@@ -500,7 +501,9 @@ impl PilLink {
 
 impl Drop for PilLink {
     fn drop(&mut self) {
-        let _ = self.sock.shutdown(Shutdown::Both);
+        // Closing QEMU's stdin ends the firmware (end of input → semihosting exit); the guard
+        // kills QEMU anyway.
+        drop(self.to_fw.take());
     }
 }
 

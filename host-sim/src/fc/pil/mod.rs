@@ -2,8 +2,8 @@
 //! `board-qemu` build of `firmware/`) runs in `qemu-system-arm -machine netduinoplus2
 //! -icount shift=0` and flies the scene against the 6-DOF plant of [`crate::flight::runner`].
 //!
-//! The link follows the "QEMU lockstep protocol" of `firmware/README.md` exactly: a TCP
-//! chardev on a free localhost port (TCP_NODELAY on both sides), the HEARTBEAT handshake,
+//! The link follows the "QEMU lockstep protocol" of `firmware/README.md` exactly: the byte
+//! stream on QEMU's stdin/stdout (the firmware's ARM semihosting console), the HEARTBEAT handshake,
 //! the instruction calibration (`ins_cal_n`, `ins_cal`), then per 1 ms control period the host
 //! sends (ODOMETRY and the obstacle batch at the outer rate, commands, then HIL_SENSOR) and
 //! waits for the HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.

@@ -1,17 +1,16 @@
 //! The QEMU process: start `qemu-system-arm -machine netduinoplus2 -icount shift=0`
-//! with the firmware, its serial port a TCP client of a listener we hold, keep its
-//! stderr, kill it on drop; the thread that decodes the firmware's MAVLink stream.
+//! with the firmware, the lockstep link on its stdin/stdout (the firmware's semihosting
+//! console, see [`qemu_args`]), keep its stderr, kill it on drop; the thread that decodes
+//! the firmware's MAVLink stream.
 //!
 //! May import: std, anyhow, mavlink, [`super`] (options).
 
 use std::io::Read;
-use std::net::{TcpListener, TcpStream};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
 
@@ -46,9 +45,11 @@ pub(super) enum Inbound {
     Closed(String),
 }
 
-/// Decode the firmware's MAVLink v2 stream into `tx` until the socket closes.
-pub(super) fn reader_thread(sock: TcpStream, tx: mpsc::Sender<Inbound>) {
-    let mut reader = MavlinkReader::new(sock);
+/// Decode the firmware's MAVLink v2 stream into `tx` until the pipe closes.
+pub(super) fn reader_thread(from_fw: ChildStdout, tx: mpsc::Sender<Inbound>) {
+    // Buffered: one `read(2)` takes a whole batch of frames (the firmware writes each batch
+    // with one `SYS_WRITE`), instead of the parser's small reads.
+    let mut reader = MavlinkReader::new(std::io::BufReader::with_capacity(4096, from_fw));
     loop {
         let ev = match reader.read_message::<MavMessage>(MavlinkVersion::V2) {
             Ok((h, m)) => Inbound::Msg(h, Box::new(m)),
@@ -64,31 +65,47 @@ pub(super) fn reader_thread(sock: TcpStream, tx: mpsc::Sender<Inbound>) {
     }
 }
 
-/// Start QEMU with its serial port connected to a listener this process holds.
+/// The host's ends of the lockstep link: QEMU's stdin (host → firmware) and stdout
+/// (firmware → host).
+pub(super) struct LinkPipes {
+    pub(super) to_fw: ChildStdin,
+    pub(super) from_fw: ChildStdout,
+}
+
+/// The emulator's command line (without the program): the firmware's semihosting console
+/// (`SYS_OPEN(":tt")`) is QEMU's own stdin/stdout, which the host holds as pipes.
 ///
-/// The host binds `127.0.0.1:0` and keeps the listener open; QEMU's chardev is a
-/// socket *client* (`server=off`) to that port, and the host accepts the one
-/// connection. Nothing else can take the port between probe and use (the old
-/// "bind 0, drop, let QEMU bind" probe raced parallel runs and could even
-/// self-connect: a test then talked to another test's emulator and saw
-/// "connection reset by peer"), and the peer is checked to be local.
-pub(super) fn start_qemu(opts: &PilOptions) -> Result<(QemuGuard, TcpStream)> {
-    let listener = TcpListener::bind("127.0.0.1:0").context("cannot listen on a localhost port")?;
-    let port = listener.local_addr().context("listener address")?.port();
-    listener.set_nonblocking(true).context("non-blocking listener")?;
+/// `-serial null`, `-monitor none` and `-display none` keep every QEMU chardev off stdio, so
+/// QEMU leaves the pipes blocking and untouched: the guest's `SYS_READ` blocks in `read(2)`
+/// (the emulated core stands still, no virtual time passes) until the host wrote the step.
+/// There is no port: nothing can connect to another run's emulator.
+pub fn qemu_args(firmware: &std::path::Path) -> Vec<std::ffi::OsString> {
+    let mut a: Vec<std::ffi::OsString> = [
+        "-machine",
+        "netduinoplus2",
+        "-display",
+        "none",
+        "-monitor",
+        "none",
+        "-serial",
+        "null",
+        "-icount",
+        "shift=0",
+        "-semihosting-config",
+        "enable=on,target=native",
+        "-kernel",
+    ]
+    .iter()
+    .map(Into::into)
+    .collect();
+    a.push(firmware.into());
+    a
+}
+
+/// Start QEMU with the firmware; the lockstep link is QEMU's stdin/stdout (see [`qemu_args`]).
+pub(super) fn start_qemu(opts: &PilOptions) -> Result<(QemuGuard, LinkPipes)> {
     let mut cmd = Command::new(&opts.qemu);
-    cmd.args(["-machine", "netduinoplus2", "-nographic", "-monitor", "none", "-icount", "shift=0"])
-        .arg("-kernel")
-        .arg(&opts.firmware)
-        .args([
-            "-chardev",
-            &format!("socket,id=c0,host=127.0.0.1,port={port},server=off,nodelay=on"),
-            "-serial",
-            "chardev:c0",
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
+    cmd.args(qemu_args(&opts.firmware)).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
     let mut child = match cmd.spawn() {
         Ok(c) => c,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
@@ -115,28 +132,10 @@ pub(super) fn start_qemu(opts: &PilOptions) -> Result<(QemuGuard, TcpStream)> {
             }
         });
     }
-    let mut guard = QemuGuard { child, stderr };
-    let t0 = Instant::now();
-    loop {
-        match listener.accept() {
-            Ok((sock, peer)) => {
-                if !peer.ip().is_loopback() {
-                    continue;
-                }
-                sock.set_nonblocking(false).context("blocking serial socket")?;
-                return Ok((guard, sock));
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
-            Err(e) => bail!("cannot accept QEMU's serial connection on port {port}: {e}"),
-        }
-        if let Ok(Some(status)) = guard.child.try_wait() {
-            // Give the stderr thread a moment to collect QEMU's last words.
-            std::thread::sleep(Duration::from_millis(50));
-            bail!("QEMU exited before connecting its serial port ({status}): {}", guard.stderr_text());
-        }
-        if t0.elapsed() > Duration::from_secs(20) {
-            bail!("QEMU did not connect its serial port to 127.0.0.1:{port} within 20 s");
-        }
-        std::thread::sleep(Duration::from_millis(5));
+    let (to_fw, from_fw) = (child.stdin.take(), child.stdout.take());
+    let guard = QemuGuard { child, stderr };
+    match (to_fw, from_fw) {
+        (Some(to_fw), Some(from_fw)) => Ok((guard, LinkPipes { to_fw, from_fw })),
+        _ => bail!("QEMU started without its stdin/stdout pipes"),
     }
 }
