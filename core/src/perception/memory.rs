@@ -53,7 +53,7 @@ use super::frontier::{ignore_beyond, Frontier};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FRONTIER_ID, STATIC_ID};
 use crate::cbf::INPUT_LIMIT;
-use crate::fmath::hypotf;
+use crate::fmath::{hypotf, maxf, minf};
 use crate::obstacle::{ObstaclePoint, ObstacleSet};
 use crate::obstacle_set::{Ranking, Selector, SetReport};
 use crate::Vec3;
@@ -133,8 +133,11 @@ fn plausible(v: &Vec3) -> bool {
     v.x.abs() <= INPUT_LIMIT && v.y.abs() <= INPUT_LIMIT && v.z.abs() <= INPUT_LIMIT
 }
 
+/// `p` clamped to the box `[lo, hi]` (compare and select: `f32::clamp` would link the float
+/// formatting of its panic message into the firmware, ≈ 29 KB).
 fn clamp3(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
-    Vec3::new(p.x.clamp(lo.x, hi.x), p.y.clamp(lo.y, hi.y), p.z.clamp(lo.z, hi.z))
+    let c = |x: f32, l: f32, h: f32| minf(maxf(x, l), h);
+    Vec3::new(c(p.x, lo.x, hi.x), c(p.y, lo.y, hi.y), c(p.z, lo.z, hi.z))
 }
 
 /// Parameters of the segment through the inflated box `[lo, hi]` on the ray `o + s·u`:
