@@ -9,9 +9,22 @@ pub const HOST_SYSTEM_ID: u8 = 255;
 /// MAVLink component id the host sends as (MAV_COMP_ID_MISSIONPLANNER).
 pub const HOST_COMPONENT_ID: u8 = 190;
 
-/// `obstacle_id` of OBSTACLE_DISTANCE_3D that carries no point: it closes the previous batch and
-/// opens an empty one (no obstacle in view).
+/// `obstacle_id` 65 535 of OBSTACLE_DISTANCE_3D: "unknown id" per the message definition, a
+/// **valid point** (issue 19; it used to mean "no obstacle"). Hosts never give a tracked
+/// obstacle this id (`parapet-sim`'s track ids), so a point with it is an untracked one.
 pub const CLEAR_ID: u16 = u16::MAX;
+
+/// OBSTACLE_DISTANCE_3D `min_distance` / `max_distance` of the message that carries **no
+/// point** and closes the previous batch, opening an empty one (no obstacle in view): an empty
+/// range (`min_distance > max_distance`: nothing can lie within it). Receivers test
+/// [`is_empty_batch`]; ArduPilot likewise ignores a point outside `[min, max]`.
+pub const EMPTY_BATCH_RANGE: (f32, f32) = (1.0, 0.0);
+
+/// Whether an OBSTACLE_DISTANCE_3D with these `min_distance`, `max_distance` is the empty-batch
+/// marker ([`EMPTY_BATCH_RANGE`]).
+pub fn is_empty_batch(min_distance: f32, max_distance: f32) -> bool {
+    min_distance > max_distance
+}
 
 /// COMMAND_LONG COMPONENT_ARM_DISARM `param2` that forces a disarm in flight.
 pub const FORCE_DISARM_MAGIC: f32 = 21196.0;

@@ -553,6 +553,9 @@ mod tests {
                     time_boot_ms: (t / 1000) as u32,
                     obstacle_id: CLEAR_ID,
                     frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    // The empty-batch marker (an empty range): no point.
+                    min_distance: parapet_core::wire::ids::EMPTY_BATCH_RANGE.0,
+                    max_distance: parapet_core::wire::ids::EMPTY_BATCH_RANGE.1,
                     ..Default::default()
                 };
                 link.push_bytes(host.encode(&clear).raw_bytes(), t, &mut ap);

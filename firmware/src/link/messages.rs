@@ -7,9 +7,9 @@
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA, MISSION_ACK_DATA,
-    MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
-    ODOMETRY_DATA,
+    COMMAND_LONG_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
+    MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
 use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
 use mavlink::{MavlinkVersion, Message, MessageData};
@@ -28,6 +28,10 @@ pub enum Inbound {
     Odometry(ODOMETRY_DATA),
     /// One obstacle point.
     Obstacle(OBSTACLE_DISTANCE_3D_DATA),
+    /// Obstacle distances in sectors (PX4 / ArduPilot proximity), into the obstacle memory.
+    ObstacleDistance(crate::link::obstacles::ObstacleDistance),
+    /// One range finder beam, into the obstacle memory.
+    DistanceSensor(crate::link::obstacles::DistanceSensor),
     /// Named vector; `OBV<id>` carries an obstacle's velocity (see [`crate::link::obstacles`]).
     DebugVect(DEBUG_VECT_DATA),
     /// Start of a mission upload.
@@ -62,6 +66,8 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         HIL_SENSOR_DATA::ID => HIL_SENSOR_DATA::EXTRA_CRC,
         ODOMETRY_DATA::ID => ODOMETRY_DATA::EXTRA_CRC,
         OBSTACLE_DISTANCE_3D_DATA::ID => OBSTACLE_DISTANCE_3D_DATA::EXTRA_CRC,
+        OBSTACLE_DISTANCE_DATA::ID => OBSTACLE_DISTANCE_DATA::EXTRA_CRC,
+        DISTANCE_SENSOR_DATA::ID => DISTANCE_SENSOR_DATA::EXTRA_CRC,
         DEBUG_VECT_DATA::ID => DEBUG_VECT_DATA::EXTRA_CRC,
         MISSION_COUNT_DATA::ID => MISSION_COUNT_DATA::EXTRA_CRC,
         MISSION_ITEM_INT_DATA::ID => MISSION_ITEM_INT_DATA::EXTRA_CRC,
@@ -96,6 +102,11 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         HIL_SENSOR_DATA::ID => Inbound::HilSensor(de(p)?),
         ODOMETRY_DATA::ID => Inbound::Odometry(de(p)?),
         OBSTACLE_DISTANCE_3D_DATA::ID => Inbound::Obstacle(de(p)?),
+        // Decoded by hand with their extension fields (see crate::link::obstacles).
+        OBSTACLE_DISTANCE_DATA::ID => {
+            Inbound::ObstacleDistance(crate::link::obstacles::ObstacleDistance::parse(p))
+        }
+        DISTANCE_SENSOR_DATA::ID => Inbound::DistanceSensor(crate::link::obstacles::DistanceSensor::parse(p)),
         DEBUG_VECT_DATA::ID => Inbound::DebugVect(de(p)?),
         MISSION_COUNT_DATA::ID => Inbound::MissionCount(de(p)?),
         MISSION_ITEM_INT_DATA::ID => Inbound::MissionItemInt(de(p)?),

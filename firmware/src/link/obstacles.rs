@@ -11,13 +11,41 @@
 //!     attitude estimate: `p = p_vehicle + R_zyx(roll, pitch, yaw) · (x, y, z)`;
 //!   - other frames are rejected (counted).
 //!
-//!   `obstacle_id` 65535 ([`CLEAR_ID`]) carries no point: it closes the previous batch and opens
-//!   an empty one, i.e. "no obstacles now".
+//!   `obstacle_id` 65535 ([`CLEAR_ID`]) is "unknown id" per the message definition: a valid
+//!   point (issue 19; it used to mean "no obstacles"). The message that carries **no point**
+//!   and closes the previous batch, opening an empty one ("no obstacles now"), is the one with
+//!   an empty range, `min_distance > max_distance`
+//!   ([`parapet_core::wire::ids::EMPTY_BATCH_RANGE`]; the host PIL sends (1, 0)).
 //! - **DEBUG_VECT** named `OBV<id>` (e.g. `OBV7`): velocity of obstacle `<id>` (decimal), world
 //!   NED, m/s, in `x, y, z`. OBSTACLE_DISTANCE_3D has no velocity field, so a moving obstacle's
 //!   velocity travels in this companion message, sent *before* the point it belongs to; it is
 //!   attached to the next point with that id (and consumed). Points without one are static
 //!   (`velocity: None`).
+//!
+//! - **OBSTACLE_DISTANCE** (id 330, PX4 / ArduPilot proximity, e.g. a 2-D lidar or a companion's
+//!   depth-image sectors): `distances[72]` (cm) in sectors of `increment_f` degrees (or the
+//!   integer `increment` when `increment_f` is 0) from `angle_offset` (degrees, positive
+//!   clockwise seen from above), at most `360 / increment` sectors used; a distance of
+//!   `UINT16_MAX` is unknown, `> max_distance` (the standard `max_distance + 1`) is free up to
+//!   `max_distance`, `< min_distance` unknown, else a return. `frame`: `MAV_FRAME_GLOBAL` (0, the
+//!   default) and `MAV_FRAME_LOCAL_NED` are north aligned, `MAV_FRAME_BODY_FRD` is aligned with
+//!   the vehicle heading (as PX4: the sectors are horizontal, roll and pitch are not applied);
+//!   other frames are rejected. The sectors are one scan row of vertical width
+//!   [`SECTOR_VERTICAL_WIDTH`] for the obstacle memory.
+//! - **DISTANCE_SENSOR** (id 132): one beam; `orientation` `MAV_SENSOR_ROTATION_NONE …
+//!   YAW_315` (horizontal, every 45°), `PITCH_90` (up), `PITCH_270` (down) or `CUSTOM` with
+//!   `quaternion` (sensor → body); beam width `horizontal_fov` × `vertical_fov` (rad, or
+//!   [`DEFAULT_BEAM_WIDTH`] when 0); `current_distance > max_distance` is free, `signal_quality`
+//!   1 (invalid) unknown; `covariance` (cm², 255 / 0 unknown) makes the return conservative by
+//!   two standard deviations (`r − 2σ`). Applied with the full attitude estimate.
+//!
+//!   Both feed the **obstacle memory** (`parapet_core::perception`, [`MEMORY_CAPACITY`] cells;
+//!   QEMU board and host builds only, see [`MEMORY_ENABLED`],
+//!   its `PCP_*` parameters read at every scan) with the vehicle's current estimate as the pose
+//!   (the sensors' latency is not compensated); after every scan the memory's points, ranked
+//!   by the controller's policy, replace the cascade's obstacle set (so a sensor that stops
+//!   makes the obstacle data stale: the failsafe). A companion should send either these or
+//!   OBSTACLE_DISTANCE_3D batches: each replaces the set.
 //!
 //! ## Batches
 //! All points with the same `time_boot_ms` form one batch (one sensor scan / one outer step). A
@@ -36,10 +64,12 @@
 use heapless::Vec as HVec;
 use mavlink::dialects::ardupilotmega::{MavFrame, DEBUG_VECT_DATA, OBSTACLE_DISTANCE_3D_DATA};
 use parapet_core::frame::enu_to_ned;
-use parapet_core::nalgebra::Rotation3;
+use parapet_core::nalgebra::{Quaternion, Rotation3, UnitQuaternion};
 use parapet_core::obstacle::{ObstaclePoint, DEFAULT_OBSTACLE_CAPACITY};
 use parapet_core::obstacle_set::{Offer, Ranking, Selector};
+use parapet_core::perception::{MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount};
 use parapet_core::safety::cbf::FilterVariant;
+use parapet_core::wire::ids::is_empty_batch;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::Autopilot;
@@ -52,6 +82,157 @@ pub const VELOCITY_PREFIX: &[u8] = parapet_core::wire::names::OBSTACLE_VELOCITY_
 pub const MAX_PENDING_VELOCITIES: usize = 16;
 /// The radio link flushes a batch this long after its last point, µs.
 pub const BATCH_TIMEOUT_US: u64 = 20_000;
+/// Whether this build feeds OBSTACLE_DISTANCE / DISTANCE_SENSOR into the obstacle memory: the
+/// QEMU board (processor-in-the-loop) and the host tests. The STM32F405 image leaves it out for
+/// now: the memory adds ≈ 14 KB of flash (`cargo xtask size`, 2026-12-02: 133 120 → 147 464 B)
+/// and the image is already at its 128 KiB budget; there both messages are counted as
+/// [`ObstacleStats::rejected_scans`].
+pub const MEMORY_ENABLED: bool = cfg!(any(test, feature = "board-qemu"));
+/// Cells of the firmware's obstacle memory (48 B each; 1 when [`MEMORY_ENABLED`] is off).
+pub const MEMORY_CAPACITY: usize = if MEMORY_ENABLED { 64 } else { 1 };
+/// Vertical width given to the OBSTACLE_DISTANCE sectors (10°), rad: a memory cell is
+/// tested against a sector for see-through clearing only within ±5° of its plane.
+pub const SECTOR_VERTICAL_WIDTH: f32 = 0.1745;
+/// Beam width of a DISTANCE_SENSOR that reports no field of view (3°), rad.
+pub const DEFAULT_BEAM_WIDTH: f32 = 0.05236;
+
+/// `MAV_FRAME_GLOBAL`, `MAV_FRAME_LOCAL_NED`, `MAV_FRAME_BODY_FRD` codes.
+const FRAME_GLOBAL: u8 = 0;
+const FRAME_LOCAL_NED: u8 = 1;
+const FRAME_BODY_FRD: u8 = 12;
+
+/// Little-endian field readers over a payload zero-extended to `N` bytes (MAVLink 2 trims
+/// trailing zeros).
+struct Payload<const N: usize>([u8; N]);
+
+impl<const N: usize> Payload<N> {
+    fn new(p: &[u8]) -> Self {
+        let mut b = [0u8; N];
+        for (d, s) in b.iter_mut().zip(p.iter()) {
+            *d = *s;
+        }
+        Payload(b)
+    }
+    fn u8(&self, at: usize) -> u8 {
+        self.0.get(at).copied().unwrap_or(0)
+    }
+    fn u16(&self, at: usize) -> u16 {
+        u16::from_le_bytes([self.u8(at), self.u8(at + 1)])
+    }
+    fn f32(&self, at: usize) -> f32 {
+        f32::from_le_bytes([self.u8(at), self.u8(at + 1), self.u8(at + 2), self.u8(at + 3)])
+    }
+}
+
+/// OBSTACLE_DISTANCE (id 330) with its MAVLink 2 extension fields, decoded by hand from the
+/// payload (the wire layout of the message definition), so the firmware does not need the
+/// `mavlink` crate's extension feature (which pulls std crates into the target build).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObstacleDistance {
+    /// Distances, cm (`UINT16_MAX` unknown, `> max_distance` nothing within range).
+    pub distances: [u16; 72],
+    /// Minimum distance the sensor can measure, cm.
+    pub min_distance: u16,
+    /// Maximum distance, cm.
+    pub max_distance: u16,
+    /// Sector width, integer degrees (used when `increment_f` is 0).
+    pub increment: u8,
+    /// Sector width, degrees (extension).
+    pub increment_f: f32,
+    /// Angle of sector 0, degrees, positive clockwise (extension).
+    pub angle_offset: f32,
+    /// `MAV_FRAME` code (extension; 0 = `MAV_FRAME_GLOBAL`, north aligned).
+    pub frame: u8,
+}
+
+impl ObstacleDistance {
+    /// Payload length with the extensions.
+    pub const LEN: usize = 167;
+
+    /// Decodes a (possibly trimmed) payload.
+    pub fn parse(p: &[u8]) -> Self {
+        let b = Payload::<{ Self::LEN }>::new(p);
+        let mut distances = [0u16; 72];
+        for (i, d) in distances.iter_mut().enumerate() {
+            *d = b.u16(8 + 2 * i);
+        }
+        ObstacleDistance {
+            distances,
+            min_distance: b.u16(152),
+            max_distance: b.u16(154),
+            increment: b.u8(157),
+            increment_f: b.f32(158),
+            angle_offset: b.f32(162),
+            frame: b.u8(166),
+        }
+    }
+
+    /// The payload (tests and senders; `time_usec` and `sensor_type` 0).
+    pub fn to_payload(&self) -> [u8; Self::LEN] {
+        let mut b = [0u8; Self::LEN];
+        for (i, d) in self.distances.iter().enumerate() {
+            if let Some(s) = b.get_mut(8 + 2 * i..10 + 2 * i) {
+                s.copy_from_slice(&d.to_le_bytes());
+            }
+        }
+        let mut put = |at: usize, v: &[u8]| {
+            if let Some(s) = b.get_mut(at..at + v.len()) {
+                s.copy_from_slice(v);
+            }
+        };
+        put(152, &self.min_distance.to_le_bytes());
+        put(154, &self.max_distance.to_le_bytes());
+        put(157, &[self.increment]);
+        put(158, &self.increment_f.to_le_bytes());
+        put(162, &self.angle_offset.to_le_bytes());
+        put(166, &[self.frame]);
+        b
+    }
+}
+
+/// DISTANCE_SENSOR (id 132) with its extension fields, decoded by hand like [`ObstacleDistance`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistanceSensor {
+    /// Minimum distance, cm.
+    pub min_distance: u16,
+    /// Maximum distance, cm.
+    pub max_distance: u16,
+    /// Measured distance, cm.
+    pub current_distance: u16,
+    /// `MAV_SENSOR_ORIENTATION` code.
+    pub orientation: u8,
+    /// Measurement variance, cm² (`UINT8_MAX` unknown).
+    pub covariance: u8,
+    /// Horizontal field of view, rad (extension; 0 unknown).
+    pub horizontal_fov: f32,
+    /// Vertical field of view, rad (extension; 0 unknown).
+    pub vertical_fov: f32,
+    /// Sensor → body quaternion `w, x, y, z` for orientation `CUSTOM` (extension).
+    pub quaternion: [f32; 4],
+    /// 0 unknown, 1 invalid, 100 perfect (extension).
+    pub signal_quality: u8,
+}
+
+impl DistanceSensor {
+    /// Payload length with the extensions.
+    pub const LEN: usize = 39;
+
+    /// Decodes a (possibly trimmed) payload.
+    pub fn parse(p: &[u8]) -> Self {
+        let b = Payload::<{ Self::LEN }>::new(p);
+        DistanceSensor {
+            min_distance: b.u16(4),
+            max_distance: b.u16(6),
+            current_distance: b.u16(8),
+            orientation: b.u8(12),
+            covariance: b.u8(13),
+            horizontal_fov: b.f32(14),
+            vertical_fov: b.f32(18),
+            quaternion: [b.f32(22), b.f32(26), b.f32(30), b.f32(34)],
+            signal_quality: b.u8(38),
+        }
+    }
+}
 
 /// Counters of the obstacle decoder (saturating).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,6 +249,10 @@ pub struct ObstacleStats {
     pub dropped_near: u32,
     /// Batches handed to the cascade.
     pub batches: u32,
+    /// OBSTACLE_DISTANCE / DISTANCE_SENSOR scans put into the memory.
+    pub scans: u32,
+    /// Scans rejected (bad increment, range, frame, orientation or pose).
+    pub rejected_scans: u32,
 }
 
 /// Collects obstacle points into batches.
@@ -77,6 +262,7 @@ pub struct ObstacleAssembler {
     batch_time_ms: Option<u32>,
     last_point_us: u64,
     velocities: HVec<(u16, Vec3), MAX_PENDING_VELOCITIES>,
+    memory: ObstacleMemory<MEMORY_CAPACITY>,
     stats: ObstacleStats,
 }
 
@@ -131,6 +317,7 @@ impl ObstacleAssembler {
             batch_time_ms: None,
             last_point_us: 0,
             velocities: HVec::new(),
+            memory: ObstacleMemory::empty(),
             stats: ObstacleStats {
                 points: 0,
                 rejected_frame: 0,
@@ -138,6 +325,8 @@ impl ObstacleAssembler {
                 dropped_full: 0,
                 dropped_near: 0,
                 batches: 0,
+                scans: 0,
+                rejected_scans: 0,
             },
         }
     }
@@ -178,7 +367,7 @@ impl ObstacleAssembler {
         }
         self.batch_time_ms = Some(msg.time_boot_ms);
         self.last_point_us = now_us;
-        if msg.obstacle_id == CLEAR_ID {
+        if is_empty_batch(msg.min_distance, msg.max_distance) {
             return;
         }
         let raw = Vec3::new(msg.x, msg.y, msg.z);
@@ -215,6 +404,158 @@ impl ObstacleAssembler {
             Offer::Dropped => {}
             Offer::Rejected => s.rejected_non_finite = s.rejected_non_finite.saturating_add(1),
         }
+    }
+
+    /// The obstacle memory (diagnostics, tests).
+    pub fn memory(&self) -> &ObstacleMemory<MEMORY_CAPACITY> {
+        &self.memory
+    }
+
+    fn reject_scan(&mut self) {
+        self.stats.rejected_scans = self.stats.rejected_scans.saturating_add(1);
+    }
+
+    /// Puts one scan into the memory and replaces the cascade's obstacle set with the memory's
+    /// points (ranked by the controller's policy).
+    fn feed<A: Autopilot>(
+        &mut self,
+        now_us: u64,
+        pose: Pose,
+        mount: SensorMount,
+        g: ScanGeometry,
+        ranges: &[Range],
+        ap: &mut A,
+    ) {
+        let d = MemoryParams::DEFAULT;
+        let get = |n: &str, v: f32| ap.get_param(n).unwrap_or(v);
+        let params = MemoryParams {
+            voxel: get("PCP_VOXEL", d.voxel),
+            forget_s: get("PCP_FORGET", d.forget_s),
+            clear_margin: get("PCP_CLR_MARGIN", d.clear_margin),
+            track_size: get("PCP_TRK_SIZE", d.track_size),
+            fov_margin: get("PCP_FOV_MARGIN", d.fov_margin),
+            ground_height: get("GND_HEIGHT", d.ground_height),
+            ..d
+        };
+        // Out-of-range values (not possible through PARAM_SET) keep the previous parameters.
+        self.memory.set_params(params);
+        let scan = Scan { t_us: now_us, pose, mount, geometry: g, ranges };
+        if self.memory.insert_scan(&scan).rejected {
+            self.reject_scan();
+            return;
+        }
+        self.stats.scans = self.stats.scans.saturating_add(1);
+        let tel = ap.telemetry();
+        let (ranking, delta1) = ranking_of(ap);
+        let (set, _) = self.memory.select::<DEFAULT_OBSTACLE_CAPACITY>(
+            now_us,
+            &tel.position_ned,
+            &tel.velocity_ned,
+            ranking,
+            delta1,
+        );
+        ap.update_obstacles(now_us, set.as_slice());
+    }
+
+    /// OBSTACLE_DISTANCE at `now_us` (see the module documentation).
+    pub fn on_obstacle_distance<A: Autopilot>(&mut self, msg: &ObstacleDistance, now_us: u64, ap: &mut A) {
+        if !MEMORY_ENABLED {
+            self.reject_scan();
+            return;
+        }
+        let inc = if msg.increment_f > 0.0 { msg.increment_f } else { f32::from(msg.increment) };
+        let (min, max) = (f32::from(msg.min_distance) * 0.01, f32::from(msg.max_distance) * 0.01);
+        if !(inc > 0.0 && inc <= 360.0 && msg.angle_offset.is_finite() && max > min) {
+            self.reject_scan();
+            return;
+        }
+        let tel = ap.telemetry();
+        let yaw = match msg.frame {
+            FRAME_GLOBAL | FRAME_LOCAL_NED => 0.0,
+            FRAME_BODY_FRD => tel.attitude_rpy.z,
+            _ => {
+                self.reject_scan();
+                return;
+            }
+        };
+        let n = ((360.0 / inc) as usize).clamp(1, msg.distances.len());
+        let mut ranges = [Range::Unknown; 72];
+        for (r, &d) in ranges.iter_mut().zip(msg.distances.iter()).take(n) {
+            *r = if d == u16::MAX || d < msg.min_distance {
+                Range::Unknown
+            } else if d > msg.max_distance {
+                Range::Clear
+            } else {
+                Range::Hit(f32::from(d) * 0.01)
+            };
+        }
+        let g = ScanGeometry {
+            az0: msg.angle_offset.to_radians(),
+            daz: inc.to_radians(),
+            n_az: n as u16,
+            el0: 0.0,
+            del: SECTOR_VERTICAL_WIDTH,
+            n_el: 1,
+            min_range: min,
+            // A distance equal to max_distance is a return; above it, free.
+            max_range: max + 0.005,
+        };
+        let pose = Pose::from_rpy(tel.position_ned, 0.0, 0.0, yaw);
+        self.feed(now_us, pose, SensorMount::centered(), g, ranges.get(..n).unwrap_or(&[]), ap);
+    }
+
+    /// DISTANCE_SENSOR at `now_us` (see the module documentation).
+    pub fn on_distance_sensor<A: Autopilot>(&mut self, msg: &DistanceSensor, now_us: u64, ap: &mut A) {
+        if !MEMORY_ENABLED {
+            self.reject_scan();
+            return;
+        }
+        let (min, max) = (f32::from(msg.min_distance) * 0.01, f32::from(msg.max_distance) * 0.01);
+        let o = msg.orientation;
+        let mount = match o {
+            0..=7 => SensorMount::new(Vec3::zeros(), 0.0, 0.0, f32::from(o) * core::f32::consts::FRAC_PI_4),
+            24 => SensorMount::new(Vec3::zeros(), 0.0, core::f32::consts::FRAC_PI_2, 0.0),
+            25 => SensorMount::new(Vec3::zeros(), 0.0, -core::f32::consts::FRAC_PI_2, 0.0),
+            100 => {
+                let [w, x, y, z] = msg.quaternion;
+                let q = Quaternion::new(w, x, y, z);
+                let n = q.norm();
+                if !(n.is_finite() && n > 0.5) {
+                    self.reject_scan();
+                    return;
+                }
+                let rotation = *UnitQuaternion::from_quaternion(q).to_rotation_matrix().matrix();
+                SensorMount { position: Vec3::zeros(), rotation }
+            }
+            _ => {
+                self.reject_scan();
+                return;
+            }
+        };
+        if max <= min {
+            self.reject_scan();
+            return;
+        }
+        let fov = |x: f32| if x.is_finite() && x > 0.0 && x < 3.0 { x } else { DEFAULT_BEAM_WIDTH };
+        let g = ScanGeometry::grid(1, 1, fov(msg.horizontal_fov), fov(msg.vertical_fov), min, max + 0.005);
+        let sigma = if msg.covariance == 0 || msg.covariance == u8::MAX {
+            0.0
+        } else {
+            parapet_core::fmath::sqrtf(f32::from(msg.covariance)) * 0.01
+        };
+        let d = msg.current_distance;
+        let range = if msg.signal_quality == 1 || d < msg.min_distance {
+            Range::Unknown
+        } else if d > msg.max_distance {
+            Range::Clear
+        } else {
+            let r = f32::from(d) * 0.01 - 2.0 * sigma;
+            Range::Hit(if r > min { r } else { min })
+        };
+        let tel = ap.telemetry();
+        let a = tel.attitude_rpy;
+        let pose = Pose::from_rpy(tel.position_ned, a.x, a.y, a.z);
+        self.feed(now_us, pose, mount, g, &[range], ap);
     }
 
     /// Hands the open batch (if any) to the cascade and closes it.
@@ -265,10 +606,21 @@ mod tests {
         assert_eq!(ap.obstacle_batches[1][0].point, Vec3::new(1.5, 2.0, -1.0));
         a.flush(0, &mut ap); // nothing open: no empty batch
         assert_eq!(ap.obstacle_batches.len(), 2);
-        a.on_point(&pt(30, CLEAR_ID, MavFrame::MAV_FRAME_LOCAL_NED, 0.0, 0.0, 0.0), 0, &mut ap);
+        let (lo, hi) = parapet_core::wire::ids::EMPTY_BATCH_RANGE;
+        let empty = OBSTACLE_DISTANCE_3D_DATA {
+            min_distance: lo,
+            max_distance: hi,
+            ..pt(30, CLEAR_ID, MavFrame::MAV_FRAME_LOCAL_NED, 0.0, 0.0, 0.0)
+        };
+        a.on_point(&empty, 0, &mut ap);
         a.poll(BATCH_TIMEOUT_US, &mut ap);
         assert_eq!(ap.obstacle_batches.len(), 3);
         assert!(ap.obstacle_batches[2].is_empty());
+        // Id 65535 ("unknown id") with a range is a valid point.
+        a.on_point(&pt(40, CLEAR_ID, MavFrame::MAV_FRAME_LOCAL_NED, 4.0, 2.0, -3.0), 0, &mut ap);
+        a.flush(0, &mut ap);
+        assert_eq!(ap.obstacle_batches[3].len(), 1);
+        assert_eq!(ap.obstacle_batches[3][0].point, Vec3::new(4.0, 2.0, -3.0));
     }
 
     #[test]
@@ -363,6 +715,129 @@ mod tests {
         l.flush_obstacles(0, &mut ap);
         assert!(ap.obstacle_batches[1].iter().all(|o| o.id != 99));
         assert_eq!(l.obstacle_stats().dropped_full, 2);
+    }
+
+    /// Standard OBSTACLE_DISTANCE through the whole link into the memory: one pole-like return
+    /// at a known bearing and range (body FRD: relative to the heading of the test double,
+    /// yaw 0.3 rad), every other sector "nothing within max_distance". The cascade gets a point
+    /// within the sector resolution of the truth: |error| ≤ r·sin(increment/2) + √3·voxel.
+    #[test]
+    fn obstacle_distance_round_trip_places_points_within_the_sector_resolution() {
+        use crate::link::frame_parser::RawFrame;
+        use crate::link::router::{FixClock, Link, Received};
+        // Through the link's decoder and dispatcher (a trimmed MAVLink 2 payload, as on the wire).
+        fn send(l: &mut Link, m: &ObstacleDistance, t: u64, ap: &mut RecordingAutopilot) {
+            let full = m.to_payload();
+            let len = full.iter().rposition(|&b| b != 0).map_or(1, |i| i + 1);
+            let f = RawFrame { msg_id: 330, sys_id: 255, comp_id: 190, seq: 0, payload: &full[..len] };
+            l.receive(Received::of(&f), t, ap);
+        }
+        let mut ap = RecordingAutopilot::new();
+        for (n, v) in [("CBF_VARIANT", 3.0), ("CBF_MU", 1.4), ("CBF_DELTA1", 0.1)] {
+            ap.set_param(n, v).unwrap();
+        }
+        let mut l = Link::new(1, FixClock::Message);
+        let vehicle = Vec3::new(1.0, 2.0, -3.0);
+        let yaw = 0.3f32;
+        for (inc, offset, frame) in
+            [(5.0f32, -2.5f32, FRAME_BODY_FRD), (10.0, 0.0, FRAME_LOCAL_NED), (2.5, 0.0, FRAME_GLOBAL)]
+        {
+            for (bearing_deg, r) in [(37.0f32, 2.5f32), (-120.0, 1.2), (170.0, 4.0)] {
+                let mut msg = ObstacleDistance {
+                    distances: [501; 72],
+                    min_distance: 10,
+                    max_distance: 500,
+                    increment: 0,
+                    increment_f: inc,
+                    angle_offset: offset,
+                    frame,
+                };
+                let full = (360.0 / inc) as usize;
+                let n = full.min(72);
+                for d in msg.distances.iter_mut().skip(n) {
+                    *d = u16::MAX;
+                }
+                let sector = (((bearing_deg - offset) / inc).round() as i32).rem_euclid(full as i32) as usize;
+                if sector >= n {
+                    continue; // outside the sectors of this increment (2.5° × 72 = 180°)
+                }
+                msg.distances[sector] = (r * 100.0) as u16;
+                let heading = if frame == FRAME_BODY_FRD { yaw } else { 0.0 };
+                let b = bearing_deg.to_radians() + heading;
+                let truth = vehicle + Vec3::new(r * b.cos(), r * b.sin(), 0.0);
+                let before = ap.obstacle_batches.len();
+                send(&mut l, &msg, 1_000_000, &mut ap);
+                assert_eq!(ap.obstacle_batches.len(), before + 1, "a scan replaces the obstacle set");
+                let pts = ap.obstacle_batches.last().unwrap();
+                let best = pts
+                    .iter()
+                    .filter(|o| o.id != parapet_core::perception::FRONTIER_ID)
+                    .map(|o| (o.point - truth).norm())
+                    .fold(f32::INFINITY, f32::min);
+                let bound = r * (0.5 * inc.to_radians()).sin() + 3f32.sqrt() * 0.2;
+                assert!(best <= bound, "inc {inc} bearing {bearing_deg}: {best} > {bound}");
+            }
+        }
+        assert_eq!(l.obstacle_stats().scans, 8);
+        // The next scans see through the old returns (all sectors free): they are cleared.
+        // Integer increment (increment_f 0), as a sender without the extensions gives it.
+        let clear = ObstacleDistance {
+            distances: [501; 72],
+            min_distance: 10,
+            max_distance: 500,
+            increment: 5,
+            increment_f: 0.0,
+            angle_offset: 0.0,
+            frame: FRAME_LOCAL_NED,
+        };
+        send(&mut l, &clear, 1_100_000, &mut ap);
+        assert!(ap
+            .obstacle_batches
+            .last()
+            .unwrap()
+            .iter()
+            .all(|o| o.id == parapet_core::perception::FRONTIER_ID));
+        // Bad increment or frame: rejected, no update.
+        let before = ap.obstacle_batches.len();
+        let bad = ObstacleDistance { increment: 0, increment_f: 0.0, ..clear };
+        send(&mut l, &bad, 1_200_000, &mut ap);
+        let bad = ObstacleDistance { frame: 4, ..clear }; // MAV_FRAME_LOCAL_ENU
+        send(&mut l, &bad, 1_200_000, &mut ap);
+        assert_eq!(ap.obstacle_batches.len(), before);
+        assert_eq!(l.obstacle_stats().rejected_scans, 2);
+    }
+
+    /// DISTANCE_SENSOR: a forward-right (yaw 45°) return at 1.5 m with σ = 5 cm lands at
+    /// r − 2σ = 1.4 m along the sensor axis rotated by the full attitude; free beyond max is no point.
+    #[test]
+    fn distance_sensor_feeds_the_memory() {
+        use mavlink::dialects::ardupilotmega::{MavSensorOrientation, DISTANCE_SENSOR_DATA};
+        use mavlink::{MavlinkVersion, MessageData};
+        let mut ap = RecordingAutopilot::new();
+        let mut a = ObstacleAssembler::new();
+        // The crate's encoding (without the extension fields) decodes to the same message.
+        let std_msg = DISTANCE_SENSOR_DATA {
+            min_distance: 5,
+            max_distance: 400,
+            current_distance: 150,
+            orientation: MavSensorOrientation::MAV_SENSOR_ROTATION_YAW_45,
+            covariance: 25,
+            ..Default::default()
+        };
+        let mut bytes = [0u8; 64];
+        let n = std_msg.ser(MavlinkVersion::V2, &mut bytes);
+        let msg = DistanceSensor::parse(&bytes[..n]);
+        assert_eq!((msg.current_distance, msg.orientation, msg.covariance), (150, 1, 25));
+        a.on_distance_sensor(&msg, 1_000, &mut ap);
+        let pts = ap.obstacle_batches.last().unwrap();
+        let axis = Rotation3::from_euler_angles(0.1, -0.2, 0.3) * Vec3::new(1.0, 1.0, 0.0).normalize();
+        let truth = Vec3::new(1.0, 2.0, -3.0) + axis * 1.4;
+        let best = pts.iter().map(|o| (o.point - truth).norm()).fold(f32::INFINITY, f32::min);
+        assert!(best < 1e-3, "{best} {pts:?}");
+        let bad = DistanceSensor { orientation: 8, ..msg }; // MAV_SENSOR_ROTATION_ROLL_180
+        a.on_distance_sensor(&bad, 2_000, &mut ap);
+        assert_eq!(a.stats().rejected_scans, 1);
+        assert_eq!(a.stats().scans, 1);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! |---|---|
 //! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted |
 //! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
+//! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
 //! | COMMAND_LONG | arm / disarm / takeoff / land / mission start, see [`crate::link::command`] |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
@@ -212,6 +213,8 @@ impl Router {
                 }
             }
             Inbound::Obstacle(m) => self.obstacles.on_point(&m, now_us, ap),
+            Inbound::ObstacleDistance(m) => self.obstacles.on_obstacle_distance(&m, now_us, ap),
+            Inbound::DistanceSensor(m) => self.obstacles.on_distance_sensor(&m, now_us, ap),
             Inbound::DebugVect(m) => {
                 self.obstacles.on_debug_vect(&m);
             }

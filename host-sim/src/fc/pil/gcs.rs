@@ -19,7 +19,8 @@ use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::codes::odometry_quaternion;
 use parapet_core::wire::ids::{
-    local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, VEHICLE_SYSTEM_ID,
+    local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
+    VEHICLE_SYSTEM_ID,
 };
 use parapet_core::wire::names::OBSTACLE_VELOCITY_PREFIX;
 use parapet_core::Vec3;
@@ -109,7 +110,7 @@ pub(super) fn odometry(t_us: u64, fix: &PositionReading) -> MavMessage {
 
 /// The obstacle batch of an outer step: per point its velocity (`DEBUG_VECT OBV<id>`, moving
 /// obstacles only) then the point (OBSTACLE_DISTANCE_3D); an empty batch is one
-/// OBSTACLE_DISTANCE_3D with [`CLEAR_ID`].
+/// OBSTACLE_DISTANCE_3D with the empty range [`EMPTY_BATCH_RANGE`].
 pub(super) fn obstacle_batch(t_us: u64, shown: &[ObstaclePoint]) -> Vec<MavMessage> {
     let time_boot_ms = (t_us / 1000) as u32;
     if shown.is_empty() {
@@ -117,6 +118,9 @@ pub(super) fn obstacle_batch(t_us: u64, shown: &[ObstaclePoint]) -> Vec<MavMessa
             time_boot_ms,
             obstacle_id: CLEAR_ID,
             frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            // The empty-batch marker: an empty range (id 65535 alone is a valid point).
+            min_distance: EMPTY_BATCH_RANGE.0,
+            max_distance: EMPTY_BATCH_RANGE.1,
             ..Default::default()
         })];
     }
