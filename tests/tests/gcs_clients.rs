@@ -34,7 +34,7 @@ fn python() -> Option<PathBuf> {
         std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| root().join("target"));
     let py = env.clone().unwrap_or_else(|| target.join("venv/bin/python"));
     let ok = Command::new(&py)
-        .args(["-c", "import pymavlink, pyulog"])
+        .args(["-c", "import pymavlink, pyulog, mavsdk"])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .status()
@@ -216,4 +216,30 @@ fn pymavlink_on_the_in_process_run() {
     let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
     println!("{text}");
     assert!(o.status.success() && text.contains("PASS"), "pymavlink on parapet run --gcs:\n{text}");
+}
+
+/// MAVSDK-Python (mavsdk 3.x with its bundled mavsdk_server) on `parapet run --api
+/// --realtime`: connects over UDP, reads the NED position (above the ground) and a parameter.
+#[test]
+fn mavsdk_connects_reads_telemetry_and_a_parameter() {
+    let Some(py) = python() else { return };
+    let port = free_port();
+    let child = Command::new(&py)
+        .arg(script("mavsdk_telemetry.py"))
+        .arg(port.to_string())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("client");
+    std::thread::sleep(Duration::from_millis(500));
+    let s = scene();
+    let cfg = config(&s, 12.0);
+    let sitl = SitlArgs { gcs: None, api: Some(format!("udp:127.0.0.1:{port}")), realtime: true };
+    let b = bridge(&sitl, &out_dir("run-api"), false).expect("bridge");
+    let (_, note) = run_inprocess_bridged(&s, &cfg, b, &mut |_| {}).expect("run with MAVSDK");
+    println!("{note}");
+    let o = child.wait_with_output().expect("client ends");
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    println!("{text}");
+    assert!(o.status.success() && text.contains("PASS"), "MAVSDK on parapet run --api:\n{text}");
 }
