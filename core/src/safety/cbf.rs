@@ -484,6 +484,23 @@ impl SafetyFilter {
         u_nom: &Vec3,
         obstacles: &[ObstaclePoint],
     ) -> (Vec3, FilterDiagnostics) {
+        // One copy per kind of law, so each obstacle loop carries only its own bookkeeping
+        // (measured on the Cortex-M4F: the shared loop cost `paper` ≈ 240 instructions at K = 16).
+        if self.variant.is_multi() {
+            self.apply_as::<true>(p, v, u_nom, obstacles)
+        } else {
+            self.apply_as::<false>(p, v, u_nom, obstacles)
+        }
+    }
+
+    /// [`apply`](Self::apply) for a multi (`MULTI`) or single-barrier variant.
+    fn apply_as<const MULTI: bool>(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        u_nom: &Vec3,
+        obstacles: &[ObstaclePoint],
+    ) -> (Vec3, FilterDiagnostics) {
         if !within_limits(p) || !within_limits(v) {
             return self.fault(v, FilterFault::BadState);
         }
@@ -498,7 +515,7 @@ impl SafetyFilter {
         let mut closest: Option<(usize, f32)> = None; // (index, |d|²)
         let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
         let (mu, delta, delta1) = (self.params.mu, self.params.delta, self.params.delta1);
-        let multi = self.variant.is_multi();
+        let multi = MULTI;
         let u_norm = norm3(u_nom);
         // Index and h of the (first) largest h in `near` once it is full (+∞ before).
         let (mut worst, mut worst_h) = (0usize, f32::INFINITY);
