@@ -406,4 +406,27 @@ mod tests {
         assert_ne!(a, c);
         assert!(a.iter().any(|r| r.range.is_some()));
     }
+
+    #[test]
+    fn sensor_tables_load_and_bad_ones_name_table_field_value_and_range() {
+        let sc = scene("[[sensor]]\nkind = \"camera\"\nname = \"front\"\nrate = 15\n[[sensor]]\nkind = \"tof\"\nyaw = 180\n");
+        assert_eq!(sc.range_sensors.len(), 2);
+        assert_eq!((sc.range_sensors[0].name.as_str(), sc.range_sensors[0].rate), ("front", 15.0));
+        assert_eq!((sc.range_sensors[1].name.as_str(), sc.range_sensors[1].yaw), ("tof1", 180.0));
+        let err = |t: &str| {
+            let src = format!(
+                "name = \"t\"\n[bounds]\nmin = [-20, -20, 0]\nmax = [20, 20, 10]\n[mission]\nstart = [0, 0, 1]\ngoal = [1, 0, 1]\nspeed = 0.5\n{t}"
+            );
+            Scene::parse(&src, "t.toml").unwrap_err().message
+        };
+        let e = err("[[sensor]]\nkind = \"lidar\"\n[[sensor]]\nkind = \"lidar\"\nlatency = 2.0\n");
+        assert!(
+            e.contains("sensor[1]") && e.contains("`latency`") && e.contains("2.0") && e.contains("≤ 1"),
+            "{e}"
+        );
+        let e = err("[[sensor]]\nkind = \"lidar\"\nname = \"a\"\n[[sensor]]\nkind = \"tof\"\nname = \"a\"\n");
+        assert!(e.contains("sensor[1]") && e.contains("`name`"), "{e}");
+        let e = err("[[sensor]]\nkind = \"radar\"\n");
+        assert!(e.contains("radar"), "{e}");
+    }
 }
