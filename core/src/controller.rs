@@ -334,6 +334,11 @@ impl FlightController {
         self.outer.set_path(waypoints_ned)
     }
 
+    /// Drop the stored path (see [`OuterLoop::clear_path`](crate::outer::OuterLoop::clear_path)).
+    pub fn clear_path(&mut self) {
+        self.outer.clear_path();
+    }
+
     /// Arm: needs a fresh, finite position fix, fresh obstacle data, no bad input
     /// pending, no reported obstacle point inside the hull (distance from the
     /// position estimate below √δ: the vehicle would start in collision) and an

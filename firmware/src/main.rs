@@ -290,7 +290,7 @@ mod firmware {
             };
             let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
             telemetry.poll(now_us(), &inputs, |m| {
-                // 20 > the at most 16 messages of one poll.
+                // 20 > the at most 18 messages of one poll.
                 let _ = queued.push(m);
             });
             for m in &queued {

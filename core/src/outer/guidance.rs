@@ -206,6 +206,15 @@ impl Guidance {
         Ok(())
     }
 
+    /// Drop the stored path; while flying the mission, hold `origin` (the current reference
+    /// position) instead. A later mission start fails until a new path is set.
+    pub fn clear_path(&mut self, origin: Vec3) {
+        self.follower.clear();
+        if let Mode::Mission { .. } = self.mode {
+            self.mode = Mode::Hold(origin);
+        }
+    }
+
     /// Take off to `height_m` (m, in (0, takeoff_height_max]) above home: a ramp at
     /// `takeoff_speed` from `position` (the fresh position estimate, needed) when on the
     /// ground, else from `reference`.

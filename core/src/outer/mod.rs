@@ -351,6 +351,12 @@ impl OuterLoop {
         self.guidance.set_path(waypoints_ned, now, self.telemetry.reference.position)
     }
 
+    /// Drop the stored path (MAVLink MISSION_CLEAR_ALL); a mission being flown becomes a hold
+    /// of the current reference position, a later mission start is refused until a new path.
+    pub fn clear_path(&mut self) {
+        self.guidance.clear_path(self.telemetry.reference.position);
+    }
+
     /// Arm (see [`crate::controller::FlightController::arm`]).
     pub fn arm(&mut self, now_us: u64) -> Result<(), CommandError> {
         let mut health = self.health(now_us);

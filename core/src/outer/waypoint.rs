@@ -196,6 +196,14 @@ impl<const N: usize> WaypointFollower<N> {
         Ok(())
     }
 
+    /// Drop the stored path (MAVLink MISSION_CLEAR_ALL): no waypoint is left, so a later
+    /// [`start`](Self::start) fails with [`PathError::NoPath`] until a new path is set.
+    pub fn clear(&mut self) {
+        self.points.clear();
+        self.cum.clear();
+        self.started = false;
+    }
+
     /// Number of waypoints stored.
     pub fn len(&self) -> usize {
         self.points.len()

@@ -182,6 +182,9 @@ pub trait Autopilot {
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
     /// Replaces the waypoint path (world NED, m).
     fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected>;
+    /// Drops the waypoint path (MISSION_CLEAR_ALL, MISSION_COUNT 0): a mission being flown
+    /// becomes a hold; a later mission start is refused until a new path is set.
+    fn clear_path(&mut self);
     /// Executes a vehicle command.
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
     /// Current telemetry.
@@ -251,6 +254,9 @@ pub(crate) mod test_double {
             }
             self.paths.push(waypoints_ned.to_vec());
             Ok(())
+        }
+        fn clear_path(&mut self) {
+            self.paths.push(std::vec::Vec::new());
         }
         fn command(&mut self, _now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
             self.commands.push(cmd);

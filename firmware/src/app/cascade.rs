@@ -213,6 +213,10 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
         })
     }
 
+    fn clear_path(&mut self) {
+        self.stage.outer.clear_path();
+    }
+
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
         let s = &mut *self.stage;
         let consistent = s.params_consistent();
@@ -371,6 +375,9 @@ impl Autopilot for Cascade {
     }
     fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
         self.port().set_path(waypoints_ned)
+    }
+    fn clear_path(&mut self) {
+        self.port().clear_path();
     }
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
         self.port().command(now_us, cmd)

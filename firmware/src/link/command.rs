@@ -8,10 +8,17 @@
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
 //!
-//! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system are
-//! ignored (no answer); target system 0 is broadcast.
+//! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
+//! component are ignored (no answer); target 0 is broadcast. The COMMAND_ACK is addressed to the
+//! sender (`target_system`/`target_component` = the command frame's system/component id).
+//!
+//! COMMAND_INT is answered exactly like COMMAND_LONG ([`command_long_of_int`]): param1..4 as
+//! they are, param5/param6 = `x`/`y` (local frames: metres × 10⁴ → metres; other frames:
+//! the integer as a float), param7 = `z`.
 
-use mavlink::dialects::ardupilotmega::{MavCmd, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA};
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA,
+};
 
 use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
 
@@ -64,26 +71,71 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
     }
 }
 
-/// Handles a COMMAND_LONG addressed to `own_system`: executes it and returns the COMMAND_ACK, or
-/// `None` when the command is for another system.
-pub fn handle_command<A: Autopilot>(
-    cmd: &COMMAND_LONG_DATA,
-    own_system: u8,
-    now_us: u64,
-    autopilot: &mut A,
-) -> Option<COMMAND_ACK_DATA> {
-    if cmd.target_system != 0 && cmd.target_system != own_system {
-        return None;
+/// COMMAND_INT as the equivalent COMMAND_LONG (see the module docs).
+pub fn command_long_of_int(c: &COMMAND_INT_DATA) -> COMMAND_LONG_DATA {
+    let local = matches!(
+        c.frame,
+        MavFrame::MAV_FRAME_LOCAL_NED | MavFrame::MAV_FRAME_LOCAL_OFFSET_NED | MavFrame::MAV_FRAME_LOCAL_ENU
+    );
+    let xy = |v: i32| if local { parapet_core::wire::ids::local_xy_from_wire(v) } else { v as f32 };
+    COMMAND_LONG_DATA {
+        param1: c.param1,
+        param2: c.param2,
+        param3: c.param3,
+        param4: c.param4,
+        param5: xy(c.x),
+        param6: xy(c.y),
+        param7: c.z,
+        command: c.command,
+        target_system: c.target_system,
+        target_component: c.target_component,
+        confirmation: 0,
     }
-    let result = match decode_command(cmd) {
+}
+
+/// `true` when a message with `target_system`/`target_component` is for this vehicle's
+/// autopilot (`own`): each is 0 (broadcast) or ours.
+pub fn addressed_to(target_system: u8, target_component: u8, own: (u8, u8)) -> bool {
+    (target_system == 0 || target_system == own.0) && (target_component == 0 || target_component == own.1)
+}
+
+/// COMMAND_ACK for `command` with `result`, addressed to `sender` (system, component).
+pub fn ack(command: MavCmd, result: MavResult, sender: (u8, u8)) -> COMMAND_ACK_DATA {
+    COMMAND_ACK_DATA {
+        command,
+        result,
+        target_system: sender.0,
+        target_component: sender.1,
+        ..Default::default()
+    }
+}
+
+/// Executes a vehicle command (already checked to be for us) and gives the MAV_RESULT.
+pub fn execute<A: Autopilot>(cmd: &COMMAND_LONG_DATA, now_us: u64, autopilot: &mut A) -> MavResult {
+    match decode_command(cmd) {
         Ok(vc) => match autopilot.command(now_us, vc) {
             Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
             Err(CommandRejected::NotNow) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
             Err(CommandRejected::Invalid) => MavResult::MAV_RESULT_DENIED,
         },
         Err(r) => r,
-    };
-    Some(COMMAND_ACK_DATA { command: cmd.command, result })
+    }
+}
+
+/// Handles a COMMAND_LONG from `sender` addressed to `own` (system, component): executes it and
+/// returns the COMMAND_ACK addressed to the sender, or `None` when the command is for another
+/// system or component.
+pub fn handle_command<A: Autopilot>(
+    cmd: &COMMAND_LONG_DATA,
+    own: (u8, u8),
+    sender: (u8, u8),
+    now_us: u64,
+    autopilot: &mut A,
+) -> Option<COMMAND_ACK_DATA> {
+    if !addressed_to(cmd.target_system, cmd.target_component, own) {
+        return None;
+    }
+    Some(ack(cmd.command, execute(cmd, now_us, autopilot), sender))
 }
 
 #[cfg(test)]
@@ -166,17 +218,24 @@ mod tests {
     #[test]
     fn acks_reflect_the_autopilot_answer_and_other_systems_are_ignored() {
         let mut ap = RecordingAutopilot::new();
-        let ack = handle_command(&cmd(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 1.0), 1, 0, &mut ap);
+        let ack =
+            handle_command(&cmd(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 1.0), (1, 1), (255, 190), 0, &mut ap);
         assert_eq!(ack.map(|a| a.result), Some(MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
-        let ack = handle_command(&cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0, 0.0), 1, 0, &mut ap);
+        let ack = handle_command(
+            &cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0, 0.0),
+            (1, 1),
+            (255, 190),
+            0,
+            &mut ap,
+        );
         assert_eq!(ack.map(|a| a.result), Some(MavResult::MAV_RESULT_ACCEPTED));
         assert!(ap.armed);
         let mut other = cmd(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0.0, 0.0, 0.0);
         other.target_system = 7;
-        assert_eq!(handle_command(&other, 1, 0, &mut ap), None);
+        assert_eq!(handle_command(&other, (1, 1), (255, 190), 0, &mut ap), None);
         assert!(ap.armed);
         other.target_system = 0;
-        assert!(handle_command(&other, 1, 0, &mut ap).is_some());
+        assert!(handle_command(&other, (1, 1), (255, 190), 0, &mut ap).is_some());
         assert!(!ap.armed);
     }
 }

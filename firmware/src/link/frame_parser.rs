@@ -464,9 +464,14 @@ mod tests {
             })
             .raw_bytes()
             .to_vec(),
-            w.encode(&MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: 1 })
-                .raw_bytes()
-                .to_vec(),
+            w.encode(&MISSION_COUNT_DATA {
+                count: 2,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            })
+            .raw_bytes()
+            .to_vec(),
             w.encode(&ODOMETRY_DATA {
                 x: 1.5,
                 y: -2.0,

@@ -7,11 +7,14 @@
 
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::dialects::ardupilotmega::{
+    COMMAND_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, PARAM_REQUEST_LIST_DATA,
+    PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, TIMESYNC_DATA,
+};
+use mavlink::dialects::ardupilotmega::{
     COMMAND_LONG_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
     MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
-use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
 use mavlink::{MavlinkVersion, Message, MessageData};
 
 use crate::link::frame_parser::RawFrame;
@@ -48,6 +51,16 @@ pub enum Inbound {
     ParamSet(PARAM_SET_DATA),
     /// Read a parameter.
     ParamRequestRead(PARAM_REQUEST_READ_DATA),
+    /// Read all parameters.
+    ParamRequestList(PARAM_REQUEST_LIST_DATA),
+    /// Start of a mission download.
+    MissionRequestList(MISSION_REQUEST_LIST_DATA),
+    /// One mission item of a download.
+    MissionRequestInt(MISSION_REQUEST_INT_DATA),
+    /// Command with integer position fields (answered like COMMAND_LONG).
+    CommandInt(COMMAND_INT_DATA),
+    /// Time synchronisation request (tc1 = 0) or answer.
+    Timesync(TIMESYNC_DATA),
 }
 
 /// Why a CRC-valid frame could not be decoded.
@@ -76,6 +89,11 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         COMMAND_LONG_DATA::ID => COMMAND_LONG_DATA::EXTRA_CRC,
         PARAM_SET_DATA::ID => PARAM_SET_DATA::EXTRA_CRC,
         PARAM_REQUEST_READ_DATA::ID => PARAM_REQUEST_READ_DATA::EXTRA_CRC,
+        PARAM_REQUEST_LIST_DATA::ID => PARAM_REQUEST_LIST_DATA::EXTRA_CRC,
+        MISSION_REQUEST_LIST_DATA::ID => MISSION_REQUEST_LIST_DATA::EXTRA_CRC,
+        MISSION_REQUEST_INT_DATA::ID => MISSION_REQUEST_INT_DATA::EXTRA_CRC,
+        COMMAND_INT_DATA::ID => COMMAND_INT_DATA::EXTRA_CRC,
+        TIMESYNC_DATA::ID => TIMESYNC_DATA::EXTRA_CRC,
         _ => return None,
     })
 }
@@ -115,6 +133,11 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         COMMAND_LONG_DATA::ID => Inbound::CommandLong(de(p)?),
         PARAM_SET_DATA::ID => Inbound::ParamSet(de(p)?),
         PARAM_REQUEST_READ_DATA::ID => Inbound::ParamRequestRead(de(p)?),
+        PARAM_REQUEST_LIST_DATA::ID => Inbound::ParamRequestList(de(p)?),
+        MISSION_REQUEST_LIST_DATA::ID => Inbound::MissionRequestList(de(p)?),
+        MISSION_REQUEST_INT_DATA::ID => Inbound::MissionRequestInt(de(p)?),
+        COMMAND_INT_DATA::ID => Inbound::CommandInt(de(p)?),
+        TIMESYNC_DATA::ID => Inbound::Timesync(de(p)?),
         _ => return Err(DecodeError::NotHandled),
     })
 }

@@ -1,5 +1,12 @@
-//! Mission upload (MAVLink mission protocol, vehicle side): MISSION_COUNT → MISSION_REQUEST_INT
-//! (seq 0..n−1) ↔ MISSION_ITEM_INT → MISSION_ACK.
+//! Mission protocol, vehicle side: upload MISSION_COUNT → MISSION_REQUEST_INT (seq 0..n−1) ↔
+//! MISSION_ITEM_INT → MISSION_ACK; download MISSION_REQUEST_LIST → MISSION_COUNT, then
+//! MISSION_REQUEST_INT(seq) → MISSION_ITEM_INT (the path the cascade accepted last); clear
+//! MISSION_CLEAR_ALL or MISSION_COUNT 0 → the path is dropped, MISSION_ACK ACCEPTED.
+//!
+//! `mission_type`: only `MAV_MISSION_TYPE_MISSION` is stored. A geofence or rally upload or
+//! download is answered MISSION_ACK `MAV_MISSION_UNSUPPORTED` (with that `mission_type`) and
+//! does not touch the mission; MISSION_CLEAR_ALL with `MAV_MISSION_TYPE_ALL` clears the mission
+//! (there is nothing else to clear), with fence/rally it is refused the same way.
 //!
 //! Accepted items: `MAV_CMD_NAV_WAYPOINT` in `MAV_FRAME_LOCAL_NED` (x, y = metres × 10⁴ as int32,
 //! per the MAVLink local-frame convention for MISSION_ITEM_INT; z = metres, down positive). The
@@ -12,8 +19,8 @@
 
 use heapless::Vec as HVec;
 use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavFrame, MavMissionResult, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
-    MISSION_REQUEST_INT_DATA,
+    MavCmd, MavFrame, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
 use parapet_core::Vec3;
 
@@ -23,9 +30,9 @@ pub const MAX_WAYPOINTS: usize = 64;
 pub const RETRY_INTERVAL_US: u64 = 500_000;
 /// Re-requests before the upload is cancelled.
 pub const MAX_RETRIES: u8 = 4;
-use parapet_core::wire::ids::local_xy_from_wire;
 /// Scale of MISSION_ITEM_INT x/y in local frames (int32 = metres × 10⁴).
 pub use parapet_core::wire::ids::LOCAL_XY_SCALE;
+use parapet_core::wire::ids::{local_xy_from_wire, local_xy_to_wire};
 
 /// What the vehicle must send (or do) after an input.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,8 +42,21 @@ pub enum MissionReply {
     /// Finish (or refuse) the upload with this result.
     Ack(MISSION_ACK_DATA),
     /// All items arrived: install [`MissionUpload::path`] in the cascade, then send
-    /// [`MissionUpload::ack_for`] with the outcome.
+    /// [`MissionUpload::ack_for`] with the outcome (and [`MissionUpload::accept`] it when taken).
     Complete,
+    /// MISSION_COUNT 0: clear the cascade's path and [`MissionUpload::clear`], then ACK ACCEPTED.
+    Clear,
+}
+
+/// What the vehicle answers to a download request.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DownloadReply {
+    /// MISSION_COUNT (answer to MISSION_REQUEST_LIST).
+    Count(MISSION_COUNT_DATA),
+    /// MISSION_ITEM_INT (answer to MISSION_REQUEST_INT).
+    Item(MISSION_ITEM_INT_DATA),
+    /// Refusal (unsupported `mission_type`, sequence out of range).
+    Ack(MISSION_ACK_DATA),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,6 +69,8 @@ enum State {
 pub struct MissionUpload {
     state: State,
     items: HVec<Vec3, MAX_WAYPOINTS>,
+    /// The path the cascade accepted last (what a download returns).
+    stored: HVec<Vec3, MAX_WAYPOINTS>,
     partner: (u8, u8),
 }
 
@@ -61,7 +83,7 @@ impl Default for MissionUpload {
 impl MissionUpload {
     /// Idle, no path.
     pub const fn new() -> Self {
-        Self { state: State::Idle, items: HVec::new(), partner: (0, 0) }
+        Self { state: State::Idle, items: HVec::new(), stored: HVec::new(), partner: (0, 0) }
     }
 
     /// `true` while an upload is in progress.
@@ -74,9 +96,19 @@ impl MissionUpload {
         &self.items
     }
 
+    /// The path the cascade accepted last (download), NED, m.
+    pub fn stored(&self) -> &[Vec3] {
+        &self.stored
+    }
+
+    /// The cascade took [`MissionUpload::path`]: it becomes the stored (downloadable) path.
+    pub fn accept(&mut self) {
+        self.stored.clone_from(&self.items);
+    }
+
     /// MISSION_ACK addressed to the last upload partner.
     pub fn ack_for(&self, result: MavMissionResult) -> MISSION_ACK_DATA {
-        MISSION_ACK_DATA { target_system: self.partner.0, target_component: self.partner.1, mavtype: result }
+        ack(self.partner.0, self.partner.1, result, MavMissionType::MAV_MISSION_TYPE_MISSION)
     }
 
     fn request(&self, seq: u16) -> MissionReply {
@@ -84,6 +116,68 @@ impl MissionUpload {
             seq,
             target_system: self.partner.0,
             target_component: self.partner.1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        })
+    }
+
+    /// MISSION_REQUEST_LIST of `mission_type` from (`sys`, `comp`): the stored path's count,
+    /// or UNSUPPORTED for fence/rally.
+    pub fn on_request_list(&self, mission_type: MavMissionType, sys: u8, comp: u8) -> DownloadReply {
+        if mission_type != MavMissionType::MAV_MISSION_TYPE_MISSION {
+            return DownloadReply::Ack(ack(
+                sys,
+                comp,
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                mission_type,
+            ));
+        }
+        DownloadReply::Count(MISSION_COUNT_DATA {
+            count: self.stored.len() as u16,
+            target_system: sys,
+            target_component: comp,
+            mission_type,
+            opaque_id: 0,
+        })
+    }
+
+    /// MISSION_REQUEST_INT(`seq`) of `mission_type` from (`sys`, `comp`): the stored item as
+    /// MISSION_ITEM_INT (NAV_WAYPOINT, LOCAL_NED, x/y = m × 10⁴), or a refusal.
+    pub fn on_request_item(
+        &self,
+        seq: u16,
+        mission_type: MavMissionType,
+        sys: u8,
+        comp: u8,
+    ) -> DownloadReply {
+        if mission_type != MavMissionType::MAV_MISSION_TYPE_MISSION {
+            return DownloadReply::Ack(ack(
+                sys,
+                comp,
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                mission_type,
+            ));
+        }
+        let Some(w) = self.stored.get(usize::from(seq)) else {
+            return DownloadReply::Ack(ack(
+                sys,
+                comp,
+                MavMissionResult::MAV_MISSION_INVALID_SEQUENCE,
+                mission_type,
+            ));
+        };
+        DownloadReply::Item(MISSION_ITEM_INT_DATA {
+            x: local_xy_to_wire(f64::from(w.x)),
+            y: local_xy_to_wire(f64::from(w.y)),
+            z: w.z,
+            seq,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            target_system: sys,
+            target_component: comp,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            current: u8::from(seq == 0),
+            autocontinue: 1,
+            mission_type,
+            ..Default::default()
         })
     }
 
@@ -94,7 +188,16 @@ impl MissionUpload {
     }
 
     /// MISSION_COUNT from (`sys`, `comp`) at `now_us`. A new count restarts any upload.
+    /// Another `mission_type` than MISSION is refused (UNSUPPORTED) and changes nothing.
     pub fn on_count(&mut self, msg: &MISSION_COUNT_DATA, sys: u8, comp: u8, now_us: u64) -> MissionReply {
+        if msg.mission_type != MavMissionType::MAV_MISSION_TYPE_MISSION {
+            return MissionReply::Ack(ack(
+                sys,
+                comp,
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                msg.mission_type,
+            ));
+        }
         self.partner = (sys, comp);
         self.items.clear();
         if usize::from(msg.count) > MAX_WAYPOINTS {
@@ -102,7 +205,7 @@ impl MissionUpload {
         }
         if msg.count == 0 {
             self.state = State::Idle;
-            return MissionReply::Complete;
+            return MissionReply::Clear;
         }
         self.state = State::Receiving {
             count: msg.count,
@@ -185,6 +288,18 @@ impl MissionUpload {
     pub fn clear(&mut self) {
         self.state = State::Idle;
         self.items.clear();
+        self.stored.clear();
+    }
+}
+
+/// MISSION_ACK to (`sys`, `comp`).
+pub fn ack(sys: u8, comp: u8, result: MavMissionResult, mission_type: MavMissionType) -> MISSION_ACK_DATA {
+    MISSION_ACK_DATA {
+        target_system: sys,
+        target_component: comp,
+        mavtype: result,
+        mission_type,
+        opaque_id: 0,
     }
 }
 
@@ -207,7 +322,7 @@ mod tests {
     }
 
     fn count(n: u16) -> MISSION_COUNT_DATA {
-        MISSION_COUNT_DATA { count: n, target_system: 1, target_component: 1 }
+        MISSION_COUNT_DATA { count: n, target_system: 1, target_component: 1, ..Default::default() }
     }
 
     fn req_seq(r: Option<MissionReply>) -> Option<u16> {
@@ -300,9 +415,31 @@ mod tests {
     }
 
     #[test]
-    fn empty_mission_completes_immediately() {
+    fn empty_mission_is_a_clear() {
         let mut m = MissionUpload::new();
-        assert_eq!(m.on_count(&count(0), 255, 190, 0), MissionReply::Complete);
+        assert_eq!(m.on_count(&count(0), 255, 190, 0), MissionReply::Clear);
         assert!(m.path().is_empty());
+    }
+
+    #[test]
+    fn download_serves_the_accepted_path_only() {
+        let mut m = MissionUpload::new();
+        m.on_count(&count(1), 255, 190, 0);
+        assert_eq!(m.on_item(&item(0, 1.5, -2.0, -1.0), 255, 190, 0), Some(MissionReply::Complete));
+        // Not accepted by the cascade yet: nothing to download.
+        assert!(matches!(m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8),
+            DownloadReply::Count(c) if c.count == 0 && (c.target_system, c.target_component) == (9, 8)));
+        m.accept();
+        match m.on_request_item(0, MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8) {
+            DownloadReply::Item(i) => assert_eq!((i.x, i.y, i.z, i.current), (15_000, -20_000, -1.0, 1)),
+            other => panic!("{other:?}"),
+        }
+        // A failed later upload keeps the accepted path downloadable.
+        m.on_count(&count(2), 255, 190, 0);
+        m.on_item(&item(1, 1.0, 0.0, -1.0), 255, 190, 0);
+        assert!(matches!(m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8),
+            DownloadReply::Count(c) if c.count == 1));
+        m.clear();
+        assert!(m.stored().is_empty());
     }
 }

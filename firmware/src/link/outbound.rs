@@ -1,10 +1,13 @@
 //! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
 
-use mavlink::dialects::ardupilotmega::PARAM_VALUE_DATA;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
     NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+};
+use mavlink::dialects::ardupilotmega::{
+    AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
 use mavlink::MAVLinkV2MessageRaw;
 
@@ -37,8 +40,20 @@ pub enum Outbound {
     MissionAck(MISSION_ACK_DATA),
     /// HIL_ACTUATOR_CONTROLS (lockstep answer).
     HilActuatorControls(HIL_ACTUATOR_CONTROLS_DATA),
-    /// PARAM_VALUE (answer to PARAM_SET / PARAM_REQUEST_READ).
+    /// PARAM_VALUE (answer to PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST).
     ParamValue(PARAM_VALUE_DATA),
+    /// MISSION_COUNT (mission download).
+    MissionCount(MISSION_COUNT_DATA),
+    /// MISSION_ITEM_INT (mission download).
+    MissionItemInt(MISSION_ITEM_INT_DATA),
+    /// SYS_STATUS.
+    SysStatus(SYS_STATUS_DATA),
+    /// EXTENDED_SYS_STATE (landed state).
+    ExtendedSysState(EXTENDED_SYS_STATE_DATA),
+    /// AUTOPILOT_VERSION (capabilities; on request).
+    AutopilotVersion(AUTOPILOT_VERSION_DATA),
+    /// TIMESYNC answer.
+    Timesync(TIMESYNC_DATA),
 }
 
 impl Outbound {
@@ -58,6 +73,12 @@ impl Outbound {
             Outbound::MissionAck(m) => writer.encode(m),
             Outbound::HilActuatorControls(m) => writer.encode(m),
             Outbound::ParamValue(m) => writer.encode(m),
+            Outbound::MissionCount(m) => writer.encode(m),
+            Outbound::MissionItemInt(m) => writer.encode(m),
+            Outbound::SysStatus(m) => writer.encode(m),
+            Outbound::ExtendedSysState(m) => writer.encode(m),
+            Outbound::AutopilotVersion(m) => writer.encode(m),
+            Outbound::Timesync(m) => writer.encode(m),
         }
     }
 }

@@ -10,31 +10,58 @@
 //! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
 //! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
-//! | COMMAND_LONG | arm / disarm / takeoff / land / mission start, see [`crate::link::command`] |
+//! | MISSION_REQUEST_LIST / MISSION_REQUEST_INT | mission download (the path the cascade took last) |
+//! | COMMAND_LONG / COMMAND_INT | arm / disarm / takeoff / land / mission start / hold, see [`crate::link::command`]; REQUEST_MESSAGE(AUTOPILOT_VERSION) and REQUEST_AUTOPILOT_CAPABILITIES → ACK + AUTOPILOT_VERSION |
+//! | PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST | parameters, see [`crate::link::params`] |
+//! | TIMESYNC | a request (tc1 = 0) is answered with tc1 = firmware time, ns, ts1 echoed |
+//! | PING | not handled (deprecated by MAVLink in favour of TIMESYNC) |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | HEARTBEAT | marks the peer alive |
 //!
-//! Replies (COMMAND_ACK, MISSION_REQUEST_INT, MISSION_ACK) go to a queue of
-//! [`REPLY_QUEUE_LEN`]; when it is full the newest reply is dropped and counted (the peer
-//! retries, as the MAVLink command and mission protocols require).
+//! **Addressing**: messages with target fields are handled only when `target_system` is 0 or
+//! ours and `target_component` is 0 or ours ([`AUTOPILOT_COMPONENT_ID`]); others (e.g. a
+//! PARAM_SET or ARM for a camera, component 154) are ignored and counted (`not_for_us`).
+//! Answers are addressed to the sender's system/component.
+//!
+//! Replies (COMMAND_ACK, MISSION_*, PARAM_VALUE, …) go to a queue of [`REPLY_QUEUE_LEN`]; when
+//! it is full the newest reply is dropped and counted (the peer retries, as the MAVLink command
+//! and mission protocols require). **PARAM_REQUEST_LIST** does not fill the queue at once: it
+//! starts a stream that [`Link::poll`] (and each received frame) continues with at most
+//! [`PARAMS_PER_POLL`] PARAM_VALUEs while more than [`REPLY_RESERVE`] queue slots are free, in
+//! table order (index 0..count−1, each once); a new PARAM_REQUEST_LIST restarts it.
 
 use heapless::Deque;
 use mavlink::dialects::ardupilotmega::{
-    MavFrame, MavMissionResult, MavParamType, HIL_SENSOR_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
+    MavCmd, MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
+    AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, HIL_SENSOR_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
+    TIMESYNC_DATA,
 };
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
-use crate::link::command::handle_command;
+use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
-use crate::link::mission::{MissionReply, MissionUpload};
+use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
 use crate::link::outbound::Outbound;
 
 /// Reply queue capacity.
 pub const REPLY_QUEUE_LEN: usize = 8;
+/// Most PARAM_VALUEs of a PARAM_REQUEST_LIST stream queued per [`Link::poll`] or frame.
+pub const PARAMS_PER_POLL: usize = 2;
+/// Reply-queue slots a PARAM_REQUEST_LIST stream leaves free for other replies.
+pub const REPLY_RESERVE: usize = 4;
+/// AUTOPILOT_VERSION capabilities: MAVLink 2, float parameters (C cast), MISSION_ITEM_INT,
+/// COMMAND_INT. No fence/rally, no SET_POSITION_TARGET_* (not handled).
+pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT);
+/// MAVLink message id of AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE param1).
+const AUTOPILOT_VERSION_ID: f32 = 148.0;
 
 /// One simulated IMU sample from HIL_SENSOR.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -75,6 +102,8 @@ pub struct LinkStats {
     pub hil_overwritten: u32,
     /// PARAM_SET / PARAM_REQUEST_READ for unknown names or indices.
     pub unknown_params: u32,
+    /// Messages addressed to another system or component (ignored).
+    pub not_for_us: u32,
 }
 
 /// Whose clock time-stamps a position fix.
@@ -96,6 +125,8 @@ struct Router {
     hil: Option<HilSample>,
     stats: LinkStats,
     peer_seen: bool,
+    /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
+    param_stream: Option<u16>,
 }
 
 /// Converts ODOMETRY into a position fix (with the yaw of `q` when it is a valid attitude);
@@ -139,7 +170,68 @@ fn param_value(index: usize, value: f32) -> Outbound {
     })
 }
 
+/// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`).
+pub fn autopilot_version() -> AUTOPILOT_VERSION_DATA {
+    AUTOPILOT_VERSION_DATA {
+        capabilities: CAPABILITIES,
+        flight_sw_version: 0x0001_0000,
+        ..Default::default()
+    }
+}
+
 impl Router {
+    fn for_me(&mut self, target_system: u8, target_component: u8) -> bool {
+        let ok = addressed_to(target_system, target_component, (self.own_system, AUTOPILOT_COMPONENT_ID));
+        if !ok {
+            self.stats.not_for_us = self.stats.not_for_us.saturating_add(1);
+        }
+        ok
+    }
+
+    /// Continues a PARAM_REQUEST_LIST stream (see the module docs).
+    fn stream_params<A: Autopilot>(&mut self, ap: &mut A) {
+        for _ in 0..PARAMS_PER_POLL {
+            let Some(i) = self.param_stream else { return };
+            if REPLY_QUEUE_LEN - self.replies.len() <= REPLY_RESERVE {
+                return;
+            }
+            let i = usize::from(i);
+            let next = i + 1;
+            self.param_stream = if next < crate::link::params::COUNT { Some(next as u16) } else { None };
+            self.param_reply(Some(i), ap);
+        }
+    }
+
+    fn on_command<A: Autopilot>(
+        &mut self,
+        cmd: &COMMAND_LONG_DATA,
+        sender: (u8, u8),
+        now_us: u64,
+        ap: &mut A,
+    ) {
+        if !self.for_me(cmd.target_system, cmd.target_component) {
+            return;
+        }
+        #[allow(deprecated)] // REQUEST_AUTOPILOT_CAPABILITIES: still sent by ground stations
+        let (result, version) = match cmd.command {
+            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => (MavResult::MAV_RESULT_ACCEPTED, true),
+            MavCmd::MAV_CMD_REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
+                (MavResult::MAV_RESULT_ACCEPTED, true)
+            }
+            MavCmd::MAV_CMD_REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
+            _ => (execute(cmd, now_us, ap), false),
+        };
+        self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
+        if version {
+            self.reply(Outbound::AutopilotVersion(autopilot_version()));
+        }
+    }
+
+    fn clear_mission<A: Autopilot>(&mut self, ap: &mut A) {
+        self.mission.clear();
+        ap.clear_path();
+    }
+
     fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
         let found = index.and_then(|i| {
             let p = crate::link::params::TABLE.get(i)?;
@@ -161,6 +253,11 @@ impl Router {
         match r {
             MissionReply::Request(q) => self.reply(Outbound::MissionRequestInt(q)),
             MissionReply::Ack(a) => self.reply(Outbound::MissionAck(a)),
+            MissionReply::Clear => {
+                self.clear_mission(ap);
+                let ack = self.mission.ack_for(MavMissionResult::MAV_MISSION_ACCEPTED);
+                self.reply(Outbound::MissionAck(ack));
+            }
             MissionReply::Complete => {
                 let result = match ap.set_path(self.mission.path()) {
                     Ok(()) => MavMissionResult::MAV_MISSION_ACCEPTED,
@@ -171,10 +268,21 @@ impl Router {
                         MavMissionResult::MAV_MISSION_INVALID
                     }
                 };
+                if result == MavMissionResult::MAV_MISSION_ACCEPTED {
+                    self.mission.accept();
+                }
                 let ack = self.mission.ack_for(result);
                 self.reply(Outbound::MissionAck(ack));
             }
         }
+    }
+
+    fn download_reply(&mut self, r: DownloadReply) {
+        self.reply(match r {
+            DownloadReply::Count(c) => Outbound::MissionCount(c),
+            DownloadReply::Item(i) => Outbound::MissionItemInt(i),
+            DownloadReply::Ack(a) => Outbound::MissionAck(a),
+        });
     }
 
     fn on_frame<A: Autopilot>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
@@ -219,32 +327,61 @@ impl Router {
                 self.obstacles.on_debug_vect(&m);
             }
             Inbound::MissionCount(m) => {
-                if m.target_system == 0 || m.target_system == self.own_system {
+                if self.for_me(m.target_system, m.target_component) {
                     let r = self.mission.on_count(&m, f.sys_id, f.comp_id, now_us);
                     self.mission_reply(r, ap);
                 }
             }
             Inbound::MissionItemInt(m) => {
-                if let Some(r) = self.mission.on_item(&m, f.sys_id, f.comp_id, now_us) {
-                    self.mission_reply(r, ap);
+                if self.for_me(m.target_system, m.target_component) {
+                    if let Some(r) = self.mission.on_item(&m, f.sys_id, f.comp_id, now_us) {
+                        self.mission_reply(r, ap);
+                    }
                 }
             }
             Inbound::MissionClearAll(m) => {
-                if m.target_system == 0 || m.target_system == self.own_system {
-                    self.mission.clear();
-                    // An empty path always fits; the ACK reports what the cascade said.
-                    let result = match ap.set_path(&[]) {
-                        Ok(()) => MavMissionResult::MAV_MISSION_ACCEPTED,
-                        Err(_) => MavMissionResult::MAV_MISSION_ERROR,
+                if self.for_me(m.target_system, m.target_component) {
+                    let result = match m.mission_type {
+                        MavMissionType::MAV_MISSION_TYPE_MISSION | MavMissionType::MAV_MISSION_TYPE_ALL => {
+                            self.clear_mission(ap);
+                            MavMissionResult::MAV_MISSION_ACCEPTED
+                        }
+                        _ => MavMissionResult::MAV_MISSION_UNSUPPORTED,
                     };
-                    let mut ack = self.mission.ack_for(result);
-                    ack.target_system = f.sys_id;
-                    ack.target_component = f.comp_id;
+                    let ack = crate::link::mission::ack(f.sys_id, f.comp_id, result, m.mission_type);
                     self.reply(Outbound::MissionAck(ack));
                 }
             }
+            Inbound::MissionRequestList(m) => {
+                if self.for_me(m.target_system, m.target_component) {
+                    let r = self.mission.on_request_list(m.mission_type, f.sys_id, f.comp_id);
+                    self.download_reply(r);
+                }
+            }
+            Inbound::MissionRequestInt(m) => {
+                if self.for_me(m.target_system, m.target_component) {
+                    let r = self.mission.on_request_item(m.seq, m.mission_type, f.sys_id, f.comp_id);
+                    self.download_reply(r);
+                }
+            }
+            Inbound::ParamRequestList(m) => {
+                if self.for_me(m.target_system, m.target_component) {
+                    self.param_stream = Some(0);
+                }
+            }
+            Inbound::Timesync(m) => {
+                if m.tc1 == 0 {
+                    let tc1 = i64::try_from(now_us.saturating_mul(1000)).unwrap_or(i64::MAX);
+                    self.reply(Outbound::Timesync(TIMESYNC_DATA {
+                        tc1,
+                        ts1: m.ts1,
+                        target_system: f.sys_id,
+                        target_component: f.comp_id,
+                    }));
+                }
+            }
             Inbound::ParamSet(m) => {
-                if m.target_system == 0 || m.target_system == self.own_system {
+                if self.for_me(m.target_system, m.target_component) {
                     let name = m.param_id.to_str().unwrap_or("");
                     // Refused values are answered with the value still in effect (MAVLink
                     // parameter protocol); unknown names are not answered.
@@ -253,7 +390,7 @@ impl Router {
                 }
             }
             Inbound::ParamRequestRead(m) => {
-                if m.target_system == 0 || m.target_system == self.own_system {
+                if self.for_me(m.target_system, m.target_component) {
                     let index = if m.param_index >= 0 {
                         Some(m.param_index as usize)
                     } else {
@@ -262,12 +399,12 @@ impl Router {
                     self.param_reply(index, ap);
                 }
             }
-            Inbound::CommandLong(m) => {
-                if let Some(ack) = handle_command(&m, self.own_system, now_us, ap) {
-                    self.reply(Outbound::CommandAck(ack));
-                }
+            Inbound::CommandLong(m) => self.on_command(&m, (f.sys_id, f.comp_id), now_us, ap),
+            Inbound::CommandInt(m) => {
+                self.on_command(&command_long_of_int(&m), (f.sys_id, f.comp_id), now_us, ap)
             }
         }
+        self.stream_params(ap);
     }
 }
 
@@ -335,8 +472,10 @@ impl Link {
                     hil_samples: 0,
                     hil_overwritten: 0,
                     unknown_params: 0,
+                    not_for_us: 0,
                 },
                 peer_seen: false,
+                param_stream: None,
             },
         }
     }
@@ -365,6 +504,7 @@ impl Link {
         if let Some(r) = self.router.mission.poll(now_us) {
             self.router.mission_reply(r, ap);
         }
+        self.router.stream_params(ap);
         self.router.obstacles.poll(now_us, ap);
     }
 
@@ -440,7 +580,10 @@ mod tests {
         let mut l = Link::new(1, FixClock::Arrival);
         let mut w = gcs();
         l.push_bytes(
-            &send(&mut w, &MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: 1 }),
+            &send(
+                &mut w,
+                &MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: 1, ..Default::default() },
+            ),
             0,
             &mut ap,
         );

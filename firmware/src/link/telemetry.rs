@@ -2,7 +2,9 @@
 //!
 //! | stream | message | rate | content |
 //! |---|---|---|---|
-//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; base_mode SAFETY_ARMED when armed, GUIDED+AUTO; custom_mode = [`FlightPhase`] code; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; base_mode: CUSTOM_MODE_ENABLED always, SAFETY_ARMED + STABILIZE when armed, GUIDED when armed and airborne (takeoff, hover, mission, landing, failsafe), AUTO only in the mission phase; custom_mode = [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe); system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | status | SYS_STATUS | 1 Hz (with the heartbeat) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs; health: all, without vision position and xy control while a failsafe is active; load = outer loop max execution / period (‰ of the window); no battery: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
+//! | landed state | EXTENDED_SYS_STATE | 1 Hz (with the heartbeat) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
 //! | attitude | ATTITUDE | 50 Hz | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
 //! | position | LOCAL_POSITION_NED | 25 Hz | position NED m, velocity NED m/s |
 //! | filter | DEBUG_VECT `CBF` | 25 Hz | x = h̄ (m², min over obstacles; +∞ none), y = region code (0 none, 1 far, 2 nominal-safe, 3 perpendicular/intervening, 4 fault), z = active obstacle id (−1 none) |
@@ -20,11 +22,12 @@
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
 use mavlink::dialects::ardupilotmega::{
-    MavAutopilot, MavFrame, MavModeFlag, MavSeverity, MavState, MavType, PositionTargetTypemask,
-    ATTITUDE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+    MavAutopilot, MavFrame, MavLandedState, MavModeFlag, MavSeverity, MavState, MavSysStatusSensor, MavType,
+    MavVtolState, PositionTargetTypemask, ATTITUDE_DATA, EXTENDED_SYS_STATE_DATA, HEARTBEAT_DATA,
+    LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 
-use crate::app::autopilot::{Failsafe, TelemetrySnapshot};
+use crate::app::autopilot::{Failsafe, FlightPhase, TelemetrySnapshot};
 use crate::app::loop_timing::LoopReport;
 use crate::link::frame_parser::ParserStats;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
@@ -123,11 +126,17 @@ impl Default for TelemetryScheduler {
     }
 }
 
-/// HEARTBEAT for the state in `s`.
+/// HEARTBEAT for the state in `s` (mode flags and custom-mode map in the module docs).
 pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
-    let mut base = MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if s.armed {
-        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
+        if s.phase != FlightPhase::Idle && s.phase != FlightPhase::Disarmed {
+            base |= MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
+        }
+        if s.phase == FlightPhase::Mission {
+            base |= MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+        }
     }
     let system_status = if s.failsafe.is_some() {
         MavState::MAV_STATE_CRITICAL
@@ -146,13 +155,58 @@ pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
     }
 }
 
+/// Landed state of the phase (EXTENDED_SYS_STATE).
+pub fn landed_state(s: &TelemetrySnapshot) -> MavLandedState {
+    match s.phase {
+        FlightPhase::Disarmed | FlightPhase::Idle => MavLandedState::MAV_LANDED_STATE_ON_GROUND,
+        FlightPhase::Takeoff => MavLandedState::MAV_LANDED_STATE_TAKEOFF,
+        FlightPhase::Landing => MavLandedState::MAV_LANDED_STATE_LANDING,
+        FlightPhase::Hover | FlightPhase::Mission => MavLandedState::MAV_LANDED_STATE_IN_AIR,
+        FlightPhase::Failsafe if s.armed => MavLandedState::MAV_LANDED_STATE_IN_AIR,
+        FlightPhase::Failsafe => MavLandedState::MAV_LANDED_STATE_ON_GROUND,
+    }
+}
+
+/// SYS_STATUS for the state in `inp` (fields in the module docs).
+pub fn sys_status(inp: &TelemetryInputs) -> SYS_STATUS_DATA {
+    use MavSysStatusSensor as S;
+    let present = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
+        | S::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+        | S::MAV_SYS_STATUS_SENSOR_VISION_POSITION
+        | S::MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+        | S::MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+        | S::MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
+        | S::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+        | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+    let mut health = present;
+    if inp.snapshot.failsafe.is_some() {
+        health
+            .remove(S::MAV_SYS_STATUS_SENSOR_VISION_POSITION | S::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL);
+    }
+    let o = &inp.outer;
+    // ‰, at most 1000; the float → int cast maps negative and NaN to 0.
+    let load =
+        if o.period_mean_us > 0.0 { (1000.0 * o.exec_max_us / o.period_mean_us).min(1000.0) } else { 0.0 };
+    SYS_STATUS_DATA {
+        onboard_control_sensors_present: present,
+        onboard_control_sensors_enabled: present,
+        onboard_control_sensors_health: health,
+        load: load as u16,
+        voltage_battery: u16::MAX,
+        current_battery: -1,
+        errors_comm: inp.parser.crc_errors.min(u32::from(u16::MAX)) as u16,
+        battery_remaining: -1,
+        ..Default::default()
+    }
+}
+
 /// STATUSTEXT with `text` (truncated to 50 bytes).
 pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEXT_DATA {
     let mut buf = [0u8; 50];
     for (d, c) in buf.iter_mut().zip(prefix.bytes().chain(text.bytes())) {
         *d = c;
     }
-    STATUSTEXT_DATA { severity, text: buf.into() }
+    STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() }
 }
 
 impl TelemetryScheduler {
@@ -162,7 +216,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most 16 messages per call (2 failsafe, 1 + 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most 18 messages per call (2 failsafe, 3 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -200,7 +254,14 @@ impl TelemetryScheduler {
                 self.next_due_us[k].saturating_add(*period)
             };
             match stream {
-                Stream::Heartbeat => emit(Outbound::Heartbeat(heartbeat(s))),
+                Stream::Heartbeat => {
+                    emit(Outbound::Heartbeat(heartbeat(s)));
+                    emit(Outbound::SysStatus(sys_status(inp)));
+                    emit(Outbound::ExtendedSysState(EXTENDED_SYS_STATE_DATA {
+                        vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                        landed_state: landed_state(s),
+                    }));
+                }
                 Stream::Attitude => emit(Outbound::Attitude(ATTITUDE_DATA {
                     time_boot_ms: ms,
                     roll: s.attitude_rpy.x,

@@ -36,7 +36,7 @@ fn expected(frame: &[u8]) -> Decoded {
 fn probes() -> Vec<Vec<u8>> {
     let mut w = FrameWriter::new(255, 190);
     vec![
-        w.encode(&MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: 1 })
+        w.encode(&MISSION_COUNT_DATA { count: 2, target_system: 1, target_component: 1, ..Default::default() })
             .raw_bytes()
             .to_vec(),
         w.encode(&HEARTBEAT_DATA::default()).raw_bytes().to_vec(),
