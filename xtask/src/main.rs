@@ -17,6 +17,7 @@
 //!   static-RAM use of the release firmware (or of `ELF`); exit 1 over a limit.
 //! * `cargo xtask m4` — only the Cortex-M4F fmath bit-exactness step of `cargo xtask test`
 //!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
+//! * `cargo xtask venv` — only the Python venv of the ground-station client tests (`venv.rs`).
 //! * `cargo xtask params [--out FILE]` — the parameter table as ground-station metadata JSON
 //!   (see `params.rs`).
 //! * `cargo xtask bench [--long]` — run every criterion benchmark (short
@@ -49,10 +50,13 @@ fn main() -> ExitCode {
         Some("bench") => bench::bench(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("params") => params::params(&args[1..]),
+        Some("venv") => {
+            venv::ensure().map(|py| eprintln!("xtask: ground-station clients in {}", py.display()))
+        }
         Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|m4>"
+                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|venv|m4>"
             );
             return ExitCode::from(2);
         }
