@@ -7,8 +7,9 @@
 //!   regression guard (a collision here is a change, not a tolerance). Reaching
 //!   the goal is not asserted (see docs/perception.md: time to goal).
 //! * `full_matrix` (ignored, the documented command of docs/perception.md):
-//!   six scenes × lidar, camera, ToF × seeds 0–4, asserting no collision; it
-//!   fails today and prints the table of what collided.
+//!   six scenes × lidar, camera, ToF × seeds 0–4, and the forward camera on
+//!   `blind_corner` (a turn towards a pillar it has not seen), asserting no
+//!   collision; it fails today and prints the table of what collided.
 //!
 //! `cargo test -p parapet-tests --release --test perception_flights -- --ignored --nocapture`
 
@@ -128,6 +129,14 @@ fn full_matrix() {
                     failed.push(format!("{name} {sensors} {seed}"));
                 }
             }
+        }
+    }
+    // Forward camera only, a path turning towards a pillar hidden behind a wall's end.
+    for seed in 0..5 {
+        let s = fly("blind_corner", "camera", seed).summary;
+        println!("blind_corner camera seed {seed}: collided {} ({:?})", s.collided, s.collision_with);
+        if s.collided {
+            failed.push(format!("blind_corner camera {seed}"));
         }
     }
     assert!(failed.is_empty(), "{} collisions: {failed:?}", failed.len());
