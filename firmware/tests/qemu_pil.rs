@@ -19,6 +19,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{MavlinkVersion, MessageData};
 use parapet_core::controller::ControllerParams;
+use parapet_core::wire::ids::EMPTY_BATCH_RANGE;
 use parapet_core::wire::names;
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::frame_parser::FrameParser;
@@ -257,6 +258,9 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                     time_boot_ms: (t / 1000) as u32,
                     obstacle_id: CLEAR_ID,
                     frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    // The empty-batch marker is the empty range (id 65535 alone is a point).
+                    min_distance: EMPTY_BATCH_RANGE.0,
+                    max_distance: EMPTY_BATCH_RANGE.1,
                     ..Default::default()
                 });
             } else {
