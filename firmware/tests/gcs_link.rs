@@ -445,6 +445,29 @@ fn heartbeat_flags_follow_arming_and_mode() {
 }
 
 #[test]
+fn do_set_mode_switches_between_the_custom_modes_of_the_heartbeat() {
+    let mut g = Sim::new();
+    g.airborne();
+    assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let mode = |m: FlightPhase| [1.0, m.code() as f32, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Mission), 1);
+    assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission);
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Hover), 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_ACCEPTED);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
+    // Without the custom-mode flag, or a mode that cannot be commanded: denied, no change.
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, [0.0, 4.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Failsafe), 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
+}
+
+#[test]
 fn sys_status_and_extended_sys_state_come_with_the_heartbeat() {
     let mut g = Sim::new();
     let mut tel = TelemetryScheduler::new();

@@ -7,6 +7,7 @@
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
+//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2 = custom mode (the HEARTBEAT's phase code): 3 hover (hold the current position), 4 mission (start it), 5 landing | as OVERRIDE_GOTO hold / MISSION_START / NAV_LAND; other custom modes or without the custom flag: DENIED |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
 //! component are ignored (no answer); target 0 is broadcast. The COMMAND_ACK is addressed to the
@@ -20,7 +21,7 @@ use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA,
 };
 
-use crate::app::autopilot::{Autopilot, CommandRejected, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, FlightPhase, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
@@ -50,6 +51,19 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             }
         }
         MavCmd::MAV_CMD_NAV_LAND => Ok(VehicleCommand::Land),
+        MavCmd::MAV_CMD_DO_SET_MODE => {
+            // p1 = MAV_MODE base flags, must carry CUSTOM_MODE_ENABLED (1); p2 = custom mode =
+            // the phase code of the HEARTBEAT (parapet_core::wire::codes::FlightPhase).
+            let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
+            match (custom, cmd.param2) {
+                (true, m) if m == FlightPhase::Hover.code() as f32 => {
+                    Ok(VehicleCommand::Hold { target_ned: None })
+                }
+                (true, m) if m == FlightPhase::Mission.code() as f32 => Ok(VehicleCommand::StartMission),
+                (true, m) if m == FlightPhase::Landing.code() as f32 => Ok(VehicleCommand::Land),
+                _ => Err(MavResult::MAV_RESULT_DENIED),
+            }
+        }
         MavCmd::MAV_CMD_MISSION_START => Ok(VehicleCommand::StartMission),
         MavCmd::MAV_CMD_OVERRIDE_GOTO => {
             // p1 MAV_GOTO_DO_HOLD (0); p2 HOLD_AT_CURRENT_POSITION (2) or
@@ -197,6 +211,23 @@ mod tests {
         );
         assert_eq!(
             decode_command(&cmd(MAV_CMD_DO_SET_MODE, 0.0, 0.0, 0.0)),
+            Err(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 5.0, 0.0)), Ok(VehicleCommand::Land));
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 4.0, 0.0)),
+            Ok(VehicleCommand::StartMission)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 3.0, 0.0)),
+            Ok(VehicleCommand::Hold { target_ned: None })
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 6.0, 0.0)),
+            Err(MavResult::MAV_RESULT_DENIED)
+        );
+        assert_eq!(
+            decode_command(&cmd(MAV_CMD_DO_SET_SERVO, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_UNSUPPORTED)
         );
         let mut goto = cmd(MAV_CMD_OVERRIDE_GOTO, 0.0, 3.0, -1.5);
