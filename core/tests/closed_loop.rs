@@ -616,3 +616,32 @@ fn cbf_filter_stops_the_vehicle_before_an_obstacle() {
     assert!((sim.quad.p - Vec3::new(2.0, 0.0, -1.0)).norm() < 0.05, "{:?}", sim.quad.p);
     assert_eq!(sim.ctl.state(), FailsafeState::Armed);
 }
+
+#[test]
+fn a_short_fix_loss_brakes_then_resumes_the_mission_instead_of_landing() {
+    let start = Vec3::new(0.0, 0.0, -2.0);
+    let mut sim = hovering(ControllerParams::default(), start);
+    sim.ctl.set_path(&[start, Vec3::new(5.0, 0.0, -2.0)]).unwrap();
+    sim.ctl.start_mission(sim.t_us).unwrap();
+    sim.run(4.0, |_, _| {});
+    // 0.3 s without a fix: longer than the 0.2 s position timeout.
+    sim.feed_fix = false;
+    sim.run(0.3, |_, _| {});
+    assert_eq!(
+        last_reason(&sim.ctl),
+        (FailsafeState::Armed, FailsafeState::Brake, TransitionReason::PositionStale)
+    );
+    sim.feed_fix = true;
+    let z_before = sim.quad.p.z;
+    sim.run(0.5, |_, _| {});
+    assert_eq!(
+        last_reason(&sim.ctl),
+        (FailsafeState::Brake, FailsafeState::Armed, TransitionReason::DataRecovered)
+    );
+    assert_eq!(sim.ctl.telemetry().mode, GuidanceMode::Mission);
+    let x0 = sim.quad.p.x;
+    sim.run(4.0, |_, _| {});
+    assert_eq!(sim.ctl.state(), FailsafeState::Armed, "no landing");
+    assert!(sim.quad.p.x > x0 + 0.5, "the mission goes on: {} -> {}", x0, sim.quad.p.x);
+    assert!((sim.quad.p.z - z_before).abs() < 0.1, "height kept: {}", sim.quad.p.z);
+}
