@@ -141,7 +141,6 @@ fn pymavlink_gcs_through_the_bridge_and_tlog_replay() {
 /// The parameter and mission microservices as a GCS uses them (issue 20's defects): the whole
 /// PARAM_REQUEST_LIST, PARAM_SET echo, mission download, MISSION_CLEAR_ALL and count 0 after.
 #[test]
-#[ignore = "needs FWGCS: PARAM_REQUEST_LIST, MISSION_REQUEST_LIST and MISSION_CLEAR_ALL in the firmware (issue 20)"]
 fn pymavlink_parameter_and_mission_services() {
     let Some(py) = python() else { return };
     let sc = script("gcs_pymavlink.py");
@@ -152,19 +151,18 @@ fn pymavlink_parameter_and_mission_services() {
     assert!(ok && text.contains("PASS"), "pymavlink parameter/mission services:\n{text}");
 }
 
-/// MAVProxy (`mavproxy.py --master udpin:… --cmd "param fetch; wp list"`) completes both
-/// without timeouts (`Received N parameters`, the waypoint list).
+/// MAVProxy (`mavproxy.py --master udpin:…`, `param fetch` then `wp list` typed once the
+/// vehicle is seen) completes both without timeouts (`Received N parameters`, the waypoint list).
 #[test]
-#[ignore = "needs FWGCS: PARAM_REQUEST_LIST and MISSION_REQUEST_LIST in the firmware (issue 20)"]
 fn mavproxy_param_fetch_and_wp_list() {
     let Some(py) = python() else { return };
     let bin = py.parent().expect("venv bin").to_path_buf();
     let logdir = out_dir("mavproxy-state");
-    let sh = script("gcs_mavproxy.sh");
+    let sc = script("gcs_mavproxy.py");
     let Some(elf) = firmware() else { return };
     let port = free_port();
-    let child = Command::new("sh")
-        .arg(&sh)
+    let child = Command::new(&py)
+        .arg(&sc)
         .arg(&bin)
         .arg(port.to_string())
         .arg(&logdir)

@@ -1,0 +1,72 @@
+"""MAVProxy on `parapet pil --gcs udp:127.0.0.1:PORT`: `param fetch` and `wp list` complete.
+
+usage: gcs_mavproxy.py VENV_BIN PORT LOGDIR
+
+MAVProxy runs interactively with its console on a pipe: the commands are typed only after the
+vehicle's first heartbeat was seen (a command given with --cmd at start-up goes out before the
+vehicle exists and is lost), each waits for its answer, and a time-out fails the test.
+"""
+import os
+import subprocess
+import sys
+import threading
+import time
+
+venv_bin, port, logdir = sys.argv[1], sys.argv[2], sys.argv[3]
+proc = subprocess.Popen(
+    [os.path.join(venv_bin, "python"), os.path.join(venv_bin, "mavproxy.py"),
+     "--master", f"udpin:127.0.0.1:{port}", "--state-basedir", logdir],
+    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+lines = []
+T0 = time.time()
+lock = threading.Lock()
+
+
+def reader():
+    for line in proc.stdout:
+        with lock:
+            lines.append((time.time() - T0, line.rstrip()))
+
+
+threading.Thread(target=reader, daemon=True).start()
+
+
+def wait_for(pred, timeout, what):
+    t0 = time.time()
+    seen = 0
+    while time.time() - t0 < timeout:
+        with lock:
+            new = lines[seen:]
+            seen = len(lines)
+        for line in new:
+            if pred(line[1].strip()):
+                return line[1]
+        time.sleep(0.05)
+    print("\n".join(f"{t:6.2f} {l}" for t, l in lines))
+    print(f"FAIL: {what} within {timeout} s")
+    proc.kill()
+    sys.exit(1)
+
+
+def send(cmd):
+    proc.stdin.write(cmd + "\n")
+    proc.stdin.flush()
+
+
+wait_for(lambda l: "Detected vehicle" in l or "online system" in l, 30, "vehicle heartbeat")
+send("param fetch")
+got = wait_for(lambda l: l.startswith("Received ") and "parameters" in l, 30, "param fetch")
+send("wp list")
+wp = wait_for(lambda l: ("Requesting" in l and "waypoints" in l) or ("Saved" in l and "waypoints" in l),
+              30, "wp list")
+wait_for(lambda l: "Saved" in l and "waypoints" in l, 30, "waypoint list saved")
+send("exit")
+try:
+    proc.wait(timeout=5)
+except subprocess.TimeoutExpired:
+    proc.kill()
+with lock:
+    print("\n".join(f"{t:6.2f} {l}" for t, l in lines))
+print(got)
+print(wp)
+print("PASS")
