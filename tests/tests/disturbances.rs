@@ -115,20 +115,35 @@ fn disturbed_flights_are_deterministic_for_their_seed() {
 
 #[test]
 fn a_rotor_fault_brings_the_vehicle_down() {
-    // Rotor 1 at 30 % thrust from t = 1 s: the cascade cannot hold attitude and height.
+    // Rotor 1 dead (0 % thrust) from t = 1 s: no filter can hold attitude and height.
     let base = hover_scene("");
     let mut cfg = RunConfig::for_scene(&base, vec![base.start, base.goal]).unwrap();
     cfg.duration = 10.0;
-    cfg.disturbances.faults = FaultParams {
-        rotor_fault: Some(RotorFault { rotor: 1, factor: 0.3, time: 1.0 }),
+    let fault = |factor| FaultParams {
+        rotor_fault: Some(RotorFault { rotor: 1, factor, time: 1.0 }),
         ..Default::default()
     };
-    let out = run(&base, &cfg, &mut |_| {}).unwrap().summary;
-    assert!(out.collided, "{out:?}");
-    assert_eq!(out.collision_with.as_deref(), Some("ground"));
-    assert!(out.first_collision_time_s.unwrap() > 1.0);
+    for variant in [FilterVariant::Paper, FilterVariant::MultiRelative] {
+        cfg.variant = variant;
+        cfg.disturbances.faults = fault(0.0);
+        let out = run(&base, &cfg, &mut |_| {}).unwrap().summary;
+        assert!(out.collided, "{variant:?}: {out:?}");
+        assert_eq!(out.collision_with.as_deref(), Some("ground"));
+        assert!(out.first_collision_time_s.unwrap() > 1.0);
+    }
+    // Rotor 1 at 30 %: the paper's PD law sinks into the ground; the default filter's
+    // disturbance observer (|d̂| ≤ 6 m/s², issue 17) takes up the lost thrust and the ground
+    // barrier keeps it airborne (measured 2026-12-02: paper ground contact at 2.39 s; default
+    // no contact, tracking RMS 0.86 m; at 20 % both come down).
+    cfg.disturbances.faults = fault(0.3);
+    cfg.variant = FilterVariant::Paper;
+    let paper = run(&base, &cfg, &mut |_| {}).unwrap().summary;
+    assert!(paper.collided && paper.collision_with.as_deref() == Some("ground"), "{paper:?}");
+    cfg.variant = FilterVariant::MultiRelative;
+    let default = run(&base, &cfg, &mut |_| {}).unwrap().summary;
+    assert!(!default.collided, "{default:?}");
     // A mild fault (90 %) is flown out.
-    cfg.disturbances.faults.rotor_fault = Some(RotorFault { rotor: 1, factor: 0.9, time: 1.0 });
+    cfg.disturbances.faults = fault(0.9);
     let mild = run(&base, &cfg, &mut |_| {}).unwrap();
     assert!(!mild.summary.collided, "{:?}", mild.summary);
     assert!(mild.summary.tracking_rms_m < 0.5, "{:?}", mild.summary);
