@@ -22,6 +22,12 @@
 //!
 //! May import: mavlink, `parapet-core` (params, wire ids), [`crate::flight::stack`],
 //! [`crate::sim::sensors`], [`super`].
+//!
+//! MAVLink message literals end in `..Default::default()`: whether the generated `mavlink`
+//! structs carry the MAVLink 2 extension fields depends on which crates share the build (the
+//! firmware's `mavlink-bindgen` build-dependency turns them on, e.g. in the fuzz workspace),
+//! and the code must compile both ways (hence the `needless_update` allowance).
+#![allow(clippy::needless_update)]
 
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavCmd, MavFrame, MavMessage, MavMissionResult, MavModeFlag, MavParamType, MavResult,
@@ -138,6 +144,7 @@ impl<S: FlightStack> GcsStack<S> {
                     count: self.path.len() as u16,
                     target_system: h.system_id as u8,
                     target_component: h.component_id,
+                    ..Default::default()
                 }));
             }
             MavMessage::MISSION_REQUEST_INT(r) if self.for_us(r.target_system, r.target_component) => {
@@ -172,6 +179,7 @@ impl<S: FlightStack> GcsStack<S> {
             target_system: h.system_id as u8,
             target_component: h.component_id,
             mavtype: result,
+            ..Default::default()
         }));
     }
 
@@ -181,6 +189,7 @@ impl<S: FlightStack> GcsStack<S> {
         self.send(&MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
             command,
             result: MavResult::MAV_RESULT_UNSUPPORTED,
+            ..Default::default()
         }));
     }
 
@@ -192,6 +201,7 @@ impl<S: FlightStack> GcsStack<S> {
             self.send(&MavMessage::STATUSTEXT(STATUSTEXT_DATA {
                 severity: MavSeverity::MAV_SEVERITY_INFO,
                 text: text.into(),
+                ..Default::default()
             }));
             self.state = state;
         }

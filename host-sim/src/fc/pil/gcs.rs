@@ -6,6 +6,12 @@
 //! May import: `parapet-core` (params, wire contract), mavlink,
 //! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`]
 //! (readings), [`crate::world::scene`].
+//!
+//! MAVLink message literals end in `..Default::default()`: whether the generated `mavlink`
+//! structs carry the MAVLink 2 extension fields depends on which crates share the build (the
+//! firmware's `mavlink-bindgen` build-dependency turns them on, e.g. in the fuzz workspace),
+//! and the code must compile both ways (hence the `needless_update` allowance).
+#![allow(clippy::needless_update)]
 
 use anyhow::{anyhow, Result};
 use mavlink::dialects::ardupilotmega::{
@@ -182,6 +188,7 @@ pub(super) fn mission_count(n: usize) -> MavMessage {
         count: n as u16,
         target_system: VEHICLE_SYSTEM_ID,
         target_component: AUTOPILOT_COMPONENT_ID,
+        ..Default::default()
     })
 }
 
