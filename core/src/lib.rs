@@ -31,6 +31,8 @@
 //! - [`perception`]: range scans → a bounded world-frame obstacle memory (voxel merge,
 //!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
 //!   the filter's obstacle points (issue 19).
+//! - [`rc`]: pilot input (CRSF/SBUS/MAVLink manual control → [`rc::RcInput`]; issue 21).
+//! - [`battery`]: the battery measurement message ([`battery::BatteryState`]; issue 22).
 //! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
 //!
 //! The modules of the folders are re-exported at the root (`parapet_core::cbf`,
@@ -45,6 +47,7 @@
 #![warn(missing_docs)]
 
 pub mod airframe;
+pub mod battery;
 pub mod config;
 pub mod controller;
 pub mod fmath;
@@ -55,6 +58,7 @@ pub mod obstacle_set;
 pub mod outer;
 pub mod params;
 pub mod perception;
+pub mod rc;
 pub mod robust;
 pub mod safety;
 pub mod schedule;

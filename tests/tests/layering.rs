@@ -30,13 +30,17 @@ const CORE_ALIASES: &[(&str, &str)] = &[
 const CORE_RULES: &[(&str, &[&str])] = &[
     ("inner", &["airframe", "frame", "fmath", "msg"]),
     ("outer", &["airframe", "frame", "fmath", "msg", "safety", "supervisor", "obstacle_set", "robust"]),
-    ("supervisor", &["airframe", "frame", "fmath", "msg"]),
+    // Issue 21/22: the mode machine reads the pilot input and the battery level.
+    ("supervisor", &["airframe", "frame", "fmath", "msg", "rc", "battery"]),
     ("safety", &["airframe", "frame", "fmath"]),
     // Issue 17: the obstacle-set policy and the plant-aware wrapping sit on the filter.
     ("obstacle_set", &["frame", "fmath", "safety"]),
     ("robust", &["airframe", "frame", "fmath", "safety"]),
     // Issue 19: the obstacle memory turns range scans into points for the filter's set.
     ("perception", &["frame", "fmath", "safety", "obstacle_set"]),
+    // Issue 21: pilot input (decoders, channel map) and issue 22: the battery message.
+    ("rc", &["fmath"]),
+    ("battery", &["fmath"]),
     ("msg", &[]),
 ];
 
