@@ -16,6 +16,7 @@ use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
 use crate::perception::MemoryParams;
 use crate::robust::{RobustError, RobustParams};
+use crate::supervisor::modes::ModeParams;
 use crate::supervisor::LandingParams;
 use crate::thrust::ThrustParams;
 use crate::tracking::TrackingParams;
@@ -55,6 +56,8 @@ pub struct ControllerParams {
     pub waypoint: WaypointParams,
     /// Failsafe limits.
     pub failsafe: FailsafeParams,
+    /// Flight modes and their failsafes (issue 21; see [`ModeParams`]).
+    pub modes: ModeParams,
     /// Nominal outer-loop rate, Hz. Default 250.
     pub outer_rate_hz: f32,
     /// Nominal inner-loop rate, Hz. Default 1000.
@@ -90,6 +93,7 @@ impl Default for ControllerParams {
             estimator: EstimatorParams::default(),
             waypoint: WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 },
             failsafe: FailsafeParams::default(),
+            modes: ModeParams::default(),
             outer_rate_hz: 250.0,
             inner_rate_hz: 1000.0,
             guidance: GuidanceParams::default(),
@@ -160,7 +164,7 @@ impl ControllerParams {
         self.estimator.validate().map_err(ParamError::Estimator)?;
         Mixer::new(&self.airframe).map_err(ParamError::Mixer)?;
         self.waypoint.validate().map_err(ParamError::Waypoint)?;
-        if !self.failsafe.is_valid() {
+        if !self.failsafe.is_valid() || !self.modes.is_valid() {
             return Err(ParamError::Failsafe);
         }
         let nonneg = |x: f32| x.is_finite() && x >= 0.0;

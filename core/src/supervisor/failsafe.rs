@@ -89,6 +89,22 @@ pub enum TransitionReason {
     DataRecovered,
     /// Tilt beyond the crash limit.
     TiltLimit,
+    /// The RC kill switch (motors off at once, from any state).
+    KillSwitch,
+    /// The RC link was lost (timeout or receiver failsafe) — issue 21's per-mode failsafe.
+    RcLoss,
+    /// No offboard setpoint for the offboard timeout.
+    OffboardLoss,
+    /// Battery below the low threshold.
+    BatteryLow,
+    /// Battery below the critical threshold.
+    BatteryCritical,
+    /// The RC mode switch selected the mode.
+    ModeSwitch,
+    /// A mode command (MAVLink DO_SET_MODE, the host API).
+    ModeCommand,
+    /// Return reached the start.
+    ReturnDone,
 }
 
 impl TransitionReason {
@@ -105,6 +121,14 @@ impl TransitionReason {
             TransitionReason::Landed => "landed",
             TransitionReason::DataRecovered => "data-recovered",
             TransitionReason::TiltLimit => "tilt-limit",
+            TransitionReason::KillSwitch => "kill-switch",
+            TransitionReason::RcLoss => "rc-loss",
+            TransitionReason::OffboardLoss => "offboard-loss",
+            TransitionReason::BatteryLow => "battery-low",
+            TransitionReason::BatteryCritical => "battery-critical",
+            TransitionReason::ModeSwitch => "mode-switch",
+            TransitionReason::ModeCommand => "mode-command",
+            TransitionReason::ReturnDone => "return-done",
         }
     }
 }
@@ -337,18 +361,27 @@ impl Failsafe {
 
     /// Disarm command: accepted in every state except Disarmed.
     pub fn disarm(&mut self, t_us: u64) -> Option<Transition> {
+        self.disarm_for(t_us, TransitionReason::DisarmCommand)
+    }
+
+    /// Disarm for `reason` (the disarm command, the kill switch): in every state but Disarmed.
+    pub fn disarm_for(&mut self, t_us: u64, reason: TransitionReason) -> Option<Transition> {
         if self.state == FailsafeState::Disarmed {
             return None;
         }
-        Some(self.go(FailsafeState::Disarmed, TransitionReason::DisarmCommand, t_us))
+        Some(self.go(FailsafeState::Disarmed, reason, t_us))
     }
 
     /// Land command: from Armed or Brake.
     pub fn land(&mut self, t_us: u64) -> Option<Transition> {
+        self.land_for(t_us, TransitionReason::LandCommand)
+    }
+
+    /// Land for `reason` (the land command, a mode change, a per-mode failsafe): from Armed
+    /// or Brake.
+    pub fn land_for(&mut self, t_us: u64, reason: TransitionReason) -> Option<Transition> {
         match self.state {
-            FailsafeState::Armed | FailsafeState::Brake => {
-                Some(self.go(FailsafeState::Land, TransitionReason::LandCommand, t_us))
-            }
+            FailsafeState::Armed | FailsafeState::Brake => Some(self.go(FailsafeState::Land, reason, t_us)),
             _ => None,
         }
     }

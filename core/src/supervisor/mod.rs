@@ -20,10 +20,15 @@
 //!   `land_no_fix_time_us` without a fix. A fix that returns re-seeds the descent where the
 //!   vehicle is. A vehicle that never took off is landed at once.
 //!
+//! [`modes`] is the flight-mode machine of issue 21 (Manual, Position, Mission, Offboard, Hold,
+//! Return, Land; RC-loss, offboard-loss and battery failsafes per mode).
+//!
 //! May import: the crate root foundation ([`crate::frame`], [`crate::fmath`],
-//! [`crate::Vec3`]) and [`crate::msg`]. Never the loops.
+//! [`crate::Vec3`]), [`crate::msg`], [`crate::rc`] and [`crate::battery`] (the mode machine's
+//! inputs). Never the loops.
 
 pub mod failsafe;
+pub mod modes;
 
 use crate::fmath::{minf, norm3};
 use crate::frame::GRAVITY;
@@ -188,6 +193,16 @@ impl Supervisor {
     /// Land command (from Armed or Brake).
     pub fn land(&mut self, now_us: u64) -> Option<Transition> {
         self.failsafe.land(now_us)
+    }
+
+    /// Land for `reason` (a mode change or a per-mode failsafe; from Armed or Brake).
+    pub fn land_for(&mut self, now_us: u64, reason: failsafe::TransitionReason) -> Option<Transition> {
+        self.failsafe.land_for(now_us, reason)
+    }
+
+    /// Disarm for `reason` (the kill switch), from any state but Disarmed.
+    pub fn disarm_for(&mut self, now_us: u64, reason: failsafe::TransitionReason) -> Option<Transition> {
+        self.failsafe.disarm_for(now_us, reason)
     }
 
     /// Crash check with a tilt the inner loop reported at `t_us`.
