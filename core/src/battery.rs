@@ -1,12 +1,40 @@
 //! Battery state: the message between the battery measurement (ADC on the board, the
-//! simulator's battery model in host-sim/PIL) and the supervisor's low-battery failsafes.
+//! simulator's battery model in host-sim/PIL) and the supervisor's low-battery failsafes,
+//! and the estimator that turns raw pack voltage / current samples into it.
 //!
-//! Owns [`BatteryState`] and [`BatteryLevel`].
+//! Owns [`BatteryState`], [`BatteryLevel`], [`BatteryParams`], [`BatteryEstimator`] and the
+//! LiPo charge curve [`remaining_of_cell_voltage`].
 //!
-//! May import: the crate root foundation only.
+//! ## The estimator ([`BatteryEstimator::update`], bounded: one table walk of 21 points)
+//! 1. **Bad samples**: a voltage that is not finite or outside `[0, 100]` V, or a current
+//!    that is not finite or outside `[-500, 500]` A, is refused ([`BatterySample::Rejected`]),
+//!    counted ([`BatteryEstimator::rejected`]) and changes nothing; the state keeps the time of
+//!    the last *accepted* sample (`t_us`), so a consumer sees a stale measurement by its age
+//!    (the supervisor's rule; the estimator never invents a level from missing data).
+//! 2. **Filter**: first-order low-pass on the voltage (and current), time constant
+//!    [`BatteryParams::filter_tau_s`]; the first sample initialises it.
+//! 3. **Sag compensation**: when the current is measured, the resting voltage is estimated as
+//!    `v + i·R` with the pack's internal resistance [`BatteryParams::r_internal_ohm`].
+//! 4. **Cells**: [`BatteryParams::cells`], or when 0 detected once from the first filtered
+//!    voltage while disarmed as `ceil(v / 4.35 V)` (a charged or storage-charged LiPo is
+//!    always detected right; a 4S below 3.26 V/cell would be taken for 3S — set the
+//!    parameter for such packs).
+//! 5. **Levels with hysteresis**: the level goes down (Ok → Low → Critical) when the
+//!    compensated per-cell voltage stays below the threshold for [`BatteryParams::debounce_s`]
+//!    (a short sag under a punch does not trigger it); it never goes back up while armed, and
+//!    while disarmed only when the voltage is [`BatteryParams::hysteresis_v`] per cell above
+//!    the threshold (a fresh pack plugged in).
+//! 6. **Remaining**: the compensated per-cell voltage on a resting LiPo discharge curve.
+//!
+//! No battery configured ([`BatteryParams::enabled`] false): every sample gives level Ok and
+//! no remaining charge.
+//!
+//! May import: the crate root foundation only (`fmath`).
+
+use crate::fmath;
 
 /// How the supervisor must treat the battery.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BatteryLevel {
     /// Above the low threshold (or no battery measurement configured).
@@ -31,4 +59,350 @@ pub struct BatteryState {
     pub remaining: Option<f32>,
     /// The level the thresholds give (with hysteresis: a level never goes back up in flight).
     pub level: BatteryLevel,
+}
+
+/// Battery estimator parameters (the `BAT_*` parameters of [`crate::params`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BatteryParams {
+    /// A battery is measured at all. Default true.
+    pub enabled: bool,
+    /// Cells in series; 0 = detect from the first voltage. Default 0.
+    pub cells: u8,
+    /// Low-battery threshold, V per cell (resting, sag-compensated). Default 3.5.
+    pub low_cell_v: f32,
+    /// Critical-battery threshold, V per cell. Default 3.3.
+    pub critical_cell_v: f32,
+    /// Rise above a threshold, V per cell, before a level may go back up (disarmed only). Default 0.1.
+    pub hysteresis_v: f32,
+    /// Time below a threshold before the level drops, s. Default 2.
+    pub debounce_s: f32,
+    /// Low-pass time constant of voltage and current, s. Default 0.5.
+    pub filter_tau_s: f32,
+    /// Pack internal resistance for the sag compensation, Ω (used when the current is measured). Default 0.02.
+    pub r_internal_ohm: f32,
+}
+
+impl Default for BatteryParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            cells: 0,
+            low_cell_v: 3.5,
+            critical_cell_v: 3.3,
+            hysteresis_v: 0.1,
+            debounce_s: 2.0,
+            filter_tau_s: 0.5,
+            r_internal_ohm: 0.02,
+        }
+    }
+}
+
+/// Largest per-cell voltage the cell-count detection assumes (high-voltage LiPo), V.
+pub const CELL_V_MAX: f32 = 4.35;
+/// Most cells the estimator accepts (14S).
+pub const MAX_CELLS: u8 = 14;
+
+/// Resting LiPo voltage per cell → remaining charge (a common discharge table).
+const CURVE: [(f32, f32); 21] = [
+    (3.27, 0.00),
+    (3.61, 0.05),
+    (3.69, 0.10),
+    (3.71, 0.15),
+    (3.73, 0.20),
+    (3.75, 0.25),
+    (3.77, 0.30),
+    (3.79, 0.35),
+    (3.80, 0.40),
+    (3.82, 0.45),
+    (3.84, 0.50),
+    (3.85, 0.55),
+    (3.87, 0.60),
+    (3.91, 0.65),
+    (3.95, 0.70),
+    (3.98, 0.75),
+    (4.02, 0.80),
+    (4.08, 0.85),
+    (4.11, 0.90),
+    (4.15, 0.95),
+    (4.20, 1.00),
+];
+
+/// Remaining charge in [0, 1] of a resting LiPo cell at `v` volts (linear between table
+/// points, clamped at the ends; NaN gives 0).
+pub fn remaining_of_cell_voltage(v: f32) -> f32 {
+    let mut prev = CURVE[0];
+    if v.is_nan() || v <= prev.0 {
+        return 0.0;
+    }
+    for &(cv, r) in CURVE.iter().skip(1) {
+        if v <= cv {
+            let span = cv - prev.0;
+            return prev.1 + (r - prev.1) * (v - prev.0) / span;
+        }
+        prev = (cv, r);
+    }
+    1.0
+}
+
+/// What [`BatteryEstimator::update`] did with a sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BatterySample {
+    /// Taken; the new state.
+    Accepted(BatteryState),
+    /// Not finite or out of range; the state is unchanged (the last accepted one).
+    Rejected(BatteryState),
+}
+
+impl BatterySample {
+    /// The state after the sample, whether it was taken or not.
+    pub fn state(self) -> BatteryState {
+        match self {
+            BatterySample::Accepted(s) | BatterySample::Rejected(s) => s,
+        }
+    }
+}
+
+/// Raw samples → [`BatteryState`] (see the module docs).
+#[derive(Clone, Copy, Debug)]
+pub struct BatteryEstimator {
+    params: BatteryParams,
+    state: BatteryState,
+    v_filt: Option<f32>,
+    i_filt: Option<f32>,
+    cells: u8,
+    below_since_us: [Option<u64>; 2],
+    rejected: u32,
+}
+
+impl BatteryEstimator {
+    /// A new estimator (no sample yet: level Ok, voltage 0).
+    pub fn new(params: BatteryParams) -> Self {
+        Self {
+            params,
+            state: BatteryState::default(),
+            v_filt: None,
+            i_filt: None,
+            cells: params.cells.min(MAX_CELLS),
+            below_since_us: [None; 2],
+            rejected: 0,
+        }
+    }
+
+    /// Replace the parameters (kept: filter state and the level reached).
+    pub fn set_params(&mut self, params: BatteryParams) {
+        self.params = params;
+        if params.cells != 0 {
+            self.cells = params.cells.min(MAX_CELLS);
+        }
+    }
+
+    /// Cells in series (0 until detected).
+    pub fn cells(&self) -> u8 {
+        self.cells
+    }
+
+    /// Samples refused so far.
+    pub fn rejected(&self) -> u32 {
+        self.rejected
+    }
+
+    /// The last state.
+    pub fn state(&self) -> BatteryState {
+        self.state
+    }
+
+    /// Take one sample: pack voltage, V, and current, A, when measured; `armed` freezes the
+    /// level's way up.
+    pub fn update(
+        &mut self,
+        t_us: u64,
+        voltage_v: f32,
+        current_a: Option<f32>,
+        armed: bool,
+    ) -> BatterySample {
+        let v_ok = voltage_v.is_finite() && (0.0..=100.0).contains(&voltage_v);
+        let i_ok = current_a.is_none_or(|i| i.is_finite() && (-500.0..=500.0).contains(&i));
+        if !v_ok || !i_ok || t_us < self.state.t_us {
+            self.rejected = self.rejected.saturating_add(1);
+            return BatterySample::Rejected(self.state);
+        }
+        let dt = (t_us - self.state.t_us) as f32 * 1e-6;
+        let alpha = if self.params.filter_tau_s > 0.0 {
+            fmath::minf(dt / self.params.filter_tau_s, 1.0)
+        } else {
+            1.0
+        };
+        let v = match self.v_filt {
+            Some(f) => f + alpha * (voltage_v - f),
+            None => voltage_v,
+        };
+        self.v_filt = Some(v);
+        let i = match (current_a, self.i_filt) {
+            (Some(c), Some(f)) => Some(f + alpha * (c - f)),
+            (Some(c), None) => Some(c),
+            (None, _) => None,
+        };
+        self.i_filt = i;
+        if self.cells == 0 && !armed && v > 1.0 {
+            self.cells = fmath::minf(libm_ceil(v / CELL_V_MAX), f32::from(MAX_CELLS)) as u8;
+        }
+        let mut s =
+            BatteryState { t_us, voltage_v: v, current_a: i, remaining: None, level: self.state.level };
+        if self.params.enabled && self.cells > 0 {
+            let rest = v + i.map_or(0.0, |i| fmath::maxf(i, 0.0) * self.params.r_internal_ohm);
+            let cell = rest / f32::from(self.cells);
+            s.remaining = Some(remaining_of_cell_voltage(cell));
+            s.level = self.level(t_us, cell, armed);
+        } else {
+            s.level = BatteryLevel::Ok;
+        }
+        self.state = s;
+        BatterySample::Accepted(s)
+    }
+
+    fn level(&mut self, t_us: u64, cell: f32, armed: bool) -> BatteryLevel {
+        let p = self.params;
+        let thresholds = [(BatteryLevel::Low, p.low_cell_v), (BatteryLevel::Critical, p.critical_cell_v)];
+        let mut level = self.state.level;
+        for (k, (lvl, th)) in thresholds.into_iter().enumerate() {
+            if cell < th {
+                let since = *self.below_since_us[k].get_or_insert(t_us);
+                if (t_us - since) as f32 * 1e-6 >= p.debounce_s && level < lvl {
+                    level = lvl;
+                }
+            } else {
+                self.below_since_us[k] = None;
+            }
+        }
+        if !armed {
+            // Back up only with a clear rise (a fresh pack), never in flight.
+            while level > BatteryLevel::Ok {
+                let th = if level == BatteryLevel::Critical { p.critical_cell_v } else { p.low_cell_v };
+                if cell > th + p.hysteresis_v {
+                    level =
+                        if level == BatteryLevel::Critical { BatteryLevel::Low } else { BatteryLevel::Ok };
+                } else {
+                    break;
+                }
+            }
+        }
+        level
+    }
+}
+
+/// `ceil` for the small positive values of the cell count (no libm in this unit).
+fn libm_ceil(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t < x {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const S: u64 = 1_000_000;
+
+    fn feed(e: &mut BatteryEstimator, t0: u64, t1: u64, v: f32, i: Option<f32>, armed: bool) -> BatteryState {
+        let mut s = e.state();
+        let mut t = t0;
+        while t <= t1 {
+            s = e.update(t, v, i, armed).state();
+            t += 100_000;
+        }
+        s
+    }
+
+    #[test]
+    fn curve_is_monotone_and_clamped() {
+        assert_eq!(remaining_of_cell_voltage(f32::NAN), 0.0);
+        assert_eq!(remaining_of_cell_voltage(3.0), 0.0);
+        assert_eq!(remaining_of_cell_voltage(4.3), 1.0);
+        assert!((remaining_of_cell_voltage(3.84) - 0.5).abs() < 1e-6);
+        let mut last = 0.0;
+        for k in 0..200 {
+            let r = remaining_of_cell_voltage(3.2 + k as f32 * 0.005);
+            assert!(r >= last);
+            last = r;
+        }
+    }
+
+    #[test]
+    fn detects_cells_and_reports_remaining() {
+        for (cells, v) in [(3u8, 12.6f32), (4, 16.8), (4, 15.2), (6, 22.2), (3, 10.5)] {
+            let mut e = BatteryEstimator::new(BatteryParams::default());
+            let s = e.update(0, v, None, false).state();
+            assert_eq!(e.cells(), cells, "{v} V");
+            let r = s.remaining.unwrap();
+            assert!((r - remaining_of_cell_voltage(v / f32::from(cells))).abs() < 1e-6);
+        }
+        // A fixed cell count is not re-detected.
+        let mut e = BatteryEstimator::new(BatteryParams { cells: 4, ..Default::default() });
+        e.update(0, 12.0, None, false);
+        assert_eq!(e.cells(), 4);
+    }
+
+    #[test]
+    fn low_and_critical_need_the_debounce_and_never_recover_in_flight() {
+        let mut e = BatteryEstimator::new(BatteryParams { cells: 3, ..Default::default() });
+        assert_eq!(feed(&mut e, 0, S, 12.0, None, true).level, BatteryLevel::Ok);
+        // A 1 s sag to 3.2 V/cell: filtered, below both thresholds but shorter than 2 s.
+        assert_eq!(feed(&mut e, S + 100_000, 2 * S, 9.6, None, true).level, BatteryLevel::Ok);
+        assert_eq!(feed(&mut e, 2 * S + 100_000, 6 * S, 12.0, None, true).level, BatteryLevel::Ok);
+        // Sustained 3.4 V/cell: Low after the debounce, not Critical.
+        let s = feed(&mut e, 6 * S + 100_000, 12 * S, 10.2, None, true);
+        assert_eq!(s.level, BatteryLevel::Low);
+        // Recovering voltage in flight (load removed) does not raise the level.
+        assert_eq!(feed(&mut e, 12 * S + 100_000, 20 * S, 12.3, None, true).level, BatteryLevel::Low);
+        // Critical.
+        assert_eq!(feed(&mut e, 20 * S + 100_000, 30 * S, 9.6, None, true).level, BatteryLevel::Critical);
+        // Disarmed, the same pack resting a bit higher but within the hysteresis: stays.
+        assert_eq!(
+            feed(&mut e, 30 * S + 100_000, 40 * S, 3.35 * 3.0, None, false).level,
+            BatteryLevel::Critical
+        );
+        // A fresh pack, disarmed: Ok again.
+        assert_eq!(feed(&mut e, 40 * S + 100_000, 50 * S, 12.6, None, false).level, BatteryLevel::Ok);
+    }
+
+    #[test]
+    fn current_compensates_the_sag() {
+        let p = BatteryParams { cells: 3, r_internal_ohm: 0.05, ..Default::default() };
+        let mut e = BatteryEstimator::new(p);
+        // 3.4 V/cell under 20 A: resting 10.2 + 1.0 = 11.2 V = 3.73 V/cell, not low.
+        let s = feed(&mut e, 0, 10 * S, 10.2, Some(20.0), true);
+        assert_eq!(s.level, BatteryLevel::Ok);
+        assert_eq!(s.current_a, Some(20.0));
+        assert!((s.remaining.unwrap() - remaining_of_cell_voltage(11.2 / 3.0)).abs() < 1e-4);
+        let mut e = BatteryEstimator::new(p);
+        assert_eq!(feed(&mut e, 0, 10 * S, 10.2, None, true).level, BatteryLevel::Low);
+    }
+
+    #[test]
+    fn bad_samples_are_refused_and_keep_the_last_state() {
+        let mut e = BatteryEstimator::new(BatteryParams { cells: 3, ..Default::default() });
+        let good = e.update(S, 11.5, Some(3.0), true).state();
+        for (v, i) in
+            [(f32::NAN, None), (f32::INFINITY, None), (-1.0, None), (150.0, None), (11.0, Some(f32::NAN))]
+        {
+            match e.update(2 * S, v, i, true) {
+                BatterySample::Rejected(s) => assert_eq!(s, good),
+                other => panic!("{v} {i:?} accepted: {other:?}"),
+            }
+        }
+        // Time going backwards is refused too.
+        assert!(matches!(e.update(0, 11.0, None, true), BatterySample::Rejected(_)));
+        assert_eq!(e.rejected(), 6);
+    }
+
+    #[test]
+    fn disabled_battery_is_always_ok() {
+        let mut e = BatteryEstimator::new(BatteryParams { enabled: false, ..Default::default() });
+        let s = feed(&mut e, 0, 10 * S, 6.0, None, true);
+        assert_eq!(s.level, BatteryLevel::Ok);
+        assert_eq!(s.remaining, None);
+    }
 }

@@ -32,7 +32,9 @@
 //!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
 //!   the filter's obstacle points (issue 19).
 //! - [`rc`]: pilot input (CRSF/SBUS/MAVLink manual control → [`rc::RcInput`]; issue 21).
-//! - [`battery`]: the battery measurement message ([`battery::BatteryState`]; issue 22).
+//! - [`battery`]: the battery measurement message ([`battery::BatteryState`]) and its estimator
+//!   (filter, cell count, low/critical levels, remaining charge; issue 22).
+//! - [`motor_test`]: the MAV_CMD_DO_MOTOR_TEST state machine (issue 22).
 //! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
 //!
 //! The modules of the folders are re-exported at the root (`parapet_core::cbf`,
@@ -53,6 +55,7 @@ pub mod controller;
 pub mod fmath;
 pub mod frame;
 pub mod inner;
+pub mod motor_test;
 pub mod msg;
 pub mod obstacle_set;
 pub mod outer;
