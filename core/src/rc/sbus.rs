@@ -462,6 +462,42 @@ mod tests {
         ticks_to_us(ticks)
     }
 
+    /// Never panics on any bytes at any times, and after any garbage a pause longer than
+    /// [`GAP_US`] always lets the next good frame through, exactly (fixed seed).
+    #[test]
+    fn proptest_garbage_then_gap_then_the_good_frame() {
+        use proptest::collection::vec;
+        use proptest::prelude::*;
+        use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+        let mut runner = TestRunner::new_with_rng(
+            Config { cases: 2000, failure_persistence: None, ..Config::default() },
+            TestRng::deterministic_rng(RngAlgorithm::ChaCha),
+        );
+        let strategy = (vec((any::<u8>(), 0u64..5_000), 0..300), vec(0u16..2048, 16), 0u8..16, 0usize..5);
+        runner
+            .run(&strategy, |(garbage, ticks, flags, footer)| {
+                let ticks: [u16; 16] = ticks.try_into().unwrap();
+                let mut d = SbusDecoder::new();
+                let mut t = 0u64;
+                for &(b, dt) in &garbage {
+                    t += dt;
+                    let _ = d.push(b, t);
+                }
+                let footer = [0x00, 0x04, 0x14, 0x24, 0x34][footer];
+                let mut out = Vec::new();
+                d.push_slice(&encode(&ticks, flags, footer), t + GAP_US + 1, |f| out.push(f));
+                prop_assert_eq!(out.len(), 1);
+                let f = out[0];
+                prop_assert_eq!(f.us[..16].to_vec(), ticks.map(ticks_to_us).to_vec());
+                prop_assert_eq!(
+                    (f.failsafe, f.frame_lost),
+                    (flags & FLAG_FAILSAFE != 0, flags & FLAG_FRAME_LOST != 0)
+                );
+                Ok(())
+            })
+            .unwrap();
+    }
+
     #[test]
     fn px4_capture_decodes_every_whole_frame_and_drops_the_rest() {
         let mut d = SbusDecoder::new();
