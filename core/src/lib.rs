@@ -34,6 +34,8 @@
 //! - [`rc`]: pilot input (CRSF/SBUS/MAVLink manual control → [`rc::RcInput`]; issue 21).
 //! - [`battery`]: the battery measurement message ([`battery::BatteryState`]) and its estimator
 //!   (filter, cell count, low/critical levels, remaining charge; issue 22).
+//! - [`calibration`]: IMU correction (accelerometer offset/scale, board orientation, level trim)
+//!   and the accelerometer six-position calibration (issue 22).
 //! - [`motor_test`]: the MAV_CMD_DO_MOTOR_TEST state machine (issue 22).
 //! - [`wire`]: the firmware ↔ host link contract (ids, names, codes, lockstep rule, motor sanitiser).
 //!
@@ -50,6 +52,7 @@
 
 pub mod airframe;
 pub mod battery;
+pub mod calibration;
 pub mod config;
 pub mod controller;
 pub mod fmath;

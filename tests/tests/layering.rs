@@ -30,7 +30,21 @@ const CORE_ALIASES: &[(&str, &str)] = &[
 const CORE_RULES: &[(&str, &[&str])] = &[
     ("inner", &["airframe", "frame", "fmath", "msg"]),
     // Issue 21: the piloted and offboard references read the pilot input and the battery.
-    ("outer", &["airframe", "frame", "fmath", "msg", "safety", "supervisor", "obstacle_set", "robust", "rc", "battery"]),
+    (
+        "outer",
+        &[
+            "airframe",
+            "frame",
+            "fmath",
+            "msg",
+            "safety",
+            "supervisor",
+            "obstacle_set",
+            "robust",
+            "rc",
+            "battery",
+        ],
+    ),
     // Issue 21/22: the mode machine reads the pilot input and the battery level.
     ("supervisor", &["airframe", "frame", "fmath", "msg", "rc", "battery"]),
     ("safety", &["airframe", "frame", "fmath"]),
@@ -44,6 +58,7 @@ const CORE_RULES: &[(&str, &[&str])] = &[
     ("battery", &["fmath"]),
     // Issue 22: the motor-test state machine stands alone; calibration maths on the frame helpers.
     ("motor_test", &[]),
+    ("calibration", &["frame", "fmath", "msg"]),
     ("msg", &[]),
 ];
 
