@@ -95,6 +95,49 @@ def write(target, name, data):
     (d / name).write_bytes(data)
 
 
+def crc8_dvb_s2(data):
+    """CRC-8 DVB-S2 (poly 0xD5, init 0): the CRSF frame check."""
+    crc = 0
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0xD5) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def pack11(ticks):
+    """16 x 11-bit channel values, LSB first (CRSF RC_CHANNELS_PACKED and SBUS)."""
+    bits = sum((t & 0x7FF) << (11 * i) for i, t in enumerate(ticks))
+    return bits.to_bytes(22, "little")
+
+
+def crsf(kind, payload, addr=0xC8):
+    body = bytes([kind]) + payload
+    return bytes([addr, len(body) + 1]) + body + bytes([crc8_dvb_s2(body)])
+
+
+def timed(data, dt):
+    """The rc targets' input: (byte, dt) pairs."""
+    return b"".join(bytes([b, dt]) for b in data)
+
+
+def rc_seeds():
+    """crsf / sbus targets (issue 21): recorded frames (sources in core/src/rc/*.rs tests)."""
+    rc = crsf(0x16, pack11([992] * 4 + [172, 1811] + [992] * 10))
+    link = crsf(0x14, bytes([45, 50, 100, 9, 1, 5, 3, 60, 98, 253]))
+    elrs_ee = bytes.fromhex("ee1816e1e3de09c7d78a56800f7ce0031ff8c0073ef0810f7c36")
+    betaflight = bytes.fromhex("c81816bd089ff4aef7bdef7deffbadfd452b5a0100000000006c")
+    write("crsf", "rc_link_rc", timed(rc, 0) + timed(link, 50) + timed(rc, 50))
+    write("crsf", "edgetx_address", timed(elrs_ee, 1))
+    write("crsf", "betaflight_capture", timed(betaflight, 1))
+    write("crsf", "garbage_false_sync_then_frame", timed(b"\x00\xc8\xff\xc8\x30\x16" + rc, 0))
+    write("crsf", "cut_frame_pause_frame", timed(rc[:11], 0) + bytes([rc[11], 200]) + timed(rc[12:] + rc, 0))
+    frame = bytes([0x0F]) + pack11([1041, 1024, 1696, 1024, 352, 1696] + [1024] * 10) + b"\x00"
+    write("sbus", "sbus2_footers", b"".join(timed(frame + bytes([f]), 5) + b"\x00\xff" for f in (0x14, 0x24, 0x34, 0x04)))
+    write("sbus", "failsafe_then_good", timed(frame[:-1] + b"\x0c\x00", 5) + b"\x00\xff" + timed(frame + b"\x00", 5))
+    write("sbus", "missing_byte_telemetry", timed(frame[:12] + frame[13:] + b"\x00", 5) + bytes([3, 86, 0xC0, 5, 0x2E, 5]))
+
+
 def main():
     w = Writer()
     seq = start_sequence()
@@ -129,6 +172,8 @@ def main():
           b"t,w1,w2,w3,w4\n0,400,400,400,400\n0.01,400,400,400,400\n0.02,410,390,410,390\n")
     write("replay_csv", "one_row.csv", b"t,w1,w2,w3,w4\n0,0,0,0,0\n")
     write("replay_csv", "spaces_blank_lines.csv", b"t, w1, w2, w3, w4\n\n0.5, 1e2, 2.5e2, 0, 3\n 1, 1, 1, 1, 1 \n")
+
+    rc_seeds()
 
 
 if __name__ == "__main__":

@@ -22,8 +22,15 @@ use std::process::Command;
 use crate::{cargo, root, run};
 
 /// The fuzz targets (binaries of `tests/fuzz`) and the largest input each gets, bytes.
-pub const TARGETS: [(&str, usize); 5] =
-    [("frame_parser", 1024), ("link", 4096), ("scene_toml", 8192), ("path_json", 4096), ("replay_csv", 4096)];
+pub const TARGETS: [(&str, usize); 7] = [
+    ("frame_parser", 1024),
+    ("link", 4096),
+    ("crsf", 2048),
+    ("sbus", 2048),
+    ("scene_toml", 8192),
+    ("path_json", 4096),
+    ("replay_csv", 4096),
+];
 /// Seconds per target in `cargo xtask test`.
 pub const SMOKE_SECONDS: u32 = 11;
 /// One input running longer than this is a hang (libFuzzer `-timeout`), seconds.
