@@ -15,6 +15,7 @@ use crate::frame::GRAVITY;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
 use crate::perception::MemoryParams;
+use crate::rc::map::RcParams;
 use crate::robust::{RobustError, RobustParams};
 use crate::supervisor::modes::ModeParams;
 use crate::supervisor::LandingParams;
@@ -58,6 +59,9 @@ pub struct ControllerParams {
     pub failsafe: FailsafeParams,
     /// Flight modes and their failsafes (issue 21; see [`ModeParams`]).
     pub modes: ModeParams,
+    /// RC receiver channel map, ranges, switch thresholds, link-quality minimum (issue 21; see
+    /// [`RcParams`]).
+    pub rc: RcParams,
     /// Nominal outer-loop rate, Hz. Default 250.
     pub outer_rate_hz: f32,
     /// Nominal inner-loop rate, Hz. Default 1000.
@@ -94,6 +98,7 @@ impl Default for ControllerParams {
             waypoint: WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 },
             failsafe: FailsafeParams::default(),
             modes: ModeParams::default(),
+            rc: RcParams::default(),
             outer_rate_hz: 250.0,
             inner_rate_hz: 1000.0,
             guidance: GuidanceParams::default(),
@@ -137,7 +142,7 @@ pub enum ParamError {
     Mixer(MixerError),
     /// Waypoint parameters.
     Waypoint(PathError),
-    /// Failsafe limits.
+    /// Failsafe limits (also the flight-mode and RC-map parameters).
     Failsafe,
     /// Tracking gains/limits not finite and ≥ 0.
     Tracking,
@@ -164,7 +169,7 @@ impl ControllerParams {
         self.estimator.validate().map_err(ParamError::Estimator)?;
         Mixer::new(&self.airframe).map_err(ParamError::Mixer)?;
         self.waypoint.validate().map_err(ParamError::Waypoint)?;
-        if !self.failsafe.is_valid() || !self.modes.is_valid() {
+        if !self.failsafe.is_valid() || !self.modes.is_valid() || !self.rc.is_valid() {
             return Err(ParamError::Failsafe);
         }
         let nonneg = |x: f32| x.is_finite() && x >= 0.0;

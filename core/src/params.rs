@@ -62,6 +62,57 @@ fn bat_act_label(code: i32) -> Option<&'static str> {
     }
 }
 
+/// An `RC_MAP_*` entry: a whole channel number up to 18 (issue 21, `rc::map`).
+const fn rc_map(
+    name: &'static str,
+    min: f32,
+    default: f32,
+    description: &'static str,
+    get: fn(&ControllerParams) -> f32,
+    write: fn(&mut ControllerParams, f32),
+) -> Param {
+    Param {
+        name,
+        key: None,
+        unit: "",
+        default,
+        min,
+        max: 18.0,
+        integer: true,
+        decimals: 0,
+        group: "RC",
+        description,
+        label: None,
+        get,
+        write,
+    }
+}
+
+/// An RC pulse-width entry (`RC_*_US`), µs.
+const fn rc_us(
+    name: &'static str,
+    (min, default, max): (f32, f32, f32),
+    description: &'static str,
+    get: fn(&ControllerParams) -> f32,
+    write: fn(&mut ControllerParams, f32),
+) -> Param {
+    Param {
+        name,
+        key: None,
+        unit: "us",
+        default,
+        min,
+        max,
+        integer: false,
+        decimals: 0,
+        group: "RC",
+        description,
+        label: None,
+        get,
+        write,
+    }
+}
+
 /// One parameter: the single place its name, unit, default, range and meaning are written.
 #[derive(Clone, Copy)]
 pub struct Param {
@@ -186,7 +237,7 @@ fn variant_of(code: i32) -> Option<FilterVariant> {
 }
 
 /// Number of parameters.
-pub const COUNT: usize = 41;
+pub const COUNT: usize = 55;
 
 /// The parameters, in MAVLink `param_index` order.
 pub const TABLE: [Param; COUNT] = [
@@ -686,7 +737,9 @@ pub const TABLE: [Param; COUNT] = [
         description: "Flight mode of the RC mode switch's low position",
         label: Some(mode_label),
         get: |p| p.modes.switch_modes[0] as i32 as f32,
-        write: |p, v| p.modes.switch_modes[0] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[0]),
+        write: |p, v| {
+            p.modes.switch_modes[0] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[0])
+        },
     },
     Param {
         name: "MODE_SW_MID",
@@ -701,7 +754,9 @@ pub const TABLE: [Param; COUNT] = [
         description: "Flight mode of the RC mode switch's middle position",
         label: Some(mode_label),
         get: |p| p.modes.switch_modes[1] as i32 as f32,
-        write: |p, v| p.modes.switch_modes[1] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[1]),
+        write: |p, v| {
+            p.modes.switch_modes[1] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[1])
+        },
     },
     Param {
         name: "MODE_SW_HIGH",
@@ -716,7 +771,9 @@ pub const TABLE: [Param; COUNT] = [
         description: "Flight mode of the RC mode switch's high position",
         label: Some(mode_label),
         get: |p| p.modes.switch_modes[2] as i32 as f32,
-        write: |p, v| p.modes.switch_modes[2] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[2]),
+        write: |p, v| {
+            p.modes.switch_modes[2] = FlightMode::from_code(v as i32).unwrap_or(p.modes.switch_modes[2])
+        },
     },
     Param {
         name: "FS_RC_TIMEOUT",
@@ -761,7 +818,9 @@ pub const TABLE: [Param; COUNT] = [
         description: "RC loss in Mission/Offboard: 0 continue, 1 return",
         label: Some(rc_act_label),
         get: |p| p.modes.rc_loss_auto as i32 as f32,
-        write: |p, v| p.modes.rc_loss_auto = if v >= 0.5 { RcLossAction::Return } else { RcLossAction::Continue },
+        write: |p, v| {
+            p.modes.rc_loss_auto = if v >= 0.5 { RcLossAction::Return } else { RcLossAction::Continue }
+        },
     },
     Param {
         name: "OFFB_TIMEOUT",
@@ -822,6 +881,120 @@ pub const TABLE: [Param; COUNT] = [
         label: Some(bat_act_label),
         get: |p| if p.modes.battery_failsafe { 1.0 } else { 0.0 },
         write: |p, v| p.modes.battery_failsafe = v >= 0.5,
+    },
+    // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
+    rc_map(
+        "RC_MAP_ROLL",
+        1.0,
+        1.0,
+        "RC channel of the roll stick",
+        |p| f32::from(p.rc.map_roll),
+        |p, v| p.rc.map_roll = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_PITCH",
+        1.0,
+        2.0,
+        "RC channel of the pitch stick",
+        |p| f32::from(p.rc.map_pitch),
+        |p, v| p.rc.map_pitch = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_THR",
+        1.0,
+        3.0,
+        "RC channel of the throttle stick",
+        |p| f32::from(p.rc.map_throttle),
+        |p, v| p.rc.map_throttle = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_YAW",
+        1.0,
+        4.0,
+        "RC channel of the yaw stick",
+        |p| f32::from(p.rc.map_yaw),
+        |p, v| p.rc.map_yaw = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_ARM",
+        0.0,
+        5.0,
+        "RC channel of the arm switch (on above RC_SW_HIGH_US); 0 none",
+        |p| f32::from(p.rc.map_arm),
+        |p, v| p.rc.map_arm = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_MODE",
+        0.0,
+        6.0,
+        "RC channel of the mode switch (MODE_SW_LOW/MID/HIGH); 0 none",
+        |p| f32::from(p.rc.map_mode),
+        |p, v| p.rc.map_mode = v as u8,
+    ),
+    rc_map(
+        "RC_MAP_KILL",
+        0.0,
+        7.0,
+        "RC channel of the kill switch (on unless below RC_SW_LOW_US); 0 none",
+        |p| f32::from(p.rc.map_kill),
+        |p, v| p.rc.map_kill = v as u8,
+    ),
+    rc_us(
+        "RC_MIN_US",
+        (700.0, 1000.0, 1400.0),
+        "RC stick low end (throttle 0, stick -1)",
+        |p| p.rc.min_us,
+        |p, v| p.rc.min_us = v,
+    ),
+    rc_us(
+        "RC_TRIM_US",
+        (1410.0, 1500.0, 1590.0),
+        "RC stick centre (Futaba SBUS: 1520)",
+        |p| p.rc.trim_us,
+        |p, v| p.rc.trim_us = v,
+    ),
+    rc_us(
+        "RC_MAX_US",
+        (1600.0, 2000.0, 2300.0),
+        "RC stick high end (throttle 1, stick +1)",
+        |p| p.rc.max_us,
+        |p, v| p.rc.max_us = v,
+    ),
+    rc_us(
+        "RC_DEADBAND_US",
+        (0.0, 20.0, 100.0),
+        "RC roll/pitch/yaw deadband around RC_TRIM_US",
+        |p| p.rc.deadband_us,
+        |p, v| p.rc.deadband_us = v,
+    ),
+    rc_us(
+        "RC_SW_LOW_US",
+        (800.0, 1300.0, 1500.0),
+        "RC switch: below this = low position",
+        |p| p.rc.switch_low_us,
+        |p, v| p.rc.switch_low_us = v,
+    ),
+    rc_us(
+        "RC_SW_HIGH_US",
+        (1500.0, 1700.0, 2200.0),
+        "RC switch: above this = high position",
+        |p| p.rc.switch_high_us,
+        |p, v| p.rc.switch_high_us = v,
+    ),
+    Param {
+        name: "RC_LQ_MIN",
+        key: None,
+        unit: "%",
+        default: 10.0,
+        min: 0.0,
+        max: 100.0,
+        integer: false,
+        decimals: 0,
+        group: "RC",
+        description: "RC link quality below this = RC lost (CRSF link statistics)",
+        label: None,
+        get: |p| p.rc.lq_min,
+        write: |p, v| p.rc.lq_min = v,
     },
 ];
 

@@ -91,6 +91,31 @@ impl Default for RcParams {
     }
 }
 
+impl RcParams {
+    /// What the map needs (every in-range parameter set has it; `ControllerParams::validate`
+    /// reports a set without it as `ParamError::Failsafe`): finite values, min < trim < max,
+    /// deadband ≥ 0, switch low ≤ high, channels ≤ 18 (sticks ≥ 1), link quality 0..=100 %.
+    pub fn is_valid(&self) -> bool {
+        let f = [
+            self.min_us,
+            self.trim_us,
+            self.max_us,
+            self.deadband_us,
+            self.switch_low_us,
+            self.switch_high_us,
+        ];
+        let sticks = [self.map_roll, self.map_pitch, self.map_throttle, self.map_yaw];
+        f.iter().all(|v| v.is_finite())
+            && self.min_us < self.trim_us
+            && self.trim_us < self.max_us
+            && self.deadband_us >= 0.0
+            && self.switch_low_us <= self.switch_high_us
+            && sticks.iter().all(|&c| (1..=18).contains(&c))
+            && [self.map_arm, self.map_mode, self.map_kill].iter().all(|&c| c <= 18)
+            && (0.0..=100.0).contains(&self.lq_min)
+    }
+}
+
 /// A stick: 0 inside the deadband, then linear to ±1 at the range ends, clamped.
 fn stick(us: f32, p: &RcParams) -> f32 {
     let d = us - p.trim_us;
@@ -378,6 +403,23 @@ mod tests {
 
     fn map(vals: &[u16]) -> RcInput {
         map_channels(&raw(vals), &RcParams::default(), 7, 100, None, RcSource::Sim)
+    }
+
+    #[test]
+    fn default_params_are_valid_and_broken_ones_are_not() {
+        let p = RcParams::default();
+        assert!(p.is_valid());
+        for bad in [
+            RcParams { trim_us: f32::NAN, ..p },
+            RcParams { min_us: 1600.0, ..p },
+            RcParams { deadband_us: -1.0, ..p },
+            RcParams { switch_low_us: 1800.0, ..p },
+            RcParams { map_roll: 0, ..p },
+            RcParams { map_kill: 19, ..p },
+            RcParams { lq_min: 101.0, ..p },
+        ] {
+            assert!(!bad.is_valid(), "{bad:?}");
+        }
     }
 
     #[test]
