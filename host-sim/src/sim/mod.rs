@@ -1,6 +1,7 @@
 //! The simulated vehicle and its environment (no controller, no scene).
 //!
 //! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz, RotorPy-style aerodynamics.
+//! * [`battery`]: LiPo pack (charge, voltage sag with the motor current) and its voltage/current sensor.
 //! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
 //! * [`range`]: range sensors (lidar, depth camera, ToF): description, beam pattern, noise, dropouts.
@@ -12,6 +13,7 @@
 /// Plant step and inner-loop period, s (1 kHz).
 pub const INNER_DT: f64 = 0.001;
 
+pub mod battery;
 pub mod disturbance;
 pub mod plant;
 pub mod range;
