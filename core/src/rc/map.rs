@@ -1,5 +1,5 @@
-//! Receiver channels (µs) → [`RcInput`], the two receivers (decoder + map) and the RC-loss
-//! detector [`RcMonitor`].
+//! Receiver channels (µs) → [`RcInput`], the two receivers (decoder → [`RcFrame`]) and the
+//! RC-loss detector [`RcMonitor`].
 //!
 //! ## Channel map and ranges ([`RcParams`], parameters `RC_*` in `crate::params`)
 //! Channels are numbered from 1. Defaults follow the ExpressLRS / Betaflight "AETR" order:
@@ -193,7 +193,31 @@ pub fn map_channels(
     }
 }
 
-/// A CRSF receiver: decoder + the latest link statistics + the map.
+/// One receiver frame before the map: channels in µs plus the link state at its arrival. The
+/// receiver task produces it; whoever holds the live parameters maps it ([`RcFrame::input`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RcFrame {
+    /// Channels and the receiver's failsafe flag.
+    pub raw: RawChannels,
+    /// Arrival time, µs, controller clock.
+    pub t_us: u64,
+    /// Link quality, percent (100 when the protocol has none and the frame is good).
+    pub link_quality: u8,
+    /// RSSI, dBm, when reported.
+    pub rssi_dbm: Option<i16>,
+    /// The protocol.
+    pub source: RcSource,
+}
+
+impl RcFrame {
+    /// The frame through the channel map ([`map_channels`]).
+    pub fn input(&self, p: &RcParams) -> RcInput {
+        map_channels(&self.raw, p, self.t_us, self.link_quality, self.rssi_dbm, self.source)
+    }
+}
+
+/// A CRSF receiver: decoder + the latest link statistics.
 #[derive(Clone, Debug, Default)]
 pub struct CrsfReceiver {
     /// The byte-stream decoder (its counters: [`CrsfDecoder::stats`]).
@@ -203,55 +227,45 @@ pub struct CrsfReceiver {
 }
 
 impl CrsfReceiver {
-    /// Feeds bytes read at `t_us`; hands an [`RcInput`] to `f` for every RC frame (link
+    /// Feeds bytes read at `t_us`; hands an [`RcFrame`] to `f` for every RC frame (link
     /// statistics update the link quality of the following ones; a link frame with LQ 0 —
-    /// the receiver's link-lost report — also yields a failsafe input from the last channels).
-    pub fn push_slice(&mut self, bytes: &[u8], t_us: u64, p: &RcParams, mut f: impl FnMut(RcInput)) {
-        let mut frames = heapless::Vec::<CrsfFrame, 4>::new();
+    /// the receiver's link-lost report — also yields a failsafe frame from the last channels).
+    pub fn push_frames(&mut self, bytes: &[u8], t_us: u64, mut f: impl FnMut(RcFrame)) {
         for &b in bytes {
             let mut next = self.decoder.push(b, t_us);
             while let Some(frame) = next {
-                if frames.push(frame).is_err() {
-                    self.flush(&mut frames, t_us, p, &mut f);
-                    let _ = frames.push(frame);
+                match frame {
+                    CrsfFrame::Channels(raw) => {
+                        self.last = Some(raw);
+                        f(self.frame(&raw, t_us));
+                    }
+                    CrsfFrame::Link(l) => {
+                        self.link = Some(l);
+                        if let (0, Some(raw)) = (l.uplink_lq, self.last) {
+                            f(self.frame(&RawChannels { failsafe: true, ..raw }, t_us));
+                        }
+                    }
                 }
                 next = self.decoder.poll();
             }
         }
-        self.flush(&mut frames, t_us, p, &mut f);
     }
 
-    fn flush(
-        &mut self,
-        frames: &mut heapless::Vec<CrsfFrame, 4>,
-        t_us: u64,
-        p: &RcParams,
-        f: &mut impl FnMut(RcInput),
-    ) {
-        for frame in frames.iter() {
-            match *frame {
-                CrsfFrame::Channels(raw) => {
-                    self.last = Some(raw);
-                    f(self.input(&raw, t_us, p));
-                }
-                CrsfFrame::Link(l) => {
-                    self.link = Some(l);
-                    if l.uplink_lq == 0 {
-                        if let Some(raw) = self.last {
-                            f(self.input(&RawChannels { failsafe: true, ..raw }, t_us, p));
-                        }
-                    }
-                }
-            }
+    /// [`CrsfReceiver::push_frames`] through the map `p`.
+    pub fn push_slice(&mut self, bytes: &[u8], t_us: u64, p: &RcParams, mut f: impl FnMut(RcInput)) {
+        self.push_frames(bytes, t_us, |fr| f(fr.input(p)));
+    }
+
+    fn frame(&self, raw: &RawChannels, t_us: u64) -> RcFrame {
+        let lq = self.link.map_or(100, |l| l.uplink_lq).min(100);
+        let raw = RawChannels { failsafe: raw.failsafe || lq == 0, ..*raw };
+        RcFrame {
+            raw,
+            t_us,
+            link_quality: lq,
+            rssi_dbm: self.link.map(|l| l.rssi_dbm()),
+            source: RcSource::Crsf,
         }
-        frames.clear();
-    }
-
-    fn input(&self, raw: &RawChannels, t_us: u64, p: &RcParams) -> RcInput {
-        let lq = self.link.map_or(100, |l| l.uplink_lq);
-        let failsafe = raw.failsafe || lq == 0;
-        let raw = RawChannels { failsafe, ..*raw };
-        map_channels(&raw, p, t_us, lq.min(100), self.link.map(|l| l.rssi_dbm()), RcSource::Crsf)
     }
 
     /// The latest link statistics.
@@ -265,7 +279,7 @@ impl CrsfReceiver {
     }
 }
 
-/// An SBUS receiver: decoder + the map. Link quality 100 for a good frame, 0 for a failsafe one.
+/// An SBUS receiver: the decoder. Link quality 100 for a good frame, 0 for a failsafe one.
 #[derive(Clone, Debug, Default)]
 pub struct SbusReceiver {
     /// The byte-stream decoder (its counters: [`SbusDecoder::stats`]).
@@ -274,15 +288,20 @@ pub struct SbusReceiver {
 }
 
 impl SbusReceiver {
-    /// Feeds bytes read at `t_us`; hands an [`RcInput`] to `f` for every frame.
-    pub fn push_slice(&mut self, bytes: &[u8], t_us: u64, p: &RcParams, mut f: impl FnMut(RcInput)) {
+    /// Feeds bytes read at `t_us`; hands an [`RcFrame`] to `f` for every frame.
+    pub fn push_frames(&mut self, bytes: &[u8], t_us: u64, mut f: impl FnMut(RcFrame)) {
         for &b in bytes {
             if let Some(raw) = self.decoder.push(b, t_us) {
                 self.last = Some(raw);
-                let lq = if raw.failsafe { 0 } else { 100 };
-                f(map_channels(&raw, p, t_us, lq, None, RcSource::Sbus));
+                let link_quality = if raw.failsafe { 0 } else { 100 };
+                f(RcFrame { raw, t_us, link_quality, rssi_dbm: None, source: RcSource::Sbus });
             }
         }
+    }
+
+    /// [`SbusReceiver::push_frames`] through the map `p`.
+    pub fn push_slice(&mut self, bytes: &[u8], t_us: u64, p: &RcParams, mut f: impl FnMut(RcInput)) {
+        self.push_frames(bytes, t_us, |fr| f(fr.input(p)));
     }
 
     /// The latest frame's channels (for RC_CHANNELS telemetry).
