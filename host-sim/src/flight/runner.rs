@@ -580,28 +580,20 @@ pub fn run_with(
     // Range sensors (`--perception`): their memory's points replace the true ones.
     let mut perception = cfg.perception.as_ref().map(|list| {
         let params = controller_params(scene, cfg, cbf, cfg.variant);
-        Perception::new(
+        let critical =
+            cfg.variant.is_multi().then(|| (cfg.params.mu as f32, cfg.variant.uses_relative_velocity()));
+        Perception::for_run(
             scene,
             list,
             cfg.seed,
             cfg.sensors.noise,
             params.memory_params(),
-            if cfg.variant.is_multi() {
-                parapet_core::obstacle_set::Ranking::Critical {
-                    mu: cfg.params.mu as f32,
-                    relative: cfg.variant.uses_relative_velocity(),
-                }
-            } else {
-                parapet_core::obstacle_set::Ranking::Nearest
-            },
+            critical,
             cfg.params.delta1 as f32,
-            true,
         )
     });
     if let Some(p) = perception.as_mut() {
-        let (r, pi, y) = plant.state.euler();
-        let st = &plant.state;
-        p.step(scene, 0.0, clock_us(0.0), &st.pos, &st.vel, &st.att, (r, pi, y), clock_us, &mut seen0);
+        p.step_plant(scene, 0.0, &plant.state, plant.state.euler(), clock_us, &mut seen0);
     }
     let imu0 = sensors.imu(&plant);
     ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
@@ -651,18 +643,7 @@ pub fn run_with(
             );
             sensors.obstacle_report(t, &mut scratch.seen);
             if let Some(p) = perception.as_mut() {
-                let st = &plant.state;
-                p.step(
-                    scene,
-                    t,
-                    clock_us(t),
-                    &pos,
-                    &vel,
-                    &st.att,
-                    (roll, pitch, yaw),
-                    clock_us,
-                    &mut scratch.seen,
-                );
+                p.step_plant(scene, t, &plant.state, (roll, pitch, yaw), clock_us, &mut scratch.seen);
             }
             let out = ctrl.outer(t, &scratch.seen);
             let sd = sd_now;

@@ -41,6 +41,7 @@ use parapet_core::Vec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::sim::plant::PlantState;
 use crate::sim::range::{RangeSensor, Return};
 use crate::world::raycast::RayWorld;
 use crate::world::scene::Scene;
@@ -184,6 +185,40 @@ impl Perception {
             scans: 0,
             rejected: 0,
         }
+    }
+
+    /// The perception of a closed-loop run: the sensors `sensors` of `scene` with
+    /// beam records kept for `ranges.csv`, and the memory's points ranked as the
+    /// controller ranks them — by criticality with the CBF's `(mu, relative velocity)`
+    /// when `critical` is given (the multi-barrier filters), else nearest first.
+    pub fn for_run(
+        scene: &Scene,
+        sensors: &[RangeSensor],
+        seed: u64,
+        noise_on: bool,
+        params: MemoryParams,
+        critical: Option<(f32, bool)>,
+        delta1: f32,
+    ) -> Self {
+        let ranking = match critical {
+            Some((mu, relative)) => Ranking::Critical { mu, relative },
+            None => Ranking::Nearest,
+        };
+        Perception::new(scene, sensors, seed, noise_on, params, ranking, delta1, true)
+    }
+
+    /// [`Perception::step`] from the plant's true state `st` (Euler angles `rpy`) at `t`.
+    pub fn step_plant(
+        &mut self,
+        scene: &Scene,
+        t: f64,
+        st: &PlantState,
+        rpy: (f64, f64, f64),
+        to_us: impl Fn(f64) -> u64,
+        out: &mut Vec<ObstaclePoint>,
+    ) {
+        let t_us = to_us(t);
+        self.step(scene, t, t_us, &st.pos, &st.vel, &st.att, rpy, to_us, out);
     }
 
     /// One outer step at time `t` (s; `t_us` on the controller clock): scan
