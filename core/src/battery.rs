@@ -80,6 +80,25 @@ pub struct BatteryParams {
     pub filter_tau_s: f32,
     /// Pack internal resistance for the sag compensation, Ω (used when the current is measured). Default 0.02.
     pub r_internal_ohm: f32,
+    /// Voltage divider of the board's VBAT input: pack volts per ADC-pin volt. Default 11
+    /// (MATEKF405: 10 kΩ / 1 kΩ, Betaflight `vbat_scale` 110).
+    pub v_divider: f32,
+    /// Current sensor scale, A per ADC-pin volt; 0 = no current sensor. Default 0 (the
+    /// MATEKF405's current pad needs an external sensor: Matek's PDBs read 55.9 A/V,
+    /// Betaflight `ibata_scale` 179).
+    pub amps_per_volt: f32,
+}
+
+impl BatteryParams {
+    /// Pack voltage of an ADC-pin voltage.
+    pub fn pack_volts(&self, pin_v: f32) -> f32 {
+        pin_v * self.v_divider
+    }
+
+    /// Current of an ADC-pin voltage, `None` without a current sensor.
+    pub fn amps(&self, pin_v: f32) -> Option<f32> {
+        (self.amps_per_volt > 0.0).then_some(pin_v * self.amps_per_volt)
+    }
 }
 
 impl Default for BatteryParams {
@@ -93,6 +112,8 @@ impl Default for BatteryParams {
             debounce_s: 2.0,
             filter_tau_s: 0.5,
             r_internal_ohm: 0.02,
+            v_divider: 11.0,
+            amps_per_volt: 0.0,
         }
     }
 }

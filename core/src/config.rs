@@ -8,6 +8,8 @@
 
 use crate::airframe::Airframe;
 use crate::attitude::{AttitudeController, AttitudeError, AttitudeParams};
+use crate::battery::BatteryParams;
+use crate::calibration::SensorCal;
 use crate::cbf::{CbfError, CbfParams, FilterVariant};
 use crate::estimator::{EstimatorError, EstimatorParams};
 use crate::failsafe::FailsafeParams;
@@ -77,6 +79,10 @@ pub struct ControllerParams {
     /// Obstacle memory of the range-sensor perception (issue 19; used by the caller that
     /// feeds scans, not by the truth-fed default). Default [`MemoryParams::default`].
     pub perception: MemoryParams,
+    /// Battery measurement and thresholds (issue 22; see [`BatteryParams`]).
+    pub battery: BatteryParams,
+    /// IMU calibration and board orientation (issue 22; see [`SensorCal`]).
+    pub sensors: SensorCal,
 }
 
 /// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
@@ -106,6 +112,8 @@ impl Default for ControllerParams {
             idle_throttle: 0.1,
             accel_comp_tau_s: 0.05,
             perception: MemoryParams::default(),
+            battery: BatteryParams::default(),
+            sensors: SensorCal::default(),
         }
     }
 }
