@@ -1,19 +1,28 @@
-//! Linker set-up for the Cortex-M builds: makes the workspace-root `memory.x` visible to
-//! cortex-m-rt's `link.x` and adds the linker scripts (`defmt.x` only for the real board, whose
-//! build links defmt). Host builds (unit tests) get nothing.
+//! Build script of the firmware:
+//! 1. generates the firmware's MAVLink dialect (`crate::link::dialect`) from
+//!    `mavlink/parapet.xml` with `mavlink-bindgen` (MAVLink 2 extension fields on), for every
+//!    target. The XML holds only the messages the firmware speaks, cut verbatim out of
+//!    `ardupilotmega` (see `mavlink/extract.py`), so the image links none of the ~300 other
+//!    messages' code while ids, CRC_EXTRA bytes and wire layout stay those of the full dialect;
+//! 2. for the Cortex-M builds, makes the workspace-root `memory.x` visible to cortex-m-rt's
+//!    `link.x` and adds the linker scripts (`defmt.x` only for the real board, whose build links
+//!    defmt).
 use std::env;
 use std::fs;
 use std::path::PathBuf;
 
 fn main() {
-    let target = env::var("TARGET").unwrap_or_default();
-    let root_memory_x = PathBuf::from(env::var("CARGO_MANIFEST_DIR").unwrap_or_default()).join("../memory.x");
-    println!("cargo:rerun-if-changed={}", root_memory_x.display());
+    let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_default());
     println!("cargo:rerun-if-changed=build.rs");
+    generate_dialect(&manifest, &out);
+
+    let target = env::var("TARGET").unwrap_or_default();
+    let root_memory_x = manifest.join("../memory.x");
+    println!("cargo:rerun-if-changed={}", root_memory_x.display());
     if !target.starts_with("thumb") {
         return;
     }
-    let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_default());
     if let Err(e) = fs::copy(&root_memory_x, out.join("memory.x")) {
         println!("cargo:warning=cannot copy {}: {e}", root_memory_x.display());
     }
@@ -22,5 +31,25 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     if env::var_os("CARGO_FEATURE_BOARD_F405").is_some() {
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}
+
+/// `OUT_DIR/parapet.rs` (the bindings) and `OUT_DIR/mod.rs` (`pub mod parapet;`, included by
+/// `src/link/dialect.rs`). The generated code's optional derives (`serde`, `arbitrary`,
+/// `ts-rs`) stay off: the firmware declares those cfg names but not the features.
+fn generate_dialect(manifest: &std::path::Path, out: &std::path::Path) {
+    let xml = manifest.join("mavlink/parapet.xml");
+    println!("cargo:rerun-if-changed={}", xml.display());
+    println!("cargo::rustc-check-cfg=cfg(feature, values(\"serde\", \"arbitrary\", \"ts-rs\"))");
+    let result = match mavlink_bindgen::generate(mavlink_bindgen::XmlDefinitions::Files(vec![&xml]), out) {
+        Ok(r) => r,
+        Err(e) => panic!("{}: {e}", xml.display()),
+    };
+    let mod_rs =
+        "#[allow(non_camel_case_types, non_snake_case, missing_docs, unused_imports, unexpected_cfgs)]\n\
+                  #[allow(clippy::all, clippy::pedantic, clippy::panic, clippy::unwrap_used, clippy::expect_used)]\n\
+                  pub mod parapet;\n";
+    if let Err(e) = fs::write(&result.mod_rs, mod_rs) {
+        panic!("{}: {e}", result.mod_rs.display());
     }
 }

@@ -6,18 +6,18 @@
 //! COMMAND_INT unanswered, COMMAND_ACK not addressed, messages for another component applied,
 //! heartbeat mode flags, no SYS_STATUS / EXTENDED_SYS_STATE / AUTOPILOT_VERSION / TIMESYNC.
 
-use mavlink::dialects::ardupilotmega::{
+use mavlink_core::MessageData;
+use parapet_core::controller::ControllerParams;
+use parapet_core::params::{COUNT, TABLE};
+use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::dialect::{
     MavCmd, MavFrame, MavLandedState, MavMissionResult, MavMissionType, MavModeFlag, MavParamType,
     MavProtocolCapability, MavResult, COMMAND_INT_DATA, COMMAND_LONG_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
     MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
     MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_SET_DATA, TIMESYNC_DATA,
 };
-use mavlink::MessageData;
-use parapet_core::controller::ControllerParams;
-use parapet_core::params::{COUNT, TABLE};
-use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
-use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::obstacles::CLEAR_ID;
 use parapet_firmware::link::outbound::{name, Outbound};

@@ -5,14 +5,14 @@
 //! effect, any in-range value is taken whatever the order, and arming waits for a consistent
 //! set.
 
-use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavParamType, MavResult, COMMAND_LONG_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
-    PARAM_VALUE_DATA,
-};
-use mavlink::MessageData;
+use mavlink_core::MessageData;
 use parapet_core::controller::ControllerParams;
 use parapet_core::params::{COUNT, TABLE};
 use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::dialect::{
+    MavCmd, MavParamType, MavResult, COMMAND_LONG_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA,
+    PARAM_VALUE_DATA,
+};
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::outbound::{name, Outbound};
 use parapet_firmware::link::{FixClock, Link};

@@ -12,16 +12,16 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavFrame, MavModeFlag, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
-    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, STATUSTEXT_DATA,
-};
-use mavlink::{MavlinkVersion, MessageData};
+use mavlink_core::{MavlinkVersion, MessageData};
 use parapet_core::controller::ControllerParams;
 use parapet_core::wire::ids::EMPTY_BATCH_RANGE;
 use parapet_core::wire::names;
 use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::dialect::{
+    MavCmd, MavFrame, MavModeFlag, MavResult, COMMAND_ACK_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
+    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, STATUSTEXT_DATA,
+};
 use parapet_firmware::link::frame_parser::FrameParser;
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::messages::frame_extra_crc;

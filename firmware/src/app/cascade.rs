@@ -479,15 +479,15 @@ mod tests {
             assert_eq!((p.airframe.mass, p.thrust.thrust_max, p.airframe.rotor_thrust_max), (1.5, 30.0, 9.0));
         }
     }
+    use crate::link::dialect::{
+        MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
+        ODOMETRY_DATA,
+    };
     use crate::link::framing::FrameWriter;
     use crate::link::obstacles::CLEAR_ID;
     use crate::link::outbound::Outbound;
     use crate::link::{FixClock, Link};
     use crate::pil::lockstep::LockstepScheduler;
-    use mavlink::dialects::ardupilotmega::{
-        MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
-        ODOMETRY_DATA,
-    };
 
     /// The ODOMETRY yaw reaches the estimator (as in `parapet run`): the first external yaw
     /// sets the heading; without one the heading stays where the accelerometer start left it.

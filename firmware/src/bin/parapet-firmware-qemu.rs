@@ -12,10 +12,10 @@
 #[cfg(target_os = "none")]
 mod firmware {
     use embassy_executor::Spawner;
-    use mavlink::dialects::ardupilotmega::MavSeverity;
     use parapet_core::controller::ControllerParams;
     use parapet_firmware::app::cascade::Cascade;
     use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Semihost};
+    use parapet_firmware::link::dialect::MavSeverity;
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::status_text;

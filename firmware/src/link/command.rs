@@ -17,7 +17,7 @@
 //! they are, param5/param6 = `x`/`y` (local frames: metres × 10⁴ → metres; other frames:
 //! the integer as a float), param7 = `z`.
 
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     MavCmd, MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA,
 };
 

@@ -41,7 +41,7 @@
 //! re-scan, shift), and the buffer is a fixed [`MAX_FRAME_LEN`]-byte array. [`FrameParser::work`]
 //! counts those byte operations; over any stream it stays below [`WORK_PER_BYTE`] per pushed byte.
 
-use mavlink::{calculate_crc, MAV_STX_V2};
+use mavlink_core::{calculate_crc, MAV_STX_V2};
 
 /// Largest MAVLink v2 frame: 10 header bytes + 255 payload + 2 CRC + 13 signature bytes.
 pub const MAX_FRAME_LEN: usize = 280;
@@ -355,11 +355,11 @@ impl FrameParser {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::framing::FrameWriter;
-    use mavlink::dialects::ardupilotmega::{
+    use crate::link::dialect::{
         MavCmd, COMMAND_LONG_DATA, HEARTBEAT_DATA, MISSION_COUNT_DATA, NAMED_VALUE_INT_DATA, ODOMETRY_DATA,
     };
-    use mavlink::MessageData;
+    use crate::link::framing::FrameWriter;
+    use mavlink_core::MessageData;
     use std::vec::Vec;
 
     fn extra(id: u32) -> Option<u8> {

@@ -1,6 +1,6 @@
 //! Outgoing MAVLink v2 framing: header, sequence numbers and CRC for one message at a time.
 
-use mavlink::{MAVLinkV2MessageRaw, MavHeader, MessageData};
+use mavlink_core::{MAVLinkV2MessageRaw, MavHeader, MessageData};
 
 pub use parapet_core::wire::ids::{AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 

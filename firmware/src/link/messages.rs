@@ -1,21 +1,21 @@
 //! The inbound message set of the link: which MAVLink messages the firmware accepts and their
 //! decoding from CRC-checked frames.
 //!
-//! Only these ids are decoded; other ids of the dialect are CRC-checked by the framer and then
-//! ignored (counted), ids outside the dialect are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
+//! Only these ids are decoded; other ids of the firmware's dialect ([`crate::link::dialect`]) are
+//! CRC-checked by the framer and then ignored (counted), ids outside it are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
 //! firmware links only the deserialisers it needs, not the whole dialect.
 
-use mavlink::dialects::ardupilotmega::MavMessage;
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::MavMessage;
+use crate::link::dialect::{
     COMMAND_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, PARAM_REQUEST_LIST_DATA,
     PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, TIMESYNC_DATA,
 };
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     COMMAND_LONG_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
     MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
-use mavlink::{MavlinkVersion, Message, MessageData};
+use mavlink_core::{MavlinkVersion, Message, MessageData};
 
 use crate::link::frame_parser::RawFrame;
 
@@ -98,9 +98,11 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
     })
 }
 
-/// CRC_EXTRA for the framer: the inbound set first, then every other message of the ArduPilot
-/// dialect (so frames the firmware ignores are still CRC-checked and a corrupted one cannot make
-/// the framer skip valid frames by a wrong length). `None` only for ids outside the dialect.
+/// CRC_EXTRA for the framer: the inbound set first, then every other message of the firmware's
+/// dialect ([`crate::link::dialect`], the messages the firmware speaks), so frames of that set the
+/// firmware ignores are still CRC-checked and a corrupted one cannot make the framer skip valid
+/// frames by a wrong length. `None` for ids outside that set (the framer counts them as unknown
+/// and resynchronises after the header).
 pub fn frame_extra_crc(msg_id: u32) -> Option<u8> {
     extra_crc(msg_id).or_else(|| {
         let c = <MavMessage as Message>::extra_crc(msg_id);

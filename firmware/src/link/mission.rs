@@ -17,11 +17,11 @@
 //! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
 //! (MAV_MISSION_OPERATION_CANCELLED) after [`MAX_RETRIES`] re-requests.
 
-use heapless::Vec as HVec;
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
+use heapless::Vec as HVec;
 use parapet_core::Vec3;
 
 /// Most waypoints one upload may carry.

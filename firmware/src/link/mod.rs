@@ -1,13 +1,15 @@
-//! The MAVLink link: framing ([`frame_parser`], [`framing`]), the inbound and outbound message
-//! sets ([`messages`], [`outbound`]), the dispatcher ([`router`], re-exported here as
-//! [`Link`]), commands ([`command`]), the mission protocol ([`mission`]), obstacle batches
-//! ([`obstacles`]), parameters ([`params`]) and telemetry streams ([`telemetry`]).
+//! The MAVLink link: the message types ([`dialect`], generated at build time), framing
+//! ([`frame_parser`], [`framing`]), the inbound and outbound message sets ([`messages`],
+//! [`outbound`]), the dispatcher ([`router`], re-exported here as [`Link`]), commands
+//! ([`command`]), the mission protocol ([`mission`]), obstacle batches ([`obstacles`]),
+//! parameters ([`params`]) and telemetry streams ([`telemetry`]).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
-//! `parapet_core::wire`), `mavlink`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
+//! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
 //! application, drivers or boards.
 
 pub mod command;
+pub mod dialect;
 pub mod frame_parser;
 pub mod framing;
 pub mod messages;

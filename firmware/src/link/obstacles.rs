@@ -61,8 +61,8 @@
 //! Points the policy drops are counted in [`ObstacleStats::dropped_full`] (and `dropped_near` when
 //! their barrier was within `CBF_DELTA1`).
 
+use crate::link::dialect::{MavFrame, DEBUG_VECT_DATA, OBSTACLE_DISTANCE_3D_DATA};
 use heapless::Vec as HVec;
-use mavlink::dialects::ardupilotmega::{MavFrame, DEBUG_VECT_DATA, OBSTACLE_DISTANCE_3D_DATA};
 use parapet_core::frame::enu_to_ned;
 use parapet_core::nalgebra::{Quaternion, Rotation3, UnitQuaternion};
 use parapet_core::obstacle::{ObstaclePoint, DEFAULT_OBSTACLE_CAPACITY};
@@ -811,8 +811,8 @@ mod tests {
     /// r − 2σ = 1.4 m along the sensor axis rotated by the full attitude; free beyond max is no point.
     #[test]
     fn distance_sensor_feeds_the_memory() {
-        use mavlink::dialects::ardupilotmega::{MavSensorOrientation, DISTANCE_SENSOR_DATA};
-        use mavlink::{MavlinkVersion, MessageData};
+        use crate::link::dialect::{MavSensorOrientation, DISTANCE_SENSOR_DATA};
+        use mavlink_core::{MavlinkVersion, MessageData};
         let mut ap = RecordingAutopilot::new();
         let mut a = ObstacleAssembler::new();
         // The crate's encoding (without the extension fields) decodes to the same message.

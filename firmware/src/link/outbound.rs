@@ -1,15 +1,15 @@
 //! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
 
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
     NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
-use mavlink::MAVLinkV2MessageRaw;
+use mavlink_core::MAVLinkV2MessageRaw;
 
 use crate::link::framing::FrameWriter;
 
@@ -84,7 +84,7 @@ impl Outbound {
 }
 
 /// A NUL-padded MAVLink name field from `s` (truncated to `N` bytes).
-pub fn name<const N: usize>(s: &str) -> mavlink::types::CharArray<N> {
+pub fn name<const N: usize>(s: &str) -> mavlink_core::types::CharArray<N> {
     let mut b = [0u8; N];
     for (d, c) in b.iter_mut().zip(s.bytes()) {
         *d = c;

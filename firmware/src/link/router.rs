@@ -30,12 +30,12 @@
 //! [`PARAMS_PER_POLL`] PARAM_VALUEs while more than [`REPLY_RESERVE`] queue slots are free, in
 //! table order (index 0..count−1, each once); a new PARAM_REQUEST_LIST restarts it.
 
-use heapless::Deque;
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
     AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, HIL_SENSOR_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
     TIMESYNC_DATA,
 };
+use heapless::Deque;
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
@@ -554,12 +554,12 @@ mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
     use crate::app::autopilot::VehicleCommand;
-    use crate::link::framing::FrameWriter;
-    use mavlink::dialects::ardupilotmega::{
+    use crate::link::dialect::{
         MavCmd, MavResult, COMMAND_LONG_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
         OBSTACLE_DISTANCE_3D_DATA,
     };
-    use mavlink::MessageData;
+    use crate::link::framing::FrameWriter;
+    use mavlink_core::MessageData;
     use std::vec::Vec;
 
     fn gcs() -> FrameWriter {
@@ -734,7 +734,7 @@ mod tests {
 
     #[test]
     fn param_set_and_read_answer_param_value() {
-        use mavlink::dialects::ardupilotmega::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
+        use crate::link::dialect::{PARAM_REQUEST_READ_DATA, PARAM_SET_DATA};
         let mut ap = RecordingAutopilot::new();
         let mut l = Link::new(1, FixClock::Arrival);
         let mut w = gcs();

@@ -21,7 +21,7 @@
 //!
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
-use mavlink::dialects::ardupilotmega::{
+use crate::link::dialect::{
     MavAutopilot, MavFrame, MavLandedState, MavModeFlag, MavSeverity, MavState, MavSysStatusSensor, MavType,
     MavVtolState, PositionTargetTypemask, ATTITUDE_DATA, EXTENDED_SYS_STATE_DATA, HEARTBEAT_DATA,
     LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA,
@@ -358,7 +358,7 @@ impl TelemetryScheduler {
 }
 
 /// Name check helper for tests and the host tools: `true` when a MAVLink name field equals `key`.
-pub fn name_is<const N: usize>(field: &mavlink::types::CharArray<N>, key: &str) -> bool {
+pub fn name_is<const N: usize>(field: &mavlink_core::types::CharArray<N>, key: &str) -> bool {
     names::name_is(&field[..], key)
 }
 

@@ -4,7 +4,7 @@
 //! [`TickCounter`] on SysTick), so the whole protocol is host-tested. The protocol itself is
 //! specified in `firmware/README.md` ("QEMU lockstep protocol").
 
-use mavlink::dialects::ardupilotmega::{MavSeverity, HEARTBEAT_DATA};
+use crate::link::dialect::{MavSeverity, HEARTBEAT_DATA};
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::names;
 
@@ -228,12 +228,10 @@ impl<A: ControlSteps> PilApp<A> {
 mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::link::dialect::{HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA};
     use crate::link::frame_parser::FrameParser;
     use crate::link::messages::frame_extra_crc;
-    use mavlink::dialects::ardupilotmega::{
-        HIL_ACTUATOR_CONTROLS_DATA, HIL_SENSOR_DATA, NAMED_VALUE_INT_DATA,
-    };
-    use mavlink::{MavlinkVersion, MessageData};
+    use mavlink_core::{MavlinkVersion, MessageData};
     use std::cell::Cell;
     use std::collections::VecDeque;
     use std::vec::Vec;

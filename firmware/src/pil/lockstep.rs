@@ -14,7 +14,7 @@
 //! fast QEMU runs. The instruction count of steps 1-3 is measured with SysTick under
 //! `qemu -icount shift=0` and calibrated with [`InstructionCalibration`].
 
-use mavlink::dialects::ardupilotmega::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
+use crate::link::dialect::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
 
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::lockstep::LockstepClock;
