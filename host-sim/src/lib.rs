@@ -18,6 +18,8 @@
 //!   metrics, up-front validation and pre-flight checks.
 //! * [`fc`]: the flight stacks the loop flies: the in-process `parapet-core`
 //!   controller, the processor-in-the-loop firmware in QEMU and its host twin.
+//! * [`pilot`]: the simulated pilot and offboard companion (issue 21): script files, RC
+//!   frames and setpoints into a flight stack, piloted runs (`--pilot`, `--offboard`).
 //! * [`cli`]: the `parapet` command line (`run`, `pil`, `plan`, `replay`,
 //!   `scene generate`), help texts, errors and exit codes.
 //! * [`sweep`], [`campaign`]: parameter sweeps and Monte Carlo campaigns.
@@ -27,6 +29,7 @@ pub mod fc;
 pub mod flight;
 pub mod input;
 pub mod perception;
+pub mod pilot;
 pub mod plan;
 pub mod report;
 pub mod sim;

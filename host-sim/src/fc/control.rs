@@ -66,6 +66,16 @@ impl Controller {
     pub fn telemetry(&self) -> Telemetry {
         self.fc.telemetry()
     }
+
+    /// The controller (read-only).
+    pub fn fc(&self) -> &FlightController {
+        &self.fc
+    }
+
+    /// The controller, for commands besides the start-up (pilot input, `crate::pilot`).
+    pub fn fc_mut(&mut self) -> &mut FlightController {
+        &mut self.fc
+    }
 }
 
 impl FlightStack for Controller {

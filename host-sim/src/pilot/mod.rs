@@ -1,0 +1,67 @@
+//! The simulated pilot and the offboard companion (issue 21): script files
+//! ([`script`]: stick timelines, a goal-seeking pilot, offboard setpoint timelines, scripted
+//! RC loss / kill / mode switch / setpoint stop), the wrapper that feeds them to a flight
+//! stack as RC frames and setpoints ([`stack`]), the in-process controller's pilot input
+//! ([`inprocess`]) and [`run_piloted`], which flies a scene with them (`parapet run --pilot
+//! FILE` in Position-assist, `--offboard FILE` in Offboard).
+//!
+//! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
+//! [`crate::flight`], [`crate::fc`]; the children only downwards (inprocess → stack → script).
+
+pub mod inprocess;
+pub mod script;
+pub mod stack;
+
+use anyhow::Result;
+
+pub use inprocess::{AssistParams, PilotedController};
+pub use script::{PilotScript, Setpoint, Sticks};
+pub use stack::{PilotMode, PilotRecord, PilotSink, Piloted};
+
+use crate::fc::control::Controller;
+use crate::flight::runner::{run_with, RunConfig, RunOutput};
+use crate::world::scene::Scene;
+
+/// Seconds flown after the script's last keyframe or event when neither the script nor the
+/// scene sets a duration.
+pub const AFTER_SCRIPT_S: f64 = 5.0;
+
+/// A piloted flight: the run as `parapet run` reports it, and the pilot's log.
+#[derive(Clone, Debug)]
+pub struct PilotRun {
+    /// Samples and summary.
+    pub out: RunOutput,
+    /// One record per outer step.
+    pub log: Vec<PilotRecord>,
+    /// First RC frame with the kill switch on, s.
+    pub kill_sent_at: Option<f64>,
+    /// First inner step with every motor at zero at or after it, s.
+    pub motors_off_at: Option<f64>,
+}
+
+/// `cfg` made for a piloted flight: the path is the start alone (the mission only holds it
+/// until the pilot's mode is entered), the duration the script's, else the scene's `[sim]
+/// duration`, else the script's end + [`AFTER_SCRIPT_S`].
+pub fn piloted_config(scene: &Scene, mut cfg: RunConfig, script: &PilotScript) -> RunConfig {
+    cfg.path = vec![scene.start];
+    cfg.path_source = "pilot".into();
+    cfg.duration = script.duration.or(scene.sim.duration).unwrap_or(script.end_time() + AFTER_SCRIPT_S);
+    cfg
+}
+
+/// Fly `scene` with `cfg` (made by [`piloted_config`]), the in-process controller and
+/// `script` in `mode`.
+pub fn run_piloted(
+    scene: &Scene,
+    cfg: &RunConfig,
+    script: &PilotScript,
+    mode: PilotMode,
+    assist: AssistParams,
+    progress: &mut dyn FnMut(f64),
+) -> Result<PilotRun> {
+    let ctrl = Controller::new(scene, cfg, cfg.cbf_params()?)?;
+    let mut pc = PilotedController::new(ctrl, assist);
+    let mut p = Piloted::new(&mut pc, script, mode);
+    let out = run_with(scene, cfg, &mut p, progress)?;
+    Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })
+}

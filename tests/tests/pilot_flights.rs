@@ -1,0 +1,208 @@
+//! Issue 21, the simulated pilot on the 6-DOF plant with the real flight controller
+//! (`parapet_sim::pilot`, scripts in `scenes/pilot/`), default filter (`multi-relative`),
+//! sensor noise as the scene sets it (on by default), seed 0 unless a row says otherwise:
+//!
+//! * full stick at a wall, commanded 0.5, 1, 2, 3 m/s: no contact, the vehicle stops in
+//!   front of the wall (having flown most of the way to it);
+//! * full forward + half right stick: no contact, and the vehicle slides along the wall
+//!   (tangential progress measured while the filter holds it off the wall);
+//! * diagonal full stick into a box corner: no contact, stops in the corner;
+//! * half stick at a person walking towards the vehicle at 0.3 m/s: no contact;
+//! * the goal-seeking pilot through a slalom of pillars: no contact;
+//! * RC loss: the vehicle stops flying at the wall (hold), then lands; kill switch: motors
+//!   off within one inner step of the frame carrying it.
+//!
+//! Longer matrix (speeds 0.25–4 m/s, stick angles 0–80°, seeds, wind):
+//! `cargo test -p parapet-tests --release --test pilot_flights -- --ignored --nocapture`.
+
+use std::path::PathBuf;
+
+use parapet_sim::flight::runner::RunConfig;
+use parapet_sim::pilot::{piloted_config, run_piloted, AssistParams, PilotMode, PilotRun, PilotScript};
+use parapet_sim::world::scene::Scene;
+
+fn dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/pilot")
+}
+
+fn scene(name: &str) -> Scene {
+    Scene::load(&dir().join(format!("{name}.toml"))).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn script_file(name: &str) -> PilotScript {
+    PilotScript::load(&dir().join(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn script_text(text: &str) -> PilotScript {
+    PilotScript::parse(text, "test script", "test").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Fly `script` over `scene` in `mode` with `assist`, `edit` applied to the run settings.
+fn fly(
+    scene: &Scene,
+    script: &PilotScript,
+    mode: PilotMode,
+    assist: AssistParams,
+    edit: impl FnOnce(&mut RunConfig),
+) -> PilotRun {
+    let cfg = RunConfig::for_scene(scene, vec![scene.start]).unwrap_or_else(|e| panic!("{e}"));
+    let mut cfg = piloted_config(scene, cfg, script);
+    edit(&mut cfg);
+    run_piloted(scene, &cfg, script, mode, assist, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn assist(max_speed: f32) -> AssistParams {
+    AssistParams { max_speed, ..AssistParams::default() }
+}
+
+/// The wall's near face, NED north (x), m, and the hull radius.
+const WALL_X: f64 = 4.0;
+
+fn row(label: &str, r: &PilotRun) {
+    let s = &r.out.summary;
+    let last = r.out.samples.last().map(|x| (x.pos, x.vel));
+    let (p, v) = last.unwrap_or_default();
+    println!(
+        "{label:<34} collided {:<5} min clearance {:>6.3} m  end N {:>6.3} E {:>6.3} m  v {:>5.2} {:>5.2} m/s  filter {:>5.1} %  state {}",
+        s.collided,
+        s.min_clearance_m,
+        p.x,
+        p.y,
+        v.x,
+        v.y,
+        100.0 * s.filter_active_fraction,
+        s.final_controller_state
+    );
+}
+
+/// Full stick at the wall at `speed`: the flight's result and the assertions.
+/// `wind`: (speed m/s, from degrees, turbulence σ m/s).
+fn wall_at(speed: f32, angle_deg: f64, seed: u64, wind: Option<(f64, f64, f64)>) -> PilotRun {
+    let s = scene("wall");
+    let (sn, cs) = angle_deg.to_radians().sin_cos();
+    // The stick at `angle` from straight ahead, the larger axis at full deflection.
+    let k = 1.0 / cs.abs().max(sn.abs());
+    let script =
+        script_text(&format!("duration = 10.0\n[[stick]]\nt = 0\npitch = {}\nroll = {}\n", cs * k, sn * k));
+    let r = fly(&s, &script, PilotMode::Position, assist(speed), |c| {
+        c.seed = seed;
+        if let Some((v, from, sigma)) = wind {
+            c.disturbances.wind.speed = v;
+            c.disturbances.wind.direction_deg = from;
+            c.disturbances.wind.sigma = Some(sigma);
+        }
+    });
+    row(
+        &format!("wall {speed} m/s {angle_deg}° seed {seed}{}", if wind.is_some() { " wind" } else { "" }),
+        &r,
+    );
+    r
+}
+
+#[test]
+fn full_stick_at_a_wall_stops_without_contact() {
+    for speed in [0.5, 1.0, 2.0, 3.0] {
+        let r = wall_at(speed, 0.0, 0, None);
+        let s = &r.out.summary;
+        assert!(!s.collided, "{speed} m/s: collided at {:?}", s.first_collision_time_s);
+        assert!(s.min_clearance_m > 0.0, "{speed} m/s: clearance {}", s.min_clearance_m);
+        let end = r.out.samples.last().expect("samples");
+        // It flew up to the wall (not a trivial hover) and stopped there.
+        assert!(end.pos.x > WALL_X - 1.2, "{speed} m/s: stopped {:.2} m short", WALL_X - end.pos.x);
+        assert!(end.vel.x.abs() < 0.1, "{speed} m/s: still moving at {:.2} m/s", end.vel.x);
+        assert!(r.log.iter().any(|l| l.filter_active), "{speed} m/s: the filter never intervened");
+    }
+}
+
+/// East (NED y) progress while the vehicle is held off the wall: from the first sample
+/// within 0.6 m of the wall face (centre) to the last one before the wall's end; and the
+/// time between them.
+fn slide_progress(r: &PilotRun) -> (f64, f64) {
+    // Up to 0.5 m before the wall's east end (E 6 m), where it could fly around it.
+    let at_wall: Vec<_> = r.out.samples.iter().filter(|x| x.pos.x > WALL_X - 0.6 && x.pos.y < 5.5).collect();
+    match (at_wall.first(), at_wall.last()) {
+        (Some(a), Some(b)) => (b.pos.y - a.pos.y, b.t - a.t),
+        _ => (0.0, 0.0),
+    }
+}
+
+#[test]
+fn stick_with_a_tangential_part_slides_along_the_wall() {
+    let s = scene("wall");
+    let r = fly(&s, &script_file("wall_slide.pilot.toml"), PilotMode::Position, assist(2.0), |_| {});
+    row("wall_slide 2 m/s (tangential 1 m/s)", &r);
+    let (east, time) = slide_progress(&r);
+    println!(
+        "  tangential progress at the wall: {east:.2} m in {time:.2} s = {:.2} m/s",
+        east / time.max(1e-9)
+    );
+    assert!(!r.out.summary.collided && r.out.summary.min_clearance_m > 0.0);
+    // Commanded tangential speed 1 m/s: at least half of it is kept while sliding.
+    assert!(time > 2.0 && east > 0.5 * time, "slid {east:.2} m in {time:.2} s");
+}
+
+#[test]
+fn diagonal_stick_into_a_box_corner_stops_without_contact() {
+    let s = scene("corner");
+    for speed in [1.0, 2.0] {
+        let r = fly(&s, &script_file("corner.pilot.toml"), PilotMode::Position, assist(speed), |_| {});
+        row(&format!("corner {speed} m/s"), &r);
+        let end = r.out.samples.last().expect("samples");
+        assert!(!r.out.summary.collided && r.out.summary.min_clearance_m > 0.0, "{speed} m/s");
+        // In the corner (walls' faces at N 3, E 3): near both, stopped.
+        assert!(end.pos.x > 2.0 && end.pos.y > 2.0, "{speed} m/s: ended at {:?}", end.pos);
+        assert!(end.vel.norm() < 0.1, "{speed} m/s: still moving {:?}", end.vel);
+    }
+}
+
+#[test]
+fn stick_at_a_person_walking_towards_the_vehicle() {
+    let s = scene("person");
+    let r = fly(&s, &script_file("person.pilot.toml"), PilotMode::Position, assist(1.0), |_| {});
+    row("person 0.3 m/s, stick 0.5 m/s", &r);
+    assert!(!r.out.summary.collided, "collided at {:?}", r.out.summary.first_collision_time_s);
+    assert!(r.out.summary.min_clearance_m > 0.0);
+}
+
+#[test]
+fn goal_seeking_pilot_through_a_slalom() {
+    let s = scene("slalom");
+    let r = fly(&s, &script_file("slalom.pilot.toml"), PilotMode::Position, assist(1.0), |_| {});
+    row("slalom, goal pilot 1 m/s", &r);
+    assert!(!r.out.summary.collided, "collided at {:?}", r.out.summary.first_collision_time_s);
+    assert!(r.out.summary.min_clearance_m > 0.0);
+}
+
+#[test]
+fn rc_loss_holds_then_lands() {
+    let s = scene("wall");
+    let r = fly(&s, &script_file("rc_loss.pilot.toml"), PilotMode::Position, assist(1.0), |_| {});
+    row("rc_loss at 2 s", &r);
+    let at = |t: f64| r.out.samples.iter().find(|x| x.t >= t).expect("sample");
+    let modes: Vec<_> = r.log.iter().map(|l| (l.t, l.flight_mode.clone())).collect();
+    let mode_at = |t: f64| modes.iter().find(|m| m.0 >= t).map(|m| m.1.clone()).unwrap_or_default();
+    println!(
+        "  modes: 1 s {}, 3 s {}, 6 s {}; N at 2.6 s {:.2}, 4 s {:.2}",
+        mode_at(1.0),
+        mode_at(3.0),
+        mode_at(6.0),
+        at(2.6).pos.x,
+        at(4.0).pos.x
+    );
+    assert_eq!(mode_at(1.0), "Position");
+    assert_eq!(mode_at(3.0), "Hold");
+    // Loss detected after the RC timeout (0.5 s); then it stops within a metre and stays.
+    assert!((at(5.0).pos.x - at(2.5).pos.x).abs() < 1.0, "kept flying after the RC loss");
+    assert!(at(5.0).vel.norm() < 0.2, "still moving at 5 s: {:?}", at(5.0).vel);
+    assert_eq!(mode_at(6.0), "Land");
+    assert!(!r.out.summary.collided || r.out.summary.collision_with.as_deref() == Some("ground"));
+}
+
+#[test]
+fn kill_switch_stops_the_motors_within_one_inner_step() {
+    let s = scene("wall");
+    let r = fly(&s, &script_file("kill.pilot.toml"), PilotMode::Position, assist(1.0), |_| {});
+    let (k, off) = (r.kill_sent_at.expect("kill sent"), r.motors_off_at.expect("motors stopped"));
+    println!("kill frame at {k:.4} s, motors all zero at {off:.4} s");
+    assert!(off - k <= 1e-3 + 1e-9, "motors off {:.4} s after the kill", off - k);
+}
