@@ -48,6 +48,9 @@ enum Command {
     /// Parameter files: `parapet params export FILE` / `import FILE` (QGroundControl `.params`,
     /// tab-separated; the metadata JSON is `cargo xtask params`).
     Params(cli::params::ParamsArgs),
+    /// Onboard flight logs over MAVLink: `parapet log list --port P`, `parapet log pull --port P
+    /// --out FILE` (ULog; P = udpin:HOST:PORT, udp:HOST:PORT or a serial device).
+    Log(cli::log::LogArgs),
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'
     /// commands; `--shard I/N` for job arrays (see docs/robustness.md).
@@ -80,6 +83,7 @@ fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::SweepMerge(a) => sweep::cmd_sweep_merge(a),
         Command::Scene(a) => cli::output::out(&cli::scene::cmd_scene(a)?),
         Command::Params(a) => cli::output::out(&cli::params::cmd_params(a)?),
+        Command::Log(a) => cli::output::out(&cli::log::cmd_log(a)?),
         Command::Campaign(a) => campaign::cmd_campaign(a),
         Command::CampaignMerge(a) => campaign::cmd_campaign_merge(a),
     }

@@ -1,4 +1,4 @@
-//! The `parapet` commands `run`, `pil`, `plan`, `replay` and `scene` ([`scene`]),
+//! The `parapet` commands `run`, `pil`, `plan`, `replay`, `scene` ([`scene`]) and `log` ([`log`]),
 //! the shared command plumbing (errors and exit codes, run options, output) and
 //! the help texts ([`help`]). The `parapet` parser and dispatch is the binary
 //! (`src/main.rs`), above this module, [`crate::sweep`] and [`crate::campaign`]
@@ -16,6 +16,7 @@
 //! May import: every host-sim module except [`crate::sweep`] and [`crate::campaign`].
 
 pub mod help;
+pub mod log;
 pub mod output;
 pub mod params;
 pub mod scene;
