@@ -19,6 +19,7 @@ pub mod help;
 pub mod log;
 pub mod output;
 pub mod params;
+pub mod pilot;
 pub mod scene;
 pub mod sitl;
 
@@ -77,6 +78,9 @@ pub struct RunArgs {
     /// `--gcs`, `--api`, `--realtime` (ground stations; `parapet pil` and `parapet run`).
     #[command(flatten)]
     sitl: sitl::SitlArgs,
+    /// `--pilot`, `--offboard` (the simulated pilot / companion; `parapet run`).
+    #[command(flatten)]
+    pilot: pilot::PilotArgs,
     /// Scene file (TOML, ENU z-up; see scenes/README.md).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: PathBuf,
@@ -566,11 +570,26 @@ fn with_progress<T>(duration: f64, f: impl FnOnce(&mut dyn FnMut(f64)) -> T) -> 
     r
 }
 
-pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
-    let (scene, cfg) = run_setup(&a)?;
+pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
+    let piloted = a.pilot.load()?;
+    if piloted.is_some() {
+        // The pilot replaces the mission: nothing to plan.
+        a.straight = true;
+    }
+    let (scene, mut cfg) = run_setup(&a)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
-    let result = if a.sitl.is_set() {
+    let mut pilot_run = None;
+    let result = if let Some((script, mode)) = &piloted {
+        if a.sitl.is_set() {
+            return Err(CliError::BadInput("option --pilot/--offboard: not with --gcs/--api".into()));
+        }
+        let (c, r) = with_progress(cfg.duration, |p| pilot::fly(&scene, cfg.clone(), script, *mode, p))?;
+        cfg = c;
+        let out = r.out.clone();
+        pilot_run = Some(r);
+        out
+    } else if a.sitl.is_set() {
         let bridge = sitl::bridge(&a.sitl, &dir, false)?;
         let (r, note) =
             with_progress(cfg.duration, |p| sitl::run_inprocess_bridged(&scene, &cfg, bridge, p))?;
@@ -589,6 +608,9 @@ pub fn cmd_run(a: RunArgs) -> Result<(), CliError> {
     };
     let (_, warnings) = write_report(&dir, &rec)?;
     write_flight_log(&dir, &scene, &cfg, &result.samples, "run")?;
+    if let (Some((script, mode)), Some(r)) = (&piloted, &pilot_run) {
+        pilot::write_outputs(&dir, script, *mode, r)?;
+    }
     for w in warnings {
         eprintln!("warning: {w}");
     }
