@@ -9,6 +9,7 @@
 //! |---|---|---|
 //! | [`app`] | the boundary to the cascade ([`app::autopilot`]), the real cascade ([`app::cascade`]), how tasks exchange messages ([`app::shared`]), loop timing | `parapet_core` |
 //! | [`link`] | MAVLink framing, inbound/outbound message sets, dispatcher ([`link::Link`]), commands, mission, obstacle batches, parameters, telemetry | `parapet_core` (wire contract `parapet_core::wire`), `mavlink`, [`app`] |
+//! | [`log`] | the onboard flight log: ULog writer, log stores (RAM ring), the arming-to-disarming logger, the MAVLink log download | [`app`], [`link`] (dialect, framing), `parapet_core` |
 //! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
 //! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
 //! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
@@ -28,6 +29,7 @@ pub mod app;
 pub mod board;
 pub mod drivers;
 pub mod link;
+pub mod log;
 pub mod pil;
 
 #[cfg(test)]

@@ -1,0 +1,441 @@
+//! The flight logger: turns telemetry samples into ULog records in a [`LogStore`], from arming
+//! to disarming, at a bounded rate.
+//!
+//! - **When**: a log starts on the first armed sample (header, formats, infos, every parameter
+//!   of the table, subscriptions) and ends on the first disarmed one (which is still written,
+//!   so the log shows the disarm). Samples while disarmed cost one comparison.
+//! - **Rate**: one record set per `period_us` (default [`DEFAULT_PERIOD_US`] = 25 Hz); samples in
+//!   between are skipped (counted). Six records of ≤ 66 bytes each per set, so a set is
+//!   ≈ 320 bytes: 8 KB/s at 25 Hz.
+//! - **Bounded work**: a sample writes at most one record set (6 messages), the first one also
+//!   the definitions (6 formats, 3 infos, `parapet_core::params::COUNT` parameters).
+//! - **Errors**: a store error is counted; [`LogError::Full`] stops the log's records (the
+//!   log stays readable up to there, `truncated`).
+//!
+//! Topics (names and fields as the host simulator's `flight.ulg`, `parapet_sim::report::ulog`,
+//! so the same tools plot both); the onboard log has no ground truth, so `cbf_status.h_bar`
+//! (true h̄) and `clearance` are NaN and `vehicle_local_position` is the estimate.
+//!
+//! May import: [`crate::log::ulog`], [`crate::log::store`], [`crate::app::autopilot`]
+//! (the telemetry snapshot), `parapet_core` (parameters, thrust map).
+
+use parapet_core::cbf::Region;
+use parapet_core::controller::ControllerParams;
+use parapet_core::thrust::{map_acceleration, ThrustParams};
+use parapet_core::wire::codes::FlightPhase;
+
+use crate::app::autopilot::TelemetrySnapshot;
+use crate::log::store::LogStore;
+use crate::log::ulog::{
+    write_data, write_format, write_header, write_info, write_param_f32, write_subscription, LogError,
+    Record, Topic,
+};
+
+/// Default record period, µs (25 Hz).
+pub const DEFAULT_PERIOD_US: u64 = 40_000;
+
+/// One telemetry sample for the log (what a control task sends to the log task).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LogSample {
+    /// Firmware time, µs.
+    pub t_us: u64,
+    /// The cascade's state after the step.
+    pub snapshot: TelemetrySnapshot,
+    /// Motor throttles 0..1 of rotors 1-4 (PX4 numbering, `parapet_core::airframe`).
+    pub motors: [f32; 4],
+}
+
+/// Logger counters (saturating).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoggerStats {
+    /// Logs started.
+    pub logs: u32,
+    /// Record sets written.
+    pub records: u32,
+    /// Armed samples skipped by the rate limit.
+    pub skipped: u32,
+    /// Store writes that failed.
+    pub store_errors: u32,
+    /// The current (or last) log was cut because the store was full.
+    pub truncated: bool,
+}
+
+const LOCAL_POSITION: Topic = Topic {
+    name: "vehicle_local_position",
+    fields: &[
+        ("uint64_t", "timestamp"),
+        ("float", "x"),
+        ("float", "y"),
+        ("float", "z"),
+        ("float", "vx"),
+        ("float", "vy"),
+        ("float", "vz"),
+        ("float", "heading"),
+        ("bool", "xy_valid"),
+        ("bool", "z_valid"),
+        ("bool", "v_xy_valid"),
+        ("bool", "v_z_valid"),
+    ],
+};
+const ATTITUDE: Topic =
+    Topic { name: "vehicle_attitude", fields: &[("uint64_t", "timestamp"), ("float[4]", "q")] };
+const ATTITUDE_SETPOINT: Topic = Topic {
+    name: "vehicle_attitude_setpoint",
+    fields: &[
+        ("uint64_t", "timestamp"),
+        ("float", "roll_body"),
+        ("float", "pitch_body"),
+        ("float", "yaw_body"),
+        ("float[4]", "q_d"),
+        ("float[3]", "thrust_body"),
+    ],
+};
+const MOTORS: Topic = Topic {
+    name: "actuator_motors",
+    fields: &[("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("float[12]", "control")],
+};
+const STATUS: Topic = Topic {
+    name: "vehicle_status",
+    fields: &[
+        ("uint64_t", "timestamp"),
+        ("uint8_t", "arming_state"),
+        ("uint8_t", "nav_state"),
+        ("uint8_t", "parapet_mode"),
+    ],
+};
+const CBF_STATUS: Topic = Topic {
+    name: "cbf_status",
+    fields: &[
+        ("uint64_t", "timestamp"),
+        ("float", "h_bar"),
+        ("float", "h_bar_filter"),
+        ("float", "clearance"),
+        ("uint8_t", "region"),
+        ("int32_t", "active_id"),
+        ("uint8_t", "n_constraints"),
+        ("bool", "intervened"),
+        ("bool", "unavoidable"),
+        ("bool", "infeasible"),
+        ("float[3]", "u_nominal"),
+        ("float[3]", "u"),
+    ],
+};
+
+/// Every topic of an onboard log, in message-id order.
+pub const TOPICS: [Topic; 6] = [LOCAL_POSITION, ATTITUDE, ATTITUDE_SETPOINT, MOTORS, STATUS, CBF_STATUS];
+
+/// PX4 `nav_state` of a flight phase (`vehicle_status.msg` codes).
+fn nav_state(p: FlightPhase) -> u8 {
+    match p {
+        FlightPhase::Mission => 3,
+        FlightPhase::Takeoff => 17,
+        FlightPhase::Landing => 18,
+        _ => 4,
+    }
+}
+
+fn region_code(r: Region) -> u8 {
+    match r {
+        Region::NoObstacle => 0,
+        Region::Far => 1,
+        Region::NominalSafe => 2,
+        Region::Perpendicular => 3,
+        Region::Fault => 4,
+    }
+}
+
+/// PX4 quaternion (w, x, y, z), body FRD → NED, of ZYX Euler angles.
+pub fn quat(roll: f32, pitch: f32, yaw: f32) -> [f32; 4] {
+    let (sr, cr) = libm::sincosf(0.5 * roll);
+    let (sp, cp) = libm::sincosf(0.5 * pitch);
+    let (sy, cy) = libm::sincosf(0.5 * yaw);
+    [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
+}
+
+/// The logger state (see the module doc).
+pub struct FlightLogger {
+    period_us: u64,
+    next_us: u64,
+    logging: bool,
+    thrust: ThrustParams,
+    mass: f32,
+    board: &'static str,
+    stats: LoggerStats,
+}
+
+impl FlightLogger {
+    /// A logger writing one record set per `period_us` (≥ 1), with the thrust map of `params`
+    /// (for the attitude setpoint), naming `board` in the log's `parapet_board` info.
+    pub fn new(period_us: u64, params: &ControllerParams, board: &'static str) -> Self {
+        Self {
+            period_us: period_us.max(1),
+            next_us: 0,
+            logging: false,
+            thrust: params.thrust,
+            mass: params.airframe.mass,
+            board,
+            stats: LoggerStats::default(),
+        }
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> LoggerStats {
+        self.stats
+    }
+
+    /// `true` while a log is being written.
+    pub fn logging(&self) -> bool {
+        self.logging
+    }
+
+    fn count(&mut self, r: Result<(), LogError>) -> bool {
+        match r {
+            Ok(()) => true,
+            Err(e) => {
+                self.stats.store_errors = self.stats.store_errors.saturating_add(1);
+                if e == LogError::Full {
+                    self.stats.truncated = true;
+                }
+                false
+            }
+        }
+    }
+
+    /// Handles one sample; `param` gives the current value of a parameter by name (written
+    /// once, at the log's start).
+    pub fn on_sample<S: LogStore>(
+        &mut self,
+        s: &LogSample,
+        store: &mut S,
+        mut param: impl FnMut(&str) -> Option<f32>,
+    ) {
+        let armed = s.snapshot.armed;
+        if !self.logging {
+            if !armed {
+                return;
+            }
+            self.stats.truncated = false;
+            let started = store.begin(0).map(|_| ());
+            if !self.count(started) {
+                return;
+            }
+            self.logging = true;
+            self.stats.logs = self.stats.logs.saturating_add(1);
+            let r = self.definitions(s.t_us, store, &mut param);
+            self.count(r);
+            self.next_us = s.t_us;
+        }
+        if armed && s.t_us < self.next_us {
+            self.stats.skipped = self.stats.skipped.saturating_add(1);
+            return;
+        }
+        if !self.stats.truncated {
+            let r = self.records(s, store);
+            if self.count(r) {
+                self.stats.records = self.stats.records.saturating_add(1);
+            }
+        }
+        self.next_us = s.t_us.saturating_add(self.period_us);
+        if !armed {
+            store.end();
+            self.logging = false;
+        }
+    }
+
+    fn definitions<S: LogStore>(
+        &self,
+        t0_us: u64,
+        store: &mut S,
+        param: &mut impl FnMut(&str) -> Option<f32>,
+    ) -> Result<(), LogError> {
+        write_header(store, t0_us)?;
+        for t in &TOPICS {
+            write_format(store, t)?;
+        }
+        write_info(store, "sys_name", "Parapet")?;
+        write_info(store, "ver_sw", env!("CARGO_PKG_VERSION"))?;
+        write_info(store, "parapet_board", self.board)?;
+        for p in &parapet_core::params::TABLE {
+            if let Some(v) = param(p.name) {
+                write_param_f32(store, p.name, v)?;
+            }
+        }
+        for (id, t) in TOPICS.iter().enumerate() {
+            write_subscription(store, id as u16, t.name)?;
+        }
+        Ok(())
+    }
+
+    fn records<S: LogStore>(&self, s: &LogSample, store: &mut S) -> Result<(), LogError> {
+        let ts = s.t_us;
+        let t = &s.snapshot;
+        let [roll, pitch, yaw] = [t.attitude_rpy.x, t.attitude_rpy.y, t.attitude_rpy.z];
+        let p = t.position_ned;
+        let v = t.velocity_ned;
+        let r = Record::at(ts).f32s(&[p.x, p.y, p.z, v.x, v.y, v.z, yaw]).u8(1).u8(1).u8(1).u8(1);
+        write_data(store, 0, &r)?;
+        write_data(store, 1, &Record::at(ts).f32s(&quat(roll, pitch, yaw)))?;
+        let u = t.setpoint.accel_filtered_ned;
+        let sp = map_acceleration(&self.thrust, self.mass, &u, yaw, roll, pitch);
+        let thrust_norm = if self.thrust.thrust_max > 0.0 { sp.thrust / self.thrust.thrust_max } else { 0.0 };
+        let r = Record::at(ts)
+            .f32s(&[sp.roll, sp.pitch, sp.yaw])
+            .f32s(&quat(sp.roll, sp.pitch, sp.yaw))
+            .f32s(&[0.0, 0.0, -thrust_norm]);
+        write_data(store, 2, &r)?;
+        let mut control = [f32::NAN; 12];
+        for (c, m) in control.iter_mut().zip(s.motors) {
+            *c = m;
+        }
+        write_data(store, 3, &Record::at(ts).u64(ts).f32s(&control))?;
+        let arming = if t.armed { 2 } else { 1 };
+        write_data(store, 4, &Record::at(ts).u8(arming).u8(nav_state(t.phase)).u8(t.phase.code() as u8))?;
+        let f = &t.filter;
+        let un = t.setpoint.accel_nominal_ned;
+        let r = Record::at(ts)
+            .f32s(&[f32::NAN, f.h_bar, f32::NAN])
+            .u8(region_code(f.region))
+            .i32(f.active_id.map(i32::from).unwrap_or(-1))
+            .u8(f.n_constraints)
+            .u8(u8::from(f.intervened))
+            .u8(u8::from(f.unavoidable))
+            .u8(u8::from(f.infeasible))
+            .f32s(&[un.x, un.y, un.z, u.x, u.y, u.z]);
+        write_data(store, 5, &r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log::store::RamRing;
+    use parapet_core::Vec3;
+
+    pub(crate) fn sample(t_us: u64, armed: bool) -> LogSample {
+        let mut snapshot = TelemetrySnapshot::BOOT;
+        snapshot.armed = armed;
+        snapshot.phase = if armed { FlightPhase::Hover } else { FlightPhase::Disarmed };
+        snapshot.position_ned = Vec3::new(1.0, 2.0, -(t_us as f32) * 1e-6);
+        snapshot.attitude_rpy = Vec3::new(0.0, 0.0, 0.5);
+        LogSample { t_us, snapshot, motors: [0.4, 0.41, 0.42, 0.43] }
+    }
+
+    #[test]
+    fn logs_from_arming_to_disarming_at_the_rate() {
+        let params = ControllerParams::default();
+        let mut lg = FlightLogger::new(40_000, &params, "test");
+        let mut store: RamRing<16384, 4> = RamRing::new();
+        let get = |n: &str| parapet_core::params::get(&params, n);
+        for k in 0..10 {
+            lg.on_sample(&sample(k * 4000, false), &mut store, get);
+        }
+        assert_eq!(store.count(), 0);
+        // 1 s armed at 250 Hz, then disarmed.
+        for k in 0..250 {
+            lg.on_sample(&sample(1_000_000 + k * 4000, true), &mut store, get);
+        }
+        lg.on_sample(&sample(2_000_000, false), &mut store, get);
+        lg.on_sample(&sample(2_004_000, false), &mut store, get);
+        let st = lg.stats();
+        assert_eq!(st.logs, 1);
+        assert_eq!(st.records, 25 + 1, "25 Hz for 1 s and the disarm sample");
+        assert_eq!(st.skipped, 250 - 25);
+        assert_eq!(st.store_errors, 0);
+        assert!(!store.is_open() && !lg.logging());
+        assert_eq!(store.count(), 1);
+        let mut bytes = std::vec![0u8; store.info(0).unwrap().size as usize];
+        let id = store.info(0).unwrap().id;
+        assert_eq!(store.read(id, 0, &mut bytes), Ok(bytes.len()));
+        let msgs = crate::log::ulog::tests::parse(&bytes);
+        let n = |ty: u8| msgs.iter().filter(|m| m.0 == ty).count();
+        assert_eq!((n(b'F'), n(b'A'), n(b'D')), (6, 6, 6 * 26));
+        assert_eq!(n(b'P'), parapet_core::params::COUNT);
+    }
+
+    #[test]
+    fn a_full_store_truncates_the_log_and_counts() {
+        let params = ControllerParams::default();
+        let mut lg = FlightLogger::new(1, &params, "test");
+        let mut store: RamRing<4096, 4> = RamRing::new();
+        for k in 0..100 {
+            lg.on_sample(&sample(k * 4000, true), &mut store, |_| Some(1.0));
+        }
+        let st = lg.stats();
+        assert!(st.truncated && st.store_errors > 0 && st.records < 100);
+        assert!(store.info(0).unwrap().size <= 4096);
+        lg.on_sample(&sample(500_000, false), &mut store, |_| None);
+        assert!(!store.is_open());
+    }
+
+    /// The venv's python with pyulog (`PARAPET_PYTHON`, else `target/venv/bin/python`), or
+    /// `None`: SKIP loudly — except with `CI` or `PARAPET_PYTHON` set, where it fails.
+    fn python() -> Option<std::path::PathBuf> {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let env = std::env::var_os("PARAPET_PYTHON").map(std::path::PathBuf::from);
+        let target = std::env::var_os("CARGO_TARGET_DIR")
+            .map(std::path::PathBuf::from)
+            .unwrap_or_else(|| root.join("target"));
+        let py = env.clone().unwrap_or_else(|| target.join("venv/bin/python"));
+        let ok = std::process::Command::new(&py)
+            .args(["-c", "import pyulog"])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if ok {
+            return Some(py);
+        }
+        let ci = std::env::var_os("CI").is_some_and(|v| !v.is_empty() && v != "0" && v != "false");
+        assert!(!ci && env.is_none(), "no python with pyulog at {} (cargo xtask venv)", py.display());
+        std::eprintln!(
+            "\n*** SKIP: no python with pyulog at {} (cargo xtask venv): pyulog NOT RUN ***\n",
+            py.display()
+        );
+        None
+    }
+
+    #[test]
+    fn pyulog_reads_the_onboard_log() {
+        let params = ControllerParams::default();
+        let mut lg = FlightLogger::new(DEFAULT_PERIOD_US, &params, "host-test");
+        let mut store: RamRing<65536, 4> = RamRing::new();
+        // 2 s armed at the 250 Hz outer rate, then the disarm sample.
+        for k in 0..500u64 {
+            lg.on_sample(&sample(3_000_000 + k * 4000, true), &mut store, |n| {
+                parapet_core::params::get(&params, n)
+            });
+        }
+        lg.on_sample(&sample(5_000_000, false), &mut store, |_| None);
+        assert_eq!(lg.stats().store_errors, 0);
+        let info = store.info(0).expect("one log");
+        let mut bytes = std::vec![0u8; info.size as usize];
+        assert_eq!(store.read(info.id, 0, &mut bytes), Ok(bytes.len()));
+        let Some(py) = python() else { return };
+        let dir = std::env::temp_dir().join(std::format!("parapet-onboard-ulog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("onboard.ulg");
+        std::fs::write(&path, &bytes).expect("write log");
+        let script =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python/check_onboard_ulog.py");
+        let out = std::process::Command::new(py)
+            .arg(script)
+            .arg(&path)
+            .args(["25", "51", "1", "2"])
+            .output()
+            .expect("run python");
+        let text = std::string::String::from_utf8_lossy(&out.stdout).into_owned()
+            + &std::string::String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "pyulog check failed:\n{text}");
+        assert!(text.contains("ok: 51 records"), "{text}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn quaternion_is_body_to_ned() {
+        let q = quat(0.0, 0.0, core::f32::consts::FRAC_PI_2);
+        assert!((q[0] - q[3]).abs() < 1e-6 && q[1].abs() < 1e-7 && q[2].abs() < 1e-7 && q[3] > 0.0);
+    }
+}
