@@ -11,6 +11,8 @@
 //! | [`link`] | MAVLink framing, inbound/outbound message sets, dispatcher ([`link::Link`]), commands, mission, obstacle batches, parameters, telemetry | `parapet_core` (wire contract `parapet_core::wire`), `mavlink`, [`app`] |
 //! | [`log`] | the onboard flight log: ULog writer, log stores (RAM ring), the arming-to-disarming logger, the MAVLink log download | [`app`], [`link`] (dialect, framing), `parapet_core` |
 //! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
+//! | [`setup`] | PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST: the calibration runs, the motor test, the storage requests and their STATUSTEXTs | [`storage`], `parapet_core` |
+//! | [`storage`] | parameter storage in flash (sequential-storage map, version record, debounced saves), the RAM NOR flash | `parapet_core` |
 //! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
 //! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
 //!
@@ -31,6 +33,8 @@ pub mod drivers;
 pub mod link;
 pub mod log;
 pub mod pil;
+pub mod setup;
+pub mod storage;
 
 #[cfg(test)]
 extern crate std;
