@@ -68,11 +68,15 @@ use crate::tracking::Reference;
 use crate::waypoint::Progress;
 use crate::Vec3;
 
+use crate::battery::BatteryState;
 pub use crate::config::{ControllerParams, ParamError};
 pub use crate::msg::{MotorOutput, PositionFix};
 pub use crate::outer::guidance::{GuidanceMode, PATH_CAPACITY};
 pub use crate::outer::inputs::OBSTACLE_CAPACITY;
+pub use crate::outer::offboard::OffboardSetpoint;
 pub use crate::outer::CommandError;
+use crate::rc::RcInput;
+pub use crate::supervisor::modes::{FlightMode, ModeTransition};
 
 /// One telemetry record (updated by every step; copy with [`FlightController::telemetry`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -137,6 +141,20 @@ pub struct Telemetry {
     pub outer_count: u32,
     /// Inner steps run.
     pub inner_count: u32,
+    /// Selected flight mode (issue 21; [`FlightMode`]).
+    pub flight_mode: FlightMode,
+    /// Last flight-mode change (reason, time).
+    pub last_mode_change: Option<ModeTransition>,
+    /// Flight-mode changes so far.
+    pub mode_changes: u32,
+    /// The safety filter changed the nominal command in the last outer step (never in Manual).
+    pub filter_active: bool,
+    /// Outer steps with the filter active, per flight mode (index `FlightMode as usize`).
+    pub filter_interventions: [u32; FlightMode::COUNT],
+    /// RC frames rejected (NaN/Inf or out-of-range sticks) since start.
+    pub rc_rejected: u32,
+    /// Offboard setpoints rejected since start.
+    pub offboard_rejected: u32,
 }
 
 impl ControllerParams {
@@ -173,6 +191,7 @@ impl ControllerParams {
                 hull_delta: self.cbf.delta,
             },
             supervisor: SupervisorParams { failsafe: self.failsafe, landing: self.landing },
+            modes: self.modes,
         }
     }
 
@@ -286,6 +305,13 @@ impl FlightController {
             non_finite_inputs: o.non_finite_inputs,
             outer_count: o.count,
             inner_count: i.count,
+            flight_mode: o.flight_mode,
+            last_mode_change: o.last_mode_change,
+            mode_changes: o.mode_changes,
+            filter_active: o.filter_active,
+            filter_interventions: o.filter_interventions,
+            rc_rejected: o.rc_rejected,
+            offboard_rejected: o.offboard_rejected,
         }
     }
 
@@ -378,6 +404,44 @@ impl FlightController {
         self.outer.land(now_us)?;
         self.publish_command();
         Ok(())
+    }
+
+    /// Take one RC frame (issue 21; [`RcInput`], time-stamped on the controller clock).
+    /// Kill switch on: motors off at once (the very next [`Self::step_inner`] outputs zero),
+    /// from any state. Arm switch on (an edge): arm with the usual checks; off: disarm on the
+    /// ground (or in Manual at zero throttle). Mode switch moved: that position's mode
+    /// (`MODE_SW_*`; the first frame only while disarmed). NaN/Inf or out-of-range sticks:
+    /// the frame is rejected and counted (`rc_rejected`); no valid frame for `FS_RC_TIMEOUT`
+    /// is an RC loss (per-mode failsafe, [`crate::supervisor::modes`]).
+    pub fn set_rc(&mut self, rc: &RcInput) {
+        if self.outer.set_rc(rc) {
+            self.publish_command();
+        }
+    }
+
+    /// Take one offboard setpoint ([`OffboardSetpoint`]); bad ones are rejected and counted.
+    /// In Offboard, no valid setpoint for `OFFB_TIMEOUT` → Hold.
+    pub fn set_offboard(&mut self, sp: &OffboardSetpoint) {
+        self.outer.set_offboard(sp);
+    }
+
+    /// Take one battery measurement: Low → Return, Critical → Land (once each, `FS_BAT_ACT`).
+    pub fn set_battery(&mut self, b: &BatteryState) {
+        self.outer.set_battery(b);
+    }
+
+    /// Select a flight mode (CLI/host API, MAVLink DO_SET_MODE). Manual and Position need a
+    /// valid RC frame, Offboard a fresh setpoint, Return a position fix
+    /// ([`CommandError::ModeUnavailable`] otherwise).
+    pub fn set_mode(&mut self, now_us: u64, mode: FlightMode) -> Result<(), CommandError> {
+        self.outer.set_mode(now_us, mode)?;
+        self.publish_command();
+        Ok(())
+    }
+
+    /// The selected flight mode.
+    pub fn mode(&self) -> FlightMode {
+        self.outer.mode()
     }
 
     /// Outer loop (nominal 250 Hz): failsafe data check, reference, PD tracking,

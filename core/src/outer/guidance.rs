@@ -38,10 +38,19 @@ pub enum GuidanceMode {
     Land,
     /// No fresh position fix: level attitude, open-loop thrust.
     NoFix,
+    /// Manual attitude (sticks straight to the inner loop, no filter).
+    Manual,
+    /// Position assist (stick velocity setpoint).
+    Assist,
+    /// Offboard setpoints.
+    Offboard,
+    /// Flying back along the breadcrumbs.
+    Return,
 }
 
 impl GuidanceMode {
-    /// The variant's name ("Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix").
+    /// The variant's name ("Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land",
+    /// "NoFix", "Manual", "Assist", "Offboard", "Return").
     pub const fn as_str(self) -> &'static str {
         match self {
             GuidanceMode::Off => "Off",
@@ -52,6 +61,10 @@ impl GuidanceMode {
             GuidanceMode::Brake => "Brake",
             GuidanceMode::Land => "Land",
             GuidanceMode::NoFix => "NoFix",
+            GuidanceMode::Manual => "Manual",
+            GuidanceMode::Assist => "Assist",
+            GuidanceMode::Offboard => "Offboard",
+            GuidanceMode::Return => "Return",
         }
     }
 }
@@ -128,9 +141,17 @@ impl Guidance {
         self.home = home;
     }
 
-    /// The yaw reference (the estimated yaw at arming), rad.
+    /// The yaw reference (the estimated yaw at arming; the pilot's or the companion's in
+    /// the piloted and offboard modes), rad.
     pub fn yaw_ref(&self) -> f32 {
         self.yaw_ref
+    }
+
+    /// Set the yaw reference (rad, wrapped by the caller).
+    pub fn set_yaw_ref(&mut self, yaw: f32) {
+        if yaw.is_finite() {
+            self.yaw_ref = yaw;
+        }
     }
 
     /// Hold `target` with zero velocity at the reference yaw.
@@ -271,7 +292,7 @@ mod tests {
     #[test]
     fn guidance_mode_names_are_the_variant_names() {
         use GuidanceMode::*;
-        for m in [Off, Ground, Hold, Takeoff, Mission, Brake, Land, NoFix] {
+        for m in [Off, Ground, Hold, Takeoff, Mission, Brake, Land, NoFix, Manual, Assist, Offboard, Return] {
             assert_eq!(m.as_str(), std::format!("{m:?}"));
         }
     }

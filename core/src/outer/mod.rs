@@ -21,8 +21,12 @@
 //! [`crate::obstacle_set`] and [`crate::robust`], the filter's set policy and plant-aware
 //! wrapping) and [`crate::supervisor`]. Never [`crate::inner`], [`crate::config`] or the facade.
 
+pub mod assist;
+mod flight_modes;
 pub mod guidance;
 pub mod inputs;
+pub mod offboard;
+pub mod return_path;
 pub mod thrust;
 pub mod tracking;
 pub mod waypoint;
@@ -36,10 +40,14 @@ use crate::obstacle::ObstaclePoint;
 use crate::obstacle_set::{Ranking, SetReport};
 use crate::robust::stall::STALL_TRACKING_ERROR_M;
 use crate::robust::{PlantAware, RobustParams, RobustTelemetry, StepInput};
+use crate::supervisor::modes::{FlightMode, ModeParams, ModeTransition, Modes};
 use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
 use crate::Vec3;
+use assist::VelocityRef;
 use guidance::{Guidance, GuidanceMode, GuidanceParams};
 use inputs::{InputParams, Inputs};
+use offboard::OffboardSetpoint;
+use return_path::ReturnPath;
 use thrust::{map_acceleration, ThrustParams};
 use tracking::{PdTracker, Reference, TrackingParams};
 use waypoint::{PathError, Progress, WaypointParams};
@@ -64,6 +72,9 @@ pub enum CommandError {
     Path(PathError),
     /// No fresh position fix.
     NoPosition,
+    /// The flight mode cannot be flown now (Manual/Position without RC, Offboard without a
+    /// fresh setpoint, Return without a position fix, Land while not flying).
+    ModeUnavailable,
 }
 
 /// The outer loop's parameters (a part of [`crate::controller::ControllerParams`], see
@@ -96,6 +107,8 @@ pub struct OuterParams {
     pub inputs: InputParams,
     /// Supervisor.
     pub supervisor: SupervisorParams,
+    /// Flight modes (issue 21).
+    pub modes: ModeParams,
 }
 
 /// The outer loop's part of the telemetry (updated by every outer step and command).
@@ -143,6 +156,21 @@ pub struct OuterTelemetry {
     pub non_finite_inputs: u32,
     /// Outer steps run.
     pub count: u32,
+    /// Selected flight mode (issue 21).
+    pub flight_mode: FlightMode,
+    /// Last flight-mode change.
+    pub last_mode_change: Option<ModeTransition>,
+    /// Flight-mode changes so far.
+    pub mode_changes: u32,
+    /// The safety filter changed the nominal command in the last outer step (always `false`
+    /// in Manual, which bypasses it).
+    pub filter_active: bool,
+    /// Outer steps with the filter active, per flight mode (index `FlightMode as usize`).
+    pub filter_interventions: [u32; FlightMode::COUNT],
+    /// RC frames rejected (NaN/Inf or out-of-range sticks) since start.
+    pub rc_rejected: u32,
+    /// Offboard setpoints rejected (NaN/Inf, out of range, empty) since start.
+    pub offboard_rejected: u32,
 }
 
 /// Why the outer loop could not be built.
@@ -171,6 +199,12 @@ pub struct OuterLoop {
     estimate: StateEstimate,
     seen_rejected: u32,
     telemetry: OuterTelemetry,
+    modes: Modes,
+    assist: VelocityRef,
+    hold_point: Vec3,
+    offboard: Option<OffboardSetpoint>,
+    ret: ReturnPath,
+    return_done: bool,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -206,6 +240,13 @@ impl OuterLoop {
             robust: RobustTelemetry::default(),
             non_finite_inputs: 0,
             count: 0,
+            flight_mode: FlightMode::default(),
+            last_mode_change: None,
+            mode_changes: 0,
+            filter_active: false,
+            filter_interventions: [0; FlightMode::COUNT],
+            rc_rejected: 0,
+            offboard_rejected: 0,
         };
         let plant = (params.filter_variant != FilterVariant::Paper)
             .then(|| PlantAware::new(params.robust, params.lag_tau));
@@ -222,6 +263,13 @@ impl OuterLoop {
             seen_rejected: estimate.rejected_samples,
             estimate,
             telemetry,
+            modes: Modes::new(params.modes),
+            assist: VelocityRef::default(),
+            hold_point: Vec3::zeros(),
+            offboard: None,
+            ret: ReturnPath::new(params.modes.crumb_spacing, params.modes.return_speed)
+                .map_err(OuterError::Waypoint)?,
+            return_done: false,
             params,
         })
     }
@@ -304,6 +352,7 @@ impl OuterLoop {
             on_ground: self.guidance.on_ground(),
         };
         self.supervisor.on_enter(tr, &at);
+        self.modes_on_transition(tr.to, tr.reason, tr.t_us);
     }
 
     fn health(&self, now_us: u64) -> DataHealth {
@@ -391,7 +440,21 @@ impl OuterLoop {
     pub fn takeoff(&mut self, now_us: u64, height_m: f32) -> Result<(), CommandError> {
         self.require_armed()?;
         let position = self.inputs.position_estimate(now_us).map(|(p, _)| p);
-        self.guidance.takeoff(now_us, height_m, position, self.telemetry.reference.position)
+        self.guidance.takeoff(now_us, height_m, position, self.telemetry.reference.position)?;
+        self.mission_mode(now_us);
+        Ok(())
+    }
+
+    /// The mission commands (takeoff, hold, mission start) fly in Mission mode.
+    fn mission_mode(&mut self, now_us: u64) {
+        if let Some(tr) =
+            self.modes.go(FlightMode::Mission, crate::failsafe::TransitionReason::ModeCommand, now_us)
+        {
+            self.ret.stop();
+            self.telemetry.last_mode_change = Some(tr);
+            self.telemetry.mode_changes = self.modes.transition_count();
+            self.telemetry.flight_mode = FlightMode::Mission;
+        }
     }
 
     /// Hold `target` (see [`crate::controller::FlightController::hold_position`]).
@@ -400,6 +463,7 @@ impl OuterLoop {
         Guidance::check_target(&target)?;
         self.inputs.position_estimate(now_us).ok_or(CommandError::NoPosition)?;
         self.guidance.hold(target);
+        self.mission_mode(now_us);
         Ok(())
     }
 
@@ -407,6 +471,7 @@ impl OuterLoop {
     pub fn start_mission(&mut self, now_us: u64) -> Result<(), CommandError> {
         self.require_armed()?;
         self.guidance.start_mission(now_us, self.telemetry.reference.position)?;
+        self.mission_mode(now_us);
         self.telemetry.robust.deadlock = false;
         if let Some(pa) = self.plant.as_mut() {
             pa.reset_stall();
@@ -442,14 +507,16 @@ impl OuterLoop {
         if let Some(tr) = self.supervisor.check_data(now_us, &health, fresh) {
             self.record(tr);
         }
+        self.mode_step(now_us, fresh);
         let state = self.supervisor.state();
         self.telemetry.state = state;
 
         // Reference and output stage.
         let mut progress = self.telemetry.progress;
+        let mut accel_sp = None;
         let (mode, reference) = match state {
             FailsafeState::Disarmed | FailsafeState::MotorsOff => (GuidanceMode::Off, None),
-            FailsafeState::Armed => self.guidance.reference(now_us, &mut progress),
+            FailsafeState::Armed => self.armed_reference(now_us, dt, fresh, &mut progress, &mut accel_sp),
             FailsafeState::Brake if self.guidance.on_ground() => (GuidanceMode::Ground, None),
             FailsafeState::Brake => {
                 (GuidanceMode::Brake, Some(self.guidance.hold_ref(self.supervisor.brake_point())))
@@ -468,6 +535,25 @@ impl OuterLoop {
             GuidanceMode::Ground => MotorStage::Idle,
             _ => MotorStage::Fly,
         };
+        self.telemetry.filter_active = false;
+        if mode == GuidanceMode::Manual {
+            // The safety pilot's mode: sticks straight to the inner loop, no filter.
+            self.sp = self.manual_sp(now_us);
+            self.tracker.reset();
+            if let Some(pa) = self.plant.as_mut() {
+                pa.reset();
+            }
+            let tel = &mut self.telemetry;
+            tel.mode = mode;
+            tel.attitude_sp = self.sp;
+            tel.u_nominal = Vec3::zeros();
+            tel.u_filtered = Vec3::zeros();
+            if let Some((p, v)) = fresh {
+                tel.position = p;
+                tel.velocity = v;
+            }
+            return self.command();
+        }
         let Some(reference) = reference else {
             self.telemetry.mode = mode;
             self.tracker.reset();
@@ -481,7 +567,11 @@ impl OuterLoop {
         let yaw_ref = self.guidance.yaw_ref();
         match fresh {
             Some((p, v)) => {
-                let u_pd = self.tracker.update(&reference, &p, &v, dt);
+                let mut u_pd = self.tracker.update(&reference, &p, &v, dt);
+                if let Some(a) = accel_sp {
+                    // Offboard acceleration setpoint: it is the nominal command.
+                    u_pd = a;
+                }
                 let (u_star, u, diag) = match self.plant.as_mut() {
                     None => {
                         let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.inputs.obstacles());
@@ -500,7 +590,12 @@ impl OuterLoop {
                             obstacles: self.inputs.obstacles(),
                             boundaries: matches!(
                                 mode,
-                                GuidanceMode::Mission | GuidanceMode::Hold | GuidanceMode::Brake
+                                GuidanceMode::Mission
+                                    | GuidanceMode::Hold
+                                    | GuidanceMode::Brake
+                                    | GuidanceMode::Assist
+                                    | GuidanceMode::Offboard
+                                    | GuidanceMode::Return
                             ),
                             mission_running: mode == GuidanceMode::Mission
                                 && lag > STALL_TRACKING_ERROR_M * STALL_TRACKING_ERROR_M,
@@ -525,6 +620,13 @@ impl OuterLoop {
                 tel.u_nominal = u_star;
                 tel.u_filtered = u;
                 tel.filter = diag;
+                tel.filter_active = (u - u_star).norm_squared() > 1e-12;
+                if tel.filter_active {
+                    let i = tel.flight_mode as usize;
+                    if let Some(c) = tel.filter_interventions.get_mut(i) {
+                        *c = c.saturating_add(1);
+                    }
+                }
             }
             None => {
                 let u = self.supervisor.blind_accel(now_us);

@@ -102,7 +102,7 @@ pub struct Sim {
     pub t_us: u64,
     pub feed_fix: bool,
     pub feed_obs: bool,
-    pub obstacles: heapless::Vec<ObstaclePoint, 4>,
+    pub obstacles: heapless::Vec<ObstaclePoint, 16>,
     pub min_dist: f32,
     pub noise: Option<Noise>,
 }
@@ -179,7 +179,7 @@ impl Sim {
                 }
                 if self.feed_obs {
                     let p = self.quad.p;
-                    let pts: heapless::Vec<ObstaclePoint, 4> = self.obstacles.clone();
+                    let pts: heapless::Vec<ObstaclePoint, 16> = self.obstacles.clone();
                     self.ctl.update_obstacles(t, &pts);
                     for o in pts.iter() {
                         self.min_dist = self.min_dist.min((o.point - p).norm());

@@ -367,6 +367,10 @@ pub fn describe_command_error(e: CommandError) -> String {
         CommandError::NotFlying => "the vehicle is not flying (take off first)".into(),
         CommandError::Path(p) => format!("path rejected: {}", describe_path_error(p)),
         CommandError::NoPosition => "no fresh position fix".into(),
+        CommandError::ModeUnavailable => {
+            "the flight mode cannot be flown now (Manual/Position need RC, Offboard a fresh setpoint, Return a fix)"
+                .into()
+        }
     }
 }
 
