@@ -53,7 +53,8 @@ fn rejected(e: CommandError) -> CommandRejected {
         | CommandError::NotArmed
         | CommandError::AlreadyDisarmed
         | CommandError::NotFlying
-        | CommandError::NoPosition => CommandRejected::NotNow,
+        | CommandError::NoPosition
+        | CommandError::ModeUnavailable => CommandRejected::NotNow,
     }
 }
 
