@@ -6,8 +6,12 @@ host tools and real ground stations use.
 Messages are copied verbatim (fields, extension markers), so their ids, CRC_EXTRA bytes and wire
 layout are those of the full dialect (checked by `firmware/tests/dialect.rs`). Enums are those
 the copied fields reference, with every entry the full dialect gives them (`MAV_CMD` complete,
-so an unknown-but-valid command still decodes and is answered UNSUPPORTED). `firmware/build.rs`
-turns the file into Rust with `mavlink-bindgen`.
+as constants). One change: the `command` fields (COMMAND_LONG/INT/ACK/CANCEL, MISSION_ITEM(_INT))
+lose their `enum="MAV_CMD"` attribute and stay plain `u16` (the attribute is not part of the
+CRC_EXTRA nor of the wire): every command id then decodes and an unknown one is answered
+UNSUPPORTED with its own id, and the ~2 KB `MavCmd` from-integer conversion is not linked.
+Compare with `MavCmd::X as u16`. `firmware/build.rs` turns the file into Rust with
+`mavlink-bindgen`.
 
 Usage: python3 firmware/mavlink/extract.py DEFINITIONS_DIR > firmware/mavlink/parapet.xml
 where DEFINITIONS_DIR is `mavlink-0.21.0/mavlink/message_definitions/v1.0` of the cargo
@@ -77,6 +81,8 @@ def main():
     wanted = set(EXTRA_ENUMS)
     for name in MESSAGES:
         for f in messages[name].iter("field"):
+            if f.get("enum") == "MAV_CMD":
+                del f.attrib["enum"]
             if f.get("enum"):
                 wanted.add(f.get("enum"))
     unknown = sorted(w for w in wanted if w not in enums)

@@ -35,7 +35,7 @@ fn every_firmware_message_has_the_full_dialects_id_name_and_crc_extra() {
 #[test]
 fn a_firmware_frame_with_extension_fields_reads_back_with_the_full_dialect() {
     let ack = fw::COMMAND_ACK_DATA {
-        command: fw::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        command: fw::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
         result: fw::MavResult::MAV_RESULT_ACCEPTED,
         progress: 7,
         result_param2: -3,

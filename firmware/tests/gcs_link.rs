@@ -123,7 +123,7 @@ impl Sim {
                         y: (p[1] * 1e4) as i32,
                         z: p[2],
                         seq: q.seq,
-                        command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                        command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
                         frame: MavFrame::MAV_FRAME_LOCAL_NED,
                         target_system: 1,
                         target_component: 1,
@@ -160,7 +160,7 @@ impl Sim {
                     [Outbound::MissionItemInt(i)] => {
                         assert_eq!(
                             (i.seq, i.command, i.frame),
-                            (seq, MavCmd::MAV_CMD_NAV_WAYPOINT, MavFrame::MAV_FRAME_LOCAL_NED)
+                            (seq, MavCmd::MAV_CMD_NAV_WAYPOINT as u16, MavFrame::MAV_FRAME_LOCAL_NED)
                         );
                         assert_eq!((i.target_system, i.target_component), GCS);
                         [i.x as f32 / 1e4, i.y as f32 / 1e4, i.z]
@@ -180,7 +180,7 @@ impl Sim {
             param5: p[4],
             param6: p[5],
             param7: p[6],
-            command,
+            command: command as u16,
             target_system: 1,
             target_component,
             ..Default::default()
@@ -249,7 +249,7 @@ fn a_command_reply_gets_through_while_the_parameter_list_streams() {
     let req = PARAM_REQUEST_LIST_DATA { target_system: 1, target_component: 1 };
     let f1 = g.frame(&req);
     let land = COMMAND_LONG_DATA {
-        command: MavCmd::MAV_CMD_NAV_LAND,
+        command: MavCmd::MAV_CMD_NAV_LAND as u16,
         target_system: 1,
         target_component: 1,
         ..Default::default()
@@ -283,7 +283,7 @@ fn messages_for_another_component_or_system_are_ignored() {
         .is_empty());
     let other_sys = COMMAND_LONG_DATA {
         param1: 1.0,
-        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
         target_system: 2,
         target_component: 1,
         ..Default::default()
@@ -306,7 +306,7 @@ fn command_int_is_answered_like_command_long_and_acks_are_addressed_to_the_sende
     g.run(500);
     let arm = COMMAND_INT_DATA {
         param1: 1.0,
-        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
         target_system: 1,
         target_component: 1,
         ..Default::default()
@@ -322,7 +322,7 @@ fn command_int_is_answered_like_command_long_and_acks_are_addressed_to_the_sende
         x: 5_000,
         y: -2_500,
         z: -1.0,
-        command: MavCmd::MAV_CMD_OVERRIDE_GOTO,
+        command: MavCmd::MAV_CMD_OVERRIDE_GOTO as u16,
         frame: MavFrame::MAV_FRAME_LOCAL_NED,
         target_system: 1,
         target_component: 1,
@@ -336,6 +336,19 @@ fn command_int_is_answered_like_command_long_and_acks_are_addressed_to_the_sende
     // Unsupported: still answered, addressed.
     let r = g.command(MavCmd::MAV_CMD_DO_SET_SERVO, [0.0; 7], 1);
     assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_UNSUPPORTED, GCS));
+}
+
+/// A command id outside MAV_CMD (a newer or vendor command) decodes and is answered
+/// UNSUPPORTED with its own id; before, the enum-typed `command` field failed to decode and the
+/// sender got no COMMAND_ACK at all.
+#[test]
+fn an_unknown_command_id_is_answered_unsupported_with_its_id() {
+    let mut g = Sim::new();
+    let unknown =
+        COMMAND_LONG_DATA { command: 60_123, target_system: 1, target_component: 1, ..Default::default() };
+    let r = g.send(&unknown);
+    assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_UNSUPPORTED, GCS));
+    assert!(matches!(r.as_slice(), [Outbound::CommandAck(a), ..] if a.command == 60_123), "{r:?}");
 }
 
 #[test]

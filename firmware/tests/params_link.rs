@@ -110,7 +110,7 @@ fn a_heavier_vehicle_in_table_order_then_arming() {
     assert_eq!(g.set("CBF_DELTA1", 0.01).param_value, 0.01);
     let arm = COMMAND_LONG_DATA {
         param1: 1.0,
-        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
         target_system: 1,
         target_component: 1,
         ..Default::default()

@@ -286,7 +286,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
         if k == 500 {
             h.send(&COMMAND_LONG_DATA {
                 param1: 1.0,
-                command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
                 target_system: 1,
                 target_component: 1,
                 ..Default::default()
@@ -299,7 +299,7 @@ fn firmware_boots_handshakes_and_answers_lockstep_in_qemu() {
                 param2: 3.0,
                 param3: 1.0,
                 param7: -1.0,
-                command: MavCmd::MAV_CMD_OVERRIDE_GOTO,
+                command: MavCmd::MAV_CMD_OVERRIDE_GOTO as u16,
                 target_system: 1,
                 target_component: 1,
                 ..Default::default()

@@ -26,6 +26,7 @@
 //! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`].
 
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
+use parapet_core::battery::BatteryState;
 use parapet_core::controller::{CommandError, ControllerParams, FlightController, GuidanceMode, ParamError};
 use parapet_core::failsafe::{FailsafeState, TransitionReason};
 use parapet_core::inner::InnerLoop;
@@ -33,13 +34,16 @@ use parapet_core::msg::{ImuSample as CoreImuSample, PositionFix as CoreFix, Stat
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::outer::{OuterLoop, OuterTelemetry};
 use parapet_core::params;
+use parapet_core::rc::map::RcParams;
+use parapet_core::rc::RcInput;
 use parapet_core::waypoint::PathError;
 use parapet_core::wire::codes;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{
-    Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand, ParamRejected,
-    PathRejected, PositionFix, SetpointReport, TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand,
+    OffboardSetpoint, ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot,
+    VehicleCommand,
 };
 use crate::app::mailbox::Mailboxes;
 
@@ -79,6 +83,13 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         (FailsafeState::Armed, _) => FlightPhase::Idle,
     };
     let a = &est.attitude;
+    let phase = match (t.state, t.mode) {
+        (FailsafeState::Armed, GuidanceMode::Return) => FlightPhase::Mission,
+        (FailsafeState::Armed, GuidanceMode::Manual | GuidanceMode::Assist | GuidanceMode::Offboard) => {
+            FlightPhase::Hover
+        }
+        _ => phase,
+    };
     TelemetrySnapshot {
         armed: t.state.motors_enabled(),
         phase,
@@ -94,6 +105,10 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
             accel_nominal_ned: t.u_nominal,
             accel_filtered_ned: t.u_filtered,
         },
+        mode: t.flight_mode,
+        mode_changes: t.mode_changes,
+        mode_reason: t.last_mode_change.map(|m| m.reason.as_str()),
+        filter_active: t.filter_active,
     }
 }
 
@@ -148,10 +163,25 @@ impl OuterStage {
         if self.outer.on_estimate(&est) {
             mb.send_command(self.outer.command());
         }
+        self.take_inputs(mb);
+    }
+
+    /// Takes the latest RC frame (mapped with the flown `RC_*` parameters) and battery state;
+    /// publishes the command when it changed (the kill switch: Off at once).
+    pub fn take_inputs<M: RawMutex>(&mut self, mb: &Mailboxes<M>) {
+        if let Some(frame) = mb.rc.try_take() {
+            if self.outer.set_rc(&frame.input(&self.flown.rc)) {
+                mb.send_command(self.outer.command());
+            }
+        }
+        if let Some(b) = mb.battery.try_take() {
+            self.outer.set_battery(&b);
+        }
     }
 
     /// One outer step at `now_us`; publishes the attitude command and the snapshot.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
+        self.take_inputs(mb);
         mb.send_command(self.outer.step(now_us));
         mb.snapshot.signal(snapshot(self.outer.telemetry(), &self.estimate));
     }
@@ -242,10 +272,17 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
                 let target = target_ned.unwrap_or(o.telemetry().position);
                 o.hold_position(now_us, target)
             }
+            VehicleCommand::SetMode(m) => o.set_mode(now_us, m),
         };
-        // Arm, disarm and land change the output stage at once (as the controller facade).
+        // Arm, disarm, land and mode changes change the output stage at once (as the facade).
         if r.is_ok()
-            && matches!(cmd, VehicleCommand::Arm | VehicleCommand::Disarm { .. } | VehicleCommand::Land)
+            && matches!(
+                cmd,
+                VehicleCommand::Arm
+                    | VehicleCommand::Disarm { .. }
+                    | VehicleCommand::Land
+                    | VehicleCommand::SetMode(_)
+            )
         {
             self.mb.send_command(o.command());
         }
@@ -267,6 +304,24 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
 
     fn get_param(&self, name: &str) -> Option<f32> {
         params::get(&self.stage.stored, name)
+    }
+
+    fn set_rc(&mut self, rc: &RcInput) {
+        if self.stage.outer.set_rc(rc) {
+            self.mb.send_command(self.stage.outer.command());
+        }
+    }
+
+    fn rc_params(&self) -> RcParams {
+        self.stage.flown.rc
+    }
+
+    fn set_offboard(&mut self, sp: &OffboardSetpoint) {
+        self.stage.outer.set_offboard(sp);
+    }
+
+    fn set_battery(&mut self, b: &BatteryState) {
+        self.stage.outer.set_battery(b);
     }
 
     fn telemetry(&self) -> TelemetrySnapshot {
@@ -392,6 +447,18 @@ impl Autopilot for Cascade {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.outer.snapshot()
     }
+    fn set_rc(&mut self, rc: &RcInput) {
+        self.port().set_rc(rc);
+    }
+    fn rc_params(&self) -> RcParams {
+        self.outer.flown.rc
+    }
+    fn set_offboard(&mut self, sp: &OffboardSetpoint) {
+        self.port().set_offboard(sp);
+    }
+    fn set_battery(&mut self, b: &BatteryState) {
+        self.port().set_battery(b);
+    }
 }
 
 #[cfg(test)]
@@ -484,6 +551,65 @@ mod tests {
         MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
         ODOMETRY_DATA,
     };
+    /// The kill switch through the receiver mailbox: the outer stage takes the frame when the
+    /// inner step's estimate wakes it, disarms, and the very next inner step outputs zero; a
+    /// DO_SET_MODE-style mode command changes the flight mode (Position needs RC first).
+    #[test]
+    fn kill_frame_stops_the_motors_on_the_next_inner_step_and_modes_switch() {
+        use crate::app::autopilot::FlightMode;
+        use parapet_core::rc::map::RcFrame;
+        use parapet_core::rc::{RawChannels, RcSource};
+        let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("defaults") };
+        let imu = ImuSample { gyro_frd: Vec3::zeros(), accel_frd: Vec3::new(0.0, 0.0, -9.81) };
+        let frame = |t_us, kill: bool| {
+            let mut us = [1500u16; parapet_core::rc::MAX_CHANNELS];
+            us[2] = 1500; // throttle mid
+            us[4] = 2000; // arm switch on
+            us[5] = 1000; // mode switch low
+            us[6] = if kill { 2000 } else { 1000 };
+            let raw = RawChannels { us, count: 16, failsafe: false, frame_lost: false };
+            RcFrame { raw, t_us, link_quality: 100, rssi_dbm: None, source: RcSource::Crsf }
+        };
+        let mut last = MotorCommand::OFF;
+        for k in 0..3000u64 {
+            let t = 1_000_000 + k * 1000;
+            if k % 4 == 0 {
+                let fix = PositionFix {
+                    t_us: t,
+                    position_ned: Vec3::new(0.0, 0.0, -1.0),
+                    velocity_ned: Vec3::zeros(),
+                    yaw: Some(0.0),
+                };
+                ap.update_position(&fix);
+                ap.update_obstacles(t, &[]);
+            }
+            if k % 10 == 0 {
+                ap.mb.rc.signal(frame(t, k >= 2500));
+            }
+            match k {
+                500 => assert_eq!(ap.command(t, VehicleCommand::Arm), Ok(())),
+                600 => assert_eq!(ap.command(t, VehicleCommand::Takeoff { height_m: Some(1.0) }), Ok(())),
+                700 => {
+                    assert_eq!(ap.command(t, VehicleCommand::SetMode(FlightMode::Position)), Ok(()));
+                    assert_eq!(ap.telemetry().mode, FlightMode::Position);
+                    assert_eq!(ap.telemetry().mode_reason, Some("mode-command"));
+                }
+                _ => {}
+            }
+            let m = ap.step_inner(t, &imu);
+            if k == 2501 {
+                assert!(last.armed && last.throttle.iter().any(|&x| x > 0.0), "flying before the kill");
+                assert_eq!(m.throttle, [0.0; 4], "motors off on the inner step after the kill frame");
+                assert!(!m.armed);
+            }
+            last = m;
+            if k % 4 == 0 {
+                ap.step_outer(t);
+            }
+        }
+        assert!(!ap.telemetry().armed);
+    }
+
     use crate::link::framing::FrameWriter;
     use crate::link::obstacles::CLEAR_ID;
     use crate::link::outbound::Outbound;
@@ -571,7 +697,7 @@ mod tests {
             let cmd = |c: MavCmd, p1: f32, p7: f32| COMMAND_LONG_DATA {
                 param1: p1,
                 param7: p7,
-                command: c,
+                command: c as u16,
                 target_system: 1,
                 ..Default::default()
             };

@@ -17,9 +17,7 @@
 //! they are, param5/param6 = `x`/`y` (local frames: metres × 10⁴ → metres; other frames:
 //! the integer as a float), param7 = `z`.
 
-use crate::link::dialect::{
-    MavCmd, MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA,
-};
+use crate::link::dialect::{MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA};
 
 use crate::app::autopilot::{Autopilot, CommandRejected, FlightPhase, VehicleCommand};
 
@@ -28,10 +26,43 @@ pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
 /// Highest accepted takeoff height, m.
 pub const MAX_TAKEOFF_HEIGHT_M: f32 = 100.0;
 
+/// Command ids as the raw `u16` of the `command` fields (see [`crate::link::dialect`]: every id
+/// decodes, an unknown one is answered UNSUPPORTED with its own id).
+pub mod id {
+    use crate::link::dialect::MavCmd;
+    /// MAV_CMD_COMPONENT_ARM_DISARM.
+    pub const ARM_DISARM: u16 = MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16;
+    /// MAV_CMD_NAV_TAKEOFF.
+    pub const TAKEOFF: u16 = MavCmd::MAV_CMD_NAV_TAKEOFF as u16;
+    /// MAV_CMD_NAV_LAND.
+    pub const LAND: u16 = MavCmd::MAV_CMD_NAV_LAND as u16;
+    /// MAV_CMD_NAV_WAYPOINT (mission items).
+    pub const WAYPOINT: u16 = MavCmd::MAV_CMD_NAV_WAYPOINT as u16;
+    /// MAV_CMD_DO_SET_MODE.
+    pub const DO_SET_MODE: u16 = MavCmd::MAV_CMD_DO_SET_MODE as u16;
+    /// MAV_CMD_MISSION_START.
+    pub const MISSION_START: u16 = MavCmd::MAV_CMD_MISSION_START as u16;
+    /// MAV_CMD_OVERRIDE_GOTO.
+    pub const OVERRIDE_GOTO: u16 = MavCmd::MAV_CMD_OVERRIDE_GOTO as u16;
+    /// MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES.
+    #[allow(deprecated)] // still sent by ground stations
+    pub const REQUEST_AUTOPILOT_CAPABILITIES: u16 = MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES as u16;
+    /// MAV_CMD_REQUEST_MESSAGE.
+    pub const REQUEST_MESSAGE: u16 = MavCmd::MAV_CMD_REQUEST_MESSAGE as u16;
+    /// MAV_CMD_SET_MESSAGE_INTERVAL.
+    pub const SET_MESSAGE_INTERVAL: u16 = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
+    /// MAV_CMD_GET_HOME_POSITION.
+    #[allow(deprecated)] // still sent by ground stations
+    pub const GET_HOME_POSITION: u16 = MavCmd::MAV_CMD_GET_HOME_POSITION as u16;
+    /// MAV_CMD_REQUEST_PROTOCOL_VERSION.
+    #[allow(deprecated)] // still sent by ground stations
+    pub const REQUEST_PROTOCOL_VERSION: u16 = MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION as u16;
+}
+
 /// Decodes a COMMAND_LONG; `Err` holds the result to report without executing.
 pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResult> {
     match cmd.command {
-        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
+        id::ARM_DISARM => {
             if cmd.param1 == 1.0 {
                 Ok(VehicleCommand::Arm)
             } else if cmd.param1 == 0.0 {
@@ -40,7 +71,7 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
                 Err(MavResult::MAV_RESULT_DENIED)
             }
         }
-        MavCmd::MAV_CMD_NAV_TAKEOFF => {
+        id::TAKEOFF => {
             let h = cmd.param7;
             if h.is_nan() || h == 0.0 {
                 Ok(VehicleCommand::Takeoff { height_m: None })
@@ -50,8 +81,8 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
                 Err(MavResult::MAV_RESULT_DENIED)
             }
         }
-        MavCmd::MAV_CMD_NAV_LAND => Ok(VehicleCommand::Land),
-        MavCmd::MAV_CMD_DO_SET_MODE => {
+        id::LAND => Ok(VehicleCommand::Land),
+        id::DO_SET_MODE => {
             // p1 = MAV_MODE base flags, must carry CUSTOM_MODE_ENABLED (1); p2 = custom mode =
             // the phase code of the HEARTBEAT (parapet_core::wire::codes::FlightPhase).
             let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
@@ -64,8 +95,8 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
                 _ => Err(MavResult::MAV_RESULT_DENIED),
             }
         }
-        MavCmd::MAV_CMD_MISSION_START => Ok(VehicleCommand::StartMission),
-        MavCmd::MAV_CMD_OVERRIDE_GOTO => {
+        id::MISSION_START => Ok(VehicleCommand::StartMission),
+        id::OVERRIDE_GOTO => {
             // p1 MAV_GOTO_DO_HOLD (0); p2 HOLD_AT_CURRENT_POSITION (2) or
             // HOLD_AT_SPECIFIED_POSITION (3) with p3 = MAV_FRAME_LOCAL_NED (1), p5..p7 = x, y, z.
             if cmd.param1 != 0.0 {
@@ -114,7 +145,7 @@ pub fn addressed_to(target_system: u8, target_component: u8, own: (u8, u8)) -> b
 }
 
 /// COMMAND_ACK for `command` with `result`, addressed to `sender` (system, component).
-pub fn ack(command: MavCmd, result: MavResult, sender: (u8, u8)) -> COMMAND_ACK_DATA {
+pub fn ack(command: u16, result: MavResult, sender: (u8, u8)) -> COMMAND_ACK_DATA {
     COMMAND_ACK_DATA {
         command,
         result,
@@ -156,13 +187,14 @@ pub fn handle_command<A: Autopilot>(
 mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::link::dialect::MavCmd;
 
     fn cmd(command: MavCmd, p1: f32, p2: f32, p7: f32) -> COMMAND_LONG_DATA {
         COMMAND_LONG_DATA {
             param1: p1,
             param2: p2,
             param7: p7,
-            command,
+            command: command as u16,
             target_system: 1,
             target_component: 1,
             ..Default::default()

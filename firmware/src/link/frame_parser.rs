@@ -458,7 +458,7 @@ mod tests {
             w.encode(&COMMAND_LONG_DATA {
                 param1: 1.0,
                 param5: 0.5,
-                command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
                 target_system: 1,
                 ..Default::default()
             })

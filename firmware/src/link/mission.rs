@@ -170,7 +170,7 @@ impl MissionUpload {
             y: local_xy_to_wire(f64::from(w.y)),
             z: w.z,
             seq,
-            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
             target_system: sys,
             target_component: comp,
             frame: MavFrame::MAV_FRAME_LOCAL_NED,
@@ -240,7 +240,7 @@ impl MissionUpload {
         if msg.seq > next {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         }
-        if msg.command != MavCmd::MAV_CMD_NAV_WAYPOINT {
+        if msg.command != crate::link::command::id::WAYPOINT {
             return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED));
         }
         if msg.frame != MavFrame::MAV_FRAME_LOCAL_NED {
@@ -313,7 +313,7 @@ mod tests {
             y: parapet_core::wire::ids::local_xy_to_wire(f64::from(y)),
             z,
             seq,
-            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
             frame: MavFrame::MAV_FRAME_LOCAL_NED,
             target_system: 1,
             target_component: 1,
@@ -387,7 +387,7 @@ mod tests {
         }
         m.on_count(&count(1), 255, 190, 0);
         let mut bad = item(0, 1.0, 0.0, -1.0);
-        bad.command = MavCmd::MAV_CMD_NAV_LAND;
+        bad.command = MavCmd::MAV_CMD_NAV_LAND as u16;
         match m.on_item(&bad, 255, 190, 0) {
             Some(MissionReply::Ack(a)) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED),
             other => panic!("{other:?}"),

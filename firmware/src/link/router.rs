@@ -31,7 +31,7 @@
 //! table order (index 0..count−1, each once); a new PARAM_REQUEST_LIST restarts it.
 
 use crate::link::dialect::{
-    MavCmd, MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
+    MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
     AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, HIL_SENSOR_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
     TIMESYNC_DATA,
 };
@@ -214,11 +214,13 @@ impl Router {
         }
         #[allow(deprecated)] // REQUEST_AUTOPILOT_CAPABILITIES: still sent by ground stations
         let (result, version) = match cmd.command {
-            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => (MavResult::MAV_RESULT_ACCEPTED, true),
-            MavCmd::MAV_CMD_REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
+            crate::link::command::id::REQUEST_AUTOPILOT_CAPABILITIES => {
                 (MavResult::MAV_RESULT_ACCEPTED, true)
             }
-            MavCmd::MAV_CMD_REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
+            crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
+                (MavResult::MAV_RESULT_ACCEPTED, true)
+            }
+            crate::link::command::id::REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
             _ => (execute(cmd, now_us, ap), false),
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
@@ -596,7 +598,7 @@ mod tests {
                 y: 0,
                 z: -1.0,
                 seq,
-                command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
                 frame: MavFrame::MAV_FRAME_LOCAL_NED,
                 target_system: 1,
                 target_component: 1,
@@ -617,7 +619,7 @@ mod tests {
     fn frames_decoded_elsewhere_are_dispatched_like_bytes() {
         let arm = COMMAND_LONG_DATA {
             param1: 1.0,
-            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
             target_system: 1,
             ..Default::default()
         };
@@ -647,7 +649,7 @@ mod tests {
         let mut w = gcs();
         let arm = COMMAND_LONG_DATA {
             param1: 1.0,
-            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
             target_system: 1,
             ..Default::default()
         };
@@ -777,8 +779,11 @@ mod tests {
         let mut ap = RecordingAutopilot::new();
         let mut l = Link::new(1, FixClock::Arrival);
         let mut w = gcs();
-        let land =
-            COMMAND_LONG_DATA { command: MavCmd::MAV_CMD_NAV_LAND, target_system: 1, ..Default::default() };
+        let land = COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_NAV_LAND as u16,
+            target_system: 1,
+            ..Default::default()
+        };
         for _ in 0..REPLY_QUEUE_LEN + 3 {
             l.push_bytes(&send(&mut w, &land), 0, &mut ap);
         }
