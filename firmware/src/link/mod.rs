@@ -2,7 +2,8 @@
 //! ([`frame_parser`], [`framing`]), the inbound and outbound message sets ([`messages`],
 //! [`outbound`]), the dispatcher ([`router`], re-exported here as [`Link`]), commands
 //! ([`command`]), the mission protocol ([`mission`]), obstacle batches ([`obstacles`]),
-//! parameters ([`params`]) and telemetry streams ([`telemetry`]).
+//! parameters ([`params`]), telemetry streams ([`telemetry`]) and the pilot input over MAVLink
+//! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
 //! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
@@ -12,6 +13,7 @@ pub mod command;
 pub mod dialect;
 pub mod frame_parser;
 pub mod framing;
+pub mod manual_control;
 pub mod messages;
 pub mod mission;
 pub mod obstacles;
