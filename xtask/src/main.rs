@@ -175,10 +175,27 @@ fn firmware_elf(features: Option<&str>) -> PathBuf {
     }
 }
 
+/// `--remap-path-prefix` for the crates.io sources: the panic locations of dependencies name
+/// their files by absolute path (`$CARGO_HOME/registry/src/index.crates.io-…/crate-x.y/src/…`,
+/// ~100 bytes each, ~2.7 KB of the F405 image); remapped they read `/cargo/crate-x.y/src/…`.
+/// Only the `firmware` profile build (this image) gets the flag, through the target's
+/// RUSTFLAGS variable, so the other builds keep their caches.
+fn registry_remap_flags() -> String {
+    let home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
+    let Some(src) = home.map(|h| h.join("registry").join("src")) else { return String::new() };
+    let Ok(dirs) = std::fs::read_dir(&src) else { return String::new() };
+    let mut flags: Vec<String> =
+        dirs.flatten().map(|d| format!("--remap-path-prefix={}=/cargo", d.path().display())).collect();
+    flags.sort();
+    flags.join(" ")
+}
+
 fn build_firmware() -> Result<PathBuf, String> {
     run(
         "build the firmware (profile firmware, STM32F405)",
-        cargo().args([
+        cargo().env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags()).args([
             "build",
             "--profile",
             "firmware",
