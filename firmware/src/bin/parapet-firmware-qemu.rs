@@ -19,11 +19,17 @@ mod firmware {
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::status_text;
+    use parapet_firmware::log::service::RamLogStore;
     use parapet_firmware::pil::{PilApp, CALIBRATION_ITERATIONS};
+    use static_cell::ConstStaticCell;
 
     /// How long one handshake round reads the bytes already received: 1 ms of virtual time at
     /// the 168 MHz SysTick clock (≈ 10⁶ instructions, far more than one frame needs).
     const HEARTBEAT_PERIOD_TICKS: u32 = 168_000;
+
+    /// The onboard log's RAM store (in .bss; `ConstStaticCell` hands it out without a copy
+    /// through the stack).
+    static LOG_STORE: ConstStaticCell<RamLogStore> = ConstStaticCell::new(RamLogStore::new());
 
     fn report_and_halt(text: &str) -> ! {
         let mut w = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
@@ -44,11 +50,13 @@ mod firmware {
         let Some(port) = Semihost::open() else {
             report_and_halt("semihosting console refused");
         };
-        let cascade = match Cascade::new(ControllerParams::default()) {
+        let params = ControllerParams::default();
+        let cascade = match Cascade::new(params) {
             Ok(c) => c,
             Err(_) => report_and_halt("controller parameters rejected"),
         };
-        match lockstep(PilApp::new(cascade, calibration), port, counter) {
+        let app = PilApp::new(cascade, calibration).with_log(LOG_STORE.take(), &params);
+        match lockstep(app, port, counter) {
             Ok(token) => spawner.spawn(token),
             Err(_) => report_and_halt("lockstep task spawn failed"),
         }

@@ -73,6 +73,8 @@ pub struct RamRing<const N: usize, const L: usize> {
     head: u64,
     logs: Deque<Entry, L>,
     open: bool,
+    /// Id of the next log; 0 stands for 1, so that a new store is all zero (placed in .bss,
+    /// not copied from flash).
     next_id: u16,
 }
 
@@ -85,7 +87,7 @@ impl<const N: usize, const L: usize> Default for RamRing<N, L> {
 impl<const N: usize, const L: usize> RamRing<N, L> {
     /// An empty store.
     pub const fn new() -> Self {
-        Self { data: [0; N], head: 0, logs: Deque::new(), open: false, next_id: 1 }
+        Self { data: [0; N], head: 0, logs: Deque::new(), open: false, next_id: 0 }
     }
 
     /// Capacity, bytes.
@@ -114,7 +116,7 @@ impl<const N: usize, const L: usize> LogStore for RamRing<N, L> {
         if self.logs.is_full() {
             self.logs.pop_front();
         }
-        let id = self.next_id;
+        let id = self.next_id.max(1);
         self.next_id = if id == u16::MAX { 1 } else { id + 1 };
         self.logs.push_back(Entry { id, start: self.head, len: 0, time_utc }).map_err(|_| LogError::Full)?;
         self.open = true;

@@ -3,22 +3,46 @@
 //! Hardware-independent (the QEMU board supplies a [`BytePort`] on its semihosting console and a
 //! [`TickCounter`] on SysTick), so the whole protocol is host-tested. The protocol itself is
 //! specified in `firmware/README.md` ("QEMU lockstep protocol").
+//!
+//! **Onboard log** ([`PilApp::with_log`]): after each control step that ran the outer loop, the
+//! step's telemetry goes through a bounded queue ([`LOG_QUEUE_LEN`], the same `embassy-sync`
+//! channel a board's control task would use; full → dropped, counted) to the log writer, which
+//! runs after the step's answer was queued, outside the measured step, like a board's
+//! lowest-priority log task. Then the log download sends at most
+//! [`crate::log::transfer::REPLIES_PER_POLL`] messages. Per written record set the firmware
+//! reports `ins_log` (instructions of the write), `ins_logq` (of handing the sample over: what the
+//! control side pays) and `ins_logm` (the longest section with interrupts masked in it).
 
 use crate::link::dialect::{MavSeverity, HEARTBEAT_DATA};
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::names;
 
-use crate::app::autopilot::ControlSteps;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::Channel;
+use parapet_core::controller::ControllerParams;
+
+use crate::app::autopilot::{ControlSteps, MotorCommand};
 use crate::app::loop_timing::{LoopReport, LoopTimer};
 use crate::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 use crate::link::outbound::{named_int, Outbound};
 use crate::link::telemetry::{heartbeat, status_text, ErrorCounters, TelemetryInputs, TelemetryScheduler};
 use crate::link::{FixClock, Link};
+use crate::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
+use crate::log::service::{LogService, RamLogStore};
+use crate::log::transfer::{LogReply, REPLIES_PER_POLL};
 use crate::pil::lockstep::{InstructionCalibration, LockstepScheduler};
 
 /// Instructions of the start-up calibration loop (2 × 50 000 iterations of a 2-instruction loop
 /// difference, see `board::qemu::InstructionCounter::calibrate`).
 pub const CALIBRATION_ITERATIONS: u32 = 50_000;
+/// Telemetry samples in flight from the control step to the log writer.
+pub const LOG_QUEUE_LEN: usize = 2;
+/// NAMED_VALUE_INT names of the log measurements (see the module doc).
+pub const INS_LOG: &str = "ins_log";
+/// Instructions of handing one sample to the log queue.
+pub const INS_LOG_QUEUE: &str = "ins_logq";
+/// Longest masked section while handing a sample over, instructions.
+pub const INS_LOG_MASKED: &str = "ins_logm";
 
 /// A byte link polled by the application.
 pub trait BytePort {
@@ -52,6 +76,15 @@ pub struct PilStats {
     pub max_step_instructions: u32,
     /// Longest section with interrupts masked during a control step, instructions.
     pub max_masked_instructions: u32,
+    /// Log samples dropped because the log queue was full.
+    pub log_dropped: u32,
+    /// Largest instruction count of one log write (a record set; the first also writes the
+    /// log's header, formats and parameters).
+    pub max_log_instructions: u32,
+    /// Largest instruction count of handing a sample to the log queue.
+    pub max_log_queue_instructions: u32,
+    /// Longest section with interrupts masked while handing a sample over, instructions.
+    pub max_log_masked_instructions: u32,
 }
 
 /// The PIL application state.
@@ -66,6 +99,8 @@ pub struct PilApp<A: ControlSteps> {
     outer_timer: LoopTimer,
     stats: PilStats,
     last_t_us: u64,
+    log: Option<LogService<RamLogStore>>,
+    log_queue: Channel<CriticalSectionRawMutex, LogSample, LOG_QUEUE_LEN>,
 }
 
 impl<A: ControlSteps> PilApp<A> {
@@ -86,7 +121,22 @@ impl<A: ControlSteps> PilApp<A> {
             ),
             stats: PilStats::default(),
             last_t_us: 0,
+            log: None,
+            log_queue: Channel::new(),
         }
+    }
+
+    /// With the onboard log in `store` (a `static`: see [`LogService::new`]), recording with the
+    /// thrust map of `params`.
+    pub fn with_log(mut self, store: &'static mut RamLogStore, params: &ControllerParams) -> Self {
+        let logger = FlightLogger::new(DEFAULT_PERIOD_US, params, "qemu-netduinoplus2");
+        self.log = Some(LogService::new(store, logger, VEHICLE_SYSTEM_ID));
+        self
+    }
+
+    /// The onboard log, if any.
+    pub fn log(&mut self) -> Option<&mut LogService<RamLogStore>> {
+        self.log.as_mut()
     }
 
     fn send(&mut self, port: &mut impl BytePort, msg: &Outbound) {
@@ -147,6 +197,9 @@ impl<A: ControlSteps> PilApp<A> {
     pub fn poll(&mut self, port: &mut impl BytePort, ticks: &impl TickCounter) -> u32 {
         let mut answered = 0;
         while let Some(b) = port.try_read() {
+            if let Some(log) = self.log.as_mut() {
+                log.on_byte(b);
+            }
             let now = self.scheduler_time();
             self.link.push_byte(b, now, &mut self.autopilot);
             while let Some(r) = self.link.pop_reply() {
@@ -221,6 +274,60 @@ impl<A: ControlSteps> PilApp<A> {
         self.send(port, &named_int((t / 1000) as u32, names::INS_MASKED, masked.min(i32::MAX as u32) as i32));
         self.send(port, &named_int((t / 1000) as u32, names::INS_STEP, ins.min(i32::MAX as u32) as i32));
         self.send(port, &Outbound::HilActuatorControls(out.controls));
+        self.log_step(port, ticks, t, out.ran_outer, &out.motors);
+    }
+
+    /// The onboard log after a control step (see the module doc).
+    fn log_step(
+        &mut self,
+        port: &mut impl BytePort,
+        ticks: &impl TickCounter,
+        t: u64,
+        ran_outer: bool,
+        motors: &MotorCommand,
+    ) {
+        let Some(log) = self.log.as_mut() else { return };
+        if ran_outer {
+            // The control side: hand the sample over, never wait.
+            let sample = LogSample { t_us: t, snapshot: self.autopilot.telemetry(), motors: motors.throttle };
+            let _ = ticks.take_masked_max();
+            let t0 = ticks.now();
+            let queued = self.log_queue.try_send(sample).is_ok();
+            let queue_ins = self.calibration.instructions_for(ticks.since(t0));
+            let masked = self.calibration.instructions_for(ticks.take_masked_max());
+            if !queued {
+                self.stats.log_dropped = self.stats.log_dropped.saturating_add(1);
+            }
+            // The log side.
+            let t1 = ticks.now();
+            let mut wrote = false;
+            while let Ok(s) = self.log_queue.try_receive() {
+                let ap = &self.autopilot;
+                wrote |= log.on_sample(&s, |n| ap.get_param(n));
+            }
+            let write_ins = self.calibration.instructions_for(ticks.since(t1));
+            let st = &mut self.stats;
+            st.max_log_queue_instructions = st.max_log_queue_instructions.max(queue_ins);
+            st.max_log_masked_instructions = st.max_log_masked_instructions.max(masked);
+            if wrote {
+                st.max_log_instructions = st.max_log_instructions.max(write_ins);
+                let ms = (t / 1000) as u32;
+                for (name, v) in [(INS_LOG, write_ins), (INS_LOG_QUEUE, queue_ins), (INS_LOG_MASKED, masked)]
+                {
+                    let raw = named_int(ms, name, v.min(i32::MAX as u32) as i32).encode(&mut self.writer);
+                    port.write(raw.raw_bytes());
+                }
+            }
+        }
+        let mut replies: heapless::Vec<LogReply, REPLIES_PER_POLL> = heapless::Vec::new();
+        log.poll(&mut |r| {
+            // REPLIES_PER_POLL is both the capacity and the most poll() emits.
+            let _ = replies.push(r);
+        });
+        for r in &replies {
+            let raw = r.encode(&mut self.writer);
+            port.write(raw.raw_bytes());
+        }
     }
 }
 
@@ -349,5 +456,102 @@ mod tests {
         port.tx.clear();
         assert_eq!(app.poll(&mut port, &ticks), 0);
         assert!(port.tx.is_empty());
+    }
+
+    #[test]
+    fn onboard_log_is_written_between_steps_and_downloaded_over_the_link() {
+        use crate::link::dialect::{
+            MavCmd, COMMAND_LONG_DATA, LOG_DATA_DATA, LOG_ENTRY_DATA, LOG_REQUEST_DATA_DATA,
+            LOG_REQUEST_LIST_DATA,
+        };
+        use crate::log::store::LogStore;
+        let cal = InstructionCalibration { instructions: 100_000, ticks: 16_800 };
+        let store: &'static mut RamLogStore = std::boxed::Box::leak(std::boxed::Box::new(RamLogStore::new()));
+        let mut app =
+            PilApp::new(RecordingAutopilot::new(), cal).with_log(store, &ControllerParams::default());
+        let mut port = FakePort::default();
+        let ticks = FakeTicks(Cell::new(1_000_000));
+        let mut host = FrameWriter::new(255, 190);
+        port.rx.extend(host.encode(&HEARTBEAT_DATA::default()).raw_bytes());
+        assert!(app.handshake_round(&mut port, &ticks, 700));
+        let arm = |on: bool| COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
+            param1: if on { 1.0 } else { 0.0 },
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        let mut t = 1_000_000u64;
+        let mut step = |app: &mut PilApp<RecordingAutopilot>, port: &mut FakePort, extra: &[u8]| {
+            port.rx.extend(extra);
+            port.rx.extend(host_step(t));
+            t += 1000;
+            app.poll(port, &ticks);
+        };
+        fn host_step(t: u64) -> Vec<u8> {
+            let mut w = FrameWriter::new(255, 190);
+            w.encode(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() })
+                .raw_bytes()
+                .to_vec()
+        }
+        step(&mut app, &mut port, host.encode(&arm(true)).raw_bytes());
+        for _ in 0..1000 {
+            step(&mut app, &mut port, &[]);
+        }
+        step(&mut app, &mut port, host.encode(&arm(false)).raw_bytes());
+        for _ in 0..10 {
+            step(&mut app, &mut port, &[]);
+        }
+        let st = app.stats();
+        assert_eq!(st.log_dropped, 0);
+        assert!(st.max_log_instructions > 0 && st.max_log_queue_instructions > 0);
+        let log = app.log().expect("log");
+        // 1 s armed at 25 Hz and the disarm record.
+        assert_eq!(log.logger_stats().logs, 1);
+        assert!((25..=27).contains(&log.logger_stats().records), "{:?}", log.logger_stats());
+        let size = log.store().info(0).expect("a log").size;
+        // The ins_log reports went out with the steps.
+        let ins_logs = frames(&port.tx)
+            .into_iter()
+            .filter(|(id, p)| {
+                *id == NAMED_VALUE_INT_DATA::ID
+                    && NAMED_VALUE_INT_DATA::deser(MavlinkVersion::V2, p)
+                        .is_ok_and(|m| crate::link::telemetry::name_is(&m.name, INS_LOG))
+            })
+            .count();
+        assert!((25..=27).contains(&ins_logs), "{ins_logs}");
+
+        port.tx.clear();
+        let list = LOG_REQUEST_LIST_DATA { start: 0, end: 0xFFFF, target_system: 1, target_component: 1 };
+        step(&mut app, &mut port, host.encode(&list).raw_bytes());
+        let entries: Vec<LOG_ENTRY_DATA> = frames(&port.tx)
+            .into_iter()
+            .filter(|(id, _)| *id == LOG_ENTRY_DATA::ID)
+            .map(|(_, p)| LOG_ENTRY_DATA::deser(MavlinkVersion::V2, &p).expect("decodes"))
+            .collect();
+        assert_eq!(entries.len(), 1);
+        assert_eq!((entries[0].id, entries[0].num_logs, entries[0].size), (0, 1, size));
+        port.tx.clear();
+        let req =
+            LOG_REQUEST_DATA_DATA { id: 0, ofs: 0, count: u32::MAX, target_system: 1, target_component: 1 };
+        step(&mut app, &mut port, host.encode(&req).raw_bytes());
+        for _ in 0..(size as usize / 90 / REPLIES_PER_POLL + 2) {
+            step(&mut app, &mut port, &[]);
+        }
+        let mut bytes = std::vec![0u8; size as usize];
+        let mut got = 0;
+        for (_, p) in frames(&port.tx).into_iter().filter(|(id, _)| *id == LOG_DATA_DATA::ID) {
+            let d = LOG_DATA_DATA::deser(MavlinkVersion::V2, &p).expect("decodes");
+            let n = usize::from(d.count);
+            bytes[d.ofs as usize..d.ofs as usize + n].copy_from_slice(&d.data[..n]);
+            got += n;
+        }
+        assert_eq!(got, size as usize);
+        let mut stored = std::vec![0u8; size as usize];
+        let log = app.log().expect("log");
+        let id = log.store().info(0).expect("log").id;
+        assert_eq!(log.store().read(id, 0, &mut stored), Ok(size as usize));
+        assert_eq!(bytes, stored);
+        assert_eq!(&bytes[..8], &crate::log::ulog::MAGIC);
     }
 }
