@@ -1,185 +1,93 @@
-//! [`PilotSink`] for the in-process controller ([`crate::fc::control::Controller`]).
+//! [`PilotSink`] for the in-process controller ([`crate::fc::control::Controller`]): RC frames
+//! go to `FlightController::set_rc`, setpoints to `set_offboard`, the run's mode is entered
+//! with `set_mode` (Position-assist or Offboard, the core's mode machine,
+//! `parapet_core::supervisor::modes`), the flight mode and the filter's intervention are the
+//! controller's telemetry. Nothing of the modes is emulated here.
 //!
-//! STAND-IN (until the core's mode machine, issue 21 MODES21, lands): Position-assist and
-//! Offboard are emulated on the host through the existing `hold_position` command, which the
-//! PD tracker and the safety filter then act on exactly as in flight:
-//! * a velocity setpoint `v` (sticks × `max_speed`, or offboard) becomes the hold target
-//!   `p_ref + v·k_d/k_p`, so the PD output is `k_p (p_ref − p) + k_d (v − ṗ)`, where `p_ref`
-//!   integrates `v` and stays within `leash` of the vehicle;
-//! * an offboard position is held; an acceleration `a` becomes the target `p + (a + k_d ṗ)/k_p`;
-//! * kill switch → `disarm` (motors off at once); RC loss (no frame for `rc_timeout`) or
-//!   setpoint loss (`sp_timeout`) → hold `p_ref`; RC loss longer than `rc_land_after` → land.
-//!
-//! May import: `parapet-core`, [`crate::fc::control`], [`super::stack`].
+//! May import: `parapet-core`, [`crate::fc::control`], [`crate::flight`], [`super::stack`].
 
-use anyhow::Result;
-use parapet_core::controller::GuidanceMode;
+use anyhow::{anyhow, Result};
+use parapet_core::controller::{FlightMode, OffboardSetpoint};
 use parapet_core::rc::RcInput;
-use parapet_core::Vec3;
 
 use super::stack::{PilotMode, PilotSink, TimedSetpoint};
 use crate::fc::control::Controller;
+use crate::flight::runner::{controller_params, RunConfig};
 use crate::flight::stack::{FlightStack, OuterOut};
+use crate::world::scene::{to_f32, Scene};
 
-/// Settings of the Position-assist emulation.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Overrides of the controller's mode parameters for a piloted run (`None` = the parameter
+/// table's default).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct AssistParams {
-    /// Horizontal speed at full stick, m/s.
-    pub max_speed: f32,
-    /// Climb rate at full throttle deflection, m/s.
-    pub max_climb: f32,
-    /// Largest distance of the integrated reference from the vehicle, m.
-    pub leash: f32,
-    /// RC loss after this long without a frame, µs.
-    pub rc_timeout_us: u64,
-    /// Land after an RC loss this long, µs.
-    pub rc_land_after_us: u64,
-    /// Offboard setpoint loss after this long without one, µs.
-    pub sp_timeout_us: u64,
-}
-
-impl Default for AssistParams {
-    fn default() -> Self {
-        AssistParams {
-            max_speed: 2.0,
-            max_climb: 1.0,
-            leash: 1.0,
-            rc_timeout_us: 500_000,
-            rc_land_after_us: 3_000_000,
-            sp_timeout_us: 500_000,
-        }
-    }
+    /// Position-assist horizontal speed at full stick, m/s (`PA_SPEED_MAX`).
+    pub max_speed: Option<f32>,
+    /// Position-assist climb rate at full throttle deflection, m/s (`PA_CLIMB_MAX`).
+    pub max_climb: Option<f32>,
 }
 
 /// The in-process controller with pilot input (see the module documentation).
 pub struct PilotedController {
     /// The controller.
     pub ctrl: Controller,
-    params: AssistParams,
-    mode: PilotMode,
-    flight_mode: &'static str,
-    rc: Option<RcInput>,
-    sp: Option<TimedSetpoint>,
-    p_ref: Option<Vec3>,
-    last_outer_us: Option<u64>,
-    killed: bool,
-    landing: bool,
 }
 
 impl PilotedController {
-    /// Wrap `ctrl`.
-    pub fn new(ctrl: Controller, params: AssistParams) -> Self {
-        PilotedController {
-            ctrl,
-            params,
-            mode: PilotMode::Position,
-            flight_mode: "Mission",
-            rc: None,
-            sp: None,
-            p_ref: None,
-            last_outer_us: None,
-            killed: false,
-            landing: false,
+    /// The run's controller ([`controller_params`]) with `assist` applied.
+    pub fn new(scene: &Scene, cfg: &RunConfig, assist: AssistParams) -> Result<Self> {
+        let mut p = controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+        if let Some(v) = assist.max_speed {
+            p.modes.assist_speed = v;
         }
-    }
-
-    fn target(&mut self, now: u64) -> Option<Vec3> {
-        let tel = self.ctrl.telemetry();
-        let (p, v) = (tel.position, tel.velocity);
-        let tr = self.ctrl.fc().params().tracking;
-        let (kp, kd) = (tr.kp[0].max(1e-3), tr.kd[0]);
-        let dt = self.last_outer_us.map_or(0.0, |t| now.saturating_sub(t) as f32 * 1e-6);
-        let p_ref = *self.p_ref.get_or_insert(p);
-        let fresh = |t_us: u64, limit: u64| now.saturating_sub(t_us) <= limit;
-        let vel = match self.mode {
-            PilotMode::Position => match self.rc {
-                Some(rc) if fresh(rc.t_us, self.params.rc_timeout_us) => {
-                    self.flight_mode = "Position";
-                    let (s, c) = libm_sin_cos(tel.reference.yaw);
-                    let (f, r) = (rc.pitch * self.params.max_speed, rc.roll * self.params.max_speed);
-                    let up = (rc.throttle - 0.5) * 2.0 * self.params.max_climb;
-                    Some(Vec3::new(c * f - s * r, s * f + c * r, -up))
-                }
-                last => {
-                    self.flight_mode = "Hold";
-                    let since = last.map_or(0, |rc| now.saturating_sub(rc.t_us));
-                    if since > self.params.rc_land_after_us && !self.landing {
-                        self.landing = self.ctrl.fc_mut().land(now).is_ok();
-                    }
-                    None
-                }
-            },
-            PilotMode::Offboard => match self.sp {
-                Some(sp) if fresh(sp.t_us, self.params.sp_timeout_us) => {
-                    self.flight_mode = "Offboard";
-                    let s = sp.setpoint;
-                    let f = |x: nalgebra::Vector3<f64>| Vec3::new(x.x as f32, x.y as f32, x.z as f32);
-                    if let Some(q) = s.position {
-                        self.p_ref = Some(f(q));
-                        return Some(f(q) + s.velocity.map_or(Vec3::zeros(), |w| f(w) * (kd / kp)));
-                    }
-                    if let Some(a) = s.acceleration.filter(|_| s.velocity.is_none()) {
-                        self.p_ref = Some(p);
-                        return Some(p + (f(a) + v * kd) / kp);
-                    }
-                    s.velocity.map(f)
-                }
-                _ => {
-                    self.flight_mode = "Hold";
-                    None
-                }
-            },
-        };
-        let leash = self.params.leash;
-        let next = match vel {
-            Some(w) => {
-                let mut q = p_ref + w * dt;
-                let d = q - p;
-                let n = d.norm();
-                if n > leash {
-                    q = p + d * (leash / n);
-                }
-                self.p_ref = Some(q);
-                q + w * (kd / kp)
-            }
-            None => p_ref,
-        };
-        Some(next)
+        if let Some(v) = assist.max_climb {
+            p.modes.assist_climb = v;
+        }
+        Ok(PilotedController { ctrl: Controller::with_params(scene, cfg, p)? })
     }
 }
 
-fn libm_sin_cos(x: f32) -> (f32, f32) {
-    (x.sin(), x.cos())
+/// The core's offboard setpoint of a timed host setpoint (NED, f32; no yaw).
+pub fn core_setpoint(sp: &TimedSetpoint) -> OffboardSetpoint {
+    let s = &sp.setpoint;
+    OffboardSetpoint {
+        t_us: sp.t_us,
+        position: s.position.as_ref().map(to_f32),
+        velocity: s.velocity.as_ref().map(to_f32),
+        acceleration: s.acceleration.as_ref().map(to_f32),
+        yaw: None,
+        yaw_rate: None,
+    }
 }
 
 impl PilotSink for PilotedController {
-    fn enter(&mut self, _now_us: u64, mode: PilotMode) -> Result<()> {
-        self.mode = mode;
-        self.flight_mode = match mode {
-            PilotMode::Position => "Position",
-            PilotMode::Offboard => "Offboard",
+    fn enter(&mut self, now_us: u64, mode: PilotMode) -> Result<()> {
+        let m = match mode {
+            PilotMode::Position => FlightMode::Position,
+            PilotMode::Offboard => FlightMode::Offboard,
         };
-        Ok(())
+        self.ctrl.fc_mut().set_mode(now_us, m).map_err(|e| {
+            anyhow!(
+                "the flight controller refused {}: {}",
+                m.as_str(),
+                crate::flight::validate::describe_command_error(e)
+            )
+        })
     }
 
     fn rc(&mut self, rc: &RcInput) {
-        if rc.kill && !self.killed {
-            self.killed = self.ctrl.fc_mut().disarm(rc.t_us).is_ok();
-            self.flight_mode = "Killed";
-        }
-        self.rc = Some(*rc);
+        self.ctrl.fc_mut().set_rc(rc);
     }
 
     fn offboard(&mut self, sp: &TimedSetpoint) {
-        self.sp = Some(*sp);
+        self.ctrl.fc_mut().set_offboard(&core_setpoint(sp));
     }
 
     fn flight_mode(&self) -> String {
-        self.flight_mode.to_string()
+        self.ctrl.fc().mode().as_str().to_string()
     }
 
     fn filter_active(&self) -> bool {
-        self.ctrl.telemetry().filter.intervened
+        self.ctrl.telemetry().filter_active
     }
 }
 
@@ -200,19 +108,7 @@ impl FlightStack for PilotedController {
     }
 
     fn outer(&mut self, t: f64, obstacles: &[parapet_core::obstacle::ObstaclePoint]) -> OuterOut {
-        let now = crate::flight::stack::clock_us(t);
-        let flying = !self.killed && !self.landing && self.ctrl.telemetry().mode != GuidanceMode::Off;
-        if flying {
-            if let Some(target) = self.target(now) {
-                let _ = self.ctrl.fc_mut().hold_position(now, target);
-            }
-        }
-        self.last_outer_us = Some(now);
-        let out = self.ctrl.outer(t, obstacles);
-        if self.landing && !self.killed {
-            self.flight_mode = "Land";
-        }
-        out
+        self.ctrl.outer(t, obstacles)
     }
 
     fn inner(&mut self, t: f64, imu: &crate::sim::sensors::ImuReading) -> [f32; 4] {
@@ -221,5 +117,9 @@ impl FlightStack for PilotedController {
 
     fn state_name(&self) -> String {
         self.ctrl.state_name()
+    }
+
+    fn battery(&mut self, t: f64, reading: &crate::sim::battery::BatteryReading) {
+        self.ctrl.battery(t, reading);
     }
 }

@@ -18,7 +18,6 @@ pub use inprocess::{AssistParams, PilotedController};
 pub use script::{PilotScript, Setpoint, Sticks};
 pub use stack::{PilotMode, PilotRecord, PilotSink, Piloted};
 
-use crate::fc::control::Controller;
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::world::scene::Scene;
 
@@ -59,8 +58,7 @@ pub fn run_piloted(
     assist: AssistParams,
     progress: &mut dyn FnMut(f64),
 ) -> Result<PilotRun> {
-    let ctrl = Controller::new(scene, cfg, cfg.cbf_params()?)?;
-    let mut pc = PilotedController::new(ctrl, assist);
+    let mut pc = PilotedController::new(scene, cfg, assist)?;
     let mut p = Piloted::new(&mut pc, script, mode);
     let out = run_with(scene, cfg, &mut p, progress)?;
     Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })

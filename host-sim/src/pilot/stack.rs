@@ -167,6 +167,8 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
     ) -> Result<()> {
         self.fix = Some(fix);
         self.stack.start(t, start, fix, obstacles, imu)?;
+        // The first frame / setpoint before the mode change (a mode needs its input fresh).
+        self.deliver(t);
         self.stack.enter(clock_us(t), self.mode)
     }
 
