@@ -19,6 +19,7 @@
 
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
+use parapet_core::battery::BatteryEstimator;
 use parapet_core::cbf::CbfParams;
 use parapet_core::controller::{CommandError, ControllerParams, FlightController, PositionFix, Telemetry};
 use parapet_core::estimator::ImuSample;
@@ -27,6 +28,7 @@ use parapet_core::Vec3;
 
 use crate::flight::runner::{controller_params, run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::battery::BatteryReading;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
 
@@ -34,6 +36,8 @@ use crate::world::scene::{to_f32, Scene};
 pub struct Controller {
     fc: FlightController,
     cbf: bool,
+    /// The battery estimator fed by the simulated pack (`[battery]`), as the F405's ADC task.
+    battery: BatteryEstimator,
 }
 
 impl Controller {
@@ -51,7 +55,7 @@ impl Controller {
         fc.set_path(&wps).map_err(|e| {
             anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
         })?;
-        Ok(Controller { fc, cbf: cfg.cbf })
+        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery) })
     }
 
     fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
@@ -134,6 +138,14 @@ impl FlightStack for Controller {
 
     fn state_name(&self) -> String {
         format!("{:?}", self.fc.state())
+    }
+
+    /// A reading of the simulated pack: the estimator (as the F405's ADC task runs it) and
+    /// the controller's battery failsafes (Low → Return, Critical → Land).
+    fn battery(&mut self, t: f64, r: &BatteryReading) {
+        let armed = self.fc.state() != parapet_core::failsafe::FailsafeState::Disarmed;
+        let s = self.battery.update(clock_us(t), r.voltage_v, r.current_a, armed).state();
+        self.fc.set_battery(&s);
     }
 }
 

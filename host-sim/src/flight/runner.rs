@@ -122,6 +122,8 @@ pub struct RunConfig {
     /// Range sensors whose scans, through the obstacle memory, replace the
     /// true closest points (`--perception`, [`crate::perception`]); `None` = ground truth.
     pub perception: Option<Vec<crate::sim::range::RangeSensor>>,
+    /// Battery model (the scene's `[battery]`), `None`: no battery simulated (issue 22).
+    pub battery: Option<crate::sim::battery::BatteryModelParams>,
 }
 
 impl RunConfig {
@@ -161,6 +163,7 @@ impl RunConfig {
             dt: scene.sim.dt.unwrap_or(INNER_DT),
             disturbances: scene.disturbances.clone(),
             perception: None,
+            battery: scene.battery.clone(),
         })
     }
 
@@ -222,6 +225,17 @@ pub fn controller_params(
             ..d.thrust
         },
         waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
+        // With a simulated pack the estimator is told its cells and resistance (BAT_CELLS,
+        // BAT_R_INT), as on a configured vehicle: the run starts armed, so there is no
+        // disarmed power-up to detect the cell count from.
+        battery: match &cfg.battery {
+            Some(b) => parapet_core::battery::BatteryParams {
+                cells: b.cells,
+                r_internal_ohm: b.r_internal_ohm as f32,
+                ..d.battery
+            },
+            None => d.battery,
+        },
         ..d
     }
 }
@@ -564,6 +578,13 @@ pub fn run_with(
     let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
     plant.set_hover(scene.start, 0.0);
     let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
+    let mut battery = match &cfg.battery {
+        Some(b) => Some(
+            crate::sim::battery::BatteryModel::new(b.clone(), cfg.seed, "[battery]")
+                .map_err(|e| anyhow!("{e}"))?,
+        ),
+        None => None,
+    };
     let mut live = crate::sim::disturbance::Live::new(&cfg.disturbances, cfg.seed);
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.
@@ -689,6 +710,11 @@ pub fn run_with(
         let throttle = ctrl.inner(t, &imu);
         last_throttle = throttle;
         plant.set_throttles(throttle);
+        if let Some(b) = battery.as_mut() {
+            if let Some(r) = b.step(INNER_DT, &throttle) {
+                ctrl.battery(t, &r);
+            }
+        }
         live.apply(t, INNER_DT, &mut plant);
         for _ in 0..substeps {
             plant.step(dt);

@@ -89,6 +89,9 @@ pub struct Scene {
     pub obstacles: Vec<SceneObstacle>,
     /// Range sensors of the `[[sensor]]` tables (`--perception scene`), checked.
     pub range_sensors: Vec<crate::sim::range::RangeSensor>,
+    /// The battery model of the `[battery]` table (checked), if present: the run then
+    /// simulates the pack and feeds its readings to the controller's battery estimator.
+    pub battery: Option<crate::sim::battery::BatteryModelParams>,
 }
 
 impl From<SceneError> for InputError {
@@ -184,6 +187,12 @@ impl Scene {
         }
         super::check::obstacles(&obstacles).map_err(err)?;
         let range_sensors = super::schema::convert_sensors(&raw.sensor).map_err(err)?;
+        if let Some(b) = &raw.battery {
+            b.validate(file).map_err(|e| {
+                let text = e.to_string();
+                err(text.strip_prefix(&format!("{file}: ")).unwrap_or(&text).to_string())
+            })?;
+        }
         Ok(Scene {
             name: raw.name,
             description: raw.description,
@@ -199,6 +208,7 @@ impl Scene {
             sim,
             obstacles,
             range_sensors,
+            battery: raw.battery,
         })
     }
 

@@ -80,6 +80,9 @@ pub(crate) struct RawScene {
     pub(crate) faults: Option<crate::sim::disturbance::faults::FaultParams>,
     #[serde(default)]
     pub(crate) obstacles: Vec<RawObstacle>,
+    /// The battery model (`[battery]`, `crate::sim::battery`; issue 22).
+    #[serde(default)]
+    pub(crate) battery: Option<crate::sim::battery::BatteryModelParams>,
     /// Range sensors (`[[sensor]]`, `crate::sim::range`), for `--perception scene`.
     #[serde(default)]
     pub(crate) sensor: Vec<crate::sim::range::RangeSensorSpec>,
