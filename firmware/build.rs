@@ -4,9 +4,10 @@
 //!    target. The XML holds only the messages the firmware speaks, cut verbatim out of
 //!    `ardupilotmega` (see `mavlink/extract.py`), so the image links none of the ~300 other
 //!    messages' code while ids, CRC_EXTRA bytes and wire layout stay those of the full dialect;
-//! 2. for the Cortex-M builds, makes the workspace-root `memory.x` visible to cortex-m-rt's
-//!    `link.x` and adds the linker scripts (`defmt.x` only for the real board, whose build links
-//!    defmt).
+//! 2. for the Cortex-M builds, makes the board's memory map visible to cortex-m-rt's `link.x`
+//!    as `memory.x` (the workspace-root `memory.x`, the F405's, for `board-f405` and
+//!    `board-qemu`; `memory-h743.x` for `board-h743`) and adds the linker scripts (`defmt.x`
+//!    only for the real boards, whose builds link defmt).
 use std::env;
 use std::fs;
 use std::path::PathBuf;
@@ -18,7 +19,8 @@ fn main() {
     generate_dialect(&manifest, &out);
 
     let target = env::var("TARGET").unwrap_or_default();
-    let root_memory_x = manifest.join("../memory.x");
+    let h743 = env::var_os("CARGO_FEATURE_BOARD_H743").is_some();
+    let root_memory_x = if h743 { manifest.join("memory-h743.x") } else { manifest.join("../memory.x") };
     println!("cargo:rerun-if-changed={}", root_memory_x.display());
     if !target.starts_with("thumb") {
         return;
@@ -29,7 +31,7 @@ fn main() {
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
-    if env::var_os("CARGO_FEATURE_BOARD_F405").is_some() {
+    if env::var_os("CARGO_FEATURE_BOARD_F405").is_some() || h743 {
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     }
 }

@@ -45,8 +45,9 @@ mod firmware {
     use parapet_firmware::app::cascade::{InnerStage, OuterStage};
     use parapet_firmware::app::loop_timing::{LoopReport, LoopTimer};
     use parapet_firmware::app::mailbox::Mailboxes;
-    use parapet_firmware::board::f405::{
-        self, imu_spi_config, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
+    // The board of this build (`board-f405` or `board-h743`): the same tasks on either.
+    use parapet_firmware::board::active::{
+        self as f405, imu_spi_config, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
     };
     use parapet_firmware::drivers::mpu6000::ImuError;
     use parapet_firmware::link::frame_parser::{FrameParser, ParserStats, RawFrame};
