@@ -30,7 +30,8 @@
 //! Bad input: an [`RcInput`] with a NaN/Inf stick or a stick outside its range (by more than
 //! [`STICK_TOLERANCE`]) is rejected whole (switches too) and counted; it does not refresh the
 //! RC age, so a stream of bad frames is an RC loss. A receiver `failsafe` frame is an RC loss
-//! at once. Bounded: every call is O(1).
+//! at once, as is a frame whose producer set `lost` (no signal, timeout, low link quality:
+//! [`crate::rc::RcLost`]). Bounded: every call is O(1).
 //!
 //! May import: the crate root foundation, [`crate::rc`], [`crate::battery`] and
 //! [`super::failsafe`] (the shared [`TransitionReason`]).
@@ -358,9 +359,9 @@ impl Modes {
     /// The last valid RC frame, if it is not older than the RC timeout at `now_us` and not a
     /// receiver failsafe frame.
     pub fn rc(&self, now_us: u64) -> Option<&RcInput> {
-        self.rc
-            .as_ref()
-            .filter(|rc| !rc.failsafe && now_us.saturating_sub(rc.t_us) <= self.params.rc_timeout_us())
+        self.rc.as_ref().filter(|rc| {
+            !rc.failsafe && rc.lost.is_none() && now_us.saturating_sub(rc.t_us) <= self.params.rc_timeout_us()
+        })
     }
 
     /// `true` once an RC frame was accepted and the link is lost now (timeout or failsafe).
@@ -420,7 +421,8 @@ impl Modes {
         clamped.yaw = clamped.yaw.clamp(-1.0, 1.0);
         clamped.throttle = clamped.throttle.clamp(0.0, 1.0);
         self.rc = Some(clamped);
-        if rc.failsafe {
+        if rc.failsafe || rc.lost.is_some() {
+            // Not the pilot's sticks (receiver failsafe, the producer's loss verdict).
             return Some(RcRequest::default());
         }
         let was_lost = self.rc_lost;

@@ -7,7 +7,12 @@
 //!
 //! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
 
+use parapet_core::battery::BatteryState;
 use parapet_core::obstacle::ObstaclePoint;
+pub use parapet_core::outer::offboard::OffboardSetpoint;
+use parapet_core::rc::map::RcParams;
+use parapet_core::rc::RcInput;
+pub use parapet_core::supervisor::modes::FlightMode;
 
 pub use parapet_core::params::ParamRejected;
 use parapet_core::Vec3;
@@ -70,6 +75,9 @@ pub enum VehicleCommand {
         /// Point to hold.
         target_ned: Option<Vec3>,
     },
+    /// Select a flight mode (MAV_CMD_DO_SET_MODE with the PX4 custom mode,
+    /// [`FlightMode::from_px4`]).
+    SetMode(FlightMode),
 }
 
 /// A command the cascade refused.
@@ -155,6 +163,15 @@ pub struct TelemetrySnapshot {
     pub filter: FilterDiagnostics,
     /// Outer-loop setpoints.
     pub setpoint: SetpointReport,
+    /// Selected flight mode (HEARTBEAT `custom_mode`: [`FlightMode::px4_custom_mode`]).
+    pub mode: FlightMode,
+    /// Flight-mode changes so far: a new value means a mode change (STATUSTEXT
+    /// `mode <to>: <reason>`, [`TelemetrySnapshot::mode_reason`]).
+    pub mode_changes: u32,
+    /// Reason of the last mode change (`TransitionReason::as_str`), if any.
+    pub mode_reason: Option<&'static str>,
+    /// The safety filter changed the nominal command in the last outer step (never in Manual).
+    pub filter_active: bool,
 }
 
 impl TelemetrySnapshot {
@@ -169,6 +186,10 @@ impl TelemetrySnapshot {
         velocity_ned: Vec3::new(0.0, 0.0, 0.0),
         filter: FILTER_IDLE,
         setpoint: SetpointReport::ZERO,
+        mode: FlightMode::Mission,
+        mode_changes: 0,
+        mode_reason: None,
+        filter_active: false,
     };
 }
 
@@ -193,6 +214,27 @@ pub trait Autopilot {
     fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected>;
     /// Current value of parameter `name`.
     fn get_param(&self, name: &str) -> Option<f32>;
+    /// One pilot input (MANUAL_CONTROL / RC_CHANNELS_OVERRIDE through the link, or a receiver
+    /// frame mapped with [`Autopilot::rc_params`]); see `FlightController::set_rc`.
+    fn set_rc(&mut self, _rc: &RcInput) {}
+    /// The live RC channel map (the link's RC_CHANNELS_OVERRIDE needs it).
+    fn rc_params(&self) -> RcParams {
+        RcParams::default()
+    }
+    /// One offboard setpoint (SET_POSITION_TARGET_LOCAL_NED, [`crate::link::offboard`]).
+    fn set_offboard(&mut self, _sp: &OffboardSetpoint) {}
+    /// One battery measurement (low → Return, critical → Land).
+    fn set_battery(&mut self, _b: &BatteryState) {}
+    /// PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST ([`crate::setup::Setup::command`]):
+    /// the answer when `id` is one of them, `None` otherwise (then the router handles the
+    /// command). Default: `None` (no setup services).
+    fn setup_command(&mut self, _now_us: u64, _id: u16, _params: [f32; 7]) -> Option<crate::setup::SetupAck> {
+        None
+    }
+    /// Next STATUSTEXT of the setup services ([`crate::setup::Setup::pop_text`]).
+    fn setup_text(&mut self) -> Option<crate::setup::Text> {
+        None
+    }
 }
 
 /// Both loops in one context (the lockstep PIL step, host tests): [`Autopilot`] plus the
@@ -300,6 +342,7 @@ pub(crate) mod test_double {
                     accel_nominal_ned: Vec3::new(-1.0, 0.5, 0.0),
                     accel_filtered_ned: Vec3::new(-0.5, 0.5, 0.0),
                 },
+                ..TelemetrySnapshot::BOOT
             }
         }
     }

@@ -10,16 +10,26 @@
 //! | [`Mailboxes::inner_params`] | outer → inner | `Signal` | a new parameter set: the inner task rebuilds its loop itself, outside any critical section |
 //! | [`Mailboxes::estimate`] | inner → outer | `Signal` | the latest `StateEstimate` (cumulative counters, sticky tilt trip: latest wins) |
 //! | [`Mailboxes::snapshot`] | outer → link | `Signal` | the telemetry snapshot ([`TelemetrySnapshot`], `Copy`) |
+//! | [`Mailboxes::battery`] | battery measurement → outer | `Signal` | the latest [`BatteryState`] (latest wins: the level only goes down) |
+//! | [`Mailboxes::rc`] | RC receiver → outer | `Signal` | the latest receiver frame ([`RcFrame`], mapped by the outer stage with the live `RC_*` parameters; latest wins: the mode machine wants the newest sticks, and the loss timeout runs on the frames' times) |
+//!
+//!
+//! The kill switch: the outer stage takes the RC frame whenever it wakes — every outer step and
+//! every inner step's estimate (1 kHz) — and a kill frame disarms at once, queueing the Off
+//! command that the inner stage takes at the start of its next step: from the frame's arrival
+//! to motors off is at most two inner periods (one wake of the outer task, one inner step).
 //!
 //! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
 //! tasks that own it (`src/main.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
-//! [`crate::app::autopilot`].
+//! `parapet_core::rc`, `parapet_core::battery`, [`crate::app::autopilot`].
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::{Channel, TrySendError};
 use embassy_sync::signal::Signal;
+use parapet_core::battery::BatteryState;
 use parapet_core::inner::InnerParams;
 use parapet_core::msg::{AttitudeCommand, EstimatorAid, StateEstimate};
+use parapet_core::rc::map::RcFrame;
 
 use crate::app::autopilot::TelemetrySnapshot;
 
@@ -40,6 +50,10 @@ pub struct Mailboxes<M: RawMutex> {
     pub estimate: Signal<M, StateEstimate>,
     /// Outer → link: latest telemetry snapshot.
     pub snapshot: Signal<M, TelemetrySnapshot>,
+    /// RC receiver → outer: latest receiver frame.
+    pub rc: Signal<M, RcFrame>,
+    /// Battery measurement → outer: latest battery state.
+    pub battery: Signal<M, BatteryState>,
 }
 
 impl<M: RawMutex> Default for Mailboxes<M> {
@@ -57,6 +71,8 @@ impl<M: RawMutex> Mailboxes<M> {
             inner_params: Signal::new(),
             estimate: Signal::new(),
             snapshot: Signal::new(),
+            rc: Signal::new(),
+            battery: Signal::new(),
         }
     }
 
@@ -117,6 +133,8 @@ mod sizes {
             core::mem::size_of::<InnerParams>(),
             core::mem::size_of::<StateEstimate>(),
             core::mem::size_of::<TelemetrySnapshot>(),
+            core::mem::size_of::<RcFrame>(),
+            core::mem::size_of::<BatteryState>(),
         ];
         std::println!("mailbox message sizes (host): {sizes:?}");
         assert!(sizes.iter().all(|&s| s <= 256), "{sizes:?}");
