@@ -12,7 +12,9 @@
 //! * RC loss: the vehicle stops flying at the wall (hold), then lands; kill switch: motors
 //!   off within one inner step of the frame carrying it.
 //!
-//! Longer matrix (speeds 0.25–4 m/s, stick angles 0–80°, seeds, wind):
+//! Longer matrices (`#[ignore]`; wall: speeds 0.25–4 m/s × stick angles 0–80° × seeds 0–2 ×
+//! calm / 3 m/s wind + 0.5 m/s turbulence, 210 flights; person: 0.2–0.6 m/s × offset 0–0.3 m ×
+//! stick 0.25–1 × seeds 0–2, 108 flights; no contact in either on 6326b28):
 //! `cargo test -p parapet-tests --release --test pilot_flights -- --ignored --nocapture`.
 
 use std::path::PathBuf;
@@ -229,4 +231,70 @@ fn kill_switch_stops_the_motors_within_one_inner_step() {
     let (k, off) = (r.kill_sent_at.expect("kill sent"), r.motors_off_at.expect("motors stopped"));
     println!("kill frame at {k:.4} s, motors all zero at {off:.4} s");
     assert!(off - k <= 1e-3 + 1e-9, "motors off {:.4} s after the kill", off - k);
+}
+
+/// The longer matrix (not in CI): speeds 0.25–4 m/s × stick angles 0–80° from straight at
+/// the wall × seeds 0–2, noise on; plus a 3 m/s wind with 0.5 m/s turbulence blowing at the
+/// wall. Prints every row and fails listing the collisions (none allowed).
+/// `cargo test -p parapet-tests --release --test pilot_flights -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn wall_matrix() {
+    let mut bad = Vec::new();
+    let mut n = 0;
+    for speed in [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0] {
+        for angle in [0.0, 20.0, 45.0, 60.0, 80.0] {
+            for seed in 0..3 {
+                for wind in [None, Some((3.0, 180.0, 0.5))] {
+                    let r = wall_at(speed, angle, seed, wind);
+                    n += 1;
+                    if r.out.summary.collided || r.out.summary.min_clearance_m <= 0.0 {
+                        bad.push(format!(
+                            "{speed} m/s {angle}° seed {seed} wind {wind:?}: clearance {:.3} m",
+                            r.out.summary.min_clearance_m
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    println!("{} of {n} flights with contact", bad.len());
+    assert!(bad.is_empty(), "contacts:\n{}", bad.join("\n"));
+}
+
+/// The person case beyond 0.3 m/s (not in CI): the person at 0.2–0.6 m/s, the stick at
+/// 0.25–1 (assist speed 1 m/s), the person's axis 0–0.3 m beside the line, seeds 0–2.
+/// Prints every contact; fails listing them.
+/// `cargo test -p parapet-tests --release --test pilot_flights -- --ignored --nocapture person_matrix`.
+#[test]
+#[ignore]
+fn person_matrix() {
+    let p = dir().join("person.toml");
+    let src = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{e}"));
+    let (mut bad, mut n) = (Vec::new(), 0);
+    for v in [0.2, 0.3, 0.45, 0.6] {
+        for off in [0.0, 0.15, 0.3] {
+            let text = src
+                .replace("velocity = [0.0, -0.3, 0.0]", &format!("velocity = [0.0, -{v}, 0.0]"))
+                .replace("base = [0.0, 6.0, 0.0]", &format!("base = [{off}, 6.0, 0.0]"));
+            let s = Scene::parse(&text, &p.display().to_string()).unwrap_or_else(|e| panic!("{e}"));
+            for stick in [0.25, 0.5, 1.0] {
+                let script = script_text(&format!("duration = 16.0\n[[stick]]\nt = 0\npitch = {stick}\n"));
+                for seed in 0..3 {
+                    let r = fly(&s, &script, PilotMode::Position, assist(1.0), |c| c.seed = seed);
+                    n += 1;
+                    if r.out.summary.collided || r.out.summary.min_clearance_m <= 0.0 {
+                        let line = format!(
+                            "person {v} m/s offset {off} m stick {stick} seed {seed}: clearance {:.3} m at {:?} s",
+                            r.out.summary.min_clearance_m, r.out.summary.first_collision_time_s
+                        );
+                        println!("{line}");
+                        bad.push(line);
+                    }
+                }
+            }
+        }
+    }
+    println!("{} of {n} flights with contact", bad.len());
+    assert!(bad.is_empty(), "contacts:\n{}", bad.join("\n"));
 }
