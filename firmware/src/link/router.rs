@@ -47,6 +47,7 @@ use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
 use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
 use crate::link::outbound::Outbound;
+use crate::setup::SetupAck;
 
 /// Reply queue capacity.
 pub const REPLY_QUEUE_LEN: usize = 8;
@@ -210,6 +211,17 @@ impl Router {
         ap: &mut A,
     ) {
         if !self.for_me(cmd.target_system, cmd.target_component) {
+            return;
+        }
+        let p = [cmd.param1, cmd.param2, cmd.param3, cmd.param4, cmd.param5, cmd.param6, cmd.param7];
+        if let Some(ack) = ap.setup_command(now_us, cmd.command, p) {
+            let result = match ack {
+                SetupAck::Accepted => MavResult::MAV_RESULT_ACCEPTED,
+                SetupAck::Denied => MavResult::MAV_RESULT_DENIED,
+                SetupAck::Unsupported => MavResult::MAV_RESULT_UNSUPPORTED,
+                SetupAck::TemporarilyRejected => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+            };
+            self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
             return;
         }
         #[allow(deprecated)] // REQUEST_AUTOPILOT_CAPABILITIES: still sent by ground stations
@@ -508,6 +520,17 @@ impl Link {
         }
         self.router.stream_params(ap);
         self.router.obstacles.poll(now_us, ap);
+        // The setup services' texts (calibration progress, refusals), at most a queue's worth.
+        for _ in 0..crate::setup::TEXT_QUEUE_LEN {
+            let Some(t) = ap.setup_text() else { break };
+            let ok = t.starts_with("[cal]") && !t.contains("failed") && !t.contains("denied");
+            let severity = if ok {
+                crate::link::dialect::MavSeverity::MAV_SEVERITY_INFO
+            } else {
+                crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING
+            };
+            self.router.reply(Outbound::StatusText(crate::link::telemetry::status_text(severity, "", &t)));
+        }
     }
 
     /// Closes the open obstacle batch (lockstep: on every HIL_SENSOR).
