@@ -17,6 +17,7 @@ pub mod manual_control;
 pub mod messages;
 pub mod mission;
 pub mod obstacles;
+pub mod offboard;
 pub mod outbound;
 pub mod params;
 pub mod router;
