@@ -15,7 +15,8 @@
 //!   variants with K = 1, 4, 16, 32 obstacles, on 64 seeded random problems per
 //!   K drawn exactly as the host benchmark's (`parapet_tests::bench_states`);
 //! * the cascade of `FlightController` flying a mission with 16 obstacles:
-//!   `update_obstacles` (16 points), `step_outer`, `step_inner`, over 256 steps.
+//!   `update_obstacles` (16 points), `step_outer`, `step_inner`, over 256 steps;
+//! * the firmware's parameter store (`storage.rs`): load, first save, one-parameter saves.
 //!
 //! Results go to the host console by semihosting; the program then exits QEMU.
 //! Run: `cd tests/cortex-m4 && cargo run --release` (README.md).
@@ -27,6 +28,7 @@ use core::fmt::Write;
 use core::hint::black_box;
 
 mod check;
+mod storage;
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
@@ -713,6 +715,7 @@ fn main() -> ! {
     bench_filter(&c);
     bench_cascade(&c);
     bench_memory(&c);
+    storage::bench_storage(&c);
     print("done\n");
     exit(true)
 }
