@@ -39,17 +39,20 @@ mod firmware {
     use embassy_sync::signal::Signal;
     use embassy_time::{Duration, Instant, Ticker, Timer};
     use parapet_core::controller::ControllerParams;
+    use parapet_core::rc::map::{CrsfReceiver, RcFrame, SbusReceiver};
     use parapet_core::schedule::OuterSchedule;
     use parapet_core::Vec3;
     use parapet_firmware::app::autopilot::{ImuSample, MotorCommand, TelemetrySnapshot};
     use parapet_firmware::app::cascade::{InnerStage, OuterStage};
     use parapet_firmware::app::loop_timing::{LoopReport, LoopTimer};
     use parapet_firmware::app::mailbox::Mailboxes;
+    use parapet_firmware::board::active::RC_RECEIVER;
     // The board of this build (`board-f405` or `board-h743`): the same tasks on either.
     use parapet_firmware::board::active::{
         self as f405, imu_spi_config, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
     };
     use parapet_firmware::drivers::mpu6000::ImuError;
+    use parapet_firmware::drivers::rc_uart::{RcProtocol, RC_RX_RING};
     use parapet_firmware::link::frame_parser::{FrameParser, ParserStats, RawFrame};
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::messages::frame_extra_crc;
@@ -81,10 +84,14 @@ mod firmware {
     static INNER_REPORT: Signal<CriticalSectionRawMutex, LoopReport> = Signal::new();
     static OUTER_REPORT: Signal<CriticalSectionRawMutex, LoopReport> = Signal::new();
     static IMU_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// RC receiver UART errors (framing, noise, overrun).
+    static RC_UART_ERRORS: AtomicU32 = AtomicU32::new(0);
     static EXECUTOR_HIGH: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
     static RX_RING: StaticCell<[u8; COMPANION_RX_RING]> = StaticCell::new();
+    /// DMA ring buffer of the RC receiver UART.
+    static RC_RING: StaticCell<[u8; RC_RX_RING]> = StaticCell::new();
 
     #[interrupt]
     unsafe fn UART4() {
@@ -119,7 +126,7 @@ mod firmware {
         let Some(mut cp) = cortex_m::Peripherals::take() else { halt("core peripherals") };
         cp.DCB.enable_trace();
         cp.DWT.enable_cycle_counter();
-        let board = match f405::init(RX_RING.init([0; COMPANION_RX_RING])) {
+        let board = match f405::init(RX_RING.init([0; COMPANION_RX_RING]), RC_RING.init([0; RC_RX_RING])) {
             Ok(b) => b,
             Err(e) => {
                 defmt::error!("board init: {}", e);
@@ -143,9 +150,15 @@ mod firmware {
             Err(_) => halt("spawn outer loop"),
         }
         let low = EXECUTOR_LOW.init(Executor::new());
-        low.run(|spawner| match link_task(board.link_tx, board.link_rx) {
-            Ok(t) => spawner.spawn(t),
-            Err(_) => halt("spawn link"),
+        low.run(|spawner| {
+            match link_task(board.link_tx, board.link_rx) {
+                Ok(t) => spawner.spawn(t),
+                Err(_) => halt("spawn link"),
+            }
+            match rc_task(board.rc_rx) {
+                Ok(t) => spawner.spawn(t),
+                Err(_) => halt("spawn rc receiver"),
+            }
         })
     }
 
@@ -228,6 +241,40 @@ mod firmware {
             while let Some(r) = link.pop_reply() {
                 // A full reply queue drops the reply (the peer retries).
                 let _ = REPLIES.try_send(r);
+            }
+        }
+    }
+
+    /// The RC receiver ([`RC_RECEIVER`]): every decoded frame goes to the outer stage
+    /// (`MAILBOXES.rc`, latest wins), which maps it with the live `RC_*` parameters. UART errors
+    /// (noise, framing, overrun) restart the reception and are counted.
+    #[embassy_executor::task]
+    async fn rc_task(mut rx: RingBufferedUartRx<'static>) {
+        // A const match: only the chosen receiver's decoder is linked.
+        let publish = |f: RcFrame| MAILBOXES.rc.signal(f);
+        let mut buf = [0u8; 64];
+        match RC_RECEIVER {
+            RcProtocol::Crsf => {
+                let mut r = CrsfReceiver::default();
+                loop {
+                    match rx.read(&mut buf).await {
+                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), publish),
+                        Err(_) => {
+                            RC_UART_ERRORS.fetch_add(1, Ordering::Relaxed);
+                        }
+                    }
+                }
+            }
+            RcProtocol::Sbus => {
+                let mut r = SbusReceiver::default();
+                loop {
+                    match rx.read(&mut buf).await {
+                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), publish),
+                        Err(_) => {
+                            RC_UART_ERRORS.fetch_add(1, Ordering::Relaxed);
+                        }
+                    }
+                }
             }
         }
     }

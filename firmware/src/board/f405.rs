@@ -8,6 +8,8 @@
 //! | IMU data ready | EXTI3 | PC3 (rising edge) | – |
 //! | motors M1..M4, DShot600 | TIM8 CH1..CH4 (AF3) | PC6, PC7, PC8, PC9 | TIM8_UP burst, DMA2 stream 1 |
 //! | companion link, MAVLink 921 600 Bd | USART3 | TX PC10, RX PC11 | TX DMA1 stream 3, RX DMA1 stream 1 (ring buffer) |
+//! | RC receiver CRSF (ExpressLRS / Crossfire), 420 000 Bd 8N1 — [`RC_RECEIVER`] `Crsf` (default) | USART1 | RX PA10 (pad R1; receiver TX → R1; TX PA9 unused) | RX DMA2 stream 2 (ring buffer) |
+//! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART2 | RX PA3 (the board's SBUS pad: hardware inverter in front of R2) | RX DMA1 stream 5 (ring buffer) |
 //! | embassy time driver | TIM2 | – | – |
 //! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
 //!
@@ -28,7 +30,7 @@ use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
 use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::timer::Channel;
-use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartRx, UartTx};
 use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::Mutex;
@@ -36,6 +38,7 @@ use embassy_sync::mutex::Mutex;
 use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::{AxisMap, Mpu6000};
+use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
 
 /// Companion UART baud rate.
 pub const COMPANION_BAUD: u32 = 921_600;
@@ -54,6 +57,10 @@ bind_interrupts!(
     /// Interrupt bindings of the board's drivers.
     pub struct Irqs {
     USART3 => usart::InterruptHandler<peripherals::USART3>;
+    USART1 => usart::InterruptHandler<peripherals::USART1>;
+    USART2 => usart::InterruptHandler<peripherals::USART2>;
+    DMA2_STREAM2 => dma::InterruptHandler<peripherals::DMA2_CH2>;
+    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
     EXTI3 => exti::InterruptHandler<interrupt::typelevel::EXTI3>;
     DMA2_STREAM0 => dma::InterruptHandler<peripherals::DMA2_CH0>;
     DMA2_STREAM1 => dma::InterruptHandler<peripherals::DMA2_CH1>;
@@ -163,17 +170,41 @@ pub struct Board {
     pub link_tx: UartTx<'static, Async>,
     /// Companion link receiver (DMA ring buffer).
     pub link_rx: RingBufferedUartRx<'static>,
+    /// RC receiver ([`RC_RECEIVER`]: CRSF on USART1 or SBUS on USART2; DMA ring buffer).
+    pub rc_rx: RingBufferedUartRx<'static>,
+}
+
+/// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
+/// choice, like the pin map: only the chosen decoder and UART are linked (flash), and both
+/// arms are type-checked in every build. Change it here and rebuild for an SBUS receiver.
+pub const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
+
+/// The UART configuration of an RC protocol's line ([`RcProtocol::line`]; 8 data bits, with
+/// parity a 9-bit word).
+pub fn rc_uart_config(protocol: RcProtocol) -> usart::Config {
+    let line = protocol.line();
+    let mut cfg = usart::Config::default();
+    cfg.baudrate = line.baud;
+    cfg.data_bits = usart::DataBits::DataBits8;
+    cfg.parity = if line.even_parity { usart::Parity::ParityEven } else { usart::Parity::ParityNone };
+    cfg.stop_bits = if line.two_stop_bits { usart::StopBits::STOP2 } else { usart::StopBits::STOP1 };
+    // Inversion: in hardware (the SBUS pad's inverter); the F405's USART has no RXINV.
+    cfg
 }
 
 /// Errors of the board bring-up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
 pub enum BoardError {
-    /// The companion UART configuration was refused.
+    /// A UART configuration (companion or RC receiver) was refused.
     Uart,
 }
 
-/// Clocks, pins and drivers. `rx_ring` is the DMA ring buffer of the companion receiver.
-pub fn init(rx_ring: &'static mut [u8; COMPANION_RX_RING]) -> Result<Board, BoardError> {
+/// Clocks, pins and drivers. `rx_ring` is the DMA ring buffer of the companion receiver,
+/// `rc_ring` that of the RC receiver.
+pub fn init(
+    rx_ring: &'static mut [u8; COMPANION_RX_RING],
+    rc_ring: &'static mut [u8; RC_RX_RING],
+) -> Result<Board, BoardError> {
     let p = embassy_stm32::init(clock_config());
 
     let bus =
@@ -201,5 +232,12 @@ pub fn init(rx_ring: &'static mut [u8; COMPANION_RX_RING]) -> Result<Board, Boar
     let (link_tx, rx) = uart.split();
     let link_rx = rx.into_ring_buffered(rx_ring);
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx })
+    let cfg = rc_uart_config(RC_RECEIVER);
+    let rc_uart = match RC_RECEIVER {
+        RcProtocol::Crsf => UartRx::new(p.USART1, p.PA10, p.DMA2_CH2, Irqs, cfg),
+        RcProtocol::Sbus => UartRx::new(p.USART2, p.PA3, p.DMA1_CH5, Irqs, cfg),
+    };
+    let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
+
+    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx })
 }

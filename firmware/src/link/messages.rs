@@ -15,6 +15,7 @@ use crate::link::dialect::{
     MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
+use crate::link::dialect::{MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA};
 use mavlink_core::{MavlinkVersion, Message, MessageData};
 
 use crate::link::frame_parser::RawFrame;
@@ -61,6 +62,10 @@ pub enum Inbound {
     CommandInt(COMMAND_INT_DATA),
     /// Time synchronisation request (tc1 = 0) or answer.
     Timesync(TIMESYNC_DATA),
+    /// Joystick input (ground station), see [`crate::link::manual_control`].
+    ManualControl(MANUAL_CONTROL_DATA),
+    /// RC channel values from the ground station, see [`crate::link::manual_control`].
+    RcOverride(RC_CHANNELS_OVERRIDE_DATA),
 }
 
 /// Why a CRC-valid frame could not be decoded.
@@ -94,6 +99,8 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         MISSION_REQUEST_INT_DATA::ID => MISSION_REQUEST_INT_DATA::EXTRA_CRC,
         COMMAND_INT_DATA::ID => COMMAND_INT_DATA::EXTRA_CRC,
         TIMESYNC_DATA::ID => TIMESYNC_DATA::EXTRA_CRC,
+        MANUAL_CONTROL_DATA::ID => MANUAL_CONTROL_DATA::EXTRA_CRC,
+        RC_CHANNELS_OVERRIDE_DATA::ID => RC_CHANNELS_OVERRIDE_DATA::EXTRA_CRC,
         _ => return None,
     })
 }
@@ -142,6 +149,8 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         MISSION_REQUEST_INT_DATA::ID => Inbound::MissionRequestInt(de(p)?),
         COMMAND_INT_DATA::ID => Inbound::CommandInt(de(p)?),
         TIMESYNC_DATA::ID => Inbound::Timesync(de(p)?),
+        MANUAL_CONTROL_DATA::ID => Inbound::ManualControl(de(p)?),
+        RC_CHANNELS_OVERRIDE_DATA::ID => Inbound::RcOverride(de(p)?),
         _ => return Err(DecodeError::NotHandled),
     })
 }

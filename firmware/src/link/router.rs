@@ -16,6 +16,7 @@
 //! | TIMESYNC | a request (tc1 = 0) is answered with tc1 = firmware time, ns, ts1 echoed |
 //! | PING | not handled (deprecated by MAVLink in favour of TIMESYNC) |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
+//! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | HEARTBEAT | marks the peer alive |
 //!
 //! **Addressing**: messages with target fields are handled only when `target_system` is 0 or
@@ -43,6 +44,7 @@ use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
+use crate::link::manual_control::{ManualControl, ManualControlStats};
 use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
 use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
@@ -128,6 +130,7 @@ struct Router {
     peer_seen: bool,
     /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
     param_stream: Option<u16>,
+    manual: ManualControl,
 }
 
 /// Converts ODOMETRY into a position fix (with the yaw of `q` when it is a valid attitude);
@@ -383,6 +386,20 @@ impl Router {
                     self.param_stream = Some(0);
                 }
             }
+            Inbound::ManualControl(m) => {
+                if let Some(rc) =
+                    self.manual.on_manual_control(&m, (self.own_system, AUTOPILOT_COMPONENT_ID), now_us)
+                {
+                    ap.set_rc(&rc);
+                }
+            }
+            Inbound::RcOverride(m) => {
+                let p = ap.rc_params();
+                let own = (self.own_system, AUTOPILOT_COMPONENT_ID);
+                if let Some(rc) = self.manual.on_override(&m, own, now_us, &p) {
+                    ap.set_rc(&rc);
+                }
+            }
             Inbound::Timesync(m) => {
                 if m.tc1 == 0 {
                     let tc1 = i64::try_from(now_us.saturating_mul(1000)).unwrap_or(i64::MAX);
@@ -490,6 +507,7 @@ impl Link {
                 },
                 peer_seen: false,
                 param_stream: None,
+                manual: ManualControl::new(),
             },
         }
     }
@@ -571,6 +589,17 @@ impl Link {
     /// Obstacle decoder counters.
     pub fn obstacle_stats(&self) -> ObstacleStats {
         self.router.obstacles.stats()
+    }
+
+    /// MANUAL_CONTROL / RC_CHANNELS_OVERRIDE counters.
+    pub fn manual_control_stats(&self) -> ManualControlStats {
+        self.router.manual.stats()
+    }
+
+    /// The RC_CHANNELS_OVERRIDE channels in effect, mapped rest values for released ones (for
+    /// RC_CHANNELS telemetry on a board without a receiver).
+    pub fn override_channels(&self, p: &parapet_core::rc::map::RcParams) -> parapet_core::rc::RawChannels {
+        self.router.manual.override_channels(p)
     }
 }
 
