@@ -133,15 +133,15 @@ impl<const N: usize, const L: usize> LogStore for RamRing<N, L> {
             return Err(LogError::Full);
         }
         e.len = new_len as u32;
-        let mut pos = (self.head % N as u64) as usize;
-        for &b in bytes {
-            if let Some(d) = self.data.get_mut(pos) {
-                *d = b;
-            }
-            pos += 1;
-            if pos == N {
-                pos = 0;
-            }
+        // Two slice copies: up to the end of the ring, then the rest from its start.
+        let pos = (self.head % N as u64) as usize;
+        let first = bytes.len().min(N - pos);
+        let (a, b) = bytes.split_at(first);
+        if let Some(d) = self.data.get_mut(pos..pos + first) {
+            d.copy_from_slice(a);
+        }
+        if let Some(d) = self.data.get_mut(..b.len()) {
+            d.copy_from_slice(b);
         }
         self.head += bytes.len() as u64;
         self.evict_overwritten();
@@ -168,13 +168,14 @@ impl<const N: usize, const L: usize> LogStore for RamRing<N, L> {
     fn read(&mut self, id: u16, ofs: u32, buf: &mut [u8]) -> Result<usize, LogError> {
         let e = *self.logs.iter().find(|e| e.id == id).ok_or(LogError::NotFound)?;
         let n = (e.len.saturating_sub(ofs) as usize).min(buf.len());
-        let mut pos = ((e.start + u64::from(ofs)) % N as u64) as usize;
-        for d in buf.iter_mut().take(n) {
-            *d = self.data.get(pos).copied().unwrap_or(0);
-            pos += 1;
-            if pos == N {
-                pos = 0;
-            }
+        let pos = ((e.start + u64::from(ofs)) % N as u64) as usize;
+        let first = n.min(N - pos);
+        let (a, b) = buf.split_at_mut(first);
+        if let Some(s) = self.data.get(pos..pos + first) {
+            a.copy_from_slice(s);
+        }
+        if let (Some(b), Some(s)) = (b.get_mut(..n - first), self.data.get(..n - first)) {
+            b.copy_from_slice(s);
         }
         Ok(n)
     }
