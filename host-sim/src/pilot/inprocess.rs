@@ -8,7 +8,7 @@
 
 use anyhow::{anyhow, Result};
 use parapet_core::controller::{FlightMode, OffboardSetpoint};
-use parapet_core::rc::RcInput;
+use parapet_core::rc::{RcInput, SwitchPosition};
 
 use super::stack::{PilotMode, PilotSink, TimedSetpoint};
 use crate::fc::control::Controller;
@@ -30,6 +30,10 @@ pub struct AssistParams {
 pub struct PilotedController {
     /// The controller.
     pub ctrl: Controller,
+    /// Enter Position-assist with the mode switch (Mid, then the script's Low) instead of
+    /// `set_mode`, exactly as [`super::pil`] must (for the PIL comparison).
+    pub via_switch: bool,
+    last_rc: Option<RcInput>,
 }
 
 impl PilotedController {
@@ -42,7 +46,11 @@ impl PilotedController {
         if let Some(v) = assist.max_climb {
             p.modes.assist_climb = v;
         }
-        Ok(PilotedController { ctrl: Controller::with_params(scene, cfg, p)? })
+        Ok(PilotedController {
+            ctrl: Controller::with_params(scene, cfg, p)?,
+            via_switch: false,
+            last_rc: None,
+        })
     }
 }
 
@@ -61,6 +69,12 @@ pub fn core_setpoint(sp: &TimedSetpoint) -> OffboardSetpoint {
 
 impl PilotSink for PilotedController {
     fn enter(&mut self, now_us: u64, mode: PilotMode) -> Result<()> {
+        if let (true, PilotMode::Position, Some(rc)) = (self.via_switch, mode, self.last_rc) {
+            // As the PIL link does: the mode switch to Mid (Hold) now, the script's Low
+            // (Position) with its next frame.
+            self.rc(&RcInput { mode: SwitchPosition::Mid, ..rc });
+            return Ok(());
+        }
         let m = match mode {
             PilotMode::Position => FlightMode::Position,
             PilotMode::Offboard => FlightMode::Offboard,
@@ -75,6 +89,7 @@ impl PilotSink for PilotedController {
     }
 
     fn rc(&mut self, rc: &RcInput) {
+        self.last_rc = Some(*rc);
         self.ctrl.fc_mut().set_rc(rc);
     }
 
@@ -86,8 +101,8 @@ impl PilotSink for PilotedController {
         self.ctrl.fc().mode().as_str().to_string()
     }
 
-    fn filter_active(&self) -> bool {
-        self.ctrl.telemetry().filter_active
+    fn filter_active(&self) -> Option<bool> {
+        Some(self.ctrl.telemetry().filter_active)
     }
 }
 

@@ -2,13 +2,15 @@
 //! ([`script`]: stick timelines, a goal-seeking pilot, offboard setpoint timelines, scripted
 //! RC loss / kill / mode switch / setpoint stop), the wrapper that feeds them to a flight
 //! stack as RC frames and setpoints ([`stack`]), the in-process controller's pilot input
-//! ([`inprocess`]) and [`run_piloted`], which flies a scene with them (`parapet run --pilot
+//! ([`inprocess`]), the firmware's over the PIL link ([`pil`], MANUAL_CONTROL) and
+//! [`run_piloted`] / [`run_piloted_pil`], which fly a scene with them (`parapet run --pilot
 //! FILE` in Position-assist, `--offboard FILE` in Offboard).
 //!
 //! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
-//! [`crate::flight`], [`crate::fc`]; the children only downwards (inprocess → stack → script).
+//! [`crate::flight`], [`crate::fc`]; the children only downwards (inprocess, pil → stack → script).
 
 pub mod inprocess;
+pub mod pil;
 pub mod script;
 pub mod stack;
 
@@ -60,6 +62,42 @@ pub fn run_piloted(
 ) -> Result<PilotRun> {
     let mut pc = PilotedController::new(scene, cfg, assist)?;
     let mut p = Piloted::new(&mut pc, script, mode);
+    let out = run_with(scene, cfg, &mut p, progress)?;
+    Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })
+}
+
+/// Fly `scene` with `cfg` (made by [`piloted_config`]), the firmware in QEMU and `script` in
+/// Position-assist (entered with the mode switch, [`pil`]).
+pub fn run_piloted_pil(
+    scene: &Scene,
+    cfg: &RunConfig,
+    script: &PilotScript,
+    opts: crate::fc::pil::PilOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<PilotRun> {
+    let link = crate::fc::pil::PilLink::spawn(scene, cfg, opts)?;
+    let mut pp = pil::PilotedPil::new(link);
+    let mut p = Piloted::new(&mut pp, script, PilotMode::Position);
+    let out = run_with(scene, cfg, &mut p, progress);
+    let (log, kill_sent_at, motors_off_at) = (p.log, p.kill_sent_at, p.motors_off_at);
+    if let Some(f) = pp.link.fault() {
+        anyhow::bail!("processor-in-the-loop link failed: {f}");
+    }
+    Ok(PilotRun { out: out?, log, kill_sent_at, motors_off_at })
+}
+
+/// [`run_piloted`] entering Position-assist with the mode switch as [`run_piloted_pil`] does
+/// (the in-process reference of the PIL comparison).
+pub fn run_piloted_via_switch(
+    scene: &Scene,
+    cfg: &RunConfig,
+    script: &PilotScript,
+    assist: AssistParams,
+    progress: &mut dyn FnMut(f64),
+) -> Result<PilotRun> {
+    let mut pc = PilotedController::new(scene, cfg, assist)?;
+    pc.via_switch = true;
+    let mut p = Piloted::new(&mut pc, script, PilotMode::Position);
     let out = run_with(scene, cfg, &mut p, progress)?;
     Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })
 }

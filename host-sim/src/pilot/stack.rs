@@ -52,8 +52,9 @@ pub trait PilotSink {
     fn offboard(&mut self, sp: &TimedSetpoint);
     /// Name of the flight mode now (e.g. "Position", "Hold").
     fn flight_mode(&self) -> String;
-    /// `true` when the filter changed the nominal command at the last outer step.
-    fn filter_active(&self) -> bool;
+    /// `true` when the filter changed the nominal command at the last outer step; `None`
+    /// when the stack cannot tell (the recorder's `filter.intervened` is used).
+    fn filter_active(&self) -> Option<bool>;
 }
 
 /// What one outer step of a piloted flight recorded.
@@ -187,7 +188,7 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
             setpoint: self.setpoint,
             flight_mode: self.stack.flight_mode(),
             guidance: out.mode,
-            filter_active: self.stack.filter_active(),
+            filter_active: self.stack.filter_active().unwrap_or(out.filter.intervened),
         });
         out
     }

@@ -185,6 +185,13 @@ impl PilLink {
     }
 
     /// Queue `m` for the next step (sent before its HIL_SENSOR).
+    /// Send `m` with the next control step (pilot input, `crate::pilot`).
+    pub fn send(&mut self, m: &MavMessage) {
+        if self.fault.is_none() {
+            self.queue(m);
+        }
+    }
+
     fn queue(&mut self, m: &MavMessage) {
         let bytes = self.frame(m);
         self.queue.push(bytes);

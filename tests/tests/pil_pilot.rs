@@ -1,0 +1,67 @@
+//! Issue 21, the simulated pilot with the real firmware: the pilot script's RC frames go over
+//! the lockstep link as MANUAL_CONTROL into the `board-qemu` firmware in QEMU
+//! (`parapet_sim::pilot::run_piloted_pil`), which flies Position-assist against the 6-DOF
+//! plant; the same script flies the in-process controller entering the mode the same way
+//! (mode switch Mid → Low, `run_piloted_via_switch`). Full forward + 0.3 right stick at the wall
+//! of `scenes/pilot/wall.toml` for 5 s, then the kill switch.
+//!
+//! * PIL: no contact, the vehicle stops at the wall, motors zero within one inner step of the
+//!   kill frame;
+//! * PIL and in-process agree within the PIL tolerance of `pil_flight` (0.05 m) until the kill.
+//!
+//! ELF and QEMU as `pil_flight` (`PARAPET_FIRMWARE_QEMU_ELF`, else built; SKIP without QEMU
+//! outside CI). `cargo test -p parapet-tests --release --test pil_pilot -- --nocapture`.
+
+use std::path::PathBuf;
+
+use parapet_sim::fc::pil::PilOptions;
+use parapet_sim::flight::runner::RunConfig;
+use parapet_sim::pilot::{
+    piloted_config, run_piloted_pil, run_piloted_via_switch, AssistParams, PilotScript,
+};
+use parapet_sim::world::scene::Scene;
+use parapet_tests::pil_support::firmware;
+
+const SCRIPT: &str = "duration = 5.6\n[[stick]]\nt = 0\npitch = 1.0\nroll = 0.3\n\
+                      [[event]]\nkind = \"kill\"\nt = 5.0\n";
+
+#[test]
+fn pilot_script_flies_the_firmware_like_the_host() {
+    let Some(elf) = firmware() else { return };
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/pilot");
+    let scene = Scene::load(&dir.join("wall.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let script =
+        PilotScript::parse(SCRIPT, "pil_pilot script", "pil_pilot").unwrap_or_else(|e| panic!("{e}"));
+    let cfg = RunConfig::for_scene(&scene, vec![scene.start]).unwrap_or_else(|e| panic!("{e}"));
+    let cfg = piloted_config(&scene, cfg, &script);
+    let pil = run_piloted_pil(&scene, &cfg, &script, PilOptions::new(elf), &mut |_| {}).expect("PIL flight");
+    let host =
+        run_piloted_via_switch(&scene, &cfg, &script, AssistParams::default(), &mut |_| {}).expect("host");
+    let at =
+        |r: &parapet_sim::pilot::PilotRun, t: f64| r.out.samples.iter().find(|x| x.t >= t).map(|x| x.pos);
+    let n = pil.out.samples.iter().take_while(|x| x.t < 5.0).count().min(host.out.samples.len());
+    let dev = pil.out.samples[..n]
+        .iter()
+        .zip(&host.out.samples[..n])
+        .map(|(a, b)| (a.pos - b.pos).norm())
+        .fold(0.0, f64::max);
+    let (k, off) = (pil.kill_sent_at, pil.motors_off_at);
+    println!(
+        "PIL: min clearance {:.3} m (host {:.3}), at 4.9 s {:?} (host {:?}); max deviation until the kill {dev:.4} m over {n} samples; \
+         kill frame {k:?} s, motors zero {off:?} s; state {}",
+        pil.out.summary.min_clearance_m,
+        host.out.summary.min_clearance_m,
+        at(&pil, 4.9),
+        at(&host, 4.9),
+        pil.out.summary.final_controller_state
+    );
+    let before_kill =
+        pil.out.samples.iter().filter(|x| x.t < 5.0).map(|x| x.clearance).fold(f64::INFINITY, f64::min);
+    assert!(before_kill > 0.0, "PIL: contact before the kill");
+    let p = at(&pil, 4.9).expect("sample");
+    assert!(p.x > 3.0 && p.x < 4.0 - 0.224, "PIL: not stopped at the wall: {p:?}");
+    let (k, off) = (k.expect("kill sent"), off.expect("motors stopped"));
+    assert!(off - k <= 1e-3 + 1e-9, "PIL: motors off {:.4} s after the kill frame", off - k);
+    assert!(n > 1000);
+    assert!(dev < 0.05, "PIL and in-process differ by {dev} m");
+}
