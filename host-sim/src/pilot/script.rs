@@ -9,8 +9,8 @@
 //! last keyframe's value. [`PilotScript::setpoint_at`] does the same for the offboard
 //! setpoints (a vector interpolates only between two keyframes that both give it). Events
 //! override the timeline: `kill` sets the kill switch from its time on, `mode` sets the mode
-//! switch, `rc_loss` delivers no RC frame in `[t, until)`, `offboard_stop` ends the setpoint
-//! stream.
+//! switch, `rc_loss` delivers no RC frame in `[t, until)`, `fix_loss` no position fix measured
+//! in `[t, until)`, `offboard_stop` ends the setpoint stream.
 //!
 //! Frames: files are ENU (x east, y north, z up), like scenes; [`Setpoint`] and the goal are
 //! converted to NED here, at the boundary.
@@ -136,6 +136,8 @@ pub enum Event {
     Mode { t: f64, mode: SwitchPosition },
     /// The offboard setpoint stream stops at `t`.
     OffboardStop { t: f64 },
+    /// No position fix measured in `[from, until)` reaches the vehicle.
+    FixLoss { from: f64, until: f64 },
 }
 
 /// A loaded, checked script (see the module documentation).
@@ -437,13 +439,13 @@ impl PilotScript {
                 }
             };
             let ev = match e.kind.as_str() {
-                "rc_loss" => {
+                "rc_loss" | "fix_loss" => {
                     unused("mode", e.mode.is_some())?;
                     let until = e.until.ok_or_else(|| {
                         err(
                             table.clone(),
                             "until",
-                            "rc_loss needs its end time",
+                            "a loss needs its end time",
                             "missing".into(),
                             format!("{} < until", num(t)),
                         )
@@ -458,7 +460,11 @@ impl PilotScript {
                             format!("> {}", num(t)),
                         ));
                     }
-                    Event::RcLoss { from: t, until }
+                    if e.kind == "rc_loss" {
+                        Event::RcLoss { from: t, until }
+                    } else {
+                        Event::FixLoss { from: t, until }
+                    }
                 }
                 "kill" => {
                     unused("until", e.until.is_some())?;
@@ -490,7 +496,7 @@ impl PilotScript {
                         "kind",
                         "unknown event",
                         format!("{k:?}"),
-                        "rc_loss | kill | mode | offboard_stop".into(),
+                        "rc_loss | fix_loss | kill | mode | offboard_stop".into(),
                     ))
                 }
             };
@@ -523,10 +529,15 @@ impl PilotScript {
     pub fn end_time(&self) -> f64 {
         let k = self.sticks.iter().map(|s| s.0).chain(self.setpoints.iter().map(|s| s.0));
         let e = self.events.iter().map(|e| match *e {
-            Event::RcLoss { until, .. } => until,
+            Event::RcLoss { until, .. } | Event::FixLoss { until, .. } => until,
             Event::Kill { t } | Event::Mode { t, .. } | Event::OffboardStop { t } => t,
         });
         k.chain(e).fold(0.0, f64::max)
+    }
+
+    /// `true` when a scripted `fix_loss` covers a fix measured at `t` (s).
+    pub fn fix_lost(&self, t: f64) -> bool {
+        self.events.iter().any(|e| matches!(*e, Event::FixLoss { from, until } if t >= from && t < until))
     }
 
     /// The sticks at `t` (s) for the vehicle at `p` (NED) with heading `yaw` (for the goal

@@ -6,6 +6,9 @@
 //! kill switch acts on that very inner step. The goal-seeking pilot sees the vehicle through
 //! the latest position fix (extrapolated with its velocity), as a pilot watching it would.
 //!
+//! A scripted `fix_loss` withholds the position fixes measured in its window (the controller's
+//! position-loss failsafe).
+//!
 //! A piloted flight has no path end: the wrapper reports `path_done = false`, so the runner
 //! flies until a collision or the duration limit.
 //!
@@ -174,6 +177,10 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
     }
 
     fn position_fix(&mut self, fix: PositionReading) {
+        // A scripted position loss: the fix reaches neither the pilot nor the controller.
+        if self.script.fix_lost(fix.t_measured) {
+            return;
+        }
         self.fix = Some(fix);
         self.stack.position_fix(fix);
     }
@@ -204,5 +211,9 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
 
     fn state_name(&self) -> String {
         self.stack.state_name()
+    }
+
+    fn battery(&mut self, t: f64, reading: &crate::sim::battery::BatteryReading) {
+        self.stack.battery(t, reading);
     }
 }
