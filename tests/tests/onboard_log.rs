@@ -1,7 +1,8 @@
 //! The onboard flight log through the PIL link (issue 22): the QEMU firmware keeps its logs in
 //! RAM (`firmware/src/log/`); a pymavlink ground station on `parapet pil --gcs` lists them,
 //! fetches the newest with the MAVLink log protocol and pyulog parses it
-//! (`tests/python/gcs_log_download.py`).
+//! (`tests/python/gcs_log_download.py`); then `parapet log`'s client (`parapet_sim::cli::log`)
+//! pulls it through the second (`--api`) endpoint.
 //!
 //! Needs QEMU and the board-qemu ELF (`parapet_tests::pil_support`) and the venv's python with
 //! pymavlink and pyulog (`cargo xtask venv`); without them the test SKIPs loudly, except with
@@ -11,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use parapet_sim::cli::log::Conn;
 use parapet_sim::cli::sitl::{bridge, run_pil_bridged, SitlArgs};
 use parapet_sim::fc::pil::PilOptions;
 use parapet_tests::pil_support::{config, firmware, is_ci, scene};
@@ -42,7 +44,8 @@ fn python() -> Option<PathBuf> {
 }
 
 /// pymavlink lists and fetches the QEMU firmware's onboard log during a PIL flight; the file
-/// parses with pyulog with every topic, armed records and the parameter table.
+/// parses with pyulog with every topic, armed records and the parameter table. Later in the
+/// flight `parapet log`'s client lists and pulls the same log, byte-exact ULog.
 #[test]
 fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it() {
     let Some(py) = python() else { return };
@@ -61,10 +64,26 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
         .stderr(Stdio::piped())
         .spawn()
         .expect("client");
+    let api = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
+    let mut cli =
+        Conn::open(&format!("udpin:127.0.0.1:{api}"), None, Duration::from_secs(10)).expect("listen");
+    // `parapet log` after the pymavlink download (which runs 4 s after the first heartbeat).
+    let cli_pull = std::thread::spawn(move || -> Result<(usize, u32, Vec<u8>), String> {
+        cli.connect("api endpoint").map_err(|x| x.to_string())?;
+        std::thread::sleep(Duration::from_secs(7));
+        let entries = cli.list().map_err(|x| x.to_string())?;
+        let newest = entries.last().cloned().ok_or_else(|| "no logs listed".to_string())?;
+        let bytes = cli.pull(newest.id, newest.size).map_err(|x| x.to_string())?;
+        Ok((entries.len(), newest.size, bytes))
+    });
     std::thread::sleep(Duration::from_millis(500)); // the client listens
     let s = scene();
     let cfg = config(&s, 12.0);
-    let sitl = SitlArgs { gcs: Some(format!("udp:127.0.0.1:{port}")), api: None, realtime: true };
+    let sitl = SitlArgs {
+        gcs: Some(format!("udp:127.0.0.1:{port}")),
+        api: Some(format!("udp:127.0.0.1:{api}")),
+        realtime: true,
+    };
     let b = bridge(&sitl, &dir, true).expect("bridge");
     let r = run_pil_bridged(&s, &cfg, PilOptions::new(elf), b.clone(), &mut |_| {});
     b.borrow_mut().finish().expect("tlog");
@@ -74,5 +93,13 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     println!("{text}");
     assert!(o.status.success(), "log download failed:\n{text}");
     assert!(text.contains("ok: pyulog reads"), "{text}");
+    let (n, size, bytes) =
+        cli_pull.join().expect("cli thread").expect("parapet log pull through the api endpoint");
+    println!("parapet log: {n} log(s), pulled {} of {size} bytes", bytes.len());
+    assert_eq!(bytes.len(), size as usize);
+    assert_eq!(&bytes[..7], b"ULog\x01\x12\x35");
+    // The log grew since the pymavlink download: the same start, more records.
+    let first = std::fs::read(&fetched).expect("pymavlink's file");
+    assert!(bytes.len() > first.len() && bytes[..first.len()] == first[..], "not the same log");
     let _ = std::fs::remove_dir_all(&dir);
 }
