@@ -13,7 +13,9 @@
 //!   off within one inner step of the frame carrying it;
 //! * position loss (scripted `fix_loss`): the failsafe takes over within the position timeout
 //!   (NoFix guidance, flight mode Land) and the vehicle comes down without wall contact
-//!   (measured: it drifts 1.2 m open-loop before touching down, 4.5 s after the loss).
+//!   (measured: it drifts 1.2 m open-loop before touching down, 4.5 s after the loss);
+//! * low battery (a 300 mAh pack at 12 %): Position → Return (measured at 11.3 s, flies back
+//!   from the wall, N 3.71 → 2.18 m) → Land when the pack goes critical (14.4 s).
 //!
 //! Longer matrices (`#[ignore]`; wall: speeds 0.25–4 m/s × stick angles 0–80° × seeds 0–2 ×
 //! calm / 3 m/s wind + 0.5 m/s turbulence, 210 flights; person: 0.2–0.6 m/s × offset 0–0.3 m ×
@@ -337,4 +339,35 @@ fn position_loss_brakes_then_lands() {
         "no failsafe after the fix loss: {changes:?}"
     );
     assert!(guidance.iter().any(|g| g.1 == "Land" || g.1 == "NoFix"), "never landed: {changes:?}");
+}
+
+#[test]
+fn low_battery_in_position_assist_returns() {
+    let p = dir().join("wall.toml");
+    let src = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{e}"));
+    // A small, nearly empty pack: it reaches the Low threshold under the hover current.
+    let text = format!("{src}\n[battery]\ncapacity_mah = 300\ninitial_soc = 0.12\n");
+    let s = Scene::parse(&text, &p.display().to_string()).unwrap_or_else(|e| panic!("{e}"));
+    let script = script_text("duration = 30.0\n[[stick]]\nt = 0\npitch = 0.6\n");
+    let r = fly(&s, &script, PilotMode::Position, assist(1.0), |_| {});
+    row("low battery, stick at the wall", &r);
+    let mut modes: Vec<(f64, String)> = vec![];
+    for l in &r.log {
+        if modes.last().map(|m| &m.1) != Some(&l.flight_mode) {
+            modes.push((l.t, l.flight_mode.clone()));
+        }
+    }
+    println!(
+        "  flight modes: {modes:?}; end {} at {:.2} s",
+        r.out.summary.end_reason, r.out.summary.sim_time_s
+    );
+    assert_ne!(r.out.summary.collision_with.as_deref(), Some("obstacles[0] (wall)"));
+    let ret = modes.iter().find(|m| m.1 == "Return").map(|m| m.0);
+    assert!(ret.is_some(), "no Return on low battery: {modes:?}");
+    // Return flies back towards the start (N 0) from the wall.
+    let at = |t: f64| r.out.samples.iter().find(|x| x.t >= t).map(|x| x.pos);
+    let (a, b) =
+        (at(ret.unwrap_or(0.0)).unwrap_or_default(), r.out.samples.last().map(|x| x.pos).unwrap_or_default());
+    println!("  at Return N {:.2} m, at the end N {:.2} m", a.x, b.x);
+    assert!(b.x < a.x - 0.5 || b.x.abs() < 0.5, "did not return: from N {:.2} to {:.2}", a.x, b.x);
 }
