@@ -265,6 +265,9 @@ pub(crate) mod test_double {
         pub failsafe: Option<Failsafe>,
         pub max_path: usize,
         pub params: Vec<(std::string::String, f32)>,
+        pub mode: FlightMode,
+        pub mode_changes: u32,
+        pub mode_reason: Option<&'static str>,
     }
 
     impl RecordingAutopilot {
@@ -342,6 +345,9 @@ pub(crate) mod test_double {
                     accel_nominal_ned: Vec3::new(-1.0, 0.5, 0.0),
                     accel_filtered_ned: Vec3::new(-0.5, 0.5, 0.0),
                 },
+                mode: self.mode,
+                mode_changes: self.mode_changes,
+                mode_reason: self.mode_reason,
                 ..TelemetrySnapshot::BOOT
             }
         }

@@ -18,6 +18,7 @@
 //! | drops | DEBUG_VECT `LINK_DROP` | 1 Hz | x = replies dropped (queue full), y = inbound messages rejected, z = obstacle points rejected/dropped |
 //! | hardware | DEBUG_VECT `HW_ERR` | 1 Hz | x = IMU read errors, y = UART receive errors |
 //! | failsafe | STATUSTEXT + NAMED_VALUE_INT `FAILSAFE` | on every transition | severity CRITICAL on entry ("FAILSAFE: reason"), NOTICE on exit ("FAILSAFE cleared") |
+//! | flight mode | STATUSTEXT | on every mode change (issue 21) | "MODE Position: mode-switch"; severity WARNING when a failsafe chose the mode (rc-loss, offboard-loss, battery-low, battery-critical, kill-switch), INFO otherwise |
 //!
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
@@ -115,6 +116,7 @@ const STREAMS: [(Stream, u64); 6] = [
 pub struct TelemetryScheduler {
     next_due_us: [u64; 6],
     last_failsafe: Option<Failsafe>,
+    last_mode_changes: u32,
     /// `true` when the loop-timing stream fired in the last [`TelemetryScheduler::poll`] (the
     /// caller then starts new loop-timing windows).
     pub loops_reported: bool,
@@ -200,6 +202,20 @@ pub fn sys_status(inp: &TelemetryInputs) -> SYS_STATUS_DATA {
     }
 }
 
+/// STATUSTEXT of a flight-mode change: "MODE <mode>: <reason>" (truncated to 50 bytes).
+pub fn mode_text(s: &TelemetrySnapshot) -> STATUSTEXT_DATA {
+    let reason = s.mode_reason.unwrap_or("");
+    let failsafe =
+        matches!(reason, "rc-loss" | "offboard-loss" | "battery-low" | "battery-critical" | "kill-switch");
+    let severity = if failsafe { MavSeverity::MAV_SEVERITY_WARNING } else { MavSeverity::MAV_SEVERITY_INFO };
+    let mut buf = [0u8; 50];
+    let text = "MODE ".bytes().chain(s.mode.as_str().bytes()).chain(": ".bytes()).chain(reason.bytes());
+    for (d, c) in buf.iter_mut().zip(text) {
+        *d = c;
+    }
+    STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() }
+}
+
 /// STATUSTEXT with `text` (truncated to 50 bytes).
 pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEXT_DATA {
     let mut buf = [0u8; 50];
@@ -212,11 +228,11 @@ pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEX
 impl TelemetryScheduler {
     /// Every stream due immediately.
     pub const fn new() -> Self {
-        Self { next_due_us: [0; 6], last_failsafe: None, loops_reported: false }
+        Self { next_due_us: [0; 6], last_failsafe: None, last_mode_changes: 0, loops_reported: false }
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most 18 messages per call (2 failsafe, 3 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most 19 messages per call (2 failsafe, 1 mode, 3 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -241,6 +257,10 @@ impl TelemetryScheduler {
                 }
             }
             self.last_failsafe = s.failsafe;
+        }
+        if s.mode_changes != self.last_mode_changes {
+            self.last_mode_changes = s.mode_changes;
+            emit(Outbound::StatusText(mode_text(s)));
         }
         for (k, (stream, period)) in STREAMS.iter().enumerate() {
             if now_us < self.next_due_us[k] {
@@ -447,6 +467,34 @@ mod tests {
         assert!(out
             .iter()
             .any(|m| matches!(m, Outbound::StatusText(s) if s.severity == MavSeverity::MAV_SEVERITY_NOTICE)));
+    }
+
+    #[test]
+    fn mode_changes_send_statustext_once_each() {
+        use crate::app::autopilot::FlightMode;
+        let mut ap = RecordingAutopilot::new();
+        let mut sched = TelemetryScheduler::new();
+        let texts = |sched: &mut TelemetryScheduler, ap: &RecordingAutopilot, t| {
+            let mut v = std::vec::Vec::new();
+            sched.poll(t, &inputs(ap), |o| {
+                if let Outbound::StatusText(m) = o {
+                    v.push((m.severity, m.text.to_str().unwrap_or("").to_owned()));
+                }
+            });
+            v
+        };
+        assert!(texts(&mut sched, &ap, 1_000).is_empty());
+        ap.mode = FlightMode::Hold;
+        ap.mode_changes = 1;
+        ap.mode_reason = Some("rc-loss");
+        let v = texts(&mut sched, &ap, 2_000);
+        assert_eq!(v, [(MavSeverity::MAV_SEVERITY_WARNING, "MODE Hold: rc-loss".to_owned())]);
+        assert!(texts(&mut sched, &ap, 3_000).is_empty(), "once");
+        ap.mode = FlightMode::Position;
+        ap.mode_changes = 2;
+        ap.mode_reason = Some("mode-switch");
+        let v = texts(&mut sched, &ap, 4_000);
+        assert_eq!(v, [(MavSeverity::MAV_SEVERITY_INFO, "MODE Position: mode-switch".to_owned())]);
     }
 
     #[test]
