@@ -10,7 +10,8 @@ as constants). One change: the `command` fields (COMMAND_LONG/INT/ACK/CANCEL, MI
 lose their `enum="MAV_CMD"` attribute and stay plain `u16` (the attribute is not part of the
 CRC_EXTRA nor of the wire): every command id then decodes and an unknown one is answered
 UNSUPPORTED with its own id, and the ~2 KB `MavCmd` from-integer conversion is not linked.
-Compare with `MavCmd::X as u16`. `firmware/build.rs` turns the file into Rust with
+Compare with `MavCmd::X as u16`. Likewise SET_MODE's `base_mode` (a MAV_MODE_FLAG bit set in
+practice, not one of the MAV_MODE values) stays a plain `u8`. `firmware/build.rs` turns the file into Rust with
 `mavlink-bindgen`.
 
 Usage: python3 firmware/mavlink/extract.py DEFINITIONS_DIR > firmware/mavlink/parapet.xml
@@ -25,7 +26,7 @@ from pathlib import Path
 # set-points, battery, log transfer, stream rates, ...). A message that is listed but not used
 # costs no flash: only the (de)serialisers the code calls are linked.
 MESSAGES = """
-HEARTBEAT SYS_STATUS SYSTEM_TIME PING PARAM_REQUEST_READ PARAM_REQUEST_LIST PARAM_VALUE PARAM_SET
+HEARTBEAT SYS_STATUS SYSTEM_TIME PING SET_MODE PARAM_REQUEST_READ PARAM_REQUEST_LIST PARAM_VALUE PARAM_SET
 GPS_RAW_INT SCALED_IMU RAW_IMU SCALED_PRESSURE ATTITUDE ATTITUDE_QUATERNION LOCAL_POSITION_NED
 GLOBAL_POSITION_INT RC_CHANNELS_RAW SERVO_OUTPUT_RAW MISSION_REQUEST_PARTIAL_LIST MISSION_ITEM
 MISSION_REQUEST MISSION_SET_CURRENT MISSION_CURRENT MISSION_REQUEST_LIST MISSION_COUNT
@@ -81,7 +82,7 @@ def main():
     wanted = set(EXTRA_ENUMS)
     for name in MESSAGES:
         for f in messages[name].iter("field"):
-            if f.get("enum") == "MAV_CMD":
+            if f.get("enum") == "MAV_CMD" or (name, f.get("name")) == ("SET_MODE", "base_mode"):
                 del f.attrib["enum"]
             if f.get("enum"):
                 wanted.add(f.get("enum"))

@@ -553,3 +553,89 @@ fn autopilot_version_timesync_on_request() {
     // An answer (tc1 ≠ 0) is not answered again.
     assert!(g.send(&TIMESYNC_DATA { tc1: 5, ts1: 42, ..Default::default() }).is_empty());
 }
+
+/// Link-level services (issue 20): SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT and
+/// HOME_POSITION streams from `Link::poll`, their rates through MAV_CMD_SET_MESSAGE_INTERVAL /
+/// GET_MESSAGE_INTERVAL, one-shots through MAV_CMD_REQUEST_MESSAGE. Before, none of these
+/// messages was sent and the three commands were answered DENIED / UNSUPPORTED.
+#[test]
+#[allow(deprecated)] // MAV_CMD_GET_MESSAGE_INTERVAL: superseded, still sent by ground stations
+fn message_intervals_requests_and_the_global_position_streams() {
+    use parapet_firmware::link::services::HOME;
+    let mut g = Sim::new();
+    g.airborne();
+    assert_eq!(g.upload(&[[3.0, 0.0, -1.0], [3.0, 2.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let poll = |g: &mut Sim| {
+        let t = g.t();
+        g.link.poll(t, &mut g.ap);
+        core::iter::from_fn(|| g.link.pop_reply()).collect::<Vec<_>>()
+    };
+    let r = poll(&mut g);
+    assert!(
+        matches!(r.as_slice(), [Outbound::SystemTime(_), Outbound::GlobalPositionInt(_), Outbound::MissionCurrent(m), Outbound::HomePosition(h)]
+        if m.total == 2 && (h.latitude, h.longitude, h.altitude) == HOME),
+        "{r:?}"
+    );
+    let Outbound::GlobalPositionInt(p) = &r[1] else { unreachable!() };
+    let pos = g.ap.telemetry().position_ned;
+    assert!((p.relative_alt as f32 + pos.z * 1000.0).abs() < 2.0, "{p:?} vs {pos:?}");
+    assert!((p.lat - HOME.0) as f32 / 89.83 - pos.x < 0.02, "{p:?} vs {pos:?}");
+    // 50 Hz global position; GET answers it; SYSTEM_TIME stopped.
+    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [33.0, 20_000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
+    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [2.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_ACCEPTED);
+    let r = g.command(MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL, [33.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert!(
+        matches!(r.as_slice(), [Outbound::CommandAck(_), Outbound::MessageInterval(m)]
+        if m.message_id == 33 && m.interval_us == 20_000),
+        "{r:?}"
+    );
+    let mut seen = 0;
+    for _ in 0..100 {
+        g.step(&[]);
+        for m in poll(&mut g) {
+            assert!(!matches!(m, Outbound::SystemTime(_)), "stopped stream sent");
+            seen += usize::from(matches!(m, Outbound::GlobalPositionInt(_)));
+        }
+    }
+    assert!((4..=6).contains(&seen), "{seen} GLOBAL_POSITION_INT in 100 ms at 50 Hz");
+    // A one-shot HOME_POSITION; an interval too short or for a stream not served here: refused.
+    let r = g.command(MavCmd::MAV_CMD_REQUEST_MESSAGE, [242.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_ACCEPTED);
+    assert!(poll(&mut g).iter().any(|m| matches!(m, Outbound::HomePosition(_))));
+    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [33.0, 500.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
+    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [30.0, 20_000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_UNSUPPORTED);
+}
+
+/// PING requests are answered to the sender; SET_MODE (legacy) changes the mode like
+/// DO_SET_MODE; MISSION_SET_CURRENT is answered with MISSION_CURRENT (and a STATUSTEXT, as
+/// jumping is not supported). Before, all three were ignored.
+#[test]
+#[allow(deprecated)] // PING, SET_MODE, MISSION_SET_CURRENT: deprecated, still sent by ground stations
+fn ping_set_mode_and_mission_set_current_are_served() {
+    use parapet_firmware::link::dialect::{MISSION_SET_CURRENT_DATA, PING_DATA, SET_MODE_DATA};
+    let mut g = Sim::new();
+    let r = g.send(&PING_DATA { time_usec: 77, seq: 9, target_system: 0, target_component: 0 });
+    assert!(
+        matches!(r.as_slice(), [Outbound::Ping(p)]
+        if (p.time_usec, p.seq, p.target_system, p.target_component) == (77, 9, GCS.0, GCS.1)),
+        "{r:?}"
+    );
+    g.airborne();
+    assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let set_mode = SET_MODE_DATA { custom_mode: FlightPhase::Mission.code(), target_system: 1, base_mode: 1 };
+    g.send(&set_mode);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission);
+    let other = SET_MODE_DATA { target_system: 2, custom_mode: FlightPhase::Hover.code(), ..set_mode };
+    g.send(&other);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission, "SET_MODE for system 2 applied");
+    let r = g.send(&MISSION_SET_CURRENT_DATA { seq: 0, target_system: 1, target_component: 1 });
+    assert!(matches!(r.as_slice(), [Outbound::MissionCurrent(m)] if m.total == 1), "{r:?}");
+    let r = g.send(&MISSION_SET_CURRENT_DATA { seq: 5, target_system: 1, target_component: 1 });
+    assert!(matches!(r.as_slice(), [Outbound::StatusText(_), Outbound::MissionCurrent(_)]), "{r:?}");
+}

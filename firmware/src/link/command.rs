@@ -49,6 +49,9 @@ pub mod id {
     pub const REQUEST_AUTOPILOT_CAPABILITIES: u16 = MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES as u16;
     /// MAV_CMD_REQUEST_MESSAGE.
     pub const REQUEST_MESSAGE: u16 = MavCmd::MAV_CMD_REQUEST_MESSAGE as u16;
+    /// MAV_CMD_GET_MESSAGE_INTERVAL.
+    #[allow(deprecated)] // still sent by ground stations
+    pub const GET_MESSAGE_INTERVAL: u16 = MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL as u16;
     /// MAV_CMD_SET_MESSAGE_INTERVAL.
     pub const SET_MESSAGE_INTERVAL: u16 = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
     /// MAV_CMD_GET_HOME_POSITION.

@@ -5,6 +5,8 @@
 //! CRC-checked by the framer and then ignored (counted), ids outside it are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
 //! firmware links only the deserialisers it needs, not the whole dialect.
 
+#![allow(deprecated)] // PING and MISSION_SET_CURRENT: deprecated by MAVLink, still sent by ground stations
+
 use crate::link::dialect::MavMessage;
 use crate::link::dialect::{
     COMMAND_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, PARAM_REQUEST_LIST_DATA,
@@ -16,6 +18,7 @@ use crate::link::dialect::{
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
 use crate::link::dialect::{MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA};
+use crate::link::dialect::{MISSION_SET_CURRENT_DATA, PING_DATA, SET_MODE_DATA};
 use mavlink_core::{MavlinkVersion, Message, MessageData};
 
 use crate::link::frame_parser::RawFrame;
@@ -62,6 +65,12 @@ pub enum Inbound {
     CommandInt(COMMAND_INT_DATA),
     /// Time synchronisation request (tc1 = 0) or answer.
     Timesync(TIMESYNC_DATA),
+    /// PING request (answered) or answer (ignored).
+    Ping(PING_DATA),
+    /// Legacy mode change.
+    SetMode(SET_MODE_DATA),
+    /// Mission item to fly next.
+    MissionSetCurrent(MISSION_SET_CURRENT_DATA),
     /// Joystick input (ground station), see [`crate::link::manual_control`].
     ManualControl(MANUAL_CONTROL_DATA),
     /// RC channel values from the ground station, see [`crate::link::manual_control`].
@@ -99,6 +108,9 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         MISSION_REQUEST_INT_DATA::ID => MISSION_REQUEST_INT_DATA::EXTRA_CRC,
         COMMAND_INT_DATA::ID => COMMAND_INT_DATA::EXTRA_CRC,
         TIMESYNC_DATA::ID => TIMESYNC_DATA::EXTRA_CRC,
+        PING_DATA::ID => PING_DATA::EXTRA_CRC,
+        SET_MODE_DATA::ID => SET_MODE_DATA::EXTRA_CRC,
+        MISSION_SET_CURRENT_DATA::ID => MISSION_SET_CURRENT_DATA::EXTRA_CRC,
         MANUAL_CONTROL_DATA::ID => MANUAL_CONTROL_DATA::EXTRA_CRC,
         RC_CHANNELS_OVERRIDE_DATA::ID => RC_CHANNELS_OVERRIDE_DATA::EXTRA_CRC,
         _ => return None,
@@ -149,6 +161,9 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         MISSION_REQUEST_INT_DATA::ID => Inbound::MissionRequestInt(de(p)?),
         COMMAND_INT_DATA::ID => Inbound::CommandInt(de(p)?),
         TIMESYNC_DATA::ID => Inbound::Timesync(de(p)?),
+        PING_DATA::ID => Inbound::Ping(de(p)?),
+        SET_MODE_DATA::ID => Inbound::SetMode(de(p)?),
+        MISSION_SET_CURRENT_DATA::ID => Inbound::MissionSetCurrent(de(p)?),
         MANUAL_CONTROL_DATA::ID => Inbound::ManualControl(de(p)?),
         RC_CHANNELS_OVERRIDE_DATA::ID => Inbound::RcOverride(de(p)?),
         _ => return Err(DecodeError::NotHandled),

@@ -3,7 +3,9 @@
 //! [`outbound`]), the dispatcher ([`router`], re-exported here as [`Link`]), commands
 //! ([`command`]), the mission protocol ([`mission`]), obstacle batches ([`obstacles`]),
 //! parameters ([`params`]), telemetry streams ([`telemetry`]) and the pilot input over MAVLink
-//! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS).
+//! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
+//! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
+//! message intervals).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
 //! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
@@ -21,6 +23,7 @@ pub mod offboard;
 pub mod outbound;
 pub mod params;
 pub mod router;
+pub mod services;
 pub mod telemetry;
 
 pub use router::*;

@@ -9,11 +9,17 @@ use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
+#[allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
+use crate::link::dialect::{
+    GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, PING_DATA,
+    SYSTEM_TIME_DATA,
+};
 use mavlink_core::MAVLinkV2MessageRaw;
 
 use crate::link::framing::FrameWriter;
 
 /// A message to send.
+#[allow(deprecated)] // PING
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outbound {
     /// HEARTBEAT.
@@ -54,8 +60,21 @@ pub enum Outbound {
     AutopilotVersion(AUTOPILOT_VERSION_DATA),
     /// TIMESYNC answer.
     Timesync(TIMESYNC_DATA),
+    /// SYSTEM_TIME (see [`crate::link::services`]).
+    SystemTime(SYSTEM_TIME_DATA),
+    /// GLOBAL_POSITION_INT (local position around the fixed home).
+    GlobalPositionInt(GLOBAL_POSITION_INT_DATA),
+    /// MISSION_CURRENT.
+    MissionCurrent(MISSION_CURRENT_DATA),
+    /// HOME_POSITION.
+    HomePosition(HOME_POSITION_DATA),
+    /// PING answer.
+    Ping(PING_DATA),
+    /// MESSAGE_INTERVAL (answer to MAV_CMD_GET_MESSAGE_INTERVAL).
+    MessageInterval(MESSAGE_INTERVAL_DATA),
 }
 
+#[allow(deprecated)] // PING
 impl Outbound {
     /// Encodes the message as the next frame of `writer`.
     pub fn encode(&self, writer: &mut FrameWriter) -> MAVLinkV2MessageRaw {
@@ -79,6 +98,12 @@ impl Outbound {
             Outbound::ExtendedSysState(m) => writer.encode(m),
             Outbound::AutopilotVersion(m) => writer.encode(m),
             Outbound::Timesync(m) => writer.encode(m),
+            Outbound::SystemTime(m) => writer.encode(m),
+            Outbound::GlobalPositionInt(m) => writer.encode(m),
+            Outbound::MissionCurrent(m) => writer.encode(m),
+            Outbound::HomePosition(m) => writer.encode(m),
+            Outbound::Ping(m) => writer.encode(m),
+            Outbound::MessageInterval(m) => writer.encode(m),
         }
     }
 }

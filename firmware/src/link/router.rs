@@ -14,7 +14,10 @@
 //! | COMMAND_LONG / COMMAND_INT | arm / disarm / takeoff / land / mission start / hold, see [`crate::link::command`]; REQUEST_MESSAGE(AUTOPILOT_VERSION) and REQUEST_AUTOPILOT_CAPABILITIES → ACK + AUTOPILOT_VERSION |
 //! | PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST | parameters, see [`crate::link::params`] |
 //! | TIMESYNC | a request (tc1 = 0) is answered with tc1 = firmware time, ns, ts1 echoed |
-//! | PING | not handled (deprecated by MAVLink in favour of TIMESYNC) |
+//! | PING (4) | a request (target 0/0) is answered to the sender, see [`crate::link::services`] |
+//! | SET_MODE (11) | legacy mode change: executed as MAV_CMD_DO_SET_MODE (base_mode, custom_mode); no ACK (the next HEARTBEAT shows the mode) |
+//! | MISSION_SET_CURRENT (41) | answered with MISSION_CURRENT; jumping to another item is not supported (STATUSTEXT) |
+//! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | HEARTBEAT | marks the peer alive |
@@ -49,6 +52,7 @@ use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
 use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
 use crate::link::outbound::Outbound;
+use crate::link::services::{MissionProgress, Services};
 use crate::setup::SetupAck;
 
 /// Reply queue capacity.
@@ -130,6 +134,7 @@ struct Router {
     peer_seen: bool,
     /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
     param_stream: Option<u16>,
+    services: Services,
     manual: ManualControl,
 }
 
@@ -235,13 +240,38 @@ impl Router {
             crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
                 (MavResult::MAV_RESULT_ACCEPTED, true)
             }
+            crate::link::command::id::REQUEST_MESSAGE if self.services.request(cmd.param1) => {
+                (MavResult::MAV_RESULT_ACCEPTED, false)
+            }
             crate::link::command::id::REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
+            crate::link::command::id::SET_MESSAGE_INTERVAL => {
+                (self.services.set_interval(cmd.param1, cmd.param2), false)
+            }
+            crate::link::command::id::GET_MESSAGE_INTERVAL => {
+                let m = self.services.message_interval(cmd.param1);
+                self.reply(Outbound::CommandAck(crate::link::command::ack(
+                    cmd.command,
+                    MavResult::MAV_RESULT_ACCEPTED,
+                    sender,
+                )));
+                self.reply(Outbound::MessageInterval(m));
+                return;
+            }
             _ => (execute(cmd, now_us, ap), false),
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
         if version {
             self.reply(Outbound::AutopilotVersion(autopilot_version()));
         }
+    }
+
+    /// Waypoint being flown and waypoints of the accepted mission.
+    fn mission_progress<A: Autopilot>(&self, ap: &A) -> MissionProgress {
+        let total = self.mission.stored().len().min(usize::from(u16::MAX)) as u16;
+        // The waypoint being flown is not in the telemetry snapshot yet: 0.
+        let _ = ap;
+        let seq = 0;
+        MissionProgress { seq, total }
     }
 
     fn clear_mission<A: Autopilot>(&mut self, ap: &mut A) {
@@ -431,6 +461,42 @@ impl Router {
                 }
             }
             Inbound::CommandLong(m) => self.on_command(&m, (f.sys_id, f.comp_id), now_us, ap),
+            Inbound::Ping(m) => {
+                if let Some(r) = crate::link::services::ping_reply(&m, (f.sys_id, f.comp_id)) {
+                    self.reply(Outbound::Ping(r));
+                }
+            }
+            #[allow(deprecated)] // legacy SET_MODE: still sent by ground stations
+            Inbound::SetMode(m) => {
+                if self.for_me(m.target_system, 0) {
+                    let c = COMMAND_LONG_DATA {
+                        command: crate::link::command::id::DO_SET_MODE,
+                        param1: f32::from(m.base_mode),
+                        param2: m.custom_mode as f32,
+                        ..Default::default()
+                    };
+                    let _ = execute(&c, now_us, ap);
+                }
+            }
+            #[allow(deprecated)] // MISSION_SET_CURRENT: still sent by ground stations
+            Inbound::MissionSetCurrent(m) => {
+                if self.for_me(m.target_system, m.target_component) {
+                    let now = self.mission_progress(ap);
+                    if m.seq != now.seq {
+                        let t = crate::link::telemetry::status_text(
+                            crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+                            "MISSION_SET_CURRENT not supported",
+                            "",
+                        );
+                        self.reply(Outbound::StatusText(t));
+                    }
+                    self.reply(Outbound::MissionCurrent(crate::link::dialect::MISSION_CURRENT_DATA {
+                        seq: now.seq,
+                        total: now.total,
+                        ..Default::default()
+                    }));
+                }
+            }
             Inbound::CommandInt(m) => {
                 self.on_command(&command_long_of_int(&m), (f.sys_id, f.comp_id), now_us, ap)
             }
@@ -507,6 +573,7 @@ impl Link {
                 },
                 peer_seen: false,
                 param_stream: None,
+                services: Services::new(),
                 manual: ManualControl::new(),
             },
         }
@@ -538,6 +605,12 @@ impl Link {
         }
         self.router.stream_params(ap);
         self.router.obstacles.poll(now_us, ap);
+        let free = REPLY_QUEUE_LEN - self.router.replies.len();
+        let progress = self.router.mission_progress(ap);
+        let r = &mut self.router;
+        r.services.poll(now_us, &ap.telemetry(), progress, free.saturating_sub(REPLY_RESERVE), |m| {
+            let _ = r.replies.push_back(m);
+        });
         // The setup services' texts (calibration progress, refusals), at most a queue's worth.
         for _ in 0..crate::setup::TEXT_QUEUE_LEN {
             let Some(t) = ap.setup_text() else { break };
