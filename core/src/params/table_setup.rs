@@ -1,0 +1,178 @@
+//! Part of [`super::TABLE`]: the set-up parameters: battery measurement and thresholds, accelerometer calibration, level trim, board rotation (issue 22).
+//!
+//! Entries in MAVLink `param_index` order; [`super`] concatenates the parts. May import
+//! what [`super`] may.
+
+use super::*;
+
+/// Entries of this part.
+pub(super) const N: usize = 16;
+
+/// This part's entries, in `param_index` order.
+pub(super) const TABLE: [Param; N] = [
+    num(
+        "BAT_LOW_V",
+        "Battery",
+        "V",
+        (3.0, 3.5, 4.2),
+        2,
+        "Low battery: resting voltage per cell below this (return)",
+        |p| p.battery.low_cell_v,
+        |p, v| p.battery.low_cell_v = v,
+    ),
+    num(
+        "BAT_CRIT_V",
+        "Battery",
+        "V",
+        (2.8, 3.3, 4.0),
+        2,
+        "Critical battery: resting voltage per cell below this (land)",
+        |p| p.battery.critical_cell_v,
+        |p, v| p.battery.critical_cell_v = v,
+    ),
+    num(
+        "BAT_R_INT",
+        "Battery",
+        "Ohm",
+        (0.0, 0.02, 1.0),
+        3,
+        "Pack internal resistance for the sag compensation (with a current sensor)",
+        |p| p.battery.r_internal_ohm,
+        |p, v| p.battery.r_internal_ohm = v,
+    ),
+    num(
+        "BAT_V_DIV",
+        "Battery",
+        "",
+        (1.0, 11.0, 100.0),
+        2,
+        "VBAT divider: pack volts per ADC volt (MATEKF405 11)",
+        |p| p.battery.v_divider,
+        |p, v| p.battery.v_divider = v,
+    ),
+    num(
+        "BAT_A_PER_V",
+        "Battery",
+        "A/V",
+        (0.0, 0.0, 500.0),
+        1,
+        "Current sensor scale, A per ADC volt (0 = no current sensor)",
+        |p| p.battery.amps_per_volt,
+        |p, v| p.battery.amps_per_volt = v,
+    ),
+    Param {
+        name: "BAT_CELLS",
+        key: None,
+        unit: "",
+        default: 0.0,
+        min: 0.0,
+        max: crate::battery::MAX_CELLS as f32,
+        integer: true,
+        decimals: 0,
+        group: "Battery",
+        description: host_text("Cells in series (0 = detect at power-up, disarmed)"),
+        label: None,
+        get: |p| f32::from(p.battery.cells),
+        write: |p, v| p.battery.cells = v as u8,
+    },
+    Param {
+        name: "BAT_ENABLE",
+        key: None,
+        unit: "",
+        default: 1.0,
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+        decimals: 0,
+        group: "Battery",
+        description: host_text("Battery measured (0: no battery failsafe)"),
+        label: Some(|c| match c {
+            0 => Some("off"),
+            1 => Some("on"),
+            _ => None,
+        }),
+        get: |p| f32::from(u8::from(p.battery.enabled)),
+        write: |p, v| p.battery.enabled = v != 0.0,
+    },
+    acc(
+        "CAL_ACC0_XOFF",
+        false,
+        "Accelerometer offset, sensor x",
+        |p| p.sensors.accel_offset.x,
+        |p, v| p.sensors.accel_offset.x = v,
+    ),
+    acc(
+        "CAL_ACC0_YOFF",
+        false,
+        "Accelerometer offset, sensor y",
+        |p| p.sensors.accel_offset.y,
+        |p, v| p.sensors.accel_offset.y = v,
+    ),
+    acc(
+        "CAL_ACC0_ZOFF",
+        false,
+        "Accelerometer offset, sensor z",
+        |p| p.sensors.accel_offset.z,
+        |p, v| p.sensors.accel_offset.z = v,
+    ),
+    acc(
+        "CAL_ACC0_XSCALE",
+        true,
+        "Accelerometer scale, sensor x",
+        |p| p.sensors.accel_scale.x,
+        |p, v| p.sensors.accel_scale.x = v,
+    ),
+    acc(
+        "CAL_ACC0_YSCALE",
+        true,
+        "Accelerometer scale, sensor y",
+        |p| p.sensors.accel_scale.y,
+        |p, v| p.sensors.accel_scale.y = v,
+    ),
+    acc(
+        "CAL_ACC0_ZSCALE",
+        true,
+        "Accelerometer scale, sensor z",
+        |p| p.sensors.accel_scale.z,
+        |p, v| p.sensors.accel_scale.z = v,
+    ),
+    num(
+        "CAL_TRIM_ROLL",
+        "Sensors",
+        "rad",
+        (-crate::calibration::TRIM_MAX, 0.0, crate::calibration::TRIM_MAX),
+        4,
+        "Level-horizon trim, roll",
+        |p| p.sensors.trim_roll,
+        |p, v| p.sensors.trim_roll = v,
+    ),
+    num(
+        "CAL_TRIM_PITCH",
+        "Sensors",
+        "rad",
+        (-crate::calibration::TRIM_MAX, 0.0, crate::calibration::TRIM_MAX),
+        4,
+        "Level-horizon trim, pitch",
+        |p| p.sensors.trim_pitch,
+        |p, v| p.sensors.trim_pitch = v,
+    ),
+    Param {
+        name: "SENS_BOARD_ROT",
+        key: None,
+        unit: "",
+        default: 0.0,
+        min: 0.0,
+        max: crate::calibration::BoardRotation::MAX_CODE as f32,
+        integer: true,
+        decimals: 0,
+        group: "Sensors",
+        description: host_text("IMU orientation on the board (PX4 SENS_BOARD_ROT codes 0-15)"),
+        label: Some(crate::calibration::BoardRotation::name),
+        get: |p| f32::from(p.sensors.board_rotation.code()),
+        write: |p, v| {
+            if let Some(r) = crate::calibration::BoardRotation::from_code(v as u8) {
+                p.sensors.board_rotation = r;
+            }
+        },
+    },
+];
