@@ -642,6 +642,37 @@ mod tests {
         assert!(heading(None).abs() < 1e-3, "{}", heading(None));
     }
 
+    /// SET_POSITION_TARGET_LOCAL_NED through the link reaches the cascade: with a fresh
+    /// velocity setpoint the Offboard mode can be selected and is flown; a refused type_mask
+    /// (x, y ignored only) is counted as ignored.
+    #[test]
+    fn offboard_setpoints_through_the_link_select_and_fly_offboard() {
+        use crate::app::autopilot::FlightMode;
+        use crate::link::dialect::{PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA};
+        let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("defaults") };
+        let mut link = Link::new(1, FixClock::Message);
+        let mut host = FrameWriter::new(255, 190);
+        let sp = |t: u64, mask: u16| SET_POSITION_TARGET_LOCAL_NED_DATA {
+            time_boot_ms: (t / 1000) as u32,
+            vx: 0.5,
+            type_mask: PositionTargetTypemask::from_bits_truncate(mask),
+            coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            target_system: 1,
+            ..Default::default()
+        };
+        let t = 2_000_000;
+        assert_eq!(
+            ap.command(t, VehicleCommand::SetMode(FlightMode::Offboard)),
+            Err(CommandRejected::NotNow)
+        );
+        let ignored = link.stats().ignored;
+        link.push_bytes(host.encode(&sp(t, 0x0DFC)).raw_bytes(), t, &mut ap);
+        assert_eq!(link.stats().ignored, ignored + 1, "partial mask refused");
+        link.push_bytes(host.encode(&sp(t, 0x0DC7)).raw_bytes(), t, &mut ap);
+        assert_eq!(ap.command(t, VehicleCommand::SetMode(FlightMode::Offboard)), Ok(()));
+        assert_eq!(ap.telemetry().mode, FlightMode::Offboard);
+    }
+
     /// The lockstep path with the real cascade on a vehicle at rest: arm is accepted once the
     /// position and obstacle data are fresh, the motors then idle, and a takeoff command spins
     /// them up (the cascade is the one the firmware flies).

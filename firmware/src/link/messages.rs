@@ -17,7 +17,9 @@ use crate::link::dialect::{
     MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
-use crate::link::dialect::{MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA};
+use crate::link::dialect::{
+    MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
+};
 use crate::link::dialect::{MISSION_SET_CURRENT_DATA, PING_DATA, SET_MODE_DATA};
 use mavlink_core::{MavlinkVersion, Message, MessageData};
 
@@ -75,6 +77,8 @@ pub enum Inbound {
     ManualControl(MANUAL_CONTROL_DATA),
     /// RC channel values from the ground station, see [`crate::link::manual_control`].
     RcOverride(RC_CHANNELS_OVERRIDE_DATA),
+    /// Offboard setpoint from a companion computer, see [`crate::link::offboard`].
+    SetPositionTarget(SET_POSITION_TARGET_LOCAL_NED_DATA),
 }
 
 /// Why a CRC-valid frame could not be decoded.
@@ -113,6 +117,7 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         MISSION_SET_CURRENT_DATA::ID => MISSION_SET_CURRENT_DATA::EXTRA_CRC,
         MANUAL_CONTROL_DATA::ID => MANUAL_CONTROL_DATA::EXTRA_CRC,
         RC_CHANNELS_OVERRIDE_DATA::ID => RC_CHANNELS_OVERRIDE_DATA::EXTRA_CRC,
+        SET_POSITION_TARGET_LOCAL_NED_DATA::ID => SET_POSITION_TARGET_LOCAL_NED_DATA::EXTRA_CRC,
         _ => return None,
     })
 }
@@ -166,6 +171,7 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         MISSION_SET_CURRENT_DATA::ID => Inbound::MissionSetCurrent(de(p)?),
         MANUAL_CONTROL_DATA::ID => Inbound::ManualControl(de(p)?),
         RC_CHANNELS_OVERRIDE_DATA::ID => Inbound::RcOverride(de(p)?),
+        SET_POSITION_TARGET_LOCAL_NED_DATA::ID => Inbound::SetPositionTarget(de(p)?),
         _ => return Err(DecodeError::NotHandled),
     })
 }

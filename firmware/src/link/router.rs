@@ -20,6 +20,7 @@
 //! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
+//! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
 //! | HEARTBEAT | marks the peer alive |
 //!
 //! **Addressing**: messages with target fields are handled only when `target_system` is 0 or
@@ -421,6 +422,14 @@ impl Router {
                     self.manual.on_manual_control(&m, (self.own_system, AUTOPILOT_COMPONENT_ID), now_us)
                 {
                     ap.set_rc(&rc);
+                }
+            }
+            Inbound::SetPositionTarget(m) => {
+                if self.for_me(m.target_system, m.target_component) {
+                    match crate::link::offboard::decode(&m, now_us) {
+                        Ok(sp) => ap.set_offboard(&sp),
+                        Err(_) => self.stats.ignored = self.stats.ignored.saturating_add(1),
+                    }
                 }
             }
             Inbound::RcOverride(m) => {
