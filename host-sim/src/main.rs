@@ -50,6 +50,7 @@ enum Command {
     Params(cli::params::ParamsArgs),
     /// Onboard flight logs over MAVLink: `parapet log list --port P`, `parapet log pull --port P
     /// --out FILE` (ULog; P = udpin:HOST:PORT, udp:HOST:PORT or a serial device).
+    #[command(after_help = cli::log::help())]
     Log(cli::log::LogArgs),
     /// Monte Carlo campaign: N flights over scenes with drawn wind, vehicle mismatch, faults
     /// and controller parameters; campaign.csv, summary.json, plots, the worst flights'

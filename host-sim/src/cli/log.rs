@@ -46,6 +46,27 @@ const OWN: (u8, u8) = (255, 190);
 /// Bytes of one LOG_DATA.
 const CHUNK: u32 = 90;
 
+/// `parapet log --help` after the options: examples and exit codes.
+pub fn help() -> String {
+    "\
+Examples:
+  parapet log list --port /dev/ttyUSB0 --baud 921600           the logs of a vehicle on a serial port
+  parapet log pull --port /dev/ttyUSB0 --baud 921600 --out flight.ulg      the newest log
+  parapet log list --port udpin:0.0.0.0:14550                  listen where the vehicle sends (parapet pil --gcs)
+  parapet log pull --port udp:192.168.4.1:14550 --id 0 --out first.ulg --force
+
+Limits: --timeout 0.1-600 s (default 10) per wait; a download re-requests missing parts and
+gives up after 20 requests in a row that brought nothing.
+
+Exit codes:
+  0    success
+  1    the vehicle did not answer (no HEARTBEAT, no LOG_ENTRY) or a log did not arrive complete;
+       also an I/O error writing --out
+  2    bad input: --port, --baud, --timeout, --id or --out is named with the value and what is allowed
+       (an existing --out without --force)"
+        .into()
+}
+
 /// `parapet log …`.
 #[derive(Debug, clap::Args)]
 pub struct LogArgs {
