@@ -474,8 +474,12 @@ fn do_set_mode_switches_between_the_custom_modes_of_the_heartbeat() {
     // Without the custom-mode flag, or a mode that cannot be commanded: denied, no change.
     let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, [0.0, 4.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
-    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Failsafe), 1);
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, [1.0, 9.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
+    // p2 = 6 (once the failsafe phase code) is PX4's OFFBOARD main mode: refused for now
+    // without a fresh setpoint stream (issue 21).
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Failsafe), 1);
+    assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_TEMPORARILY_REJECTED);
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
 }

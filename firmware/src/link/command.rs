@@ -7,7 +7,7 @@
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
-//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2 = custom mode (the HEARTBEAT's phase code): 3 hover (hold the current position), 4 mission (start it), 5 landing | as OVERRIDE_GOTO hold / MISSION_START / NAV_LAND; other custom modes or without the custom flag: DENIED |
+//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2 = custom mode (the HEARTBEAT's phase code): 3 hover (hold the current position), 4 mission (start it), 5 landing, each with p3 = 0; any other p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/3 Hold, 4/4 Mission, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual) | as OVERRIDE_GOTO hold / MISSION_START / NAV_LAND, or `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes or without the custom flag: DENIED |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
 //! component are ignored (no answer); target 0 is broadcast. The COMMAND_ACK is addressed to the
@@ -19,7 +19,7 @@
 
 use crate::link::dialect::{MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA};
 
-use crate::app::autopilot::{Autopilot, CommandRejected, FlightPhase, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
@@ -89,6 +89,15 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             // p1 = MAV_MODE base flags, must carry CUSTOM_MODE_ENABLED (1); p2 = custom mode =
             // the phase code of the HEARTBEAT (parapet_core::wire::codes::FlightPhase).
             let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
+            // PX4 main/sub modes (p2, p3; issue 21): every pair but the legacy phase codes
+            // 3/4/5 with sub mode 0, which keep their meaning (hold, mission, land).
+            let whole = |x: f32| x.is_finite() && (0.0..=255.0).contains(&x) && x.fract() == 0.0;
+            let legacy = cmd.param3 == 0.0 && matches!(cmd.param2 as u32, 3..=5);
+            if custom && !legacy && whole(cmd.param2) && whole(cmd.param3) {
+                return FlightMode::from_px4(cmd.param2 as u8, cmd.param3 as u8)
+                    .map(VehicleCommand::SetMode)
+                    .ok_or(MavResult::MAV_RESULT_DENIED);
+            }
             match (custom, cmd.param2) {
                 (true, m) if m == FlightPhase::Hover.code() as f32 => {
                     Ok(VehicleCommand::Hold { target_ned: None })
@@ -257,10 +266,23 @@ mod tests {
             decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 3.0, 0.0)),
             Ok(VehicleCommand::Hold { target_ned: None })
         );
-        assert_eq!(
-            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 6.0, 0.0)),
-            Err(MavResult::MAV_RESULT_DENIED)
-        );
+        // PX4 main/sub modes (p2/p3) select flight modes; legacy 3/4/5 with sub 0 keep theirs.
+        let mode = |main: f32, sub: f32| {
+            let mut c = cmd(MAV_CMD_DO_SET_MODE, 1.0, main, 0.0);
+            c.param3 = sub;
+            decode_command(&c)
+        };
+        assert_eq!(mode(6.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Offboard)));
+        assert_eq!(mode(1.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Manual)));
+        assert_eq!(mode(2.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Position)));
+        assert_eq!(mode(4.0, 3.0), Ok(VehicleCommand::SetMode(FlightMode::Hold)));
+        assert_eq!(mode(4.0, 4.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
+        assert_eq!(mode(4.0, 5.0), Ok(VehicleCommand::SetMode(FlightMode::Return)));
+        assert_eq!(mode(4.0, 6.0), Ok(VehicleCommand::SetMode(FlightMode::Land)));
+        assert_eq!(mode(5.0, 1.0), Err(MavResult::MAV_RESULT_DENIED), "ACRO (5/0 is the legacy landing)");
+        assert_eq!(mode(9.0, 0.0), Err(MavResult::MAV_RESULT_DENIED));
+        assert_eq!(mode(f32::NAN, 0.0), Err(MavResult::MAV_RESULT_DENIED));
+        assert_eq!(mode(4.0, 0.0), Ok(VehicleCommand::StartMission), "legacy");
         assert_eq!(
             decode_command(&cmd(MAV_CMD_DO_SET_SERVO, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_UNSUPPORTED)
