@@ -13,6 +13,7 @@
 //! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
 //! | [`setup`] | PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST: the calibration runs, the motor test, the storage requests and their STATUSTEXTs | [`storage`], `parapet_core` |
 //! | [`storage`] | parameter storage in flash (sequential-storage map, version record, debounced saves), the RAM NOR flash | `parapet_core` |
+//! | [`vehicle`] | a cascade with the setup services around it (IMU correction, calibration, motor test, storage steps) | [`app`], [`setup`], [`storage`], `parapet_core` |
 //! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
 //! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |
 //!
@@ -35,6 +36,7 @@ pub mod log;
 pub mod pil;
 pub mod setup;
 pub mod storage;
+pub mod vehicle;
 
 #[cfg(test)]
 extern crate std;

@@ -138,6 +138,11 @@ impl Setup {
         self.say(t);
     }
 
+    /// Queue a STATUSTEXT of the caller's (storage outcomes).
+    pub fn say_text(&mut self, s: &str) {
+        self.say(text(s));
+    }
+
     /// Next STATUSTEXT for the link.
     pub fn pop_text(&mut self) -> Option<Text> {
         self.texts.pop_front()
