@@ -20,6 +20,7 @@ pub mod log;
 pub mod output;
 pub mod params;
 pub mod pilot;
+pub mod report_out;
 pub mod scene;
 pub mod sitl;
 
@@ -39,10 +40,11 @@ use crate::flight::runner::RunConfig;
 use crate::input::{limits, num, InputError};
 use crate::plan::pathfile::PathFile;
 use crate::plan::{plan, PlanProblem, PlannedPath, PlannerParams};
-use crate::report::{report_files, summary_table, write_report, RunRecord};
+use crate::report::summary_table;
 use crate::sim::plant::VehicleParams;
 use crate::sim::replay::{parse_rotor_csv, replay, ReplayOptions};
 use crate::world::scene::{to_f64, Scene};
+use report_out::{check_report_dir, write_run_report};
 
 /// Exit codes of every `parapet` command, for `--help` (`after_help`) of the top
 /// level and of each subcommand. Every command returns these and only these.
@@ -598,16 +600,7 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
     } else {
         with_progress(cfg.duration, |p| run(&scene, &cfg, p))?
     };
-    let rec = RunRecord {
-        scene: &scene,
-        path: &cfg.path,
-        samples: &result.samples,
-        summary: &result.summary,
-        ranges: &result.ranges,
-        range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
-    };
-    let (_, warnings) = write_report(&dir, &rec)?;
-    write_flight_log(&dir, &scene, &cfg, &result.samples, "run")?;
+    let warnings = write_run_report(&dir, &scene, &cfg, &result, "run")?;
     if let (Some((script, mode)), Some(r)) = (&piloted, &pilot_run) {
         pilot::write_outputs(&dir, script, *mode, r)?;
     }
@@ -615,50 +608,6 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
         eprintln!("warning: {w}");
     }
     out(&format!("{}  report: {}\n", summary_table(&result.summary), dir.display()))
-}
-
-/// `flight.ulg` (ULog, `crate::report::ulog`) of a run flown by `stack` (`run` / `pil`) in `dir`.
-fn write_flight_log(
-    dir: &Path,
-    scene: &Scene,
-    cfg: &RunConfig,
-    samples: &[crate::report::Sample],
-    stack: &str,
-) -> Result<(), CliError> {
-    let params = crate::flight::runner::controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
-    let infos = [("parapet_stack", stack.to_string()), ("parapet_scene", scene.name.clone())];
-    crate::report::ulog::write_flight_ulog(
-        &dir.join(crate::report::ulog::FLIGHT_LOG),
-        samples,
-        &params,
-        &infos,
-        crate::flight::stack::clock_us,
-    )?;
-    Ok(())
-}
-
-/// The report directory `dir` of `run` / `pil`: not an existing file, and none
-/// of the report's files is the scene or the path file.
-fn check_report_dir(
-    dir: &Path,
-    scene: &Scene,
-    path: Option<&Path>,
-    disturbances: Option<&Path>,
-) -> Result<(), CliError> {
-    if dir.is_file() {
-        return Err(InputError::option("out", "is an existing file, not a directory")
-            .value(dir.display())
-            .allowed("a directory (created if missing)")
-            .into());
-    }
-    let mut inputs: Vec<(&str, &Path)> = vec![("scene file", Path::new(&scene.source))];
-    if let Some(p) = path {
-        inputs.push(("path file", p));
-    }
-    if let Some(p) = disturbances {
-        inputs.push(("disturbances file", p));
-    }
-    refuse_overwrite("out", &report_files(dir), &inputs)
 }
 
 pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
@@ -695,16 +644,7 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     let (result, fig) =
         with_progress(cfg.duration, |p| sitl::run_pil_bridged(&scene, &cfg, opts, bridge.clone(), p))?;
     let sitl_note = sitl::finish(&bridge, &dir)?;
-    let rec = RunRecord {
-        scene: &scene,
-        path: &cfg.path,
-        samples: &result.samples,
-        summary: &result.summary,
-        ranges: &result.ranges,
-        range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
-    };
-    let (_, warnings) = write_report(&dir, &rec)?;
-    write_flight_log(&dir, &scene, &cfg, &result.samples, "pil")?;
+    let warnings = write_run_report(&dir, &scene, &cfg, &result, "pil")?;
     add_figures_to_summary(&dir, &fig)?;
     for w in warnings {
         eprintln!("warning: {w}");
