@@ -91,7 +91,7 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
             // PX4 main/sub modes (p2, p3; issue 21): every pair but the legacy phase codes
             // 3/4/5 with sub mode 0, which keep their meaning (hold, mission, land).
-            let whole = |x: f32| x.is_finite() && (0.0..=255.0).contains(&x) && x.fract() == 0.0;
+            let whole = |x: f32| (0.0..=255.0).contains(&x) && f32::from(x as u8) == x;
             let legacy = cmd.param3 == 0.0 && matches!(cmd.param2 as u32, 3..=5);
             if custom && !legacy && whole(cmd.param2) && whole(cmd.param3) {
                 return FlightMode::from_px4(cmd.param2 as u8, cmd.param3 as u8)
