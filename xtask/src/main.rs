@@ -20,7 +20,7 @@
 //!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
 //! * `cargo xtask venv` — only the Python venv of the ground-station client tests (`venv.rs`).
 //! * `cargo xtask params [--out FILE]` — the parameter table as ground-station metadata JSON
-//!   (see `params.rs`).
+//!   (see `core/src/params/`).
 //! * `cargo xtask bench [--long]` — run every criterion benchmark (short
 //!   measurement times unless `--long`) and print one summary table (see `bench.rs`).
 //!
