@@ -7,7 +7,7 @@
 //! `out/params/parameters.json`.
 //!
 //! Every value on the wire is MAV_PARAM_TYPE_REAL32, so every entry is `"Float"`;
-//! codes and flags carry `"values"` (`{"value", "description"}` per allowed code).
+//! named codes and flags carry `"values"` (`{"value", "description"}` per allowed code).
 //! Numbers are the table's `f32` values at their shortest decimal (1.4, not
 //! 1.399999976158142). Owns the JSON layout only; may import `parapet-core`.
 
@@ -100,7 +100,9 @@ mod tests {
             assert_eq!(e["units"], p.unit);
             assert_eq!(e["group"], p.group);
             assert!(e["shortDesc"].as_str().is_some_and(|s| !s.is_empty()));
-            assert_eq!(e["values"].is_array(), p.integer, "{}", p.name);
+            // Named codes list their values; whole-number counts (RC channels, cells) do not.
+            assert_eq!(e["values"].is_array(), p.label.is_some(), "{}", p.name);
+            assert!(p.label.is_none() || p.integer, "{}: a labelled code must be integral", p.name);
         }
         // Shortest decimals, and the codes named.
         let mu = list.iter().find(|e| e["name"] == "CBF_MU").unwrap();
