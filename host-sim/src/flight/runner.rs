@@ -225,17 +225,8 @@ pub fn controller_params(
             ..d.thrust
         },
         waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
-        // With a simulated pack the estimator is told its cells and resistance (BAT_CELLS,
-        // BAT_R_INT), as on a configured vehicle: the run starts armed, so there is no
-        // disarmed power-up to detect the cell count from.
-        battery: match &cfg.battery {
-            Some(b) => parapet_core::battery::BatteryParams {
-                cells: b.cells,
-                r_internal_ohm: b.r_internal_ohm as f32,
-                ..d.battery
-            },
-            None => d.battery,
-        },
+        // A simulated pack's cells and resistance (BatteryModelParams::estimator_params).
+        battery: cfg.battery.as_ref().map_or(d.battery, |b| b.estimator_params(d.battery)),
         ..d
     }
 }
@@ -578,13 +569,12 @@ pub fn run_with(
     let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
     plant.set_hover(scene.start, 0.0);
     let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
-    let mut battery = match &cfg.battery {
-        Some(b) => Some(
-            crate::sim::battery::BatteryModel::new(b.clone(), cfg.seed, "[battery]")
-                .map_err(|e| anyhow!("{e}"))?,
-        ),
-        None => None,
-    };
+    let mut battery = cfg
+        .battery
+        .as_ref()
+        .map(|b| crate::sim::battery::BatteryModel::new(b.clone(), cfg.seed, "[battery]"))
+        .transpose()
+        .map_err(|e| anyhow!("{e}"))?;
     let mut live = crate::sim::disturbance::Live::new(&cfg.disturbances, cfg.seed);
     // Start-up: the vehicle has been hovering at the start; prime the position
     // measurement's latency buffer with that hover, then arm and start.

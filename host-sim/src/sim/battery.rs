@@ -70,6 +70,20 @@ impl Default for BatteryModelParams {
 }
 
 impl BatteryModelParams {
+    /// The controller's battery estimator parameters `d` told this pack's cells and internal
+    /// resistance (BAT_CELLS, BAT_R_INT), as on a configured vehicle: a run starts armed, so
+    /// there is no disarmed power-up to detect the cell count from.
+    pub fn estimator_params(
+        &self,
+        d: parapet_core::battery::BatteryParams,
+    ) -> parapet_core::battery::BatteryParams {
+        parapet_core::battery::BatteryParams {
+            cells: self.cells,
+            r_internal_ohm: self.r_internal_ohm as f32,
+            ..d
+        }
+    }
+
     /// Every field in its range; the error names `origin` (the scene file or option), the
     /// `[battery]` table, the field, value and range.
     pub fn validate(&self, origin: &str) -> Result<(), InputError> {
