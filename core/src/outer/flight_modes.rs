@@ -89,6 +89,7 @@ impl OuterLoop {
     /// Take one battery measurement.
     pub fn set_battery(&mut self, b: &BatteryState) {
         self.modes.on_battery(b);
+        self.telemetry.battery = Some(*b);
     }
 
     /// Select `mode` (MAVLink DO_SET_MODE, the host API). Refused when the mode cannot be

@@ -171,6 +171,9 @@ pub struct OuterTelemetry {
     pub rc_rejected: u32,
     /// Offboard setpoints rejected (NaN/Inf, out of range, empty) since start.
     pub offboard_rejected: u32,
+    /// The last battery measurement taken ([`OuterLoop::set_battery`]; `None` before the
+    /// first): what a ground station's BATTERY_STATUS / SYS_STATUS report.
+    pub battery: Option<crate::battery::BatteryState>,
 }
 
 /// Why the outer loop could not be built.
@@ -247,6 +250,7 @@ impl OuterLoop {
             filter_interventions: [0; FlightMode::COUNT],
             rc_rejected: 0,
             offboard_rejected: 0,
+            battery: None,
         };
         let plant = (params.filter_variant != FilterVariant::Paper)
             .then(|| PlantAware::new(params.robust, params.lag_tau));
