@@ -172,6 +172,13 @@ pub struct TelemetrySnapshot {
     pub mode_reason: Option<&'static str>,
     /// The safety filter changed the nominal command in the last outer step (never in Manual).
     pub filter_active: bool,
+    /// Mission item being flown (MISSION_CURRENT `seq`): the path follower's segment, which ends
+    /// at waypoint `mission_seq` (0 before a mission).
+    pub mission_seq: u16,
+    /// The path follower reached the mission's last waypoint (MISSION_ITEM_REACHED of it).
+    pub mission_done: bool,
+    /// The last battery measurement the cascade took (BATTERY_STATUS, SYS_STATUS), if any.
+    pub battery: Option<BatteryState>,
 }
 
 impl TelemetrySnapshot {
@@ -190,6 +197,9 @@ impl TelemetrySnapshot {
         mode_changes: 0,
         mode_reason: None,
         filter_active: false,
+        mission_seq: 0,
+        mission_done: false,
+        battery: None,
     };
 }
 

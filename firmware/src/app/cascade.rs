@@ -109,6 +109,9 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         mode_changes: t.mode_changes,
         mode_reason: t.last_mode_change.map(|m| m.reason.as_str()),
         filter_active: t.filter_active,
+        mission_seq: t.progress.segment,
+        mission_done: t.progress.done,
+        battery: t.battery,
     }
 }
 
