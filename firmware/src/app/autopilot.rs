@@ -179,6 +179,8 @@ pub struct TelemetrySnapshot {
     pub mission_done: bool,
     /// The last battery measurement the cascade took (BATTERY_STATUS, SYS_STATUS), if any.
     pub battery: Option<BatteryState>,
+    /// Attitude and collective thrust setpoint of the last outer step (ATTITUDE_TARGET).
+    pub attitude_sp: parapet_core::msg::AttitudeSetpoint,
 }
 
 impl TelemetrySnapshot {
@@ -200,6 +202,13 @@ impl TelemetrySnapshot {
         mission_seq: 0,
         mission_done: false,
         battery: None,
+        attitude_sp: parapet_core::msg::AttitudeSetpoint {
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            thrust: 0.0,
+            saturated: false,
+        },
     };
 }
 

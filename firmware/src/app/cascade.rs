@@ -112,6 +112,7 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         mission_seq: t.progress.segment,
         mission_done: t.progress.done,
         battery: t.battery,
+        attitude_sp: t.attitude_sp,
     }
 }
 
