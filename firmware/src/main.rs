@@ -39,7 +39,7 @@ mod firmware {
     use embassy_sync::signal::Signal;
     use embassy_time::{Duration, Instant, Ticker, Timer};
     use parapet_core::controller::ControllerParams;
-    use parapet_core::rc::map::{CrsfReceiver, RcFrame, SbusReceiver};
+    use parapet_core::rc::map::{CrsfReceiver, RcFrame, RcParams, SbusReceiver};
     use parapet_core::schedule::OuterSchedule;
     use parapet_core::Vec3;
     use parapet_firmware::app::autopilot::{ImuSample, MotorCommand, TelemetrySnapshot};
@@ -155,7 +155,7 @@ mod firmware {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn link"),
             }
-            match rc_task(board.rc_rx) {
+            match rc_task(board.rc_rx, params.rc) {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn rc receiver"),
             }
@@ -246,19 +246,26 @@ mod firmware {
     }
 
     /// The RC receiver ([`RC_RECEIVER`]): every decoded frame goes to the outer stage
-    /// (`MAILBOXES.rc`, latest wins), which maps it with the live `RC_*` parameters. UART errors
+    /// (`MAILBOXES.rc`, latest wins), which maps it with the live `RC_*` parameters; a frame with
+    /// the kill switch on also straight to the inner stage (`Mailboxes::deliver_rc`, mapped with
+    /// this task's copy of the parameters, `MAILBOXES.rc_params` after a rebuild). UART errors
     /// (noise, framing, overrun) restart the reception and are counted.
     #[embassy_executor::task]
-    async fn rc_task(mut rx: RingBufferedUartRx<'static>) {
+    async fn rc_task(mut rx: RingBufferedUartRx<'static>, mut rc: RcParams) {
         // A const match: only the chosen receiver's decoder is linked.
-        let publish = |f: RcFrame| MAILBOXES.rc.signal(f);
+        let mut publish = |f: RcFrame| {
+            if let Some(p) = MAILBOXES.rc_params.try_take() {
+                rc = p;
+            }
+            MAILBOXES.deliver_rc(f, &rc);
+        };
         let mut buf = [0u8; 64];
         match RC_RECEIVER {
             RcProtocol::Crsf => {
                 let mut r = CrsfReceiver::default();
                 loop {
                     match rx.read(&mut buf).await {
-                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), publish),
+                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), &mut publish),
                         Err(_) => {
                             RC_UART_ERRORS.fetch_add(1, Ordering::Relaxed);
                         }
@@ -269,7 +276,7 @@ mod firmware {
                 let mut r = SbusReceiver::default();
                 loop {
                     match rx.read(&mut buf).await {
-                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), publish),
+                        Ok(n) => r.push_frames(buf.get(..n).unwrap_or(&[]), now_us(), &mut publish),
                         Err(_) => {
                             RC_UART_ERRORS.fetch_add(1, Ordering::Relaxed);
                         }

@@ -309,6 +309,22 @@ fn stick_ok(x: f32, lo: f32, hi: f32) -> bool {
     x >= lo - STICK_TOLERANCE && x <= hi + STICK_TOLERANCE
 }
 
+/// Sticks the machine accepts (finite, within the range by at most the tolerance); any other
+/// frame is rejected whole, switches too.
+fn sticks_ok(rc: &RcInput) -> bool {
+    stick_ok(rc.roll, -1.0, 1.0)
+        && stick_ok(rc.pitch, -1.0, 1.0)
+        && stick_ok(rc.yaw, -1.0, 1.0)
+        && stick_ok(rc.throttle, 0.0, 1.0)
+}
+
+/// `true` when [`Modes::on_rc`] would act on `rc`'s kill switch (a frame it accepts, not a
+/// receiver failsafe or lost frame, kill on; the time order aside). A firmware checks this where
+/// the frame arrives and stops the motors at once, before the outer loop takes the frame.
+pub fn kill_requested(rc: &RcInput) -> bool {
+    rc.kill && sticks_ok(rc) && !rc.failsafe && rc.lost.is_none()
+}
+
 impl Modes {
     /// A machine in the default mode (Mission), no RC seen.
     pub fn new(params: ModeParams) -> Self {
@@ -404,11 +420,7 @@ impl Modes {
     /// Take one RC frame: rejects bad frames (counted, `None`), else stores it and returns
     /// what it asks for. A receiver failsafe frame asks for nothing (and is an RC loss).
     pub fn on_rc(&mut self, rc: &RcInput) -> Option<RcRequest> {
-        let sticks_ok = stick_ok(rc.roll, -1.0, 1.0)
-            && stick_ok(rc.pitch, -1.0, 1.0)
-            && stick_ok(rc.yaw, -1.0, 1.0)
-            && stick_ok(rc.throttle, 0.0, 1.0);
-        if !sticks_ok {
+        if !sticks_ok(rc) {
             self.rc_rejected = self.rc_rejected.saturating_add(1);
             return None;
         }
@@ -544,6 +556,29 @@ mod tests {
         RcInput { t_us, throttle: 0.5, link_quality: 100, ..RcInput::default() }
     }
     const AIR: FlightContext = FlightContext { airborne: true };
+
+    /// The firmware's early kill check says yes exactly for the frames whose kill the machine
+    /// acts on.
+    #[test]
+    fn kill_requested_matches_what_on_rc_acts_on() {
+        use crate::rc::RcLost;
+        let kill = RcInput { kill: true, ..rc(10) };
+        let cases = [
+            (kill, true),
+            (RcInput { kill: false, ..kill }, false),
+            (RcInput { roll: 1.04, ..kill }, true),
+            (RcInput { roll: 1.2, ..kill }, false),
+            (RcInput { throttle: f32::NAN, ..kill }, false),
+            (RcInput { failsafe: true, ..kill }, false),
+            (RcInput { lost: Some(RcLost::LowLinkQuality), ..kill }, false),
+        ];
+        for (i, (input, expected)) in cases.iter().enumerate() {
+            assert_eq!(kill_requested(input), *expected, "case {i}");
+            let mut m = Modes::new(ModeParams::default());
+            let acted = m.on_rc(input).is_some_and(|r| r.kill);
+            assert_eq!(acted, *expected, "case {i}: on_rc");
+        }
+    }
 
     #[test]
     fn names_codes_and_px4_modes_round_trip() {

@@ -30,7 +30,9 @@ use parapet_core::battery::BatteryState;
 use parapet_core::controller::{CommandError, ControllerParams, FlightController, GuidanceMode, ParamError};
 use parapet_core::failsafe::{FailsafeState, TransitionReason};
 use parapet_core::inner::InnerLoop;
-use parapet_core::msg::{ImuSample as CoreImuSample, PositionFix as CoreFix, StateEstimate};
+use parapet_core::msg::{
+    AttitudeCommand, ImuSample as CoreImuSample, MotorStage, PositionFix as CoreFix, StateEstimate,
+};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::outer::{OuterLoop, OuterTelemetry};
 use parapet_core::params;
@@ -160,18 +162,20 @@ impl OuterStage {
         }
     }
 
-    /// Takes `est` (already received from [`Mailboxes::estimate`]); publishes the command
-    /// when it changed. The snapshot follows with the next outer step.
+    /// Takes `est` (already received from [`Mailboxes::estimate`]) after the pending inputs;
+    /// publishes the command when it changed. The snapshot follows with the next outer step.
     pub fn take_estimate<M: RawMutex>(&mut self, est: StateEstimate, mb: &Mailboxes<M>) {
+        self.take_inputs(mb);
         self.estimate = est;
         if self.outer.on_estimate(&est) {
             mb.send_command(self.outer.command());
         }
-        self.take_inputs(mb);
     }
 
     /// Takes the latest RC frame (mapped with the flown `RC_*` parameters) and battery state;
-    /// publishes the command when it changed (the kill switch: Off at once).
+    /// publishes the command when it changed (the kill switch: Off at once). Every path that
+    /// publishes a command calls this first, so a kill the inner stage already acted on
+    /// ([`Mailboxes::kill`]) is never followed by a flying command.
     pub fn take_inputs<M: RawMutex>(&mut self, mb: &Mailboxes<M>) {
         if let Some(frame) = mb.rc.try_take() {
             if self.outer.set_rc(&frame.input(&self.flown.rc)) {
@@ -215,6 +219,7 @@ impl<M: RawMutex> OuterPort<'_, M> {
         let (outer, inner) = FlightController::new(p)?.into_loops();
         self.mb.commands.clear();
         self.mb.inner_params.signal(*inner.params());
+        self.mb.rc_params.signal(p.rc);
         self.mb.estimate.reset();
         let s = &mut *self.stage;
         s.outer = outer;
@@ -253,6 +258,7 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
     }
 
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected> {
+        self.stage.take_inputs(self.mb);
         let s = &mut *self.stage;
         let consistent = s.params_consistent();
         let o = &mut s.outer;
@@ -311,6 +317,7 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
     }
 
     fn set_rc(&mut self, rc: &RcInput) {
+        self.stage.take_inputs(self.mb);
         if self.stage.outer.set_rc(rc) {
             self.mb.send_command(self.stage.outer.command());
         }
@@ -351,7 +358,7 @@ impl InnerStage {
     }
 
     /// One inner step at `now_us` with `imu`: takes a rebuilt parameter set, the queued
-    /// commands and the latest aid from `mb`, runs, and publishes the estimate.
+    /// commands, the latest aid and a kill frame from `mb`, runs, and publishes the estimate.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, imu: &ImuSample, mb: &Mailboxes<M>) -> MotorCommand {
         if let Some(p) = mb.inner_params.try_take() {
             // Sent only for parameter sets the outer stage built a controller from.
@@ -367,6 +374,11 @@ impl InnerStage {
         }
         if let Some(aid) = mb.aid.try_take() {
             self.inner.set_aid(aid);
+        }
+        // After the queued commands: a kill frame stops the motors in this very step, whatever
+        // the outer stage queued before it took the frame (see `Mailboxes::kill`).
+        if mb.kill.try_take().is_some() {
+            self.inner.set_command(AttitudeCommand { stage: MotorStage::Off, ..AttitudeCommand::default() });
         }
         let out = self.inner.step(now_us, &CoreImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd });
         mb.estimate.signal(self.inner.estimate());
@@ -555,11 +567,13 @@ mod tests {
         MavCmd, MavFrame, MavResult, COMMAND_LONG_DATA, HIL_SENSOR_DATA, OBSTACLE_DISTANCE_3D_DATA,
         ODOMETRY_DATA,
     };
-    /// The kill switch through the receiver mailbox: the outer stage takes the frame when the
-    /// inner step's estimate wakes it, disarms, and the very next inner step outputs zero; a
+    /// The kill switch through the receiver mailbox (`Mailboxes::deliver_rc`, as the board's
+    /// receiver task): the frame delivered before inner step k stops the motors in step k itself
+    /// (0 steps; it was step k + 1, up to two inner periods after the frame, when the frame went
+    /// through the outer stage only), the outer stage then disarms and they stay off; a
     /// DO_SET_MODE-style mode command changes the flight mode (Position needs RC first).
     #[test]
-    fn kill_frame_stops_the_motors_on_the_next_inner_step_and_modes_switch() {
+    fn kill_frame_stops_the_motors_in_the_next_inner_step_and_modes_switch() {
         use crate::app::autopilot::FlightMode;
         use parapet_core::rc::map::RcFrame;
         use parapet_core::rc::{RawChannels, RcSource};
@@ -575,6 +589,7 @@ mod tests {
             RcFrame { raw, t_us, link_quality: 100, rssi_dbm: None, source: RcSource::Crsf }
         };
         let mut last = MotorCommand::OFF;
+        let mut stopped_at = None;
         for k in 0..3000u64 {
             let t = 1_000_000 + k * 1000;
             if k % 4 == 0 {
@@ -588,7 +603,7 @@ mod tests {
                 ap.update_obstacles(t, &[]);
             }
             if k % 10 == 0 {
-                ap.mb.rc.signal(frame(t, k >= 2500));
+                ap.mb.deliver_rc(frame(t, k >= 2500), &RcParams::default());
             }
             match k {
                 500 => assert_eq!(ap.command(t, VehicleCommand::Arm), Ok(())),
@@ -601,17 +616,28 @@ mod tests {
                 _ => {}
             }
             let m = ap.step_inner(t, &imu);
-            if k == 2501 {
+            if k == 2500 {
                 assert!(last.armed && last.throttle.iter().any(|&x| x > 0.0), "flying before the kill");
-                assert_eq!(m.throttle, [0.0; 4], "motors off on the inner step after the kill frame");
-                assert!(!m.armed);
+            }
+            if k >= 2500 && m.throttle == [0.0; 4] && stopped_at.is_none() {
+                stopped_at = Some(k);
+            }
+            if stopped_at.is_some() {
+                assert_eq!(m.throttle, [0.0; 4], "step {k}: motors on again after the kill");
             }
             last = m;
             if k % 4 == 0 {
                 ap.step_outer(t);
             }
         }
+        let steps = stopped_at.map(|k| k - 2500);
+        std::println!("kill frame before inner step 2500: motors zero {steps:?} inner steps later");
+        assert_eq!(steps, Some(0), "motors zero in the inner step the kill frame arrived before");
         assert!(!ap.telemetry().armed);
+        assert_eq!(
+            ap.outer().outer().telemetry().last_transition.map(|t| t.reason),
+            Some(TransitionReason::KillSwitch)
+        );
     }
 
     use crate::link::framing::FrameWriter;

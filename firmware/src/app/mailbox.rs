@@ -12,16 +12,23 @@
 //! | [`Mailboxes::snapshot`] | outer → link | `Signal` | the telemetry snapshot ([`TelemetrySnapshot`], `Copy`) |
 //! | [`Mailboxes::battery`] | battery measurement → outer | `Signal` | the latest [`BatteryState`] (latest wins: the level only goes down) |
 //! | [`Mailboxes::rc`] | RC receiver → outer | `Signal` | the latest receiver frame ([`RcFrame`], mapped by the outer stage with the live `RC_*` parameters; latest wins: the mode machine wants the newest sticks, and the loss timeout runs on the frames' times) |
+//! | [`Mailboxes::kill`] | RC receiver → inner | `Signal` | a frame whose kill switch the mode machine will act on (its time): the inner stage stops the motors at the top of its next step |
+//! | [`Mailboxes::rc_params`] | outer → RC receiver | `Signal` | the live `RC_*` parameters after a rebuild (the receiver task maps the kill channel with them) |
 //!
-//!
-//! The kill switch: the outer stage takes the RC frame whenever it wakes — every outer step and
-//! every inner step's estimate (1 kHz) — and a kill frame disarms at once, queueing the Off
-//! command that the inner stage takes at the start of its next step: from the frame's arrival
-//! to motors off is at most two inner periods (one wake of the outer task, one inner step).
+//! **The kill switch** ([`Mailboxes::deliver_rc`]): the receiver task maps each frame's kill
+//! channel itself ([`kill_requested`]) and, after publishing the frame, signals
+//! [`Mailboxes::kill`]; the inner stage takes it after draining the queued commands and switches
+//! its loop to Off before it computes the step, so the inner step after the frame's arrival
+//! outputs zero (≤ one inner period). The outer stage takes the same frame at its next wake,
+//! before it publishes any command (every path that publishes takes the pending inputs first),
+//! disarms for `kill-switch` and queues the Off command: the motors stay off. (Before: the frame
+//! went through the outer stage only, so the motors stopped one inner step later, up to two
+//! inner periods after the frame.)
 //!
 //! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
 //! tasks that own it (`src/main.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
-//! `parapet_core::rc`, `parapet_core::battery`, [`crate::app::autopilot`].
+//! `parapet_core::rc`, `parapet_core::battery`, `parapet_core::supervisor::modes` (the kill check),
+//! [`crate::app::autopilot`].
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::{Channel, TrySendError};
@@ -29,7 +36,8 @@ use embassy_sync::signal::Signal;
 use parapet_core::battery::BatteryState;
 use parapet_core::inner::InnerParams;
 use parapet_core::msg::{AttitudeCommand, EstimatorAid, StateEstimate};
-use parapet_core::rc::map::RcFrame;
+use parapet_core::rc::map::{RcFrame, RcParams};
+use parapet_core::supervisor::modes::kill_requested;
 
 use crate::app::autopilot::TelemetrySnapshot;
 
@@ -54,6 +62,10 @@ pub struct Mailboxes<M: RawMutex> {
     pub rc: Signal<M, RcFrame>,
     /// Battery measurement → outer: latest battery state.
     pub battery: Signal<M, BatteryState>,
+    /// RC receiver → inner: time of the latest frame with the kill switch on.
+    pub kill: Signal<M, u64>,
+    /// Outer → RC receiver: the live `RC_*` parameters after a rebuild.
+    pub rc_params: Signal<M, RcParams>,
 }
 
 impl<M: RawMutex> Default for Mailboxes<M> {
@@ -73,6 +85,20 @@ impl<M: RawMutex> Mailboxes<M> {
             snapshot: Signal::new(),
             rc: Signal::new(),
             battery: Signal::new(),
+            kill: Signal::new(),
+            rc_params: Signal::new(),
+        }
+    }
+
+    /// A receiver frame, mapped with `p` (the receiver task's copy of the live `RC_*`
+    /// parameters): published to the outer stage, then, when its kill switch is one the mode
+    /// machine acts on, signalled straight to the inner stage (module docs). In this order, so
+    /// the outer stage never publishes a command without having seen the frame the inner stage
+    /// stopped on.
+    pub fn deliver_rc(&self, frame: RcFrame, p: &RcParams) {
+        self.rc.signal(frame);
+        if kill_requested(&frame.input(p)) {
+            self.kill.signal(frame.t_us);
         }
     }
 
@@ -135,6 +161,7 @@ mod sizes {
             core::mem::size_of::<TelemetrySnapshot>(),
             core::mem::size_of::<RcFrame>(),
             core::mem::size_of::<BatteryState>(),
+            core::mem::size_of::<RcParams>(),
         ];
         std::println!("mailbox message sizes (host): {sizes:?}");
         assert!(sizes.iter().all(|&s| s <= 256), "{sizes:?}");
