@@ -62,15 +62,29 @@ fn bat_act_label(code: i32) -> Option<&'static str> {
     }
 }
 
-/// `s` on the host, `""` on the flight controller (`target_os = "none"`): descriptions and
-/// scene keys are read only by host tools (`cargo xtask params`, the scene parser, QGC metadata),
-/// and on the F405 their strings would take ~5 KB of the 128 KiB flash.
-pub const fn host_text(s: &'static str) -> &'static str {
-    if cfg!(target_os = "none") {
-        ""
-    } else {
-        s
+/// Text only host tools read ([`Param::description`], [`Param::key`]): the string on the host,
+/// [`NoText`] on the flight controller (`target_os = "none"`). Read by `cargo xtask params`, the
+/// scene parser and the QGC metadata; on the F405 the strings would take ~5 KB of the 128 KiB
+/// flash, and even empty ones 16 bytes per table entry (~1.1 KB).
+#[cfg(not(target_os = "none"))]
+pub type HostText = &'static str;
+/// Text only host tools read: nothing on the flight controller (see the host build's doc).
+#[cfg(target_os = "none")]
+pub type HostText = NoText;
+
+/// [`HostText`] on the flight controller: zero-sized, the text is not in the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoText;
+
+/// `s` on the host, [`NoText`] on the flight controller (see [`HostText`]).
+pub const fn host_text(s: &'static str) -> HostText {
+    #[cfg(target_os = "none")]
+    {
+        let _ = s;
+        NoText
     }
+    #[cfg(not(target_os = "none"))]
+    s
 }
 
 /// An `RC_MAP_*` entry: a whole channel number up to 18 (issue 21, `rc::map`).
@@ -176,8 +190,9 @@ pub struct Param {
     pub name: &'static str,
     /// Key of the scene file's `[controller]` table and of the `parapet` command-line
     /// option (`--key`), when the host exposes the parameter there; `None` otherwise
-    /// (the vehicle parameters come from the scene's `[vehicle]` table instead).
-    pub key: Option<&'static str>,
+    /// (the vehicle parameters come from the scene's `[vehicle]` table instead). Host builds
+    /// only (see [`HostText`]).
+    pub key: Option<HostText>,
     /// Unit (SI), `""` for codes and flags.
     pub unit: &'static str,
     /// Default value: [`ControllerParams::default`]'s (a test checks they agree).
@@ -192,8 +207,8 @@ pub struct Param {
     pub decimals: u8,
     /// Ground-station group (`CBF`, `Tracking`, …).
     pub group: &'static str,
-    /// One-line description (host builds only: `""` on the flight controller, see [`host_text`]).
-    pub description: &'static str,
+    /// One-line description (host builds only, see [`HostText`]).
+    pub description: HostText,
     /// Names of the values of a code parameter (`None` for a continuous one).
     pub label: Option<fn(i32) -> Option<&'static str>>,
     /// Reads the parameter from a set.
@@ -240,7 +255,10 @@ pub struct RangeText<'a>(&'a Param);
 impl core::fmt::Display for RangeText<'_> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         let p = self.0;
+        #[cfg(not(target_os = "none"))]
         let name = p.key.unwrap_or(p.name);
+        #[cfg(target_os = "none")]
+        let name = p.name;
         if p.integer {
             write!(f, "{name} one of")?;
             let (lo, hi) = (p.min as i32, p.max as i32);
@@ -301,7 +319,13 @@ pub const COUNT: usize = table_flight::N + table_pilot::N + table_setup::N;
 
 /// The parameters, in MAVLink `param_index` order: the parts of `table_flight`,
 /// `table_pilot` and `table_setup`, one after the other.
-pub const TABLE: [Param; COUNT] = concat(&table_flight::TABLE, &table_pilot::TABLE, &table_setup::TABLE);
+///
+/// A `static`, not a `const`: every use of a `const` array may materialise its own copy in
+/// the image (the F405 build held three of these ~5 KB tables, one per using function group).
+pub static TABLE: [Param; COUNT] = ENTRIES;
+
+/// [`TABLE`]'s contents at compile time (for [`NAMES`]).
+const ENTRIES: [Param; COUNT] = concat(&table_flight::TABLE, &table_pilot::TABLE, &table_setup::TABLE);
 
 /// `a`, `b` and `c` one after the other (compile time only; a length mismatch does not compile).
 const fn concat<const A: usize, const B: usize, const C: usize>(
@@ -332,7 +356,7 @@ pub const NAMES: [&str; COUNT] = {
     let mut n = [""; COUNT];
     let mut i = 0;
     while i < COUNT {
-        n[i] = TABLE[i].name;
+        n[i] = ENTRIES[i].name;
         i += 1;
     }
     n
@@ -348,7 +372,9 @@ pub fn find(name: &str) -> Option<&'static Param> {
     TABLE.iter().find(|p| p.name == name)
 }
 
-/// The parameter with the scene `[controller]` / command-line key `key`.
+/// The parameter with the scene `[controller]` / command-line key `key` (host builds: the
+/// flight controller has no keys).
+#[cfg(not(target_os = "none"))]
 pub fn by_key(key: &str) -> Option<&'static Param> {
     TABLE.iter().find(|p| p.key == Some(key))
 }
