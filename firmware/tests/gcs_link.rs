@@ -610,7 +610,7 @@ fn message_intervals_requests_and_the_global_position_streams() {
     assert!(poll(&mut g).iter().any(|m| matches!(m, Outbound::HomePosition(_))));
     let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [33.0, 500.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
-    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [30.0, 20_000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [31.0, 20_000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_UNSUPPORTED);
 }
 

@@ -5,14 +5,14 @@ use crate::link::dialect::{
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
     NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
+#[allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
+use crate::link::dialect::{
+    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
+    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
+};
 use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
-};
-#[allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
-use crate::link::dialect::{
-    GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, PING_DATA,
-    SYSTEM_TIME_DATA,
 };
 use mavlink_core::MAVLinkV2MessageRaw;
 
@@ -72,6 +72,12 @@ pub enum Outbound {
     Ping(PING_DATA),
     /// MESSAGE_INTERVAL (answer to MAV_CMD_GET_MESSAGE_INTERVAL).
     MessageInterval(MESSAGE_INTERVAL_DATA),
+    /// MISSION_ITEM_REACHED.
+    MissionItemReached(MISSION_ITEM_REACHED_DATA),
+    /// ATTITUDE_TARGET (attitude setpoint).
+    AttitudeTarget(ATTITUDE_TARGET_DATA),
+    /// BATTERY_STATUS.
+    BatteryStatus(BATTERY_STATUS_DATA),
 }
 
 #[allow(deprecated)] // PING
@@ -104,6 +110,9 @@ impl Outbound {
             Outbound::HomePosition(m) => writer.encode(m),
             Outbound::Ping(m) => writer.encode(m),
             Outbound::MessageInterval(m) => writer.encode(m),
+            Outbound::MissionItemReached(m) => writer.encode(m),
+            Outbound::AttitudeTarget(m) => writer.encode(m),
+            Outbound::BatteryStatus(m) => writer.encode(m),
         }
     }
 }

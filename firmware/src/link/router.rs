@@ -266,18 +266,15 @@ impl Router {
         }
     }
 
-    /// Waypoint being flown and waypoints of the accepted mission.
-    fn mission_progress<A: Autopilot>(&self, ap: &A) -> MissionProgress {
-        let total = self.mission.stored().len().min(usize::from(u16::MAX)) as u16;
-        // The waypoint being flown is not in the telemetry snapshot yet: 0.
-        let _ = ap;
-        let seq = 0;
-        MissionProgress { seq, total }
+    /// Waypoints of the accepted mission (the item being flown comes from the snapshot).
+    fn mission_progress(&self) -> MissionProgress {
+        MissionProgress { total: self.mission.stored().len().min(usize::from(u16::MAX)) as u16 }
     }
 
     fn clear_mission<A: Autopilot>(&mut self, ap: &mut A) {
         self.mission.clear();
         ap.clear_path();
+        self.services.on_new_mission();
     }
 
     fn param_reply<A: Autopilot>(&mut self, index: Option<usize>, ap: &mut A) {
@@ -308,7 +305,10 @@ impl Router {
             }
             MissionReply::Complete => {
                 let result = match ap.set_path(self.mission.path()) {
-                    Ok(()) => MavMissionResult::MAV_MISSION_ACCEPTED,
+                    Ok(()) => {
+                        self.services.on_new_mission();
+                        MavMissionResult::MAV_MISSION_ACCEPTED
+                    }
                     Err(crate::app::autopilot::PathRejected::TooLong) => {
                         MavMissionResult::MAV_MISSION_NO_SPACE
                     }
@@ -490,7 +490,7 @@ impl Router {
             #[allow(deprecated)] // MISSION_SET_CURRENT: still sent by ground stations
             Inbound::MissionSetCurrent(m) => {
                 if self.for_me(m.target_system, m.target_component) {
-                    let now = self.mission_progress(ap);
+                    let now = self.services.mission_current(&ap.telemetry(), self.mission_progress());
                     if m.seq != now.seq {
                         let t = crate::link::telemetry::status_text(
                             crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
@@ -499,11 +499,7 @@ impl Router {
                         );
                         self.reply(Outbound::StatusText(t));
                     }
-                    self.reply(Outbound::MissionCurrent(crate::link::dialect::MISSION_CURRENT_DATA {
-                        seq: now.seq,
-                        total: now.total,
-                        ..Default::default()
-                    }));
+                    self.reply(Outbound::MissionCurrent(now));
                 }
             }
             Inbound::CommandInt(m) => {
@@ -615,9 +611,11 @@ impl Link {
         self.router.stream_params(ap);
         self.router.obstacles.poll(now_us, ap);
         let free = REPLY_QUEUE_LEN - self.router.replies.len();
-        let progress = self.router.mission_progress(ap);
+        let progress = self.router.mission_progress();
+        let thr_max = ap.get_param("THR_MAX").unwrap_or(0.0);
         let r = &mut self.router;
-        r.services.poll(now_us, &ap.telemetry(), progress, free.saturating_sub(REPLY_RESERVE), |m| {
+        let budget = free.saturating_sub(REPLY_RESERVE);
+        r.services.poll(now_us, &ap.telemetry(), progress, thr_max, budget, |m| {
             let _ = r.replies.push_back(m);
         });
         // The setup services' texts (calibration progress, refusals), at most a queue's worth.
@@ -661,6 +659,12 @@ impl Link {
     /// Framer work so far (byte operations; see [`FrameParser::work`]).
     pub fn parser_work(&self) -> u64 {
         self.parser.work()
+    }
+
+    /// The telemetry scheduler's stream rates set through this link (SET_MESSAGE_INTERVAL,
+    /// REQUEST_MESSAGE; [`crate::link::services::StreamRates`]).
+    pub fn stream_rates(&self) -> crate::link::services::StreamRates {
+        self.router.services.rates()
     }
 
     /// Link counters.

@@ -1,19 +1,29 @@
 //! Link-level services a ground station expects from a PX4-like autopilot, beyond the
 //! telemetry scheduler's streams ([`crate::link::telemetry`]): PING answers, and the streams
-//! SYSTEM_TIME, HOME_POSITION, GLOBAL_POSITION_INT and MISSION_CURRENT at rates a ground station
-//! may change (MAV_CMD_SET_MESSAGE_INTERVAL 511), each also sent once on MAV_CMD_REQUEST_MESSAGE
-//! (512), with MESSAGE_INTERVAL answers (MAV_CMD_GET_MESSAGE_INTERVAL 510).
+//! below at rates a ground station may change (MAV_CMD_SET_MESSAGE_INTERVAL 511), each also sent
+//! once on MAV_CMD_REQUEST_MESSAGE (512), with MESSAGE_INTERVAL answers
+//! (MAV_CMD_GET_MESSAGE_INTERVAL 510).
 //!
 //! | stream | id | default | content |
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
 //! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`HOME`] on a flat earth (WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position or yaw is not finite |
-//! | MISSION_CURRENT | 42 | 1 Hz | seq = waypoint being flown, total = waypoints of the accepted mission (0 none) |
+//! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = mission item being flown (the path follower's segment, from the telemetry snapshot; 0 before the mission was started), total = items of the accepted mission, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
+//! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
+//! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
 //! | HOME_POSITION | 242 | 0.5 Hz | [`HOME`], local position 0, quaternion identity |
 //!
+//! **MISSION_ITEM_REACHED** (46): once per item, in order, while the mission is flown: item
+//! k − 1 when the follower's segment becomes k, the last item when the follower is done.
+//!
+//! The telemetry scheduler's ATTITUDE (30), LOCAL_POSITION_NED (32) and
+//! POSITION_TARGET_LOCAL_NED (85) are set here too ([`StreamRates`], which the scheduler reads
+//! through [`crate::link::telemetry::ErrorCounters::rates`]): same interval rules, a request
+//! sends the message with the scheduler's next poll.
+//!
 //! Intervals: −1 stops a stream, 0 restores its default, > 0 is the period in µs (at least
-//! [`MIN_INTERVAL_US`]; shorter is refused DENIED). Other message ids are answered UNSUPPORTED
-//! (the telemetry scheduler's rates are fixed). The table is fixed (one slot per stream above).
+//! [`MIN_INTERVAL_US`]; shorter is refused DENIED). Other message ids are answered UNSUPPORTED.
+//! The tables are fixed (one slot per stream above).
 //!
 //! **Home**: fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
 //! Parapet flies in a local NED frame and has no GNSS; GLOBAL_POSITION_INT and HOME_POSITION
@@ -24,12 +34,15 @@
 //! stream per [`Services::poll`]).
 #![allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
 
-use crate::app::autopilot::TelemetrySnapshot;
+use crate::app::autopilot::{FlightMode, FlightPhase, TelemetrySnapshot};
 use crate::link::dialect::{
-    MavResult, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA,
-    PING_DATA, SYSTEM_TIME_DATA,
+    AttitudeTargetTypemask, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavResult,
+    MissionState, ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
+    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
 };
 use crate::link::outbound::Outbound;
+use parapet_core::battery::{BatteryLevel, BatteryState};
+use parapet_core::nalgebra::UnitQuaternion;
 
 /// Home of the global position (PX4 SITL default): latitude and longitude 1e-7 °, altitude mm
 /// AMSL.
@@ -42,27 +55,57 @@ const LON_E7_PER_M: f32 = 132.709_22;
 pub const MIN_INTERVAL_US: u32 = 10_000;
 
 /// The streams served here, in table order.
-const STREAMS: [(u32, u32); 4] = [
+const STREAMS: [(u32, u32); 6] = [
     (SYSTEM_TIME_DATA_ID, 1_000_000),
     (GLOBAL_POSITION_INT_ID, 200_000),
     (MISSION_CURRENT_ID, 1_000_000),
     (HOME_POSITION_ID, 2_000_000),
+    (ATTITUDE_TARGET_ID, 100_000),
+    (BATTERY_STATUS_ID, 1_000_000),
 ];
 const SYSTEM_TIME_DATA_ID: u32 = 2;
 const GLOBAL_POSITION_INT_ID: u32 = 33;
 const MISSION_CURRENT_ID: u32 = 42;
 const HOME_POSITION_ID: u32 = 242;
+const ATTITUDE_TARGET_ID: u32 = 83;
+const BATTERY_STATUS_ID: u32 = 147;
 
-/// Mission progress for MISSION_CURRENT.
+/// The telemetry scheduler's streams whose rates are set here: ATTITUDE, LOCAL_POSITION_NED,
+/// POSITION_TARGET_LOCAL_NED, with their default periods (µs), in [`StreamRates`] slot order.
+pub const SCHEDULED: [(u32, u32); 3] = [(30, 20_000), (32, 40_000), (85, 40_000)];
+
+/// Intervals and one-shot requests of the telemetry scheduler's [`SCHEDULED`] streams, as set
+/// through the link (a `Copy` value the scheduler reads; on a board it travels with the link
+/// counters to the task that runs the scheduler).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StreamRates {
+    /// Per slot: 0 = the default period, −1 = stopped, > 0 = period, µs.
+    pub interval_us: [i32; SCHEDULED.len()],
+    /// Per slot: incremented (wrapping) by each REQUEST_MESSAGE; a change = send once.
+    pub requests: [u8; SCHEDULED.len()],
+}
+
+impl StreamRates {
+    /// Period of slot `k`, µs; `None` when stopped (or `k` out of range).
+    pub fn period_us(&self, k: usize) -> Option<u64> {
+        let (iv, d) = (*self.interval_us.get(k)?, SCHEDULED.get(k)?.1);
+        match iv {
+            0 => Some(u64::from(d)),
+            v if v > 0 => Some(v as u64),
+            _ => None,
+        }
+    }
+}
+
+/// What the router knows of the mission for MISSION_CURRENT.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MissionProgress {
-    /// Waypoint being flown (index into the mission).
-    pub seq: u16,
     /// Waypoints of the accepted mission.
     pub total: u16,
 }
 
-/// Interval table, due times and one-shot requests of the streams (see the module docs).
+/// Interval table, due times and one-shot requests of the streams, and the mission-progress
+/// state of MISSION_CURRENT / MISSION_ITEM_REACHED (see the module docs).
 #[derive(Clone, Debug)]
 pub struct Services {
     /// Period per stream, µs; `None` = stopped.
@@ -70,6 +113,12 @@ pub struct Services {
     next_due_us: [u64; STREAMS.len()],
     /// One-shot requests (REQUEST_MESSAGE), one bit per stream.
     requested: u8,
+    /// The scheduler's streams.
+    rates: StreamRates,
+    /// The accepted mission has been flown (Mission mode, mission phase) since its upload.
+    started: bool,
+    /// Last item reported by MISSION_ITEM_REACHED since the upload.
+    reached: Option<u16>,
 }
 
 impl Default for Services {
@@ -147,36 +196,142 @@ pub fn ping_reply(m: &PING_DATA, sender: (u8, u8)) -> Option<PING_DATA> {
     })
 }
 
+/// mV of `v` volts for a BATTERY_STATUS cell field (at most 65 534; NaN → 0).
+fn millivolts(v: f32) -> u16 {
+    (v * 1000.0).clamp(0.0, 65_534.0) as u16
+}
+
+/// BATTERY_STATUS of battery measurement `b`: one pack (id 0, function ALL, LiPo); the pack
+/// voltage in `voltages[0]` (cells not measured one by one: the others UINT16_MAX; a pack over
+/// 65.534 V continues in `voltages[1]`, as the message specifies), current cA (−1 unknown),
+/// remaining % (−1 unknown), charge state OK / LOW / CRITICAL from the level; consumption,
+/// temperature and time remaining unknown.
+pub fn battery_status(b: &BatteryState) -> BATTERY_STATUS_DATA {
+    let mut voltages = [u16::MAX; 10];
+    voltages[0] = millivolts(b.voltage_v);
+    if voltages[0] == 65_534 {
+        voltages[1] = millivolts(b.voltage_v - 65.534);
+    }
+    let current_battery = b
+        .current_a
+        .filter(|a| a.is_finite())
+        .map_or(-1, |a| (a * 100.0).clamp(f32::from(i16::MIN), f32::from(i16::MAX)) as i16);
+    let battery_remaining =
+        b.remaining.filter(|r| r.is_finite()).map_or(-1, |r| (r * 100.0).clamp(0.0, 100.0) as i8);
+    let charge_state = match b.level {
+        BatteryLevel::Ok => MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_OK,
+        BatteryLevel::Low => MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_LOW,
+        BatteryLevel::Critical => MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_CRITICAL,
+    };
+    BATTERY_STATUS_DATA {
+        current_consumed: -1,
+        energy_consumed: -1,
+        temperature: i16::MAX,
+        voltages,
+        current_battery,
+        id: 0,
+        battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
+        mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
+        battery_remaining,
+        charge_state,
+        ..Default::default()
+    }
+}
+
+/// ATTITUDE_TARGET of the snapshot's attitude setpoint; `thr_max` = `THR_MAX`, N.
+pub fn attitude_target(time_boot_ms: u32, s: &TelemetrySnapshot, thr_max: f32) -> ATTITUDE_TARGET_DATA {
+    let a = &s.attitude_sp;
+    let q = UnitQuaternion::from_euler_angles(a.roll, a.pitch, a.yaw);
+    let thrust =
+        if thr_max > 0.0 && a.thrust.is_finite() { (a.thrust / thr_max).clamp(0.0, 1.0) } else { 0.0 };
+    ATTITUDE_TARGET_DATA {
+        time_boot_ms,
+        q: [q.w, q.i, q.j, q.k],
+        thrust,
+        type_mask: AttitudeTargetTypemask::ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE
+            | AttitudeTargetTypemask::ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE
+            | AttitudeTargetTypemask::ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE,
+        ..Default::default()
+    }
+}
+
+/// `true` while the uploaded mission is being flown (Mission mode in the mission phase).
+fn flying_mission(s: &TelemetrySnapshot) -> bool {
+    s.mode == FlightMode::Mission && s.phase == FlightPhase::Mission
+}
+
+/// An interval request (−1 stop, 0 default, > 0 period µs) as the table's `Option`:
+/// `Err(())` for a refused value.
+fn interval_of(interval_us: f32, default_us: u32) -> Result<Option<u32>, ()> {
+    if interval_us == -1.0 {
+        Ok(None)
+    } else if interval_us == 0.0 {
+        Ok(Some(default_us))
+    } else if interval_us.is_finite() && interval_us >= MIN_INTERVAL_US as f32 && interval_us <= 1e9 {
+        Ok(Some(interval_us as u32))
+    } else {
+        Err(())
+    }
+}
+
+fn scheduled_slot(msg_id: u32) -> Option<usize> {
+    SCHEDULED.iter().position(|(id, _)| *id == msg_id)
+}
+
 impl Services {
     /// Every stream at its default rate, due at once.
     pub const fn new() -> Self {
+        let mut interval_us = [None; STREAMS.len()];
+        let mut k = 0;
+        while k < STREAMS.len() {
+            interval_us[k] = Some(STREAMS[k].1);
+            k += 1;
+        }
         Self {
-            interval_us: [Some(STREAMS[0].1), Some(STREAMS[1].1), Some(STREAMS[2].1), Some(STREAMS[3].1)],
+            interval_us,
             next_due_us: [0; STREAMS.len()],
             requested: 0,
+            rates: StreamRates { interval_us: [0; SCHEDULED.len()], requests: [0; SCHEDULED.len()] },
+            started: false,
+            reached: None,
         }
     }
 
     /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stop, 0 default, > 0 period.
     pub fn set_interval(&mut self, msg_id: f32, interval_us: f32) -> MavResult {
-        let Some(k) = msg_id_of(msg_id).and_then(slot) else { return MavResult::MAV_RESULT_UNSUPPORTED };
-        self.interval_us[k] = if interval_us == -1.0 {
-            None
-        } else if interval_us == 0.0 {
-            Some(STREAMS[k].1)
-        } else if interval_us.is_finite() && interval_us >= MIN_INTERVAL_US as f32 && interval_us <= 1e9 {
-            Some(interval_us as u32)
-        } else {
-            return MavResult::MAV_RESULT_DENIED;
-        };
+        let id = msg_id_of(msg_id);
+        if let Some(k) = id.and_then(scheduled_slot) {
+            return match interval_of(interval_us, SCHEDULED[k].1) {
+                Ok(iv) => {
+                    // The scheduler restarts a stream whose interval changed.
+                    self.rates.interval_us[k] = match iv {
+                        None => -1,
+                        Some(_) if interval_us == 0.0 => 0,
+                        Some(u) => u.min(i32::MAX as u32) as i32,
+                    };
+                    MavResult::MAV_RESULT_ACCEPTED
+                }
+                Err(()) => MavResult::MAV_RESULT_DENIED,
+            };
+        }
+        let Some(k) = id.and_then(slot) else { return MavResult::MAV_RESULT_UNSUPPORTED };
+        match interval_of(interval_us, STREAMS[k].1) {
+            Ok(iv) => self.interval_us[k] = iv,
+            Err(()) => return MavResult::MAV_RESULT_DENIED,
+        }
         self.next_due_us[k] = 0;
         MavResult::MAV_RESULT_ACCEPTED
     }
 
-    /// MAV_CMD_REQUEST_MESSAGE for a stream served here: sent at the next poll. `false` for
-    /// other ids.
+    /// MAV_CMD_REQUEST_MESSAGE for a stream served here or by the scheduler: sent at the next
+    /// poll. `false` for other ids.
     pub fn request(&mut self, msg_id: f32) -> bool {
-        match msg_id_of(msg_id).and_then(slot) {
+        let id = msg_id_of(msg_id);
+        if let Some(k) = id.and_then(scheduled_slot) {
+            self.rates.requests[k] = self.rates.requests[k].wrapping_add(1);
+            return true;
+        }
+        match id.and_then(slot) {
             Some(k) => {
                 self.requested |= 1 << k;
                 true
@@ -185,29 +340,97 @@ impl Services {
         }
     }
 
+    /// The scheduler's stream rates (see [`StreamRates`]).
+    pub fn rates(&self) -> StreamRates {
+        self.rates
+    }
+
     /// MESSAGE_INTERVAL for `msg_id` (MAV_CMD_GET_MESSAGE_INTERVAL): −1 stopped, 0 not
     /// available (not served here).
     pub fn message_interval(&self, msg_id: f32) -> MESSAGE_INTERVAL_DATA {
         let id = msg_id_of(msg_id);
-        let interval_us = match id.and_then(slot) {
-            Some(k) => self.interval_us[k].map_or(-1, |u| u.min(i32::MAX as u32) as i32),
-            None => 0,
+        let interval_us = if let Some(k) = id.and_then(scheduled_slot) {
+            self.rates.period_us(k).map_or(-1, |u| u.min(i32::MAX as u64) as i32)
+        } else {
+            match id.and_then(slot) {
+                Some(k) => self.interval_us[k].map_or(-1, |u| u.min(i32::MAX as u32) as i32),
+                None => 0,
+            }
         };
         MESSAGE_INTERVAL_DATA { interval_us, message_id: id.map_or(0, |i| i.min(u32::from(u16::MAX)) as u16) }
     }
 
-    /// Emits the streams due at `now_us` and the requested ones; at most `budget` messages
-    /// (the caller's free reply slots); a stream over budget stays due.
+    /// A new mission was accepted, or the mission was cleared: MISSION_CURRENT starts again at
+    /// item 0, NOT_STARTED, and MISSION_ITEM_REACHED from the first item.
+    pub fn on_new_mission(&mut self) {
+        self.started = false;
+        self.reached = None;
+    }
+
+    /// MISSION_CURRENT for the snapshot `s` and the accepted mission (see the module docs).
+    pub fn mission_current(&self, s: &TelemetrySnapshot, m: MissionProgress) -> MISSION_CURRENT_DATA {
+        let last = m.total.saturating_sub(1);
+        let started = self.started || (m.total > 0 && flying_mission(s));
+        let seq = if started { s.mission_seq.min(last) } else { 0 };
+        let mission_state = if m.total == 0 {
+            MissionState::MISSION_STATE_NO_MISSION
+        } else if !started {
+            MissionState::MISSION_STATE_NOT_STARTED
+        } else if s.mission_done {
+            MissionState::MISSION_STATE_COMPLETE
+        } else if flying_mission(s) {
+            MissionState::MISSION_STATE_ACTIVE
+        } else {
+            MissionState::MISSION_STATE_PAUSED
+        };
+        MISSION_CURRENT_DATA { seq, total: m.total, mission_state, ..Default::default() }
+    }
+
+    /// The next MISSION_ITEM_REACHED due (each item once, in order); updates the state.
+    fn next_reached(
+        &mut self,
+        s: &TelemetrySnapshot,
+        m: MissionProgress,
+    ) -> Option<MISSION_ITEM_REACHED_DATA> {
+        if m.total == 0 {
+            return None;
+        }
+        if flying_mission(s) {
+            self.started = true;
+        }
+        if !self.started {
+            return None;
+        }
+        let last = m.total - 1;
+        let reached = if s.mission_done { last } else { s.mission_seq.min(m.total).checked_sub(1)? };
+        let next = self.reached.map_or(0, |r| r.saturating_add(1));
+        if next > reached || self.reached == Some(last) {
+            return None;
+        }
+        self.reached = Some(next);
+        Some(MISSION_ITEM_REACHED_DATA { seq: next })
+    }
+
+    /// Emits MISSION_ITEM_REACHED when due, the streams due at `now_us` and the requested
+    /// ones; at most `budget` messages (the caller's free reply slots); a stream over budget
+    /// stays due. `thr_max`: `THR_MAX` (N) for ATTITUDE_TARGET's normalised thrust.
     pub fn poll(
         &mut self,
         now_us: u64,
         s: &TelemetrySnapshot,
         mission: MissionProgress,
+        thr_max: f32,
         budget: usize,
         mut emit: impl FnMut(Outbound),
     ) {
         let mut left = budget;
         let ms = (now_us / 1000) as u32;
+        if left > 0 {
+            if let Some(r) = self.next_reached(s, mission) {
+                emit(Outbound::MissionItemReached(r));
+                left -= 1;
+            }
+        }
         for (k, (id, _)) in STREAMS.iter().enumerate() {
             let requested = self.requested & (1 << k) != 0;
             let periodic = self.interval_us[k].filter(|_| now_us >= self.next_due_us[k]);
@@ -222,11 +445,9 @@ impl Services {
                     Some(Outbound::SystemTime(SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: ms }))
                 }
                 GLOBAL_POSITION_INT_ID => global_position(ms, s).map(Outbound::GlobalPositionInt),
-                MISSION_CURRENT_ID => Some(Outbound::MissionCurrent(MISSION_CURRENT_DATA {
-                    seq: mission.seq,
-                    total: mission.total,
-                    ..Default::default()
-                })),
+                MISSION_CURRENT_ID => Some(Outbound::MissionCurrent(self.mission_current(s, mission))),
+                ATTITUDE_TARGET_ID => Some(Outbound::AttitudeTarget(attitude_target(ms, s, thr_max))),
+                BATTERY_STATUS_ID => s.battery.as_ref().map(|b| Outbound::BatteryStatus(battery_status(b))),
                 _ => Some(Outbound::HomePosition(home_position(now_us))),
             };
             if let Some(m) = m {
@@ -262,12 +483,15 @@ mod tests {
 
     fn ids(s: &mut Services, t: u64, snap: &TelemetrySnapshot, budget: usize) -> Vec<u32> {
         let mut out = Vec::new();
-        s.poll(t, snap, MissionProgress { seq: 1, total: 3 }, budget, |m| {
+        s.poll(t, snap, MissionProgress { total: 3 }, 1000.0, budget, |m| {
             out.push(match m {
                 Outbound::SystemTime(_) => 2,
                 Outbound::GlobalPositionInt(_) => 33,
                 Outbound::MissionCurrent(_) => 42,
                 Outbound::HomePosition(_) => 242,
+                Outbound::AttitudeTarget(_) => 83,
+                Outbound::BatteryStatus(_) => 147,
+                Outbound::MissionItemReached(_) => 46,
                 _ => 0,
             })
         });
@@ -291,7 +515,8 @@ mod tests {
     fn streams_follow_their_intervals_and_requests() {
         let mut s = Services::new();
         let sn = snap(Vec3::zeros(), 0.0);
-        assert_eq!(ids(&mut s, 1_000_000, &sn, 8), vec![2, 33, 42, 242]);
+        assert_eq!(ids(&mut s, 1_000_000, &sn, 8), vec![2, 33, 42, 242, 83], "no battery: no 147");
+        assert_eq!(s.set_interval(83.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(ids(&mut s, 1_100_000, &sn, 8), Vec::<u32>::new());
         assert_eq!(ids(&mut s, 1_200_000, &sn, 8), vec![33]);
         // 50 Hz global position, system time stopped, home requested once.
@@ -306,17 +531,145 @@ mod tests {
         // Refused: too fast, not finite, not a stream served here; default restores.
         assert_eq!(s.set_interval(33.0, 100.0), MavResult::MAV_RESULT_DENIED);
         assert_eq!(s.set_interval(33.0, f32::NAN), MavResult::MAV_RESULT_DENIED);
-        assert_eq!(s.set_interval(30.0, 20_000.0), MavResult::MAV_RESULT_UNSUPPORTED);
+        assert_eq!(s.set_interval(31.0, 20_000.0), MavResult::MAV_RESULT_UNSUPPORTED);
         assert_eq!(s.set_interval(33.5, 20_000.0), MavResult::MAV_RESULT_UNSUPPORTED);
         assert!(!s.request(148.0));
         assert_eq!(s.set_interval(33.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(s.message_interval(33.0).interval_us, 200_000);
-        assert_eq!(s.message_interval(30.0).interval_us, 0);
+        assert_eq!(s.message_interval(31.0).interval_us, 0);
+    }
+
+    #[test]
+    fn the_schedulers_streams_are_set_here() {
+        let mut s = Services::new();
+        // ATTITUDE 10 Hz, LOCAL_POSITION_NED stopped, POSITION_TARGET_LOCAL_NED requested once.
+        assert_eq!(s.message_interval(30.0).interval_us, 20_000);
+        assert_eq!(s.set_interval(30.0, 100_000.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(32.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert!(s.request(85.0));
+        let r = s.rates();
+        assert_eq!((r.period_us(0), r.period_us(1), r.period_us(2)), (Some(100_000), None, Some(40_000)));
+        assert_eq!(r.requests, [0, 0, 1]);
+        assert_eq!(s.message_interval(30.0).interval_us, 100_000);
+        assert_eq!(s.message_interval(32.0).interval_us, -1);
+        assert_eq!(s.set_interval(85.0, 5_000.0), MavResult::MAV_RESULT_DENIED, "faster than 100 Hz");
+        assert_eq!(s.set_interval(30.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.rates().period_us(0), Some(20_000));
+        assert_eq!(StreamRates::default().period_us(2), Some(40_000), "the default is the default rate");
+    }
+
+    fn flying(seq: u16, done: bool) -> TelemetrySnapshot {
+        TelemetrySnapshot {
+            armed: true,
+            phase: FlightPhase::Mission,
+            mode: FlightMode::Mission,
+            mission_seq: seq,
+            mission_done: done,
+            ..TelemetrySnapshot::BOOT
+        }
+    }
+
+    /// MISSION_CURRENT follows the snapshot's item (before issue 20's fix: always 0), and
+    /// MISSION_ITEM_REACHED reports each item once, in order.
+    #[test]
+    fn mission_current_and_items_reached_follow_the_flight() {
+        let mut s = Services::new();
+        s.set_interval(42.0, 1_000_000_000.0);
+        for k in [2.0, 33.0, 242.0, 83.0] {
+            s.set_interval(k, -1.0);
+        }
+        let m = MissionProgress { total: 3 };
+        let cur = |s: &Services, sn: &TelemetrySnapshot| {
+            let c = s.mission_current(sn, m);
+            (c.seq, c.mission_state)
+        };
+        let idle = TelemetrySnapshot { mission_seq: 2, ..TelemetrySnapshot::BOOT };
+        assert_eq!(
+            cur(&s, &idle),
+            (0, MissionState::MISSION_STATE_NOT_STARTED),
+            "an old segment is not shown"
+        );
+        assert_eq!(
+            s.mission_current(&idle, MissionProgress { total: 0 }).mission_state,
+            MissionState::MISSION_STATE_NO_MISSION
+        );
+        let mut reached = Vec::new();
+        let mut t = 1_000_000;
+        for (seq, done) in [(0, false), (1, false), (1, false), (3, false), (3, false), (3, true), (3, true)]
+        {
+            t += 1000;
+            let sn = flying(seq, done);
+            let mut out = Vec::new();
+            s.poll(t, &sn, m, 1000.0, 8, |o| out.push(o));
+            for o in out {
+                if let Outbound::MissionItemReached(r) = o {
+                    reached.push(r.seq);
+                }
+            }
+        }
+        assert_eq!(reached, vec![0, 1, 2], "each item once, in order");
+        assert_eq!(cur(&s, &flying(1, false)), (1, MissionState::MISSION_STATE_ACTIVE));
+        assert_eq!(
+            cur(&s, &flying(3, false)),
+            (2, MissionState::MISSION_STATE_ACTIVE),
+            "clamped to the last item"
+        );
+        assert_eq!(cur(&s, &flying(3, true)), (2, MissionState::MISSION_STATE_COMPLETE));
+        let hold =
+            TelemetrySnapshot { phase: FlightPhase::Hover, mode: FlightMode::Hold, ..flying(1, false) };
+        assert_eq!(cur(&s, &hold), (1, MissionState::MISSION_STATE_PAUSED));
+        s.on_new_mission();
+        assert_eq!(cur(&s, &hold), (0, MissionState::MISSION_STATE_NOT_STARTED));
+    }
+
+    #[test]
+    fn battery_status_of_a_measurement() {
+        let b = BatteryState {
+            t_us: 5,
+            voltage_v: 15.2,
+            current_a: Some(12.34),
+            remaining: Some(0.57),
+            level: BatteryLevel::Low,
+        };
+        let m = battery_status(&b);
+        assert_eq!(m.voltages[0], 15_200);
+        assert!(m.voltages[1..].iter().all(|v| *v == u16::MAX));
+        assert_eq!((m.current_battery, m.battery_remaining), (1234, 57));
+        assert_eq!(m.charge_state, MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_LOW);
+        let unknown =
+            battery_status(&BatteryState { current_a: None, remaining: None, voltage_v: f32::NAN, ..b });
+        assert_eq!((unknown.voltages[0], unknown.current_battery, unknown.battery_remaining), (0, -1, -1));
+        let big = battery_status(&BatteryState { voltage_v: 70.0, ..b });
+        assert_eq!((big.voltages[0], big.voltages[1]), (65_534, 4_466));
+        // Sent once a measurement is known.
+        let mut s = Services::new();
+        let sn = TelemetrySnapshot { battery: Some(b), ..TelemetrySnapshot::BOOT };
+        assert!(ids(&mut s, 1_000_000, &sn, 8).contains(&147));
+    }
+
+    #[test]
+    fn attitude_target_is_the_setpoint_quaternion_and_normalised_thrust() {
+        let sn = TelemetrySnapshot {
+            attitude_sp: parapet_core::msg::AttitudeSetpoint {
+                roll: 0.0,
+                pitch: 0.0,
+                yaw: core::f32::consts::FRAC_PI_2,
+                thrust: 6.0,
+                saturated: false,
+            },
+            ..TelemetrySnapshot::BOOT
+        };
+        let a = attitude_target(7, &sn, 12.0);
+        let h = core::f32::consts::FRAC_1_SQRT_2;
+        assert!((a.q[0] - h).abs() < 1e-6 && (a.q[3] - h).abs() < 1e-6 && a.q[1].abs() < 1e-6, "{:?}", a.q);
+        assert_eq!((a.time_boot_ms, a.thrust), (7, 0.5));
+        assert_eq!(attitude_target(7, &sn, 0.0).thrust, 0.0, "no THR_MAX: 0, never a division by 0");
     }
 
     #[test]
     fn a_full_queue_defers_streams() {
         let mut s = Services::new();
+        s.set_interval(83.0, -1.0);
         let sn = snap(Vec3::zeros(), 0.0);
         assert_eq!(ids(&mut s, 1_000_000, &sn, 1), vec![2]);
         assert_eq!(ids(&mut s, 1_000_001, &sn, 0), Vec::<u32>::new());

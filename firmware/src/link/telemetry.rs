@@ -3,13 +3,13 @@
 //! | stream | message | rate | content |
 //! |---|---|---|---|
 //! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; base_mode: CUSTOM_MODE_ENABLED always, SAFETY_ARMED + STABILIZE when armed, GUIDED when armed and airborne (takeoff, hover, mission, landing, failsafe), AUTO only in the mission phase; custom_mode = [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe); system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
-//! | status | SYS_STATUS | 1 Hz (with the heartbeat) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs; health: all, without vision position and xy control while a failsafe is active; load = outer loop max execution / period (‰ of the window); no battery: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
+//! | status | SYS_STATUS | 1 Hz (with the heartbeat) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
 //! | landed state | EXTENDED_SYS_STATE | 1 Hz (with the heartbeat) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
-//! | attitude | ATTITUDE | 50 Hz | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
-//! | position | LOCAL_POSITION_NED | 25 Hz | position NED m, velocity NED m/s |
+//! | attitude | ATTITUDE | 50 Hz (settable) | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
+//! | position | LOCAL_POSITION_NED | 25 Hz (settable) | position NED m, velocity NED m/s |
 //! | filter | DEBUG_VECT `CBF` | 25 Hz | x = h̄ (m², min over obstacles; +∞ none), y = region code (0 none, 1 far, 2 nominal-safe, 3 perpendicular/intervening, 4 fault), z = active obstacle id (−1 none) |
 //! | filter flags | NAMED_VALUE_INT `CBF_FLAGS` | 25 Hz | bit0 intervened, bit1 unavoidable, bit2 infeasible, bits 8..15 active constraints |
-//! | setpoint | POSITION_TARGET_LOCAL_NED | 25 Hz | frame LOCAL_NED; x, y, z = reference position m; vx, vy, vz = reference velocity m/s; afx, afy, afz = filtered acceleration u m/s² (gravity excluded); type_mask ignores yaw and yaw rate |
+//! | setpoint | POSITION_TARGET_LOCAL_NED | 25 Hz (settable) | frame LOCAL_NED; x, y, z = reference position m; vx, vy, vz = reference velocity m/s; afx, afy, afz = filtered acceleration u m/s² (gravity excluded); type_mask ignores yaw and yaw rate |
 //! | nominal command | DEBUG_VECT `U_NOM` | 25 Hz | x, y, z = nominal acceleration u* NED m/s² (before the filter) |
 //! | inner loop | DEBUG_VECT `LOOP_IN` | 2 Hz | x = mean period µs, y = max period µs, z = max execution µs (window since last report) |
 //! | outer loop | DEBUG_VECT `LOOP_OUT` | 2 Hz | same for the position + CBF loop |
@@ -19,6 +19,10 @@
 //! | hardware | DEBUG_VECT `HW_ERR` | 1 Hz | x = IMU read errors, y = UART receive errors |
 //! | failsafe | STATUSTEXT + NAMED_VALUE_INT `FAILSAFE` | on every transition | severity CRITICAL on entry ("FAILSAFE: reason"), NOTICE on exit ("FAILSAFE cleared") |
 //! | flight mode | STATUSTEXT | on every mode change (issue 21) | "MODE Position: mode-switch"; severity WARNING when a failsafe chose the mode (rc-loss, offboard-loss, battery-low, battery-critical, kill-switch), INFO otherwise |
+//!
+//! "Settable": MAV_CMD_SET_MESSAGE_INTERVAL / REQUEST_MESSAGE through the link
+//! ([`crate::link::services::StreamRates`], read from [`ErrorCounters::rates`]); a changed
+//! interval restarts the stream at once, a request sends the message once more.
 //!
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
@@ -32,6 +36,7 @@ use crate::app::autopilot::{Failsafe, FlightPhase, TelemetrySnapshot};
 use crate::app::loop_timing::LoopReport;
 use crate::link::frame_parser::ParserStats;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
+use crate::link::services::StreamRates;
 use parapet_core::wire::{codes, names};
 
 /// Everything the telemetry streams read.
@@ -62,6 +67,9 @@ pub struct ErrorCounters {
     pub imu_errors: u32,
     /// UART receive errors (board: overrun, framing, noise).
     pub uart_errors: u32,
+    /// Not a counter: the scheduler's stream rates as set through the link (SET_MESSAGE_INTERVAL,
+    /// REQUEST_MESSAGE), carried here from the task that owns the [`crate::link::Link`].
+    pub rates: StreamRates,
 }
 
 impl ErrorCounters {
@@ -81,6 +89,7 @@ impl ErrorCounters {
                 .saturating_add(o.dropped_full),
             imu_errors: 0,
             uart_errors: 0,
+            rates: link.stream_rates(),
         }
     }
 }
@@ -101,20 +110,35 @@ enum Stream {
     Filter,
     Loops,
     Link,
+    Target,
 }
 
-const STREAMS: [(Stream, u64); 6] = [
+/// Default periods; Attitude, Position and Target are settable ([`StreamRates`] slots 0, 1, 2).
+const STREAMS: [(Stream, u64); 7] = [
     (Stream::Heartbeat, HEARTBEAT_US),
     (Stream::Attitude, ATTITUDE_US),
     (Stream::Position, POSITION_US),
     (Stream::Filter, FILTER_US),
     (Stream::Loops, LOOPS_US),
     (Stream::Link, LINK_US),
+    (Stream::Target, FILTER_US),
 ];
+
+/// The [`StreamRates`] slot of a settable stream.
+fn rate_slot(s: Stream) -> Option<usize> {
+    match s {
+        Stream::Attitude => Some(0),
+        Stream::Position => Some(1),
+        Stream::Target => Some(2),
+        _ => None,
+    }
+}
 
 /// Decides which telemetry messages are due and builds them.
 pub struct TelemetryScheduler {
-    next_due_us: [u64; 6],
+    next_due_us: [u64; 7],
+    /// The rates of the last poll (a change restarts / requests a stream).
+    rates: StreamRates,
     last_failsafe: Option<Failsafe>,
     last_mode_changes: u32,
     /// `true` when the loop-timing stream fired in the last [`TelemetryScheduler::poll`] (the
@@ -185,6 +209,14 @@ pub fn sys_status(inp: &TelemetryInputs) -> SYS_STATUS_DATA {
         health
             .remove(S::MAV_SYS_STATUS_SENSOR_VISION_POSITION | S::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL);
     }
+    let battery = inp.snapshot.battery;
+    let mut present = present;
+    if let Some(b) = battery {
+        present |= S::MAV_SYS_STATUS_SENSOR_BATTERY;
+        if b.level == parapet_core::battery::BatteryLevel::Ok {
+            health |= S::MAV_SYS_STATUS_SENSOR_BATTERY;
+        }
+    }
     let o = &inp.outer;
     // ‰, at most 1000; the float → int cast maps negative and NaN to 0.
     let load =
@@ -194,10 +226,16 @@ pub fn sys_status(inp: &TelemetryInputs) -> SYS_STATUS_DATA {
         onboard_control_sensors_enabled: present,
         onboard_control_sensors_health: health,
         load: load as u16,
-        voltage_battery: u16::MAX,
-        current_battery: -1,
+        voltage_battery: battery.map_or(u16::MAX, |b| (b.voltage_v * 1000.0).clamp(0.0, 65_534.0) as u16),
+        current_battery: battery
+            .and_then(|b| b.current_a)
+            .filter(|a| a.is_finite())
+            .map_or(-1, |a| (a * 100.0).clamp(f32::from(i16::MIN), f32::from(i16::MAX)) as i16),
         errors_comm: inp.parser.crc_errors.min(u32::from(u16::MAX)) as u16,
-        battery_remaining: -1,
+        battery_remaining: battery
+            .and_then(|b| b.remaining)
+            .filter(|r| r.is_finite())
+            .map_or(-1, |r| (r * 100.0).clamp(0.0, 100.0) as i8),
         ..Default::default()
     }
 }
@@ -228,7 +266,13 @@ pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEX
 impl TelemetryScheduler {
     /// Every stream due immediately.
     pub const fn new() -> Self {
-        Self { next_due_us: [0; 6], last_failsafe: None, last_mode_changes: 0, loops_reported: false }
+        Self {
+            next_due_us: [0; 7],
+            rates: StreamRates { interval_us: [0; 3], requests: [0; 3] },
+            last_failsafe: None,
+            last_mode_changes: 0,
+            loops_reported: false,
+        }
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
@@ -262,17 +306,32 @@ impl TelemetryScheduler {
             self.last_mode_changes = s.mode_changes;
             emit(Outbound::StatusText(mode_text(s)));
         }
-        for (k, (stream, period)) in STREAMS.iter().enumerate() {
-            if now_us < self.next_due_us[k] {
+        let rates = inp.counters.rates;
+        for (k, (stream, default)) in STREAMS.iter().enumerate() {
+            let mut requested = false;
+            let period = match rate_slot(*stream) {
+                Some(r) => {
+                    if rates.interval_us[r] != self.rates.interval_us[r] {
+                        self.next_due_us[k] = 0;
+                    }
+                    requested = rates.requests[r] != self.rates.requests[r];
+                    rates.period_us(r)
+                }
+                None => Some(*default),
+            };
+            let due = period.is_some_and(|_| now_us >= self.next_due_us[k]);
+            if !due && !requested {
                 continue;
             }
-            // Keep the phase, but never try to catch up on missed periods.
-            // Saturating: on the lockstep link the time comes from the host (any u64).
-            self.next_due_us[k] = if now_us - self.next_due_us[k] >= *period || self.next_due_us[k] == 0 {
-                now_us.saturating_add(*period)
-            } else {
-                self.next_due_us[k].saturating_add(*period)
-            };
+            if let Some(period) = period.filter(|_| due) {
+                // Keep the phase, but never try to catch up on missed periods.
+                // Saturating: on the lockstep link the time comes from the host (any u64).
+                self.next_due_us[k] = if now_us - self.next_due_us[k] >= period || self.next_due_us[k] == 0 {
+                    now_us.saturating_add(period)
+                } else {
+                    self.next_due_us[k].saturating_add(period)
+                };
+            }
             match stream {
                 Stream::Heartbeat => {
                     emit(Outbound::Heartbeat(heartbeat(s)));
@@ -312,25 +371,7 @@ impl TelemetryScheduler {
                         n_constraints: f.n_constraints,
                     };
                     emit(named_int(ms, names::CBF_FLAGS, flags.encode()));
-                    let sp = &s.setpoint;
-                    emit(Outbound::PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA {
-                        time_boot_ms: ms,
-                        x: sp.position_ned.x,
-                        y: sp.position_ned.y,
-                        z: sp.position_ned.z,
-                        vx: sp.velocity_ned.x,
-                        vy: sp.velocity_ned.y,
-                        vz: sp.velocity_ned.z,
-                        afx: sp.accel_filtered_ned.x,
-                        afy: sp.accel_filtered_ned.y,
-                        afz: sp.accel_filtered_ned.z,
-                        yaw: 0.0,
-                        yaw_rate: 0.0,
-                        type_mask: PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
-                            | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
-                        coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
-                    }));
-                    let u = &sp.accel_nominal_ned;
+                    let u = &s.setpoint.accel_nominal_ned;
                     emit(debug_vect(now_us, names::U_NOM, u.x, u.y, u.z));
                 }
                 Stream::Loops => {
@@ -372,8 +413,29 @@ impl TelemetryScheduler {
                     ));
                     emit(debug_vect(now_us, names::HW_ERR, c.imu_errors as f32, c.uart_errors as f32, 0.0));
                 }
+                Stream::Target => {
+                    let sp = &s.setpoint;
+                    emit(Outbound::PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA {
+                        time_boot_ms: ms,
+                        x: sp.position_ned.x,
+                        y: sp.position_ned.y,
+                        z: sp.position_ned.z,
+                        vx: sp.velocity_ned.x,
+                        vy: sp.velocity_ned.y,
+                        vz: sp.velocity_ned.z,
+                        afx: sp.accel_filtered_ned.x,
+                        afy: sp.accel_filtered_ned.y,
+                        afz: sp.accel_filtered_ned.z,
+                        yaw: 0.0,
+                        yaw_rate: 0.0,
+                        type_mask: PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
+                            | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+                        coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                    }));
+                }
             }
         }
+        self.rates = rates;
     }
 }
 

@@ -1,0 +1,323 @@
+//! Ground-station services of issue 20 that MAVSDK and QGroundControl rely on, end to end on the
+//! host: frames through the firmware's `Link` into the real `Cascade`, driven by the lockstep
+//! scheduler the PIL firmware runs. Each test failed before its fix:
+//! * MISSION_CURRENT `seq` was always 0 and MISSION_ITEM_REACHED was never sent (MAVSDK's
+//!   mission progress never advanced);
+//! * BATTERY_STATUS was never sent and SYS_STATUS said "no battery" with a measurement;
+//! * ATTITUDE, LOCAL_POSITION_NED and POSITION_TARGET_LOCAL_NED had fixed rates
+//!   (SET_MESSAGE_INTERVAL answered UNSUPPORTED), ATTITUDE_TARGET was never sent.
+
+use mavlink_core::MessageData;
+use parapet_core::battery::{BatteryLevel, BatteryState};
+use parapet_core::controller::ControllerParams;
+use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
+use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::dialect::{
+    MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavResult, MavSysStatusSensor, MissionState,
+    COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
+    ODOMETRY_DATA,
+};
+use parapet_firmware::link::framing::FrameWriter;
+use parapet_firmware::link::obstacles::CLEAR_ID;
+use parapet_firmware::link::outbound::Outbound;
+use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
+use parapet_firmware::link::{FixClock, Link};
+use parapet_firmware::pil::lockstep::LockstepScheduler;
+
+/// A ground station on the lockstep link of the real cascade at rest on the ground at the origin
+/// (the same harness as `gcs_link.rs`), with the telemetry scheduler the PIL application runs.
+struct Sim {
+    link: Link,
+    ap: Cascade,
+    sched: LockstepScheduler,
+    tel: TelemetryScheduler,
+    w: FrameWriter,
+    k: u64,
+}
+
+impl Sim {
+    fn new() -> Self {
+        Sim {
+            link: Link::new(1, FixClock::Message),
+            ap: Cascade::new(ControllerParams::default()).expect("default parameters"),
+            sched: LockstepScheduler::default(),
+            tel: TelemetryScheduler::new(),
+            w: FrameWriter::new(255, 190),
+            k: 0,
+        }
+    }
+
+    fn t(&self) -> u64 {
+        1_000_000 + self.k * 1000
+    }
+
+    fn frame<D: MessageData>(&mut self, m: &D) -> Vec<u8> {
+        self.w.encode(m).raw_bytes().to_vec()
+    }
+
+    /// One 1 ms step as the PIL application runs it (a fix and an empty obstacle batch every
+    /// 4 ms, `msgs`, HIL_SENSOR, the control step, `Link::poll`, the telemetry scheduler); every
+    /// message the vehicle sent in it.
+    fn step(&mut self, msgs: &[Vec<u8>]) -> Vec<Outbound> {
+        let t = self.t();
+        if self.k.is_multiple_of(4) {
+            let odo = ODOMETRY_DATA {
+                time_usec: t,
+                q: [1.0, 0.0, 0.0, 0.0],
+                frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                ..Default::default()
+            };
+            let clear = OBSTACLE_DISTANCE_3D_DATA {
+                time_boot_ms: (t / 1000) as u32,
+                obstacle_id: CLEAR_ID,
+                frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                min_distance: 1.0,
+                max_distance: 0.0,
+                ..Default::default()
+            };
+            let (a, b) = (self.frame(&odo), self.frame(&clear));
+            self.link.push_bytes(&a, t, &mut self.ap);
+            self.link.push_bytes(&b, t, &mut self.ap);
+        }
+        let mut out = Vec::new();
+        for m in msgs {
+            self.link.push_bytes(m, t, &mut self.ap);
+            out.extend(core::iter::from_fn(|| self.link.pop_reply()));
+        }
+        let hil = HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() };
+        let h = self.frame(&hil);
+        self.link.push_bytes(&h, t, &mut self.ap);
+        let Some(sample) = self.link.take_hil_sample() else { panic!("HIL_SENSOR not decoded at {t}") };
+        self.sched.step(&sample, &mut self.link, &mut self.ap);
+        self.link.poll(t, &mut self.ap);
+        out.extend(core::iter::from_fn(|| self.link.pop_reply()));
+        let inputs = TelemetryInputs {
+            snapshot: self.ap.telemetry(),
+            inner: Default::default(),
+            outer: Default::default(),
+            parser: self.link.parser_stats(),
+            counters: ErrorCounters::from_link(&self.link),
+        };
+        self.tel.poll(t, &inputs, |m| out.push(m));
+        self.k += 1;
+        out
+    }
+
+    fn run(&mut self, steps: u64) -> Vec<Outbound> {
+        (0..steps).flat_map(|_| self.step(&[])).collect()
+    }
+
+    fn send<D: MessageData>(&mut self, m: &D) -> Vec<Outbound> {
+        let f = self.frame(m);
+        self.step(&[f])
+    }
+
+    fn command(&mut self, command: MavCmd, p: [f32; 7]) -> MavResult {
+        let c = COMMAND_LONG_DATA {
+            param1: p[0],
+            param2: p[1],
+            param3: p[2],
+            param4: p[3],
+            param5: p[4],
+            param6: p[5],
+            param7: p[6],
+            command: command as u16,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        let r = self.send(&c);
+        match r.iter().find_map(|m| match m {
+            Outbound::CommandAck(a) if a.command == command as u16 => Some(a.result),
+            _ => None,
+        }) {
+            Some(res) => res,
+            None => panic!("no COMMAND_ACK for {command:?}: {r:?}"),
+        }
+    }
+
+    fn interval(&mut self, msg_id: f32, us: f32) -> MavResult {
+        self.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [msg_id, us, 0.0, 0.0, 0.0, 0.0, 0.0])
+    }
+
+    fn upload(&mut self, path: &[[f32; 3]]) -> MavMissionResult {
+        let count = MISSION_COUNT_DATA {
+            count: path.len() as u16,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        let mut r = self.send(&count);
+        loop {
+            let reply = r.iter().find_map(|m| match m {
+                Outbound::MissionRequestInt(q) => Some(Ok(q.seq)),
+                Outbound::MissionAck(a) => Some(Err(a.mavtype)),
+                _ => None,
+            });
+            match reply {
+                Some(Ok(seq)) => {
+                    let p = path[usize::from(seq)];
+                    let item = MISSION_ITEM_INT_DATA {
+                        x: (p[0] * 1e4) as i32,
+                        y: (p[1] * 1e4) as i32,
+                        z: p[2],
+                        seq,
+                        command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
+                        frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                        target_system: 1,
+                        target_component: 1,
+                        ..Default::default()
+                    };
+                    r = self.send(&item);
+                }
+                Some(Err(result)) => return result,
+                None => r = self.step(&[]),
+            }
+        }
+    }
+
+    /// Arms after 0.5 s of samples and holds 1 m above the origin.
+    fn airborne(&mut self) {
+        self.run(500);
+        assert_eq!(
+            self.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        let hold = [0.0, 3.0, 1.0, 0.0, 0.0, 0.0, -1.0];
+        assert_eq!(self.command(MavCmd::MAV_CMD_OVERRIDE_GOTO, hold), MavResult::MAV_RESULT_ACCEPTED);
+        self.run(20);
+    }
+}
+
+fn count(out: &[Outbound], f: impl Fn(&Outbound) -> bool) -> usize {
+    out.iter().filter(|m| f(m)).count()
+}
+
+/// MISSION_CURRENT carries the item being flown and MISSION_ITEM_REACHED reports each item once,
+/// in order, then the mission is COMPLETE (MAVSDK's `mission_progress` and "reached the goal").
+#[test]
+fn mission_current_and_item_reached_follow_the_mission() {
+    let mut g = Sim::new();
+    g.airborne();
+    let path = [[1.0, 0.0, -1.0], [1.0, 1.0, -1.0], [0.0, 1.0, -1.0]];
+    assert_eq!(g.upload(&path), MavMissionResult::MAV_MISSION_ACCEPTED);
+    assert_eq!(g.interval(42.0, 50_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    let before = g.run(100);
+    assert!(before.iter().any(|m| matches!(m, Outbound::MissionCurrent(c)
+        if c.seq == 0 && c.total == 3 && c.mission_state == MissionState::MISSION_STATE_NOT_STARTED)));
+    assert_eq!(count(&before, |m| matches!(m, Outbound::MissionItemReached(_))), 0);
+    assert_eq!(g.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    let mut seqs = Vec::new();
+    let mut reached = Vec::new();
+    let mut complete = false;
+    for _ in 0..20_000 {
+        for m in g.step(&[]) {
+            match m {
+                Outbound::MissionCurrent(c) => {
+                    if seqs.last() != Some(&c.seq) {
+                        seqs.push(c.seq);
+                    }
+                    complete |= c.mission_state == MissionState::MISSION_STATE_COMPLETE;
+                }
+                Outbound::MissionItemReached(r) => reached.push(r.seq),
+                _ => {}
+            }
+        }
+        if complete {
+            break;
+        }
+    }
+    assert_eq!(seqs, vec![0, 1, 2], "MISSION_CURRENT seq over the flight");
+    assert_eq!(reached, vec![0, 1, 2], "MISSION_ITEM_REACHED, each item once");
+    assert!(complete, "mission_state COMPLETE at the end ({:?})", g.ap.telemetry().phase);
+    assert_eq!(count(&g.run(300), |m| matches!(m, Outbound::MissionItemReached(_))), 0, "not repeated");
+}
+
+/// With a battery measurement the cascade took, SYS_STATUS carries its voltage, current and
+/// remaining charge and BATTERY_STATUS streams at 1 Hz; the battery's health bit drops at Low.
+#[test]
+fn battery_status_and_sys_status_report_the_measurement() {
+    let mut g = Sim::new();
+    let sys = |out: &[Outbound]| {
+        out.iter().rev().find_map(|m| match m {
+            Outbound::SysStatus(s) => Some(s.clone()),
+            _ => None,
+        })
+    };
+    let first = g.run(1000);
+    let s = sys(&first).expect("SYS_STATUS");
+    assert_eq!((s.voltage_battery, s.current_battery, s.battery_remaining), (u16::MAX, -1, -1));
+    assert_eq!(count(&first, |m| matches!(m, Outbound::BatteryStatus(_))), 0, "no measurement yet");
+    let b = BatteryState {
+        t_us: g.t(),
+        voltage_v: 16.4,
+        current_a: Some(2.5),
+        remaining: Some(0.9),
+        level: BatteryLevel::Ok,
+    };
+    g.ap.set_battery(&b);
+    let out = g.run(2000);
+    let s = sys(&out).expect("SYS_STATUS");
+    assert_eq!((s.voltage_battery, s.current_battery, s.battery_remaining), (16_400, 250, 90));
+    assert!(s.onboard_control_sensors_present.contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY));
+    assert!(s.onboard_control_sensors_health.contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY));
+    let bs: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Outbound::BatteryStatus(b) => Some(b.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(bs.len(), 2, "1 Hz over 2 s");
+    assert_eq!((bs[0].voltages[0], bs[0].current_battery, bs[0].battery_remaining), (16_400, 250, 90));
+    g.ap.set_battery(&BatteryState { level: BatteryLevel::Low, voltage_v: 14.0, ..b });
+    let out = g.run(1000);
+    let s = sys(&out).expect("SYS_STATUS");
+    assert!(!s.onboard_control_sensors_health.contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY));
+    assert!(out.iter().any(|m| matches!(m, Outbound::BatteryStatus(b)
+        if b.charge_state == MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_LOW)));
+}
+
+/// SET_MESSAGE_INTERVAL sets the rates of ATTITUDE, LOCAL_POSITION_NED, POSITION_TARGET_LOCAL_NED
+/// (the telemetry scheduler's streams) and ATTITUDE_TARGET; REQUEST_MESSAGE sends one at once.
+#[test]
+fn scheduler_stream_rates_are_settable() {
+    let mut g = Sim::new();
+    let rates = |out: &[Outbound]| {
+        (
+            count(out, |m| matches!(m, Outbound::Attitude(_))),
+            count(out, |m| matches!(m, Outbound::LocalPositionNed(_))),
+            count(out, |m| matches!(m, Outbound::PositionTargetLocalNed(_))),
+            count(out, |m| matches!(m, Outbound::AttitudeTarget(_))),
+        )
+    };
+    assert_eq!(rates(&g.run(1000)), (50, 25, 25, 10), "the defaults");
+    assert_eq!(g.interval(30.0, 100_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(32.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(85.0, 10_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(83.0, 50_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    let (att, pos, target, att_target) = rates(&g.run(1000));
+    assert!((10..=11).contains(&att), "ATTITUDE at 10 Hz: {att}");
+    assert_eq!(pos, 0, "LOCAL_POSITION_NED stopped");
+    assert!((100..=101).contains(&target), "POSITION_TARGET_LOCAL_NED at 100 Hz: {target}");
+    assert!((20..=21).contains(&att_target), "ATTITUDE_TARGET at 20 Hz: {att_target}");
+    let req = COMMAND_LONG_DATA {
+        param1: 32.0,
+        command: MavCmd::MAV_CMD_REQUEST_MESSAGE as u16,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let mut out = g.send(&req);
+    assert!(out
+        .iter()
+        .any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)));
+    out.extend(g.run(10));
+    assert_eq!(rates(&out).1, 1, "one LOCAL_POSITION_NED on request while stopped");
+    assert_eq!(g.interval(30.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(32.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
+    let (att, pos, _, _) = rates(&g.run(1000));
+    assert!((50..=51).contains(&att) && (25..=26).contains(&pos), "defaults restored: {att} {pos}");
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Disarmed);
+}
