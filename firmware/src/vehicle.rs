@@ -14,6 +14,9 @@
 //!   its lowest-priority context (the F405: a task of the low executor; QEMU: between
 //!   lockstep steps), because a flash write there may stall the CPU.
 //!
+//! A board whose cascade runs in separate tasks (the F405 / H743 binary) uses the same services
+//! split over its tasks: [`tasks`].
+//!
 //! Owns [`SetupVehicle`]. May import [`crate::app`], [`crate::setup`], [`crate::storage`],
 //! `parapet_core`. Every control-step addition is bounded (two 3×3 products; the
 //! calibration's per-sample work).
@@ -112,8 +115,9 @@ impl<A: ControlSteps> SetupVehicle<A> {
 
     /// The storage work due at `now_us` (a PREFLIGHT_STORAGE request, or the debounced save
     /// while disarmed). Run it outside the control steps (module docs). Failures are queued
-    /// as STATUSTEXTs; the parameters in effect never change on a failed write.
-    pub async fn storage_step<F: NorFlash>(&mut self, now_us: u64, store: &mut ParamStore<F>) {
+    /// as STATUSTEXTs; the parameters in effect never change on a failed write. Returns
+    /// `true` when it used the flash (the board measures those calls).
+    pub async fn storage_step<F: NorFlash>(&mut self, now_us: u64, store: &mut ParamStore<F>) -> bool {
         match self.setup.take_storage() {
             Some(StorageRequest::Write) => {
                 if store.save(&self.params).await.is_err() {
@@ -138,11 +142,15 @@ impl<A: ControlSteps> SetupVehicle<A> {
                 }
             }
             None => {
-                if self.setup.save_due(now_us, self.armed) && store.save(&self.params).await.is_err() {
+                if !self.setup.save_due(now_us, self.armed) {
+                    return false;
+                }
+                if store.save(&self.params).await.is_err() {
                     self.setup.say_text("Params: save failed");
                 }
             }
         }
+        true
     }
 }
 
@@ -238,6 +246,8 @@ impl<A: ControlSteps> ControlSteps for SetupVehicle<A> {
         self.inner.step_outer(now_us)
     }
 }
+
+pub mod tasks;
 
 #[cfg(test)]
 mod tests;

@@ -140,10 +140,11 @@ fn boot_load_storage_requests_and_the_debounced_save() {
     v.step_inner(10, &imu(Vec3::new(0.0, 0.0, -GRAVITY)));
     v.set_param("CBF_MU", 2.0).unwrap();
     // Not yet (debounce), not while armed, then saved.
-    block_on(v.storage_step(500_000, &mut store));
+    assert!(!block_on(v.storage_step(500_000, &mut store)), "no flash use before the debounce");
     let mut p = ControllerParams::default();
     assert_eq!(block_on(store.load(&mut p)), Loaded::Empty);
-    block_on(v.storage_step(1_100_000, &mut store));
+    assert!(block_on(v.storage_step(1_100_000, &mut store)));
+    assert!(!block_on(v.storage_step(1_200_000, &mut store)), "saved once");
     assert_eq!(block_on(store.load(&mut p)), Loaded::Stored);
     assert_eq!(params::get(&p, "CBF_MU"), Some(2.0));
     // A fresh boot loads it into the cascade.
@@ -156,7 +157,7 @@ fn boot_load_storage_requests_and_the_debounced_save() {
         w.setup_command(0, CMD_PREFLIGHT_STORAGE, [2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         Some(SetupAck::Accepted)
     );
-    block_on(w.storage_step(0, &mut store));
+    assert!(block_on(w.storage_step(0, &mut store)));
     assert_eq!(w.get_param("CBF_MU"), Some(ControllerParams::default().cbf.mu));
     assert_eq!(block_on(store.load(&mut p)), Loaded::Empty);
 }
