@@ -2,7 +2,20 @@
 //!
 //! Same cascade (`parapet-core`) and application code as the board firmware; the board layer is
 //! `parapet_firmware::board::qemu` and the application `parapet_firmware::pil` (lockstep over
-//! the semihosting console = QEMU's stdin/stdout, see `firmware/README.md`). Build:
+//! the semihosting console = QEMU's stdin/stdout, see `firmware/README.md`). The cascade runs
+//! inside `SetupVehicle` (PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST, IMU
+//! correction) with its parameter store on a **RAM-backed NOR flash** (`board::qemu::param_flash`,
+//! 2 × 2 KiB pages in SRAM): QEMU 7.2's netduinoplus2 maps the STM32F405 flash as ROM and does
+//! not model the flash controller, so the store lasts until QEMU exits. The store's work runs
+//! between lockstep steps, never inside one (the board's lowest-priority context), and is
+//! reported as NAMED_VALUE_INT `ins_store` (instructions of each call that used the flash); the
+//! stack margin as `stack_free` (bytes never used since boot, `board::qemu::stack_free_bytes`).
+//!
+//! Stack: the 128 KiB SRAM holds `.bss` (≈ 84 KiB: the 60 KiB log ring, the application) and
+//! the stack above it. Building the cascade at boot is the deepest use (≈ 40 KiB of frames);
+//! the application is therefore built straight into a `static` from a small `main` frame and
+//! the port and store are opened by the task (moved through `main` by value they overflowed the
+//! stack into `.bss` at boot). Build:
 //! `cargo build -p parapet-firmware --release --target thumbv7em-none-eabihf
 //!  --no-default-features --features board-qemu --bin parapet-firmware-qemu`.
 #![cfg_attr(target_os = "none", no_std)]
@@ -14,14 +27,26 @@ mod firmware {
     use embassy_executor::Spawner;
     use parapet_core::controller::ControllerParams;
     use parapet_firmware::app::cascade::Cascade;
-    use parapet_firmware::board::qemu::{panic_write, InstructionCounter, Semihost};
+    use parapet_firmware::board::qemu::{
+        paint_stack, panic_write, param_flash, stack_free_bytes, InstructionCounter, ParamFlash, Semihost,
+        PARAM_FLASH_SIZE,
+    };
     use parapet_firmware::link::dialect::MavSeverity;
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::status_text;
     use parapet_firmware::log::service::RamLogStore;
+    use parapet_firmware::pil::lockstep::InstructionCalibration;
     use parapet_firmware::pil::{PilApp, CALIBRATION_ITERATIONS};
-    use static_cell::ConstStaticCell;
+    use parapet_firmware::storage::ParamStore;
+    use parapet_firmware::vehicle::SetupVehicle;
+    use static_cell::{ConstStaticCell, StaticCell};
+
+    /// NAMED_VALUE_INT of the instructions of one storage call that used the flash.
+    const INS_STORE: &str = "ins_store";
+    /// NAMED_VALUE_INT of the stack never used so far, bytes (`board::qemu::stack_free_bytes`).
+    const STACK_FREE: &str = "stack_free";
+    type Vehicle = SetupVehicle<Cascade>;
 
     /// How long one handshake round reads the bytes already received: 1 ms of virtual time at
     /// the 168 MHz SysTick clock (≈ 10⁶ instructions, far more than one frame needs).
@@ -42,38 +67,89 @@ mod firmware {
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
+        paint_stack();
         let Some(cp) = cortex_m::Peripherals::take() else {
             report_and_halt("core peripherals taken twice");
         };
         let counter = InstructionCounter::new(cp.SYST);
         let calibration = counter.calibrate(CALIBRATION_ITERATIONS);
-        let Some(port) = Semihost::open() else {
-            report_and_halt("semihosting console refused");
-        };
-        let params = ControllerParams::default();
-        let cascade = match Cascade::new(params) {
-            Ok(c) => c,
-            Err(_) => report_and_halt("controller parameters rejected"),
-        };
-        let app = PilApp::new(cascade, calibration).with_log(LOG_STORE.take(), &params);
-        match lockstep(app, port, counter) {
+        // The deepest stack use of the whole run (building the cascade): with as little as
+        // possible in this frame (the port and the store are opened by the task).
+        let app = build_app(calibration);
+        match lockstep(app, counter) {
             Ok(token) => spawner.spawn(token),
             Err(_) => report_and_halt("lockstep task spawn failed"),
         }
     }
 
+    /// The application, in a `static` (module docs: the boot stack).
+    static APP: StaticCell<PilApp<Vehicle>> = StaticCell::new();
+
+    /// The cascade in its setup wrapper with the onboard log, in [`APP`] (halts when the
+    /// default parameters are refused).
+    #[inline(never)]
+    fn build_app(calibration: InstructionCalibration) -> &'static mut PilApp<Vehicle> {
+        let params = ControllerParams::default();
+        let cascade = match Cascade::new(params) {
+            Ok(c) => c,
+            Err(_) => report_and_halt("controller parameters rejected"),
+        };
+        let Some(slot) = APP.try_uninit() else { report_and_halt("application built twice") };
+        let app = slot.write(PilApp::new(SetupVehicle::new(cascade, params), calibration));
+        app.set_log(LOG_STORE.take(), &params);
+        app
+    }
+
     /// The PIL task: heartbeat handshake (one HEARTBEAT, then one more per batch of host bytes
     /// without a valid frame), then answer every HIL_SENSOR. Between batches the port sends what
-    /// was collected and waits (the core halted) for the host.
+    /// was collected and waits (the core halted) for the host. The stored parameters are loaded
+    /// before the handshake (a RAM store: empty at every QEMU start); after each batch the
+    /// store's due work runs (outside the control steps) and reports `ins_store`.
     #[embassy_executor::task]
-    async fn lockstep(mut app: PilApp<Cascade>, mut port: Semihost, counter: InstructionCounter) {
+    async fn lockstep(app: &'static mut PilApp<Vehicle>, counter: InstructionCounter) {
+        let Some(mut port) = Semihost::open() else {
+            report_and_halt("semihosting console refused");
+        };
+        let Some(flash) = param_flash() else { report_and_halt("parameter flash taken twice") };
+        let Some(mut store) = ParamStore::new(flash, 0..PARAM_FLASH_SIZE as u32) else {
+            report_and_halt("parameter store layout refused");
+        };
+        boot_load(app, &mut store);
         while !app.handshake_round(&mut port, &counter, HEARTBEAT_PERIOD_TICKS) {
             port.wait_readable();
         }
+        let mut free = u32::MAX;
         loop {
+            // The stack margin after the boot and each step batch, when it shrank.
+            let now_free = stack_free_bytes();
+            if now_free < free {
+                free = now_free;
+                app.report(&mut port, STACK_FREE, free);
+            }
             app.poll(&mut port, &counter);
+            let t0 = counter.now();
+            let used = storage_step(app, &mut store);
+            let ticks = counter.since(t0);
+            if used {
+                let ins = app.calibration().instructions_for(ticks);
+                app.report(&mut port, INS_STORE, ins);
+            }
             port.wait_readable();
         }
+    }
+
+    // The store's futures on the RAM flash never wait: run them to completion here, outside
+    // the task's future (an `.await` in the task keeps their state, and LLVM's copies of it, in
+    // the task: its poll frame grew to 58 KiB of stack and overflowed at boot).
+    #[inline(never)]
+    fn boot_load(app: &mut PilApp<Vehicle>, store: &mut ParamStore<&'static mut ParamFlash>) {
+        embassy_futures::block_on(app.autopilot_mut().boot_load(store));
+    }
+
+    #[inline(never)]
+    fn storage_step(app: &mut PilApp<Vehicle>, store: &mut ParamStore<&'static mut ParamFlash>) -> bool {
+        let now = app.now_us();
+        embassy_futures::block_on(app.autopilot_mut().storage_step(now, store))
     }
 
     #[panic_handler]

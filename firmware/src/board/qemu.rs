@@ -24,6 +24,14 @@
 //!   ([`MeasuredCriticalSection`]: PRIMASK like cortex-m's single-core one, plus the SysTick
 //!   ticks from the outermost acquire to its release), so the PIL application can report the
 //!   longest section with interrupts masked of every control step (`ins_masked`).
+//! - **Parameter store**: a RAM-backed NOR flash ([`param_flash`], a [`RamFlash`] in SRAM): QEMU 7.2 maps the STM32F405's flash as ROM
+//!   (`memory_region_init_rom` in `hw/arm/stm32f405_soc.c`) and does not model the flash
+//!   controller, so the firmware cannot program it. The store is erased at every start and
+//!   lasts until QEMU exits.
+//! - **Stack watermark**: [`paint_stack`] fills the unused stack (from cortex-m-rt's
+//!   `_stack_end`, the top of `.bss`, up to the caller's frame) with a pattern at boot;
+//!   [`stack_free_bytes`] later finds how much of it was never written: the margin left
+//!   between the deepest stack use so far and the statics below it (0: the stack reached them).
 //! - No RCC/DMA/GPIO access; no defmt/RTT (nothing reads it in QEMU). Without semihosting
 //!   enabled in QEMU the first semihosting call faults (HardFault, no output): the host always
 //!   enables it.
@@ -37,6 +45,8 @@ use cortex_m_semihosting::{nr, syscall};
 use crate::link::framing::FrameWriter;
 use crate::link::outbound::Outbound;
 use crate::pil::lockstep::{systick_elapsed, InstructionCalibration};
+use crate::storage::ram::RamFlash;
+use static_cell::ConstStaticCell;
 
 /// Capacity of the receive buffer, bytes: one `SYS_READ` takes at most this much (QEMU's
 /// semihosting console FIFO holds 1024 bytes).
@@ -282,4 +292,62 @@ impl crate::pil::TickCounter for InstructionCounter {
     fn take_masked_max(&self) -> u32 {
         take_masked_max_ticks()
     }
+}
+
+/// Erase page of the QEMU board's parameter flash, bytes.
+pub const PARAM_FLASH_PAGE: usize = 2048;
+/// Size of the QEMU board's parameter flash: two pages (sequential-storage's minimum; one
+/// page holds a complete parameter set, 72 items).
+pub const PARAM_FLASH_SIZE: usize = 2 * PARAM_FLASH_PAGE;
+/// The QEMU board's parameter flash (module docs).
+pub type ParamFlash = RamFlash<PARAM_FLASH_SIZE, PARAM_FLASH_PAGE>;
+
+/// The flash in `.bss` (zeroed at reset, not an 0xFF image in `.data`: that would cost the
+/// same again in flash and did not leave the stack enough room at boot).
+static PARAM_FLASH: ConstStaticCell<ParamFlash> = ConstStaticCell::new(ParamFlash::zeroed());
+
+/// The parameter store's RAM flash, erased (module docs); `None` after the first call.
+/// QEMU's netduinoplus2 has no core-coupled memory (a write to 0x1000_0000 is a bus fault),
+/// so it lives in SRAM.
+pub fn param_flash() -> Option<&'static mut ParamFlash> {
+    let flash = PARAM_FLASH.try_take()?;
+    // Erased: every byte 0xFF (what `NorFlash::erase` does, without a future to run).
+    flash.bytes_mut().fill(0xFF);
+    Some(flash)
+}
+
+/// The pattern [`paint_stack`] writes.
+const STACK_PAINT: u32 = 0x5AFE_57AC;
+/// Bytes below the caller's stack pointer that [`paint_stack`] leaves alone (its own frame).
+const PAINT_SKIP: usize = 256;
+
+extern "C" {
+    /// cortex-m-rt's lowest stack address (the end of `.bss`, 4-byte aligned).
+    static mut _stack_end: u32;
+}
+
+/// Fills the stack below the caller (module docs). Call first thing at boot.
+#[inline(never)]
+pub fn paint_stack() {
+    let bottom = core::ptr::addr_of_mut!(_stack_end) as usize;
+    let top = (cortex_m::register::msp::read() as usize).saturating_sub(PAINT_SKIP) & !3;
+    let mut a = bottom;
+    while a < top {
+        // SAFETY: [bottom, top) is the part of the stack below the current frame (minus a
+        // margin for this function's own frame): memory no Rust object occupies; word aligned.
+        unsafe { core::ptr::write_volatile(a as *mut u32, STACK_PAINT) };
+        a += 4;
+    }
+}
+
+/// Bytes of the painted stack never written since [`paint_stack`] (module docs).
+pub fn stack_free_bytes() -> u32 {
+    let bottom = core::ptr::addr_of_mut!(_stack_end) as usize;
+    let top = cortex_m::register::msp::read() as usize;
+    let mut a = bottom;
+    // SAFETY: reads of the stack region below the current stack pointer, word aligned.
+    while a < top && unsafe { core::ptr::read_volatile(a as *const u32) } == STACK_PAINT {
+        a += 4;
+    }
+    (a - bottom) as u32
 }

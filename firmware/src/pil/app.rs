@@ -129,9 +129,14 @@ impl<A: ControlSteps> PilApp<A> {
     /// With the onboard log in `store` (a `static`: see [`LogService::new`]), recording with the
     /// thrust map of `params`.
     pub fn with_log(mut self, store: &'static mut RamLogStore, params: &ControllerParams) -> Self {
+        self.set_log(store, params);
+        self
+    }
+
+    /// [`PilApp::with_log`] in place (an application in a `static`: no copy of it on the stack).
+    pub fn set_log(&mut self, store: &'static mut RamLogStore, params: &ControllerParams) {
         let logger = FlightLogger::new(DEFAULT_PERIOD_US, params, "qemu-netduinoplus2");
         self.log = Some(LogService::new(store, logger, VEHICLE_SYSTEM_ID));
-        self
     }
 
     /// The onboard log, if any.
@@ -157,6 +162,29 @@ impl<A: ControlSteps> PilApp<A> {
     /// The autopilot.
     pub fn autopilot(&self) -> &A {
         &self.autopilot
+    }
+
+    /// The autopilot, for the board's work between the lockstep steps (the parameter store's
+    /// [`crate::vehicle::SetupVehicle::storage_step`]).
+    pub fn autopilot_mut(&mut self) -> &mut A {
+        &mut self.autopilot
+    }
+
+    /// The start-up instruction calibration (SysTick ticks → instructions).
+    pub fn calibration(&self) -> InstructionCalibration {
+        self.calibration
+    }
+
+    /// The simulator time of the last answered step, µs (0 before the first).
+    pub fn now_us(&self) -> u64 {
+        self.last_t_us
+    }
+
+    /// Sends one NAMED_VALUE_INT `name` = `value` stamped with the last step's time (the
+    /// board's measurements of its work between the steps, e.g. `ins_store`).
+    pub fn report(&mut self, port: &mut impl BytePort, name: &str, value: u32) {
+        let m = named_int((self.last_t_us / 1000) as u32, name, value.min(i32::MAX as u32) as i32);
+        self.send(port, &m);
     }
 
     /// One handshake round: sends a HEARTBEAT, then polls the port for `period_ticks`. Returns

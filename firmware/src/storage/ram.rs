@@ -30,6 +30,12 @@ impl<const SIZE: usize, const PAGE: usize> RamFlash<SIZE, PAGE> {
         Self { mem: [0xFF; SIZE] }
     }
 
+    /// All bits programmed (0x00): erase before use. A `static` of it goes to `.bss` (zeroed at
+    /// reset) rather than carrying an 0xFF image in `.data` (the QEMU board's store).
+    pub const fn zeroed() -> Self {
+        Self { mem: [0; SIZE] }
+    }
+
     /// The raw image (tests).
     pub fn bytes(&self) -> &[u8] {
         &self.mem
