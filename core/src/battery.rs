@@ -2,7 +2,8 @@
 //! simulator's battery model in host-sim/PIL) and the supervisor's low-battery failsafes,
 //! and the estimator that turns raw pack voltage / current samples into it.
 //!
-//! Owns [`BatteryState`], [`BatteryLevel`], [`BatteryParams`], [`BatteryEstimator`] and the
+//! Owns [`BatteryState`], [`BatteryLevel`], [`BatteryParams`], [`BatteryEstimator`], the ADC
+//! conversion ([`AdcReading`], [`vdda_volts`], [`BatteryParams::convert`]) and the
 //! LiPo charge curve [`remaining_of_cell_voltage`].
 //!
 //! ## The estimator ([`BatteryEstimator::update`], bounded: one table walk of 21 points)
@@ -311,6 +312,58 @@ impl BatteryEstimator {
     }
 }
 
+/// Full-scale count of a 12-bit ADC conversion (STM32F4; STM32H7 in 12-bit mode).
+pub const ADC_12BIT_FULL_SCALE: u16 = 4095;
+/// Analog supply (VDDA = VREF+) the boards are designed for, V; the conversion uses it when
+/// there is no internal-reference reading.
+pub const VDDA_NOMINAL_V: f32 = 3.3;
+/// VDDA at which ST measured the internal reference's factory calibration `VREFINT_CAL`
+/// (STM32F405: at 0x1FFF_7A2A, 3.3 V, 30 °C; DS8626 table "Internal reference voltage
+/// calibration values"), V.
+pub const VREFINT_CAL_VDDA_V: f32 = 3.3;
+/// VDDA outside this range, V, means a bad internal-reference reading (the STM32F405 runs at
+/// 1.8-3.6 V; a flight controller's regulator gives 3.3 V): the nominal supply is used.
+pub const VDDA_PLAUSIBLE_V: (f32, f32) = (2.8, 3.6);
+
+/// One conversion of the battery inputs of a board (raw ADC counts of
+/// [`ADC_12BIT_FULL_SCALE`]). `Copy`, host-testable: the board's ADC task fills it,
+/// [`BatteryParams::convert`] turns it into the estimator's volts and amps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct AdcReading {
+    /// The VBAT divider's pin.
+    pub vbat: u16,
+    /// The current sensor's pin, on a board that has one.
+    pub current: Option<u16>,
+    /// The internal reference (VREFINT) channel and its factory calibration word, when read:
+    /// corrects for the actual VDDA.
+    pub vrefint: Option<(u16, u16)>,
+}
+
+/// VDDA from an internal-reference reading: `VREFINT_CAL_VDDA_V · cal / raw`; `None` when a
+/// count is 0 or the result is outside [`VDDA_PLAUSIBLE_V`].
+pub fn vdda_volts(vrefint_raw: u16, vrefint_cal: u16) -> Option<f32> {
+    if vrefint_raw == 0 || vrefint_cal == 0 {
+        return None;
+    }
+    let v = VREFINT_CAL_VDDA_V * f32::from(vrefint_cal) / f32::from(vrefint_raw);
+    (VDDA_PLAUSIBLE_V.0..=VDDA_PLAUSIBLE_V.1).contains(&v).then_some(v)
+}
+
+impl BatteryParams {
+    /// Pack volts and amps of one reading (the estimator's input): pin volts = counts · VDDA /
+    /// full scale, VDDA from the internal reference when plausible, else [`VDDA_NOMINAL_V`];
+    /// then [`BatteryParams::pack_volts`] / [`BatteryParams::amps`]. A VBAT count at full scale
+    /// (the pin at or above VDDA: the pack is beyond the divider's range, or the pin is
+    /// shorted) gives NaN, which the estimator refuses and counts: a clipped reading must not
+    /// look like a healthy pack.
+    pub fn convert(&self, r: &AdcReading) -> (f32, Option<f32>) {
+        let vdda = r.vrefint.and_then(|(raw, cal)| vdda_volts(raw, cal)).unwrap_or(VDDA_NOMINAL_V);
+        let pin = |c: u16| f32::from(c.min(ADC_12BIT_FULL_SCALE)) * vdda / f32::from(ADC_12BIT_FULL_SCALE);
+        let v = if r.vbat >= ADC_12BIT_FULL_SCALE { f32::NAN } else { self.pack_volts(pin(r.vbat)) };
+        (v, r.current.and_then(|c| self.amps(pin(c))))
+    }
+}
+
 /// `ceil` for the small positive values of the cell count (no libm in this unit).
 fn libm_ceil(x: f32) -> f32 {
     let t = x as i32 as f32;
@@ -326,6 +379,60 @@ mod tests {
     use super::*;
 
     const S: u64 = 1_000_000;
+
+    #[test]
+    fn adc_counts_become_pack_volts_and_amps_with_the_boards_divider() {
+        let p = BatteryParams { amps_per_volt: 40.0, ..Default::default() };
+        // 4S at 16.8 V behind 10k/1k: 1.527 V on the pin = 1895 counts at 3.3 V.
+        let (v, i) = p.convert(&AdcReading { vbat: 1895, current: Some(124), vrefint: None });
+        assert!((v - 16.797).abs() < 0.01, "{v}");
+        assert!((i.unwrap() - 3.997).abs() < 0.01, "{i:?}");
+        // No current sensor configured: no current even with a reading.
+        let (_, i) =
+            BatteryParams::default().convert(&AdcReading { vbat: 1895, current: Some(124), vrefint: None });
+        assert_eq!(i, None);
+        // A VDDA of 3.0 V (VREFINT reads high): the same counts are fewer volts.
+        let cal = 1500;
+        let raw = (1500.0 * 3.3 / 3.0_f32).round() as u16;
+        assert!((vdda_volts(raw, cal).unwrap() - 3.0).abs() < 0.01);
+        let (v3, _) = p.convert(&AdcReading { vbat: 1895, current: None, vrefint: Some((raw, cal)) });
+        assert!((v3 - 16.797 * 3.0 / 3.3).abs() < 0.02, "{v3}");
+        // Implausible references fall back to the nominal supply.
+        for (raw, cal) in [(0, 1500), (1500, 0), (100, 1500), (4000, 1500)] {
+            assert_eq!(vdda_volts(raw, cal), None, "{raw} {cal}");
+            let (vn, _) = p.convert(&AdcReading { vbat: 1895, current: None, vrefint: Some((raw, cal)) });
+            assert!((vn - v).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn a_clipped_vbat_reading_is_refused_by_the_estimator_not_taken_as_a_full_pack() {
+        let p = BatteryParams::default();
+        let mut e = BatteryEstimator::new(p);
+        let (v, _) = p.convert(&AdcReading { vbat: 1700, ..Default::default() });
+        assert!(matches!(e.update(S, v, None, false), BatterySample::Accepted(_)));
+        for vbat in [ADC_12BIT_FULL_SCALE, u16::MAX] {
+            let (v, _) = p.convert(&AdcReading { vbat, ..Default::default() });
+            assert!(v.is_nan());
+            assert!(matches!(e.update(2 * S, v, None, false), BatterySample::Rejected(_)));
+        }
+        assert_eq!(e.rejected(), 2);
+        // A pack dropping through the thresholds on ADC counts reaches Low then Critical.
+        let mut e = BatteryEstimator::new(BatteryParams { cells: 4, ..p });
+        let counts = |cell_v: f32| (cell_v * 4.0 / 11.0 / 3.3 * 4095.0).round() as u16;
+        let mut t = 0;
+        let mut last = BatteryLevel::Ok;
+        for (cell_v, want) in
+            [(3.9, BatteryLevel::Ok), (3.4, BatteryLevel::Low), (3.2, BatteryLevel::Critical)]
+        {
+            for _ in 0..60 {
+                t += S / 10;
+                let (v, _) = p.convert(&AdcReading { vbat: counts(cell_v), ..Default::default() });
+                last = e.update(t, v, None, true).state().level;
+            }
+            assert_eq!(last, want, "{cell_v} V/cell");
+        }
+    }
 
     fn feed(e: &mut BatteryEstimator, t0: u64, t1: u64, v: f32, i: Option<f32>, armed: bool) -> BatteryState {
         let mut s = e.state();
