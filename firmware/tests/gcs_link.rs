@@ -430,35 +430,38 @@ fn fence_and_rally_are_refused_without_touching_the_mission() {
     assert_eq!(g.download(), path.to_vec());
 }
 
+/// HEARTBEAT: custom_mode = the PX4 custom mode of the flight mode (Mission, the default, from
+/// boot through the hold and the mission), AUTO | GUIDED | STABILIZE as PX4 sets them for its auto
+/// modes, SAFETY_ARMED only when armed; the phase goes beside it (NAMED_VALUE_INT PHASE).
 #[test]
 fn heartbeat_flags_follow_arming_and_mode() {
+    use parapet_firmware::app::autopilot::FlightMode;
+    let auto = MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED
+        | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
+        | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
+        | MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     let mut g = Sim::new();
     let hb = |g: &Sim| parapet_firmware::link::telemetry::heartbeat(&g.ap.telemetry());
     let h: HEARTBEAT_DATA = hb(&g);
-    assert!(h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED));
-    assert!(!h.base_mode.intersects(
-        MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
-            | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED
-            | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED
-    ));
-    assert_eq!(h.custom_mode, FlightPhase::Disarmed.code());
+    assert_eq!(h.base_mode, auto, "disarmed in Mission");
+    assert_eq!(h.custom_mode, FlightMode::Mission.px4_custom_mode());
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Disarmed);
     g.airborne();
     let h = hb(&g);
-    assert!(h
-        .base_mode
-        .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED));
-    assert!(!h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED));
-    assert_eq!(h.custom_mode, FlightPhase::Hover.code());
+    assert_eq!(h.base_mode, auto | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+    assert_eq!(h.custom_mode, FlightMode::Mission.px4_custom_mode());
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
     assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
     g.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7], 1);
     g.run(8);
     let h = hb(&g);
-    assert!(h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED));
-    assert_eq!(h.custom_mode, FlightPhase::Mission.code());
+    assert_eq!(h.base_mode, auto | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+    assert_eq!(h.custom_mode, FlightMode::Mission.px4_custom_mode());
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission);
 }
 
 #[test]
-fn do_set_mode_switches_between_the_custom_modes_of_the_heartbeat() {
+fn do_set_mode_switches_between_the_phases() {
     let mut g = Sim::new();
     g.airborne();
     assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);

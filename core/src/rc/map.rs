@@ -33,7 +33,7 @@
 
 use super::crsf::{CrsfDecoder, CrsfFrame, LinkStats};
 use super::sbus::SbusDecoder;
-use super::{RawChannels, RcInput, RcLost, RcSource, SwitchPosition};
+use super::{RawChannels, RcInput, RcLost, RcSource, SwitchPosition, MAX_CHANNELS};
 
 /// Channel map, ranges, switch thresholds and loss limits (see the module docs; the parameter
 /// table `crate::params` holds their names, units, defaults and ranges).
@@ -191,6 +191,52 @@ pub fn map_channels(
         lost,
         source,
     }
+}
+
+/// The channels a receiver would have sent for `i` under the channel map `p` (the inverse of
+/// [`map_channels`], rounded to µs): what RC_CHANNELS reports for MAVLink
+/// pilot input, which has no channels of its own. Sticks from the trim through the deadband to
+/// the range ends, throttle over the range, arm and kill at the range ends (on = max), the mode
+/// switch at min / trim / max. `count` = the highest mapped channel; unmapped channels below it
+/// read trim.
+pub fn channels_of(i: &RcInput, p: &RcParams) -> RawChannels {
+    let db = p.deadband_us.max(0.0);
+    let stick = |s: f32| {
+        let s = if s.is_finite() { s.clamp(-1.0, 1.0) } else { 0.0 };
+        if s > 0.0 {
+            p.trim_us + db + s * (p.max_us - p.trim_us - db)
+        } else if s < 0.0 {
+            p.trim_us - db + s * (p.trim_us - p.min_us - db)
+        } else {
+            p.trim_us
+        }
+    };
+    let thr = if i.throttle.is_finite() { i.throttle.clamp(0.0, 1.0) } else { 0.0 };
+    let switch = |on: bool| if on { p.max_us } else { p.min_us };
+    let mode = match i.mode {
+        SwitchPosition::Low => p.min_us,
+        SwitchPosition::Mid => p.trim_us,
+        SwitchPosition::High => p.max_us,
+    };
+    let values = [
+        (p.map_roll, stick(i.roll)),
+        (p.map_pitch, stick(i.pitch)),
+        (p.map_yaw, stick(i.yaw)),
+        (p.map_throttle, p.min_us + thr * (p.max_us - p.min_us)),
+        (p.map_arm, switch(i.arm)),
+        (p.map_kill, switch(i.kill)),
+        (p.map_mode, mode),
+    ];
+    // Rounded (the values are ≥ 0); saturating float → int casts: any value lands in 0..=u16::MAX.
+    let mut us = [(p.trim_us + 0.5) as u16; MAX_CHANNELS];
+    let mut count = 0u8;
+    for (ch, v) in values {
+        if let Some(slot) = usize::from(ch).checked_sub(1).and_then(|k| us.get_mut(k)) {
+            *slot = (v + 0.5) as u16;
+            count = count.max(ch);
+        }
+    }
+    RawChannels { us, count, failsafe: i.failsafe, frame_lost: false }
 }
 
 /// One receiver frame before the map: channels in µs plus the link state at its arrival. The
@@ -413,6 +459,40 @@ mod tests {
     use super::*;
     use crate::rc::{crsf, sbus, MAX_CHANNELS};
     use std::vec::Vec;
+
+    /// The synthesized channels map back to the same input (sticks within 1 µs of rounding),
+    /// with the default and a remapped channel set.
+    #[test]
+    fn channels_of_an_input_map_back_to_it() {
+        let input = RcInput {
+            roll: 0.5,
+            pitch: -1.0,
+            yaw: 0.02,
+            throttle: 0.7,
+            arm: true,
+            kill: false,
+            mode: SwitchPosition::High,
+            link_quality: 100,
+            ..RcInput::default()
+        };
+        let remapped =
+            RcParams { map_roll: 3, map_throttle: 1, map_kill: 12, map_mode: 0, ..RcParams::default() };
+        for p in [RcParams::default(), remapped] {
+            let raw = channels_of(&input, &p);
+            let back = map_channels(&raw, &p, 0, 100, None, RcSource::Mavlink);
+            for (a, b) in
+                [(back.roll, input.roll), (back.pitch, input.pitch), (back.throttle, input.throttle)]
+            {
+                assert!((a - b).abs() < 3e-3, "{a} vs {b} ({p:?})");
+            }
+            assert!(back.yaw.abs() < 0.05);
+            assert_eq!((back.arm, back.kill), (input.arm, input.kill));
+            let mode = if p.map_mode == 0 { SwitchPosition::Low } else { input.mode };
+            assert_eq!(back.mode, mode);
+        }
+        assert_eq!(channels_of(&input, &RcParams::default()).count, 7);
+        assert_eq!(channels_of(&input, &remapped).count, 12);
+    }
 
     fn raw(vals: &[u16]) -> RawChannels {
         let mut us = [1500u16; MAX_CHANNELS];

@@ -2,7 +2,8 @@
 
 use crate::cbf::Region;
 
-/// Flight phase, carried as HEARTBEAT `custom_mode`.
+/// Flight phase, carried as NAMED_VALUE_INT `PHASE` (the HEARTBEAT `custom_mode` carries the PX4
+/// flight mode).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u32)]

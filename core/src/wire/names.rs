@@ -23,6 +23,9 @@ pub const LINK_DROP: &str = "LINK_DROP";
 pub const HW_ERR: &str = "HW_ERR";
 /// NAMED_VALUE_INT: failsafe code on every transition ([`crate::wire::codes::failsafe`]).
 pub const FAILSAFE: &str = "FAILSAFE";
+/// NAMED_VALUE_INT (1 Hz, with the HEARTBEAT): flight phase code ([`crate::wire::codes::FlightPhase`];
+/// the HEARTBEAT's `custom_mode` carries the PX4 flight mode).
+pub const PHASE: &str = "PHASE";
 /// Prefix of the DEBUG_VECT carrying an obstacle's velocity: `OBV<id>` (NED, m/s).
 pub const OBSTACLE_VELOCITY_PREFIX: &str = "OBV";
 
@@ -58,7 +61,7 @@ mod tests {
     fn names_fit_the_ten_byte_field_and_compare_padded() {
         for n in [
             CBF, CBF_FLAGS, U_NOM, LOOP_IN, LOOP_OUT, OVR_IN, OVR_OUT, LINK, LINK_DROP, HW_ERR, FAILSAFE,
-            INS_CAL_N, INS_CAL, INS_STEP, INS_OUTER, INS_MASKED,
+            PHASE, INS_CAL_N, INS_CAL, INS_STEP, INS_OUTER, INS_MASKED,
         ] {
             assert!(n.len() <= 10, "{n}");
         }

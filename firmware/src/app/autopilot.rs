@@ -11,7 +11,7 @@ use parapet_core::battery::BatteryState;
 use parapet_core::obstacle::ObstaclePoint;
 pub use parapet_core::outer::offboard::OffboardSetpoint;
 use parapet_core::rc::map::RcParams;
-use parapet_core::rc::RcInput;
+use parapet_core::rc::{RawChannels, RcInput};
 pub use parapet_core::supervisor::modes::FlightMode;
 
 pub use parapet_core::params::ParamRejected;
@@ -142,6 +142,18 @@ pub struct Failsafe {
     pub reason: &'static str,
 }
 
+/// The latest pilot input as RC_CHANNELS (65) reports it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RcReport {
+    /// Channels, µs: a receiver's as it sent them; MAVLink pilot input as the channel map gives
+    /// them back (`crate::link::manual_control::channels_of`).
+    pub channels: RawChannels,
+    /// Link quality of the latest frame, percent.
+    pub link_quality: u8,
+    /// Time of the latest frame, µs.
+    pub t_us: u64,
+}
+
 /// What the link reports about the cascade.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TelemetrySnapshot {
@@ -181,6 +193,8 @@ pub struct TelemetrySnapshot {
     pub battery: Option<BatteryState>,
     /// Attitude and collective thrust setpoint of the last outer step (ATTITUDE_TARGET).
     pub attitude_sp: parapet_core::msg::AttitudeSetpoint,
+    /// The latest pilot input (RC_CHANNELS), `None` before the first RC frame.
+    pub rc: Option<RcReport>,
 }
 
 impl TelemetrySnapshot {
@@ -202,6 +216,7 @@ impl TelemetrySnapshot {
         mission_seq: 0,
         mission_done: false,
         battery: None,
+        rc: None,
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,

@@ -44,7 +44,7 @@ use parapet_core::Vec3;
 
 use crate::app::autopilot::{
     Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand,
-    OffboardSetpoint, ParamRejected, PathRejected, PositionFix, SetpointReport, TelemetrySnapshot,
+    OffboardSetpoint, ParamRejected, PathRejected, PositionFix, RcReport, SetpointReport, TelemetrySnapshot,
     VehicleCommand,
 };
 use crate::app::mailbox::Mailboxes;
@@ -115,6 +115,8 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         mission_done: t.progress.done,
         battery: t.battery,
         attitude_sp: t.attitude_sp,
+        // The pilot input is the outer stage's (OuterStage::snapshot).
+        rc: None,
     }
 }
 
@@ -128,6 +130,8 @@ pub struct OuterStage {
     stored: ControllerParams,
     /// The inner loop's latest estimate.
     estimate: StateEstimate,
+    /// The latest pilot input for RC_CHANNELS.
+    rc_report: Option<RcReport>,
 }
 
 impl OuterStage {
@@ -135,7 +139,7 @@ impl OuterStage {
     pub fn new(params: ControllerParams) -> Result<(Self, InnerLoop), ParamError> {
         let (outer, inner) = FlightController::new(params)?.into_loops();
         let estimate = inner.estimate();
-        Ok((Self { outer, flown: params, stored: params, estimate }, inner))
+        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None }, inner))
     }
 
     /// `true` when the stored parameter set is the one the loops fly (it satisfies the
@@ -178,6 +182,8 @@ impl OuterStage {
     /// ([`Mailboxes::kill`]) is never followed by a flying command.
     pub fn take_inputs<M: RawMutex>(&mut self, mb: &Mailboxes<M>) {
         if let Some(frame) = mb.rc.try_take() {
+            self.rc_report =
+                Some(RcReport { channels: frame.raw, link_quality: frame.link_quality, t_us: frame.t_us });
             if self.outer.set_rc(&frame.input(&self.flown.rc)) {
                 mb.send_command(self.outer.command());
             }
@@ -191,12 +197,12 @@ impl OuterStage {
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
         self.take_inputs(mb);
         mb.send_command(self.outer.step(now_us));
-        mb.snapshot.signal(snapshot(self.outer.telemetry(), &self.estimate));
+        mb.snapshot.signal(self.snapshot());
     }
 
-    /// The telemetry snapshot now.
+    /// The telemetry snapshot now (with the latest pilot input).
     pub fn snapshot(&self) -> TelemetrySnapshot {
-        snapshot(self.outer.telemetry(), &self.estimate)
+        TelemetrySnapshot { rc: self.rc_report, ..snapshot(self.outer.telemetry(), &self.estimate) }
     }
 
     /// The [`Autopilot`] view of this stage, publishing to `mb`.
@@ -318,6 +324,8 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
 
     fn set_rc(&mut self, rc: &RcInput) {
         self.stage.take_inputs(self.mb);
+        let channels = parapet_core::rc::map::channels_of(rc, &self.stage.flown.rc);
+        self.stage.rc_report = Some(RcReport { channels, link_quality: rc.link_quality, t_us: rc.t_us });
         if self.stage.outer.set_rc(rc) {
             self.mb.send_command(self.stage.outer.command());
         }

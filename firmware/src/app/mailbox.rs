@@ -150,7 +150,9 @@ mod sizes {
     use super::*;
 
     /// The masked-section bound of the PIL test (`firmware/tests/qemu_pil.rs`, `MASKED_BOUND`)
-    /// assumes every mailbox message is a small copy.
+    /// assumes every mailbox message is a small copy. The largest is the telemetry snapshot:
+    /// 280 B on the host since it carries the RC channels for RC_CHANNELS (224 B before), ≈ 70
+    /// word copies; the PIL test measures the real masked sections on the target.
     #[test]
     fn every_message_is_small() {
         let sizes = [
@@ -164,6 +166,6 @@ mod sizes {
             core::mem::size_of::<RcParams>(),
         ];
         std::println!("mailbox message sizes (host): {sizes:?}");
-        assert!(sizes.iter().all(|&s| s <= 256), "{sizes:?}");
+        assert!(sizes.iter().all(|&s| s <= 320), "{sizes:?}");
     }
 }

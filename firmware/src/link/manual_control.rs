@@ -219,6 +219,18 @@ mod tests {
         );
     }
 
+    /// RC_CHANNELS of MAVLink pilot input: the channels the map gives back, LQ as rssi.
+    #[test]
+    fn rc_channels_of_mavlink_pilot_input() {
+        use parapet_core::rc::map::channels_of;
+        let input = RcInput { pitch: -1.0, throttle: 0.7, arm: true, link_quality: 50, ..RcInput::default() };
+        let out = rc_channels(Some(&channels_of(&input, &RcParams::default())), Some(50), 9);
+        assert_eq!(
+            (out.chancount, out.chan2_raw, out.chan3_raw, out.chan5_raw, out.rssi),
+            (7, 1000, 1700, 2000, 127)
+        );
+    }
+
     #[test]
     fn rc_channels_without_a_receiver() {
         let out = rc_channels(None, None, 0);

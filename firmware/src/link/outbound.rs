@@ -1,5 +1,6 @@
 //! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
 
+use crate::link::dialect::RC_CHANNELS_DATA;
 use crate::link::dialect::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
@@ -24,6 +25,8 @@ use crate::link::framing::FrameWriter;
 pub enum Outbound {
     /// HEARTBEAT.
     Heartbeat(HEARTBEAT_DATA),
+    /// RC_CHANNELS (the pilot input's channels).
+    RcChannels(RC_CHANNELS_DATA),
     /// ATTITUDE.
     Attitude(ATTITUDE_DATA),
     /// LOCAL_POSITION_NED.
@@ -86,6 +89,7 @@ impl Outbound {
     pub fn encode(&self, writer: &mut FrameWriter) -> MAVLinkV2MessageRaw {
         match self {
             Outbound::Heartbeat(m) => writer.encode(m),
+            Outbound::RcChannels(m) => writer.encode(m),
             Outbound::Attitude(m) => writer.encode(m),
             Outbound::LocalPositionNed(m) => writer.encode(m),
             Outbound::PositionTargetLocalNed(m) => writer.encode(m),

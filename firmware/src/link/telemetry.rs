@@ -2,7 +2,8 @@
 //!
 //! | stream | message | rate | content |
 //! |---|---|---|---|
-//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; base_mode: CUSTOM_MODE_ENABLED always, SAFETY_ARMED + STABILIZE when armed, GUIDED when armed and airborne (takeoff, hover, mission, landing, failsafe), AUTO only in the mission phase; custom_mode = [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe); system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | phase | NAMED_VALUE_INT `PHASE` | 1 Hz (with the heartbeat) | [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe): the guidance phase, which the heartbeat carried before it carried the mode |
 //! | status | SYS_STATUS | 1 Hz (with the heartbeat) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
 //! | landed state | EXTENDED_SYS_STATE | 1 Hz (with the heartbeat) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
 //! | attitude | ATTITUDE | 50 Hz (settable) | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
@@ -19,6 +20,7 @@
 //! | hardware | DEBUG_VECT `HW_ERR` | 1 Hz | x = IMU read errors, y = UART receive errors |
 //! | failsafe | STATUSTEXT + NAMED_VALUE_INT `FAILSAFE` | on every transition | severity CRITICAL on entry ("FAILSAFE: reason"), NOTICE on exit ("FAILSAFE cleared") |
 //! | flight mode | STATUSTEXT | on every mode change (issue 21) | "MODE Position: mode-switch"; severity WARNING when a failsafe chose the mode (rc-loss, offboard-loss, battery-low, battery-critical, kill-switch), INFO otherwise |
+//! | RC | RC_CHANNELS (65) | 5 Hz once a pilot input arrived (issue 21) | the latest frame's channels µs (a receiver's as received; MAVLink pilot input as the channel map gives it back, `parapet_core::rc::map::channels_of`), unused `UINT16_MAX`, chancount, rssi = link quality × 254 / 100 (0 when no frame came for [`RC_STALE_US`]) |
 //!
 //! "Settable": MAV_CMD_SET_MESSAGE_INTERVAL / REQUEST_MESSAGE through the link
 //! ([`crate::link::services::StreamRates`], read from [`ErrorCounters::rates`]); a changed
@@ -32,9 +34,10 @@ use crate::link::dialect::{
     LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 
-use crate::app::autopilot::{Failsafe, FlightPhase, TelemetrySnapshot};
+use crate::app::autopilot::{Failsafe, FlightMode, FlightPhase, TelemetrySnapshot};
 use crate::app::loop_timing::LoopReport;
 use crate::link::frame_parser::ParserStats;
+use crate::link::manual_control::rc_channels;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
 use crate::link::services::StreamRates;
 use parapet_core::wire::{codes, names};
@@ -134,6 +137,32 @@ fn rate_slot(s: Stream) -> Option<usize> {
     }
 }
 
+/// Messages one [`TelemetryScheduler::poll`] emits at most (callers size their queue by it).
+pub const MAX_PER_POLL: usize = 21;
+/// RC_CHANNELS period, µs (5 Hz).
+const RC_CHANNELS_US: u64 = 200_000;
+/// No pilot input for this long: RC_CHANNELS reports rssi 0, µs.
+pub const RC_STALE_US: u64 = 1_000_000;
+
+/// The RC_CHANNELS stream (its own period; sent once a pilot input arrived).
+#[derive(Clone, Copy, Debug, Default)]
+struct RcChannelsStream {
+    next_due_us: u64,
+}
+
+impl RcChannelsStream {
+    fn poll(&mut self, now_us: u64, s: &TelemetrySnapshot, mut emit: impl FnMut(Outbound)) {
+        let Some(rc) = s.rc else { return };
+        if now_us < self.next_due_us {
+            return;
+        }
+        self.next_due_us = now_us.saturating_add(RC_CHANNELS_US);
+        let fresh = now_us.saturating_sub(rc.t_us) <= RC_STALE_US;
+        let lq = if fresh { rc.link_quality } else { 0 };
+        emit(Outbound::RcChannels(rc_channels(Some(&rc.channels), Some(lq), (now_us / 1000) as u32)));
+    }
+}
+
 /// Decides which telemetry messages are due and builds them.
 pub struct TelemetryScheduler {
     next_due_us: [u64; 7],
@@ -141,6 +170,7 @@ pub struct TelemetryScheduler {
     rates: StreamRates,
     last_failsafe: Option<Failsafe>,
     last_mode_changes: u32,
+    rc: RcChannelsStream,
     /// `true` when the loop-timing stream fired in the last [`TelemetryScheduler::poll`] (the
     /// caller then starts new loop-timing windows).
     pub loops_reported: bool,
@@ -152,17 +182,41 @@ impl Default for TelemetryScheduler {
     }
 }
 
+/// The flight mode the HEARTBEAT reports: the selected mode, or Land while the failsafe machine
+/// lands (a failsafe or a commanded landing) and Hold while it brakes, as PX4's navigation state
+/// shows its failsafe modes.
+pub fn reported_mode(s: &TelemetrySnapshot) -> FlightMode {
+    match s.phase {
+        FlightPhase::Landing => FlightMode::Land,
+        FlightPhase::Failsafe => FlightMode::Hold,
+        _ => s.mode,
+    }
+}
+
 /// HEARTBEAT for the state in `s` (mode flags and custom-mode map in the module docs).
 pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
-    let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    use MavModeFlag as F;
+    let mode = reported_mode(s);
+    let mut base = F::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        | match mode {
+            FlightMode::Manual => F::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED | F::MAV_MODE_FLAG_STABILIZE_ENABLED,
+            FlightMode::Position => {
+                F::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+                    | F::MAV_MODE_FLAG_STABILIZE_ENABLED
+                    | F::MAV_MODE_FLAG_GUIDED_ENABLED
+            }
+            FlightMode::Mission
+            | FlightMode::Hold
+            | FlightMode::Return
+            | FlightMode::Land
+            | FlightMode::Offboard => {
+                F::MAV_MODE_FLAG_AUTO_ENABLED
+                    | F::MAV_MODE_FLAG_STABILIZE_ENABLED
+                    | F::MAV_MODE_FLAG_GUIDED_ENABLED
+            }
+        };
     if s.armed {
-        base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
-        if s.phase != FlightPhase::Idle && s.phase != FlightPhase::Disarmed {
-            base |= MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
-        }
-        if s.phase == FlightPhase::Mission {
-            base |= MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
-        }
+        base |= F::MAV_MODE_FLAG_SAFETY_ARMED;
     }
     let system_status = if s.failsafe.is_some() {
         MavState::MAV_STATE_CRITICAL
@@ -172,7 +226,7 @@ pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
         MavState::MAV_STATE_STANDBY
     };
     HEARTBEAT_DATA {
-        custom_mode: s.phase.code(),
+        custom_mode: mode.px4_custom_mode(),
         mavtype: MavType::MAV_TYPE_QUADROTOR,
         autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
         base_mode: base,
@@ -271,12 +325,13 @@ impl TelemetryScheduler {
             rates: StreamRates { interval_us: [0; 3], requests: [0; 3] },
             last_failsafe: None,
             last_mode_changes: 0,
+            rc: RcChannelsStream { next_due_us: 0 },
             loops_reported: false,
         }
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most 19 messages per call (2 failsafe, 1 mode, 3 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 1 mode, 1 RC, 4 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -302,6 +357,7 @@ impl TelemetryScheduler {
             }
             self.last_failsafe = s.failsafe;
         }
+        self.rc.poll(now_us, s, &mut emit);
         if s.mode_changes != self.last_mode_changes {
             self.last_mode_changes = s.mode_changes;
             emit(Outbound::StatusText(mode_text(s)));
@@ -335,6 +391,7 @@ impl TelemetryScheduler {
             match stream {
                 Stream::Heartbeat => {
                     emit(Outbound::Heartbeat(heartbeat(s)));
+                    emit(named_int(ms, names::PHASE, s.phase.code() as i32));
                     emit(Outbound::SysStatus(sys_status(inp)));
                     emit(Outbound::ExtendedSysState(EXTENDED_SYS_STATE_DATA {
                         vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
@@ -557,6 +614,94 @@ mod tests {
         ap.mode_reason = Some("mode-switch");
         let v = texts(&mut sched, &ap, 4_000);
         assert_eq!(v, [(MavSeverity::MAV_SEVERITY_INFO, "MODE Position: mode-switch".to_owned())]);
+    }
+
+    /// HEARTBEAT custom_mode and base_mode per flight mode (PX4's encoding and flags), the
+    /// failsafe machine's Land / Brake shown as Land / Hold, and the phase beside it.
+    #[test]
+    fn heartbeat_reports_the_px4_mode_and_flags() {
+        use MavModeFlag as F;
+        let mut ap = RecordingAutopilot::new();
+        ap.armed = true;
+        let manual = F::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED | F::MAV_MODE_FLAG_STABILIZE_ENABLED;
+        let auto = F::MAV_MODE_FLAG_AUTO_ENABLED
+            | F::MAV_MODE_FLAG_STABILIZE_ENABLED
+            | F::MAV_MODE_FLAG_GUIDED_ENABLED;
+        let cases = [
+            (FlightMode::Manual, 1 << 16, manual),
+            (FlightMode::Position, 3 << 16, manual | F::MAV_MODE_FLAG_GUIDED_ENABLED),
+            (FlightMode::Mission, (4 << 16) | (4 << 24), auto),
+            (FlightMode::Hold, (4 << 16) | (3 << 24), auto),
+            (FlightMode::Return, (4 << 16) | (5 << 24), auto),
+            (FlightMode::Land, (4 << 16) | (6 << 24), auto),
+            (FlightMode::Offboard, 6 << 16, auto),
+        ];
+        for (mode, custom, flags) in cases {
+            ap.mode = mode;
+            let h = heartbeat(&ap.telemetry());
+            assert_eq!(h.custom_mode, custom, "{}", mode.as_str());
+            assert_eq!(FlightMode::from_px4_custom_mode(h.custom_mode), Some(mode));
+            let all = flags | F::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | F::MAV_MODE_FLAG_SAFETY_ARMED;
+            assert_eq!(h.base_mode, all, "{}", mode.as_str());
+        }
+        let mut s =
+            TelemetrySnapshot { mode: FlightMode::Position, phase: FlightPhase::Landing, ..ap.telemetry() };
+        assert_eq!(heartbeat(&s).custom_mode, FlightMode::Land.px4_custom_mode());
+        s.phase = FlightPhase::Failsafe;
+        assert_eq!(heartbeat(&s).custom_mode, FlightMode::Hold.px4_custom_mode());
+        // The phase goes beside the heartbeat.
+        let mut sched = TelemetryScheduler::new();
+        let mut phase = None;
+        sched.poll(1, &inputs(&ap), |m| {
+            if let Outbound::NamedValueInt(n) = m {
+                if name_is(&n.name, names::PHASE) {
+                    phase = Some(n.value);
+                }
+            }
+        });
+        assert_eq!(phase, Some(FlightPhase::Idle.code() as i32));
+    }
+
+    /// RC_CHANNELS: none before a pilot input, then 5 Hz with the frame's channels and link
+    /// quality, rssi 0 once the input is stale; no poll emits more than MAX_PER_POLL.
+    #[test]
+    fn rc_channels_stream_once_a_pilot_input_arrived() {
+        use crate::app::autopilot::RcReport;
+        use parapet_core::rc::RawChannels;
+        let ap = RecordingAutopilot::new();
+        let mut inp = inputs(&ap);
+        let mut sched = TelemetryScheduler::new();
+        let mut rc = Vec::new();
+        let mut most = 0;
+        let mut run = |sched: &mut TelemetryScheduler, inp: &TelemetryInputs, from: u64, rc: &mut Vec<_>| {
+            for k in 0..1000u64 {
+                let mut n = 0;
+                sched.poll(from + k * 1000, inp, |m| {
+                    n += 1;
+                    if let Outbound::RcChannels(c) = m {
+                        rc.push(c);
+                    }
+                });
+                most = most.max(n);
+            }
+        };
+        run(&mut sched, &inp, 1, &mut rc);
+        assert!(rc.is_empty(), "no RC source");
+        let mut us = [1500u16; parapet_core::rc::MAX_CHANNELS];
+        us[2] = 1100;
+        let channels = RawChannels { us, count: 16, failsafe: false, frame_lost: false };
+        inp.snapshot.rc = Some(RcReport { channels, link_quality: 80, t_us: 1_000_000 });
+        inp.snapshot.failsafe = Some(Failsafe { code: 3, reason: "x" });
+        run(&mut sched, &inp, 1_000_001, &mut rc);
+        assert_eq!(rc.len(), 5, "5 Hz");
+        assert_eq!(
+            (rc[0].chancount, rc[0].chan3_raw, rc[0].chan17_raw, rc[0].rssi),
+            (16, 1100, u16::MAX, 203)
+        );
+        assert_eq!(rc.last().map(|c| c.rssi), Some(203), "fresh within {RC_STALE_US} us");
+        run(&mut sched, &inp, 2_100_001, &mut rc);
+        assert_eq!(rc.last().map(|c| c.rssi), Some(0), "stale");
+        assert!(most <= MAX_PER_POLL, "{most}");
     }
 
     #[test]

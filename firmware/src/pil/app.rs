@@ -280,9 +280,10 @@ impl<A: ControlSteps> PilApp<A> {
             parser: self.link.parser_stats(),
             counters: ErrorCounters::from_link(&self.link),
         };
-        let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
+        let mut queued: heapless::Vec<Outbound, { crate::link::telemetry::MAX_PER_POLL }> =
+            heapless::Vec::new();
         self.telemetry.poll(t, &inputs, |m| {
-            // 20 > the at most 16 messages one poll emits.
+            // Room for the most messages one poll emits.
             let _ = queued.push(m);
         });
         if self.telemetry.loops_reported {

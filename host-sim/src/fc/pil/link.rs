@@ -197,6 +197,12 @@ impl PilLink {
         self.queue.push(bytes);
     }
 
+    /// The firmware's flight mode as it last reported it (HEARTBEAT `custom_mode`, mode-change
+    /// STATUSTEXT), `None` before the first report.
+    pub fn flight_mode(&self) -> Option<parapet_core::controller::FlightMode> {
+        self.telemetry.mode
+    }
+
     /// `m` as a MAVLink v2 frame with the next sequence number.
     fn frame(&mut self, m: &MavMessage) -> Vec<u8> {
         let mut raw = MAVLinkV2MessageRaw::new();

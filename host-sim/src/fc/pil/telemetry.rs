@@ -1,7 +1,9 @@
 //! What the host reads from the firmware: the telemetry decoded with the wire
 //! contract's names and codes (`parapet_core::wire`) — filter diagnostics, the
-//! nominal and filtered acceleration, the flight phase, the link counters, the
-//! instruction counts — and the PIL figures of `summary.json`.
+//! nominal and filtered acceleration, the flight phase (NAMED_VALUE_INT `PHASE`),
+//! the flight mode (HEARTBEAT `custom_mode` in PX4's encoding, and the "MODE <mode>:
+//! <reason>" STATUSTEXT of every change), the link counters, the instruction counts —
+//! and the PIL figures of `summary.json`.
 //!
 //! May import: `parapet-core` (wire contract, filter types), mavlink, serde,
 //! [`crate::flight::stack`] (what an outer step reports).
@@ -11,7 +13,7 @@ use std::time::Duration;
 use mavlink::dialects::ardupilotmega::{MavMessage, MavModeFlag, MavState};
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
-use parapet_core::controller::GuidanceMode;
+use parapet_core::controller::{FlightMode, GuidanceMode};
 use parapet_core::waypoint::PathSample;
 use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
 use parapet_core::wire::names;
@@ -135,14 +137,22 @@ impl Default for FilterTelemetry {
     }
 }
 
-/// The firmware's latest reports: filter, flight phase (HEARTBEAT `custom_mode`), armed,
-/// critical.
+/// The firmware's latest reports: filter, flight phase (`PHASE`), flight mode (HEARTBEAT
+/// `custom_mode`, `FlightMode::from_px4_custom_mode`, and the mode-change STATUSTEXT, which
+/// arrives at once), armed, critical.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct FirmwareTelemetry {
     pub(super) filter: FilterTelemetry,
     pub(super) phase: u32,
+    pub(super) mode: Option<FlightMode>,
     pub(super) armed: bool,
     pub(super) critical: bool,
+}
+
+/// The flight mode of a "MODE <mode>: <reason>" STATUSTEXT.
+pub(super) fn mode_of_text(text: &str) -> Option<FlightMode> {
+    let name = text.strip_prefix("MODE ")?.split(':').next()?;
+    FlightMode::ALL.into_iter().find(|m| m.as_str() == name)
 }
 
 impl FirmwareTelemetry {
@@ -209,6 +219,7 @@ pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFi
             let name = n.name.to_str().unwrap_or("");
             match name {
                 names::CBF_FLAGS => t.filter.flags = CbfFlags::decode(n.value),
+                names::PHASE => t.phase = u32::try_from(n.value).unwrap_or(u32::MAX),
                 names::INS_CAL => fig.instructions_per_control_step.calibration_ticks = n.value.into(),
                 names::INS_CAL_N => {
                     fig.instructions_per_control_step.calibration_instructions = n.value.into()
@@ -220,12 +231,18 @@ pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFi
             t.filter.u_filtered = Vector3::new(p.afx, p.afy, p.afz).cast();
         }
         MavMessage::HEARTBEAT(h) => {
-            t.phase = h.custom_mode;
+            // A mode the map does not know keeps the last one (only PX4's encoding is sent).
+            if let Some(m) = FlightMode::from_px4_custom_mode(h.custom_mode) {
+                t.mode = Some(m);
+            }
             t.armed = h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
             t.critical = h.system_status == MavState::MAV_STATE_CRITICAL;
         }
         MavMessage::STATUSTEXT(s) => {
             let text = String::from_utf8_lossy(&s.text[..]).trim_end_matches('\0').to_string();
+            if let Some(m) = mode_of_text(&text) {
+                t.mode = Some(m);
+            }
             if fig.status_texts.len() < 64 {
                 fig.status_texts.push(format!("{:?}: {text}", s.severity));
             }
@@ -325,8 +342,15 @@ mod tests {
             ..Default::default()
         };
         observe(&MavMessage::NAMED_VALUE_INT(nv), &mut t, &mut fig);
-        let hb = HEARTBEAT_DATA { custom_mode: FlightPhase::Mission.code(), ..Default::default() };
+        let phase = NAMED_VALUE_INT_DATA {
+            name: name(names::PHASE),
+            value: FlightPhase::Mission.code() as i32,
+            ..Default::default()
+        };
+        observe(&MavMessage::NAMED_VALUE_INT(phase), &mut t, &mut fig);
+        let hb = HEARTBEAT_DATA { custom_mode: FlightMode::Return.px4_custom_mode(), ..Default::default() };
         observe(&MavMessage::HEARTBEAT(hb), &mut t, &mut fig);
+        assert_eq!(t.mode, Some(FlightMode::Return), "custom_mode is the PX4 flight mode");
         let z = parapet_core::Vec3::zeros();
         let s = PathSample { position: z, velocity: z, acceleration: z, progress: Default::default() };
         let out = t.outer_out(&s);
@@ -341,6 +365,32 @@ mod tests {
         observe(&MavMessage::DEBUG_VECT(bad), &mut t, &mut fig);
         assert_eq!(t.outer_out(&s).filter.region, Region::Fault);
         assert_eq!(t.outer_out(&s).filter.active_id, None);
+    }
+
+    /// The mode-change STATUSTEXT sets the mode at once; other texts and unknown custom modes
+    /// leave it.
+    #[test]
+    fn mode_from_statustext_and_heartbeat() {
+        use mavlink::dialects::ardupilotmega::{MavSeverity, STATUSTEXT_DATA};
+        let (mut t, mut fig) = (FirmwareTelemetry::default(), PilFigures::default());
+        let text = |s: &str| {
+            let mut b = [0u8; 50];
+            b[..s.len()].copy_from_slice(s.as_bytes());
+            MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity: MavSeverity::MAV_SEVERITY_WARNING,
+                text: b.into(),
+                ..Default::default()
+            })
+        };
+        observe(&text("MODE Hold: offboard-loss"), &mut t, &mut fig);
+        assert_eq!(t.mode, Some(FlightMode::Hold));
+        observe(&text("FAILSAFE: position stale"), &mut t, &mut fig);
+        assert_eq!(t.mode, Some(FlightMode::Hold));
+        let hb = HEARTBEAT_DATA { custom_mode: 99 << 16, ..Default::default() };
+        observe(&MavMessage::HEARTBEAT(hb), &mut t, &mut fig);
+        assert_eq!(t.mode, Some(FlightMode::Hold));
+        assert_eq!(mode_of_text("MODE Offboard: mode-command"), Some(FlightMode::Offboard));
+        assert_eq!(mode_of_text("MODE Nonsense: x"), None);
     }
 
     #[test]
