@@ -16,6 +16,19 @@
 //! - **link** (thread-mode executor, lowest priority): USART3 (DMA ring buffer), MAVLink framing
 //!   and decoding; decoded messages go to the outer task through a `Channel`, replies come back
 //!   through another; builds the telemetry streams from the published snapshot.
+//! - **storage** (thread-mode executor): the parameter store in the board's flash
+//!   (`vehicle::tasks::storage_job`: saves, PREFLIGHT_STORAGE read/reset); flash erases and
+//!   writes run here only, never in a control task, and only while disarmed (the outer task
+//!   sends no job while armed). On the F405 (one flash bank) a flash write or erase still stalls
+//!   every instruction fetch from flash, interrupts included (a word ≈ 16 µs, a 128 KiB sector
+//!   erase 1-2 s): disarmed only, by design.
+//! - **battery** (thread-mode executor): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
+//!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → `MAILBOXES.battery` (the outer
+//!   stage's low/critical battery failsafes).
+//!
+//! The setup services (calibration, motor test, storage requests, IMU correction) are split over
+//! the inner and outer tasks (`parapet_firmware::vehicle::tasks`). At boot the stored parameters
+//! are loaded (blocking flash reads) before the cascade is built.
 //!
 //! Loop reports are `Signal`s, error counters atomics. No `static mut`.
 //! `cargo run -p parapet-firmware --release` flashes through probe-rs; logs are defmt over RTT.
@@ -25,7 +38,7 @@
 
 #[cfg(target_os = "none")]
 mod firmware {
-    use core::sync::atomic::{AtomicU32, Ordering};
+    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
     use defmt_rtt as _;
     use embassy_executor::{Executor, InterruptExecutor};
@@ -38,6 +51,7 @@ mod firmware {
     use embassy_sync::mutex::Mutex;
     use embassy_sync::signal::Signal;
     use embassy_time::{Duration, Instant, Ticker, Timer};
+    use parapet_core::battery::{BatteryEstimator, BatteryParams};
     use parapet_core::controller::ControllerParams;
     use parapet_core::rc::map::{CrsfReceiver, RcFrame, RcParams, SbusReceiver};
     use parapet_core::schedule::OuterSchedule;
@@ -49,7 +63,8 @@ mod firmware {
     use parapet_firmware::board::active::RC_RECEIVER;
     // The board of this build (`board-f405` or `board-h743`): the same tasks on either.
     use parapet_firmware::board::active::{
-        self as f405, imu_spi_config, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ, SYSCLK_HZ,
+        self as f405, imu_spi_config, BatteryAdc, DshotMotors, ImuParts, COMPANION_RX_RING, IMU_SPI_FAST_HZ,
+        PARAM_RANGE, SYSCLK_HZ,
     };
     use parapet_firmware::drivers::mpu6000::ImuError;
     use parapet_firmware::drivers::rc_uart::{RcProtocol, RC_RX_RING};
@@ -59,6 +74,8 @@ mod firmware {
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
     use parapet_firmware::link::{FixClock, Link, Received};
+    use parapet_firmware::storage::{Loaded, ParamStore};
+    use parapet_firmware::vehicle::tasks::{storage_job, SetupInner, SetupMailboxes, SetupOuter};
     use static_cell::StaticCell;
 
     /// Inner-loop period, µs (1 kHz, paced by the IMU's data-ready line).
@@ -73,8 +90,17 @@ mod firmware {
     /// Replies in flight from the outer task to the link task.
     const REPLY_DEPTH: usize = 8;
 
+    /// Battery measurement period, ms (10 Hz; the estimator filters with τ 0.5 s and debounces
+    /// a level change for 2 s).
+    const BATTERY_PERIOD_MS: u64 = 100;
+
     /// The stages' mailboxes (see `parapet_firmware::app::mailbox`).
     static MAILBOXES: Mailboxes<CriticalSectionRawMutex> = Mailboxes::new();
+    /// The setup services' mailboxes (see `parapet_firmware::vehicle::tasks`).
+    static SETUP: SetupMailboxes<CriticalSectionRawMutex> = SetupMailboxes::new();
+    /// The vehicle is armed (outer task → battery task: the estimator's level only goes down
+    /// while armed).
+    static ARMED: AtomicBool = AtomicBool::new(false);
     /// Link task → outer task: decoded frames, in order.
     static INBOUND: Channel<CriticalSectionRawMutex, (u64, Received), INBOUND_DEPTH> = Channel::new();
     /// Outer task → link task: replies (acks, mission requests, parameter values).
@@ -90,6 +116,13 @@ mod firmware {
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
     static RX_RING: StaticCell<[u8; COMPANION_RX_RING]> = StaticCell::new();
+    // The large task states live here, handed to their tasks by reference: an async task's
+    // arguments are stored in its future next to the locals they move into (twice the RAM).
+    static OUTER_STAGE: StaticCell<OuterStage> = StaticCell::new();
+    static SETUP_OUTER: StaticCell<SetupOuter> = StaticCell::new();
+    static STORE: StaticCell<Store> = StaticCell::new();
+    /// The parameter store on the board's flash.
+    type Store = ParamStore<embassy_stm32::flash::Flash<'static, embassy_stm32::flash::Async>>;
     /// DMA ring buffer of the RC receiver UART.
     static RC_RING: StaticCell<[u8; RC_RX_RING]> = StaticCell::new();
 
@@ -133,19 +166,38 @@ mod firmware {
                 halt("board init")
             }
         };
-        let params = ControllerParams::default();
-        let Ok((outer, inner)) = OuterStage::new(params) else { halt("controller parameters rejected") };
-        defmt::info!("parapet-firmware: board up, cascade built");
+        // The stored parameters (blocking reads; no erase or write at boot). A stored set the
+        // controller refuses (cross-parameter limits) falls back to the defaults, said as corrupt.
+        let Some(mut store) = ParamStore::new(board.flash, PARAM_RANGE) else {
+            halt("parameter store range")
+        };
+        let mut params = ControllerParams::default();
+        let mut loaded = embassy_futures::block_on(store.load(&mut params));
+        let (outer, inner) = match OuterStage::new(params) {
+            Ok(s) => s,
+            Err(_) => {
+                params = ControllerParams::default();
+                loaded = Loaded::Corrupt;
+                match OuterStage::new(params) {
+                    Ok(s) => s,
+                    Err(_) => halt("controller parameters rejected"),
+                }
+            }
+        };
+        defmt::info!("parapet-firmware: board up, cascade built (parameters {})", loaded == Loaded::Stored);
 
         interrupt::UART4.set_priority(Priority::P6);
         let high = EXECUTOR_HIGH.start(interrupt::UART4);
-        match inner_loop(InnerStage::new(inner), board.imu, board.imu_ready, board.motors) {
+        let setup_inner = SetupInner::new(&params);
+        match inner_loop(InnerStage::new(inner), setup_inner, board.imu, board.imu_ready, board.motors) {
             Ok(t) => high.spawn(t),
             Err(_) => halt("spawn inner loop"),
         }
         interrupt::UART5.set_priority(Priority::P7);
         let med = EXECUTOR_MED.start(interrupt::UART5);
-        match outer_loop(outer, OuterSchedule::new(&params)) {
+        let outer = OUTER_STAGE.init(outer);
+        let setup_outer = SETUP_OUTER.init(SetupOuter::new(params, loaded));
+        match outer_loop(outer, OuterSchedule::new(&params), setup_outer) {
             Ok(t) => med.spawn(t),
             Err(_) => halt("spawn outer loop"),
         }
@@ -159,6 +211,14 @@ mod firmware {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn rc receiver"),
             }
+            match storage_task(STORE.init(store)) {
+                Ok(t) => spawner.spawn(t),
+                Err(_) => halt("spawn storage"),
+            }
+            match battery_task(board.battery, params.battery) {
+                Ok(t) => spawner.spawn(t),
+                Err(_) => halt("spawn battery"),
+            }
         })
     }
 
@@ -166,6 +226,7 @@ mod firmware {
     #[embassy_executor::task]
     async fn inner_loop(
         mut stage: InnerStage,
+        mut setup: SetupInner,
         imu: ImuParts,
         mut ready: embassy_stm32::exti::ExtiInput<'static, embassy_stm32::mode::Async>,
         mut motors: DshotMotors,
@@ -205,7 +266,12 @@ mod firmware {
                     ImuSample { gyro_frd: Vec3::repeat(f32::NAN), accel_frd: Vec3::repeat(f32::NAN) }
                 }
             };
-            let cmd = stage.step(now_us(), &sample, &MAILBOXES).sanitized();
+            let now = now_us();
+            let sample = setup.imu(now, &sample, &SETUP);
+            // Before the stage takes it: a kill frame also stops a motor test in this step.
+            let kill = MAILBOXES.kill.signaled();
+            let cmd = stage.step(now, &sample, &MAILBOXES).sanitized();
+            let cmd = setup.motors(now, cmd, kill, &SETUP);
             motors.write(&cmd).await;
             timer.end(cycles());
             if timer.report().steps >= REPORT_EVERY_INNER {
@@ -216,7 +282,11 @@ mod firmware {
 
     /// Position + CBF loop at the outer rate, plus the MAVLink dispatcher.
     #[embassy_executor::task]
-    async fn outer_loop(mut stage: OuterStage, schedule: OuterSchedule) {
+    async fn outer_loop(
+        stage: &'static mut OuterStage,
+        schedule: OuterSchedule,
+        setup: &'static mut SetupOuter,
+    ) {
         let period_us = schedule.period_us();
         let mut ticker = Ticker::every(Duration::from_micros(period_us));
         let mut timer = LoopTimer::new(period_us.min(u64::from(u32::MAX)) as u32, SYSCLK_HZ / 1_000_000);
@@ -227,15 +297,19 @@ mod firmware {
                     timer.start(cycles());
                     let now = now_us();
                     stage.on_estimate(&MAILBOXES);
-                    link.poll(now, &mut stage.port(&MAILBOXES));
+                    link.poll(now, &mut setup.port(stage.port(&MAILBOXES), &SETUP));
                     stage.step(now, &MAILBOXES);
+                    setup.step(now, stage.port(&MAILBOXES), &SETUP);
+                    ARMED.store(setup.armed(), Ordering::Relaxed);
                     timer.end(cycles());
                     if timer.report().steps >= REPORT_EVERY_OUTER {
                         OUTER_REPORT.signal(timer.take_report());
                     }
                     LINK_COUNTERS.signal(ErrorCounters::from_link(&link));
                 }
-                Either3::Second((t, r)) => link.receive(r, t, &mut stage.port(&MAILBOXES)),
+                Either3::Second((t, r)) => {
+                    link.receive(r, t, &mut setup.port(stage.port(&MAILBOXES), &SETUP))
+                }
                 Either3::Third(est) => stage.take_estimate(est, &MAILBOXES),
             }
             while let Some(r) = link.pop_reply() {
@@ -283,6 +357,34 @@ mod firmware {
                     }
                 }
             }
+        }
+    }
+
+    /// The parameter store: one job at a time from the outer task, the answer back (module docs).
+    #[embassy_executor::task]
+    async fn storage_task(store: &'static mut Store) {
+        loop {
+            let job = SETUP.jobs.receive().await;
+            let result = storage_job(store, &job).await;
+            SETUP.results.signal(result);
+        }
+    }
+
+    /// The battery measurement every [`BATTERY_PERIOD_MS`] (module docs); the `BAT_*`
+    /// parameters follow their changes (`SETUP.battery_params`).
+    #[embassy_executor::task]
+    async fn battery_task(mut adc: BatteryAdc, mut params: BatteryParams) {
+        let mut estimator = BatteryEstimator::new(params);
+        let mut ticker = Ticker::every(Duration::from_millis(BATTERY_PERIOD_MS));
+        loop {
+            ticker.next().await;
+            if let Some(p) = SETUP.battery_params.try_take() {
+                params = p;
+                estimator.set_params(p);
+            }
+            let (volts, amps) = params.convert(&adc.read());
+            let s = estimator.update(now_us(), volts, amps, ARMED.load(Ordering::Relaxed));
+            MAILBOXES.battery.signal(s.state());
         }
     }
 
@@ -343,10 +445,9 @@ mod firmware {
                     ..counters
                 },
             };
-            let mut queued: heapless::Vec<Outbound, { parapet_firmware::link::telemetry::MAX_PER_POLL }> =
-                heapless::Vec::new();
+            let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
             telemetry.poll(now_us(), &inputs, |m| {
-                // Room for the most messages one poll emits.
+                // 20 > the at most 18 messages of one poll.
                 let _ = queued.push(m);
             });
             for m in &queued {

@@ -10,6 +10,9 @@
 //! | companion link, MAVLink 921 600 Bd | USART3 | TX PC10, RX PC11 | TX DMA1 stream 3, RX DMA1 stream 1 (ring buffer) |
 //! | RC receiver CRSF (ExpressLRS / Crossfire), 420 000 Bd 8N1 — [`RC_RECEIVER`] `Crsf` (default) | USART1 | RX PA10 (pad R1; receiver TX → R1; TX PA9 unused) | RX DMA2 stream 2 (ring buffer) |
 //! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART2 | RX PA3 (the board's SBUS pad: hardware inverter in front of R2) | RX DMA1 stream 5 (ring buffer) |
+//! | battery voltage (VBAT divider 10 kΩ / 1 kΩ, `BAT_V_DIV` 11) | ADC1 IN15 | PC5 | – (blocking reads, [`BatteryAdc`]) |
+//! | battery current (pad CURR, external sensor, `BAT_A_PER_V`) | ADC1 IN14 | PC4 | – |
+//! | parameter store | FLASH, sectors 10-11 (`storage::F405_RANGE`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
 //! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
 //!
@@ -21,7 +24,9 @@
 //! mounting (Betaflight `GYRO_1_ALIGN CW180_DEG`); check both on the bench before flight.
 
 use embassy_embedded_hal::shared_bus::asynch::spi::SpiDeviceWithConfig;
+use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel, SampleTime, VrefInt};
 use embassy_stm32::exti::{self, ExtiInput};
+use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
@@ -39,6 +44,7 @@ use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+use parapet_core::battery::AdcReading;
 
 /// Companion UART baud rate.
 pub const COMPANION_BAUD: u32 = 921_600;
@@ -50,6 +56,8 @@ pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, 1, -1] };
 pub const IMU_SPI_SLOW_HZ: u32 = 1_000_000;
 /// SPI clock for sensor reads (datasheet: ≤ 20 MHz; APB2 84 MHz / 8).
 pub const IMU_SPI_FAST_HZ: u32 = 10_500_000;
+/// The parameter store's range in the internal flash (offsets from 0x0800_0000): sectors 10-11.
+pub const PARAM_RANGE: core::ops::Range<u32> = crate::storage::F405_RANGE;
 /// DMA ring buffer for the companion UART receiver, bytes.
 pub const COMPANION_RX_RING: usize = 1024;
 
@@ -67,6 +75,7 @@ bind_interrupts!(
     DMA2_STREAM3 => dma::InterruptHandler<peripherals::DMA2_CH3>;
     DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
     DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+    FLASH => flash::InterruptHandler;
 });
 
 /// Clock tree of the board (see the module docs).
@@ -158,6 +167,31 @@ pub fn force_motors_off() {
     tim.bdtr().modify(|w| w.set_moe(false));
 }
 
+/// The battery inputs (see the pin table): VBAT, current, and the internal reference for the
+/// actual analog supply. Read by the battery task (lowest priority).
+pub struct BatteryAdc {
+    adc: Adc<'static, peripherals::ADC1>,
+    vbat: AnyAdcChannel<'static, peripherals::ADC1>,
+    current: AnyAdcChannel<'static, peripherals::ADC1>,
+    vrefint: VrefInt,
+}
+
+/// Address of the STM32F405's factory VREFINT calibration word (DS8626: measured at VDDA 3.3 V).
+const VREFINT_CAL_ADDR: usize = 0x1FFF_7A2A;
+
+impl BatteryAdc {
+    /// One blocking conversion of each input: 3 × (480 + 12) ADC cycles at 21 MHz ≈ 70 µs,
+    /// busy-waiting in the calling (lowest-priority) task; the control tasks preempt it.
+    pub fn read(&mut self) -> AdcReading {
+        let vbat = self.adc.blocking_read(&mut self.vbat, SampleTime::CYCLES480);
+        let current = self.adc.blocking_read(&mut self.current, SampleTime::CYCLES480);
+        let vref = self.adc.blocking_read(&mut self.vrefint, SampleTime::CYCLES480);
+        // SAFETY: a read-only, always-mapped system-memory word of this chip.
+        let cal = unsafe { core::ptr::read_volatile(VREFINT_CAL_ADDR as *const u16) };
+        AdcReading { vbat, current: Some(current), vrefint: Some((vref, cal)) }
+    }
+}
+
 /// The board's drivers, ready for the tasks.
 pub struct Board {
     /// SPI1 and the MPU-6000's chip select (the inner-loop task builds the driver on them).
@@ -172,6 +206,10 @@ pub struct Board {
     pub link_rx: RingBufferedUartRx<'static>,
     /// RC receiver ([`RC_RECEIVER`]: CRSF on USART1 or SBUS on USART2; DMA ring buffer).
     pub rc_rx: RingBufferedUartRx<'static>,
+    /// The internal flash (the parameter store's sectors, `storage::F405_RANGE`).
+    pub flash: Flash<'static, flash::Async>,
+    /// The battery inputs.
+    pub battery: BatteryAdc,
 }
 
 /// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
@@ -239,5 +277,10 @@ pub fn init(
     };
     let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx })
+    let flash = Flash::new(p.FLASH, Irqs);
+    let adc = Adc::new(p.ADC1);
+    let vrefint = adc.enable_vrefint();
+    let battery = BatteryAdc { adc, vbat: p.PC5.degrade_adc(), current: p.PC4.degrade_adc(), vrefint };
+
+    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery })
 }

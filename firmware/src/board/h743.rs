@@ -14,6 +14,9 @@
 //! | companion link, MAVLink 921 600 Bd | USART1 | TX PA9, RX PA10 (pads TX1/RX1) | TX DMA1 stream 4, RX DMA1 stream 5 (ring buffer) |
 //! | RC receiver CRSF, 420 000 Bd 8N1 — [`RC_RECEIVER`] `Crsf` (default) | USART2 | RX PD6 (pad R2; receiver TX → R2) | RX DMA1 stream 6 (ring buffer) |
 //! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART6 | RX PC7 (pad R6); inverted by the H7's USART (RXINV), no inverter on the board | RX DMA1 stream 7 (ring buffer) |
+//! | battery voltage (VBAT divider, `BAT_V_DIV` 11: Betaflight `vbat_scale` 110) | ADC1 INP10, 12-bit | PC0 | – (blocking reads, [`BatteryAdc`]) |
+//! | battery current (pad CURR, `BAT_A_PER_V`; Betaflight `ibata_scale` 250 = 40 A/V) | ADC1 INP11 | PC1 | – |
+//! | parameter store | FLASH bank 2, sectors 6-7 (0x081C_0000..0x0820_0000, [`PARAM_RANGE`]; kept out of `FLASH` by `memory-h743.x`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
 //! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
 //!
@@ -24,13 +27,16 @@
 //! 0x2400_0000, because the DMA streams that feed SPI1 and USART1 cannot reach the DTCM at
 //! 0x2000_0000 (reference manual RM0433, bus matrix).
 //!
-//! What the F405 board has and this one does not (yet): the second IMU (ICM20602 / ICM42605 on
-//! SPI4), the microSD blackbox on SDMMC1, the battery ADC — none is used by the app today on
-//! either board. The four motors sit on two timers, so a motor update is two DMA bursts
+//! What the board has and the app does not use (yet): the second IMU (ICM20602 / ICM42605 on
+//! SPI4), the microSD blackbox on SDMMC1 (CK PC12, CMD PD2, D0-D3 PC8-PC11). The parameter
+//! store's sectors are in bank 2 while the program runs from bank 1, so (unlike the F405) an
+//! erase there does not stall instruction fetches (RM0433, dual-bank flash). The four motors sit on two timers, so a motor update is two DMA bursts
 //! (≈ 30 µs each, run concurrently).
 
 use embassy_embedded_hal::shared_bus::asynch::spi::SpiDeviceWithConfig;
+use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, AnyAdcChannel, Resolution, SampleTime};
 use embassy_stm32::exti::{self, ExtiInput};
+use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
 use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
@@ -48,6 +54,7 @@ use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+use parapet_core::battery::AdcReading;
 
 /// Companion UART baud rate.
 pub const COMPANION_BAUD: u32 = 921_600;
@@ -82,7 +89,30 @@ bind_interrupts!(
     DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
     DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
     DMA1_STREAM7 => dma::InterruptHandler<peripherals::DMA1_CH7>;
+    FLASH => flash::InterruptHandler;
 });
+
+/// The parameter store's range (offsets from 0x0800_0000): the last two 128 KiB sectors of
+/// bank 2.
+pub const PARAM_RANGE: core::ops::Range<u32> = 0x001C_0000..0x0020_0000;
+
+/// The battery inputs (see the pin table), 12-bit conversions; the analog supply is taken as the
+/// nominal 3.3 V (the H7's VREFINT calibration is a 16-bit value: not used here).
+pub struct BatteryAdc {
+    adc: Adc<'static, peripherals::ADC1>,
+    vbat: AnyAdcChannel<'static, peripherals::ADC1>,
+    current: AnyAdcChannel<'static, peripherals::ADC1>,
+}
+
+impl BatteryAdc {
+    /// One blocking conversion of each input (2 × 810.5 ADC cycles), in the calling
+    /// (lowest-priority) task.
+    pub fn read(&mut self) -> AdcReading {
+        let vbat = self.adc.blocking_read(&mut self.vbat, SampleTime::CYCLES810_5);
+        let current = self.adc.blocking_read(&mut self.current, SampleTime::CYCLES810_5);
+        AdcReading { vbat, current: Some(current), vrefint: None }
+    }
+}
 
 /// Clock tree of the board (see the module docs).
 pub fn clock_config() -> Config {
@@ -220,6 +250,10 @@ pub struct Board {
     pub link_rx: RingBufferedUartRx<'static>,
     /// RC receiver ([`RC_RECEIVER`]: CRSF on USART2 or SBUS on USART6; DMA ring buffer).
     pub rc_rx: RingBufferedUartRx<'static>,
+    /// The internal flash (the parameter store's sectors, [`PARAM_RANGE`]).
+    pub flash: Flash<'static, flash::Async>,
+    /// The battery inputs.
+    pub battery: BatteryAdc,
 }
 
 /// The RC receiver's protocol on this board (as on the F405: one receiver).
@@ -304,5 +338,12 @@ pub fn init(
     };
     let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx })
+    let flash = Flash::new(p.FLASH, Irqs);
+    let adc = Adc::new_with_config(
+        p.ADC1,
+        AdcConfig { resolution: Some(Resolution::BITS12), ..Default::default() },
+    );
+    let battery = BatteryAdc { adc, vbat: p.PC0.degrade_adc(), current: p.PC1.degrade_adc() };
+
+    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery })
 }

@@ -105,9 +105,10 @@ pub enum StorageResult {
 }
 
 /// One job on `store` (the storage task's whole work; see the module docs).
-pub async fn storage_job<F: NorFlash>(store: &mut ParamStore<F>, job: StorageJob) -> StorageResult {
+/// (`job` by reference: the caller's copy is the only one in the task's state.)
+pub async fn storage_job<F: NorFlash>(store: &mut ParamStore<F>, job: &StorageJob) -> StorageResult {
     match job {
-        StorageJob::Save(p) => match store.save(&p).await {
+        StorageJob::Save(p) => match store.save(p).await {
             Ok(_) => StorageResult::Saved,
             Err(_) => StorageResult::Text("Params: save failed"),
         },
@@ -136,10 +137,11 @@ pub struct SetupMailboxes<M: RawMutex> {
     pub raw_imu: Signal<M, (u64, msg::ImuSample)>,
     /// Outer → inner: a calibration runs (the inner task publishes raw samples).
     pub calibrating: AtomicBool,
-    /// Outer → storage: the next job.
+    /// Outer → storage: the next job (one at a time: the outer part sends the next one only
+    /// after the answer to the previous one).
     pub jobs: Channel<M, StorageJob, 1>,
-    /// Storage → outer: the answers.
-    pub results: Channel<M, StorageResult, 1>,
+    /// Storage → outer: the answer to the job.
+    pub results: Signal<M, StorageResult>,
     /// Inner → outer: a kill-switch frame stopped the motor test; the outer task stops its test
     /// and clears the flag (after publishing the stop).
     pub test_killed: AtomicBool,
@@ -162,7 +164,7 @@ impl<M: RawMutex> SetupMailboxes<M> {
             raw_imu: Signal::new(),
             calibrating: AtomicBool::new(false),
             jobs: Channel::new(),
-            results: Channel::new(),
+            results: Signal::new(),
             test_killed: AtomicBool::new(false),
             battery_params: Signal::new(),
         }
@@ -230,6 +232,8 @@ pub struct SetupOuter {
     armed: bool,
     now_us: u64,
     testing: bool,
+    /// A job was sent and its answer has not come back yet.
+    busy: bool,
 }
 
 impl SetupOuter {
@@ -240,7 +244,7 @@ impl SetupOuter {
         if let Some(t) = boot.statustext() {
             setup.say_text(t);
         }
-        Self { setup, params, armed: false, now_us: 0, testing: false }
+        Self { setup, params, armed: false, now_us: 0, testing: false, busy: false }
     }
 
     /// The parameters as set.
@@ -355,7 +359,8 @@ impl<P: Autopilot, M: RawMutex> SetupPort<'_, P, M> {
     }
 
     fn step_storage(&mut self, now_us: u64) {
-        while let Ok(r) = self.mb.results.try_receive() {
+        if let Some(r) = self.mb.results.try_take() {
+            self.outer.busy = false;
             match r {
                 StorageResult::Saved => {}
                 StorageResult::Loaded(p) => {
@@ -368,23 +373,34 @@ impl<P: Autopilot, M: RawMutex> SetupPort<'_, P, M> {
                 StorageResult::Text(t) => self.outer.setup.say_text(t),
             }
         }
+        let busy = self.outer.busy;
         let job = match self.outer.setup.take_storage() {
+            Some(req) if busy => {
+                // The storage task is still on the previous job: say so; a write becomes a
+                // pending save (sent once the answer is back and the debounce has passed).
+                if req == StorageRequest::Write {
+                    self.outer.setup.param_changed(now_us);
+                }
+                self.outer.setup.say_text("Params: storage busy, try again");
+                None
+            }
             Some(StorageRequest::Write) => Some(StorageJob::Save(self.outer.params)),
             Some(StorageRequest::Read) => Some(StorageJob::Read),
             Some(StorageRequest::Reset) => Some(StorageJob::Reset),
-            None if self.outer.setup.save_due(now_us, self.outer.armed) => {
+            // While busy the due save waits (still pending, its time kept).
+            None if !busy && self.outer.setup.save_due(now_us, self.outer.armed) => {
                 Some(StorageJob::Save(self.outer.params))
             }
             None => None,
         };
         if let Some(j) = job {
-            if self.mb.jobs.try_send(j).is_err() {
-                // The storage task is still busy with the previous job: say so, and a
-                // parameter change keeps its save pending.
-                if matches!(j, StorageJob::Save(_)) {
+            match self.mb.jobs.try_send(j) {
+                Ok(()) => self.outer.busy = true,
+                // Not busy, so the queue is empty; should it not be, the save stays pending.
+                Err(_) => {
                     self.outer.setup.param_changed(now_us);
+                    self.outer.setup.say_text("Params: storage busy, try again");
                 }
-                self.outer.setup.say_text("Params: storage busy, try again");
             }
         }
     }

@@ -131,7 +131,8 @@ fn storage_jobs_save_read_and_reset_through_the_real_outer_stage() {
     assert!(mb.jobs.try_receive().is_err(), "not before the debounce");
     outer.step(1_000_001, stage.port(&boxes), &mb);
     let job = mb.jobs.try_receive().expect("the debounced save");
-    assert_eq!(block_on(storage_job(&mut store, job)), StorageResult::Saved);
+    assert_eq!(block_on(storage_job(&mut store, &job)), StorageResult::Saved);
+    mb.results.signal(StorageResult::Saved);
     // Change it, then PREFLIGHT_STORAGE read: the stored 2.0 comes back into the stage.
     outer.port(stage.port(&boxes), &mb).set_param("CBF_MU", 1.0).unwrap();
     let read = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
@@ -142,9 +143,9 @@ fn storage_jobs_save_read_and_reset_through_the_real_outer_stage() {
     outer.step(1_104_000, stage.port(&boxes), &mb);
     let job = mb.jobs.try_receive().expect("read job");
     assert_eq!(job, StorageJob::Read);
-    let r = block_on(storage_job(&mut store, job));
+    let r = block_on(storage_job(&mut store, &job));
     assert!(matches!(r, StorageResult::Loaded(p) if p.cbf.mu == 2.0), "{r:?}");
-    mb.results.try_send(r).unwrap();
+    mb.results.signal(r);
     outer.step(1_108_000, stage.port(&boxes), &mb);
     assert_eq!(stage.port(&boxes).get_param("CBF_MU"), Some(2.0));
     assert_eq!(outer.params().cbf.mu, 2.0);
@@ -152,14 +153,14 @@ fn storage_jobs_save_read_and_reset_through_the_real_outer_stage() {
     let reset = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
     outer.port(stage.port(&boxes), &mb).setup_command(1_200_000, CMD_PREFLIGHT_STORAGE, reset);
     outer.step(1_204_000, stage.port(&boxes), &mb);
-    let r = block_on(storage_job(&mut store, mb.jobs.try_receive().expect("reset job")));
+    let r = block_on(storage_job(&mut store, &mb.jobs.try_receive().expect("reset job")));
     assert_eq!(r, StorageResult::Erased);
-    mb.results.try_send(r).unwrap();
+    mb.results.signal(r);
     outer.step(1_208_000, stage.port(&boxes), &mb);
     assert_eq!(stage.port(&boxes).get_param("CBF_MU"), Some(default_mu));
     assert!(texts(&mut outer).iter().any(|t| t == "Params: reset to defaults"));
     // A read now finds nothing: said, nothing applied.
-    let r = block_on(storage_job(&mut store, StorageJob::Read));
+    let r = block_on(storage_job(&mut store, &StorageJob::Read));
     assert_eq!(r, StorageResult::Text("Params: nothing stored"));
 }
 
@@ -174,9 +175,13 @@ fn a_second_storage_request_while_the_task_is_busy_is_said_and_the_save_stays_pe
     outer.port(&mut fake, &mb).setup_command(5_000, CMD_PREFLIGHT_STORAGE, write);
     outer.step(8_000, &mut fake, &mb);
     assert!(texts(&mut outer).iter().any(|t| t.contains("storage busy")));
-    // The storage task takes the first; the pending save goes out after the debounce.
+    // The storage task takes the first; until its answer is back nothing else is sent.
     assert!(matches!(mb.jobs.try_receive(), Ok(StorageJob::Save(_))));
     outer.step(8_000 + crate::storage::SAVE_DEBOUNCE_US, &mut fake, &mb);
+    assert!(mb.jobs.try_receive().is_err(), "a job while the previous one runs");
+    // The answer: the pending save goes out at the next step.
+    mb.results.signal(StorageResult::Saved);
+    outer.step(12_000 + crate::storage::SAVE_DEBOUNCE_US, &mut fake, &mb);
     assert!(matches!(mb.jobs.try_receive(), Ok(StorageJob::Save(_))));
 }
 
