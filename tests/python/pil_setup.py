@@ -60,6 +60,7 @@ class Pil:
         self.texts = []
         self.ins_store = []
         self.stack_free = []
+        self.log_ins = {}
         self.params = {}
         self.acks = []
         self.controls = None
@@ -100,6 +101,8 @@ class Pil:
             self.ins_store.append(m.value)
         elif ty == "NAMED_VALUE_INT" and m.name == "stack_free":
             self.stack_free.append(m.value)
+        elif ty == "NAMED_VALUE_INT" and m.name in ("ins_log", "ins_logq", "ins_logm"):
+            self.log_ins.setdefault(m.name, []).append(m.value)
         elif ty == "PARAM_VALUE":
             self.params[m.param_id] = m.param_value
         elif ty == "COMMAND_ACK":
@@ -264,7 +267,7 @@ try:
     if r != M.MAV_RESULT_ACCEPTED:
         pil.steps(5)
         fail(f"ARM refused ({r}): {pil.texts[n:]}")
-    pil.steps(50)
+    pil.steps(1000)  # 1 s armed on the ground: the onboard log records (ins_log)
     for what, cmd, p, reason in [
         ("DO_MOTOR_TEST", CMD_DO_MOTOR_TEST, (1, 0, 10.0, 1.0), "Motor test refused: vehicle armed"),
         ("PREFLIGHT_STORAGE", CMD_STORAGE, (1.0,), "Params: storage denied while armed"),
@@ -278,7 +281,11 @@ try:
         fail(f"a refused motor test changed the armed output: {pil.controls}")
     expect("DISARM on the ground", pil.command(CMD_ARM, 0.0), M.MAV_RESULT_ACCEPTED)
     print(f"ins_store: {len(pil.ins_store)} storage calls, max {max(pil.ins_store)} instructions, "
-          f"all {sorted(pil.ins_store)}", flush=True)
+          f"in order {pil.ins_store}", flush=True)
+    for k, v in sorted(pil.log_ins.items()):
+        print(f"{k}: {len(v)} record sets, max {max(v)}, median {sorted(v)[len(v) // 2]} instructions", flush=True)
+    if not pil.log_ins.get("ins_log"):
+        fail("no ins_log: the onboard log wrote nothing while armed")
     if not pil.stack_free:
         fail("no stack_free report")
     print(f"stack_free: {min(pil.stack_free)} bytes never used (reports {pil.stack_free})", flush=True)
