@@ -445,9 +445,10 @@ mod firmware {
                     ..counters
                 },
             };
-            let mut queued: heapless::Vec<Outbound, 20> = heapless::Vec::new();
+            let mut queued: heapless::Vec<Outbound, { parapet_firmware::link::telemetry::MAX_PER_POLL }> =
+                heapless::Vec::new();
             telemetry.poll(now_us(), &inputs, |m| {
-                // 20 > the at most 18 messages of one poll.
+                // Room for the most messages one poll emits.
                 let _ = queued.push(m);
             });
             for m in &queued {
