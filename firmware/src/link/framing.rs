@@ -6,7 +6,7 @@
 //! the payload area is a fixed 255-byte array at offset 10 (this link never sends 32-bit system
 //! ids or signed frames): the same bytes on the wire, about 2 KB less code on the F405.
 
-use mavlink_core::{MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
+use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
 
 pub use parapet_core::wire::ids::{AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 
@@ -40,10 +40,35 @@ impl FrameWriter {
         self.sequence = self.sequence.wrapping_add(1);
         let mut raw = MAVLinkV2MessageRaw::new();
         let frame = raw.as_mut_slice();
-        let Some((head, rest)) = frame.split_first_chunk_mut::<HEADER_LEN>() else { return raw };
+        let Some((_, rest)) = frame.split_first_chunk_mut::<HEADER_LEN>() else { return raw };
         let Some((payload, _)) = rest.split_first_chunk_mut::<MAX_PAYLOAD>() else { return raw };
         let len = msg.ser(MavlinkVersion::V2, payload).min(MAX_PAYLOAD);
-        let id = D::ID.to_le_bytes();
+        self.finish(&mut raw, sequence, len, D::ID, D::EXTRA_CRC);
+        raw
+    }
+
+    /// Encodes one message into a MAVLink **v1** frame (the answer to a v1 ground station,
+    /// [`crate::link::v1`]), on the same sequence counter.
+    pub fn encode_v1<D: MessageData>(&mut self, msg: &D) -> MAVLinkV1MessageRaw {
+        let header = MavHeader {
+            system_id: u32::from(self.system_id),
+            component_id: self.component_id,
+            sequence: self.sequence,
+        };
+        self.sequence = self.sequence.wrapping_add(1);
+        let mut raw = MAVLinkV1MessageRaw::new();
+        raw.serialize_message_data(header, msg);
+        raw
+    }
+
+    /// Header and CRC of a frame whose payload (`len` bytes) is in place: the part of
+    /// [`FrameWriter::encode`] that does not depend on the message type, once in the image
+    /// rather than once per message.
+    #[inline(never)]
+    fn finish(&self, raw: &mut MAVLinkV2MessageRaw, sequence: u8, len: usize, msg_id: u32, extra_crc: u8) {
+        let frame = raw.as_mut_slice();
+        let Some((head, _)) = frame.split_first_chunk_mut::<HEADER_LEN>() else { return };
+        let id = msg_id.to_le_bytes();
         *head = [
             STX_V2,
             len as u8,
@@ -57,11 +82,10 @@ impl FrameWriter {
             id[2],
         ];
         let end = HEADER_LEN + len;
-        let crc = mavlink_core::calculate_crc(frame.get(1..end).unwrap_or_default(), D::EXTRA_CRC);
+        let crc = mavlink_core::calculate_crc(frame.get(1..end).unwrap_or_default(), extra_crc);
         if let Some(c) = frame.get_mut(end..end + 2) {
             c.copy_from_slice(&crc.to_le_bytes());
         }
-        raw
     }
 }
 
@@ -69,7 +93,6 @@ impl FrameWriter {
 mod tests {
     use super::*;
     use crate::link::dialect::{HEARTBEAT_DATA, PARAM_VALUE_DATA};
-    use mavlink_core::MavHeader;
 
     /// The frames are mavlink-core's own, byte for byte (sequence included).
     fn same_as_mavlink_core<D: MessageData>(msg: &D) {
