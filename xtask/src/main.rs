@@ -40,12 +40,14 @@ use std::process::{Command, ExitCode};
 const TARGET: &str = "thumbv7em-none-eabihf";
 /// Flash target of the F405 image, bytes (issue 22: ≤ 128 KiB). Reported by `size` and `test`
 /// with the excess; NOT met since the flight modes, RC input, parameter storage, calibration,
-/// motor test, battery and the onboard log landed (2026-12-02: about 151 KB; see
-/// firmware/README.md § Flash).
+/// motor test, battery and the onboard log landed (2026-12-02: 155,608 B before the size cuts
+/// b293c3d / b2cfb1e / 8ed014b / f3a779e (-15.3 KB), 181,656 B at f3a779e, after the setup
+/// services were wired in (storage task + sequential-storage, calibration, battery ADC: ≈ +38 KB)).
 const FLASH_TARGET: u64 = 128 * 1024;
-/// Flash limit CI enforces on the F405 image, bytes: a regression guard above today's size
-/// (the STM32F405RG has 1 MiB, 768 KiB of it linkable next to the parameter sectors).
-const FLASH_BUDGET: u64 = 192 * 1024;
+/// Flash limit CI enforces on the F405 image, bytes: a regression guard just above today's size
+/// (181,656 B at f3a779e; the STM32F405RG has 1 MiB, 768 KiB of it linkable next to the
+/// parameter sectors).
+const FLASH_BUDGET: u64 = 184 * 1024;
 /// Static RAM budget (.data + .bss), bytes (issue: ≤ 32 KiB).
 const RAM_BUDGET: u64 = 32 * 1024;
 /// Flash budget of the MATEKH743 image (`board-h743`), bytes: 256 KiB of its 2 MiB (issue 22:
