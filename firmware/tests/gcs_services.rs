@@ -321,3 +321,93 @@ fn scheduler_stream_rates_are_settable() {
     assert!((50..=51).contains(&att) && (25..=26).contains(&pos), "defaults restored: {att} {pos}");
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Disarmed);
 }
+
+/// MAVSDK's `mission_raw.start_mission()` is DO_SET_MODE with PX4's AUTO.MISSION (base mode
+/// CUSTOM | SAFETY_ARMED, main 4, sub 4). Like PX4 it flies the uploaded mission when the vehicle
+/// is airborne and holding; before, it was ACCEPTED but the vehicle kept holding (Mission is the
+/// default mode, so the mode change was a no-op).
+#[test]
+fn do_set_mode_auto_mission_flies_the_uploaded_mission() {
+    let mut g = Sim::new();
+    g.airborne();
+    let px4_mission = [129.0, 4.0, 4.0, 0.0, 0.0, 0.0, 0.0];
+    // No mission uploaded: the mode change stands, nothing is flown.
+    assert_eq!(g.command(MavCmd::MAV_CMD_DO_SET_MODE, px4_mission), MavResult::MAV_RESULT_ACCEPTED);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
+    assert_eq!(g.upload(&[[1.0, 0.0, -1.0], [1.0, 1.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
+    assert_eq!(g.command(MavCmd::MAV_CMD_DO_SET_MODE, px4_mission), MavResult::MAV_RESULT_ACCEPTED);
+    g.run(8);
+    assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission, "flies the mission");
+}
+
+/// ODOMETRY in PX4's LOCAL_FRD (a vision frame of unknown heading) is refused cleanly: not taken
+/// as a fix, counted, and a STATUSTEXT says why (at most every 10 s). Before: refused silently
+/// (only a counter in DEBUG_VECT LINK_DROP), so a companion never learnt why it was ignored.
+#[test]
+fn odometry_in_local_frd_is_refused_with_a_statustext() {
+    use parapet_firmware::link::router::ODOMETRY_REFUSED_TEXT;
+    let mut g = Sim::new();
+    g.run(100);
+    let frd = ODOMETRY_DATA {
+        time_usec: g.t(),
+        x: 5.0,
+        q: [1.0, 0.0, 0.0, 0.0],
+        frame_id: MavFrame::MAV_FRAME_LOCAL_FRD,
+        child_frame_id: MavFrame::MAV_FRAME_BODY_FRD,
+        ..Default::default()
+    };
+    let before = g.link.stats().odometry_rejected;
+    let texts = |out: &[Outbound]| {
+        out.iter()
+            .filter(|m| matches!(m, Outbound::StatusText(t) if t.text.to_str().ok() == Some(ODOMETRY_REFUSED_TEXT)))
+            .count()
+    };
+    let out = g.send(&frd);
+    assert_eq!(texts(&out), 1, "{out:?}");
+    assert_eq!(g.link.stats().odometry_rejected, before + 1);
+    g.run(8);
+    assert!(g.ap.telemetry().position_ned.x.abs() < 0.1, "the FRD x = 5 m was not taken");
+    let again = ODOMETRY_DATA { time_usec: g.t(), ..frd };
+    assert_eq!(texts(&g.send(&again)), 0, "at most one text per 10 s");
+    assert_eq!(g.link.stats().odometry_rejected, before + 2);
+}
+
+/// A ground station speaking MAVLink **v1** (0xFE frames) is told that only MAVLink 2 is
+/// spoken — a STATUSTEXT WARNING framed in v1, which it can read — at most every 5 s; its frames
+/// are not dispatched. Before: v1 frames were dropped silently (a v1 GCS "cannot even start").
+#[test]
+fn a_v1_heartbeat_is_answered_with_a_v1_statustext() {
+    use mavlink_core::{MAVLinkV1MessageRaw, MavHeader};
+    use parapet_firmware::link::dialect::{HEARTBEAT_DATA, STATUSTEXT_DATA};
+    use parapet_firmware::link::v1::V1_REFUSED_TEXT;
+    let mut g = Sim::new();
+    let v1 = |seq: u8| {
+        let mut raw = MAVLinkV1MessageRaw::new();
+        let h = MavHeader { system_id: 255, component_id: 190, sequence: seq };
+        raw.serialize_message_data(h, &HEARTBEAT_DATA::default());
+        raw.raw_bytes().to_vec()
+    };
+    let out = g.step(&[v1(0)]);
+    let answers: Vec<_> = out.iter().filter(|m| matches!(m, Outbound::StatusTextV1(_))).collect();
+    assert_eq!(answers.len(), 1, "{out:?}");
+    assert_eq!(g.link.v1_heartbeats(), 1);
+    // On the wire: a v1 frame a v1 parser accepts, with the text.
+    let mut w = FrameWriter::new(1, 1);
+    let bytes = answers[0].encode(&mut w).raw_bytes().to_vec();
+    assert_eq!(bytes[0], 0xFE, "v1 start byte");
+    let mut arr = [0u8; 263];
+    arr[..bytes.len()].copy_from_slice(&bytes);
+    let frame = MAVLinkV1MessageRaw::from_bytes_unparsed(arr);
+    assert_eq!((frame.message_id(), frame.system_id(), frame.component_id()), (253, 1, 1));
+    assert!(frame.has_valid_crc_with_extra_crc(STATUSTEXT_DATA::EXTRA_CRC));
+    let text = String::from_utf8_lossy(&frame.payload()[1..]).trim_end_matches('\0').to_string();
+    assert_eq!(text, V1_REFUSED_TEXT);
+    // Rate limit: the next v1 heartbeats within 5 s get no answer; the v2 link is unaffected.
+    for k in 1..4 {
+        let out = g.step(&[v1(k)]);
+        assert!(!out.iter().any(|m| matches!(m, Outbound::StatusTextV1(_))));
+    }
+    assert_eq!(g.link.v1_heartbeats(), 4);
+    assert!(g.run(1000).iter().any(|m| matches!(m, Outbound::Heartbeat(_))), "v2 telemetry goes on");
+}

@@ -5,7 +5,8 @@
 //! parameters ([`params`]), telemetry streams ([`telemetry`]) and the pilot input over MAVLink
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
-//! message intervals).
+//! message intervals, ATTITUDE_TARGET, BATTERY_STATUS, MISSION_ITEM_REACHED) and the MAVLink v1
+//! refusal ([`v1`]).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
 //! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
@@ -25,5 +26,6 @@ pub mod params;
 pub mod router;
 pub mod services;
 pub mod telemetry;
+pub mod v1;
 
 pub use router::*;

@@ -15,7 +15,7 @@ use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
-use mavlink_core::MAVLinkV2MessageRaw;
+use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw};
 
 use crate::link::framing::FrameWriter;
 
@@ -81,13 +81,36 @@ pub enum Outbound {
     AttitudeTarget(ATTITUDE_TARGET_DATA),
     /// BATTERY_STATUS.
     BatteryStatus(BATTERY_STATUS_DATA),
+    /// STATUSTEXT framed in MAVLink **v1** (the answer to a v1 ground station,
+    /// [`crate::link::v1`]).
+    StatusTextV1(STATUSTEXT_DATA),
+}
+
+/// One encoded frame: MAVLink 2, or v1 for [`Outbound::StatusTextV1`].
+#[allow(clippy::large_enum_variant)] // one frame at a time, on the sender's stack
+pub enum Encoded {
+    /// MAVLink 2.
+    V2(MAVLinkV2MessageRaw),
+    /// MAVLink 1.
+    V1(MAVLinkV1MessageRaw),
+}
+
+impl Encoded {
+    /// The frame's bytes (what goes on the wire).
+    pub fn raw_bytes(&self) -> &[u8] {
+        match self {
+            Encoded::V2(r) => r.raw_bytes(),
+            Encoded::V1(r) => r.raw_bytes(),
+        }
+    }
 }
 
 #[allow(deprecated)] // PING
 impl Outbound {
     /// Encodes the message as the next frame of `writer`.
-    pub fn encode(&self, writer: &mut FrameWriter) -> MAVLinkV2MessageRaw {
-        match self {
+    pub fn encode(&self, writer: &mut FrameWriter) -> Encoded {
+        Encoded::V2(match self {
+            Outbound::StatusTextV1(m) => return Encoded::V1(writer.encode_v1(m)),
             Outbound::Heartbeat(m) => writer.encode(m),
             Outbound::RcChannels(m) => writer.encode(m),
             Outbound::Attitude(m) => writer.encode(m),
@@ -117,7 +140,7 @@ impl Outbound {
             Outbound::MissionItemReached(m) => writer.encode(m),
             Outbound::AttitudeTarget(m) => writer.encode(m),
             Outbound::BatteryStatus(m) => writer.encode(m),
-        }
+        })
     }
 }
 

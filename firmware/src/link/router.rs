@@ -6,7 +6,7 @@
 //!
 //! | message | action |
 //! |---|---|
-//! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted |
+//! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted; other frames (LOCAL_FRD, …) → rejected, counted, STATUSTEXT WARNING [`ODOMETRY_REFUSED_TEXT`] at most every 10 s |
 //! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
 //! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
@@ -22,6 +22,7 @@
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
 //! | HEARTBEAT | marks the peer alive |
+//! | MAVLink **v1** HEARTBEAT | not dispatched (v2 only, as PX4): answered with a v1 STATUSTEXT WARNING, see [`crate::link::v1`] |
 //!
 //! **Addressing**: messages with target fields are handled only when `target_system` is 0 or
 //! ours and `target_component` is 0 or ours ([`AUTOPILOT_COMPONENT_ID`]); others (e.g. a
@@ -44,7 +45,7 @@ use heapless::Deque;
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::Vec3;
 
-use crate::app::autopilot::{Autopilot, ImuSample, PositionFix};
+use crate::app::autopilot::{Autopilot, FlightMode, FlightPhase, ImuSample, PositionFix, VehicleCommand};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
@@ -54,6 +55,7 @@ use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
 use crate::link::outbound::Outbound;
 use crate::link::services::{MissionProgress, Services};
+use crate::link::v1::V1Detector;
 use crate::setup::SetupAck;
 
 /// Reply queue capacity.
@@ -137,7 +139,16 @@ struct Router {
     param_stream: Option<u16>,
     services: Services,
     manual: ManualControl,
+    /// When the last "ODOMETRY refused" STATUSTEXT went out.
+    odometry_text_us: Option<u64>,
+    /// When the last v1 refusal went out ([`crate::link::v1`]).
+    v1_text_us: Option<u64>,
 }
+
+/// STATUSTEXT of an ODOMETRY refused for its frame (LOCAL_FRD, …).
+pub const ODOMETRY_REFUSED_TEXT: &str = "ODOMETRY refused: frame must be LOCAL_NED";
+/// Shortest interval between two such STATUSTEXTs, µs.
+pub const ODOMETRY_TEXT_US: u64 = 10_000_000;
 
 /// Converts ODOMETRY into a position fix (with the yaw of `q` when it is a valid attitude);
 /// `None` for unsupported frames or non-finite data.
@@ -258,11 +269,71 @@ impl Router {
                 self.reply(Outbound::MessageInterval(m));
                 return;
             }
-            _ => (execute(cmd, now_us, ap), false),
+            _ => {
+                let r = execute(cmd, now_us, ap);
+                self.mission_mode_flies(cmd, r, now_us, ap);
+                (r, false)
+            }
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
         if version {
             self.reply(Outbound::AutopilotVersion(autopilot_version()));
+        }
+    }
+
+    /// PX4's AUTO.MISSION: an accepted DO_SET_MODE to Mission (PX4 4/4, what MAVSDK's
+    /// `start_mission` sends) while airborne and holding or taking off, with a mission uploaded,
+    /// also starts it (a refusal leaves the mode change standing). Other commands: nothing.
+    fn mission_mode_flies<A: Autopilot>(
+        &self,
+        cmd: &COMMAND_LONG_DATA,
+        r: MavResult,
+        now_us: u64,
+        ap: &mut A,
+    ) {
+        let to_mission = cmd.command == crate::link::command::id::DO_SET_MODE
+            && r == MavResult::MAV_RESULT_ACCEPTED
+            && crate::link::command::decode_command(cmd) == Ok(VehicleCommand::SetMode(FlightMode::Mission));
+        let s = ap.telemetry();
+        if to_mission
+            && !self.mission.stored().is_empty()
+            && s.armed
+            && matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff)
+        {
+            let _ = ap.command(now_us, VehicleCommand::StartMission);
+        }
+    }
+
+    /// A v1 HEARTBEAT arrived: the v1 STATUSTEXT refusal, at most once per
+    /// [`crate::link::v1::V1_TEXT_US`].
+    fn on_v1_heartbeat(&mut self, now_us: u64) {
+        let due = self.v1_text_us.is_none_or(|t| now_us.saturating_sub(t) >= crate::link::v1::V1_TEXT_US);
+        if due {
+            self.v1_text_us = Some(now_us);
+            let t = crate::link::telemetry::status_text(
+                crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+                crate::link::v1::V1_REFUSED_TEXT,
+                "",
+            );
+            self.reply(Outbound::StatusTextV1(t));
+        }
+    }
+
+    /// An ODOMETRY in a frame other than LOCAL_NED (e.g. PX4's LOCAL_FRD, a vision frame of
+    /// unknown heading: no conversion to NED is possible without its yaw offset) is refused:
+    /// counted, and a STATUSTEXT WARNING says so, at most once per [`ODOMETRY_TEXT_US`].
+    fn refuse_odometry_frame(&mut self, m: &ODOMETRY_DATA, now_us: u64) {
+        let frame_ok = m.frame_id == MavFrame::MAV_FRAME_LOCAL_NED
+            && matches!(m.child_frame_id, MavFrame::MAV_FRAME_LOCAL_NED | MavFrame::MAV_FRAME_BODY_FRD);
+        let due = self.odometry_text_us.is_none_or(|t| now_us.saturating_sub(t) >= ODOMETRY_TEXT_US);
+        if !frame_ok && due {
+            self.odometry_text_us = Some(now_us);
+            let t = crate::link::telemetry::status_text(
+                crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+                ODOMETRY_REFUSED_TEXT,
+                "",
+            );
+            self.reply(Outbound::StatusText(t));
         }
     }
 
@@ -365,7 +436,10 @@ impl Router {
                 };
                 match odometry_fix(&m, t) {
                     Some(fix) => ap.update_position(&fix),
-                    None => self.stats.odometry_rejected = self.stats.odometry_rejected.saturating_add(1),
+                    None => {
+                        self.stats.odometry_rejected = self.stats.odometry_rejected.saturating_add(1);
+                        self.refuse_odometry_frame(&m, now_us);
+                    }
                 }
             }
             Inbound::Obstacle(m) => self.obstacles.on_point(&m, now_us, ap),
@@ -552,6 +626,7 @@ impl Received {
 pub struct Link {
     parser: FrameParser,
     router: Router,
+    v1: V1Detector,
 }
 
 impl Link {
@@ -580,7 +655,10 @@ impl Link {
                 param_stream: None,
                 services: Services::new(),
                 manual: ManualControl::new(),
+                odometry_text_us: None,
+                v1_text_us: None,
             },
+            v1: V1Detector::new(),
         }
     }
 
@@ -588,6 +666,9 @@ impl Link {
     pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
         self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| router.on_frame(f, now_us, ap));
+        if self.v1.push(byte) {
+            self.router.on_v1_heartbeat(now_us);
+        }
     }
 
     /// Handles one frame decoded elsewhere (a board's receiving task, [`Received::of`]) at
@@ -649,6 +730,11 @@ impl Link {
     /// `true` once any valid frame of the inbound set arrived.
     pub fn peer_seen(&self) -> bool {
         self.router.peer_seen
+    }
+
+    /// Valid MAVLink v1 HEARTBEATs received (refused, see [`crate::link::v1`]).
+    pub fn v1_heartbeats(&self) -> u32 {
+        self.v1.heartbeats
     }
 
     /// Framer counters.
