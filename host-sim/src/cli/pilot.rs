@@ -166,7 +166,11 @@ pub fn write_outputs(
     let pilot = serde_json::json!({
         "script": script.source,
         "name": script.name,
-        "mode": match mode { PilotMode::Position => "Position", PilotMode::Offboard => "Offboard" },
+        "mode": match mode {
+            PilotMode::Position => "Position",
+            PilotMode::Offboard => "Offboard",
+            PilotMode::Mission => "Mission",
+        },
         "rc_rate_hz": script.rc_rate_hz,
         "setpoint_rate_hz": script.setpoint_rate_hz,
         "modes": modes,

@@ -9,6 +9,7 @@
 use anyhow::{anyhow, Result};
 use parapet_core::controller::{FlightMode, OffboardSetpoint};
 use parapet_core::rc::{RcInput, SwitchPosition};
+use parapet_core::supervisor::modes::RcLossAction;
 
 use super::stack::{PilotMode, PilotSink, TimedSetpoint};
 use crate::fc::control::Controller;
@@ -24,6 +25,8 @@ pub struct AssistParams {
     pub max_speed: Option<f32>,
     /// Position-assist climb rate at full throttle deflection, m/s (`PA_CLIMB_MAX`).
     pub max_climb: Option<f32>,
+    /// RC loss in Mission / Offboard: continue or return (`FS_RC_ACT`).
+    pub rc_loss_auto: Option<RcLossAction>,
 }
 
 /// The in-process controller with pilot input (see the module documentation).
@@ -45,6 +48,9 @@ impl PilotedController {
         }
         if let Some(v) = assist.max_climb {
             p.modes.assist_climb = v;
+        }
+        if let Some(v) = assist.rc_loss_auto {
+            p.modes.rc_loss_auto = v;
         }
         Ok(PilotedController {
             ctrl: Controller::with_params(scene, cfg, p)?,
@@ -78,6 +84,8 @@ impl PilotSink for PilotedController {
         let m = match mode {
             PilotMode::Position => FlightMode::Position,
             PilotMode::Offboard => FlightMode::Offboard,
+            // The start-up's mission start selected it.
+            PilotMode::Mission => return Ok(()),
         };
         self.ctrl.fc_mut().set_mode(now_us, m).map_err(|e| {
             anyhow!(
@@ -103,6 +111,10 @@ impl PilotSink for PilotedController {
 
     fn filter_active(&self) -> Option<bool> {
         Some(self.ctrl.telemetry().filter_active)
+    }
+
+    fn mode_reason(&self) -> Option<&'static str> {
+        self.ctrl.telemetry().last_mode_change.map(|m| m.reason.as_str())
     }
 }
 

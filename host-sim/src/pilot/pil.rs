@@ -65,6 +65,8 @@ impl PilotSink for PilotedPil {
             }
             (PilotMode::Position, None) => bail!("PIL: no RC frame to enter Position-assist with"),
             (PilotMode::Offboard, _) => bail!("PIL: Offboard is not supported over the PIL link yet"),
+            // The start-up's MISSION_START selects it.
+            (PilotMode::Mission, _) => Ok(()),
         }
     }
 

@@ -34,6 +34,9 @@ pub enum PilotMode {
     Position,
     /// Offboard (`--offboard`).
     Offboard,
+    /// Mission: the run's path as uploaded, the mode the start-up selects (nothing is entered);
+    /// RC frames still arrive (a safety pilot's), for the RC-loss failsafe of Mission.
+    Mission,
 }
 
 /// One offboard setpoint with its time stamp (controller clock, µs).
@@ -58,6 +61,11 @@ pub trait PilotSink {
     /// `true` when the filter changed the nominal command at the last outer step; `None`
     /// when the stack cannot tell (the recorder's `filter.intervened` is used).
     fn filter_active(&self) -> Option<bool>;
+    /// Reason of the last flight-mode change (`TransitionReason::as_str`, e.g. "rc-loss"), if
+    /// the stack reports it.
+    fn mode_reason(&self) -> Option<&'static str> {
+        None
+    }
 }
 
 /// What one outer step of a piloted flight recorded.
@@ -71,6 +79,8 @@ pub struct PilotRecord {
     pub setpoint: Option<Setpoint>,
     /// Flight mode after the step.
     pub flight_mode: String,
+    /// Reason of the last flight-mode change after the step, if reported.
+    pub mode_reason: Option<&'static str>,
     /// Guidance mode after the step.
     pub guidance: &'static str,
     /// The filter changed u* at this step.
@@ -194,6 +204,7 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
             sticks: self.sticks,
             setpoint: self.setpoint,
             flight_mode: self.stack.flight_mode(),
+            mode_reason: self.stack.mode_reason(),
             guidance: out.mode,
             filter_active: self.stack.filter_active().unwrap_or(out.filter.intervened),
         });
