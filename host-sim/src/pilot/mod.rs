@@ -2,7 +2,8 @@
 //! ([`script`]: stick timelines, a goal-seeking pilot, offboard setpoint timelines, scripted
 //! RC loss / kill / mode switch / setpoint stop), the wrapper that feeds them to a flight
 //! stack as RC frames and setpoints ([`stack`]), the in-process controller's pilot input
-//! ([`inprocess`]), the firmware's over the PIL link ([`pil`], MANUAL_CONTROL) and
+//! ([`inprocess`]), the firmware's over the PIL link ([`pil`], MANUAL_CONTROL and
+//! SET_POSITION_TARGET_LOCAL_NED) and
 //! [`run_piloted`] / [`run_piloted_pil`], which fly a scene with them (`parapet run --pilot
 //! FILE` in Position-assist, `--offboard FILE` in Offboard).
 //!
@@ -38,6 +39,8 @@ pub struct PilotRun {
     pub kill_sent_at: Option<f64>,
     /// First inner step with every motor at zero at or after it, s.
     pub motors_off_at: Option<f64>,
+    /// The firmware's STATUSTEXTs ("severity: text"; PIL only, empty in process).
+    pub status_texts: Vec<String>,
 }
 
 /// `cfg` made for a piloted flight: the path is the start alone (the mission only holds it
@@ -63,27 +66,36 @@ pub fn run_piloted(
     let mut pc = PilotedController::new(scene, cfg, assist)?;
     let mut p = Piloted::new(&mut pc, script, mode);
     let out = run_with(scene, cfg, &mut p, progress)?;
-    Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })
+    Ok(PilotRun {
+        out,
+        log: p.log,
+        kill_sent_at: p.kill_sent_at,
+        motors_off_at: p.motors_off_at,
+        status_texts: Vec::new(),
+    })
 }
 
 /// Fly `scene` with `cfg` (made by [`piloted_config`]), the firmware in QEMU and `script` in
-/// Position-assist (entered with the mode switch, [`pil`]).
+/// `mode`: Position-assist (entered with the mode switch) or Offboard (setpoints as
+/// SET_POSITION_TARGET_LOCAL_NED, entered with DO_SET_MODE; [`pil`]).
 pub fn run_piloted_pil(
     scene: &Scene,
     cfg: &RunConfig,
     script: &PilotScript,
+    mode: PilotMode,
     opts: crate::fc::pil::PilOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<PilotRun> {
     let link = crate::fc::pil::PilLink::spawn(scene, cfg, opts)?;
     let mut pp = pil::PilotedPil::new(link);
-    let mut p = Piloted::new(&mut pp, script, PilotMode::Position);
+    let mut p = Piloted::new(&mut pp, script, mode);
     let out = run_with(scene, cfg, &mut p, progress);
     let (log, kill_sent_at, motors_off_at) = (p.log, p.kill_sent_at, p.motors_off_at);
     if let Some(f) = pp.link.fault() {
         anyhow::bail!("processor-in-the-loop link failed: {f}");
     }
-    Ok(PilotRun { out: out?, log, kill_sent_at, motors_off_at })
+    let status_texts = pp.link.figures().status_texts;
+    Ok(PilotRun { out: out?, log, kill_sent_at, motors_off_at, status_texts })
 }
 
 /// [`run_piloted`] entering Position-assist with the mode switch as [`run_piloted_pil`] does
@@ -99,5 +111,11 @@ pub fn run_piloted_via_switch(
     pc.via_switch = true;
     let mut p = Piloted::new(&mut pc, script, PilotMode::Position);
     let out = run_with(scene, cfg, &mut p, progress)?;
-    Ok(PilotRun { out, log: p.log, kill_sent_at: p.kill_sent_at, motors_off_at: p.motors_off_at })
+    Ok(PilotRun {
+        out,
+        log: p.log,
+        kill_sent_at: p.kill_sent_at,
+        motors_off_at: p.motors_off_at,
+        status_texts: Vec::new(),
+    })
 }
