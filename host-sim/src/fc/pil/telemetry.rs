@@ -370,6 +370,7 @@ mod tests {
     /// The mode-change STATUSTEXT sets the mode at once; other texts and unknown custom modes
     /// leave it.
     #[test]
+    #[allow(clippy::needless_update)] // the extension fields exist with MAVLink 2 extensions on
     fn mode_from_statustext_and_heartbeat() {
         use mavlink::dialects::ardupilotmega::{MavSeverity, STATUSTEXT_DATA};
         let (mut t, mut fig) = (FirmwareTelemetry::default(), PilFigures::default());
