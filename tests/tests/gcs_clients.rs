@@ -241,3 +241,62 @@ fn mavsdk_connects_reads_telemetry_and_a_parameter() {
     println!("{text}");
     assert!(o.status.success() && text.contains("PASS"), "MAVSDK on parapet run --api:\n{text}");
 }
+
+/// MAVSDK-Python (`tests/python/mavsdk_mission.py`) flies the whole mission on `parapet pil
+/// --gcs-control --api --realtime` (the real firmware in QEMU): the vehicle waits disarmed on the
+/// ground; MAVSDK connects, reads telemetry, uploads the mission (mission_raw, LOCAL_NED), arms,
+/// takes off, starts it, watches it reach the goal, lands and the vehicle disarms. Before issue 20's
+/// fixes MAVSDK's progress never advanced (MISSION_CURRENT seq 0, no MISSION_ITEM_REACHED),
+/// `start_mission` (DO_SET_MODE AUTO.MISSION) left the vehicle holding, and the host always flew.
+#[test]
+fn mavsdk_flies_a_mission_on_the_pil() {
+    let Some(py) = python() else { return };
+    let Some(elf) = firmware() else { return };
+    let port = free_port();
+    let s = scene();
+    let cfg = config(&s, 90.0);
+    let wps: Vec<[f64; 3]> = cfg.path.iter().map(|w| [w.x, w.y, w.z]).collect();
+    let child = Command::new(&py)
+        .arg(script("mavsdk_mission.py"))
+        .arg(port.to_string())
+        .arg(serde_json::to_string(&wps).expect("json"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("client");
+    std::thread::sleep(Duration::from_millis(500)); // the client listens
+    let dir = out_dir("mavsdk-mission");
+    let sitl = SitlArgs { gcs: None, api: Some(format!("udp:127.0.0.1:{port}")), realtime: true };
+    let b = bridge(&sitl, &dir, true).expect("bridge");
+    let mut opts = PilOptions::new(elf);
+    opts.gcs_control = true;
+    let r = run_pil_bridged(&s, &cfg, opts, b.clone(), &mut |_| {});
+    b.borrow_mut().finish().expect("tlog");
+    let o = child.wait_with_output().expect("client ends");
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    println!("{text}");
+    let (out, fig) = r.expect("PIL flight flown by MAVSDK");
+    for x in out.samples.iter().step_by(250) {
+        println!(
+            "t {:5.1} pos {:6.2} {:6.2} {:6.2} ref {:6.2} {:6.2} {:6.2} {}",
+            x.t, x.pos.x, x.pos.y, x.pos.z, x.ref_pos.x, x.ref_pos.y, x.ref_pos.z, x.mode
+        );
+    }
+    let sm = &out.summary;
+    println!(
+        "PIL: {} steps, real-time factor {:.2}; end {} at {:.1} s; reached goal {} at {:?}; min clearance {:.3} m",
+        fig.flight_steps, fig.real_time_factor, sm.end_reason, sm.sim_time_s, sm.reached_goal, sm.time_to_goal_s,
+        sm.min_clearance_m
+    );
+    assert!(
+        o.status.success() && text.contains("PASS"),
+        "MAVSDK mission on parapet pil --gcs-control:\n{text}"
+    );
+    assert!(sm.reached_goal && !sm.collided, "{sm:?}");
+    assert!(
+        sm.sim_time_s < cfg.duration,
+        "the run ended when the vehicle disarmed, not at the limit: {sm:?}"
+    );
+    let last = out.samples.last().expect("samples");
+    assert!(last.pos.z > -0.1, "landed at the end: {:?}", last.pos);
+}

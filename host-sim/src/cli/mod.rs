@@ -161,6 +161,12 @@ pub struct PilArgs {
     /// Wall-clock seconds without an answer from the firmware before the run fails.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     timeout: f64,
+    /// A ground station flies the vehicle (use with --gcs/--api, usually --realtime): it waits
+    /// disarmed on the ground below the scene's start; the GCS uploads the mission, arms, takes
+    /// off, starts, lands and disarms. The run ends when the vehicle is disarmed after a
+    /// flight, or at --duration (docs/ground-station.md).
+    #[arg(long)]
+    gcs_control: bool,
 }
 
 #[derive(Debug, Args)]
@@ -638,6 +644,7 @@ pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     let mut opts = PilOptions::new(elf);
     opts.timeout = std::time::Duration::from_secs_f64(timeout);
     opts.resend_after = opts.resend_after.min(opts.timeout / 2);
+    opts.gcs_control = a.gcs_control;
     let dir = a.run.out.clone().unwrap_or_else(|| PathBuf::from("out/pil"));
     check_report_dir(&dir, &scene, a.run.path.as_deref(), a.run.disturb.disturbances.as_deref())?;
     let bridge = sitl::bridge(&a.run.sitl, &dir, true)?;

@@ -6,9 +6,11 @@
 //!   [`crate::fc`]), and the controller clock.
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
 //! * [`preflight`]: pre-flight checks (start, waypoints, path vs scene) before any flight.
+//! * [`paths`]: path lengths and the default duration limit.
 //!
 //! May import: `parapet-core`, [`crate::input`], [`crate::sim`], [`crate::world`],
 //! [`crate::plan`] (path files), [`crate::report`] (samples, summary).
+pub mod paths;
 pub mod preflight;
 pub mod runner;
 pub mod stack;

@@ -265,22 +265,8 @@ pub fn check_bounded(cfg: &RunConfig) -> Result<()> {
     Ok(())
 }
 
-/// Length of a polyline, m.
-pub fn path_length(path: &[Vector3<f64>]) -> f64 {
-    path.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
-}
-
-/// Length of what is flown, m: from the mission start (where the vehicle
-/// hovers at t = 0) to the first waypoint, then along the path.
-pub fn flown_length(start: &Vector3<f64>, path: &[Vector3<f64>]) -> f64 {
-    path.first().map_or(0.0, |w| (w - start).norm()) + path_length(path)
-}
-
-/// Default duration limit, s: 1.5 × the flown length ([`flown_length`]) at
-/// `speed` (m/s) + 15 s for the start-up and the settling at the end.
-pub fn default_duration(scene: &Scene, path: &[Vector3<f64>], speed: f64) -> f64 {
-    1.5 * flown_length(&scene.start, path) / speed + 15.0
-}
+use super::paths::{contact, with_ground};
+pub use super::paths::{default_duration, flown_length, nearest_with_ground, path_length};
 
 /// The outcome of a run: samples at the outer rate and the summary.
 #[derive(Clone, Debug)]
@@ -291,22 +277,6 @@ pub struct RunOutput {
     pub summary: Summary,
     /// Every beam of the range sensors (empty without `perception`), for `ranges.csv`.
     pub ranges: Vec<crate::perception::RangeRecord>,
-}
-
-/// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
-/// ground plane (z = 0) at time `t`, and the obstacle index (`None` = ground).
-pub fn nearest_with_ground(scene: &Scene, p: &Vector3<f64>, t: f64) -> (f64, Option<usize>) {
-    with_ground(scene.nearest(p, t), p)
-}
-
-/// [`nearest_with_ground`] from the obstacles' `(distance, index)` at `p`.
-fn with_ground(nearest: (f64, Option<usize>), p: &Vector3<f64>) -> (f64, Option<usize>) {
-    let ground = -p.z;
-    if ground < nearest.0 {
-        (ground, None)
-    } else {
-        nearest
-    }
 }
 
 /// The true barrier `h̄` (m²) of obstacle `i` whose closest point is `q` (signed
@@ -568,6 +538,12 @@ pub fn run_with(
     let plant_vehicle = cfg.disturbances.plant_vehicle(&scene.vehicle);
     let mut plant = Plant::new(plant_vehicle).map_err(|e| anyhow!("plant vehicle: {e}"))?;
     plant.set_hover(scene.start, 0.0);
+    // A ground station's flight (`FlightStack::ground_start`): at rest on the ground below the start.
+    let ground = ctrl.ground_start();
+    if ground {
+        plant.set_hover(Vector3::new(scene.start.x, scene.start.y, 0.0), 0.0);
+        plant.set_rotor_speeds([0.0; 4]);
+    }
     let mut sensors = Sensors::with_faults(cfg.sensors.clone(), cfg.disturbances.faults.clone(), cfg.seed);
     let mut battery = cfg
         .battery
@@ -614,7 +590,7 @@ pub fn run_with(
     let mut ref_tracker = NearestTracker::with_index(scene, tracker.index());
     let mut scratch = OuterScratch::default();
     // Signed distance to the nearest obstacle or the ground at the current plant state.
-    let mut sd_now = with_ground(tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
+    let mut sd_now = contact(ground, tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
 
     let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
     // Memory grows with the time flown, not with the duration limit: reserve at
@@ -622,6 +598,8 @@ pub fn run_with(
     let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
     let (mut collided_at, mut collision_obstacle) = (None, None);
     let mut goal_at = None;
+    // A ground station's flight ended: landed and disarmed (`FlightStack::finished`).
+    let mut landed_at = None;
     let mut min_clear = f64::INFINITY;
     let (mut sq_err, mut n_outer, mut n_active) = (0.0, 0u64, 0u64);
     let mut steps = 0u64;
@@ -689,6 +667,12 @@ pub fn run_with(
                 && out.path_done
             {
                 goal_at = Some(t);
+                if !ground {
+                    break;
+                }
+            }
+            if ground && ctrl.finished() {
+                landed_at = Some(t);
                 break;
             }
             if t >= next_progress {
@@ -719,7 +703,7 @@ pub fn run_with(
         let skip =
             !schedule.is_outer_step(k + 1) && tracker.nearest_lower_bound().min(-pos.z) - hull > min_clear;
         if !skip {
-            let (sd, idx) = with_ground(tracker.nearest(scene, &pos, t_next), &pos);
+            let (sd, idx) = contact(ground, tracker.nearest(scene, &pos, t_next), &pos);
             sd_now = sd;
             min_clear = min_clear.min(sd - hull);
             if sd < hull {
@@ -733,7 +717,7 @@ pub fn run_with(
             return Err(anyhow!("the plant state became non-finite at t = {t:.3} s"));
         }
     }
-    if collided_at.is_none() && goal_at.is_none() {
+    if collided_at.is_none() && goal_at.is_none() && landed_at.is_none() {
         t = n_inner as f64 / INNER_HZ;
     }
     let reached_path_end = goal_at.is_some();
@@ -777,6 +761,8 @@ pub fn run_with(
             "goal"
         } else if reached_path_end {
             "path_end"
+        } else if landed_at.is_some() {
+            "landed"
         } else {
             "duration"
         }

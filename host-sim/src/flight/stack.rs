@@ -92,4 +92,16 @@ pub trait FlightStack {
     /// A battery reading of the simulated pack (`[battery]`; issue 22). Default: ignored
     /// (a stack without a battery path).
     fn battery(&mut self, _t: f64, _reading: &crate::sim::battery::BatteryReading) {}
+    /// A ground station flies the vehicle (`parapet pil --gcs-control`): it starts resting on
+    /// the ground below the start, disarmed, motors stopped ([`FlightStack::start`] then arms
+    /// nothing); ground contact is no collision and the run does not stop at the goal but when
+    /// [`FlightStack::finished`]. Default `false`.
+    fn ground_start(&self) -> bool {
+        false
+    }
+    /// The ground station's flight is over (landed and disarmed after having been armed).
+    /// Default `false`.
+    fn finished(&self) -> bool {
+        false
+    }
 }

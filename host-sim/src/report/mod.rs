@@ -133,7 +133,8 @@ pub struct Summary {
     /// Share of outer-loop steps where the filter changed the nominal input.
     pub filter_active_fraction: f64,
     /// Why the run ended: "goal" (the scene's), "path_end" (the path's end, away
-    /// from the scene's goal), "collision" or "duration".
+    /// from the scene's goal), "collision", "landed" (a ground station's flight,
+    /// `parapet pil --gcs-control`, landed and disarmed without reaching the goal) or "duration".
     pub end_reason: String,
     /// Simulated time, s.
     pub sim_time_s: f64,

@@ -82,7 +82,24 @@ pub struct PilLink {
     flight_sim_steps: u64,
     /// Ground-station bridge / `.tlog` (`crate::fc::bridge`), if set.
     tap: Option<Box<dyn LinkTap>>,
+    /// `--gcs-control`: the GCS's reference (POSITION_TARGET_LOCAL_NED), whether the last item
+    /// was reached (MISSION_ITEM_REACHED) and whether the vehicle has been armed.
+    gcs: GcsFlight,
 }
+
+/// What a ground station's flight (`PilOptions::gcs_control`) reports back to the host.
+#[derive(Clone, Copy, Debug, Default)]
+struct GcsFlight {
+    reference: Option<Vector3<f64>>,
+    done: bool,
+    was_armed: bool,
+    /// Firmware time of the step that first saw the vehicle disarmed after it was armed.
+    disarmed_us: Option<u64>,
+}
+
+/// The run goes on this long after the vehicle disarmed (µs), so that the ground station sees
+/// it disarmed (two 1 Hz heartbeats) before the vehicle goes away.
+const GCS_AFTER_DISARM_US: u64 = 2_500_000;
 
 impl PilLink {
     /// Start QEMU with the firmware, connect, handshake. `scene` and `cfg` give the parameters
@@ -136,6 +153,7 @@ impl PilLink {
             flight_wall: Duration::ZERO,
             flight_sim_steps: 0,
             tap: None,
+            gcs: GcsFlight::default(),
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -367,7 +385,9 @@ impl PilLink {
                 m @ (MavMessage::COMMAND_ACK(_)
                 | MavMessage::MISSION_REQUEST_INT(_)
                 | MavMessage::MISSION_ACK(_)
-                | MavMessage::PARAM_VALUE(_)) => ans.replies.push(m),
+                | MavMessage::PARAM_VALUE(_)
+                | MavMessage::POSITION_TARGET_LOCAL_NED(_)
+                | MavMessage::MISSION_ITEM_REACHED(_)) => ans.replies.push(m),
                 MavMessage::STATUSTEXT(s) if String::from_utf8_lossy(&s.text[..]).contains(PANIC_TEXT) => {
                     bail!("the firmware panicked (STATUSTEXT PANIC) at t = {t_us} µs");
                 }
@@ -425,6 +445,9 @@ impl PilLink {
                 Some(v) => bail!("the firmware refused parameter {name} = {value} (value in effect {v})"),
                 None => bail!("no PARAM_VALUE answer to PARAM_SET {name}"),
             }
+        }
+        if self.opts.gcs_control {
+            return self.gcs_warmup(t, t0_us, fix, obstacles, imu, steps);
         }
         // Mission upload.
         self.queue(&mission_count(path.len()));
@@ -505,6 +528,50 @@ impl PilLink {
         Ok(())
     }
 
+    /// `--gcs-control` start-up after the parameters: fixes and obstacle batches at the outer
+    /// rate until `t0_us`, disarmed; the ground station uploads, arms and starts.
+    fn gcs_warmup(
+        &mut self,
+        mut t: u64,
+        t0_us: u64,
+        fix: &PositionReading,
+        obstacles: &[ObstaclePoint],
+        imu: &ImuReading,
+        mut steps: u64,
+    ) -> Result<()> {
+        let period = self.schedule.period_us();
+        while t < t0_us {
+            if (t0_us - t).is_multiple_of(period) {
+                self.queue_odometry(t, fix);
+                self.queue_obstacles(t, obstacles);
+            }
+            self.step(t, imu)?;
+            steps += 1;
+            t += 1000;
+        }
+        self.fig.startup_steps = steps;
+        self.in_flight = true;
+        Ok(())
+    }
+
+    /// `--gcs-control`: what the firmware's answers of a flight step tell about the GCS's flight.
+    fn observe_gcs(&mut self, replies: &[MavMessage]) {
+        let last = self.path.len().saturating_sub(1);
+        for m in replies {
+            match m {
+                MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
+                    self.gcs.reference = Some(Vector3::new(p.x, p.y, p.z).cast())
+                }
+                MavMessage::MISSION_ITEM_REACHED(r) => self.gcs.done |= usize::from(r.seq) >= last,
+                _ => {}
+            }
+        }
+        self.gcs.was_armed |= self.telemetry.armed;
+        if self.gcs.was_armed && !self.telemetry.armed && self.gcs.disarmed_us.is_none() {
+            self.gcs.disarmed_us = Some(self.last_t_us);
+        }
+    }
+
     fn latch(&mut self, e: anyhow::Error) {
         if self.fault.is_none() {
             self.fault = Some(format!("{:#}", self.with_qemu_log(e)));
@@ -548,7 +615,12 @@ impl FlightStack for PilLink {
             }
         }
         let age = now.saturating_sub(self.mission_t0_us.unwrap_or(now));
-        let s = self.follower.sample(age as f32 * 1e-6);
+        let mut s = self.follower.sample(age as f32 * 1e-6);
+        if self.opts.gcs_control {
+            // The GCS flies: the firmware's own reference and progress, not the host's replay.
+            s.position = self.gcs.reference.map_or(s.position, |r| to_f32(&r));
+            s.progress.done = self.gcs.done;
+        }
         self.telemetry.outer_out(&s)
     }
 
@@ -562,6 +634,9 @@ impl FlightStack for PilLink {
         self.flight_sim_steps += 1;
         match r {
             Ok(ans) => {
+                if self.opts.gcs_control {
+                    self.observe_gcs(&ans.replies);
+                }
                 if self.mission_start_pending {
                     self.mission_start_pending = false;
                     let ok = ans.replies.iter().any(|m| {
@@ -580,6 +655,15 @@ impl FlightStack for PilLink {
                 [0.0; 4]
             }
         }
+    }
+
+    fn ground_start(&self) -> bool {
+        self.opts.gcs_control
+    }
+
+    fn finished(&self) -> bool {
+        let after = |t: u64| self.last_t_us.saturating_sub(t) >= GCS_AFTER_DISARM_US;
+        self.opts.gcs_control && !self.telemetry.armed && self.gcs.disarmed_us.is_some_and(after)
     }
 
     fn state_name(&self) -> String {

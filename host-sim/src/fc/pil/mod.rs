@@ -94,10 +94,15 @@ pub struct PilOptions {
     pub resend_after: Duration,
     /// Fault injection (none by default).
     pub faults: FaultInjection,
+    /// A ground station flies (`parapet pil --gcs-control`): the vehicle waits disarmed on the
+    /// ground below the start; the host sends the parameters and the sensor data only, the GCS
+    /// uploads the mission, arms, starts, lands; the run ends when it is disarmed after a flight
+    /// (or at the duration limit). Default `false`.
+    pub gcs_control: bool,
 }
 
 impl PilOptions {
-    /// Defaults: timeout 3 s, re-send after 1 s, no faults.
+    /// Defaults: timeout 3 s, re-send after 1 s, no faults, the host flies the mission.
     pub fn new(firmware: PathBuf) -> Self {
         PilOptions {
             firmware,
@@ -105,6 +110,7 @@ impl PilOptions {
             timeout: Duration::from_secs(3),
             resend_after: Duration::from_secs(1),
             faults: FaultInjection::default(),
+            gcs_control: false,
         }
     }
 }
