@@ -152,7 +152,7 @@ proptest! {
                     let pts: Vec<ObstaclePoint> = pts
                         .iter()
                         .enumerate()
-                        .map(|(i, (p, v))| ObstaclePoint { point: *p, velocity: *v, id: i as u16 })
+                        .map(|(i, (p, v))| ObstaclePoint { point: *p, velocity: *v, id: i as u16, normal: None })
                         .collect();
                     ctl.update_obstacles(t, &pts);
                     prop_assert!(ctl.obstacles().len() <= OBSTACLE_CAPACITY);

@@ -50,7 +50,7 @@ fn steps() -> Vec<Step> {
             let obstacles = pr
                 .obstacles
                 .iter()
-                .map(|o| ObstaclePoint { point: o.point - pr.p, velocity: Some(Vec3::zeros()), id: o.id })
+                .map(|o| ObstaclePoint { point: o.point - pr.p, velocity: Some(Vec3::zeros()), ..*o })
                 .collect();
             let imu = ImuSample {
                 gyro: rng.direction() * rng.uniform(0.0, 0.3),

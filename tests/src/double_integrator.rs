@@ -44,7 +44,7 @@ pub fn observe(obs: &[MovingShape], state: &[(Vec3, Vec3)], p: &Vec3, out: &mut 
     out.clear();
     for (i, (o, (pos, vel))) in obs.iter().zip(state).enumerate() {
         let (point, _) = o.shape.translated(*pos).closest_point(p);
-        out.push(ObstaclePoint { point, velocity: Some(*vel), id: i as u16 });
+        out.push(ObstaclePoint { point, velocity: Some(*vel), id: i as u16, normal: None });
     }
 }
 

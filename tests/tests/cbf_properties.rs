@@ -59,9 +59,9 @@ proptest! {
         prop_assume!(dir.norm() > 1e-3);
         let f = SafetyFilter::new(prm, var).unwrap();
         let p = Vec3::new(1.0, -2.0, -1.5);
-        let mut obs = vec![ObstaclePoint { point: p - dir.normalize() * dist, velocity: Some(ov), id: 0 }];
+        let mut obs = vec![ObstaclePoint { point: p - dir.normalize() * dist, velocity: Some(ov), id: 0, normal: None }];
         for (i, (q, w)) in others.iter().enumerate() {
-            obs.push(ObstaclePoint { point: p + q, velocity: Some(*w), id: i as u16 + 1 });
+            obs.push(ObstaclePoint { point: p + q, velocity: Some(*w), id: i as u16 + 1, normal: None });
         }
         let (out, diag) = f.apply(&p, &v, &u, &obs);
         prop_assert!(out.iter().all(|x| x.is_finite()));
@@ -95,7 +95,7 @@ proptest! {
     ) {
         let f = SafetyFilter::new(CbfParams::default(), var).unwrap();
         let mut pts: Vec<ObstaclePoint> =
-            obs.iter().enumerate().map(|(i, (q, w))| ObstaclePoint { point: *q, velocity: *w, id: i as u16 }).collect();
+            obs.iter().enumerate().map(|(i, (q, w))| ObstaclePoint { point: *q, velocity: *w, id: i as u16, normal: None }).collect();
         if same_point {
             pts.push(ObstaclePoint::fixed(p, 99)); // zero distance
         }
@@ -113,7 +113,7 @@ proptest! {
     ) {
         let prm = CbfParams { accel_bound: 0.0, ..prm };
         let pts: Vec<ObstaclePoint> = obs.iter().enumerate().map(|(i, q)| ObstaclePoint {
-            point: *q, velocity: if zero_velocity { Some(Vec3::zeros()) } else { None }, id: i as u16,
+            point: *q, velocity: if zero_velocity { Some(Vec3::zeros()) } else { None }, id: i as u16, normal: None,
         }).collect();
         let paper = SafetyFilter::new(prm, FilterVariant::Paper).unwrap();
         let rel = SafetyFilter::new(prm, FilterVariant::Relative).unwrap();

@@ -132,6 +132,7 @@ fn fly(c: &Case, start_only: bool) -> Option<Outcome> {
                 v,
                 u_pd,
                 obstacles: &obs,
+                seen_from: None,
                 boundaries: false,
                 mission_running: false,
             };

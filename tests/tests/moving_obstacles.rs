@@ -62,7 +62,7 @@ fn min_rel_h_bar(s: &Scene, cfg: &RunConfig, out: &RunOutput) -> f64 {
             let (shape, v) = o.at(k.t);
             let p = to_f32(&k.pos);
             let (q, _) = shape.closest_point(&p);
-            let op = ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16 };
+            let op = ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id: i as u16, normal: None };
             let h = f.barrier(&p, &to_f32(&k.vel), &op).map_or(-delta, |b| b.h as f64 - delta);
             m = m.min(h);
         }

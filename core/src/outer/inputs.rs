@@ -52,6 +52,8 @@ pub struct Inputs {
     accel_est: Vec3,
     obstacles: ObstacleSet<OBSTACLE_CAPACITY>,
     obstacle_t_us: Option<u64>,
+    /// Where the vehicle was when the obstacle set was reported (`docs/filter.md` §9).
+    obstacle_from: Option<Vec3>,
 }
 
 /// Finite and within ±[`INPUT_LIMIT`] (m, m/s): anything else is a corrupt input.
@@ -79,6 +81,7 @@ impl Inputs {
             accel_est: Vec3::zeros(),
             obstacles: ObstacleSet::new(),
             obstacle_t_us: None,
+            obstacle_from: None,
         }
     }
 
@@ -91,6 +94,26 @@ impl Inputs {
         }
         let p = f.position + f.velocity * (a as f32 * 1e-6);
         Some((p, f.velocity))
+    }
+
+    /// The vehicle's position at `t_us` from the last fix, extrapolated forwards or back
+    /// along its velocity (`t_us` may precede the fix: a report stamped before the newest
+    /// fix); `None` without a fix or more than the position timeout away from it.
+    pub fn position_at(&self, t_us: u64) -> Option<Vec3> {
+        let f = self.fix?;
+        let gap_us = t_us.abs_diff(f.t_us);
+        if gap_us > self.params.position_timeout_us {
+            return None;
+        }
+        let dt = gap_us as f32 * if t_us >= f.t_us { 1e-6 } else { -1e-6 };
+        Some(f.position + f.velocity * dt)
+    }
+
+    /// Where the vehicle was when the current obstacle set was reported ([`Self::position_at`]
+    /// the update's time stamp): the filter aims each point's tangent plane from there
+    /// (`crate::robust::StepInput::seen_from`). `None` before the first update or without a fix.
+    pub fn obstacles_seen_from(&self) -> Option<Vec3> {
+        self.obstacle_from
     }
 
     /// Position of the last accepted fix (stale or not).
@@ -172,7 +195,46 @@ impl Inputs {
         // for the closest-obstacle variants, most critical first for the multi ones.
         let rep = obstacle_set::select(&mut self.obstacles, ranking, delta1, &vehicle, &v_est, obstacles);
         self.obstacle_t_us = Some(now_us);
+        self.obstacle_from = self.position_at(now_us);
         let dropped = u8::try_from(rep.dropped.saturating_add(rep.rejected)).unwrap_or(u8::MAX);
         ObstacleIntake { bad_inputs: rep.rejected > 0, dropped: Some(dropped), report: Some(rep) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_obstacle_report_is_seen_from_the_position_at_its_time_stamp() {
+        let params = InputParams {
+            position_timeout_us: 100_000,
+            obstacle_timeout_us: 100_000,
+            accel_comp_tau_s: 0.05,
+            hull_delta: 0.05,
+        };
+        let mut inp = Inputs::new(params);
+        assert_eq!(inp.position_at(0), None);
+        let fix = PositionFix {
+            t_us: 1_000_000,
+            position: Vec3::new(1.0, 2.0, -1.0),
+            velocity: Vec3::new(0.0, 2.0, 0.0),
+            yaw: None,
+        };
+        assert!(inp.update_position(fix, Some(1_000_000)));
+        // A report stamped 10 ms before the fix is seen from 2 cm back; 10 ms after, 2 cm ahead.
+        let near = |a: Option<Vec3>, b: Vec3| a.is_some_and(|a| (a - b).norm() < 1e-5);
+        assert!(near(inp.position_at(990_000), Vec3::new(1.0, 1.98, -1.0)));
+        assert!(near(inp.position_at(1_010_000), Vec3::new(1.0, 2.02, -1.0)));
+        assert_eq!(inp.position_at(1_200_000), None, "beyond the position timeout");
+        let ranking = Ranking::Nearest;
+        let _ = inp.update_obstacles(
+            990_000,
+            &[ObstaclePoint::fixed(Vec3::x(), 1)],
+            Some(1_000_000),
+            ranking,
+            0.1,
+        );
+        assert!(near(inp.obstacles_seen_from(), Vec3::new(1.0, 1.98, -1.0)));
     }
 }

@@ -592,6 +592,7 @@ impl OuterLoop {
                             v,
                             u_pd,
                             obstacles: self.inputs.obstacles(),
+                            seen_from: self.inputs.obstacles_seen_from(),
                             boundaries: matches!(
                                 mode,
                                 GuidanceMode::Mission

@@ -551,12 +551,12 @@ impl<const N: usize> ObstacleMemory<N> {
             let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
             let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
             let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
-            f(&ObstaclePoint { point: q, velocity: w, id });
+            f(&ObstaclePoint { point: q, velocity: w, id, normal: None });
         }
         if self.now_us.is_some() {
             let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
             if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far) {
-                f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID });
+                f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
             }
         }
     }

@@ -354,11 +354,13 @@ impl Boundaries {
             point: Vec3::new(xi.x, xi.y, -self.ground_height),
             velocity: None,
             id: GROUND_ID,
+            normal: None,
         };
         let ceiling = (self.ceiling_height != 0.0).then(|| ObstaclePoint {
             point: Vec3::new(xi.x, xi.y, -self.ceiling_height),
             velocity: None,
             id: CEILING_ID,
+            normal: None,
         });
         core::iter::once(ground).chain(ceiling)
     }
@@ -380,6 +382,23 @@ pub struct RobustTelemetry {
     /// No progress with the filter intervening for the stall time (latched until
     /// the next mission start; the vehicle holds where it stalled).
     pub deadlock: bool,
+}
+
+/// Smallest distance of the evaluated state from a point's tangent plane that the filter is
+/// given, m: a state on or behind the plane (inside the obstacle) is treated as this far in
+/// front of it, so the filter pushes it out along the plane's normal (the point barrier is
+/// symmetric and would otherwise push it further in). At 1 cm the class-K term asks for
+/// `γδ/(μ·0.01)` ≈ 3.6 m/s² outwards with the defaults, within `u_max`; much closer, the demand
+/// exceeds the filter's candidate bound and it would return the least-violation answer instead.
+pub const MIN_PLANE_DISTANCE_M: f32 = 0.01;
+
+/// `n/|n|` for a reported surface normal of plausible length (0.5 to 2; the sources give unit
+/// normals, f32 round-off aside); `None` for anything else (non-finite, zero), which is then
+/// treated as no normal.
+#[inline]
+fn unit_normal(n: &Vec3) -> Option<Vec3> {
+    let r2 = n.norm_squared();
+    (0.25..=4.0).contains(&r2).then(|| n * (1.0 / crate::fmath::sqrtf(r2)))
 }
 
 /// Obstacle-list capacity of [`PlantAware::apply`]: the controller's set plus the two planes.
@@ -412,6 +431,11 @@ pub struct StepInput<'a> {
     pub u_pd: Vec3,
     /// Obstacle points.
     pub obstacles: &'a [ObstaclePoint],
+    /// Where the vehicle was when `obstacles` were reported (NED, m; the position estimate at
+    /// the report's time stamp): each point's tangent plane is aimed from there, so a closest
+    /// surface point held between reports keeps its surface's normal (`docs/filter.md` §9).
+    /// `None`: from `p` (points refreshed at this step).
+    pub seen_from: Option<Vec3>,
     /// Ground (and ceiling) barriers on (in flight, not taking off or landing).
     pub boundaries: bool,
     /// Flying the mission, away from the reference (stall detection armed).
@@ -471,30 +495,60 @@ impl PlantAware {
         let with_bounds = s.boundaries && filter.variant.is_multi();
         let extra = bounds.points(&xi).filter(|_| with_bounds);
         // The relative flat output is (p + τṗ) − (p̄ + τv̄): a moving obstacle is predicted
-        // by the same τ (for the variants that use obstacle velocities). The point is the
-        // closest one to p, not to ξ; for an extended obstacle the one closest to ξ lies
-        // elsewhere, so ξ is measured against the obstacle's tangent plane at p̄ (normal
-        // n = (p − p̄)/|p − p̄|), which a convex obstacle lies behind: conservative for every
-        // convex shape (§9 of docs/filter.md), exact for walls.
+        // by the same τ (for the variants that use obstacle velocities). Each point is given
+        // to the filter as a tangent half-space (§9 of docs/filter.md): the plane through p̄
+        // with the surface normal the source reported, else the normal aimed from where the
+        // vehicle was when the point was reported, n = (p_r − p̄)/|p_r − p̄| (p_r =
+        // `seen_from`, else p). For the closest point of a convex obstacle that plane supports
+        // it (the obstacle lies behind), so the barrier on the signed distance
+        // s = nᵀ(ξ − p̄) is conservative for every convex shape and exact for a wall however
+        // long the point is held. Re-aiming n from the current p instead tilts it towards a
+        // vehicle sliding past a held point, and the tangential speed then reads as a retreat
+        // (the vehicle crept through a wall that way). The filter sees the point ξ − n·s, with
+        // s ≥ MIN_PLANE_DISTANCE_M: behind the plane the point barrier, which is symmetric,
+        // would push further in; clamped, it pushes out along n.
         let relative = filter.variant.uses_relative_velocity();
         let tau = self.tau;
-        let predicted = s.obstacles.iter().map(|o| {
-            let q = match o.velocity {
-                Some(w) if relative => o.point + w * tau,
-                _ => o.point,
+        let from = s.seen_from.unwrap_or(s.p);
+        let aimed = tau > 0.0 || s.seen_from.is_some();
+        // In the same pass: the smallest h̄ at the vehicle's actual state (`min_h_bar`, same
+        // arithmetic in the same order; the telemetry's `h_bar_now`).
+        let (mu, delta) = (filter.params.mu, filter.params.delta);
+        let mut h_bar_now = f32::INFINITY;
+        for o in s.obstacles {
+            let w = match o.velocity {
+                Some(w) if relative => Some(w),
+                _ => None,
             };
-            let d = s.p - o.point;
-            let r2 = d.norm_squared();
-            if tau <= 0.0 || r2.is_nan() || r2 <= crate::cbf::MIN_DISTANCE_SQ {
-                return ObstaclePoint { point: q, ..*o };
-            }
-            let n = d * (1.0 / crate::fmath::sqrtf(r2));
-            let e = xi - q;
-            ObstaclePoint { point: xi - n * n.dot(&e), ..*o }
-        });
-        for o in predicted.chain(extra) {
-            if pts.push(o).is_err() {
-                break; // the caller's set holds at most MAX_FILTER_POINTS − 2
+            let d_dot_now = w.map_or(s.v, |w| s.v - w);
+            h_bar_now = h_bar_now.min(crate::cbf::barrier_value(mu, &(s.p - o.point), &d_dot_now) - delta);
+            let q = w.map_or(o.point, |w| o.point + w * tau);
+            let n = match o.normal.and_then(|n| unit_normal(&n)) {
+                Some(n) => Some(n),
+                None => {
+                    let d = from - o.point;
+                    let r2 = d.norm_squared();
+                    (aimed && r2 > crate::cbf::MIN_DISTANCE_SQ).then(|| d * (1.0 / crate::fmath::sqrtf(r2)))
+                }
+            };
+            let point = match n {
+                Some(n) => {
+                    let s_plane = n.dot(&(xi - q));
+                    // NaN stays NaN (the filter then faults on it); at or behind the plane: clamped.
+                    xi - n * if s_plane < MIN_PLANE_DISTANCE_M { MIN_PLANE_DISTANCE_M } else { s_plane }
+                }
+                None => q,
+            };
+            // The filter reads point, velocity and id (not the normal: it gets the plane's point).
+            // The caller's set holds at most MAX_FILTER_POINTS − 2: a push cannot fail.
+            let _ = pts.push(ObstaclePoint { point, velocity: o.velocity, id: o.id, normal: None });
+        }
+        for o in extra {
+            let _ = pts.push(o);
+        }
+        if with_bounds {
+            for o in bounds.points(&s.p) {
+                h_bar_now = h_bar_now.min(crate::cbf::barrier_value(mu, &(s.p - o.point), &s.v) - delta);
             }
         }
         // The filter on w = u + d̂ (p̈ = w for the predicted state).
@@ -513,7 +567,6 @@ impl PlantAware {
         }
         let u = w - d_hat;
         self.lag.update(&u, s.dt, self.tau);
-        let h_bar_now = min_h_bar(filter, &s.p, &s.v, s.obstacles, with_bounds.then_some(&bounds));
         diag.h_bar = h_bar_now;
         let stalled = self.stall.update(
             s.now_us,
@@ -653,6 +706,7 @@ mod tests {
                 v,
                 u_pd: Vec3::zeros(),
                 obstacles: &obs,
+                seen_from: None,
                 boundaries: false,
                 mission_running: false,
             };
@@ -666,6 +720,91 @@ mod tests {
             }
         }
         assert!(exercised, "the observer saturates with the wall's barrier enforced");
+    }
+
+    /// One wrapper step (lag model and observer at rest, boundaries off) for a vehicle at `p`
+    /// moving at `v` with nominal `u_pd`, obstacle `o` reported from `seen_from`.
+    fn one_step(p: Vec3, v: Vec3, u_pd: Vec3, o: ObstaclePoint, seen_from: Option<Vec3>) -> Vec3 {
+        let filter = crate::cbf::SafetyFilter::new(
+            crate::cbf::CbfParams { gamma: 1.0, sample_time: 0.004, accel_bound: 0.05, ..Default::default() },
+            crate::cbf::FilterVariant::MultiRelative,
+        )
+        .unwrap();
+        let mut pa = PlantAware::new(RobustParams::default(), 0.108);
+        let obs = [o];
+        let s = StepInput {
+            now_us: 0,
+            dt: 0.004,
+            p,
+            v,
+            u_pd,
+            obstacles: &obs,
+            seen_from,
+            boundaries: false,
+            mission_running: false,
+        };
+        let _ = pa.apply(&filter, &s); // primes the observer with v
+        let (_, u, diag, _) = pa.apply(&filter, &StepInput { now_us: 4_000, ..s });
+        assert!(u.iter().all(|c| c.is_finite()) && diag.fault.is_none(), "{u} {diag:?}");
+        u
+    }
+
+    #[test]
+    fn a_held_wall_point_is_its_tangent_half_space_not_a_point_being_passed() {
+        // Wall x = 2, vehicle 0.25 m from it sliding along it at 2 m/s, nominal pushing into it;
+        // the wall's closest point was measured 20 ms ago (4 cm behind).
+        let (p, v, u_pd) = (Vec3::new(1.75, 0.0, -1.0), Vec3::new(0.0, 2.0, 0.0), Vec3::new(1.0, 0.0, 0.0));
+        let held = Vec3::new(2.0, -0.04, -1.0);
+        // Re-aimed from the current position (the old wrapper): the tangential speed reads as a
+        // retreat of 2·0.04/0.253 = 0.32 m/s, and the filter lets the vehicle accelerate into the wall.
+        let re_aimed = one_step(p, v, u_pd, ObstaclePoint::fixed(held, 1), None);
+        assert!(re_aimed.x > 0.1, "{re_aimed}");
+        // The surface normal from the source, or the normal aimed from where the vehicle was when
+        // the point was measured: the plane x = 2; 0.25 m from it at h = 0.0625 < δ1 the class-K
+        // term allows at most −γ(h − δ)/(μ s) + ē₀ = −0.0357 + 0.05 into it, i.e. it must push out.
+        let with_normal = one_step(p, v, u_pd, ObstaclePoint::surface(held, -Vec3::x(), 1), None);
+        let from_report = one_step(p, v, u_pd, ObstaclePoint::fixed(held, 1), Some(p - v * 0.02));
+        for u in [with_normal, from_report] {
+            assert!(u.x < -0.01 && u.x > -0.03, "{u}");
+        }
+        assert!((with_normal - from_report).norm() < 1e-4, "{with_normal} vs {from_report}");
+    }
+
+    #[test]
+    fn behind_a_tangent_plane_the_filter_pushes_back_out_along_its_normal() {
+        // 1 cm through the wall x = 2 (normal −x), at rest, no nominal command: the point
+        // barrier alone is symmetric and would push on through (+x); the half-space pushes out.
+        let p = Vec3::new(2.01, 0.0, -1.0);
+        let u = one_step(
+            p,
+            Vec3::zeros(),
+            Vec3::zeros(),
+            ObstaclePoint::surface(Vec3::new(2.0, 0.0, -1.0), -Vec3::x(), 1),
+            None,
+        );
+        assert!(u.x < -1.0, "{u}");
+        // A corrupt normal is no normal: the point is aimed from the report position instead.
+        let bad = ObstaclePoint {
+            normal: Some(Vec3::new(f32::NAN, 0.0, 0.0)),
+            ..ObstaclePoint::fixed(Vec3::new(2.0, 0.0, -1.0), 1)
+        };
+        let aimed = one_step(Vec3::new(1.8, 0.0, -1.0), Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), bad, None);
+        let plain = one_step(
+            Vec3::new(1.8, 0.0, -1.0),
+            Vec3::zeros(),
+            Vec3::new(1.0, 0.0, 0.0),
+            ObstaclePoint::fixed(Vec3::new(2.0, 0.0, -1.0), 1),
+            None,
+        );
+        assert_eq!(aimed, plain);
+        // A non-unit normal is normalised.
+        let long = ObstaclePoint::surface(Vec3::new(2.0, 0.0, -1.0), Vec3::new(-1.5, 0.0, 0.0), 1);
+        let unit = ObstaclePoint::surface(Vec3::new(2.0, 0.0, -1.0), -Vec3::x(), 1);
+        let (a, b) = (
+            one_step(p, Vec3::zeros(), Vec3::zeros(), long, None),
+            one_step(p, Vec3::zeros(), Vec3::zeros(), unit, None),
+        );
+        assert!((a - b).norm() < 1e-5, "{a} vs {b}");
     }
 
     #[test]

@@ -784,7 +784,12 @@ mod tests {
     fn relative_backs_away_from_approaching_obstacle() {
         // Vehicle at rest, obstacle 0.3 m away moving towards it at 0.5 m/s.
         let p = Vec3::new(0.3, 0.0, 0.0);
-        let o = [ObstaclePoint { point: Vec3::zeros(), velocity: Some(Vec3::new(0.5, 0.0, 0.0)), id: 3 }];
+        let o = [ObstaclePoint {
+            point: Vec3::zeros(),
+            velocity: Some(Vec3::new(0.5, 0.0, 0.0)),
+            id: 3,
+            normal: None,
+        }];
         let (u_paper, _) = filt(FilterVariant::Paper).apply(&p, &Vec3::zeros(), &Vec3::zeros(), &o);
         let (u_rel, d) = filt(FilterVariant::Relative).apply(&p, &Vec3::zeros(), &Vec3::zeros(), &o);
         assert_eq!(u_paper, Vec3::zeros()); // the paper's law sees nothing to do
@@ -915,7 +920,7 @@ mod tests {
             (vec(0.6), 0.0f32..1.0, proptest::option::of(vec(1.0)), any::<u16>()).prop_map(
                 |(d, far, w, id)| {
                     let scale = if far < 0.8 { 1.0 } else { 6.0 };
-                    ObstaclePoint { point: d * scale, velocity: w, id }
+                    ObstaclePoint { point: d * scale, velocity: w, id, normal: None }
                 },
             )
         }

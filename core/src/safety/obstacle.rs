@@ -177,6 +177,17 @@ impl Shape {
     pub fn signed_distance(&self, p: &Vec3) -> f32 {
         self.closest_point(p).1
     }
+
+    /// The outward unit normal to report with the closest point `q` (signed distance `sd`,
+    /// from [`closest_point`](Self::closest_point)) of this shape to `p`: the point is the
+    /// closest point of an extended convex surface ([`ObstaclePoint::normal`]); `None` for a
+    /// [`Shape::Point`] (a point has no surface) or when `p` is on the surface.
+    pub fn surface_normal(&self, p: &Vec3, q: &Vec3, sd: f32) -> Option<Vec3> {
+        match self {
+            Shape::Point { .. } => None,
+            _ => surface_normal(p, q, sd),
+        }
+    }
 }
 
 /// A moving or static obstacle: a shape at time 0 and a constant velocity.
@@ -195,15 +206,32 @@ impl Obstacle {
         Obstacle { shape, velocity: [0.0; 3] }
     }
     /// What a proximity sensor reports about this obstacle seen from `p`:
-    /// the closest surface point and the obstacle's velocity.
+    /// the closest surface point, the surface's outward normal there (not for a
+    /// [`Shape::Point`]) and the obstacle's velocity.
     pub fn observe(&self, p: &Vec3, id: u16) -> ObstaclePoint {
-        let (point, _) = self.shape.closest_point(p);
-        ObstaclePoint { point, velocity: Some(v(&self.velocity)), id }
+        let (point, sd) = self.shape.closest_point(p);
+        let normal = self.shape.surface_normal(p, &point, sd);
+        ObstaclePoint { point, velocity: Some(v(&self.velocity)), id, normal }
     }
 }
 
+/// The outward unit normal of a convex solid's surface at its closest point `q` to `p`,
+/// given the signed distance `sd` (negative inside): `(p − q)/|p − q|` outside, the
+/// opposite inside; `None` when `p` is on the surface (no direction).
+pub fn surface_normal(p: &Vec3, q: &Vec3, sd: f32) -> Option<Vec3> {
+    let d = p - q;
+    let r = norm3(&d);
+    // r ≤ 1e-6 or NaN: no direction.
+    if r.is_nan() || r <= 1.0e-6 || !sd.is_finite() {
+        return None;
+    }
+    Some(if sd < 0.0 { -d / r } else { d / r })
+}
+
 /// One obstacle as the safety filter sees it: the closest surface point `p̄`
-/// to the vehicle (NED, m) and, when known, the obstacle's velocity (NED, m/s).
+/// to the vehicle (NED, m), when known the obstacle's velocity (NED, m/s) and, when the
+/// point is the closest point of an extended surface whose shape the source knows, the
+/// surface's outward normal there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ObstaclePoint {
     /// Closest point of the obstacle's surface to the vehicle, NED, m.
@@ -212,16 +240,30 @@ pub struct ObstaclePoint {
     pub velocity: Option<Vec3>,
     /// Caller-chosen identifier, echoed in the filter diagnostics.
     pub id: u16,
+    /// Outward unit normal of the obstacle's surface at `point` (NED), set by a source that
+    /// reports `point` as the closest point of an extended convex obstacle (a wall, box,
+    /// cylinder or sphere) and knows its shape. The default filter (not `paper`) then guards
+    /// the obstacle's tangent half-space `{x : nᵀ(x − point) ≤ 0}`, which contains it, with
+    /// the normal fixed however long the point is held (`docs/filter.md` §9). `None`: a
+    /// point obstacle, or a surface point whose normal is unknown (the half-space is then
+    /// aimed from where the vehicle was at the report).
+    pub normal: Option<Vec3>,
 }
 
 impl ObstaclePoint {
     /// A static obstacle point.
     pub fn fixed(point: Vec3, id: u16) -> Self {
-        ObstaclePoint { point, velocity: None, id }
+        ObstaclePoint { point, velocity: None, id, normal: None }
     }
-    /// `true` when the position and (if present) the velocity are finite.
+    /// A static point of an extended surface with outward normal `normal` (NED, unit).
+    pub fn surface(point: Vec3, normal: Vec3, id: u16) -> Self {
+        ObstaclePoint { point, velocity: None, id, normal: Some(normal) }
+    }
+    /// `true` when the position and (if present) the velocity and the normal are finite.
     pub fn is_finite(&self) -> bool {
-        is_finite3(&self.point) && self.velocity.is_none_or(|v| is_finite3(&v))
+        is_finite3(&self.point)
+            && self.velocity.is_none_or(|v| is_finite3(&v))
+            && self.normal.is_none_or(|n| is_finite3(&n))
     }
 }
 
@@ -352,6 +394,27 @@ mod tests {
         let (q, d) = c.closest_point(&Vec3::new(0.2, 0.0, -1.0));
         assert!(close(q, Vec3::new(0.25, 0.0, -1.0)));
         assert!((d + 0.05).abs() < 1e-5);
+    }
+
+    #[test]
+    fn observe_reports_the_surface_normal_of_extended_shapes_only() {
+        let wall = Obstacle::fixed(Shape::aabb(Vec3::new(2.0, -5.0, -3.0), Vec3::new(2.2, 5.0, 0.0)));
+        let o = wall.observe(&Vec3::new(1.7, 0.4, -1.0), 4);
+        assert!(close(o.point, Vec3::new(2.0, 0.4, -1.0)) && o.id == 4);
+        assert!(close(o.normal.unwrap(), Vec3::new(-1.0, 0.0, 0.0)));
+        // Inside (0.05 m past the face): still the outward normal of the exit face.
+        let o = wall.observe(&Vec3::new(2.05, 0.4, -1.0), 4);
+        assert!(close(o.normal.unwrap(), Vec3::new(-1.0, 0.0, 0.0)), "{:?}", o.normal);
+        let ball = Obstacle::fixed(Shape::sphere(Vec3::zeros(), 0.5));
+        assert!(close(ball.observe(&Vec3::new(0.0, 2.0, 0.0), 1).normal.unwrap(), Vec3::y()));
+        // A point has no surface; on the surface there is no direction.
+        assert_eq!(Obstacle::fixed(Shape::point(Vec3::zeros())).observe(&Vec3::x(), 1).normal, None);
+        assert_eq!(ball.observe(&Vec3::new(0.5, 0.0, 0.0), 1).normal, None);
+        let bad = ObstaclePoint {
+            normal: Some(Vec3::new(f32::NAN, 0.0, 0.0)),
+            ..ObstaclePoint::fixed(Vec3::x(), 1)
+        };
+        assert!(!bad.is_finite());
     }
 
     #[test]

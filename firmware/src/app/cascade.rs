@@ -497,7 +497,7 @@ mod tests {
         let p = ControllerParams::default();
         let Ok(mut fc) = FlightController::new(p) else { panic!("defaults") };
         let Ok(mut st) = Cascade::new(p) else { panic!("defaults") };
-        let obstacle = [ObstaclePoint { id: 3, point: Vec3::new(0.6, 0.1, -0.8), velocity: None }];
+        let obstacle = [ObstaclePoint::fixed(Vec3::new(0.6, 0.1, -0.8), 3)];
         for k in 0..3000u64 {
             let t = 1_000_000 + k * 1000;
             if k % 4 == 0 {

@@ -388,7 +388,7 @@ impl ObstacleAssembler {
             .iter()
             .position(|(i, _)| *i == msg.obstacle_id)
             .map(|k| self.velocities.remove(k).1);
-        let p = ObstaclePoint { point, velocity, id: msg.obstacle_id };
+        let p = ObstaclePoint { point, velocity, id: msg.obstacle_id, normal: None };
         let Some(sel) = self.batch.as_mut() else { return };
         let before = sel.report();
         let outcome = sel.offer(&p);

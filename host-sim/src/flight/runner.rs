@@ -291,7 +291,7 @@ fn h_bar_of(
     sd: f32,
 ) -> f64 {
     let delta = filter.params.delta as f64;
-    let op = ObstaclePoint { point: q, velocity: Some(to_f32(vel)), id: i as u16 };
+    let op = ObstaclePoint { point: q, velocity: Some(to_f32(vel)), id: i as u16, normal: None };
     let h = match filter.barrier(pf, vf, &op) {
         Some(b) => b.h as f64 - delta,
         None => -delta,
@@ -394,7 +394,7 @@ pub fn sense_and_h_bar(
         if (sd as f64) <= range {
             let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
             if let Some(id) = ids.id(i) {
-                seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+                seen.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id, normal: None });
             }
         }
         near.push((i, q, vel, sd));
@@ -481,7 +481,7 @@ pub fn sense_obstacles(
         if (sd as f64) <= range {
             let v = if o.is_static() { Vector3::zeros() } else { sensors.obstacle_velocity(vel) };
             if let Some(id) = ids.id(i) {
-                out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id });
+                out.push(ObstaclePoint { point: q, velocity: Some(to_f32(&v)), id, normal: None });
             }
         }
     }

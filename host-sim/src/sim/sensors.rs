@@ -374,8 +374,7 @@ mod tests {
             assert_eq!(a.position(k as f64 * 0.004, &p), b.position(k as f64 * 0.004, &p));
         }
         let mut none = Sensors::new(SensorParams::default(), 4);
-        let mut seen =
-            vec![ObstaclePoint { point: parapet_core::Vec3::new(1.0, 0.0, 0.0), velocity: None, id: 0 }];
+        let mut seen = vec![ObstaclePoint::fixed(parapet_core::Vec3::new(1.0, 0.0, 0.0), 0)];
         let before = seen.clone();
         none.obstacle_report(0.0, &mut seen);
         assert_eq!(seen, before);
@@ -464,7 +463,7 @@ mod tests {
         for k in 0..4000 {
             let t = k as f64 * 0.004;
             let pt = parapet_core::Vec3::new(t as f32, 0.0, 0.0);
-            let mut seen = vec![ObstaclePoint { point: pt, velocity: None, id: 0 }; 4];
+            let mut seen = vec![ObstaclePoint::fixed(pt, 0); 4];
             s.obstacle_report(t, &mut seen);
             if k < 3 {
                 assert!(seen.is_empty(), "nothing before the latency");

@@ -343,6 +343,7 @@ fn bench_plant_aware(c: &Counter) {
                 v: pr.v,
                 u_pd: pr.u_nom,
                 obstacles: obs,
+                seen_from: Some(pr.p),
                 boundaries: true,
                 mission_running: true,
             };
@@ -594,7 +595,7 @@ fn bench_cascade(c: &Counter) {
         let p = start + Vec3::new(0.25 * (now - t_mission) as f32 * 1e-6, 0.0, 0.0) + offset;
         let mut obs = [ObstaclePoint::fixed(Vec3::zeros(), 0); 16];
         for (o, src) in obs.iter_mut().zip(&pr.obstacles[..16]) {
-            *o = ObstaclePoint { point: src.point - pr.p + p, velocity: Some(Vec3::zeros()), id: src.id };
+            *o = ObstaclePoint { point: src.point - pr.p + p, velocity: Some(Vec3::zeros()), ..*src };
         }
         fc.update_position(PositionFix { t_us: now, position: p, velocity: pr.v, yaw: Some(0.0) });
         // The controller has state: each call is measured once (resolution ≈ 6 instructions).
