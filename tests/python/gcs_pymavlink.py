@@ -86,6 +86,17 @@ if echo is None or abs(echo.param_value - cur.param_value) > 1e-6:
     fail(f"PARAM_SET {name} not echoed: {echo}")
 print(f"set {name} = {echo.param_value}", flush=True)
 
+# A command's ACK is addressed to its sender (COMMAND_ACK's target fields are MAVLink 2
+# extensions: a bridge that re-encodes frames without them sends 0/0).
+if mode != "readonly":
+    m.mav.command_long_send(sysid, compid, mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
+    ack = wait("COMMAND_ACK", 5, lambda a: a.command == mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE)
+    if ack is None:
+        fail("REQUEST_MESSAGE(AUTOPILOT_VERSION) not acknowledged")
+    if (ack.target_system, ack.target_component) != (250, 190):
+        fail(f"COMMAND_ACK addressed to {ack.target_system}/{ack.target_component}, not the sender 250/190")
+    print("COMMAND_ACK to", ack.target_system, ack.target_component, flush=True)
+
 # Mission download.
 m.mav.mission_request_list_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
 c = wait("MISSION_COUNT", 5)
