@@ -5,7 +5,9 @@
 //!   mission progress never advanced);
 //! * BATTERY_STATUS was never sent and SYS_STATUS said "no battery" with a measurement;
 //! * ATTITUDE, LOCAL_POSITION_NED and POSITION_TARGET_LOCAL_NED had fixed rates
-//!   (SET_MESSAGE_INTERVAL answered UNSUPPORTED), ATTITUDE_TARGET was never sent.
+//!   (SET_MESSAGE_INTERVAL answered UNSUPPORTED), ATTITUDE_TARGET was never sent;
+//! * global-frame mission items (QGroundControl, MAVSDK's `mission` plugin) were refused
+//!   MAV_MISSION_UNSUPPORTED_FRAME.
 
 use mavlink_core::MessageData;
 use parapet_core::battery::{BatteryLevel, BatteryState};
@@ -14,10 +16,11 @@ use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::dialect::{
     MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavResult, MavSysStatusSensor, MissionState,
-    COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
-    ODOMETRY_DATA,
+    COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
+    MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA,
 };
 use parapet_firmware::link::framing::FrameWriter;
+use parapet_firmware::link::geo::HOME;
 use parapet_firmware::link::obstacles::CLEAR_ID;
 use parapet_firmware::link::outbound::Outbound;
 use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
@@ -175,6 +178,62 @@ impl Sim {
                 None => r = self.step(&[]),
             }
         }
+    }
+
+    /// Uploads `items` as they are (seq set here); the final MISSION_ACK result.
+    fn upload_items(&mut self, items: &[MISSION_ITEM_INT_DATA]) -> MavMissionResult {
+        let count = MISSION_COUNT_DATA {
+            count: items.len() as u16,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        let mut r = self.send(&count);
+        loop {
+            let reply = r.iter().find_map(|m| match m {
+                Outbound::MissionRequestInt(q) => Some(Ok(q.seq)),
+                Outbound::MissionAck(a) => Some(Err(a.mavtype)),
+                _ => None,
+            });
+            match reply {
+                Some(Ok(seq)) => {
+                    let item = MISSION_ITEM_INT_DATA { seq, ..items[usize::from(seq)].clone() };
+                    r = self.send(&item);
+                }
+                Some(Err(result)) => return result,
+                None => r = self.step(&[]),
+            }
+        }
+    }
+
+    /// Downloads the mission: MISSION_REQUEST_LIST, then MISSION_REQUEST_INT per item.
+    fn download(&mut self) -> Vec<MISSION_ITEM_INT_DATA> {
+        let list = MISSION_REQUEST_LIST_DATA { target_system: 1, target_component: 1, ..Default::default() };
+        let r = self.send(&list);
+        let Some(n) = r.iter().find_map(|m| match m {
+            Outbound::MissionCount(c) => Some(c.count),
+            _ => None,
+        }) else {
+            panic!("no MISSION_COUNT: {r:?}")
+        };
+        (0..n)
+            .map(|seq| {
+                let q = MISSION_REQUEST_INT_DATA {
+                    seq,
+                    target_system: 1,
+                    target_component: 1,
+                    ..Default::default()
+                };
+                let r = self.send(&q);
+                match r.iter().find_map(|m| match m {
+                    Outbound::MissionItemInt(i) => Some(i.clone()),
+                    _ => None,
+                }) {
+                    Some(i) => i,
+                    None => panic!("no MISSION_ITEM_INT {seq}: {r:?}"),
+                }
+            })
+            .collect()
     }
 
     /// Arms after 0.5 s of samples and holds 1 m above the origin.
@@ -410,4 +469,58 @@ fn a_v1_heartbeat_is_answered_with_a_v1_statustext() {
     }
     assert_eq!(g.link.v1_heartbeats(), 4);
     assert!(g.run(1000).iter().any(|m| matches!(m, Outbound::Heartbeat(_))), "v2 telemetry goes on");
+}
+
+/// A global-frame plan as MAVSDK's `mission` plugin and QGroundControl send it
+/// (GLOBAL_RELATIVE_ALT_INT waypoints, a DO_CHANGE_SPEED item) is accepted through the link,
+/// and downloads with the same lat/lon integers and frames (the flight to it is
+/// `gcs_clients::mavsdk_mission_plugin_flies_a_global_plan_on_the_pil`: this harness's odometry
+/// stays at the origin). On the ground at the origin GLOBAL_POSITION_INT is HOME_POSITION; a latitude beyond 90° is
+/// refused INVALID_PARAM5_X and leaves the accepted mission in place.
+#[test]
+#[allow(deprecated)] // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, as ground stations send it
+fn a_global_frame_mission_is_flown_where_the_ground_station_planned_it() {
+    let mut g = Sim::new();
+    let at_rest = g.run(400);
+    let gp = at_rest.iter().rev().find_map(|m| match m {
+        Outbound::GlobalPositionInt(p) => Some(p.clone()),
+        _ => None,
+    });
+    let Some(gp) = gp else { panic!("no GLOBAL_POSITION_INT at rest") };
+    assert_eq!((gp.lat, gp.lon, gp.relative_alt), (HOME.0, HOME.1, 0), "at the origin: home");
+    g.airborne();
+    let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+    let wp = |lat: i32, lon: i32, z: f32| MISSION_ITEM_INT_DATA {
+        x: lat,
+        y: lon,
+        z,
+        command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
+        frame: rel,
+        target_system: 1,
+        target_component: 1,
+        autocontinue: 1,
+        ..Default::default()
+    };
+    let speed = MISSION_ITEM_INT_DATA {
+        command: MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16,
+        frame: MavFrame::MAV_FRAME_MISSION,
+        param2: 1.0,
+        param3: -1.0,
+        ..wp(0, 0, 0.0)
+    };
+    // 1 m north at 1 m, then 1 m north and 1 m east at 1.5 m above home.
+    let goal = (HOME.0 + 90, HOME.1 + 133);
+    let plan = [wp(HOME.0 + 90, HOME.1, 1.0), speed, wp(goal.0, goal.1, 1.5)];
+    assert_eq!(g.upload_items(&plan), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let down = g.download();
+    assert_eq!(down.len(), 2, "the two waypoints (DO_CHANGE_SPEED is ignored)");
+    for (d, p) in down.iter().zip([&plan[0], &plan[2]]) {
+        assert_eq!((d.frame, d.x, d.y, d.command), (rel, p.x, p.y, p.command));
+        assert!((d.z - p.z).abs() < 1e-3, "{} vs {}", d.z, p.z);
+    }
+    assert_eq!(
+        g.upload_items(&[wp(900_000_001, HOME.1, 1.0)]),
+        MavMissionResult::MAV_MISSION_INVALID_PARAM5_X
+    );
+    assert_eq!(g.download().len(), 2, "a refused upload keeps the accepted mission");
 }

@@ -9,9 +9,19 @@
 //! (there is nothing else to clear), with fence/rally it is refused the same way.
 //!
 //! Accepted items: `MAV_CMD_NAV_WAYPOINT` in `MAV_FRAME_LOCAL_NED` (x, y = metres × 10⁴ as int32,
-//! per the MAVLink local-frame convention for MISSION_ITEM_INT; z = metres, down positive). The
-//! path is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
-//! whether the cascade took it.
+//! per the MAVLink local-frame convention for MISSION_ITEM_INT; z = metres, down positive), or in
+//! a global frame as QGroundControl and MAVSDK's `mission` plugin send them (PX4 accepts only
+//! these): `MAV_FRAME_GLOBAL` / `GLOBAL_INT` (z = m AMSL) and `GLOBAL_RELATIVE_ALT` /
+//! `GLOBAL_RELATIVE_ALT_INT` (z = m above home); x, y = lat, lon × 10⁷ (MISSION_ITEM_INT carries
+//! them as integers in every frame). They are converted to local NED around home by
+//! [`crate::link::geo`] (lat outside ±90° or > 10 km from home → INVALID_PARAM5, lon →
+//! INVALID_PARAM6, altitude → INVALID_PARAM7). Non-navigation items (DO_* such as
+//! DO_CHANGE_SPEED, gimbal, camera and video commands) are accepted and ignored, as the path has
+//! no place for them; NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH and other NAV/CONDITION items
+//! are refused MAV_MISSION_UNSUPPORTED (the mission model is a waypoint path: takeoff, landing
+//! and return are commands). A download returns the waypoints (not the ignored items) in the
+//! frame each was uploaded in (one byte per waypoint). The path is handed to the cascade only
+//! when the last item arrived; the MISSION_ACK then reports whether the cascade took it.
 //!
 //! Capacity: [`MAX_WAYPOINTS`] items (MISSION_COUNT above that → MAV_MISSION_NO_SPACE). A stalled
 //! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
@@ -21,6 +31,7 @@ use crate::link::dialect::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
+use crate::link::geo::{self, AltRef, GeoError};
 use heapless::Vec as HVec;
 use parapet_core::Vec3;
 
@@ -65,12 +76,65 @@ enum State {
     Receiving { count: u16, next: u16, partner_sys: u8, partner_comp: u8, last_us: u64, retries: u8 },
 }
 
+/// The frame a waypoint was uploaded in (a download returns it in the same frame).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum ItemFrame {
+    LocalNed,
+    Global,
+    GlobalInt,
+    GlobalRelativeAlt,
+    GlobalRelativeAltInt,
+}
+
+// MISSION_ITEM_INT still carries the *_INT frames (MAVSDK and QGroundControl send them).
+#[allow(deprecated)]
+impl ItemFrame {
+    fn from_wire(f: MavFrame) -> Option<Self> {
+        Some(match f {
+            MavFrame::MAV_FRAME_LOCAL_NED => Self::LocalNed,
+            MavFrame::MAV_FRAME_GLOBAL => Self::Global,
+            MavFrame::MAV_FRAME_GLOBAL_INT => Self::GlobalInt,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT => Self::GlobalRelativeAlt,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => Self::GlobalRelativeAltInt,
+            _ => return None,
+        })
+    }
+
+    fn to_wire(self) -> MavFrame {
+        match self {
+            Self::LocalNed => MavFrame::MAV_FRAME_LOCAL_NED,
+            Self::Global => MavFrame::MAV_FRAME_GLOBAL,
+            Self::GlobalInt => MavFrame::MAV_FRAME_GLOBAL_INT,
+            Self::GlobalRelativeAlt => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            Self::GlobalRelativeAltInt => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        }
+    }
+
+    /// Altitude reference of a global frame; `None` for the local frame.
+    fn alt_ref(self) -> Option<AltRef> {
+        match self {
+            Self::LocalNed => None,
+            Self::Global | Self::GlobalInt => Some(AltRef::Amsl),
+            Self::GlobalRelativeAlt | Self::GlobalRelativeAltInt => Some(AltRef::Home),
+        }
+    }
+}
+
+/// `true` for commands a mission may carry that do not move the vehicle along the path
+/// (DO_* 176–252, gimbal manager 1000–1001, camera/video 2000–2600): accepted and ignored.
+fn is_ignored_command(cmd: u16) -> bool {
+    matches!(cmd, 176..=252 | 1000..=1001 | 2000..=2600)
+}
+
 /// Vehicle side of the mission upload.
 pub struct MissionUpload {
     state: State,
     items: HVec<Vec3, MAX_WAYPOINTS>,
+    frames: HVec<ItemFrame, MAX_WAYPOINTS>,
     /// The path the cascade accepted last (what a download returns).
     stored: HVec<Vec3, MAX_WAYPOINTS>,
+    stored_frames: HVec<ItemFrame, MAX_WAYPOINTS>,
     partner: (u8, u8),
 }
 
@@ -83,7 +147,14 @@ impl Default for MissionUpload {
 impl MissionUpload {
     /// Idle, no path.
     pub const fn new() -> Self {
-        Self { state: State::Idle, items: HVec::new(), stored: HVec::new(), partner: (0, 0) }
+        Self {
+            state: State::Idle,
+            items: HVec::new(),
+            frames: HVec::new(),
+            stored: HVec::new(),
+            stored_frames: HVec::new(),
+            partner: (0, 0),
+        }
     }
 
     /// `true` while an upload is in progress.
@@ -104,6 +175,7 @@ impl MissionUpload {
     /// The cascade took [`MissionUpload::path`]: it becomes the stored (downloadable) path.
     pub fn accept(&mut self) {
         self.stored.clone_from(&self.items);
+        self.stored_frames.clone_from(&self.frames);
     }
 
     /// MISSION_ACK addressed to the last upload partner.
@@ -141,7 +213,8 @@ impl MissionUpload {
     }
 
     /// MISSION_REQUEST_INT(`seq`) of `mission_type` from (`sys`, `comp`): the stored item as
-    /// MISSION_ITEM_INT (NAV_WAYPOINT, LOCAL_NED, x/y = m × 10⁴), or a refusal.
+    /// MISSION_ITEM_INT (NAV_WAYPOINT in the frame it was uploaded in: LOCAL_NED x/y = m × 10⁴,
+    /// global x/y = lat/lon × 10⁷), or a refusal.
     pub fn on_request_item(
         &self,
         seq: u16,
@@ -165,15 +238,24 @@ impl MissionUpload {
                 mission_type,
             ));
         };
+        let frame = self.stored_frames.get(usize::from(seq)).copied().unwrap_or(ItemFrame::LocalNed);
+        let (x, y, z) = match frame.alt_ref() {
+            None => (local_xy_to_wire(f64::from(w.x)), local_xy_to_wire(f64::from(w.y)), w.z),
+            Some(alt_ref) => {
+                // Stored waypoints came from global_to_ned, so they are in range.
+                let (lat, lon, _) = geo::ned_to_global(*w).unwrap_or((geo::HOME.0, geo::HOME.1, 0));
+                (lat, lon, geo::altitude_m(w.z, alt_ref))
+            }
+        };
         DownloadReply::Item(MISSION_ITEM_INT_DATA {
-            x: local_xy_to_wire(f64::from(w.x)),
-            y: local_xy_to_wire(f64::from(w.y)),
-            z: w.z,
+            x,
+            y,
+            z,
             seq,
             command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
             target_system: sys,
             target_component: comp,
-            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            frame: frame.to_wire(),
             current: u8::from(seq == 0),
             autocontinue: 1,
             mission_type,
@@ -184,6 +266,7 @@ impl MissionUpload {
     fn fail(&mut self, result: MavMissionResult) -> MissionReply {
         self.state = State::Idle;
         self.items.clear();
+        self.frames.clear();
         MissionReply::Ack(self.ack_for(result))
     }
 
@@ -200,6 +283,7 @@ impl MissionUpload {
         }
         self.partner = (sys, comp);
         self.items.clear();
+        self.frames.clear();
         if usize::from(msg.count) > MAX_WAYPOINTS {
             return self.fail(MavMissionResult::MAV_MISSION_NO_SPACE);
         }
@@ -240,18 +324,18 @@ impl MissionUpload {
         if msg.seq > next {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         }
-        if msg.command != crate::link::command::id::WAYPOINT {
+        if is_ignored_command(msg.command) {
+            // Accepted, not stored (the path has no place for it).
+        } else if msg.command != crate::link::command::id::WAYPOINT {
             return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED));
-        }
-        if msg.frame != MavFrame::MAV_FRAME_LOCAL_NED {
-            return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME));
-        }
-        if !msg.z.is_finite() {
-            return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_PARAM7));
-        }
-        let wp = Vec3::new(local_xy_from_wire(msg.x), local_xy_from_wire(msg.y), msg.z);
-        if self.items.push(wp).is_err() {
-            return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
+        } else {
+            let wp = match waypoint(msg) {
+                Ok(wp) => wp,
+                Err(e) => return Some(self.fail(e)),
+            };
+            if self.items.push(wp.0).is_err() || self.frames.push(wp.1).is_err() {
+                return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
+            }
         }
         let next = next + 1;
         if next >= count {
@@ -288,8 +372,26 @@ impl MissionUpload {
     pub fn clear(&mut self) {
         self.state = State::Idle;
         self.items.clear();
+        self.frames.clear();
         self.stored.clear();
+        self.stored_frames.clear();
     }
+}
+
+/// The NED waypoint of a NAV_WAYPOINT item and its frame, or the refusal.
+fn waypoint(msg: &MISSION_ITEM_INT_DATA) -> Result<(Vec3, ItemFrame), MavMissionResult> {
+    let frame = ItemFrame::from_wire(msg.frame).ok_or(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME)?;
+    let Some(alt_ref) = frame.alt_ref() else {
+        if !msg.z.is_finite() {
+            return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+        }
+        return Ok((Vec3::new(local_xy_from_wire(msg.x), local_xy_from_wire(msg.y), msg.z), frame));
+    };
+    geo::global_to_ned(msg.x, msg.y, msg.z, alt_ref).map(|p| (p, frame)).map_err(|e| match e {
+        GeoError::Latitude => MavMissionResult::MAV_MISSION_INVALID_PARAM5_X,
+        GeoError::Longitude => MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y,
+        GeoError::Altitude => MavMissionResult::MAV_MISSION_INVALID_PARAM7,
+    })
 }
 
 /// MISSION_ACK to (`sys`, `comp`).
@@ -304,6 +406,7 @@ pub fn ack(sys: u8, comp: u8, result: MavMissionResult, mission_type: MavMission
 }
 
 #[cfg(test)]
+#[allow(deprecated)] // the *_INT frames, as ground stations send them
 mod tests {
     use super::*;
 
@@ -371,7 +474,7 @@ mod tests {
         m.on_count(&count(2), 255, 190, 0);
         assert_eq!(m.on_item(&item(0, 1.0, 0.0, -1.0), 7, 1, 0), None);
         let mut bad = item(0, 1.0, 0.0, -1.0);
-        bad.frame = MavFrame::MAV_FRAME_GLOBAL;
+        bad.frame = MavFrame::MAV_FRAME_BODY_FRD;
         match m.on_item(&bad, 255, 190, 0) {
             Some(MissionReply::Ack(a)) => {
                 assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME)
@@ -441,5 +544,99 @@ mod tests {
             DownloadReply::Count(c) if c.count == 1));
         m.clear();
         assert!(m.stored().is_empty());
+    }
+
+    fn global(seq: u16, frame: MavFrame, lat: i32, lon: i32, z: f32) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA { x: lat, y: lon, frame, ..item(seq, 0.0, 0.0, z) }
+    }
+
+    fn refusal(r: Option<MissionReply>) -> MavMissionResult {
+        match r {
+            Some(MissionReply::Ack(a)) => a.mavtype,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn global_frames_become_local_ned_and_download_in_their_frame() {
+        use crate::link::geo::HOME;
+        let mut m = MissionUpload::new();
+        let mut speed = item(1, 0.0, 0.0, 0.0);
+        speed.command = MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16;
+        speed.frame = MavFrame::MAV_FRAME_MISSION;
+        let items = [
+            global(0, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, HOME.0 + 8983, HOME.1 + 6635, 10.0),
+            speed,
+            global(2, MavFrame::MAV_FRAME_GLOBAL_INT, HOME.0 - 898, HOME.1, 493.0),
+            global(3, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, HOME.0, HOME.1 - 1327, 2.0),
+            global(4, MavFrame::MAV_FRAME_GLOBAL, HOME.0 + 1, HOME.1 + 1, 488.5),
+            item(5, 1.5, -2.0, -1.0),
+        ];
+        m.on_count(&count(items.len() as u16), 255, 190, 0);
+        for (k, it) in items.iter().enumerate() {
+            let r = m.on_item(it, 255, 190, 0);
+            if k + 1 < items.len() {
+                assert_eq!(req_seq(r), Some(k as u16 + 1));
+            } else {
+                assert_eq!(r, Some(MissionReply::Complete));
+            }
+        }
+        let expect = [
+            Vec3::new(100.0, 50.0, -10.0),
+            Vec3::new(-10.0, 0.0, -5.0),
+            Vec3::new(0.0, -10.0, -2.0),
+            Vec3::new(1.0 / 89.831_53, 1.0 / 132.709_22, -0.5),
+            Vec3::new(1.5, -2.0, -1.0),
+        ];
+        assert_eq!(m.path().len(), expect.len(), "DO_CHANGE_SPEED is not a waypoint");
+        for (got, want) in m.path().iter().zip(expect) {
+            assert!((got - want).norm() < 0.01, "{got:?} vs {want:?}");
+        }
+        m.accept();
+        let waypoints = [&items[0], &items[2], &items[3], &items[4], &items[5]];
+        for (seq, sent) in waypoints.iter().enumerate() {
+            match m.on_request_item(seq as u16, MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8) {
+                DownloadReply::Item(i) => {
+                    assert_eq!((i.frame, i.x, i.y), (sent.frame, sent.x, sent.y), "item {seq}");
+                    assert!((i.z - sent.z).abs() < 1e-3, "item {seq}: {} vs {}", i.z, sent.z);
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn bad_global_items_are_refused_with_the_parameter() {
+        use crate::link::geo::HOME;
+        let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+        for (it, want) in [
+            (global(0, rel, 900_000_001, HOME.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
+            (global(0, rel, HOME.0 + 1_000_000, HOME.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
+            (global(0, rel, HOME.0, -1_800_000_001, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y),
+            (global(0, rel, HOME.0, HOME.1, f32::NAN), MavMissionResult::MAV_MISSION_INVALID_PARAM7),
+            (
+                global(0, MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, HOME.0, HOME.1, 5.0),
+                MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME,
+            ),
+            (
+                MISSION_ITEM_INT_DATA {
+                    command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
+                    ..global(0, rel, HOME.0, HOME.1, 5.0)
+                },
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            ),
+            (
+                MISSION_ITEM_INT_DATA {
+                    command: MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16,
+                    ..global(0, rel, HOME.0, HOME.1, 5.0)
+                },
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            ),
+        ] {
+            let mut m = MissionUpload::new();
+            m.on_count(&count(1), 255, 190, 0);
+            assert_eq!(refusal(m.on_item(&it, 255, 190, 0)), want, "{it:?}");
+            assert!(m.path().is_empty() && !m.is_receiving());
+        }
     }
 }

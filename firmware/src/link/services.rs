@@ -7,7 +7,7 @@
 //! | stream | id | default | content |
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
-//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`HOME`] on a flat earth (WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position or yaw is not finite |
+//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`HOME`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
 //! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = mission item being flown (the path follower's segment, from the telemetry snapshot; 0 before the mission was started), total = items of the accepted mission, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
 //! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
@@ -27,9 +27,10 @@
 //!
 //! **Home**: fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
 //! Parapet flies in a local NED frame and has no GNSS; GLOBAL_POSITION_INT and HOME_POSITION
-//! exist so that map-based ground stations (QGroundControl, MAVSDK) show the vehicle.
+//! exist so that map-based ground stations (QGroundControl, MAVSDK) show the vehicle. The
+//! conversion is [`crate::link::geo`] (the same one global-frame mission items use).
 //!
-//! May import: `parapet_core`, the dialect, [`crate::app::autopilot`] (telemetry snapshot),
+//! May import: `parapet_core`, the dialect, [`crate::app::autopilot`] (telemetry snapshot), [`crate::link::geo`],
 //! [`crate::link::outbound`]. No allocation; every call is bounded (at most one message per
 //! stream per [`Services::poll`]).
 #![allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
@@ -44,13 +45,7 @@ use crate::link::outbound::Outbound;
 use parapet_core::battery::{BatteryLevel, BatteryState};
 use parapet_core::nalgebra::UnitQuaternion;
 
-/// Home of the global position (PX4 SITL default): latitude and longitude 1e-7 °, altitude mm
-/// AMSL.
-pub const HOME: (i32, i32, i32) = (473_977_420, 85_455_940, 488_000);
-/// 1e-7 ° of latitude per metre north (WGS-84 equatorial radius 6,378,137 m).
-const LAT_E7_PER_M: f32 = 89.831_53;
-/// 1e-7 ° of longitude per metre east at [`HOME`]'s latitude.
-const LON_E7_PER_M: f32 = 132.709_22;
+pub use crate::link::geo::HOME;
 /// Shortest settable interval, µs (100 Hz).
 pub const MIN_INTERVAL_US: u32 = 10_000;
 
@@ -131,11 +126,6 @@ fn slot(msg_id: u32) -> Option<usize> {
     STREAMS.iter().position(|(id, _)| *id == msg_id)
 }
 
-/// `x` rounded and clamped into `i32`; `None` when not finite.
-fn to_i32(x: f32) -> Option<i32> {
-    x.is_finite().then(|| x.clamp(i32::MIN as f32, i32::MAX as f32) as i32)
-}
-
 /// `x` m/s as cm/s clamped into `i16` (0 when not finite).
 fn cm_s(x: f32) -> i16 {
     if x.is_finite() {
@@ -148,10 +138,7 @@ fn cm_s(x: f32) -> i16 {
 /// GLOBAL_POSITION_INT of the snapshot's local NED state around [`HOME`]; `None` when the
 /// position is not finite.
 pub fn global_position(time_boot_ms: u32, s: &TelemetrySnapshot) -> Option<GLOBAL_POSITION_INT_DATA> {
-    let p = s.position_ned;
-    let lat = HOME.0.saturating_add(to_i32(p.x * LAT_E7_PER_M)?);
-    let lon = HOME.1.saturating_add(to_i32(p.y * LON_E7_PER_M)?);
-    let down_mm = to_i32(p.z * 1000.0)?;
+    let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
     let yaw = s.attitude_rpy.z;
     let hdg = if yaw.is_finite() {
         let deg = libm::fmodf(yaw.to_degrees(), 360.0);
@@ -164,8 +151,8 @@ pub fn global_position(time_boot_ms: u32, s: &TelemetrySnapshot) -> Option<GLOBA
         time_boot_ms,
         lat,
         lon,
-        alt: HOME.2.saturating_sub(down_mm),
-        relative_alt: down_mm.saturating_neg(),
+        alt,
+        relative_alt: alt.saturating_sub(HOME.2),
         vx: cm_s(s.velocity_ned.x),
         vy: cm_s(s.velocity_ned.y),
         vz: cm_s(s.velocity_ned.z),
