@@ -250,6 +250,23 @@ fn mavsdk_connects_reads_telemetry_and_a_parameter() {
 /// `start_mission` (DO_SET_MODE AUTO.MISSION) left the vehicle holding, and the host always flew.
 #[test]
 fn mavsdk_flies_a_mission_on_the_pil() {
+    fly_mavsdk_mission_on_the_pil("mavsdk_mission.py", "mavsdk-mission");
+}
+
+/// MAVSDK-Python's standard `mission` plugin (`tests/python/mavsdk_global_mission.py`) flies a
+/// global-frame plan, as QGroundControl and PX4 SITL users do: MissionItems at the telemetry home
+/// position + the path's offsets, uploaded as NAV_WAYPOINTs in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+/// downloaded back with the same lat/lon, flown to the goal and landed. Before the global-frame
+/// conversion (firmware/src/link/geo.rs) the upload was refused MAV_MISSION_UNSUPPORTED_FRAME.
+#[test]
+fn mavsdk_mission_plugin_flies_a_global_plan_on_the_pil() {
+    fly_mavsdk_mission_on_the_pil("mavsdk_global_mission.py", "mavsdk-global-mission");
+}
+
+/// `script` (a MAVSDK mission client: PORT WAYPOINTS_JSON) flies the office path on `parapet pil
+/// --gcs-control --api --realtime`; the run must reach the goal, end when the vehicle disarmed
+/// and end landed.
+fn fly_mavsdk_mission_on_the_pil(script_name: &str, dir_name: &str) {
     let Some(py) = python() else { return };
     let Some(elf) = firmware() else { return };
     let port = free_port();
@@ -257,7 +274,7 @@ fn mavsdk_flies_a_mission_on_the_pil() {
     let cfg = config(&s, 90.0);
     let wps: Vec<[f64; 3]> = cfg.path.iter().map(|w| [w.x, w.y, w.z]).collect();
     let child = Command::new(&py)
-        .arg(script("mavsdk_mission.py"))
+        .arg(script(script_name))
         .arg(port.to_string())
         .arg(serde_json::to_string(&wps).expect("json"))
         .stdout(Stdio::piped())
@@ -265,7 +282,7 @@ fn mavsdk_flies_a_mission_on_the_pil() {
         .spawn()
         .expect("client");
     std::thread::sleep(Duration::from_millis(500)); // the client listens
-    let dir = out_dir("mavsdk-mission");
+    let dir = out_dir(dir_name);
     let sitl = SitlArgs { gcs: None, api: Some(format!("udp:127.0.0.1:{port}")), realtime: true };
     let b = bridge(&sitl, &dir, true).expect("bridge");
     let mut opts = PilOptions::new(elf);

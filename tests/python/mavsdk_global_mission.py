@@ -1,0 +1,173 @@
+"""MAVSDK-Python flies a global-frame mission with the standard `mission` plugin (as PX4 SITL is
+flown) on `parapet pil --gcs-control`: connects over UDP, reads the home position from
+telemetry, plans MissionItems at latitude/longitude = home + the NED offsets (the firmware's
+flat-earth scales around home) and altitude relative to home (MAVSDK uploads them as
+NAV_WAYPOINTs in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT), downloads the plan back (same lat/lon),
+arms, takes off, starts the mission, watches it reach the last waypoint (mission progress and
+the local position), lands and disarms.
+
+usage: mavsdk_global_mission.py PORT WAYPOINTS_JSON   ([[north, east, down], ...] in m, NED)
+Prints one line per step and PASS at the end (exit 0); FAIL: <why> otherwise (exit 1).
+"""
+import asyncio
+import json
+import math
+import os
+import socket
+import sys
+
+from mavsdk import System
+from mavsdk.mission import MissionItem, MissionPlan
+
+# The firmware's flat-earth scales around home (firmware/src/link/geo.rs): 1e-7 deg per metre.
+LAT_E7_PER_M = 89.83153
+LON_E7_PER_M = 132.70922
+
+
+DRONE = None
+
+
+def done(code):
+    """Stop our mavsdk_server and exit at once (its gRPC threads would keep a plain exit waiting)."""
+    if DRONE is not None:
+        DRONE._stop_mavsdk_server()
+    sys.stdout.flush()
+    os._exit(code)
+
+
+def fail(why):
+    print("FAIL:", why, flush=True)
+    done(1)
+
+
+def free_tcp_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+async def first(stream, pred, what, timeout, required=True):
+    """The first item of `stream` with pred(item), within `timeout` s (else FAIL, or None when
+    not `required`)."""
+
+    async def scan():
+        async for x in stream:
+            if pred(x):
+                return x
+
+    try:
+        return await asyncio.wait_for(scan(), timeout)
+    except asyncio.TimeoutError:
+        if required:
+            fail(f"{what} not seen within {timeout} s")
+        return None
+
+
+def speed(p):
+    v = p.velocity
+    return math.sqrt(v.north_m_s**2 + v.east_m_s**2 + v.down_m_s**2)
+
+
+async def main(port, waypoints):
+    global DRONE
+    # Its own gRPC port: another MAVSDK test (or a leftover server) may hold the default 50051.
+    drone = DRONE = System(port=free_tcp_port())
+    await drone.connect(system_address=f"udpin://0.0.0.0:{port}")
+    await first(drone.core.connection_state(), lambda s: s.is_connected, "connection", 30)
+    print("connected", flush=True)
+
+    pv = await first(drone.telemetry.position_velocity_ned(), lambda p: True, "LOCAL_POSITION_NED", 10)
+    print("position NED", pv.position.north_m, pv.position.east_m, pv.position.down_m, flush=True)
+    if pv.position.down_m < -0.3:
+        fail(f"not on the ground at the start (down_m {pv.position.down_m})")
+    armed = await first(drone.telemetry.armed(), lambda a: True, "armed state", 10)
+    in_air = await first(drone.telemetry.in_air(), lambda a: True, "landed state", 10)
+    print("armed", armed, "in_air", in_air, flush=True)
+    if armed or in_air:
+        fail("the vehicle must wait disarmed on the ground")
+
+    home = await first(drone.telemetry.home(), lambda h: True, "HOME_POSITION", 10)
+    print("home", home.latitude_deg, home.longitude_deg, home.absolute_altitude_m, flush=True)
+    nan = float("nan")
+    items = [
+        MissionItem(
+            home.latitude_deg + w[0] * LAT_E7_PER_M * 1e-7,
+            home.longitude_deg + w[1] * LON_E7_PER_M * 1e-7,
+            -float(w[2]),
+            nan,  # speed: none (a DO_CHANGE_SPEED item would shift MISSION_CURRENT's numbering)
+            False,
+            nan,
+            nan,
+            MissionItem.CameraAction.NONE,
+            nan,
+            nan,
+            nan,
+            nan,
+            nan,
+            MissionItem.VehicleAction.NONE,
+        )
+        for w in waypoints
+    ]
+    await drone.mission.upload_mission(MissionPlan(items))
+    print("mission uploaded", len(items), "items", flush=True)
+    down = (await drone.mission.download_mission()).mission_items
+    if len(down) != len(items):
+        fail(f"downloaded {len(down)} items, uploaded {len(items)}")
+    for a, b in zip(items, down):
+        if (round(a.latitude_deg * 1e7), round(a.longitude_deg * 1e7)) != (
+            round(b.latitude_deg * 1e7),
+            round(b.longitude_deg * 1e7),
+        ) or abs(a.relative_altitude_m - b.relative_altitude_m) > 0.01:
+            fail(f"downloaded {b} for uploaded {a}")
+    print("mission downloaded: same lat/lon/alt", flush=True)
+
+    await drone.action.arm()
+    await first(drone.telemetry.armed(), lambda a: a, "armed", 10)
+    print("armed", flush=True)
+    await drone.action.takeoff()
+    await first(drone.telemetry.in_air(), lambda a: a, "in air", 15)
+    # MAVSDK's takeoff leaves the height to the vehicle (the firmware's default, capped by its
+    # takeoff limit): wait until it holds, settled, at least 0.5 m up.
+    pv = await first(
+        drone.telemetry.position_velocity_ned(),
+        lambda p: p.position.down_m < -0.5 and speed(p) < 0.05,
+        "takeoff, settled",
+        25,
+    )
+    print("took off, holding at down", pv.position.down_m, flush=True)
+
+    await drone.mission.start_mission()
+    print("mission started", flush=True)
+    last = len(items) - 1
+    prog = await first(
+        drone.mission.mission_progress(), lambda p: p.current >= last, "the last mission item", 40
+    )
+    print("mission progress", prog.current, "/", prog.total, flush=True)
+    goal = waypoints[-1]
+
+    def at_goal(p):
+        d = (p.position.north_m - goal[0], p.position.east_m - goal[1], p.position.down_m - goal[2])
+        return math.sqrt(sum(x * x for x in d)) < 0.08 and speed(p) < 0.08
+
+    pv = await first(drone.telemetry.position_velocity_ned(), at_goal, "the goal (within 8 cm, settled)", 30)
+    print("reached the goal", pv.position.north_m, pv.position.east_m, pv.position.down_m, flush=True)
+
+    await drone.action.land()
+    print("landing", flush=True)
+    await first(drone.telemetry.in_air(), lambda a: not a, "on the ground", 30)
+    print("landed", flush=True)
+    # The firmware disarms by itself once landed (as PX4); disarm if it has not yet.
+    if await first(drone.telemetry.armed(), lambda a: not a, "auto-disarm", 5, required=False) is None:
+        await drone.action.disarm()
+        await first(drone.telemetry.armed(), lambda a: not a, "disarmed", 10)
+        print("disarmed by the GCS", flush=True)
+    else:
+        print("disarmed (landed)", flush=True)
+    print("PASS", flush=True)
+    done(0)
+
+
+try:
+    asyncio.run(asyncio.wait_for(main(int(sys.argv[1]), json.loads(sys.argv[2])), 150))
+except asyncio.TimeoutError:
+    fail("timeout")
