@@ -121,6 +121,42 @@ pub fn firmware() -> Option<PathBuf> {
     Some(ELF.get_or_init(|| firmware_from_env_or_build().expect("QEMU firmware ELF")).clone())
 }
 
+/// The workspace root (the folder of the workspace `Cargo.toml`).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
+}
+
+/// The venv's python (`PARAPET_PYTHON`, else `$CARGO_TARGET_DIR/venv/bin/python`, which
+/// `cargo xtask test` / `cargo xtask venv` create) if it imports every module of `modules`
+/// (e.g. `"pymavlink, pyulog"`). Otherwise it panics when `CI` or `PARAPET_PYTHON` is set — the
+/// clients cannot be skipped there — and returns `None` with a loud SKIP naming `what` (the
+/// part left untested).
+pub fn venv_python(modules: &str, what: &str) -> Option<PathBuf> {
+    let env = std::env::var_os("PARAPET_PYTHON").map(PathBuf::from);
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("target"));
+    let py = env.clone().unwrap_or_else(|| target.join("venv/bin/python"));
+    let ok = Command::new(&py)
+        .args(["-c", &format!("import {modules}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok {
+        return Some(py);
+    }
+    let why = format!(
+        "no python with {modules} at {} (cargo xtask test creates it, or cargo xtask venv)",
+        py.display()
+    );
+    if is_ci(std::env::var_os("CI").as_deref()) || env.is_some() {
+        panic!("{why}; CI or PARAPET_PYTHON is set: {what} cannot be skipped here");
+    }
+    let _ = writeln!(std::io::stderr(), "\n*** SKIP: {why}: {what} NOT TESTED ***\n");
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,47 +8,20 @@
 //! pymavlink and pyulog (`cargo xtask venv`); without them the test SKIPs loudly, except with
 //! `CI` or `PARAPET_PYTHON` set, where it fails (as `gcs_clients.rs`).
 
-use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use parapet_sim::cli::log::Conn;
 use parapet_sim::cli::sitl::{bridge, run_pil_bridged, SitlArgs};
 use parapet_sim::fc::pil::PilOptions;
-use parapet_tests::pil_support::{config, firmware, is_ci, scene};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
-}
-
-fn python() -> Option<PathBuf> {
-    let env = std::env::var_os("PARAPET_PYTHON").map(PathBuf::from);
-    let target =
-        std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| root().join("target"));
-    let py = env.clone().unwrap_or_else(|| target.join("venv/bin/python"));
-    let ok = Command::new(&py)
-        .args(["-c", "import pymavlink, pyulog"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return Some(py);
-    }
-    let why = format!("no python with pymavlink and pyulog at {} (cargo xtask venv)", py.display());
-    if is_ci(std::env::var_os("CI").as_deref()) || env.is_some() {
-        panic!("{why}; CI or PARAPET_PYTHON is set: the log download cannot be skipped here");
-    }
-    eprintln!("\n*** SKIP: {why}: onboard log download NOT TESTED ***\n");
-    None
-}
+use parapet_tests::pil_support::{config, firmware, scene, venv_python, workspace_root};
 
 /// pymavlink lists and fetches the QEMU firmware's onboard log during a PIL flight; the file
 /// parses with pyulog with every topic, armed records and the parameter table. Later in the
 /// flight `parapet log`'s client lists and pulls the same log, byte-exact ULog.
 #[test]
 fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it() {
-    let Some(py) = python() else { return };
+    let Some(py) = venv_python("pymavlink, pyulog", "the onboard log download") else { return };
     let Some(elf) = firmware() else { return };
     let port = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let dir = std::env::temp_dir().join(format!("parapet-onboard-log-{}", std::process::id()));
@@ -56,7 +29,7 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     std::fs::create_dir_all(&dir).expect("out dir");
     let fetched = dir.join("fetched.ulg");
     let client = Command::new(&py)
-        .arg(root().join("tests/python/gcs_log_download.py"))
+        .arg(workspace_root().join("tests/python/gcs_log_download.py"))
         .arg(port.to_string())
         .arg(&fetched)
         .arg("4")

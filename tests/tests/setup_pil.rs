@@ -10,45 +10,18 @@
 //! pymavlink (`cargo xtask venv`); without them the test SKIPs loudly, except with `CI` or
 //! `PARAPET_PYTHON` set, where it fails (as `onboard_log.rs`).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 
-use parapet_tests::pil_support::{firmware, is_ci};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
-}
-
-fn python() -> Option<PathBuf> {
-    let env = std::env::var_os("PARAPET_PYTHON").map(PathBuf::from);
-    let target =
-        std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).unwrap_or_else(|| root().join("target"));
-    let py = env.clone().unwrap_or_else(|| target.join("venv/bin/python"));
-    let ok = Command::new(&py)
-        .args(["-c", "import pymavlink"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return Some(py);
-    }
-    let why = format!("no python with pymavlink at {} (cargo xtask venv)", py.display());
-    if is_ci(std::env::var_os("CI").as_deref()) || env.is_some() {
-        panic!("{why}; CI or PARAPET_PYTHON is set: the setup services cannot be skipped here");
-    }
-    eprintln!("\n*** SKIP: {why}: setup services over MAVLink NOT TESTED ***\n");
-    None
-}
+use parapet_tests::pil_support::{firmware, venv_python, workspace_root};
 
 /// pymavlink drives PREFLIGHT_STORAGE, DO_MOTOR_TEST and PREFLIGHT_CALIBRATION against the QEMU
 /// firmware (see the module docs); every step must pass.
 #[test]
 fn pymavlink_storage_motor_test_and_calibration_on_the_qemu_firmware() {
-    let Some(py) = python() else { return };
+    let Some(py) = venv_python("pymavlink", "the setup services over MAVLink") else { return };
     let Some(elf) = firmware() else { return };
     let o = Command::new(&py)
-        .arg(root().join("tests/python/pil_setup.py"))
+        .arg(workspace_root().join("tests/python/pil_setup.py"))
         .arg(&elf)
         .output()
         .expect("run pil_setup.py");
