@@ -1,9 +1,14 @@
 """MAVSDK-Python (its bundled mavsdk_server) flies a whole mission on `parapet pil --gcs-control`:
-connects over UDP, reads telemetry (on the ground, disarmed, not in air), uploads the mission
-(mission_raw, MAV_FRAME_LOCAL_NED items: x, y in 1e-4 m, z in m), arms, takes off, starts the
-mission, watches it reach the last waypoint (mission progress and position), lands and disarms.
+connects over UDP, reads telemetry (on the ground, disarmed, not in air), uploads the mission,
+arms, takes off, starts the mission, watches it reach the last waypoint (mission progress and
+position), lands and disarms. The plan is uploaded with
+- `raw` (default): `mission_raw`, MAV_FRAME_LOCAL_NED items (x, y in 1e-4 m, z in m);
+- `plugin`: the standard `mission` plugin (as PX4 SITL is flown): MissionItems at latitude/
+  longitude = home (from telemetry) + the NED offsets (the firmware's flat-earth scales around
+  home), altitude relative to home (MAVSDK uploads NAV_WAYPOINTs in
+  MAV_FRAME_GLOBAL_RELATIVE_ALT_INT), downloaded back with the same lat/lon.
 
-usage: mavsdk_mission.py PORT WAYPOINTS_JSON   ([[north, east, down], ...] in m, NED)
+usage: mavsdk_mission.py PORT WAYPOINTS_JSON [raw|plugin]   ([[north, east, down], ...] in m, NED)
 Prints one line per step and PASS at the end (exit 0); FAIL: <why> otherwise (exit 1).
 """
 import asyncio
@@ -14,10 +19,13 @@ import socket
 import sys
 
 from mavsdk import System
-from mavsdk.mission_raw import MissionItem
+from mavsdk import mission, mission_raw
 
 MAV_FRAME_LOCAL_NED = 1
 MAV_CMD_NAV_WAYPOINT = 16
+# The firmware's flat-earth scales around home (firmware/src/link/geo.rs): 1e-7 deg per metre.
+LAT_E7_PER_M = 89.83153
+LON_E7_PER_M = 132.70922
 
 
 DRONE = None
@@ -64,7 +72,45 @@ def speed(p):
     return math.sqrt(v.north_m_s**2 + v.east_m_s**2 + v.down_m_s**2)
 
 
-async def main(port, waypoints):
+async def upload_with_the_mission_plugin(drone, waypoints):
+    """The plan as MissionItems at home + the NED offsets; uploaded, downloaded, compared."""
+    home = await first(drone.telemetry.home(), lambda h: True, "HOME_POSITION", 10)
+    print("home", home.latitude_deg, home.longitude_deg, home.absolute_altitude_m, flush=True)
+    nan = float("nan")
+    items = [
+        mission.MissionItem(
+            home.latitude_deg + w[0] * LAT_E7_PER_M * 1e-7,
+            home.longitude_deg + w[1] * LON_E7_PER_M * 1e-7,
+            -float(w[2]),
+            nan,  # speed: none (a DO_CHANGE_SPEED item would shift MISSION_CURRENT's numbering)
+            False,
+            nan,
+            nan,
+            mission.MissionItem.CameraAction.NONE,
+            nan,
+            nan,
+            nan,
+            nan,
+            nan,
+            mission.MissionItem.VehicleAction.NONE,
+        )
+        for w in waypoints
+    ]
+    await drone.mission.upload_mission(mission.MissionPlan(items))
+    print("mission uploaded", len(items), "items", flush=True)
+    down = (await drone.mission.download_mission()).mission_items
+    if len(down) != len(items):
+        fail(f"downloaded {len(down)} items, uploaded {len(items)}")
+    for a, b in zip(items, down):
+        if (round(a.latitude_deg * 1e7), round(a.longitude_deg * 1e7)) != (
+            round(b.latitude_deg * 1e7),
+            round(b.longitude_deg * 1e7),
+        ) or abs(a.relative_altitude_m - b.relative_altitude_m) > 0.01:
+            fail(f"downloaded {b} for uploaded {a}")
+    print("mission downloaded: same lat/lon/alt", flush=True)
+
+
+async def main(port, waypoints, plugin):
     global DRONE
     # Its own gRPC port: another MAVSDK test (or a leftover server) may hold the default 50051.
     drone = DRONE = System(port=free_tcp_port())
@@ -82,19 +128,24 @@ async def main(port, waypoints):
     if armed or in_air:
         fail("the vehicle must wait disarmed on the ground")
 
-    items = [
-        MissionItem(
-            i, MAV_FRAME_LOCAL_NED, MAV_CMD_NAV_WAYPOINT, 1 if i == 0 else 0, 1,
-            0.0, 0.0, 0.0, float("nan"),
-            int(round(w[0] * 1e4)), int(round(w[1] * 1e4)), float(w[2]), 0,
-        )
-        for i, w in enumerate(waypoints)
-    ]
-    await drone.mission_raw.upload_mission(items)
-    print("mission uploaded", len(items), "items", flush=True)
-    down = await drone.mission_raw.download_mission()
-    if len(down) != len(items):
-        fail(f"downloaded {len(down)} items, uploaded {len(items)}")
+    if plugin == "plugin":
+        await upload_with_the_mission_plugin(drone, waypoints)
+        api = drone.mission
+    else:
+        items = [
+            mission_raw.MissionItem(
+                i, MAV_FRAME_LOCAL_NED, MAV_CMD_NAV_WAYPOINT, 1 if i == 0 else 0, 1,
+                0.0, 0.0, 0.0, float("nan"),
+                int(round(w[0] * 1e4)), int(round(w[1] * 1e4)), float(w[2]), 0,
+            )
+            for i, w in enumerate(waypoints)
+        ]
+        await drone.mission_raw.upload_mission(items)
+        print("mission uploaded", len(items), "items", flush=True)
+        down = await drone.mission_raw.download_mission()
+        if len(down) != len(items):
+            fail(f"downloaded {len(down)} items, uploaded {len(items)}")
+        api = drone.mission_raw
 
     await drone.action.arm()
     await first(drone.telemetry.armed(), lambda a: a, "armed", 10)
@@ -111,11 +162,11 @@ async def main(port, waypoints):
     )
     print("took off, holding at down", pv.position.down_m, flush=True)
 
-    await drone.mission_raw.start_mission()
+    await api.start_mission()
     print("mission started", flush=True)
-    last = len(items) - 1
+    last = len(waypoints) - 1
     prog = await first(
-        drone.mission_raw.mission_progress(), lambda p: p.current >= last, "the last mission item", 40
+        api.mission_progress(), lambda p: p.current >= last, "the last mission item", 40
     )
     print("mission progress", prog.current, "/", prog.total, flush=True)
     goal = waypoints[-1]
@@ -143,6 +194,6 @@ async def main(port, waypoints):
 
 
 try:
-    asyncio.run(asyncio.wait_for(main(int(sys.argv[1]), json.loads(sys.argv[2])), 150))
+    asyncio.run(asyncio.wait_for(main(int(sys.argv[1]), json.loads(sys.argv[2]), sys.argv[3] if len(sys.argv) > 3 else "raw"), 150))
 except asyncio.TimeoutError:
     fail("timeout")

@@ -250,23 +250,23 @@ fn mavsdk_connects_reads_telemetry_and_a_parameter() {
 /// `start_mission` (DO_SET_MODE AUTO.MISSION) left the vehicle holding, and the host always flew.
 #[test]
 fn mavsdk_flies_a_mission_on_the_pil() {
-    fly_mavsdk_mission_on_the_pil("mavsdk_mission.py", "mavsdk-mission");
+    fly_mavsdk_mission_on_the_pil("raw", "mavsdk-mission");
 }
 
-/// MAVSDK-Python's standard `mission` plugin (`tests/python/mavsdk_global_mission.py`) flies a
+/// MAVSDK-Python's standard `mission` plugin (`tests/python/mavsdk_mission.py … plugin`) flies a
 /// global-frame plan, as QGroundControl and PX4 SITL users do: MissionItems at the telemetry home
 /// position + the path's offsets, uploaded as NAV_WAYPOINTs in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
 /// downloaded back with the same lat/lon, flown to the goal and landed. Before the global-frame
 /// conversion (firmware/src/link/geo.rs) the upload was refused MAV_MISSION_UNSUPPORTED_FRAME.
 #[test]
 fn mavsdk_mission_plugin_flies_a_global_plan_on_the_pil() {
-    fly_mavsdk_mission_on_the_pil("mavsdk_global_mission.py", "mavsdk-global-mission");
+    fly_mavsdk_mission_on_the_pil("plugin", "mavsdk-global-mission");
 }
 
-/// `script` (a MAVSDK mission client: PORT WAYPOINTS_JSON) flies the office path on `parapet pil
+/// `mavsdk_mission.py` (PORT WAYPOINTS_JSON `upload`: `raw` or `plugin`) flies the office path on `parapet pil
 /// --gcs-control --api --realtime`; the run must reach the goal, end when the vehicle disarmed
 /// and end landed.
-fn fly_mavsdk_mission_on_the_pil(script_name: &str, dir_name: &str) {
+fn fly_mavsdk_mission_on_the_pil(upload: &str, dir_name: &str) {
     let Some(py) = python() else { return };
     let Some(elf) = firmware() else { return };
     let port = free_port();
@@ -274,9 +274,10 @@ fn fly_mavsdk_mission_on_the_pil(script_name: &str, dir_name: &str) {
     let cfg = config(&s, 90.0);
     let wps: Vec<[f64; 3]> = cfg.path.iter().map(|w| [w.x, w.y, w.z]).collect();
     let child = Command::new(&py)
-        .arg(script(script_name))
+        .arg(script("mavsdk_mission.py"))
         .arg(port.to_string())
         .arg(serde_json::to_string(&wps).expect("json"))
+        .arg(upload)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
