@@ -62,8 +62,11 @@ for attempt in range(30):
         if d is None or d.id != newest.id:
             continue
         last = time.time()
-        if d.count and d.ofs % 90 == 0 and d.ofs + d.count <= size:
-            data[d.ofs:d.ofs + d.count] = bytes(d.data[:d.count])
+        # The log grows while armed: the chunk at the listed end may carry bytes beyond the
+        # listed size; keep the listed part (the download is of the log as listed).
+        if d.count and d.ofs % 90 == 0 and d.ofs < size:
+            n = min(d.count, size - d.ofs)
+            data[d.ofs:d.ofs + n] = bytes(d.data[:n])
             have[d.ofs // 90] = True
     if all(have):
         break

@@ -40,10 +40,19 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     let api = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let mut cli =
         Conn::open(&format!("udpin:127.0.0.1:{api}"), None, Duration::from_secs(10)).expect("listen");
-    // `parapet log` after the pymavlink download (which runs 4 s after the first heartbeat).
+    // `parapet log` after the pymavlink download (which starts 4 s after the first heartbeat):
+    // the vehicle streams one download at a time (a new LOG_REQUEST_DATA replaces the running
+    // one, as PX4's), so two overlapping downloads would keep cancelling each other. The
+    // pymavlink client writes its file when its download is complete; wait for that (on a loaded
+    // machine the download can take longer than a fixed delay).
+    let done = fetched.clone();
     let cli_pull = std::thread::spawn(move || -> Result<(usize, u32, Vec<u8>), String> {
         cli.connect("api endpoint").map_err(|x| x.to_string())?;
-        std::thread::sleep(Duration::from_secs(7));
+        let t0 = std::time::Instant::now();
+        while !done.exists() && t0.elapsed() < Duration::from_secs(30) {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        std::thread::sleep(Duration::from_millis(500)); // the log grows past the first download
         let entries = cli.list().map_err(|x| x.to_string())?;
         let newest = entries.last().cloned().ok_or_else(|| "no logs listed".to_string())?;
         let bytes = cli.pull(newest.id, newest.size).map_err(|x| x.to_string())?;
@@ -51,7 +60,7 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     });
     std::thread::sleep(Duration::from_millis(500)); // the client listens
     let s = scene();
-    let cfg = config(&s, 12.0);
+    let cfg = config(&s, 16.0);
     let sitl = SitlArgs {
         gcs: Some(format!("udp:127.0.0.1:{port}")),
         api: Some(format!("udp:127.0.0.1:{api}")),
