@@ -311,7 +311,7 @@ impl FlightLogger {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::log::store::RamRing;
     use parapet_core::Vec3;
@@ -413,23 +413,26 @@ mod tests {
         let info = store.info(0).expect("one log");
         let mut bytes = std::vec![0u8; info.size as usize];
         assert_eq!(store.read(info.id, 0, &mut bytes), Ok(bytes.len()));
+        check_with_pyulog(&bytes, "onboard", &["25", "51", "1", "2"], "ok: 51 records");
+    }
+
+    /// Runs `tests/python/check_onboard_ulog.py FILE ARGS` on `bytes` (a ULog) and asserts it
+    /// passes and prints `expect` (skipped loudly without a python with pyulog, see [`python`]).
+    pub(crate) fn check_with_pyulog(bytes: &[u8], name: &str, args: &[&str], expect: &str) {
         let Some(py) = python() else { return };
-        let dir = std::env::temp_dir().join(std::format!("parapet-onboard-ulog-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(std::format!("parapet-onboard-ulog-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("onboard.ulg");
-        std::fs::write(&path, &bytes).expect("write log");
+        std::fs::write(&path, bytes).expect("write log");
         let script =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python/check_onboard_ulog.py");
-        let out = std::process::Command::new(py)
-            .arg(script)
-            .arg(&path)
-            .args(["25", "51", "1", "2"])
-            .output()
-            .expect("run python");
+        let out =
+            std::process::Command::new(py).arg(script).arg(&path).args(args).output().expect("run python");
         let text = std::string::String::from_utf8_lossy(&out.stdout).into_owned()
             + &std::string::String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "pyulog check failed:\n{text}");
-        assert!(text.contains("ok: 51 records"), "{text}");
+        assert!(text.contains(expect), "{text}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -26,6 +26,7 @@
 //! frame parser and addressing (for [`transfer`]), `mavlink_core`, `parapet_core`. Not the PIL
 //! application, drivers or boards.
 
+pub mod card;
 pub mod logger;
 pub mod service;
 pub mod store;

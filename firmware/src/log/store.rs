@@ -190,11 +190,12 @@ impl<const N: usize, const L: usize> LogStore for RamRing<N, L> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::vec::Vec;
 
-    fn read_all<S: LogStore>(s: &mut S, id: u16) -> Vec<u8> {
+    /// All bytes of log `id`, read in short pieces.
+    pub(crate) fn read_all<S: LogStore>(s: &mut S, id: u16) -> Vec<u8> {
         let mut out = Vec::new();
         let mut buf = [0u8; 7];
         loop {
