@@ -145,20 +145,36 @@ pub enum CalEvent {
 }
 
 impl CalEvent {
-    /// The PX4 / QGroundControl text (at most 50 bytes, one STATUSTEXT).
+    /// The PX4 / QGroundControl text (at most 50 bytes, one STATUSTEXT). Written piecewise
+    /// with `write_str` (no `write!`): the board image then links no `core::fmt` machinery
+    /// for these texts (issue 22's flash budget).
     pub fn write(&self, w: &mut impl core::fmt::Write) -> core::fmt::Result {
-        match self {
-            CalEvent::Started => w.write_str("[cal] calibration started: 2 accel"),
-            CalEvent::OrientationDetected(f) => write!(w, "[cal] {} orientation detected", f.name()),
-            CalEvent::Progress(p) => write!(w, "[cal] progress <{p}>"),
-            CalEvent::SideDone(f) => write!(w, "[cal] {} side done, rotate to a different side", f.name()),
-            CalEvent::AlreadyDone(f) => write!(w, "[cal] {} side already completed", f.name()),
-            CalEvent::Motion => w.write_str("[cal] detected motion, hold still..."),
-            CalEvent::Done(_) => w.write_str("[cal] calibration done: accel"),
-            CalEvent::Failed(why) => write!(w, "[cal] calibration failed: {}", why.text()),
-            CalEvent::Cancelled => w.write_str("[cal] calibration cancelled"),
-        }
+        let (head, mid, tail) = match self {
+            CalEvent::Started => ("[cal] calibration started: 2 accel", "", ""),
+            CalEvent::OrientationDetected(f) => ("[cal] ", f.name(), " orientation detected"),
+            CalEvent::Progress(p) => return write_progress(w, *p),
+            CalEvent::SideDone(f) => ("[cal] ", f.name(), " side done, rotate to a different side"),
+            CalEvent::AlreadyDone(f) => ("[cal] ", f.name(), " side already completed"),
+            CalEvent::Motion => ("[cal] detected motion, hold still...", "", ""),
+            CalEvent::Done(_) => ("[cal] calibration done: accel", "", ""),
+            CalEvent::Failed(why) => ("[cal] calibration failed: ", why.text(), ""),
+            CalEvent::Cancelled => ("[cal] calibration cancelled", "", ""),
+        };
+        w.write_str(head)?;
+        w.write_str(mid)?;
+        w.write_str(tail)
     }
+}
+
+/// `[cal] progress <p>` (QGroundControl's progress text), `p` in decimal without `core::fmt`.
+fn write_progress(w: &mut impl core::fmt::Write, p: u8) -> core::fmt::Result {
+    w.write_str("[cal] progress <")?;
+    let digits = [b'0' + p / 100, b'0' + p / 10 % 10, b'0' + p % 10];
+    let skip = usize::from(p < 100) + usize::from(p < 10); // leading zeros
+    for &d in &digits[skip..] {
+        w.write_char(char::from(d))?;
+    }
+    w.write_char('>')
 }
 
 /// Calibrator settings.
@@ -563,6 +579,16 @@ mod tests {
             e.write(&mut s).unwrap();
             assert_eq!(s, want);
             assert!(s.len() <= 50);
+        }
+    }
+
+    /// The progress text without `core::fmt` is `format!`'s for every percentage.
+    #[test]
+    fn progress_text_is_formats_for_every_value() {
+        for p in 0..=u8::MAX {
+            let mut s = String::new();
+            CalEvent::Progress(p).write(&mut s).unwrap();
+            assert_eq!(s, std::format!("[cal] progress <{p}>"));
         }
     }
 }

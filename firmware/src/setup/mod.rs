@@ -324,8 +324,9 @@ impl Setup {
                 let what = if level { "level" } else { "gyro" };
                 if !(raw.gyro.iter().all(|w| w.is_finite() && w.abs() < STILL_RATE_MAX)) {
                     self.cal = None;
-                    let mut t = Text::new();
-                    let _ = core::fmt::write(&mut t, format_args!("[cal] calibration failed: {what} motion"));
+                    let mut t = text("[cal] calibration failed: ");
+                    let _ = t.push_str(what);
+                    let _ = t.push_str(" motion");
                     self.say(t);
                     return false;
                 }
@@ -342,9 +343,7 @@ impl Setup {
                     let mut lp = last_progress;
                     if pct >= last_progress.saturating_add(20) {
                         lp = pct;
-                        let mut t = Text::new();
-                        let _ = core::fmt::write(&mut t, format_args!("[cal] progress <{pct}>"));
-                        self.say(t);
+                        self.say_event(&CalEvent::Progress(pct));
                     }
                     self.cal = Some(Calibration::Still { level, since_us, sum, n, last_progress: lp });
                     return false;
