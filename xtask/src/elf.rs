@@ -76,6 +76,8 @@ pub struct SizeArgs {
     pub flash_max: Option<u64>,
     /// Static-RAM limit (.data + .bss), bytes.
     pub ram_max: Option<u64>,
+    /// `--by-source`: also print the code bytes per source area (`by_source.rs`).
+    pub by_source: bool,
 }
 
 /// Parse `[ELF] [--flash-max BYTES] [--ram-max BYTES]`.
@@ -90,6 +92,7 @@ pub fn parse_args(args: &[String]) -> Result<SizeArgs, String> {
         match x.as_str() {
             "--flash-max" => a.flash_max = Some(limit("--flash-max")?),
             "--ram-max" => a.ram_max = Some(limit("--ram-max")?),
+            "--by-source" => a.by_source = true,
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s if a.elf.is_none() => a.elf = Some(s.into()),
             s => return Err(format!("more than one ELF given ({s})")),

@@ -14,8 +14,9 @@
 //!   (see `fuzz.rs`).
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
 //!   and `docs/reliability.md`).
-//! * `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES]` — print the flash and
-//!   static-RAM use of the release firmware (or of `ELF`); exit 1 over a limit.
+//! * `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES] [--by-source]` — print the
+//!   flash and static-RAM use of the F405 board image (or of `ELF`); exit 1 over a limit;
+//!   `--by-source`: the code bytes per source area from the line table (`by_source.rs`).
 //! * `cargo xtask m4` — only the Cortex-M4F fmath bit-exactness step of `cargo xtask test`
 //!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
 //! * `cargo xtask venv` — only the Python venv of the ground-station client tests (`venv.rs`).
@@ -28,6 +29,7 @@
 //! cases of each safety-invariant property.
 
 mod bench;
+mod by_source;
 mod elf;
 mod fuzz;
 mod m4;
@@ -70,7 +72,7 @@ fn main() -> ExitCode {
         Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|venv|m4>"
+                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B] [--by-source]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|venv|m4>"
             );
             return ExitCode::from(2);
         }
@@ -259,6 +261,9 @@ fn size_cmd(args: &[String]) -> Result<(), String> {
         }
     };
     let s = print_size(&elf)?;
+    if a.by_source {
+        by_source::print(&elf, 40)?;
+    }
     let over = elf::over_limits(&s, &a);
     if over.is_empty() {
         Ok(())
