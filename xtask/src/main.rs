@@ -4,7 +4,7 @@
 //!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
 //!   apt-get when missing and root), runs every host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
-//!   firmware's flash/RAM budget (F405 ≤ 192 KiB / 32 KiB, with the excess over the 128 KiB target printed; the MATEKH743 image ≤ 256 KiB /
+//!   firmware's flash/RAM budget (F405 ≤ 184 KiB / 32 KiB, with the excess over the 128 KiB target printed; the MATEKH743 image ≤ 256 KiB /
 //!   64 KiB), checks `parapet_core::fmath` on the Cortex-M4F in QEMU bit for
 //!   bit against the host (`tests/cortex-m4`, see `m4.rs`), and runs the processor-in-the-loop flight and the
 //!   Slurm job-array campaign test (`host-sim/slurm/ci_test.sh`; installs slurmctld,
