@@ -16,6 +16,16 @@
 //! - **link** (thread-mode executor, lowest priority): USART3 (DMA ring buffer), MAVLink framing
 //!   and decoding; decoded messages go to the outer task through a `Channel`, replies come back
 //!   through another; builds the telemetry streams from the published snapshot.
+//! - **onboard log** (in the link task): the outer task hands a `LogSample` every
+//!   `DEFAULT_PERIOD_US` (25 Hz) to [`LOG_QUEUE`] (`try_send`: dropped and counted when full,
+//!   never waits); the link task turns them into ULog records (`FlightLogger`) on the log card
+//!   (`log::card::CardStore` on `board::active::LogCard`: the F405's microSD on SPI3; none on the
+//!   H743 yet) and serves the MAVLink log download (`LogTransfer`, the LOG_* frames it parses).
+//!   In the link task because the LOG_* requests arrive and the replies leave there; card writes
+//!   block (≈ 0.3 ms per 512-byte block at 21 MHz plus the card's busy time) the thread-mode
+//!   tasks only (link, RC receiver, storage, battery), never the control loops. The card is
+//!   mounted when the link task starts (up to ≈ 1 s without a card); a formatted card or a card
+//!   fault is said once in a STATUSTEXT, and logging stays off after a fault.
 //! - **storage** (thread-mode executor): the parameter store in the board's flash
 //!   (`vehicle::tasks::storage_job`: saves, PREFLIGHT_STORAGE read/reset); flash erases and
 //!   writes run here only, never in a control task, and only while disarmed (the outer task
@@ -39,6 +49,8 @@
 #[cfg(target_os = "none")]
 mod firmware {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+
+    use board_log::BoardLog;
 
     use defmt_rtt as _;
     use embassy_executor::{Executor, InterruptExecutor};
@@ -202,8 +214,12 @@ mod firmware {
             Err(_) => halt("spawn outer loop"),
         }
         let low = EXECUTOR_LOW.init(Executor::new());
+        #[cfg(feature = "onboard-log")]
+        let log = BoardLog::new(board.log_card, params);
+        #[cfg(not(feature = "onboard-log"))]
+        let log = BoardLog;
         low.run(|spawner| {
-            match link_task(board.link_tx, board.link_rx) {
+            match link_task(board.link_tx, board.link_rx, log) {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn link"),
             }
@@ -273,6 +289,7 @@ mod firmware {
             let cmd = stage.step(now, &sample, &MAILBOXES).sanitized();
             let cmd = setup.motors(now, cmd, kill, &SETUP);
             motors.write(&cmd).await;
+            board_log::motors(&cmd);
             timer.end(cycles());
             if timer.report().steps >= REPORT_EVERY_INNER {
                 INNER_REPORT.signal(timer.take_report());
@@ -291,6 +308,8 @@ mod firmware {
         let mut ticker = Ticker::every(Duration::from_micros(period_us));
         let mut timer = LoopTimer::new(period_us.min(u64::from(u32::MAX)) as u32, SYSCLK_HZ / 1_000_000);
         let mut link = Link::new(VEHICLE_SYSTEM_ID, FixClock::Arrival);
+        #[cfg(feature = "onboard-log")]
+        let mut next_log_us = 0u64;
         loop {
             match select3(ticker.next(), INBOUND.receive(), MAILBOXES.estimate.wait()).await {
                 Either3::First(()) => {
@@ -301,6 +320,8 @@ mod firmware {
                     stage.step(now, &MAILBOXES);
                     setup.step(now, stage.port(&MAILBOXES), &SETUP);
                     ARMED.store(setup.armed(), Ordering::Relaxed);
+                    #[cfg(feature = "onboard-log")]
+                    board_log::sample(now, stage, &mut next_log_us);
                     timer.end(cycles());
                     if timer.report().steps >= REPORT_EVERY_OUTER {
                         OUTER_REPORT.signal(timer.take_report());
@@ -388,14 +409,19 @@ mod firmware {
         }
     }
 
-    /// MAVLink over the companion UART: framing, decoding, replies and telemetry.
+    /// MAVLink over the companion UART: framing, decoding, replies and telemetry; and the
+    /// onboard log (module doc).
     #[embassy_executor::task]
     async fn link_task(
         mut tx: UartTx<'static, embassy_stm32::mode::Async>,
         mut rx: RingBufferedUartRx<'static>,
+        mut log: BoardLog,
     ) {
         let mut parser = FrameParser::new();
         let mut writer = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
+        if let Some(m) = log.mount() {
+            send(&mut tx, &mut writer, &m).await;
+        }
         let mut telemetry = TelemetryScheduler::new();
         let mut snapshot = TelemetrySnapshot::BOOT;
         let (mut inner, mut outer) = (LoopReport::ZERO, LoopReport::ZERO);
@@ -409,7 +435,12 @@ mod firmware {
                     for &b in buf.get(..n).unwrap_or(&[]) {
                         // At most one frame completes per byte.
                         let mut got = None;
-                        parser.push(b, &frame_extra_crc, &mut |f: &RawFrame<'_>| got = Some(Received::of(f)));
+                        parser.push(b, &frame_extra_crc, &mut |f: &RawFrame<'_>| {
+                            // LOG_* requests are served here; the rest go to the outer task.
+                            if !log.on_frame(f) {
+                                got = Some(Received::of(f));
+                            }
+                        });
                         if let Some(r) = got {
                             INBOUND.send((now, r)).await;
                         }
@@ -421,6 +452,7 @@ mod firmware {
             while let Ok(r) = REPLIES.try_receive() {
                 send(&mut tx, &mut writer, &r).await;
             }
+            log.step(&mut tx, &mut writer).await;
             if let Some(s) = MAILBOXES.snapshot.try_take() {
                 snapshot = s;
             }
@@ -465,6 +497,164 @@ mod firmware {
         let raw = m.encode(writer);
         // A failed write (DMA error) drops this frame; the streams resend.
         let _ = tx.write(raw.raw_bytes()).await;
+    }
+
+    /// The onboard log of the board (module doc), with the `onboard-log` feature; without it a
+    /// no-op (the image has no log: F405 flash/RAM budget, docs/bring-up.md §9).
+    mod board_log {
+        #[cfg(not(feature = "onboard-log"))]
+        use parapet_firmware::{
+            app::autopilot::MotorCommand, link::frame_parser::RawFrame, link::framing::FrameWriter,
+            link::outbound::Outbound,
+        };
+
+        #[cfg(feature = "onboard-log")]
+        pub use on::*;
+
+        /// No log in this build.
+        #[cfg(not(feature = "onboard-log"))]
+        pub struct BoardLog;
+
+        #[cfg(not(feature = "onboard-log"))]
+        impl BoardLog {
+            pub fn mount(&mut self) -> Option<Outbound> {
+                None
+            }
+            pub fn on_frame(&mut self, _f: &RawFrame<'_>) -> bool {
+                false
+            }
+            pub async fn step(
+                &mut self,
+                _tx: &mut embassy_stm32::usart::UartTx<'static, embassy_stm32::mode::Async>,
+                _writer: &mut FrameWriter,
+            ) {
+            }
+        }
+
+        #[cfg(not(feature = "onboard-log"))]
+        pub fn motors(_cmd: &MotorCommand) {}
+
+        #[cfg(feature = "onboard-log")]
+        mod on {
+            use core::sync::atomic::{AtomicU32, Ordering};
+
+            use embassy_stm32::mode::Async;
+            use embassy_stm32::usart::UartTx;
+            use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+            use embassy_sync::channel::Channel;
+            use parapet_core::controller::ControllerParams;
+            use parapet_firmware::app::autopilot::MotorCommand;
+            use parapet_firmware::app::cascade::OuterStage;
+            use parapet_firmware::board::active::{LogCard, BOARD_NAME};
+            use parapet_firmware::link::dialect::{MavSeverity, STATUSTEXT_DATA};
+            use parapet_firmware::link::frame_parser::RawFrame;
+            use parapet_firmware::link::framing::{FrameWriter, VEHICLE_SYSTEM_ID};
+            use parapet_firmware::link::outbound::Outbound;
+            use parapet_firmware::log::card::CardStore;
+            use parapet_firmware::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
+            use parapet_firmware::log::transfer::{LogReply, LogTransfer, REPLIES_PER_POLL};
+            use static_cell::StaticCell;
+
+            /// Log samples in flight from the outer task to the link task (25 Hz; the link
+            /// task drains the queue every ≤ 5 ms).
+            const LOG_QUEUE_LEN: usize = 2;
+            /// Outer task → link task: log samples.
+            static LOG_QUEUE: Channel<CriticalSectionRawMutex, LogSample, LOG_QUEUE_LEN> = Channel::new();
+            /// Log samples dropped because [`LOG_QUEUE`] was full.
+            pub static LOG_DROPPED: AtomicU32 = AtomicU32::new(0);
+            /// Inner task → outer task: the last motor throttles (f32 bits; for the log only).
+            static MOTOR_OUT: [AtomicU32; 4] = [const { AtomicU32::new(0) }; 4];
+            static STORE: StaticCell<CardStore<LogCard>> = StaticCell::new();
+            static PARAMS: StaticCell<ControllerParams> = StaticCell::new();
+
+            /// Inner task: the motor command just sent (4 relaxed stores).
+            pub fn motors(cmd: &MotorCommand) {
+                for (o, t) in MOTOR_OUT.iter().zip(cmd.throttle) {
+                    o.store(t.to_bits(), Ordering::Relaxed);
+                }
+            }
+
+            /// Outer task, after its step: one sample every `DEFAULT_PERIOD_US` into the
+            /// queue (copied, never a wait; dropped and counted when full).
+            pub fn sample(now: u64, stage: &OuterStage, next_us: &mut u64) {
+                if now < *next_us {
+                    return;
+                }
+                *next_us = now.saturating_add(DEFAULT_PERIOD_US);
+                let motors = MOTOR_OUT.each_ref().map(|m| f32::from_bits(m.load(Ordering::Relaxed)));
+                let sample = LogSample { t_us: now, snapshot: stage.snapshot(), motors };
+                if LOG_QUEUE.try_send(sample).is_err() {
+                    LOG_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+
+            /// A STATUSTEXT of the log (card formatted, card fault).
+            fn status(text: &str) -> Outbound {
+                let mut buf = [0u8; 50];
+                for (d, s) in buf.iter_mut().zip(text.bytes()) {
+                    *d = s;
+                }
+                let severity = MavSeverity::MAV_SEVERITY_WARNING;
+                Outbound::StatusText(STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() })
+            }
+
+            /// The link task's log: logger, card store, download.
+            pub struct BoardLog {
+                store: &'static mut CardStore<LogCard>,
+                params: &'static ControllerParams,
+                logger: FlightLogger,
+                transfer: LogTransfer,
+            }
+
+            impl BoardLog {
+                /// On `card`, naming the boot parameters `params` in each log.
+                pub fn new(card: LogCard, params: ControllerParams) -> Self {
+                    let params: &'static ControllerParams = PARAMS.init(params);
+                    Self {
+                        store: STORE.init(CardStore::new(card)),
+                        params,
+                        logger: FlightLogger::new(DEFAULT_PERIOD_US, params, BOARD_NAME),
+                        transfer: LogTransfer::new(VEHICLE_SYSTEM_ID),
+                    }
+                }
+
+                /// Mounts the card (blocking: init at 400 kHz, then the fast clock); the
+                /// STATUSTEXT to send if it was formatted.
+                pub fn mount(&mut self) -> Option<Outbound> {
+                    let mounted = self.store.mount();
+                    self.store.device().go_fast();
+                    mounted.ok().and_then(|m| m.text()).map(status)
+                }
+
+                /// A received frame: `true` if it was a LOG_* request (served here).
+                pub fn on_frame(&mut self, f: &RawFrame<'_>) -> bool {
+                    self.transfer.on_frame(f, &mut *self.store)
+                }
+
+                /// The queued samples (≤ `LOG_QUEUE_LEN` record sets, ≤ 1 card block each plus
+                /// a directory write every 16 blocks), a fault STATUSTEXT (once), then at most
+                /// `REPLIES_PER_POLL` LOG_ENTRY/LOG_DATA.
+                pub async fn step(&mut self, tx: &mut UartTx<'static, Async>, writer: &mut FrameWriter) {
+                    let params = self.params;
+                    while let Ok(s) = LOG_QUEUE.try_receive() {
+                        self.logger.on_sample(&s, &mut *self.store, |n| parapet_core::params::get(params, n));
+                    }
+                    if let Some(t) = self.store.take_fault() {
+                        let raw = status(t).encode(writer);
+                        let _ = tx.write(raw.raw_bytes()).await;
+                    }
+                    let mut replies: heapless::Vec<LogReply, REPLIES_PER_POLL> = heapless::Vec::new();
+                    self.transfer.poll(&mut *self.store, &mut |r| {
+                        // REPLIES_PER_POLL is both the capacity and the most poll() emits.
+                        let _ = replies.push(r);
+                    });
+                    for r in &replies {
+                        let raw = r.encode(writer);
+                        let _ = tx.write(raw.raw_bytes()).await;
+                    }
+                }
+            }
+        }
     }
 
     #[panic_handler]

@@ -12,6 +12,7 @@
 //! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART2 | RX PA3 (the board's SBUS pad: hardware inverter in front of R2) | RX DMA1 stream 5 (ring buffer) |
 //! | battery voltage (VBAT divider 10 kΩ / 1 kΩ, `BAT_V_DIV` 11) | ADC1 IN15 | PC5 | – (blocking reads, [`BatteryAdc`]) |
 //! | battery current (pad CURR, external sensor, `BAT_A_PER_V`) | ADC1 IN14 | PC4 | – |
+//! | log card, microSD (raw blocks: `log::card`) | SPI3, mode 0, 400 kHz (init) / 21 MHz | SCK PB3, MISO PB4, MOSI PB5, CS PC1 (Betaflight `MATEKF405` `SDCARD_SPI_CS_PIN`) | – (blocking, in the link task) |
 //! | parameter store | FLASH, sectors 10-11 (`storage::F405_RANGE`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
 //! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
@@ -44,6 +45,10 @@ use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+#[cfg(feature = "onboard-log")]
+use crate::log::card::{BlockDevice, BLOCK};
+#[cfg(feature = "onboard-log")]
+use crate::log::ulog::LogError;
 use parapet_core::battery::AdcReading;
 
 /// Companion UART baud rate.
@@ -192,6 +197,62 @@ impl BatteryAdc {
     }
 }
 
+/// SPI clock while the SD card is initialised (SD spec: 100-400 kHz).
+pub const SD_SPI_SLOW_HZ: u32 = 400_000;
+/// SPI clock after the card answered (SD spec: ≤ 25 MHz; APB1 42 MHz / 2).
+pub const SD_SPI_FAST_HZ: u32 = 21_000_000;
+/// The board name the log records (`parapet_board`).
+pub const BOARD_NAME: &str = "matekf405";
+
+/// The SD card's SPI configuration at `hz` (mode 0).
+#[cfg(feature = "onboard-log")]
+pub fn sd_spi_config(hz: u32) -> spi::Config {
+    let mut cfg = spi::Config::default();
+    cfg.mode = spi::MODE_0;
+    cfg.frequency = Hertz(hz);
+    cfg
+}
+
+#[cfg(feature = "onboard-log")]
+type SdDevice = embedded_hal_bus::spi::ExclusiveDevice<
+    Spi<'static, embassy_stm32::mode::Blocking, spi::mode::Master>,
+    Output<'static>,
+    embassy_time::Delay,
+>;
+
+/// The log card: `embedded-sdmmc`'s SPI SD driver on SPI3 as the log store's [`BlockDevice`].
+/// Every call blocks (the card's busy time included): the link task only.
+#[cfg(feature = "onboard-log")]
+pub struct LogCard(embedded_sdmmc::SdCard<SdDevice, embassy_time::Delay>);
+
+#[cfg(feature = "onboard-log")]
+impl LogCard {
+    /// The SPI clock after the card answered ([`SD_SPI_FAST_HZ`]).
+    pub fn go_fast(&mut self) {
+        let _ = self.0.spi(|d| d.bus_mut().set_config(&sd_spi_config(SD_SPI_FAST_HZ)));
+    }
+}
+
+#[cfg(feature = "onboard-log")]
+impl BlockDevice for LogCard {
+    fn read(&mut self, lba: u32, buf: &mut [u8; BLOCK]) -> Result<(), LogError> {
+        let mut b = [embedded_sdmmc::Block::new()];
+        embedded_sdmmc::BlockDevice::read(&self.0, &mut b, embedded_sdmmc::BlockIdx(lba))
+            .map_err(|_| LogError::Device)?;
+        *buf = b[0].contents;
+        Ok(())
+    }
+    fn write(&mut self, lba: u32, buf: &[u8; BLOCK]) -> Result<(), LogError> {
+        let mut b = embedded_sdmmc::Block::new();
+        b.contents = *buf;
+        embedded_sdmmc::BlockDevice::write(&self.0, &[b], embedded_sdmmc::BlockIdx(lba))
+            .map_err(|_| LogError::Device)
+    }
+    fn blocks(&mut self) -> Result<u32, LogError> {
+        embedded_sdmmc::BlockDevice::num_blocks(&self.0).map(|c| c.0).map_err(|_| LogError::Device)
+    }
+}
+
 /// The board's drivers, ready for the tasks.
 pub struct Board {
     /// SPI1 and the MPU-6000's chip select (the inner-loop task builds the driver on them).
@@ -210,6 +271,9 @@ pub struct Board {
     pub flash: Flash<'static, flash::Async>,
     /// The battery inputs.
     pub battery: BatteryAdc,
+    /// The log's microSD card (not yet initialised: the first access does it).
+    #[cfg(feature = "onboard-log")]
+    pub log_card: LogCard,
 }
 
 /// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
@@ -282,5 +346,28 @@ pub fn init(
     let vrefint = adc.enable_vrefint();
     let battery = BatteryAdc { adc, vbat: p.PC5.degrade_adc(), current: p.PC4.degrade_adc(), vrefint };
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery })
+    #[cfg(feature = "onboard-log")]
+    let log_card = {
+        // The SD card: 80 clocks with CS high before its first command (SD spec, SPI mode).
+        let mut sd_bus = Spi::new_blocking(p.SPI3, p.PB3, p.PB5, p.PB4, sd_spi_config(SD_SPI_SLOW_HZ));
+        let _ = sd_bus.blocking_write(&[0xFFu8; 10]);
+        let sd_cs = Output::new(p.PC1, Level::High, Speed::VeryHigh);
+        match embedded_hal_bus::spi::ExclusiveDevice::new(sd_bus, sd_cs, embassy_time::Delay) {
+            Ok(d) => LogCard(embedded_sdmmc::SdCard::new(d, embassy_time::Delay)),
+            Err(e) => match e {},
+        }
+    };
+
+    Ok(Board {
+        imu,
+        imu_ready,
+        motors,
+        link_tx,
+        link_rx,
+        rc_rx,
+        flash,
+        battery,
+        #[cfg(feature = "onboard-log")]
+        log_card,
+    })
 }

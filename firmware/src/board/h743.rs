@@ -54,6 +54,8 @@ use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::{AxisMap, Mpu6000};
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+use crate::log::card::{BlockDevice, BLOCK};
+use crate::log::ulog::LogError;
 use parapet_core::battery::AdcReading;
 
 /// Companion UART baud rate.
@@ -236,6 +238,31 @@ pub fn force_motors_off() {
     }
 }
 
+/// The board name the log records (`parapet_board`).
+pub const BOARD_NAME: &str = "matekh743";
+
+/// The log card of this board: **not implemented** (the microSD is on SDMMC1; no SDMMC driver is
+/// wired yet). Every access fails, so the log store stays off: the link task says so once in a
+/// STATUSTEXT and nothing is logged (docs/bring-up.md §9).
+pub struct LogCard;
+
+impl LogCard {
+    /// No bus clock to change.
+    pub fn go_fast(&mut self) {}
+}
+
+impl BlockDevice for LogCard {
+    fn read(&mut self, _lba: u32, _buf: &mut [u8; BLOCK]) -> Result<(), LogError> {
+        Err(LogError::Device)
+    }
+    fn write(&mut self, _lba: u32, _buf: &[u8; BLOCK]) -> Result<(), LogError> {
+        Err(LogError::Device)
+    }
+    fn blocks(&mut self) -> Result<u32, LogError> {
+        Err(LogError::Device)
+    }
+}
+
 /// The board's drivers, ready for the tasks.
 pub struct Board {
     /// SPI1 and the MPU-6000's chip select.
@@ -254,6 +281,8 @@ pub struct Board {
     pub flash: Flash<'static, flash::Async>,
     /// The battery inputs.
     pub battery: BatteryAdc,
+    /// The log card ([`LogCard`]: none on this board yet).
+    pub log_card: LogCard,
 }
 
 /// The RC receiver's protocol on this board (as on the F405: one receiver).
@@ -345,5 +374,5 @@ pub fn init(
     );
     let battery = BatteryAdc { adc, vbat: p.PC0.degrade_adc(), current: p.PC1.degrade_adc() };
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery })
+    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery, log_card: LogCard })
 }

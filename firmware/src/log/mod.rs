@@ -1,5 +1,6 @@
 //! The onboard flight log: ULog encoding ([`ulog`], `no_std`, fixed buffers), where logs are
-//! kept ([`store`]: the [`store::LogStore`] trait and its RAM ring) and the logger that turns
+//! kept ([`store`]: the [`store::LogStore`] trait and its RAM ring for the QEMU board; [`card`]: a
+//! raw-block store on a microSD card, the F405's) and the logger that turns
 //! telemetry samples into records from arming to disarming at a bounded rate ([`logger`]), and
 //! the MAVLink log download that serves a store ([`transfer`]); [`service`] holds the three
 //! together as a log task owns them.
@@ -21,6 +22,9 @@
 //! | the first record set of a log (header, 6 formats, 3 infos, 71 parameters, 6 subscriptions) | 178 302 |
 //!
 //! With the 60 KiB RAM store of the QEMU board a log holds ≈ 8.7 s at 25 Hz; it is cut there.
+//! On the F405 (cargo feature `onboard-log`, off by default: flash/RAM budget) the link task owns
+//! the logger, the card store and the download (`src/main.rs`);
+//! the H743 has no card driver yet (its log store is always off).
 //!
 //! May import: [`crate::app`] (the telemetry snapshot), [`crate::link`]'s dialect, framing,
 //! frame parser and addressing (for [`transfer`]), `mavlink_core`, `parapet_core`. Not the PIL
