@@ -14,7 +14,7 @@ use std::time::Duration;
 use parapet_sim::cli::sitl::{bridge, run_inprocess_bridged, run_pil_bridged, SitlArgs};
 use parapet_sim::fc::control::run;
 use parapet_sim::fc::pil::PilOptions;
-use parapet_sim::flight::runner::controller_params;
+use parapet_sim::flight::runner::{controller_params, RunConfig, RunOutput};
 use parapet_sim::flight::stack::clock_us;
 use parapet_sim::report::ulog::write_flight_ulog;
 use parapet_tests::pil_support::{config, firmware, is_ci, scene};
@@ -267,17 +267,37 @@ fn mavsdk_mission_plugin_flies_a_global_plan_on_the_pil() {
 /// --gcs-control --api --realtime`; the run must reach the goal, end when the vehicle disarmed
 /// and end landed.
 fn fly_mavsdk_mission_on_the_pil(upload: &str, dir_name: &str) {
-    let Some(py) = python() else { return };
-    let Some(elf) = firmware() else { return };
-    let port = free_port();
     let s = scene();
     let cfg = config(&s, 90.0);
     let wps: Vec<[f64; 3]> = cfg.path.iter().map(|w| [w.x, w.y, w.z]).collect();
+    let wps = serde_json::to_string(&wps).expect("json");
+    let Some(out) = fly_client_on_the_pil("mavsdk_mission.py", &[&wps, upload], &cfg, dir_name) else {
+        return;
+    };
+    let sm = &out.summary;
+    assert!(sm.reached_goal && !sm.collided, "{sm:?}");
+    let last = out.samples.last().expect("samples");
+    assert!(last.pos.z > -0.1, "landed at the end: {:?}", last.pos);
+}
+
+/// Runs the python client `script` (PORT then `args`) against the PIL scene on `parapet pil
+/// --gcs-control --api udp:127.0.0.1:PORT --realtime` until the vehicle disarms; asserts the
+/// client printed PASS and the run ended before `cfg.duration` (disarmed, not the limit).
+/// Returns the flight; `None` when the prerequisites SKIP.
+fn fly_client_on_the_pil(
+    script_name: &str,
+    args: &[&str],
+    cfg: &RunConfig,
+    dir_name: &str,
+) -> Option<RunOutput> {
+    let py = python()?;
+    let elf = firmware()?;
+    let port = free_port();
+    let s = scene();
     let child = Command::new(&py)
-        .arg(script("mavsdk_mission.py"))
+        .arg(script(script_name))
         .arg(port.to_string())
-        .arg(serde_json::to_string(&wps).expect("json"))
-        .arg(upload)
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -288,12 +308,12 @@ fn fly_mavsdk_mission_on_the_pil(upload: &str, dir_name: &str) {
     let b = bridge(&sitl, &dir, true).expect("bridge");
     let mut opts = PilOptions::new(elf);
     opts.gcs_control = true;
-    let r = run_pil_bridged(&s, &cfg, opts, b.clone(), &mut |_| {});
+    let r = run_pil_bridged(&s, cfg, opts, b.clone(), &mut |_| {});
     b.borrow_mut().finish().expect("tlog");
     let o = child.wait_with_output().expect("client ends");
     let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
     println!("{text}");
-    let (out, fig) = r.expect("PIL flight flown by MAVSDK");
+    let (out, fig) = r.expect("PIL flight flown by the ground station");
     for x in out.samples.iter().step_by(250) {
         println!(
             "t {:5.1} pos {:6.2} {:6.2} {:6.2} ref {:6.2} {:6.2} {:6.2} {}",
@@ -308,13 +328,34 @@ fn fly_mavsdk_mission_on_the_pil(upload: &str, dir_name: &str) {
     );
     assert!(
         o.status.success() && text.contains("PASS"),
-        "MAVSDK mission on parapet pil --gcs-control:\n{text}"
+        "{script_name} on parapet pil --gcs-control:\n{text}"
     );
-    assert!(sm.reached_goal && !sm.collided, "{sm:?}");
     assert!(
         sm.sim_time_s < cfg.duration,
         "the run ended when the vehicle disarmed, not at the limit: {sm:?}"
     );
-    let last = out.samples.last().expect("samples");
-    assert!(last.pos.z > -0.1, "landed at the end: {:?}", last.pos);
+    Some(out)
+}
+
+/// QGroundControl's default plan from a pymavlink ground station (`tests/python/gcs_qgc_plan.py`):
+/// NAV_TAKEOFF (here, 1 m), two NAV_WAYPOINTs beside and past the sphere, a DO_CHANGE_SPEED,
+/// NAV_RETURN_TO_LAUNCH, in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT; ARM and MISSION_START from the
+/// ground. MISSION_ITEM_REACHED must come for seqs 0..4 as uploaded, the vehicle must report
+/// Return, come back, land within 0.3 m of its start and disarm by itself; no collision. Before:
+/// the upload was refused MAV_MISSION_UNSUPPORTED (the TAKEOFF item), and the DO item was dropped
+/// so the seq numbers shifted.
+#[test]
+fn pymavlink_flies_qgroundcontrols_default_plan_and_returns() {
+    let s = scene();
+    let cfg = config(&s, 120.0);
+    let plan = r#"{"alt": 1.0, "waypoints": [[1.2, -0.6], [2.4, 0.0]]}"#;
+    let Some(out) = fly_client_on_the_pil("gcs_qgc_plan.py", &[plan], &cfg, "qgc-plan") else { return };
+    let sm = &out.summary;
+    assert!(!sm.collided, "{sm:?}");
+    let start = out.samples.first().expect("samples").pos;
+    let far = out.samples.iter().map(|x| x.pos.x).fold(f64::MIN, f64::max);
+    assert!(far > 2.2, "flew to the second waypoint (north {far:.2} m)");
+    let last = out.samples.last().expect("samples").pos;
+    let d = ((last.x - start.x).powi(2) + (last.y - start.y).powi(2)).sqrt();
+    assert!(d < 0.3 && last.z > -0.1, "landed back at the start {start:?}: {last:?} ({d:.2} m away)");
 }

@@ -170,12 +170,17 @@ pub fn ack(command: u16, result: MavResult, sender: (u8, u8)) -> COMMAND_ACK_DAT
 /// Executes a vehicle command (already checked to be for us) and gives the MAV_RESULT.
 pub fn execute<A: Autopilot>(cmd: &COMMAND_LONG_DATA, now_us: u64, autopilot: &mut A) -> MavResult {
     match decode_command(cmd) {
-        Ok(vc) => match autopilot.command(now_us, vc) {
-            Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
-            Err(CommandRejected::NotNow) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
-            Err(CommandRejected::Invalid) => MavResult::MAV_RESULT_DENIED,
-        },
+        Ok(vc) => result_of(autopilot.command(now_us, vc)),
         Err(r) => r,
+    }
+}
+
+/// The COMMAND_ACK result of the cascade's answer to a command.
+pub fn result_of(r: Result<(), CommandRejected>) -> MavResult {
+    match r {
+        Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+        Err(CommandRejected::NotNow) => MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+        Err(CommandRejected::Invalid) => MavResult::MAV_RESULT_DENIED,
     }
 }
 

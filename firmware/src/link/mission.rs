@@ -1,32 +1,52 @@
 //! Mission protocol, vehicle side: upload MISSION_COUNT → MISSION_REQUEST_INT (seq 0..n−1) ↔
 //! MISSION_ITEM_INT → MISSION_ACK; download MISSION_REQUEST_LIST → MISSION_COUNT, then
-//! MISSION_REQUEST_INT(seq) → MISSION_ITEM_INT (the path the cascade accepted last); clear
-//! MISSION_CLEAR_ALL or MISSION_COUNT 0 → the path is dropped, MISSION_ACK ACCEPTED.
+//! MISSION_REQUEST_INT(seq) → MISSION_ITEM_INT (the plan the cascade accepted last); clear
+//! MISSION_CLEAR_ALL or MISSION_COUNT 0 → the plan is dropped, MISSION_ACK ACCEPTED.
 //!
 //! `mission_type`: only `MAV_MISSION_TYPE_MISSION` is stored. A geofence or rally upload or
 //! download is answered MISSION_ACK `MAV_MISSION_UNSUPPORTED` (with that `mission_type`) and
 //! does not touch the mission; MISSION_CLEAR_ALL with `MAV_MISSION_TYPE_ALL` clears the mission
 //! (there is nothing else to clear), with fence/rally it is refused the same way.
 //!
-//! Accepted items: `MAV_CMD_NAV_WAYPOINT` in `MAV_FRAME_LOCAL_NED` (x, y = metres × 10⁴ as int32,
-//! per the MAVLink local-frame convention for MISSION_ITEM_INT; z = metres, down positive), or in
-//! a global frame as QGroundControl and MAVSDK's `mission` plugin send them (PX4 accepts only
-//! these): `MAV_FRAME_GLOBAL` / `GLOBAL_INT` (z = m AMSL) and `GLOBAL_RELATIVE_ALT` /
-//! `GLOBAL_RELATIVE_ALT_INT` (z = m above home); x, y = lat, lon × 10⁷ (MISSION_ITEM_INT carries
-//! them as integers in every frame). They are converted to local NED around home by
-//! [`crate::link::geo`] (lat outside ±90° or > 10 km from home → INVALID_PARAM5, lon →
-//! INVALID_PARAM6, altitude → INVALID_PARAM7). Non-navigation items (DO_* such as
-//! DO_CHANGE_SPEED, gimbal, camera and video commands) are accepted and ignored, as the path has
-//! no place for them; NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH and other NAV/CONDITION items
-//! are refused MAV_MISSION_UNSUPPORTED (the mission model is a waypoint path: takeoff, landing
-//! and return are commands). A download returns the waypoints (not the ignored items) in the
-//! frame each was uploaded in (one byte per waypoint). The path is handed to the cascade only
-//! when the last item arrived; the MISSION_ACK then reports whether the cascade took it.
+//! **Items** ([`Step`]; positions in `MAV_FRAME_LOCAL_NED`: x, y = metres × 10⁴ as int32, per
+//! the MAVLink local-frame convention for MISSION_ITEM_INT, z = metres down; or in a global
+//! frame as QGroundControl and MAVSDK's `mission` plugin send them: `MAV_FRAME_GLOBAL` /
+//! `GLOBAL_INT` (z = m AMSL) and `GLOBAL_RELATIVE_ALT` / `GLOBAL_RELATIVE_ALT_INT` (z = m above
+//! home), x, y = lat, lon × 10⁷, converted to local NED around home by [`crate::link::geo`]: lat
+//! outside ±90° or > 10 km from home → INVALID_PARAM5, lon → INVALID_PARAM6, altitude →
+//! INVALID_PARAM7):
+//! * `NAV_WAYPOINT` (16): a waypoint of the path.
+//! * `NAV_TAKEOFF` (22), only as the first navigation item (PX4's rule): climb to z (> 0 m above
+//!   home, else INVALID_PARAM7) where the vehicle is; x = y = 0 (QGroundControl's "here") or a
+//!   position: then fly there at that altitude as the path's first waypoint. Started on the
+//!   ground (armed) the mission begins with the cascade's takeoff to that height (so the height
+//!   must be within its takeoff limit, or MISSION_START is DENIED); started airborne the climb
+//!   is skipped (PX4 climbs at the current position; here the path's first leg does).
+//! * `NAV_LAND` (21): x = y = 0 → land where the last waypoint was reached; a position → fly there
+//!   at the previous navigation item's altitude (refused UNSUPPORTED without one), then land.
+//!   The cascade's Land mode lands and disarms on the ground.
+//! * `NAV_RETURN_TO_LAUNCH` (20): Return mode, as the low-battery failsafe's return (the
+//!   breadcrumbs back to home, then land and disarm).
+//! * LAND and RTL end the flight: only ignored items may follow them (a navigation item after
+//!   them → UNSUPPORTED).
+//! * Non-navigation items (DO_* such as DO_CHANGE_SPEED, gimbal, camera and video commands) are
+//!   accepted, stored (a download returns them) and not acted on (reported reached with the
+//!   navigation item before them). Other NAV/CONDITION items → MAV_MISSION_UNSUPPORTED.
 //!
-//! Capacity: [`MAX_WAYPOINTS`] items (MISSION_COUNT above that → MAV_MISSION_NO_SPACE). A stalled
+//! Every item keeps the ground station's seq: MISSION_CURRENT / MISSION_ITEM_REACHED report the
+//! uploaded seq ([`MissionUpload::path_seq`], [`crate::link::mission_run`]) and a download returns
+//! each item with its command, frame, x, y and z as uploaded (param1–4 are not stored: a
+//! download returns them 0). The plan's path (waypoints, a takeoff position, a landing approach)
+//! is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
+//! whether the cascade took it. The non-path items run in [`crate::link::mission_run`].
+//!
+//! Capacity: [`MAX_WAYPOINTS`] items of any kind (MISSION_COUNT above that →
+//! MAV_MISSION_NO_SPACE), 20 bytes each, twice (the upload and the accepted plan). A stalled
 //! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
-//! (MAV_MISSION_OPERATION_CANCELLED) after [`MAX_RETRIES`] re-requests.
+//! (MAV_MISSION_OPERATION_CANCELLED) after [`MAX_RETRIES`] re-requests. Every walk over the
+//! items is O([`MAX_WAYPOINTS`]).
 
+use crate::link::command::id;
 use crate::link::dialect::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
@@ -35,15 +55,17 @@ use crate::link::geo::{self, AltRef, GeoError};
 use heapless::Vec as HVec;
 use parapet_core::Vec3;
 
-/// Most waypoints one upload may carry.
+/// Most items one upload may carry.
 pub const MAX_WAYPOINTS: usize = 64;
 /// Re-request period of a stalled upload, µs.
 pub const RETRY_INTERVAL_US: u64 = 500_000;
 /// Re-requests before the upload is cancelled.
 pub const MAX_RETRIES: u8 = 4;
+use parapet_core::wire::ids::local_xy_from_wire;
 /// Scale of MISSION_ITEM_INT x/y in local frames (int32 = metres × 10⁴).
 pub use parapet_core::wire::ids::LOCAL_XY_SCALE;
-use parapet_core::wire::ids::{local_xy_from_wire, local_xy_to_wire};
+
+const RETURN_TO_LAUNCH: u16 = MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16;
 
 /// What the vehicle must send (or do) after an input.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,49 +98,60 @@ enum State {
     Receiving { count: u16, next: u16, partner_sys: u8, partner_comp: u8, last_us: u64, retries: u8 },
 }
 
-/// The frame a waypoint was uploaded in (a download returns it in the same frame).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-enum ItemFrame {
-    LocalNed,
-    Global,
-    GlobalInt,
-    GlobalRelativeAlt,
-    GlobalRelativeAltInt,
+/// One item as the ground station uploaded it (what a download returns).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Item {
+    x: i32,
+    y: i32,
+    z: f32,
+    command: u16,
+    frame: MavFrame,
 }
 
-// MISSION_ITEM_INT still carries the *_INT frames (MAVSDK and QGroundControl send them).
-#[allow(deprecated)]
-impl ItemFrame {
-    fn from_wire(f: MavFrame) -> Option<Self> {
-        Some(match f {
-            MavFrame::MAV_FRAME_LOCAL_NED => Self::LocalNed,
-            MavFrame::MAV_FRAME_GLOBAL => Self::Global,
-            MavFrame::MAV_FRAME_GLOBAL_INT => Self::GlobalInt,
-            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT => Self::GlobalRelativeAlt,
-            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => Self::GlobalRelativeAltInt,
-            _ => return None,
-        })
-    }
+/// What one navigation item makes the vehicle do (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// Climb to `height_m` above home, then fly to `at` (NED) when given.
+    Takeoff {
+        /// Height above home, m (> 0).
+        height_m: f32,
+        /// Position to fly to after the climb (NED, at the takeoff altitude).
+        at: Option<Vec3>,
+    },
+    /// Fly to this point (NED, m).
+    Waypoint(Vec3),
+    /// Fly to `at` (north, east, m) at the previous altitude when given, then land.
+    Land {
+        /// Landing position, north and east of home, m.
+        at: Option<(f32, f32)>,
+    },
+    /// Return mode (back along the breadcrumbs to home, land).
+    Return,
+}
 
-    fn to_wire(self) -> MavFrame {
-        match self {
-            Self::LocalNed => MavFrame::MAV_FRAME_LOCAL_NED,
-            Self::Global => MavFrame::MAV_FRAME_GLOBAL,
-            Self::GlobalInt => MavFrame::MAV_FRAME_GLOBAL_INT,
-            Self::GlobalRelativeAlt => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-            Self::GlobalRelativeAltInt => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        }
-    }
+/// How the plan ends after its path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EndAction {
+    /// NAV_LAND.
+    Land,
+    /// NAV_RETURN_TO_LAUNCH.
+    Return,
+}
 
-    /// Altitude reference of a global frame; `None` for the local frame.
-    fn alt_ref(self) -> Option<AltRef> {
-        match self {
-            Self::LocalNed => None,
-            Self::Global | Self::GlobalInt => Some(AltRef::Amsl),
-            Self::GlobalRelativeAlt | Self::GlobalRelativeAltInt => Some(AltRef::Home),
-        }
-    }
+/// The accepted plan's non-path items (what [`crate::link::mission_run`] runs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Plan {
+    /// Items uploaded (every kind).
+    pub count: u16,
+    /// The takeoff item: (seq, height above home in m).
+    pub takeoff: Option<(u16, f32)>,
+    /// Waypoints of the path handed to the cascade.
+    pub path_len: u16,
+    /// The item after the path: (seq, what it does).
+    pub end: Option<(u16, EndAction)>,
+    /// The path's last waypoint is the LAND item's approach (reaching it is not reaching the
+    /// LAND item).
+    pub land_approach: bool,
 }
 
 /// `true` for commands a mission may carry that do not move the vehicle along the path
@@ -130,11 +163,9 @@ fn is_ignored_command(cmd: u16) -> bool {
 /// Vehicle side of the mission upload.
 pub struct MissionUpload {
     state: State,
-    items: HVec<Vec3, MAX_WAYPOINTS>,
-    frames: HVec<ItemFrame, MAX_WAYPOINTS>,
-    /// The path the cascade accepted last (what a download returns).
-    stored: HVec<Vec3, MAX_WAYPOINTS>,
-    stored_frames: HVec<ItemFrame, MAX_WAYPOINTS>,
+    items: HVec<Item, MAX_WAYPOINTS>,
+    /// The plan the cascade accepted last (what a download returns).
+    stored: HVec<Item, MAX_WAYPOINTS>,
     partner: (u8, u8),
 }
 
@@ -145,16 +176,9 @@ impl Default for MissionUpload {
 }
 
 impl MissionUpload {
-    /// Idle, no path.
+    /// Idle, no plan.
     pub const fn new() -> Self {
-        Self {
-            state: State::Idle,
-            items: HVec::new(),
-            frames: HVec::new(),
-            stored: HVec::new(),
-            stored_frames: HVec::new(),
-            partner: (0, 0),
-        }
+        Self { state: State::Idle, items: HVec::new(), stored: HVec::new(), partner: (0, 0) }
     }
 
     /// `true` while an upload is in progress.
@@ -162,20 +186,50 @@ impl MissionUpload {
         matches!(self.state, State::Receiving { .. })
     }
 
-    /// The waypoints of the last completed upload, NED, m.
-    pub fn path(&self) -> &[Vec3] {
-        &self.items
+    /// The path of the last completed upload (waypoints, takeoff position, landing approach),
+    /// NED, m.
+    pub fn path(&self) -> HVec<Vec3, MAX_WAYPOINTS> {
+        let mut out = HVec::new();
+        walk(&self.items, |_, p| {
+            let _ = out.push(p); // at most one point per item: never full
+        });
+        out
     }
 
-    /// The path the cascade accepted last (download), NED, m.
-    pub fn stored(&self) -> &[Vec3] {
-        &self.stored
+    /// The accepted plan's summary.
+    pub fn plan(&self) -> Plan {
+        walk(&self.stored, |_, _| {})
     }
 
-    /// The cascade took [`MissionUpload::path`]: it becomes the stored (downloadable) path.
+    /// The uploaded seq of the accepted plan's path waypoint `k`.
+    pub fn path_seq(&self, k: u16) -> Option<u16> {
+        let mut found = None;
+        let mut i = 0u16;
+        walk(&self.stored, |seq, _| {
+            if i == k {
+                found = Some(seq);
+            }
+            i = i.saturating_add(1);
+        });
+        found
+    }
+
+    /// The last seq done when item `seq` of the accepted plan is: `seq` and the ignored items
+    /// right after it (up to the next navigation item, or the plan's end).
+    pub fn done_through(&self, seq: u16) -> u16 {
+        let after = self.stored.iter().enumerate().skip(usize::from(seq) + 1);
+        let next_nav = after.filter(|(_, it)| matches!(step_of(it), Ok(Some(_)))).map(|(k, _)| k).next();
+        next_nav.map_or(self.stored_len().saturating_sub(1), |k| (k as u16).saturating_sub(1)).max(seq)
+    }
+
+    /// Items of the accepted plan.
+    pub fn stored_len(&self) -> u16 {
+        self.stored.len() as u16
+    }
+
+    /// The cascade took [`MissionUpload::path`]: the upload becomes the accepted plan.
     pub fn accept(&mut self) {
         self.stored.clone_from(&self.items);
-        self.stored_frames.clone_from(&self.frames);
     }
 
     /// MISSION_ACK addressed to the last upload partner.
@@ -192,7 +246,7 @@ impl MissionUpload {
         })
     }
 
-    /// MISSION_REQUEST_LIST of `mission_type` from (`sys`, `comp`): the stored path's count,
+    /// MISSION_REQUEST_LIST of `mission_type` from (`sys`, `comp`): the accepted plan's count,
     /// or UNSUPPORTED for fence/rally.
     pub fn on_request_list(&self, mission_type: MavMissionType, sys: u8, comp: u8) -> DownloadReply {
         if mission_type != MavMissionType::MAV_MISSION_TYPE_MISSION {
@@ -204,7 +258,7 @@ impl MissionUpload {
             ));
         }
         DownloadReply::Count(MISSION_COUNT_DATA {
-            count: self.stored.len() as u16,
+            count: self.stored_len(),
             target_system: sys,
             target_component: comp,
             mission_type,
@@ -213,8 +267,7 @@ impl MissionUpload {
     }
 
     /// MISSION_REQUEST_INT(`seq`) of `mission_type` from (`sys`, `comp`): the stored item as
-    /// MISSION_ITEM_INT (NAV_WAYPOINT in the frame it was uploaded in: LOCAL_NED x/y = m × 10⁴,
-    /// global x/y = lat/lon × 10⁷), or a refusal.
+    /// uploaded (command, frame, x, y, z; params 0), or a refusal.
     pub fn on_request_item(
         &self,
         seq: u16,
@@ -230,7 +283,7 @@ impl MissionUpload {
                 mission_type,
             ));
         }
-        let Some(w) = self.stored.get(usize::from(seq)) else {
+        let Some(it) = self.stored.get(usize::from(seq)) else {
             return DownloadReply::Ack(ack(
                 sys,
                 comp,
@@ -238,24 +291,15 @@ impl MissionUpload {
                 mission_type,
             ));
         };
-        let frame = self.stored_frames.get(usize::from(seq)).copied().unwrap_or(ItemFrame::LocalNed);
-        let (x, y, z) = match frame.alt_ref() {
-            None => (local_xy_to_wire(f64::from(w.x)), local_xy_to_wire(f64::from(w.y)), w.z),
-            Some(alt_ref) => {
-                // Stored waypoints came from global_to_ned, so they are in range.
-                let (lat, lon, _) = geo::ned_to_global(*w).unwrap_or((geo::HOME.0, geo::HOME.1, 0));
-                (lat, lon, geo::altitude_m(w.z, alt_ref))
-            }
-        };
         DownloadReply::Item(MISSION_ITEM_INT_DATA {
-            x,
-            y,
-            z,
+            x: it.x,
+            y: it.y,
+            z: it.z,
             seq,
-            command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
+            command: it.command,
             target_system: sys,
             target_component: comp,
-            frame: frame.to_wire(),
+            frame: it.frame,
             current: u8::from(seq == 0),
             autocontinue: 1,
             mission_type,
@@ -266,7 +310,6 @@ impl MissionUpload {
     fn fail(&mut self, result: MavMissionResult) -> MissionReply {
         self.state = State::Idle;
         self.items.clear();
-        self.frames.clear();
         MissionReply::Ack(self.ack_for(result))
     }
 
@@ -283,7 +326,6 @@ impl MissionUpload {
         }
         self.partner = (sys, comp);
         self.items.clear();
-        self.frames.clear();
         if usize::from(msg.count) > MAX_WAYPOINTS {
             return self.fail(MavMissionResult::MAV_MISSION_NO_SPACE);
         }
@@ -324,18 +366,12 @@ impl MissionUpload {
         if msg.seq > next {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         }
-        if is_ignored_command(msg.command) {
-            // Accepted, not stored (the path has no place for it).
-        } else if msg.command != crate::link::command::id::WAYPOINT {
-            return Some(self.fail(MavMissionResult::MAV_MISSION_UNSUPPORTED));
-        } else {
-            let wp = match waypoint(msg) {
-                Ok(wp) => wp,
-                Err(e) => return Some(self.fail(e)),
-            };
-            if self.items.push(wp.0).is_err() || self.frames.push(wp.1).is_err() {
-                return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
-            }
+        let it = Item { x: msg.x, y: msg.y, z: msg.z, command: msg.command, frame: msg.frame };
+        if let Err(e) = step_of(&it).and_then(|s| s.map_or(Ok(()), |s| check_order(&self.items, s))) {
+            return Some(self.fail(e));
+        }
+        if self.items.push(it).is_err() {
+            return Some(self.fail(MavMissionResult::MAV_MISSION_NO_SPACE));
         }
         let next = next + 1;
         if next >= count {
@@ -368,30 +404,140 @@ impl MissionUpload {
         Some(self.request(next))
     }
 
-    /// MISSION_CLEAR_ALL: drops the stored path and any upload.
+    /// MISSION_CLEAR_ALL: drops the accepted plan and any upload.
     pub fn clear(&mut self) {
         self.state = State::Idle;
         self.items.clear();
-        self.frames.clear();
         self.stored.clear();
-        self.stored_frames.clear();
     }
 }
 
-/// The NED waypoint of a NAV_WAYPOINT item and its frame, or the refusal.
-fn waypoint(msg: &MISSION_ITEM_INT_DATA) -> Result<(Vec3, ItemFrame), MavMissionResult> {
-    let frame = ItemFrame::from_wire(msg.frame).ok_or(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME)?;
-    let Some(alt_ref) = frame.alt_ref() else {
-        if !msg.z.is_finite() {
-            return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+/// The altitude reference of a supported position frame (`None`: the local frame); `Err` for
+/// other frames.
+// MISSION_ITEM_INT still carries the *_INT frames (MAVSDK and QGroundControl send them).
+#[allow(deprecated)]
+fn alt_ref(frame: MavFrame) -> Result<Option<AltRef>, MavMissionResult> {
+    match frame {
+        MavFrame::MAV_FRAME_LOCAL_NED => Ok(None),
+        MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT => Ok(Some(AltRef::Amsl)),
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
+            Ok(Some(AltRef::Home))
         }
-        return Ok((Vec3::new(local_xy_from_wire(msg.x), local_xy_from_wire(msg.y), msg.z), frame));
-    };
-    geo::global_to_ned(msg.x, msg.y, msg.z, alt_ref).map(|p| (p, frame)).map_err(|e| match e {
+        _ => Err(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME),
+    }
+}
+
+fn geo_refusal(e: GeoError) -> MavMissionResult {
+    match e {
         GeoError::Latitude => MavMissionResult::MAV_MISSION_INVALID_PARAM5_X,
         GeoError::Longitude => MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y,
         GeoError::Altitude => MavMissionResult::MAV_MISSION_INVALID_PARAM7,
-    })
+    }
+}
+
+/// The NED point of an item's x, y, z, or the refusal.
+fn position(it: &Item) -> Result<Vec3, MavMissionResult> {
+    let Some(r) = alt_ref(it.frame)? else {
+        if !it.z.is_finite() {
+            return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+        }
+        return Ok(Vec3::new(local_xy_from_wire(it.x), local_xy_from_wire(it.y), it.z));
+    };
+    geo::global_to_ned(it.x, it.y, it.z, r).map_err(geo_refusal)
+}
+
+/// The NED down coordinate of an item's altitude alone, m.
+fn down_of(it: &Item) -> Result<f32, MavMissionResult> {
+    match alt_ref(it.frame)? {
+        None if it.z.is_finite() => Ok(it.z),
+        None => Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7),
+        Some(r) => geo::global_to_ned(geo::HOME.0, geo::HOME.1, it.z, r).map(|p| p.z).map_err(geo_refusal),
+    }
+}
+
+/// The horizontal position of a TAKEOFF/LAND item: `None` for x = y = 0 ("here").
+fn horizontal(it: &Item) -> Result<Option<(f32, f32)>, MavMissionResult> {
+    if it.x == 0 && it.y == 0 {
+        return Ok(None);
+    }
+    position(&Item { z: 0.0, ..*it }).map(|p| Some((p.x, p.y)))
+}
+
+/// What item `it` makes the vehicle do (`None`: accepted and ignored), or the refusal.
+fn step_of(it: &Item) -> Result<Option<Step>, MavMissionResult> {
+    if is_ignored_command(it.command) {
+        return Ok(None);
+    }
+    match it.command {
+        id::WAYPOINT => position(it).map(|p| Some(Step::Waypoint(p))),
+        id::TAKEOFF => {
+            let down = down_of(it)?;
+            if down.is_nan() || down >= 0.0 {
+                return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+            }
+            let at = horizontal(it)?.map(|(n, e)| Vec3::new(n, e, down));
+            Ok(Some(Step::Takeoff { height_m: -down, at }))
+        }
+        id::LAND => Ok(Some(Step::Land { at: horizontal(it)? })),
+        RETURN_TO_LAUNCH => Ok(Some(Step::Return)),
+        _ => Err(MavMissionResult::MAV_MISSION_UNSUPPORTED),
+    }
+}
+
+/// Refuses `step` after the items `before` (see the module docs: TAKEOFF first, nothing that
+/// moves after LAND/RTL, a LAND position needs an altitude before it).
+fn check_order(before: &[Item], step: Step) -> Result<(), MavMissionResult> {
+    let mut nav = false;
+    let mut ended = false;
+    for s in before.iter().filter_map(|it| step_of(it).ok().flatten()) {
+        nav = true;
+        ended |= matches!(s, Step::Land { .. } | Step::Return);
+    }
+    let bad = ended
+        || (nav && matches!(step, Step::Takeoff { .. }))
+        || (!nav && matches!(step, Step::Land { at: Some(_) }));
+    if bad {
+        Err(MavMissionResult::MAV_MISSION_UNSUPPORTED)
+    } else {
+        Ok(())
+    }
+}
+
+/// Walks accepted items: calls `point(seq, p)` for every path point, in order, and returns the
+/// plan's summary. Items that do not decode (never stored) are skipped.
+fn walk(items: &[Item], mut point: impl FnMut(u16, Vec3)) -> Plan {
+    let mut plan = Plan { count: items.len() as u16, ..Plan::default() };
+    let mut last_z: Option<f32> = None;
+    for (k, it) in items.iter().enumerate() {
+        let seq = k as u16;
+        let Ok(Some(step)) = step_of(it) else { continue };
+        let p = match step {
+            Step::Takeoff { height_m, at } => {
+                plan.takeoff = Some((seq, height_m));
+                last_z = Some(-height_m);
+                at
+            }
+            Step::Waypoint(p) => {
+                last_z = Some(p.z);
+                Some(p)
+            }
+            Step::Land { at } => {
+                plan.end = Some((seq, EndAction::Land));
+                let approach = at.zip(last_z).map(|((n, e), z)| Vec3::new(n, e, z));
+                plan.land_approach = approach.is_some();
+                approach
+            }
+            Step::Return => {
+                plan.end = Some((seq, EndAction::Return));
+                None
+            }
+        };
+        if let Some(p) = p {
+            plan.path_len = plan.path_len.saturating_add(1);
+            point(seq, p);
+        }
+    }
+    plan
 }
 
 /// MISSION_ACK to (`sys`, `comp`).
@@ -543,7 +689,7 @@ mod tests {
         assert!(matches!(m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8),
             DownloadReply::Count(c) if c.count == 1));
         m.clear();
-        assert!(m.stored().is_empty());
+        assert_eq!(m.stored_len(), 0);
     }
 
     fn global(seq: u16, frame: MavFrame, lat: i32, lon: i32, z: f32) -> MISSION_ITEM_INT_DATA {
@@ -593,11 +739,16 @@ mod tests {
             assert!((got - want).norm() < 0.01, "{got:?} vs {want:?}");
         }
         m.accept();
-        let waypoints = [&items[0], &items[2], &items[3], &items[4], &items[5]];
-        for (seq, sent) in waypoints.iter().enumerate() {
+        // Every item comes back with its seq, command and frame (before: the DO_CHANGE_SPEED
+        // was dropped and the waypoints renumbered 0..4).
+        for (seq, sent) in items.iter().enumerate() {
             match m.on_request_item(seq as u16, MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8) {
                 DownloadReply::Item(i) => {
-                    assert_eq!((i.frame, i.x, i.y), (sent.frame, sent.x, sent.y), "item {seq}");
+                    assert_eq!(
+                        (i.seq, i.command, i.frame, i.x, i.y),
+                        (seq as u16, sent.command, sent.frame, sent.x, sent.y),
+                        "item {seq}"
+                    );
                     assert!((i.z - sent.z).abs() < 1e-3, "item {seq}: {} vs {}", i.z, sent.z);
                 }
                 other => panic!("{other:?}"),
@@ -620,17 +771,17 @@ mod tests {
             ),
             (
                 MISSION_ITEM_INT_DATA {
-                    command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
+                    command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
                     ..global(0, rel, HOME.0, HOME.1, 5.0)
                 },
                 MavMissionResult::MAV_MISSION_UNSUPPORTED,
             ),
             (
                 MISSION_ITEM_INT_DATA {
-                    command: MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16,
-                    ..global(0, rel, HOME.0, HOME.1, 5.0)
+                    command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
+                    ..global(0, rel, 0, 0, 0.0)
                 },
-                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                MavMissionResult::MAV_MISSION_INVALID_PARAM7,
             ),
         ] {
             let mut m = MissionUpload::new();
@@ -638,5 +789,123 @@ mod tests {
             assert_eq!(refusal(m.on_item(&it, 255, 190, 0)), want, "{it:?}");
             assert!(m.path().is_empty() && !m.is_receiving());
         }
+    }
+
+    fn cmd(seq: u16, command: MavCmd, lat: i32, lon: i32, z: f32) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            command: command as u16,
+            ..global(seq, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, lat, lon, z)
+        }
+    }
+
+    fn upload(m: &mut MissionUpload, items: &[MISSION_ITEM_INT_DATA]) -> Option<MissionReply> {
+        m.on_count(&count(items.len() as u16), 255, 190, 0);
+        let mut last = None;
+        for it in items {
+            last = m.on_item(it, 255, 190, 0);
+            if matches!(last, Some(MissionReply::Ack(_))) {
+                break;
+            }
+        }
+        last
+    }
+
+    /// QGroundControl's default plan shape: TAKEOFF (here), waypoints, a DO_CHANGE_SPEED, RTL.
+    /// Before: the TAKEOFF was refused MAV_MISSION_UNSUPPORTED.
+    #[test]
+    fn takeoff_waypoints_and_return_keep_their_seqs() {
+        use crate::link::geo::HOME;
+        use MavCmd::*;
+        let items = [
+            cmd(0, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.5),
+            cmd(1, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0),
+            cmd(2, MAV_CMD_DO_CHANGE_SPEED, 0, 0, 0.0),
+            cmd(3, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1 + 265, 2.0),
+            cmd(4, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0),
+            cmd(5, MAV_CMD_DO_SET_CAM_TRIGG_DIST, 0, 0, 0.0),
+        ];
+        assert_eq!(upload(&mut m_new(), &items), Some(MissionReply::Complete));
+        let mut m = m_new();
+        upload(&mut m, &items);
+        let path = m.path();
+        assert_eq!(path.len(), 2, "the takeoff climbs where the vehicle is: no path point");
+        assert!((path[0] - Vec3::new(2.0, 0.0, -2.0)).norm() < 0.01, "{:?}", path[0]);
+        assert!((path[1] - Vec3::new(2.0, 2.0, -2.0)).norm() < 0.01, "{:?}", path[1]);
+        m.accept();
+        let plan = m.plan();
+        assert_eq!(plan.count, 6);
+        assert_eq!(plan.takeoff, Some((0, 2.5)));
+        assert_eq!(plan.end, Some((4, EndAction::Return)));
+        assert_eq!((plan.path_len, plan.land_approach), (2, false));
+        assert_eq!((m.path_seq(0), m.path_seq(1), m.path_seq(2)), (Some(1), Some(3), None));
+        // Done through: the DO items after a navigation item go with it.
+        assert_eq!(
+            (m.done_through(0), m.done_through(1), m.done_through(3), m.done_through(4)),
+            (0, 2, 3, 5)
+        );
+    }
+
+    fn m_new() -> MissionUpload {
+        MissionUpload::new()
+    }
+
+    /// LAND with a position gets an approach waypoint at the previous altitude; LAND "here"
+    /// none; TAKEOFF with a position flies there at its altitude.
+    #[test]
+    fn land_and_takeoff_positions() {
+        use crate::link::geo::HOME;
+        use MavCmd::*;
+        let mut m = m_new();
+        let items = [
+            cmd(0, MAV_CMD_NAV_TAKEOFF, HOME.0 + 90, HOME.1, 3.0),
+            cmd(1, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0),
+            cmd(2, MAV_CMD_NAV_LAND, HOME.0, HOME.1 + 133, 0.0),
+        ];
+        assert_eq!(upload(&mut m, &items), Some(MissionReply::Complete));
+        let path = m.path();
+        assert_eq!(path.len(), 3);
+        assert!((path[0] - Vec3::new(1.0, 0.0, -3.0)).norm() < 0.01, "{:?}", path[0]);
+        assert!(
+            (path[2] - Vec3::new(0.0, 1.0, -2.0)).norm() < 0.01,
+            "approach at the last altitude: {:?}",
+            path[2]
+        );
+        m.accept();
+        let plan = m.plan();
+        assert_eq!((plan.end, plan.land_approach), (Some((2, EndAction::Land)), true));
+        assert_eq!(m.path_seq(2), Some(2));
+        let here = [cmd(0, MAV_CMD_NAV_TAKEOFF, 0, 0, 3.0), cmd(1, MAV_CMD_NAV_LAND, 0, 0, 0.0)];
+        assert_eq!(upload(&mut m, &here), Some(MissionReply::Complete));
+        assert!(m.path().is_empty());
+        m.accept();
+        assert_eq!((m.plan().end, m.plan().land_approach), (Some((1, EndAction::Land)), false));
+    }
+
+    /// PX4's ordering rules: TAKEOFF only first, nothing that moves after LAND/RTL, a LAND
+    /// position needs an altitude before it.
+    #[test]
+    fn item_order_is_checked() {
+        use crate::link::geo::HOME;
+        use MavCmd::*;
+        let wp = cmd(0, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0);
+        for items in [
+            vec![wp.clone(), cmd(1, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.0)],
+            vec![
+                cmd(0, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0),
+                MISSION_ITEM_INT_DATA { seq: 1, ..wp.clone() },
+            ],
+            vec![cmd(0, MAV_CMD_NAV_LAND, 0, 0, 0.0), cmd(1, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0)],
+            vec![cmd(0, MAV_CMD_NAV_LAND, HOME.0 + 90, HOME.1, 0.0)],
+        ] {
+            let mut m = m_new();
+            assert_eq!(
+                refusal(upload(&mut m, &items)),
+                MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                "{items:?}"
+            );
+        }
+        let mut m = m_new();
+        let ok = [cmd(0, MAV_CMD_DO_CHANGE_SPEED, 0, 0, 0.0), cmd(1, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.0)];
+        assert_eq!(upload(&mut m, &ok), Some(MissionReply::Complete), "DO items may come first");
     }
 }

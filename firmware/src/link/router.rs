@@ -52,6 +52,7 @@ use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::manual_control::{ManualControl, ManualControlStats};
 use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
 use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
+use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::{ObstacleAssembler, ObstacleStats};
 use crate::link::outbound::Outbound;
 use crate::link::services::{MissionProgress, Services};
@@ -130,6 +131,8 @@ struct Router {
     own_system: u8,
     fix_clock: FixClock,
     mission: MissionUpload,
+    /// Runs the plan's takeoff / land / return items ([`crate::link::mission_run`]).
+    run: MissionRun,
     obstacles: ObstacleAssembler,
     replies: Deque<Outbound, REPLY_QUEUE_LEN>,
     hil: Option<HilSample>,
@@ -270,7 +273,12 @@ impl Router {
                 return;
             }
             _ => {
-                let r = execute(cmd, now_us, ap);
+                let r = match crate::link::command::decode_command(cmd) {
+                    Ok(VehicleCommand::StartMission) => {
+                        crate::link::command::result_of(self.run.start(&self.mission, now_us, ap))
+                    }
+                    _ => execute(cmd, now_us, ap),
+                };
                 self.mission_mode_flies(cmd, r, now_us, ap);
                 (r, false)
             }
@@ -282,10 +290,11 @@ impl Router {
     }
 
     /// PX4's AUTO.MISSION: an accepted DO_SET_MODE to Mission (PX4 4/4, what MAVSDK's
-    /// `start_mission` sends) while airborne and holding or taking off, with a mission uploaded,
-    /// also starts it (a refusal leaves the mode change standing). Other commands: nothing.
+    /// `start_mission` sends) while airborne and holding or taking off, or armed on the ground
+    /// with a plan that takes off, with a mission uploaded, also starts it
+    /// ([`MissionRun::start`]; a refusal leaves the mode change standing). Other commands: nothing.
     fn mission_mode_flies<A: Autopilot>(
-        &self,
+        &mut self,
         cmd: &COMMAND_LONG_DATA,
         r: MavResult,
         now_us: u64,
@@ -295,12 +304,13 @@ impl Router {
             && r == MavResult::MAV_RESULT_ACCEPTED
             && crate::link::command::decode_command(cmd) == Ok(VehicleCommand::SetMode(FlightMode::Mission));
         let s = ap.telemetry();
+        let on_ground_takes_off = s.phase == FlightPhase::Idle && MissionRun::takes_off(&self.mission);
         if to_mission
-            && !self.mission.stored().is_empty()
+            && self.mission.stored_len() > 0
             && s.armed
-            && matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff)
+            && (matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff) || on_ground_takes_off)
         {
-            let _ = ap.command(now_us, VehicleCommand::StartMission);
+            let _ = self.run.start(&self.mission, now_us, ap);
         }
     }
 
@@ -337,14 +347,15 @@ impl Router {
         }
     }
 
-    /// Waypoints of the accepted mission (the item being flown comes from the snapshot).
-    fn mission_progress(&self) -> MissionProgress {
-        MissionProgress { total: self.mission.stored().len().min(usize::from(u16::MAX)) as u16 }
+    /// The accepted plan's progress (uploaded seq numbers).
+    fn mission_progress<A: Autopilot>(&self, ap: &A) -> MissionProgress {
+        self.run.progress(&self.mission, &ap.telemetry())
     }
 
     fn clear_mission<A: Autopilot>(&mut self, ap: &mut A) {
         self.mission.clear();
         ap.clear_path();
+        self.run.reset();
         self.services.on_new_mission();
     }
 
@@ -375,8 +386,17 @@ impl Router {
                 self.reply(Outbound::MissionAck(ack));
             }
             MissionReply::Complete => {
-                let result = match ap.set_path(self.mission.path()) {
+                let path = self.mission.path();
+                // A plan without path points (TAKEOFF then RTL/LAND) leaves the cascade no path.
+                let taken = if path.is_empty() {
+                    ap.clear_path();
+                    Ok(())
+                } else {
+                    ap.set_path(&path)
+                };
+                let result = match taken {
                     Ok(()) => {
+                        self.run.reset();
                         self.services.on_new_mission();
                         MavMissionResult::MAV_MISSION_ACCEPTED
                     }
@@ -564,7 +584,7 @@ impl Router {
             #[allow(deprecated)] // MISSION_SET_CURRENT: still sent by ground stations
             Inbound::MissionSetCurrent(m) => {
                 if self.for_me(m.target_system, m.target_component) {
-                    let now = self.services.mission_current(&ap.telemetry(), self.mission_progress());
+                    let now = self.services.mission_current(self.mission_progress(ap));
                     if m.seq != now.seq {
                         let t = crate::link::telemetry::status_text(
                             crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
@@ -638,6 +658,7 @@ impl Link {
                 own_system,
                 fix_clock,
                 mission: MissionUpload::new(),
+                run: MissionRun::new(),
                 obstacles: ObstacleAssembler::new(),
                 replies: Deque::new(),
                 hil: None,
@@ -691,8 +712,9 @@ impl Link {
         }
         self.router.stream_params(ap);
         self.router.obstacles.poll(now_us, ap);
+        self.router.run.poll(&self.router.mission, now_us, ap);
         let free = REPLY_QUEUE_LEN - self.router.replies.len();
-        let progress = self.router.mission_progress();
+        let progress = self.router.mission_progress(ap);
         let thr_max = ap.get_param("THR_MAX").unwrap_or(0.0);
         let r = &mut self.router;
         let budget = free.saturating_sub(REPLY_RESERVE);

@@ -8,13 +8,13 @@
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
 //! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`HOME`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
-//! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = mission item being flown (the path follower's segment, from the telemetry snapshot; 0 before the mission was started), total = items of the accepted mission, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
+//! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = the uploaded seq of the item being flown ([`crate::link::mission_run::MissionRun::progress`]; 0 before the mission was started), total = items of the accepted plan, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
 //! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
 //! | HOME_POSITION | 242 | 0.5 Hz | [`HOME`], local position 0, quaternion identity |
 //!
-//! **MISSION_ITEM_REACHED** (46): once per item, in order, while the mission is flown: item
-//! k − 1 when the follower's segment becomes k, the last item when the follower is done.
+//! **MISSION_ITEM_REACHED** (46): once per item, in order, up to the progress's last item done
+//! (uploaded seq numbers, [`crate::link::mission_run`]).
 //!
 //! The telemetry scheduler's ATTITUDE (30), LOCAL_POSITION_NED (32) and
 //! POSITION_TARGET_LOCAL_NED (85) are set here too ([`StreamRates`], which the scheduler reads
@@ -35,12 +35,13 @@
 //! stream per [`Services::poll`]).
 #![allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
 
-use crate::app::autopilot::{FlightMode, FlightPhase, TelemetrySnapshot};
+use crate::app::autopilot::TelemetrySnapshot;
 use crate::link::dialect::{
     AttitudeTargetTypemask, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavResult,
-    MissionState, ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
+    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
     MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
 };
+pub use crate::link::mission_run::MissionProgress;
 use crate::link::outbound::Outbound;
 use parapet_core::battery::{BatteryLevel, BatteryState};
 use parapet_core::nalgebra::UnitQuaternion;
@@ -92,13 +93,6 @@ impl StreamRates {
     }
 }
 
-/// What the router knows of the mission for MISSION_CURRENT.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct MissionProgress {
-    /// Waypoints of the accepted mission.
-    pub total: u16,
-}
-
 /// Interval table, due times and one-shot requests of the streams, and the mission-progress
 /// state of MISSION_CURRENT / MISSION_ITEM_REACHED (see the module docs).
 #[derive(Clone, Debug)]
@@ -110,8 +104,6 @@ pub struct Services {
     requested: u8,
     /// The scheduler's streams.
     rates: StreamRates,
-    /// The accepted mission has been flown (Mission mode, mission phase) since its upload.
-    started: bool,
     /// Last item reported by MISSION_ITEM_REACHED since the upload.
     reached: Option<u16>,
 }
@@ -242,11 +234,6 @@ pub fn attitude_target(time_boot_ms: u32, s: &TelemetrySnapshot, thr_max: f32) -
     }
 }
 
-/// `true` while the uploaded mission is being flown (Mission mode in the mission phase).
-fn flying_mission(s: &TelemetrySnapshot) -> bool {
-    s.mode == FlightMode::Mission && s.phase == FlightPhase::Mission
-}
-
 /// An interval request (−1 stop, 0 default, > 0 period µs) as the table's `Option`:
 /// `Err(())` for a refused value.
 fn interval_of(interval_us: f32, default_us: u32) -> Result<Option<u32>, ()> {
@@ -279,7 +266,6 @@ impl Services {
             next_due_us: [0; STREAMS.len()],
             requested: 0,
             rates: StreamRates { interval_us: [0; SCHEDULED.len()], requests: [0; SCHEDULED.len()] },
-            started: false,
             reached: None,
         }
     }
@@ -350,48 +336,18 @@ impl Services {
     /// A new mission was accepted, or the mission was cleared: MISSION_CURRENT starts again at
     /// item 0, NOT_STARTED, and MISSION_ITEM_REACHED from the first item.
     pub fn on_new_mission(&mut self) {
-        self.started = false;
         self.reached = None;
     }
 
-    /// MISSION_CURRENT for the snapshot `s` and the accepted mission (see the module docs).
-    pub fn mission_current(&self, s: &TelemetrySnapshot, m: MissionProgress) -> MISSION_CURRENT_DATA {
-        let last = m.total.saturating_sub(1);
-        let started = self.started || (m.total > 0 && flying_mission(s));
-        let seq = if started { s.mission_seq.min(last) } else { 0 };
-        let mission_state = if m.total == 0 {
-            MissionState::MISSION_STATE_NO_MISSION
-        } else if !started {
-            MissionState::MISSION_STATE_NOT_STARTED
-        } else if s.mission_done {
-            MissionState::MISSION_STATE_COMPLETE
-        } else if flying_mission(s) {
-            MissionState::MISSION_STATE_ACTIVE
-        } else {
-            MissionState::MISSION_STATE_PAUSED
-        };
-        MISSION_CURRENT_DATA { seq, total: m.total, mission_state, ..Default::default() }
+    /// MISSION_CURRENT of the mission's progress `m` ([`crate::link::mission_run`]).
+    pub fn mission_current(&self, m: MissionProgress) -> MISSION_CURRENT_DATA {
+        MISSION_CURRENT_DATA { seq: m.current, total: m.total, mission_state: m.state, ..Default::default() }
     }
 
-    /// The next MISSION_ITEM_REACHED due (each item once, in order); updates the state.
-    fn next_reached(
-        &mut self,
-        s: &TelemetrySnapshot,
-        m: MissionProgress,
-    ) -> Option<MISSION_ITEM_REACHED_DATA> {
-        if m.total == 0 {
-            return None;
-        }
-        if flying_mission(s) {
-            self.started = true;
-        }
-        if !self.started {
-            return None;
-        }
-        let last = m.total - 1;
-        let reached = if s.mission_done { last } else { s.mission_seq.min(m.total).checked_sub(1)? };
+    /// The next MISSION_ITEM_REACHED due (each item once, in order, up to `m.reached`).
+    fn next_reached(&mut self, m: MissionProgress) -> Option<MISSION_ITEM_REACHED_DATA> {
         let next = self.reached.map_or(0, |r| r.saturating_add(1));
-        if next > reached || self.reached == Some(last) {
+        if m.total == 0 || m.reached? < next || self.reached == Some(m.total - 1) {
             return None;
         }
         self.reached = Some(next);
@@ -413,7 +369,7 @@ impl Services {
         let mut left = budget;
         let ms = (now_us / 1000) as u32;
         if left > 0 {
-            if let Some(r) = self.next_reached(s, mission) {
+            if let Some(r) = self.next_reached(mission) {
                 emit(Outbound::MissionItemReached(r));
                 left -= 1;
             }
@@ -432,7 +388,7 @@ impl Services {
                     Some(Outbound::SystemTime(SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: ms }))
                 }
                 GLOBAL_POSITION_INT_ID => global_position(ms, s).map(Outbound::GlobalPositionInt),
-                MISSION_CURRENT_ID => Some(Outbound::MissionCurrent(self.mission_current(s, mission))),
+                MISSION_CURRENT_ID => Some(Outbound::MissionCurrent(self.mission_current(mission))),
                 ATTITUDE_TARGET_ID => Some(Outbound::AttitudeTarget(attitude_target(ms, s, thr_max))),
                 BATTERY_STATUS_ID => s.battery.as_ref().map(|b| Outbound::BatteryStatus(battery_status(b))),
                 _ => Some(Outbound::HomePosition(home_position(now_us))),
@@ -470,7 +426,7 @@ mod tests {
 
     fn ids(s: &mut Services, t: u64, snap: &TelemetrySnapshot, budget: usize) -> Vec<u32> {
         let mut out = Vec::new();
-        s.poll(t, snap, MissionProgress { total: 3 }, 1000.0, budget, |m| {
+        s.poll(t, snap, MissionProgress::NONE, 1000.0, budget, |m| {
             out.push(match m {
                 Outbound::SystemTime(_) => 2,
                 Outbound::GlobalPositionInt(_) => 33,
@@ -545,68 +501,40 @@ mod tests {
         assert_eq!(StreamRates::default().period_us(2), Some(40_000), "the default is the default rate");
     }
 
-    fn flying(seq: u16, done: bool) -> TelemetrySnapshot {
-        TelemetrySnapshot {
-            armed: true,
-            phase: FlightPhase::Mission,
-            mode: FlightMode::Mission,
-            mission_seq: seq,
-            mission_done: done,
-            ..TelemetrySnapshot::BOOT
-        }
-    }
-
-    /// MISSION_CURRENT follows the snapshot's item (before issue 20's fix: always 0), and
-    /// MISSION_ITEM_REACHED reports each item once, in order.
+    /// MISSION_ITEM_REACHED reports each item once, in order, up to the progress's last item
+    /// done (one per poll), and starts again after a new mission.
     #[test]
-    fn mission_current_and_items_reached_follow_the_flight() {
+    fn items_reached_once_each_in_order() {
         let mut s = Services::new();
-        s.set_interval(42.0, 1_000_000_000.0);
-        for k in [2.0, 33.0, 242.0, 83.0] {
+        for k in [2.0, 33.0, 42.0, 242.0, 83.0] {
             s.set_interval(k, -1.0);
         }
-        let m = MissionProgress { total: 3 };
-        let cur = |s: &Services, sn: &TelemetrySnapshot| {
-            let c = s.mission_current(sn, m);
-            (c.seq, c.mission_state)
+        let m = |reached| MissionProgress {
+            total: 4,
+            current: 0,
+            reached,
+            state: crate::link::dialect::MissionState::MISSION_STATE_ACTIVE,
         };
-        let idle = TelemetrySnapshot { mission_seq: 2, ..TelemetrySnapshot::BOOT };
-        assert_eq!(
-            cur(&s, &idle),
-            (0, MissionState::MISSION_STATE_NOT_STARTED),
-            "an old segment is not shown"
-        );
-        assert_eq!(
-            s.mission_current(&idle, MissionProgress { total: 0 }).mission_state,
-            MissionState::MISSION_STATE_NO_MISSION
-        );
         let mut reached = Vec::new();
         let mut t = 1_000_000;
-        for (seq, done) in [(0, false), (1, false), (1, false), (3, false), (3, false), (3, true), (3, true)]
-        {
+        for r in [None, Some(0), Some(2), Some(2), Some(2), Some(1), Some(3), Some(3)] {
             t += 1000;
-            let sn = flying(seq, done);
-            let mut out = Vec::new();
-            s.poll(t, &sn, m, 1000.0, 8, |o| out.push(o));
-            for o in out {
+            s.poll(t, &TelemetrySnapshot::BOOT, m(r), 1000.0, 8, |o| {
                 if let Outbound::MissionItemReached(r) = o {
                     reached.push(r.seq);
                 }
-            }
+            });
         }
-        assert_eq!(reached, vec![0, 1, 2], "each item once, in order");
-        assert_eq!(cur(&s, &flying(1, false)), (1, MissionState::MISSION_STATE_ACTIVE));
-        assert_eq!(
-            cur(&s, &flying(3, false)),
-            (2, MissionState::MISSION_STATE_ACTIVE),
-            "clamped to the last item"
-        );
-        assert_eq!(cur(&s, &flying(3, true)), (2, MissionState::MISSION_STATE_COMPLETE));
-        let hold =
-            TelemetrySnapshot { phase: FlightPhase::Hover, mode: FlightMode::Hold, ..flying(1, false) };
-        assert_eq!(cur(&s, &hold), (1, MissionState::MISSION_STATE_PAUSED));
+        assert_eq!(reached, vec![0, 1, 2, 3]);
+        assert_eq!(s.mission_current(m(Some(1))).seq, 0);
         s.on_new_mission();
-        assert_eq!(cur(&s, &hold), (0, MissionState::MISSION_STATE_NOT_STARTED));
+        let mut again = Vec::new();
+        s.poll(t + 1000, &TelemetrySnapshot::BOOT, m(Some(3)), 1000.0, 8, |o| {
+            if let Outbound::MissionItemReached(r) = o {
+                again.push(r.seq);
+            }
+        });
+        assert_eq!(again, vec![0]);
     }
 
     #[test]
