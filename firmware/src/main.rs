@@ -80,11 +80,13 @@ mod firmware {
     };
     use parapet_firmware::drivers::mpu6000::ImuError;
     use parapet_firmware::drivers::rc_uart::{RcProtocol, RC_RX_RING};
-    use parapet_firmware::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+    use parapet_firmware::link::frame_parser::{FrameParser, RawFrame};
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::messages::frame_extra_crc;
     use parapet_firmware::link::outbound::Outbound;
-    use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
+    use parapet_firmware::link::telemetry::{
+        ErrorCounters, TelemetryInputs, TelemetryScheduler, MAX_PER_POLL,
+    };
     use parapet_firmware::link::{FixClock, Link, Received};
     use parapet_firmware::storage::{Loaded, ParamStore};
     use parapet_firmware::vehicle::tasks::{storage_job, SetupInner, SetupMailboxes, SetupOuter};
@@ -98,7 +100,14 @@ mod firmware {
     const REPORT_EVERY_INNER: u32 = 500;
     const REPORT_EVERY_OUTER: u32 = 125;
     /// Decoded messages in flight from the link task to the outer task.
-    const INBOUND_DEPTH: usize = 4;
+    const INBOUND_DEPTH: usize = 2;
+    /// Bytes of one telemetry poll's frames: [`MAX_PER_POLL`] messages of at most
+    /// [`MAX_TELEMETRY_FRAME`] bytes.
+    const TX_BATCH: usize = MAX_PER_POLL * MAX_TELEMETRY_FRAME;
+    /// The longest frame the telemetry streams emit, bytes: STATUSTEXT (MAVLink 2 header 10 +
+    /// payload 54 with its extension fields + CRC 2); the others are shorter
+    /// (POSITION_TARGET_LOCAL_NED 63, SYS_STATUS 55, RC_CHANNELS 54, DEBUG_VECT 42).
+    const MAX_TELEMETRY_FRAME: usize = 66;
     /// Replies in flight from the outer task to the link task.
     const REPLY_DEPTH: usize = 8;
 
@@ -428,6 +437,8 @@ mod firmware {
         let mut counters = ErrorCounters::default();
         let mut buf = [0u8; 64];
         let mut uart_errors: u32 = 0;
+        // Telemetry frames that did not fit the batch (none by its bound; counted as UART errors).
+        let mut tx_dropped: u32 = 0;
         loop {
             match select(rx.read(&mut buf), Timer::after_millis(5)).await {
                 Either::First(Ok(n)) => {
@@ -465,26 +476,33 @@ mod firmware {
             if let Some(c) = LINK_COUNTERS.try_take() {
                 counters = c;
             }
-            let parser_stats: ParserStats = parser.stats();
-            let inputs = TelemetryInputs {
-                snapshot,
-                inner,
-                outer,
-                parser: parser_stats,
-                counters: ErrorCounters {
-                    imu_errors: IMU_ERRORS.load(Ordering::Relaxed),
-                    uart_errors,
-                    ..counters
-                },
-            };
-            let mut queued: heapless::Vec<Outbound, { parapet_firmware::link::telemetry::MAX_PER_POLL }> =
-                heapless::Vec::new();
-            telemetry.poll(now_us(), &inputs, |m| {
-                // Room for the most messages one poll emits.
-                let _ = queued.push(m);
-            });
-            for m in &queued {
-                send(&mut tx, &mut writer, m).await;
+            // Encoded as emitted into one byte batch, written in one DMA transfer: the batch
+            // (not the messages and a 280-byte frame each) is what the task keeps across the
+            // write (RAM: docs/bring-up.md §9). The inputs are dropped before the await.
+            let mut batch: heapless::Vec<u8, TX_BATCH> = heapless::Vec::new();
+            {
+                let inputs = TelemetryInputs {
+                    snapshot,
+                    inner,
+                    outer,
+                    parser: parser.stats(),
+                    counters: ErrorCounters {
+                        imu_errors: IMU_ERRORS.load(Ordering::Relaxed),
+                        uart_errors: uart_errors.saturating_add(tx_dropped),
+                        ..counters
+                    },
+                };
+                telemetry.poll(now_us(), &inputs, |m| {
+                    // Fits by TX_BATCH's bound; a frame that did not would be dropped (the
+                    // streams resend) and counted.
+                    if batch.extend_from_slice(m.encode(&mut writer).raw_bytes()).is_err() {
+                        tx_dropped = tx_dropped.saturating_add(1);
+                    }
+                });
+            }
+            if !batch.is_empty() {
+                // A failed write (DMA error) drops these frames; the streams resend.
+                let _ = tx.write(&batch).await;
             }
         }
     }
@@ -552,12 +570,15 @@ mod firmware {
             use parapet_firmware::link::outbound::Outbound;
             use parapet_firmware::log::card::CardStore;
             use parapet_firmware::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
-            use parapet_firmware::log::transfer::{LogReply, LogTransfer, REPLIES_PER_POLL};
+            use parapet_firmware::log::transfer::{LogTransfer, REPLIES_PER_POLL};
             use static_cell::StaticCell;
 
             /// Log samples in flight from the outer task to the link task (25 Hz; the link
             /// task drains the queue every ≤ 5 ms).
             const LOG_QUEUE_LEN: usize = 2;
+            /// Bytes of one log step's frames: a STATUSTEXT (66) and [`REPLIES_PER_POLL`] LOG_DATA
+            /// frames (MAVLink 2 header 10 + payload 97 + CRC 2; LOG_ENTRY is 26).
+            const LOG_TX_BATCH: usize = 66 + REPLIES_PER_POLL * 109;
             /// Outer task → link task: log samples.
             static LOG_QUEUE: Channel<CriticalSectionRawMutex, LogSample, LOG_QUEUE_LEN> = Channel::new();
             /// Log samples dropped because [`LOG_QUEUE`] was full.
@@ -639,18 +660,18 @@ mod firmware {
                     while let Ok(s) = LOG_QUEUE.try_receive() {
                         self.logger.on_sample(&s, &mut *self.store, |n| parapet_core::params::get(params, n));
                     }
+                    // Encoded as emitted into one byte batch (one DMA write; the task keeps the
+                    // bytes, not the messages and a 280-byte frame, across the write).
+                    let mut batch: heapless::Vec<u8, LOG_TX_BATCH> = heapless::Vec::new();
                     if let Some(t) = self.store.take_fault() {
-                        let raw = status(t).encode(writer);
-                        let _ = tx.write(raw.raw_bytes()).await;
+                        let _ = batch.extend_from_slice(status(t).encode(writer).raw_bytes());
                     }
-                    let mut replies: heapless::Vec<LogReply, REPLIES_PER_POLL> = heapless::Vec::new();
                     self.transfer.poll(&mut *self.store, &mut |r| {
-                        // REPLIES_PER_POLL is both the capacity and the most poll() emits.
-                        let _ = replies.push(r);
+                        // LOG_TX_BATCH holds REPLIES_PER_POLL of the longest reply (LOG_DATA).
+                        let _ = batch.extend_from_slice(r.encode(writer).raw_bytes());
                     });
-                    for r in &replies {
-                        let raw = r.encode(writer);
-                        let _ = tx.write(raw.raw_bytes()).await;
+                    if !batch.is_empty() {
+                        let _ = tx.write(&batch).await;
                     }
                 }
             }
