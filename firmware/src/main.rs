@@ -22,17 +22,23 @@
 //!   (`log::card::CardStore` on `board::active::LogCard`: the F405's microSD on SPI3; none on the
 //!   H743 yet) and serves the MAVLink log download (`LogTransfer`, the LOG_* frames it parses).
 //!   In the link task because the LOG_* requests arrive and the replies leave there; card writes
-//!   block (≈ 0.3 ms per 512-byte block at 21 MHz plus the card's busy time) the thread-mode
-//!   tasks only (link, RC receiver, storage, battery), never the control loops. The card is
-//!   mounted when the link task starts (up to ≈ 1 s without a card); a formatted card or a card
-//!   fault is said once in a STATUSTEXT, and logging stays off after a fault.
-//! - **storage** (thread-mode executor): the parameter store in the board's flash
+//!   block (≈ 0.3 ms per 512-byte block at 21 MHz plus the card's busy time, up to ≈ 250 ms) the
+//!   thread-mode executor only (link, storage), never the control loops, the RC receiver or the
+//!   battery (interrupt executors). Bounded work per link pass: ≤ `LOG_QUEUE_LEN` record sets
+//!   (≤ 1 card block each plus a directory write every 16 blocks) and ≤ `REPLIES_PER_POLL`
+//!   LOG_* replies. The card is mounted when the link task starts (up to ≈ 1 s without a card);
+//!   a formatted card or a card fault is said once in a STATUSTEXT, and logging stays off after a
+//!   fault.
+//! - **RC receiver, battery** (interrupt executor on I2C1's event vector, priority 8, below the
+//!   control loops and above thread mode): the pilot's frames (kill switch) and the battery
+//!   failsafe's input, so no card or flash driver call in thread mode delays them.
+//! - **storage** (thread-mode executor, with the link task): the parameter store in the board's flash
 //!   (`vehicle::tasks::storage_job`: saves, PREFLIGHT_STORAGE read/reset); flash erases and
 //!   writes run here only, never in a control task, and only while disarmed (the outer task
 //!   sends no job while armed). On the F405 (one flash bank) a flash write or erase still stalls
 //!   every instruction fetch from flash, interrupts included (a word ≈ 16 µs, a 128 KiB sector
 //!   erase 1-2 s): disarmed only, by design.
-//! - **battery** (thread-mode executor): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
+//! - **battery** (the service executor above): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
 //!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → `MAILBOXES.battery` (the outer
 //!   stage's low/critical battery failsafes).
 //!
@@ -135,6 +141,9 @@ mod firmware {
     static RC_UART_ERRORS: AtomicU32 = AtomicU32::new(0);
     static EXECUTOR_HIGH: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
+    /// RC receiver and battery (the pilot's kill switch and the battery failsafe's input): above
+    /// thread mode, where the link task's blocking card writes run (module doc).
+    static EXECUTOR_SERVICE: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
     static RX_RING: StaticCell<[u8; COMPANION_RX_RING]> = StaticCell::new();
     // The large task states live here, handed to their tasks by reference: an async task's
@@ -157,6 +166,13 @@ mod firmware {
     unsafe fn UART5() {
         // SAFETY: as above, for the medium-priority executor.
         unsafe { EXECUTOR_MED.on_interrupt() }
+    }
+
+    #[interrupt]
+    unsafe fn I2C1_EV() {
+        // SAFETY: I2C1's event vector is reserved for this executor (I2C1 is unused on both
+        // boards).
+        unsafe { EXECUTOR_SERVICE.on_interrupt() }
     }
 
     fn cycles() -> u32 {
@@ -222,6 +238,16 @@ mod firmware {
             Ok(t) => med.spawn(t),
             Err(_) => halt("spawn outer loop"),
         }
+        interrupt::I2C1_EV.set_priority(Priority::P8);
+        let service = EXECUTOR_SERVICE.start(interrupt::I2C1_EV);
+        match rc_task(board.rc_rx, params.rc) {
+            Ok(t) => service.spawn(t),
+            Err(_) => halt("spawn rc receiver"),
+        }
+        match battery_task(board.battery, params.battery) {
+            Ok(t) => service.spawn(t),
+            Err(_) => halt("spawn battery"),
+        }
         let low = EXECUTOR_LOW.init(Executor::new());
         #[cfg(feature = "onboard-log")]
         let log = BoardLog::new(board.log_card, params);
@@ -232,17 +258,9 @@ mod firmware {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn link"),
             }
-            match rc_task(board.rc_rx, params.rc) {
-                Ok(t) => spawner.spawn(t),
-                Err(_) => halt("spawn rc receiver"),
-            }
             match storage_task(STORE.init(store)) {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn storage"),
-            }
-            match battery_task(board.battery, params.battery) {
-                Ok(t) => spawner.spawn(t),
-                Err(_) => halt("spawn battery"),
             }
         })
     }

@@ -15,7 +15,7 @@
 //! | log card, microSD (raw blocks: `log::card`) | SPI3, mode 0, 400 kHz (init) / 21 MHz | SCK PB3, MISO PB4, MOSI PB5, CS PC1 (Betaflight `MATEKF405` `SDCARD_SPI_CS_PIN`) | – (blocking, in the link task) |
 //! | parameter store | FLASH, sectors 10-11 (`storage::F405_RANGE`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
-//! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
+//! | software interrupts for the executors | UART4 (high), UART5 (medium), I2C1_EV (RC + battery) | unused UARTs, unused I2C1 | – |
 //!
 //! Clocks: HSE 8 MHz → PLL (M 4, N 168, P 2, Q 7) → SYSCLK 168 MHz, AHB 168 MHz, APB1 42 MHz
 //! (timers 84 MHz), APB2 84 MHz (timers 168 MHz), USB/SDIO 48 MHz.

@@ -18,7 +18,7 @@
 //! | battery current (pad CURR, `BAT_A_PER_V`; Betaflight `ibata_scale` 250 = 40 A/V) | ADC1 INP11 | PC1 | – |
 //! | parameter store | FLASH bank 2, sectors 6-7 (0x081C_0000..0x0820_0000, [`PARAM_RANGE`]; kept out of `FLASH` by `memory-h743.x`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
-//! | software interrupts for the executors | UART4 (high), UART5 (medium) | unused UARTs | – |
+//! | software interrupts for the executors | UART4 (high), UART5 (medium), I2C1_EV (RC + battery) | unused UARTs, unused I2C1 | – |
 //!
 //! Clocks: HSE 8 MHz → PLL1 (M 2, N 200: VCO 800 MHz; P 2, Q 8) → SYSCLK 400 MHz (VOS1),
 //! AHB 200 MHz, APB1..4 100 MHz (timers 200 MHz), SPI1 kernel clock PLL1_Q = 100 MHz.
