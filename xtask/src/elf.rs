@@ -78,9 +78,12 @@ pub struct SizeArgs {
     pub ram_max: Option<u64>,
     /// `--by-source`: also print the code bytes per source area (`by_source.rs`).
     pub by_source: bool,
+    /// `--features LIST`: cargo features added to the F405 build (e.g. `onboard-log`); only
+    /// without `ELF`.
+    pub features: Option<String>,
 }
 
-/// Parse `[ELF] [--flash-max BYTES] [--ram-max BYTES]`.
+/// Parse `[ELF] [--flash-max BYTES] [--ram-max BYTES] [--by-source] [--features LIST]`.
 pub fn parse_args(args: &[String]) -> Result<SizeArgs, String> {
     let mut a = SizeArgs::default();
     let mut it = args.iter();
@@ -93,10 +96,17 @@ pub fn parse_args(args: &[String]) -> Result<SizeArgs, String> {
             "--flash-max" => a.flash_max = Some(limit("--flash-max")?),
             "--ram-max" => a.ram_max = Some(limit("--ram-max")?),
             "--by-source" => a.by_source = true,
+            "--features" => {
+                let v = it.next().ok_or("--features needs a value (cargo features, e.g. onboard-log)")?;
+                a.features = Some(v.clone());
+            }
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s if a.elf.is_none() => a.elf = Some(s.into()),
             s => return Err(format!("more than one ELF given ({s})")),
         }
+    }
+    if a.elf.is_some() && a.features.is_some() {
+        return Err("--features builds the image: give it without an ELF".into());
     }
     Ok(a)
 }
@@ -159,5 +169,8 @@ mod tests {
         assert!(args(&["--ram-max", "lots"]).is_err());
         assert!(args(&["a.elf", "b.elf"]).is_err());
         assert!(args(&["--stack"]).is_err());
+        assert_eq!(args(&["--features", "onboard-log"]).unwrap().features.as_deref(), Some("onboard-log"));
+        assert!(args(&["--features"]).is_err());
+        assert!(args(&["a.elf", "--features", "onboard-log"]).is_err());
     }
 }

@@ -14,9 +14,10 @@
 //!   (see `fuzz.rs`).
 //! * `cargo xtask fuzz [TARGET|all] [--time S | --runs N]` — a fuzz campaign (see `fuzz.rs`
 //!   and `docs/reliability.md`).
-//! * `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES] [--by-source]` — print the
-//!   flash and static-RAM use of the F405 board image (or of `ELF`); exit 1 over a limit;
-//!   `--by-source`: the code bytes per source area from the line table (`by_source.rs`).
+//! * `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES] [--by-source] [--features LIST]`
+//!   — print the flash and static-RAM use of the F405 board image (or of `ELF`); exit 1 over a
+//!   limit; `--by-source`: the code bytes per source area from the line table (`by_source.rs`);
+//!   `--features`: the image built with these cargo features added (e.g. `onboard-log`).
 //! * `cargo xtask m4` — only the Cortex-M4F fmath bit-exactness step of `cargo xtask test`
 //!   (`tests/cortex-m4` in QEMU, see `m4.rs`).
 //! * `cargo xtask venv` — only the Python venv of the ground-station client tests (`venv.rs`).
@@ -72,7 +73,7 @@ fn main() -> ExitCode {
         Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
-                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B] [--by-source]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|venv|m4>"
+                "usage: cargo xtask <test|size [ELF] [--flash-max B] [--ram-max B] [--by-source] [--features LIST]|bench [--long]|fuzz [TARGET|all] [--time S | --runs N]|params [--out FILE]|venv|m4>"
             );
             return ExitCode::from(2);
         }
@@ -211,20 +212,27 @@ fn registry_remap_flags() -> String {
 }
 
 fn build_firmware() -> Result<PathBuf, String> {
-    run(
-        "build the firmware (profile firmware, STM32F405)",
-        cargo().env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags()).args([
-            "build",
-            "--profile",
-            "firmware",
-            "-p",
-            "parapet-firmware",
-            "--target",
-            TARGET,
-            "--bin",
-            "parapet-firmware",
-        ]),
-    )?;
+    build_firmware_with(None)
+}
+
+/// The F405 image with the cargo `features` added (`cargo xtask size --features …`).
+fn build_firmware_with(features: Option<&str>) -> Result<PathBuf, String> {
+    let mut c = cargo();
+    c.env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags()).args([
+        "build",
+        "--profile",
+        "firmware",
+        "-p",
+        "parapet-firmware",
+        "--target",
+        TARGET,
+        "--bin",
+        "parapet-firmware",
+    ]);
+    if let Some(f) = features {
+        c.args(["--features", f]);
+    }
+    run("build the firmware (profile firmware, STM32F405)", &mut c)?;
     Ok(firmware_elf(None))
 }
 
@@ -257,7 +265,7 @@ fn size_cmd(args: &[String]) -> Result<(), String> {
         Some(p) => p.clone(),
         None => {
             ensure_target()?;
-            build_firmware()?
+            build_firmware_with(a.features.as_deref())?
         }
     };
     let s = print_size(&elf)?;
