@@ -217,45 +217,31 @@ fn build_firmware() -> Result<PathBuf, String> {
 
 /// The F405 image with the cargo `features` added (`cargo xtask size --features …`).
 fn build_firmware_with(features: Option<&str>) -> Result<PathBuf, String> {
-    let mut c = cargo();
-    c.env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags()).args([
-        "build",
-        "--profile",
-        "firmware",
-        "-p",
-        "parapet-firmware",
-        "--target",
-        TARGET,
-        "--bin",
-        "parapet-firmware",
-    ]);
+    let mut extra = vec!["--bin", "parapet-firmware"];
     if let Some(f) = features {
-        c.args(["--features", f]);
+        extra.extend(["--features", f]);
     }
-    run("build the firmware (profile firmware, STM32F405)", &mut c)?;
+    build_image("STM32F405", &extra)?;
     Ok(firmware_elf(None))
 }
 
 /// The MATEKH743 image (profile firmware, `board-h743`): the same tasks on the second board.
 fn build_h743_firmware() -> Result<PathBuf, String> {
-    run(
-        "build the firmware (profile firmware, MATEKH743)",
-        cargo().env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags()).args([
-            "build",
-            "--profile",
-            "firmware",
-            "-p",
-            "parapet-firmware",
-            "--target",
-            TARGET,
-            "--no-default-features",
-            "--features",
-            "board-h743",
-            "--bin",
-            "parapet-firmware-h743",
-        ]),
+    build_image(
+        "MATEKH743",
+        &["--no-default-features", "--features", "board-h743", "--bin", "parapet-firmware-h743"],
     )?;
     Ok(firmware_elf(Some("board-h743")))
+}
+
+/// `cargo build --profile firmware` of the firmware crate for the Cortex-M target with the
+/// registry path remapping, plus `extra` arguments (board features, binary).
+fn build_image(board: &str, extra: &[&str]) -> Result<(), String> {
+    let mut c = cargo();
+    c.env("CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS", registry_remap_flags())
+        .args(["build", "--profile", "firmware", "-p", "parapet-firmware", "--target", TARGET])
+        .args(extra);
+    run(&format!("build the firmware (profile firmware, {board})"), &mut c)
 }
 
 /// `cargo xtask size [ELF] [--flash-max BYTES] [--ram-max BYTES]`.
