@@ -407,7 +407,7 @@ fn do_set_mode_auto_mission_flies_the_uploaded_mission() {
 /// (only a counter in DEBUG_VECT LINK_DROP), so a companion never learnt why it was ignored.
 #[test]
 fn odometry_in_local_frd_is_refused_with_a_statustext() {
-    use parapet_firmware::link::router::ODOMETRY_REFUSED_TEXT;
+    use parapet_firmware::link::ODOMETRY_REFUSED_TEXT;
     let mut g = Sim::new();
     g.run(100);
     let frd = ODOMETRY_DATA {

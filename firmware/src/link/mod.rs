@@ -1,6 +1,6 @@
 //! The MAVLink link: the message types ([`dialect`], generated at build time), framing
 //! ([`frame_parser`], [`framing`]), the inbound and outbound message sets ([`messages`],
-//! [`outbound`]), the dispatcher ([`router`], re-exported here as [`Link`]), commands
+//! [`outbound`]), the dispatcher ([`router`]) behind [`Link`] ([`endpoint`], re-exported here), the vehicle-state inputs ([`inputs`]: HIL_SENSOR, ODOMETRY), commands
 //! ([`command`]), the mission protocol ([`mission`]) and its executor ([`mission_run`]), obstacle batches ([`obstacles`]),
 //! parameters ([`params`]), telemetry streams ([`telemetry`]) and the pilot input over MAVLink
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
@@ -14,9 +14,11 @@
 
 pub mod command;
 pub mod dialect;
+pub mod endpoint;
 pub mod frame_parser;
 pub mod framing;
 pub mod geo;
+pub mod inputs;
 pub mod manual_control;
 pub mod messages;
 pub mod mission;
@@ -30,4 +32,6 @@ pub mod services;
 pub mod telemetry;
 pub mod v1;
 
-pub use router::*;
+pub use endpoint::*;
+pub use inputs::*;
+pub use router::{autopilot_version, CAPABILITIES, PARAMS_PER_POLL, REPLY_QUEUE_LEN, REPLY_RESERVE};

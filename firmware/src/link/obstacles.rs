@@ -668,7 +668,7 @@ mod tests {
     #[test]
     fn link_keeps_a_closing_obstacle_behind_nearer_side_points() {
         use crate::link::framing::FrameWriter;
-        use crate::link::router::{FixClock, Link};
+        use crate::link::{FixClock, Link};
         let mut ap = RecordingAutopilot::new();
         for (n, v) in [("CBF_VARIANT", 3.0), ("CBF_MU", 1.4), ("CBF_DELTA1", 0.1)] {
             ap.set_param(n, v).unwrap();
@@ -724,7 +724,7 @@ mod tests {
     #[test]
     fn obstacle_distance_round_trip_places_points_within_the_sector_resolution() {
         use crate::link::frame_parser::RawFrame;
-        use crate::link::router::{FixClock, Link, Received};
+        use crate::link::{FixClock, Link, Received};
         // Through the link's decoder and dispatcher (a trimmed MAVLink 2 payload, as on the wire).
         fn send(l: &mut Link, m: &ObstacleDistance, t: u64, ap: &mut RecordingAutopilot) {
             let full = m.to_payload();
