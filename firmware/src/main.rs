@@ -13,32 +13,33 @@
 //!   MAVLink dispatcher (`Link`: commands, mission, obstacle batches, parameters); wakes on the
 //!   outer-rate ticker (`OuterSchedule`), on a decoded message from the link task, or on a new
 //!   state estimate; publishes attitude commands and the telemetry snapshot.
-//! - **link** (thread-mode executor, lowest priority): USART3 (DMA ring buffer), MAVLink framing
-//!   and decoding; decoded messages go to the outer task through a `Channel`, replies come back
-//!   through another; builds the telemetry streams from the published snapshot.
-//! - **onboard log** (in the link task): the outer task hands a `LogSample` every
-//!   `DEFAULT_PERIOD_US` (25 Hz) to [`LOG_QUEUE`] (`try_send`: dropped and counted when full,
-//!   never waits); the link task turns them into ULog records (`FlightLogger`) on the log card
-//!   (`log::card::CardStore` on `board::active::LogCard`: the F405's microSD on SPI3; none on the
-//!   H743 yet) and serves the MAVLink log download (`LogTransfer`, the LOG_* frames it parses).
-//!   In the link task because the LOG_* requests arrive and the replies leave there; card writes
-//!   block (≈ 0.3 ms per 512-byte block at 21 MHz plus the card's busy time, up to ≈ 250 ms) the
-//!   thread-mode executor only (link, storage), never the control loops, the RC receiver or the
-//!   battery (interrupt executors). Bounded work per link pass: ≤ `LOG_QUEUE_LEN` record sets
-//!   (≤ 1 card block each plus a directory write every 16 blocks) and ≤ `REPLIES_PER_POLL`
-//!   LOG_* replies. The card is mounted when the link task starts (up to ≈ 1 s without a card);
-//!   a formatted card or a card fault is said once in a STATUSTEXT, and logging stays off after a
-//!   fault.
-//! - **RC receiver, battery** (interrupt executor on I2C1's event vector, priority 8, below the
-//!   control loops and above thread mode): the pilot's frames (kill switch) and the battery
-//!   failsafe's input, so no card or flash driver call in thread mode delays them.
-//! - **storage** (thread-mode executor, with the link task): the parameter store in the board's flash
+//! - **link, RC receiver, battery** (one interrupt executor on I2C1's event vector, NVIC
+//!   priority 8: below the control loops, above thread mode, so no card or flash driver call in
+//!   thread mode delays them). The link task: USART3 (DMA ring buffer), MAVLink framing and
+//!   decoding; decoded messages go to the outer task through a `Channel` (position fixes and
+//!   obstacles included: their 0.2 s staleness failsafe must not see card stalls), replies come
+//!   back through another; builds the telemetry streams from the published snapshot; LOG_*
+//!   requests go to the log task and its replies come back (both `Channel`s). The RC receiver:
+//!   the pilot's frames (kill switch). The battery: the battery failsafe's input.
+//! - **onboard log** (thread-mode executor, the lowest priority, with the storage task only):
+//!   the outer task hands a `LogSample` every `DEFAULT_PERIOD_US` (25 Hz) to `LOG_QUEUE`
+//!   (`try_send`: dropped and counted when full, never waits); the log task turns them into ULog
+//!   records (`FlightLogger`) on the log card (`log::card::CardStore` on
+//!   `board::active::LogCard`: the F405's microSD on SPI3; none on the H743 yet) and serves the
+//!   MAVLink log download (`LogTransfer`). Card writes block (≈ 0.3 ms per 512-byte block at
+//!   21 MHz plus the card's busy time, up to ≈ 250 ms) thread mode only: the log and the
+//!   parameter storage. Bounded work per pass: ≤ `LOG_QUEUE_LEN` record sets (≤ 1 card block
+//!   each plus a directory write every 16 blocks), the queued requests and ≤ `REPLIES_PER_POLL`
+//!   LOG_* replies. The card is mounted when the log task starts (up to ≈ 1 s without a card);
+//!   a formatted card or a card fault is said once in a STATUSTEXT, and logging stays off after
+//!   a fault. Without the `onboard-log` feature there is no log task.
+//! - **storage** (thread-mode executor, with the log task): the parameter store in the board's flash
 //!   (`vehicle::tasks::storage_job`: saves, PREFLIGHT_STORAGE read/reset); flash erases and
 //!   writes run here only, never in a control task, and only while disarmed (the outer task
 //!   sends no job while armed). On the F405 (one flash bank) a flash write or erase still stalls
 //!   every instruction fetch from flash, interrupts included (a word ≈ 16 µs, a 128 KiB sector
 //!   erase 1-2 s): disarmed only, by design.
-//! - **battery** (the service executor above): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
+//! - **battery** (the link's executor above): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
 //!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → `MAILBOXES.battery` (the outer
 //!   stage's low/critical battery failsafes).
 //!
@@ -56,6 +57,7 @@
 mod firmware {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
+    #[cfg(feature = "onboard-log")]
     use board_log::BoardLog;
 
     use defmt_rtt as _;
@@ -90,9 +92,7 @@ mod firmware {
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
     use parapet_firmware::link::messages::frame_extra_crc;
     use parapet_firmware::link::outbound::Outbound;
-    use parapet_firmware::link::telemetry::{
-        ErrorCounters, TelemetryInputs, TelemetryScheduler, MAX_PER_POLL,
-    };
+    use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
     use parapet_firmware::link::{FixClock, Link, Received};
     use parapet_firmware::storage::{Loaded, ParamStore};
     use parapet_firmware::vehicle::tasks::{storage_job, SetupInner, SetupMailboxes, SetupOuter};
@@ -107,13 +107,12 @@ mod firmware {
     const REPORT_EVERY_OUTER: u32 = 125;
     /// Decoded messages in flight from the link task to the outer task.
     const INBOUND_DEPTH: usize = 2;
-    /// Bytes of one telemetry poll's frames: [`MAX_PER_POLL`] messages of at most
-    /// [`MAX_TELEMETRY_FRAME`] bytes.
-    const TX_BATCH: usize = MAX_PER_POLL * MAX_TELEMETRY_FRAME;
-    /// The longest frame the telemetry streams emit, bytes: STATUSTEXT (MAVLink 2 header 10 +
-    /// payload 54 with its extension fields + CRC 2); the others are shorter
-    /// (POSITION_TARGET_LOCAL_NED 63, SYS_STATUS 55, RC_CHANNELS 54, DEBUG_VECT 42).
-    const MAX_TELEMETRY_FRAME: usize = 66;
+    /// Bytes of one telemetry poll's frames. The `telemetry::MAX_PER_POLL` breakdown with each group's
+    /// longest frames (MAVLink 2: header 10 + payload + CRC 2) needs at most 924 B: failsafe
+    /// STATUSTEXT 66 + NAMED_VALUE_INT 30, mode STATUSTEXT 66, RC_CHANNELS 54, heartbeat group
+    /// 21 + 30 + 55 + 14, two streams ≤ 2 × 63, filter and loop groups ≤ 4 × 42 each, link
+    /// 3 × 42. A frame that does not fit is dropped and counted as a UART error.
+    const TX_BATCH: usize = 1024;
     /// Replies in flight from the outer task to the link task.
     const REPLY_DEPTH: usize = 8;
 
@@ -141,8 +140,8 @@ mod firmware {
     static RC_UART_ERRORS: AtomicU32 = AtomicU32::new(0);
     static EXECUTOR_HIGH: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_MED: InterruptExecutor = InterruptExecutor::new();
-    /// RC receiver and battery (the pilot's kill switch and the battery failsafe's input): above
-    /// thread mode, where the link task's blocking card writes run (module doc).
+    /// Link, RC receiver and battery (position fixes, the pilot's kill switch, the battery
+    /// failsafe's input): above thread mode, where the log task's blocking card writes run.
     static EXECUTOR_SERVICE: InterruptExecutor = InterruptExecutor::new();
     static EXECUTOR_LOW: StaticCell<Executor> = StaticCell::new();
     static RX_RING: StaticCell<[u8; COMPANION_RX_RING]> = StaticCell::new();
@@ -248,15 +247,18 @@ mod firmware {
             Ok(t) => service.spawn(t),
             Err(_) => halt("spawn battery"),
         }
+        match link_task(board.link_tx, board.link_rx) {
+            Ok(t) => service.spawn(t),
+            Err(_) => halt("spawn link"),
+        }
         let low = EXECUTOR_LOW.init(Executor::new());
         #[cfg(feature = "onboard-log")]
-        let log = BoardLog::new(board.log_card, params);
-        #[cfg(not(feature = "onboard-log"))]
-        let log = BoardLog;
+        let log = board_log::LOG.init(BoardLog::new(board.log_card, params));
         low.run(|spawner| {
-            match link_task(board.link_tx, board.link_rx, log) {
+            #[cfg(feature = "onboard-log")]
+            match log_task(log) {
                 Ok(t) => spawner.spawn(t),
-                Err(_) => halt("spawn link"),
+                Err(_) => halt("spawn log"),
             }
             match storage_task(STORE.init(store)) {
                 Ok(t) => spawner.spawn(t),
@@ -436,19 +438,15 @@ mod firmware {
         }
     }
 
-    /// MAVLink over the companion UART: framing, decoding, replies and telemetry; and the
-    /// onboard log (module doc).
+    /// MAVLink over the companion UART: framing, decoding, replies and telemetry; LOG_* frames
+    /// to and from the log task (module doc).
     #[embassy_executor::task]
     async fn link_task(
         mut tx: UartTx<'static, embassy_stm32::mode::Async>,
         mut rx: RingBufferedUartRx<'static>,
-        mut log: BoardLog,
     ) {
         let mut parser = FrameParser::new();
         let mut writer = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
-        if let Some(m) = log.mount() {
-            send(&mut tx, &mut writer, &m).await;
-        }
         let mut telemetry = TelemetryScheduler::new();
         let mut snapshot = TelemetrySnapshot::BOOT;
         let (mut inner, mut outer) = (LoopReport::ZERO, LoopReport::ZERO);
@@ -465,8 +463,8 @@ mod firmware {
                         // At most one frame completes per byte.
                         let mut got = None;
                         parser.push(b, &frame_extra_crc, &mut |f: &RawFrame<'_>| {
-                            // LOG_* requests are served here; the rest go to the outer task.
-                            if !log.on_frame(f) {
+                            // LOG_* requests go to the log task, the rest to the outer task.
+                            if !board_log::forward(f) {
                                 got = Some(Received::of(f));
                             }
                         });
@@ -481,7 +479,7 @@ mod firmware {
             while let Ok(r) = REPLIES.try_receive() {
                 send(&mut tx, &mut writer, &r).await;
             }
-            log.step(&mut tx, &mut writer).await;
+            board_log::send_replies(&mut tx, &mut writer).await;
             if let Some(s) = MAILBOXES.snapshot.try_take() {
                 snapshot = s;
             }
@@ -511,8 +509,8 @@ mod firmware {
                     },
                 };
                 telemetry.poll(now_us(), &inputs, |m| {
-                    // Fits by TX_BATCH's bound; a frame that did not would be dropped (the
-                    // streams resend) and counted.
+                    // Fits by TX_BATCH's bound; a frame that did not is dropped (the streams
+                    // resend) and counted.
                     if batch.extend_from_slice(m.encode(&mut writer).raw_bytes()).is_err() {
                         tx_dropped = tx_dropped.saturating_add(1);
                     }
@@ -523,6 +521,14 @@ mod firmware {
                 let _ = tx.write(&batch).await;
             }
         }
+    }
+
+    /// The onboard log (module doc): alone in thread mode with the storage task, so its blocking
+    /// card calls delay neither the control loops nor the link, RC and battery tasks.
+    #[cfg(feature = "onboard-log")]
+    #[embassy_executor::task]
+    async fn log_task(log: &'static mut BoardLog) {
+        log.run().await
     }
 
     async fn send(
@@ -536,35 +542,28 @@ mod firmware {
     }
 
     /// The onboard log of the board (module doc), with the `onboard-log` feature; without it a
-    /// no-op (the image has no log: F405 flash/RAM budget, docs/bring-up.md §9).
+    /// no-op (no log in the image).
     mod board_log {
         #[cfg(not(feature = "onboard-log"))]
         use parapet_firmware::{
             app::autopilot::MotorCommand, link::frame_parser::RawFrame, link::framing::FrameWriter,
-            link::outbound::Outbound,
         };
 
         #[cfg(feature = "onboard-log")]
         pub use on::*;
 
-        /// No log in this build.
+        /// No log in this build: no frame is a log request.
         #[cfg(not(feature = "onboard-log"))]
-        pub struct BoardLog;
+        pub fn forward(_f: &RawFrame<'_>) -> bool {
+            false
+        }
 
+        /// No log in this build: nothing to send.
         #[cfg(not(feature = "onboard-log"))]
-        impl BoardLog {
-            pub fn mount(&mut self) -> Option<Outbound> {
-                None
-            }
-            pub fn on_frame(&mut self, _f: &RawFrame<'_>) -> bool {
-                false
-            }
-            pub async fn step(
-                &mut self,
-                _tx: &mut embassy_stm32::usart::UartTx<'static, embassy_stm32::mode::Async>,
-                _writer: &mut FrameWriter,
-            ) {
-            }
+        pub async fn send_replies(
+            _tx: &mut embassy_stm32::usart::UartTx<'static, embassy_stm32::mode::Async>,
+            _writer: &mut FrameWriter,
+        ) {
         }
 
         #[cfg(not(feature = "onboard-log"))]
@@ -574,10 +573,12 @@ mod firmware {
         mod on {
             use core::sync::atomic::{AtomicU32, Ordering};
 
+            use embassy_futures::select::{select3, Either3};
             use embassy_stm32::mode::Async;
             use embassy_stm32::usart::UartTx;
             use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
             use embassy_sync::channel::Channel;
+            use embassy_time::Timer;
             use parapet_core::controller::ControllerParams;
             use parapet_firmware::app::autopilot::MotorCommand;
             use parapet_firmware::app::cascade::OuterStage;
@@ -588,23 +589,55 @@ mod firmware {
             use parapet_firmware::link::outbound::Outbound;
             use parapet_firmware::log::card::CardStore;
             use parapet_firmware::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
-            use parapet_firmware::log::transfer::{LogTransfer, REPLIES_PER_POLL};
+            use parapet_firmware::log::transfer::{LogReply, LogTransfer, REPLIES_PER_POLL};
             use static_cell::StaticCell;
 
-            /// Log samples in flight from the outer task to the link task (25 Hz; the link
-            /// task drains the queue every ≤ 5 ms).
-            const LOG_QUEUE_LEN: usize = 2;
-            /// Bytes of one log step's frames: a STATUSTEXT (66) and [`REPLIES_PER_POLL`] LOG_DATA
-            /// frames (MAVLink 2 header 10 + payload 97 + CRC 2; LOG_ENTRY is 26).
+            /// Log samples in flight from the outer task to the log task (25 Hz: the log task,
+            /// alone in thread mode, takes each within a pass unless the card or a flash write
+            /// stalls it; then later samples are dropped and counted).
+            const LOG_QUEUE_LEN: usize = 1;
+            /// LOG_* requests in flight from the link task to the log task (a full queue drops
+            /// the request, counted; the ground station repeats it).
+            const REQUEST_DEPTH: usize = 2;
+            /// Bytes of a LOG_* request payload kept (LOG_REQUEST_DATA, the longest, has 12).
+            const REQUEST_PAYLOAD: usize = 12;
+            /// Bytes of one batch of log frames: a STATUSTEXT (66) and [`REPLIES_PER_POLL`]
+            /// LOG_DATA frames (MAVLink 2 header 10 + payload 97 + CRC 2; LOG_ENTRY is 26).
             const LOG_TX_BATCH: usize = 66 + REPLIES_PER_POLL * 109;
-            /// Outer task → link task: log samples.
+            /// Log task period while a download streams, ms (≤ REPLIES_PER_POLL per pass).
+            const LOG_PASS_MS: u64 = 5;
+            /// Outer task → log task: log samples.
             static LOG_QUEUE: Channel<CriticalSectionRawMutex, LogSample, LOG_QUEUE_LEN> = Channel::new();
+            /// Link task → log task: LOG_* requests.
+            static REQUESTS: Channel<CriticalSectionRawMutex, LogRequest, REQUEST_DEPTH> = Channel::new();
+            /// Log task → link task: replies and the card's STATUSTEXTs, in order.
+            static OUT: Channel<CriticalSectionRawMutex, LogOut, REPLIES_PER_POLL> = Channel::new();
             /// Log samples dropped because [`LOG_QUEUE`] was full.
             pub static LOG_DROPPED: AtomicU32 = AtomicU32::new(0);
+            /// LOG_* requests dropped because [`REQUESTS`] was full.
+            pub static REQUESTS_DROPPED: AtomicU32 = AtomicU32::new(0);
             /// Inner task → outer task: the last motor throttles (f32 bits; for the log only).
             static MOTOR_OUT: [AtomicU32; 4] = [const { AtomicU32::new(0) }; 4];
             static STORE: StaticCell<CardStore<LogCard>> = StaticCell::new();
             static PARAMS: StaticCell<ControllerParams> = StaticCell::new();
+            /// The log task's state (handed over by reference: module doc of `main.rs`).
+            pub static LOG: StaticCell<BoardLog> = StaticCell::new();
+
+            /// A LOG_* request copied out of the link task's framer.
+            struct LogRequest {
+                msg_id: u32,
+                sys_id: u8,
+                comp_id: u8,
+                seq: u8,
+                len: u8,
+                payload: [u8; REQUEST_PAYLOAD],
+            }
+
+            /// What the log task hands the link task to send.
+            enum LogOut {
+                Reply(LogReply),
+                Text(&'static str),
+            }
 
             /// Inner task: the motor command just sent (4 relaxed stores).
             pub fn motors(cmd: &MotorCommand) {
@@ -627,6 +660,49 @@ mod firmware {
                 }
             }
 
+            /// Link task: a received frame; `true` if it is a LOG_* request (handed to the log
+            /// task, never a wait: dropped and counted when the queue is full).
+            pub fn forward(f: &RawFrame<'_>) -> bool {
+                if !LogTransfer::handles(f.msg_id) {
+                    return false;
+                }
+                let mut payload = [0u8; REQUEST_PAYLOAD];
+                let n = f.payload.len().min(REQUEST_PAYLOAD);
+                payload[..n].copy_from_slice(&f.payload[..n]);
+                let r = LogRequest {
+                    msg_id: f.msg_id,
+                    sys_id: f.sys_id,
+                    comp_id: f.comp_id,
+                    seq: f.seq,
+                    len: n as u8,
+                    payload,
+                };
+                if REQUESTS.try_send(r).is_err() {
+                    REQUESTS_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
+                true
+            }
+
+            /// Link task: the log task's frames, encoded with the link's writer (one sequence)
+            /// into one byte batch and written in one DMA transfer.
+            pub async fn send_replies(tx: &mut UartTx<'static, Async>, writer: &mut FrameWriter) {
+                let mut batch: heapless::Vec<u8, LOG_TX_BATCH> = heapless::Vec::new();
+                while let Ok(o) = OUT.try_receive() {
+                    let raw = match o {
+                        LogOut::Reply(r) => r.encode(writer),
+                        LogOut::Text(t) => match status(t).encode(writer) {
+                            parapet_firmware::link::outbound::Encoded::V2(r) => r,
+                            parapet_firmware::link::outbound::Encoded::V1(_) => continue,
+                        },
+                    };
+                    // OUT holds ≤ REPLIES_PER_POLL items, the batch their longest frames.
+                    let _ = batch.extend_from_slice(raw.raw_bytes());
+                }
+                if !batch.is_empty() {
+                    let _ = tx.write(&batch).await;
+                }
+            }
+
             /// A STATUSTEXT of the log (card formatted, card fault).
             fn status(text: &str) -> Outbound {
                 let mut buf = [0u8; 50];
@@ -637,7 +713,7 @@ mod firmware {
                 Outbound::StatusText(STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() })
             }
 
-            /// The link task's log: logger, card store, download.
+            /// The log task's state: logger, card store, download.
             pub struct BoardLog {
                 store: &'static mut CardStore<LogCard>,
                 params: &'static ControllerParams,
@@ -657,40 +733,61 @@ mod firmware {
                     }
                 }
 
-                /// Mounts the card (blocking: init at 400 kHz, then the fast clock); the
-                /// STATUSTEXT to send if it was formatted.
-                pub fn mount(&mut self) -> Option<Outbound> {
+                /// The log task: mounts the card (blocking: init at 400 kHz, then the fast
+                /// clock; a formatted card is said once), then per pass (on a sample, a request
+                /// or every [`LOG_PASS_MS`]): the queued samples (≤ `LOG_QUEUE_LEN` record
+                /// sets, ≤ 1 card block each plus a directory write every 16 blocks), the queued
+                /// requests, a fault STATUSTEXT (once), and at most `REPLIES_PER_POLL`
+                /// LOG_ENTRY/LOG_DATA when the link task has taken the previous ones.
+                pub async fn run(&mut self) -> ! {
                     let mounted = self.store.mount();
                     self.store.device().go_fast();
-                    mounted.ok().and_then(|m| m.text()).map(status)
-                }
-
-                /// A received frame: `true` if it was a LOG_* request (served here).
-                pub fn on_frame(&mut self, f: &RawFrame<'_>) -> bool {
-                    self.transfer.on_frame(f, &mut *self.store)
-                }
-
-                /// The queued samples (≤ `LOG_QUEUE_LEN` record sets, ≤ 1 card block each plus
-                /// a directory write every 16 blocks), a fault STATUSTEXT (once), then at most
-                /// `REPLIES_PER_POLL` LOG_ENTRY/LOG_DATA.
-                pub async fn step(&mut self, tx: &mut UartTx<'static, Async>, writer: &mut FrameWriter) {
+                    if let Some(t) = mounted.ok().and_then(|m| m.text()) {
+                        OUT.send(LogOut::Text(t)).await;
+                    }
                     let params = self.params;
-                    while let Ok(s) = LOG_QUEUE.try_receive() {
-                        self.logger.on_sample(&s, &mut *self.store, |n| parapet_core::params::get(params, n));
+                    loop {
+                        let first = select3(
+                            LOG_QUEUE.receive(),
+                            REQUESTS.receive(),
+                            Timer::after_millis(LOG_PASS_MS),
+                        )
+                        .await;
+                        match first {
+                            Either3::First(s) => self
+                                .logger
+                                .on_sample(&s, &mut *self.store, |n| parapet_core::params::get(params, n)),
+                            Either3::Second(r) => self.request(&r),
+                            Either3::Third(()) => {}
+                        }
+                        while let Ok(s) = LOG_QUEUE.try_receive() {
+                            self.logger
+                                .on_sample(&s, &mut *self.store, |n| parapet_core::params::get(params, n));
+                        }
+                        while let Ok(r) = REQUESTS.try_receive() {
+                            self.request(&r);
+                        }
+                        if let Some(t) = self.store.take_fault() {
+                            OUT.send(LogOut::Text(t)).await;
+                        }
+                        if OUT.is_empty() {
+                            // OUT has room for every reply one poll emits.
+                            self.transfer.poll(&mut *self.store, &mut |r| {
+                                let _ = OUT.try_send(LogOut::Reply(r));
+                            });
+                        }
                     }
-                    // Encoded as emitted into one byte batch (one DMA write; the task keeps the
-                    // bytes, not the messages and a 280-byte frame, across the write).
-                    let mut batch: heapless::Vec<u8, LOG_TX_BATCH> = heapless::Vec::new();
-                    if let Some(t) = self.store.take_fault() {
-                        let _ = batch.extend_from_slice(status(t).encode(writer).raw_bytes());
-                    }
-                    self.transfer.poll(&mut *self.store, &mut |r| {
-                        // LOG_TX_BATCH holds REPLIES_PER_POLL of the longest reply (LOG_DATA).
-                        let _ = batch.extend_from_slice(r.encode(writer).raw_bytes());
-                    });
-                    if !batch.is_empty() {
-                        let _ = tx.write(&batch).await;
-                    }
+                }
+
+                fn request(&mut self, r: &LogRequest) {
+                    let f = RawFrame {
+                        msg_id: r.msg_id,
+                        sys_id: r.sys_id,
+                        comp_id: r.comp_id,
+                        seq: r.seq,
+                        payload: r.payload.get(..usize::from(r.len)).unwrap_or(&[]),
+                    };
+                    self.transfer.on_frame(&f, &mut *self.store);
                 }
             }
         }
