@@ -4,7 +4,7 @@
 //!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
 //!   apt-get when missing and root), runs every host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
-//!   firmware's flash/RAM budget (F405 ≤ 184 KiB / 32 KiB, with the excess over the 128 KiB target printed; the MATEKH743 image ≤ 256 KiB /
+//!   firmware's flash/RAM budget (F405 ≤ 201 KiB / 32 KiB, with the excess over the 128 KiB target printed; the MATEKH743 image ≤ 256 KiB /
 //!   64 KiB), checks `parapet_core::fmath` on the Cortex-M4F in QEMU bit for
 //!   bit against the host (`tests/cortex-m4`, see `m4.rs`), and runs the processor-in-the-loop flight and the
 //!   Slurm job-array campaign test (`host-sim/slurm/ci_test.sh`; installs slurmctld,
@@ -47,10 +47,12 @@ const TARGET: &str = "thumbv7em-none-eabihf";
 /// b293c3d / b2cfb1e / 8ed014b / f3a779e (-15.3 KB), 181,656 B at f3a779e, after the setup
 /// services were wired in (storage task + sequential-storage, calibration, battery ADC: ≈ +38 KB)).
 const FLASH_TARGET: u64 = 128 * 1024;
-/// Flash limit CI enforces on the F405 image, bytes: a regression guard just above today's size
-/// (181,656 B at f3a779e; the STM32F405RG has 1 MiB, 768 KiB of it linkable next to the
-/// parameter sectors).
-const FLASH_BUDGET: u64 = 184 * 1024;
+/// Flash limit CI enforces on the F405 image, bytes: a regression guard ≤ 2 KiB above today's
+/// size — 203,980 B on 2026-12-02 22:03 UTC with the onboard log on by default (`cargo xtask
+/// size`; the tree then, others' uncommitted link edits included). The 128 KiB target is missed
+/// by 72.9 KB (`firmware/README.md` § Budgets). The STM32F405RG has 1 MiB, 768 KiB of it
+/// linkable next to the parameter sectors.
+const FLASH_BUDGET: u64 = 201 * 1024;
 /// Static RAM budget (.data + .bss), bytes (issue: ≤ 32 KiB).
 const RAM_BUDGET: u64 = 32 * 1024;
 /// Flash budget of the MATEKH743 image (`board-h743`), bytes: 256 KiB of its 2 MiB (issue 22:

@@ -22,8 +22,8 @@
 //! | the first record set of a log (header, 6 formats, 3 infos, 71 parameters, 6 subscriptions) | 178 302 |
 //!
 //! With the 60 KiB RAM store of the QEMU board a log holds ≈ 8.7 s at 25 Hz; it is cut there.
-//! On the F405 (cargo feature `onboard-log`, off by default: flash/RAM budget) the link task owns
-//! the logger, the card store and the download (`src/main.rs`);
+//! On the F405 (cargo feature `onboard-log`, on by default) a log task alone in thread mode (with
+//! the parameter storage) owns the logger, the card store and the download (`src/main.rs`);
 //! the H743 has no card driver yet (its log store is always off).
 //!
 //! May import: [`crate::app`] (the telemetry snapshot), [`crate::link`]'s dialect, framing,
