@@ -1,11 +1,18 @@
 //! Velocity of small moving clusters: segments of a scan → α-β tracks of their centroids.
 //!
-//! **Segments.** The returns of one scan row (the row nearest to horizontal, in beam order)
-//! are cut into segments wherever two consecutive returns are more than [`SEGMENT_GAP`]
-//! voxels apart (or a beam has no return). A segment whose extent (the diagonal of its
-//! returns' bounding box) is at most `track_size` is a *cluster* (a person, a pole, a
-//! drone); larger segments are walls and stay static. At most [`MAX_SEGMENTS`] clusters
-//! per scan are tracked (the rest are stored as static cells).
+//! **Segments** (cut by `super::memory`). The returns of one scan row (the row nearest to
+//! horizontal, in beam order; a full circle wraps) are cut into segments wherever two
+//! consecutive returns are more than [`SEGMENT_GAP`] voxels apart or a beam sees nothing
+//! within range (or the ground); a beam without information (dropout) neither cuts nor
+//! joins. A segment is a *cluster* (a person, a pole, a drone) when its extent (the diagonal
+//! of its returns' bounding box) is at most `track_size` **and it stands in front of its
+//! background**: each neighbour beam sees nothing within range, is the edge of a fan, or
+//! returns farther than the segment by more than the gap. A wall seen at grazing incidence
+//! breaks into single returns more than the gap apart, but each has a *nearer* neighbour on
+//! the same wall, so it is no cluster (these returns slide along the wall as the vehicle
+//! moves: tracked, they looked like moving objects). Other segments are walls and stay
+//! static. At most [`MAX_SEGMENTS`] clusters per scan are tracked (the rest are static);
+//! rows wider than `super::memory::MAX_ROW` columns are not tracked.
 //!
 //! **Tracks.** [`MAX_TRACKS`] slots. A cluster takes the free-or-matching track whose
 //! predicted centroid `x + v·dt` is nearest and within `track_gate`; otherwise it opens a
@@ -23,8 +30,24 @@
 //! `σ/dt · √(2β²/(α(4 − 2α − β)))` ≈ 0.2 σ/dt (Kalata). Measured (`track_velocity_converges`,
 //! 256 seeded cases, 1 m/s, centroid noise uniform ±2 cm, 10 Hz): the worst velocity error
 //! is below 0.25 m/s after 10 updates and below 0.12 m/s after 30.
-//! A track's velocity is handed out after [`CONFIRM`] updates and only when faster than
-//! [`STATIC_SPEED`] (slower clusters are static: `velocity: None`).
+//!
+//! **Motion must be proven** before a velocity is handed out: a track's velocity reaches the
+//! filter only after [`CONFIRM`] updates, faster than [`STATIC_SPEED`], and once the track
+//! has *moved*: its filtered centroid lies at least [`MOTION_PROOF_M`] from where the track
+//! was opened (its anchor), at least [`MOTION_PROOF_S`] later, and the mean velocity since
+//! the anchor agrees with the filtered one (`|v − d/T| ≤ ½|d/T|`). Scan-to-scan jitter of a
+//! static segment (centimetres) never accumulates to that; a proven track stays moving for
+//! its life, but its velocity is handed out only while the track is updated (within
+//! [`COAST_S`]: a track out of view is not extrapolated for seconds). Before proof the
+//! cluster is static (`velocity: None`): a static obstacle given a false velocity is worse
+//! for the relative barrier than a moving one handled as static for a few scans. (The other
+//! half — which segments may be tracked at all, so that a point sliding along a wall as the
+//! vehicle moves is not a "moving" cluster — is the foreground rule of `super::memory`.)
+//!
+//! **Hand-over.** Among the tracks within the gate a proven moving one is preferred (its
+//! distance counts half); a cluster outside every gate but within twice the gate of a
+//! proven moving track not updated by this scan continues that track (position reset to
+//! the cluster, velocity and proof kept) instead of opening a new one with no velocity.
 //!
 //! May import: `crate::Vec3`.
 
@@ -40,6 +63,17 @@ pub const SEGMENT_GAP: f32 = 2.0;
 pub const CONFIRM: u16 = 3;
 /// Tracks slower than this are static, m/s.
 pub const STATIC_SPEED: f32 = 0.2;
+/// Displacement from the anchor that proves motion, m (1.5 default voxels; 15 times the
+/// lidar's range noise σ).
+pub const MOTION_PROOF_M: f32 = 0.3;
+/// Least time from the anchor for a proof of motion, s.
+pub const MOTION_PROOF_S: f32 = 0.2;
+/// An unproven track's anchor older than this moves to its current centroid, s (so the
+/// proof needs [`MOTION_PROOF_M`] within this window: a slow drift never proves motion).
+pub const MOTION_WINDOW_S: f32 = 1.0;
+/// A track's velocity is handed out only while it was updated within this time, s (a
+/// track out of view is not extrapolated for longer).
+pub const COAST_S: f32 = 0.5;
 
 /// One tracked cluster.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,13 +86,54 @@ pub struct Track {
     pub t_us: u64,
     /// Updates so far (saturating).
     pub updates: u16,
+    /// Centroid where the track was opened, NED, m.
+    pub anchor: Vec3,
+    /// Time the track was opened, µs.
+    pub anchor_us: u64,
+    /// Motion proven (see the module documentation); latched.
+    pub moving: bool,
 }
 
 impl Track {
-    /// The velocity the filter may use: after [`CONFIRM`] updates and above [`STATIC_SPEED`].
-    pub fn measured_velocity(&self) -> Option<Vec3> {
-        (self.updates >= CONFIRM && self.velocity.norm_squared() > STATIC_SPEED * STATIC_SPEED)
+    /// The velocity the filter may use at `t_us`: motion proven, after [`CONFIRM`] updates,
+    /// above [`STATIC_SPEED`], last updated within [`COAST_S`].
+    pub fn measured_velocity(&self, t_us: u64) -> Option<Vec3> {
+        (self.moving
+            && t_us.saturating_sub(self.t_us) <= (COAST_S * 1e6) as u64
+            && self.updates >= CONFIRM
+            && self.velocity.norm_squared() > STATIC_SPEED * STATIC_SPEED)
             .then_some(self.velocity)
+    }
+
+    fn new(c: &Vec3, t_us: u64) -> Self {
+        Track {
+            position: *c,
+            velocity: Vec3::zeros(),
+            t_us,
+            updates: 1,
+            anchor: *c,
+            anchor_us: t_us,
+            moving: false,
+        }
+    }
+
+    /// Latches `moving` when the displacement from the anchor proves motion.
+    fn prove(&mut self) {
+        if self.moving {
+            return;
+        }
+        let dt = self.t_us.saturating_sub(self.anchor_us) as f32 * 1e-6;
+        let d = self.position - self.anchor;
+        if dt > MOTION_WINDOW_S {
+            self.anchor = self.position;
+            self.anchor_us = self.t_us;
+            return;
+        }
+        if dt < MOTION_PROOF_S || d.norm_squared() < MOTION_PROOF_M * MOTION_PROOF_M {
+            return;
+        }
+        let mean = d / dt;
+        self.moving = (self.velocity - mean).norm_squared() <= 0.25 * mean.norm_squared();
     }
 }
 
@@ -98,7 +173,10 @@ impl Tracker {
     /// the slot. `taken`: slots already updated by this scan (not eligible). O([`MAX_TRACKS`]).
     pub fn update(&mut self, c: &Vec3, t_us: u64, alpha: f32, gate: f32, taken: u16) -> usize {
         let beta = alpha * alpha / (2.0 - alpha);
+        // Nearest eligible track (a proven moving one's distance counts half) within the
+        // gate; the nearest proven moving one within twice the gate as the hand-over.
         let mut best: Option<(usize, f32)> = None;
+        let mut handover: Option<(usize, f32)> = None;
         for (i, s) in self.slots.iter().enumerate() {
             let Some(tr) = s else { continue };
             if taken & (1 << i) != 0 || t_us <= tr.t_us {
@@ -106,8 +184,12 @@ impl Tracker {
             }
             let dt = (t_us - tr.t_us) as f32 * 1e-6;
             let d = (tr.position + tr.velocity * dt - c).norm();
-            if d <= gate && best.is_none_or(|(_, bd)| d < bd) {
-                best = Some((i, d));
+            let score = if tr.moving { 0.5 * d } else { d };
+            if d <= gate && best.is_none_or(|(_, bs)| score < bs) {
+                best = Some((i, score));
+            }
+            if tr.moving && d <= 2.0 * gate && handover.is_none_or(|(_, hd)| d < hd) {
+                handover = Some((i, d));
             }
         }
         if let Some((i, _)) = best {
@@ -117,6 +199,15 @@ impl Tracker {
                 let e = c - pred;
                 tr.position = pred + e * alpha;
                 tr.velocity += e * (beta / dt);
+                tr.t_us = t_us;
+                tr.updates = tr.updates.saturating_add(1);
+                tr.prove();
+            }
+            return i;
+        }
+        if let Some((i, _)) = handover {
+            if let Some(Some(tr)) = self.slots.get_mut(i) {
+                tr.position = *c;
                 tr.t_us = t_us;
                 tr.updates = tr.updates.saturating_add(1);
             }
@@ -139,7 +230,7 @@ impl Tracker {
             }
         }
         if let Some(s) = self.slots.get_mut(slot) {
-            *s = Some(Track { position: *c, velocity: Vec3::zeros(), t_us, updates: 1 });
+            *s = Some(Track::new(c, t_us));
         }
         slot
     }
@@ -191,6 +282,32 @@ mod tests {
         }
         assert!(worst10 < 0.25, "after 10 updates: {worst10}");
         assert!(worst30 < 0.12, "after 30 updates: {worst30}");
+    }
+
+    /// Motion proof: a centroid jittering ±5 cm (static, 10 s) and one drifting at 0.2 m/s
+    /// never hand out a velocity; one moving at 1 m/s does from the 5th update on.
+    #[test]
+    fn only_proven_motion_hands_out_a_velocity() {
+        let mut rng = Rng(0x5eed);
+        for (speed, proven_from) in [(0.0f32, None), (0.2, None), (1.0, Some(5u64))] {
+            let mut t = Tracker::new();
+            for k in 0..100u64 {
+                let tk = 1_000_000 + k * 100_000;
+                let n = Vec3::new(rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05), 0.0);
+                let c = Vec3::new(2.0, speed * k as f32 * 0.1, -1.0) + n;
+                let i = t.update(&c, tk, 0.5, 0.5, 0);
+                let v = t.get(i).unwrap().measured_velocity(tk);
+                match proven_from {
+                    Some(k0) if k >= k0 => assert!(v.is_some(), "{speed} m/s, update {k}"),
+                    Some(_) => {}
+                    None => assert!(v.is_none(), "{speed} m/s, update {k}: {v:?}"),
+                }
+            }
+            // Out of view for longer than the coast time: no velocity.
+            if let Some(tr) = t.get(0) {
+                assert!(tr.measured_velocity(tr.t_us + 600_000).is_none());
+            }
+        }
     }
 
     #[test]
