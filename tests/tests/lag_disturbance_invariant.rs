@@ -83,8 +83,8 @@ struct Outcome {
 /// Fly case `c`; `None` when it starts inside a barrier (rejected). With `start_only` only
 /// that check is made (the outcome is then all +∞).
 fn fly(c: &Case, start_only: bool) -> Option<Outcome> {
-    let params = CbfParams { sample_time: DT * OUTER_EVERY as f32, gamma: 1.0, ..CbfParams::default() };
     let rp = RobustParams::default();
+    let params = CbfParams { sample_time: DT * OUTER_EVERY as f32, gamma: rp.gamma, ..CbfParams::default() };
     let params = CbfParams { accel_bound: params.accel_bound + rp.dob_margin, ..params };
     let filter = SafetyFilter::new(params, FilterVariant::MultiRelative).ok()?;
     let tau_model = lag_time_constant(&parapet_core::attitude::AttitudeParams::default().att_p, rp.motor_tau);
