@@ -27,6 +27,7 @@ pub mod obstacles;
 pub mod offboard;
 pub mod outbound;
 pub mod params;
+pub mod received;
 pub mod router;
 pub mod services;
 pub mod telemetry;

@@ -46,7 +46,6 @@ use heapless::Deque;
 
 use crate::app::autopilot::{Autopilot, FlightMode, FlightPhase, VehicleCommand};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
-use crate::link::endpoint::{LinkStats, Received};
 use crate::link::frame_parser::RawFrame;
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::inputs::{odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US};
@@ -56,6 +55,7 @@ use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::ObstacleAssembler;
 use crate::link::outbound::Outbound;
+use crate::link::received::{LinkStats, Received};
 use crate::link::services::{MissionProgress, Services};
 use crate::setup::SetupAck;
 
