@@ -14,7 +14,18 @@
 //! KKT-valid — the unique optimum in exact arithmetic, so the search stops
 //! there; without one, every candidate is visited and the choice is the
 //! cheapest feasible KKT-valid candidate within a loose tolerance, else the
-//! cheapest feasible one, else the cheapest within the loose tolerance. Each
+//! cheapest feasible one, else the cheapest within the loose tolerance.
+//!
+//! Three shortcuts give the same answer bit for bit (test
+//! `greedy_chain_and_memo_change_nothing`, against the plain enumeration):
+//! a **greedy chain** is tried first — the active set grown by the most
+//! violated plane, {i1} → {i1, i2} → {i1, i2, i3} — since only the optimum
+//! passes the stopping rule, wherever the chain reaches it; the enumeration's
+//! first pass is **skipped** when a plane lies beyond the bound (no candidate
+//! can pass); and the candidates the first pass solved are **kept** for the
+//! fallback instead of being solved again. On the Cortex-M4F this took the
+//! default filter at K = 16 from 5,366 / 9,978 to 4,269 / 8,418 instructions
+//! (mean / max, `docs/filter.md` §13). Each
 //! candidate is computed with cross products (Cramer), in coordinates centred
 //! on a point the planes (nearly) share, and polished by one step of iterative
 //! refinement, to keep round-off small. Work is bounded in advance: at most
@@ -32,6 +43,11 @@ use crate::Vec3;
 
 /// Maximum number of half-spaces [`project`] accepts; extra ones are ignored.
 pub const MAX_CONSTRAINTS: usize = 8;
+
+/// Candidates pass 1 of [`project`] keeps for pass 2: every active set of size ≤ 3 of four
+/// planes (1 + 4 + 6 + 4), the most the CBF filter gives (`cbf::MAX_ACTIVE_BARRIERS`); with
+/// more planes pass 2 solves the candidates again.
+pub const MEMO_CANDIDATES: usize = 15;
 
 /// Active sets whose normals' Gram determinant is below this are skipped as degenerate.
 pub const GRAM_EPS: f32 = 1e-9;
@@ -186,6 +202,50 @@ fn first_active_set<T>(k: usize, mut f: impl FnMut(&[usize]) -> Option<T>) -> Op
     None
 }
 
+/// The greedy chain of [`project_centred`]: `Some` with pass 1's answer when a candidate of
+/// the chain passes pass 1's rule (KKT-valid, feasible within `tol`), `None` when the chain
+/// stops without one. At most 3 candidates, each index set solved in ascending order (the
+/// same arithmetic as the enumeration's candidate of that set).
+fn greedy_chain(
+    cons: &[HalfSpace],
+    tol: f32,
+    bounded: &impl Fn(&[usize]) -> Option<(Vec3, bool)>,
+) -> Option<Projection> {
+    let mut set = [0usize; 3];
+    let mut n = 0usize;
+    let (mut u, _) = bounded(&[])?;
+    loop {
+        // The most violated plane at u (the first of equals), and the largest violation.
+        let mut worst = (0usize, 0.0f32);
+        for (i, h) in cons.iter().enumerate() {
+            let v = h.violation(&u);
+            if v > worst.1 {
+                worst = (i, v);
+            }
+        }
+        if worst.1 <= tol {
+            let mask = set[..n].iter().fold(0u8, |m, &i| m | (1 << i));
+            return Some(Projection { u, feasible: true, active_mask: mask, max_violation: worst.1 });
+        }
+        if n == 3 || set[..n].contains(&worst.0) {
+            return None;
+        }
+        // Insert in ascending order.
+        let mut j = n;
+        while j > 0 && set[j - 1] > worst.0 {
+            set[j] = set[j - 1];
+            j -= 1;
+        }
+        set[j] = worst.0;
+        n += 1;
+        let (next, kkt) = bounded(&set[..n])?;
+        if !kkt {
+            return None;
+        }
+        u = next;
+    }
+}
+
 fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     let k = cons.len();
     let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| maxf(m, h.c.abs()));
@@ -208,23 +268,45 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     // Pass 1: the first candidate, smallest active sets first, that is KKT-valid and
     // feasible within the tight tolerance. In exact arithmetic that is the unique
     // optimum, so the search stops there (mostly after a single plane or an edge).
-    let hit = first_active_set(k, |idx| {
-        let (u, kkt) = bounded(idx)?;
-        if !kkt {
-            return None;
+    // Skipped when a plane lies beyond the bound by more than the tight tolerance: every
+    // candidate has |u| ≤ bound, so nᵀu ≤ bound < c − tol_tight and none can pass (a demand
+    // beyond reach, e.g. `unavoidable`). The candidates it solves are kept (up to
+    // [`MEMO_CANDIDATES`], all of them for the filter's ≤ 4 planes) so that pass 2 does not
+    // solve them again: the same candidates in the same order, the same answer.
+    let mut memo: heapless::Vec<(Vec3, bool, u8), MEMO_CANDIDATES> = heapless::Vec::new();
+    let mut memo_complete = false;
+    if cons.iter().all(|h| h.c - bound <= tol_tight) {
+        // The greedy chain first: the active set grown by the most violated plane at the
+        // current candidate, {i1} → {i1, i2} → {i1, i2, i3}, each tested by pass 1's rule.
+        // In exact arithmetic only the optimum passes that rule, so where the chain reaches
+        // it (mostly), the answer is pass 1's; where a candidate of the chain is degenerate,
+        // out of bound or has a negative multiplier, the full enumeration decides.
+        if let Some(p) = greedy_chain(cons, tol_tight, &bounded) {
+            return p;
         }
-        let mut viol = 0.0f32;
-        for h in cons {
-            let v = h.violation(&u);
-            if v > tol_tight {
+        memo_complete = true;
+        let hit = first_active_set(k, |idx| {
+            let (u, kkt) = bounded(idx)?;
+            let mask = mask_of(idx);
+            if memo.push((u, kkt, mask)).is_err() {
+                memo_complete = false;
+            }
+            if !kkt {
                 return None;
             }
-            viol = maxf(viol, v);
+            let mut viol = 0.0f32;
+            for h in cons {
+                let v = h.violation(&u);
+                if v > tol_tight {
+                    return None;
+                }
+                viol = maxf(viol, v);
+            }
+            Some(Projection { u, feasible: true, active_mask: mask, max_violation: viol })
+        });
+        if let Some(p) = hit {
+            return p;
         }
-        Some(Projection { u, feasible: true, active_mask: mask_of(idx), max_violation: viol })
-    });
-    if let Some(p) = hit {
-        return p;
     }
 
     // Pass 2, only when no candidate passed: every candidate is visited and the choice
@@ -251,9 +333,7 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
     } else {
         (Vec3::zeros(), max_viol(&Vec3::zeros()), 0)
     };
-    first_active_set(k, |idx| -> Option<()> {
-        let (u, kkt) = bounded(idx)?;
-        let mask = mask_of(idx);
+    let mut visit = |u: Vec3, kkt: bool, mask: u8| {
         let viol = max_viol(&u);
         if viol < least_bad.1 {
             least_bad = (u, viol, mask);
@@ -267,8 +347,18 @@ fn project_centred(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
         if viol <= tol_loose && cheaper(&u, viol, &best_loose) {
             best_loose = Some((u, viol, mask));
         }
-        None
-    });
+    };
+    if memo_complete {
+        for &(u, kkt, mask) in &memo {
+            visit(u, kkt, mask);
+        }
+    } else {
+        first_active_set(k, |idx| -> Option<()> {
+            let (u, kkt) = bounded(idx)?;
+            visit(u, kkt, mask_of(idx));
+            None
+        });
+    }
     match best_kkt_loose.or(best).or(best_loose) {
         Some((u, viol, mask)) => Projection { u, feasible: true, active_mask: mask, max_violation: viol },
         None => Projection {
@@ -341,6 +431,163 @@ mod tests {
         let bounded = project_bounded(&Vec3::zeros(), &[a, b], &Vec3::zeros(), 1.0);
         assert!(!bounded.feasible);
         assert!(bounded.u.norm() <= 1.0 && bounded.max_violation > 0.0);
+    }
+
+    /// The search as first written, kept as the reference of `greedy_chain_and_memo_change_nothing`:
+    /// pass 1 over every active set in order (stop at the first KKT-valid candidate feasible
+    /// within the tight tolerance), then pass 2 solving every candidate again for the fallback.
+    fn enumerated(u_nom: &Vec3, cons: &[HalfSpace], bound: f32) -> Projection {
+        let k = cons.len();
+        let scale = 1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| maxf(m, h.c.abs()));
+        // Feasibility tolerances: tight (near f32 round-off) first; the loose one only
+        // when no candidate passes the tight one (ill-conditioned, near-degenerate sets).
+        let (tol_tight, tol_loose) = (2e-6 * scale, 1e-4 * scale);
+        let max_viol = |u: &Vec3| cons.iter().fold(0.0f32, |m, h| maxf(m, h.violation(u)));
+        let mask_of = |idx: &[usize]| idx.iter().fold(0u8, |m, &i| m | (1 << i));
+        // Bounded, finite candidate with its smallest multiplier, and whether that satisfies
+        // the KKT sign condition (multipliers are scaled by the correction's size; a small
+        // negative one is round-off).
+        let bounded = |idx: &[usize]| -> Option<(Vec3, bool)> {
+            let (u, lam_min) = candidate(u_nom, cons, idx)?;
+            if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite()) || norm3(&u) > bound {
+                return None;
+            }
+            Some((u, lam_min >= -1e-5 * (1.0 + norm3(&(u - u_nom)))))
+        };
+
+        // Pass 1: the first candidate, smallest active sets first, that is KKT-valid and
+        // feasible within the tight tolerance. In exact arithmetic that is the unique
+        // optimum, so the search stops there (mostly after a single plane or an edge).
+        let hit = first_active_set(k, |idx| {
+            let (u, kkt) = bounded(idx)?;
+            if !kkt {
+                return None;
+            }
+            let mut viol = 0.0f32;
+            for h in cons {
+                let v = h.violation(&u);
+                if v > tol_tight {
+                    return None;
+                }
+                viol = maxf(viol, v);
+            }
+            Some(Projection { u, feasible: true, active_mask: mask_of(idx), max_violation: viol })
+        });
+        if let Some(p) = hit {
+            return p;
+        }
+
+        // Pass 2, only when no candidate passed: every candidate is visited and the choice
+        // is (u, violation, mask) of the cheapest KKT-valid candidate within the loose
+        // tolerance (a KKT point a round-off away from feasible is a near-optimum; a feasible
+        // non-KKT vertex can be far costlier), then the cheapest feasible one without KKT,
+        // then the cheapest within the loose tolerance, else the least violation.
+        let mut best_kkt_loose: Option<(Vec3, f32, u8)> = None;
+        let mut best: Option<(Vec3, f32, u8)> = None;
+        let mut best_loose: Option<(Vec3, f32, u8)> = None;
+        // Is `u` (violating by `vu`) cheaper than `b`? The cost difference is taken exactly,
+        // |u−u*|² − |b−u*|² = (u − b)ᵀ(u + b − 2u*) (no cancellation of two large squared
+        // norms in f32), and each side is charged 2|·−u*|·violation, the first-order cost
+        // of repairing its violation: a candidate may not win by violating within tolerance.
+        let cheaper = |u: &Vec3, vu: f32, b: &Option<(Vec3, f32, u8)>| {
+            b.is_none_or(|(b, vb, _)| {
+                (u - b).dot(&(u + b - u_nom * 2.0))
+                    + 2.0 * (norm3(&(u - u_nom)) * vu - norm3(&(b - u_nom)) * vb)
+                    < 0.0
+            })
+        };
+        // Least violation among bounded candidates (u* itself when it is within the bound).
+        let mut least_bad: (Vec3, f32, u8) = if norm3(u_nom) <= bound {
+            (*u_nom, max_viol(u_nom), 0)
+        } else {
+            (Vec3::zeros(), max_viol(&Vec3::zeros()), 0)
+        };
+        first_active_set(k, |idx| -> Option<()> {
+            let (u, kkt) = bounded(idx)?;
+            let mask = mask_of(idx);
+            let viol = max_viol(&u);
+            if viol < least_bad.1 {
+                least_bad = (u, viol, mask);
+            }
+            if viol <= tol_loose && kkt && cheaper(&u, viol, &best_kkt_loose) {
+                best_kkt_loose = Some((u, viol, mask));
+            }
+            if viol <= tol_tight && cheaper(&u, viol, &best) {
+                best = Some((u, viol, mask));
+            }
+            if viol <= tol_loose && cheaper(&u, viol, &best_loose) {
+                best_loose = Some((u, viol, mask));
+            }
+            None
+        });
+        match best_kkt_loose.or(best).or(best_loose) {
+            Some((u, viol, mask)) => Projection { u, feasible: true, active_mask: mask, max_violation: viol },
+            None => Projection {
+                u: least_bad.0,
+                feasible: false,
+                active_mask: least_bad.2,
+                max_violation: least_bad.1,
+            },
+        }
+    }
+
+    /// The greedy chain, the skipped pass 1 and the kept candidates of [`project_centred`]
+    /// change no bit of the answer: against the plain two-pass enumeration on 200,000 random
+    /// problems (1–4 planes, a tenth nearly opposite to the first, offsets and nominal inputs
+    /// from 0.1 to 40 m/s², bounds from none to tight; measured: 55,533 infeasible, 134,751 decided
+    /// by the chain), fixed seed.
+    #[test]
+    fn greedy_chain_and_memo_change_nothing() {
+        use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+        let mut runner = TestRunner::new_with_rng(
+            Config { cases: 1, failure_persistence: None, ..Config::default() },
+            TestRng::deterministic_rng(RngAlgorithm::ChaCha),
+        );
+        let rng = runner.rng();
+        use proptest::prelude::Rng;
+        let mut unit = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let (mut infeasible, mut greedy_hits) = (0usize, 0usize);
+        for case in 0..200_000usize {
+            let scale = [0.1f32, 1.0, 10.0, 40.0][case % 4];
+            let k = 1 + (unit() * 4.0) as usize;
+            let mut cons: [HalfSpace; 4] = [HalfSpace { n: Vec3::x(), c: 0.0 }; 4];
+            for i in 0..k {
+                let mut n = Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5);
+                if i > 0 && unit() < 0.1 {
+                    n = -cons[0].n + Vec3::new(unit() - 0.5, unit() - 0.5, 0.0) * 0.04;
+                }
+                if n.norm() < 0.05 {
+                    n = Vec3::z();
+                }
+                cons[i] = HalfSpace { n: n.normalize(), c: (unit() * 2.0 - 1.0) * scale };
+            }
+            let cons = &cons[..k];
+            let u_nom = Vec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * (2.0 * scale);
+            let bound = if unit() < 0.3 { f32::INFINITY } else { unit() * 3.0 * scale };
+            let a = enumerated(&u_nom, cons, bound);
+            let b = project_centred(&u_nom, cons, bound);
+            let bits = |p: &Projection| {
+                (p.u.map(f32::to_bits), p.feasible, p.active_mask, p.max_violation.to_bits())
+            };
+            assert_eq!(bits(&a), bits(&b), "case {case}: {a:?} vs {b:?}");
+            infeasible += usize::from(!a.feasible);
+            greedy_hits += usize::from(
+                greedy_chain(
+                    cons,
+                    2e-6 * (1.0 + u_nom.amax() + cons.iter().fold(0.0f32, |m, h| maxf(m, h.c.abs()))),
+                    &|idx: &[usize]| {
+                        let (u, lam) = candidate(&u_nom, cons, idx)?;
+                        (norm3(&u) <= bound).then_some((u, lam >= -1e-5 * (1.0 + norm3(&(u - u_nom)))))
+                    },
+                )
+                .is_some(),
+            );
+        }
+        // The problems exercise both ends: infeasible ones and ones the chain decides.
+        assert!(
+            infeasible > 20_000 && greedy_hits > 50_000,
+            "{infeasible} infeasible, {greedy_hits} by the chain"
+        );
     }
 
     #[test]
