@@ -634,10 +634,12 @@ impl SafetyFilter {
         let u_brake = v * (-2.0 / self.params.mu);
         // Bound: the optimum lies within 2|u* − u_brake| of the braking input whenever the
         // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
-        // beyond it; 4·Σ max(c'_i, 0) (at most 2·u_max) leaves room for those, and excludes the
-        // far sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
+        // beyond it; 4·Σ max(c'_i, 0) leaves room for those (a single plane's projection is
+        // always within it, however large the class-K relaxation's demand: capped at 2·u_max
+        // the projection was out of reach and u* itself came back), and excludes the far
+        // sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
         let shift: f32 = cons.iter().map(|h| maxf(h.c - h.n.dot(&u_brake), 0.0)).sum();
-        let bound = 2.0 * norm3(&(u_nom - u_brake)) + minf(4.0 * shift, 2.0 * u_max);
+        let bound = 2.0 * norm3(&(u_nom - u_brake)) + 4.0 * shift;
         let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
         diag.region = Region::Perpendicular;
         diag.intervened = true;
@@ -781,6 +783,31 @@ mod tests {
     }
 
     #[test]
+    fn deep_inside_the_margin_pushes_out_instead_of_passing_u_nom() {
+        // 0.25 m from a point, closing at 1.5 m/s, the nominal pushing on towards it: h = −0.46,
+        // and at γ = 20 the relaxation asks for c ≈ 31 m/s² along +x. With the search radius
+        // capped at 2·u_max the projection was out of reach and u* = (−1, 0, 0) came back.
+        for variant in [FilterVariant::Multi, FilterVariant::MultiRelative] {
+            let prm =
+                CbfParams { gamma: 20.0, sample_time: 0.004, ..CbfParams::new(1.4, 0.05, 0.1).unwrap() };
+            let f = SafetyFilter::new(prm, variant).unwrap();
+            let obs = [ObstaclePoint::fixed(Vec3::zeros(), 1)];
+            let (u, d) = f.apply(
+                &Vec3::new(0.25, 0.0, 0.0),
+                &Vec3::new(-1.5, 0.0, 0.0),
+                &Vec3::new(-1.0, 0.0, 0.0),
+                &obs,
+            );
+            assert!(d.unavoidable && !d.infeasible, "{d:?}");
+            let b = f.barrier(&Vec3::new(0.25, 0.0, 0.0), &Vec3::new(-1.5, 0.0, 0.0), &obs[0]).unwrap();
+            let c = f.enforced_constraint(&b);
+            assert!(c.c > 25.0, "{c:?}");
+            assert!(c.violation(&u) <= 1e-4 * (1.0 + u.norm()), "{u} against {c:?}");
+            assert!(u.x > prm.u_max, "{u}");
+        }
+    }
+
+    #[test]
     fn relative_backs_away_from_approaching_obstacle() {
         // Vehicle at rest, obstacle 0.3 m away moving towards it at 0.5 m/s.
         let p = Vec3::new(0.3, 0.0, 0.0);
@@ -897,7 +924,7 @@ mod tests {
         }
         let u_brake = v * (-2.0 / f.params.mu);
         let shift: f32 = cons.iter().map(|h| (h.c - h.n.dot(&u_brake)).max(0.0)).sum();
-        let bound = 2.0 * (u_nom - u_brake).norm() + (4.0 * shift).min(2.0 * u_max);
+        let bound = 2.0 * (u_nom - u_brake).norm() + 4.0 * shift;
         let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
         diag.region = Region::Perpendicular;
         diag.intervened = true;
