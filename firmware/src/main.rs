@@ -88,12 +88,11 @@ mod firmware {
     };
     use parapet_firmware::drivers::mpu6000::ImuError;
     use parapet_firmware::drivers::rc_uart::{RcProtocol, RC_RX_RING};
-    use parapet_firmware::link::frame_parser::{FrameParser, RawFrame};
+    use parapet_firmware::link::frame_parser::RawFrame;
     use parapet_firmware::link::framing::{FrameWriter, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
-    use parapet_firmware::link::messages::frame_extra_crc;
     use parapet_firmware::link::outbound::Outbound;
     use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
-    use parapet_firmware::link::{FixClock, Link, Received};
+    use parapet_firmware::link::{FixClock, Framer, Link, Received};
     use parapet_firmware::storage::{Loaded, ParamStore};
     use parapet_firmware::vehicle::tasks::{storage_job, SetupInner, SetupMailboxes, SetupOuter};
     use static_cell::StaticCell;
@@ -445,7 +444,7 @@ mod firmware {
         mut tx: UartTx<'static, embassy_stm32::mode::Async>,
         mut rx: RingBufferedUartRx<'static>,
     ) {
-        let mut parser = FrameParser::new();
+        let mut framer = Framer::new();
         let mut writer = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
         let mut telemetry = TelemetryScheduler::new();
         let mut snapshot = TelemetrySnapshot::BOOT;
@@ -460,14 +459,11 @@ mod firmware {
                 Either::First(Ok(n)) => {
                     let now = now_us();
                     for &b in buf.get(..n).unwrap_or(&[]) {
-                        // At most one frame completes per byte.
+                        // At most one frame (or v1 HEARTBEAT) completes per byte. LOG_* requests
+                        // go to the log task, the rest (v1 HEARTBEATs too: the link answers
+                        // them with its v1 refusal) to the outer task.
                         let mut got = None;
-                        parser.push(b, &frame_extra_crc, &mut |f: &RawFrame<'_>| {
-                            // LOG_* requests go to the log task, the rest to the outer task.
-                            if !board_log::forward(f) {
-                                got = Some(Received::of(f));
-                            }
-                        });
+                        framer.push(b, &mut |f: &RawFrame<'_>| board_log::forward(f), &mut |r| got = Some(r));
                         if let Some(r) = got {
                             INBOUND.send((now, r)).await;
                         }
@@ -501,7 +497,7 @@ mod firmware {
                     snapshot,
                     inner,
                     outer,
-                    parser: parser.stats(),
+                    parser: framer.stats(),
                     counters: ErrorCounters {
                         imu_errors: IMU_ERRORS.load(Ordering::Relaxed),
                         uart_errors: uart_errors.saturating_add(tx_dropped),

@@ -6,40 +6,35 @@
 //! May import: the other `link` modules, [`crate::app`] (the `Autopilot` boundary), `parapet_core`.
 
 use crate::app::autopilot::Autopilot;
-use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+use crate::link::frame_parser::ParserStats;
 use crate::link::inputs::{FixClock, HilSample};
 use crate::link::manual_control::ManualControlStats;
-use crate::link::messages::frame_extra_crc;
 use crate::link::obstacles::ObstacleStats;
 use crate::link::outbound::Outbound;
-pub use crate::link::received::{LinkStats, Received, ReceivedMessage};
+pub use crate::link::received::{Framer, LinkStats, Received, ReceivedMessage};
 use crate::link::router::{Router, REPLY_QUEUE_LEN, REPLY_RESERVE};
-use crate::link::v1::V1Detector;
 
 /// The link state machine (see the module docs).
 pub struct Link {
-    parser: FrameParser,
+    framer: Framer,
     router: Router,
-    v1: V1Detector,
 }
 
 impl Link {
     /// A link for vehicle `own_system`, time-stamping fixes with `fix_clock`.
     pub const fn new(own_system: u8, fix_clock: FixClock) -> Self {
-        Self { parser: FrameParser::new(), router: Router::new(own_system, fix_clock), v1: V1Detector::new() }
+        Self { framer: Framer::new(), router: Router::new(own_system, fix_clock) }
     }
 
     /// Feeds one received byte at firmware time `now_us`.
     pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
-        self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| router.on_frame(f, now_us, ap));
-        if self.v1.push(byte) {
-            self.router.on_v1_heartbeat(now_us);
-        }
+        self.framer.push(byte, &mut |_| false, &mut |r| router.on_received(r, now_us, ap));
     }
 
-    /// Handles one frame decoded elsewhere (a board's receiving task, [`Received::of`]) at
-    /// firmware time `now_us`; same effect as the frame's bytes through [`Link::push_bytes`].
+    /// Handles what a board's receiving task framed elsewhere (its own [`Framer`]: a decoded
+    /// frame or a v1 HEARTBEAT) at firmware time `now_us`; same effect as the bytes through
+    /// [`Link::push_bytes`].
     pub fn receive<A: Autopilot>(&mut self, r: Received, now_us: u64, ap: &mut A) {
         self.router.on_received(r, now_us, ap);
     }
@@ -100,19 +95,20 @@ impl Link {
         self.router.peer_seen
     }
 
-    /// Valid MAVLink v1 HEARTBEATs received (refused, see [`crate::link::v1`]).
+    /// Valid MAVLink v1 HEARTBEATs received (refused, see [`crate::link::v1`]), through
+    /// [`Link::push_byte`] or [`Link::receive`].
     pub fn v1_heartbeats(&self) -> u32 {
-        self.v1.heartbeats
+        self.router.stats.v1_heartbeats
     }
 
-    /// Framer counters.
+    /// Framer counters (of the bytes through [`Link::push_byte`]).
     pub fn parser_stats(&self) -> ParserStats {
-        self.parser.stats()
+        self.framer.stats()
     }
 
-    /// Framer work so far (byte operations; see [`FrameParser::work`]).
+    /// Framer work so far (byte operations; see [`crate::link::frame_parser::FrameParser::work`]).
     pub fn parser_work(&self) -> u64 {
-        self.parser.work()
+        self.framer.work()
     }
 
     /// The telemetry scheduler's stream rates set through this link (SET_MESSAGE_INTERVAL,
@@ -208,8 +204,20 @@ mod tests {
         assert_eq!(ap.paths, vec![vec![Vec3::new(1.0, 0.0, -1.0), Vec3::new(2.0, 0.0, -1.0)]]);
     }
 
-    /// Framing in one task and dispatch in another (the board: [`Received::of`] in the link
-    /// task, [`Link::receive`] in the outer task) does what the bytes through the link do.
+    /// What a board's receiving task makes of `bytes` with its own [`Framer`] (frames `divert`
+    /// takes stay out), for the task that owns the link.
+    fn framed_elsewhere(bytes: &[u8], mut divert: impl FnMut(u32) -> bool) -> Vec<Received> {
+        let mut framer = Framer::new();
+        let mut got = Vec::new();
+        for &b in bytes {
+            framer.push(b, &mut |f| divert(f.msg_id), &mut |r| got.push(r));
+        }
+        got
+    }
+
+    /// Framing in one task and dispatch in another (the board: a [`Framer`] in the link task,
+    /// [`Link::receive`] in the outer task) does what the bytes through the link do; frames the
+    /// board diverts (the F405's LOG_* requests) do not reach the link.
     #[test]
     fn frames_decoded_elsewhere_are_dispatched_like_bytes() {
         let arm = COMMAND_LONG_DATA {
@@ -222,9 +230,8 @@ mod tests {
         let (mut a, mut b) = (RecordingAutopilot::new(), RecordingAutopilot::new());
         let (mut la, mut lb) = (Link::new(1, FixClock::Message), Link::new(1, FixClock::Message));
         la.push_bytes(&bytes, 5, &mut a);
-        let mut parser = FrameParser::new();
-        let mut got = Vec::new();
-        parser.push_bytes(&bytes, frame_extra_crc, |f| got.push(Received::of(f)));
+        assert!(framed_elsewhere(&bytes, |id| id == COMMAND_LONG_DATA::ID).is_empty(), "diverted");
+        let got = framed_elsewhere(&bytes, |_| false);
         assert_eq!(got.len(), 1);
         for r in got {
             lb.receive(r, 5, &mut b);
@@ -235,6 +242,38 @@ mod tests {
         // An undecodable frame is counted, not dispatched.
         lb.receive(Received::Undecodable(DecodeError::InvalidPayload), 6, &mut b);
         assert_eq!(lb.stats().decode_errors, 1);
+    }
+
+    /// A MAVLink v1 HEARTBEAT framed by a board's receiving task reaches the link as
+    /// [`Received::V1Heartbeat`] and gets the v1-framed STATUSTEXT refusal, as through
+    /// [`Link::push_byte`]. Before: the boards framed v2 only ([`Received::of`] on the
+    /// FrameParser's frames), so on the real boards a v1 ground station got no answer.
+    #[test]
+    fn a_v1_heartbeat_framed_in_another_task_gets_the_v1_refusal() {
+        use crate::link::dialect::HEARTBEAT_DATA;
+        use mavlink_core::{MAVLinkV1MessageRaw, MavHeader};
+        let mut raw = MAVLinkV1MessageRaw::new();
+        raw.serialize_message_data(
+            MavHeader { system_id: 255, component_id: 190, sequence: 3 },
+            &HEARTBEAT_DATA::default(),
+        );
+        let v1 = raw.raw_bytes().to_vec();
+        let mut ap = RecordingAutopilot::new();
+        let mut board = Link::new(1, FixClock::Arrival);
+        for r in framed_elsewhere(&v1, |_| false) {
+            board.receive(r, 7, &mut ap);
+        }
+        let answer = replies(&mut board);
+        assert!(
+            matches!(&answer[..], [Outbound::StatusTextV1(t)]
+                if t.text.to_str().ok() == Some(crate::link::v1::V1_REFUSED_TEXT)),
+            "{answer:?}"
+        );
+        assert_eq!(board.v1_heartbeats(), 1);
+        assert!(!board.peer_seen(), "a v1 frame is not a MAVLink 2 peer");
+        let mut bytes = Link::new(1, FixClock::Arrival);
+        bytes.push_bytes(&v1, 7, &mut ap);
+        assert_eq!(replies(&mut bytes), answer, "the same answer as through push_bytes");
     }
 
     #[test]

@@ -1,12 +1,16 @@
 //! What the link receives and counts, shared by the dispatcher ([`crate::link::router`]) and
 //! the link's public face ([`crate::link::endpoint`]): a decoded frame and its sender
-//! ([`Received`], [`ReceivedMessage`]) and the link counters ([`LinkStats`]). Plain data, so
-//! neither of the two imports the other's internals (no import cycle).
+//! ([`Received`], [`ReceivedMessage`]), the link counters ([`LinkStats`]) and the byte-stream
+//! front end that makes them ([`Framer`]: MAVLink 2 framing plus the MAVLink v1 HEARTBEAT
+//! detector of [`crate::link::v1`]), the one piece a board's receiving task and the
+//! [`crate::link::Link`] both run. Plain data and framing, so neither of the two imports the
+//! other's internals (no import cycle).
 //!
-//! May import: `link::frame_parser`, `link::messages`.
+//! May import: `link::frame_parser`, `link::messages`, `link::v1`.
 
-use crate::link::frame_parser::RawFrame;
-use crate::link::messages::{decode, DecodeError, Inbound};
+use crate::link::frame_parser::{FrameParser, ParserStats, RawFrame};
+use crate::link::messages::{decode, frame_extra_crc, DecodeError, Inbound};
+use crate::link::v1::V1Detector;
 
 /// Link counters beyond the framer's (saturating).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -27,6 +31,8 @@ pub struct LinkStats {
     pub unknown_params: u32,
     /// Messages addressed to another system or component (ignored).
     pub not_for_us: u32,
+    /// Valid MAVLink v1 HEARTBEATs (refused, [`crate::link::v1`]).
+    pub v1_heartbeats: u32,
 }
 
 /// A decoded inbound message and its sender.
@@ -49,6 +55,9 @@ pub enum Received {
     Message(ReceivedMessage),
     /// A frame that is not (counted by the link).
     Undecodable(DecodeError),
+    /// A complete, CRC-valid MAVLink **v1** HEARTBEAT: not dispatched, answered with the v1
+    /// refusal ([`crate::link::v1`]).
+    V1Heartbeat,
 }
 
 impl Received {
@@ -58,5 +67,62 @@ impl Received {
             Ok(msg) => Received::Message(ReceivedMessage { sys_id: f.sys_id, comp_id: f.comp_id, msg }),
             Err(e) => Received::Undecodable(e),
         }
+    }
+}
+
+/// The received byte stream's front end: MAVLink 2 frames ([`FrameParser`], decoded by
+/// [`Received::of`]) and MAVLink v1 HEARTBEATs ([`V1Detector`], [`Received::V1Heartbeat`]).
+/// [`crate::link::Link::push_byte`] runs one, and so does a board whose receiving task frames
+/// the bytes and hands [`Received`] values to the task that owns the link
+/// ([`crate::link::Link::receive`]): both paths see the same frames and the same v1 refusals.
+/// O(1) state (the parser's 280-byte buffer, the detector's 17-byte window).
+pub struct Framer {
+    parser: FrameParser,
+    v1: V1Detector,
+}
+
+impl Default for Framer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Framer {
+    /// Nothing received yet.
+    pub const fn new() -> Self {
+        Self { parser: FrameParser::new(), v1: V1Detector::new() }
+    }
+
+    /// Feeds one byte. Every frame it completes goes to `divert` first (`true`: the caller takes
+    /// it elsewhere, e.g. the F405's LOG_* requests to its log task), the others to `on`
+    /// decoded; a v1 HEARTBEAT it completes goes to `on` as [`Received::V1Heartbeat`], unless
+    /// the same byte completed a MAVLink 2 frame (bytes that are a valid v2 frame are not a v1
+    /// ground station).
+    pub fn push(
+        &mut self,
+        byte: u8,
+        divert: &mut impl FnMut(&RawFrame<'_>) -> bool,
+        on: &mut impl FnMut(Received),
+    ) {
+        let mut framed = false;
+        self.parser.push(byte, &frame_extra_crc, &mut |f: &RawFrame<'_>| {
+            framed = true;
+            if !divert(f) {
+                on(Received::of(f));
+            }
+        });
+        if self.v1.push(byte) && !framed {
+            on(Received::V1Heartbeat);
+        }
+    }
+
+    /// Framer counters.
+    pub fn stats(&self) -> ParserStats {
+        self.parser.stats()
+    }
+
+    /// Framer work so far (see [`FrameParser::work`]).
+    pub fn work(&self) -> u64 {
+        self.parser.work()
     }
 }

@@ -46,7 +46,6 @@ use heapless::Deque;
 
 use crate::app::autopilot::{Autopilot, FlightMode, FlightPhase, VehicleCommand};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
-use crate::link::frame_parser::RawFrame;
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::inputs::{odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US};
 use crate::link::manual_control::ManualControl;
@@ -137,6 +136,7 @@ impl Router {
                 hil_overwritten: 0,
                 unknown_params: 0,
                 not_for_us: 0,
+                v1_heartbeats: 0,
             },
             peer_seen: false,
             param_stream: None,
@@ -259,7 +259,8 @@ impl Router {
 
     /// A v1 HEARTBEAT arrived: the v1 STATUSTEXT refusal, at most once per
     /// [`crate::link::v1::V1_TEXT_US`].
-    pub(crate) fn on_v1_heartbeat(&mut self, now_us: u64) {
+    fn on_v1_heartbeat(&mut self, now_us: u64) {
+        self.stats.v1_heartbeats = self.stats.v1_heartbeats.saturating_add(1);
         let due = self.v1_text_us.is_none_or(|t| now_us.saturating_sub(t) >= crate::link::v1::V1_TEXT_US);
         if due {
             self.v1_text_us = Some(now_us);
@@ -367,13 +368,13 @@ impl Router {
         });
     }
 
-    pub(crate) fn on_frame<A: Autopilot>(&mut self, f: &RawFrame<'_>, now_us: u64, ap: &mut A) {
-        self.on_received(Received::of(f), now_us, ap);
-    }
-
     pub(crate) fn on_received<A: Autopilot>(&mut self, r: Received, now_us: u64, ap: &mut A) {
         let (msg, f) = match r {
             Received::Message(m) => (m.msg, FrameSender { sys_id: m.sys_id, comp_id: m.comp_id }),
+            Received::V1Heartbeat => {
+                self.on_v1_heartbeat(now_us);
+                return;
+            }
             Received::Undecodable(DecodeError::NotHandled) => {
                 self.stats.ignored = self.stats.ignored.saturating_add(1);
                 return;
