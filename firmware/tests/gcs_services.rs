@@ -5,7 +5,8 @@
 //!   mission progress never advanced);
 //! * BATTERY_STATUS was never sent and SYS_STATUS said "no battery" with a measurement;
 //! * ATTITUDE, LOCAL_POSITION_NED and POSITION_TARGET_LOCAL_NED had fixed rates
-//!   (SET_MESSAGE_INTERVAL answered UNSUPPORTED), ATTITUDE_TARGET was never sent;
+//!   (SET_MESSAGE_INTERVAL answered UNSUPPORTED), ATTITUDE_TARGET was never sent; so had
+//!   HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE (one 1 Hz group);
 //! * global-frame mission items (QGroundControl, MAVSDK's `mission` plugin) were refused
 //!   MAV_MISSION_UNSUPPORTED_FRAME.
 //! * NAV_TAKEOFF / NAV_LAND / NAV_RETURN_TO_LAUNCH items (QGroundControl's default plan) were
@@ -381,6 +382,56 @@ fn scheduler_stream_rates_are_settable() {
     let (att, pos, _, _) = rates(&g.run(1000));
     assert!((50..=51).contains(&att) && (25..=26).contains(&pos), "defaults restored: {att} {pos}");
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Disarmed);
+}
+
+/// SET_MESSAGE_INTERVAL sets HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE too (issue 20: the
+/// three were one fixed 1 Hz group, their interval answered UNSUPPORTED): SYS_STATUS at 5 Hz,
+/// EXTENDED_SYS_STATE off (one on REQUEST_MESSAGE), HEARTBEAT at 2 Hz; HEARTBEAT is never turned
+/// off nor slowed below 1 Hz (DENIED), and 0 restores the defaults.
+#[test]
+#[allow(deprecated)] // MAV_CMD_GET_MESSAGE_INTERVAL: superseded, still sent by ground stations
+fn heartbeat_sys_status_and_extended_sys_state_rates_are_settable() {
+    let mut g = Sim::new();
+    let rates = |out: &[Outbound]| {
+        (
+            count(out, |m| matches!(m, Outbound::Heartbeat(_))),
+            count(out, |m| matches!(m, Outbound::SysStatus(_))),
+            count(out, |m| matches!(m, Outbound::ExtendedSysState(_))),
+        )
+    };
+    assert_eq!(rates(&g.run(1000)), (1, 1, 1), "the defaults");
+    assert_eq!(g.interval(1.0, 200_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(245.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.interval(0.0, 500_000.0), MavResult::MAV_RESULT_ACCEPTED);
+    let (hb, sys, ext) = rates(&g.run(1000));
+    assert!((2..=3).contains(&hb), "HEARTBEAT at 2 Hz: {hb}");
+    assert!((5..=6).contains(&sys), "SYS_STATUS at 5 Hz: {sys}");
+    assert_eq!(ext, 0, "EXTENDED_SYS_STATE stopped");
+    assert_eq!(g.interval(0.0, -1.0), MavResult::MAV_RESULT_DENIED, "HEARTBEAT never off");
+    assert_eq!(g.interval(0.0, 5_000_000.0), MavResult::MAV_RESULT_DENIED, "nor below 1 Hz");
+    let get = COMMAND_LONG_DATA {
+        param1: 0.0,
+        command: MavCmd::MAV_CMD_GET_MESSAGE_INTERVAL as u16,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let r = g.send(&get);
+    assert!(
+        r.iter().any(
+            |m| matches!(m, Outbound::MessageInterval(i) if i.message_id == 0 && i.interval_us == 500_000)
+        ),
+        "{r:?}"
+    );
+    let req = COMMAND_LONG_DATA { param1: 245.0, command: MavCmd::MAV_CMD_REQUEST_MESSAGE as u16, ..get };
+    let mut out = g.send(&req);
+    out.extend(g.run(10));
+    assert_eq!(rates(&out).2, 1, "one EXTENDED_SYS_STATE on request while stopped");
+    for id in [0.0, 1.0, 245.0] {
+        assert_eq!(g.interval(id, 0.0), MavResult::MAV_RESULT_ACCEPTED);
+    }
+    let (hb, sys, ext) = rates(&g.run(2000));
+    assert!(hb == 2 && sys == 2 && ext == 2, "defaults restored: {hb} {sys} {ext}");
 }
 
 /// MAVSDK's `mission_raw.start_mission()` is DO_SET_MODE with PX4's AUTO.MISSION (base mode

@@ -16,14 +16,16 @@
 //! **MISSION_ITEM_REACHED** (46): once per item, in order, up to the progress's last item done
 //! (uploaded seq numbers, [`crate::link::mission_run`]).
 //!
-//! The telemetry scheduler's ATTITUDE (30), LOCAL_POSITION_NED (32) and
-//! POSITION_TARGET_LOCAL_NED (85) are set here too ([`StreamRates`], which the scheduler reads
-//! through [`crate::link::telemetry::ErrorCounters::rates`]): same interval rules, a request
-//! sends the message with the scheduler's next poll.
+//! The telemetry scheduler's ATTITUDE (30), LOCAL_POSITION_NED (32),
+//! POSITION_TARGET_LOCAL_NED (85), HEARTBEAT (0), SYS_STATUS (1) and EXTENDED_SYS_STATE (245)
+//! are set here too ([`StreamRates`], which the scheduler reads through
+//! [`crate::link::telemetry::ErrorCounters::rates`]): same interval rules, a request sends the
+//! message with the scheduler's next poll.
 //!
 //! Intervals: −1 stops a stream, 0 restores its default, > 0 is the period in µs (at least
-//! [`MIN_INTERVAL_US`]; shorter is refused DENIED). Other message ids are answered UNSUPPORTED.
-//! The tables are fixed (one slot per stream above).
+//! [`MIN_INTERVAL_US`]; shorter is refused DENIED). **HEARTBEAT** is never stopped and never
+//! slower than its default 1 Hz ([`HEARTBEAT_MAX_INTERVAL_US`]; −1 or a longer period: DENIED).
+//! Other message ids are answered UNSUPPORTED. The tables are fixed (one slot per stream above).
 //!
 //! **Home**: fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
 //! Parapet flies in a local NED frame and has no GNSS; GLOBAL_POSITION_INT and HOME_POSITION
@@ -67,8 +69,18 @@ const ATTITUDE_TARGET_ID: u32 = 83;
 const BATTERY_STATUS_ID: u32 = 147;
 
 /// The telemetry scheduler's streams whose rates are set here: ATTITUDE, LOCAL_POSITION_NED,
-/// POSITION_TARGET_LOCAL_NED, with their default periods (µs), in [`StreamRates`] slot order.
-pub const SCHEDULED: [(u32, u32); 3] = [(30, 20_000), (32, 40_000), (85, 40_000)];
+/// POSITION_TARGET_LOCAL_NED, HEARTBEAT, SYS_STATUS, EXTENDED_SYS_STATE, with their default
+/// periods (µs), in [`StreamRates`] slot order.
+pub const SCHEDULED: [(u32, u32); 6] =
+    [(30, 20_000), (32, 40_000), (85, 40_000), (HEARTBEAT_ID, 1_000_000), (1, 1_000_000), (245, 1_000_000)];
+/// HEARTBEAT's message id.
+const HEARTBEAT_ID: u32 = 0;
+/// Longest HEARTBEAT interval a ground station may set, µs: its default 1 Hz. HEARTBEAT is never
+/// stopped nor slowed (−1 or a longer period: DENIED): the heartbeat protocol requires a
+/// component to broadcast it regularly, ground stations and MAVSDK declare the vehicle lost after
+/// a few missed 1 Hz heartbeats, and the one link feeds every client at once (PX4 refuses any
+/// HEARTBEAT interval; faster is harmless and allowed here).
+pub const HEARTBEAT_MAX_INTERVAL_US: u32 = 1_000_000;
 
 /// Intervals and one-shot requests of the telemetry scheduler's [`SCHEDULED`] streams, as set
 /// through the link (a `Copy` value the scheduler reads; on a board it travels with the link
@@ -82,6 +94,9 @@ pub struct StreamRates {
 }
 
 impl StreamRates {
+    /// Every stream at its default rate, nothing requested.
+    pub const DEFAULT: Self = Self { interval_us: [0; SCHEDULED.len()], requests: [0; SCHEDULED.len()] };
+
     /// Period of slot `k`, µs; `None` when stopped (or `k` out of range).
     pub fn period_us(&self, k: usize) -> Option<u64> {
         let (iv, d) = (*self.interval_us.get(k)?, SCHEDULED.get(k)?.1);
@@ -265,16 +280,22 @@ impl Services {
             interval_us,
             next_due_us: [0; STREAMS.len()],
             requested: 0,
-            rates: StreamRates { interval_us: [0; SCHEDULED.len()], requests: [0; SCHEDULED.len()] },
+            rates: StreamRates::DEFAULT,
             reached: None,
         }
     }
 
-    /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stop, 0 default, > 0 period.
+    /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` −1 stop, 0 default, > 0 period (HEARTBEAT:
+    /// never stopped, at most [`HEARTBEAT_MAX_INTERVAL_US`]).
     pub fn set_interval(&mut self, msg_id: f32, interval_us: f32) -> MavResult {
         let id = msg_id_of(msg_id);
         if let Some(k) = id.and_then(scheduled_slot) {
-            return match interval_of(interval_us, SCHEDULED[k].1) {
+            let iv = interval_of(interval_us, SCHEDULED[k].1);
+            let heartbeat_ok = |iv: Option<u32>| iv.is_some_and(|p| p <= HEARTBEAT_MAX_INTERVAL_US);
+            if id == Some(HEARTBEAT_ID) && !iv.is_ok_and(heartbeat_ok) {
+                return MavResult::MAV_RESULT_DENIED;
+            }
+            return match iv {
                 Ok(iv) => {
                     // The scheduler restarts a stream whose interval changed.
                     self.rates.interval_us[k] = match iv {
@@ -492,13 +513,35 @@ mod tests {
         assert!(s.request(85.0));
         let r = s.rates();
         assert_eq!((r.period_us(0), r.period_us(1), r.period_us(2)), (Some(100_000), None, Some(40_000)));
-        assert_eq!(r.requests, [0, 0, 1]);
+        assert_eq!(r.requests, [0, 0, 1, 0, 0, 0]);
         assert_eq!(s.message_interval(30.0).interval_us, 100_000);
         assert_eq!(s.message_interval(32.0).interval_us, -1);
         assert_eq!(s.set_interval(85.0, 5_000.0), MavResult::MAV_RESULT_DENIED, "faster than 100 Hz");
         assert_eq!(s.set_interval(30.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(s.rates().period_us(0), Some(20_000));
         assert_eq!(StreamRates::default().period_us(2), Some(40_000), "the default is the default rate");
+    }
+
+    /// HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE are the scheduler's too; HEARTBEAT is never
+    /// stopped nor slower than 1 Hz.
+    #[test]
+    fn heartbeat_status_and_landed_state_rates() {
+        let mut s = Services::new();
+        assert_eq!(s.set_interval(1.0, 200_000.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(245.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(0.0, 100_000.0), MavResult::MAV_RESULT_ACCEPTED);
+        let r = s.rates();
+        assert_eq!((r.period_us(3), r.period_us(4), r.period_us(5)), (Some(100_000), Some(200_000), None));
+        for refused in [-1.0, 1_000_001.0, 5_000_000.0, 5_000.0, f32::NAN] {
+            assert_eq!(s.set_interval(0.0, refused), MavResult::MAV_RESULT_DENIED, "HEARTBEAT {refused}");
+        }
+        assert_eq!(s.message_interval(0.0).interval_us, 100_000, "a refusal keeps the rate");
+        assert_eq!(s.set_interval(0.0, 1_000_000.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(0.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.message_interval(0.0).interval_us, 1_000_000);
+        assert_eq!(s.message_interval(245.0).interval_us, -1);
+        assert!(s.request(245.0) && s.request(0.0));
+        assert_eq!(s.rates().requests, [0, 0, 0, 1, 0, 1]);
     }
 
     /// MISSION_ITEM_REACHED reports each item once, in order, up to the progress's last item

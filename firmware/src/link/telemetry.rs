@@ -2,10 +2,10 @@
 //!
 //! | stream | message | rate | content |
 //! |---|---|---|---|
-//! | heartbeat | HEARTBEAT | 1 Hz | type QUADROTOR, autopilot GENERIC; custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | heartbeat | HEARTBEAT | 1 Hz (settable: faster, never off or slower) | type QUADROTOR, autopilot GENERIC; custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
 //! | phase | NAMED_VALUE_INT `PHASE` | 1 Hz (with the heartbeat) | [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe): the guidance phase, which the heartbeat carried before it carried the mode |
-//! | status | SYS_STATUS | 1 Hz (with the heartbeat) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
-//! | landed state | EXTENDED_SYS_STATE | 1 Hz (with the heartbeat) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
+//! | status | SYS_STATUS | 1 Hz (settable) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
+//! | landed state | EXTENDED_SYS_STATE | 1 Hz (settable) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
 //! | attitude | ATTITUDE | 50 Hz (settable) | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
 //! | position | LOCAL_POSITION_NED | 25 Hz (settable) | position NED m, velocity NED m/s |
 //! | filter | DEBUG_VECT `CBF` | 25 Hz | x = h̄ (m², min over obstacles; +∞ none), y = region code (0 none, 1 far, 2 nominal-safe, 3 perpendicular/intervening, 4 fault), z = active obstacle id (−1 none) |
@@ -108,6 +108,8 @@ const LINK_US: u64 = 1_000_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Stream {
     Heartbeat,
+    SysStatus,
+    LandedState,
     Attitude,
     Position,
     Filter,
@@ -116,9 +118,12 @@ enum Stream {
     Target,
 }
 
-/// Default periods; Attitude, Position and Target are settable ([`StreamRates`] slots 0, 1, 2).
-const STREAMS: [(Stream, u64); 7] = [
+/// Default periods; Attitude, Position, Target, Heartbeat, SysStatus and LandedState are
+/// settable ([`StreamRates`] slots 0..5, [`rate_slot`]).
+const STREAMS: [(Stream, u64); 9] = [
     (Stream::Heartbeat, HEARTBEAT_US),
+    (Stream::SysStatus, HEARTBEAT_US),
+    (Stream::LandedState, HEARTBEAT_US),
     (Stream::Attitude, ATTITUDE_US),
     (Stream::Position, POSITION_US),
     (Stream::Filter, FILTER_US),
@@ -133,7 +138,10 @@ fn rate_slot(s: Stream) -> Option<usize> {
         Stream::Attitude => Some(0),
         Stream::Position => Some(1),
         Stream::Target => Some(2),
-        _ => None,
+        Stream::Heartbeat => Some(3),
+        Stream::SysStatus => Some(4),
+        Stream::LandedState => Some(5),
+        Stream::Filter | Stream::Loops | Stream::Link => None,
     }
 }
 
@@ -165,7 +173,7 @@ impl RcChannelsStream {
 
 /// Decides which telemetry messages are due and builds them.
 pub struct TelemetryScheduler {
-    next_due_us: [u64; 7],
+    next_due_us: [u64; STREAMS.len()],
     /// The rates of the last poll (a change restarts / requests a stream).
     rates: StreamRates,
     last_failsafe: Option<Failsafe>,
@@ -321,8 +329,8 @@ impl TelemetryScheduler {
     /// Every stream due immediately.
     pub const fn new() -> Self {
         Self {
-            next_due_us: [0; 7],
-            rates: StreamRates { interval_us: [0; 3], requests: [0; 3] },
+            next_due_us: [0; STREAMS.len()],
+            rates: StreamRates::DEFAULT,
             last_failsafe: None,
             last_mode_changes: 0,
             rc: RcChannelsStream { next_due_us: 0 },
@@ -331,7 +339,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 1 mode, 1 RC, 4 heartbeat, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 1 mode, 1 RC, 2 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -392,12 +400,12 @@ impl TelemetryScheduler {
                 Stream::Heartbeat => {
                     emit(Outbound::Heartbeat(heartbeat(s)));
                     emit(named_int(ms, names::PHASE, s.phase.code() as i32));
-                    emit(Outbound::SysStatus(sys_status(inp)));
-                    emit(Outbound::ExtendedSysState(EXTENDED_SYS_STATE_DATA {
-                        vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
-                        landed_state: landed_state(s),
-                    }));
                 }
+                Stream::SysStatus => emit(Outbound::SysStatus(sys_status(inp))),
+                Stream::LandedState => emit(Outbound::ExtendedSysState(EXTENDED_SYS_STATE_DATA {
+                    vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                    landed_state: landed_state(s),
+                })),
                 Stream::Attitude => emit(Outbound::Attitude(ATTITUDE_DATA {
                     time_boot_ms: ms,
                     roll: s.attitude_rpy.x,
