@@ -361,6 +361,9 @@ fn library_errors_become_named_inputs() {
     refused(&r, &["option --kp", "1e300"]);
     let r = parapet(&["run", "--scene", &f, "--straight", "--delta1", "0.01", "--out", o]);
     refused(&r, &["option --delta1", "0.01", "0.05"]);
+    // δ below the squared hull radius: the option that set it, and both values.
+    let r = parapet(&["run", "--scene", &f, "--straight", "--delta", "0.01", "--out", o]);
+    refused(&r, &["option --delta", "0.01", "hull_radius", "0.0499"]);
     // A negative number is the option's value, refused by its range (it was "unexpected argument '-1'").
     let sweep = ["sweep", "--scene", &f, "--straight", "--mu", "0.9", "--delta1", "0.1", "--out", o];
     for (args, needles) in [

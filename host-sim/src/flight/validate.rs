@@ -185,8 +185,33 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         ..CbfParams::default()
     };
     let params = controller_params(scene, cfg, cbf, cfg.variant);
-    params.validate().map_err(|e| describe_param_error(scene, &params, e))?;
+    match params.validate() {
+        // δ comes from `--delta`, the scene's [controller] or the default: name where.
+        Err(ParamError::DeltaBelowHull { delta, hull_sq }) => {
+            return Err(o
+                .err(
+                    "delta",
+                    "controller",
+                    "delta",
+                    c.delta.is_some(),
+                    delta_below_hull(delta, hull_sq, scene),
+                )
+                .value(format!("{delta}"))
+                .allowed(format!("delta >= hull_radius² = {hull_sq} m²")))
+        }
+        Err(e) => return Err(describe_param_error(scene, &params, e)),
+        Ok(()) => {}
+    }
     check_vehicle_integrable(scene, cfg)
+}
+
+/// Why δ below the squared hull radius is refused (both values named).
+fn delta_below_hull(delta: f32, hull_sq: f32, scene: &Scene) -> String {
+    format!(
+        "delta = {delta} m² is below the squared hull radius {hull_sq} m² \
+         ([vehicle] hull_radius = {} m): the filter would let obstacles inside the hull",
+        num(scene.vehicle.hull_radius)
+    )
 }
 
 /// `[vehicle]` values the plant's fixed-step RK4 cannot integrate (the state
@@ -315,18 +340,13 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .table("vehicle")
                 .field("inertia")
         }
-        ParamError::DeltaBelowHull { delta, hull_sq } => InputError::file(
-            file,
-            format!(
-                "delta = {delta} m² is below the squared hull radius {hull_sq} m² \
-                 ([vehicle] hull_radius = {} m): the filter would let obstacles inside the hull",
-                num(v.hull_radius)
-            ),
-        )
-        .table("controller")
-        .field("delta")
-        .value(format!("{delta}"))
-        .allowed(format!("delta >= hull_radius² = {hull_sq} m²")),
+        ParamError::DeltaBelowHull { delta, hull_sq } => {
+            InputError::file(file, delta_below_hull(delta, hull_sq, scene))
+                .table("controller")
+                .field("delta")
+                .value(format!("{delta}"))
+                .allowed(format!("delta >= hull_radius² = {hull_sq} m²"))
+        }
         ParamError::Robust(r) => {
             InputError::file(file, format!("plant-aware filter parameters rejected: {r}")).table("controller")
         }
