@@ -6,7 +6,7 @@
 //! the payload area is a fixed 255-byte array at offset 10 (this link never sends 32-bit system
 //! ids or signed frames): the same bytes on the wire, about 2 KB less code on the F405.
 
-use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, MessageData};
+use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
 
 pub use parapet_core::wire::ids::{AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
 
@@ -16,6 +16,10 @@ const STX_V2: u8 = 0xFD;
 const HEADER_LEN: usize = 10;
 /// Largest MAVLink payload.
 const MAX_PAYLOAD: usize = 255;
+/// MAVLink v1 start-of-frame marker.
+const STX_V1: u8 = 0xFE;
+/// STX plus the 5-byte v1 header: where a v1 payload starts.
+const HEADER_LEN_V1: usize = 6;
 
 /// Serialises messages into MAVLink v2 frames with a running sequence number.
 #[derive(Clone, Debug)]
@@ -48,16 +52,24 @@ impl FrameWriter {
     }
 
     /// Encodes one message into a MAVLink **v1** frame (the answer to a v1 ground station,
-    /// [`crate::link::v1`]), on the same sequence counter.
+    /// [`crate::link::v1`]), on the same sequence counter: STX 0xFE, payload length, sequence,
+    /// system and component id, the 8-bit message id, the payload (v1: no extension fields, not
+    /// trimmed) and the CRC with the message's CRC_EXTRA — mavlink-core's bytes (test), written
+    /// here for the reason of [`FrameWriter::encode`] (its checks cost flash on the F405).
     pub fn encode_v1<D: MessageData>(&mut self, msg: &D) -> MAVLinkV1MessageRaw {
-        let header = MavHeader {
-            system_id: u32::from(self.system_id),
-            component_id: self.component_id,
-            sequence: self.sequence,
-        };
+        let sequence = self.sequence;
         self.sequence = self.sequence.wrapping_add(1);
         let mut raw = MAVLinkV1MessageRaw::new();
-        raw.serialize_message_data(header, msg);
+        let frame = raw.as_mut_slice();
+        let Some((head, rest)) = frame.split_first_chunk_mut::<HEADER_LEN_V1>() else { return raw };
+        let Some((payload, _)) = rest.split_first_chunk_mut::<MAX_PAYLOAD>() else { return raw };
+        let len = msg.ser(MavlinkVersion::V1, payload).min(MAX_PAYLOAD);
+        *head = [STX_V1, len as u8, sequence, self.system_id, self.component_id, D::ID as u8];
+        let end = HEADER_LEN_V1 + len;
+        let crc = mavlink_core::calculate_crc(frame.get(1..end).unwrap_or_default(), D::EXTRA_CRC);
+        if let Some(c) = frame.get_mut(end..end + 2) {
+            c.copy_from_slice(&crc.to_le_bytes());
+        }
         raw
     }
 
@@ -93,6 +105,7 @@ impl FrameWriter {
 mod tests {
     use super::*;
     use crate::link::dialect::{HEARTBEAT_DATA, PARAM_VALUE_DATA};
+    use mavlink_core::MavHeader;
 
     /// The frames are mavlink-core's own, byte for byte (sequence included).
     fn same_as_mavlink_core<D: MessageData>(msg: &D) {
@@ -108,6 +121,28 @@ mod tests {
             theirs.serialize_message_data(header, msg);
             assert_eq!(ours.raw_bytes(), theirs.raw_bytes());
             assert!(ours.has_valid_crc_with_extra_crc(D::EXTRA_CRC));
+        }
+    }
+
+    /// v1 frames too (the STATUSTEXT a v1 ground station gets).
+    #[test]
+    fn v1_frames_match_mavlink_core() {
+        let mut t = crate::link::dialect::STATUSTEXT_DATA {
+            severity: crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+            ..Default::default()
+        };
+        t.text = crate::link::outbound::name("MAVLink 1 not supported");
+        let mut w = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
+        for sequence in 0..3u8 {
+            let ours = w.encode_v1(&t);
+            let mut theirs = MAVLinkV1MessageRaw::new();
+            let header = MavHeader {
+                system_id: u32::from(VEHICLE_SYSTEM_ID),
+                component_id: AUTOPILOT_COMPONENT_ID,
+                sequence,
+            };
+            theirs.serialize_message_data(header, &t);
+            assert_eq!(ours.raw_bytes(), theirs.raw_bytes());
         }
     }
 
