@@ -43,8 +43,12 @@
 //! crossed at 1 m/s, 40 scans, memory full from the first scans; 2026-12-02 on `97a0359`):
 //! `insert_scan` mean 419 661, max 461 734 instructions (2.7 ms at 168 MHz: inside one 4 ms
 //! outer period, ≈ 2.7 % of the CPU at 10 scans/s); `select::<32>` mean 79 216, max 84 529.
-//! Most of it is the full memory: each return in a new cube scans all N cells for the
-//! farthest one (not optimised yet).
+//! Most of it was the full memory: each return in a new cube computed every cell's box point
+//! to find the farthest one. Since 2026-12-03 each cell's distance is computed once per scan
+//! and kept up to date by the insertion (the same values, so the same choice: `parapet run
+//! --perception lidar|camera|tof` trajectories and `ranges.csv` identical byte for byte):
+//! `insert_scan` 505 604 / 543 810 → **327 856 / 340 301** mean / max (measured on the tree
+//! of that day, whose tracking changes had raised it from the figure above).
 //!
 //! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
 //! `crate::fmath`, `crate::Vec3`, the parent module.
@@ -135,6 +139,12 @@ fn plausible(v: &Vec3) -> bool {
 
 /// `p` clamped to the box `[lo, hi]` (compare and select: `f32::clamp` would link the float
 /// formatting of its panic message into the firmware, ≈ 29 KB).
+/// Squared distance from `p` to the nearest point of cell `c`'s box (the point the cell hands
+/// the filter).
+fn box_distance_sq(p: &Vec3, c: &Cell) -> f32 {
+    (clamp3(p, &c.lo, &c.hi) - p).norm_squared()
+}
+
 fn clamp3(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
     let c = |x: f32, l: f32, h: f32| minf(maxf(x, l), h);
     Vec3::new(c(p.x, lo.x, hi.x), c(p.y, lo.y, hi.y), c(p.z, lo.z, hi.z))
@@ -368,6 +378,13 @@ impl<const N: usize> ObstacleMemory<N> {
         };
         let mut row_beams = [ROW_UNKNOWN; MAX_ROW];
         let mut last_cell: Option<usize> = None;
+        // Each cell's squared distance from the vehicle, kept up to date by `store`: the
+        // farthest cell a return into a new cube may replace is found without recomputing
+        // every cell's box point per return (the same values, so the same choice).
+        let mut dist = [0.0f32; N];
+        for (d, c) in dist.iter_mut().zip(self.cells.iter()) {
+            *d = box_distance_sq(&vehicle, c);
+        }
         let mut k = 0usize;
         for row in 0..g.n_el {
             for col in 0..g.n_az {
@@ -394,7 +411,7 @@ impl<const N: usize> ObstacleMemory<N> {
                     other => other,
                 };
                 if let Some(w) = w {
-                    class = match self.store(&w, &vehicle, t, &mut last_cell, &mut rep) {
+                    class = match self.store(&w, &vehicle, t, &mut last_cell, &mut dist, &mut rep) {
                         Some(ci) if ci < usize::from(ROW_HIT) => ci as u16,
                         _ => ROW_HIT,
                     };
@@ -492,13 +509,16 @@ impl<const N: usize> ObstacleMemory<N> {
     }
 
     /// Merges return `w` into its cell (creating or, when full, replacing the farthest);
-    /// returns the cell index, `None` when dropped.
+    /// returns the cell index, `None` when dropped. `dist[i]` is cell `i`'s
+    /// [`box_distance_sq`] from `vehicle`, read and kept up to date here.
+    #[allow(clippy::too_many_arguments)]
     fn store(
         &mut self,
         w: &Vec3,
         vehicle: &Vec3,
         t: u64,
         last: &mut Option<usize>,
+        dist: &mut [f32; N],
         rep: &mut ScanReport,
     ) -> Option<usize> {
         let inv = 1.0 / self.params.voxel;
@@ -514,29 +534,39 @@ impl<const N: usize> ObstacleMemory<N> {
                     c.lo = c.lo.inf(w);
                     c.hi = c.hi.sup(w);
                     c.t_us = c.t_us.max(t);
+                    if let Some(d) = dist.get_mut(i) {
+                        *d = box_distance_sq(vehicle, c);
+                    }
                 }
                 i
             }
             None => {
                 let cell = Cell { key, lo: *w, hi: *w, t_us: t, track: NO_TRACK };
+                let d_new = box_distance_sq(vehicle, &cell);
                 if self.cells.push(cell).is_ok() {
                     rep.new_cells = rep.new_cells.saturating_add(1);
-                    self.cells.len() - 1
+                    let i = self.cells.len() - 1;
+                    if let Some(d) = dist.get_mut(i) {
+                        *d = d_new;
+                    }
+                    i
                 } else {
                     let dw = (w - vehicle).norm_squared();
-                    let far = self
-                        .cells
-                        .iter()
-                        .enumerate()
-                        .map(|(i, c)| (i, (clamp3(vehicle, &c.lo, &c.hi) - vehicle).norm_squared()))
-                        .fold(None, |a: Option<(usize, f32)>, b| match a {
+                    // The first farthest cell.
+                    let far = dist.iter().take(self.cells.len()).copied().enumerate().fold(
+                        None,
+                        |a: Option<(usize, f32)>, b| match a {
                             Some(x) if x.1 >= b.1 => Some(x),
                             _ => Some(b),
-                        });
+                        },
+                    );
                     match far {
                         Some((i, d)) if d > dw => {
                             if let Some(c) = self.cells.get_mut(i) {
                                 *c = cell;
+                            }
+                            if let Some(d) = dist.get_mut(i) {
+                                *d = d_new;
                             }
                             rep.dropped_full = rep.dropped_full.saturating_add(1); // the evicted cell
                             rep.new_cells = rep.new_cells.saturating_add(1);
