@@ -227,16 +227,25 @@ impl Sim {
                     target_component: 1,
                     ..Default::default()
                 };
-                let r = self.send(&q);
-                match r.iter().find_map(|m| match m {
+                self.answer(&q, |m| match m {
                     Outbound::MissionItemInt(i) => Some(i.clone()),
                     _ => None,
-                }) {
-                    Some(i) => i,
-                    None => panic!("no MISSION_ITEM_INT {seq}: {r:?}"),
-                }
+                })
             })
             .collect()
+    }
+
+    /// Sends `m` in one step; the first reply `pick` takes (panics, naming `m`, without one).
+    fn answer<D: MessageData + core::fmt::Debug, T>(
+        &mut self,
+        m: &D,
+        pick: impl Fn(&Outbound) -> Option<T>,
+    ) -> T {
+        let r = self.send(m);
+        match r.iter().find_map(pick) {
+            Some(t) => t,
+            None => panic!("no answer to {m:?}: {r:?}"),
+        }
     }
 
     /// Arms after 0.5 s of samples and holds 1 m above the origin.
@@ -576,6 +585,90 @@ fn a_global_frame_mission_is_flown_where_the_ground_station_planned_it() {
         MavMissionResult::MAV_MISSION_INVALID_PARAM5_X
     );
     assert_eq!(g.download().len(), 3, "a refused upload keeps the accepted mission");
+}
+
+/// A ground station that speaks the deprecated float mission messages: it answers the vehicle's
+/// MISSION_REQUEST_INT with MISSION_ITEM (lat/lon in degrees; a LOCAL_NED waypoint in metres),
+/// which is accepted like MISSION_ITEM_INT (PX4 does), and downloads with MISSION_REQUEST, answered
+/// with MISSION_ITEM (degrees, the *_INT frames as the float ones); MISSION_REQUEST_INT still gets
+/// MISSION_ITEM_INT. Before: both messages were ignored (the upload was cancelled after its
+/// retries, the download never answered).
+#[test]
+#[allow(deprecated)] // MISSION_ITEM, MISSION_REQUEST, the float frames: what an old ground station sends
+fn float_mission_items_upload_and_download_for_old_ground_stations() {
+    use parapet_firmware::link::dialect::{MISSION_ITEM_DATA, MISSION_REQUEST_DATA};
+    let mut g = Sim::new();
+    let deg = |e7: i32| (f64::from(e7) * 1e-7) as f32;
+    let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+    let to_us =
+        MISSION_ITEM_DATA { target_system: 1, target_component: 1, autocontinue: 1, ..Default::default() };
+    let item = |command: MavCmd, frame: MavFrame, x: f32, y: f32, z: f32| MISSION_ITEM_DATA {
+        x,
+        y,
+        z,
+        command: command as u16,
+        frame,
+        ..to_us.clone()
+    };
+    let north = HOME.0 + 180; // 2 m north
+    let plan = [
+        item(MavCmd::MAV_CMD_NAV_TAKEOFF, rel, 0.0, 0.0, 1.5),
+        item(MavCmd::MAV_CMD_NAV_WAYPOINT, rel, deg(north), deg(HOME.1), 1.5),
+        MISSION_ITEM_DATA {
+            param2: 1.0,
+            ..item(MavCmd::MAV_CMD_DO_CHANGE_SPEED, MavFrame::MAV_FRAME_MISSION, 0.0, 0.0, 0.0)
+        },
+        item(MavCmd::MAV_CMD_NAV_WAYPOINT, MavFrame::MAV_FRAME_LOCAL_NED, 2.0, 2.0, -1.5),
+        item(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, MavFrame::MAV_FRAME_MISSION, 0.0, 0.0, 0.0),
+    ];
+    let count = MISSION_COUNT_DATA { count: 5, target_system: 1, target_component: 1, ..Default::default() };
+    let mut r = g.send(&count);
+    let result = loop {
+        let reply = r.iter().find_map(|m| match m {
+            Outbound::MissionRequestInt(q) => Some(Ok(q.seq)),
+            Outbound::MissionAck(a) => Some(Err(a.mavtype)),
+            _ => None,
+        });
+        match reply {
+            Some(Ok(seq)) => r = g.send(&MISSION_ITEM_DATA { seq, ..plan[usize::from(seq)].clone() }),
+            Some(Err(result)) => break result,
+            None => r = g.step(&[]),
+        }
+    };
+    assert_eq!(result, MavMissionResult::MAV_MISSION_ACCEPTED, "a MISSION_ITEM upload");
+    let int = g.download();
+    assert_eq!(int.len(), 5);
+    assert!((int[1].x - north).abs() <= 20 && (int[1].y - HOME.1).abs() <= 5, "{:?}", int[1]);
+    assert_eq!((int[3].frame, int[3].x, int[3].y), (MavFrame::MAV_FRAME_LOCAL_NED, 20_000, 20_000));
+    assert_eq!(int[0].command, MavCmd::MAV_CMD_NAV_TAKEOFF as u16);
+    // The download in MISSION_ITEM: degrees, the *_INT frame reported as the float one.
+    let float: Vec<MISSION_ITEM_DATA> = (0..5u16)
+        .map(|seq| {
+            let q = MISSION_REQUEST_DATA { seq, target_system: 1, target_component: 1, ..Default::default() };
+            g.answer(&q, |m| match m {
+                Outbound::MissionItem(i) => Some(i.clone()),
+                _ => None,
+            })
+        })
+        .collect();
+    for (k, (d, p)) in float.iter().zip(&plan).enumerate() {
+        assert_eq!((d.seq, d.command, d.frame), (k as u16, p.command, p.frame), "item {k}");
+        assert!(
+            (d.x - p.x).abs() <= 4e-6 && (d.y - p.y).abs() <= 4e-6 && (d.z - p.z).abs() < 1e-3,
+            "{d:?} vs {p:?}"
+        );
+    }
+    // An integer upload downloads in MISSION_ITEM too, its GLOBAL_RELATIVE_ALT_INT as GLOBAL_RELATIVE_ALT.
+    assert_eq!(
+        g.upload_items(&[qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 1.0, 0.0, 1.0)]),
+        MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    let q = MISSION_REQUEST_DATA { seq: 0, target_system: 1, target_component: 1, ..Default::default() };
+    let r = g.send(&q);
+    assert!(
+        r.iter().any(|m| matches!(m, Outbound::MissionItem(i) if i.frame == rel && (i.x - deg(HOME.0 + 89)).abs() < 4e-6)),
+        "{r:?}"
+    );
 }
 
 /// A QGroundControl-style item (GLOBAL_RELATIVE_ALT_INT) `lat_m`/`lon_m` metres from home

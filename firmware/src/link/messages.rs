@@ -5,7 +5,7 @@
 //! CRC-checked by the framer and then ignored (counted), ids outside it are skipped (see [`crate::link::frame_parser`]). Decoding is per message type (`MessageData::deser`), so the
 //! firmware links only the deserialisers it needs, not the whole dialect.
 
-#![allow(deprecated)] // PING and MISSION_SET_CURRENT: deprecated by MAVLink, still sent by ground stations
+#![allow(deprecated)] // PING, MISSION_SET_CURRENT, MISSION_ITEM, MISSION_REQUEST: deprecated by MAVLink, still sent by ground stations
 
 use crate::link::dialect::{
     COMMAND_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, PARAM_REQUEST_LIST_DATA,
@@ -19,7 +19,9 @@ use crate::link::dialect::{
 use crate::link::dialect::{
     MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
-use crate::link::dialect::{MISSION_SET_CURRENT_DATA, PING_DATA, SET_MODE_DATA};
+use crate::link::dialect::{
+    MISSION_ITEM_DATA, MISSION_REQUEST_DATA, MISSION_SET_CURRENT_DATA, PING_DATA, SET_MODE_DATA,
+};
 use mavlink_core::{MavlinkVersion, MessageData};
 
 use crate::link::frame_parser::RawFrame;
@@ -72,6 +74,10 @@ pub enum Inbound {
     SetMode(SET_MODE_DATA),
     /// Mission item to fly next.
     MissionSetCurrent(MISSION_SET_CURRENT_DATA),
+    /// One mission item, float x/y (deprecated; see [`crate::link::mission_float`]).
+    MissionItem(MISSION_ITEM_DATA),
+    /// MISSION_REQUEST (deprecated): one mission item of a download, answered in MISSION_ITEM.
+    MissionRequest(MISSION_REQUEST_DATA),
     /// Joystick input (ground station), see [`crate::link::manual_control`].
     ManualControl(MANUAL_CONTROL_DATA),
     /// RC channel values from the ground station, see [`crate::link::manual_control`].
@@ -114,6 +120,8 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         PING_DATA::ID => PING_DATA::EXTRA_CRC,
         SET_MODE_DATA::ID => SET_MODE_DATA::EXTRA_CRC,
         MISSION_SET_CURRENT_DATA::ID => MISSION_SET_CURRENT_DATA::EXTRA_CRC,
+        MISSION_ITEM_DATA::ID => MISSION_ITEM_DATA::EXTRA_CRC,
+        MISSION_REQUEST_DATA::ID => MISSION_REQUEST_DATA::EXTRA_CRC,
         MANUAL_CONTROL_DATA::ID => MANUAL_CONTROL_DATA::EXTRA_CRC,
         RC_CHANNELS_OVERRIDE_DATA::ID => RC_CHANNELS_OVERRIDE_DATA::EXTRA_CRC,
         SET_POSITION_TARGET_LOCAL_NED_DATA::ID => SET_POSITION_TARGET_LOCAL_NED_DATA::EXTRA_CRC,
@@ -235,6 +243,8 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         PING_DATA::ID => Inbound::Ping(de(p)?),
         SET_MODE_DATA::ID => Inbound::SetMode(de(p)?),
         MISSION_SET_CURRENT_DATA::ID => Inbound::MissionSetCurrent(de(p)?),
+        MISSION_ITEM_DATA::ID => Inbound::MissionItem(de(p)?),
+        MISSION_REQUEST_DATA::ID => Inbound::MissionRequest(de(p)?),
         MANUAL_CONTROL_DATA::ID => Inbound::ManualControl(de(p)?),
         RC_CHANNELS_OVERRIDE_DATA::ID => Inbound::RcOverride(de(p)?),
         SET_POSITION_TARGET_LOCAL_NED_DATA::ID => Inbound::SetPositionTarget(de(p)?),

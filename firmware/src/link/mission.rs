@@ -40,6 +40,9 @@
 //! is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
 //! whether the cascade took it. The non-path items run in [`crate::link::mission_run`].
 //!
+//! The deprecated float MISSION_ITEM / MISSION_REQUEST are converted to and from these messages
+//! by [`crate::link::mission_float`].
+//!
 //! Capacity: [`MAX_WAYPOINTS`] items of any kind (MISSION_COUNT above that →
 //! MAV_MISSION_NO_SPACE), 20 bytes each, twice (the upload and the accepted plan). A stalled
 //! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
@@ -416,7 +419,7 @@ impl MissionUpload {
 /// other frames.
 // MISSION_ITEM_INT still carries the *_INT frames (MAVSDK and QGroundControl send them).
 #[allow(deprecated)]
-fn alt_ref(frame: MavFrame) -> Result<Option<AltRef>, MavMissionResult> {
+pub(crate) fn alt_ref(frame: MavFrame) -> Result<Option<AltRef>, MavMissionResult> {
     match frame {
         MavFrame::MAV_FRAME_LOCAL_NED => Ok(None),
         MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT => Ok(Some(AltRef::Amsl)),

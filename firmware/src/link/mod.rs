@@ -1,7 +1,7 @@
 //! The MAVLink link: the message types ([`dialect`], generated at build time), framing
 //! ([`frame_parser`], [`framing`]), the inbound and outbound message sets ([`messages`],
 //! [`outbound`]), the dispatcher ([`router`]) behind [`Link`] ([`endpoint`], re-exported here), the vehicle-state inputs ([`inputs`]: HIL_SENSOR, ODOMETRY), commands
-//! ([`command`]), the mission protocol ([`mission`]) and its executor ([`mission_run`]), obstacle batches ([`obstacles`]),
+//! ([`command`]), the mission protocol ([`mission`], the deprecated float items [`mission_float`]) and its executor ([`mission_run`]), obstacle batches ([`obstacles`]),
 //! parameters ([`params`]), telemetry streams ([`telemetry`]) and the pilot input over MAVLink
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
@@ -22,6 +22,7 @@ pub mod inputs;
 pub mod manual_control;
 pub mod messages;
 pub mod mission;
+pub mod mission_float;
 pub mod mission_run;
 pub mod obstacles;
 pub mod offboard;

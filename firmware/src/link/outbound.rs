@@ -6,10 +6,12 @@ use crate::link::dialect::{
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
     NAMED_VALUE_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
-#[allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
+#[allow(deprecated)]
+// PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it); MISSION_ITEM
 use crate::link::dialect::{
     ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
-    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
+    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA,
+    SYSTEM_TIME_DATA,
 };
 use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
@@ -20,7 +22,7 @@ use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw};
 use crate::link::framing::FrameWriter;
 
 /// A message to send.
-#[allow(deprecated)] // PING
+#[allow(deprecated)] // PING, MISSION_ITEM
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outbound {
     /// HEARTBEAT.
@@ -55,6 +57,9 @@ pub enum Outbound {
     MissionCount(MISSION_COUNT_DATA),
     /// MISSION_ITEM_INT (mission download).
     MissionItemInt(MISSION_ITEM_INT_DATA),
+    /// MISSION_ITEM (mission download answering the deprecated MISSION_REQUEST,
+    /// [`crate::link::mission_float`]).
+    MissionItem(MISSION_ITEM_DATA),
     /// SYS_STATUS.
     SysStatus(SYS_STATUS_DATA),
     /// EXTENDED_SYS_STATE (landed state).
@@ -105,7 +110,7 @@ impl Encoded {
     }
 }
 
-#[allow(deprecated)] // PING
+#[allow(deprecated)] // PING, MISSION_ITEM
 impl Outbound {
     /// Encodes the message as the next frame of `writer`.
     pub fn encode(&self, writer: &mut FrameWriter) -> Encoded {
@@ -127,6 +132,7 @@ impl Outbound {
             Outbound::ParamValue(m) => writer.encode(m),
             Outbound::MissionCount(m) => writer.encode(m),
             Outbound::MissionItemInt(m) => writer.encode(m),
+            Outbound::MissionItem(m) => writer.encode(m),
             Outbound::SysStatus(m) => writer.encode(m),
             Outbound::ExtendedSysState(m) => writer.encode(m),
             Outbound::AutopilotVersion(m) => writer.encode(m),

@@ -13,6 +13,7 @@
 //! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
 //! | MISSION_REQUEST_LIST / MISSION_REQUEST_INT | mission download (the path the cascade took last) |
+//! | MISSION_ITEM (39) / MISSION_REQUEST (40), deprecated float items | an upload item like MISSION_ITEM_INT; a download answered in MISSION_ITEM, see [`crate::link::mission_float`] |
 //! | COMMAND_LONG / COMMAND_INT | arm / disarm / takeoff / land / mission start / hold, see [`crate::link::command`]; REQUEST_MESSAGE(AUTOPILOT_VERSION) and REQUEST_AUTOPILOT_CAPABILITIES → ACK + AUTOPILOT_VERSION |
 //! | PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST | parameters, see [`crate::link::params`] |
 //! | TIMESYNC | a request (tc1 = 0) is answered with tc1 = firmware time, ns, ts1 echoed |
@@ -40,7 +41,8 @@
 
 use crate::link::dialect::{
     MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
-    AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA, TIMESYNC_DATA,
+    AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, MISSION_ITEM_INT_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
+    TIMESYNC_DATA,
 };
 use heapless::Deque;
 
@@ -360,12 +362,47 @@ impl Router {
         }
     }
 
-    fn download_reply(&mut self, r: DownloadReply) {
+    /// Sends a download answer; `float`: an item goes out as MISSION_ITEM (the request was the
+    /// deprecated MISSION_REQUEST, [`crate::link::mission_float`]).
+    fn download_reply(&mut self, r: DownloadReply, float: bool) {
         self.reply(match r {
             DownloadReply::Count(c) => Outbound::MissionCount(c),
+            DownloadReply::Item(i) if float => {
+                Outbound::MissionItem(crate::link::mission_float::float_item(&i))
+            }
             DownloadReply::Item(i) => Outbound::MissionItemInt(i),
             DownloadReply::Ack(a) => Outbound::MissionAck(a),
         });
+    }
+
+    /// A mission item of an upload (MISSION_ITEM_INT, or a MISSION_ITEM converted to one).
+    fn on_mission_item<A: Autopilot>(
+        &mut self,
+        m: &MISSION_ITEM_INT_DATA,
+        f: FrameSender,
+        now_us: u64,
+        ap: &mut A,
+    ) {
+        if self.for_me(m.target_system, m.target_component) {
+            if let Some(r) = self.mission.on_item(m, f.sys_id, f.comp_id, now_us) {
+                self.mission_reply(r, ap);
+            }
+        }
+    }
+
+    /// A mission download request for item `seq` (`float`: MISSION_REQUEST, answered in MISSION_ITEM).
+    fn on_mission_request(
+        &mut self,
+        seq: u16,
+        target: (u8, u8),
+        mission_type: MavMissionType,
+        f: FrameSender,
+        float: bool,
+    ) {
+        if self.for_me(target.0, target.1) {
+            let r = self.mission.on_request_item(seq, mission_type, f.sys_id, f.comp_id);
+            self.download_reply(r, float);
+        }
     }
 
     pub(crate) fn on_received<A: Autopilot>(&mut self, r: Received, now_us: u64, ap: &mut A) {
@@ -418,12 +455,10 @@ impl Router {
                     self.mission_reply(r, ap);
                 }
             }
-            Inbound::MissionItemInt(m) => {
-                if self.for_me(m.target_system, m.target_component) {
-                    if let Some(r) = self.mission.on_item(&m, f.sys_id, f.comp_id, now_us) {
-                        self.mission_reply(r, ap);
-                    }
-                }
+            Inbound::MissionItemInt(m) => self.on_mission_item(&m, f, now_us, ap),
+            #[allow(deprecated)] // MISSION_ITEM: still sent by old ground stations
+            Inbound::MissionItem(m) => {
+                self.on_mission_item(&crate::link::mission_float::int_item(&m), f, now_us, ap)
             }
             Inbound::MissionClearAll(m) => {
                 if self.for_me(m.target_system, m.target_component) {
@@ -441,14 +476,19 @@ impl Router {
             Inbound::MissionRequestList(m) => {
                 if self.for_me(m.target_system, m.target_component) {
                     let r = self.mission.on_request_list(m.mission_type, f.sys_id, f.comp_id);
-                    self.download_reply(r);
+                    self.download_reply(r, false);
                 }
             }
-            Inbound::MissionRequestInt(m) => {
-                if self.for_me(m.target_system, m.target_component) {
-                    let r = self.mission.on_request_item(m.seq, m.mission_type, f.sys_id, f.comp_id);
-                    self.download_reply(r);
-                }
+            Inbound::MissionRequestInt(m) => self.on_mission_request(
+                m.seq,
+                (m.target_system, m.target_component),
+                m.mission_type,
+                f,
+                false,
+            ),
+            #[allow(deprecated)] // MISSION_REQUEST: still sent by old ground stations
+            Inbound::MissionRequest(m) => {
+                self.on_mission_request(m.seq, (m.target_system, m.target_component), m.mission_type, f, true)
             }
             Inbound::ParamRequestList(m) => {
                 if self.for_me(m.target_system, m.target_component) {
