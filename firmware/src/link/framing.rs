@@ -15,7 +15,7 @@ const STX_V2: u8 = 0xFD;
 /// STX plus the 9-byte v2 header (no 32-bit system id): where the payload starts.
 const HEADER_LEN: usize = 10;
 /// Largest MAVLink payload.
-const MAX_PAYLOAD: usize = 255;
+pub const MAX_PAYLOAD: usize = 255;
 /// MAVLink v1 start-of-frame marker.
 const STX_V1: u8 = 0xFE;
 /// STX plus the 5-byte v1 header: where a v1 payload starts.
@@ -40,14 +40,25 @@ impl FrameWriter {
     /// id, the payload (trailing zeros trimmed, as MAVLink 2 sends it) and the CRC-16/MCRF4XX
     /// over everything after the STX plus the message's CRC_EXTRA.
     pub fn encode<D: MessageData>(&mut self, msg: &D) -> MAVLinkV2MessageRaw {
+        self.encode_with(|p| (D::ID, D::EXTRA_CRC, msg.ser(MavlinkVersion::V2, p)))
+    }
+
+    /// [`FrameWriter::encode`] with the payload written by `payload` into the frame's 255-byte
+    /// payload area, returning the message id, its CRC_EXTRA and the payload length: one frame
+    /// set-up for a `match` over many message types ([`crate::link::outbound::Outbound::encode`])
+    /// instead of one per type (flash on the F405).
+    pub fn encode_with(
+        &mut self,
+        payload: impl FnOnce(&mut [u8; MAX_PAYLOAD]) -> (u32, u8, usize),
+    ) -> MAVLinkV2MessageRaw {
         let sequence = self.sequence;
         self.sequence = self.sequence.wrapping_add(1);
         let mut raw = MAVLinkV2MessageRaw::new();
         let frame = raw.as_mut_slice();
         let Some((_, rest)) = frame.split_first_chunk_mut::<HEADER_LEN>() else { return raw };
-        let Some((payload, _)) = rest.split_first_chunk_mut::<MAX_PAYLOAD>() else { return raw };
-        let len = msg.ser(MavlinkVersion::V2, payload).min(MAX_PAYLOAD);
-        self.finish(&mut raw, sequence, len, D::ID, D::EXTRA_CRC);
+        let Some((p, _)) = rest.split_first_chunk_mut::<MAX_PAYLOAD>() else { return raw };
+        let (msg_id, extra_crc, len) = payload(p);
+        self.finish(&mut raw, sequence, len.min(MAX_PAYLOAD), msg_id, extra_crc);
         raw
     }
 

@@ -17,9 +17,9 @@ use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
-use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw};
+use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
 
-use crate::link::framing::FrameWriter;
+use crate::link::framing::{FrameWriter, MAX_PAYLOAD};
 
 /// A message to send.
 #[allow(deprecated)] // PING, MISSION_ITEM
@@ -114,39 +114,50 @@ impl Encoded {
 impl Outbound {
     /// Encodes the message as the next frame of `writer`.
     pub fn encode(&self, writer: &mut FrameWriter) -> Encoded {
-        Encoded::V2(match self {
-            Outbound::StatusTextV1(m) => return Encoded::V1(writer.encode_v1(m)),
-            Outbound::Heartbeat(m) => writer.encode(m),
-            Outbound::RcChannels(m) => writer.encode(m),
-            Outbound::Attitude(m) => writer.encode(m),
-            Outbound::LocalPositionNed(m) => writer.encode(m),
-            Outbound::PositionTargetLocalNed(m) => writer.encode(m),
-            Outbound::DebugVect(m) => writer.encode(m),
-            Outbound::NamedValueInt(m) => writer.encode(m),
-            Outbound::NamedValueFloat(m) => writer.encode(m),
-            Outbound::StatusText(m) => writer.encode(m),
-            Outbound::CommandAck(m) => writer.encode(m),
-            Outbound::MissionRequestInt(m) => writer.encode(m),
-            Outbound::MissionAck(m) => writer.encode(m),
-            Outbound::HilActuatorControls(m) => writer.encode(m),
-            Outbound::ParamValue(m) => writer.encode(m),
-            Outbound::MissionCount(m) => writer.encode(m),
-            Outbound::MissionItemInt(m) => writer.encode(m),
-            Outbound::MissionItem(m) => writer.encode(m),
-            Outbound::SysStatus(m) => writer.encode(m),
-            Outbound::ExtendedSysState(m) => writer.encode(m),
-            Outbound::AutopilotVersion(m) => writer.encode(m),
-            Outbound::Timesync(m) => writer.encode(m),
-            Outbound::SystemTime(m) => writer.encode(m),
-            Outbound::GlobalPositionInt(m) => writer.encode(m),
-            Outbound::MissionCurrent(m) => writer.encode(m),
-            Outbound::HomePosition(m) => writer.encode(m),
-            Outbound::Ping(m) => writer.encode(m),
-            Outbound::MessageInterval(m) => writer.encode(m),
-            Outbound::MissionItemReached(m) => writer.encode(m),
-            Outbound::AttitudeTarget(m) => writer.encode(m),
-            Outbound::BatteryStatus(m) => writer.encode(m),
-        })
+        match self {
+            Outbound::StatusTextV1(m) => Encoded::V1(writer.encode_v1(m)),
+            _ => Encoded::V2(writer.encode_with(|p| self.ser_v2(p))),
+        }
+    }
+
+    /// Writes the MAVLink 2 payload into `p`: (message id, CRC_EXTRA, length). One match with a
+    /// serialiser call per type, the frame set up once ([`FrameWriter::encode_with`]).
+    fn ser_v2(&self, p: &mut [u8; MAX_PAYLOAD]) -> (u32, u8, usize) {
+        fn s<D: MessageData>(m: &D, p: &mut [u8; MAX_PAYLOAD]) -> (u32, u8, usize) {
+            (D::ID, D::EXTRA_CRC, m.ser(MavlinkVersion::V2, p))
+        }
+        match self {
+            Outbound::StatusTextV1(m) | Outbound::StatusText(m) => s(m, p),
+            Outbound::Heartbeat(m) => s(m, p),
+            Outbound::RcChannels(m) => s(m, p),
+            Outbound::Attitude(m) => s(m, p),
+            Outbound::LocalPositionNed(m) => s(m, p),
+            Outbound::PositionTargetLocalNed(m) => s(m, p),
+            Outbound::DebugVect(m) => s(m, p),
+            Outbound::NamedValueInt(m) => s(m, p),
+            Outbound::NamedValueFloat(m) => s(m, p),
+            Outbound::CommandAck(m) => s(m, p),
+            Outbound::MissionRequestInt(m) => s(m, p),
+            Outbound::MissionAck(m) => s(m, p),
+            Outbound::HilActuatorControls(m) => s(m, p),
+            Outbound::ParamValue(m) => s(m, p),
+            Outbound::MissionCount(m) => s(m, p),
+            Outbound::MissionItemInt(m) => s(m, p),
+            Outbound::MissionItem(m) => s(m, p),
+            Outbound::SysStatus(m) => s(m, p),
+            Outbound::ExtendedSysState(m) => s(m, p),
+            Outbound::AutopilotVersion(m) => s(m, p),
+            Outbound::Timesync(m) => s(m, p),
+            Outbound::SystemTime(m) => s(m, p),
+            Outbound::GlobalPositionInt(m) => s(m, p),
+            Outbound::MissionCurrent(m) => s(m, p),
+            Outbound::HomePosition(m) => s(m, p),
+            Outbound::Ping(m) => s(m, p),
+            Outbound::MessageInterval(m) => s(m, p),
+            Outbound::MissionItemReached(m) => s(m, p),
+            Outbound::AttitudeTarget(m) => s(m, p),
+            Outbound::BatteryStatus(m) => s(m, p),
+        }
     }
 }
 
@@ -167,4 +178,57 @@ pub fn named_int(time_boot_ms: u32, key: &str, value: i32) -> Outbound {
 /// DEBUG_VECT helper.
 pub fn debug_vect(time_usec: u64, key: &str, x: f32, y: f32, z: f32) -> Outbound {
     Outbound::DebugVect(DEBUG_VECT_DATA { time_usec, x, y, z, name: name(key) })
+}
+
+#[cfg(test)]
+#[allow(deprecated)] // PING, MISSION_ITEM
+mod tests {
+    use super::*;
+    use mavlink_core::MavHeader;
+
+    /// mavlink-core's frame of `m` with sequence `seq` from system 1, component 1.
+    fn theirs<D: MessageData>(m: &D, seq: u8) -> Vec<u8> {
+        let mut raw = MAVLinkV2MessageRaw::new();
+        raw.serialize_message_data(MavHeader { system_id: 1, component_id: 1, sequence: seq }, m);
+        raw.raw_bytes().to_vec()
+    }
+
+    /// Every kind of message goes out as mavlink-core frames it (id, CRC_EXTRA, trimmed payload),
+    /// through the one `encode_with` frame set-up.
+    #[test]
+    fn encode_writes_mavlink_core_s_frames() {
+        let mut w = FrameWriter::new(1, 1);
+        let text = crate::link::telemetry::status_text(
+            crate::link::dialect::MavSeverity::MAV_SEVERITY_INFO,
+            "",
+            "x",
+        );
+        let item = MISSION_ITEM_INT_DATA {
+            x: 473_977_420,
+            y: -5,
+            z: 1.5,
+            seq: 3,
+            command: 22,
+            ..Default::default()
+        };
+        let float = crate::link::mission_float::float_item(&item);
+        let frames: Vec<(Outbound, Vec<u8>)> = vec![
+            (
+                Outbound::Heartbeat(HEARTBEAT_DATA { custom_mode: 7, ..Default::default() }),
+                theirs(&HEARTBEAT_DATA { custom_mode: 7, ..Default::default() }, 0),
+            ),
+            (Outbound::StatusText(text.clone()), theirs(&text, 1)),
+            (Outbound::MissionItemInt(item.clone()), theirs(&item, 2)),
+            (Outbound::MissionItem(float.clone()), theirs(&float, 3)),
+            (
+                debug_vect(9, "CBF", 1.0, 2.0, 3.0),
+                theirs(&DEBUG_VECT_DATA { time_usec: 9, x: 1.0, y: 2.0, z: 3.0, name: name("CBF") }, 4),
+            ),
+        ];
+        for (o, want) in frames {
+            assert_eq!(o.encode(&mut w).raw_bytes(), &want[..], "{o:?}");
+        }
+        let v1 = Outbound::StatusTextV1(text).encode(&mut w);
+        assert_eq!(v1.raw_bytes()[0], 0xFE, "the v1 refusal stays v1");
+    }
 }
