@@ -784,6 +784,51 @@ fn qgc_default_plan_takes_off_flies_returns_and_lands() {
     assert!(f.refs.iter().any(|p| (p.x - 2.0).abs() < 0.1 && (p.y - 2.0).abs() < 0.1), "the path is flown");
 }
 
+/// A mission whose first item is TAKEOFF, started while the vehicle is already in the air
+/// (holding 1 m up), first goes straight up or down to the item's altitude where the vehicle is
+/// (TAKEOFF reached there), then flies on. Before: the climb was skipped and the first leg flew
+/// diagonally to the next waypoint's altitude (the reference never reached the item's 2 m).
+#[test]
+fn a_takeoff_item_started_in_the_air_goes_to_its_altitude_first() {
+    for alt in [2.0, 0.5] {
+        let mut g = Sim::new();
+        g.airborne();
+        let plan = [
+            qgc_item(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, alt),
+            qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 2.0, 0.0, 1.0),
+        ];
+        assert_eq!(g.upload_items(&plan), MavMissionResult::MAV_MISSION_ACCEPTED);
+        assert_eq!(g.interval(42.0, 50_000.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(g.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+        let (mut refs, mut reached) = (Vec::new(), Vec::new());
+        for _ in 0..20_000 {
+            for m in g.step(&[]) {
+                if let Outbound::MissionItemReached(r) = m {
+                    reached.push((r.seq, refs.len()));
+                }
+            }
+            refs.push(g.ap.telemetry().setpoint.position_ned);
+            if refs.last().is_some_and(|p| p.x > 1.95) {
+                break;
+            }
+        }
+        let at_alt = refs.iter().position(|p| (p.z + alt).abs() < 0.02);
+        let Some(at_alt) = at_alt else {
+            panic!("{alt} m: the reference never reached the TAKEOFF altitude")
+        };
+        assert!(
+            refs[..=at_alt].iter().all(|p| p.x.abs() < 0.02 && p.y.abs() < 0.02),
+            "{alt} m: straight up/down"
+        );
+        assert!(refs.last().is_some_and(|p| p.x > 1.95), "{alt} m: then the path is flown");
+        let takeoff_reached = reached.iter().find(|r| r.0 == 0).map(|r| r.1);
+        assert!(
+            takeoff_reached.is_some_and(|k| k >= at_alt),
+            "{alt} m: TAKEOFF reached at its altitude: {reached:?}"
+        );
+    }
+}
+
 /// TAKEOFF then LAND at a position: the vehicle climbs, flies to the landing point at the
 /// takeoff altitude, lands and disarms; MISSION_ITEM_REACHED 0 then 1 (at the landing). Before:
 /// both items were refused MAV_MISSION_UNSUPPORTED.

@@ -18,10 +18,11 @@
 //! * `NAV_WAYPOINT` (16): a waypoint of the path.
 //! * `NAV_TAKEOFF` (22), only as the first navigation item (PX4's rule): climb to z (> 0 m above
 //!   home, else INVALID_PARAM7) where the vehicle is; x = y = 0 (QGroundControl's "here") or a
-//!   position: then fly there at that altitude as the path's first waypoint. Started on the
-//!   ground (armed) the mission begins with the cascade's takeoff to that height (so the height
-//!   must be within its takeoff limit, or MISSION_START is DENIED); started airborne the climb
-//!   is skipped (PX4 climbs at the current position; here the path's first leg does).
+//!   position: then fly there at that altitude as the path's first waypoint. The mission begins
+//!   with the cascade's takeoff ramp to that height where the vehicle is, started armed on the
+//!   ground or airborne (then up or down to it, as PX4 flies a TAKEOFF item in the air;
+//!   [`crate::link::mission_run`]); the height must be within the cascade's takeoff limit, or
+//!   MISSION_START is DENIED.
 //! * `NAV_LAND` (21): x = y = 0 → land where the last waypoint was reached; a position → fly there
 //!   at the previous navigation item's altitude (refused UNSUPPORTED without one), then land.
 //!   The cascade's Land mode lands and disarms on the ground.

@@ -3,9 +3,10 @@
 //!
 //! ```text
 //!  MISSION_START / DO_SET_MODE Mission
-//!    armed on the ground, plan has NAV_TAKEOFF ─▶ TakingOff (cascade Takeoff to its height)
-//!    airborne (Hover / Takeoff phase)          ─▶ Flying    (cascade StartMission)
-//!  TakingOff ── climb done (Hover) ─▶ Flying, or the end action when the path is empty
+//!    plan has NAV_TAKEOFF, armed on the ground or airborne ─▶ TakingOff (cascade Takeoff to its
+//!                                                             height: climb, or descend when above)
+//!    no NAV_TAKEOFF, airborne (Hover / Takeoff phase)      ─▶ Flying    (cascade StartMission)
+//!  TakingOff ── the ramp seen, then Hover ─▶ Flying, or the end action when the path is empty
 //!  Flying ──── follower done ───────▶ Ending: NAV_LAND → cascade Land; NAV_RETURN_TO_LAUNCH →
 //!                                     Return mode (the battery failsafe's return); none → Done
 //!  Ending ──── disarmed on the ground ─▶ Done
@@ -38,8 +39,9 @@ use crate::link::mission::{EndAction, MissionUpload, Plan};
 enum Run {
     /// Not running the plan (never started, or paused by another command or a failsafe).
     Idle,
-    /// The cascade's takeoff climbs to the plan's takeoff height.
-    TakingOff,
+    /// The cascade's takeoff ramp goes to the plan's takeoff height; `seen` once its phase
+    /// showed Takeoff (before, a Hover is the state before the command took effect).
+    TakingOff { seen: bool },
     /// The cascade flies the path; `seen` once its phase showed Mission (the snapshot's
     /// follower fields are this mission's from then on).
     Flying { seen: bool },
@@ -104,8 +106,10 @@ impl MissionRun {
         m.plan().takeoff.is_some()
     }
 
-    /// MISSION_START (or DO_SET_MODE Mission) at `now_us`: takes off when armed on the ground
-    /// with a TAKEOFF item, else the cascade's StartMission (its refusal is returned).
+    /// MISSION_START (or DO_SET_MODE Mission) at `now_us`: with a TAKEOFF item, armed on the
+    /// ground or airborne, the cascade's takeoff ramp to the item's height where the vehicle is
+    /// (airborne: up or down to it, as PX4 flies a TAKEOFF item in the air); else the cascade's
+    /// StartMission. The cascade's refusal is returned.
     pub fn start<A: Autopilot>(
         &mut self,
         m: &MissionUpload,
@@ -114,14 +118,14 @@ impl MissionRun {
     ) -> Result<(), CommandRejected> {
         let plan = m.plan();
         let s = ap.telemetry();
-        if s.armed && s.phase == FlightPhase::Idle {
-            if let Some((_, h)) = plan.takeoff {
-                ap.command(now_us, VehicleCommand::Takeoff { height_m: Some(h) })?;
-                self.run = Run::TakingOff;
-                self.started = true;
-                self.climbed = false;
-                return Ok(());
-            }
+        if let Some((_, h)) =
+            plan.takeoff.filter(|_| s.armed && (s.phase == FlightPhase::Idle || airborne(&s)))
+        {
+            ap.command(now_us, VehicleCommand::Takeoff { height_m: Some(h) })?;
+            self.run = Run::TakingOff { seen: false };
+            self.started = true;
+            self.climbed = false;
+            return Ok(());
         }
         if plan.path_len == 0 && plan.count > 0 && airborne(&s) {
             self.started = true;
@@ -158,12 +162,18 @@ impl MissionRun {
         let s = ap.telemetry();
         match self.run {
             Run::Idle | Run::Done => {}
-            Run::TakingOff => {
+            Run::TakingOff { seen } => {
+                let seen = seen || s.phase == FlightPhase::Takeoff;
+                // Until the ramp shows, the phase is the one the command was given in.
+                let before =
+                    !seen && matches!(s.phase, FlightPhase::Idle | FlightPhase::Hover | FlightPhase::Mission);
                 if !s.armed
                     || s.mode != FlightMode::Mission
-                    || !matches!(s.phase, FlightPhase::Idle | FlightPhase::Takeoff | FlightPhase::Hover)
+                    || !(before || matches!(s.phase, FlightPhase::Takeoff | FlightPhase::Hover))
                 {
                     self.run = Run::Idle;
+                } else if !seen {
+                    self.run = Run::TakingOff { seen };
                 } else if s.phase == FlightPhase::Hover {
                     self.climbed = true;
                     let plan = m.plan();
@@ -175,6 +185,8 @@ impl MissionRun {
                             Err(_) => Run::Idle,
                         };
                     }
+                } else {
+                    self.run = Run::TakingOff { seen };
                 }
             }
             Run::Flying { seen } => {
@@ -231,7 +243,7 @@ impl MissionRun {
         let (current, reached, state) = match self.run {
             Run::Done => (last, Some(last), MissionState::MISSION_STATE_COMPLETE),
             Run::Ending { seq } => (seq, done(seq.checked_sub(1)).max(path_end), active),
-            Run::TakingOff => (first, first.checked_sub(1), active),
+            Run::TakingOff { .. } => (first, first.checked_sub(1), active),
             Run::Flying { seen: false } => (m.path_seq(0).unwrap_or(first), climbed, active),
             Run::Flying { seen: true } | Run::Idle => {
                 let k = s.mission_seq.min(plan.path_len.saturating_sub(1));
