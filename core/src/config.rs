@@ -68,7 +68,7 @@ pub struct ControllerParams {
     pub outer_rate_hz: f32,
     /// Nominal inner-loop rate, Hz. Default 1000.
     pub inner_rate_hz: f32,
-    /// Takeoff ramp (speed 0.5 m/s, at most 10 m).
+    /// Takeoff ramp (speed 0.5 m/s, at most 120 m above home).
     pub guidance: GuidanceParams,
     /// Landing and braking (descent 0.3 m/s, …; see [`LandingParams`]).
     pub landing: LandingParams,

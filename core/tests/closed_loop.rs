@@ -213,7 +213,7 @@ fn arm_refusals_and_command_errors() {
     assert_eq!(ctl.start_mission(t), Err(CommandError::NotFlying));
     assert_eq!(ctl.takeoff(t, f32::NAN), Err(CommandError::BadHeight));
     assert_eq!(ctl.takeoff(t, -1.0), Err(CommandError::BadHeight));
-    assert_eq!(ctl.takeoff(t, 100.0), Err(CommandError::BadHeight));
+    assert_eq!(ctl.takeoff(t, 1000.0), Err(CommandError::BadHeight), "above the takeoff limit");
     assert_eq!(ctl.hold_position(t, Vec3::new(f32::NAN, 0.0, 0.0)), Err(CommandError::BadTarget));
     assert_eq!(ctl.start_mission(t), Err(CommandError::NotFlying));
     // Mass and inertia are stored once, in the airframe, and checked where a stage uses them.

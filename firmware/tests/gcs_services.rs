@@ -829,6 +829,57 @@ fn a_takeoff_item_started_in_the_air_goes_to_its_altitude_first() {
     }
 }
 
+/// QGroundControl's default plan takes off to 50 m: the takeoff limit is now 120 m, so the plan
+/// is accepted and MISSION_START on the ground starts the climb. Above the limit, MISSION_START
+/// and a NAV_TAKEOFF command are DENIED with a STATUSTEXT saying why. Before: the limit was
+/// 10 m, QGroundControl's plan got MISSION_START DENIED, without a reason.
+#[test]
+fn qgroundcontrols_50_m_takeoff_flies_and_higher_is_refused_with_a_reason() {
+    use parapet_firmware::link::takeoff_limit::TOO_HIGH_TEXT;
+    let plan = |alt: f32| {
+        [
+            qgc_item(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, alt),
+            qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 2.0, 0.0, alt),
+            qgc_item(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, 0.0, 0.0, 0.0),
+        ]
+    };
+    let texts = |out: &[Outbound]| {
+        count(out, |m| matches!(m, Outbound::StatusText(t) if t.text.to_str().ok() == Some(TOO_HIGH_TEXT)))
+    };
+    let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let mut g = Sim::new();
+    assert_eq!(g.upload_items(&plan(50.0)), MavMissionResult::MAV_MISSION_ACCEPTED);
+    g.run(500);
+    assert_eq!(g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(g.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    g.run(2000);
+    let s = g.ap.telemetry();
+    assert_eq!(s.phase, FlightPhase::Takeoff, "climbing to 50 m");
+    assert!(s.setpoint.position_ned.z < -0.5, "{:?}", s.setpoint.position_ned);
+    // Above the limit: refused, with the reason.
+    let mut g = Sim::new();
+    assert_eq!(g.upload_items(&plan(150.0)), MavMissionResult::MAV_MISSION_ACCEPTED);
+    g.run(500);
+    assert_eq!(g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm), MavResult::MAV_RESULT_ACCEPTED);
+    let start = COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_MISSION_START as u16,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let denied = |out: &[Outbound]| {
+        out.iter().any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_DENIED))
+    };
+    let out = g.send(&start);
+    assert!(denied(&out) && texts(&out) == 1, "MISSION_START: {out:?}");
+    let takeoff = COMMAND_LONG_DATA { param7: 130.0, command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16, ..start };
+    let out = g.send(&takeoff);
+    assert!(denied(&out) && texts(&out) == 1, "NAV_TAKEOFF: {out:?}");
+    let ok = COMMAND_LONG_DATA { param7: 110.0, ..takeoff };
+    let out = g.send(&ok);
+    assert!(!denied(&out) && texts(&out) == 0, "110 m is within the limit: {out:?}");
+}
+
 /// TAKEOFF then LAND at a position: the vehicle climbs, flies to the landing point at the
 /// takeoff altitude, lands and disarms; MISSION_ITEM_REACHED 0 then 1 (at the landing). Before:
 /// both items were refused MAV_MISSION_UNSUPPORTED.

@@ -75,13 +75,19 @@ impl GuidanceMode {
 pub struct GuidanceParams {
     /// Vertical speed of the takeoff ramp, m/s. Default 0.5.
     pub takeoff_speed: f32,
-    /// Largest takeoff height, m. Default 10.
+    /// Largest takeoff height above home, m. Default [`TAKEOFF_HEIGHT_MAX_DEFAULT`].
     pub takeoff_height_max: f32,
 }
 
+/// Default takeoff height limit, m: 120 m, the height ceiling of the common drone rules (EU
+/// open category, US Part 107's 400 ft), which takes QGroundControl's default plan (50 m) and
+/// keeps a mission from commanding a takeoff beyond it. Was 10 m, which refused QGroundControl's
+/// default plan. Not yet in the parameter table (docs/ground-station.md, § Open).
+pub const TAKEOFF_HEIGHT_MAX_DEFAULT: f32 = 120.0;
+
 impl Default for GuidanceParams {
     fn default() -> Self {
-        GuidanceParams { takeoff_speed: 0.5, takeoff_height_max: 10.0 }
+        GuidanceParams { takeoff_speed: 0.5, takeoff_height_max: TAKEOFF_HEIGHT_MAX_DEFAULT }
     }
 }
 

@@ -3,7 +3,7 @@
 //! | MAV_CMD | params | action |
 //! |---|---|---|
 //! | COMPONENT_ARM_DISARM (400) | p1 = 1 arm, 0 disarm; p2 = 21196 force | arm / disarm |
-//! | NAV_TAKEOFF (22) | p7 = height above the current position, m (positive up; NaN/0: default) | take off |
+//! | NAV_TAKEOFF (22) | p7 = height above home, m (positive up; NaN/0: default 1 m; above the cascade's limit, 120 m: DENIED with a STATUSTEXT) | take off |
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
@@ -23,8 +23,6 @@ use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase,
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
-/// Highest accepted takeoff height, m.
-pub const MAX_TAKEOFF_HEIGHT_M: f32 = 100.0;
 
 /// Command ids as the raw `u16` of the `command` fields (see [`crate::link::dialect`]: every id
 /// decodes, an unknown one is answered UNSUPPORTED with its own id).
@@ -78,7 +76,8 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             let h = cmd.param7;
             if h.is_nan() || h == 0.0 {
                 Ok(VehicleCommand::Takeoff { height_m: None })
-            } else if h > 0.0 && h <= MAX_TAKEOFF_HEIGHT_M {
+            } else if h > 0.0 && h.is_finite() {
+                // The limit is the cascade's (crate::link::takeoff_limit).
                 Ok(VehicleCommand::Takeoff { height_m: Some(h) })
             } else {
                 Err(MavResult::MAV_RESULT_DENIED)

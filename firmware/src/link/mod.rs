@@ -6,7 +6,8 @@
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
 //! message intervals, ATTITUDE_TARGET, BATTERY_STATUS, MISSION_ITEM_REACHED) and the MAVLink v1
-//! refusal ([`v1`]) and the global ↔ local NED conversion around home ([`geo`]).
+//! refusal ([`v1`]), the takeoff height limit's refusals ([`takeoff_limit`]) and the global ↔
+//! local NED conversion around home ([`geo`]).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
 //! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
@@ -31,6 +32,7 @@ pub mod params;
 pub mod received;
 pub mod router;
 pub mod services;
+pub mod takeoff_limit;
 pub mod telemetry;
 pub mod v1;
 

@@ -14,7 +14,7 @@
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
 //! | MISSION_REQUEST_LIST / MISSION_REQUEST_INT | mission download (the path the cascade took last) |
 //! | MISSION_ITEM (39) / MISSION_REQUEST (40), deprecated float items | an upload item like MISSION_ITEM_INT; a download answered in MISSION_ITEM, see [`crate::link::mission_float`] |
-//! | COMMAND_LONG / COMMAND_INT | arm / disarm / takeoff / land / mission start / hold, see [`crate::link::command`]; REQUEST_MESSAGE(AUTOPILOT_VERSION) and REQUEST_AUTOPILOT_CAPABILITIES → ACK + AUTOPILOT_VERSION |
+//! | COMMAND_LONG / COMMAND_INT | arm / disarm / takeoff / land / mission start / hold, see [`crate::link::command`] (a takeoff refused for its height: STATUSTEXT, [`crate::link::takeoff_limit`]); REQUEST_MESSAGE(AUTOPILOT_VERSION) and REQUEST_AUTOPILOT_CAPABILITIES → ACK + AUTOPILOT_VERSION |
 //! | PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST | parameters, see [`crate::link::params`] |
 //! | TIMESYNC | a request (tc1 = 0) is answered with tc1 = firmware time, ns, ts1 echoed |
 //! | PING (4) | a request (target 0/0) is answered to the sender, see [`crate::link::services`] |
@@ -46,7 +46,7 @@ use crate::link::dialect::{
 };
 use heapless::Deque;
 
-use crate::app::autopilot::{Autopilot, FlightMode, FlightPhase, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase, VehicleCommand};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::inputs::{odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US};
@@ -232,6 +232,22 @@ impl Router {
         if version {
             self.reply(Outbound::AutopilotVersion(autopilot_version()));
         }
+        let asked = match cmd.command {
+            crate::link::command::id::TAKEOFF => Some(cmd.param7),
+            crate::link::command::id::MISSION_START => self.mission.plan().takeoff.map(|t| t.1),
+            _ => None,
+        };
+        if result == MavResult::MAV_RESULT_DENIED {
+            self.takeoff_refused(asked);
+        }
+    }
+
+    /// A takeoff to `height_m` was refused Invalid: the STATUSTEXT of
+    /// [`crate::link::takeoff_limit`] when that was for its height.
+    fn takeoff_refused(&mut self, height_m: Option<f32>) {
+        if crate::link::takeoff_limit::refused_for_height(height_m) {
+            self.reply(Outbound::StatusText(crate::link::takeoff_limit::text()));
+        }
     }
 
     /// PX4's AUTO.MISSION: an accepted DO_SET_MODE to Mission (PX4 4/4, what MAVSDK's
@@ -250,12 +266,12 @@ impl Router {
             && crate::link::command::decode_command(cmd) == Ok(VehicleCommand::SetMode(FlightMode::Mission));
         let s = ap.telemetry();
         let on_ground_takes_off = s.phase == FlightPhase::Idle && MissionRun::takes_off(&self.mission);
-        if to_mission
+        let flies = to_mission
             && self.mission.stored_len() > 0
             && s.armed
-            && (matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff) || on_ground_takes_off)
-        {
-            let _ = self.run.start(&self.mission, now_us, ap);
+            && (matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff) || on_ground_takes_off);
+        if flies && self.run.start(&self.mission, now_us, ap) == Err(CommandRejected::Invalid) {
+            self.takeoff_refused(self.mission.plan().takeoff.map(|t| t.1));
         }
     }
 
