@@ -9,23 +9,14 @@ printed). WAIT_S (default 4): seconds of flight before the download (the log gro
 import sys
 import time
 
-from pymavlink import mavutil
 from pyulog import ULog
+
+from gcs_common import connect, fail, heartbeat
 
 port, out = int(sys.argv[1]), sys.argv[2]
 wait_s = float(sys.argv[3]) if len(sys.argv) > 3 else 4.0
-m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250, source_component=190)
-
-
-def fail(why):
-    print("FAIL:", why, flush=True)
-    sys.exit(1)
-
-
-hb = m.wait_heartbeat(timeout=60)
-if hb is None:
-    fail("no HEARTBEAT within 60 s")
-sysid, compid = m.target_system, m.target_component
+m = connect(port, 250)
+sysid, compid = heartbeat(m)
 time.sleep(wait_s)
 
 entries = {}

@@ -12,29 +12,13 @@ import time
 
 from pymavlink import mavutil
 
+from gcs_common import connect, fail, heartbeat, waiter
+
 port = int(sys.argv[1])
 mode = sys.argv[2] if len(sys.argv) > 2 else "full"
-m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250, source_component=190)
-
-
-def fail(why):
-    print("FAIL:", why, flush=True)
-    sys.exit(1)
-
-
-def wait(types, timeout, cond=lambda msg: True):
-    end = time.time() + timeout
-    while time.time() < end:
-        msg = m.recv_match(type=types, blocking=True, timeout=0.5)
-        if msg is not None and cond(msg):
-            return msg
-    return None
-
-
-hb = m.wait_heartbeat(timeout=60)
-if hb is None:
-    fail("no HEARTBEAT within 60 s")
-sysid, compid = m.target_system, m.target_component
+m = connect(port, 250)
+wait = waiter(m)
+sysid, compid = heartbeat(m)
 print("heartbeat from", sysid, compid, flush=True)
 
 # Telemetry through the bridge; the host's lockstep frames stay inside the host.

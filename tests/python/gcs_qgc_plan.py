@@ -14,8 +14,9 @@ import json
 import sys
 import time
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mav
+
+from gcs_common import connect, fail, heartbeat, waiter
 
 # The firmware's flat-earth scales around home (firmware/src/link/geo.rs): 1e-7 deg per metre.
 LAT_E7_PER_M = 89.83153
@@ -25,26 +26,9 @@ PX4_RETURN = (4 << 16) | (5 << 24)
 
 port = int(sys.argv[1])
 plan = json.loads(sys.argv[2])
-m = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
-
-
-def fail(why):
-    print("FAIL:", why, flush=True)
-    sys.exit(1)
-
-
-def wait(types, timeout, cond=lambda msg: True):
-    end = time.time() + timeout
-    while time.time() < end:
-        msg = m.recv_match(type=types, blocking=True, timeout=0.5)
-        if msg is not None and cond(msg):
-            return msg
-    return None
-
-
-if m.wait_heartbeat(timeout=60) is None:
-    fail("no HEARTBEAT within 60 s")
-sysid, compid = m.target_system, m.target_component
+m = connect(port, 255)
+wait = waiter(m)
+sysid, compid = heartbeat(m)
 home = wait("HOME_POSITION", 10)
 if home is None:
     fail("no HOME_POSITION in 10 s")

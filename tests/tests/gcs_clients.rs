@@ -90,6 +90,34 @@ fn pyulog_reads_the_run_log_with_px4_topics_and_units() {
     );
 }
 
+/// The pymavlink ground-station scripts share their connect / fail / wait / heartbeat helpers
+/// (`tests/python/gcs_common.py`): every pymavlink script that listens for the bridge imports
+/// them and defines none of its own (MAVProxy's and MAVSDK's scripts are other clients). Before: gcs_pymavlink.py, gcs_qgc_plan.py and
+/// gcs_log_download.py each repeated them. (A source check: it needs no venv.)
+#[test]
+fn python_ground_stations_share_gcs_common() {
+    let dir = root().join("tests/python");
+    let mut listeners = Vec::new();
+    for e in std::fs::read_dir(&dir).expect("tests/python") {
+        let path = e.expect("entry").path();
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
+        if !name.ends_with(".py") || name == "gcs_common.py" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).expect("script");
+        if !text.contains("mavlink_connection(f\"udpin:") && !text.contains("from gcs_common import") {
+            continue;
+        }
+        listeners.push(name.clone());
+        assert!(text.contains("from gcs_common import"), "{name} does not import gcs_common");
+        for own in ["def fail(", "def wait(", "mavlink_connection(f\"udpin:", "wait_heartbeat("] {
+            assert!(!text.contains(own), "{name} repeats gcs_common's `{own}`");
+        }
+    }
+    listeners.sort();
+    assert_eq!(listeners, ["gcs_log_download.py", "gcs_pymavlink.py", "gcs_qgc_plan.py"]);
+}
+
 /// A free UDP port on localhost (bound and released).
 fn free_port() -> u16 {
     std::net::UdpSocket::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port()
