@@ -40,7 +40,7 @@
 //!   every instruction fetch from flash, interrupts included (a word ≈ 16 µs, a 128 KiB sector
 //!   erase 1-2 s): disarmed only, by design.
 //! - **battery** (the link's executor above): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
-//!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → `MAILBOXES.battery` (the outer
+//!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → the stages' `battery` mailbox (the outer
 //!   stage's low/critical battery failsafes).
 //!
 //! The setup services (calibration, motor test, storage requests, IMU correction) are split over
@@ -119,10 +119,16 @@ mod firmware {
     /// a level change for 2 s).
     const BATTERY_PERIOD_MS: u64 = 100;
 
-    /// The stages' mailboxes (see `parapet_firmware::app::mailbox`).
-    static MAILBOXES: Mailboxes<CriticalSectionRawMutex> = Mailboxes::new();
-    /// The setup services' mailboxes (see `parapet_firmware::vehicle::tasks`).
-    static SETUP: SetupMailboxes<CriticalSectionRawMutex> = SetupMailboxes::new();
+    /// The stages' mailboxes (`parapet_firmware::app::mailbox`) and the setup services'
+    /// (`parapet_firmware::vehicle::tasks`); every task that uses them gets the reference.
+    struct Boxes {
+        stages: Mailboxes<CriticalSectionRawMutex>,
+        setup: SetupMailboxes<CriticalSectionRawMutex>,
+    }
+    /// Filled at boot: a `StaticCell` is zeroed `.bss`, while a `static` initialised with the
+    /// empty mailboxes was a 2,296-byte `.data` image in flash (their empty state holds 7
+    /// non-zero enum tags).
+    static BOXES: StaticCell<Boxes> = StaticCell::new();
     /// The vehicle is armed (outer task → battery task: the estimator's level only goes down
     /// while armed).
     static ARMED: AtomicBool = AtomicBool::new(false);
@@ -221,10 +227,11 @@ mod firmware {
         };
         defmt::info!("parapet-firmware: board up, cascade built (parameters {})", loaded == Loaded::Stored);
 
+        let b: &'static Boxes = BOXES.init(Boxes { stages: Mailboxes::new(), setup: SetupMailboxes::new() });
         interrupt::UART4.set_priority(Priority::P6);
         let high = EXECUTOR_HIGH.start(interrupt::UART4);
         let setup_inner = SetupInner::new(&params);
-        match inner_loop(InnerStage::new(inner), setup_inner, board.imu, board.imu_ready, board.motors) {
+        match inner_loop(InnerStage::new(inner), setup_inner, board.imu, board.imu_ready, board.motors, b) {
             Ok(t) => high.spawn(t),
             Err(_) => halt("spawn inner loop"),
         }
@@ -232,21 +239,21 @@ mod firmware {
         let med = EXECUTOR_MED.start(interrupt::UART5);
         let outer = OUTER_STAGE.init(outer);
         let setup_outer = SETUP_OUTER.init(SetupOuter::new(params, loaded));
-        match outer_loop(outer, OuterSchedule::new(&params), setup_outer) {
+        match outer_loop(outer, OuterSchedule::new(&params), setup_outer, b) {
             Ok(t) => med.spawn(t),
             Err(_) => halt("spawn outer loop"),
         }
         interrupt::I2C1_EV.set_priority(Priority::P8);
         let service = EXECUTOR_SERVICE.start(interrupt::I2C1_EV);
-        match rc_task(board.rc_rx, params.rc) {
+        match rc_task(board.rc_rx, params.rc, b) {
             Ok(t) => service.spawn(t),
             Err(_) => halt("spawn rc receiver"),
         }
-        match battery_task(board.battery, params.battery) {
+        match battery_task(board.battery, params.battery, b) {
             Ok(t) => service.spawn(t),
             Err(_) => halt("spawn battery"),
         }
-        match link_task(board.link_tx, board.link_rx) {
+        match link_task(board.link_tx, board.link_rx, b) {
             Ok(t) => service.spawn(t),
             Err(_) => halt("spawn link"),
         }
@@ -259,7 +266,7 @@ mod firmware {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn log"),
             }
-            match storage_task(STORE.init(store)) {
+            match storage_task(STORE.init(store), b) {
                 Ok(t) => spawner.spawn(t),
                 Err(_) => halt("spawn storage"),
             }
@@ -274,6 +281,7 @@ mod firmware {
         imu: ImuParts,
         mut ready: embassy_stm32::exti::ExtiInput<'static, embassy_stm32::mode::Async>,
         mut motors: DshotMotors,
+        b: &'static Boxes,
     ) {
         // This task is SPI1's only user: the bus mutex never masks interrupts.
         let bus: Mutex<NoopRawMutex, _> = Mutex::new(imu.bus);
@@ -311,11 +319,11 @@ mod firmware {
                 }
             };
             let now = now_us();
-            let sample = setup.imu(now, &sample, &SETUP);
+            let sample = setup.imu(now, &sample, &b.setup);
             // Before the stage takes it: a kill frame also stops a motor test in this step.
-            let kill = MAILBOXES.kill.signaled();
-            let cmd = stage.step(now, &sample, &MAILBOXES).sanitized();
-            let cmd = setup.motors(now, cmd, kill, &SETUP);
+            let kill = b.stages.kill.signaled();
+            let cmd = stage.step(now, &sample, &b.stages).sanitized();
+            let cmd = setup.motors(now, cmd, kill, &b.setup);
             motors.write(&cmd).await;
             board_log::motors(&cmd);
             timer.end(cycles());
@@ -331,6 +339,7 @@ mod firmware {
         stage: &'static mut OuterStage,
         schedule: OuterSchedule,
         setup: &'static mut SetupOuter,
+        b: &'static Boxes,
     ) {
         let period_us = schedule.period_us();
         let mut ticker = Ticker::every(Duration::from_micros(period_us));
@@ -339,14 +348,14 @@ mod firmware {
         #[cfg(feature = "onboard-log")]
         let mut next_log_us = 0u64;
         loop {
-            match select3(ticker.next(), INBOUND.receive(), MAILBOXES.estimate.wait()).await {
+            match select3(ticker.next(), INBOUND.receive(), b.stages.estimate.wait()).await {
                 Either3::First(()) => {
                     timer.start(cycles());
                     let now = now_us();
-                    stage.on_estimate(&MAILBOXES);
-                    link.poll(now, &mut setup.port(stage.port(&MAILBOXES), &SETUP));
-                    stage.step(now, &MAILBOXES);
-                    setup.step(now, stage.port(&MAILBOXES), &SETUP);
+                    stage.on_estimate(&b.stages);
+                    link.poll(now, &mut setup.port(stage.port(&b.stages), &b.setup));
+                    stage.step(now, &b.stages);
+                    setup.step(now, stage.port(&b.stages), &b.setup);
                     ARMED.store(setup.armed(), Ordering::Relaxed);
                     #[cfg(feature = "onboard-log")]
                     board_log::sample(now, stage, &mut next_log_us);
@@ -357,9 +366,9 @@ mod firmware {
                     LINK_COUNTERS.signal(ErrorCounters::from_link(&link));
                 }
                 Either3::Second((t, r)) => {
-                    link.receive(r, t, &mut setup.port(stage.port(&MAILBOXES), &SETUP))
+                    link.receive(r, t, &mut setup.port(stage.port(&b.stages), &b.setup))
                 }
-                Either3::Third(est) => stage.take_estimate(est, &MAILBOXES),
+                Either3::Third(est) => stage.take_estimate(est, &b.stages),
             }
             while let Some(r) = link.pop_reply() {
                 // A full reply queue drops the reply (the peer retries).
@@ -369,18 +378,18 @@ mod firmware {
     }
 
     /// The RC receiver ([`RC_RECEIVER`]): every decoded frame goes to the outer stage
-    /// (`MAILBOXES.rc`, latest wins), which maps it with the live `RC_*` parameters; a frame with
+    /// (the `rc` mailbox, latest wins), which maps it with the live `RC_*` parameters; a frame with
     /// the kill switch on also straight to the inner stage (`Mailboxes::deliver_rc`, mapped with
-    /// this task's copy of the parameters, `MAILBOXES.rc_params` after a rebuild). UART errors
+    /// this task's copy of the parameters, `rc_params` after a rebuild). UART errors
     /// (noise, framing, overrun) restart the reception and are counted.
     #[embassy_executor::task]
-    async fn rc_task(mut rx: RingBufferedUartRx<'static>, mut rc: RcParams) {
+    async fn rc_task(mut rx: RingBufferedUartRx<'static>, mut rc: RcParams, b: &'static Boxes) {
         // A const match: only the chosen receiver's decoder is linked.
         let mut publish = |f: RcFrame| {
-            if let Some(p) = MAILBOXES.rc_params.try_take() {
+            if let Some(p) = b.stages.rc_params.try_take() {
                 rc = p;
             }
-            MAILBOXES.deliver_rc(f, &rc);
+            b.stages.deliver_rc(f, &rc);
         };
         let mut buf = [0u8; 64];
         match RC_RECEIVER {
@@ -411,29 +420,29 @@ mod firmware {
 
     /// The parameter store: one job at a time from the outer task, the answer back (module docs).
     #[embassy_executor::task]
-    async fn storage_task(store: &'static mut Store) {
+    async fn storage_task(store: &'static mut Store, b: &'static Boxes) {
         loop {
-            let job = SETUP.jobs.receive().await;
+            let job = b.setup.jobs.receive().await;
             let result = storage_job(store, &job).await;
-            SETUP.results.signal(result);
+            b.setup.results.signal(result);
         }
     }
 
     /// The battery measurement every [`BATTERY_PERIOD_MS`] (module docs); the `BAT_*`
-    /// parameters follow their changes (`SETUP.battery_params`).
+    /// parameters follow their changes (the setup mailboxes' `battery_params`).
     #[embassy_executor::task]
-    async fn battery_task(mut adc: BatteryAdc, mut params: BatteryParams) {
+    async fn battery_task(mut adc: BatteryAdc, mut params: BatteryParams, b: &'static Boxes) {
         let mut estimator = BatteryEstimator::new(params);
         let mut ticker = Ticker::every(Duration::from_millis(BATTERY_PERIOD_MS));
         loop {
             ticker.next().await;
-            if let Some(p) = SETUP.battery_params.try_take() {
+            if let Some(p) = b.setup.battery_params.try_take() {
                 params = p;
                 estimator.set_params(p);
             }
             let (volts, amps) = params.convert(&adc.read());
             let s = estimator.update(now_us(), volts, amps, ARMED.load(Ordering::Relaxed));
-            MAILBOXES.battery.signal(s.state());
+            b.stages.battery.signal(s.state());
         }
     }
 
@@ -443,6 +452,7 @@ mod firmware {
     async fn link_task(
         mut tx: UartTx<'static, embassy_stm32::mode::Async>,
         mut rx: RingBufferedUartRx<'static>,
+        b: &'static Boxes,
     ) {
         let mut framer = Framer::new();
         let mut writer = FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID);
@@ -476,7 +486,7 @@ mod firmware {
                 send(&mut tx, &mut writer, &r).await;
             }
             board_log::send_replies(&mut tx, &mut writer).await;
-            if let Some(s) = MAILBOXES.snapshot.try_take() {
+            if let Some(s) = b.stages.snapshot.try_take() {
                 snapshot = s;
             }
             if let Some(r) = INNER_REPORT.try_take() {
