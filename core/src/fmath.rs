@@ -98,7 +98,7 @@ pub fn maxf(x: f32, y: f32) -> f32 {
     }
 }
 
-/// Largest `|x|` [`sincosf`] reduces itself (beyond it, and for non-finite `x`, libm's).
+/// Largest `|x|` [`sincosf`] reduces by Cody–Waite; beyond it, by Payne–Hanek.
 const SINCOS_FAST_LIMIT: f32 = 1000.0;
 
 /// `(sin x, cos x)`, x in rad, in single precision throughout.
@@ -111,11 +111,22 @@ const SINCOS_FAST_LIMIT: f32 = 1000.0;
 /// minimax polynomials give `sin r`, `cos r`; the quadrant `k mod 4` picks signs and
 /// order. The result differs from libm's (correctly rounded in practice) by at most
 /// one unit in the last place (test: absolute error ≤ 1.5e-7 for |x| ≤ 1000; measured
-/// 6e-8 for sin, 1.2e-7 for cos); larger or non-finite `x` go to libm.
+/// 6e-8 for sin, 1.2e-7 for cos). Larger finite `x` are reduced by Payne–Hanek in integer
+/// arithmetic ([`reduce_large`]) and take the same polynomials (same bound, tested up to
+/// `f32::MAX`); non-finite `x` give NaN, as libm. Before, those went to `libm::sincosf`,
+/// whose `f64` reduction (`rem_pio2_large`) was ≈ 3 KB of the F405's flash; no caller in
+/// the flight code passes such an angle (they are wrapped or bounded).
 #[inline(never)]
 pub fn sincosf(x: f32) -> (f32, f32) {
-    if x.abs() > SINCOS_FAST_LIMIT || x.is_nan() {
-        return libm::sincosf(x);
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must take this branch too
+    if !(x.abs() <= SINCOS_FAST_LIMIT) {
+        if !x.is_finite() {
+            #[allow(clippy::eq_op)] // NaN as libm makes it (the input's payload for NaN)
+            return (x - x, x - x);
+        }
+        let (r, quadrant) = reduce_large(x.to_bits());
+        let (s, c) = quadrant_sincos(r, quadrant);
+        return if x < 0.0 { (-s, c) } else { (s, c) };
     }
     const TWO_OVER_PI: f32 = core::f32::consts::FRAC_2_PI;
     // π/2 = P1 + P2 + P3 (Cephes DP1..DP3 × 2); P1, P2 have few significant bits.
@@ -124,15 +135,145 @@ pub fn sincosf(x: f32) -> (f32, f32) {
     const P3: f32 = 7.549_79e-8;
     let kf = rintf(x * TWO_OVER_PI);
     let r = ((x - kf * P1) - kf * P2) - kf * P3;
+    quadrant_sincos(r, kf as i32)
+}
+
+/// `(sin, cos)` of `r + k·π/2` for |r| ≤ π/4: Cephes' single-precision minimax polynomials
+/// for `sin r`, `cos r`, then [`quadrant`].
+#[inline(always)]
+fn quadrant_sincos(r: f32, k: i32) -> (f32, f32) {
     let z = r * r;
     let s = r + r * z * ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1);
     let c = 1.0 - 0.5 * z + z * z * ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2);
-    match (kf as i32) & 3 {
+    quadrant(s, c, k)
+}
+
+/// 4/π to 192 bits, 8 new bits per entry (so three 32-bit words at any 8-bit offset are
+/// consecutive bits): ARM optimized-routines' `__inv_pio4` (MIT OR Apache-2.0 WITH
+/// LLVM-exception), for [`reduce_large`].
+const INV_PIO4: [u32; 24] = [
+    0xa2, 0xa2f9, 0xa2f983, 0xa2f9836e, 0xf9836e4e, 0x836e4e44, 0x6e4e4415, 0x4e441529, 0x441529fc,
+    0x1529fc27, 0x29fc2757, 0xfc2757d1, 0x2757d1f5, 0x57d1f534, 0xd1f534dd, 0xf534ddc0, 0x34ddc0db,
+    0xddc0db62, 0xc0db6295, 0xdb629599, 0x6295993c, 0x95993c43, 0x993c4390, 0x3c439041,
+];
+
+/// π/2 · 2³¹, truncated (0xC90FDAA2).
+const PIO2_Q31: u64 = 0xc90f_daa2;
+
+/// `|x| = (k + f)·π/2` for the `f32` with bits `xi` (|x| ≥ 2, finite; the sign bit is
+/// ignored), with `k` an integer (mod 4 is what counts) and |f| ≤ ½: returns `(f·π/2, k)`.
+/// Payne–Hanek in integer arithmetic (ARM optimized-routines' `reduce_large`): the 24-bit
+/// mantissa times the 96 bits of 4/π that matter at its exponent gives f exactly in 2.62
+/// fixed point (at most 29 leading zero bits, so ≥ 33 significant ones); f·π/2 is then formed
+/// from its top 32 bits and π/2 to 32 bits in one 64-bit product and rounded once to `f32`
+/// (≤ ½ ulp plus 2⁻³⁰ relative). No `f64`: the Cortex-M4F has no double-precision FPU.
+fn reduce_large(xi: u32) -> (f32, i32) {
+    let i = ((xi >> 26) & 15) as usize;
+    let word = |k: usize| INV_PIO4.get(i + k).copied().unwrap_or(0);
+    let m = ((xi & 0x00ff_ffff) | 0x0080_0000) << ((xi >> 23) & 7);
+    let res0 = u64::from(m.wrapping_mul(word(0)));
+    let res1 = u64::from(m) * u64::from(word(4));
+    let res2 = u64::from(m) * u64::from(word(8));
+    let res = ((res2 >> 32) | (res0 << 32)).wrapping_add(res1);
+    let n = res.wrapping_add(1 << 61) >> 62;
+    // fx = f·2⁶², |fx| ≤ 2⁶¹: lz ≥ 2, and `top` holds |fx|'s leading 32 bits (the first one set).
+    let fx = res.wrapping_sub(n << 62) as i64;
+    let k = n as i32;
+    if fx == 0 {
+        return (0.0, k);
+    }
+    let lz = fx.unsigned_abs().leading_zeros();
+    let top = (fx.unsigned_abs() << lz) >> 32;
+    // f·π/2 = top · 2^(32 − lz) · (PIO2_Q31 · 2⁻³¹) · 2⁻⁶² = (top · PIO2_Q31) · 2^(−61 − lz).
+    let scale = f32::from_bits((127 - 61 - lz) << 23);
+    let r = ((top * PIO2_Q31) as f32) * scale;
+    (if fx < 0 { -r } else { r }, k)
+}
+
+/// `libm::sincosf(x)` bit for bit for |x| < 2²⁸·π/2 ≈ 4.2·10⁸ and for non-finite `x`: libm
+/// 0.2.16's code for that range — its `f64` kernels and its `rem_pio2f` for medium arguments
+/// — copied (FreeBSD msun, MIT). Beyond (no caller's angle), [`sincosf`]'s Payne–Hanek
+/// reduction in `f32`, within one ulp of libm's.
+///
+/// For results that must stay what `libm::sincosf` gave, on the boards the Euler-angle
+/// constructions ([`crate::frame::quat_from_euler`], [`crate::frame::rotation_from_euler`])
+/// and the onboard log's quaternions: libm's own function also reduces large arguments
+/// with `rem_pio2_large`, ≈ 3 KB of the F405's flash for angles no caller passes.
+/// Software `f64` on the Cortex-M4F (≈ 1,000–2,000 instructions); not for the control loops,
+/// which take [`sincosf`].
+pub fn sincosf_exact(x: f32) -> (f32, f32) {
+    use core::f64::consts::FRAC_PI_2 as S1PIO2;
+    let ix = x.to_bits() & 0x7fff_ffff;
+    if ix <= 0x3f49_0fda {
+        // |x| ≲ π/4; below 2⁻¹² libm returns (x, 1).
+        if ix < 0x3980_0000 {
+            return (x, 1.0);
+        }
+        return k_sincosf(f64::from(x));
+    }
+    if ix >= 0x7f80_0000 {
+        #[allow(clippy::eq_op)] // libm's NaN: the input's payload for NaN
+        return (x - x, x - x);
+    }
+    if ix >= 0x4dc9_0fdb {
+        return sincosf(x);
+    }
+    // |x| = j·π/2 + y with |y| ≲ π/4, y in f64: up to 9π/4 libm's branches subtract its
+    // constants j·π/2 (j·S1PIO2 rounded, as libm's S2PIO2..S4PIO2); beyond, its rem_pio2f
+    // (j = rint(|x|·2/π), y = |x| − j·PIO2_1 − j·PIO2_1T). libm writes each branch for
+    // both signs; as k_sinf is odd and k_cosf even in their arithmetic, the values are the
+    // ones of |x| with the sine's sign flipped (tested against libm, bit for bit).
+    let a = f64::from(f32::from_bits(ix));
+    let (j, y) = if ix <= 0x40e2_31d5 {
+        // libm's bounds: |x| ≲ 3π/4, 5π/4, 7π/4, 9π/4.
+        let j = 1 + i32::from(ix > 0x4016_cbe3) + i32::from(ix > 0x407b_53d1) + i32::from(ix > 0x40af_eddf);
+        (j, a - f64::from(j) * S1PIO2)
+    } else {
+        const TOINT: f64 = 1.5 / f64::EPSILON;
+        const INV_PIO2: f64 = f64::from_bits(0x3fe4_5f30_6dc9_c883); // 53 bits of 2/π
+        const PIO2_1: f64 = f64::from_bits(0x3ff9_21fb_5000_0000); // first 25 bits of π/2
+        const PIO2_1T: f64 = f64::from_bits(0x3e51_10b4_611a_6263); // π/2 − PIO2_1
+        let f_n = (a * INV_PIO2 + TOINT) - TOINT;
+        (f_n as i32, a - f_n * PIO2_1 - f_n * PIO2_1T)
+    };
+    let (s, c) = k_sincosf(y);
+    let (s, c) = quadrant(s, c, j);
+    if x.is_sign_negative() {
+        (-s, c)
+    } else {
+        (s, c)
+    }
+}
+
+/// `(sin, cos)` of `r + k·π/2` from `s = sin r`, `c = cos r`: the quadrant `k mod 4` picks
+/// signs and order.
+#[inline(always)]
+fn quadrant(s: f32, c: f32, k: i32) -> (f32, f32) {
+    match k & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),
         _ => (-c, s),
     }
+}
+
+/// libm's `k_sinf` and `k_cosf` (one `z = x²`, `w = z²` for both, as each computes them): sin x
+/// and cos x for |x| ≲ π/4, evaluated in `f64`, each rounded once to `f32`.
+fn k_sincosf(x: f64) -> (f32, f32) {
+    const S1: f64 = f64::from_bits(0xbfc5_5555_54cb_ac77); // −0x15555554cbac77p−55
+    const S2: f64 = f64::from_bits(0x3f81_1110_896e_fbb2); // 0x111110896efbb2p−59
+    const S3: f64 = f64::from_bits(0xbf2a_00f9_e2ca_e774); // −0x1a00f9e2cae774p−65
+    const S4: f64 = f64::from_bits(0x3ec6_cd87_8c3b_46a7); // 0x16cd878c3b46a7p−71
+    const C0: f64 = f64::from_bits(0xbfdf_ffff_fd0c_5e81); // −0x1ffffffd0c5e81p−54
+    const C1: f64 = f64::from_bits(0x3fa5_5553_e105_3a42); // 0x155553e1053a42p−57
+    const C2: f64 = f64::from_bits(0xbf56_c087_e80f_1e27); // −0x16c087e80f1e27p−62
+    const C3: f64 = f64::from_bits(0x3ef9_9342_e0ee_5069); // 0x199342e0ee5069p−68
+    let z = x * x;
+    let w = z * z;
+    let s = z * x;
+    let sin = (x + s * (S1 + z * S2)) + s * w * (S3 + z * S4);
+    let cos = ((1.0 + z * C0) + w * C1) + (w * z) * (C2 + z * C3);
+    (sin as f32, cos as f32)
 }
 
 /// `x` rounded to the nearest integer (ties away from zero), for `|x| < 2²³`.
@@ -221,14 +362,78 @@ mod tests {
         assert!(es <= 1.5e-7 && ec <= 1.5e-7, "{es:e} {ec:e}");
         let (es, ec) = sincos_error(-1000.0, 1000.0, 400_000);
         assert!(es <= 1.5e-7 && ec <= 1.5e-7, "{es:e} {ec:e}");
-        // Exact points and the libm fallback.
+        // Exact points and non-finite input.
         assert_eq!(sincosf(0.0), (0.0, 1.0));
-        assert_eq!(sincosf(5000.0), libm::sincosf(5000.0));
         assert!(sincosf(f32::NAN).0.is_nan() && sincosf(f32::INFINITY).1.is_nan());
+        assert!(sincosf(f32::NEG_INFINITY).0.is_nan());
         for x in [0.1f32, 0.61, 1.2, -2.9] {
             assert!((tanf(x) - libm::tanf(x)).abs() <= 4e-7 * (1.0 + libm::tanf(x).abs()), "{x}");
             assert_eq!(cosf(x), sincosf(x).1);
         }
+    }
+
+    #[test]
+    fn sincosf_beyond_the_fast_range_agrees_with_libm() {
+        // Payne–Hanek for |x| > 1000: every binade up to f32::MAX, a pseudo-random mantissa
+        // sweep in each, both signs; and the hardest case for the reduction, the f32 closest to
+        // a multiple of π/2 (16367173·2⁷², J.-M. Muller, "Elementary Functions").
+        let mut worst = (0.0f32, 0.0f32);
+        let mut bits = 0x447a_0001u32; // just above 1000
+        let mut seed = 0x9e37_79b9u32;
+        while bits < 0x7f80_0000 {
+            for _ in 0..2_000 {
+                seed ^= seed << 13;
+                seed ^= seed >> 17;
+                seed ^= seed << 5;
+                let x = f32::from_bits((bits & 0xff80_0000) | (seed & 0x007f_ffff));
+                for x in [x, -x] {
+                    let (s, c) = sincosf(x);
+                    let (ls, lc) = libm::sincosf(x);
+                    worst = (maxf(worst.0, (s - ls).abs()), maxf(worst.1, (c - lc).abs()));
+                }
+            }
+            bits += 0x0080_0000;
+        }
+        assert!(worst.0 <= 1.5e-7 && worst.1 <= 1.5e-7, "{worst:?}");
+        for x in [1000.5f32, 5000.0, 16_367_173.0 * 4_722_366_482_869_645_213_696.0, f32::MAX, -f32::MAX] {
+            let ((s, c), (ls, lc)) = (sincosf(x), libm::sincosf(x));
+            assert!((s - ls).abs() <= 1.5e-7 && (c - lc).abs() <= 1.5e-7, "{x:e}: {s} {c} vs {ls} {lc}");
+        }
+    }
+
+    #[test]
+    fn sincosf_exact_is_libms_bit_for_bit() {
+        // Every branch boundary (±1 ulp), a dense sweep of |x| ≤ 9π/4 and a geometric sweep up
+        // to 2²⁸·π/2 (libm's medium reduction), both signs; then non-finite input.
+        let edges = [
+            0x3980_0000u32,
+            0x3f49_0fda,
+            0x4016_cbe3,
+            0x407b_53d1,
+            0x40af_eddf,
+            0x40e2_31d5,
+            0x4dc9_0fd9,
+            0x0000_0001,
+            0x0080_0000,
+        ];
+        let dense = (0..=1_000_000u32).map(|i| i as f32 * (7.07 / 1_000_000.0));
+        let wide = (0..=200_000u32).map(|i| 7.0 * libm::powf(6.0e7, i as f32 / 200_000.0));
+        let xs = edges.iter().flat_map(|&b| [b - 1, b, b + 1]).map(f32::from_bits).chain(dense).chain(wide);
+        for x in xs {
+            for x in [x, -x] {
+                let (s, c) = sincosf_exact(x);
+                let (ls, lc) = libm::sincosf(x);
+                assert_eq!((s.to_bits(), c.to_bits()), (ls.to_bits(), lc.to_bits()), "{x:e}");
+            }
+        }
+        for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let (s, c) = sincosf_exact(x);
+            assert!(s.is_nan() && c.is_nan());
+        }
+        // Beyond libm's medium range: the f32 Payne–Hanek, within one ulp.
+        let (s, c) = sincosf_exact(1.0e9);
+        let (ls, lc) = libm::sincosf(1.0e9);
+        assert!((s - ls).abs() <= 1.5e-7 && (c - lc).abs() <= 1.5e-7);
     }
 
     #[test]

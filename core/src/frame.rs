@@ -15,8 +15,9 @@
 //! * **Files and plots (scenes, paths, trajectories):** ENU — x east, y north,
 //!   z **up** (height above ground). Convert only at that boundary.
 
-use crate::fmath::{maxf, minf};
+use crate::fmath::{maxf, minf, sincosf_exact};
 use crate::Vec3;
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 
 /// Standard gravity, m/s², acting along world +z (down).
 pub const GRAVITY: f32 = 9.81;
@@ -67,6 +68,54 @@ pub fn wrap_pi(a: f32) -> f32 {
     x
 }
 
+/// The attitude of ZYX Euler angles (rad; body → world): nalgebra's
+/// `UnitQuaternion::from_euler_angles`, the same arithmetic, with the half angles' sines and
+/// cosines from [`sincosf_exact`] — `libm::sincosf`'s values on every build (nalgebra takes
+/// the platform's `sin_cos` on a `std` host and links all of `libm::sincosf` on the boards).
+pub fn quat_from_euler(roll: f32, pitch: f32, yaw: f32) -> UnitQuaternion<f32> {
+    quat_with(sincosf_exact, roll, pitch, yaw)
+}
+
+/// The rotation of ZYX Euler angles (rad; body → world): nalgebra's
+/// `Rotation3::from_euler_angles`, the same arithmetic, sines and cosines from
+/// [`sincosf_exact`] (see [`quat_from_euler`]).
+pub fn rotation_from_euler(roll: f32, pitch: f32, yaw: f32) -> Rotation3<f32> {
+    rotation_with(sincosf_exact, roll, pitch, yaw)
+}
+
+/// nalgebra 0.35's `UnitQuaternion::from_euler_angles` with the sine and cosine `sin_cos`.
+#[inline(always)]
+fn quat_with(sin_cos: impl Fn(f32) -> (f32, f32), roll: f32, pitch: f32, yaw: f32) -> UnitQuaternion<f32> {
+    let (sr, cr) = sin_cos(roll * 0.5);
+    let (sp, cp) = sin_cos(pitch * 0.5);
+    let (sy, cy) = sin_cos(yaw * 0.5);
+    UnitQuaternion::new_unchecked(Quaternion::new(
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ))
+}
+
+/// nalgebra 0.35's `Rotation3::from_euler_angles` with the sine and cosine `sin_cos`.
+#[inline(always)]
+fn rotation_with(sin_cos: impl Fn(f32) -> (f32, f32), roll: f32, pitch: f32, yaw: f32) -> Rotation3<f32> {
+    let (sr, cr) = sin_cos(roll);
+    let (sp, cp) = sin_cos(pitch);
+    let (sy, cy) = sin_cos(yaw);
+    Rotation3::from_matrix_unchecked(Matrix3::new(
+        cy * cp,
+        cy * sp * sr - sy * cr,
+        cy * sp * cr + sy * sr,
+        sy * cp,
+        sy * sp * sr + cy * cr,
+        sy * sp * cr - cy * sr,
+        -sp,
+        cp * sr,
+        cp * cr,
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -86,6 +135,32 @@ mod tests {
         assert_eq!(clampf(f32::NAN, 0.0, 1.0), 0.0);
         assert_eq!(clampf(0.5, f32::NAN, 1.0), 0.5);
         assert_eq!(clampf(0.5, 2.0, 1.0), 1.0); // lo > hi: no panic
+    }
+
+    #[test]
+    fn euler_constructions_are_nalgebras_with_libms_sine() {
+        // With nalgebra's own sine and cosine (its `ComplexField::sin_cos`, whichever this build
+        // links) the constructions are nalgebra's bit for bit; `sincosf_exact` is libm's
+        // `sincosf` (fmath tests), what nalgebra takes on the boards.
+        use nalgebra::ComplexField;
+        let mut seed = 0x2545_f491u32;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            (seed as f32 / u32::MAX as f32 - 0.5) * 8.0
+        };
+        let bits = |m: &Matrix3<f32>| m.map(f32::to_bits);
+        for _ in 0..100_000 {
+            let (r, p, y) = (next(), next(), next());
+            let q = quat_with(ComplexField::sin_cos, r, p, y);
+            let n = UnitQuaternion::from_euler_angles(r, p, y);
+            assert_eq!(q.coords.map(f32::to_bits), n.coords.map(f32::to_bits), "{r} {p} {y}");
+            let m = rotation_with(ComplexField::sin_cos, r, p, y);
+            assert_eq!(bits(m.matrix()), bits(Rotation3::from_euler_angles(r, p, y).matrix()));
+            let q = quat_from_euler(r, p, y);
+            assert_eq!(q.coords, quat_with(libm::sincosf, r, p, y).coords);
+        }
     }
 
     #[test]

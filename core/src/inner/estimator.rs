@@ -49,7 +49,7 @@
 
 use crate::attitude::Euler;
 use crate::fmath::{norm3, sincosf, sqrtf};
-use crate::frame::{clampf, is_finite3, wrap_pi, GRAVITY};
+use crate::frame::{clampf, is_finite3, quat_from_euler, wrap_pi, GRAVITY};
 pub use crate::msg::{ImuSample, ImuStatus};
 use crate::Vec3;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
@@ -292,7 +292,7 @@ impl AttitudeEstimator {
             let f = imu.accel;
             let pitch = libm::atan2f(f.x, sqrtf(f.y * f.y + f.z * f.z));
             let roll = libm::atan2f(-f.y, -f.z);
-            self.q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_ext.unwrap_or(0.0));
+            self.q = quat_from_euler(roll, pitch, yaw_ext.unwrap_or(0.0));
             self.rate = imu.gyro - self.bias;
             self.initialised = true;
             self.yaw_aligned = yaw_ext.is_some();
@@ -301,7 +301,7 @@ impl AttitudeEstimator {
         if let (false, Some(psi)) = (self.yaw_aligned, yaw_ext) {
             // First external yaw after a start without one: take it at once (keep roll, pitch).
             let e = self.euler();
-            self.q = UnitQuaternion::from_euler_angles(e.roll, e.pitch, psi);
+            self.q = quat_from_euler(e.roll, e.pitch, psi);
             self.yaw_aligned = true;
         }
         if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= p.dt_max) {

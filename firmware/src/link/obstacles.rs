@@ -63,8 +63,8 @@
 
 use crate::link::dialect::{MavFrame, DEBUG_VECT_DATA, OBSTACLE_DISTANCE_3D_DATA};
 use heapless::Vec as HVec;
-use parapet_core::frame::enu_to_ned;
-use parapet_core::nalgebra::{Quaternion, Rotation3, UnitQuaternion};
+use parapet_core::frame::{enu_to_ned, rotation_from_euler};
+use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::obstacle::{ObstaclePoint, DEFAULT_OBSTACLE_CAPACITY};
 use parapet_core::obstacle_set::{Offer, Ranking, Selector};
 use parapet_core::perception::{MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount};
@@ -376,7 +376,7 @@ impl ObstacleAssembler {
             MavFrame::MAV_FRAME_LOCAL_ENU => enu_to_ned(raw),
             MavFrame::MAV_FRAME_BODY_FRD => {
                 let a = tel.attitude_rpy;
-                tel.position_ned + Rotation3::from_euler_angles(a.x, a.y, a.z) * raw
+                tel.position_ned + rotation_from_euler(a.x, a.y, a.z) * raw
             }
             _ => {
                 self.stats.rejected_frame = self.stats.rejected_frame.saturating_add(1);
@@ -579,6 +579,7 @@ impl ObstacleAssembler {
 mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
+    use parapet_core::nalgebra::Rotation3;
 
     fn pt(t: u32, id: u16, frame: MavFrame, x: f32, y: f32, z: f32) -> OBSTACLE_DISTANCE_3D_DATA {
         OBSTACLE_DISTANCE_3D_DATA { time_boot_ms: t, x, y, z, obstacle_id: id, frame, ..Default::default() }

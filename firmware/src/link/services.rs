@@ -46,7 +46,6 @@ use crate::link::dialect::{
 pub use crate::link::mission_run::MissionProgress;
 use crate::link::outbound::Outbound;
 use parapet_core::battery::{BatteryLevel, BatteryState};
-use parapet_core::nalgebra::UnitQuaternion;
 
 pub use crate::link::geo::HOME;
 /// Shortest settable interval, µs (100 Hz).
@@ -235,7 +234,7 @@ pub fn battery_status(b: &BatteryState) -> BATTERY_STATUS_DATA {
 /// ATTITUDE_TARGET of the snapshot's attitude setpoint; `thr_max` = `THR_MAX`, N.
 pub fn attitude_target(time_boot_ms: u32, s: &TelemetrySnapshot, thr_max: f32) -> ATTITUDE_TARGET_DATA {
     let a = &s.attitude_sp;
-    let q = UnitQuaternion::from_euler_angles(a.roll, a.pitch, a.yaw);
+    let q = parapet_core::frame::quat_from_euler(a.roll, a.pitch, a.yaw);
     let thrust =
         if thr_max > 0.0 && a.thrust.is_finite() { (a.thrust / thr_max).clamp(0.0, 1.0) } else { 0.0 };
     ATTITUDE_TARGET_DATA {

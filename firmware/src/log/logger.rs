@@ -144,17 +144,11 @@ fn region_code(r: Region) -> u8 {
     }
 }
 
-/// PX4 quaternion (w, x, y, z), body FRD → NED, of ZYX Euler angles.
+/// PX4 quaternion (w, x, y, z), body FRD → NED, of ZYX Euler angles (`quat_from_euler`: the
+/// sines of `libm::sincosf`, which this function called itself before, bit for bit).
 pub fn quat(roll: f32, pitch: f32, yaw: f32) -> [f32; 4] {
-    let (sr, cr) = libm::sincosf(0.5 * roll);
-    let (sp, cp) = libm::sincosf(0.5 * pitch);
-    let (sy, cy) = libm::sincosf(0.5 * yaw);
-    [
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ]
+    let q = parapet_core::frame::quat_from_euler(roll, pitch, yaw);
+    [q.w, q.i, q.j, q.k]
 }
 
 /// The logger state (see the module doc).

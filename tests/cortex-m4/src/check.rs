@@ -2,13 +2,15 @@
 //! before anything is measured; any mismatch fails the program, so the test command).
 //!
 //! Two checks:
-//! * against the HOST: `sqrtf`, `sincosf`, `cosf`, `tanf`, `hypotf`, `norm3`, `minf`, `maxf` on
+//! * against the HOST: `sqrtf`, `sincosf`, `cosf`, `tanf`, `sincosf_exact`, `hypotf`, `norm3`, `minf`, `maxf` on
 //!   the inputs of `build.rs`, whose results were computed by the host build of the same source
 //!   (what the simulator, the PIL host twin and `parapet run` compute): equal bit for bit, NaN
 //!   equal to any NaN (the payload of a NaN the FPU creates differs between x86 and ARM);
 //! * against the TARGET's libm: `sqrtf` (`VSQRT.F32` here) equals the software `libm::sqrtf` bit
 //!   for bit on a geometric sweep of `0..f32::MAX` (subnormals included), random values and the
-//!   special cases; `minf`/`maxf` equal `f32::min`/`max` (which call libm's `fminf`/`fmaxf`).
+//!   special cases; `sincosf_exact` equals `libm::sincosf` (soft `f64` here) on a geometric sweep
+//!   up to 4.2·10⁸ and random angles; `minf`/`maxf` equal `f32::min`/`max` (which call libm's
+//!   `fminf`/`fmaxf`).
 //!
 //! Imports: `parapet_core::fmath` and the program's console (`crate::Console`, `crate::exit`).
 
@@ -68,6 +70,11 @@ fn against_host(t: &mut Tally) {
         t.check("cosf", &r[..1], fmath::cosf(x), r[3]);
         t.check("tanf", &r[..1], fmath::tanf(x), r[4]);
     }
+    for r in &reference::SINCOS_EXACT {
+        let (s, c) = fmath::sincosf_exact(f(r[0]));
+        t.check("sincosf_exact.sin", &r[..1], s, r[1]);
+        t.check("sincosf_exact.cos", &r[..1], c, r[2]);
+    }
     for r in &reference::SQRT {
         t.check("sqrtf", &r[..1], fmath::sqrtf(f(r[0])), r[1]);
     }
@@ -102,6 +109,24 @@ fn against_target_libm(t: &mut Tally) {
     for s in [0.0, -0.0, -1.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
         sqrt(t, s);
     }
+    // sincosf_exact = libm::sincosf (the target's, soft f64) for |x| < 2²⁸·π/2: a geometric
+    // sweep from 2⁻¹⁴⁹ to 4.2·10⁸ and random angles, both signs.
+    let exact = |t: &mut Tally, x: f32| {
+        let (s, c) = fmath::sincosf_exact(black_box(x));
+        let (ls, lc) = libm::sincosf(x);
+        t.check("sincosf_exact.sin vs libm::sincosf", &[x.to_bits()], s, ls.to_bits());
+        t.check("sincosf_exact.cos vs libm::sincosf", &[x.to_bits()], c, lc.to_bits());
+    };
+    let mut x = f32::from_bits(1);
+    while x < 4.2e8 {
+        exact(t, x);
+        exact(t, -x);
+        x *= 1.003;
+        x = f32::from_bits(x.to_bits() + 1);
+    }
+    for _ in 0..10_000 {
+        exact(t, rng.uniform(-7.1, 7.1));
+    }
     let vals = [-2.0f32, -0.0, 0.0, 1.5, 7.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
     for &a in &vals {
         for &b in &vals {
@@ -118,14 +143,14 @@ pub fn fmath_bit_exact() {
     against_host(&mut host);
     let _ = writeln!(
         Console,
-        "fmath check vs host: {} comparisons (sqrtf, sincosf, cosf, tanf, hypotf, norm3, minf, maxf), {} mismatches",
+        "fmath check vs host: {} comparisons (sqrtf, sincosf, cosf, tanf, sincosf_exact, hypotf, norm3, minf, maxf), {} mismatches",
         host.compared, host.mismatches
     );
     let mut libm = Tally { compared: 0, mismatches: 0 };
     against_target_libm(&mut libm);
     let _ = writeln!(
         Console,
-        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, minf/maxf = f32::min/max), {} mismatches",
+        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, sincosf_exact = libm::sincosf, minf/maxf = f32::min/max), {} mismatches",
         libm.compared, libm.mismatches
     );
     if host.mismatches + libm.mismatches > 0 {
