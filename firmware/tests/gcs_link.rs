@@ -20,7 +20,7 @@ use parapet_firmware::link::dialect::{
 };
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::obstacles::CLEAR_ID;
-use parapet_firmware::link::outbound::{name, Outbound};
+use parapet_firmware::link::outbound::{autopilot_version, name, Outbound};
 use parapet_firmware::link::telemetry::TelemetryScheduler;
 use parapet_firmware::link::{FixClock, Link, REPLY_QUEUE_LEN};
 use parapet_firmware::pil::lockstep::LockstepScheduler;
@@ -530,7 +530,8 @@ fn autopilot_version_timesync_on_request() {
         let r = g.command(cmd, [p1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
         assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
         match r.as_slice() {
-            [_, Outbound::AutopilotVersion(v)] => {
+            [_, Outbound::AutopilotVersion] => {
+                let v = autopilot_version();
                 let need = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT

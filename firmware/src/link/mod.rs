@@ -38,4 +38,5 @@ pub mod v1;
 
 pub use endpoint::*;
 pub use inputs::*;
-pub use router::{autopilot_version, CAPABILITIES, PARAMS_PER_POLL, REPLY_QUEUE_LEN, REPLY_RESERVE};
+pub use outbound::{autopilot_version, CAPABILITIES};
+pub use router::{PARAMS_PER_POLL, REPLY_QUEUE_LEN, REPLY_RESERVE};

@@ -1,6 +1,7 @@
 //! Every message the firmware sends, as one enum, and its encoding into a MAVLink v2 frame.
 
 use crate::link::dialect::RC_CHANNELS_DATA;
+use crate::link::dialect::{HilActuatorControlsFlags, MavModeFlag, MavProtocolCapability};
 use crate::link::dialect::{
     ATTITUDE_DATA, COMMAND_ACK_DATA, DEBUG_VECT_DATA, HEARTBEAT_DATA, HIL_ACTUATOR_CONTROLS_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_REQUEST_INT_DATA, NAMED_VALUE_FLOAT_DATA,
@@ -20,6 +21,52 @@ use crate::link::dialect::{
 use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
 
 use crate::link::framing::{FrameWriter, MAX_PAYLOAD};
+
+/// AUTOPILOT_VERSION capabilities: MAVLink 2, float parameters (C cast), MISSION_ITEM_INT,
+/// COMMAND_INT. No fence/rally, no SET_POSITION_TARGET_* (not handled).
+pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT);
+
+/// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`).
+pub fn autopilot_version() -> AUTOPILOT_VERSION_DATA {
+    AUTOPILOT_VERSION_DATA {
+        capabilities: CAPABILITIES,
+        flight_sw_version: 0x0001_0000,
+        ..Default::default()
+    }
+}
+
+/// HIL_ACTUATOR_CONTROLS as the lockstep answers (`crate::pil::lockstep`): `time_usec`,
+/// `controls[0..4]` = the four rotor throttles and the other twelve 0, `mode` HIL_ENABLED
+/// (+ SAFETY_ARMED when `armed`), `flags` LOCKSTEP. Kept in this form in [`Outbound`] — which
+/// is as large as its largest variant in every queue — instead of the 88-byte message.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HilControls {
+    /// Simulated time of the step, µs.
+    pub time_usec: u64,
+    /// Rotor throttles 0..1 (rotor i of `parapet_core::airframe`), sanitised.
+    pub throttle: [f32; 4],
+    /// The vehicle is armed.
+    pub armed: bool,
+}
+
+impl HilControls {
+    /// The message.
+    pub fn data(&self) -> HIL_ACTUATOR_CONTROLS_DATA {
+        let mut controls = [0.0; 16];
+        for (c, t) in controls.iter_mut().zip(self.throttle) {
+            *c = t;
+        }
+        let mut mode = MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED;
+        if self.armed {
+            mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        let flags = HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP;
+        HIL_ACTUATOR_CONTROLS_DATA { time_usec: self.time_usec, flags, controls, mode }
+    }
+}
 
 /// A message to send.
 #[allow(deprecated)] // PING, MISSION_ITEM
@@ -50,7 +97,7 @@ pub enum Outbound {
     /// MISSION_ACK.
     MissionAck(MISSION_ACK_DATA),
     /// HIL_ACTUATOR_CONTROLS (lockstep answer).
-    HilActuatorControls(HIL_ACTUATOR_CONTROLS_DATA),
+    HilActuatorControls(HilControls),
     /// PARAM_VALUE (answer to PARAM_SET / PARAM_REQUEST_READ / PARAM_REQUEST_LIST).
     ParamValue(PARAM_VALUE_DATA),
     /// MISSION_COUNT (mission download).
@@ -64,8 +111,8 @@ pub enum Outbound {
     SysStatus(SYS_STATUS_DATA),
     /// EXTENDED_SYS_STATE (landed state).
     ExtendedSysState(EXTENDED_SYS_STATE_DATA),
-    /// AUTOPILOT_VERSION (capabilities; on request).
-    AutopilotVersion(AUTOPILOT_VERSION_DATA),
+    /// AUTOPILOT_VERSION (capabilities; on request): [`autopilot_version`].
+    AutopilotVersion,
     /// TIMESYNC answer.
     Timesync(TIMESYNC_DATA),
     /// SYSTEM_TIME (see [`crate::link::services`]).
@@ -139,14 +186,14 @@ impl Outbound {
             Outbound::CommandAck(m) => s(m, p),
             Outbound::MissionRequestInt(m) => s(m, p),
             Outbound::MissionAck(m) => s(m, p),
-            Outbound::HilActuatorControls(m) => s(m, p),
+            Outbound::HilActuatorControls(m) => s(&m.data(), p),
             Outbound::ParamValue(m) => s(m, p),
             Outbound::MissionCount(m) => s(m, p),
             Outbound::MissionItemInt(m) => s(m, p),
             Outbound::MissionItem(m) => s(m, p),
             Outbound::SysStatus(m) => s(m, p),
             Outbound::ExtendedSysState(m) => s(m, p),
-            Outbound::AutopilotVersion(m) => s(m, p),
+            Outbound::AutopilotVersion => s(&autopilot_version(), p),
             Outbound::Timesync(m) => s(m, p),
             Outbound::SystemTime(m) => s(m, p),
             Outbound::GlobalPositionInt(m) => s(m, p),
@@ -230,5 +277,33 @@ mod tests {
         }
         let v1 = Outbound::StatusTextV1(text).encode(&mut w);
         assert_eq!(v1.raw_bytes()[0], 0xFE, "the v1 refusal stays v1");
+    }
+
+    /// The two variants kept in a compact form go out as the full messages did: HIL_ACTUATOR_CONTROLS
+    /// with the throttles in `controls[0..4]`, the rest 0, mode HIL_ENABLED (+ SAFETY_ARMED),
+    /// flags LOCKSTEP; AUTOPILOT_VERSION = `autopilot_version()`. An `Outbound` is 80 bytes
+    /// (was 96 with the 88-byte HIL_ACTUATOR_CONTROLS_DATA in it; STATUSTEXT's 72 now the largest).
+    #[test]
+    fn compact_variants_encode_the_full_messages() {
+        let mut w = FrameWriter::new(1, 1);
+        for (k, armed) in [(0u8, false), (1, true)] {
+            let hc = HilControls { time_usec: 123_456_789, throttle: [0.5, 0.25, 1.0, 0.125], armed };
+            let mut mode = MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED;
+            if armed {
+                mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+            }
+            let mut controls = [0.0; 16];
+            controls[..4].copy_from_slice(&[0.5, 0.25, 1.0, 0.125]);
+            let full = HIL_ACTUATOR_CONTROLS_DATA {
+                time_usec: 123_456_789,
+                flags: HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP,
+                controls,
+                mode,
+            };
+            assert_eq!(Outbound::HilActuatorControls(hc).encode(&mut w).raw_bytes(), &theirs(&full, k)[..]);
+        }
+        let want = theirs(&autopilot_version(), 2);
+        assert_eq!(Outbound::AutopilotVersion.encode(&mut w).raw_bytes(), &want[..]);
+        assert_eq!(core::mem::size_of::<Outbound>(), 80);
     }
 }

@@ -40,9 +40,8 @@
 //! table order (index 0..count−1, each once); a new PARAM_REQUEST_LIST restarts it.
 
 use crate::link::dialect::{
-    MavFrame, MavMissionResult, MavMissionType, MavParamType, MavProtocolCapability, MavResult,
-    AUTOPILOT_VERSION_DATA, COMMAND_LONG_DATA, MISSION_ITEM_INT_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA,
-    TIMESYNC_DATA,
+    MavFrame, MavMissionResult, MavMissionType, MavParamType, MavResult, COMMAND_LONG_DATA,
+    MISSION_ITEM_INT_DATA, ODOMETRY_DATA, PARAM_VALUE_DATA, TIMESYNC_DATA,
 };
 use heapless::Deque;
 
@@ -66,12 +65,6 @@ pub const REPLY_QUEUE_LEN: usize = 8;
 pub const PARAMS_PER_POLL: usize = 2;
 /// Reply-queue slots a PARAM_REQUEST_LIST stream leaves free for other replies.
 pub const REPLY_RESERVE: usize = 4;
-/// AUTOPILOT_VERSION capabilities: MAVLink 2, float parameters (C cast), MISSION_ITEM_INT,
-/// COMMAND_INT. No fence/rally, no SET_POSITION_TARGET_* (not handled).
-pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
-    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST)
-    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT)
-    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT);
 /// MAVLink message id of AUTOPILOT_VERSION (MAV_CMD_REQUEST_MESSAGE param1).
 const AUTOPILOT_VERSION_ID: f32 = 148.0;
 
@@ -107,15 +100,6 @@ fn param_value(index: usize, value: f32) -> Outbound {
         param_id: crate::link::outbound::name(name),
         param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
     })
-}
-
-/// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`).
-pub fn autopilot_version() -> AUTOPILOT_VERSION_DATA {
-    AUTOPILOT_VERSION_DATA {
-        capabilities: CAPABILITIES,
-        flight_sw_version: 0x0001_0000,
-        ..Default::default()
-    }
 }
 
 impl Router {
@@ -230,7 +214,7 @@ impl Router {
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
         if version {
-            self.reply(Outbound::AutopilotVersion(autopilot_version()));
+            self.reply(Outbound::AutopilotVersion);
         }
         let asked = match cmd.command {
             crate::link::command::id::TAKEOFF => Some(cmd.param7),

@@ -14,7 +14,7 @@
 //! fast QEMU runs. The instruction count of steps 1-3 is measured with SysTick under
 //! `qemu -icount shift=0` and calibrated with [`InstructionCalibration`].
 
-use crate::link::dialect::{HilActuatorControlsFlags, MavModeFlag, HIL_ACTUATOR_CONTROLS_DATA};
+use crate::link::outbound::HilControls;
 
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::lockstep::LockstepClock;
@@ -64,7 +64,7 @@ impl Default for LockstepScheduler {
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepOutcome {
     /// The HIL_ACTUATOR_CONTROLS to send.
-    pub controls: HIL_ACTUATOR_CONTROLS_DATA,
+    pub controls: HilControls,
     /// The sanitised motor command behind it.
     pub motors: MotorCommand,
     /// The outer loop ran in this step.
@@ -74,19 +74,11 @@ pub struct StepOutcome {
     pub outer_ticks: Option<u32>,
 }
 
-/// HIL_ACTUATOR_CONTROLS for `motors` at simulated time `t_us`.
-pub fn actuator_controls(t_us: u64, motors: &MotorCommand) -> HIL_ACTUATOR_CONTROLS_DATA {
-    let controls = motors.to_actuator_controls();
-    let mut mode = MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED;
-    if motors.armed {
-        mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
-    }
-    HIL_ACTUATOR_CONTROLS_DATA {
-        time_usec: t_us,
-        flags: HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP,
-        controls,
-        mode,
-    }
+/// HIL_ACTUATOR_CONTROLS for `motors` at simulated time `t_us` (the first four of
+/// `MotorCommand::to_actuator_controls`, the rest are 0).
+pub fn actuator_controls(t_us: u64, motors: &MotorCommand) -> HilControls {
+    let [a, b, c, d, ..] = motors.to_actuator_controls();
+    HilControls { time_usec: t_us, throttle: [a, b, c, d], armed: motors.armed }
 }
 
 impl LockstepScheduler {
@@ -172,6 +164,7 @@ impl InstructionCalibration {
 mod tests {
     use super::*;
     use crate::app::autopilot::test_double::RecordingAutopilot;
+    use crate::link::dialect::{HilActuatorControlsFlags, MavModeFlag};
     use crate::link::FixClock;
     use parapet_core::Vec3;
 
@@ -225,14 +218,16 @@ mod tests {
         let mut ap = RecordingAutopilot::new();
         let mut link = Link::new(1, FixClock::Message);
         let mut s = LockstepScheduler::default();
-        let o = s.step(&sample(5), &mut link, &mut ap);
-        assert_eq!(o.controls.controls, [0.0; 16]);
-        assert!(!o.controls.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
+        let o = s.step(&sample(5), &mut link, &mut ap).controls.data();
+        assert_eq!(o.controls, [0.0; 16]);
+        assert!(!o.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
         ap.armed = true;
-        let o = s.step(&sample(6), &mut link, &mut ap);
-        assert_eq!(&o.controls.controls[..5], &[0.5, 0.5, 0.5, 0.5, 0.0]);
-        assert!(o.controls.mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
-        assert!(o.controls.flags.contains(HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP));
+        let o = s.step(&sample(6), &mut link, &mut ap).controls.data();
+        assert_eq!(&o.controls[..5], &[0.5, 0.5, 0.5, 0.5, 0.0]);
+        assert!(o
+            .mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_HIL_ENABLED));
+        assert!(o.flags.contains(HilActuatorControlsFlags::HIL_ACTUATOR_CONTROLS_FLAGS_LOCKSTEP));
     }
 
     #[test]
