@@ -579,6 +579,12 @@ pub fn run_with(
             cfg.params.delta1 as f32,
         )
     });
+    // A stack that takes the sensors' scans itself (the PIL firmware fed by OBSTACLE_DISTANCE)
+    // gets them instead of the host memory's points.
+    let forwarding = match (cfg.perception.as_deref(), perception.as_mut()) {
+        (Some(list), Some(p)) if ctrl.take_proximity_scans(list) => p.forward_scans(|_| true) > 0,
+        _ => false,
+    };
     if let Some(p) = perception.as_mut() {
         p.step_plant(scene, 0.0, &plant.state, plant.state.euler(), clock_us, &mut seen0);
     }
@@ -633,6 +639,13 @@ pub fn run_with(
             sensors.obstacle_report(t, &mut scratch.seen);
             if let Some(p) = perception.as_mut() {
                 p.step_plant(scene, t, &plant.state, (roll, pitch, yaw), clock_us, &mut scratch.seen);
+                if forwarding {
+                    for f in p.take_forwarded() {
+                        if let Some(spec) = p.sensor(f.sensor) {
+                            ctrl.proximity_scan(t, f.t, spec, &f.ranges);
+                        }
+                    }
+                }
             }
             let out = ctrl.outer(t, &scratch.seen);
             let sd = sd_now;

@@ -14,8 +14,10 @@ use nalgebra::Vector3;
 use parapet_core::cbf::FilterDiagnostics;
 use parapet_core::controller::Telemetry;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::perception::Range;
 
 use crate::report::SafetyFlags;
+use crate::sim::range::RangeSensor;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::to_f64;
 
@@ -92,6 +94,18 @@ pub trait FlightStack {
     /// A battery reading of the simulated pack (`[battery]`; issue 22). Default: ignored
     /// (a stack without a battery path).
     fn battery(&mut self, _t: f64, _reading: &crate::sim::battery::BatteryReading) {}
+    /// Switch to taking the scans of the run's range sensors `sensors`
+    /// ([`FlightStack::proximity_scan`]) instead of the host's obstacle points, if this stack
+    /// can take every one of them; `true` when it did (the PIL firmware, fed by
+    /// `OBSTACLE_DISTANCE`, builds its own set in its obstacle memory: planar 360° lidars
+    /// only). Called once before [`FlightStack::start`]. Default: `false` (the stack keeps
+    /// taking points).
+    fn take_proximity_scans(&mut self, _sensors: &[RangeSensor]) -> bool {
+        false
+    }
+    /// A scan of sensor `spec` (one value per beam) taken at `t_scan` and delivered at `t`
+    /// (after [`FlightStack::take_proximity_scans`] returned `true`). Default: ignored.
+    fn proximity_scan(&mut self, _t: f64, _t_scan: f64, _spec: &RangeSensor, _ranges: &[Range]) {}
     /// A ground station flies the vehicle (`parapet pil --gcs-control`): it starts resting on
     /// the ground below the start, disarmed, motors stopped ([`FlightStack::start`] then arms
     /// nothing); ground contact is no collision and the run does not stop at the goal but when

@@ -28,7 +28,7 @@
 //! estimated velocity, and the field-of-view frontier point), the
 //! [`SELECTED`] most critical by the controller's own ranking, go to the controller.
 //!
-//! Owns: [`Perception`], [`RangeRecord`]. May import: `parapet-core`,
+//! Owns: [`Perception`], [`RangeRecord`], [`ForwardedScan`]. May import: `parapet-core`,
 //! [`crate::sim`] (sensor models, plant state), [`crate::world`] (scene, ray casts).
 
 use std::collections::VecDeque;
@@ -92,9 +92,23 @@ struct Pending {
     ranges: Vec<Range>,
 }
 
+/// A delivered scan handed out instead of the host memory ([`Perception::forward_scans`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ForwardedScan {
+    /// Sensor index (position in the list).
+    pub sensor: usize,
+    /// Scan time, s.
+    pub t: f64,
+    /// One value per beam (row-major, row 0 the bottom row).
+    pub ranges: Vec<Range>,
+}
+
 /// The range sensors, their scans in flight and the obstacle memory of one run.
 pub struct Perception {
     sensors: Vec<Live>,
+    /// Per sensor: its delivered scans go to [`Perception::take_forwarded`], not the memory.
+    forward: Vec<bool>,
+    forwarded: Vec<ForwardedScan>,
     world: RayWorld,
     pending: VecDeque<Pending>,
     memory: Box<ObstacleMemory<MEMORY_CELLS>>,
@@ -153,7 +167,7 @@ impl Perception {
         delta1: f32,
         record: bool,
     ) -> Self {
-        let sensors = sensors
+        let sensors: Vec<Live> = sensors
             .iter()
             .enumerate()
             .map(|(i, s)| Live {
@@ -173,6 +187,8 @@ impl Perception {
             })
             .collect();
         Perception {
+            forward: vec![false; sensors.len()],
+            forwarded: Vec::new(),
             sensors,
             world: RayWorld::new(scene),
             pending: VecDeque::new(),
@@ -280,6 +296,10 @@ impl Perception {
         }
         while self.pending.front().is_some_and(|p| p.deliver <= t + 1e-9) {
             let Some(p) = self.pending.pop_front() else { break };
+            if self.forward.get(p.sensor).copied().unwrap_or(false) {
+                self.forwarded.push(ForwardedScan { sensor: p.sensor, t: p.t, ranges: p.ranges });
+                continue;
+            }
             let s = &self.sensors[p.sensor];
             let scan = Scan {
                 t_us: to_us(p.t),
@@ -296,6 +316,27 @@ impl Perception {
         let (set, _) =
             self.memory.select::<SELECTED>(t_us, &f32v(pos), &f32v(vel), self.ranking, self.delta1);
         out.extend_from_slice(set.as_slice());
+    }
+
+    /// From now on the delivered scans of the sensors for which `which` is true are handed
+    /// out by [`Perception::take_forwarded`] instead of entering the host's memory (a flight
+    /// stack that builds its own obstacle set from them: the PIL firmware fed by
+    /// `OBSTACLE_DISTANCE`). Returns how many sensors forward.
+    pub fn forward_scans(&mut self, which: impl Fn(&RangeSensor) -> bool) -> usize {
+        for (f, s) in self.forward.iter_mut().zip(&self.sensors) {
+            *f = which(&s.spec);
+        }
+        self.forward.iter().filter(|f| **f).count()
+    }
+
+    /// The forwarded scans delivered since the last call, in delivery order.
+    pub fn take_forwarded(&mut self) -> Vec<ForwardedScan> {
+        std::mem::take(&mut self.forwarded)
+    }
+
+    /// Sensor `i`'s description.
+    pub fn sensor(&self, i: usize) -> Option<&RangeSensor> {
+        self.sensors.get(i).map(|s| &s.spec)
     }
 
     /// Every beam recorded (when recording).

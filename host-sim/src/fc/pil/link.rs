@@ -20,6 +20,7 @@ use mavlink::dialects::ardupilotmega::{
 use mavlink::{MAVLinkV2MessageRaw, MavHeader};
 use nalgebra::Vector3;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::perception::Range;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::waypoint::WaypointFollower;
 use parapet_core::wire::codes::FlightPhase;
@@ -33,12 +34,14 @@ use super::gcs::{
     command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch, odometry,
     param_set, preroll_start, quantised_path, WARMUP_STEPS,
 };
+use super::proximity::{is_planar_lidar, obstacle_distance};
 use super::qemu::{reader_thread, start_qemu, Inbound, LinkPipes, QemuGuard};
 use super::telemetry::{figures, observe, FirmwareTelemetry, PilFigures};
 use super::PilOptions;
 use crate::fc::bridge::LinkTap;
 use crate::flight::runner::RunConfig;
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::range::RangeSensor;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
 
@@ -85,6 +88,9 @@ pub struct PilLink {
     /// `--gcs-control`: the GCS's reference (POSITION_TARGET_LOCAL_NED), whether the last item
     /// was reached (MISSION_ITEM_REACHED) and whether the vehicle has been armed.
     gcs: GcsFlight,
+    /// The range scans go to the firmware as `OBSTACLE_DISTANCE` ([`super::proximity`]) and
+    /// no obstacle batches are sent in flight.
+    proximity: bool,
 }
 
 /// What a ground station's flight (`PilOptions::gcs_control`) reports back to the host.
@@ -154,6 +160,7 @@ impl PilLink {
             flight_sim_steps: 0,
             tap: None,
             gcs: GcsFlight::default(),
+            proximity: false,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -609,7 +616,9 @@ impl FlightStack for PilLink {
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let now = clock_us(t);
         if self.fault.is_none() {
-            self.queue_obstacles(now, obstacles);
+            if !self.proximity {
+                self.queue_obstacles(now, obstacles);
+            }
             if self.mission_start_pending {
                 self.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]);
             }
@@ -654,6 +663,23 @@ impl FlightStack for PilLink {
                 self.latch(e);
                 [0.0; 4]
             }
+        }
+    }
+
+    fn take_proximity_scans(&mut self, sensors: &[RangeSensor]) -> bool {
+        // Every sensor a planar 360° lidar (OBSTACLE_DISTANCE describes it exactly), the filter
+        // on (without it the host shows the firmware nothing).
+        self.proximity = self.cbf && !sensors.is_empty() && sensors.iter().all(is_planar_lidar);
+        self.proximity
+    }
+
+    fn proximity_scan(&mut self, _t: f64, t_scan: f64, spec: &RangeSensor, ranges: &[Range]) {
+        if self.fault.is_some() || !self.proximity {
+            return;
+        }
+        if let Some(m) = obstacle_distance(clock_us(t_scan), spec, ranges) {
+            self.queue(&m);
+            self.fig.obstacle_distance_scans += 1;
         }
     }
 

@@ -41,6 +41,8 @@
 //! ## Files
 //! * [`link`]: [`PilLink`], the lockstep exchange, handshake and start-up sequence.
 //! * [`gcs`]: the messages the host sends and the settings it uploads ([`firmware_params`]).
+//! * [`proximity`]: `OBSTACLE_DISTANCE` from a planar lidar's scan (`--perception lidar`: the
+//!   firmware's own obstacle memory builds the set; other sensors: the host's memory's points).
 //! * [`telemetry`]: what the host reads back (filter diagnostics, phase, counters) and [`PilFigures`].
 //! * [`faults`]: [`FaultInjection`] into the host → firmware stream.
 //! * [`qemu`]: the QEMU process and the reader thread.
@@ -52,12 +54,13 @@
 //!
 //! May import: `parapet-core`, mavlink, [`crate::flight`], [`crate::sim::sensors`],
 //! [`crate::world::scene`]; the children import each other
-//! only downwards (link → gcs, telemetry, faults, qemu, firmware; twin → gcs).
+//! only downwards (link → gcs, proximity, telemetry, faults, qemu, firmware; twin → gcs).
 
 pub mod faults;
 pub mod firmware;
 pub mod gcs;
 pub mod link;
+pub mod proximity;
 pub mod qemu;
 pub mod telemetry;
 pub mod twin;

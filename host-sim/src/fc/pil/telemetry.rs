@@ -105,6 +105,9 @@ pub struct PilFigures {
     pub startup_wall_s: f64,
     /// Firmware failsafe / status messages seen (STATUSTEXT).
     pub status_texts: Vec<String>,
+    /// Range scans sent as `OBSTACLE_DISTANCE` (`--perception lidar`: the firmware builds its
+    /// own obstacle set from them; 0 when the host sends obstacle points).
+    pub obstacle_distance_scans: u64,
 }
 
 /// Latest filter report of the firmware.
