@@ -12,7 +12,7 @@
 //! | [`log`] | the onboard flight log: ULog writer, log stores (RAM ring), the arming-to-disarming logger, the MAVLink log download | [`app`], [`link`] (dialect, framing), `parapet_core` |
 //! | [`pil`] | the processor-in-the-loop application and its lockstep step | [`app`], [`link`], `parapet_core` |
 //! | [`setup`] | PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST: the calibration runs, the motor test, the storage requests and their STATUSTEXTs | [`storage`], `parapet_core` |
-//! | [`storage`] | parameter storage in flash (sequential-storage map, version record, debounced saves), the RAM NOR flash | `parapet_core` |
+//! | [`storage`] | parameter storage in flash (whole-table records in two alternating slots, version and CRC, debounced saves), the RAM NOR flash | `parapet_core` |
 //! | [`vehicle`] | a cascade with the setup services around it (IMU correction, calibration, motor test, storage steps) | [`app`], [`setup`], [`storage`], `parapet_core` |
 //! | [`drivers`] | MPU-6000 IMU, DShot600 framing | [`app::autopilot`] types |
 //! | [`board`] | pin maps, clocks, peripherals of one board (Cortex-M only) | everything above |

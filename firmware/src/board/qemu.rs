@@ -296,8 +296,8 @@ impl crate::pil::TickCounter for InstructionCounter {
 
 /// Erase page of the QEMU board's parameter flash, bytes.
 pub const PARAM_FLASH_PAGE: usize = 2048;
-/// Size of the QEMU board's parameter flash: two pages (sequential-storage's minimum; one
-/// page holds a complete parameter set, 72 items).
+/// Size of the QEMU board's parameter flash: two pages, the store's two slots (4 records of
+/// the whole table each: an erase every 4th save).
 pub const PARAM_FLASH_SIZE: usize = 2 * PARAM_FLASH_PAGE;
 /// The QEMU board's parameter flash (module docs).
 pub type ParamFlash = RamFlash<PARAM_FLASH_SIZE, PARAM_FLASH_PAGE>;
