@@ -252,8 +252,10 @@ impl OuterLoop {
             offboard_rejected: 0,
             battery: None,
         };
-        let plant = (params.filter_variant != FilterVariant::Paper)
-            .then(|| PlantAware::new(params.robust, params.lag_tau));
+        let plant = (params.filter_variant != FilterVariant::Paper).then(|| {
+            PlantAware::new(params.robust, params.lag_tau)
+                .with_limits(thrust::accel_limits(&params.thrust, params.mass))
+        });
         Ok(OuterLoop {
             inputs: Inputs::new(params.inputs),
             guidance: Guidance::new(params.guidance, params.waypoint).map_err(OuterError::Waypoint)?,

@@ -14,9 +14,10 @@
 //! when level (vertical priority), then the horizontal part is scaled down so
 //! the tilt stays within `tilt_max` and the total thrust within `thrust_max`.
 
-use crate::fmath::{cosf, hypotf, maxf, minf, sincosf, sqrtf, tanf};
+use crate::fmath::{cosf, maxf, sincosf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 pub use crate::msg::AttitudeSetpoint;
+use crate::robust::limits::AccelLimits;
 use crate::Vec3;
 
 /// Limits of the thrust/attitude mapping.
@@ -38,27 +39,23 @@ impl Default for ThrustParams {
 }
 
 /// The acceleration actually realised by [`map_acceleration`] after saturation
-/// (NED, m/s²), for a vehicle of `mass` kg whose attitude equals the returned setpoint.
+/// (NED, m/s²), for a vehicle of `mass` kg whose attitude equals the returned setpoint
+/// ([`AccelLimits::realised`] with the specific-thrust range `thrust_{min,max} / mass`).
 pub fn limit_acceleration(p: &ThrustParams, mass: f32, u: &Vec3) -> (Vec3, bool) {
-    if !(u.x.is_finite() && u.y.is_finite() && u.z.is_finite() && mass.is_finite() && mass > 0.0) {
-        return (Vec3::zeros(), true);
+    match accel_limits(p, mass) {
+        Some(l) => l.realised(u),
+        None => (Vec3::zeros(), true),
     }
-    let (a_min, a_max) = (p.thrust_min / mass, p.thrust_max / mass); // specific thrust range
-                                                                     // Vertical priority: g − u_z must lie in the specific-thrust range.
-    let gz = clampf(GRAVITY - u.z, maxf(a_min, 1e-3), maxf(a_max, maxf(a_min, 1e-3)));
-    let mut sat = (GRAVITY - u.z - gz).abs() > 1e-6;
-    let xy = hypotf(u.x, u.y);
-    let by_tilt = gz * tanf(p.tilt_max.clamp(0.0, 1.5));
-    let by_thrust = sqrtf(maxf(a_max * a_max - gz * gz, 0.0));
-    let xy_max = minf(by_tilt, by_thrust);
-    let (mut ux, mut uy) = (u.x, u.y);
-    if xy > xy_max {
-        sat = true;
-        let s = if xy > 0.0 { xy_max / xy } else { 0.0 };
-        ux *= s;
-        uy *= s;
-    }
-    (Vec3::new(ux, uy, GRAVITY - gz), sat)
+}
+
+/// The acceleration limits of the thrust map for a vehicle of `mass` kg (`None` for a mass that
+/// is not finite and positive).
+pub fn accel_limits(p: &ThrustParams, mass: f32) -> Option<AccelLimits> {
+    (mass.is_finite() && mass > 0.0).then(|| AccelLimits {
+        tilt_max: p.tilt_max,
+        a_min: p.thrust_min / mass,
+        a_max: p.thrust_max / mass,
+    })
 }
 
 /// Map the acceleration command `u` (NED, m/s²) to an attitude/thrust setpoint

@@ -20,12 +20,14 @@
 //!   closest-obstacle law would enforce the plane instead of the obstacle that matters).
 //! * **Stall** ([`stall::StallDetector`]): no progress with the filter active.
 //!
-//! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::fmath`,
+//! May import: `crate::cbf`, `crate::obstacle` ([`crate::safety`]), `crate::fmath`, `crate::frame`,
 //! [`crate::Vec3`] (not the loops: τ comes from the attitude gains as numbers). Imported by the outer loop
 //! ([`crate::outer`]) and [`crate::config`].
 
+pub mod limits;
 pub mod stall;
 
+use limits::AccelLimits;
 use stall::StallDetector;
 
 use crate::fmath::{maxf, minf, norm3};
@@ -429,6 +431,9 @@ pub struct PlantAware {
     lag: LagModel,
     dob: DisturbanceObserver,
     stall: StallDetector,
+    /// What the vehicle can realise ([`PlantAware::with_limits`]): the lag model is fed the
+    /// command after these limits. `None`: the command as given.
+    limits: Option<AccelLimits>,
 }
 
 /// One step's inputs to [`PlantAware::apply`].
@@ -468,7 +473,21 @@ impl PlantAware {
             lag: LagModel::default(),
             dob: DisturbanceObserver::new(),
             stall: StallDetector::default(),
+            limits: None,
         }
+    }
+
+    /// The same, with the vehicle's acceleration limits: the lag model (and so the disturbance
+    /// observer) is fed the command the thrust map realises, not the filter's command
+    /// ([`limits`]). The outer loop sets them from its thrust parameters and mass.
+    pub fn with_limits(mut self, limits: Option<AccelLimits>) -> Self {
+        self.limits = limits;
+        self
+    }
+
+    /// `u` as the vehicle realises it (after [`PlantAware::with_limits`]' limits).
+    fn realisable(&self, u: &Vec3) -> Vec3 {
+        self.limits.map_or(*u, |l| l.realised(u).0)
     }
 
     /// Forget the observer, lag and stall states (motors off / on the ground).
@@ -483,9 +502,11 @@ impl PlantAware {
         self.stall.reset();
     }
 
-    /// An open-loop command `u` was applied for `dt` s (no fix): advance the lag model.
+    /// An open-loop command `u` was applied for `dt` s (no fix): advance the lag model with
+    /// what the vehicle realises of it.
     pub fn open_loop(&mut self, u: &Vec3, dt: f32) {
-        self.lag.update(u, dt, self.tau);
+        let u = self.realisable(u);
+        self.lag.update(&u, dt, self.tau);
     }
 
     /// One outer step: observer update, filter at the predicted state with
@@ -584,7 +605,9 @@ impl PlantAware {
             diag.unavoidable = true;
         }
         let u = w - d_hat;
-        self.lag.update(&u, s.dt, self.tau);
+        // The lag model (and through it the observer) gets what the vehicle will realise.
+        let u_real = self.realisable(&u);
+        self.lag.update(&u_real, s.dt, self.tau);
         diag.h_bar = h_bar_now;
         let stalled = self.stall.update(
             s.now_us,
@@ -738,6 +761,54 @@ mod tests {
             }
         }
         assert!(exercised, "the observer saturates with the wall's barrier enforced");
+    }
+
+    /// A command beyond what the vehicle can realise is not read as a disturbance: deep inside
+    /// a barrier's margin and closing, the filter asks for tens of m/s²; the plant realises
+    /// the thrust map's limit of it (here exactly the model's lag of the limited command, so the
+    /// true disturbance is zero). With the limits the observer stays at zero; without them it
+    /// reads the shortfall as a disturbance (measured in flight: the vehicle then sank).
+    #[test]
+    fn an_unrealisable_command_is_not_read_as_a_disturbance() {
+        let filter = crate::cbf::SafetyFilter::new(
+            crate::cbf::CbfParams { gamma: 20.0, sample_time: 0.004, ..crate::cbf::CbfParams::default() },
+            crate::cbf::FilterVariant::MultiRelative,
+        )
+        .unwrap();
+        let limits = AccelLimits { tilt_max: 0.61, a_min: 1.2, a_max: 22.0 };
+        let worst_d_hat = |with_limits: bool| {
+            let pa = PlantAware::new(RobustParams::default(), 0.1);
+            let mut pa = if with_limits { pa.with_limits(Some(limits)) } else { pa };
+            let mut truth = LagModel::default();
+            let obs = [ObstaclePoint::fixed(Vec3::new(0.0, 0.0, -1.0), 1)];
+            let (mut p, mut v) = (Vec3::new(-0.3, 0.0, -1.0), Vec3::new(1.5, 0.0, 0.0));
+            let (mut worst, mut saturated) = (0.0f32, false);
+            for k in 0..50u64 {
+                let s = StepInput {
+                    now_us: k * 4_000,
+                    dt: 0.004,
+                    p,
+                    v,
+                    u_pd: Vec3::new(1.0, 0.0, 0.0),
+                    obstacles: &obs,
+                    seen_from: None,
+                    boundaries: false,
+                    mission_running: false,
+                };
+                let (_, u, _, tel) = pa.apply(&filter, &s);
+                worst = worst.max(tel.disturbance.norm());
+                let (u_real, sat) = limits.realised(&u);
+                saturated |= sat;
+                truth.update(&u_real, 0.004, pa.tau);
+                v += truth.realised() * 0.004;
+                p += v * 0.004;
+            }
+            assert!(saturated, "the command must exceed the limits for this test to mean anything");
+            worst
+        };
+        let (with, without) = (worst_d_hat(true), worst_d_hat(false));
+        assert!(with < 0.05, "with the limits: |d̂| up to {with}");
+        assert!(without > 1.0, "without them the shortfall reads as a disturbance: |d̂| up to {without}");
     }
 
     /// One wrapper step (lag model and observer at rest, boundaries off) for a vehicle at `p`

@@ -330,6 +330,10 @@ fn bench_plant_aware(c: &Counter) {
     let f = filter(FilterVariant::MultiRelative);
     let rp = RobustParams::default();
     let tau = lag_time_constant(&parapet_core::attitude::AttitudeParams::default().att_p, rp.motor_tau);
+    // The limits the outer loop gives it (the default vehicle): the lag model is fed the
+    // realisable command, as flown.
+    let cp = parapet_core::config::ControllerParams::default();
+    let limits = parapet_core::thrust::accel_limits(&cp.thrust, cp.airframe.mass);
     for k in [1usize, 4, 16, 32] {
         let mut rng = SplitMix64(SEED ^ (k as u64).wrapping_mul(0x1000_0000_01B3));
         let (mut all, mut hit) = (Stats::default(), Stats::default());
@@ -347,7 +351,7 @@ fn bench_plant_aware(c: &Counter) {
                 boundaries: true,
                 mission_running: true,
             };
-            let mut primed = PlantAware::new(rp, tau);
+            let mut primed = PlantAware::new(rp, tau).with_limits(limits);
             let _ = primed.apply(&f, &input);
             let ins = c.measure(|| {
                 let mut pa = black_box(primed);
