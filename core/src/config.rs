@@ -68,7 +68,8 @@ pub struct ControllerParams {
     pub outer_rate_hz: f32,
     /// Nominal inner-loop rate, Hz. Default 1000.
     pub inner_rate_hz: f32,
-    /// Takeoff ramp (speed 0.5 m/s, at most 120 m above home).
+    /// Takeoff ramp (speed 0.5 m/s, at most 120 m above home) and the yaw along a path
+    /// (`MIS_YAW_*`, default: hold the heading at arming).
     pub guidance: GuidanceParams,
     /// Landing and braking (descent 0.3 m/s, …; see [`LandingParams`]).
     pub landing: LandingParams,
@@ -212,6 +213,7 @@ impl ControllerParams {
             && pos(self.inner_rate_hz)
             && pos(g.takeoff_speed)
             && pos(g.takeoff_height_max)
+            && g.path_yaw.is_valid()
             && pos(l.land_speed)
             && pos(l.land_lead)
             && pos(l.landed_speed)

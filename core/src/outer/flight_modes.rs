@@ -22,6 +22,7 @@
 use super::assist::{manual_setpoint, stick_velocity, stick_yaw_rate, wrap_pi};
 use super::guidance::GuidanceMode;
 use super::offboard::OffboardSetpoint;
+use super::path_yaw::Steering;
 use super::tracking::Reference;
 use super::{CommandError, OuterLoop};
 use crate::battery::BatteryState;
@@ -251,8 +252,9 @@ impl OuterLoop {
         accel: &mut Option<Vec3>,
     ) -> (GuidanceMode, Option<Reference>) {
         let mode = self.modes.mode();
+        let steering = Steering { position: fresh.map(|(p, _)| p), heading: self.estimate.attitude.yaw, dt };
         if mode == FlightMode::Mission || (self.guidance.on_ground() && !self.liftoff(now_us)) {
-            return self.guidance.reference(now_us, progress);
+            return self.guidance.reference(now_us, &steering, progress);
         }
         let yaw = self.guidance.yaw_ref();
         let p = fresh.map_or(self.telemetry.position, |(p, _)| p);
@@ -306,19 +308,24 @@ impl OuterLoop {
                 };
                 (GuidanceMode::Offboard, Some(r))
             }
-            FlightMode::Return => match self.ret.reference(now_us, yaw) {
-                Some((r, prog)) => {
-                    // Home reached: the reference is there and the vehicle has settled on it.
-                    let settled = fresh.is_some_and(|(p, v)| {
-                        (p - r.position).norm_squared() < RETURN_SETTLED_M * RETURN_SETTLED_M
-                            && v.norm_squared() < RETURN_SETTLED_MPS * RETURN_SETTLED_MPS
-                    });
-                    self.return_done = prog.done && settled;
-                    *progress = prog;
-                    (GuidanceMode::Return, Some(r))
+            FlightMode::Return => {
+                let mut y = yaw;
+                let yaw_params = self.params.guidance.path_yaw;
+                match self.ret.reference(now_us, &yaw_params, &mut y, &steering) {
+                    Some((r, prog)) => {
+                        self.guidance.set_yaw_ref(y);
+                        // Home reached: the reference is there and the vehicle has settled on it.
+                        let settled = fresh.is_some_and(|(p, v)| {
+                            (p - r.position).norm_squared() < RETURN_SETTLED_M * RETURN_SETTLED_M
+                                && v.norm_squared() < RETURN_SETTLED_MPS * RETURN_SETTLED_MPS
+                        });
+                        self.return_done = prog.done && settled;
+                        *progress = prog;
+                        (GuidanceMode::Return, Some(r))
+                    }
+                    None => (GuidanceMode::Hold, Some(self.guidance.hold_ref(self.hold_point))),
                 }
-                None => (GuidanceMode::Hold, Some(self.guidance.hold_ref(self.hold_point))),
-            },
+            }
             FlightMode::Hold | FlightMode::Land | FlightMode::Mission => {
                 (GuidanceMode::Hold, Some(self.guidance.hold_ref(self.hold_point)))
             }

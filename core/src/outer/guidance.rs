@@ -2,11 +2,14 @@
 //! takeoff ramp, holding a point, or flying the stored path ([`crate::waypoint`]).
 //!
 //! Rate: the outer loop's (default 250 Hz), plus the commands (takeoff, hold, mission,
-//! new path). The yaw reference is the estimated yaw at arming, held constant.
+//! new path). The yaw reference is the estimated yaw at arming, held constant — or, along the
+//! path with `MIS_YAW_MODE` = travel, turned towards the direction of travel while the path
+//! waits for the heading ([`super::path_yaw`]).
 //!
-//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], the command errors of
-//! [`crate::outer`], the crate root foundation.
+//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], [`super::path_yaw`], the
+//! command errors of [`crate::outer`], the crate root foundation.
 
+use super::path_yaw::{PathYaw, PathYawParams, Steering};
 use super::CommandError;
 use crate::fmath::norm3;
 use crate::frame::is_finite3;
@@ -77,6 +80,8 @@ pub struct GuidanceParams {
     pub takeoff_speed: f32,
     /// Largest takeoff height above home, m. Default [`TAKEOFF_HEIGHT_MAX_DEFAULT`].
     pub takeoff_height_max: f32,
+    /// The yaw along a path, Mission and Return (`MIS_YAW_*`). Default: hold the heading.
+    pub path_yaw: PathYawParams,
 }
 
 /// Default takeoff height limit, m: 120 m, the height ceiling of the common drone rules (EU
@@ -87,7 +92,11 @@ pub const TAKEOFF_HEIGHT_MAX_DEFAULT: f32 = 120.0;
 
 impl Default for GuidanceParams {
     fn default() -> Self {
-        GuidanceParams { takeoff_speed: 0.5, takeoff_height_max: TAKEOFF_HEIGHT_MAX_DEFAULT }
+        GuidanceParams {
+            takeoff_speed: 0.5,
+            takeoff_height_max: TAKEOFF_HEIGHT_MAX_DEFAULT,
+            path_yaw: PathYawParams::default(),
+        }
     }
 }
 
@@ -112,6 +121,7 @@ pub struct Guidance {
     mode: Mode,
     yaw_ref: f32,
     home: Vec3,
+    path_yaw: PathYaw,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -127,6 +137,7 @@ impl Guidance {
             mode: Mode::Ground,
             yaw_ref: 0.0,
             home: Vec3::zeros(),
+            path_yaw: PathYaw::default(),
         })
     }
 
@@ -187,9 +198,20 @@ impl Guidance {
         (r, false)
     }
 
+    /// `true` while the path waits for the heading (`MIS_YAW_MODE` travel).
+    pub fn waiting_for_heading(&self) -> bool {
+        matches!(self.mode, Mode::Mission { .. }) && self.path_yaw.waiting()
+    }
+
     /// The nominal reference at `now_us` (`None` on the ground); a finished takeoff ramp
-    /// turns into a hold. `progress` is updated while flying the path.
-    pub fn reference(&mut self, now_us: u64, progress: &mut Progress) -> (GuidanceMode, Option<Reference>) {
+    /// turns into a hold. `progress` is updated while flying the path. The vehicle `v`
+    /// steers the yaw along the path in `MIS_YAW_MODE` travel.
+    pub fn reference(
+        &mut self,
+        now_us: u64,
+        v: &Steering,
+        progress: &mut Progress,
+    ) -> (GuidanceMode, Option<Reference>) {
         match self.mode {
             Mode::Ground => (GuidanceMode::Ground, None),
             Mode::Hold(target) => (GuidanceMode::Hold, Some(self.hold_ref(target))),
@@ -201,7 +223,8 @@ impl Guidance {
                 (GuidanceMode::Takeoff, Some(r))
             }
             Mode::Mission { t0_us } => {
-                let s = self.follower.sample(age(now_us, t0_us) as f32 * 1e-6);
+                let (p, f) = (&self.params.path_yaw, &self.follower);
+                let s = self.path_yaw.sample(p, f, (t0_us, now_us), &mut self.yaw_ref, v);
                 *progress = s.progress;
                 let r = Reference {
                     position: s.position,
@@ -226,6 +249,7 @@ impl Guidance {
         if let Mode::Mission { .. } = self.mode {
             if self.follower.start(origin).is_ok() {
                 self.mode = Mode::Mission { t0_us: now_us };
+                self.path_yaw.reset();
             } else {
                 self.mode = Mode::Hold(origin);
             }
@@ -286,6 +310,7 @@ impl Guidance {
         }
         self.follower.start(origin).map_err(CommandError::Path)?;
         self.mode = Mode::Mission { t0_us: now_us };
+        self.path_yaw.reset();
         Ok(())
     }
 }

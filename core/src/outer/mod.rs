@@ -26,6 +26,7 @@ mod flight_modes;
 pub mod guidance;
 pub mod inputs;
 pub mod offboard;
+pub mod path_yaw;
 pub mod return_path;
 pub mod thrust;
 pub mod tracking;

@@ -15,10 +15,14 @@
 //! On entering Return: the crumbs in reverse order, from the vehicle's position, flown by a
 //! [`WaypointFollower`] at `return_speed` (`RTL_SPEED`); the last leg ends above home at the
 //! height of the last crumb before home (the landing descends from there). `done` when the
-//! follower reports the goal reached.
+//! follower reports the goal reached. The yaw along it follows `MIS_YAW_MODE`
+//! ([`super::path_yaw`]): held, or turned towards the direction of travel with the path
+//! waiting for the heading.
 //!
-//! May import: [`super::waypoint`], [`super::tracking`], the crate root foundation.
+//! May import: [`super::waypoint`], [`super::tracking`], [`super::path_yaw`], the crate root
+//! foundation.
 
+use super::path_yaw::{PathYaw, PathYawParams, Steering};
 use super::tracking::Reference;
 use super::waypoint::{PathError, Progress, WaypointFollower, WaypointParams};
 use crate::fmath::norm3;
@@ -35,6 +39,7 @@ pub struct ReturnPath {
     spacing: f32,
     follower: WaypointFollower<CRUMB_CAPACITY>,
     t0_us: Option<u64>,
+    path_yaw: PathYaw,
 }
 
 impl ReturnPath {
@@ -46,6 +51,7 @@ impl ReturnPath {
             spacing,
             follower: WaypointFollower::new(WaypointParams { cruise_speed: speed, corner_radius: 0.0 })?,
             t0_us: None,
+            path_yaw: PathYaw::default(),
         })
     }
 
@@ -111,16 +117,30 @@ impl ReturnPath {
         self.follower.set_path(&path)?;
         self.follower.start(p)?;
         self.t0_us = Some(now_us);
+        self.path_yaw.reset();
         Ok(())
     }
 
-    /// The return reference at `now_us` (yaw `yaw`) and whether home is reached; `None` when
-    /// not started.
-    pub fn reference(&self, now_us: u64, yaw: f32) -> Option<(Reference, Progress)> {
+    /// The return reference at `now_us` and whether home is reached; `None` when not started.
+    /// The yaw reference `yaw` (rad) is steered per `yaw_params` for the vehicle `v`, and is
+    /// the reference's yaw.
+    pub fn reference(
+        &mut self,
+        now_us: u64,
+        yaw_params: &PathYawParams,
+        yaw: &mut f32,
+        v: &Steering,
+    ) -> Option<(Reference, Progress)> {
         let t0 = self.t0_us?;
-        let s = self.follower.sample(now_us.saturating_sub(t0) as f32 * 1e-6);
-        let r = Reference { position: s.position, velocity: s.velocity, acceleration: s.acceleration, yaw };
+        let s = self.path_yaw.sample(yaw_params, &self.follower, (t0, now_us), yaw, v);
+        let r =
+            Reference { position: s.position, velocity: s.velocity, acceleration: s.acceleration, yaw: *yaw };
         Some((r, s.progress))
+    }
+
+    /// `true` while flying back and waiting for the heading (`MIS_YAW_MODE` travel).
+    pub fn waiting_for_heading(&self) -> bool {
+        self.t0_us.is_some() && self.path_yaw.waiting()
     }
 
     /// Stop flying back (a new mode).
@@ -147,9 +167,12 @@ mod tests {
         assert!(c.windows(2).all(|w| w[1].x > w[0].x), "order kept");
         let p = Vec3::new(20.0, 0.0, -1.0);
         assert!(r.start(0, p).is_ok());
-        let (r0, _) = r.reference(0, 0.0).unwrap_or_else(|| unreachable!());
+        let hold = PathYawParams::default();
+        let mut yaw = 0.0;
+        let v = Steering { position: None, heading: 0.0, dt: 0.004 };
+        let (r0, _) = r.reference(0, &hold, &mut yaw, &v).unwrap_or_else(|| unreachable!());
         assert!((r0.position - p).norm() < 1e-4);
-        let (end, prog) = r.reference(60_000_000, 0.0).unwrap_or_else(|| unreachable!());
+        let (end, prog) = r.reference(60_000_000, &hold, &mut yaw, &v).unwrap_or_else(|| unreachable!());
         assert!(prog.done);
         assert!((end.position - Vec3::new(0.0, 0.0, -1.0)).norm() < 1e-4, "{:?}", end.position);
     }

@@ -138,7 +138,8 @@ const fn rc_us(
     }
 }
 
-/// A continuous entry of the battery and sensor groups (issue 22).
+/// A continuous entry without a scene/option key (the battery and sensor groups, issue 22; the
+/// path yaw rate and error, issue 19).
 #[allow(clippy::too_many_arguments)]
 const fn num(
     name: &'static str,

@@ -1,12 +1,13 @@
-//! Part of [`super::TABLE`]: the pilot-facing parameters: flight modes, per-mode failsafes, return, RC channel map and pulse ranges (issue 21).
+//! Part of [`super::TABLE`]: the pilot-facing parameters: flight modes, per-mode failsafes, return, RC channel map and pulse ranges (issue 21), the yaw along a path (issue 19).
 //!
 //! Entries in MAVLink `param_index` order; [`super`] concatenates the parts. May import
 //! what [`super`] may.
 
 use super::*;
+use crate::outer::path_yaw::YawMode;
 
 /// Entries of this part.
-pub(super) const N: usize = 29;
+pub(super) const N: usize = 32;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -249,6 +250,47 @@ pub(super) const TABLE: [Param; N] = [
         get: |p| if p.modes.battery_failsafe { 1.0 } else { 0.0 },
         write: |p, v| p.modes.battery_failsafe = v >= 0.5,
     },
+    // Issue 19: the yaw along a path (`outer::path_yaw`), so forward sensors look where the
+    // vehicle flies (PX4 MPC_YAW_MODE / MPC_YAWRAUTO_MAX / MIS_YAW_ERR).
+    Param {
+        name: "MIS_YAW_MODE",
+        key: Some(host_text("yaw_mode")),
+        unit: "",
+        default: 0.0,
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+        decimals: 0,
+        group: "Mission",
+        description: host_text(
+            "Yaw along the path (Mission, Return): 0 hold the heading at arming, 1 face the direction of travel",
+        ),
+        label: Some(|c| YawMode::from_code(c).map(YawMode::as_str)),
+        get: |p| p.guidance.path_yaw.mode.code() as f32,
+        write: |p, v| {
+            p.guidance.path_yaw.mode = YawMode::from_code(v as i32).unwrap_or(p.guidance.path_yaw.mode)
+        },
+    },
+    num(
+        "MIS_YAW_RATE",
+        "Mission",
+        "rad/s",
+        (0.05, crate::outer::path_yaw::DEFAULT_RATE, 6.0),
+        3,
+        "MIS_YAW_MODE 1: largest turn rate of the yaw reference towards the travel direction",
+        |p| p.guidance.path_yaw.rate,
+        |p, v| p.guidance.path_yaw.rate = v,
+    ),
+    num(
+        "MIS_YAW_ERR",
+        "Mission",
+        "rad",
+        (0.01, crate::outer::path_yaw::DEFAULT_MAX_ERROR, core::f32::consts::PI),
+        3,
+        "MIS_YAW_MODE 1: the path waits while the heading is farther than this from the travel direction",
+        |p| p.guidance.path_yaw.max_error,
+        |p, v| p.guidance.path_yaw.max_error = v,
+    ),
     // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
     rc_map(
         "RC_MAP_ROLL",
