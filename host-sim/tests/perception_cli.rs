@@ -80,3 +80,60 @@ fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {
         assert!(err.contains("perception") && err.contains(want) && err.contains(value), "{value}: {err}");
     }
 }
+
+/// `--yaw-mode` and `[controller] yaw_mode` (MIS_YAW_MODE): the path east is flown facing
+/// north (the heading at arming) with hold, facing east with travel; the option wins over the
+/// scene; bad values name the option or the file, table and field, with the allowed values.
+#[test]
+fn yaw_mode_from_the_option_and_the_scene() {
+    let d = tmp("yaw");
+    let plain = d.join("scene.toml");
+    std::fs::write(&plain, SCENE).unwrap();
+    let travel = d.join("travel.toml");
+    std::fs::write(&travel, format!("{SCENE}[controller]\nyaw_mode = \"travel\"\n")).unwrap();
+    let out = d.join("report");
+    let fly = |scene: &PathBuf, extra: &[&str]| {
+        let mut args = vec!["run", "--scene", scene.to_str().unwrap(), "--straight", "--out"];
+        args.push(out.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let o = parapet(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (cx, cy) = (col("x"), col("yaw"));
+        // The heading half way (ENU x = 2 m; past the goal a vehicle that overshot it turns back).
+        let mid = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect::<Vec<_>>())
+            .find(|r| r[cx] >= 2.0)
+            .map_or(f64::NAN, |r| r[cy]);
+        (s["yaw_mode"].as_str().unwrap().to_string(), s["reached_goal"].as_bool().unwrap(), mid)
+    };
+    let (mode, goal, yaw) = fly(&plain, &[]);
+    assert_eq!((mode.as_str(), goal), ("hold", true));
+    assert!(yaw.abs() < 0.05, "hold keeps the heading at arming: {yaw}");
+    for (scene, extra) in [(&plain, &["--yaw-mode", "travel"][..]), (&travel, &[][..])] {
+        let (mode, goal, yaw) = fly(scene, extra);
+        assert_eq!((mode.as_str(), goal), ("travel", true));
+        assert!((yaw - std::f64::consts::FRAC_PI_2).abs() < 0.05, "travel faces east: {yaw}");
+    }
+    let (mode, _, _) = fly(&travel, &["--yaw-mode", "hold"]);
+    assert_eq!(mode, "hold", "the option wins over the scene");
+
+    let o = parapet(&["run", "--scene", plain.to_str().unwrap(), "--straight", "--yaw-mode", "north"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--yaw-mode") && err.contains("north") && err.contains("travel"), "{err}");
+    let bad = d.join("bad.toml");
+    std::fs::write(&bad, format!("{SCENE}[controller]\nyaw_mode = \"north\"\n")).unwrap();
+    let o = parapet(&["run", "--scene", bad.to_str().unwrap(), "--straight"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for want in ["bad.toml", "[controller]", "yaw_mode", "\"north\"", "hold", "travel"] {
+        assert!(err.contains(want), "{want}: {err}");
+    }
+}

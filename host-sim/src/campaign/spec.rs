@@ -5,7 +5,7 @@
 //! seed = 1                    # campaign seed: flight i's draws depend only on (seed, i)
 //! flights = 200
 //! [run]                       # `parapet run` options every flight gets (optional)
-//! filter = "multi-relative"   #   filter, noise (bool), no_cbf (bool), duration, sensing_range
+//! filter = "multi-relative"   #   filter, yaw_mode, noise (bool), no_cbf (bool), duration, sensing_range
 //! [[scenes]]                  # flight i flies scenes[i mod n]
 //! file = "../office.toml"     # relative to the campaign file
 //! path = "../office_path.json"  # optional; or straight = true; else the planner (flight seed)
@@ -275,6 +275,7 @@ impl Campaign {
                 let f = |reason: &str| bad(path, "run", k, reason).value(v.to_string());
                 match (k.as_str(), v) {
                     ("filter", toml::Value::String(s)) => run_args.extend(["--filter".into(), s.clone()]),
+                    ("yaw_mode", toml::Value::String(s)) => run_args.extend(["--yaw-mode".into(), s.clone()]),
                     ("noise", toml::Value::Boolean(b)) => {
                         run_args.push(if *b { "--noise" } else { "--no-noise" }.into())
                     }
@@ -290,11 +291,9 @@ impl Campaign {
                             .ok_or_else(|| f("not a number"))?;
                         run_args.extend([format!("--{}", k.replace('_', "-")), format!("{x}")]);
                     }
-                    _ => {
-                        return Err(f("unknown key or wrong type").allowed(
-                            "filter (string), noise, no_cbf (bool), duration, sensing_range (number)",
-                        ))
-                    }
+                    _ => return Err(f("unknown key or wrong type").allowed(
+                        "filter, yaw_mode (string), noise, no_cbf (bool), duration, sensing_range (number)",
+                    )),
                 }
             }
         }
@@ -500,6 +499,12 @@ mod tests {
         assert!((sum / n as f64).abs() < 0.03 && lo >= 0.5 && hi <= 2.0 && lo < 0.52 && hi > 1.95);
         let f = c.flight(7);
         assert!(f.args.contains(&"--kp".to_string()) && f.args.contains(&"--straight".to_string()));
+        // [run] options reach every flight's command line (the yaw mode as `--yaw-mode`).
+        let run = text.replace("[draw]", "[run]\nyaw_mode = \"travel\"\nfilter = \"multi\"\n[draw]");
+        let r = Campaign::load(&write(&dir, "r.toml", &run)).unwrap_or_else(|e| panic!("{e}"));
+        let args = r.flight(3).args;
+        assert!(args.windows(2).any(|w| w == ["--yaw-mode", "travel"]), "{args:?}");
+        assert!(args.windows(2).any(|w| w == ["--filter", "multi"]), "{args:?}");
         assert_eq!(c.flight(7).values, f.values);
         assert_ne!(c.flight(8).values, f.values);
         // Errors name the file, table, field and what is allowed.

@@ -31,6 +31,7 @@ use anyhow::anyhow;
 use clap::{Args, Parser};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_core::outer::path_yaw::YawMode;
 
 pub use crate::cli::output::{out, refuse_overwrite};
 pub use crate::sim::replay::load_vehicle;
@@ -104,6 +105,11 @@ pub struct RunArgs {
     /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
     #[arg(long, value_parser = parse_variant)]
     filter: Option<FilterVariant>,
+    /// Yaw along the path (MIS_YAW_MODE): hold (the heading at arming) | travel (face the direction
+    /// of travel, turning at MIS_YAW_RATE; the path waits while the heading is more than
+    /// MIS_YAW_ERR off) [default: the scene's [controller] yaw_mode, else hold]. See docs/cascade.md.
+    #[arg(long, value_parser = parse_yaw_mode)]
+    yaw_mode: Option<YawMode>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
     mu: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Safety level δ, m² (hull radius squared)", "delta"))]
@@ -261,6 +267,10 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
 
 fn parse_variant(s: &str) -> Result<FilterVariant, String> {
     s.parse().map_err(|_| format!("unknown filter {s:?}: expected paper, relative, multi or multi-relative"))
+}
+
+fn parse_yaw_mode(s: &str) -> Result<YawMode, String> {
+    s.parse().map_err(|_| format!("unknown yaw mode {s:?}: expected hold or travel"))
 }
 
 /// A failure with its exit code.
@@ -496,6 +506,9 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     cfg.cbf = !a.no_cbf;
     if let Some(v) = a.filter {
         cfg.variant = v;
+    }
+    if let Some(m) = a.yaw_mode {
+        cfg.yaw_mode = m;
     }
     // Controller options: their ranges are the parameter table's, checked (naming the
     // option, the value and the range) by check_run below with the scene's values.

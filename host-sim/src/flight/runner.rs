@@ -51,6 +51,7 @@ use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::outer::{guidance::GuidanceParams, path_yaw::PathYawParams, path_yaw::YawMode};
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::thrust::ThrustParams;
 use parapet_core::tracking::TrackingParams;
@@ -101,6 +102,8 @@ pub struct RunConfig {
     pub cbf: bool,
     /// Filter variant.
     pub variant: FilterVariant,
+    /// Yaw along the path (`MIS_YAW_MODE`; `--yaw-mode`, `[controller] yaw_mode`).
+    pub yaw_mode: YawMode,
     /// Controller parameters as flown (scene/CLI overrides already applied).
     pub params: RunParams,
     /// Bound on unknown obstacle acceleration, m/s² (relative variants).
@@ -136,6 +139,8 @@ impl RunConfig {
             Some(name) => name.parse().map_err(|_| anyhow!("unknown filter variant {name:?}"))?,
             None => FilterVariant::default(),
         };
+        let yaw_mode = c.yaw_mode.as_deref().map_or(Ok(YawMode::default()), str::parse::<YawMode>);
+        let yaw_mode = yaw_mode.map_err(|()| anyhow!("unknown yaw mode {:?}", c.yaw_mode))?;
         // The table's f32 defaults as their shortest decimals: the same f32 values reach
         // the filter, and reports print them as written.
         let d = table_default;
@@ -154,6 +159,7 @@ impl RunConfig {
             planning_time_ms: None,
             cbf: true,
             variant,
+            yaw_mode,
             params,
             accel_bound: c.accel_bound.unwrap_or_else(|| d("accel_bound")),
             velocity_margin: c.velocity_margin.unwrap_or_else(|| d("velocity_margin")),
@@ -225,6 +231,10 @@ pub fn controller_params(
             ..d.thrust
         },
         waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
+        guidance: GuidanceParams {
+            path_yaw: PathYawParams { mode: cfg.yaw_mode, ..d.guidance.path_yaw },
+            ..d.guidance
+        },
         // A simulated pack's cells and resistance (BatteryModelParams::estimator_params).
         battery: cfg.battery.as_ref().map_or(d.battery, |b| b.estimator_params(d.battery)),
         ..d
@@ -744,6 +754,7 @@ pub fn run_with(
         scene: scene.name.clone(),
         scene_file: scene.source.clone(),
         filter: if cfg.cbf { cfg.variant.as_str().to_string() } else { "none".into() },
+        yaw_mode: cfg.yaw_mode.as_str().into(),
         cbf_enabled: cfg.cbf,
         collided: collided_at.is_some(),
         first_collision_time_s: collided_at,

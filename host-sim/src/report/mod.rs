@@ -97,6 +97,8 @@ pub struct Summary {
     pub scene_file: String,
     /// Filter variant name, or `"none"` with `--no-cbf`.
     pub filter: String,
+    /// Yaw along the path: `"hold"` or `"travel"` (`MIS_YAW_MODE`).
+    pub yaw_mode: String,
     /// Whether the safety filter was on.
     pub cbf_enabled: bool,
     /// The hull sphere intersected an obstacle.
@@ -504,6 +506,7 @@ pub fn summary_table(s: &Summary) -> String {
     let rows: Vec<(&str, String)> = vec![
         ("scene", format!("{} ({})", s.scene, s.scene_file)),
         ("filter", s.filter.clone()),
+        ("yaw mode", s.yaw_mode.clone()),
         ("params", s.params.listed()),
         (
             "path",

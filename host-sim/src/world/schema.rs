@@ -16,6 +16,7 @@ use crate::input::{exact, limits, num};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
 use parapet_core::obstacle::Shape;
+use parapet_core::outer::path_yaw::YawMode;
 
 /// Optional controller overrides (`[controller]` table). Missing values keep
 /// the controller defaults (or the command-line values, which win over the scene).
@@ -41,6 +42,9 @@ pub struct ControllerOverrides {
     pub velocity_margin: Option<f64>,
     /// Reference speed along the path, m/s; overrides `[mission] speed` when given.
     pub speed: Option<f64>,
+    /// Yaw along the path: a `parapet_core::outer::path_yaw::YawMode` name (`hold`, `travel`;
+    /// the parameter table's `MIS_YAW_MODE`).
+    pub yaw_mode: Option<String>,
 }
 
 /// Optional simulation settings (`[sim]` table).
@@ -192,8 +196,8 @@ impl<T: Shown> Shown for &T {
 
 impl ControllerOverrides {
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
-    /// controller's parameter table, which gives its unit and range (`filter`, a name, is
-    /// `CBF_VARIANT`'s key).
+    /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
+    /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys).
     pub fn numbers(&self) -> [(&'static str, Option<f64>); 8] {
         [
             ("mu", self.mu),
@@ -232,6 +236,12 @@ pub(crate) fn validate_controller(c: &ControllerOverrides) -> Result<(), String>
         if f.parse::<parapet_core::cbf::FilterVariant>().is_err() {
             let names = parapet_core::cbf::FilterVariant::ALL.map(|v| v.as_str());
             return Err(format!("field `filter`: unknown variant {f:?}, expected one of {names:?}"));
+        }
+    }
+    if let Some(m) = &c.yaw_mode {
+        if m.parse::<YawMode>().is_err() {
+            let names = YawMode::ALL.map(|v| v.as_str());
+            return Err(format!("field `yaw_mode`: unknown yaw mode {m:?}, expected one of {names:?}"));
         }
     }
     Ok(())
@@ -428,10 +438,11 @@ mod tests {
             accel_bound: Some(6.0),
             velocity_margin: Some(7.0),
             speed: Some(8.0),
+            yaw_mode: Some("travel".into()),
         };
         let table = toml::Table::try_from(&all).unwrap();
         let numbers = all.numbers();
-        assert_eq!(table.len(), numbers.len() + 1);
+        assert_eq!(table.len(), numbers.len() + 2);
         for (key, x) in numbers {
             assert_eq!(table[key].as_float(), x, "{key}");
             assert!(parapet_core::params::by_key(key).is_some(), "{key} is not in the parameter table");
@@ -443,6 +454,14 @@ mod tests {
         let e = with_filter("fast").unwrap_err();
         assert!(e.contains("\"fast\"") && e.contains("multi-relative"), "{e}");
         assert_eq!(with_filter("relative"), Ok(()));
+        assert_eq!(parapet_core::params::by_key("yaw_mode").map(|p| p.name), Some("MIS_YAW_MODE"));
+        let with_yaw = |m: &str| {
+            validate_controller(&ControllerOverrides { yaw_mode: Some(m.into()), ..Default::default() })
+        };
+        let e = with_yaw("north").unwrap_err();
+        assert!(e.contains("field `yaw_mode`") && e.contains("\"north\"") && e.contains("travel"), "{e}");
+        assert_eq!(with_yaw("travel"), Ok(()));
+        assert_eq!(with_yaw("hold"), Ok(()));
     }
 
     #[test]
