@@ -9,6 +9,7 @@ mod plant;
 use core::f32::consts::{FRAC_PI_2, PI};
 use parapet_core::controller::{ControllerParams, FlightMode, GuidanceMode};
 use parapet_core::frame::wrap_pi;
+use parapet_core::outer::path_yaw::MAX_HEADING_ERROR;
 use parapet_core::params;
 use parapet_core::Vec3;
 use plant::Sim;
@@ -81,9 +82,9 @@ fn travel_faces_each_leg_before_flying_it() {
     // The last leg is west: yaw −π/2 (reached through ±π from south). (After an overshoot
     // past the goal of more than 0.1 m the vehicle faces the goal again: not checked here.)
     assert!(wrap_pi(f.yaw_at_goal + FRAC_PI_2).abs() < 0.05, "{f:?}");
-    // The reference never moved while the heading was more than MIS_YAW_ERR (12°) off its
+    // The reference never moved while the heading was more than MAX_HEADING_ERROR (12°) off its
     // direction (+ the estimate's error against the true yaw, a few mrad).
-    let max_err = params::get(sim.ctl.params(), "MIS_YAW_ERR").unwrap();
+    let max_err = MAX_HEADING_ERROR;
     assert!(f.worst_heading_error < max_err + 0.02, "{f:?}");
     // Three turns of 90° at 45°/s, each waiting until within 12°: ≈ 3 × 1.73 s.
     assert!(f.waiting_s > 4.5 && f.waiting_s < 7.5, "{f:?}");
@@ -124,7 +125,7 @@ fn return_with_travel_faces_the_way_back() {
     println!("return: {f:?}");
     assert!(returned, "back home: {:?}", sim.quad.p);
     assert!(sim.quad.p.xy().norm() < 0.15, "{:?}", sim.quad.p);
-    let max_err = params::get(sim.ctl.params(), "MIS_YAW_ERR").unwrap();
+    let max_err = MAX_HEADING_ERROR;
     assert!(f.worst_heading_error < max_err + 0.02, "{f:?}");
     // At least the turn from west to east (π) before the first leg back.
     assert!(f.waiting_s > 2.5, "{f:?}");

@@ -223,8 +223,9 @@ impl Guidance {
                 (GuidanceMode::Takeoff, Some(r))
             }
             Mode::Mission { t0_us } => {
-                let (p, f) = (&self.params.path_yaw, &self.follower);
-                let s = self.path_yaw.sample(p, f, (t0_us, now_us), &mut self.yaw_ref, v);
+                let p = &self.params.path_yaw;
+                let mut s = self.follower.sample(self.path_yaw.path_time(p, t0_us, now_us));
+                self.path_yaw.steer_sample(p, &mut s, &mut self.yaw_ref, v);
                 *progress = s.progress;
                 let r = Reference {
                     position: s.position,

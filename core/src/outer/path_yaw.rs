@@ -12,15 +12,16 @@
 //!   the vehicle when the vehicle is more than [`FACE_POINT_RADIUS`] from it horizontally
 //!   (an overshoot past the goal, a push by the filter: the way back is then in view), and
 //!   keeps its value otherwise or when the inputs are not finite. **The path waits for the
-//!   heading** (along the path's velocity only): while the larger of the reference's and the estimated heading's
-//!   error to the direction of travel exceeds `MIS_YAW_ERR` (rad; PX4's `MIS_YAW_ERR`), the
-//!   path's clock stops and the reference holds its point with zero velocity and
-//!   acceleration, so the vehicle turns on the spot before it flies a leg — a forward
-//!   sensor looks where the vehicle goes, and the vehicle never flies sideways into space
+//!   heading** (along the path's velocity only): while the larger of the reference's and the
+//!   estimated heading's error to the direction of travel exceeds [`MAX_HEADING_ERROR`] (12°,
+//!   PX4's `MIS_YAW_ERR` default), the path's clock stops and the reference holds its point
+//!   with zero velocity and acceleration, so the vehicle turns on the spot before it flies a
+//!   leg — a forward sensor looks where the vehicle goes, and the vehicle never flies sideways into space
 //!   its sensors have not seen. At a corner of the piecewise-linear path the reference
 //!   stops within one outer step past the corner, turns, then goes on.
 //!
-//! Time along the path = time since the start − time waited (integer µs, saturating).
+//! Time along the path = time since the start − time waited (integer µs, saturating):
+//! [`PathYaw::path_time`], then [`PathYaw::steer_sample`] on the follower's sample at it.
 //! A heading that never aligns (e.g. a yaw-saturated vehicle) keeps the vehicle holding
 //! its point: there is no timeout (PX4's `MIS_YAW_TMT` default, none).
 //!
@@ -29,11 +30,9 @@
 //!
 //! May import: [`super::waypoint`], the crate root foundation.
 
-use super::waypoint::{PathSample, WaypointFollower};
-use crate::fmath::hypotf;
+use super::waypoint::PathSample;
 use crate::frame::{clampf, wrap_pi};
 use crate::Vec3;
-use core::cmp::Ordering;
 
 /// How the yaw reference is chosen while flying a path (`MIS_YAW_MODE`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -91,28 +90,28 @@ pub struct PathYawParams {
     /// Largest turn rate of the yaw reference, rad/s (`MIS_YAW_RATE`). Default π/4 (45°/s,
     /// PX4's `MPC_YAWRAUTO_MAX`).
     pub rate: f32,
-    /// The path waits while the heading error exceeds this, rad (`MIS_YAW_ERR`). Default
-    /// 12° (PX4's `MIS_YAW_ERR`).
-    pub max_error: f32,
 }
 
 impl Default for PathYawParams {
     fn default() -> Self {
-        PathYawParams { mode: YawMode::Hold, rate: DEFAULT_RATE, max_error: DEFAULT_MAX_ERROR }
+        PathYawParams { mode: YawMode::Hold, rate: DEFAULT_RATE }
     }
 }
 
 impl PathYawParams {
-    /// `rate` and `max_error` finite and > 0.
+    /// `rate` finite and > 0.
     pub fn is_valid(&self) -> bool {
-        self.rate.is_finite() && self.rate > 0.0 && self.max_error.is_finite() && self.max_error > 0.0
+        self.rate.is_finite() && self.rate > 0.0
     }
 }
 
 /// Default `MIS_YAW_RATE`, rad/s (45°/s).
 pub const DEFAULT_RATE: f32 = core::f32::consts::FRAC_PI_4;
-/// Default `MIS_YAW_ERR`, rad (12°).
-pub const DEFAULT_MAX_ERROR: f32 = 0.209_439_5;
+/// The path waits while the heading is farther than this from the direction of travel, rad
+/// (12°, PX4's `MIS_YAW_ERR` default; a constant here: a parameter costs flash the F405 image
+/// does not have to spare, and 12° is well inside a forward sensor's field of view — the
+/// camera's ±43.5°, a ToF's ±22.5°).
+pub const MAX_HEADING_ERROR: f32 = 0.209_439_5;
 /// Below this horizontal reference speed the path gives no direction of travel, m/s.
 pub const STATIONARY_SPEED: f32 = 0.01;
 /// With a stationary reference, the yaw reference faces the reference point while the
@@ -135,8 +134,8 @@ pub struct Steering {
 pub struct PathYaw {
     /// Time waited since the path's start, µs.
     waited_us: u64,
-    /// Time of the last sample, µs.
-    last_us: Option<u64>,
+    /// Time of the last sample, µs (valid whenever `waiting`: only a sample sets it).
+    last_us: u64,
     /// The last sample waited for the heading.
     waiting: bool,
 }
@@ -157,32 +156,34 @@ impl PathYaw {
         self.waited_us
     }
 
-    /// The reference of a path started at `t0_us`, sampled at `now_us`, with the yaw
-    /// reference `yaw` (rad) steered per `p` for the vehicle `v`. In [`YawMode::Hold`] this
-    /// is `follower.sample` at the time since the start and `yaw` is untouched.
-    pub fn sample<const N: usize>(
-        &mut self,
-        p: &PathYawParams,
-        follower: &WaypointFollower<N>,
-        (t0_us, now_us): (u64, u64),
-        yaw: &mut f32,
-        v: &Steering,
-    ) -> PathSample {
+    /// Time along a path started at `t0_us`, at `now_us`, s: the time since the start, minus
+    /// (in [`YawMode::Travel`]) the time waited for the heading. In [`YawMode::Hold`] exactly
+    /// the time since the start (the follower is sampled as before this mode existed).
+    pub fn path_time(&mut self, p: &PathYawParams, t0_us: u64, now_us: u64) -> f32 {
         let elapsed = now_us.saturating_sub(t0_us);
         if p.mode == YawMode::Hold {
-            return follower.sample(elapsed as f32 * 1e-6);
+            return elapsed as f32 * 1e-6;
         }
-        if let (true, Some(last)) = (self.waiting, self.last_us) {
-            self.waited_us = self.waited_us.saturating_add(now_us.saturating_sub(last));
+        if self.waiting {
+            self.waited_us = self.waited_us.saturating_add(now_us.saturating_sub(self.last_us));
         }
-        self.last_us = Some(now_us);
-        let mut s = follower.sample(elapsed.saturating_sub(self.waited_us) as f32 * 1e-6);
-        let moving = hypotf(s.velocity.x, s.velocity.y) >= STATIONARY_SPEED;
+        self.last_us = now_us;
+        elapsed.saturating_sub(self.waited_us) as f32 * 1e-6
+    }
+
+    /// Steer the yaw reference `yaw` (rad) per `p` for the vehicle `v` and the path's sample
+    /// `s` at [`Self::path_time`]; while the path waits for the heading, `s` holds its point
+    /// (zero velocity and acceleration). Nothing happens in [`YawMode::Hold`].
+    pub fn steer_sample(&mut self, p: &PathYawParams, s: &mut PathSample, yaw: &mut f32, v: &Steering) {
+        if p.mode == YawMode::Hold {
+            return;
+        }
+        let moving = horizontal_sq(&s.velocity) >= STATIONARY_SPEED * STATIONARY_SPEED;
         self.waiting = if moving {
             steer(p, yaw, &s.velocity, v.heading, v.dt)
         } else {
             if let Some(to) = v.position.map(|q| s.position - q) {
-                if hypotf(to.x, to.y) > FACE_POINT_RADIUS {
+                if horizontal_sq(&to) > FACE_POINT_RADIUS * FACE_POINT_RADIUS {
                     steer(p, yaw, &to, v.heading, v.dt);
                 }
             }
@@ -192,17 +193,21 @@ impl PathYaw {
             s.velocity = Vec3::zeros();
             s.acceleration = Vec3::zeros();
         }
-        s
     }
+}
+
+/// `x² + y²` of `v`.
+fn horizontal_sq(v: &Vec3) -> f32 {
+    v.x * v.x + v.y * v.y
 }
 
 /// Turn `yaw` (rad) towards the horizontal direction of `velocity` at most `p.rate · dt`;
 /// returns `true` when the heading error (the larger of `yaw`'s and `est_yaw`'s) still
-/// exceeds `p.max_error`. A (nearly) stationary or non-finite `velocity` keeps `yaw` and
+/// exceeds [`MAX_HEADING_ERROR`]. A (nearly) stationary or non-finite `velocity` keeps `yaw` and
 /// never waits; a non-finite `yaw` is left as it is.
 pub fn steer(p: &PathYawParams, yaw: &mut f32, velocity: &Vec3, est_yaw: f32, dt: f32) -> bool {
-    let speed = hypotf(velocity.x, velocity.y);
-    if !(speed.is_finite() && speed >= STATIONARY_SPEED && yaw.is_finite()) {
+    let speed_sq = horizontal_sq(velocity);
+    if !(speed_sq.is_finite() && speed_sq >= STATIONARY_SPEED * STATIONARY_SPEED && yaw.is_finite()) {
         return false;
     }
     let target = libm::atan2f(velocity.y, velocity.x);
@@ -211,18 +216,17 @@ pub fn steer(p: &PathYawParams, yaw: &mut f32, velocity: &Vec3, est_yaw: f32, dt
     *yaw = wrap_pi(*yaw + clampf(wrap_pi(target - *yaw), -step, step));
     let heading = if est_yaw.is_finite() { est_yaw } else { *yaw };
     let error = wrap_pi(target - *yaw).abs().max(wrap_pi(target - heading).abs());
-    // NaN-safe: a NaN threshold waits (never flies sideways on a bad parameter).
-    !matches!(error.partial_cmp(&p.max_error), Some(Ordering::Less | Ordering::Equal))
+    // `error` is finite here (finite target, yaw and heading).
+    error > MAX_HEADING_ERROR
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::waypoint::WaypointParams;
+    use crate::waypoint::{WaypointFollower, WaypointParams};
     use core::f32::consts::{FRAC_PI_2, PI};
 
-    const TRAVEL: PathYawParams =
-        PathYawParams { mode: YawMode::Travel, rate: DEFAULT_RATE, max_error: DEFAULT_MAX_ERROR };
+    const TRAVEL: PathYawParams = PathYawParams { mode: YawMode::Travel, rate: DEFAULT_RATE };
 
     /// [`steer`] with the vehicle's heading on the reference.
     fn turn(yaw: &mut f32, v: &Vec3, dt: f32) -> bool {
@@ -245,7 +249,7 @@ mod tests {
         assert_eq!(YawMode::default(), YawMode::Hold);
         assert!(PathYawParams::default().is_valid());
         assert!(!PathYawParams { rate: f32::NAN, ..TRAVEL }.is_valid());
-        assert!(!PathYawParams { max_error: 0.0, ..TRAVEL }.is_valid());
+        assert!(!PathYawParams { rate: 0.0, ..TRAVEL }.is_valid());
     }
 
     #[test]
@@ -259,7 +263,7 @@ mod tests {
         }
         // From north to east at 45°/s: (90° − 12°) / 45°/s = 1.733 s of waiting.
         let t = steps as f32 * dt;
-        assert!((t - (FRAC_PI_2 - DEFAULT_MAX_ERROR) / DEFAULT_RATE).abs() < 2.0 * dt, "{t}");
+        assert!((t - (FRAC_PI_2 - MAX_HEADING_ERROR) / DEFAULT_RATE).abs() < 2.0 * dt, "{t}");
         let mut prev = 0.0f32;
         let mut yaw = 0.0;
         for _ in 0..1000 {
@@ -330,6 +334,20 @@ mod tests {
         assert!(!steer(&TRAVEL, &mut yaw, &east(), FRAC_PI_2 - 0.1, 0.004));
     }
 
+    /// The follower's sample at the path's time, steered (what Guidance and ReturnPath do).
+    fn sample(
+        py: &mut PathYaw,
+        p: &PathYawParams,
+        f: &WaypointFollower<8>,
+        (t0, now): (u64, u64),
+        yaw: &mut f32,
+        v: &Steering,
+    ) -> PathSample {
+        let mut s = f.sample(py.path_time(p, t0, now));
+        py.steer_sample(p, &mut s, yaw, v);
+        s
+    }
+
     fn follower() -> WaypointFollower<8> {
         let mut f = WaypointFollower::new(WaypointParams { cruise_speed: 0.5, corner_radius: 0.0 }).unwrap();
         // 1 m north, then 1 m east.
@@ -349,7 +367,7 @@ mod tests {
         for k in 0..3000u64 {
             let now = k * 4000;
             let v = Steering { position: None, heading: yaw, dt };
-            let s = py.sample(&TRAVEL, &f, (0, now), &mut yaw, &v);
+            let s = sample(&mut py, &TRAVEL, &f, (0, now), &mut yaw, &v);
             if py.waiting() {
                 first_wait.get_or_insert(now);
                 corner_hold += 1;
@@ -369,7 +387,7 @@ mod tests {
         let t0 = first_wait.unwrap() as f32 * 1e-6;
         assert!((t0 - 2.0).abs() < 0.01, "{t0}");
         let waited = corner_hold as f32 * dt;
-        assert!((waited - (FRAC_PI_2 - DEFAULT_MAX_ERROR) / DEFAULT_RATE).abs() < 3.0 * dt, "{waited}");
+        assert!((waited - (FRAC_PI_2 - MAX_HEADING_ERROR) / DEFAULT_RATE).abs() < 3.0 * dt, "{waited}");
         assert_eq!(py.waited_us(), u64::from(corner_hold) * 4000);
         assert!((yaw - FRAC_PI_2).abs() < 1e-5, "{yaw}");
     }
@@ -383,7 +401,7 @@ mod tests {
         for k in 0..1500u64 {
             let now = 1_000 + k * 4000;
             let v = Steering { position: Some(Vec3::new(-3.0, 0.0, 0.0)), heading: 0.0, dt: 0.004 };
-            let s = py.sample(&hold, &f, (1_000, now), &mut yaw, &v);
+            let s = sample(&mut py, &hold, &f, (1_000, now), &mut yaw, &v);
             assert_eq!(s, f.sample((now - 1_000) as f32 * 1e-6));
             assert_eq!(yaw, 0.7);
             assert!(!py.waiting());
@@ -402,7 +420,7 @@ mod tests {
         let past = Some(goal + Vec3::new(0.0, 0.5, 0.0));
         for k in 0..2000u64 {
             let v = Steering { position: past, heading: yaw, dt: 0.004 };
-            let s = py.sample(&TRAVEL, &f, (0, done + k * 4000), &mut yaw, &v);
+            let s = sample(&mut py, &TRAVEL, &f, (0, done + k * 4000), &mut yaw, &v);
             assert!(s.progress.done && !py.waiting());
             assert_eq!(s.position, goal);
         }
@@ -411,7 +429,7 @@ mod tests {
         for position in [Some(goal + Vec3::new(0.06, -0.06, 0.3)), None] {
             let before = yaw;
             let v = Steering { position, heading: yaw, dt: 0.004 };
-            py.sample(&TRAVEL, &f, (0, done), &mut yaw, &v);
+            sample(&mut py, &TRAVEL, &f, (0, done), &mut yaw, &v);
             assert_eq!(yaw, before);
         }
     }

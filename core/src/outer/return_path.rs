@@ -132,7 +132,8 @@ impl ReturnPath {
         v: &Steering,
     ) -> Option<(Reference, Progress)> {
         let t0 = self.t0_us?;
-        let s = self.path_yaw.sample(yaw_params, &self.follower, (t0, now_us), yaw, v);
+        let mut s = self.follower.sample(self.path_yaw.path_time(yaw_params, t0, now_us));
+        self.path_yaw.steer_sample(yaw_params, &mut s, yaw, v);
         let r =
             Reference { position: s.position, velocity: s.velocity, acceleration: s.acceleration, yaw: *yaw };
         Some((r, s.progress))

@@ -7,7 +7,7 @@ use super::*;
 use crate::outer::path_yaw::YawMode;
 
 /// Entries of this part.
-pub(super) const N: usize = 32;
+pub(super) const N: usize = 31;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -251,7 +251,8 @@ pub(super) const TABLE: [Param; N] = [
         write: |p, v| p.modes.battery_failsafe = v >= 0.5,
     },
     // Issue 19: the yaw along a path (`outer::path_yaw`), so forward sensors look where the
-    // vehicle flies (PX4 MPC_YAW_MODE / MPC_YAWRAUTO_MAX / MIS_YAW_ERR).
+    // vehicle flies (PX4 MPC_YAW_MODE / MPC_YAWRAUTO_MAX; the heading threshold, PX4's MIS_YAW_ERR, is
+    // the constant `path_yaw::MAX_HEADING_ERROR`).
     Param {
         name: "MIS_YAW_MODE",
         key: Some(host_text("yaw_mode")),
@@ -280,16 +281,6 @@ pub(super) const TABLE: [Param; N] = [
         "MIS_YAW_MODE 1: largest turn rate of the yaw reference towards the travel direction",
         |p| p.guidance.path_yaw.rate,
         |p, v| p.guidance.path_yaw.rate = v,
-    ),
-    num(
-        "MIS_YAW_ERR",
-        "Mission",
-        "rad",
-        (0.01, crate::outer::path_yaw::DEFAULT_MAX_ERROR, core::f32::consts::PI),
-        3,
-        "MIS_YAW_MODE 1: the path waits while the heading is farther than this from the travel direction",
-        |p| p.guidance.path_yaw.max_error,
-        |p, v| p.guidance.path_yaw.max_error = v,
     ),
     // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
     rc_map(

@@ -107,7 +107,7 @@ pub struct RunArgs {
     filter: Option<FilterVariant>,
     /// Yaw along the path (MIS_YAW_MODE): hold (the heading at arming) | travel (face the direction
     /// of travel, turning at MIS_YAW_RATE; the path waits while the heading is more than
-    /// MIS_YAW_ERR off) [default: the scene's [controller] yaw_mode, else hold]. See docs/cascade.md.
+    /// 12° off) [default: the scene's [controller] yaw_mode, else hold]. See docs/cascade.md.
     #[arg(long, value_parser = parse_yaw_mode)]
     yaw_mode: Option<YawMode>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
