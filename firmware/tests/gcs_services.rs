@@ -18,9 +18,10 @@ use parapet_core::controller::ControllerParams;
 use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::dialect::{
-    MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavResult, MavSysStatusSensor, MissionState,
-    COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
-    MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA,
+    MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavParamType, MavResult, MavSysStatusSensor,
+    MissionState, COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA,
+    PARAM_SET_DATA,
 };
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::geo::HOME;
@@ -830,9 +831,12 @@ fn a_takeoff_item_started_in_the_air_goes_to_its_altitude_first() {
 }
 
 /// QGroundControl's default plan takes off to 50 m: the takeoff limit is now 120 m, so the plan
-/// is accepted and MISSION_START on the ground starts the climb. Above the limit, MISSION_START
-/// and a NAV_TAKEOFF command are DENIED with a STATUSTEXT saying why. Before: the limit was
-/// 10 m, QGroundControl's plan got MISSION_START DENIED, without a reason.
+/// is accepted and MISSION_START on the ground starts the climb. Above the limit (the parameter
+/// `MIS_TKO_ALT_MAX`) the upload is refused INVALID_PARAM7; a limit lowered under a stored plan
+/// makes MISSION_START DENIED, and a NAV_TAKEOFF command above it is DENIED, each with a
+/// STATUSTEXT saying why. Before: the limit was a fixed 10 m, QGroundControl's plan got
+/// MISSION_START DENIED, without a reason; then a fixed 120 m, a higher plan was accepted and
+/// only its start refused.
 #[test]
 fn qgroundcontrols_50_m_takeoff_flies_and_higher_is_refused_with_a_reason() {
     use parapet_firmware::link::takeoff_limit::TOO_HIGH_TEXT;
@@ -856,9 +860,21 @@ fn qgroundcontrols_50_m_takeoff_flies_and_higher_is_refused_with_a_reason() {
     let s = g.ap.telemetry();
     assert_eq!(s.phase, FlightPhase::Takeoff, "climbing to 50 m");
     assert!(s.setpoint.position_ned.z < -0.5, "{:?}", s.setpoint.position_ned);
-    // Above the limit: refused, with the reason.
+    // Above the limit: the upload is refused.
     let mut g = Sim::new();
-    assert_eq!(g.upload_items(&plan(150.0)), MavMissionResult::MAV_MISSION_ACCEPTED);
+    assert_eq!(g.upload_items(&plan(150.0)), MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+    // The 50 m plan, then the limit set to 40 m by PARAM_SET: its start is refused, with the reason.
+    assert_eq!(g.upload_items(&plan(50.0)), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let limit = PARAM_SET_DATA {
+        param_value: 40.0,
+        target_system: 1,
+        target_component: 1,
+        param_id: parapet_firmware::link::outbound::name("MIS_TKO_ALT_MAX"),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    };
+    g.send(&limit);
+    assert_eq!(g.ap.get_param("MIS_TKO_ALT_MAX"), Some(40.0));
+    assert_eq!(g.upload_items(&plan(45.0)), MavMissionResult::MAV_MISSION_INVALID_PARAM7, "40 m now");
     g.run(500);
     assert_eq!(g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm), MavResult::MAV_RESULT_ACCEPTED);
     let start = COMMAND_LONG_DATA {
@@ -872,12 +888,12 @@ fn qgroundcontrols_50_m_takeoff_flies_and_higher_is_refused_with_a_reason() {
     };
     let out = g.send(&start);
     assert!(denied(&out) && texts(&out) == 1, "MISSION_START: {out:?}");
-    let takeoff = COMMAND_LONG_DATA { param7: 130.0, command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16, ..start };
+    let takeoff = COMMAND_LONG_DATA { param7: 41.0, command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16, ..start };
     let out = g.send(&takeoff);
     assert!(denied(&out) && texts(&out) == 1, "NAV_TAKEOFF: {out:?}");
-    let ok = COMMAND_LONG_DATA { param7: 110.0, ..takeoff };
+    let ok = COMMAND_LONG_DATA { param7: 39.0, ..takeoff };
     let out = g.send(&ok);
-    assert!(!denied(&out) && texts(&out) == 0, "110 m is within the limit: {out:?}");
+    assert!(!denied(&out) && texts(&out) == 0, "39 m is within the limit: {out:?}");
 }
 
 /// TAKEOFF then LAND at a position: the vehicle climbs, flies to the landing point at the

@@ -87,7 +87,7 @@ pub struct GuidanceParams {
 /// Default takeoff height limit, m: 120 m, the height ceiling of the common drone rules (EU
 /// open category, US Part 107's 400 ft), which takes QGroundControl's default plan (50 m) and
 /// keeps a mission from commanding a takeoff beyond it. Was 10 m, which refused QGroundControl's
-/// default plan. Not yet in the parameter table (docs/ground-station.md, § Open).
+/// default plan. Parameter `MIS_TKO_ALT_MAX` (1–500 m).
 pub const TAKEOFF_HEIGHT_MAX_DEFAULT: f32 = 120.0;
 
 impl Default for GuidanceParams {

@@ -7,7 +7,7 @@ use super::*;
 use crate::outer::path_yaw::YawMode;
 
 /// Entries of this part.
-pub(super) const N: usize = 31;
+pub(super) const N: usize = 32;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -281,6 +281,17 @@ pub(super) const TABLE: [Param; N] = [
         "MIS_YAW_MODE 1: largest turn rate of the yaw reference towards the travel direction",
         |p| p.guidance.path_yaw.rate,
         |p, v| p.guidance.path_yaw.rate = v,
+    ),
+    num(
+        "MIS_TKO_ALT_MAX",
+        "Mission",
+        "m",
+        (1.0, crate::outer::guidance::TAKEOFF_HEIGHT_MAX_DEFAULT, 500.0),
+        1,
+        "Largest takeoff height above home: a higher TAKEOFF mission item is refused at upload \
+         (MISSION_ACK INVALID_PARAM7), a higher NAV_TAKEOFF command or mission start is DENIED",
+        |p| p.guidance.takeoff_height_max,
+        |p, v| p.guidance.takeoff_height_max = v,
     ),
     // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
     rc_map(

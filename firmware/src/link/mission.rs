@@ -21,8 +21,10 @@
 //!   position: then fly there at that altitude as the path's first waypoint. The mission begins
 //!   with the cascade's takeoff ramp to that height where the vehicle is, started armed on the
 //!   ground or airborne (then up or down to it, as PX4 flies a TAKEOFF item in the air;
-//!   [`crate::link::mission_run`]); the height must be within the cascade's takeoff limit, or
-//!   MISSION_START is DENIED.
+//!   [`crate::link::mission_run`]). A height above the takeoff limit `MIS_TKO_ALT_MAX` (the
+//!   cascade's `GuidanceParams::takeoff_height_max`) is refused at upload (INVALID_PARAM7, as PX4
+//!   checks a plan's feasibility when it arrives); the limit set lower after the upload makes
+//!   MISSION_START DENIED.
 //! * `NAV_LAND` (21): x = y = 0 → land where the last waypoint was reached; a position → fly there
 //!   at the previous navigation item's altitude (refused UNSUPPORTED without one), then land.
 //!   The cascade's Land mode lands and disarms on the ground.
@@ -349,13 +351,15 @@ impl MissionUpload {
     }
 
     /// MISSION_ITEM_INT from (`sys`, `comp`) at `now_us`; `None` when the item is ignored
-    /// (no upload in progress, or from another partner).
+    /// (no upload in progress, or from another partner). A TAKEOFF higher than
+    /// `takeoff_max_m` (m above home, `MIS_TKO_ALT_MAX`) fails the upload with INVALID_PARAM7.
     pub fn on_item(
         &mut self,
         msg: &MISSION_ITEM_INT_DATA,
         sys: u8,
         comp: u8,
         now_us: u64,
+        takeoff_max_m: f32,
     ) -> Option<MissionReply> {
         let State::Receiving { count, next, partner_sys, partner_comp, .. } = self.state else {
             return None;
@@ -371,7 +375,13 @@ impl MissionUpload {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         }
         let it = Item { x: msg.x, y: msg.y, z: msg.z, command: msg.command, frame: msg.frame };
-        if let Err(e) = step_of(&it).and_then(|s| s.map_or(Ok(()), |s| check_order(&self.items, s))) {
+        let checked = step_of(&it).and_then(|s| match s {
+            Some(Step::Takeoff { height_m, .. }) if height_m > takeoff_max_m => {
+                Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7)
+            }
+            s => s.map_or(Ok(()), |s| check_order(&self.items, s)),
+        });
+        if let Err(e) = checked {
             return Some(self.fail(e));
         }
         if self.items.push(it).is_err() {
@@ -560,6 +570,9 @@ pub fn ack(sys: u8, comp: u8, result: MavMissionResult, mission_type: MavMission
 mod tests {
     use super::*;
 
+    /// The default takeoff limit, m (`MIS_TKO_ALT_MAX`).
+    const TKO: f32 = parapet_core::outer::guidance::TAKEOFF_HEIGHT_MAX_DEFAULT;
+
     fn item(seq: u16, x: f32, y: f32, z: f32) -> MISSION_ITEM_INT_DATA {
         MISSION_ITEM_INT_DATA {
             x: parapet_core::wire::ids::local_xy_to_wire(f64::from(x)),
@@ -589,9 +602,9 @@ mod tests {
     fn full_upload_in_order() {
         let mut m = MissionUpload::new();
         assert_eq!(req_seq(Some(m.on_count(&count(3), 255, 190, 0))), Some(0));
-        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 10)), Some(1));
-        assert_eq!(req_seq(m.on_item(&item(1, 2.5, -1.25, -1.5), 255, 190, 20)), Some(2));
-        assert_eq!(m.on_item(&item(2, 3.0, 1.0, -2.0), 255, 190, 30), Some(MissionReply::Complete));
+        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 10, TKO)), Some(1));
+        assert_eq!(req_seq(m.on_item(&item(1, 2.5, -1.25, -1.5), 255, 190, 20, TKO)), Some(2));
+        assert_eq!(m.on_item(&item(2, 3.0, 1.0, -2.0), 255, 190, 30, TKO), Some(MissionReply::Complete));
         assert_eq!(m.path().len(), 3);
         assert!((m.path()[1] - Vec3::new(2.5, -1.25, -1.5)).norm() < 1e-4);
         let ack = m.ack_for(MavMissionResult::MAV_MISSION_ACCEPTED);
@@ -603,9 +616,9 @@ mod tests {
     fn duplicates_are_re_requested_and_gaps_abort() {
         let mut m = MissionUpload::new();
         m.on_count(&count(3), 255, 190, 0);
-        m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0);
-        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0)), Some(1));
-        match m.on_item(&item(2, 1.0, 0.0, -1.0), 255, 190, 0) {
+        m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0, TKO);
+        assert_eq!(req_seq(m.on_item(&item(0, 1.0, 0.0, -1.0), 255, 190, 0, TKO)), Some(1));
+        match m.on_item(&item(2, 1.0, 0.0, -1.0), 255, 190, 0, TKO) {
             Some(MissionReply::Ack(a)) => {
                 assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)
             }
@@ -622,10 +635,10 @@ mod tests {
             other => panic!("{other:?}"),
         }
         m.on_count(&count(2), 255, 190, 0);
-        assert_eq!(m.on_item(&item(0, 1.0, 0.0, -1.0), 7, 1, 0), None);
+        assert_eq!(m.on_item(&item(0, 1.0, 0.0, -1.0), 7, 1, 0, TKO), None);
         let mut bad = item(0, 1.0, 0.0, -1.0);
         bad.frame = MavFrame::MAV_FRAME_BODY_FRD;
-        match m.on_item(&bad, 255, 190, 0) {
+        match m.on_item(&bad, 255, 190, 0, TKO) {
             Some(MissionReply::Ack(a)) => {
                 assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME)
             }
@@ -634,14 +647,14 @@ mod tests {
         m.on_count(&count(1), 255, 190, 0);
         let mut bad = item(0, 1.0, 0.0, f32::NAN);
         bad.z = f32::NAN;
-        match m.on_item(&bad, 255, 190, 0) {
+        match m.on_item(&bad, 255, 190, 0, TKO) {
             Some(MissionReply::Ack(a)) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_INVALID_PARAM7),
             other => panic!("{other:?}"),
         }
         m.on_count(&count(1), 255, 190, 0);
         let mut bad = item(0, 1.0, 0.0, -1.0);
         bad.command = MavCmd::MAV_CMD_NAV_LAND as u16;
-        match m.on_item(&bad, 255, 190, 0) {
+        match m.on_item(&bad, 255, 190, 0, TKO) {
             Some(MissionReply::Ack(a)) => assert_eq!(a.mavtype, MavMissionResult::MAV_MISSION_UNSUPPORTED),
             other => panic!("{other:?}"),
         }
@@ -678,7 +691,7 @@ mod tests {
     fn download_serves_the_accepted_path_only() {
         let mut m = MissionUpload::new();
         m.on_count(&count(1), 255, 190, 0);
-        assert_eq!(m.on_item(&item(0, 1.5, -2.0, -1.0), 255, 190, 0), Some(MissionReply::Complete));
+        assert_eq!(m.on_item(&item(0, 1.5, -2.0, -1.0), 255, 190, 0, TKO), Some(MissionReply::Complete));
         // Not accepted by the cascade yet: nothing to download.
         assert!(matches!(m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8),
             DownloadReply::Count(c) if c.count == 0 && (c.target_system, c.target_component) == (9, 8)));
@@ -689,7 +702,7 @@ mod tests {
         }
         // A failed later upload keeps the accepted path downloadable.
         m.on_count(&count(2), 255, 190, 0);
-        m.on_item(&item(1, 1.0, 0.0, -1.0), 255, 190, 0);
+        m.on_item(&item(1, 1.0, 0.0, -1.0), 255, 190, 0, TKO);
         assert!(matches!(m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8),
             DownloadReply::Count(c) if c.count == 1));
         m.clear();
@@ -724,7 +737,7 @@ mod tests {
         ];
         m.on_count(&count(items.len() as u16), 255, 190, 0);
         for (k, it) in items.iter().enumerate() {
-            let r = m.on_item(it, 255, 190, 0);
+            let r = m.on_item(it, 255, 190, 0, TKO);
             if k + 1 < items.len() {
                 assert_eq!(req_seq(r), Some(k as u16 + 1));
             } else {
@@ -790,8 +803,38 @@ mod tests {
         ] {
             let mut m = MissionUpload::new();
             m.on_count(&count(1), 255, 190, 0);
-            assert_eq!(refusal(m.on_item(&it, 255, 190, 0)), want, "{it:?}");
+            assert_eq!(refusal(m.on_item(&it, 255, 190, 0, TKO)), want, "{it:?}");
             assert!(m.path().is_empty() && !m.is_receiving());
+        }
+    }
+
+    /// A TAKEOFF above `MIS_TKO_ALT_MAX` fails the upload with INVALID_PARAM7 (before: accepted,
+    /// and only the mission start was DENIED); at the limit it is accepted.
+    #[test]
+    fn a_takeoff_above_the_limit_is_refused_at_upload() {
+        use crate::link::geo::HOME;
+        let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+        let takeoff = |z| MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
+            ..global(0, rel, HOME.0, HOME.1, z)
+        };
+        for (z, limit, want) in [
+            (50.0, TKO, None),
+            (120.0, TKO, None),
+            (120.5, TKO, Some(MavMissionResult::MAV_MISSION_INVALID_PARAM7)),
+            (12.0, 10.0, Some(MavMissionResult::MAV_MISSION_INVALID_PARAM7)),
+            (10.0, 10.0, None),
+        ] {
+            let mut m = MissionUpload::new();
+            m.on_count(&count(1), 255, 190, 0);
+            let r = m.on_item(&takeoff(z), 255, 190, 0, limit);
+            match want {
+                None => assert_eq!(r, Some(MissionReply::Complete), "{z} m under {limit} m"),
+                Some(e) => {
+                    assert_eq!(refusal(r), e, "{z} m over {limit} m");
+                    assert!(m.path().is_empty() && !m.is_receiving());
+                }
+            }
         }
     }
 
@@ -806,7 +849,7 @@ mod tests {
         m.on_count(&count(items.len() as u16), 255, 190, 0);
         let mut last = None;
         for it in items {
-            last = m.on_item(it, 255, 190, 0);
+            last = m.on_item(it, 255, 190, 0, TKO);
             if matches!(last, Some(MissionReply::Ack(_))) {
                 break;
             }

@@ -384,7 +384,10 @@ impl Router {
         ap: &mut A,
     ) {
         if self.for_me(m.target_system, m.target_component) {
-            if let Some(r) = self.mission.on_item(m, f.sys_id, f.comp_id, now_us) {
+            let takeoff_max = ap
+                .get_param("MIS_TKO_ALT_MAX")
+                .unwrap_or(parapet_core::outer::guidance::TAKEOFF_HEIGHT_MAX_DEFAULT);
+            if let Some(r) = self.mission.on_item(m, f.sys_id, f.comp_id, now_us, takeoff_max) {
                 self.mission_reply(r, ap);
             }
         }
