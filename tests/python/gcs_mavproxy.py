@@ -4,7 +4,8 @@ usage: gcs_mavproxy.py VENV_BIN PORT LOGDIR
 
 MAVProxy runs interactively with its console on a pipe: the commands are typed only after the
 vehicle's first heartbeat was seen (a command given with --cmd at start-up goes out before the
-vehicle exists and is lost), each waits for its answer, and a time-out fails the test.
+vehicle exists and is lost), each waits for its answer, and a time-out fails the test. The
+parameter fetch must see its MAVLink FTP request refused (NAK), not timed out.
 """
 import os
 import subprocess
@@ -54,8 +55,22 @@ def send(cmd):
 
 
 wait_for(lambda l: "Detected vehicle" in l or "online system" in l, 30, "vehicle heartbeat")
+# MAVProxy asks for the parameter file by MAVLink FTP first; the firmware answers every FTP
+# request NAK (firmware/src/link/ftp.rs). With the ftp module's debug on, MAVProxy prints "ftp open
+# failed" for that NAK and "FTP: request timed out" if no answer comes (before the NAK: ~10 s).
+send("ftp set debug 1")
 send("param fetch")
+t_fetch = time.time()
 got = wait_for(lambda l: l.startswith("Received ") and "parameters" in l, 30, "param fetch")
+t_fetch = time.time() - t_fetch
+with lock:
+    text = [l for _, l in lines]
+if not any("ftp open failed" in l for l in text) or any("request timed out" in l for l in text):
+    print("\n".join(text))
+    print("FAIL: the FTP request was not refused at once (no 'ftp open failed', or a time-out)")
+    proc.kill()
+    sys.exit(1)
+print(f"param fetch: {t_fetch:.1f} s (FTP refused, then the parameter protocol)")
 send("wp list")
 wp = wait_for(lambda l: ("Requesting" in l and "waypoints" in l) or ("Saved" in l and "waypoints" in l),
               30, "wp list")

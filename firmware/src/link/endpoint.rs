@@ -186,6 +186,41 @@ mod tests {
         core::iter::from_fn(|| l.pop_reply()).collect()
     }
 
+    /// MAVProxy's FTP OpenFileRO of the parameter file, addressed to this vehicle, is answered at
+    /// once with a NAK to the sender (before: ignored, and MAVProxy waited ~10 s before its
+    /// parameter download); one addressed to another system is not answered.
+    #[test]
+    fn an_ftp_request_is_answered_nak_to_the_sender() {
+        use crate::link::dialect::FILE_TRANSFER_PROTOCOL_DATA;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Arrival);
+        let mut w = gcs();
+        let mut payload = [0u8; 251];
+        payload[0..2].copy_from_slice(&7u16.to_le_bytes());
+        payload[3] = 4; // OpenFileRO
+        payload[4] = 15;
+        payload[12..27].copy_from_slice(b"@PARAM/param.pc");
+        for (target, answered) in [(1, true), (0, true), (2, false)] {
+            let req = FILE_TRANSFER_PROTOCOL_DATA {
+                target_network: 0,
+                target_system: target,
+                target_component: 0,
+                payload,
+            };
+            l.push_bytes(&send(&mut w, &req), 0, &mut ap);
+            let r = replies(&mut l);
+            if !answered {
+                assert!(r.is_empty(), "to system {target}: {r:?}");
+                continue;
+            }
+            let [Outbound::FtpNak(nak)] = r[..] else { panic!("to system {target}: {r:?}") };
+            let m = nak.data();
+            assert_eq!((m.target_system, m.target_component), (255, 190));
+            assert_eq!(&m.payload[..6], &[8, 0, 0, crate::link::ftp::RSP_NAK, 1, 4]);
+            assert_eq!(m.payload[12], crate::link::ftp::ERR_UNKNOWN_COMMAND);
+        }
+    }
+
     #[test]
     fn mission_upload_through_the_link_installs_the_path() {
         let mut ap = RecordingAutopilot::new();

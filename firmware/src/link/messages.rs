@@ -8,8 +8,8 @@
 #![allow(deprecated)] // PING, MISSION_SET_CURRENT, MISSION_ITEM, MISSION_REQUEST: deprecated by MAVLink, still sent by ground stations
 
 use crate::link::dialect::{
-    COMMAND_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, PARAM_REQUEST_LIST_DATA,
-    PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, TIMESYNC_DATA,
+    COMMAND_INT_DATA, FILE_TRANSFER_PROTOCOL_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA,
+    PARAM_REQUEST_LIST_DATA, PARAM_REQUEST_READ_DATA, PARAM_SET_DATA, TIMESYNC_DATA,
 };
 use crate::link::dialect::{
     COMMAND_LONG_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
@@ -68,6 +68,9 @@ pub enum Inbound {
     CommandInt(COMMAND_INT_DATA),
     /// Time synchronisation request (tc1 = 0) or answer.
     Timesync(TIMESYNC_DATA),
+    /// A MAVLink FTP request (FILE_TRANSFER_PROTOCOL; header only, answered NAK:
+    /// [`crate::link::ftp`]).
+    FtpRequest(crate::link::ftp::FtpRequest),
     /// PING request (answered) or answer (ignored).
     Ping(PING_DATA),
     /// Legacy mode change.
@@ -117,6 +120,7 @@ pub fn extra_crc(msg_id: u32) -> Option<u8> {
         MISSION_REQUEST_INT_DATA::ID => MISSION_REQUEST_INT_DATA::EXTRA_CRC,
         COMMAND_INT_DATA::ID => COMMAND_INT_DATA::EXTRA_CRC,
         TIMESYNC_DATA::ID => TIMESYNC_DATA::EXTRA_CRC,
+        FILE_TRANSFER_PROTOCOL_DATA::ID => FILE_TRANSFER_PROTOCOL_DATA::EXTRA_CRC,
         PING_DATA::ID => PING_DATA::EXTRA_CRC,
         SET_MODE_DATA::ID => SET_MODE_DATA::EXTRA_CRC,
         MISSION_SET_CURRENT_DATA::ID => MISSION_SET_CURRENT_DATA::EXTRA_CRC,
@@ -240,6 +244,7 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         MISSION_REQUEST_INT_DATA::ID => Inbound::MissionRequestInt(de(p)?),
         COMMAND_INT_DATA::ID => Inbound::CommandInt(de(p)?),
         TIMESYNC_DATA::ID => Inbound::Timesync(de(p)?),
+        FILE_TRANSFER_PROTOCOL_DATA::ID => Inbound::FtpRequest(crate::link::ftp::FtpRequest::parse(p)),
         PING_DATA::ID => Inbound::Ping(de(p)?),
         SET_MODE_DATA::ID => Inbound::SetMode(de(p)?),
         MISSION_SET_CURRENT_DATA::ID => Inbound::MissionSetCurrent(de(p)?),
@@ -272,6 +277,6 @@ mod tests {
         for id in ids {
             assert_eq!(frame_extra_crc(id), old(id), "id {id}");
         }
-        assert_eq!(FRAME_IDS.len(), 87);
+        assert_eq!(FRAME_IDS.len(), 88);
     }
 }

@@ -6,7 +6,8 @@
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
 //! message intervals, ATTITUDE_TARGET, BATTERY_STATUS, MISSION_ITEM_REACHED) and the MAVLink v1
-//! refusal ([`v1`]), the takeoff height limit's refusals ([`takeoff_limit`]) and the global ↔
+//! refusal ([`v1`]), the NAK to every MAVLink FTP request ([`ftp`]), the takeoff height limit's
+//! refusals ([`takeoff_limit`]) and the global ↔
 //! local NED conversion around home ([`geo`]).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
@@ -18,6 +19,7 @@ pub mod dialect;
 pub mod endpoint;
 pub mod frame_parser;
 pub mod framing;
+pub mod ftp;
 pub mod geo;
 pub mod inputs;
 pub mod manual_control;

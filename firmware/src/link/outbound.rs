@@ -133,6 +133,8 @@ pub enum Outbound {
     AttitudeTarget(ATTITUDE_TARGET_DATA),
     /// BATTERY_STATUS.
     BatteryStatus(BATTERY_STATUS_DATA),
+    /// FILE_TRANSFER_PROTOCOL: the NAK to an FTP request ([`crate::link::ftp`]).
+    FtpNak(crate::link::ftp::FtpNak),
     /// STATUSTEXT framed in MAVLink **v1** (the answer to a v1 ground station,
     /// [`crate::link::v1`]).
     StatusTextV1(STATUSTEXT_DATA),
@@ -204,6 +206,7 @@ impl Outbound {
             Outbound::MissionItemReached(m) => s(m, p),
             Outbound::AttitudeTarget(m) => s(m, p),
             Outbound::BatteryStatus(m) => s(m, p),
+            Outbound::FtpNak(m) => s(&m.data(), p),
         }
     }
 }

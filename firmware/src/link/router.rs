@@ -551,6 +551,13 @@ impl Router {
                 }
             }
             Inbound::CommandLong(m) => self.on_command(&m, (f.sys_id, f.comp_id), now_us, ap),
+            Inbound::FtpRequest(r) => {
+                if self.for_me(r.target_system, r.target_component) {
+                    if let Some(nak) = crate::link::ftp::answer(&r, f.sys_id, f.comp_id) {
+                        self.reply(Outbound::FtpNak(nak));
+                    }
+                }
+            }
             Inbound::Ping(m) => {
                 if let Some(r) = crate::link::services::ping_reply(&m, (f.sys_id, f.comp_id)) {
                     self.reply(Outbound::Ping(r));
