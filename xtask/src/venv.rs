@@ -1,6 +1,9 @@
 //! The Python venv of the ground-station client tests (`tests/tests/gcs_clients.rs`):
 //! `<target>/venv` created with `python3 -m venv` and the pinned clients of
-//! `tests/python/requirements.txt` (pymavlink, pyulog, MAVProxy, mavsdk) installed with pip.
+//! `tests/python/requirements.txt` (pymavlink, pyulog, MAVProxy, mavsdk) installed with pip,
+//! `--no-deps` (the file pins every package the clients import, dependencies included; see its
+//! header for what MAVProxy's own requirements would add) and `--no-cache-dir` (no second copy of
+//! the wheels on disk).
 //! On a fresh Debian/Ubuntu machine `python3-venv` (and `python3-pip`'s ensurepip) may be
 //! missing: installed with apt-get when root, as QEMU is; otherwise the command to run is
 //! printed. Re-used when the requirements are already installed (a stamp file holds the
@@ -52,11 +55,12 @@ pub fn ensure() -> Result<PathBuf, String> {
             ]),
         )?;
     }
-    run("create the Python venv", Command::new("python3").args(["-m", "venv"]).arg(&venv))?;
+    // `--clear`: a venv made from other requirements starts empty (no stale packages).
+    run("create the Python venv", Command::new("python3").args(["-m", "venv", "--clear"]).arg(&venv))?;
     run(
         "pip install the ground-station clients",
         Command::new(venv.join("bin/pip"))
-            .args(["install", "-q", "--disable-pip-version-check", "-r"])
+            .args(["install", "-q", "--no-deps", "--no-cache-dir", "--disable-pip-version-check", "-r"])
             .arg(&req_path),
     )?;
     std::fs::write(&stamp, req).map_err(|e| format!("cannot write {}: {e}", stamp.display()))?;
