@@ -11,11 +11,14 @@
 //!   ODOMETRY yaw quaternion.
 //! - [`lockstep`]: the lockstep rule (which HIL_SENSOR runs the outer loop) and the motor
 //!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
+//! - [`battery`]: the host's raw pack reading on the lockstep link (BATTERY_STATUS from the
+//!   host's id: mV, cA).
 //!
 //! Message types themselves come from the `mavlink` crate on both sides (this module is
 //! `no_std` and does not depend on it). May import: [`crate::cbf`] (region codes) and
-//! [`crate::fmath`]; nothing else of the crate.
+//! [`crate::fmath`]; nothing else of the crate (`libm` for rounding).
 
+pub mod battery;
 pub mod codes;
 pub mod ids;
 pub mod lockstep;
