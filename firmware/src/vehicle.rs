@@ -28,7 +28,7 @@ use crate::app::autopilot::{
 use crate::setup::{Setup, SetupAck, StorageRequest, Text};
 use crate::storage::{Loaded, ParamStore};
 use embedded_storage_async::nor_flash::NorFlash;
-use parapet_core::battery::BatteryState;
+use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::calibration::ImuCorrection;
 use parapet_core::config::ControllerParams;
 use parapet_core::msg;
@@ -196,6 +196,9 @@ impl<A: ControlSteps> Autopilot for SetupVehicle<A> {
     }
     fn set_battery(&mut self, b: &BatteryState) {
         self.inner.set_battery(b)
+    }
+    fn battery_params(&self) -> Option<BatteryParams> {
+        self.inner.battery_params()
     }
     fn setup_command(&mut self, now_us: u64, id: u16, p: [f32; 7]) -> Option<SetupAck> {
         let params = self.params;

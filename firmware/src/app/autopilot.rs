@@ -7,7 +7,7 @@
 //!
 //! Frames: world NED, body FRD, SI units (see `parapet_core::frame`).
 
-use parapet_core::battery::BatteryState;
+use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::obstacle::ObstaclePoint;
 pub use parapet_core::outer::offboard::OffboardSetpoint;
 use parapet_core::rc::map::RcParams;
@@ -259,6 +259,13 @@ pub trait Autopilot {
     fn set_offboard(&mut self, _sp: &OffboardSetpoint) {}
     /// One battery measurement (low → Return, critical → Land).
     fn set_battery(&mut self, _b: &BatteryState) {}
+    /// The battery estimator's parameters as set (the `BAT_*` entries of the parameter table),
+    /// for a measurement taken next to the link instead of in a board's ADC task (the PIL's
+    /// host-fed pack, `crate::pil::battery`; the boards' task gets them through its mailbox).
+    /// Default `None`: the stack takes no such measurement.
+    fn battery_params(&self) -> Option<BatteryParams> {
+        None
+    }
     /// PREFLIGHT_STORAGE / PREFLIGHT_CALIBRATION / DO_MOTOR_TEST ([`crate::setup::Setup::command`]):
     /// the answer when `id` is one of them, `None` otherwise (then the router handles the
     /// command). Default: `None` (no setup services).
@@ -302,6 +309,10 @@ pub(crate) mod test_double {
         pub mode: FlightMode,
         pub mode_changes: u32,
         pub mode_reason: Option<&'static str>,
+        /// The last battery measurement handed over.
+        pub battery: Option<BatteryState>,
+        /// What [`Autopilot::battery_params`] answers.
+        pub battery_params: Option<BatteryParams>,
     }
 
     impl RecordingAutopilot {
@@ -382,8 +393,15 @@ pub(crate) mod test_double {
                 mode: self.mode,
                 mode_changes: self.mode_changes,
                 mode_reason: self.mode_reason,
+                battery: self.battery,
                 ..TelemetrySnapshot::BOOT
             }
+        }
+        fn set_battery(&mut self, b: &BatteryState) {
+            self.battery = Some(*b);
+        }
+        fn battery_params(&self) -> Option<BatteryParams> {
+            self.battery_params
         }
     }
 }

@@ -26,7 +26,7 @@
 //! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`].
 
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
-use parapet_core::battery::BatteryState;
+use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::controller::{CommandError, ControllerParams, FlightController, GuidanceMode, ParamError};
 use parapet_core::failsafe::{FailsafeState, TransitionReason};
 use parapet_core::inner::InnerLoop;
@@ -482,6 +482,10 @@ impl Autopilot for Cascade {
     }
     fn set_battery(&mut self, b: &BatteryState) {
         self.port().set_battery(b);
+    }
+    fn battery_params(&self) -> Option<BatteryParams> {
+        // The set as written, as the boards' battery task gets it (`SetupOuter`'s mirror).
+        Some(self.outer.stored.battery)
     }
 }
 

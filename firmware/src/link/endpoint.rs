@@ -6,7 +6,7 @@
 //! May import: the other `link` modules, [`crate::app`] (the `Autopilot` boundary), `parapet_core`.
 
 use crate::app::autopilot::Autopilot;
-use crate::link::frame_parser::ParserStats;
+use crate::link::frame_parser::{ParserStats, RawFrame};
 use crate::link::inputs::{FixClock, HilSample};
 use crate::link::manual_control::ManualControlStats;
 use crate::link::obstacles::ObstacleStats;
@@ -38,6 +38,20 @@ impl Link {
     pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;
         self.framer.push(byte, &mut |_| false, &mut |r| router.on_received(r, now_us, ap));
+    }
+
+    /// [`Link::push_byte`], with the frame this byte completes (if any) offered to `divert` first:
+    /// `true` = taken by the caller, not dispatched (the PIL application's host-only lockstep
+    /// input, `crate::pil::battery`). Counted in the framer's statistics like any other frame.
+    pub fn push_byte_diverting<A: Autopilot>(
+        &mut self,
+        byte: u8,
+        now_us: u64,
+        ap: &mut A,
+        divert: &mut impl FnMut(&RawFrame<'_>) -> bool,
+    ) {
+        let router = &mut self.router;
+        self.framer.push(byte, divert, &mut |r| router.on_received(r, now_us, ap));
     }
 
     /// Handles what a board's receiving task framed elsewhere (its own [`Framer`]: a decoded

@@ -4,6 +4,10 @@
 //! [`TickCounter`] on SysTick), so the whole protocol is host-tested. The protocol itself is
 //! specified in `firmware/README.md` ("QEMU lockstep protocol").
 //!
+//! **Battery**: the host's raw pack readings (BATTERY_STATUS from the host's id) are taken out
+//! of the byte stream before the link dispatches them and measured by [`crate::pil::battery`]
+//! at the firmware time of the last answered step.
+//!
 //! **Onboard log** ([`PilApp::with_log`]): after each control step that ran the outer loop, the
 //! step's telemetry goes through a bounded queue ([`LOG_QUEUE_LEN`], the same `embassy-sync`
 //! channel a board's control task would use; full → dropped, counted) to the log writer, which
@@ -30,6 +34,7 @@ use crate::link::{FixClock, Link};
 use crate::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
 use crate::log::service::{LogService, RamLogStore};
 use crate::log::transfer::{LogReply, REPLIES_PER_POLL};
+use crate::pil::battery::{is_host_reading, reading_of, PilBattery};
 use crate::pil::lockstep::{InstructionCalibration, LockstepScheduler};
 
 /// Instructions of the start-up calibration loop (2 × 50 000 iterations of a 2-instruction loop
@@ -101,6 +106,7 @@ pub struct PilApp<A: ControlSteps> {
     last_t_us: u64,
     log: Option<LogService<RamLogStore>>,
     log_queue: Channel<CriticalSectionRawMutex, LogSample, LOG_QUEUE_LEN>,
+    battery: PilBattery,
 }
 
 impl<A: ControlSteps> PilApp<A> {
@@ -123,6 +129,7 @@ impl<A: ControlSteps> PilApp<A> {
             last_t_us: 0,
             log: None,
             log_queue: Channel::new(),
+            battery: PilBattery::new(),
         }
     }
 
@@ -157,6 +164,11 @@ impl<A: ControlSteps> PilApp<A> {
     /// The link (counters).
     pub fn link(&self) -> &Link {
         &self.link
+    }
+
+    /// The battery measurement of the host's simulated pack (counters).
+    pub fn battery(&self) -> &PilBattery {
+        &self.battery
     }
 
     /// The autopilot.
@@ -229,7 +241,22 @@ impl<A: ControlSteps> PilApp<A> {
                 log.on_byte(b);
             }
             let now = self.scheduler_time();
-            self.link.push_byte(b, now, &mut self.autopilot);
+            // The host's raw battery reading is taken here, never dispatched (`pil::battery`).
+            let mut reading = None;
+            self.link.push_byte_diverting(b, now, &mut self.autopilot, &mut |f| {
+                let host = is_host_reading(f);
+                if host {
+                    reading = Some(reading_of(f.payload));
+                }
+                host
+            });
+            match reading {
+                Some(Some(r)) => {
+                    let _ = self.battery.take(now, r, &mut self.autopilot);
+                }
+                Some(None) => self.battery.undecodable(),
+                None => {}
+            }
             while let Some(r) = self.link.pop_reply() {
                 self.send(port, &r);
             }
@@ -485,6 +512,89 @@ mod tests {
         port.tx.clear();
         assert_eq!(app.poll(&mut port, &ticks), 0);
         assert!(port.tx.is_empty());
+    }
+
+    /// The host's BATTERY_STATUS (its system and component id, before a step's HIL_SENSOR) is
+    /// measured by the cascade's estimator with the parameters as set: SYS_STATUS and the
+    /// vehicle's own BATTERY_STATUS report it; an unknown voltage is refused (the state stays),
+    /// and a BATTERY_STATUS from another system is no reading.
+    #[test]
+    fn the_hosts_battery_status_is_measured_and_reported() {
+        use crate::app::autopilot::Autopilot;
+        use crate::app::cascade::Cascade;
+        use crate::link::dialect::{BATTERY_STATUS_DATA, SYS_STATUS_DATA};
+        use crate::vehicle::SetupVehicle;
+        use parapet_core::battery::BatteryLevel;
+        use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
+        use parapet_core::wire::ids::{HOST_COMPONENT_ID, HOST_SYSTEM_ID};
+
+        let mut params = ControllerParams::default();
+        params.battery.cells = 3;
+        let cascade = Cascade::new(params).expect("default parameters");
+        let cal = InstructionCalibration { instructions: 100_000, ticks: 16_800 };
+        let mut app = std::boxed::Box::new(PilApp::new(SetupVehicle::new(cascade, params), cal));
+        let mut port = FakePort::default();
+        let ticks = FakeTicks(Cell::new(1_000_000));
+        let mut host = FrameWriter::new(HOST_SYSTEM_ID, HOST_COMPONENT_ID);
+        port.rx.extend(host.encode(&HEARTBEAT_DATA::default()).raw_bytes());
+        assert!(app.handshake_round(&mut port, &ticks, 700));
+        let battery = |v: f32, i: Option<f32>| {
+            let w = battery_to_wire(v, i);
+            let mut voltages = [UNKNOWN_MV; 10];
+            voltages[..2].copy_from_slice(&w.voltages_mv);
+            BATTERY_STATUS_DATA { voltages, current_battery: w.current_ca, ..Default::default() }
+        };
+        let mut t = 2_000_000u64;
+        let mut step = |app: &mut PilApp<SetupVehicle<Cascade>>, port: &mut FakePort, extra: &[u8]| {
+            port.rx.extend(extra);
+            let mut w = FrameWriter::new(HOST_SYSTEM_ID, HOST_COMPONENT_ID);
+            port.rx.extend(
+                w.encode(&HIL_SENSOR_DATA { time_usec: t, zacc: -9.81, ..Default::default() }).raw_bytes(),
+            );
+            t += 1000;
+            assert_eq!(app.poll(port, &ticks), 1);
+        };
+        step(&mut app, &mut port, &[]);
+        assert_eq!(app.autopilot().telemetry().battery, None, "no reading yet");
+        step(&mut app, &mut port, host.encode(&battery(11.4, Some(4.5))).raw_bytes());
+        let st = app.battery().stats();
+        assert_eq!((st.readings, st.refused), (1, 0));
+        let b = app.autopilot().telemetry().battery.expect("the cascade took the measurement");
+        // Stamped with the firmware time of the step before the one it came with.
+        assert_eq!(
+            (b.t_us, b.voltage_v, b.current_a, b.level),
+            (2_000_000, 11.4, Some(4.5), BatteryLevel::Ok)
+        );
+        // Unknown voltage: refused by the estimator, the measurement unchanged.
+        step(&mut app, &mut port, host.encode(&battery(f32::NAN, Some(4.5))).raw_bytes());
+        assert_eq!((app.battery().stats().readings, app.battery().stats().refused), (2, 1));
+        assert_eq!(app.autopilot().telemetry().battery, Some(b));
+        // Another system's BATTERY_STATUS (a ground station's, a vehicle's) is no reading.
+        let mut other = FrameWriter::new(42, 1);
+        step(&mut app, &mut port, other.encode(&battery(3.0, Some(1.0))).raw_bytes());
+        assert_eq!(app.battery().stats().readings, 2);
+        assert_eq!(app.autopilot().telemetry().battery, Some(b));
+        // One second on: SYS_STATUS and the vehicle's BATTERY_STATUS carry the measurement.
+        port.tx.clear();
+        for _ in 0..1000 {
+            step(&mut app, &mut port, &[]);
+        }
+        let sent = frames(&port.tx);
+        let sys = sent
+            .iter()
+            .filter(|(id, _)| *id == SYS_STATUS_DATA::ID)
+            .map(|(_, p)| SYS_STATUS_DATA::deser(MavlinkVersion::V2, p).expect("decodes"))
+            .next_back()
+            .expect("SYS_STATUS at 1 Hz");
+        assert_eq!((sys.voltage_battery, sys.current_battery), (11_400, 450));
+        let bs = sent
+            .iter()
+            .filter(|(id, _)| *id == BATTERY_STATUS_DATA::ID)
+            .map(|(_, p)| BATTERY_STATUS_DATA::deser(MavlinkVersion::V2, p).expect("decodes"))
+            .next_back()
+            .expect("BATTERY_STATUS at 1 Hz");
+        assert_eq!((bs.voltages[0], bs.current_battery), (11_400, 450));
+        assert_eq!(app.link().stats().decode_errors, 0);
     }
 
     #[test]
