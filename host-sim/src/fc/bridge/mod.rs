@@ -12,8 +12,9 @@
 //!   HIL_ACTUATOR_CONTROLS and the `ins_*` instruction counters), which stays internal.
 //! * Endpoint → the firmware (appended to the next step's stream, before its HIL_SENSOR) and
 //!   → every other endpoint (the GCS sees the API's traffic and back, as through a router).
-//! * The host's own frames to the firmware (HIL_SENSOR, ODOMETRY, obstacle batches, its
-//!   start-up commands) are not sent to the endpoints; they are in the `.tlog`.
+//! * The host's own frames to the firmware (HIL_SENSOR, ODOMETRY, obstacle batches, the raw
+//!   battery readings as BATTERY_STATUS from the host's id, its start-up commands) are not sent
+//!   to the endpoints; they are in the `.tlog`.
 //!
 //! Bounds: at most [`MAX_DATAGRAMS_PER_STEP`] datagrams per endpoint are taken per 1 ms
 //! step (the rest wait in the socket buffer); datagrams longer than [`MAX_DATAGRAM`] bytes

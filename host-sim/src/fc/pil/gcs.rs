@@ -4,8 +4,8 @@
 //! firmware stores it ([`quantised_path`]), the start-up timing (`preroll_start`).
 //!
 //! May import: `parapet-core` (params, wire contract), mavlink,
-//! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`]
-//! (readings), [`crate::world::scene`].
+//! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`] and
+//! [`crate::sim::battery`] (readings), [`crate::world::scene`].
 //!
 //! MAVLink message literals end in `..Default::default()`: whether the generated `mavlink`
 //! structs carry the MAVLink 2 extension fields depends on which crates share the build (the
@@ -15,14 +15,16 @@
 
 use anyhow::{anyhow, Result};
 use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavFrame, MavMessage, MavParamType, COMMAND_LONG_DATA, DEBUG_VECT_DATA, HIL_SENSOR_DATA,
-    MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
+    MavBatteryFunction, MavBatteryType, MavCmd, MavFrame, MavMessage, MavParamType, BATTERY_STATUS_DATA,
+    COMMAND_LONG_DATA, DEBUG_VECT_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use nalgebra::Vector3;
 use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
 use parapet_core::wire::codes::odometry_quaternion;
 use parapet_core::wire::ids::{
     local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
@@ -32,6 +34,7 @@ use parapet_core::wire::names::OBSTACLE_VELOCITY_PREFIX;
 use parapet_core::Vec3;
 
 use crate::flight::runner::RunConfig;
+use crate::sim::battery::BatteryReading;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::Scene;
 
@@ -219,6 +222,28 @@ pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading) -> MavMessage {
         xacc: imu.accel.x as f32,
         yacc: imu.accel.y as f32,
         zacc: imu.accel.z as f32,
+        ..Default::default()
+    })
+}
+
+/// The raw reading `r` of the scene's pack as the host sends it to the firmware (host → firmware
+/// only, `parapet_core::wire::battery`): BATTERY_STATUS with the pack voltage in `voltages[0]`
+/// (mV), the current in `current_battery` (cA, −1 without a current sensor); consumption,
+/// temperature and remaining charge unknown (the firmware's estimator computes the charge).
+pub(super) fn battery_status(r: &BatteryReading) -> MavMessage {
+    let w = battery_to_wire(r.voltage_v, r.current_a);
+    let mut voltages = [UNKNOWN_MV; 10];
+    voltages[..2].copy_from_slice(&w.voltages_mv);
+    MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+        current_consumed: -1,
+        energy_consumed: -1,
+        temperature: i16::MAX,
+        voltages,
+        current_battery: w.current_ca,
+        id: 0,
+        battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
+        mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
+        battery_remaining: -1,
         ..Default::default()
     })
 }

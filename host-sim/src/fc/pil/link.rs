@@ -6,6 +6,7 @@
 //!
 //! May import: `parapet-core` (wire contract, schedule, waypoint follower),
 //! mavlink, the other [`super`] modules, [`crate::flight`], [`crate::sim::sensors`],
+//! [`crate::sim::battery`] (its readings),
 //! [`crate::world::scene`], [`crate::fc::bridge`] (the `LinkTap` of a ground-station bridge).
 
 use std::io::Write;
@@ -31,8 +32,8 @@ use parapet_core::wire::names::{self, PANIC_TEXT, PIL_READY_TEXT};
 use super::faults::Injector;
 use super::firmware::firmware_build_command;
 use super::gcs::{
-    command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch, odometry,
-    param_set, preroll_start, quantised_path, WARMUP_STEPS,
+    battery_status, command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch,
+    odometry, param_set, preroll_start, quantised_path, WARMUP_STEPS,
 };
 use super::proximity::{is_planar_lidar, obstacle_distance};
 use super::qemu::{reader_thread, start_qemu, Inbound, LinkPipes, QemuGuard};
@@ -41,6 +42,7 @@ use super::PilOptions;
 use crate::fc::bridge::LinkTap;
 use crate::flight::runner::RunConfig;
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::battery::BatteryReading;
 use crate::sim::range::RangeSensor;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
@@ -80,6 +82,8 @@ pub struct PilLink {
     /// The firmware's outer-loop schedule (from its parameters).
     schedule: OuterSchedule,
     last_t_us: u64,
+    /// Firmware time of the step whose answer is being read (0 in the handshake).
+    rx_t_us: u64,
     fault: Option<String>,
     flight_wall: Duration,
     flight_sim_steps: u64,
@@ -155,6 +159,7 @@ impl PilLink {
             telemetry: FirmwareTelemetry::default(),
             schedule: OuterSchedule::new(&params),
             last_t_us: 0,
+            rx_t_us: 0,
             fault: None,
             flight_wall: Duration::ZERO,
             flight_sim_steps: 0,
@@ -260,7 +265,7 @@ impl PilLink {
                 if let Some(tap) = self.tap.as_mut() {
                     tap.firmware_frame(&h, &m);
                 }
-                observe(&m, &mut self.telemetry, &mut self.fig);
+                observe(&m, self.rx_t_us, &mut self.telemetry, &mut self.fig);
                 Ok(Some(*m))
             }
             Ok(Inbound::DecodeError) => {
@@ -315,6 +320,7 @@ impl PilLink {
     /// One lockstep step at firmware time `t_us`: queued frames, HIL_SENSOR, wait for the answer.
     fn step(&mut self, t_us: u64, imu: &ImuReading) -> Result<StepAnswer> {
         let inject = self.in_flight;
+        self.rx_t_us = t_us;
         if let Some(tap) = self.tap.as_mut() {
             let external = tap.before_step(t_us);
             if !external.is_empty() {
@@ -663,6 +669,15 @@ impl FlightStack for PilLink {
                 self.latch(e);
                 [0.0; 4]
             }
+        }
+    }
+
+    fn battery(&mut self, _t: f64, reading: &BatteryReading) {
+        // Sent with the next step, before its HIL_SENSOR: the firmware measures it at this
+        // step's time, where `parapet run` measures it (`super::gcs::battery_status`).
+        if self.fault.is_none() {
+            self.queue(&battery_status(reading));
+            self.fig.battery.readings_sent += 1;
         }
     }
 

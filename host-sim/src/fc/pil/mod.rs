@@ -5,8 +5,9 @@
 //! The link follows the "QEMU lockstep protocol" of `firmware/README.md` exactly: the byte
 //! stream on QEMU's stdin/stdout (the firmware's ARM semihosting console), the HEARTBEAT handshake,
 //! the instruction calibration (`ins_cal_n`, `ins_cal`), then per 1 ms control period the host
-//! sends (ODOMETRY and the obstacle batch at the outer rate, commands, then HIL_SENSOR) and
-//! waits for the HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.
+//! sends (the previous step's battery reading when the scene's `[battery]` took one, ODOMETRY
+//! and the obstacle batch at the outer rate, commands, then HIL_SENSOR) and waits for the
+//! HIL_ACTUATOR_CONTROLS of that period; simulated time advances only then.
 //! MAVLink v2 encoding/decoding is the `mavlink` crate (the firmware's version and dialect).
 //!
 //! [`PilLink`] implements [`FlightStack`](crate::flight::stack::FlightStack), so [`crate::flight::runner::run_with`] drives the firmware
@@ -52,7 +53,15 @@
 //! Message names, ids, scalings, codes, the lockstep rule and the motor-command sanitiser
 //! are the wire contract `parapet_core::wire`, shared with the firmware.
 //!
-//! May import: `parapet-core`, mavlink, [`crate::flight`], [`crate::sim::sensors`],
+//! ## Battery
+//! With a scene `[battery]`, the runner samples the pack exactly as for `parapet run` (same
+//! model, seed and motor commands, after each inner step) and [`PilLink`] sends each reading as
+//! BATTERY_STATUS from the host's id (`parapet_core::wire::battery`: mV, cA) with the next step,
+//! before its HIL_SENSOR, so the firmware's estimator takes it at the step's time as the
+//! in-process controller does. Host → firmware only: never sent to a bridge endpoint, recorded
+//! in the `.tlog`. [`FirmwareTwin`] takes the same quantised reading.
+//!
+//! May import: `parapet-core`, mavlink, [`crate::flight`], [`crate::sim::sensors`], [`crate::sim::battery`],
 //! [`crate::world::scene`]; the children import each other
 //! only downwards (link → gcs, proximity, telemetry, faults, qemu, firmware; twin → gcs).
 

@@ -2,24 +2,28 @@
 //! contract's names and codes (`parapet_core::wire`) — filter diagnostics, the
 //! nominal and filtered acceleration, the flight phase (NAMED_VALUE_INT `PHASE`),
 //! the flight mode (HEARTBEAT `custom_mode` in PX4's encoding, and the "MODE <mode>:
-//! <reason>" STATUSTEXT of every change), the link counters, the instruction counts —
-//! and the PIL figures of `summary.json`.
+//! <reason>" STATUSTEXT of every change, with its time), the link counters, the instruction
+//! counts, the battery the firmware reports (BATTERY_STATUS, SYS_STATUS) — and the PIL figures
+//! of `summary.json`.
 //!
 //! May import: `parapet-core` (wire contract, filter types), mavlink, serde,
 //! [`crate::flight::stack`] (what an outer step reports).
 
 use std::time::Duration;
 
-use mavlink::dialects::ardupilotmega::{MavMessage, MavModeFlag, MavState};
+use mavlink::dialects::ardupilotmega::{
+    MavBatteryChargeState, MavMessage, MavModeFlag, MavState, BATTERY_STATUS_DATA,
+};
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
 use parapet_core::controller::{FlightMode, GuidanceMode};
 use parapet_core::waypoint::PathSample;
+use parapet_core::wire::battery::{battery_from_wire, BatteryWire};
 use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
 use parapet_core::wire::names;
 use serde::Serialize;
 
-use crate::flight::stack::OuterOut;
+use crate::flight::stack::{OuterOut, CLOCK_OFFSET_S};
 use crate::world::scene::to_f64;
 
 /// Instructions per control step (firmware's `ins_step`: inner step + outer step when due +
@@ -108,6 +112,51 @@ pub struct PilFigures {
     /// Range scans sent as `OBSTACLE_DISTANCE` (`--perception lidar`: the firmware builds its
     /// own obstacle set from them; 0 when the host sends obstacle points).
     pub obstacle_distance_scans: u64,
+    /// The firmware's "MODE <mode>: <reason>" STATUSTEXTs with the simulated time of the step
+    /// they came with (the first 64).
+    pub mode_changes: Vec<TimedText>,
+    /// The scene's battery over the link.
+    pub battery: BatteryFigures,
+}
+
+/// A STATUSTEXT and the simulated time of the lockstep step it came with.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct TimedText {
+    /// Simulated time, s (firmware clock − [`CLOCK_OFFSET_S`]).
+    pub t_s: f64,
+    /// The text.
+    pub text: String,
+}
+
+/// The scene's `[battery]` over the PIL link (`summary.json` `pil.battery`): the raw readings the
+/// host sent (BATTERY_STATUS from the host's id, `parapet_core::wire::battery`) and what the
+/// firmware's estimator reported back (its own BATTERY_STATUS, SYS_STATUS).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct BatteryFigures {
+    /// Raw readings sent to the firmware.
+    pub readings_sent: u64,
+    /// BATTERY_STATUS messages the firmware sent (1 Hz once it has a measurement).
+    pub status_received: u64,
+    /// Simulated time of the firmware's first BATTERY_STATUS, s.
+    pub first_status_s: Option<f64>,
+    /// First BATTERY_STATUS with charge state LOW or worse, s.
+    pub low_s: Option<f64>,
+    /// First BATTERY_STATUS with charge state CRITICAL or worse, s.
+    pub critical_s: Option<f64>,
+    /// The last BATTERY_STATUS: pack voltage, V.
+    pub last_voltage_v: Option<f64>,
+    /// The last BATTERY_STATUS: current, A (`None`: not measured).
+    pub last_current_a: Option<f64>,
+    /// The last BATTERY_STATUS: remaining charge, % (`None`: unknown).
+    pub last_remaining_pct: Option<i8>,
+    /// The last BATTERY_STATUS: charge state (`MAV_BATTERY_CHARGE_STATE_*`).
+    pub last_charge_state: Option<String>,
+    /// The last SYS_STATUS: battery voltage, V (`None`: 65 535, no measurement).
+    pub sys_status_voltage_v: Option<f64>,
+    /// The last SYS_STATUS: battery current, A (`None`: −1, not measured).
+    pub sys_status_current_a: Option<f64>,
+    /// The last SYS_STATUS: remaining charge, % (`None`: −1, unknown).
+    pub sys_status_remaining_pct: Option<i8>,
 }
 
 /// Latest filter report of the firmware.
@@ -196,8 +245,10 @@ impl FirmwareTelemetry {
     }
 }
 
-/// Telemetry bookkeeping for every inbound message.
-pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFigures) {
+/// Telemetry bookkeeping for every inbound message, received with the lockstep step at firmware
+/// time `t_us`.
+pub(super) fn observe(m: &MavMessage, t_us: u64, t: &mut FirmwareTelemetry, fig: &mut PilFigures) {
+    let t_s = (t_us as f64 - CLOCK_OFFSET_S * 1e6) / 1e6;
     match m {
         MavMessage::DEBUG_VECT(d) => match d.name.to_str().unwrap_or("") {
             names::U_NOM => t.filter.u_nominal = Vector3::new(d.x, d.y, d.z).cast(),
@@ -233,6 +284,14 @@ pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFi
         MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
             t.filter.u_filtered = Vector3::new(p.afx, p.afy, p.afz).cast();
         }
+        MavMessage::BATTERY_STATUS(b) => battery_status(b, t_s, &mut fig.battery),
+        MavMessage::SYS_STATUS(s) => {
+            let f = &mut fig.battery;
+            f.sys_status_voltage_v =
+                (s.voltage_battery != u16::MAX).then(|| f64::from(s.voltage_battery) / 1000.0);
+            f.sys_status_current_a = (s.current_battery != -1).then(|| f64::from(s.current_battery) / 100.0);
+            f.sys_status_remaining_pct = (s.battery_remaining != -1).then_some(s.battery_remaining);
+        }
         MavMessage::HEARTBEAT(h) => {
             // A mode the map does not know keeps the last one (only PX4's encoding is sent).
             if let Some(m) = FlightMode::from_px4_custom_mode(h.custom_mode) {
@@ -245,6 +304,9 @@ pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFi
             let text = String::from_utf8_lossy(&s.text[..]).trim_end_matches('\0').to_string();
             if let Some(m) = mode_of_text(&text) {
                 t.mode = Some(m);
+                if fig.mode_changes.len() < 64 {
+                    fig.mode_changes.push(TimedText { t_s, text: text.clone() });
+                }
             }
             if fig.status_texts.len() < 64 {
                 fig.status_texts.push(format!("{:?}: {text}", s.severity));
@@ -252,6 +314,32 @@ pub(super) fn observe(m: &MavMessage, t: &mut FirmwareTelemetry, fig: &mut PilFi
         }
         _ => {}
     }
+}
+
+/// The firmware's BATTERY_STATUS at simulated time `t_s` into `f`.
+fn battery_status(b: &BATTERY_STATUS_DATA, t_s: f64, f: &mut BatteryFigures) {
+    use MavBatteryChargeState as C;
+    f.status_received += 1;
+    f.first_status_s.get_or_insert(t_s);
+    let rank = |c: C| match c {
+        C::MAV_BATTERY_CHARGE_STATE_LOW => 1,
+        C::MAV_BATTERY_CHARGE_STATE_CRITICAL => 2,
+        C::MAV_BATTERY_CHARGE_STATE_EMERGENCY | C::MAV_BATTERY_CHARGE_STATE_FAILED => 3,
+        _ => 0,
+    };
+    if rank(b.charge_state) >= 1 {
+        f.low_s.get_or_insert(t_s);
+    }
+    if rank(b.charge_state) >= 2 {
+        f.critical_s.get_or_insert(t_s);
+    }
+    let (v, _) =
+        battery_from_wire(BatteryWire { voltages_mv: [b.voltages[0], b.voltages[1]], current_ca: 0 });
+    // The wire's mV in f64 (the f32 volts would read 10.449999809 for 10 450 mV).
+    f.last_voltage_v = v.is_finite().then(|| (f64::from(v) * 1e3).round() / 1e3);
+    f.last_current_a = (b.current_battery != -1).then(|| f64::from(b.current_battery) / 100.0);
+    f.last_remaining_pct = (b.battery_remaining != -1).then_some(b.battery_remaining);
+    f.last_charge_state = Some(format!("{:?}", b.charge_state));
 }
 
 /// The figures of a flight: the counters in `fig` with the totals, the rates over the
@@ -337,22 +425,22 @@ mod tests {
             z: active_id_to_wire(Some(7)),
             ..Default::default()
         };
-        observe(&MavMessage::DEBUG_VECT(cbf), &mut t, &mut fig);
+        observe(&MavMessage::DEBUG_VECT(cbf), 0, &mut t, &mut fig);
         let flags = CbfFlags { intervened: true, unavoidable: false, infeasible: true, n_constraints: 2 };
         let nv = NAMED_VALUE_INT_DATA {
             name: name(names::CBF_FLAGS),
             value: flags.encode(),
             ..Default::default()
         };
-        observe(&MavMessage::NAMED_VALUE_INT(nv), &mut t, &mut fig);
+        observe(&MavMessage::NAMED_VALUE_INT(nv), 0, &mut t, &mut fig);
         let phase = NAMED_VALUE_INT_DATA {
             name: name(names::PHASE),
             value: FlightPhase::Mission.code() as i32,
             ..Default::default()
         };
-        observe(&MavMessage::NAMED_VALUE_INT(phase), &mut t, &mut fig);
+        observe(&MavMessage::NAMED_VALUE_INT(phase), 0, &mut t, &mut fig);
         let hb = HEARTBEAT_DATA { custom_mode: FlightMode::Return.px4_custom_mode(), ..Default::default() };
-        observe(&MavMessage::HEARTBEAT(hb), &mut t, &mut fig);
+        observe(&MavMessage::HEARTBEAT(hb), 0, &mut t, &mut fig);
         assert_eq!(t.mode, Some(FlightMode::Return), "custom_mode is the PX4 flight mode");
         let z = parapet_core::Vec3::zeros();
         let s = PathSample { position: z, velocity: z, acceleration: z, progress: Default::default() };
@@ -365,7 +453,7 @@ mod tests {
         assert_eq!(out.mode, GuidanceMode::Mission.as_str());
         // A non-finite region code is a fault, never a benign region.
         let bad = DEBUG_VECT_DATA { name: name(names::CBF), y: f32::NAN, z: -1.0, ..Default::default() };
-        observe(&MavMessage::DEBUG_VECT(bad), &mut t, &mut fig);
+        observe(&MavMessage::DEBUG_VECT(bad), 0, &mut t, &mut fig);
         assert_eq!(t.outer_out(&s).filter.region, Region::Fault);
         assert_eq!(t.outer_out(&s).filter.active_id, None);
     }
@@ -386,15 +474,86 @@ mod tests {
                 ..Default::default()
             })
         };
-        observe(&text("MODE Hold: offboard-loss"), &mut t, &mut fig);
+        observe(&text("MODE Hold: offboard-loss"), 3_500_000, &mut t, &mut fig);
         assert_eq!(t.mode, Some(FlightMode::Hold));
-        observe(&text("FAILSAFE: position stale"), &mut t, &mut fig);
+        assert_eq!(fig.mode_changes, vec![TimedText { t_s: 2.5, text: "MODE Hold: offboard-loss".into() }]);
+        observe(&text("FAILSAFE: position stale"), 3_600_000, &mut t, &mut fig);
+        assert_eq!(fig.mode_changes.len(), 1, "not a mode change");
         assert_eq!(t.mode, Some(FlightMode::Hold));
         let hb = HEARTBEAT_DATA { custom_mode: 99 << 16, ..Default::default() };
-        observe(&MavMessage::HEARTBEAT(hb), &mut t, &mut fig);
+        observe(&MavMessage::HEARTBEAT(hb), 0, &mut t, &mut fig);
         assert_eq!(t.mode, Some(FlightMode::Hold));
         assert_eq!(mode_of_text("MODE Offboard: mode-command"), Some(FlightMode::Offboard));
         assert_eq!(mode_of_text("MODE Nonsense: x"), None);
+    }
+
+    /// The host's raw reading goes out as BATTERY_STATUS in mV / cA (`gcs::battery_status`); the
+    /// firmware's BATTERY_STATUS and SYS_STATUS come back into the battery figures with the
+    /// time of their step.
+    #[test]
+    #[allow(clippy::needless_update)] // the extension fields exist with MAVLink 2 extensions on
+    fn battery_readings_go_out_in_mv_and_ca_and_the_reports_come_back() {
+        use crate::sim::battery::BatteryReading;
+        use mavlink::dialects::ardupilotmega::{MavBatteryChargeState, SYS_STATUS_DATA};
+        let out = super::super::gcs::battery_status(&BatteryReading {
+            t: 0.1,
+            voltage_v: 11.1234,
+            current_a: Some(7.456),
+        });
+        let MavMessage::BATTERY_STATUS(b) = out else { panic!("{out:?}") };
+        assert_eq!(
+            (b.voltages[0], b.voltages[1], b.current_battery, b.battery_remaining),
+            (11_123, u16::MAX, 746, -1)
+        );
+        let no_sensor =
+            super::super::gcs::battery_status(&BatteryReading { t: 0.1, voltage_v: 12.0, current_a: None });
+        assert!(matches!(no_sensor, MavMessage::BATTERY_STATUS(b) if b.current_battery == -1));
+
+        let (mut t, mut fig) = (FirmwareTelemetry::default(), PilFigures::default());
+        assert_eq!(fig.battery.first_status_s, None);
+        let status = |state: MavBatteryChargeState| {
+            let mut voltages = [u16::MAX; 10];
+            voltages[0] = 10_450;
+            MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+                voltages,
+                current_battery: 912,
+                battery_remaining: 3,
+                charge_state: state,
+                ..Default::default()
+            })
+        };
+        observe(&status(MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_OK), 1_500_000, &mut t, &mut fig);
+        observe(&status(MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_LOW), 2_500_000, &mut t, &mut fig);
+        observe(&status(MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_LOW), 3_500_000, &mut t, &mut fig);
+        let sys = SYS_STATUS_DATA {
+            voltage_battery: 10_450,
+            current_battery: 912,
+            battery_remaining: 3,
+            ..Default::default()
+        };
+        observe(&MavMessage::SYS_STATUS(sys), 3_500_000, &mut t, &mut fig);
+        let f = &fig.battery;
+        assert_eq!(
+            (f.status_received, f.first_status_s, f.low_s, f.critical_s),
+            (3, Some(0.5), Some(1.5), None)
+        );
+        assert_eq!(
+            (f.last_voltage_v, f.last_current_a, f.last_remaining_pct),
+            (Some(10.45), Some(9.12), Some(3))
+        );
+        assert_eq!(f.last_charge_state.as_deref(), Some("MAV_BATTERY_CHARGE_STATE_LOW"));
+        assert_eq!(
+            (f.sys_status_voltage_v, f.sys_status_current_a, f.sys_status_remaining_pct),
+            (Some(10.45), Some(9.12), Some(3))
+        );
+        let none = SYS_STATUS_DATA {
+            voltage_battery: u16::MAX,
+            current_battery: -1,
+            battery_remaining: -1,
+            ..Default::default()
+        };
+        observe(&MavMessage::SYS_STATUS(none), 4_500_000, &mut t, &mut fig);
+        assert_eq!((fig.battery.sys_status_voltage_v, fig.battery.sys_status_current_a), (None, None));
     }
 
     #[test]

@@ -3,20 +3,25 @@
 //!
 //! May import: `parapet-core` (controller, schedule, wire lockstep rule),
 //! [`super::gcs`] (the firmware's parameters, path and start-up timing),
-//! [`crate::flight`], [`crate::sim::sensors`], [`crate::world::scene`].
+//! [`crate::flight`], [`crate::sim::sensors`], [`crate::sim::battery`] (readings),
+//! [`crate::world::scene`].
 
 use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
+use parapet_core::battery::BatteryEstimator;
 use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
+use parapet_core::failsafe::FailsafeState;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
+use parapet_core::wire::battery::{battery_from_wire, battery_to_wire};
 use parapet_core::wire::codes::{odometry_quaternion, odometry_yaw};
 use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
 
 use super::gcs::{firmware_params, preroll_start, quantised_path, WARMUP_STEPS};
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
+use crate::sim::battery::BatteryReading;
 use crate::sim::sensors::{ImuReading, PositionReading};
 use crate::world::scene::{to_f32, Scene};
 
@@ -24,7 +29,8 @@ use crate::world::scene::{to_f32, Scene};
 /// with the firmware's parameters ([`firmware_params`]), driven with the firmware's lockstep
 /// sequence (pre-roll, commands at the previous step's time, obstacle batch closed at the step,
 /// inner step before the outer step, fixes with the yaw the firmware decodes from ODOMETRY's
-/// quaternion, quantised path). Flying a scene with
+/// quaternion, quantised path, battery readings at the link's mV / cA resolution measured by
+/// the firmware's estimator). Flying a scene with
 /// this and with `PilLink` isolates what the ARM build and the link change.
 pub struct FirmwareTwin {
     fc: FlightController,
@@ -36,6 +42,8 @@ pub struct FirmwareTwin {
     clock: LockstepClock,
     last_t_us: u64,
     mission_start_pending: bool,
+    /// The firmware's PIL battery measurement (`firmware/src/pil/battery.rs`).
+    battery: BatteryEstimator,
 }
 
 impl FirmwareTwin {
@@ -57,6 +65,7 @@ impl FirmwareTwin {
             clock: OuterSchedule::new(&p).clock(),
             last_t_us: 0,
             mission_start_pending: false,
+            battery: BatteryEstimator::new(p.battery),
         })
     }
 
@@ -149,6 +158,15 @@ impl FlightStack for FirmwareTwin {
 
     fn state_name(&self) -> String {
         format!("{:?}", self.fc.state())
+    }
+
+    /// The reading as the link carries it (mV, cA), measured at the step's time as the
+    /// firmware's PIL battery input measures it.
+    fn battery(&mut self, t: f64, r: &BatteryReading) {
+        let (v, i) = battery_from_wire(battery_to_wire(r.voltage_v, r.current_a));
+        let armed = self.fc.state() != FailsafeState::Disarmed;
+        let s = self.battery.update(clock_us(t), v, i, armed).state();
+        self.fc.set_battery(&s);
     }
 }
 
