@@ -41,9 +41,10 @@
 //! case: nothing is ranked). When the set first overflows, the tiers of the stored points
 //! are assigned once (O(N²) id comparisons, what the streaming demotions would have given);
 //! after that each offered point costs one O(1) comparison with the cached worst stored
-//! entry, and when it may enter one O(N) scan for its id and one for the new worst: at
-//! most `3N` key comparisons per point, O(N² + M·N) for M points (M bounded by the
-//! caller's batch). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
+//! entry, and when it may enter one O(N) scan for its id, one for the new worst when that
+//! demotes a stored point and one when the point is stored (the cached worst is not
+//! recomputed while no stored rank changed): at most `3N` key comparisons per point,
+//! O(N² + M·N) for M points (M bounded by the caller's batch). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
 //!
 //! [`Selector`] applies the policy one point at a time (a sensor batch as it arrives, e.g.
 //! the firmware's obstacle link); [`select`] applies it to a slice.
@@ -232,13 +233,17 @@ impl<const N: usize> Ranker<N> {
                 set.as_slice().iter().zip(self.ranks.iter()).position(|(q, rq)| q.id == o.id && rq.tier == 0);
             if let Some(s) = sibling {
                 match self.ranks.get_mut(s) {
-                    Some(rs) if key < rs.key => rs.tier = 1,
+                    Some(rs) if key < rs.key => {
+                        rs.tier = 1;
+                        // A demotion is the only change of a stored rank: the cached worst
+                        // entry is recomputed then (else it is still `worst_index(ranks)`).
+                        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+                    }
                     _ => r.tier = 1,
                 }
             }
         }
         let ranks = self.ranks.get(..len).unwrap_or(&[]);
-        self.worst = worst_index(ranks);
         let (Some(w), Some(q)) = (ranks.get(self.worst).copied(), set.as_slice().get(self.worst).copied())
         else {
             return Offer::Dropped;
@@ -334,12 +339,11 @@ fn drop_point(rep: &mut SetReport, key: f32, h: f32, delta1: f32) {
 /// Index of the first worst entry (`0` for an empty slice).
 #[inline]
 fn worst_index(ranks: &[Rank]) -> usize {
-    let mut w = 0;
-    for (i, r) in ranks.iter().enumerate() {
-        if let Some(rw) = ranks.get(w) {
-            if r.worse_than(rw) {
-                w = i;
-            }
+    let Some(&first) = ranks.first() else { return 0 };
+    let (mut w, mut rw) = (0, first);
+    for (i, r) in ranks.iter().enumerate().skip(1) {
+        if r.worse_than(&rw) {
+            (w, rw) = (i, *r);
         }
     }
     w
