@@ -107,6 +107,17 @@ impl Rank {
     fn worse_than(&self, o: &Rank) -> bool {
         self.tier > o.tier || (self.tier == o.tier && self.key > o.key)
     }
+
+    /// The keep order as one integer: for finite keys `a.order() > b.order()` exactly when
+    /// `a.worse_than(&b)` (the tier above the key's bits mapped to an increasing integer;
+    /// `-0.0` counts as `0.0`, as in the float comparison), so the worst entry is found by
+    /// integer comparisons.
+    #[inline]
+    fn order(&self) -> u64 {
+        let bits = (self.key + 0.0).to_bits();
+        let k = if bits & 0x8000_0000 != 0 { !bits } else { bits | 0x8000_0000 };
+        (u64::from(self.tier) << 32) | u64::from(k)
+    }
 }
 
 /// Every component within ±[`INPUT_LIMIT`] (false for NaN and ±∞).
@@ -148,6 +159,9 @@ pub enum Offer {
 #[derive(Clone, Debug)]
 struct Ranker<const N: usize> {
     ranks: [Rank; N],
+    /// [`Rank::order`] of each stored entry (valid once tiered): the worst entry is the
+    /// first largest.
+    orders: [u64; N],
     /// Index of the worst stored entry (valid once the set is full).
     worst: usize,
     /// The tiers of the stored entries are valid (computed when the set first fills:
@@ -165,6 +179,7 @@ impl<const N: usize> Ranker<N> {
     fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
         Ranker {
             ranks: [Rank { tier: 0, key: 0.0 }; N],
+            orders: [0; N],
             worst: 0,
             tiered: false,
             report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
@@ -219,7 +234,10 @@ impl<const N: usize> Ranker<N> {
         }
         if !self.tiered {
             self.assign_tiers(set);
-            self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+            for (o, r) in self.orders.iter_mut().zip(self.ranks.iter()) {
+                *o = r.order();
+            }
+            self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
         }
         // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
         // cannot take it (whatever its id: see the module docs).
@@ -235,9 +253,12 @@ impl<const N: usize> Ranker<N> {
                 match self.ranks.get_mut(s) {
                     Some(rs) if key < rs.key => {
                         rs.tier = 1;
+                        if let Some(os) = self.orders.get_mut(s) {
+                            *os = rs.order();
+                        }
                         // A demotion is the only change of a stored rank: the cached worst
-                        // entry is recomputed then (else it is still `worst_index(ranks)`).
-                        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+                        // entry is recomputed then (else it is still `worst_index(orders)`).
+                        self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
                     }
                     _ => r.tier = 1,
                 }
@@ -254,12 +275,16 @@ impl<const N: usize> Ranker<N> {
         }
         let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
         drop_point(&mut self.report, wkey, wh, self.delta1);
-        if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
-        {
+        if let (Some(slot), Some(rs), Some(os)) = (
+            set.points_mut().get_mut(self.worst),
+            self.ranks.get_mut(self.worst),
+            self.orders.get_mut(self.worst),
+        ) {
             *slot = *o;
             *rs = r;
+            *os = r.order();
         }
-        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+        self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
         Offer::Kept
     }
 
@@ -336,14 +361,15 @@ fn drop_point(rep: &mut SetReport, key: f32, h: f32, delta1: f32) {
     }
 }
 
-/// Index of the first worst entry (`0` for an empty slice).
+/// Index of the first worst entry (`0` for an empty slice), from the entries'
+/// [`Rank::order`]s.
 #[inline]
-fn worst_index(ranks: &[Rank]) -> usize {
-    let Some(&first) = ranks.first() else { return 0 };
-    let (mut w, mut rw) = (0, first);
-    for (i, r) in ranks.iter().enumerate().skip(1) {
-        if r.worse_than(&rw) {
-            (w, rw) = (i, *r);
+fn worst_index(orders: &[u64]) -> usize {
+    let Some(&first) = orders.first() else { return 0 };
+    let (mut w, mut ow) = (0, first);
+    for (i, &o) in orders.iter().enumerate().skip(1) {
+        if o > ow {
+            (w, ow) = (i, o);
         }
     }
     w
@@ -372,6 +398,24 @@ mod tests {
             self.0 ^= self.0 >> 7;
             self.0 ^= self.0 << 17;
             (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// The integer keep order agrees with `worse_than` on finite keys (negative barrier
+    /// values, ±0, equal keys, both tiers).
+    #[test]
+    fn rank_order_agrees_with_worse_than() {
+        let mut rng = Rng(0x5eed_0019);
+        let mut keys = vec![0.0f32, -0.0, 1.0, -1.0, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e-40, -1e-40];
+        keys.extend((0..200).map(|_| (rng.next() - 0.5) * 10.0));
+        keys.extend([f32::MAX, f32::MIN, 3.0, 3.0]);
+        for &a in &keys {
+            for &b in &keys {
+                for (ta, tb) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                    let (ra, rb) = (Rank { tier: ta, key: a }, Rank { tier: tb, key: b });
+                    assert_eq!(ra.order() > rb.order(), ra.worse_than(&rb), "{ra:?} {rb:?}");
+                }
+            }
         }
     }
 
