@@ -164,6 +164,12 @@ struct Ranker<const N: usize> {
     orders: [u64; N],
     /// Index of the worst stored entry (valid once the set is full).
     worst: usize,
+    /// The last sibling search (`Critical`, once tiered): `(id, index of that id's tier-0
+    /// entry, if the set holds one)`, updated by every change of the set, so that a run of
+    /// points of one id (a memory's static cells) is not rescanned per point. A full set
+    /// holds at most one tier-0 entry per id (the tiering gives one, a new tier-0 entry
+    /// demotes the old one), so the search's first match is that entry.
+    sibling: Option<(u16, Option<usize>)>,
     /// The tiers of the stored entries are valid (computed when the set first fills:
     /// below capacity nothing is dropped and the tiers are not needed).
     tiered: bool,
@@ -181,6 +187,7 @@ impl<const N: usize> Ranker<N> {
             ranks: [Rank { tier: 0, key: 0.0 }; N],
             orders: [0; N],
             worst: 0,
+            sibling: None,
             tiered: false,
             report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
             ranking,
@@ -246,9 +253,17 @@ impl<const N: usize> Ranker<N> {
             return Offer::Dropped;
         }
         let mut r = Rank { tier: 0, key };
-        if matches!(self.ranking, Ranking::Critical { .. }) {
-            let sibling =
-                set.as_slice().iter().zip(self.ranks.iter()).position(|(q, rq)| q.id == o.id && rq.tier == 0);
+        let critical = matches!(self.ranking, Ranking::Critical { .. });
+        let mut sibling = None;
+        if critical {
+            sibling = match self.sibling {
+                Some((id, s)) if id == o.id => s,
+                _ => set
+                    .as_slice()
+                    .iter()
+                    .zip(self.ranks.iter())
+                    .position(|(q, rq)| q.id == o.id && rq.tier == 0),
+            };
             if let Some(s) = sibling {
                 match self.ranks.get_mut(s) {
                     Some(rs) if key < rs.key => {
@@ -267,9 +282,15 @@ impl<const N: usize> Ranker<N> {
         let ranks = self.ranks.get(..len).unwrap_or(&[]);
         let (Some(w), Some(q)) = (ranks.get(self.worst).copied(), set.as_slice().get(self.worst).copied())
         else {
+            self.sibling = None;
             return Offer::Dropped;
         };
         if !w.worse_than(&r) {
+            // Not stored, nothing changed (a demotion always stores: the worst is then
+            // tier 1 and the point tier 0): `sibling` is still this id's tier-0 entry.
+            if critical {
+                self.sibling = Some((o.id, sibling));
+            }
             drop_point(&mut self.report, key, h, self.delta1);
             return Offer::Dropped;
         }
@@ -283,6 +304,12 @@ impl<const N: usize> Ranker<N> {
             *slot = *o;
             *rs = r;
             *os = r.order();
+        }
+        if critical {
+            // Stored in the worst slot: as tier 0 it is now its id's tier-0 entry; as tier 1
+            // its tier-0 sibling stays (the slot replaced was worse than tier 1 with this key,
+            // so not that tier-0 sibling).
+            self.sibling = Some((o.id, if r.tier == 0 { Some(self.worst) } else { sibling }));
         }
         self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
         Offer::Kept
@@ -575,6 +602,120 @@ mod tests {
                 .filter(|o| key_of(ranking, &p, &v, o).1 <= 0.3)
                 .count();
             assert_eq!(r.dropped_near as usize, near, "case {case}");
+        }
+    }
+
+    /// The streaming selection as first written (a full sibling search and a full worst
+    /// search per point, `worse_than` comparisons): the slots' contents and order and the
+    /// report, for checking the cached searches against it.
+    fn streaming_reference<const N: usize>(
+        ranking: Ranking,
+        delta1: f32,
+        p: &Vec3,
+        v: &Vec3,
+        pts: &[ObstaclePoint],
+    ) -> (std::vec::Vec<ObstaclePoint>, SetReport) {
+        let first_worst = |ranks: &[Rank]| {
+            let mut w = 0;
+            for (i, r) in ranks.iter().enumerate() {
+                if r.worse_than(&ranks[w]) {
+                    w = i;
+                }
+            }
+            w
+        };
+        let mut set: std::vec::Vec<ObstaclePoint> = std::vec::Vec::new();
+        let mut ranks: std::vec::Vec<Rank> = std::vec::Vec::new();
+        let mut rep = SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() };
+        let mut tiered = false;
+        let critical = matches!(ranking, Ranking::Critical { .. });
+        for o in pts {
+            let (key, h) = key_of(ranking, p, v, o);
+            rep.offered += 1;
+            if set.len() < N {
+                set.push(*o);
+                ranks.push(Rank { tier: 0, key });
+                continue;
+            }
+            if !tiered && critical {
+                let tiers: std::vec::Vec<u8> = (0..N)
+                    .map(|i| {
+                        u8::from((0..N).any(|j| {
+                            j != i
+                                && set[j].id == set[i].id
+                                && (ranks[j].key < ranks[i].key || (ranks[j].key == ranks[i].key && j < i))
+                        }))
+                    })
+                    .collect();
+                for (r, t) in ranks.iter_mut().zip(tiers) {
+                    r.tier = t;
+                }
+            }
+            tiered = true;
+            let mut r = Rank { tier: 0, key };
+            if critical {
+                if let Some(s) = (0..N).find(|&j| set[j].id == o.id && ranks[j].tier == 0) {
+                    if key < ranks[s].key {
+                        ranks[s].tier = 1;
+                    } else {
+                        r.tier = 1;
+                    }
+                }
+            }
+            let w = first_worst(&ranks);
+            if !ranks[w].worse_than(&r) {
+                drop_point(&mut rep, key, h, delta1);
+                continue;
+            }
+            let (wk, wh) = key_of(ranking, p, v, &set[w]);
+            drop_point(&mut rep, wk, wh, delta1);
+            set[w] = *o;
+            ranks[w] = r;
+        }
+        rep.kept = set.len() as u16;
+        (set, rep)
+    }
+
+    /// The selector with its cached searches gives the slots (contents and order) and the
+    /// report of the streaming selection as first written: runs of one id (a memory's
+    /// static cells), few and many ids, repeated points (equal keys), moving points.
+    #[test]
+    fn cached_searches_give_the_streaming_selection_slot_for_slot() {
+        let mut rng = Rng(0x1919_0032);
+        for case in 0..3000 {
+            let m = (rng.next() * 150.0) as usize;
+            let n_ids = 1 + (rng.next() * 12.0) as u16;
+            let mut pts: std::vec::Vec<ObstaclePoint> = std::vec::Vec::new();
+            while pts.len() < m {
+                let id = if rng.next() < 0.6 { 0 } else { (rng.next() * n_ids as f32) as u16 };
+                let run = 1 + (rng.next() * 10.0) as usize;
+                for _ in 0..run {
+                    if rng.next() < 0.1 && !pts.is_empty() {
+                        let k = (rng.next() * pts.len() as f32) as usize % pts.len();
+                        pts.push(pts[k]);
+                        continue;
+                    }
+                    let mut o = ObstaclePoint::fixed(
+                        Vec3::new(rng.next() * 6.0 - 3.0, rng.next() * 6.0 - 3.0, rng.next() * 2.0 - 1.0),
+                        id,
+                    );
+                    if rng.next() < 0.2 {
+                        o.velocity = Some(Vec3::new(rng.next() - 0.5, rng.next() - 0.5, 0.0));
+                    }
+                    pts.push(o);
+                }
+            }
+            let v = Vec3::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0, 0.0);
+            let p = Vec3::new(0.1, -0.2, -1.0);
+            for ranking in
+                [Ranking::Critical { mu: 0.5 + rng.next(), relative: case % 2 == 0 }, Ranking::Nearest]
+            {
+                let mut s = ObstacleSet::<8>::new();
+                let r = select(&mut s, ranking, 0.3, &p, &v, &pts);
+                let (want, want_rep) = streaming_reference::<8>(ranking, 0.3, &p, &v, &pts);
+                assert_eq!(s.as_slice(), &want[..], "case {case} {ranking:?}");
+                assert_eq!(r, want_rep, "case {case} {ranking:?}");
+            }
         }
     }
 
