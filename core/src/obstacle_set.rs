@@ -94,29 +94,56 @@ pub struct SetReport {
     pub min_dropped_key: f32,
 }
 
-/// Per-slot ranking state: (tier, key).
-#[derive(Clone, Copy, Debug)]
-struct Rank {
-    tier: u8,
-    key: f32,
-}
+/// Per-slot ranking state: (tier, key) as one integer in keep order, the tier above the
+/// key's bits mapped to an increasing integer ([`key_bits`]): for finite keys `a.0 > b.0`
+/// exactly when `a` is later in the keep order (higher tier, or the same tier and a larger
+/// key), so the worst entry is found by integer comparisons.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Rank(u64);
 
 impl Rank {
+    #[inline]
+    fn new(tier: u8, key: f32) -> Self {
+        Rank::from_bits(tier, key_bits(key))
+    }
+
+    #[inline]
+    fn from_bits(tier: u8, kb: u32) -> Self {
+        Rank((u64::from(tier) << 32) | u64::from(kb))
+    }
+
+    #[inline]
+    fn tier(self) -> u8 {
+        (self.0 >> 32) as u8
+    }
+
+    /// [`key_bits`] of the key: compares as the finite keys do.
+    #[inline]
+    fn key_bits(self) -> u32 {
+        self.0 as u32
+    }
+
+    #[inline]
+    fn with_tier(self, tier: u8) -> Self {
+        Rank::from_bits(tier, self.key_bits())
+    }
+
     /// Strictly worse (later in the keep order).
     #[inline]
     fn worse_than(&self, o: &Rank) -> bool {
-        self.tier > o.tier || (self.tier == o.tier && self.key > o.key)
+        self.0 > o.0
     }
+}
 
-    /// The keep order as one integer: for finite keys `a.order() > b.order()` exactly when
-    /// `a.worse_than(&b)` (the tier above the key's bits mapped to an increasing integer;
-    /// `-0.0` counts as `0.0`, as in the float comparison), so the worst entry is found by
-    /// integer comparisons.
-    #[inline]
-    fn order(&self) -> u64 {
-        let bits = (self.key + 0.0).to_bits();
-        let k = if bits & 0x8000_0000 != 0 { !bits } else { bits | 0x8000_0000 };
-        (u64::from(self.tier) << 32) | u64::from(k)
+/// A finite key's bits mapped to an increasing integer: `key_bits(a) < key_bits(b)` exactly
+/// when `a < b`, equal exactly when `a == b` (`-0.0` counts as `0.0`).
+#[inline]
+fn key_bits(key: f32) -> u32 {
+    let bits = (key + 0.0).to_bits();
+    if bits & 0x8000_0000 != 0 {
+        !bits
+    } else {
+        bits | 0x8000_0000
     }
 }
 
@@ -159,9 +186,6 @@ pub enum Offer {
 #[derive(Clone, Debug)]
 struct Ranker<const N: usize> {
     ranks: [Rank; N],
-    /// [`Rank::order`] of each stored entry (valid once tiered): the worst entry is the
-    /// first largest.
-    orders: [u64; N],
     /// Index of the worst stored entry (valid once the set is full).
     worst: usize,
     /// The last sibling search (`Critical`, once tiered): `(id, index of that id's tier-0
@@ -184,8 +208,7 @@ struct Ranker<const N: usize> {
 impl<const N: usize> Ranker<N> {
     fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
         Ranker {
-            ranks: [Rank { tier: 0, key: 0.0 }; N],
-            orders: [0; N],
+            ranks: [Rank(0); N],
             worst: 0,
             sibling: None,
             tiered: false,
@@ -208,14 +231,12 @@ impl<const N: usize> Ranker<N> {
         }
         let pts = set.as_slice();
         for (i, q) in pts.iter().enumerate() {
-            let Some(ki) = self.ranks.get(i).map(|r| r.key) else { continue };
-            let better = pts
-                .iter()
-                .zip(self.ranks.iter())
-                .enumerate()
-                .any(|(j, (o, rj))| j != i && o.id == q.id && (rj.key < ki || (rj.key == ki && j < i)));
+            let Some(ki) = self.ranks.get(i).map(|r| r.key_bits()) else { continue };
+            let better = pts.iter().zip(self.ranks.iter()).enumerate().any(|(j, (o, rj))| {
+                j != i && o.id == q.id && (rj.key_bits() < ki || (rj.key_bits() == ki && j < i))
+            });
             if let Some(r) = self.ranks.get_mut(i) {
-                r.tier = u8::from(better);
+                *r = r.with_tier(u8::from(better));
             }
         }
     }
@@ -235,24 +256,38 @@ impl<const N: usize> Ranker<N> {
                 return Offer::Dropped; // unreachable: len < N
             }
             if let Some(slot) = self.ranks.get_mut(len) {
-                *slot = Rank { tier: 0, key };
+                // The key's raw bits: ranked (encoded) only when the set overflows.
+                *slot = Rank(u64::from(key.to_bits()));
             }
             return Offer::Kept;
         }
+        self.offer_full(set, o, key, h, len)
+    }
+
+    /// [`Self::offer`] past capacity.
+    fn offer_full(
+        &mut self,
+        set: &mut ObstacleSet<N>,
+        o: &ObstaclePoint,
+        key: f32,
+        h: f32,
+        len: usize,
+    ) -> Offer {
         if !self.tiered {
-            self.assign_tiers(set);
-            for (o, r) in self.orders.iter_mut().zip(self.ranks.iter()) {
-                *o = r.order();
+            for r in self.ranks.iter_mut() {
+                *r = Rank::new(0, f32::from_bits(r.0 as u32));
             }
-            self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
+            self.assign_tiers(set);
+            self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
         }
         // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
         // cannot take it (whatever its id: see the module docs).
-        if self.ranks.get(self.worst).is_some_and(|w| w.tier == 0 && key >= w.key) {
+        let kb = key_bits(key);
+        if self.ranks.get(self.worst).is_some_and(|w| w.tier() == 0 && kb >= w.key_bits()) {
             drop_point(&mut self.report, key, h, self.delta1);
             return Offer::Dropped;
         }
-        let mut r = Rank { tier: 0, key };
+        let mut r = Rank::from_bits(0, kb);
         let critical = matches!(self.ranking, Ranking::Critical { .. });
         let mut sibling = None;
         if critical {
@@ -262,20 +297,17 @@ impl<const N: usize> Ranker<N> {
                     .as_slice()
                     .iter()
                     .zip(self.ranks.iter())
-                    .position(|(q, rq)| q.id == o.id && rq.tier == 0),
+                    .position(|(q, rq)| q.id == o.id && rq.tier() == 0),
             };
             if let Some(s) = sibling {
                 match self.ranks.get_mut(s) {
-                    Some(rs) if key < rs.key => {
-                        rs.tier = 1;
-                        if let Some(os) = self.orders.get_mut(s) {
-                            *os = rs.order();
-                        }
+                    Some(rs) if kb < rs.key_bits() => {
+                        *rs = rs.with_tier(1);
                         // A demotion is the only change of a stored rank: the cached worst
-                        // entry is recomputed then (else it is still `worst_index(orders)`).
-                        self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
+                        // entry is recomputed then (else it is still `worst_index(ranks)`).
+                        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
                     }
-                    _ => r.tier = 1,
+                    _ => r = r.with_tier(1),
                 }
             }
         }
@@ -296,22 +328,18 @@ impl<const N: usize> Ranker<N> {
         }
         let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
         drop_point(&mut self.report, wkey, wh, self.delta1);
-        if let (Some(slot), Some(rs), Some(os)) = (
-            set.points_mut().get_mut(self.worst),
-            self.ranks.get_mut(self.worst),
-            self.orders.get_mut(self.worst),
-        ) {
+        if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
+        {
             *slot = *o;
             *rs = r;
-            *os = r.order();
         }
         if critical {
             // Stored in the worst slot: as tier 0 it is now its id's tier-0 entry; as tier 1
             // its tier-0 sibling stays (the slot replaced was worse than tier 1 with this key,
             // so not that tier-0 sibling).
-            self.sibling = Some((o.id, if r.tier == 0 { Some(self.worst) } else { sibling }));
+            self.sibling = Some((o.id, if r.tier() == 0 { Some(self.worst) } else { sibling }));
         }
-        self.worst = worst_index(self.orders.get(..len).unwrap_or(&[]));
+        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
         Offer::Kept
     }
 
@@ -388,13 +416,12 @@ fn drop_point(rep: &mut SetReport, key: f32, h: f32, delta1: f32) {
     }
 }
 
-/// Index of the first worst entry (`0` for an empty slice), from the entries'
-/// [`Rank::order`]s.
+/// Index of the first worst entry (`0` for an empty slice), by integer comparisons.
 #[inline]
-fn worst_index(orders: &[u64]) -> usize {
-    let Some(&first) = orders.first() else { return 0 };
+fn worst_index(ranks: &[Rank]) -> usize {
+    let Some(&Rank(first)) = ranks.first() else { return 0 };
     let (mut w, mut ow) = (0, first);
-    for (i, &o) in orders.iter().enumerate().skip(1) {
+    for (i, &Rank(o)) in ranks.iter().enumerate().skip(1) {
         if o > ow {
             (w, ow) = (i, o);
         }
@@ -439,8 +466,12 @@ mod tests {
         for &a in &keys {
             for &b in &keys {
                 for (ta, tb) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                    let (ra, rb) = (Rank { tier: ta, key: a }, Rank { tier: tb, key: b });
-                    assert_eq!(ra.order() > rb.order(), ra.worse_than(&rb), "{ra:?} {rb:?}");
+                    let (ra, rb) = (Rank::new(ta, a), Rank::new(tb, b));
+                    let want = ta > tb || (ta == tb && a > b);
+                    assert_eq!(ra.worse_than(&rb), want, "{ta} {a} {tb} {b}");
+                    assert_eq!(ra.key_bits() < rb.key_bits(), a < b, "{a} {b}");
+                    assert_eq!(ra.key_bits() == rb.key_bits(), a == b, "{a} {b}");
+                    assert_eq!((ra.tier(), ra.with_tier(1).tier()), (ta, 1));
                 }
             }
         }
@@ -605,6 +636,19 @@ mod tests {
         }
     }
 
+    /// The rank as first written: (tier, key) compared as numbers.
+    #[derive(Clone, Copy, Debug)]
+    struct RefRank {
+        tier: u8,
+        key: f32,
+    }
+
+    impl RefRank {
+        fn worse_than(&self, o: &RefRank) -> bool {
+            self.tier > o.tier || (self.tier == o.tier && self.key > o.key)
+        }
+    }
+
     /// The streaming selection as first written (a full sibling search and a full worst
     /// search per point, `worse_than` comparisons): the slots' contents and order and the
     /// report, for checking the cached searches against it.
@@ -615,7 +659,7 @@ mod tests {
         v: &Vec3,
         pts: &[ObstaclePoint],
     ) -> (std::vec::Vec<ObstaclePoint>, SetReport) {
-        let first_worst = |ranks: &[Rank]| {
+        let first_worst = |ranks: &[RefRank]| {
             let mut w = 0;
             for (i, r) in ranks.iter().enumerate() {
                 if r.worse_than(&ranks[w]) {
@@ -625,7 +669,7 @@ mod tests {
             w
         };
         let mut set: std::vec::Vec<ObstaclePoint> = std::vec::Vec::new();
-        let mut ranks: std::vec::Vec<Rank> = std::vec::Vec::new();
+        let mut ranks: std::vec::Vec<RefRank> = std::vec::Vec::new();
         let mut rep = SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() };
         let mut tiered = false;
         let critical = matches!(ranking, Ranking::Critical { .. });
@@ -634,7 +678,7 @@ mod tests {
             rep.offered += 1;
             if set.len() < N {
                 set.push(*o);
-                ranks.push(Rank { tier: 0, key });
+                ranks.push(RefRank { tier: 0, key });
                 continue;
             }
             if !tiered && critical {
@@ -652,7 +696,7 @@ mod tests {
                 }
             }
             tiered = true;
-            let mut r = Rank { tier: 0, key };
+            let mut r = RefRank { tier: 0, key };
             if critical {
                 if let Some(s) = (0..N).find(|&j| set[j].id == o.id && ranks[j].tier == 0) {
                     if key < ranks[s].key {
