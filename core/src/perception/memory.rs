@@ -56,6 +56,7 @@
 //! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
 //! `crate::fmath`, `crate::Vec3`, the parent module.
 
+use super::cell_distances::Distances;
 use super::frontier::{ignore_beyond, Frontier};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FRONTIER_ID, STATIC_ID};
@@ -384,7 +385,7 @@ impl<const N: usize> ObstacleMemory<N> {
         // Each cell's squared distance from the vehicle, kept up to date by `store`: the
         // farthest cell a return into a new cube may replace is found without recomputing
         // every cell's box point per return (the same values, so the same choice).
-        let mut dist = Distances { d: [0.0f32; N], far: None };
+        let mut dist = Distances::new();
         for (d, c) in dist.d.iter_mut().zip(self.cells.iter()) {
             *d = box_distance_sq(&vehicle, c);
         }
@@ -750,54 +751,6 @@ impl<const N: usize> ObstacleMemory<N> {
     }
 }
 
-/// Each cell's squared distance from the vehicle during one scan's insertion (kept up to
-/// date by `store`), and the first farthest cell, cached: a return into a new cube of a
-/// full memory needs it, and most such returns are dropped (farther than every cell),
-/// which changes nothing, so it is not rescanned for each of them.
-struct Distances<const N: usize> {
-    d: [f32; N],
-    /// `(index, distance)` of the first largest of `d[..len]` when `Some`.
-    far: Option<(usize, f32)>,
-}
-
-impl<const N: usize> Distances<N> {
-    /// Sets cell `i`'s distance, keeping the cached farthest cell exact: a change of the
-    /// farthest cell itself drops the cache; any other cell becomes the first farthest
-    /// when it is now farther, or as far and earlier (the others are unchanged).
-    fn set(&mut self, i: usize, v: f32) {
-        if let Some(d) = self.d.get_mut(i) {
-            *d = v;
-        }
-        self.far = match self.far {
-            Some((f, _)) if f == i => None,
-            Some((f, fv)) if not_ge(fv, v) || (fv == v && i < f) => Some((i, v)),
-            other => other,
-        };
-    }
-
-    /// The first farthest of the first `len` cells (`d[i] >= best` keeps the earlier).
-    fn farthest(&mut self, len: usize) -> Option<(usize, f32)> {
-        if self.far.is_none() {
-            let mut it = self.d.iter().take(len).copied().enumerate();
-            let mut best = it.next();
-            if let Some(b) = best.as_mut() {
-                for (i, x) in it {
-                    if not_ge(b.1, x) {
-                        *b = (i, x);
-                    }
-                }
-            }
-            self.far = best;
-        }
-        self.far
-    }
-}
-
-/// `!(a >= b)`, the fold's test as first written (also true when either is NaN).
-fn not_ge(a: f32, b: f32) -> bool {
-    a.partial_cmp(&b).is_none_or(|o| o.is_lt())
-}
-
 /// Mark of `seg_of_cell`: the cell belongs to a segment that is not a cluster.
 const SEG_WALL: u8 = 253;
 
@@ -1004,37 +957,6 @@ mod tests {
                 Ok(())
             })
             .unwrap();
-    }
-
-    /// The cached farthest cell equals the first farthest recomputed from scratch after
-    /// any sequence of distance changes (ties, the farthest cell itself changed, growth).
-    #[test]
-    fn the_cached_farthest_cell_is_the_first_farthest() {
-        let mut seed = 0x0019_f00d_u64;
-        let mut next = |n: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % n
-        };
-        for _ in 0..200 {
-            let mut dist = Distances::<16> { d: [0.0; 16], far: None };
-            for _ in 0..200 {
-                let i = next(16) as usize;
-                // Few distinct values: many ties.
-                dist.set(i, next(6) as f32 * 0.5);
-                if next(3) == 0 {
-                    let got = dist.farthest(16);
-                    let mut want = (0, dist.d[0]);
-                    for (j, &x) in dist.d.iter().enumerate() {
-                        if x > want.1 {
-                            want = (j, x);
-                        }
-                    }
-                    assert_eq!(got, Some(want), "{:?}", dist.d);
-                }
-            }
-        }
     }
 
     #[test]

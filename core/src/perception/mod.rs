@@ -29,6 +29,7 @@
 //!
 //! May import: `crate::obstacle` (points), `crate::fmath`, `crate::frame`, `crate::Vec3`.
 
+mod cell_distances;
 pub mod frontier;
 pub mod memory;
 pub mod track;
