@@ -2,6 +2,7 @@
 //! with the run's settings, the metrics, and the checks made before a flight.
 //!
 //! * [`runner`]: [`runner::RunConfig`], the loop ([`runner::run_with`]) and its metrics.
+//! * [`sensing`]: the ground-truth proximity report and the true barrier h̄ at the outer rate.
 //! * [`stack`]: [`stack::FlightStack`], what the loop needs from a flight stack (implemented in
 //!   [`crate::fc`]), and the controller clock.
 //! * [`validate`]: up-front checks of a run's settings against the core's limits.
@@ -13,5 +14,6 @@
 pub mod paths;
 pub mod preflight;
 pub mod runner;
+pub mod sensing;
 pub mod stack;
 pub mod validate;
