@@ -52,6 +52,7 @@ use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::ControllerParams;
 use parapet_core::outer::{guidance::GuidanceParams, path_yaw::PathYawParams, path_yaw::YawMode};
+use parapet_core::perception::MemoryParams;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::thrust::ThrustParams;
 use parapet_core::tracking::TrackingParams;
@@ -126,6 +127,9 @@ pub struct RunConfig {
     pub perception: Option<Vec<crate::sim::range::RangeSensor>>,
     /// Battery model (the scene's `[battery]`), `None`: no battery simulated (issue 22).
     pub battery: Option<crate::sim::battery::BatteryModelParams>,
+    /// Obstacle memory parameters (`PCP_*`; the scene's `[controller]` `mem_*` and
+    /// `fov_margin`, else the core's defaults): used by range-sensor perception only.
+    pub memory: MemoryParams,
 }
 
 impl RunConfig {
@@ -169,6 +173,7 @@ impl RunConfig {
             disturbances: scene.disturbances.clone(),
             perception: None,
             battery: scene.battery.clone(),
+            memory: memory_params(c),
         })
     }
 
@@ -184,6 +189,22 @@ impl RunConfig {
         };
         p.validate().map_err(|e| anyhow!("controller parameters: {e}"))?;
         Ok(p)
+    }
+}
+
+/// The obstacle memory's parameters: the core's defaults with the scene's `[controller]`
+/// `mem_*` / `fov_margin` values (checked against the parameter table by the scene loader and
+/// [`crate::flight::validate`]).
+fn memory_params(c: &crate::world::schema::ControllerOverrides) -> MemoryParams {
+    let d = MemoryParams::default();
+    let or = |x: Option<f64>, dflt: f32| x.map_or(dflt, |v| v as f32);
+    MemoryParams {
+        voxel: or(c.mem_voxel, d.voxel),
+        forget_s: or(c.mem_forget, d.forget_s),
+        clear_margin: or(c.mem_clear_margin, d.clear_margin),
+        track_size: or(c.mem_track_size, d.track_size),
+        fov_margin: or(c.fov_margin, d.fov_margin),
+        ..d
     }
 }
 
@@ -236,6 +257,7 @@ pub fn controller_params(
         },
         // A simulated pack's cells and resistance (BatteryModelParams::estimator_params).
         battery: cfg.battery.as_ref().map_or(d.battery, |b| b.estimator_params(d.battery)),
+        perception: cfg.memory,
         ..d
     }
 }
@@ -634,6 +656,25 @@ mod tests {
         let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(out.summary.end_reason, "goal");
         assert!(out.samples.capacity() <= SAMPLES_RESERVED as usize, "{}", out.samples.capacity());
+    }
+
+    /// The scene's `[controller]` obstacle-memory settings reach the controller (and so the
+    /// perception's memory and, in PIL, the firmware's `PCP_*`); without them, the defaults.
+    #[test]
+    fn the_scenes_memory_settings_reach_the_controller() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut s = Scene::load(&dir.join("office.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let plain = RunConfig::for_scene(&s, vec![s.start, s.goal]).unwrap_or_else(|e| panic!("{e}"));
+        let cbf = plain.cbf_params().unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(controller_params(&s, &plain, cbf, plain.variant).perception, MemoryParams::default());
+        s.controller.mem_track_size = Some(0.0);
+        s.controller.mem_voxel = Some(0.25);
+        s.controller.fov_margin = Some(0.4);
+        let cfg = RunConfig::for_scene(&s, vec![s.start, s.goal]).unwrap_or_else(|e| panic!("{e}"));
+        let m = controller_params(&s, &cfg, cbf, cfg.variant).perception;
+        assert_eq!((m.track_size, m.voxel, m.fov_margin), (0.0, 0.25, 0.4));
+        assert_eq!(m.forget_s, MemoryParams::default().forget_s);
+        assert!(m.valid());
     }
 
     #[test]

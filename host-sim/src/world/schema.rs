@@ -45,6 +45,16 @@ pub struct ControllerOverrides {
     /// Yaw along the path: a `parapet_core::outer::path_yaw::YawMode` name (`hold`, `travel`;
     /// the parameter table's `MIS_YAW_MODE`).
     pub yaw_mode: Option<String>,
+    /// Obstacle memory voxel edge, m (`PCP_VOXEL`; range-sensor perception only).
+    pub mem_voxel: Option<f64>,
+    /// Obstacle memory forget time, s (`PCP_FORGET`).
+    pub mem_forget: Option<f64>,
+    /// See-through clearing margin, m (`PCP_CLR_MARGIN`).
+    pub mem_clear_margin: Option<f64>,
+    /// Largest cluster tracked for its velocity, m (`PCP_TRK_SIZE`; 0: no tracking).
+    pub mem_track_size: Option<f64>,
+    /// Field-of-view frontier margin, m (`PCP_FOV_MARGIN`; 0: no frontier).
+    pub fov_margin: Option<f64>,
 }
 
 /// Optional simulation settings (`[sim]` table).
@@ -198,7 +208,7 @@ impl ControllerOverrides {
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
     /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
     /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys).
-    pub fn numbers(&self) -> [(&'static str, Option<f64>); 8] {
+    pub fn numbers(&self) -> [(&'static str, Option<f64>); 13] {
         [
             ("mu", self.mu),
             ("delta", self.delta),
@@ -208,6 +218,11 @@ impl ControllerOverrides {
             ("accel_bound", self.accel_bound),
             ("velocity_margin", self.velocity_margin),
             ("speed", self.speed),
+            ("mem_voxel", self.mem_voxel),
+            ("mem_forget", self.mem_forget),
+            ("mem_clear_margin", self.mem_clear_margin),
+            ("mem_track_size", self.mem_track_size),
+            ("fov_margin", self.fov_margin),
         ]
     }
 }
@@ -439,6 +454,11 @@ mod tests {
             velocity_margin: Some(7.0),
             speed: Some(8.0),
             yaw_mode: Some("travel".into()),
+            mem_voxel: Some(0.25),
+            mem_forget: Some(9.0),
+            mem_clear_margin: Some(0.5),
+            mem_track_size: Some(0.0),
+            fov_margin: Some(0.5),
         };
         let table = toml::Table::try_from(&all).unwrap();
         let numbers = all.numbers();
@@ -481,6 +501,11 @@ mod tests {
         assert!(e.contains("velocity_margin") && e.contains("0 ≤ velocity_margin ≤ 10 m/s"), "{e}");
         let e = with(|c| c.speed = Some(0.0)).unwrap_err();
         assert!(e.contains("speed") && e.contains("m/s"), "{e}");
+        assert_eq!(with(|c| c.mem_track_size = Some(0.0)), Ok(()));
+        let e = with(|c| c.mem_voxel = Some(0.01)).unwrap_err();
+        assert!(e.contains("field `mem_voxel`") && e.contains("0.02 ≤ mem_voxel ≤ 5 m"), "{e}");
+        let e = with(|c| c.fov_margin = Some(-1.0)).unwrap_err();
+        assert!(e.contains("field `fov_margin`") && e.contains("0 ≤ fov_margin ≤ 5 m"), "{e}");
         let e = with(|c| {
             c.delta = Some(0.2);
             c.delta1 = Some(0.1)

@@ -187,7 +187,7 @@ mod tests {
     fn firmware_flies_the_scenes_vehicle_and_settings() {
         let s = scene(
             "[vehicle]\nmass = 1.2\ninertia = [0.004, 0.0045, 0.007]\narm_length = 0.2\nk_f = 6.0e-6\n\
-             [controller]\nvelocity_margin = 0.03\n",
+             [controller]\nvelocity_margin = 0.03\nmem_track_size = 0.0\nfov_margin = 0.4\n",
         );
         let cfg = RunConfig::for_scene(&s, vec![s.start, s.goal]).expect("config");
         let (p, updates) = firmware_params(&s, &cfg).expect("representable");
@@ -197,6 +197,7 @@ mod tests {
         );
         assert_eq!(p.airframe.mass, 1.2);
         assert_eq!(p.cbf.velocity_margin, 0.03);
+        assert_eq!((p.perception.track_size, p.perception.fov_margin), (0.0, 0.4));
         let index = |n: &str| params::index_of(n).expect("table name");
         assert!(updates.windows(2).all(|w| index(w[0].0) < index(w[1].0)), "table order: {updates:?}");
         let mut in_order = ControllerParams::default();
