@@ -41,12 +41,14 @@ mod venv;
 
 use std::path::{Path, PathBuf};
 
-/// The seed of every proptest property in `cargo xtask test` (CI) unless `PROPTEST_RNG_SEED`
-/// is set: the properties draw the same cases on every machine and every run.
-const PROPTEST_SEED: u64 = 20261204;
 use std::process::{Command, ExitCode};
 
 const TARGET: &str = "thumbv7em-none-eabihf";
+
+/// The seed of every proptest property in `cargo xtask test` (CI) unless `PROPTEST_RNG_SEED`
+/// is set: the properties draw the same cases on every machine and every run.
+const PROPTEST_SEED: u64 = 20261204;
+
 /// Flash target of the F405 image, bytes (issue 22: ≤ 128 KiB). Reported by `size` and `test`
 /// with the excess; NOT met since the flight modes, RC input, parameter storage, calibration,
 /// motor test, battery and the onboard log landed (2026-12-02: 155,608 B before the size cuts
