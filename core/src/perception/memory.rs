@@ -430,7 +430,8 @@ impl<const N: usize> ObstacleMemory<N> {
 
         // 3. Segments of the tracking row: clusters (small, in front of their background).
         let mut seg_of_cell = [NO_SEG; N];
-        let mut clusters: [(Vec3, u8); MAX_SEGMENTS] = [(Vec3::zeros(), NO_TRACK); MAX_SEGMENTS];
+        let mut clusters: [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS] =
+            [(Vec3::zeros(), NO_TRACK, Vec3::zeros(), Vec3::zeros()); MAX_SEGMENTS];
         let n_clusters = if usize::from(g.n_az) <= MAX_ROW {
             let row = Row { scan, origin: &origin, r_ws: &r_ws, row: track_row, beams: &row_beams };
             self.segment_row(&row, &mut clusters, &mut seg_of_cell)
@@ -443,7 +444,7 @@ impl<const N: usize> ObstacleMemory<N> {
         let gate = self.params.track_gate;
         let mut taken: u16 = 0;
         for c in clusters.iter_mut().take(n_clusters) {
-            let slot = self.tracker.update(&c.0, t, alpha, gate, taken);
+            let slot = self.tracker.update(&c.0, (c.2, c.3), t, alpha, gate, taken);
             taken |= 1 << slot;
             c.1 = slot as u8;
             rep.clusters = rep.clusters.saturating_add(1);
@@ -455,7 +456,7 @@ impl<const N: usize> ObstacleMemory<N> {
             let Some(cell) = self.cells.get_mut(i) else { continue };
             if mark == SEG_WALL {
                 cell.track = NO_TRACK;
-            } else if let Some(&(_, slot)) = clusters.get(usize::from(mark)) {
+            } else if let Some(&(_, slot, _, _)) = clusters.get(usize::from(mark)) {
                 cell.track = slot;
             } else if cell.track != NO_TRACK && taken & (1 << cell.track) != 0 {
                 self.cells.swap_remove(i);
@@ -582,7 +583,7 @@ impl<const N: usize> ObstacleMemory<N> {
     fn segment_row(
         &self,
         row: &Row,
-        clusters: &mut [(Vec3, u8); MAX_SEGMENTS],
+        clusters: &mut [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS],
         seg_of_cell: &mut [u8; N],
     ) -> usize {
         let g = &row.scan.geometry;
@@ -664,7 +665,7 @@ impl<const N: usize> ObstacleMemory<N> {
         s: &Segment,
         after: Nb,
         row: &Row,
-        clusters: &mut [(Vec3, u8); MAX_SEGMENTS],
+        clusters: &mut [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS],
         n: &mut usize,
         seg_of_cell: &mut [u8; N],
     ) {
@@ -676,7 +677,7 @@ impl<const N: usize> ObstacleMemory<N> {
         let small = s.n > 0 && (s.hi - s.lo).norm() <= self.params.track_size;
         let mark = if small && behind(s.before) && behind(after) && *n < MAX_SEGMENTS {
             if let Some(c) = clusters.get_mut(*n) {
-                *c = (s.sum / f32::from(s.n), NO_TRACK);
+                *c = (s.sum / f32::from(s.n), NO_TRACK, s.lo, s.hi);
             }
             *n += 1;
             (*n - 1) as u8

@@ -35,7 +35,12 @@
 //! filter only after [`CONFIRM`] updates, faster than [`STATIC_SPEED`], and once the track
 //! has *moved*: its filtered centroid lies at least [`MOTION_PROOF_M`] from where the track
 //! was opened (its anchor), at least [`MOTION_PROOF_S`] later, and the mean velocity since
-//! the anchor agrees with the filtered one (`|v − d/T| ≤ ½|d/T|`). Scan-to-scan jitter of a
+//! the anchor agrees with the filtered one (`|v − d/T| ≤ ½|d/T|`), **and both ends of the
+//! cluster moved**: each corner of its returns' bounding box has moved at least
+//! [`END_PROOF`]`·`[`MOTION_PROOF_M`] along the centroid's displacement since the anchor (a
+//! static object revealed behind an edge as the vehicle moves — a door frame seen through the
+//! door — grows at one end and shifts its centroid with the other end fixed; tracked as moving
+//! it was extrapolated away from where it is, `docs/perception.md`). Scan-to-scan jitter of a
 //! static segment (centimetres) never accumulates to that; a proven track stays moving for
 //! its life, but its velocity is handed out only while the track is updated (within
 //! [`COAST_S`]: a track out of view is not extrapolated for seconds). Before proof the
@@ -71,6 +76,9 @@ pub const MOTION_PROOF_S: f32 = 0.2;
 /// An unproven track's anchor older than this moves to its current centroid, s (so the
 /// proof needs [`MOTION_PROOF_M`] within this window: a slow drift never proves motion).
 pub const MOTION_WINDOW_S: f32 = 1.0;
+/// Share of [`MOTION_PROOF_M`] that each end of the cluster's box must have moved along
+/// the centroid's displacement for a proof.
+pub const END_PROOF: f32 = 0.5;
 /// A track's velocity is handed out only while it was updated within this time, s (a
 /// track out of view is not extrapolated for longer).
 pub const COAST_S: f32 = 0.5;
@@ -92,6 +100,10 @@ pub struct Track {
     pub anchor_us: u64,
     /// Motion proven (see the module documentation); latched.
     pub moving: bool,
+    /// Bounding box of the cluster's returns at the last update, NED, m.
+    pub extent: (Vec3, Vec3),
+    /// Bounding box at the anchor, NED, m.
+    pub anchor_extent: (Vec3, Vec3),
 }
 
 impl Track {
@@ -105,7 +117,7 @@ impl Track {
             .then_some(self.velocity)
     }
 
-    fn new(c: &Vec3, t_us: u64) -> Self {
+    fn new(c: &Vec3, extent: (Vec3, Vec3), t_us: u64) -> Self {
         Track {
             position: *c,
             velocity: Vec3::zeros(),
@@ -114,6 +126,8 @@ impl Track {
             anchor: *c,
             anchor_us: t_us,
             moving: false,
+            extent,
+            anchor_extent: extent,
         }
     }
 
@@ -127,9 +141,19 @@ impl Track {
         if dt > MOTION_WINDOW_S {
             self.anchor = self.position;
             self.anchor_us = self.t_us;
+            self.anchor_extent = self.extent;
             return;
         }
         if dt < MOTION_PROOF_S || d.norm_squared() < MOTION_PROOF_M * MOTION_PROOF_M {
+            return;
+        }
+        // Both ends of the cluster moved that way: a static object whose visible part grows
+        // or shrinks (revealed behind an edge as the vehicle moves) moves its centroid with
+        // one end fixed.
+        let u = d / d.norm();
+        let ends = [self.extent.0 - self.anchor_extent.0, self.extent.1 - self.anchor_extent.1];
+        let shift = |e: &Vec3| e.x * u.x + e.y * u.y;
+        if ends.iter().any(|e| shift(e) < END_PROOF * MOTION_PROOF_M) {
             return;
         }
         let mean = d / dt;
@@ -171,7 +195,15 @@ impl Tracker {
 
     /// Assigns the cluster centroid `c` seen at `t_us` to a track and updates it; returns
     /// the slot. `taken`: slots already updated by this scan (not eligible). O([`MAX_TRACKS`]).
-    pub fn update(&mut self, c: &Vec3, t_us: u64, alpha: f32, gate: f32, taken: u16) -> usize {
+    pub fn update(
+        &mut self,
+        c: &Vec3,
+        extent: (Vec3, Vec3),
+        t_us: u64,
+        alpha: f32,
+        gate: f32,
+        taken: u16,
+    ) -> usize {
         let beta = alpha * alpha / (2.0 - alpha);
         // Nearest eligible track (a proven moving one's distance counts half) within the
         // gate; the nearest proven moving one within twice the gate as the hand-over.
@@ -201,6 +233,7 @@ impl Tracker {
                 tr.velocity += e * (beta / dt);
                 tr.t_us = t_us;
                 tr.updates = tr.updates.saturating_add(1);
+                tr.extent = extent;
                 tr.prove();
             }
             return i;
@@ -210,6 +243,7 @@ impl Tracker {
                 tr.position = *c;
                 tr.t_us = t_us;
                 tr.updates = tr.updates.saturating_add(1);
+                tr.extent = extent;
             }
             return i;
         }
@@ -230,7 +264,7 @@ impl Tracker {
             }
         }
         if let Some(s) = self.slots.get_mut(slot) {
-            *s = Some(Track::new(c, t_us));
+            *s = Some(Track::new(c, extent, t_us));
         }
         slot
     }
@@ -269,7 +303,7 @@ mod tests {
                 let tk = 1_000_000 + k * 100_000;
                 let n = Vec3::new(rng.gen_range(-0.02..0.02), rng.gen_range(-0.02..0.02), 0.0);
                 let c = x0 + w * (k as f32 * 0.1) + n;
-                let i = t.update(&c, tk, 0.5, 0.5, 0);
+                let i = t.update(&c, (c, c), tk, 0.5, 0.5, 0);
                 assert_eq!(i, 0, "one cluster keeps one track");
                 let err = (t.get(0).unwrap().velocity - w).norm();
                 if k == 10 {
@@ -286,6 +320,29 @@ mod tests {
 
     /// Motion proof: a centroid jittering ±5 cm (static, 10 s) and one drifting at 0.2 m/s
     /// never hand out a velocity; one moving at 1 m/s does from the 5th update on.
+    /// A static object revealed behind an edge (its box grows at one end, the other end
+    /// fixed) moves its centroid by more than the proof distance but is never proven moving;
+    /// the same box moving as a whole is.
+    #[test]
+    fn a_cluster_whose_far_end_stays_is_not_proven_moving() {
+        for (whole, proven) in [(false, false), (true, true)] {
+            let mut t = Tracker::new();
+            let mut last = None;
+            for k in 0..10u64 {
+                let tk = 1_000_000 + k * 100_000;
+                let grow = 0.08 * k as f32; // the near end: 0.8 m/s
+                let lo = Vec3::new(2.0, -0.3 + grow, -1.0);
+                let hi = Vec3::new(2.0, if whole { 0.3 + grow } else { 0.3 }, -1.0);
+                let c = (lo + hi) * 0.5;
+                let i = t.update(&c, (lo, hi), tk, 0.5, 0.5, 0);
+                last = t.get(i).map(|tr| (tr.moving, (tr.position - tr.anchor).norm()));
+            }
+            let (moving, moved) = last.unwrap();
+            assert!(moved > MOTION_PROOF_M, "the centroid moved {moved} m");
+            assert_eq!(moving, proven, "whole box moving: {whole}");
+        }
+    }
+
     #[test]
     fn only_proven_motion_hands_out_a_velocity() {
         let mut rng = Rng(0x5eed);
@@ -295,7 +352,7 @@ mod tests {
                 let tk = 1_000_000 + k * 100_000;
                 let n = Vec3::new(rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05), 0.0);
                 let c = Vec3::new(2.0, speed * k as f32 * 0.1, -1.0) + n;
-                let i = t.update(&c, tk, 0.5, 0.5, 0);
+                let i = t.update(&c, (c, c), tk, 0.5, 0.5, 0);
                 let v = t.get(i).unwrap().measured_velocity(tk);
                 match proven_from {
                     Some(k0) if k >= k0 => assert!(v.is_some(), "{speed} m/s, update {k}"),
@@ -315,13 +372,16 @@ mod tests {
         let mut t = Tracker::new();
         for i in 0..MAX_TRACKS {
             let c = Vec3::new(i as f32 * 2.0, 0.0, 0.0);
-            assert_eq!(t.update(&c, 1_000 + i as u64, 0.5, 0.5, 0), i);
+            assert_eq!(t.update(&c, (c, c), 1_000 + i as u64, 0.5, 0.5, 0), i);
         }
         // Far from every track: replaces slot 0 (updated longest ago).
-        assert_eq!(t.update(&Vec3::new(100.0, 0.0, 0.0), 10_000, 0.5, 0.5, 0), 0);
+        assert_eq!(
+            t.update(&Vec3::new(100.0, 0.0, 0.0), (Vec3::zeros(), Vec3::zeros()), 10_000, 0.5, 0.5, 0),
+            0
+        );
         assert_eq!(t.get(0).unwrap().updates, 1);
         // Near track 3 but taken this scan: a new track instead.
-        let s = t.update(&Vec3::new(6.1, 0.0, 0.0), 20_000, 0.5, 0.5, 1 << 3);
+        let s = t.update(&Vec3::new(6.1, 0.0, 0.0), (Vec3::zeros(), Vec3::zeros()), 20_000, 0.5, 0.5, 1 << 3);
         assert_ne!(s, 3);
         t.expire(20_000 + 5_000_000, 4_000_000);
         assert!((0..MAX_TRACKS).all(|i| t.get(i).is_none()));
