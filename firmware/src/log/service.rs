@@ -15,10 +15,11 @@ use crate::log::logger::{FlightLogger, LogSample, LoggerStats};
 use crate::log::store::{LogStore, RamRing};
 use crate::log::transfer::{LogReply, LogTransfer, TransferStats};
 
-/// Bytes of the RAM log store of the QEMU board (and host tests): at the default 25 Hz
-/// (≈ 8.3 KB/s, `crate::log::logger`) about 7 s of armed flight; a longer log is cut there
-/// (the start is kept), older logs are overwritten.
-pub const RAM_LOG_BYTES: usize = 60 * 1024;
+/// Bytes of the RAM log store of the QEMU board (and host tests): ≈ 8.4 s of armed flight at
+/// the default 25 Hz (`crate::log::logger`); a longer log is cut there (the start is kept),
+/// older logs are overwritten. 58 KiB (was 60): the QEMU image's stack needs the 2 KiB
+/// (`tests/tests/setup_pil.rs` guards ≥ 1 KiB never used).
+pub const RAM_LOG_BYTES: usize = 58 * 1024;
 /// Logs the RAM store lists at most.
 pub const RAM_LOG_COUNT: usize = 8;
 /// The RAM store of the QEMU board.
