@@ -430,6 +430,7 @@ impl<const N: usize> ObstacleMemory<N> {
 
         // 3. Segments of the tracking row: clusters (small, in front of their background).
         let mut seg_of_cell = [NO_SEG; N];
+        // Per cluster: centroid, track slot, and the corners (lo, hi) of its returns' box.
         let mut clusters: [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS] =
             [(Vec3::zeros(), NO_TRACK, Vec3::zeros(), Vec3::zeros()); MAX_SEGMENTS];
         let n_clusters = if usize::from(g.n_az) <= MAX_ROW {

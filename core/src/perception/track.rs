@@ -193,8 +193,9 @@ impl Tracker {
         }
     }
 
-    /// Assigns the cluster centroid `c` seen at `t_us` to a track and updates it; returns
-    /// the slot. `taken`: slots already updated by this scan (not eligible). O([`MAX_TRACKS`]).
+    /// Assigns the cluster centroid `c` (its returns' bounding box `extent`, for the proof of
+    /// motion) seen at `t_us` to a track and updates it; returns the slot. `taken`: slots
+    /// already updated by this scan (not eligible). O([`MAX_TRACKS`]).
     pub fn update(
         &mut self,
         c: &Vec3,
