@@ -173,7 +173,7 @@ impl RunConfig {
             disturbances: scene.disturbances.clone(),
             perception: None,
             battery: scene.battery.clone(),
-            memory: memory_params(c),
+            memory: memory_params(c)?,
         })
     }
 
@@ -194,18 +194,20 @@ impl RunConfig {
 
 /// The obstacle memory's parameters: the core's defaults with the scene's `[controller]`
 /// `mem_*` / `fov_margin` values (checked against the parameter table by the scene loader and
-/// [`crate::flight::validate`]).
-fn memory_params(c: &crate::world::schema::ControllerOverrides) -> MemoryParams {
-    let d = MemoryParams::default();
-    let or = |x: Option<f64>, dflt: f32| x.map_or(dflt, |v| v as f32);
-    MemoryParams {
-        voxel: or(c.mem_voxel, d.voxel),
-        forget_s: or(c.mem_forget, d.forget_s),
-        clear_margin: or(c.mem_clear_margin, d.clear_margin),
-        track_size: or(c.mem_track_size, d.track_size),
-        fov_margin: or(c.fov_margin, d.fov_margin),
-        ..d
+/// [`crate::flight::validate`]), each written through the parameter table
+/// (`parapet_core::params::set`, the firmware's `PCP_*` path), so that a key names the same
+/// field everywhere; a value the table refuses is an error naming the key.
+fn memory_params(c: &crate::world::schema::ControllerOverrides) -> Result<MemoryParams> {
+    let mut p = ControllerParams::default();
+    for (key, x) in c.numbers() {
+        if let (Some(x), Some(param)) = (x, parapet_core::params::by_key(key)) {
+            if param.group == "Perception" {
+                parapet_core::params::set(&mut p, param.name, x as f32)
+                    .map_err(|e| anyhow!("[controller] {key} = {x}: {e:?} (range {})", param.range()))?;
+            }
+        }
     }
+    Ok(p.perception)
 }
 
 /// δ when the scene does not set it: the squared hull radius (margin 0; issue 17),
@@ -675,6 +677,18 @@ mod tests {
         assert_eq!((m.track_size, m.voxel, m.fov_margin), (0.0, 0.25, 0.4));
         assert_eq!(m.forget_s, MemoryParams::default().forget_s);
         assert!(m.valid());
+    }
+
+    /// A memory value the parameter table refuses (the scene loader checks first) is an error
+    /// naming the key and the range, never silently the default.
+    #[test]
+    fn a_refused_memory_value_is_an_error_naming_the_key() {
+        let c = crate::world::schema::ControllerOverrides { mem_forget: Some(1e4), ..Default::default() };
+        let e = memory_params(&c).unwrap_err().to_string();
+        assert!(e.contains("mem_forget") && e.contains("600"), "{e}");
+        let ok = crate::world::schema::ControllerOverrides { mem_clear_margin: Some(0.5), ..Default::default() };
+        let m = memory_params(&ok).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(m, MemoryParams { clear_margin: 0.5, ..MemoryParams::default() });
     }
 
     #[test]
