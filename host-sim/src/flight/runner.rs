@@ -686,7 +686,8 @@ mod tests {
         let c = crate::world::schema::ControllerOverrides { mem_forget: Some(1e4), ..Default::default() };
         let e = memory_params(&c).unwrap_err().to_string();
         assert!(e.contains("mem_forget") && e.contains("600"), "{e}");
-        let ok = crate::world::schema::ControllerOverrides { mem_clear_margin: Some(0.5), ..Default::default() };
+        let ok =
+            crate::world::schema::ControllerOverrides { mem_clear_margin: Some(0.5), ..Default::default() };
         let m = memory_params(&ok).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(m, MemoryParams { clear_margin: 0.5, ..MemoryParams::default() });
     }
