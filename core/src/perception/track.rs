@@ -319,8 +319,6 @@ mod tests {
         assert!(worst30 < 0.12, "after 30 updates: {worst30}");
     }
 
-    /// Motion proof: a centroid jittering ±5 cm (static, 10 s) and one drifting at 0.2 m/s
-    /// never hand out a velocity; one moving at 1 m/s does from the 5th update on.
     /// A static object revealed behind an edge (its box grows at one end, the other end
     /// fixed) moves its centroid by more than the proof distance but is never proven moving;
     /// the same box moving as a whole is.
@@ -344,6 +342,8 @@ mod tests {
         }
     }
 
+    /// Motion proof: a centroid jittering ±5 cm (static, 10 s) and one drifting at 0.2 m/s
+    /// never hand out a velocity; one moving at 1 m/s does from the 5th update on.
     #[test]
     fn only_proven_motion_hands_out_a_velocity() {
         let mut rng = Rng(0x5eed);
