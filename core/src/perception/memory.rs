@@ -430,9 +430,7 @@ impl<const N: usize> ObstacleMemory<N> {
 
         // 3. Segments of the tracking row: clusters (small, in front of their background).
         let mut seg_of_cell = [NO_SEG; N];
-        // Per cluster: centroid, track slot, and the corners (lo, hi) of its returns' box.
-        let mut clusters: [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS] =
-            [(Vec3::zeros(), NO_TRACK, Vec3::zeros(), Vec3::zeros()); MAX_SEGMENTS];
+        let mut clusters = [Cluster::EMPTY; MAX_SEGMENTS];
         let n_clusters = if usize::from(g.n_az) <= MAX_ROW {
             let row = Row { scan, origin: &origin, r_ws: &r_ws, row: track_row, beams: &row_beams };
             self.segment_row(&row, &mut clusters, &mut seg_of_cell)
@@ -445,9 +443,9 @@ impl<const N: usize> ObstacleMemory<N> {
         let gate = self.params.track_gate;
         let mut taken: u16 = 0;
         for c in clusters.iter_mut().take(n_clusters) {
-            let slot = self.tracker.update(&c.0, (c.2, c.3), t, alpha, gate, taken);
+            let slot = self.tracker.update(&c.centroid, (c.lo, c.hi), t, alpha, gate, taken);
             taken |= 1 << slot;
-            c.1 = slot as u8;
+            c.slot = slot as u8;
             rep.clusters = rep.clusters.saturating_add(1);
         }
         let mut i = self.cells.len();
@@ -457,8 +455,8 @@ impl<const N: usize> ObstacleMemory<N> {
             let Some(cell) = self.cells.get_mut(i) else { continue };
             if mark == SEG_WALL {
                 cell.track = NO_TRACK;
-            } else if let Some(&(_, slot, _, _)) = clusters.get(usize::from(mark)) {
-                cell.track = slot;
+            } else if let Some(c) = clusters.get(usize::from(mark)) {
+                cell.track = c.slot;
             } else if cell.track != NO_TRACK && taken & (1 << cell.track) != 0 {
                 self.cells.swap_remove(i);
                 rep.moved = rep.moved.saturating_add(1);
@@ -584,7 +582,7 @@ impl<const N: usize> ObstacleMemory<N> {
     fn segment_row(
         &self,
         row: &Row,
-        clusters: &mut [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS],
+        clusters: &mut [Cluster; MAX_SEGMENTS],
         seg_of_cell: &mut [u8; N],
     ) -> usize {
         let g = &row.scan.geometry;
@@ -666,7 +664,7 @@ impl<const N: usize> ObstacleMemory<N> {
         s: &Segment,
         after: Nb,
         row: &Row,
-        clusters: &mut [(Vec3, u8, Vec3, Vec3); MAX_SEGMENTS],
+        clusters: &mut [Cluster; MAX_SEGMENTS],
         n: &mut usize,
         seg_of_cell: &mut [u8; N],
     ) {
@@ -678,7 +676,7 @@ impl<const N: usize> ObstacleMemory<N> {
         let small = s.n > 0 && (s.hi - s.lo).norm() <= self.params.track_size;
         let mark = if small && behind(s.before) && behind(after) && *n < MAX_SEGMENTS {
             if let Some(c) = clusters.get_mut(*n) {
-                *c = (s.sum / f32::from(s.n), NO_TRACK, s.lo, s.hi);
+                *c = Cluster { centroid: s.sum / f32::from(s.n), slot: NO_TRACK, lo: s.lo, hi: s.hi };
             }
             *n += 1;
             (*n - 1) as u8
@@ -751,6 +749,27 @@ impl<const N: usize> ObstacleMemory<N> {
         });
         sel.finish()
     }
+}
+
+/// One cluster of a scan's tracking row (a small segment in front of its background).
+#[derive(Clone, Copy)]
+struct Cluster {
+    /// Centroid of its returns, NED, m.
+    centroid: Vec3,
+    /// Track slot it was assigned ([`NO_TRACK`] before).
+    slot: u8,
+    /// Corners of its returns' bounding box (the tracker's proof that both ends moved).
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Cluster {
+    const EMPTY: Cluster = Cluster {
+        centroid: Vec3::new(0.0, 0.0, 0.0),
+        slot: NO_TRACK,
+        lo: Vec3::new(0.0, 0.0, 0.0),
+        hi: Vec3::new(0.0, 0.0, 0.0),
+    };
 }
 
 /// Mark of `seg_of_cell`: the cell belongs to a segment that is not a cluster.
