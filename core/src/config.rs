@@ -121,9 +121,11 @@ impl Default for ControllerParams {
 
 impl ControllerParams {
     /// The obstacle memory's parameters (`perception`) with the ground plane of the
-    /// plant-aware filter (`robust.ground_height`, `GND_HEIGHT`).
+    /// plant-aware filter (`robust.ground_height`, `GND_HEIGHT`) and `fov_walls` resolved for
+    /// the path's yaw mode (`MIS_YAW_MODE` 0, heading held: walls when `PCP_FOV_WALLS` is 2).
     pub fn memory_params(&self) -> MemoryParams {
-        MemoryParams { ground_height: self.robust.ground_height, ..self.perception }
+        let held = matches!(self.guidance.path_yaw.mode, crate::outer::path_yaw::YawMode::Hold);
+        MemoryParams { ground_height: self.robust.ground_height, ..self.perception }.with_heading_held(held)
     }
 }
 

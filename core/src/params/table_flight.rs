@@ -6,7 +6,7 @@
 use super::*;
 
 /// Entries of this part.
-pub(super) const N: usize = 26;
+pub(super) const N: usize = 27;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -427,5 +427,28 @@ pub(super) const TABLE: [Param; N] = [
         label: None,
         get: |p| p.perception.fov_margin,
         write: |p, v| p.perception.fov_margin = v,
+    },
+    Param {
+        name: "PCP_FOV_WALLS",
+        key: Some(host_text("fov_walls")),
+        unit: "",
+        default: 2.0,
+        min: 0.0,
+        max: 2.0,
+        integer: true,
+        decimals: 0,
+        group: "Perception",
+        description: host_text(
+            "Where the observed free range is used up: 0 cap the speed (creep), 1 walls stop the vehicle, \
+             2 walls while the heading is held (MIS_YAW_MODE 0)",
+        ),
+        label: Some(|c| match c {
+            0 => Some("cap"),
+            1 => Some("walls"),
+            2 => Some("walls when held"),
+            _ => None,
+        }),
+        get: |p| f32::from(p.perception.fov_walls),
+        write: |p, v| p.perception.fov_walls = v as u8,
     },
 ];

@@ -21,6 +21,22 @@
 //! radius. The filter's barrier on it keeps the hull out of the unobserved space beyond
 //! `D(u)` and caps the speed towards it (derivation in `docs/filter.md` § 14).
 //!
+//! **Walls** (where nothing observed is left; only when the caller asks for them, the memory's
+//! `fov_walls`). When the free range along the direction of
+//! motion is used up or was never observed (`D = 0` in a bracketing sector `i`), the sector
+//! gets a wall: the vertical plane `c_iᵀx = w_i` across its centre direction `c_i`, placed
+//! `m` ahead of the vehicle (`w_i = c_iᵀp + m`) and only ever moved closer while the sector
+//! stays unobserved (`w_i ← min(w_i, c_iᵀp + m)`); a scan that records the sector removes
+//! it. Each wall is handed to the filter as a half-space (its point nearest the vehicle with
+//! the normal `−c_i`, which the plant-aware filter treats as a tangent plane,
+//! `docs/filter.md` § 15). A point that is re-placed `m` ahead of the vehicle every update
+//! never comes closer and only caps the speed (a creep into unseen space); a wall fixed in the
+//! world stops the vehicle within `m − √δ` of where it first found nothing observed, in
+//! every direction it tries (`docs/filter.md` § 14). A half-space blocks every direction with
+//! a positive part along `c_i`, observed ones beside the sector included: walls trade the
+//! goals of flights that need those directions for the guarantee (measured in
+//! `docs/perception.md`, "Walls where nothing was observed").
+//!
 //! Vertical motion is not limited here (the ground and ceiling barriers of `crate::robust`).
 //!
 //! May import: `crate::fmath`, `crate::Vec3`, the parent module's types.
@@ -43,10 +59,13 @@ struct Record {
     free: f32,
 }
 
-/// The per-sector free ranges.
+/// The per-sector free ranges and walls.
 #[derive(Clone, Debug)]
 pub struct Frontier {
     sectors: [Option<Record>; SECTORS],
+    /// Per sector `i`, the offset `w_i` (m) of its wall `c_iᵀx = w_i` (see the module docs);
+    /// `+∞`: no wall.
+    walls: [f32; SECTORS],
     last_dir: Option<Vec3>,
 }
 
@@ -71,7 +90,7 @@ fn centre(i: usize) -> f32 {
 impl Frontier {
     /// Nothing observed.
     pub const fn new() -> Self {
-        Frontier { sectors: [None; SECTORS], last_dir: None }
+        Frontier { sectors: [None; SECTORS], walls: [f32::INFINITY; SECTORS], last_dir: None }
     }
 
     /// Record one scan: `origin` = the sensor's world position, `r_ws` = sensor → world.
@@ -101,9 +120,10 @@ impl Frontier {
                 }
             }
         }
-        for (s, v) in self.sectors.iter_mut().zip(votes.iter()) {
+        for ((s, w), v) in self.sectors.iter_mut().zip(self.walls.iter_mut()).zip(votes.iter()) {
             if v.is_finite() {
                 *s = Some(Record { origin: *origin, free: *v });
+                *w = f32::INFINITY;
             }
         }
     }
@@ -125,16 +145,7 @@ impl Frontier {
 
     /// The observed free range along the horizontal unit direction `u` from `p`, m.
     pub fn free_along(&self, p: &Vec3, u: &Vec3) -> f32 {
-        let j = sector_of(u.x, u.y);
-        let b = libm::atan2f(u.y, u.x);
-        // The neighbour on the side of u's bearing from sector j's centre.
-        let mut off = b - centre(j);
-        if off > core::f32::consts::PI {
-            off -= core::f32::consts::TAU;
-        } else if off < -core::f32::consts::PI {
-            off += core::f32::consts::TAU;
-        }
-        let k = if off >= 0.0 { (j + 1) % SECTORS } else { (j + SECTORS - 1) % SECTORS };
+        let (j, k) = bracket(u);
         let (a, c) = (self.free_from(j, p), self.free_from(k, p));
         if a < c {
             a
@@ -143,10 +154,55 @@ impl Frontier {
         }
     }
 
+    /// The walls (see the module docs) within `ignore_beyond` (m) of a vehicle at `p`: each
+    /// as `(point, normal)`, its point nearest to `p` (NED) and its unit normal `−c_i`.
+    /// At most [`SECTORS`].
+    pub fn walls(&self, p: &Vec3, ignore_beyond: f32, mut f: impl FnMut(Vec3, Vec3)) {
+        for (i, &w) in self.walls.iter().enumerate() {
+            if !w.is_finite() {
+                continue;
+            }
+            let (sn, cs) = crate::fmath::sincosf(centre(i));
+            let c = Vec3::new(cs, sn, 0.0);
+            let gap = w - c.dot(p);
+            if gap <= ignore_beyond {
+                f(p + c * gap, -c);
+            }
+        }
+    }
+}
+
+/// The sector of the horizontal direction `u` and its neighbour on the side of `u`'s bearing
+/// from that sector's centre: the two sectors whose centres bracket `u`.
+fn bracket(u: &Vec3) -> (usize, usize) {
+    let j = sector_of(u.x, u.y);
+    let b = libm::atan2f(u.y, u.x);
+    // The neighbour on the side of u's bearing from sector j's centre.
+    let mut off = b - centre(j);
+    if off > core::f32::consts::PI {
+        off -= core::f32::consts::TAU;
+    } else if off < -core::f32::consts::PI {
+        off += core::f32::consts::TAU;
+    }
+    let k = if off >= 0.0 { (j + 1) % SECTORS } else { (j + SECTORS - 1) % SECTORS };
+    (j, k)
+}
+
+impl Frontier {
     /// The virtual frontier point for a vehicle at `p` moving at `v` (NED): `None` before the
-    /// first horizontal motion, when `margin` ≤ 0 (off), or when the free range exceeds
-    /// `ignore_beyond` (m; the filter cannot act on so far a point).
-    pub fn point(&mut self, p: &Vec3, v: &Vec3, margin: f32, ignore_beyond: f32) -> Option<Vec3> {
+    /// first horizontal motion, when `margin` ≤ 0 (off), when the free range exceeds
+    /// `ignore_beyond` (m; the filter cannot act on so far a point), or, with `walls`, when it
+    /// is used up: then the bracketing sectors without free range get (or keep, moved closer)
+    /// their walls ([`Self::walls`]) instead. Without `walls` the point then sits `margin`
+    /// ahead of the vehicle (a speed cap).
+    pub fn point(
+        &mut self,
+        p: &Vec3,
+        v: &Vec3,
+        margin: f32,
+        ignore_beyond: f32,
+        walls: bool,
+    ) -> Option<Vec3> {
         let s = hypotf(v.x, v.y);
         if s >= MIN_SPEED && s.is_finite() {
             self.last_dir = Some(Vec3::new(v.x / s, v.y / s, 0.0));
@@ -159,7 +215,23 @@ impl Frontier {
         if d > ignore_beyond {
             return None;
         }
-        Some(p + u * (d + margin))
+        if d > 0.0 || !walls {
+            return Some(p + u * (d + margin));
+        }
+        let (j, k) = bracket(&u);
+        for i in [j, k] {
+            if self.free_from(i, p) > 0.0 {
+                continue;
+            }
+            let (sn, cs) = crate::fmath::sincosf(centre(i));
+            let w = cs * p.x + sn * p.y + margin;
+            if let Some(slot) = self.walls.get_mut(i) {
+                if w < *slot {
+                    *slot = w;
+                }
+            }
+        }
+        None
     }
 }
 
@@ -177,6 +249,7 @@ pub fn ignore_beyond(mu: f32, max_speed: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
 
     fn ring(n: u16, r: Range) -> (ScanGeometry, [Range; 72]) {
@@ -213,16 +286,74 @@ mod tests {
         assert!((fwd - 3.0).abs() < 1e-5, "{fwd}");
         assert_eq!(f.free_along(&p, &Vec3::new(0.0, 1.0, 0.0)), 0.0);
         assert_eq!(f.free_along(&p, &Vec3::new(-1.0, 0.0, 0.0)), 0.0);
-        // Moving right (unseen): the frontier point sits at the margin.
-        let q = f.point(&p, &Vec3::new(0.0, 1.0, 0.0), 0.25, 100.0).unwrap();
+        // Moving right (unseen), without walls: the frontier point sits at the margin.
+        let q = f.point(&p, &Vec3::new(0.0, 1.0, 0.0), 0.25, 100.0, false).unwrap();
         assert!((q - Vec3::new(1.0, 0.25, 0.0)).norm() < 1e-5);
+        let mut none = 0;
+        f.walls(&p, 100.0, |_, _| none += 1);
+        assert_eq!(none, 0);
+        // With walls: no point, a wall at the margin (half-space, normal −y).
+        assert!(f.point(&p, &Vec3::new(0.0, 1.0, 0.0), 0.25, 100.0, true).is_none());
+        let mut walls = std::vec::Vec::new();
+        f.walls(&p, 100.0, |q, n| walls.push((q, n)));
+        assert!(!walls.is_empty());
+        for (q, n) in &walls {
+            assert!(n.z == 0.0 && (n.norm() - 1.0).abs() < 1e-5);
+            // The plane is 0.25 m from p along the sector's centre, and faces the vehicle.
+            assert!(((p - q).norm() - 0.25).abs() < 1e-5 && n.dot(&(p - q)) > 0.0, "{q} {n}");
+        }
         // Moving forward: at the observed range plus the margin.
-        let q = f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.25, 100.0).unwrap();
+        let q = f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.25, 100.0, true).unwrap();
         assert!((q - Vec3::new(4.25, 0.0, 0.0)).norm() < 1e-5);
         // Slow: keeps the last direction; off with margin 0; far ranges left out.
-        assert!(f.point(&p, &Vec3::zeros(), 0.25, 100.0).is_some());
-        assert!(f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.0, 100.0).is_none());
-        assert!(f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.25, 2.0).is_none());
+        assert!(f.point(&p, &Vec3::zeros(), 0.25, 100.0, true).is_some());
+        assert!(f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.0, 100.0, true).is_none());
+        assert!(f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.25, 2.0, true).is_none());
+    }
+
+    /// A wall is fixed in the world: while the vehicle creeps towards it, it does not ride
+    /// along (it comes closer, so the filter stops the vehicle); trying again from further on
+    /// never moves it further out; a scan that records the sector removes it.
+    #[test]
+    fn a_wall_stays_where_nothing_was_observed_until_a_scan_sees_there() {
+        let mut f = Frontier::new();
+        let g = ScanGeometry::grid(12, 1, 1.047, 0.05, 0.1, 4.0); // forward fan (north = +x)
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &[Range::Clear; 12]);
+        let east = Vec3::new(0.0, 0.2, 0.0);
+        let gaps = |f: &Frontier, p: &Vec3| {
+            let mut v = std::vec::Vec::new();
+            f.walls(p, 100.0, |q, n| v.push(n.dot(&(p - q))));
+            v
+        };
+        assert!(f.point(&Vec3::zeros(), &east, 0.25, 100.0, true).is_none());
+        let g0 = gaps(&f, &Vec3::zeros());
+        assert!(!g0.is_empty() && g0.iter().all(|g| *g > 0.2 && *g <= 0.25 + 1e-6), "{g0:?}");
+        for k in 1..=10 {
+            let p = Vec3::new(0.0, 0.01 * k as f32, 0.0);
+            assert!(f.point(&p, &east, 0.25, 100.0, true).is_none());
+            let gk = gaps(&f, &p);
+            // Each wall is nearer by the way made towards it (its normal's share of 1 cm/step).
+            for (a, b) in g0.iter().zip(gk.iter()) {
+                assert!(*b < *a - 0.009 * k as f32 + 1e-5, "step {k}: {a} → {b}");
+            }
+        }
+        // Trying again from further ahead (pushed on, say) never moves a wall further out.
+        let ahead = Vec3::new(0.0, 0.3, 0.0);
+        let before = gaps(&f, &ahead);
+        assert!(f.point(&ahead, &east, 0.25, 100.0, true).is_none());
+        assert_eq!(gaps(&f, &ahead), before);
+        // Back west 1 m and east again: moved closer, 0.25 m ahead again (only ever closer).
+        let back = Vec3::new(0.0, -1.0, 0.0);
+        assert!(f.point(&back, &east, 0.25, 100.0, true).is_none());
+        assert!(gaps(&f, &back).iter().all(|g| (*g - 0.25).abs() < 1e-5), "{:?}", gaps(&f, &back));
+        // Walls beyond `ignore_beyond` are left out; a scan seeing east removes them.
+        let mut n = 0;
+        f.walls(&back, 0.2, |_, _| n += 1);
+        assert_eq!(n, 0);
+        let r_east = nalgebra::Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+        f.record(&back, &r_east, &g, &[Range::Clear; 12]);
+        assert!(gaps(&f, &back).is_empty());
+        assert!(f.point(&back, &east, 0.25, 100.0, true).is_some());
     }
 
     #[test]

@@ -59,7 +59,9 @@
 use super::cell_distances::Distances;
 use super::frontier::{ignore_beyond, Frontier};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
-use super::{MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FRONTIER_ID, STATIC_ID};
+use super::{
+    MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF, FRONTIER_ID, STATIC_ID,
+};
 use crate::cbf::INPUT_LIMIT;
 use crate::fmath::{hypotf, maxf, minf};
 use crate::obstacle::{ObstaclePoint, ObstacleSet};
@@ -723,8 +725,15 @@ impl<const N: usize> ObstacleMemory<N> {
         }
         if self.now_us.is_some() {
             let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
-            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far) {
+            let walls = self.params.fov_walls != FOV_WALLS_OFF;
+            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far, walls) {
                 f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
+            }
+            // Where the observed free range is used up: walls, as half-spaces.
+            if walls {
+                self.frontier.walls(p, far, |q, n| {
+                    f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: Some(n) });
+                });
             }
         }
     }
@@ -778,7 +787,7 @@ const SEG_WALL: u8 = 253;
 #[cfg(test)]
 mod tests {
     extern crate std;
-    use super::super::{Pose, ScanGeometry, SensorMount};
+    use super::super::{Pose, ScanGeometry, SensorMount, FOV_WALLS_HELD, FOV_WALLS_ON};
     use super::*;
     use proptest::prelude::*;
     use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -881,6 +890,52 @@ mod tests {
         // Past the forget time: gone.
         empty.scan(&mut m, 4_100_000, P, core::f32::consts::PI, camera());
         assert!(m.is_empty());
+    }
+
+    /// `fov_walls`: a forward camera saw north free; the vehicle moves east (never observed).
+    /// With the cap (0) the memory offers the frontier point `fov_margin` ahead of the vehicle
+    /// (no normal), which rides along; with walls (1) no point but a half-space east of where the
+    /// vehicle found nothing observed, which stays there as the vehicle moves on; `2` resolves to
+    /// walls for a held heading and to the cap for a heading that turns with the path.
+    #[test]
+    fn unseen_space_gets_a_speed_cap_or_a_wall_that_stays() {
+        let run = |fov_walls: u8| {
+            let params = MemoryParams { fov_walls, ..MemoryParams::default() };
+            let mut m = ObstacleMemory::<128>::new(params);
+            let empty = World { cyl: Vec::new(), wall_x: None };
+            empty.scan(&mut m, 1_000, P, 0.0, camera());
+            let east = Vec3::new(0.0, 0.3, 0.0);
+            let at = |m: &mut ObstacleMemory<128>, p: Vec3| {
+                let mut out = Vec::new();
+                m.for_each_point(2_000, &p, &east, 1.4, |o| out.push(*o));
+                out.into_iter().filter(|o| o.id == FRONTIER_ID).collect::<Vec<_>>()
+            };
+            let first = at(&mut m, P);
+            let later = at(&mut m, P + Vec3::new(0.0, 0.1, 0.0));
+            (first, later)
+        };
+        let (first, later) = run(FOV_WALLS_OFF);
+        assert_eq!((first.len(), later.len()), (1, 1));
+        assert!(first[0].normal.is_none() && ((first[0].point - P).norm() - 0.25).abs() < 1e-5);
+        // Rides along: 0.25 m ahead of the vehicle again.
+        let p1 = P + Vec3::new(0.0, 0.1, 0.0);
+        assert!(((later[0].point - p1).norm() - 0.25).abs() < 1e-5);
+        let (first, later) = run(FOV_WALLS_ON);
+        assert!(!first.is_empty() && first.iter().all(|o| o.normal.is_some()));
+        // Fixed in the world: 0.1 m nearer once the vehicle has moved 0.1 m east (the walls'
+        // normals are within a sector of west, so their distance shrinks by about that much).
+        for (a, b) in first.iter().zip(later.iter()) {
+            let n = a.normal.unwrap_or_else(Vec3::zeros);
+            let (ga, gb) = (n.dot(&(P - a.point)), n.dot(&(p1 - b.point)));
+            assert!(ga > 0.2 && gb < ga - 0.09, "{ga} → {gb}");
+        }
+        let held = MemoryParams::DEFAULT;
+        assert_eq!(held.fov_walls, FOV_WALLS_HELD);
+        assert_eq!(held.with_heading_held(true).fov_walls, FOV_WALLS_ON);
+        assert_eq!(held.with_heading_held(false).fov_walls, FOV_WALLS_OFF);
+        let off = MemoryParams { fov_walls: FOV_WALLS_OFF, ..held };
+        assert_eq!(off.with_heading_held(true).fov_walls, FOV_WALLS_OFF);
+        assert!(!MemoryParams { fov_walls: 3, ..held }.valid());
     }
 
     #[test]

@@ -239,7 +239,21 @@ pub struct MemoryParams {
     /// The frontier point lies this far beyond the observed free range (≥ the hull radius
     /// √δ, so the hull stays in observed space), m; 0 turns the frontier off. Default 0.25 m.
     pub fov_margin: f32,
+    /// Where the observed free range along the direction of motion is used up
+    /// (`PCP_FOV_WALLS`, [`frontier`]): [`FOV_WALLS_OFF`] the frontier point caps the speed
+    /// there (a creep), [`FOV_WALLS_ON`] walls fixed in the world stop the vehicle,
+    /// [`FOV_WALLS_HELD`] walls while the heading is held (`MIS_YAW_MODE` 0), the cap while it
+    /// turns to the path — resolved by [`MemoryParams::with_heading_held`]; the memory treats an
+    /// unresolved [`FOV_WALLS_HELD`] as walls. Default [`FOV_WALLS_HELD`].
+    pub fov_walls: u8,
 }
+
+/// `fov_walls`: the frontier point caps the speed towards unseen space.
+pub const FOV_WALLS_OFF: u8 = 0;
+/// `fov_walls`: walls where nothing observed is left.
+pub const FOV_WALLS_ON: u8 = 1;
+/// `fov_walls`: walls while the heading is held, else the speed cap.
+pub const FOV_WALLS_HELD: u8 = 2;
 
 impl Default for MemoryParams {
     fn default() -> Self {
@@ -259,7 +273,19 @@ impl MemoryParams {
         ground_clip: 0.1,
         ground_height: 0.0,
         fov_margin: 0.25,
+        fov_walls: FOV_WALLS_HELD,
     };
+
+    /// These parameters with [`FOV_WALLS_HELD`] resolved for a vehicle whose heading is held
+    /// (`held`: walls) or turns to the path (the speed cap); the other settings unchanged.
+    pub const fn with_heading_held(self, held: bool) -> Self {
+        let fov_walls = match self.fov_walls {
+            FOV_WALLS_HELD if held => FOV_WALLS_ON,
+            FOV_WALLS_HELD => FOV_WALLS_OFF,
+            w => w,
+        };
+        MemoryParams { fov_walls, ..self }
+    }
 
     /// Every field finite and in its range (voxel 0.02–5 m, forget 0.05–600 s, α in (0, 1], …).
     pub fn valid(&self) -> bool {
@@ -273,5 +299,6 @@ impl MemoryParams {
             && (0.0..=10.0).contains(&self.ground_clip)
             && self.ground_height.is_finite()
             && (0.0..=5.0).contains(&self.fov_margin)
+            && self.fov_walls <= FOV_WALLS_HELD
     }
 }

@@ -445,9 +445,11 @@ impl ObstacleAssembler {
             clear_margin: get("PCP_CLR_MARGIN", d.clear_margin),
             track_size: get("PCP_TRK_SIZE", d.track_size),
             fov_margin: get("PCP_FOV_MARGIN", d.fov_margin),
+            fov_walls: get("PCP_FOV_WALLS", f32::from(d.fov_walls)) as u8,
             ground_height: get("GND_HEIGHT", d.ground_height),
             ..d
-        };
+        }
+        .with_heading_held(get("MIS_YAW_MODE", 0.0) == 0.0);
         // Out-of-range values (not possible through PARAM_SET) keep the previous parameters.
         self.memory.set_params(params);
         let scan = Scan { t_us: now_us, pose, mount, geometry: g, ranges };

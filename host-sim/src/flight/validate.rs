@@ -114,6 +114,7 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         ("mem_clear_margin", f64::from(cfg.memory.clear_margin), "controller", c.mem_clear_margin.is_some()),
         ("mem_track_size", f64::from(cfg.memory.track_size), "controller", c.mem_track_size.is_some()),
         ("fov_margin", f64::from(cfg.memory.fov_margin), "controller", c.fov_margin.is_some()),
+        ("fov_walls", f64::from(cfg.memory.fov_walls), "controller", c.fov_walls.is_some()),
     ] {
         let Some(d) = params::by_key(key) else { continue };
         if !param_accepts(d, x) {

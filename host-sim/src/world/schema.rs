@@ -55,6 +55,9 @@ pub struct ControllerOverrides {
     pub mem_track_size: Option<f64>,
     /// Field-of-view frontier margin, m (`PCP_FOV_MARGIN`; 0: no frontier).
     pub fov_margin: Option<f64>,
+    /// Where nothing observed is left (`PCP_FOV_WALLS`): 0 speed cap, 1 walls, 2 walls
+    /// while the heading is held.
+    pub fov_walls: Option<f64>,
 }
 
 /// Optional simulation settings (`[sim]` table).
@@ -208,7 +211,7 @@ impl ControllerOverrides {
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
     /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
     /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys).
-    pub fn numbers(&self) -> [(&'static str, Option<f64>); 13] {
+    pub fn numbers(&self) -> [(&'static str, Option<f64>); 14] {
         [
             ("mu", self.mu),
             ("delta", self.delta),
@@ -223,6 +226,7 @@ impl ControllerOverrides {
             ("mem_clear_margin", self.mem_clear_margin),
             ("mem_track_size", self.mem_track_size),
             ("fov_margin", self.fov_margin),
+            ("fov_walls", self.fov_walls),
         ]
     }
 }
@@ -459,6 +463,7 @@ mod tests {
             mem_clear_margin: Some(0.5),
             mem_track_size: Some(0.0),
             fov_margin: Some(0.5),
+            fov_walls: Some(1.0),
         };
         let table = toml::Table::try_from(&all).unwrap();
         let numbers = all.numbers();
