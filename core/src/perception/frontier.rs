@@ -37,10 +37,22 @@
 //! goals of flights that need those directions for the guarantee (measured in
 //! `docs/perception.md`, "Walls where nothing was observed").
 //!
+//! **Seen from earlier positions** (with the speed cap, not with walls). The sector record only
+//! knows the last scan per sector, from where it was taken: space beside or behind a forward
+//! sensor that it saw on the way has no record. [`FreeGrid`] keeps what was seen free in a
+//! world-fixed map; along `u` the corridor of the hull's width (radius `m`) through its free
+//! cells gives `D_g(u)`, which stands in for a bracketing sector **that has no record** (a
+//! direction the sensors have not looked in since the start: beside and behind a forward
+//! camera, the gaps between ToF sensors). A sector with a record keeps its own, the last
+//! scan's, free range. With walls (a held heading) the grid is not consulted: the fixed gaps
+//! of a held sensor set would be crossed diagonally towards what the sensors barely see
+//! (measured, `docs/perception.md`).
+//!
 //! Vertical motion is not limited here (the ground and ceiling barriers of `crate::robust`).
 //!
 //! May import: `crate::fmath`, `crate::Vec3`, the parent module's types.
 
+use super::free_grid::FreeGrid;
 use super::{Range, ScanGeometry};
 use crate::fmath::{hypotf, sqrtf};
 use crate::Vec3;
@@ -67,6 +79,8 @@ pub struct Frontier {
     /// `+∞`: no wall.
     walls: [f32; SECTORS],
     last_dir: Option<Vec3>,
+    /// The space seen free from earlier positions ([`FreeGrid`]): stands in for unrecorded sectors.
+    grid: FreeGrid,
 }
 
 impl Default for Frontier {
@@ -90,36 +104,41 @@ fn centre(i: usize) -> f32 {
 impl Frontier {
     /// Nothing observed.
     pub const fn new() -> Self {
-        Frontier { sectors: [None; SECTORS], walls: [f32::INFINITY; SECTORS], last_dir: None }
+        Frontier {
+            sectors: [None; SECTORS],
+            walls: [f32::INFINITY; SECTORS],
+            last_dir: None,
+            grid: FreeGrid::new(),
+        }
     }
 
-    /// Record one scan: `origin` = the sensor's world position, `r_ws` = sensor → world.
-    /// Bounded by the scan's beams (≤ `MAX_BEAMS`) plus [`SECTORS`].
-    pub fn record(&mut self, origin: &Vec3, r_ws: &Matrix3<f32>, g: &ScanGeometry, ranges: &[Range]) {
+    /// Record one scan: `origin` = the sensor's world position, `r_ws` = sensor → world,
+    /// `band` = the hull's vertical half-extent for the free grid (the frontier margin), m.
+    /// The grid is marked only with `grid` (the speed cap: with walls it is not consulted) and
+    /// while some sector has no record (records are never dropped, and the grid answers only
+    /// for a sector without one: a 360° sensor marks it once).
+    /// Bounded by the scan's beams (≤ `MAX_BEAMS`) plus [`SECTORS`], and the grid's walks.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        origin: &Vec3,
+        r_ws: &Matrix3<f32>,
+        g: &ScanGeometry,
+        ranges: &[Range],
+        band: f32,
+        grid: bool,
+    ) {
+        if grid && self.sectors.iter().any(Option::is_none) {
+            self.grid.record(origin, r_ws, g, ranges, band);
+        }
         let mut votes = [f32::INFINITY; SECTORS];
-        let sin_band = libm::sinf(HORIZONTAL_BAND);
-        let mut k = 0usize;
-        for row in 0..g.n_el {
-            for col in 0..g.n_az {
-                let r = ranges.get(k).copied().unwrap_or(Range::Unknown);
-                k += 1;
-                let free = match r {
-                    Range::Hit(x) if x >= g.min_range && x < g.max_range => x,
-                    Range::Clear => g.max_range,
-                    _ => continue,
-                };
-                let u = r_ws * g.direction(row, col);
-                if u.z.abs() > sin_band {
-                    continue;
-                }
-                let i = sector_of(u.x, u.y);
-                if let Some(v) = votes.get_mut(i) {
-                    if free < *v {
-                        *v = free;
-                    }
+        g.for_each_free_beam(r_ws, ranges, libm::sinf(HORIZONTAL_BAND), |u, free| {
+            if let Some(v) = votes.get_mut(sector_of(u.x, u.y)) {
+                if free < *v {
+                    *v = free;
                 }
             }
-        }
+        });
         for ((s, w), v) in self.sectors.iter_mut().zip(self.walls.iter_mut()).zip(votes.iter()) {
             if v.is_finite() {
                 *s = Some(Record { origin: *origin, free: *v });
@@ -145,8 +164,17 @@ impl Frontier {
 
     /// The observed free range along the horizontal unit direction `u` from `p`, m.
     pub fn free_along(&self, p: &Vec3, u: &Vec3) -> f32 {
+        self.free_along_or(p, u, 0.0)
+    }
+
+    /// As [`Self::free_along`], a bracketing sector without a record counting as `unrecorded`.
+    fn free_along_or(&self, p: &Vec3, u: &Vec3, unrecorded: f32) -> f32 {
         let (j, k) = bracket(u);
-        let (a, c) = (self.free_from(j, p), self.free_from(k, p));
+        let of = |i: usize| match self.sectors.get(i).copied().flatten() {
+            Some(_) => self.free_from(i, p),
+            None => unrecorded,
+        };
+        let (a, c) = (of(j), of(k));
         if a < c {
             a
         } else {
@@ -211,7 +239,12 @@ impl Frontier {
         if margin <= 0.0 || !(margin.is_finite()) {
             return None;
         }
-        let d = self.free_along(p, &u);
+        let d = if walls {
+            self.free_along(p, &u)
+        } else {
+            let grid = self.grid.corridor(p, &u, margin, ignore_beyond);
+            self.free_along_or(p, &u, grid)
+        };
         if d > ignore_beyond {
             return None;
         }
@@ -280,15 +313,22 @@ mod tests {
         // A forward 60° fan, free to 4 m.
         let g = ScanGeometry::grid(12, 1, 1.047, 0.05, 0.1, 4.0);
         let ranges = [Range::Clear; 12];
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &ranges);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &ranges, 0.25, true);
         let p = Vec3::new(1.0, 0.0, 0.0);
         let fwd = f.free_along(&p, &Vec3::new(1.0, 0.0, 0.0));
         assert!((fwd - 3.0).abs() < 1e-5, "{fwd}");
         assert_eq!(f.free_along(&p, &Vec3::new(0.0, 1.0, 0.0)), 0.0);
         assert_eq!(f.free_along(&p, &Vec3::new(-1.0, 0.0, 0.0)), 0.0);
-        // Moving right (unseen), without walls: the frontier point sits at the margin.
+        // Moving right without walls: no sector record, but the fan saw part of that side from
+        // the origin (within 30°): the hull's strip, x in [0.75, 1.25], is seen up to
+        // y = 0.75·tan 30° = 0.433 m at its near edge, so the centre may advance less than that.
         let q = f.point(&p, &Vec3::new(0.0, 1.0, 0.0), 0.25, 100.0, false).unwrap();
-        assert!((q - Vec3::new(1.0, 0.25, 0.0)).norm() < 1e-5);
+        assert!(q.x == 1.0 && q.y > 0.25 && q.y < 0.25 + 0.433, "{q:?}");
+        // Far to the side, never seen: the frontier point sits at the margin.
+        let far = Vec3::new(1.0, 3.0, 0.0);
+        let q = f.point(&far, &Vec3::new(0.0, 1.0, 0.0), 0.25, 100.0, false).unwrap();
+        assert!((q - Vec3::new(1.0, 3.25, 0.0)).norm() < 1e-5, "{q:?}");
+        assert!(f.point(&p, &Vec3::new(0.5, 0.0, 0.0), 0.25, 100.0, false).is_some());
         let mut none = 0;
         f.walls(&p, 100.0, |_, _| none += 1);
         assert_eq!(none, 0);
@@ -318,7 +358,7 @@ mod tests {
     fn a_wall_stays_where_nothing_was_observed_until_a_scan_sees_there() {
         let mut f = Frontier::new();
         let g = ScanGeometry::grid(12, 1, 1.047, 0.05, 0.1, 4.0); // forward fan (north = +x)
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &[Range::Clear; 12]);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &[Range::Clear; 12], 0.25, true);
         let east = Vec3::new(0.0, 0.2, 0.0);
         let gaps = |f: &Frontier, p: &Vec3| {
             let mut v = std::vec::Vec::new();
@@ -351,7 +391,7 @@ mod tests {
         f.walls(&back, 0.2, |_, _| n += 1);
         assert_eq!(n, 0);
         let r_east = nalgebra::Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
-        f.record(&back, &r_east, &g, &[Range::Clear; 12]);
+        f.record(&back, &r_east, &g, &[Range::Clear; 12], 0.25, true);
         assert!(gaps(&f, &back).is_empty());
         assert!(f.point(&back, &east, 0.25, 100.0, true).is_some());
     }
@@ -361,7 +401,7 @@ mod tests {
         let mut f = Frontier::new();
         let (g, mut r) = ring(72, Range::Clear);
         r[0] = Range::Hit(2.0); // straight ahead
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &r);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &r, 0.25, true);
         let d = f.free_along(&Vec3::zeros(), &Vec3::new(1.0, 0.0, 0.0));
         assert!((d - 2.0).abs() < 1e-5, "{d}");
         let d = f.free_along(&Vec3::zeros(), &Vec3::new(-1.0, 0.0, 0.0));

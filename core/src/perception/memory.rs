@@ -467,7 +467,8 @@ impl<const N: usize> ObstacleMemory<N> {
         self.tracker.expire(now, self.forget_us());
 
         // 5. The free ranges for the field-of-view frontier.
-        self.frontier.record(&origin, &r_ws, g, scan.ranges);
+        let grid = self.params.fov_walls == FOV_WALLS_OFF;
+        self.frontier.record(&origin, &r_ws, g, scan.ranges, self.params.fov_margin, grid);
 
         self.stats.scans = self.stats.scans.saturating_add(1);
         self.stats.dropped_full = self.stats.dropped_full.saturating_add(u32::from(rep.dropped_full));
@@ -892,11 +893,12 @@ mod tests {
         assert!(m.is_empty());
     }
 
-    /// `fov_walls`: a forward camera saw north free; the vehicle moves east (never observed).
-    /// With the cap (0) the memory offers the frontier point `fov_margin` ahead of the vehicle
-    /// (no normal), which rides along; with walls (1) no point but a half-space east of where the
-    /// vehicle found nothing observed, which stays there as the vehicle moves on; `2` resolves to
-    /// walls for a held heading and to the cap for a heading that turns with the path.
+    /// `fov_walls`: a forward camera saw north free; the vehicle, 4 m east of where it looked
+    /// (nothing seen there), moves east. With the cap (0) the memory offers the frontier point
+    /// `fov_margin` ahead of the vehicle (no normal), which rides along; with walls (1) no point
+    /// but a half-space east of where the vehicle found nothing observed, which stays there as
+    /// the vehicle moves on; `2` resolves to walls for a held heading and to the cap for a
+    /// heading that turns with the path.
     #[test]
     fn unseen_space_gets_a_speed_cap_or_a_wall_that_stays() {
         let run = |fov_walls: u8| {
@@ -910,15 +912,16 @@ mod tests {
                 m.for_each_point(2_000, &p, &east, 1.4, |o| out.push(*o));
                 out.into_iter().filter(|o| o.id == FRONTIER_ID).collect::<Vec<_>>()
             };
-            let first = at(&mut m, P);
-            let later = at(&mut m, P + Vec3::new(0.0, 0.1, 0.0));
+            let first = at(&mut m, Q);
+            let later = at(&mut m, Q + Vec3::new(0.0, 0.1, 0.0));
             (first, later)
         };
+        const Q: Vec3 = Vec3::new(0.0, 4.0, -1.0);
         let (first, later) = run(FOV_WALLS_OFF);
         assert_eq!((first.len(), later.len()), (1, 1));
-        assert!(first[0].normal.is_none() && ((first[0].point - P).norm() - 0.25).abs() < 1e-5);
+        assert!(first[0].normal.is_none() && ((first[0].point - Q).norm() - 0.25).abs() < 1e-5);
         // Rides along: 0.25 m ahead of the vehicle again.
-        let p1 = P + Vec3::new(0.0, 0.1, 0.0);
+        let p1 = Q + Vec3::new(0.0, 0.1, 0.0);
         assert!(((later[0].point - p1).norm() - 0.25).abs() < 1e-5);
         let (first, later) = run(FOV_WALLS_ON);
         assert!(!first.is_empty() && first.iter().all(|o| o.normal.is_some()));
@@ -926,7 +929,7 @@ mod tests {
         // normals are within a sector of west, so their distance shrinks by about that much).
         for (a, b) in first.iter().zip(later.iter()) {
             let n = a.normal.unwrap_or_else(Vec3::zeros);
-            let (ga, gb) = (n.dot(&(P - a.point)), n.dot(&(p1 - b.point)));
+            let (ga, gb) = (n.dot(&(Q - a.point)), n.dot(&(p1 - b.point)));
             assert!(ga > 0.2 && gb < ga - 0.09, "{ga} → {gb}");
         }
         let held = MemoryParams::DEFAULT;

@@ -652,12 +652,21 @@ fn bench_cascade(c: &Counter) {
 /// a 72-sector planar scan (OBSTACLE_DISTANCE, 5°, 8 m) of a 6 m × 6 m room with a pole,
 /// the vehicle crossing it at 1 m/s, one scan per 0.1 s (40 scans). Per scan: `insert_scan`
 /// (clearing, merge, tracks, frontier) and `select::<32>` (the points for the filter).
-fn bench_memory(c: &Counter) {
+/// `forward`: only the forward 90° of the scan carry ranges (a forward depth camera sent as
+/// OBSTACLE_DISTANCE, the rest UINT16_MAX), flown with the speed cap (`PCP_FOV_WALLS` 0, as
+/// with `MIS_YAW_MODE` travel), so that the free-cell map of the unrecorded sectors is marked
+/// on every scan.
+fn bench_memory(c: &Counter, forward: bool) {
     use parapet_core::obstacle_set::Ranking;
     use parapet_core::perception::{
-        MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount,
+        MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount, FOV_WALLS_OFF,
     };
-    let mut mem = ObstacleMemory::<64>::new(MemoryParams::default());
+    let params = if forward {
+        MemoryParams { fov_walls: FOV_WALLS_OFF, ..MemoryParams::default() }
+    } else {
+        MemoryParams::default()
+    };
+    let mut mem = ObstacleMemory::<64>::new(params);
     let g = ScanGeometry::planar_360(72, 0.1745, 0.1, 8.0);
     let (mut ins, mut sel) = (Stats::default(), Stats::default());
     let mut cells = 0usize;
@@ -682,7 +691,13 @@ fn bench_memory(c: &Counter) {
                     best = best.min(s);
                 }
             }
-            *r = if best < 8.0 { Range::Hit(best) } else { Range::Clear };
+            *r = if forward && u.x < u.y.abs() {
+                Range::Unknown
+            } else if best < 8.0 {
+                Range::Hit(best)
+            } else {
+                Range::Clear
+            };
         }
         let scan = Scan {
             t_us: 1_000_000 + u64::from(k) * 100_000,
@@ -701,8 +716,13 @@ fn bench_memory(c: &Counter) {
         }));
         cells = mem.len();
     }
-    ins.report("ObstacleMemory<64>::insert_scan, 72 sectors");
-    sel.report("ObstacleMemory<64>::select::<32>");
+    if forward {
+        ins.report("ObstacleMemory<64>::insert_scan, 72 sectors, forward 90° only, free-cell map");
+        sel.report("ObstacleMemory<64>::select::<32>, forward 90° only");
+    } else {
+        ins.report("ObstacleMemory<64>::insert_scan, 72 sectors");
+        sel.report("ObstacleMemory<64>::select::<32>");
+    }
     let _ = writeln!(Console, "memory cells after 40 scans: {cells}");
 }
 
@@ -719,7 +739,8 @@ fn main() -> ! {
     bench_cascade_parts(&c);
     bench_filter(&c);
     bench_cascade(&c);
-    bench_memory(&c);
+    bench_memory(&c, false);
+    bench_memory(&c, true);
     storage::bench_storage(&c);
     print("done\n");
     exit(true)
