@@ -35,7 +35,9 @@
 //! every direction it tries (`docs/filter.md` § 14). A half-space blocks every direction with
 //! a positive part along `c_i`, observed ones beside the sector included: walls trade the
 //! goals of flights that need those directions for the guarantee (measured in
-//! `docs/perception.md`, "Walls where nothing was observed").
+//! `docs/perception.md` § Failure modes, "Walls for a held heading"). While a tracked
+//! obstacle closes in ([`closes_in`]) the memory asks for no new wall: the direction of motion
+//! is then an evasion, which gets the capped point (walls already placed stay).
 //!
 //! **Seen from earlier positions** (with the speed cap, not with walls). The sector record only
 //! knows the last scan per sector, from where it was taken: space beside or behind a forward
@@ -266,6 +268,21 @@ impl Frontier {
         }
         None
     }
+}
+
+/// While a tracked obstacle closes on the vehicle by its own motion faster than this (m/s) …
+pub const EVADE_MIN_CLOSING: f32 = 0.1;
+/// … and would reach it within this (s, distance / closing speed), the frontier places no new
+/// wall (the caller passes `walls = false` to [`Frontier::point`]): the direction of motion is
+/// then the filter's evasion of a seen mover, not the path's, and a wall there would forbid it.
+pub const EVADE_HORIZON_S: f32 = 4.0;
+
+/// Whether an obstacle point at `−d` from the vehicle (`d` = vehicle − point) moving at `w`
+/// closes in by its own motion (`EVADE_*`): `dᵀw > s_min |d|` and `|d|² < T dᵀw`.
+pub fn closes_in(d: &Vec3, w: &Vec3) -> bool {
+    let n = d.norm();
+    let closing = d.dot(w);
+    closing > EVADE_MIN_CLOSING * n && n * n < EVADE_HORIZON_S * closing
 }
 
 /// The free range beyond which the frontier point is left out, m: the filter's barrier on a

@@ -57,7 +57,7 @@
 //! `crate::fmath`, `crate::Vec3`, the parent module.
 
 use super::cell_distances::Distances;
-use super::frontier::{ignore_beyond, Frontier};
+use super::frontier::{closes_in, ignore_beyond, Frontier};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{
     MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF, FRONTIER_ID, STATIC_ID,
@@ -711,6 +711,7 @@ impl<const N: usize> ObstacleMemory<N> {
         mut f: impl FnMut(&ObstaclePoint),
     ) {
         let forget = self.forget_us();
+        let mut threat = false;
         for c in self.cells.iter() {
             let age_us = t_us.saturating_sub(c.t_us);
             if age_us > forget {
@@ -721,13 +722,15 @@ impl<const N: usize> ObstacleMemory<N> {
                 .flatten();
             let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
             let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
+            threat |= w.is_some_and(|w| closes_in(&(p - q), &w));
             let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
             f(&ObstaclePoint { point: q, velocity: w, id, normal: None });
         }
         if self.now_us.is_some() {
             let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
             let walls = self.params.fov_walls != FOV_WALLS_OFF;
-            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far, walls) {
+            // No new wall while a seen mover closes in (the motion is the evasion): the cap.
+            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far, walls && !threat) {
                 f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
             }
             // Where the observed free range is used up: walls, as half-spaces.
@@ -1083,6 +1086,37 @@ mod tests {
         }
         // No cells left along the path (y < 0): the track removed them.
         assert!(m.cells().all(|c| c.hi.y > -0.2), "{:?}", m.cells().collect::<Vec<_>>());
+    }
+
+    /// Walls are not placed while a seen mover closes in: a forward 90° fan sees a person
+    /// (r 0.25 m) walk at 1 m/s towards the vehicle, which backs away (west, never observed).
+    /// With the person standing still the frontier gives walls there; with the person
+    /// closing (a measured track) it gives the capped point, so that the evasion is not walled
+    /// off (`EVADE_*`).
+    #[test]
+    fn no_new_wall_while_a_tracked_mover_closes_in() {
+        let fan = ScanGeometry::grid(90, 1, 1.571, 0.05, 0.1, 8.0);
+        let run = |speed: f32| {
+            let params = MemoryParams { fov_walls: FOV_WALLS_ON, ..MemoryParams::default() };
+            let mut m = ObstacleMemory::<128>::new(params);
+            let mut t = 0;
+            for k in 0..=20u64 {
+                t = 1_000_000 + k * 100_000;
+                let w = World { cyl: std::vec![(3.5 - speed * 0.1 * k as f32, 0.0, 0.25)], wall_x: None };
+                w.scan(&mut m, t, P, 0.0, fan);
+            }
+            let mut out = Vec::new();
+            m.for_each_point(t, &P, &Vec3::new(-0.3, 0.0, 0.0), 1.4, |o| out.push(*o));
+            let moving = out.iter().any(|o| o.velocity.is_some_and(|w| w.x < -0.7));
+            let frontier: Vec<_> = out.into_iter().filter(|o| o.id == FRONTIER_ID).collect();
+            (moving, frontier)
+        };
+        let (moving, still) = run(0.0);
+        assert!(!moving && !still.is_empty() && still.iter().all(|o| o.normal.is_some()), "{still:?}");
+        let (moving, closing) = run(1.0);
+        assert!(moving, "the walker is tracked");
+        assert_eq!(closing.len(), 1, "{closing:?}");
+        assert!(closing[0].normal.is_none() && ((closing[0].point - P).norm() - 0.25).abs() < 1e-5);
     }
 
     /// A vehicle flying at 0.5 m/s along a wall 1.5 m away (the returns at grazing
