@@ -67,7 +67,7 @@ use parapet_core::frame::{enu_to_ned, rotation_from_euler};
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
 use parapet_core::obstacle::{ObstaclePoint, DEFAULT_OBSTACLE_CAPACITY};
 use parapet_core::obstacle_set::{Offer, Ranking, Selector};
-use parapet_core::perception::{MemoryParams, ObstacleMemory, Pose, Range, Scan, ScanGeometry, SensorMount};
+use parapet_core::perception::{MemoryParams, Pose, Range, Scan, ScanGeometry, SensorMount};
 use parapet_core::safety::cbf::FilterVariant;
 use parapet_core::wire::ids::is_empty_batch;
 use parapet_core::Vec3;
@@ -90,6 +90,50 @@ pub const BATCH_TIMEOUT_US: u64 = 20_000;
 pub const MEMORY_ENABLED: bool = cfg!(any(test, feature = "board-qemu"));
 /// Cells of the firmware's obstacle memory (48 B each; 1 when [`MEMORY_ENABLED`] is off).
 pub const MEMORY_CAPACITY: usize = if MEMORY_ENABLED { 64 } else { 1 };
+
+/// The obstacle memory the firmware holds: the core's where [`MEMORY_ENABLED`]; on the flight
+/// boards a stand-in that holds nothing ([`NoMemory`]), so that the memory's fixed parts
+/// (tracker, frontier, free-cell map) take no RAM there.
+#[cfg(any(test, feature = "board-qemu"))]
+pub type Memory = parapet_core::perception::ObstacleMemory<MEMORY_CAPACITY>;
+/// See the QEMU / test definition.
+#[cfg(not(any(test, feature = "board-qemu")))]
+pub type Memory = NoMemory;
+
+/// The memory of a board without one ([`MEMORY_ENABLED`] off). Never reached there (every
+/// entry point returns first); if it were, a scan is rejected and a selection is empty.
+#[cfg(not(any(test, feature = "board-qemu")))]
+pub struct NoMemory;
+
+#[cfg(not(any(test, feature = "board-qemu")))]
+impl NoMemory {
+    /// The stand-in.
+    pub const fn empty() -> Self {
+        NoMemory
+    }
+
+    /// Takes no parameters.
+    pub fn set_params(&mut self, _params: MemoryParams) -> bool {
+        false
+    }
+
+    /// Rejects every scan.
+    pub fn insert_scan(&mut self, _scan: &Scan) -> parapet_core::perception::ScanReport {
+        parapet_core::perception::ScanReport { rejected: true, ..Default::default() }
+    }
+
+    /// Selects nothing.
+    pub fn select<const M: usize>(
+        &mut self,
+        _t_us: u64,
+        _p: &Vec3,
+        _v: &Vec3,
+        _ranking: Ranking,
+        _delta1: f32,
+    ) -> (parapet_core::obstacle::ObstacleSet<M>, parapet_core::obstacle_set::SetReport) {
+        (parapet_core::obstacle::ObstacleSet::new(), Default::default())
+    }
+}
 /// Between range scans the memory's points are re-selected this often for where the vehicle
 /// is now, µs (the outer loop's period).
 pub const REFRESH_PERIOD_US: u64 = 4_000;
@@ -268,7 +312,7 @@ pub struct ObstacleAssembler {
     batch_time_ms: Option<u32>,
     last_point_us: u64,
     velocities: HVec<(u16, Vec3), MAX_PENDING_VELOCITIES>,
-    memory: ObstacleMemory<MEMORY_CAPACITY>,
+    memory: Memory,
     /// Firmware time of the last scan the memory took, and of the last selection from it.
     last_scan_us: Option<u64>,
     last_select_us: u64,
@@ -326,7 +370,7 @@ impl ObstacleAssembler {
             batch_time_ms: None,
             last_point_us: 0,
             velocities: HVec::new(),
-            memory: ObstacleMemory::empty(),
+            memory: Memory::empty(),
             last_scan_us: None,
             last_select_us: 0,
             stats: ObstacleStats {
@@ -418,7 +462,7 @@ impl ObstacleAssembler {
     }
 
     /// The obstacle memory (diagnostics, tests).
-    pub fn memory(&self) -> &ObstacleMemory<MEMORY_CAPACITY> {
+    pub fn memory(&self) -> &Memory {
         &self.memory
     }
 
