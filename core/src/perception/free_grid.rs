@@ -37,7 +37,7 @@
 // bad inputs end a walk or answer 0 instead of running on.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::{Range, ScanGeometry};
+use super::{Range, ScanGeometry, HORIZONTAL_BAND};
 use crate::fmath::{hypotf, sqrtf};
 use crate::Vec3;
 use nalgebra::Matrix3;
@@ -55,8 +55,6 @@ pub const MAX_LINES: usize = 25;
 pub const CENTRE_PASS: f32 = 0.05;
 /// … and goes on at least this far past the cell, m.
 pub const SEE_BEYOND: f32 = 0.3;
-/// Beams steeper than this (rad, 15°) mark nothing.
-pub const HORIZONTAL_BAND: f32 = 0.2618;
 /// Longest grid walk, cells.
 const MAX_WALK: usize = 2 * SIDE + 2;
 const HALF: i32 = (SIDE / 2) as i32;

@@ -55,15 +55,13 @@
 //! May import: `crate::fmath`, `crate::Vec3`, the parent module's types.
 
 use super::free_grid::FreeGrid;
-use super::{Range, ScanGeometry};
+use super::{Range, ScanGeometry, HORIZONTAL_BAND};
 use crate::fmath::{hypotf, sqrtf};
 use crate::Vec3;
 use nalgebra::Matrix3;
 
 /// Horizontal sectors (22.5° each).
 pub const SECTORS: usize = 16;
-/// A beam votes when its world elevation is within this of horizontal, rad (15°).
-pub const HORIZONTAL_BAND: f32 = 0.2618;
 /// Below this horizontal speed the frontier keeps the last direction of motion, m/s.
 pub const MIN_SPEED: f32 = 0.05;
 
@@ -120,7 +118,6 @@ impl Frontier {
     /// while some sector has no record (records are never dropped, and the grid answers only
     /// for a sector without one: a 360° sensor marks it once).
     /// Bounded by the scan's beams (≤ `MAX_BEAMS`) plus [`SECTORS`], and the grid's walks.
-    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &mut self,
         origin: &Vec3,

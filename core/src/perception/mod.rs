@@ -47,6 +47,11 @@ pub const MAX_BEAMS: usize = 1024;
 /// Capacity of the memory the controller's perception uses by default (cells).
 pub const DEFAULT_MEMORY_CAPACITY: usize = 128;
 
+/// A beam counts for the free space at the flight level (the frontier's sectors, the free-cell
+/// map) when its world direction is within this of horizontal, rad (15°); steeper beams count
+/// for nothing there.
+pub const HORIZONTAL_BAND: f32 = 0.2618;
+
 /// Obstacle id of the virtual frontier point (unseen space ahead, see [`frontier`]).
 pub const FRONTIER_ID: u16 = 65_534;
 
