@@ -123,6 +123,19 @@ fn yaw_mode_from_the_option_and_the_scene() {
     }
     let (mode, _, _) = fly(&travel, &["--yaw-mode", "hold"]);
     assert_eq!(mode, "hold", "the option wins over the scene");
+    // Without either: travel when every range sensor looks forward (the camera), else hold.
+    for (perception, want) in
+        [("camera", "travel"), ("lidar", "hold"), ("tof", "hold"), ("camera,lidar", "hold")]
+    {
+        let (mode, _, _) = fly(&plain, &["--perception", perception]);
+        assert_eq!(mode, want, "--perception {perception}");
+    }
+    let (mode, _, _) = fly(&plain, &["--perception", "camera", "--yaw-mode", "hold"]);
+    assert_eq!(mode, "hold", "the option wins over the sensors");
+    let hold = d.join("hold.toml");
+    std::fs::write(&hold, format!("{SCENE}[controller]\nyaw_mode = \"hold\"\n")).unwrap();
+    let (mode, _, _) = fly(&hold, &["--perception", "camera"]);
+    assert_eq!(mode, "hold", "the scene wins over the sensors");
 
     let o = parapet(&["run", "--scene", plain.to_str().unwrap(), "--straight", "--yaw-mode", "north"]);
     let err = String::from_utf8_lossy(&o.stderr);

@@ -107,7 +107,8 @@ pub struct RunArgs {
     filter: Option<FilterVariant>,
     /// Yaw along the path (MIS_YAW_MODE): hold (the heading at arming) | travel (face the direction
     /// of travel, turning at MIS_YAW_RATE; the path waits while the heading is more than
-    /// 12° off) [default: the scene's [controller] yaw_mode, else hold]. See docs/cascade.md.
+    /// 12° off) [default: the scene's [controller] yaw_mode, else travel when every range
+    /// sensor of --perception looks forward (camera), else hold]. See docs/cascade.md.
     #[arg(long, value_parser = parse_yaw_mode)]
     yaw_mode: Option<YawMode>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
@@ -530,6 +531,9 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
     }
     cfg.perception = perception_sensors(&a.perception, &scene)?;
+    if a.yaw_mode.is_none() && scene.controller.yaw_mode.is_none() {
+        cfg.yaw_mode = crate::flight::runner::default_yaw_mode(cfg.perception.as_deref());
+    }
     if let Some(x) = positive("sensing-range", a.sensing_range)? {
         cfg.sensing_range = x;
     }

@@ -210,6 +210,19 @@ fn memory_params(c: &crate::world::schema::ControllerOverrides) -> Result<Memory
     Ok(p.perception)
 }
 
+/// The yaw mode of a run whose options and scene name none (`--yaw-mode`, `[controller]
+/// yaw_mode`): **travel** when the range sensors all look forward (none sees the rear half,
+/// e.g. `--perception camera`): heading held, such a vehicle could only ever move where it
+/// does not look, and the unobserved-space walls (`PCP_FOV_WALLS` 2) stop it where its view
+/// ends; facing the direction of travel is how it observes where it goes (`docs/perception.md`
+/// § Unseen space). **hold** otherwise (ground truth, a 360° lidar, a ToF ring).
+pub fn default_yaw_mode(perception: Option<&[crate::sim::range::RangeSensor]>) -> YawMode {
+    match perception {
+        Some(s) if !s.is_empty() && s.iter().all(|s| s.forward_only()) => YawMode::Travel,
+        _ => YawMode::Hold,
+    }
+}
+
 /// δ when the scene does not set it: the squared hull radius (margin 0; issue 17),
 /// written as the core's default 0.05 for the default hull √0.05.
 pub fn default_delta(hull_radius: f64) -> f64 {

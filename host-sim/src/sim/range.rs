@@ -316,6 +316,12 @@ impl RangeSensor {
         self.columns as usize * self.rows as usize
     }
 
+    /// Every beam points into the front half of the body (`x_FRD ≥ 0`, beams at exactly
+    /// ±90° included): the sensor never sees behind the vehicle (a forward camera).
+    pub fn forward_only(&self) -> bool {
+        self.beam_directions().iter().all(|d| d.x > -1e-9)
+    }
+
     /// Mounting rotation sensor → body (yaw about z down, then pitch up about y).
     pub fn mount(&self) -> Rotation3<f64> {
         Rotation3::from_euler_angles(0.0, self.pitch.to_radians(), self.yaw.to_radians())
@@ -424,6 +430,21 @@ mod tests {
         let up = RangeSensor { pitch: 30.0, ..kind_defaults(RangeKind::Tof) };
         let m: Vector3<f64> = up.beam_directions().iter().sum();
         assert!((m.normalize().z + 0.5).abs() < 1e-9);
+    }
+
+    /// Which sensors see only the front half (the default yaw mode follows it).
+    #[test]
+    fn forward_only_is_the_front_half() {
+        assert!(preset("camera").unwrap()[0].forward_only());
+        assert!(!preset("lidar").unwrap()[0].forward_only());
+        let tof: Vec<bool> = preset("tof").unwrap().iter().map(RangeSensor::forward_only).collect();
+        assert_eq!(tof, [true, false, false, false], "front, right, back, left");
+        // A 180° camera reaches ±90° exactly: still the front half; yawed 10° it is not.
+        let wide = RangeSensor { fov_h: 180.0, columns: 2, ..kind_defaults(RangeKind::Camera) };
+        assert!(RangeSensor { columns: 180, ..wide.clone() }.forward_only());
+        assert!(!RangeSensor { columns: 180, yaw: 10.0, ..wide }.forward_only());
+        // A camera looking back.
+        assert!(!RangeSensor { yaw: 180.0, ..kind_defaults(RangeKind::Camera) }.forward_only());
     }
 
     #[test]
