@@ -78,6 +78,8 @@ pub fn run() -> String {
         "\
 {defaults}
   speed: the scene's [controller] speed, else its [mission] speed; sensing range {range} m;
+  yaw_mode: --yaw-mode, else the scene's, else travel when every --perception sensor looks
+    forward only (camera), else hold;
   duration: [sim] duration, else the default from the flown length and the speed (see --duration)
 
 {limits}
