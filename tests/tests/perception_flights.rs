@@ -111,6 +111,18 @@ fn ci_subset_tof() {
     }
 }
 
+/// The ring of eight ToFs (`tof8`, views meeting): the movers the four (`tof`) lose in their
+/// 45° gaps — the head-on walker, the chaser, the paper's 0.2 m/s walker — fly without a
+/// collision (0 of 20 seeds for the first two, docs/perception.md; `tof`: 15 and 13).
+#[test]
+fn ci_subset_tof8_movers() {
+    for seed in 0..2 {
+        check("person_headon", "tof8", seed);
+        check("sphere_overtaking", "tof8", seed);
+        check("outdoor_person", "tof8", seed);
+    }
+}
+
 /// outdoor_static with the four ToFs and yaw hold, seed 0: left the CI subset at 0680bf1,
 /// when it stopped flying 5 / 5 seeds without a collision (docs/perception.md). From that
 /// commit (the disturbance observer fed the realisable command, which changes the

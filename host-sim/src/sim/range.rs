@@ -23,7 +23,7 @@
 //! maximum range), one below `min_range` [`Return::Unknown`] (too close for
 //! the sensor).
 //!
-//! Presets (`--perception lidar|lidar360|camera|tof`): see [`preset`].
+//! Presets (`--perception lidar|lidar360|camera|tof|tof8`): see [`preset`].
 //!
 //! Owns the sensor description and error model. May import: [`crate::input`]
 //! (limits, number format), rand, serde, nalgebra.
@@ -199,12 +199,13 @@ pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
 }
 
 /// Names of the `--perception` presets.
-pub const PRESETS: [&str; 4] = ["lidar", "lidar360", "camera", "tof"];
+pub const PRESETS: [&str; 5] = ["lidar", "lidar360", "camera", "tof", "tof8"];
 
 /// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
 /// 1° steps), `camera` (one forward depth camera), `tof` (four 8 × 8 ToF
 /// sensors facing forward, right, back and left, a multi-ranger deck with
-/// multi-zone sensors). `None` for another name.
+/// multi-zone sensors: 45° gaps between their views), `tof8` (eight of them every 45°, a
+/// ring whose views meet). `None` for another name.
 pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
     let named = |mut s: RangeSensor, n: &str| {
         s.name = n.to_string();
@@ -220,6 +221,17 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
             [("tof_front", 0.0), ("tof_right", 90.0), ("tof_back", 180.0), ("tof_left", -90.0)]
                 .into_iter()
                 .map(|(n, yaw)| named(RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) }, n))
+                .collect(),
+        ),
+        "tof8" => Some(
+            (0..8u8)
+                .map(|i| {
+                    let yaw = 45.0 * f64::from(i);
+                    named(
+                        RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) },
+                        &format!("tof8_{}", 45 * u16::from(i)),
+                    )
+                })
                 .collect(),
         ),
         _ => None,
@@ -439,6 +451,18 @@ mod tests {
         assert!(!preset("lidar").unwrap()[0].forward_only());
         let tof: Vec<bool> = preset("tof").unwrap().iter().map(RangeSensor::forward_only).collect();
         assert_eq!(tof, [true, false, false, false], "front, right, back, left");
+        // The ring of eight: the views meet (every 5° bearing within some sensor's 45°).
+        let seen = |set: &[RangeSensor], deg: f64| {
+            let a = deg.to_radians();
+            let u = Vector3::new(a.cos(), a.sin(), 0.0);
+            set.iter().any(|s| s.beam_directions().iter().any(|d| d.dot(&u) > 5.0f64.to_radians().cos()))
+        };
+        let ring = preset("tof8").unwrap();
+        assert_eq!(ring.len(), 8);
+        for b in 0..72 {
+            assert!(seen(&ring, b as f64 * 5.0), "tof8: bearing {}° unseen", b * 5);
+        }
+        assert!(!seen(&preset("tof").unwrap(), 45.0), "tof: the gap at 45°");
         // A 180° camera reaches ±90° exactly: still the front half; yawed 10° it is not.
         let wide = RangeSensor { fov_h: 180.0, columns: 2, ..kind_defaults(RangeKind::Camera) };
         assert!(RangeSensor { columns: 180, ..wide.clone() }.forward_only());
