@@ -123,6 +123,18 @@ fn ci_subset_tof8_movers() {
     }
 }
 
+/// The ring plus one ToF looking up and one down (`tof10`): 0 collisions in the 70 flights of
+/// the matrix (7 scenes × seeds 0–4 × both yaw modes, docs/perception.md). The cases here
+/// collided with the ring alone (`tof8`): printer B's top (office, hold, seed 3), the legs'
+/// walls (dogleg_corridor, travel, seed 0), the lintel (door_lintel, travel, seed 1).
+#[test]
+fn ci_subset_tof10() {
+    check_yaw("office", "tof10", 3, YawMode::Hold);
+    check_yaw("dogleg_corridor", "tof10", 0, YawMode::Travel);
+    check_yaw("door_lintel", "tof10", 1, YawMode::Travel);
+    check("person_headon", "tof10", 0);
+}
+
 /// outdoor_static with the four ToFs and yaw hold, seed 0: left the CI subset at 0680bf1,
 /// when it stopped flying 5 / 5 seeds without a collision (docs/perception.md). From that
 /// commit (the disturbance observer fed the realisable command, which changes the

@@ -23,7 +23,7 @@
 //! maximum range), one below `min_range` [`Return::Unknown`] (too close for
 //! the sensor).
 //!
-//! Presets (`--perception lidar|lidar360|camera|tof|tof8`): see [`preset`].
+//! Presets (`--perception lidar|lidar360|camera|tof|tof8|tof10`): see [`preset`].
 //!
 //! Owns the sensor description and error model. May import: [`crate::input`]
 //! (limits, number format), rand, serde, nalgebra.
@@ -199,13 +199,14 @@ pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
 }
 
 /// Names of the `--perception` presets.
-pub const PRESETS: [&str; 5] = ["lidar", "lidar360", "camera", "tof", "tof8"];
+pub const PRESETS: [&str; 6] = ["lidar", "lidar360", "camera", "tof", "tof8", "tof10"];
 
 /// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
 /// 1° steps), `camera` (one forward depth camera), `tof` (four 8 × 8 ToF
 /// sensors facing forward, right, back and left, a multi-ranger deck with
 /// multi-zone sensors: 45° gaps between their views), `tof8` (eight of them every 45°, a
-/// ring whose views meet). `None` for another name.
+/// ring whose views meet), `tof10` (that ring plus one looking up and one down, as a
+/// multi-ranger deck's up sensor and a flow deck's down sensor). `None` for another name.
 pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
     let named = |mut s: RangeSensor, n: &str| {
         s.name = n.to_string();
@@ -223,17 +224,26 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
                 .map(|(n, yaw)| named(RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) }, n))
                 .collect(),
         ),
-        "tof8" => Some(
-            (0..8u8)
+        "tof8" | "tof10" => {
+            let mut ring: Vec<RangeSensor> = (0..8u8)
                 .map(|i| {
                     let yaw = 45.0 * f64::from(i);
                     named(
                         RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) },
-                        &format!("tof8_{}", 45 * u16::from(i)),
+                        &format!("{name}_{}", 45 * u16::from(i)),
                     )
                 })
-                .collect(),
-        ),
+                .collect();
+            if name == "tof10" {
+                for (pitch, n) in [(90.0, "up"), (-90.0, "down")] {
+                    ring.push(named(
+                        RangeSensor { pitch, ..kind_defaults(RangeKind::Tof) },
+                        &format!("{name}_{n}"),
+                    ));
+                }
+            }
+            Some(ring)
+        }
         _ => None,
     }
 }
@@ -463,6 +473,15 @@ mod tests {
             assert!(seen(&ring, b as f64 * 5.0), "tof8: bearing {}° unseen", b * 5);
         }
         assert!(!seen(&preset("tof").unwrap(), 45.0), "tof: the gap at 45°");
+        // tof10: the same ring, then up (−z FRD) and down (+z).
+        let ten = preset("tof10").unwrap();
+        assert_eq!(ten.len(), 10);
+        for b in 0..72 {
+            assert!(seen(&ten, b as f64 * 5.0), "tof10: bearing {}° unseen", b * 5);
+        }
+        let mean = |s: &RangeSensor| s.beam_directions().iter().sum::<Vector3<f64>>().normalize();
+        assert!(mean(&ten[8]).z < -0.99 && mean(&ten[9]).z > 0.99, "up, then down");
+        assert!(!ten.iter().all(RangeSensor::forward_only), "the set sees behind: hold by default");
         // A 180° camera reaches ±90° exactly: still the front half; yawed 10° it is not.
         let wide = RangeSensor { fov_h: 180.0, columns: 2, ..kind_defaults(RangeKind::Camera) };
         assert!(RangeSensor { columns: 180, ..wide.clone() }.forward_only());
