@@ -13,7 +13,7 @@
 //!   docs/perception.md): the goal is asserted too.
 //! * `full_matrix` (ignored, the documented command of docs/perception.md):
 //!   seven scenes (`blind_corner`: a turn towards a pillar the camera has not seen)
-//!   × lidar, camera, ToF × seeds 0–4 × yaw hold and travel, asserting no
+//!   × lidar, camera, ToF (four; ten) × seeds 0–4 × yaw hold and travel, asserting no
 //!   collision; it fails today and prints the table of what collided.
 //!
 //! `cargo test -p parapet-tests --release --test perception_flights -- --ignored --nocapture`
@@ -222,7 +222,7 @@ fn full_matrix() {
     let mut failed = Vec::new();
     for yaw in YawMode::ALL {
         for name in scenes {
-            for sensors in ["lidar", "camera", "tof"] {
+            for sensors in ["lidar", "camera", "tof", "tof10"] {
                 for seed in 0..5 {
                     let s = fly_yaw(name, sensors, seed, yaw).summary;
                     println!(
