@@ -13,7 +13,7 @@
 //!   docs/perception.md): the goal is asserted too.
 //! * `full_matrix` (ignored, the documented command of docs/perception.md):
 //!   seven scenes (`blind_corner`: a turn towards a pillar the camera has not seen)
-//!   × lidar, camera, ToF (four; ten) × seeds 0–4 × yaw hold and travel, asserting no
+//!   × lidar, camera, ToF (ten, `tof`; four, `tof4`) × seeds 0–4 × yaw hold and travel, asserting no
 //!   collision; it fails today and prints the table of what collided.
 //!
 //! `cargo test -p parapet-tests --release --test perception_flights -- --ignored --nocapture`
@@ -104,14 +104,15 @@ fn ci_subset_camera() {
     }
 }
 
+/// The four ToFs (`tof4`; `tof` until 2026-12-05): the cases that flew without a collision.
 #[test]
-fn ci_subset_tof() {
+fn ci_subset_tof4() {
     for seed in 0..2 {
-        check("door_lintel", "tof", seed);
+        check("door_lintel", "tof4", seed);
     }
 }
 
-/// The ring of eight ToFs (`tof8`, views meeting): the movers the four (`tof`) lose in their
+/// The ring of eight ToFs (`tof8`, views meeting): the movers the four (`tof4`) lose in their
 /// 45° gaps — the head-on walker, the chaser, the paper's 0.2 m/s walker — fly without a
 /// collision (0 of 20 seeds for the first two, docs/perception.md; `tof`: 15 and 13).
 #[test]
@@ -123,16 +124,16 @@ fn ci_subset_tof8_movers() {
     }
 }
 
-/// The ring plus one ToF looking up and one down (`tof10`): 0 collisions in the 70 flights of
+/// The ring plus one ToF looking up and one down (`tof`): 0 collisions in the 70 flights of
 /// the matrix (7 scenes × seeds 0–4 × both yaw modes, docs/perception.md). The cases here
 /// collided with the ring alone (`tof8`): printer B's top (office, hold, seed 3), the legs'
 /// walls (dogleg_corridor, travel, seed 0), the lintel (door_lintel, travel, seed 1).
 #[test]
-fn ci_subset_tof10() {
-    check_yaw("office", "tof10", 3, YawMode::Hold);
-    check_yaw("dogleg_corridor", "tof10", 0, YawMode::Travel);
-    check_yaw("door_lintel", "tof10", 1, YawMode::Travel);
-    check("person_headon", "tof10", 0);
+fn ci_subset_tof() {
+    check_yaw("office", "tof", 3, YawMode::Hold);
+    check_yaw("dogleg_corridor", "tof", 0, YawMode::Travel);
+    check_yaw("door_lintel", "tof", 1, YawMode::Travel);
+    check("person_headon", "tof", 0);
 }
 
 /// outdoor_static with the four ToFs and yaw hold, seed 0: left the CI subset at 0680bf1,
@@ -147,7 +148,7 @@ fn ci_subset_tof10() {
 /// duration limit, min clearance 1.13 m). The fixed regression case of that failure.
 #[test]
 fn regression_outdoor_static_tof_seed0_blind_wedge() {
-    check("outdoor_static", "tof", 0);
+    check("outdoor_static", "tof4", 0);
 }
 
 /// Forward camera, yaw travel: every case here collided with yaw hold before the walls for a
@@ -222,7 +223,7 @@ fn full_matrix() {
     let mut failed = Vec::new();
     for yaw in YawMode::ALL {
         for name in scenes {
-            for sensors in ["lidar", "camera", "tof", "tof10"] {
+            for sensors in ["lidar", "camera", "tof", "tof4"] {
                 for seed in 0..5 {
                     let s = fly_yaw(name, sensors, seed, yaw).summary;
                     println!(

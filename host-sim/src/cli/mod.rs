@@ -145,9 +145,9 @@ pub struct RunArgs {
     sensing_range: Option<f64>,
     /// What the safety filter sees: `truth` (the exact closest points in range, default), or
     /// range sensors through the obstacle memory: `lidar` (72 beams, 10 Hz), `lidar360`,
-    /// `camera` (forward depth camera 87°×58°, 16×10, 30 Hz), `tof` (four 8×8 ToF, 45°×45°,
-    /// 4 m, facing forward, right, back, left), `tof8` (eight, every 45°), `tof10` (those, one
-    /// up, one down), `scene` (the scene's [[sensor]] tables), or a comma list (`lidar,camera`).
+    /// `camera` (forward depth camera 87°×58°, 16×10, 30 Hz), `tof` (ten 8×8 ToF, 45°×45°, 4 m:
+    /// eight every 45°, one up, one down), `tof4` (four: forward, right, back, left), `tof8` (the
+    /// eight), `scene` (the scene's [[sensor]] tables), or a comma list (`lidar,camera`).
     /// `pil`: planar 360° lidars only → each scan to the firmware as OBSTACLE_DISTANCE (its own
     /// obstacle memory); others → the host memory's points as OBSTACLE_DISTANCE_3D. See docs/perception.md.
     #[arg(long, default_value = "truth")]

@@ -23,7 +23,7 @@
 //! maximum range), one below `min_range` [`Return::Unknown`] (too close for
 //! the sensor).
 //!
-//! Presets (`--perception lidar|lidar360|camera|tof|tof8|tof10`): see [`preset`].
+//! Presets (`--perception lidar|lidar360|camera|tof|tof4|tof8`): see [`preset`].
 //!
 //! Owns the sensor description and error model. May import: [`crate::input`]
 //! (limits, number format), rand, serde, nalgebra.
@@ -199,14 +199,14 @@ pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
 }
 
 /// Names of the `--perception` presets.
-pub const PRESETS: [&str; 6] = ["lidar", "lidar360", "camera", "tof", "tof8", "tof10"];
+pub const PRESETS: [&str; 6] = ["lidar", "lidar360", "camera", "tof", "tof4", "tof8"];
 
 /// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
-/// 1° steps), `camera` (one forward depth camera), `tof` (four 8 × 8 ToF
-/// sensors facing forward, right, back and left, a multi-ranger deck with
-/// multi-zone sensors: 45° gaps between their views), `tof8` (eight of them every 45°, a
-/// ring whose views meet), `tof10` (that ring plus one looking up and one down, as a
-/// multi-ranger deck's up sensor and a flow deck's down sensor). `None` for another name.
+/// 1° steps), `camera` (one forward depth camera), `tof` (ten 8 × 8 ToF sensors: eight
+/// every 45°, a ring whose views meet, one looking up and one down, as a multi-ranger
+/// deck's up sensor and a flow deck's down sensor), `tof4` (four of them facing forward,
+/// right, back and left: 45° gaps between their views; `tof` until 2026-12-05), `tof8` (the
+/// ring without up and down). `None` for another name.
 pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
     let named = |mut s: RangeSensor, n: &str| {
         s.name = n.to_string();
@@ -218,13 +218,13 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
             Some(vec![named(RangeSensor { columns: 360, ..kind_defaults(RangeKind::Lidar) }, "lidar360")])
         }
         "camera" => Some(vec![named(kind_defaults(RangeKind::Camera), "camera")]),
-        "tof" => Some(
-            [("tof_front", 0.0), ("tof_right", 90.0), ("tof_back", 180.0), ("tof_left", -90.0)]
+        "tof4" => Some(
+            [("tof4_front", 0.0), ("tof4_right", 90.0), ("tof4_back", 180.0), ("tof4_left", -90.0)]
                 .into_iter()
                 .map(|(n, yaw)| named(RangeSensor { yaw, ..kind_defaults(RangeKind::Tof) }, n))
                 .collect(),
         ),
-        "tof8" | "tof10" => {
+        "tof8" | "tof" => {
             let mut ring: Vec<RangeSensor> = (0..8u8)
                 .map(|i| {
                     let yaw = 45.0 * f64::from(i);
@@ -234,7 +234,7 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
                     )
                 })
                 .collect();
-            if name == "tof10" {
+            if name == "tof" {
                 for (pitch, n) in [(90.0, "up"), (-90.0, "down")] {
                     ring.push(named(
                         RangeSensor { pitch, ..kind_defaults(RangeKind::Tof) },
@@ -444,7 +444,7 @@ mod tests {
         assert!(d[0].z > 0.3 && d[0].y < -0.5);
         let mean: Vector3<f64> = d.iter().sum::<Vector3<f64>>() / d.len() as f64;
         assert!(mean.y.abs() < 1e-12 && mean.z.abs() < 1e-12 && mean.x > 0.7);
-        let tof = preset("tof").unwrap();
+        let tof = preset("tof4").unwrap();
         assert_eq!(tof.len(), 4);
         let back: Vector3<f64> = tof[2].beam_directions().iter().sum();
         assert!(back.normalize().x < -0.99);
@@ -459,7 +459,7 @@ mod tests {
     fn forward_only_is_the_front_half() {
         assert!(preset("camera").unwrap()[0].forward_only());
         assert!(!preset("lidar").unwrap()[0].forward_only());
-        let tof: Vec<bool> = preset("tof").unwrap().iter().map(RangeSensor::forward_only).collect();
+        let tof: Vec<bool> = preset("tof4").unwrap().iter().map(RangeSensor::forward_only).collect();
         assert_eq!(tof, [true, false, false, false], "front, right, back, left");
         // The ring of eight: the views meet (every 5° bearing within some sensor's 45°).
         let seen = |set: &[RangeSensor], deg: f64| {
@@ -472,12 +472,12 @@ mod tests {
         for b in 0..72 {
             assert!(seen(&ring, b as f64 * 5.0), "tof8: bearing {}° unseen", b * 5);
         }
-        assert!(!seen(&preset("tof").unwrap(), 45.0), "tof: the gap at 45°");
-        // tof10: the same ring, then up (−z FRD) and down (+z).
-        let ten = preset("tof10").unwrap();
+        assert!(!seen(&preset("tof4").unwrap(), 45.0), "tof4: the gap at 45°");
+        // tof: the same ring, then up (−z FRD) and down (+z).
+        let ten = preset("tof").unwrap();
         assert_eq!(ten.len(), 10);
         for b in 0..72 {
-            assert!(seen(&ten, b as f64 * 5.0), "tof10: bearing {}° unseen", b * 5);
+            assert!(seen(&ten, b as f64 * 5.0), "tof: bearing {}° unseen", b * 5);
         }
         let mean = |s: &RangeSensor| s.beam_directions().iter().sum::<Vector3<f64>>().normalize();
         assert!(mean(&ten[8]).z < -0.99 && mean(&ten[9]).z > 0.99, "up, then down");
