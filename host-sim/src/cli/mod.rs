@@ -148,8 +148,8 @@ pub struct RunArgs {
     /// `camera` (forward depth camera 87°×58°, 16×10, 30 Hz), `tof` (ten 8×8 ToF, 45°×45°, 4 m:
     /// eight every 45°, one up, one down), `tof4` (four: forward, right, back, left), `tof8` (the
     /// eight), `scene` (the scene's [[sensor]] tables), or a comma list (`lidar,camera`).
-    /// `pil`: planar 360° lidars only → each scan to the firmware as OBSTACLE_DISTANCE (its own
-    /// obstacle memory); others → the host memory's points as OBSTACLE_DISTANCE_3D. See docs/perception.md.
+    /// `pil`: planar 360° lidars → each scan to the firmware as OBSTACLE_DISTANCE (its own
+    /// obstacle memory); others → the host memory's points as OBSTACLE_DISTANCE_3D (docs/perception.md).
     #[arg(long, default_value = "truth")]
     perception: String,
     /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
