@@ -43,7 +43,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::sim::plant::PlantState;
 use crate::sim::range::{RangeSensor, Return};
-use crate::world::raycast::RayWorld;
+use crate::world::raycast::{Cone, RayWorld};
 use crate::world::scene::Scene;
 
 /// Cells of the host's obstacle memory (the core's default capacity).
@@ -77,6 +77,8 @@ struct Live {
     spec: RangeSensor,
     /// Body-frame unit beam directions.
     dirs: Vec<Vector3<f64>>,
+    /// The cone of `dirs` (body frame), `None` for a wide fan.
+    cone: Option<Cone>,
     geometry: ScanGeometry,
     mount: SensorMount,
     rng: ChaCha8Rng,
@@ -172,6 +174,7 @@ impl Perception {
             .enumerate()
             .map(|(i, s)| Live {
                 dirs: s.beam_directions(),
+                cone: Cone::of(&s.beam_directions()),
                 geometry: geometry_of(s),
                 mount: SensorMount::new(
                     f32v(&Vector3::from(s.offset)),
@@ -265,9 +268,11 @@ impl Perception {
             let moving = moving.get_or_insert_with(|| self.world.moving_at(scene, t));
             let origin = pos + att * Vector3::from(s.spec.offset);
             let mut ranges = Vec::with_capacity(s.dirs.len());
+            let cone = s.cone.map(|k| Cone { axis: att * k.axis, half: k.half });
+            let view = self.world.scan_view(moving, &origin, s.spec.max_range, cone.as_ref());
             for (b, d) in s.dirs.iter().enumerate() {
                 let dir = att * d;
-                let hit = self.world.cast(moving, &origin, &dir, s.spec.max_range).map(|h| h.range);
+                let hit = view.cast(&dir, s.spec.max_range).map(|h| h.range);
                 let m = s.spec.measure(hit, &mut s.rng, self.noise_on);
                 if self.record {
                     let range = m.range();

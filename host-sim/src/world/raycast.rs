@@ -15,7 +15,18 @@
 //! obstacles' BVH ([`StaticIndex::bvh`], parry's best-first `Bvh::cast_ray`),
 //! the moving obstacles are cast one by one (a scene has few of them).
 //!
-//! Owns: [`RayWorld`], [`RayHit`], [`cast_shape`]. May import: `parapet-core`
+//! A sensor's scan casts tens to hundreds of rays from one origin: [`ScanView`] asks
+//! the BVH once per scan for the static obstacles within the beams' reach (and, for a
+//! fan narrower than [`Cone::MAX_HALF`], whose bounding sphere meets the fan's cone),
+//! and each ray then tests those few bounding spheres before the narrow phase. A ray
+//! that misses a bounding sphere (grown against round-off) misses the shape, so the
+//! range is the full scan's bit for bit; ties between obstacles go to the lowest scene
+//! index. With more than [`MAX_SCAN_CANDIDATES`] in reach the view casts through the
+//! BVH. (parry's traversal can miss a ray that grazes a box's edge, where the
+//! narrow phase finds a hit: `a_scan_view_casts_what_the_world_casts`.) Office flight
+//! with the 72-beam lidar and the camera: the loop 2.31 → 2.14 G instructions.
+//!
+//! Owns: [`RayWorld`], [`RayHit`], [`ScanView`], [`Cone`], [`cast_shape`]. May import: `parapet-core`
 //! (shapes), parry3d-f64, nalgebra, [`super::index`], [`super::scene`].
 
 use nalgebra::Vector3;
@@ -168,6 +179,18 @@ impl RayWorld {
             best = Some(RayHit { range, obstacle: Some(self.index.leaf(leaf).0) });
             reach = range;
         }
+        self.finish(moving, origin, dir, best, reach)
+    }
+
+    /// The moving obstacles and the ground after the static ones (`best` within `reach`).
+    fn finish(
+        &self,
+        moving: &[(usize, Shape)],
+        origin: &Vector3<f64>,
+        dir: &Vector3<f64>,
+        mut best: Option<RayHit>,
+        mut reach: f64,
+    ) -> Option<RayHit> {
         for (i, s) in moving {
             if let Some(range) = cast_shape(s, origin, dir, reach) {
                 if best.is_none_or(|b| range < b.range) {
@@ -182,6 +205,144 @@ impl RayWorld {
             }
         }
         best
+    }
+}
+
+/// The cone every beam of a scan lies in: unit `axis` (NED, the scan's frame) and
+/// half-angle `half` (rad, below π/2). Built once per sensor ([`Cone::of`]), rotated per scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    /// Unit axis.
+    pub axis: Vector3<f64>,
+    /// Largest angle between the axis and a beam, rad.
+    pub half: f64,
+}
+
+impl Cone {
+    /// Widest cone worth culling with (rad): a wider fan sees most of its surroundings.
+    pub const MAX_HALF: f64 = 1.2;
+
+    /// The cone of the unit directions `dirs` about their mean direction, or `None` when
+    /// they spread wider than [`Cone::MAX_HALF`] (a 360° lidar) or there are none.
+    pub fn of(dirs: &[Vector3<f64>]) -> Option<Cone> {
+        let axis = dirs.iter().sum::<Vector3<f64>>().try_normalize(1e-9)?;
+        let half = dirs.iter().map(|d| axis.dot(d).clamp(-1.0, 1.0).acos()).fold(0.0, f64::max);
+        (half <= Cone::MAX_HALF).then_some(Cone { axis, half })
+    }
+}
+
+/// One static obstacle a scan may hit: scene index, shape, and its bounding sphere
+/// (centre relative to the scan origin, radius grown against round-off, squared norms).
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    obstacle: usize,
+    shape: Shape,
+    /// Bounding-sphere centre − scan origin, m.
+    v: Vector3<f64>,
+    /// |v|², m².
+    v2: f64,
+    /// Bounding-sphere radius (grown), m.
+    rho: f64,
+}
+
+/// Above this many static candidates a scan's rays go through the BVH instead.
+pub const MAX_SCAN_CANDIDATES: usize = 64;
+
+/// The world as one scan from `origin` sees it: the static obstacles within the scan's
+/// reach (and its cone) with their bounding spheres, so that each ray tests a few
+/// spheres instead of walking the BVH. [`ScanView::cast`] returns what [`RayWorld::cast`]
+/// returns, the range bit for bit (the same narrow phase on every obstacle the ray can
+/// reach: a ray that misses an obstacle's bounding sphere misses the obstacle).
+pub struct ScanView<'a> {
+    world: &'a RayWorld,
+    moving: &'a [(usize, Shape)],
+    origin: Vector3<f64>,
+    /// `None`: too many candidates, rays go through the BVH.
+    candidates: Option<Vec<Candidate>>,
+}
+
+impl RayWorld {
+    /// The view of a scan from `origin` (NED) with beams of at most `max` m, inside `cone`
+    /// (world frame) when given; `moving` from [`RayWorld::moving_at`].
+    pub fn scan_view<'a>(
+        &'a self,
+        moving: &'a [(usize, Shape)],
+        origin: &Vector3<f64>,
+        max: f64,
+        cone: Option<&Cone>,
+    ) -> ScanView<'a> {
+        let mut leaves = Vec::new();
+        let mut too_many = false;
+        if origin.iter().all(|x| x.is_finite()) && max >= 0.0 {
+            self.index.for_each_within(origin, max, |leaf| {
+                if leaves.len() < MAX_SCAN_CANDIDATES {
+                    leaves.push(leaf);
+                } else {
+                    too_many = true;
+                }
+            });
+        }
+        let candidates = (!too_many).then(|| {
+            let mut c: Vec<Candidate> = leaves
+                .iter()
+                .map(|&leaf| {
+                    let (obstacle, shape) = self.index.leaf(leaf);
+                    let (lo, hi) = super::index::shape_aabb(shape);
+                    let (lo, hi) = (Vector3::from(lo), Vector3::from(hi));
+                    let v = (lo + hi) * 0.5 - origin;
+                    // Grown by a relative 1e-9 of the coordinates: the shape's own
+                    // round-off never reaches outside.
+                    let scale = 1.0 + origin.amax() + lo.amax().max(hi.amax());
+                    let rho = (hi - lo).norm() * 0.5 + 1e-9 * scale;
+                    Candidate { obstacle, shape: *shape, v, v2: v.norm_squared(), rho }
+                })
+                .filter(|c| cone.is_none_or(|k| in_cone(k, c)))
+                .collect();
+            // Equal ranges: the lowest scene index (as the full scan of the tests).
+            c.sort_unstable_by_key(|c| c.obstacle);
+            c
+        });
+        ScanView { world: self, moving, origin: *origin, candidates }
+    }
+}
+
+/// The bounding sphere of `c` reaches into `k` (conservatively: a sphere any beam of the
+/// cone meets is kept; 1e-6 rad spare against round-off).
+fn in_cone(k: &Cone, c: &Candidate) -> bool {
+    let dist = c.v2.sqrt();
+    if dist <= c.rho * (1.0 + 1e-9) {
+        return true;
+    }
+    let angle = (k.axis.dot(&c.v) / dist).clamp(-1.0, 1.0).acos();
+    angle <= k.half + (c.rho / dist).min(1.0).asin() + 1e-6
+}
+
+impl ScanView<'_> {
+    /// [`RayWorld::cast`] of the ray `origin + s·dir`, `0 ≤ s ≤ max` (the view's origin;
+    /// `dir` a unit vector inside the view's cone).
+    pub fn cast(&self, dir: &Vector3<f64>, max: f64) -> Option<RayHit> {
+        let Some(cands) = &self.candidates else {
+            return self.world.cast(self.moving, &self.origin, dir, max);
+        };
+        if !(dir.iter().all(|x| x.is_finite()) && self.origin.iter().all(|x| x.is_finite()) && max >= 0.0) {
+            return None;
+        }
+        let mut best: Option<RayHit> = None;
+        let mut reach = max;
+        for c in cands {
+            // Miss of the bounding sphere: beyond the reach, behind, or beside.
+            let tc = c.v.dot(dir);
+            if tc - c.rho > reach || tc + c.rho < 0.0 || c.v2 - tc * tc > c.rho * c.rho {
+                continue;
+            }
+            if let Some(range) = cast_shape(&c.shape, &self.origin, dir, reach) {
+                if best.is_none_or(|b| range < b.range) {
+                    best = Some(RayHit { range, obstacle: Some(c.obstacle) });
+                    reach = range;
+                }
+            }
+        }
+        self.world.finish(self.moving, &self.origin, dir, best, reach)
     }
 }
 
@@ -366,6 +527,120 @@ mod tests {
             motion: Motion::Velocity(Vector3::new(0.5, -0.3, 0.0)),
         });
         sc
+    }
+
+    /// Every obstacle at time `t`, then the ground: the first hit by brute force.
+    fn full_scan(sc: &Scene, t: f64, o: &Vector3<f64>, d: &Vector3<f64>, max: f64) -> Option<RayHit> {
+        let mut want: Option<RayHit> = None;
+        for (i, ob) in sc.obstacles.iter().enumerate() {
+            if let Some(r) = cast_shape(&ob.at(t).0, o, d, max) {
+                if want.is_none_or(|w| r < w.range) {
+                    want = Some(RayHit { range: r, obstacle: Some(i) });
+                }
+            }
+        }
+        if let Some(r) = cast_ground(o, d, max) {
+            if want.is_none_or(|w| r < w.range) {
+                want = Some(RayHit { range: r, obstacle: None });
+            }
+        }
+        want
+    }
+
+    /// A scan's view (candidates by reach and cone, bounding-sphere tests) gives every ray
+    /// the full scan's range bit for bit in small worlds (the per-ray candidate loop), also
+    /// for rays aimed at shapes' corners, which parry's BVH traversal can miss by round-off;
+    /// in a large world (more than [`MAX_SCAN_CANDIDATES`] in reach) it is
+    /// [`RayWorld::cast`]. Fans from a narrow cone to a 360° ring.
+    #[test]
+    fn a_scan_view_casts_what_the_world_casts() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(19);
+        let (mut hits, mut brute, mut bvh) = (0, 0, 0);
+        for (n, spread) in [(30, 6.0), (60, 10.0), (800, 20.0)] {
+            let mut sc = scene(0, n as u64);
+            let moving = sc.obstacles.pop();
+            sc.obstacles = crate::world::index::tests::random_shapes(&mut rng, n, spread)
+                .into_iter()
+                .map(|shape| crate::world::obstacle::SceneObstacle {
+                    name: None,
+                    shape,
+                    motion: crate::world::obstacle::Motion::Static,
+                })
+                .collect();
+            sc.obstacles.extend(moving);
+            let world = RayWorld::new(&sc);
+            for k in 0..200 {
+                let t = k as f64 * 0.05;
+                let moving = world.moving_at(&sc, t);
+                let r = f64::from(spread);
+                let o = Vector3::new(
+                    rng.random_range(-r..r),
+                    rng.random_range(-r..r),
+                    rng.random_range(-4.0..-0.1),
+                );
+                let max = rng.random_range(1.0..12.0);
+                // A fan: a random axis and half-angle, beams inside it (and on its rim).
+                let Some(axis) = unit([
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-0.5..0.5),
+                ]) else {
+                    continue;
+                };
+                let half = rng.random_range(0.05..1.6);
+                let mut dirs = Vec::new();
+                while dirs.len() < 60 {
+                    let Some(d) = unit([
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                    ]) else {
+                        continue;
+                    };
+                    if axis.dot(&d).acos() <= half {
+                        dirs.push(d);
+                    }
+                }
+                // Beams aimed at obstacles' corners and centres (edge cases of the sphere test).
+                for ob in sc.obstacles.iter().take(20) {
+                    let (lo, hi) = crate::world::index::shape_aabb(&ob.at(t).0);
+                    for target in
+                        [Vector3::from(lo), Vector3::from(hi), (Vector3::from(lo) + Vector3::from(hi)) * 0.5]
+                    {
+                        if let Some(d) = (target - o).try_normalize(1e-9) {
+                            if axis.dot(&d).acos() <= half {
+                                dirs.push(d);
+                            }
+                        }
+                    }
+                }
+                let cone = Cone::of(&dirs);
+                if let Some(c) = &cone {
+                    assert!(dirs.iter().all(|d| c.axis.dot(d).clamp(-1.0, 1.0).acos() <= c.half + 1e-12));
+                }
+                let view = world.scan_view(&moving, &o, max, cone.as_ref());
+                match view.candidates {
+                    Some(_) => brute += 1,
+                    None => bvh += 1,
+                }
+                for d in &dirs {
+                    let got = view.cast(d, max);
+                    let want = match view.candidates {
+                        Some(_) => full_scan(&sc, t, &o, d, max),
+                        // Through the BVH: the world's cast itself.
+                        None => world.cast(&moving, &o, d, max),
+                    };
+                    assert_eq!(
+                        got.map(|h| h.range.to_bits()),
+                        want.map(|h| h.range.to_bits()),
+                        "{o:?} {d:?}"
+                    );
+                    hits += usize::from(want.is_some_and(|h| h.obstacle.is_some()));
+                }
+            }
+        }
+        assert!(hits > 2000 && brute > 100 && bvh > 20, "hits {hits}, candidate loop {brute}, bvh {bvh}");
     }
 
     #[test]
