@@ -39,12 +39,15 @@
 //!
 //! **Bound.** No allocation. Below capacity a point costs its key and a push (the usual
 //! case: nothing is ranked). When the set first overflows, the tiers of the stored points
-//! are assigned once (O(N²) id comparisons, what the streaming demotions would have given);
-//! after that each offered point costs one O(1) comparison with the cached worst stored
-//! entry, and when it may enter one O(N) scan for its id, one for the new worst when that
-//! demotes a stored point and one when the point is stored (the cached worst is not
-//! recomputed while no stored rank changed): at most `3N` key comparisons per point,
-//! O(N² + M·N) for M points (M bounded by the caller's batch). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
+//! are assigned once (what the streaming demotions would have given: each id's first
+//! smallest key is tier 0; O(N·D) for D distinct ids, at most O(N²)); after that each
+//! offered point costs one O(1) comparison with the cached worst stored entry, and when it
+//! may enter one O(N) scan for its id (skipped for a run of one id) and, per changed rank
+//! (a demotion, the store), a rescan of that rank's block of 8 slots and of the `N/8`
+//! blocks' worst entries (the cached worst is not recomputed while no stored rank
+//! changed): O(N) per point, O(N² + M·N) for M points (M bounded by the caller's batch).
+//! The blocks and the O(N·D) tiers (2026-12-05) give the same slots as the full rescans
+//! (`cached_searches_give_the_streaming_selection_slot_for_slot`, N = 8, 20, 32). Non-finite or implausible (beyond ±`INPUT_LIMIT`) points are rejected before ranking.
 //!
 //! [`Selector`] applies the policy one point at a time (a sensor batch as it arrives, e.g.
 //! the firmware's obstacle link); [`select`] applies it to a slice.
@@ -188,6 +191,10 @@ struct Ranker<const N: usize> {
     ranks: [Rank; N],
     /// Index of the worst stored entry (valid once the set is full).
     worst: usize,
+    /// Per block of [`BLOCK`] slots (the first `⌈N / BLOCK⌉` entries), the index of its
+    /// first worst entry (valid once the set is full): a change of one rank rescans its
+    /// block and the blocks' worst entries, not all `N`.
+    block_worst: [usize; N],
     /// The last sibling search (`Critical`, once tiered): `(id, index of that id's tier-0
     /// entry, if the set holds one)`, updated by every change of the set, so that a run of
     /// points of one id (a memory's static cells) is not rescanned per point. A full set
@@ -210,6 +217,7 @@ impl<const N: usize> Ranker<N> {
         Ranker {
             ranks: [Rank(0); N],
             worst: 0,
+            block_worst: [0; N],
             sibling: None,
             tiered: false,
             report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
@@ -224,21 +232,87 @@ impl<const N: usize> Ranker<N> {
     /// The tiers of a full set holding every point offered so far, in offer order: tier 1
     /// for a point whose id has an earlier point with a key ≤ its own or a later one with a
     /// smaller key (what the streaming demotions give). O(N²) once per selection.
+    /// A point is tier 0 exactly when it is the first of its id's smallest key: one pass
+    /// finds each id's first smallest entry (a table of the distinct ids, `D` of them), a
+    /// second sets the tiers; O(N·D), at most O(N²).
     fn assign_tiers(&mut self, set: &ObstacleSet<N>) {
         self.tiered = true;
         if !matches!(self.ranking, Ranking::Critical { .. }) {
             return;
         }
         let pts = set.as_slice();
-        for (i, q) in pts.iter().enumerate() {
-            let Some(ki) = self.ranks.get(i).map(|r| r.key_bits()) else { continue };
-            let better = pts.iter().zip(self.ranks.iter()).enumerate().any(|(j, (o, rj))| {
-                j != i && o.id == q.id && (rj.key_bits() < ki || (rj.key_bits() == ki && j < i))
-            });
-            if let Some(r) = self.ranks.get_mut(i) {
-                *r = r.with_tier(u8::from(better));
+        // (id, index of its first smallest key) per distinct id, and each point's entry.
+        let mut best = [(0u16, 0usize); N];
+        let mut entry = [0usize; N];
+        let mut d = 0;
+        for (i, (q, r)) in pts.iter().zip(self.ranks.iter()).enumerate() {
+            let e = match best.get(..d).and_then(|b| b.iter().position(|&(id, _)| id == q.id)) {
+                Some(e) => {
+                    let cur = best.get(e).map_or(i, |b| b.1);
+                    if self.ranks.get(cur).is_some_and(|rc| r.key_bits() < rc.key_bits()) {
+                        if let Some(b) = best.get_mut(e) {
+                            b.1 = i;
+                        }
+                    }
+                    e
+                }
+                None => {
+                    if let Some(b) = best.get_mut(d) {
+                        *b = (q.id, i);
+                    }
+                    d += 1;
+                    d - 1
+                }
+            };
+            if let Some(x) = entry.get_mut(i) {
+                *x = e;
             }
         }
+        for (i, r) in self.ranks.iter_mut().enumerate().take(pts.len()) {
+            let first_best = entry.get(i).and_then(|&e| best.get(e)).is_some_and(|b| b.1 == i);
+            *r = r.with_tier(u8::from(!first_best));
+        }
+    }
+
+    /// Recomputes the worst entry of every block and of the set (`len` entries).
+    fn rank_all(&mut self, len: usize) {
+        for b in 0..len.div_ceil(BLOCK) {
+            self.rank_block(b, len);
+        }
+        self.rank_blocks(len);
+    }
+
+    /// Rank `i` changed: its block's worst entry and the set's.
+    fn rank_changed(&mut self, i: usize, len: usize) {
+        self.rank_block(i / BLOCK, len);
+        self.rank_blocks(len);
+    }
+
+    fn rank_block(&mut self, b: usize, len: usize) {
+        let lo = b * BLOCK;
+        let w = worst_index(self.ranks.get(lo..len.min(lo + BLOCK)).unwrap_or(&[]));
+        if let Some(x) = self.block_worst.get_mut(b) {
+            *x = lo + w;
+        }
+    }
+
+    /// The set's first worst entry from the blocks' (the first block of the largest rank:
+    /// blocks are in slot order, so this is the first worst slot).
+    fn rank_blocks(&mut self, len: usize) {
+        let rank = |i: usize| self.ranks.get(i).map_or(0, |r| r.0);
+        let blocks = self.block_worst.get(..len.div_ceil(BLOCK)).unwrap_or(&[]);
+        let Some(&first) = blocks.first() else {
+            self.worst = 0;
+            return;
+        };
+        let (mut w, mut rw) = (first, rank(first));
+        for &i in blocks.iter().skip(1) {
+            let ri = rank(i);
+            if ri > rw {
+                (w, rw) = (i, ri);
+            }
+        }
+        self.worst = w;
     }
 
     fn offer(&mut self, set: &mut ObstacleSet<N>, o: &ObstaclePoint) -> Offer {
@@ -278,7 +352,7 @@ impl<const N: usize> Ranker<N> {
                 *r = Rank::new(0, f32::from_bits(r.0 as u32));
             }
             self.assign_tiers(set);
-            self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+            self.rank_all(len);
         }
         // Fast reject: a full set whose worst entry is tier 0 with a key ≤ this one
         // cannot take it (whatever its id: see the module docs).
@@ -305,7 +379,7 @@ impl<const N: usize> Ranker<N> {
                         *rs = rs.with_tier(1);
                         // A demotion is the only change of a stored rank: the cached worst
                         // entry is recomputed then (else it is still `worst_index(ranks)`).
-                        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+                        self.rank_changed(s, len);
                     }
                     _ => r = r.with_tier(1),
                 }
@@ -339,7 +413,7 @@ impl<const N: usize> Ranker<N> {
             // so not that tier-0 sibling).
             self.sibling = Some((o.id, if r.tier() == 0 { Some(self.worst) } else { sibling }));
         }
-        self.worst = worst_index(self.ranks.get(..len).unwrap_or(&[]));
+        self.rank_changed(self.worst, len);
         Offer::Kept
     }
 
@@ -415,6 +489,9 @@ fn drop_point(rep: &mut SetReport, key: f32, h: f32, delta1: f32) {
         rep.min_dropped_key = key;
     }
 }
+
+/// Slots per block of the cached worst entries ([`Ranker`]'s `block_worst`).
+const BLOCK: usize = 8;
 
 /// Index of the first worst entry (`0` for an empty slice), by integer comparisons.
 #[inline]
@@ -720,6 +797,20 @@ mod tests {
         (set, rep)
     }
 
+    fn check_against_reference<const N: usize>(
+        case: usize,
+        ranking: Ranking,
+        p: &Vec3,
+        v: &Vec3,
+        pts: &[ObstaclePoint],
+    ) {
+        let mut s = ObstacleSet::<N>::new();
+        let r = select(&mut s, ranking, 0.3, p, v, pts);
+        let (want, want_rep) = streaming_reference::<N>(ranking, 0.3, p, v, pts);
+        assert_eq!(s.as_slice(), &want[..], "case {case} N {N} {ranking:?}");
+        assert_eq!(r, want_rep, "case {case} N {N} {ranking:?}");
+    }
+
     /// The selector with its cached searches gives the slots (contents and order) and the
     /// report of the streaming selection as first written: runs of one id (a memory's
     /// static cells), few and many ids, repeated points (equal keys), moving points.
@@ -754,11 +845,10 @@ mod tests {
             for ranking in
                 [Ranking::Critical { mu: 0.5 + rng.next(), relative: case % 2 == 0 }, Ranking::Nearest]
             {
-                let mut s = ObstacleSet::<8>::new();
-                let r = select(&mut s, ranking, 0.3, &p, &v, &pts);
-                let (want, want_rep) = streaming_reference::<8>(ranking, 0.3, &p, &v, &pts);
-                assert_eq!(s.as_slice(), &want[..], "case {case} {ranking:?}");
-                assert_eq!(r, want_rep, "case {case} {ranking:?}");
+                check_against_reference::<8>(case, ranking, &p, &v, &pts);
+                // Several blocks of cached worst entries, the last one partial.
+                check_against_reference::<20>(case, ranking, &p, &v, &pts);
+                check_against_reference::<32>(case, ranking, &p, &v, &pts);
             }
         }
     }
