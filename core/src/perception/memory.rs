@@ -181,6 +181,50 @@ fn slab(o: &Vec3, u: &Vec3, lo: &Vec3, hi: &Vec3) -> Option<(f32, f32)> {
     (t0 <= t1 && t1 >= 0.0).then_some((t0, t1))
 }
 
+/// Tangents of a scan's beam-lattice bounds, widened by [`FovBounds::SPARE`]: a direction
+/// outside them has no nearest beam (the `round` of `beam_clears` leaves the lattice), found
+/// without its two `atan2f` (most cells are outside a camera's or a planar lidar's beams).
+/// A bound is `None` where the lattice wraps or reaches within 0.01 rad of ±π/2.
+struct FovBounds {
+    az: Option<(f32, f32)>,
+    el: Option<(f32, f32)>,
+}
+
+impl FovBounds {
+    /// Rad: far above the `f32` round-off of the angles compared (≈ 1e-7 rad).
+    const SPARE: f32 = 1e-3;
+
+    fn of(g: &super::ScanGeometry) -> Self {
+        let tan_bounds = |lo: f32, hi: f32| {
+            let (lo, hi) = (lo - Self::SPARE, hi + Self::SPARE);
+            let edge = core::f32::consts::FRAC_PI_2 - 0.01;
+            (lo > -edge && hi < edge).then(|| (libm::tanf(lo), libm::tanf(hi)))
+        };
+        let span = |first: f32, step: f32, n: u16| (first - 0.5 * step, first + (f32::from(n) - 0.5) * step);
+        let (a0, a1) = span(g.az0, g.daz, g.n_az);
+        let (e0, e1) = span(g.el0, g.del, g.n_el);
+        FovBounds { az: if g.wraps() { None } else { tan_bounds(a0, a1) }, el: tan_bounds(e0, e1) }
+    }
+
+    /// The sensor-frame direction `q` is outside the lattice's angles (azimuth
+    /// `atan2(q.y, q.x)`, elevation `atan2(−q.z, |q_xy|)`) by more than the spare.
+    fn surely_outside(&self, q: &Vec3) -> bool {
+        if let Some((lo, hi)) = self.az {
+            // Behind (|azimuth| > π/2) or beside; q.x = 0 is left to the exact test.
+            if q.x < 0.0 || (q.x > 0.0 && (q.y > q.x * hi || q.y < q.x * lo)) {
+                return true;
+            }
+        }
+        if let Some((lo, hi)) = self.el {
+            let h = hypotf(q.x, q.y);
+            if h > 0.0 && (-q.z > h * hi || -q.z < h * lo) {
+                return true;
+            }
+        }
+        false
+    }
+}
+
 /// The segment being built in the tracking row.
 #[derive(Clone, Copy)]
 struct Segment {
@@ -361,11 +405,12 @@ impl<const N: usize> ObstacleMemory<N> {
 
         // 1. See-through clearing: each cell against the beam nearest its direction.
         let tol = 0.25 * voxel;
+        let fov = FovBounds::of(g);
         let mut i = self.cells.len();
         while i > 0 {
             i -= 1;
             let Some(c) = self.cells.get(i).copied() else { continue };
-            if self.beam_clears(&origin, &r_ws, scan, &c, tol) {
+            if self.beam_clears(&origin, &r_ws, scan, &c, tol, &fov) {
                 self.cells.swap_remove(i);
                 rep.cleared = rep.cleared.saturating_add(1);
             }
@@ -393,6 +438,7 @@ impl<const N: usize> ObstacleMemory<N> {
         }
         let mut k = 0usize;
         for row in 0..g.n_el {
+            let row_el = g.row_elevation(row);
             for col in 0..g.n_az {
                 let range = scan.ranges.get(k).copied().unwrap_or(Range::Unknown);
                 k += 1;
@@ -403,7 +449,7 @@ impl<const N: usize> ObstacleMemory<N> {
                 };
                 let w = match range {
                     Range::Hit(r) if r >= g.min_range && r < g.max_range => {
-                        Some(origin + r_ws * (g.direction(row, col) * r))
+                        Some(origin + r_ws * (g.direction_in_row(row_el, col) * r))
                     }
                     _ => None,
                 };
@@ -483,11 +529,12 @@ impl<const N: usize> ObstacleMemory<N> {
         scan: &Scan,
         c: &Cell,
         tol: f32,
+        fov: &FovBounds,
     ) -> bool {
         let g = &scan.geometry;
         let centre = (c.lo + c.hi) * 0.5;
         let q = r_ws.transpose() * (centre - origin);
-        if q.norm_squared() < 1e-6 {
+        if q.norm_squared() < 1e-6 || fov.surely_outside(&q) {
             return false;
         }
         let az = libm::atan2f(q.y, q.x);
@@ -974,6 +1021,62 @@ mod tests {
     /// lidar from random positions: the cells are at most the cubes the wall crosses, every
     /// point handed out lies in its cube and is no farther from the vehicle than the
     /// returns of that cube (conservative merge).
+    /// The shortcut of `beam_clears` only skips directions whose nearest beam is off the
+    /// lattice (the exact `atan2f`/`roundf` test), for a camera, a ToF grid, single beams,
+    /// a planar and a multi-row 360° lidar; and it does skip most directions of a camera.
+    #[test]
+    fn the_field_of_view_shortcut_skips_only_directions_off_the_lattice() {
+        let geoms = [
+            ScanGeometry::grid(16, 10, 87f32.to_radians(), 58f32.to_radians(), 0.2, 6.0),
+            ScanGeometry::grid(8, 8, 45f32.to_radians(), 45f32.to_radians(), 0.05, 4.0),
+            ScanGeometry::grid(1, 1, 0.1, 0.1, 0.05, 4.0),
+            ScanGeometry::grid(4, 1, 170f32.to_radians(), 0.05, 0.05, 4.0),
+            ScanGeometry::planar_360(72, 0.05, 0.1, 12.0),
+            ScanGeometry {
+                n_el: 16,
+                del: 0.035,
+                el0: -0.26,
+                ..ScanGeometry::planar_360(360, 0.0, 0.1, 12.0)
+            },
+        ];
+        let mut rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[21; 32]);
+        for (gi, g) in geoms.iter().enumerate() {
+            let fov = FovBounds::of(g);
+            let mut skipped = 0;
+            for k in 0..20_000 {
+                let mut q = Vec3::new(
+                    rng.random_range(-1.0f32..1.0),
+                    rng.random_range(-1.0f32..1.0),
+                    rng.random_range(-1.0f32..1.0),
+                );
+                if k % 4 == 0 {
+                    // Near the lattice's edges: a beam direction nudged by up to 2 beam widths.
+                    let (row, col) = (rng.random_range(0..g.n_el), rng.random_range(0..g.n_az));
+                    let d = g.direction(row, col);
+                    q = d
+                        + Vec3::new(d.y, -d.x, 0.0) * (rng.random_range(-2.0f32..2.0) * g.daz)
+                        + Vec3::new(0.0, 0.0, rng.random_range(-2.0f32..2.0) * g.del);
+                }
+                if !fov.surely_outside(&q) {
+                    continue;
+                }
+                skipped += 1;
+                let az = libm::atan2f(q.y, q.x);
+                let el = libm::atan2f(-q.z, hypotf(q.x, q.y));
+                let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
+                if g.wraps() {
+                    col = col.rem_euclid(i32::from(g.n_az));
+                }
+                let row = libm::roundf((el - g.el0) / g.del) as i32;
+                let on = (0..i32::from(g.n_az)).contains(&col) && (0..i32::from(g.n_el)).contains(&row);
+                assert!(!on, "geometry {gi}: {q:?} skipped but on beam ({row}, {col})");
+            }
+            if gi == 0 {
+                assert!(skipped > 10_000, "camera: {skipped} of 20 000 skipped");
+            }
+        }
+    }
+
     #[test]
     fn voxel_merge_is_bounded_and_conservative() {
         let mut runner = TestRunner::new_with_rng(

@@ -158,6 +158,7 @@ impl ScanGeometry {
     ) {
         let mut k = 0usize;
         for row in 0..self.n_el {
+            let row_el = self.row_elevation(row);
             for col in 0..self.n_az {
                 let r = ranges.get(k).copied().unwrap_or(Range::Unknown);
                 k += 1;
@@ -166,7 +167,7 @@ impl ScanGeometry {
                     Range::Clear => self.max_range,
                     _ => continue,
                 };
-                let u = r_ws * self.direction(row, col);
+                let u = r_ws * self.direction_in_row(row_el, col);
                 if u.z.abs() > sin_band {
                     continue;
                 }
@@ -211,10 +212,19 @@ impl ScanGeometry {
 
     /// Sensor-frame unit direction of beam `(row, col)`.
     pub fn direction(&self, row: u16, col: u16) -> Vec3 {
-        let a = self.az0 + f32::from(col) * self.daz;
-        let e = self.el0 + f32::from(row) * self.del;
-        let (sa, ca) = crate::fmath::sincosf(a);
-        let (se, ce) = crate::fmath::sincosf(e);
+        self.direction_in_row(self.row_elevation(row), col)
+    }
+
+    /// `(sin, cos)` of row `row`'s elevation, for [`Self::direction_in_row`] (a scan's loop
+    /// over its beams computes it once per row: the same values as [`Self::direction`]).
+    pub fn row_elevation(&self, row: u16) -> (f32, f32) {
+        crate::fmath::sincosf(self.el0 + f32::from(row) * self.del)
+    }
+
+    /// [`Self::direction`] of column `col` in the row of elevation `(sin, cos)` `row_el`.
+    pub fn direction_in_row(&self, row_el: (f32, f32), col: u16) -> Vec3 {
+        let (se, ce) = row_el;
+        let (sa, ca) = crate::fmath::sincosf(self.az0 + f32::from(col) * self.daz);
         Vec3::new(ce * ca, ce * sa, -se)
     }
 
