@@ -58,6 +58,7 @@
 
 use super::cell_distances::Distances;
 use super::frontier::{closes_in, ignore_beyond, Frontier};
+use super::key_index::{KeyIndex, Lookup};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{
     MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF, FRONTIER_ID, STATIC_ID,
@@ -436,6 +437,8 @@ impl<const N: usize> ObstacleMemory<N> {
         for (d, c) in dist.d.iter_mut().zip(self.cells.iter()) {
             *d = box_distance_sq(&vehicle, c);
         }
+        // Which cell holds a cube, kept up to date by `store` (the same cell a scan finds).
+        let mut keys = KeyIndex::build(self.cells.len(), self.cells.iter().map(|c| c.key));
         let mut k = 0usize;
         for row in 0..g.n_el {
             let row_el = g.row_elevation(row);
@@ -463,7 +466,8 @@ impl<const N: usize> ObstacleMemory<N> {
                     other => other,
                 };
                 if let Some(w) = w {
-                    class = match self.store(&w, &vehicle, t, &mut last_cell, &mut dist, &mut rep) {
+                    class = match self.store(&w, &vehicle, t, &mut last_cell, &mut dist, &mut keys, &mut rep)
+                    {
                         Some(ci) if ci < usize::from(ROW_HIT) => ci as u16,
                         _ => ROW_HIT,
                     };
@@ -574,6 +578,7 @@ impl<const N: usize> ObstacleMemory<N> {
         t: u64,
         last: &mut Option<usize>,
         dist: &mut Distances<N>,
+        keys: &mut KeyIndex,
         rep: &mut ScanReport,
     ) -> Option<usize> {
         let inv = 1.0 / self.params.voxel;
@@ -581,7 +586,11 @@ impl<const N: usize> ObstacleMemory<N> {
             [libm::floorf(w.x * inv) as i32, libm::floorf(w.y * inv) as i32, libm::floorf(w.z * inv) as i32];
         let found = match last.filter(|&i| self.cells.get(i).is_some_and(|c| c.key == key)) {
             Some(i) => Some(i),
-            None => self.cells.iter().position(|c| c.key == key),
+            None => match keys.find(&key, |i| self.cells.get(i).map(|c| c.key)) {
+                Lookup::Found(i) => Some(i),
+                Lookup::Absent => None,
+                Lookup::Unknown => self.cells.iter().position(|c| c.key == key),
+            },
         };
         let idx = match found {
             Some(i) => {
@@ -599,6 +608,7 @@ impl<const N: usize> ObstacleMemory<N> {
                 if self.cells.push(cell).is_ok() {
                     rep.new_cells = rep.new_cells.saturating_add(1);
                     let i = self.cells.len() - 1;
+                    keys.insert(&key, i);
                     dist.set(i, d_new);
                     i
                 } else {
@@ -606,7 +616,9 @@ impl<const N: usize> ObstacleMemory<N> {
                     match dist.farthest(self.cells.len()) {
                         Some((i, d)) if d > dw => {
                             if let Some(c) = self.cells.get_mut(i) {
+                                keys.remove(&c.key, i);
                                 *c = cell;
+                                keys.insert(&key, i);
                             }
                             dist.set(i, d_new);
                             rep.dropped_full = rep.dropped_full.saturating_add(1); // the evicted cell

@@ -32,6 +32,7 @@
 mod cell_distances;
 pub mod free_grid;
 pub mod frontier;
+mod key_index;
 pub mod memory;
 pub mod track;
 
