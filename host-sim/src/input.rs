@@ -240,7 +240,8 @@ pub struct Fixed<const D: usize>(pub f64);
 
 impl<const D: usize> serde::Serialize for Fixed<D> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(&format_args!("{:.*}", D, self.0))
+        // The text of `{:.D}` (crate::decimal), without a heap string per number.
+        crate::decimal::with_fixed(self.0, D, |text| s.serialize_str(text))
     }
 }
 

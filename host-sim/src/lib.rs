@@ -25,6 +25,7 @@
 //! * [`sweep`], [`campaign`]: parameter sweeps and Monte Carlo campaigns.
 pub mod campaign;
 pub mod cli;
+pub mod decimal;
 pub mod fc;
 pub mod flight;
 pub mod input;

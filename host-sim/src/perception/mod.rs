@@ -41,6 +41,7 @@ use parapet_core::Vec3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use crate::decimal::push_fixed;
 use crate::sim::plant::PlantState;
 use crate::sim::range::{RangeSensor, Return};
 use crate::world::raycast::{Cone, RayWorld};
@@ -374,15 +375,29 @@ pub fn write_ranges_csv(
     records: &[RangeRecord],
 ) -> std::io::Result<()> {
     writeln!(w, "t,sensor,beam,range,x,y,z")?;
+    // Each line built in one buffer (the numbers as `{:.4}` would write them: crate::decimal).
+    let mut line = Vec::with_capacity(96);
     for r in records {
         let name = sensors.get(r.sensor as usize).map_or("?", |s| s.name.as_str());
+        line.clear();
+        push_fixed(&mut line, r.t, 4);
+        line.push(b',');
+        line.extend_from_slice(name.as_bytes());
+        std::io::Write::write_fmt(&mut line, format_args!(",{},", r.beam))?;
         match (r.range, r.point) {
             (Some(d), Some(p)) => {
                 // NED → ENU: (y, x, −z).
-                writeln!(w, "{:.4},{name},{},{d:.4},{:.4},{:.4},{:.4}", r.t, r.beam, p[1], p[0], -p[2])?
+                for (i, v) in [d, p[1], p[0], -p[2]].into_iter().enumerate() {
+                    if i > 0 {
+                        line.push(b',');
+                    }
+                    push_fixed(&mut line, f64::from(v), 4);
+                }
             }
-            _ => writeln!(w, "{:.4},{name},{},,,,", r.t, r.beam)?,
+            _ => line.extend_from_slice(b",,,"),
         }
+        line.push(b'\n');
+        w.write_all(&line)?;
     }
     Ok(())
 }
