@@ -159,13 +159,23 @@ fn plausible(v: &Vec3) -> bool {
 /// Key of `o` for a vehicle at `p` moving at `v` (NED), and its barrier value `h` (m²).
 #[inline]
 fn key_of(ranking: Ranking, p: &Vec3, v: &Vec3, o: &ObstaclePoint) -> (f32, f32) {
-    let d = o.point - p;
+    key_parts(ranking, p, v, &o.point, o.velocity.as_ref())
+}
+
+/// [`key_of`] of the point `point` with velocity `velocity`.
+#[inline(always)]
+fn key_parts(ranking: Ranking, p: &Vec3, v: &Vec3, point: &Vec3, velocity: Option<&Vec3>) -> (f32, f32) {
+    let d = point - p;
     // d here points from the vehicle to the obstacle; the barrier's d is p − p̄ = −d.
     let dist_sq = d.norm_squared();
     match ranking {
         Ranking::Nearest => (dist_sq, dist_sq),
         Ranking::Critical { mu, relative } => {
-            let d_dot = if relative { v - o.velocity.unwrap_or_else(Vec3::zeros) } else { *v };
+            let d_dot = match velocity {
+                Some(w) if relative => v - w,
+                None if relative => v - Vec3::zeros(),
+                _ => *v,
+            };
             let h = dist_sq - mu * d.dot(&d_dot);
             (if h < dist_sq { h } else { dist_sq }, h)
         }
@@ -318,6 +328,21 @@ impl<const N: usize> Ranker<N> {
     fn offer(&mut self, set: &mut ObstacleSet<N>, o: &ObstaclePoint) -> Offer {
         let (key, h) = key_of(self.ranking, &self.p, &self.v, o);
         let point_ok = plausible(&o.point) && o.velocity.is_none_or(|w| plausible(&w));
+        self.offer_ranked(set, key, h, point_ok, o.id, || *o)
+    }
+
+    /// [`Self::offer`] of the point `make()` (built only when stored) of id `id`, key `key`,
+    /// barrier value `h`, plausible when `point_ok`.
+    #[inline(always)]
+    fn offer_ranked(
+        &mut self,
+        set: &mut ObstacleSet<N>,
+        key: f32,
+        h: f32,
+        point_ok: bool,
+        id: u16,
+        make: impl FnOnce() -> ObstaclePoint,
+    ) -> Offer {
         if !self.state_ok || !point_ok || !key.is_finite() || !h.is_finite() {
             self.report.rejected = self.report.rejected.saturating_add(1);
             return Offer::Rejected;
@@ -326,7 +351,7 @@ impl<const N: usize> Ranker<N> {
         let len = set.len();
         if len < N {
             // Below capacity: stored in offer order, nothing ranked yet.
-            if set.points_mut().push(*o).is_err() {
+            if set.points_mut().push(make()).is_err() {
                 return Offer::Dropped; // unreachable: len < N
             }
             if let Some(slot) = self.ranks.get_mut(len) {
@@ -335,17 +360,19 @@ impl<const N: usize> Ranker<N> {
             }
             return Offer::Kept;
         }
-        self.offer_full(set, o, key, h, len)
+        self.offer_full(set, id, key, h, len, make)
     }
 
     /// [`Self::offer`] past capacity.
+    #[inline(always)]
     fn offer_full(
         &mut self,
         set: &mut ObstacleSet<N>,
-        o: &ObstaclePoint,
+        id: u16,
         key: f32,
         h: f32,
         len: usize,
+        make: impl FnOnce() -> ObstaclePoint,
     ) -> Offer {
         if !self.tiered {
             for r in self.ranks.iter_mut() {
@@ -366,12 +393,12 @@ impl<const N: usize> Ranker<N> {
         let mut sibling = None;
         if critical {
             sibling = match self.sibling {
-                Some((id, s)) if id == o.id => s,
+                Some((cached, s)) if cached == id => s,
                 _ => set
                     .as_slice()
                     .iter()
                     .zip(self.ranks.iter())
-                    .position(|(q, rq)| q.id == o.id && rq.tier() == 0),
+                    .position(|(q, rq)| q.id == id && rq.tier() == 0),
             };
             if let Some(s) = sibling {
                 match self.ranks.get_mut(s) {
@@ -395,7 +422,7 @@ impl<const N: usize> Ranker<N> {
             // Not stored, nothing changed (a demotion always stores: the worst is then
             // tier 1 and the point tier 0): `sibling` is still this id's tier-0 entry.
             if critical {
-                self.sibling = Some((o.id, sibling));
+                self.sibling = Some((id, sibling));
             }
             drop_point(&mut self.report, key, h, self.delta1);
             return Offer::Dropped;
@@ -404,14 +431,14 @@ impl<const N: usize> Ranker<N> {
         drop_point(&mut self.report, wkey, wh, self.delta1);
         if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
         {
-            *slot = *o;
+            *slot = make();
             *rs = r;
         }
         if critical {
             // Stored in the worst slot: as tier 0 it is now its id's tier-0 entry; as tier 1
             // its tier-0 sibling stays (the slot replaced was worse than tier 1 with this key,
             // so not that tier-0 sibling).
-            self.sibling = Some((o.id, if r.tier() == 0 { Some(self.worst) } else { sibling }));
+            self.sibling = Some((id, if r.tier() == 0 { Some(self.worst) } else { sibling }));
         }
         self.rank_changed(self.worst, len);
         Offer::Kept
@@ -457,6 +484,17 @@ impl<const N: usize> Selector<N> {
     /// O(N) scans (plus one O(N²) tier assignment when the set first overflows).
     pub fn offer(&mut self, o: &ObstaclePoint) -> Offer {
         self.ranker.offer(&mut self.set, o)
+    }
+
+    /// [`Self::offer`] of `ObstaclePoint { point, velocity, id, normal: None }`, the point
+    /// built only when it is stored (a memory's cells: most are not).
+    #[inline(always)]
+    pub fn offer_point(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16) -> Offer {
+        let r = &mut self.ranker;
+        let (key, h) = key_parts(r.ranking, &r.p, &r.v, point, velocity);
+        let point_ok = plausible(point) && velocity.is_none_or(plausible);
+        let make = || ObstaclePoint { point: *point, velocity: velocity.copied(), id, normal: None };
+        r.offer_ranked(&mut self.set, key, h, point_ok, id, make)
     }
 }
 

@@ -761,14 +761,22 @@ impl<const N: usize> ObstacleMemory<N> {
     /// `t_us`: one per cell not older than `forget_s` (the box point nearest `p`; moving
     /// tracks extrapolated, with their velocity), then the frontier point (when the
     /// direction of motion has not been observed free far enough). O(N).
-    pub fn for_each_point(
-        &mut self,
-        t_us: u64,
-        p: &Vec3,
-        v: &Vec3,
-        mu: f32,
-        mut f: impl FnMut(&ObstaclePoint),
-    ) {
+    pub fn for_each_point(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, f: impl FnMut(&ObstaclePoint)) {
+        /// Every point built and handed to the closure.
+        struct Each<F>(F);
+        impl<F: FnMut(&ObstaclePoint)> PointSink for Each<F> {
+            fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16) {
+                (self.0)(&ObstaclePoint { point: *point, velocity: velocity.copied(), id, normal: None });
+            }
+            fn point(&mut self, o: &ObstaclePoint) {
+                (self.0)(o);
+            }
+        }
+        self.points_into(t_us, p, v, mu, &mut Each(f));
+    }
+
+    /// [`Self::for_each_point`] into `sink` (a cell's point as its parts).
+    fn points_into<S: PointSink>(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, sink: &mut S) {
         let forget = self.forget_us();
         let mut threat = false;
         for c in self.cells.iter() {
@@ -783,19 +791,19 @@ impl<const N: usize> ObstacleMemory<N> {
             let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
             threat |= w.is_some_and(|w| closes_in(&(p - q), &w));
             let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
-            f(&ObstaclePoint { point: q, velocity: w, id, normal: None });
+            sink.cell(&q, w.as_ref(), id);
         }
         if self.now_us.is_some() {
             let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
             let walls = self.params.fov_walls != FOV_WALLS_OFF;
             // No new wall while a seen mover closes in (the motion is the evasion): the cap.
             if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far, walls && !threat) {
-                f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
+                sink.point(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
             }
             // Where the observed free range is used up: walls, as half-spaces.
             if walls {
                 self.frontier.walls(p, far, |q, n| {
-                    f(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: Some(n) });
+                    sink.point(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: Some(n) });
                 });
             }
         }
@@ -811,16 +819,33 @@ impl<const N: usize> ObstacleMemory<N> {
         ranking: Ranking,
         delta1: f32,
     ) -> (ObstacleSet<M>, SetReport) {
+        /// Cells offered as parts: a point is built only when the set keeps it.
+        struct Offers<const M: usize>(Selector<M>);
+        impl<const M: usize> PointSink for Offers<M> {
+            #[inline(always)]
+            fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16) {
+                self.0.offer_point(point, velocity, id);
+            }
+            fn point(&mut self, o: &ObstaclePoint) {
+                self.0.offer(o);
+            }
+        }
         let mu = match ranking {
             Ranking::Critical { mu, .. } => mu,
             Ranking::Nearest => 1.4,
         };
-        let mut sel = Selector::<M>::new(ranking, delta1, p, v);
-        self.for_each_point(t_us, p, v, mu, |o| {
-            sel.offer(o);
-        });
-        sel.finish()
+        let mut sel = Offers(Selector::<M>::new(ranking, delta1, p, v));
+        self.points_into(t_us, p, v, mu, &mut sel);
+        sel.0.finish()
     }
+}
+
+/// Where [`ObstacleMemory::for_each_point`]'s points go.
+trait PointSink {
+    /// A cell's point `point` (NED), its track's velocity, its id.
+    fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16);
+    /// The frontier's points.
+    fn point(&mut self, o: &ObstaclePoint);
 }
 
 /// One cluster of a scan's tracking row (a small segment in front of its background).
