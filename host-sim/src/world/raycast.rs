@@ -59,19 +59,51 @@ fn v64(a: &[f32; 3]) -> Vector3<f64> {
 /// Distance (m) along the unit direction `dir` from `origin` (NED) to the
 /// first point of `shape` (solid: 0 from inside), if it is at most `max` m.
 pub fn cast_shape(shape: &Shape, origin: &Vector3<f64>, dir: &Vector3<f64>, max: f64) -> Option<f64> {
-    match shape {
-        Shape::Point { .. } => None,
-        Shape::Sphere { center, radius } => {
-            let ray = Ray::new(pv(&(origin - v64(center))), pv(dir));
-            Ball::new(*radius as f64).cast_local_ray(&ray, max, true)
+    Prepared::of(shape).cast(origin, dir, max)
+}
+
+/// A shape in `f64`, ready for many rays (a scan's candidates): the conversions of
+/// [`cast_shape`] done once.
+#[derive(Clone, Copy, Debug)]
+enum Prepared {
+    Point,
+    Sphere { center: Vector3<f64>, radius: f64 },
+    Box { center: Vector3<f64>, half: Vector3<f64> },
+    Cylinder { base: Vector3<f64>, radius: f64, height: f64 },
+}
+
+impl Prepared {
+    fn of(shape: &Shape) -> Self {
+        match shape {
+            Shape::Point { .. } => Prepared::Point,
+            Shape::Sphere { center, radius } => {
+                Prepared::Sphere { center: v64(center), radius: *radius as f64 }
+            }
+            Shape::Box { min, max: hi } => {
+                let (lo, hi) = (v64(min), v64(hi));
+                Prepared::Box { center: (lo + hi) * 0.5, half: (hi - lo) * 0.5 }
+            }
+            Shape::Cylinder { base, radius, height } => {
+                Prepared::Cylinder { base: v64(base), radius: *radius as f64, height: *height as f64 }
+            }
         }
-        Shape::Box { min, max: hi } => {
-            let (lo, hi) = (v64(min), v64(hi));
-            let ray = Ray::new(pv(&(origin - (lo + hi) * 0.5)), pv(dir));
-            Cuboid::new(pv(&((hi - lo) * 0.5))).cast_local_ray(&ray, max, true)
-        }
-        Shape::Cylinder { base, radius, height } => {
-            cast_cylinder(&v64(base), *radius as f64, *height as f64, origin, dir, max)
+    }
+
+    #[inline]
+    fn cast(&self, origin: &Vector3<f64>, dir: &Vector3<f64>, max: f64) -> Option<f64> {
+        match self {
+            Prepared::Point => None,
+            Prepared::Sphere { center, radius } => {
+                let ray = Ray::new(pv(&(origin - center)), pv(dir));
+                Ball::new(*radius).cast_local_ray(&ray, max, true)
+            }
+            Prepared::Box { center, half } => {
+                let ray = Ray::new(pv(&(origin - center)), pv(dir));
+                Cuboid::new(pv(half)).cast_local_ray(&ray, max, true)
+            }
+            Prepared::Cylinder { base, radius, height } => {
+                cast_cylinder(base, *radius, *height, origin, dir, max)
+            }
         }
     }
 }
@@ -236,7 +268,7 @@ impl Cone {
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
     obstacle: usize,
-    shape: Shape,
+    shape: Prepared,
     /// Bounding-sphere centre − scan origin, m.
     v: Vector3<f64>,
     /// |v|², m².
@@ -294,7 +326,7 @@ impl RayWorld {
                     // round-off never reaches outside.
                     let scale = 1.0 + origin.amax() + lo.amax().max(hi.amax());
                     let rho = (hi - lo).norm() * 0.5 + 1e-9 * scale;
-                    Candidate { obstacle, shape: *shape, v, v2: v.norm_squared(), rho }
+                    Candidate { obstacle, shape: Prepared::of(shape), v, v2: v.norm_squared(), rho }
                 })
                 .filter(|c| cone.is_none_or(|k| in_cone(k, c)))
                 .collect();
@@ -335,7 +367,7 @@ impl ScanView<'_> {
             if tc - c.rho > reach || tc + c.rho < 0.0 || c.v2 - tc * tc > c.rho * c.rho {
                 continue;
             }
-            if let Some(range) = cast_shape(&c.shape, &self.origin, dir, reach) {
+            if let Some(range) = c.shape.cast(&self.origin, dir, reach) {
                 if best.is_none_or(|b| range < b.range) {
                     best = Some(RayHit { range, obstacle: Some(c.obstacle) });
                     reach = range;
