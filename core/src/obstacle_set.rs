@@ -413,8 +413,7 @@ impl<const N: usize> Ranker<N> {
             }
         }
         let ranks = self.ranks.get(..len).unwrap_or(&[]);
-        let (Some(w), Some(q)) = (ranks.get(self.worst).copied(), set.as_slice().get(self.worst).copied())
-        else {
+        let Some(w) = ranks.get(self.worst).copied() else {
             self.sibling = None;
             return Offer::Dropped;
         };
@@ -427,6 +426,11 @@ impl<const N: usize> Ranker<N> {
             drop_point(&mut self.report, key, h, self.delta1);
             return Offer::Dropped;
         }
+        // The evicted point (read only now: most offers are dropped above).
+        let Some(q) = set.as_slice().get(self.worst).copied() else {
+            self.sibling = None;
+            return Offer::Dropped;
+        };
         let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
         drop_point(&mut self.report, wkey, wh, self.delta1);
         if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
