@@ -35,10 +35,10 @@
 //! ground barrier of `crate::robust` handles the ground); they still clear along their beam.
 //!
 //! **Cost** of [`ObstacleMemory::insert_scan`] for B beams and N cells: clearing O(N) (one
-//! `atan2` pair and one slab test per cell), insertion O(B·N) comparisons of cell keys in the
-//! worst case (a return merging into the cell of the previous return costs O(1): one wall
-//! seen by consecutive beams), tracking O(B + MAX_SEGMENTS·MAX_TRACKS + N), the frontier
-//! O(B). Measured on the Cortex-M4F (`cd tests/cortex-m4 && cargo run --release`, QEMU
+//! `atan2` pair and one slab test per cell whose direction is on the beam lattice; a cell
+//! outside the lattice's angles is skipped by a tangent test), insertion O(B) lookups of cell
+//! keys in a 256-byte hash table (`key_index`; O(N) comparisons when it cannot tell, e.g.
+//! N > 128), tracking O(B + MAX_SEGMENTS·MAX_TRACKS + N), the frontier O(B). Measured on the Cortex-M4F (`cd tests/cortex-m4 && cargo run --release`, QEMU
 //! `-icount`, `bench_memory`: `ObstacleMemory<64>`, 72-sector scans of a 6 m room with a pole
 //! crossed at 1 m/s, 40 scans, memory full from the first scans; 2026-12-02 on `97a0359`):
 //! `insert_scan` mean 419 661, max 461 734 instructions (2.7 ms at 168 MHz: inside one 4 ms
@@ -51,22 +51,24 @@
 //! of that day, whose tracking changes had raised it from the figure above). Since 2026-12-04
 //! the farthest cell is cached during an insertion and the selection's searches are cached
 //! (`crate::obstacle_set`), same results: `insert_scan` mean 322 475 → **302 239**,
-//! `select::<32>` mean 79 006 → **46 217** (`docs/perception.md` § Cost).
+//! `select::<32>` mean 79 006 → **46 217** (`docs/perception.md` § Cost). Since 2026-12-05
+//! (key table, lattice test, a row's elevation once per row; the selection's blocks of
+//! cached worst entries), same results: `insert_scan` mean 292 141 → **207 758**,
+//! `select::<32>` mean 47 438 → **40 853**.
 //!
 //! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
 //! `crate::fmath`, `crate::Vec3`, the parent module.
 
+mod points;
+
 use super::cell_distances::Distances;
-use super::frontier::{closes_in, ignore_beyond, Frontier};
+use super::fov_bounds::FovBounds;
+use super::frontier::Frontier;
 use super::key_index::{KeyIndex, Lookup};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
-use super::{
-    MemoryParams, Range, Scan, CELL_ID_BASE, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF, FRONTIER_ID, STATIC_ID,
-};
+use super::{MemoryParams, Range, Scan, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF};
 use crate::cbf::INPUT_LIMIT;
 use crate::fmath::{hypotf, maxf, minf};
-use crate::obstacle::{ObstaclePoint, ObstacleSet};
-use crate::obstacle_set::{Ranking, Selector, SetReport};
 use crate::Vec3;
 
 const NO_TRACK: u8 = u8::MAX;
@@ -180,50 +182,6 @@ fn slab(o: &Vec3, u: &Vec3, lo: &Vec3, hi: &Vec3) -> Option<(f32, f32)> {
         }
     }
     (t0 <= t1 && t1 >= 0.0).then_some((t0, t1))
-}
-
-/// Tangents of a scan's beam-lattice bounds, widened by [`FovBounds::SPARE`]: a direction
-/// outside them has no nearest beam (the `round` of `beam_clears` leaves the lattice), found
-/// without its two `atan2f` (most cells are outside a camera's or a planar lidar's beams).
-/// A bound is `None` where the lattice wraps or reaches within 0.01 rad of ±π/2.
-struct FovBounds {
-    az: Option<(f32, f32)>,
-    el: Option<(f32, f32)>,
-}
-
-impl FovBounds {
-    /// Rad: far above the `f32` round-off of the angles compared (≈ 1e-7 rad).
-    const SPARE: f32 = 1e-3;
-
-    fn of(g: &super::ScanGeometry) -> Self {
-        let tan_bounds = |lo: f32, hi: f32| {
-            let (lo, hi) = (lo - Self::SPARE, hi + Self::SPARE);
-            let edge = core::f32::consts::FRAC_PI_2 - 0.01;
-            (lo > -edge && hi < edge).then(|| (libm::tanf(lo), libm::tanf(hi)))
-        };
-        let span = |first: f32, step: f32, n: u16| (first - 0.5 * step, first + (f32::from(n) - 0.5) * step);
-        let (a0, a1) = span(g.az0, g.daz, g.n_az);
-        let (e0, e1) = span(g.el0, g.del, g.n_el);
-        FovBounds { az: if g.wraps() { None } else { tan_bounds(a0, a1) }, el: tan_bounds(e0, e1) }
-    }
-
-    /// The sensor-frame direction `q` is outside the lattice's angles (azimuth
-    /// `atan2(q.y, q.x)`, elevation `atan2(−q.z, |q_xy|)`) by more than the spare.
-    fn surely_outside(&self, q: &Vec3) -> bool {
-        if let Some((lo, hi)) = self.az {
-            // Behind (|azimuth| > π/2) or beside; q.x = 0 is left to the exact test.
-            if q.x < 0.0 || (q.x > 0.0 && (q.y > q.x * hi || q.y < q.x * lo)) {
-                return true;
-            }
-        }
-        if let Some((lo, hi)) = self.el {
-            let h = hypotf(q.x, q.y);
-            if h > 0.0 && (-q.z > h * hi || -q.z < h * lo) {
-                return true;
-            }
-        }
-        false
-    }
 }
 
 /// The segment being built in the tracking row.
@@ -756,96 +714,6 @@ impl<const N: usize> ObstacleMemory<N> {
             }
         }
     }
-
-    /// Calls `f` with the obstacle points for a vehicle at `p` moving at `v` (NED) at
-    /// `t_us`: one per cell not older than `forget_s` (the box point nearest `p`; moving
-    /// tracks extrapolated, with their velocity), then the frontier point (when the
-    /// direction of motion has not been observed free far enough). O(N).
-    pub fn for_each_point(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, f: impl FnMut(&ObstaclePoint)) {
-        /// Every point built and handed to the closure.
-        struct Each<F>(F);
-        impl<F: FnMut(&ObstaclePoint)> PointSink for Each<F> {
-            fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16) {
-                (self.0)(&ObstaclePoint { point: *point, velocity: velocity.copied(), id, normal: None });
-            }
-            fn point(&mut self, o: &ObstaclePoint) {
-                (self.0)(o);
-            }
-        }
-        self.points_into(t_us, p, v, mu, &mut Each(f));
-    }
-
-    /// [`Self::for_each_point`] into `sink` (a cell's point as its parts).
-    fn points_into<S: PointSink>(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, sink: &mut S) {
-        let forget = self.forget_us();
-        let mut threat = false;
-        for c in self.cells.iter() {
-            let age_us = t_us.saturating_sub(c.t_us);
-            if age_us > forget {
-                continue;
-            }
-            let w = (c.track != NO_TRACK)
-                .then(|| self.tracker.get(usize::from(c.track)).and_then(|tr| tr.measured_velocity(t_us)))
-                .flatten();
-            let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
-            let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
-            threat |= w.is_some_and(|w| closes_in(&(p - q), &w));
-            let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
-            sink.cell(&q, w.as_ref(), id);
-        }
-        if self.now_us.is_some() {
-            let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
-            let walls = self.params.fov_walls != FOV_WALLS_OFF;
-            // No new wall while a seen mover closes in (the motion is the evasion): the cap.
-            if let Some(q) = self.frontier.point(p, v, self.params.fov_margin, far, walls && !threat) {
-                sink.point(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: None });
-            }
-            // Where the observed free range is used up: walls, as half-spaces.
-            if walls {
-                self.frontier.walls(p, far, |q, n| {
-                    sink.point(&ObstaclePoint { point: q, velocity: None, id: FRONTIER_ID, normal: Some(n) });
-                });
-            }
-        }
-    }
-
-    /// The points of [`Self::for_each_point`] selected by the controller's set policy
-    /// (`crate::obstacle_set`, `M` most critical) and the selection report.
-    pub fn select<const M: usize>(
-        &mut self,
-        t_us: u64,
-        p: &Vec3,
-        v: &Vec3,
-        ranking: Ranking,
-        delta1: f32,
-    ) -> (ObstacleSet<M>, SetReport) {
-        /// Cells offered as parts: a point is built only when the set keeps it.
-        struct Offers<const M: usize>(Selector<M>);
-        impl<const M: usize> PointSink for Offers<M> {
-            #[inline(always)]
-            fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16) {
-                self.0.offer_point(point, velocity, id);
-            }
-            fn point(&mut self, o: &ObstaclePoint) {
-                self.0.offer(o);
-            }
-        }
-        let mu = match ranking {
-            Ranking::Critical { mu, .. } => mu,
-            Ranking::Nearest => 1.4,
-        };
-        let mut sel = Offers(Selector::<M>::new(ranking, delta1, p, v));
-        self.points_into(t_us, p, v, mu, &mut sel);
-        sel.0.finish()
-    }
-}
-
-/// Where [`ObstacleMemory::for_each_point`]'s points go.
-trait PointSink {
-    /// A cell's point `point` (NED), its track's velocity, its id.
-    fn cell(&mut self, point: &Vec3, velocity: Option<&Vec3>, id: u16);
-    /// The frontier's points.
-    fn point(&mut self, o: &ObstaclePoint);
 }
 
 /// One cluster of a scan's tracking row (a small segment in front of its background).
@@ -875,8 +743,11 @@ const SEG_WALL: u8 = 253;
 #[cfg(test)]
 mod tests {
     extern crate std;
-    use super::super::{Pose, ScanGeometry, SensorMount, FOV_WALLS_HELD, FOV_WALLS_ON};
+    use super::super::{
+        Pose, ScanGeometry, SensorMount, CELL_ID_BASE, FOV_WALLS_HELD, FOV_WALLS_ON, FRONTIER_ID, STATIC_ID,
+    };
     use super::*;
+    use crate::obstacle::ObstaclePoint;
     use proptest::prelude::*;
     use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
     use std::vec::Vec;
@@ -1058,62 +929,6 @@ mod tests {
     /// lidar from random positions: the cells are at most the cubes the wall crosses, every
     /// point handed out lies in its cube and is no farther from the vehicle than the
     /// returns of that cube (conservative merge).
-    /// The shortcut of `beam_clears` only skips directions whose nearest beam is off the
-    /// lattice (the exact `atan2f`/`roundf` test), for a camera, a ToF grid, single beams,
-    /// a planar and a multi-row 360° lidar; and it does skip most directions of a camera.
-    #[test]
-    fn the_field_of_view_shortcut_skips_only_directions_off_the_lattice() {
-        let geoms = [
-            ScanGeometry::grid(16, 10, 87f32.to_radians(), 58f32.to_radians(), 0.2, 6.0),
-            ScanGeometry::grid(8, 8, 45f32.to_radians(), 45f32.to_radians(), 0.05, 4.0),
-            ScanGeometry::grid(1, 1, 0.1, 0.1, 0.05, 4.0),
-            ScanGeometry::grid(4, 1, 170f32.to_radians(), 0.05, 0.05, 4.0),
-            ScanGeometry::planar_360(72, 0.05, 0.1, 12.0),
-            ScanGeometry {
-                n_el: 16,
-                del: 0.035,
-                el0: -0.26,
-                ..ScanGeometry::planar_360(360, 0.0, 0.1, 12.0)
-            },
-        ];
-        let mut rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[21; 32]);
-        for (gi, g) in geoms.iter().enumerate() {
-            let fov = FovBounds::of(g);
-            let mut skipped = 0;
-            for k in 0..20_000 {
-                let mut q = Vec3::new(
-                    rng.random_range(-1.0f32..1.0),
-                    rng.random_range(-1.0f32..1.0),
-                    rng.random_range(-1.0f32..1.0),
-                );
-                if k % 4 == 0 {
-                    // Near the lattice's edges: a beam direction nudged by up to 2 beam widths.
-                    let (row, col) = (rng.random_range(0..g.n_el), rng.random_range(0..g.n_az));
-                    let d = g.direction(row, col);
-                    q = d
-                        + Vec3::new(d.y, -d.x, 0.0) * (rng.random_range(-2.0f32..2.0) * g.daz)
-                        + Vec3::new(0.0, 0.0, rng.random_range(-2.0f32..2.0) * g.del);
-                }
-                if !fov.surely_outside(&q) {
-                    continue;
-                }
-                skipped += 1;
-                let az = libm::atan2f(q.y, q.x);
-                let el = libm::atan2f(-q.z, hypotf(q.x, q.y));
-                let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
-                if g.wraps() {
-                    col = col.rem_euclid(i32::from(g.n_az));
-                }
-                let row = libm::roundf((el - g.el0) / g.del) as i32;
-                let on = (0..i32::from(g.n_az)).contains(&col) && (0..i32::from(g.n_el)).contains(&row);
-                assert!(!on, "geometry {gi}: {q:?} skipped but on beam ({row}, {col})");
-            }
-            if gi == 0 {
-                assert!(skipped > 10_000, "camera: {skipped} of 20 000 skipped");
-            }
-        }
-    }
-
     #[test]
     fn voxel_merge_is_bounded_and_conservative() {
         let mut runner = TestRunner::new_with_rng(

@@ -30,6 +30,7 @@
 //! May import: `crate::obstacle` (points), `crate::fmath`, `crate::frame`, `crate::Vec3`.
 
 mod cell_distances;
+mod fov_bounds;
 pub mod free_grid;
 pub mod frontier;
 mod key_index;
