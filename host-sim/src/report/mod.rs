@@ -560,7 +560,15 @@ pub fn summary_table(s: &Summary) -> String {
                 s.safety_steps.obstacles_dropped_near
             ),
         ),
-        ("simulated", format!("{:.2} s in {:.2} s wall, {} steps", s.sim_time_s, s.wall_time_s, s.steps)),
+        ("simulated", {
+            // The flight loop's speed, as docs/perception.md § Cost states it.
+            let factor = if s.wall_time_s > 0.0 {
+                format!(" ({:.0}× real time)", s.sim_time_s / s.wall_time_s)
+            } else {
+                String::new()
+            };
+            format!("{:.2} s in {:.3} s wall{factor}, {} steps", s.sim_time_s, s.wall_time_s, s.steps)
+        }),
     ];
     let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     let mut out = String::new();
