@@ -1,8 +1,8 @@
 //! A scan's beam lattice as tangent bounds (azimuth, elevation), for the memory's
 //! see-through clearing: a cell whose direction is outside the lattice's angles by more than
 //! [`FovBounds::SPARE`] has no nearest beam, found without the two `atan2f` of the exact test
-//! (most cells are outside a camera's fan or a planar lidar's plane). A shortcut only: the
-//! exact test decides everything else.
+//! ([`ScanGeometry::nearest_beam`]; most cells are outside a camera's fan or a planar lidar's
+//! plane). A shortcut only: the exact test decides everything else.
 //!
 //! May import: the parent module (`ScanGeometry`), `crate::fmath`, `crate::Vec3`.
 
@@ -100,15 +100,8 @@ mod tests {
                     continue;
                 }
                 skipped += 1;
-                let az = libm::atan2f(q.y, q.x);
-                let el = libm::atan2f(-q.z, hypotf(q.x, q.y));
-                let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
-                if g.wraps() {
-                    col = col.rem_euclid(i32::from(g.n_az));
-                }
-                let row = libm::roundf((el - g.el0) / g.del) as i32;
-                let on = (0..i32::from(g.n_az)).contains(&col) && (0..i32::from(g.n_el)).contains(&row);
-                assert!(!on, "geometry {gi}: {q:?} skipped but on beam ({row}, {col})");
+                let beam = g.nearest_beam(&q);
+                assert!(beam.is_none(), "geometry {gi}: {q:?} skipped but on beam {beam:?}");
             }
             if gi == 0 {
                 assert!(skipped > 10_000, "camera: {skipped} of 20 000 skipped");

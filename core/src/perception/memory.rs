@@ -68,7 +68,7 @@ use super::key_index::{KeyIndex, Lookup};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{MemoryParams, Range, Scan, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF};
 use crate::cbf::INPUT_LIMIT;
-use crate::fmath::{hypotf, maxf, minf};
+use crate::fmath::{maxf, minf};
 use crate::Vec3;
 
 const NO_TRACK: u8 = u8::MAX;
@@ -499,17 +499,9 @@ impl<const N: usize> ObstacleMemory<N> {
         if q.norm_squared() < 1e-6 || fov.surely_outside(&q) {
             return false;
         }
-        let az = libm::atan2f(q.y, q.x);
-        let el = libm::atan2f(-q.z, hypotf(q.x, q.y));
-        let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
-        if g.wraps() {
-            col = col.rem_euclid(i32::from(g.n_az));
-        }
-        let row = libm::roundf((el - g.el0) / g.del) as i32;
-        if col < 0 || col >= i32::from(g.n_az) || row < 0 || row >= i32::from(g.n_el) {
+        let Some((row, col)) = g.nearest_beam(&q) else {
             return false;
-        }
-        let (row, col) = (row as u16, col as u16);
+        };
         let k = usize::from(row) * usize::from(g.n_az) + usize::from(col);
         let free = match scan.ranges.get(k) {
             Some(Range::Hit(r)) if *r >= g.min_range && *r < g.max_range => *r,

@@ -217,6 +217,23 @@ impl ScanGeometry {
         self.direction_in_row(self.row_elevation(row), col)
     }
 
+    /// The beam nearest the sensor-frame direction `q` (rounded azimuth and elevation
+    /// steps; the column modulo the circle when the lattice wraps): `(row, col)`, or `None`
+    /// when that lies off the lattice.
+    pub fn nearest_beam(&self, q: &Vec3) -> Option<(u16, u16)> {
+        let az = libm::atan2f(q.y, q.x);
+        let el = libm::atan2f(-q.z, crate::fmath::hypotf(q.x, q.y));
+        let mut col = libm::roundf((az - self.az0) / self.daz) as i32;
+        if self.wraps() {
+            col = col.rem_euclid(i32::from(self.n_az));
+        }
+        let row = libm::roundf((el - self.el0) / self.del) as i32;
+        if col < 0 || col >= i32::from(self.n_az) || row < 0 || row >= i32::from(self.n_el) {
+            return None;
+        }
+        Some((row as u16, col as u16))
+    }
+
     /// `(sin, cos)` of row `row`'s elevation, for [`Self::direction_in_row`] (a scan's loop
     /// over its beams computes it once per row: the same values as [`Self::direction`]).
     pub fn row_elevation(&self, row: u16) -> (f32, f32) {
