@@ -322,7 +322,7 @@ pub struct RunOutput {
     /// Summary.
     pub summary: Summary,
     /// Every beam of the range sensors (empty without `perception`), for `ranges.csv`.
-    pub ranges: Vec<crate::perception::RangeRecord>,
+    pub ranges: crate::perception::RangeLog,
 }
 
 /// Fly `scene` with `cfg` and any [`FlightStack`] (in-process: `crate::fc::control::run`;

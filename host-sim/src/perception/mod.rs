@@ -28,7 +28,7 @@
 //! estimated velocity, and the field-of-view frontier point), the
 //! [`SELECTED`] most critical by the controller's own ranking, go to the controller.
 //!
-//! Owns: [`Perception`], [`RangeRecord`], [`ForwardedScan`]. May import: `parapet-core`,
+//! Owns: [`Perception`], [`RangeLog`], [`RangeRecord`], [`ForwardedScan`]. May import: `parapet-core`,
 //! [`crate::sim`] (sensor models, plant state), [`crate::world`] (scene, ray casts).
 
 use std::collections::VecDeque;
@@ -72,6 +72,64 @@ pub struct RangeRecord {
     pub range: Option<f32>,
     /// World point of the return, NED, m.
     pub point: Option<[f32; 3]>,
+}
+
+/// Every beam of a run's scans, compactly: per scan its time, sensor and the sensor's world
+/// pose, per beam the measured range (8 bytes; a tenth of a [`RangeRecord`] with its point,
+/// so recording costs the flight loop little). [`RangeLog::iter`] gives each beam's
+/// [`RangeRecord`], its world point from the same `f64` arithmetic the scan's ray used.
+#[derive(Clone, Debug, Default)]
+pub struct RangeLog {
+    /// Per sensor, its body-frame unit beam directions.
+    dirs: Vec<Vec<Vector3<f64>>>,
+    scans: Vec<ScanLog>,
+    /// Per beam, the range, m; NaN: no return (a return's range is finite, `min ≤ r ≤ max`).
+    ranges: Vec<f64>,
+}
+
+#[derive(Clone, Debug)]
+struct ScanLog {
+    t: f64,
+    sensor: u16,
+    /// The sensor's origin (NED, m) and the vehicle's attitude (body → NED) at `t`.
+    origin: Vector3<f64>,
+    att: UnitQuaternion<f64>,
+    /// Index of the scan's first beam in `ranges`.
+    first: usize,
+}
+
+impl RangeLog {
+    /// Beams recorded.
+    pub fn len(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// No beam recorded.
+    pub fn is_empty(&self) -> bool {
+        self.ranges.is_empty()
+    }
+
+    /// Every beam in scan order (each scan's beams row-major).
+    pub fn iter(&self) -> impl Iterator<Item = RangeRecord> + '_ {
+        self.scans.iter().enumerate().flat_map(move |(i, s)| {
+            let end = self.scans.get(i + 1).map_or(self.ranges.len(), |n| n.first);
+            let dirs = self.dirs.get(usize::from(s.sensor)).map_or(&[][..], Vec::as_slice);
+            let ranges = self.ranges.get(s.first..end).unwrap_or(&[]);
+            ranges.iter().zip(dirs).enumerate().map(move |(b, (&r, d))| {
+                let hit = !r.is_nan();
+                RangeRecord {
+                    t: s.t,
+                    sensor: s.sensor,
+                    beam: b as u16,
+                    range: hit.then_some(r as f32),
+                    point: hit.then(|| {
+                        let p = s.origin + (s.att * d) * r;
+                        [p.x as f32, p.y as f32, p.z as f32]
+                    }),
+                }
+            })
+        })
+    }
 }
 
 struct Live {
@@ -119,7 +177,7 @@ pub struct Perception {
     delta1: f32,
     noise_on: bool,
     record: bool,
-    records: Vec<RangeRecord>,
+    records: RangeLog,
     scans: u64,
     rejected: u64,
 }
@@ -201,7 +259,7 @@ impl Perception {
             delta1,
             noise_on,
             record,
-            records: Vec::new(),
+            records: RangeLog::default(),
             scans: 0,
             rejected: 0,
         }
@@ -271,22 +329,22 @@ impl Perception {
             let mut ranges = Vec::with_capacity(s.dirs.len());
             let cone = s.cone.map(|k| Cone { axis: att * k.axis, half: k.half });
             let view = self.world.scan_view(moving, &origin, s.spec.max_range, cone.as_ref());
-            for (b, d) in s.dirs.iter().enumerate() {
+            if self.record {
+                let log = &mut self.records;
+                if log.dirs.len() <= si {
+                    log.dirs.resize(si + 1, Vec::new());
+                }
+                if let Some(d) = log.dirs.get_mut(si).filter(|d| d.is_empty()) {
+                    d.clone_from(&s.dirs);
+                }
+                log.scans.push(ScanLog { t, sensor: si as u16, origin, att: *att, first: log.ranges.len() });
+            }
+            for d in s.dirs.iter() {
                 let dir = att * d;
                 let hit = view.cast(&dir, s.spec.max_range).map(|h| h.range);
                 let m = s.spec.measure(hit, &mut s.rng, self.noise_on);
                 if self.record {
-                    let range = m.range();
-                    self.records.push(RangeRecord {
-                        t,
-                        sensor: si as u16,
-                        beam: b as u16,
-                        range: range.map(|r| r as f32),
-                        point: range.map(|r| {
-                            let p = origin + dir * r;
-                            [p.x as f32, p.y as f32, p.z as f32]
-                        }),
-                    });
+                    self.records.ranges.push(m.range().unwrap_or(f64::NAN));
                 }
                 ranges.push(match m {
                     Return::Hit(r) => Range::Hit(r as f32),
@@ -346,12 +404,12 @@ impl Perception {
     }
 
     /// Every beam recorded (when recording).
-    pub fn records(&self) -> &[RangeRecord] {
+    pub fn records(&self) -> &RangeLog {
         &self.records
     }
 
     /// Take the records out.
-    pub fn take_records(&mut self) -> Vec<RangeRecord> {
+    pub fn take_records(&mut self) -> RangeLog {
         std::mem::take(&mut self.records)
     }
 
@@ -372,12 +430,12 @@ impl Perception {
 pub fn write_ranges_csv(
     w: &mut dyn std::io::Write,
     sensors: &[RangeSensor],
-    records: &[RangeRecord],
+    records: &RangeLog,
 ) -> std::io::Result<()> {
     writeln!(w, "t,sensor,beam,range,x,y,z")?;
     // Each line built in one buffer (the numbers as `{:.4}` would write them: crate::decimal).
     let mut line = Vec::with_capacity(96);
-    for r in records {
+    for r in records.iter() {
         let name = sensors.get(r.sensor as usize).map_or("?", |s| s.name.as_str());
         line.clear();
         push_fixed(&mut line, r.t, 4);
@@ -446,10 +504,24 @@ mod tests {
         let (att, mut out) = (UnitQuaternion::identity(), Vec::new());
         let us = |t: f64| (t * 1e6) as u64;
         p.step(&sc, 0.0, 0, &pos, &Vector3::zeros(), &att, (0.0, 0.0, 0.0), us, &mut out);
-        let r = p.records();
-        assert_eq!(r.len(), 72);
+        let r: Vec<RangeRecord> = p.records().iter().collect();
+        assert_eq!((r.len(), p.records().len()), (72, 72));
         // Beam 0 (forward, north) hits the wall at 3 m.
         assert!((r[0].range.unwrap() - 3.0).abs() < 1e-6, "{:?}", r[0]);
+        // Each record: its beam, and its point on the wall (north face y = 3 ENU = x 3 NED)
+        // at its range along its beam from the sensor; no return, no point.
+        for (b, rec) in r.iter().enumerate() {
+            assert_eq!((rec.t, rec.sensor, usize::from(rec.beam)), (0.0, 0, b));
+            assert_eq!(rec.range.is_some(), rec.point.is_some(), "{rec:?}");
+            if let (Some(d), Some(q)) = (rec.range, rec.point) {
+                let q = Vector3::new(f64::from(q[0]), f64::from(q[1]), f64::from(q[2]));
+                assert!((q - pos).norm() - f64::from(d) < 1e-5, "{rec:?}");
+                assert!((q.x - 3.0).abs() < 1e-5 || (q.z + 0.0).abs() < 1e-5, "{rec:?}");
+                let want = pos + p.sensors[0].dirs[b] * f64::from(d);
+                assert!((q - want).norm() < 1e-5, "{rec:?} vs {want:?}");
+            }
+        }
+        assert!(r.iter().any(|x| x.range.is_none()), "beams away from the wall see nothing");
         // Not delivered yet: the latency is 20 ms.
         assert!(out.iter().all(|o| o.id == parapet_core::perception::FRONTIER_ID));
         for k in 1..=5 {
@@ -495,7 +567,7 @@ mod tests {
                     &mut out,
                 );
             }
-            p.take_records()
+            p.take_records().iter().collect::<Vec<_>>()
         };
         let (a, b, c) = (run(3), run(3), run(4));
         assert_eq!(a, b);

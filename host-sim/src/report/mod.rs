@@ -273,7 +273,7 @@ pub struct RunRecord<'a> {
     pub summary: &'a Summary,
     /// Range-sensor beams (`--perception`; empty for ground truth): written to
     /// `ranges.csv` and drawn on the top view.
-    pub ranges: &'a [crate::perception::RangeRecord],
+    pub ranges: &'a crate::perception::RangeLog,
     /// The range sensors (names for `ranges.csv`).
     pub range_sensors: &'a [crate::sim::range::RangeSensor],
 }
