@@ -17,6 +17,9 @@
 //!   is returned), both NaN give NaN; for `±0` the first operand wins on a tie,
 //!   as in libm.
 //! * [`clampf`](crate::frame::clampf) is built from them.
+//! * [`floor_i32`]: `libm::floorf(x) as i32` for every `x` (saturating, NaN → 0), from
+//!   the truncating conversion (`VCVT` on the Cortex-M4F) and one compare, instead of
+//!   libm's bit manipulation (≈ 20 instructions and a call: voxel keys, sector indices).
 //! * [`sincosf`], [`cosf`], [`tanf`], [`hypotf`]: evaluated in `f32` (libm's use
 //!   `f64` kernels, software on the Cortex-M4F); within about one ulp of libm's,
 //!   not bit-identical (see each function).
@@ -26,6 +29,20 @@
 //! function here on the Cortex-M4F bit for bit against the host build (so the
 //! firmware computes what the simulator computes) and `sqrtf` against the
 //! target's software `libm::sqrtf`.
+
+/// `libm::floorf(x) as i32`, bit for bit, for every `x`: saturating at `i32::MIN`/`MAX`
+/// (±∞ and beyond), `0` for NaN. The conversion truncates towards zero; a truncated
+/// value above `x` (negative non-integers, where `|x| < 2²³` so the conversion is exact)
+/// is one too high.
+#[inline(always)]
+pub fn floor_i32(x: f32) -> i32 {
+    let i = x as i32;
+    if (i as f32) > x {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
+}
 
 /// Square root, correctly rounded (NaN for `x < 0` or NaN). `VSQRT.F32` on
 /// Cortex-M4F and other ARM hard-float targets, `libm::sqrtf` elsewhere.
@@ -320,6 +337,50 @@ pub fn norm3(v: &crate::Vec3) -> f32 {
 mod tests {
     use super::*;
     use crate::Vec3;
+
+    #[test]
+    fn floor_i32_is_libm_floorf_as_i32() {
+        let check = |x: f32| {
+            assert_eq!(floor_i32(x), libm::floorf(x) as i32, "x = {x:e} ({:#010x})", x.to_bits());
+        };
+        // Every 251st bit pattern (all signs, exponents, NaNs and infinities are hit).
+        let mut b: u32 = 0;
+        loop {
+            check(f32::from_bits(b));
+            match b.checked_add(251) {
+                Some(n) => b = n,
+                None => break,
+            }
+        }
+        // Around every integer up to ±2^12, and near the saturation bounds.
+        for k in -4096i32..=4096 {
+            let x = k as f32;
+            for y in [x, x.next_up(), x.next_down(), x + 0.5, x - 0.5] {
+                check(y);
+            }
+        }
+        for x in [2147483648.0f32, -2147483648.0, 2147483520.0, -2147483520.0, -2147483904.0, 16777216.0] {
+            for y in [x, x.next_up(), x.next_down()] {
+                check(y);
+            }
+        }
+        for x in [
+            0.0f32,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ] {
+            check(x);
+        }
+    }
 
     // No host test of `sqrtf`: here it IS `libm::sqrtf`, so comparing the two could not fail.
     // `VSQRT.F32` is checked where it runs, on the Cortex-M4F in QEMU, by `cargo xtask test`

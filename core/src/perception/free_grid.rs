@@ -76,7 +76,7 @@ impl Default for FreeGrid {
 }
 
 fn cell_of(x: f32) -> i32 {
-    libm::floorf(x / CELL) as i32
+    crate::fmath::floor_i32(x / CELL)
 }
 
 /// Within ±10⁶ m horizontally and finite (cell indices far from overflow).

@@ -92,7 +92,7 @@ impl Default for Frontier {
 fn sector_of(dx: f32, dy: f32) -> usize {
     let b = libm::atan2f(dy, dx); // −π..π
     let s = (b + core::f32::consts::PI) / core::f32::consts::TAU * SECTORS as f32;
-    let i = libm::floorf(s) as i32;
+    let i = crate::fmath::floor_i32(s);
     i.rem_euclid(SECTORS as i32) as usize
 }
 

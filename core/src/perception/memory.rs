@@ -68,7 +68,7 @@ use super::key_index::{KeyIndex, Lookup};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
 use super::{MemoryParams, Range, Scan, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF};
 use crate::cbf::INPUT_LIMIT;
-use crate::fmath::{maxf, minf};
+use crate::fmath::{floor_i32, maxf, minf};
 use crate::Vec3;
 
 const NO_TRACK: u8 = u8::MAX;
@@ -532,8 +532,7 @@ impl<const N: usize> ObstacleMemory<N> {
         rep: &mut ScanReport,
     ) -> Option<usize> {
         let inv = 1.0 / self.params.voxel;
-        let key =
-            [libm::floorf(w.x * inv) as i32, libm::floorf(w.y * inv) as i32, libm::floorf(w.z * inv) as i32];
+        let key = [floor_i32(w.x * inv), floor_i32(w.y * inv), floor_i32(w.z * inv)];
         let found = match last.filter(|&i| self.cells.get(i).is_some_and(|c| c.key == key)) {
             Some(i) => Some(i),
             None => match keys.find(&key, |i| self.cells.get(i).map(|c| c.key)) {

@@ -10,7 +10,8 @@
 //!   for bit on a geometric sweep of `0..f32::MAX` (subnormals included), random values and the
 //!   special cases; `sincosf_exact` equals `libm::sincosf` (soft `f64` here) on a geometric sweep
 //!   up to 4.2·10⁸ and random angles; `minf`/`maxf` equal `f32::min`/`max` (which call libm's
-//!   `fminf`/`fmaxf`).
+//!   `fminf`/`fmaxf`); `floor_i32` equals `libm::floorf(x) as i32` on random bit patterns and
+//!   the edge cases.
 //!
 //! Imports: `parapet_core::fmath` and the program's console (`crate::Console`, `crate::exit`).
 
@@ -126,6 +127,29 @@ fn against_target_libm(t: &mut Tally) {
     }
     for _ in 0..10_000 {
         exact(t, rng.uniform(-7.1, 7.1));
+    }
+    // floor_i32 = libm::floorf(x) as i32 (the conversion is `VCVT` here): random bit patterns,
+    // integers ± one ulp and a half, the saturation bounds and the special values.
+    let floor = |t: &mut Tally, x: f32| {
+        let (got, want) = (fmath::floor_i32(black_box(x)), libm::floorf(x) as i32);
+        t.check("floor_i32 vs libm::floorf as i32", &[x.to_bits()], f32::from_bits(got as u32), want as u32);
+    };
+    for _ in 0..20_000 {
+        floor(t, f32::from_bits((rng.next_u64() >> 32) as u32));
+    }
+    for k in -300i32..=300 {
+        let x = k as f32 * 0.75;
+        for y in [x, x.next_up(), x.next_down(), x + 0.5] {
+            floor(t, y);
+        }
+    }
+    for x in [2147483648.0f32, -2147483648.0, -2147483904.0, 2147483520.0, f32::MAX, f32::MIN] {
+        floor(t, x);
+        floor(t, x.next_up());
+        floor(t, x.next_down());
+    }
+    for x in [0.0f32, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1e-45, -1e-45] {
+        floor(t, x);
     }
     let vals = [-2.0f32, -0.0, 0.0, 1.5, 7.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
     for &a in &vals {
