@@ -37,7 +37,7 @@
 // bad inputs end a walk or answer 0 instead of running on.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::{Range, ScanGeometry, HORIZONTAL_BAND};
+use super::{Range, ScanTrig, HORIZONTAL_BAND};
 use crate::fmath::{hypotf, sqrtf};
 use crate::Vec3;
 use nalgebra::Matrix3;
@@ -204,15 +204,16 @@ impl FreeGrid {
     }
 
     /// Record one scan: `origin` = the sensor's world position, `r_ws` = sensor → world,
-    /// `band` = the hull's vertical half-extent, m.
+    /// `trig` = the scan's geometry (its directions), `band` = the hull's vertical half-extent, m.
     pub fn record(
         &mut self,
         origin: &Vec3,
         r_ws: &Matrix3<f32>,
-        g: &ScanGeometry,
+        trig: &ScanTrig,
         ranges: &[Range],
         band: f32,
     ) {
+        let g = trig.geometry();
         if !(usable(origin) && band > 0.0 && band.is_finite()) {
             return;
         }
@@ -220,7 +221,7 @@ impl FreeGrid {
         let sin_band = libm::sinf(HORIZONTAL_BAND);
         let (lo, hi) = (self.z_ref - band, self.z_ref + band);
         // 1. Free cells along the beams.
-        g.for_each_free_beam(r_ws, ranges, sin_band, |u, free| {
+        trig.for_each_free_beam(r_ws, ranges, sin_band, |u, free| {
             // Within [lo, hi] in z (NED) along origin.z + t·u.z.
             let t_band = if u.z > 0.0 {
                 (hi - origin.z) / u.z
@@ -257,7 +258,7 @@ impl FreeGrid {
                 k += 1;
                 if let Range::Hit(x) = r {
                     if x >= g.min_range && x < g.max_range {
-                        let w = origin + r_ws * (g.direction(row, col) * x);
+                        let w = origin + r_ws * (trig.direction(row, col) * x);
                         if w.z >= lo && w.z <= hi && usable(&w) {
                             self.set(cell_of(w.x), cell_of(w.y), false);
                         }
@@ -308,6 +309,7 @@ impl FreeGrid {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::perception::ScanGeometry;
 
     fn ring(n: u16) -> ScanGeometry {
         ScanGeometry::planar_360(n, 0.05, 0.1, 10.0)
@@ -359,7 +361,7 @@ mod tests {
         assert_eq!(g.corridor(&p, &east, 0.25, 3.0), 0.0);
         let geo = ring(360);
         let mut r = [Range::Clear; 360];
-        g.record(&p, &Matrix3::identity(), &geo, &r, 0.25);
+        g.record(&p, &Matrix3::identity(), &ScanTrig::of(&geo), &r, 0.25);
         assert!(g.free_cells() > 100, "{}", g.free_cells());
         assert!(g.corridor(&p, &east, 0.25, 3.0) > 3.0);
         // A wall 2 m east (beams within ±10° of east return there).
@@ -369,7 +371,7 @@ mod tests {
             }
         }
         let mut g = FreeGrid::new();
-        g.record(&p, &Matrix3::identity(), &geo, &r, 0.25);
+        g.record(&p, &Matrix3::identity(), &ScanTrig::of(&geo), &r, 0.25);
         let c = g.corridor(&p, &east, 0.25, 3.0);
         assert!(c > 1.0 && c < 1.9 - 0.25 + 1e-3, "{c}");
         // West is free.
@@ -382,7 +384,13 @@ mod tests {
         let mut g = FreeGrid::new();
         // A narrow forward fan (±17°, 6 m) seen from 2.1 m behind the vehicle.
         let geo = ScanGeometry::grid(61, 1, 0.6, 0.05, 0.1, 6.0);
-        g.record(&Vec3::new(-2.0, 0.1, -1.0), &Matrix3::identity(), &geo, &[Range::Clear; 61], 0.25);
+        g.record(
+            &Vec3::new(-2.0, 0.1, -1.0),
+            &Matrix3::identity(),
+            &ScanTrig::of(&geo),
+            &[Range::Clear; 61],
+            0.25,
+        );
         let p = Vec3::new(0.1, 0.1, -1.0);
         let east = Vec3::new(1.0, 0.0, 0.0);
         let c0 = g.corridor(&p, &east, 0.2, 5.0);
@@ -404,22 +412,22 @@ mod tests {
     fn returns_recentring_and_levels() {
         let mut g = FreeGrid::new();
         let p = Vec3::new(0.1, 0.1, -1.0);
-        g.record(&p, &Matrix3::identity(), &ring(360), &[Range::Clear; 360], 0.25);
+        g.record(&p, &Matrix3::identity(), &ScanTrig::of(&ring(360)), &[Range::Clear; 360], 0.25);
         let n = g.free_cells();
         let (ix, iy) = (cell_of(2.0), cell_of(0.1));
         assert!(g.is_free(ix, iy));
         // Move 2 m east (10 cells, past RECENTRE): the cell is still free.
         let q = Vec3::new(2.1, 0.1, -1.0);
-        g.record(&q, &Matrix3::identity(), &ring(1), &[Range::Unknown], 0.25);
+        g.record(&q, &Matrix3::identity(), &ScanTrig::of(&ring(1)), &[Range::Unknown], 0.25);
         assert!(g.is_free(ix, iy));
         assert!(g.free_cells() <= n);
         // 0.5 m higher: a new level.
         let hi = Vec3::new(2.1, 0.1, -1.5);
-        g.record(&hi, &Matrix3::identity(), &ring(1), &[Range::Unknown], 0.25);
+        g.record(&hi, &Matrix3::identity(), &ScanTrig::of(&ring(1)), &[Range::Unknown], 0.25);
         assert_eq!(g.free_cells(), 0);
         // Non-finite inputs change nothing and answer 0.
         let nan = Vec3::new(f32::NAN, 0.0, -1.0);
-        g.record(&nan, &Matrix3::identity(), &ring(1), &[Range::Clear], 0.25);
+        g.record(&nan, &Matrix3::identity(), &ScanTrig::of(&ring(1)), &[Range::Clear], 0.25);
         assert_eq!(g.corridor(&nan, &Vec3::new(1.0, 0.0, 0.0), 0.25, 3.0), 0.0);
     }
 }

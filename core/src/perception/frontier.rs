@@ -55,7 +55,7 @@
 //! May import: `crate::fmath`, `crate::Vec3`, the parent module's types.
 
 use super::free_grid::FreeGrid;
-use super::{Range, ScanGeometry, HORIZONTAL_BAND};
+use super::{Range, ScanTrig, HORIZONTAL_BAND};
 use crate::fmath::{hypotf, sqrtf};
 use crate::Vec3;
 use nalgebra::Matrix3;
@@ -113,6 +113,7 @@ impl Frontier {
     }
 
     /// Record one scan: `origin` = the sensor's world position, `r_ws` = sensor → world,
+    /// `trig` = the scan's geometry (its directions),
     /// `band` = the hull's vertical half-extent for the free grid (the frontier margin), m.
     /// The grid is marked only with `grid` (the speed cap: with walls it is not consulted) and
     /// while some sector has no record (records are never dropped, and the grid answers only
@@ -122,16 +123,16 @@ impl Frontier {
         &mut self,
         origin: &Vec3,
         r_ws: &Matrix3<f32>,
-        g: &ScanGeometry,
+        trig: &ScanTrig,
         ranges: &[Range],
         band: f32,
         grid: bool,
     ) {
         if grid && self.sectors.iter().any(Option::is_none) {
-            self.grid.record(origin, r_ws, g, ranges, band);
+            self.grid.record(origin, r_ws, trig, ranges, band);
         }
         let mut votes = [f32::INFINITY; SECTORS];
-        g.for_each_free_beam(r_ws, ranges, libm::sinf(HORIZONTAL_BAND), |u, free| {
+        trig.for_each_free_beam(r_ws, ranges, libm::sinf(HORIZONTAL_BAND), |u, free| {
             if let Some(v) = votes.get_mut(sector_of(u.x, u.y)) {
                 if free < *v {
                     *v = free;
@@ -298,6 +299,7 @@ pub fn ignore_beyond(mu: f32, max_speed: f32) -> f32 {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::perception::ScanGeometry;
 
     fn ring(n: u16, r: Range) -> (ScanGeometry, [Range; 72]) {
         (ScanGeometry::planar_360(n, 0.05, 0.1, 10.0), [r; 72])
@@ -327,7 +329,7 @@ mod tests {
         // A forward 60° fan, free to 4 m.
         let g = ScanGeometry::grid(12, 1, 1.047, 0.05, 0.1, 4.0);
         let ranges = [Range::Clear; 12];
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &ranges, 0.25, true);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &ScanTrig::of(&g), &ranges, 0.25, true);
         let p = Vec3::new(1.0, 0.0, 0.0);
         let fwd = f.free_along(&p, &Vec3::new(1.0, 0.0, 0.0));
         assert!((fwd - 3.0).abs() < 1e-5, "{fwd}");
@@ -372,7 +374,7 @@ mod tests {
     fn a_wall_stays_where_nothing_was_observed_until_a_scan_sees_there() {
         let mut f = Frontier::new();
         let g = ScanGeometry::grid(12, 1, 1.047, 0.05, 0.1, 4.0); // forward fan (north = +x)
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &[Range::Clear; 12], 0.25, true);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &ScanTrig::of(&g), &[Range::Clear; 12], 0.25, true);
         let east = Vec3::new(0.0, 0.2, 0.0);
         let gaps = |f: &Frontier, p: &Vec3| {
             let mut v = std::vec::Vec::new();
@@ -405,7 +407,7 @@ mod tests {
         f.walls(&back, 0.2, |_, _| n += 1);
         assert_eq!(n, 0);
         let r_east = nalgebra::Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
-        f.record(&back, &r_east, &g, &[Range::Clear; 12], 0.25, true);
+        f.record(&back, &r_east, &ScanTrig::of(&g), &[Range::Clear; 12], 0.25, true);
         assert!(gaps(&f, &back).is_empty());
         assert!(f.point(&back, &east, 0.25, 100.0, true).is_some());
     }
@@ -415,7 +417,7 @@ mod tests {
         let mut f = Frontier::new();
         let (g, mut r) = ring(72, Range::Clear);
         r[0] = Range::Hit(2.0); // straight ahead
-        f.record(&Vec3::zeros(), &Matrix3::identity(), &g, &r, 0.25, true);
+        f.record(&Vec3::zeros(), &Matrix3::identity(), &ScanTrig::of(&g), &r, 0.25, true);
         let d = f.free_along(&Vec3::zeros(), &Vec3::new(1.0, 0.0, 0.0));
         assert!((d - 2.0).abs() < 1e-5, "{d}");
         let d = f.free_along(&Vec3::zeros(), &Vec3::new(-1.0, 0.0, 0.0));

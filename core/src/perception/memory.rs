@@ -66,7 +66,7 @@ use super::fov_bounds::FovBounds;
 use super::frontier::Frontier;
 use super::key_index::{KeyIndex, Lookup};
 use super::track::{Tracker, MAX_SEGMENTS, MAX_TRACKS, SEGMENT_GAP};
-use super::{MemoryParams, Range, Scan, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF};
+use super::{MemoryParams, Range, Scan, ScanGeometry, ScanTrig, DEFAULT_MEMORY_CAPACITY, FOV_WALLS_OFF};
 use crate::cbf::INPUT_LIMIT;
 use crate::fmath::{floor_i32, maxf, minf};
 use crate::Vec3;
@@ -138,6 +138,8 @@ pub struct ObstacleMemory<const N: usize = DEFAULT_MEMORY_CAPACITY> {
     cells: heapless::Vec<Cell, N>,
     tracker: Tracker,
     frontier: Frontier,
+    /// The current scan's directions (filled by `insert_scan`, read by its passes).
+    trig: ScanTrig,
     stats: MemoryStats,
     now_us: Option<u64>,
 }
@@ -257,6 +259,10 @@ const ROW_HIT: u16 = u16::MAX - 2;
 const ROW_BACK: u16 = u16::MAX - 1;
 const ROW_UNKNOWN: u16 = u16::MAX;
 
+/// The geometry of a memory's [`ScanTrig`] before its first scan (never read).
+const NO_GEOMETRY: ScanGeometry =
+    ScanGeometry { az0: 0.0, daz: 1.0, n_az: 1, el0: 0.0, del: 1.0, n_el: 1, min_range: 0.0, max_range: 1.0 };
+
 impl<const N: usize> ObstacleMemory<N> {
     /// Empty. Invalid `params` ([`MemoryParams::valid`]) are replaced by the defaults.
     pub fn new(params: MemoryParams) -> Self {
@@ -265,6 +271,7 @@ impl<const N: usize> ObstacleMemory<N> {
             cells: heapless::Vec::new(),
             tracker: Tracker::new(),
             frontier: Frontier::new(),
+            trig: ScanTrig::empty(NO_GEOMETRY),
             stats: MemoryStats::default(),
             now_us: None,
         }
@@ -277,6 +284,7 @@ impl<const N: usize> ObstacleMemory<N> {
             cells: heapless::Vec::new(),
             tracker: Tracker::new(),
             frontier: Frontier::new(),
+            trig: ScanTrig::empty(NO_GEOMETRY),
             stats: MemoryStats { scans: 0, rejected: 0, dropped_full: 0 },
             now_us: None,
         }
@@ -361,6 +369,7 @@ impl<const N: usize> ObstacleMemory<N> {
         let r_ws = scan.pose.rotation * scan.mount.rotation;
         let vehicle = scan.pose.position;
         let voxel = self.params.voxel;
+        self.trig.fill(g);
 
         // 1. See-through clearing: each cell against the beam nearest its direction.
         let tol = 0.25 * voxel;
@@ -399,7 +408,6 @@ impl<const N: usize> ObstacleMemory<N> {
         let mut keys = KeyIndex::build(self.cells.len(), self.cells.iter().map(|c| c.key));
         let mut k = 0usize;
         for row in 0..g.n_el {
-            let row_el = g.row_elevation(row);
             for col in 0..g.n_az {
                 let range = scan.ranges.get(k).copied().unwrap_or(Range::Unknown);
                 k += 1;
@@ -410,7 +418,7 @@ impl<const N: usize> ObstacleMemory<N> {
                 };
                 let w = match range {
                     Range::Hit(r) if r >= g.min_range && r < g.max_range => {
-                        Some(origin + r_ws * (g.direction_in_row(row_el, col) * r))
+                        Some(origin + r_ws * (self.trig.direction(row, col) * r))
                     }
                     _ => None,
                 };
@@ -476,7 +484,7 @@ impl<const N: usize> ObstacleMemory<N> {
 
         // 5. The free ranges for the field-of-view frontier.
         let grid = self.params.fov_walls == FOV_WALLS_OFF;
-        self.frontier.record(&origin, &r_ws, g, scan.ranges, self.params.fov_margin, grid);
+        self.frontier.record(&origin, &r_ws, &self.trig, scan.ranges, self.params.fov_margin, grid);
 
         self.stats.scans = self.stats.scans.saturating_add(1);
         self.stats.dropped_full = self.stats.dropped_full.saturating_add(u32::from(rep.dropped_full));
@@ -508,7 +516,7 @@ impl<const N: usize> ObstacleMemory<N> {
             Some(Range::Clear) => g.max_range,
             _ => return false,
         };
-        let u = r_ws * g.direction(row, col);
+        let u = r_ws * self.trig.direction(row, col);
         let t = Vec3::new(tol, tol, tol);
         match slab(origin, &u, &(c.lo - t), &(c.hi + t)) {
             Some((_, exit)) => exit + self.params.clear_margin <= free,
@@ -606,7 +614,7 @@ impl<const N: usize> ObstacleMemory<N> {
         };
         let point = |c: usize| {
             let col = (c % n.max(1)) as u16;
-            *row.origin + row.r_ws * (g.direction(row.row, col) * range(c))
+            *row.origin + row.r_ws * (self.trig.direction(row.row, col) * range(c))
         };
         let is_hit = |c: usize| class(c) <= ROW_HIT;
         // A full circle starts at a background beam, else at a break between two returns;

@@ -35,9 +35,11 @@ pub mod free_grid;
 pub mod frontier;
 mod key_index;
 pub mod memory;
+mod scan_trig;
 pub mod track;
 
 pub use memory::{CellView, MemoryStats, ObstacleMemory, ScanReport};
+pub use scan_trig::{ScanTrig, TRIG_COLS, TRIG_ROWS};
 
 use crate::Vec3;
 use nalgebra::Matrix3;
@@ -146,38 +148,6 @@ pub struct ScanGeometry {
 }
 
 impl ScanGeometry {
-    /// Each beam of a scan that carries information — a return within `[min_range, max_range)`
-    /// (free up to it) or nothing within `max_range` (free up to that) — and whose world
-    /// direction `u = r_ws·d` is within `sin_band` of horizontal (`|u.z| ≤ sin_band`):
-    /// `f(u, free)`, in the order of `ranges` (row-major). What the frontier's sectors and the
-    /// free-cell map take from a scan. Bounded by `n_el × n_az`.
-    pub fn for_each_free_beam(
-        &self,
-        r_ws: &Matrix3<f32>,
-        ranges: &[Range],
-        sin_band: f32,
-        mut f: impl FnMut(Vec3, f32),
-    ) {
-        let mut k = 0usize;
-        for row in 0..self.n_el {
-            let row_el = self.row_elevation(row);
-            for col in 0..self.n_az {
-                let r = ranges.get(k).copied().unwrap_or(Range::Unknown);
-                k += 1;
-                let free = match r {
-                    Range::Hit(x) if x >= self.min_range && x < self.max_range => x,
-                    Range::Clear => self.max_range,
-                    _ => continue,
-                };
-                let u = r_ws * self.direction_in_row(row_el, col);
-                if u.z.abs() > sin_band {
-                    continue;
-                }
-                f(u, free);
-            }
-        }
-    }
-
     /// A planar scan of `n` beams over the full circle, beam 0 along the boresight.
     pub fn planar_360(n: u16, vertical_width: f32, min_range: f32, max_range: f32) -> Self {
         let daz = core::f32::consts::TAU / f32::from(n.max(1));
