@@ -174,7 +174,7 @@ pub fn fmath_bit_exact() {
     against_target_libm(&mut libm);
     let _ = writeln!(
         Console,
-        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, sincosf_exact = libm::sincosf, minf/maxf = f32::min/max), {} mismatches",
+        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, sincosf_exact = libm::sincosf, minf/maxf = f32::min/max, floor_i32 = libm::floorf as i32), {} mismatches",
         libm.compared, libm.mismatches
     );
     if host.mismatches + libm.mismatches > 0 {
