@@ -215,6 +215,9 @@ struct Ranker<const N: usize> {
     /// below capacity nothing is dropped and the tiers are not needed).
     tiered: bool,
     report: SetReport,
+    /// Count the dropped points in the report (`dropped`, `dropped_near`,
+    /// `min_dropped_key`); off for a caller that reads only the set ([`Selector::set_only`]).
+    count_drops: bool,
     ranking: Ranking,
     delta1: f32,
     p: Vec3,
@@ -231,6 +234,7 @@ impl<const N: usize> Ranker<N> {
             sibling: None,
             tiered: false,
             report: SetReport { min_dropped_key: f32::INFINITY, ..SetReport::default() },
+            count_drops: true,
             ranking,
             delta1,
             p: *p,
@@ -385,7 +389,9 @@ impl<const N: usize> Ranker<N> {
         // cannot take it (whatever its id: see the module docs).
         let kb = key_bits(key);
         if self.ranks.get(self.worst).is_some_and(|w| w.tier() == 0 && kb >= w.key_bits()) {
-            drop_point(&mut self.report, key, h, self.delta1);
+            if self.count_drops {
+                drop_point(&mut self.report, key, h, self.delta1);
+            }
             return Offer::Dropped;
         }
         let mut r = Rank::from_bits(0, kb);
@@ -423,21 +429,23 @@ impl<const N: usize> Ranker<N> {
             if critical {
                 self.sibling = Some((id, sibling));
             }
-            drop_point(&mut self.report, key, h, self.delta1);
+            if self.count_drops {
+                drop_point(&mut self.report, key, h, self.delta1);
+            }
             return Offer::Dropped;
         }
-        // The evicted point (read only now: most offers are dropped above).
-        let Some(q) = set.as_slice().get(self.worst).copied() else {
+        let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
+        else {
             self.sibling = None;
-            return Offer::Dropped;
+            return Offer::Dropped; // unreachable: `worst` < len
         };
-        let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, &q);
-        drop_point(&mut self.report, wkey, wh, self.delta1);
-        if let (Some(slot), Some(rs)) = (set.points_mut().get_mut(self.worst), self.ranks.get_mut(self.worst))
-        {
-            *slot = make();
-            *rs = r;
+        // The evicted point (read only now: most offers are dropped above).
+        if self.count_drops {
+            let (wkey, wh) = key_of(self.ranking, &self.p, &self.v, slot);
+            drop_point(&mut self.report, wkey, wh, self.delta1);
         }
+        *slot = make();
+        *rs = r;
         if critical {
             // Stored in the worst slot: as tier 0 it is now its id's tier-0 entry; as tier 1
             // its tier-0 sibling stays (the slot replaced was worse than tier 1 with this key,
@@ -466,6 +474,15 @@ impl<const N: usize> Selector<N> {
     /// (m²) classifies dropped points as near.
     pub fn new(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
         Selector { set: ObstacleSet::new(), ranker: Ranker::new(ranking, delta1, p, v) }
+    }
+
+    /// [`Self::new`] for a caller that reads only the set: the same points in the same
+    /// slots, the report without the dropped points (`dropped` and `dropped_near` 0,
+    /// `min_dropped_key` +∞), so a dropped or evicted point costs no bookkeeping.
+    pub fn set_only(ranking: Ranking, delta1: f32, p: &Vec3, v: &Vec3) -> Self {
+        let mut s = Self::new(ranking, delta1, p, v);
+        s.ranker.count_drops = false;
+        s
     }
 
     /// The points kept so far.
@@ -851,6 +868,15 @@ mod tests {
         let (want, want_rep) = streaming_reference::<N>(ranking, 0.3, p, v, pts);
         assert_eq!(s.as_slice(), &want[..], "case {case} N {N} {ranking:?}");
         assert_eq!(r, want_rep, "case {case} N {N} {ranking:?}");
+        // The set-only selector: the same slots, the report without the dropped points.
+        let mut only = Selector::<N>::set_only(ranking, 0.3, p, v);
+        for o in pts {
+            only.offer(o);
+        }
+        let (set, rep) = only.finish();
+        assert_eq!(set.as_slice(), &want[..], "set_only: case {case} N {N} {ranking:?}");
+        let uncounted = SetReport { dropped: 0, dropped_near: 0, min_dropped_key: f32::INFINITY, ..want_rep };
+        assert_eq!(rep, uncounted, "set_only: case {case} N {N} {ranking:?}");
     }
 
     /// The selector with its cached searches gives the slots (contents and order) and the

@@ -123,15 +123,15 @@ impl NoMemory {
     }
 
     /// Selects nothing.
-    pub fn select<const M: usize>(
+    pub fn select_set<const M: usize>(
         &mut self,
         _t_us: u64,
         _p: &Vec3,
         _v: &Vec3,
         _ranking: Ranking,
         _delta1: f32,
-    ) -> (parapet_core::obstacle::ObstacleSet<M>, parapet_core::obstacle_set::SetReport) {
-        (parapet_core::obstacle::ObstacleSet::new(), Default::default())
+    ) -> parapet_core::obstacle::ObstacleSet<M> {
+        parapet_core::obstacle::ObstacleSet::new()
     }
 }
 /// Between range scans the memory's points are re-selected this often for where the vehicle
@@ -511,7 +511,7 @@ impl ObstacleAssembler {
     fn select<A: Autopilot>(&mut self, now_us: u64, ap: &mut A) {
         let tel = ap.telemetry();
         let (ranking, delta1) = ranking_of(ap);
-        let (set, _) = self.memory.select::<DEFAULT_OBSTACLE_CAPACITY>(
+        let set = self.memory.select_set::<DEFAULT_OBSTACLE_CAPACITY>(
             now_us,
             &tel.position_ned,
             &tel.velocity_ned,

@@ -377,8 +377,7 @@ impl Perception {
             self.rejected += u64::from(rep.rejected);
         }
         out.clear();
-        let (set, _) =
-            self.memory.select::<SELECTED>(t_us, &f32v(pos), &f32v(vel), self.ranking, self.delta1);
+        let set = self.memory.select_set::<SELECTED>(t_us, &f32v(pos), &f32v(vel), self.ranking, self.delta1);
         out.extend_from_slice(set.as_slice());
     }
 

@@ -651,7 +651,8 @@ fn bench_cascade(c: &Counter) {
 /// The obstacle memory (issue 19) on the firmware's configuration: `ObstacleMemory<64>`,
 /// a 72-sector planar scan (OBSTACLE_DISTANCE, 5°, 8 m) of a 6 m × 6 m room with a pole,
 /// the vehicle crossing it at 1 m/s, one scan per 0.1 s (40 scans). Per scan: `insert_scan`
-/// (clearing, merge, tracks, frontier) and `select::<32>` (the points for the filter).
+/// (clearing, merge, tracks, frontier) and `select::<32>` (the points for the filter; the firmware
+/// calls `select_set`, the same set without counting the dropped points).
 /// `forward`: only the forward 90° of the scan carry ranges (a forward depth camera sent as
 /// OBSTACLE_DISTANCE, the rest UINT16_MAX), flown with the speed cap (`PCP_FOV_WALLS` 0, as
 /// with `MIS_YAW_MODE` travel), so that the free-cell map of the unrecorded sectors is marked
@@ -668,7 +669,7 @@ fn bench_memory(c: &Counter, forward: bool) {
     };
     let mut mem = ObstacleMemory::<64>::new(params);
     let g = ScanGeometry::planar_360(72, 0.1745, 0.1, 8.0);
-    let (mut ins, mut sel) = (Stats::default(), Stats::default());
+    let (mut ins, mut sel, mut sel_set) = (Stats::default(), Stats::default(), Stats::default());
     let mut cells = 0usize;
     for k in 0..40u32 {
         let p = Vec3::new(-2.0 + 0.1 * k as f32, 0.2, -1.0);
@@ -714,14 +715,19 @@ fn bench_memory(c: &Counter, forward: bool) {
         sel.add(c.measure_once(|| {
             black_box(mem.select::<32>(scan.t_us, black_box(&p), &v, ranking, 0.1));
         }));
+        sel_set.add(c.measure_once(|| {
+            black_box(mem.select_set::<32>(scan.t_us, black_box(&p), &v, ranking, 0.1));
+        }));
         cells = mem.len();
     }
     if forward {
         ins.report("ObstacleMemory<64>::insert_scan, 72 sectors, forward 90° only, free-cell map");
         sel.report("ObstacleMemory<64>::select::<32>, forward 90° only");
+        sel_set.report("ObstacleMemory<64>::select_set::<32> (the firmware's), forward 90° only");
     } else {
         ins.report("ObstacleMemory<64>::insert_scan, 72 sectors");
         sel.report("ObstacleMemory<64>::select::<32>");
+        sel_set.report("ObstacleMemory<64>::select_set::<32> (the firmware's)");
     }
     let _ = writeln!(Console, "memory cells after 40 scans: {cells}");
 }

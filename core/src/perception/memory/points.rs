@@ -77,6 +77,30 @@ impl<const N: usize> ObstacleMemory<N> {
         ranking: Ranking,
         delta1: f32,
     ) -> (ObstacleSet<M>, SetReport) {
+        self.select_with(t_us, p, v, ranking, Selector::<M>::new(ranking, delta1, p, v))
+    }
+
+    /// [`Self::select`]'s set alone (the same points in the same slots; the dropped points
+    /// are not counted: [`Selector::set_only`]).
+    pub fn select_set<const M: usize>(
+        &mut self,
+        t_us: u64,
+        p: &Vec3,
+        v: &Vec3,
+        ranking: Ranking,
+        delta1: f32,
+    ) -> ObstacleSet<M> {
+        self.select_with(t_us, p, v, ranking, Selector::<M>::set_only(ranking, delta1, p, v)).0
+    }
+
+    fn select_with<const M: usize>(
+        &mut self,
+        t_us: u64,
+        p: &Vec3,
+        v: &Vec3,
+        ranking: Ranking,
+        selector: Selector<M>,
+    ) -> (ObstacleSet<M>, SetReport) {
         /// Cells offered as parts: a point is built only when the set keeps it.
         struct Offers<const M: usize>(Selector<M>);
         impl<const M: usize> PointSink for Offers<M> {
@@ -92,7 +116,7 @@ impl<const N: usize> ObstacleMemory<N> {
             Ranking::Critical { mu, .. } => mu,
             Ranking::Nearest => 1.4,
         };
-        let mut sel = Offers(Selector::<M>::new(ranking, delta1, p, v));
+        let mut sel = Offers(selector);
         self.points_into(t_us, p, v, mu, &mut sel);
         sel.0.finish()
     }
