@@ -204,6 +204,18 @@ impl AttitudeEstimator {
         Euler { roll, pitch, yaw }
     }
 
+    /// [`Self::euler`]'s yaw alone (rad; 0 at gimbal lock, as there), without the roll and
+    /// pitch it would also compute.
+    pub fn yaw(&self) -> f32 {
+        let r = self.q.to_rotation_matrix();
+        let m = r.matrix();
+        if m[(2, 0)].abs() < 1.0 {
+            libm::atan2f(m[(1, 0)], m[(0, 0)])
+        } else {
+            0.0
+        }
+    }
+
     /// Tilt: angle between body z and world z (down), rad, in [0, π].
     pub fn tilt(&self) -> f32 {
         let r22 = self.q.to_rotation_matrix().matrix()[(2, 2)];
@@ -323,7 +335,7 @@ impl AttitudeEstimator {
             bias_dot -= e * p.ki;
         }
         if let Some(psi) = yaw_ext {
-            let e_psi = wrap_pi(psi - self.euler().yaw);
+            let e_psi = wrap_pi(psi - self.yaw());
             let axis = r_t * e3;
             corr += axis * (p.kp_yaw * e_psi);
             bias_dot -= axis * (p.ki_yaw * e_psi);
@@ -408,6 +420,12 @@ mod tests {
             let a = e.euler();
             assert!((a.roll - nr).abs() < 2e-6 && (a.pitch - np).abs() < 2e-6, "{a:?} vs {nr} {np}");
             assert!(wrap_pi(a.yaw - ny).abs() < 2e-6, "{a:?} vs {ny}");
+            assert_eq!(e.yaw().to_bits(), a.yaw.to_bits(), "yaw() is euler().yaw");
+        }
+        // At gimbal lock both give 0.
+        for p in [core::f32::consts::FRAC_PI_2, -core::f32::consts::FRAC_PI_2] {
+            e.set_attitude(UnitQuaternion::from_euler_angles(0.3, p, 1.0));
+            assert_eq!(e.yaw().to_bits(), e.euler().yaw.to_bits(), "pitch {p}");
         }
     }
 
