@@ -89,10 +89,17 @@ impl Default for Frontier {
     }
 }
 
+/// The sector of the horizontal direction `(dx, dy)`: `⌊(atan2(dy, dx) + π) / 2π · SECTORS⌋`
+/// (modulo `SECTORS`) with libm's `atan2f`, which is called only when the approximate bearing
+/// lies too close to a sector boundary to tell (`fmath::certain`).
 fn sector_of(dx: f32, dy: f32) -> usize {
-    let b = libm::atan2f(dy, dx); // −π..π
-    let s = (b + core::f32::consts::PI) / core::f32::consts::TAU * SECTORS as f32;
-    let i = crate::fmath::floor_i32(s);
+    use crate::fmath::{atan2_approx, certain, floor_i32, ATAN2_APPROX_ERROR};
+    let s_of = |b: f32| (b + core::f32::consts::PI) / core::f32::consts::TAU * SECTORS as f32;
+    // |s − s*| ≤ the bearing's error × SECTORS / 2π (+1 %) plus the round-off of the two
+    // evaluations (a few ulp of at most SECTORS): 1e-3 covers 8e-6 several times over.
+    const E: f32 = ATAN2_APPROX_ERROR * SECTORS as f32 / core::f32::consts::TAU * 1.01 + 1e-3;
+    let i = certain(s_of(atan2_approx(dy, dx)), E, floor_i32)
+        .unwrap_or_else(|| floor_i32(s_of(libm::atan2f(dy, dx)))); // −π..π
     i.rem_euclid(SECTORS as i32) as usize
 }
 
@@ -300,6 +307,41 @@ mod tests {
     extern crate std;
     use super::*;
     use crate::perception::ScanGeometry;
+
+    /// `sector_of` with the approximate bearing is the libm bearing's sector: random
+    /// directions and directions a hair either side of every sector boundary (where the
+    /// fallback decides), the branch cut (±0) and degenerate vectors.
+    #[test]
+    fn sector_of_is_the_libm_bearings_sector() {
+        let reference = |dx: f32, dy: f32| {
+            let s = (libm::atan2f(dy, dx) + core::f32::consts::PI) / core::f32::consts::TAU * SECTORS as f32;
+            crate::fmath::floor_i32(s).rem_euclid(SECTORS as i32) as usize
+        };
+        let mut seed = 0x5ec7_0019_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let mut check = |dx: f32, dy: f32| assert_eq!(sector_of(dx, dy), reference(dx, dy), "({dx}, {dy})");
+        for _ in 0..100_000 {
+            check(next() * 2.0 - 1.0, next() * 2.0 - 1.0);
+        }
+        for k in 0..=SECTORS {
+            let b = k as f32 / SECTORS as f32 * core::f32::consts::TAU - core::f32::consts::PI;
+            for eps in [0.0f32, 1e-7, -1e-7, 1e-6, -1e-6, 3e-5, -3e-5, 2e-4, -2e-4] {
+                for r in [1e-3f32, 1.0, 50.0] {
+                    check(libm::cosf(b + eps) * r, libm::sinf(b + eps) * r);
+                }
+            }
+        }
+        for (dx, dy) in
+            [(-1.0f32, 0.0f32), (-1.0, -0.0), (1.0, 0.0), (0.0, 0.0), (f32::NAN, 1.0), (f32::INFINITY, 0.0)]
+        {
+            check(dx, dy);
+        }
+    }
 
     fn ring(n: u16, r: Range) -> (ScanGeometry, [Range; 72]) {
         (ScanGeometry::planar_360(n, 0.05, 0.1, 10.0), [r; 72])

@@ -191,13 +191,25 @@ impl ScanGeometry {
     /// steps; the column modulo the circle when the lattice wraps): `(row, col)`, or `None`
     /// when that lies off the lattice.
     pub fn nearest_beam(&self, q: &Vec3) -> Option<(u16, u16)> {
-        let az = libm::atan2f(q.y, q.x);
-        let el = libm::atan2f(-q.z, crate::fmath::hypotf(q.x, q.y));
-        let mut col = libm::roundf((az - self.az0) / self.daz) as i32;
+        use crate::fmath::{atan2_approx, certain, ATAN2_APPROX_ERROR};
+        let h = crate::fmath::hypotf(q.x, q.y);
+        // Column and row from approximate angles, each checked by `certain` against its
+        // error (the angle's / spacing, +1 %, plus a few ulp of the steps); libm's `atan2f`
+        // only when one lies too close to a half-step to tell. The same result as with
+        // libm's angles throughout (test `nearest_beam_is_the_libm_angles_rounding`).
+        let step = |a: f32, a0: f32, da: f32| (a - a0) / da;
+        let err = |x: f32, da: f32| ATAN2_APPROX_ERROR / da * 1.01 + 8.0 * f32::EPSILON * (x.abs() + 1.0);
+        let c = step(atan2_approx(q.y, q.x), self.az0, self.daz);
+        let col = certain(c, err(c, self.daz), libm::roundf)
+            .unwrap_or_else(|| libm::roundf(step(libm::atan2f(q.y, q.x), self.az0, self.daz)));
+        let r = step(atan2_approx(-q.z, h), self.el0, self.del);
+        let row = certain(r, err(r, self.del), libm::roundf)
+            .unwrap_or_else(|| libm::roundf(step(libm::atan2f(-q.z, h), self.el0, self.del)));
+        let mut col = col as i32;
         if self.wraps() {
             col = col.rem_euclid(i32::from(self.n_az));
         }
-        let row = libm::roundf((el - self.el0) / self.del) as i32;
+        let row = row as i32;
         if col < 0 || col >= i32::from(self.n_az) || row < 0 || row >= i32::from(self.n_el) {
             return None;
         }
@@ -336,5 +348,92 @@ impl MemoryParams {
             && self.ground_height.is_finite()
             && (0.0..=5.0).contains(&self.fov_margin)
             && self.fov_walls <= FOV_WALLS_HELD
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `nearest_beam` as first written: libm's angles, rounded.
+    fn reference(g: &ScanGeometry, q: &Vec3) -> Option<(u16, u16)> {
+        let az = libm::atan2f(q.y, q.x);
+        let el = libm::atan2f(-q.z, crate::fmath::hypotf(q.x, q.y));
+        let mut col = libm::roundf((az - g.az0) / g.daz) as i32;
+        if g.wraps() {
+            col = col.rem_euclid(i32::from(g.n_az));
+        }
+        let row = libm::roundf((el - g.el0) / g.del) as i32;
+        if col < 0 || col >= i32::from(g.n_az) || row < 0 || row >= i32::from(g.n_el) {
+            return None;
+        }
+        Some((row as u16, col as u16))
+    }
+
+    /// The approximate angles with their certainty check give libm's beam everywhere: random
+    /// directions, directions a hair either side of every half-step between beams (where the
+    /// fallback must decide), the poles, zero and non-finite vectors. Fails with the error
+    /// bound taken 100 times too small.
+    #[test]
+    fn nearest_beam_is_the_libm_angles_rounding() {
+        let geometries = [
+            ScanGeometry::planar_360(72, 0.0175, 0.1, 12.0),
+            ScanGeometry::planar_360(360, 0.0175, 0.1, 12.0),
+            ScanGeometry::grid(16, 10, 1.518, 1.012, 0.2, 6.0),
+            ScanGeometry::grid(8, 8, 0.785, 0.785, 0.02, 4.0),
+            ScanGeometry::grid(1, 1, 0.47, 0.47, 0.02, 4.0),
+            ScanGeometry::grid(32, 24, 1.518, 1.012, 0.2, 6.0),
+        ];
+        let mut seed = 0x5eed_0019_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let dir = |az: f32, el: f32, r: f32| {
+            let (sa, ca) = (libm::sinf(az), libm::cosf(az));
+            let (se, ce) = (libm::sinf(el), libm::cosf(el));
+            Vec3::new(ce * ca * r, ce * sa * r, -se * r)
+        };
+        let mut checked = 0u32;
+        for g in &geometries {
+            let mut check = |q: Vec3| {
+                assert_eq!(g.nearest_beam(&q), reference(g, &q), "{g:?} q {q:?}");
+                checked += 1;
+            };
+            for _ in 0..20_000 {
+                let q = Vec3::new(next() * 2.0 - 1.0, next() * 2.0 - 1.0, next() * 2.0 - 1.0);
+                check(q * (0.01 + 10.0 * next()));
+            }
+            for col in 0..=g.n_az {
+                for row in 0..=g.n_el {
+                    for eps in [0.0f32, 1e-7, -1e-7, 1e-6, -1e-6, 3e-5, -3e-5, 2e-4, -2e-4] {
+                        let az = g.az0 + (f32::from(col) - 0.5) * g.daz + eps;
+                        let el = g.el0 + (f32::from(row) - 0.5) * g.del + eps;
+                        let el_mid = g.el0 + f32::from(row.min(g.n_el - 1)) * g.del;
+                        let az_mid = g.az0 + f32::from(col.min(g.n_az - 1)) * g.daz;
+                        for r in [0.3f32, 2.0] {
+                            check(dir(az, el_mid, r));
+                            check(dir(az_mid, el, r));
+                            check(dir(az, el, r));
+                        }
+                    }
+                }
+            }
+            for q in [
+                Vec3::zeros(),
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(0.0, 0.0, -1.0),
+                Vec3::new(-1.0, 0.0, 0.0),
+                Vec3::new(-1.0, -0.0, 0.0),
+                Vec3::new(f32::NAN, 0.0, 0.0),
+                Vec3::new(f32::INFINITY, 1.0, 0.0),
+                Vec3::new(1.0, f32::NEG_INFINITY, 0.0),
+            ] {
+                check(q);
+            }
+        }
+        assert!(checked > 100_000);
     }
 }
