@@ -324,7 +324,7 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f32 / (1u64 << 53) as f32
         };
-        let mut check = |dx: f32, dy: f32| assert_eq!(sector_of(dx, dy), reference(dx, dy), "({dx}, {dy})");
+        let check = |dx: f32, dy: f32| assert_eq!(sector_of(dx, dy), reference(dx, dy), "({dx}, {dy})");
         for _ in 0..100_000 {
             check(next() * 2.0 - 1.0, next() * 2.0 - 1.0);
         }
