@@ -151,13 +151,31 @@ fn plausible(v: &Vec3) -> bool {
 /// `p` clamped to the box `[lo, hi]` (compare and select: `f32::clamp` would link the float
 /// formatting of its panic message into the firmware, ≈ 29 KB).
 /// Squared distance from `p` to the nearest point of cell `c`'s box (the point the cell hands
-/// the filter).
+/// the filter). `p` not NaN (a scan's validated pose): a cell's box is finite (built from
+/// plausible returns), so [`clamp3_no_nan`] applies.
 fn box_distance_sq(p: &Vec3, c: &Cell) -> f32 {
-    (clamp3(p, &c.lo, &c.hi) - p).norm_squared()
+    (clamp3_no_nan(p, &c.lo, &c.hi) - p).norm_squared()
 }
 
 fn clamp3(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
     let c = |x: f32, l: f32, h: f32| minf(maxf(x, l), h);
+    Vec3::new(c(p.x, lo.x, hi.x), c(p.y, lo.y, hi.y), c(p.z, lo.z, hi.z))
+}
+
+/// [`clamp3`] bit for bit when no coordinate of `p`, `lo` or `hi` is NaN (`±∞` allowed):
+/// then `maxf`'s and `minf`'s NaN rules never apply and each is one compare and select
+/// (`maxss`/`minss` on x86-64) — ties and `±0` as theirs (`maxf(x, l)` keeps `x`, `minf(m, h)`
+/// takes `h`). The memory's cells' boxes are finite; callers check `p`.
+#[inline(always)]
+fn clamp3_no_nan(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
+    let c = |x: f32, l: f32, h: f32| {
+        let m = if l > x { l } else { x };
+        if m < h {
+            m
+        } else {
+            h
+        }
+    };
     Vec3::new(c(p.x, lo.x, hi.x), c(p.y, lo.y, hi.y), c(p.z, lo.z, hi.z))
 }
 
@@ -825,6 +843,39 @@ mod tests {
     }
 
     const P: Vec3 = Vec3::new(0.0, 0.0, -1.0);
+
+    /// The NaN-free clamp is `clamp3` bit for bit on non-NaN inputs: random values, ties,
+    /// `±0` on either side, infinities (fails with `>=` for `>` or the operands swapped).
+    #[test]
+    fn the_nan_free_clamp_is_clamp3_bit_for_bit() {
+        let vals = [-2.0f32, -1.0, -0.0, 0.0, 0.5, 1.0, 3.0, f32::INFINITY, f32::NEG_INFINITY, 1e-40, -1e-40];
+        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        for &x in &vals {
+            for &l in &vals {
+                for &h in &vals {
+                    let (p, lo, hi) = (Vec3::new(x, l, h), Vec3::new(l, h, x), Vec3::new(h, x, l));
+                    assert_eq!(
+                        bits(clamp3_no_nan(&p, &lo, &hi)),
+                        bits(clamp3(&p, &lo, &hi)),
+                        "{p:?} {lo:?} {hi:?}"
+                    );
+                }
+            }
+        }
+        let mut seed = 0xc1a3_0019_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            ((seed >> 40) as f32 / (1u64 << 24) as f32) * 8.0 - 4.0
+        };
+        for _ in 0..100_000 {
+            let p = Vec3::new(next(), next(), next());
+            let (a, b) = (Vec3::new(next(), next(), next()), Vec3::new(next(), next(), next()));
+            let (lo, hi) = (a.inf(&b), a.sup(&b));
+            assert_eq!(bits(clamp3_no_nan(&p, &lo, &hi)), bits(clamp3(&p, &lo, &hi)));
+        }
+    }
 
     #[test]
     fn a_wall_seen_once_is_kept_behind_the_vehicle_for_the_forget_time() {

@@ -7,7 +7,7 @@
 //! frontier helpers, `crate::obstacle`, `crate::obstacle_set`, `crate::fmath`, `crate::Vec3`.
 
 use super::super::{CELL_ID_BASE, FOV_WALLS_OFF, FRONTIER_ID, STATIC_ID};
-use super::{clamp3, ObstacleMemory, NO_TRACK};
+use super::{clamp3, clamp3_no_nan, ObstacleMemory, NO_TRACK};
 use crate::fmath::hypotf;
 use crate::obstacle::{ObstaclePoint, ObstacleSet};
 use crate::obstacle_set::{Ranking, Selector, SetReport};
@@ -36,6 +36,9 @@ impl<const N: usize> ObstacleMemory<N> {
     /// [`Self::for_each_point`] into `sink` (a cell's point as its parts).
     fn points_into<S: PointSink>(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, sink: &mut S) {
         let forget = self.forget_us();
+        // A static cell's box is finite (built from plausible returns): with `p` not NaN the
+        // NaN-free clamp gives the same point (a moving cell's shifted box is not checked).
+        let p_no_nan = !(p.x.is_nan() || p.y.is_nan() || p.z.is_nan());
         let mut threat = false;
         for c in self.cells.iter() {
             let age_us = t_us.saturating_sub(c.t_us);
@@ -46,7 +49,11 @@ impl<const N: usize> ObstacleMemory<N> {
                 .then(|| self.tracker.get(usize::from(c.track)).and_then(|tr| tr.measured_velocity(t_us)))
                 .flatten();
             let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
-            let q = clamp3(p, &(c.lo + shift), &(c.hi + shift));
+            let q = if p_no_nan && w.is_none() {
+                clamp3_no_nan(p, &(c.lo + shift), &(c.hi + shift))
+            } else {
+                clamp3(p, &(c.lo + shift), &(c.hi + shift))
+            };
             threat |= w.is_some_and(|w| closes_in(&(p - q), &w));
             let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
             sink.cell(&q, w.as_ref(), id);
