@@ -171,9 +171,9 @@ fn key_parts(ranking: Ranking, p: &Vec3, v: &Vec3, point: &Vec3, velocity: Optio
     match ranking {
         Ranking::Nearest => (dist_sq, dist_sq),
         Ranking::Critical { mu, relative } => {
+            // A point without a velocity is fixed: `v − 0` is `v` bit for bit.
             let d_dot = match velocity {
                 Some(w) if relative => v - w,
-                None if relative => v - Vec3::zeros(),
                 _ => *v,
             };
             let h = dist_sq - mu * d.dot(&d_dot);
