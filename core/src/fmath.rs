@@ -17,6 +17,7 @@
 //!   is returned), both NaN give NaN; for `±0` the first operand wins on a tie,
 //!   as in libm.
 //! * [`clampf`](crate::frame::clampf) is built from them.
+//! * [`round_i32`]: `libm::roundf(x) as i32` likewise (halves away from zero).
 //! * [`floor_i32`]: `libm::floorf(x) as i32` for every `x` (saturating, NaN → 0), from
 //!   the truncating conversion (`VCVT` on the Cortex-M4F) and one compare, instead of
 //!   libm's bit manipulation (≈ 20 instructions and a call: voxel keys, sector indices).
@@ -29,6 +30,22 @@
 //! function here on the Cortex-M4F bit for bit against the host build (so the
 //! firmware computes what the simulator computes) and `sqrtf` against the
 //! target's software `libm::sqrtf`.
+
+/// `libm::roundf(x) as i32` (halves away from zero), bit for bit, for every `x`: saturating,
+/// `0` for NaN. The truncation `t` and the fraction `x − t` are exact (`|x| < 2²³`; beyond,
+/// `x` is an integer); a fraction of at least one half moves `t` one away from zero.
+#[inline(always)]
+pub fn round_i32(x: f32) -> i32 {
+    let t = x as i32;
+    let frac = x - t as f32;
+    if frac >= 0.5 {
+        t.saturating_add(1)
+    } else if frac <= -0.5 {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
 
 /// `libm::floorf(x) as i32`, bit for bit, for every `x`: saturating at `i32::MIN`/`MAX`
 /// (±∞ and beyond), `0` for NaN. The conversion truncates towards zero; a truncated
@@ -420,6 +437,47 @@ mod tests {
         assert_eq!(certain(0.05, 0.1, floor_i32), None);
         assert_eq!(certain(f32::NAN, 0.1, floor_i32), None);
         assert_eq!(certain(f32::INFINITY, 0.1, floor_i32), None);
+    }
+
+    #[test]
+    fn round_i32_is_libm_roundf_as_i32() {
+        let check = |x: f32| {
+            assert_eq!(round_i32(x), libm::roundf(x) as i32, "x = {x:e} ({:#010x})", x.to_bits());
+        };
+        let mut b: u32 = 0;
+        loop {
+            check(f32::from_bits(b));
+            match b.checked_add(251) {
+                Some(n) => b = n,
+                None => break,
+            }
+        }
+        for k in -4096i32..=4096 {
+            let x = k as f32;
+            for y in [x, x + 0.5, x - 0.5, (x + 0.5).next_up(), (x + 0.5).next_down(), (x - 0.5).next_up()] {
+                check(y);
+                check(y.next_down());
+            }
+        }
+        for x in [
+            0.49999997f32,
+            -0.49999997,
+            0.5,
+            -0.5,
+            8388607.5,
+            -8388607.5,
+            8388608.0,
+            2147483520.0,
+            2147483648.0,
+            -2147483904.0,
+        ] {
+            check(x);
+            check(x.next_up());
+            check(x.next_down());
+        }
+        for x in [0.0f32, -0.0, f32::MAX, f32::MIN, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1e-45] {
+            check(x);
+        }
     }
 
     #[test]

@@ -191,7 +191,7 @@ impl ScanGeometry {
     /// steps; the column modulo the circle when the lattice wraps): `(row, col)`, or `None`
     /// when that lies off the lattice.
     pub fn nearest_beam(&self, q: &Vec3) -> Option<(u16, u16)> {
-        use crate::fmath::{atan2_approx, certain, ATAN2_APPROX_ERROR};
+        use crate::fmath::{atan2_approx, certain, round_i32, ATAN2_APPROX_ERROR};
         let h = crate::fmath::hypotf(q.x, q.y);
         // Column and row from approximate angles, each checked by `certain` against its
         // error (the angle's / spacing, +1 %, plus a few ulp of the steps); libm's `atan2f`
@@ -200,16 +200,15 @@ impl ScanGeometry {
         let step = |a: f32, a0: f32, da: f32| (a - a0) / da;
         let err = |x: f32, da: f32| ATAN2_APPROX_ERROR / da * 1.01 + 8.0 * f32::EPSILON * (x.abs() + 1.0);
         let c = step(atan2_approx(q.y, q.x), self.az0, self.daz);
-        let col = certain(c, err(c, self.daz), libm::roundf)
-            .unwrap_or_else(|| libm::roundf(step(libm::atan2f(q.y, q.x), self.az0, self.daz)));
+        let col = certain(c, err(c, self.daz), round_i32)
+            .unwrap_or_else(|| round_i32(step(libm::atan2f(q.y, q.x), self.az0, self.daz)));
         let r = step(atan2_approx(-q.z, h), self.el0, self.del);
-        let row = certain(r, err(r, self.del), libm::roundf)
-            .unwrap_or_else(|| libm::roundf(step(libm::atan2f(-q.z, h), self.el0, self.del)));
-        let mut col = col as i32;
+        let row = certain(r, err(r, self.del), round_i32)
+            .unwrap_or_else(|| round_i32(step(libm::atan2f(-q.z, h), self.el0, self.del)));
+        let mut col = col;
         if self.wraps() {
             col = col.rem_euclid(i32::from(self.n_az));
         }
-        let row = row as i32;
         if col < 0 || col >= i32::from(self.n_az) || row < 0 || row >= i32::from(self.n_el) {
             return None;
         }

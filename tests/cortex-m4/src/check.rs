@@ -10,7 +10,7 @@
 //!   for bit on a geometric sweep of `0..f32::MAX` (subnormals included), random values and the
 //!   special cases; `sincosf_exact` equals `libm::sincosf` (soft `f64` here) on a geometric sweep
 //!   up to 4.2·10⁸ and random angles; `minf`/`maxf` equal `f32::min`/`max` (which call libm's
-//!   `fminf`/`fmaxf`); `floor_i32` equals `libm::floorf(x) as i32` on random bit patterns and
+//!   `fminf`/`fmaxf`); `floor_i32`/`round_i32` equal `libm::floorf`/`roundf(x) as i32` on random bit patterns and
 //!   the edge cases.
 //!
 //! Imports: `parapet_core::fmath` and the program's console (`crate::Console`, `crate::exit`).
@@ -128,11 +128,13 @@ fn against_target_libm(t: &mut Tally) {
     for _ in 0..10_000 {
         exact(t, rng.uniform(-7.1, 7.1));
     }
-    // floor_i32 = libm::floorf(x) as i32 (the conversion is `VCVT` here): random bit patterns,
+    // floor_i32/round_i32 = libm::floorf/roundf(x) as i32 (the conversion is `VCVT` here): random bit patterns,
     // integers ± one ulp and a half, the saturation bounds and the special values.
     let floor = |t: &mut Tally, x: f32| {
         let (got, want) = (fmath::floor_i32(black_box(x)), libm::floorf(x) as i32);
         t.check("floor_i32 vs libm::floorf as i32", &[x.to_bits()], f32::from_bits(got as u32), want as u32);
+        let (got, want) = (fmath::round_i32(black_box(x)), libm::roundf(x) as i32);
+        t.check("round_i32 vs libm::roundf as i32", &[x.to_bits()], f32::from_bits(got as u32), want as u32);
     };
     for _ in 0..20_000 {
         floor(t, f32::from_bits((rng.next_u64() >> 32) as u32));
@@ -174,7 +176,7 @@ pub fn fmath_bit_exact() {
     against_target_libm(&mut libm);
     let _ = writeln!(
         Console,
-        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, sincosf_exact = libm::sincosf, minf/maxf = f32::min/max, floor_i32 = libm::floorf as i32), {} mismatches",
+        "fmath check vs target libm: {} comparisons (sqrtf = libm::sqrtf, sincosf_exact = libm::sincosf, minf/maxf = f32::min/max, floor_i32/round_i32 = libm::floorf/roundf as i32), {} mismatches",
         libm.compared, libm.mismatches
     );
     if host.mismatches + libm.mismatches > 0 {
