@@ -57,7 +57,7 @@
 //! `select::<32>` mean 47 438 → **40 853**. Later that day (a scan's sines and cosines once
 //! per column and row, `ScanTrig`; `floor_i32`; approximate `atan2` checked against its
 //! error; a NaN-free clamp, the selection's fixed points), same results: `insert_scan` mean
-//! 207 758 → **185 906**, `select::<32>` 40 853 → **35 526**, the firmware's
+//! 207 758 → **183 639**, `select::<32>` 40 853 → **35 526**, the firmware's
 //! `select_set::<32>` (no bookkeeping of the dropped points) **35 150**.
 //!
 //! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
