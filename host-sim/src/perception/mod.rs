@@ -75,7 +75,7 @@ pub struct RangeRecord {
 }
 
 /// Every beam of a run's scans, compactly: per scan its time, sensor and the sensor's world
-/// pose, per beam the measured range (8 bytes; a tenth of a [`RangeRecord`] with its point,
+/// pose, per beam the measured range (8 bytes; a fifth of a 40-byte [`RangeRecord`] with its point,
 /// so recording costs the flight loop little). [`RangeLog::iter`] gives each beam's
 /// [`RangeRecord`], its world point from the same `f64` arithmetic the scan's ray used.
 #[derive(Clone, Debug, Default)]
