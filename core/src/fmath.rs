@@ -439,11 +439,8 @@ mod tests {
         assert_eq!(certain(f32::INFINITY, 0.1, floor_i32), None);
     }
 
-    #[test]
-    fn round_i32_is_libm_roundf_as_i32() {
-        let check = |x: f32| {
-            assert_eq!(round_i32(x), libm::roundf(x) as i32, "x = {x:e} ({:#010x})", x.to_bits());
-        };
+    /// `check` of every 251st `f32` bit pattern (all signs and exponents, NaNs and infinities).
+    fn every_251st_bit_pattern(check: impl Fn(f32)) {
         let mut b: u32 = 0;
         loop {
             check(f32::from_bits(b));
@@ -452,6 +449,14 @@ mod tests {
                 None => break,
             }
         }
+    }
+
+    #[test]
+    fn round_i32_is_libm_roundf_as_i32() {
+        let check = |x: f32| {
+            assert_eq!(round_i32(x), libm::roundf(x) as i32, "x = {x:e} ({:#010x})", x.to_bits());
+        };
+        every_251st_bit_pattern(check);
         for k in -4096i32..=4096 {
             let x = k as f32;
             for y in [x, x + 0.5, x - 0.5, (x + 0.5).next_up(), (x + 0.5).next_down(), (x - 0.5).next_up()] {
@@ -485,15 +490,7 @@ mod tests {
         let check = |x: f32| {
             assert_eq!(floor_i32(x), libm::floorf(x) as i32, "x = {x:e} ({:#010x})", x.to_bits());
         };
-        // Every 251st bit pattern (all signs, exponents, NaNs and infinities are hit).
-        let mut b: u32 = 0;
-        loop {
-            check(f32::from_bits(b));
-            match b.checked_add(251) {
-                Some(n) => b = n,
-                None => break,
-            }
-        }
+        every_251st_bit_pattern(check);
         // Around every integer up to ±2^12, and near the saturation bounds.
         for k in -4096i32..=4096 {
             let x = k as f32;

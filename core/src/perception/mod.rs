@@ -350,6 +350,23 @@ impl MemoryParams {
     }
 }
 
+/// Scan geometries for the tests: the presets' planar lidars (72, 73, 360 beams), the
+/// decimated camera, multi-zone and single-beam ToF, a 32 × 24 image and a tall 4 × 17 fan
+/// (the 73-beam, 360-beam, 32 × 24 and 4 × 17 ones wider or taller than [`ScanTrig`]'s tables).
+#[cfg(test)]
+pub(crate) fn sample_geometries() -> [ScanGeometry; 8] {
+    [
+        ScanGeometry::planar_360(72, 0.0175, 0.1, 12.0),
+        ScanGeometry::planar_360(73, 0.0175, 0.1, 12.0),
+        ScanGeometry::planar_360(360, 0.0175, 0.1, 12.0),
+        ScanGeometry::grid(16, 10, 1.518, 1.012, 0.2, 6.0),
+        ScanGeometry::grid(8, 8, 0.785, 0.785, 0.02, 4.0),
+        ScanGeometry::grid(1, 1, 0.47, 0.47, 0.02, 4.0),
+        ScanGeometry::grid(32, 24, 1.518, 1.012, 0.2, 6.0),
+        ScanGeometry::grid(4, 17, 0.3, 1.2, 0.2, 6.0),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -375,14 +392,7 @@ mod tests {
     /// bound taken 100 times too small.
     #[test]
     fn nearest_beam_is_the_libm_angles_rounding() {
-        let geometries = [
-            ScanGeometry::planar_360(72, 0.0175, 0.1, 12.0),
-            ScanGeometry::planar_360(360, 0.0175, 0.1, 12.0),
-            ScanGeometry::grid(16, 10, 1.518, 1.012, 0.2, 6.0),
-            ScanGeometry::grid(8, 8, 0.785, 0.785, 0.02, 4.0),
-            ScanGeometry::grid(1, 1, 0.47, 0.47, 0.02, 4.0),
-            ScanGeometry::grid(32, 24, 1.518, 1.012, 0.2, 6.0),
-        ];
+        let geometries = sample_geometries();
         let mut seed = 0x5eed_0019_u64;
         let mut next = || {
             seed ^= seed << 13;

@@ -120,16 +120,7 @@ mod tests {
     /// bit for bit (a table built from other angles, or read at the wrong index, fails).
     #[test]
     fn directions_are_the_geometrys_bit_for_bit() {
-        let geometries = [
-            ScanGeometry::planar_360(72, 0.0175, 0.1, 12.0),
-            ScanGeometry::planar_360(73, 0.0175, 0.1, 12.0),
-            ScanGeometry::planar_360(360, 0.0175, 0.1, 12.0),
-            ScanGeometry::grid(16, 10, 1.518, 1.012, 0.2, 6.0),
-            ScanGeometry::grid(8, 8, 0.785, 0.785, 0.02, 4.0),
-            ScanGeometry::grid(1, 1, 0.47, 0.47, 0.02, 4.0),
-            ScanGeometry::grid(32, 24, 1.518, 1.012, 0.2, 6.0),
-            ScanGeometry::grid(4, 17, 0.3, 1.2, 0.2, 6.0),
-        ];
+        let geometries = super::super::sample_geometries();
         let mut reused = ScanTrig::empty(geometries[3]);
         for g in &geometries {
             let t = ScanTrig::of(g);
