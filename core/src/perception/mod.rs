@@ -184,7 +184,7 @@ impl ScanGeometry {
 
     /// Sensor-frame unit direction of beam `(row, col)`.
     pub fn direction(&self, row: u16, col: u16) -> Vec3 {
-        self.direction_in_row(self.row_elevation(row), col)
+        Self::direction_of(self.row_elevation(row), self.column_azimuth(col))
     }
 
     /// The beam nearest the sensor-frame direction `q` (rounded azimuth and elevation
@@ -215,16 +215,21 @@ impl ScanGeometry {
         Some((row as u16, col as u16))
     }
 
-    /// `(sin, cos)` of row `row`'s elevation, for [`Self::direction_in_row`] (a scan's loop
-    /// over its beams computes it once per row: the same values as [`Self::direction`]).
+    /// `(sin, cos)` of row `row`'s elevation ([`ScanTrig`] tabulates them once per scan).
     pub fn row_elevation(&self, row: u16) -> (f32, f32) {
         crate::fmath::sincosf(self.el0 + f32::from(row) * self.del)
     }
 
-    /// [`Self::direction`] of column `col` in the row of elevation `(sin, cos)` `row_el`.
-    pub fn direction_in_row(&self, row_el: (f32, f32), col: u16) -> Vec3 {
-        let (se, ce) = row_el;
-        let (sa, ca) = crate::fmath::sincosf(self.az0 + f32::from(col) * self.daz);
+    /// `(sin, cos)` of column `col`'s azimuth ([`ScanTrig`] tabulates them once per scan).
+    pub fn column_azimuth(&self, col: u16) -> (f32, f32) {
+        crate::fmath::sincosf(self.az0 + f32::from(col) * self.daz)
+    }
+
+    /// The unit direction of elevation `(sin, cos)` `el` and azimuth `(sin, cos)` `az`
+    /// (`(cos e cos a, cos e sin a, −sin e)`, the module's frame).
+    #[inline]
+    pub fn direction_of(el: (f32, f32), az: (f32, f32)) -> Vec3 {
+        let ((se, ce), (sa, ca)) = (el, az);
         Vec3::new(ce * ca, ce * sa, -se)
     }
 

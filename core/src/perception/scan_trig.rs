@@ -53,7 +53,7 @@ impl ScanTrig {
             return;
         }
         for (col, c) in self.cols.iter_mut().enumerate().take(n_az) {
-            *c = crate::fmath::sincosf(g.az0 + f32::from(col as u16) * g.daz);
+            *c = g.column_azimuth(col as u16);
         }
         for (row, r) in self.rows.iter_mut().enumerate().take(n_el) {
             *r = g.row_elevation(row as u16);
@@ -69,10 +69,9 @@ impl ScanTrig {
     #[inline]
     pub fn direction(&self, row: u16, col: u16) -> Vec3 {
         if self.tabulated {
-            if let (Some(&(sa, ca)), Some(&(se, ce))) =
-                (self.cols.get(usize::from(col)), self.rows.get(usize::from(row)))
+            if let (Some(&az), Some(&el)) = (self.cols.get(usize::from(col)), self.rows.get(usize::from(row)))
             {
-                return Vec3::new(ce * ca, ce * sa, -se);
+                return ScanGeometry::direction_of(el, az);
             }
         }
         self.geometry.direction(row, col)
