@@ -366,9 +366,12 @@ impl Conn {
                 if d.id != id {
                     continue;
                 }
-                let n = usize::from(d.count).min(90);
+                // A log still being written has grown past its listed size: the chunk that
+                // straddles the listed end is kept up to it (the download is of the log as
+                // listed; the log only grows at its end).
                 let at = d.ofs as usize;
-                if n > 0 && at.is_multiple_of(CHUNK as usize) && at + n <= data.len() {
+                let n = usize::from(d.count).min(90).min(data.len().saturating_sub(at));
+                if n > 0 && at.is_multiple_of(CHUNK as usize) {
                     data[at..at + n].copy_from_slice(&d.data[..n]);
                     if let Some(h) = have.get_mut(at / CHUNK as usize) {
                         *h = true;
@@ -484,6 +487,17 @@ mod tests {
     /// A fake vehicle on UDP: HEARTBEATs, one log of `log.len()` bytes, LOG_DATA chunks with
     /// every `drop_every`-th first-time chunk lost.
     fn vehicle(log: Vec<u8>, drop_every: usize) -> (SocketAddr, std::thread::JoinHandle<()>) {
+        let listed = log.len();
+        vehicle_listing(log, listed, drop_every)
+    }
+
+    /// [`vehicle`] whose LOG_ENTRY lists `listed` bytes while LOG_DATA streams all of `log`
+    /// (a log still being written grows between the listing and the download).
+    fn vehicle_listing(
+        log: Vec<u8>,
+        listed: usize,
+        drop_every: usize,
+    ) -> (SocketAddr, std::thread::JoinHandle<()>) {
         let sock = UdpSocket::bind("127.0.0.1:0").expect("bind");
         let addr = sock.local_addr().expect("addr");
         let h = std::thread::spawn(move || {
@@ -507,7 +521,7 @@ mod tests {
                                 from,
                                 &MavMessage::LOG_ENTRY(LOG_ENTRY_DATA {
                                     time_utc: 0,
-                                    size: log.len() as u32,
+                                    size: listed as u32,
                                     id: 0,
                                     num_logs: 1,
                                     last_log_num: 0,
@@ -564,6 +578,23 @@ mod tests {
         assert!(list_text(&entries).contains("0\t10000\t0"));
         let got = c.pull(0, 10_000).expect("pull");
         assert_eq!(got, log);
+        h.join().expect("vehicle");
+    }
+
+    /// The log grew between LOG_ENTRY and LOG_REQUEST_DATA (a flight still logging): the chunk
+    /// across the listed end is full-length on the wire; the pull keeps the listed bytes.
+    #[test]
+    fn pull_of_a_log_that_grew_since_listing_returns_the_listed_bytes() {
+        let log: Vec<u8> = (0..10_500u32).map(|i| (i * 13 % 251) as u8).collect();
+        let listed = 10_000; // not a multiple of 90: the last listed chunk straddles the end
+        let (addr, h) = vehicle_listing(log.clone(), listed, 7);
+        let mut c = Conn::open(&format!("udp:{addr}"), None, Duration::from_secs(5)).expect("open");
+        c.send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA::default())).expect("poke");
+        c.connect("test").expect("heartbeat");
+        let entries = c.list().expect("list");
+        assert_eq!(entries[0].size, listed as u32);
+        let got = c.pull(0, listed as u32).expect("pull");
+        assert_eq!(got, log[..listed]);
         h.join().expect("vehicle");
     }
 
