@@ -13,10 +13,12 @@
 //!
 //! The vehicle is the first autopilot (component 1) whose HEARTBEAT arrives. `pull` writes the
 //! log byte-exact (chunks placed by their `ofs`, gaps re-requested one by one; it gives up after
-//! [`RETRIES`] requests in a row that brought nothing) and never replaces an existing file without `--force`; the file is
-//! checked before anything is downloaded. Exit codes: 2 for a bad `--port`/`--out`/`--id`
-//! (named with the value and what is allowed), 1 when the vehicle does not answer or a log
-//! does not arrive complete.
+//! [`RETRIES`] requests in a row that brought nothing) and never replaces an existing file
+//! without `--force`; the file is checked before anything is downloaded. A log still being
+//! written (the vehicle armed) is pulled as listed: its first `size` bytes of LOG_ENTRY; what it
+//! grew since is left for the next pull (a log only grows at its end, so those bytes are final).
+//! Exit codes: 2 for a bad `--port`/`--out`/`--id` (named with the value and what is allowed),
+//! 1 when the vehicle does not answer or a log does not arrive complete.
 //!
 //! May import: [`super`] (errors, output), [`crate::fc::bridge`] (frame splitting),
 //! [`crate::input`], `mavlink`, std.
