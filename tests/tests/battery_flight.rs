@@ -21,7 +21,7 @@ fn fly(soc: Option<f64>) -> RunOutput {
 }
 
 fn first(out: &RunOutput, mode: &str) -> Option<f64> {
-    out.samples.iter().find(|x| x.mode == mode).map(|x| x.t)
+    out.samples.iter().find(|x| x.mode.as_str() == mode).map(|x| x.t)
 }
 
 #[test]
@@ -65,8 +65,8 @@ fn touched_down_after(out: &RunOutput, land: f64) {
 fn modes(out: &RunOutput) -> Vec<(f64, &'static str)> {
     let mut v: Vec<(f64, &'static str)> = Vec::new();
     for s in &out.samples {
-        if v.last().is_none_or(|l| l.1 != s.mode) {
-            v.push((s.t, s.mode));
+        if v.last().is_none_or(|l| l.1 != s.mode.as_str()) {
+            v.push((s.t, s.mode.as_str()));
         }
     }
     v

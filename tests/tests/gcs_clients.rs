@@ -352,7 +352,14 @@ fn fly_client_on_the_pil(
     for x in out.samples.iter().step_by(250) {
         println!(
             "t {:5.1} pos {:6.2} {:6.2} {:6.2} ref {:6.2} {:6.2} {:6.2} {}",
-            x.t, x.pos.x, x.pos.y, x.pos.z, x.ref_pos.x, x.ref_pos.y, x.ref_pos.z, x.mode
+            x.t,
+            x.pos.x,
+            x.pos.y,
+            x.pos.z,
+            x.ref_pos.x,
+            x.ref_pos.y,
+            x.ref_pos.z,
+            x.mode.as_str()
         );
     }
     let sm = &out.summary;

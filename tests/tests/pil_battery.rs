@@ -39,7 +39,7 @@ fn scene() -> Scene {
 }
 
 fn first(out: &RunOutput, mode: &str) -> Option<f64> {
-    out.samples.iter().find(|x| x.mode == mode).map(|x| x.t)
+    out.samples.iter().find(|x| x.mode.as_str() == mode).map(|x| x.t)
 }
 
 #[test]

@@ -52,6 +52,45 @@ pub enum GuidanceMode {
 }
 
 impl GuidanceMode {
+    /// Number of guidance modes.
+    pub const COUNT: usize = 12;
+    /// Every guidance mode, in code order ([`GuidanceMode::code`] is the index: the log's
+    /// `vehicle_status.parapet_mode`).
+    pub const ALL: [GuidanceMode; Self::COUNT] = [
+        GuidanceMode::Off,
+        GuidanceMode::Ground,
+        GuidanceMode::Hold,
+        GuidanceMode::Takeoff,
+        GuidanceMode::Mission,
+        GuidanceMode::Brake,
+        GuidanceMode::Land,
+        GuidanceMode::NoFix,
+        GuidanceMode::Manual,
+        GuidanceMode::Assist,
+        GuidanceMode::Offboard,
+        GuidanceMode::Return,
+    ];
+
+    /// The mode's code: its index in [`GuidanceMode::ALL`] (the declaration order).
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The mode of code `code`, if any.
+    pub fn from_code(code: u8) -> Option<GuidanceMode> {
+        Self::ALL.get(usize::from(code)).copied()
+    }
+
+    /// The mode named `name` ([`GuidanceMode::as_str`]), if any.
+    pub fn from_name(name: &str) -> Option<GuidanceMode> {
+        Self::ALL.into_iter().find(|m| m.as_str() == name)
+    }
+
+    /// `false` only for [`GuidanceMode::Off`] (motors off): the log's `arming_state`.
+    pub const fn motors_on(self) -> bool {
+        !matches!(self, GuidanceMode::Off)
+    }
+
     /// The variant's name ("Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land",
     /// "NoFix", "Manual", "Assist", "Offboard", "Return").
     pub const fn as_str(self) -> &'static str {

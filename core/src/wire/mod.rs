@@ -9,17 +9,21 @@
 //! - [`codes`]: small codes carried in message fields: flight phase (HEARTBEAT `custom_mode`),
 //!   filter region and flags (`CBF`, `CBF_FLAGS`), active obstacle id, failsafe codes, the
 //!   ODOMETRY yaw quaternion.
+//! - [`modes`]: PX4's `vehicle_status.nav_state` numbers of the flight and guidance modes (the
+//!   ULog of both sides), and the guidance mode a lockstep host infers from the phase.
 //! - [`lockstep`]: the lockstep rule (which HIL_SENSOR runs the outer loop) and the motor
 //!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
 //! - [`battery`]: the host's raw pack reading on the lockstep link (BATTERY_STATUS from the
 //!   host's id: mV, cA).
 //!
 //! Message types themselves come from the `mavlink` crate on both sides (this module is
-//! `no_std` and does not depend on it). May import: [`crate::cbf`] (region codes) and
-//! [`crate::fmath`]; nothing else of the crate (`libm` for rounding).
+//! `no_std` and does not depend on it). May import: [`crate::cbf`] (region codes),
+//! [`crate::fmath`] and the mode types ([`crate::supervisor::modes::FlightMode`],
+//! [`crate::outer::guidance::GuidanceMode`]); nothing else of the crate (`libm` for rounding).
 
 pub mod battery;
 pub mod codes;
 pub mod ids;
 pub mod lockstep;
+pub mod modes;
 pub mod names;

@@ -9,6 +9,7 @@
 
 use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::obstacle::ObstaclePoint;
+pub use parapet_core::outer::guidance::GuidanceMode;
 pub use parapet_core::outer::offboard::OffboardSetpoint;
 use parapet_core::rc::map::RcParams;
 use parapet_core::rc::{RawChannels, RcInput};
@@ -161,6 +162,9 @@ pub struct TelemetrySnapshot {
     pub armed: bool,
     /// Current phase.
     pub phase: FlightPhase,
+    /// The guidance that produced the reference (with `mode`, the log's PX4 `nav_state`:
+    /// `parapet_core::wire::modes::px4_nav_state`).
+    pub guidance: GuidanceMode,
     /// Active failsafe, if any.
     pub failsafe: Option<Failsafe>,
     /// Estimated roll, pitch, yaw (ZYX Euler, FRD w.r.t. NED), rad.
@@ -202,6 +206,7 @@ impl TelemetrySnapshot {
     pub const BOOT: Self = Self {
         armed: false,
         phase: FlightPhase::Disarmed,
+        guidance: GuidanceMode::Off,
         failsafe: None,
         attitude_rpy: Vec3::new(0.0, 0.0, 0.0),
         body_rates_frd: Vec3::new(0.0, 0.0, 0.0),
@@ -378,6 +383,7 @@ pub(crate) mod test_double {
             TelemetrySnapshot {
                 armed: self.armed,
                 phase: if self.armed { FlightPhase::Idle } else { FlightPhase::Disarmed },
+                guidance: if self.armed { GuidanceMode::Ground } else { GuidanceMode::Off },
                 failsafe: self.failsafe,
                 attitude_rpy: Vec3::new(0.1, -0.2, 0.3),
                 body_rates_frd: Vec3::zeros(),

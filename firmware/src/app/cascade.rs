@@ -95,6 +95,7 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
     TelemetrySnapshot {
         armed: t.state.motors_enabled(),
         phase,
+        guidance: t.mode,
         failsafe,
         attitude_rpy: Vec3::new(a.roll, a.pitch, a.yaw),
         body_rates_frd: est.rate,

@@ -19,10 +19,9 @@
 //! May import: [`crate::log::ulog`], [`crate::log::store`], [`crate::app::autopilot`]
 //! (the telemetry snapshot), `parapet_core` (parameters, thrust map).
 
-use parapet_core::cbf::Region;
 use parapet_core::controller::ControllerParams;
 use parapet_core::thrust::{map_acceleration, ThrustParams};
-use parapet_core::wire::codes::FlightPhase;
+use parapet_core::wire::modes::px4_nav_state;
 
 use crate::app::autopilot::TelemetrySnapshot;
 use crate::log::store::LogStore;
@@ -123,26 +122,6 @@ const CBF_STATUS: Topic = Topic {
 
 /// Every topic of an onboard log, in message-id order.
 pub const TOPICS: [Topic; 6] = [LOCAL_POSITION, ATTITUDE, ATTITUDE_SETPOINT, MOTORS, STATUS, CBF_STATUS];
-
-/// PX4 `nav_state` of a flight phase (`vehicle_status.msg` codes).
-fn nav_state(p: FlightPhase) -> u8 {
-    match p {
-        FlightPhase::Mission => 3,
-        FlightPhase::Takeoff => 17,
-        FlightPhase::Landing => 18,
-        _ => 4,
-    }
-}
-
-fn region_code(r: Region) -> u8 {
-    match r {
-        Region::NoObstacle => 0,
-        Region::Far => 1,
-        Region::NominalSafe => 2,
-        Region::Perpendicular => 3,
-        Region::Fault => 4,
-    }
-}
 
 /// PX4 quaternion (w, x, y, z), body FRD → NED, of ZYX Euler angles (`quat_from_euler`: the
 /// sines of `libm::sincosf`, which this function called itself before, bit for bit).
@@ -288,12 +267,16 @@ impl FlightLogger {
         }
         write_data(store, 3, &Record::at(ts).u64(ts).f32s(&control))?;
         let arming = if t.armed { 2 } else { 1 };
-        write_data(store, 4, &Record::at(ts).u8(arming).u8(nav_state(t.phase)).u8(t.phase.code() as u8))?;
+        write_data(
+            store,
+            4,
+            &Record::at(ts).u8(arming).u8(px4_nav_state(t.guidance, t.mode)).u8(t.guidance.code()),
+        )?;
         let f = &t.filter;
         let un = t.setpoint.accel_nominal_ned;
         let r = Record::at(ts)
             .f32s(&[f32::NAN, f.h_bar, f32::NAN])
-            .u8(region_code(f.region))
+            .u8(f.region.code())
             .i32(f.active_id.map(i32::from).unwrap_or(-1))
             .u8(f.n_constraints)
             .u8(u8::from(f.intervened))
@@ -308,12 +291,15 @@ impl FlightLogger {
 pub(crate) mod tests {
     use super::*;
     use crate::log::store::RamRing;
+    use parapet_core::controller::GuidanceMode;
+    use parapet_core::wire::codes::FlightPhase;
     use parapet_core::Vec3;
 
     pub(crate) fn sample(t_us: u64, armed: bool) -> LogSample {
         let mut snapshot = TelemetrySnapshot::BOOT;
         snapshot.armed = armed;
         snapshot.phase = if armed { FlightPhase::Hover } else { FlightPhase::Disarmed };
+        snapshot.guidance = if armed { GuidanceMode::Hold } else { GuidanceMode::Off };
         snapshot.position_ned = Vec3::new(1.0, 2.0, -(t_us as f32) * 1e-6);
         snapshot.attitude_rpy = Vec3::new(0.0, 0.0, 0.5);
         LogSample { t_us, snapshot, motors: [0.4, 0.41, 0.42, 0.43] }
@@ -410,17 +396,66 @@ pub(crate) mod tests {
         check_with_pyulog(&bytes, "onboard", &["25", "51", "1", "2"], "ok: 51 records");
     }
 
+    /// The log's `vehicle_status.nav_state` is PX4's for every flight and guidance mode, read
+    /// with pyulog (`tests/python/check_ulog_modes.py`, PX4's numbers written there on their
+    /// own): Position 2 → Return 5 → Land 18, Mission 3, Offboard 14, Manual 0, takeoff 17, hold 4.
+    #[test]
+    fn pyulog_reads_px4_s_nav_state_for_every_mode() {
+        use parapet_core::supervisor::modes::FlightMode as F;
+        let steps = [
+            (GuidanceMode::Ground, F::Mission),
+            (GuidanceMode::Takeoff, F::Mission),
+            (GuidanceMode::Mission, F::Mission),
+            (GuidanceMode::Hold, F::Hold),
+            (GuidanceMode::Assist, F::Position),
+            (GuidanceMode::Return, F::Return),
+            (GuidanceMode::Land, F::Return),
+            (GuidanceMode::Offboard, F::Offboard),
+            (GuidanceMode::Brake, F::Offboard),
+            (GuidanceMode::Manual, F::Manual),
+            (GuidanceMode::NoFix, F::Land),
+        ];
+        let params = ControllerParams::default();
+        let mut lg = FlightLogger::new(DEFAULT_PERIOD_US, &params, "host-test");
+        let mut store: RamRing<65536, 4> = RamRing::new();
+        let mut t = 1_000_000u64;
+        for (g, m) in steps {
+            for _ in 0..20 {
+                let mut s = sample(t, true);
+                (s.snapshot.guidance, s.snapshot.mode) = (g, m);
+                lg.on_sample(&s, &mut store, |n| parapet_core::params::get(&params, n));
+                t += 10_000;
+            }
+        }
+        lg.on_sample(&sample(t, false), &mut store, |_| None);
+        let info = store.info(0).expect("one log");
+        let mut bytes = std::vec![0u8; info.size as usize];
+        assert_eq!(store.read(info.id, 0, &mut bytes), Ok(bytes.len()));
+        run_pyulog_script(
+            &bytes,
+            "modes",
+            "check_ulog_modes.py",
+            &["3,17,3,4,2,5,18,14,4,0,12"],
+            "nav_state",
+        );
+    }
+
     /// Runs `tests/python/check_onboard_ulog.py FILE ARGS` on `bytes` (a ULog) and asserts it
     /// passes and prints `expect` (skipped loudly without a python with pyulog, see [`python`]).
     pub(crate) fn check_with_pyulog(bytes: &[u8], name: &str, args: &[&str], expect: &str) {
+        run_pyulog_script(bytes, name, "check_onboard_ulog.py", args, expect);
+    }
+
+    /// Runs `tests/python/SCRIPT FILE ARGS` on `bytes` (a ULog) and asserts it passes and prints
+    /// `expect` (skipped loudly without a python with pyulog, see [`python`]).
+    fn run_pyulog_script(bytes: &[u8], name: &str, script: &str, args: &[&str], expect: &str) {
         let Some(py) = python() else { return };
         let dir =
             std::env::temp_dir().join(std::format!("parapet-onboard-ulog-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("onboard.ulg");
         std::fs::write(&path, bytes).expect("write log");
-        let script =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python/check_onboard_ulog.py");
+        let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python").join(script);
         let out =
             std::process::Command::new(py).arg(script).arg(&path).args(args).output().expect("run python");
         let text = std::string::String::from_utf8_lossy(&out.stdout).into_owned()

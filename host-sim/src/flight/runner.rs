@@ -486,6 +486,7 @@ pub fn run_with(
                 u_nominal: out.u_nominal,
                 u_filtered: out.u_filtered,
                 mode: out.mode,
+                flight_mode: out.flight_mode,
                 wind: live.wind(),
                 safety: out.safety,
                 motors: last_throttle,

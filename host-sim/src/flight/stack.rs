@@ -12,7 +12,7 @@
 use anyhow::Result;
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterDiagnostics;
-use parapet_core::controller::Telemetry;
+use parapet_core::controller::{FlightMode, GuidanceMode, Telemetry};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::perception::Range;
 
@@ -43,8 +43,11 @@ pub struct OuterOut {
     pub u_nominal: Vector3<f64>,
     /// Filtered acceleration u (filter output), NED, m/s².
     pub u_filtered: Vector3<f64>,
-    /// Guidance mode of the controller (e.g. "Mission", "Brake").
-    pub mode: &'static str,
+    /// Guidance mode of the controller (e.g. Mission, Brake).
+    pub mode: GuidanceMode,
+    /// Flight mode selected (pilot, ground station, failsafe): with `mode`, the log's PX4
+    /// `nav_state` (`parapet_core::wire::modes::px4_nav_state`).
+    pub flight_mode: FlightMode,
     /// Deadlock and obstacle-set flags (issue 17).
     pub safety: SafetyFlags,
 }
@@ -58,7 +61,8 @@ impl OuterOut {
             path_done: tel.progress.done,
             u_nominal: to_f64(&tel.u_nominal),
             u_filtered: to_f64(&tel.u_filtered),
-            mode: tel.mode.as_str(),
+            mode: tel.mode,
+            flight_mode: tel.flight_mode,
             safety: SafetyFlags {
                 deadlock: tel.robust.deadlock,
                 obstacles_dropped: tel.obstacle_set.dropped,

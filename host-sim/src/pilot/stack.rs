@@ -205,7 +205,7 @@ impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
             setpoint: self.setpoint,
             flight_mode: self.stack.flight_mode(),
             mode_reason: self.stack.mode_reason(),
-            guidance: out.mode,
+            guidance: out.mode.as_str(),
             filter_active: self.stack.filter_active().unwrap_or(out.filter.intervened),
         });
         out

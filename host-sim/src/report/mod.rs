@@ -40,6 +40,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, Context, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
+use parapet_core::controller::{FlightMode, GuidanceMode};
 use serde::Serialize;
 
 use crate::input::Fixed;
@@ -252,7 +253,9 @@ pub struct Sample {
     /// Filtered acceleration u, NED, m/s².
     pub u_filtered: Vector3<f64>,
     /// Controller guidance mode.
-    pub mode: &'static str,
+    pub mode: GuidanceMode,
+    /// Flight mode selected (the ULog's `nav_state` with `mode`).
+    pub flight_mode: FlightMode,
     /// Wind at the vehicle, NED, m/s.
     pub wind: Vector3<f64>,
     /// Deadlock and obstacle-set flags.
@@ -429,7 +432,7 @@ impl TrajectoryRow {
             n_constraints: f.n_constraints,
             unavoidable: u8::from(f.unavoidable),
             infeasible: u8::from(f.infeasible),
-            mode: k.mode,
+            mode: k.mode.as_str(),
             wind_x,
             wind_y,
             wind_z,

@@ -26,8 +26,8 @@
 //! | `vehicle_attitude` | `q[4]` (w, x, y, z; body FRD → NED) |
 //! | `vehicle_attitude_setpoint` | `roll_body pitch_body yaw_body` (rad), `q_d[4]`, `thrust_body[3]` (normalised by `THR_MAX`): recomputed from the filtered `u` with the controller's thrust map (eq. 4-5, `parapet_core::thrust::map_acceleration`) at the measured yaw |
 //! | `actuator_motors` | `timestamp_sample`, `control[12]` (throttle 0..1 of rotors 1-4, NaN for unused outputs as in PX4) |
-//! | `vehicle_status` | `arming_state` (1 disarmed, 2 armed), `nav_state` (PX4 codes: 3 mission, 4 loiter/hold/brake, 17 takeoff, 18 land), `parapet_mode` (the guidance mode, [`MODES`] index) |
-//! | `cbf_status` | `h_bar` (true min h̄, m²), `h_bar_filter` (the filter's own, m²), `clearance` (m), `region` ([`REGIONS`] index), `active_id` (−1 none), `n_constraints`, `intervened`, `unavoidable`, `infeasible`, `u_nominal[3]` (u*, m/s²), `u[3]` (m/s²) |
+//! | `vehicle_status` | `arming_state` (1 disarmed, 2 armed), `nav_state` (PX4's codes of the flight and guidance mode, `parapet_core::wire::modes::px4_nav_state`: 0 manual, 2 position, 3 mission, 4 hold/brake, 5 return, 12 descend (no fix), 14 offboard, 17 takeoff, 18 land), `parapet_mode` (the guidance mode's code, `GuidanceMode::code`: its index in `GuidanceMode::ALL`) |
+//! | `cbf_status` | `h_bar` (true min h̄, m²), `h_bar_filter` (the filter's own, m²), `clearance` (m), `region` (`Region::code`, [`REGIONS`] index), `active_id` (−1 none), `n_constraints`, `intervened`, `unavoidable`, `infeasible`, `u_nominal[3]` (u*, m/s²), `u[3]` (m/s²) |
 //!
 //! May import: `parapet-core` (parameters, thrust map), [`super`] (the samples).
 
@@ -36,10 +36,10 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use nalgebra::{UnitQuaternion, Vector3};
-use parapet_core::cbf::Region;
 use parapet_core::controller::ControllerParams;
 use parapet_core::params::TABLE;
 use parapet_core::thrust::map_acceleration;
+use parapet_core::wire::modes::px4_nav_state;
 
 use super::Sample;
 
@@ -225,8 +225,6 @@ impl<W: Write> ULogWriter<W> {
     }
 }
 
-/// Guidance modes in `vehicle_status.parapet_mode` order.
-pub const MODES: [&str; 8] = ["Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix"];
 /// Filter regions in `cbf_status.region` order.
 pub const REGIONS: [&str; 5] = ["NoObstacle", "Far", "NominalSafe", "Perpendicular", "Fault"];
 
@@ -294,26 +292,6 @@ const CBF_STATUS: Topic = Topic {
 /// Every topic of a flight log, in message-id order.
 pub const FLIGHT_TOPICS: [Topic; 6] =
     [LOCAL_POSITION, ATTITUDE, ATTITUDE_SETPOINT, MOTORS, STATUS, CBF_STATUS];
-
-/// PX4 `nav_state` of a guidance mode (`vehicle_status.msg` codes).
-fn nav_state(mode: &str) -> u8 {
-    match mode {
-        "Mission" => 3,
-        "Takeoff" => 17,
-        "Land" => 18,
-        _ => 4, // Hold, Brake, Ground, Off, NoFix: position hold / loiter
-    }
-}
-
-fn region_code(r: Region) -> u8 {
-    match r {
-        Region::NoObstacle => 0,
-        Region::Far => 1,
-        Region::NominalSafe => 2,
-        Region::Perpendicular => 3,
-        Region::Fault => 4,
-    }
-}
 
 fn quat(roll: f64, pitch: f64, yaw: f64) -> [f32; 4] {
     let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
@@ -387,15 +365,15 @@ pub fn write_flight_ulog(
             let mut control = [f32::NAN; 12];
             control[..4].copy_from_slice(&s.motors);
             w.data(ids[3], &Record::at(ts).u64(ts).f32s(&control))?;
-            let armed = if s.mode == "Off" { 1 } else { 2 };
-            let mode = MODES.iter().position(|m| *m == s.mode).unwrap_or(MODES.len()) as u8;
-            w.data(ids[4], &Record::at(ts).u8(armed).u8(nav_state(s.mode)).u8(mode))?;
+            let armed = if s.mode.motors_on() { 2 } else { 1 };
+            let nav_state = px4_nav_state(s.mode, s.flight_mode);
+            w.data(ids[4], &Record::at(ts).u8(armed).u8(nav_state).u8(s.mode.code()))?;
             let f = &s.filter;
             w.data(
                 ids[5],
                 &Record::at(ts)
                     .f32s(&[s.h_bar as f32, f.h_bar, s.clearance as f32])
-                    .u8(region_code(f.region))
+                    .u8(f.region.code())
                     .i32(f.active_id.map(i32::from).unwrap_or(-1))
                     .u8(f.n_constraints)
                     .u8(u8::from(f.intervened))

@@ -4,8 +4,8 @@
 //! [`GcsStack`] wraps any [`FlightStack`] and speaks MAVLink v2 as system 1, component 1
 //! (the firmware's ids) with what the runner gives a stack:
 //!
-//! * sent: HEARTBEAT (1 Hz; quadrotor, `custom_mode` = guidance-mode index of
-//!   `crate::report::ulog::MODES`, `MAV_MODE_FLAG_CUSTOM_MODE_ENABLED`, `SAFETY_ARMED` +
+//! * sent: HEARTBEAT (1 Hz; quadrotor, `custom_mode` = the selected flight mode in PX4's
+//!   encoding as the firmware sends it (`FlightMode::px4_custom_mode`), `MAV_MODE_FLAG_CUSTOM_MODE_ENABLED`, `SAFETY_ARMED` +
 //!   `AUTO_ENABLED` while armed), LOCAL_POSITION_NED (25 Hz, the latest position fix) and
 //!   POSITION_TARGET_LOCAL_NED (25 Hz: the reference position, the filtered acceleration `u`
 //!   in `afx..afz`), STATUSTEXT on each failsafe-state change;
@@ -45,14 +45,12 @@ use parapet_core::wire::ids::{local_xy_to_wire, AUTOPILOT_COMPONENT_ID, VEHICLE_
 use super::{Bridge, LinkTap};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
+use parapet_core::controller::FlightMode;
 
 /// Telemetry period of LOCAL_POSITION_NED / POSITION_TARGET_LOCAL_NED, µs (25 Hz).
 pub const TELEMETRY_PERIOD_US: u64 = 40_000;
 /// HEARTBEAT period, µs.
 pub const HEARTBEAT_PERIOD_US: u64 = 1_000_000;
-
-/// Guidance modes in `custom_mode` order (the ULog's `parapet_mode`).
-const MODES: [&str; 8] = ["Off", "Ground", "Hold", "Takeoff", "Mission", "Brake", "Land", "NoFix"];
 
 /// A flight stack with a ground-station link (see the module docs).
 pub struct GcsStack<S: FlightStack> {
@@ -208,14 +206,14 @@ impl<S: FlightStack> GcsStack<S> {
         let time_boot_ms = (t_us / 1000) as u32;
         if t_us >= self.next_heartbeat_us {
             self.next_heartbeat_us = t_us + HEARTBEAT_PERIOD_US;
-            let armed = !self.state.eq_ignore_ascii_case("disarmed") && !self.state.is_empty();
-            let mode = self.out.as_ref().map_or("Off", |o| o.mode);
+            let armed = self.out.as_ref().is_some_and(|o| o.mode.motors_on());
+            let mode = self.out.as_ref().map_or(FlightMode::default(), |o| o.flight_mode);
             let mut base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
             if armed {
                 base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
             }
             self.send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-                custom_mode: MODES.iter().position(|m| *m == mode).unwrap_or(MODES.len()) as u32,
+                custom_mode: mode.px4_custom_mode(),
                 mavtype: MavType::MAV_TYPE_QUADROTOR,
                 autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
                 base_mode: base,
@@ -334,7 +332,16 @@ mod tests {
         }
         fn position_fix(&mut self, _: PositionReading) {}
         fn outer(&mut self, _: f64, _: &[ObstaclePoint]) -> OuterOut {
-            unreachable!("not called in this test")
+            OuterOut {
+                reference: Vector3::zeros(),
+                filter: parapet_core::cbf::FilterDiagnostics::new(parapet_core::cbf::Region::NoObstacle),
+                path_done: false,
+                u_nominal: Vector3::zeros(),
+                u_filtered: Vector3::zeros(),
+                mode: parapet_core::controller::GuidanceMode::Hold,
+                flight_mode: FlightMode::Mission,
+                safety: Default::default(),
+            }
         }
         fn inner(&mut self, _: f64, _: &ImuReading) -> [f32; 4] {
             [0.5; 4]
@@ -388,6 +395,8 @@ mod tests {
         gcs.send_to(&req, ("127.0.0.1", port)).expect("send");
         std::thread::sleep(Duration::from_millis(50));
         let imu = ImuReading { gyro: Vector3::zeros(), accel: Vector3::zeros() };
+        // The runner's order: the outer step (armed, holding, Mission selected), then the inner.
+        s.outer(0.0, &[]);
         assert_eq!(s.inner(0.0, &imu), [0.5; 4]);
         let mut got = Vec::new();
         let mut buf = [0u8; 600];
@@ -397,7 +406,8 @@ mod tests {
         let params = got.iter().filter(|m| matches!(m, MavMessage::PARAM_VALUE(_))).count();
         assert_eq!(params, TABLE.len());
         assert!(got.iter().any(|m| matches!(m, MavMessage::HEARTBEAT(hb)
-            if hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED))));
+            if hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+                && hb.custom_mode == FlightMode::Mission.px4_custom_mode())));
         assert!(got.iter().any(|m| matches!(m, MavMessage::LOCAL_POSITION_NED(p) if p.z == -3.0)));
         assert!(got.iter().any(|m| matches!(m, MavMessage::COMMAND_ACK(a)
             if a.result == MavResult::MAV_RESULT_UNSUPPORTED && a.command == MavCmd::MAV_CMD_COMPONENT_ARM_DISARM)));

@@ -20,6 +20,7 @@ use parapet_core::controller::{FlightMode, GuidanceMode};
 use parapet_core::waypoint::PathSample;
 use parapet_core::wire::battery::{battery_from_wire, BatteryWire};
 use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
+use parapet_core::wire::modes::guidance_of_phase;
 use parapet_core::wire::names;
 use serde::Serialize;
 
@@ -228,7 +229,9 @@ impl FirmwareTelemetry {
             path_done: s.progress.done,
             u_nominal: f.u_nominal,
             u_filtered: f.u_filtered,
-            mode: phase_mode(self.phase),
+            mode: FlightPhase::from_code(self.phase)
+                .map_or(GuidanceMode::Off, |p| guidance_of_phase(p, self.mode)),
+            flight_mode: self.mode.unwrap_or_default(),
             // Not carried by the link's filter message.
             safety: crate::report::SafetyFlags::default(),
         }
@@ -385,22 +388,6 @@ pub(super) fn figures(
     f
 }
 
-/// Guidance mode name (the core's `GuidanceMode::as_str`, as the in-process controller reports it)
-/// for a HEARTBEAT phase.
-fn phase_mode(phase: u32) -> &'static str {
-    let mode = match FlightPhase::from_code(phase) {
-        Some(FlightPhase::Disarmed) => GuidanceMode::Off,
-        Some(FlightPhase::Idle) => GuidanceMode::Ground,
-        Some(FlightPhase::Takeoff) => GuidanceMode::Takeoff,
-        Some(FlightPhase::Hover) => GuidanceMode::Hold,
-        Some(FlightPhase::Mission) => GuidanceMode::Mission,
-        Some(FlightPhase::Landing) => GuidanceMode::Land,
-        Some(FlightPhase::Failsafe) => GuidanceMode::Brake,
-        None => return "Unknown",
-    };
-    mode.as_str()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -450,7 +437,8 @@ mod tests {
         assert_eq!(out.filter.h_bar, 0.25);
         assert!(out.filter.intervened && out.filter.infeasible && !out.filter.unavoidable);
         assert_eq!(out.filter.n_constraints, 2);
-        assert_eq!(out.mode, GuidanceMode::Mission.as_str());
+        // Phase Mission with Return selected: flying back (the phase merges the two).
+        assert_eq!(out.mode, GuidanceMode::Return);
         // A non-finite region code is a fault, never a benign region.
         let bad = DEBUG_VECT_DATA { name: name(names::CBF), y: f32::NAN, z: -1.0, ..Default::default() };
         observe(&MavMessage::DEBUG_VECT(bad), 0, &mut t, &mut fig);
@@ -554,14 +542,5 @@ mod tests {
         };
         observe(&MavMessage::SYS_STATUS(none), 4_500_000, &mut t, &mut fig);
         assert_eq!((fig.battery.sys_status_voltage_v, fig.battery.sys_status_current_a), (None, None));
-    }
-
-    #[test]
-    fn every_phase_has_a_guidance_mode_name() {
-        for p in FlightPhase::ALL {
-            assert_ne!(phase_mode(p.code()), "Unknown", "{p:?}");
-        }
-        assert_eq!(phase_mode(99), "Unknown");
-        assert_eq!(phase_mode(FlightPhase::Failsafe.code()), GuidanceMode::Brake.as_str());
     }
 }
