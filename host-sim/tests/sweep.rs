@@ -534,3 +534,28 @@ fn a_closed_stdout_is_not_a_panic() {
     }
     assert!(d.join("merged").join("sweep.csv").exists());
 }
+
+/// `--param NAME=VALUE` sets a parameter for every run (issue 37): the rows change, the manifest
+/// records it, shards flown with other parameters do not merge, bad names exit 2.
+#[test]
+fn a_parameter_set_by_name_applies_to_every_run_and_decides_the_identity() {
+    let d = tmp("param");
+    let plain = shards(&d, "a", "scenes/one_sphere.toml", 2, &[1, 2], &[]);
+    let heavy = shards(&d, "h", "scenes/one_sphere.toml", 2, &[2], &["--param", "VEH_MASS=0.55"]);
+    let rows = |dir: &str| read_csv(&Path::new(dir).join("sweep.csv"));
+    let ((head, a), (_, b)) = (rows(&plain[1]), rows(&heavy[0]));
+    let rms = head.iter().position(|c| c == "tracking_rms_m").unwrap();
+    assert_eq!(a.len(), b.len());
+    assert!(a.iter().zip(&b).all(|(x, y)| x[rms] != y[rms]), "the controller's mass changed no run");
+    let manifest = std::fs::read_to_string(Path::new(&heavy[0]).join("sweep.json")).unwrap();
+    assert!(manifest.contains("\"VEH_MASS\""), "{manifest}");
+    let out = d.join("merged").display().to_string();
+    let r = merge(&[&plain[0], &heavy[0], "--out", &out]);
+    assert_eq!(r.status.code(), Some(2), "{}", err(&r));
+    assert!(err(&r).contains("params"), "{}", err(&r));
+    let o = d.join("bad");
+    let r =
+        sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.9", "--delta1", "0.1", "--param", "NO_SUCH=1"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("NO_SUCH"), "{}", err(&r));
+}

@@ -5,7 +5,8 @@
 //! seed = 1                    # campaign seed: flight i's draws depend only on (seed, i)
 //! flights = 200
 //! [run]                       # `parapet run` options every flight gets (optional)
-//! filter = "multi-relative"   #   filter, yaw_mode, noise (bool), no_cbf (bool), duration, sensing_range
+//! filter = "multi-relative"   #   filter, yaw_mode, noise (bool), no_cbf (bool), duration, sensing_range,
+//! PA_SPEED_MAX = 3.0          #   or any parameter by its name (`--param NAME=VALUE`)
 //! [[scenes]]                  # flight i flies scenes[i mod n]
 //! file = "../office.toml"     # relative to the campaign file
 //! path = "../office_path.json"  # optional; or straight = true; else the planner (flight seed)
@@ -14,6 +15,7 @@
 //! mass = { normal = [1.0, 0.1], min = 0.8, max = 1.2 }
 //! motor_tau = { log_uniform = [0.5, 2.0] }
 //! fix_dropout_length = { fixed = 0.2 }
+//! CBF_ACC_BOUND = { uniform = [0.5, 2.0] }   # any parameter by name: `--param NAME=x`
 //! ```
 //!
 //! Quantities ([`QUANTITIES`]): wind (`wind_speed` m/s, `wind_direction_deg` from,
@@ -24,7 +26,10 @@
 //! (`rotor_drag_kd`, `rotor_drag_kz`, `parasitic_drag`: absolute), a rotor fault
 //! (`rotor_fault_factor`, `rotor_fault_time`, `rotor_fault_rotor` rounded to 1..4),
 //! every `[faults]` field, and the controller's `mu`, `delta`, `delta1`, `kp`, `kd`,
-//! `speed` (passed as `parapet run` options).
+//! `speed` (passed as `parapet run` options); and any parameter of the table by its name
+//! (`parapet params export`), passed as `--param NAME=x`: a drawn parameter must be continuous
+//! (not a code) and its distribution's support (uniform, log-uniform bounds; normal's min and
+//! max, which must then be given) inside the parameter's range, checked when the file is read.
 //!
 //! Determinism: each quantity of flight i is drawn from its own ChaCha8 stream
 //! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
@@ -231,6 +236,31 @@ fn parse_dist(file: &Path, name: &str, v: &toml::Value) -> Result<Dist, InputErr
     }
 }
 
+/// A parameter drawn by name: continuous, every value the distribution can give in its range.
+fn check_param_dist(
+    file: &Path,
+    name: &str,
+    v: &toml::Value,
+    p: &parapet_core::params::Param,
+    d: &Dist,
+) -> Result<(), InputError> {
+    let err = |reason: &str| bad(file, "draw", name, reason).value(v.to_string());
+    let (lo, hi) = match *d {
+        Dist::Fixed(x) => (x, x),
+        Dist::Uniform(a, b) | Dist::LogUniform(a, b) => (a, b),
+        Dist::Normal(_, _, lo, hi) => (lo, hi),
+    };
+    if p.integer && !matches!(d, Dist::Fixed(_)) {
+        return Err(err("a code parameter can only be fixed").allowed("{ fixed = x } or a number"));
+    }
+    let inside = |x: f64| x.is_finite() && p.check(x as f32).is_ok();
+    if !(inside(lo) && inside(hi)) {
+        return Err(err("draws outside the parameter's range (normal: give min and max)")
+            .allowed(p.range().to_string()));
+    }
+    Ok(())
+}
+
 impl Campaign {
     /// Read and check a campaign file.
     pub fn load(path: &Path) -> Result<Campaign, InputError> {
@@ -291,8 +321,18 @@ impl Campaign {
                             .ok_or_else(|| f("not a number"))?;
                         run_args.extend([format!("--{}", k.replace('_', "-")), format!("{x}")]);
                     }
+                    (name, v) if parapet_core::params::index_of(name).is_some() => {
+                        let x = v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+                        let a = crate::cli::params::parse_assignment(&format!(
+                            "{name}={}",
+                            x.unwrap_or(f64::NAN)
+                        ))
+                        .map_err(|e| f("not a value of the parameter").allowed(e.to_string()))?;
+                        run_args.extend(["--param".into(), format!("{}={}", a.0.name, a.1)]);
+                    }
                     _ => return Err(f("unknown key or wrong type").allowed(
-                        "filter, yaw_mode (string), noise, no_cbf (bool), duration, sensing_range (number)",
+                        "filter, yaw_mode (string), noise, no_cbf (bool), duration, sensing_range (number), \
+                         a parameter name (number)",
                     )),
                 }
             }
@@ -332,10 +372,18 @@ impl Campaign {
         if let Some(d) = table.get("draw") {
             let d = d.as_table().ok_or_else(|| top("draw", "not a table"))?;
             for (k, v) in d {
-                if !QUANTITIES.contains(&k.as_str()) {
-                    return Err(bad(path, "draw", k, "unknown quantity").allowed(QUANTITIES.join(", ")));
+                let param = parapet_core::params::index_of(k).map(|i| &parapet_core::params::TABLE[i]);
+                if !QUANTITIES.contains(&k.as_str()) && param.is_none() {
+                    return Err(bad(path, "draw", k, "unknown quantity").allowed(format!(
+                        "{}, or a parameter name of `parapet params export`",
+                        QUANTITIES.join(", ")
+                    )));
                 }
-                draw.insert(k.clone(), parse_dist(path, k, v)?);
+                let dist = parse_dist(path, k, v)?;
+                if let Some(p) = param {
+                    check_param_dist(path, k, v, p, &dist)?;
+                }
+                draw.insert(k.clone(), dist);
             }
         }
         Ok(Campaign {
@@ -372,6 +420,11 @@ impl Campaign {
         for q in ["mu", "delta", "delta1", "kp", "kd", "speed"] {
             if let Some(x) = values.get(q) {
                 args.extend([format!("--{q}"), format!("{x}")]);
+            }
+        }
+        for (name, x) in &values {
+            if parapet_core::params::index_of(name).is_some() {
+                args.extend(["--param".into(), format!("{name}={x}")]);
             }
         }
         FlightDraw { index: i, scene, seed, values, args }
@@ -463,6 +516,42 @@ mod tests {
 
     fn scene_dir() -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
+    }
+
+    #[test]
+    fn any_parameter_by_name_is_set_or_drawn_and_checked_against_its_range() {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-param-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sc = scene_dir().join("one_sphere.toml");
+        let head =
+            format!("flights = 10\n[[scenes]]\nfile = {:?}\nstraight = true\n", sc.display().to_string());
+        let text =
+            format!("{head}[run]\nPA_SPEED_MAX = 3\n[draw]\nCBF_ACC_BOUND = {{ uniform = [0.5, 2.0] }}\n");
+        let c = Campaign::load(&write(&dir, "p.toml", &text)).unwrap_or_else(|e| panic!("{e}"));
+        for i in 0..10 {
+            let f = c.flight(i);
+            let x = f.values["CBF_ACC_BOUND"];
+            assert!((0.5..=2.0).contains(&x));
+            assert!(f.args.windows(2).any(|w| w == ["--param", "PA_SPEED_MAX=3"]), "{:?}", f.args);
+            let drawn = format!("CBF_ACC_BOUND={x}");
+            assert!(f.args.windows(2).any(|w| w[0] == "--param" && w[1] == drawn), "{:?}", f.args);
+            // The flight's options are `parapet run`'s: they parse and set the parameter.
+            let (_, cfg) = crate::cli::run_config_from_args(&f.args).unwrap_or_else(|e| panic!("{e}"));
+            assert!((cfg.accel_bound - x).abs() < 1e-6, "{} vs {x}", cfg.accel_bound);
+            assert_eq!(cfg.param_overrides, vec![("PA_SPEED_MAX", 3.0f32)]);
+        }
+        for (bad, field) in [
+            ("[run]\nPA_SPEED_MAX = 30\n", "PA_SPEED_MAX"),
+            ("[run]\nPA_SPEED_MAX = \"fast\"\n", "PA_SPEED_MAX"),
+            ("[draw]\nCBF_ACC_BOUND = { uniform = [0.5, 200.0] }\n", "CBF_ACC_BOUND"),
+            ("[draw]\nCBF_ACC_BOUND = { normal = [1.0, 0.2] }\n", "CBF_ACC_BOUND"),
+            ("[draw]\nCBF_VARIANT = { uniform = [0.0, 3.0] }\n", "CBF_VARIANT"),
+            ("[draw]\nNO_SUCH = 1.0\n", "NO_SUCH"),
+        ] {
+            let e =
+                Campaign::load(&write(&dir, "bad.toml", &format!("{head}{bad}"))).unwrap_err().to_string();
+            assert!(e.contains(field), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -157,6 +157,17 @@ pub struct RunArgs {
     out: Option<PathBuf>,
     #[command(flatten)]
     disturb: crate::sim::disturbance::args::DisturbanceArgs,
+    /// Set any controller parameter by name (repeatable), e.g. `--param PA_SPEED_MAX=3`: the
+    /// names, units and ranges are `parapet params export`'s and `cargo xtask params`' (docs/
+    /// cascade.md). A parameter with a scene key (CBF_MU: `mu`, WP_SPEED: `speed`, …) acts as
+    /// that `[controller]` key, over the scene's value; its own option (`--mu`, `--speed`) wins
+    /// over both. Unknown name or out-of-range value: exit 2 naming it and the range.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    param: Vec<String>,
+    /// A QGroundControl parameter file (`.params`, as `parapet params export` or QGC's "Save to
+    /// file" writes it), applied like `--param` for each line before the `--param` options.
+    #[arg(long = "params", value_name = "FILE")]
+    params_file: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -471,6 +482,15 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     if a.foreign_path && a.path.is_none() {
         return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
     }
+    // --params FILE, then --param NAME=VALUE: the keyed ones as the scene's [controller] keys.
+    let mut overrides = Vec::new();
+    for (p, x) in params::assignments(a.params_file.as_deref(), &a.param)? {
+        if p.key.is_some() {
+            scene.apply_param(p, x).map_err(|e| InputError::option("param", e).field(p.name).value(x))?;
+        } else {
+            overrides.push((p.name, x as f32));
+        }
+    }
     if let Some(s) = positive("speed", a.speed)? {
         scene.speed = s;
     }
@@ -504,6 +524,7 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     a.disturb.apply(&mut cfg.disturbances, &scene.vehicle)?;
     cfg.path_source = source.into();
     cfg.planning_time_ms = planning_ms;
+    cfg.param_overrides = overrides;
     cfg.cbf = !a.no_cbf;
     if let Some(v) = a.filter {
         cfg.variant = v;
@@ -543,6 +564,16 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         cfg.sensors.noise = true;
     }
     cfg.seed = a.seed;
+    if let (false, Ok(cbf)) = (cfg.param_overrides.is_empty(), cfg.cbf_params()) {
+        // The cross-parameter rules (docs/cascade.md) on the whole set the controller gets,
+        // before the checks below name the scene for what a --param changed.
+        let set = crate::flight::runner::controller_params(&scene, &cfg, cbf, cfg.variant);
+        set.validate().map_err(|e| {
+            InputError::option("param", "the parameter set is inconsistent")
+                .value(format!("{e:?}"))
+                .allowed("a consistent set (docs/cascade.md, the parameter table's cross-parameter rules)")
+        })?;
+    }
     // Every setting against the core's limits and the caps, naming its origin.
     crate::flight::validate::check_run(&scene, &cfg, &given(a)?)?;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;

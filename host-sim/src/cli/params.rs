@@ -87,6 +87,23 @@ pub fn to_qgc(p: &ControllerParams) -> String {
 /// checked. Errors name the line, field, value and allowed values.
 pub fn from_qgc(text: &str, source: &str) -> Result<ControllerParams, InputError> {
     let mut p = ControllerParams::default();
+    for (name, v) in entries_of_qgc(text, source)? {
+        params::set(&mut p, name, v)
+            .map_err(|_| InputError::file(source, "value refused").field(name).value(v))?;
+    }
+    p.validate().map_err(|e| {
+        InputError::file(source, "the parameter set is inconsistent").value(format!("{e:?}")).allowed(
+            "a consistent set (see `parapet run --help` and docs/cascade.md for the cross-parameter rules)",
+        )
+    })?;
+    Ok(p)
+}
+
+/// The `(name, value)` lines of a `.params` text (`source` names it in errors), in file order,
+/// each checked: the vehicle's system and component, a known name given once, a type, a value
+/// in the parameter's range. Errors name the line, field, value and allowed values.
+pub fn entries_of_qgc(text: &str, source: &str) -> Result<Vec<(&'static str, f32)>, InputError> {
+    let mut out = Vec::new();
     let mut seen = vec![false; TABLE.len()];
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
@@ -137,15 +154,54 @@ pub fn from_qgc(text: &str, source: &str) -> Result<ControllerParams, InputError
             return Err(at("parameter given twice").field(name).value(f[3]).allowed("each name once"));
         }
         seen[idx] = true;
-        params::set(&mut p, name, v)
-            .map_err(|_| at("value refused").field(name).value(f[3]).allowed(d.range().to_string()))?;
+        out.push((d.name, v));
     }
-    p.validate().map_err(|e| {
-        InputError::file(source, "the parameter set is inconsistent").value(format!("{e:?}")).allowed(
-            "a consistent set (see `parapet run --help` and docs/cascade.md for the cross-parameter rules)",
-        )
-    })?;
-    Ok(p)
+    Ok(out)
+}
+
+/// One `--param NAME=VALUE`: the parameter (by its name in `cargo xtask params`) and the value
+/// as written, checked against the parameter's range (in `f32`, as the controller holds it).
+/// Errors name the option, the name or value and the range.
+pub fn parse_assignment(s: &str) -> Result<(&'static params::Param, f64), InputError> {
+    let opt = |why: &str| InputError::option("param", why);
+    let Some((name, value)) = s.split_once('=') else {
+        return Err(opt("expected NAME=VALUE").value(s).allowed("e.g. --param PA_SPEED_MAX=3"));
+    };
+    let name = name.trim();
+    let Some(idx) = params::index_of(name) else {
+        return Err(opt("unknown parameter")
+            .field(name)
+            .allowed("a name of `cargo xtask params` / `parapet params export` (e.g. PA_SPEED_MAX)"));
+    };
+    let d = &TABLE[idx];
+    let v = value.trim().parse::<f64>().ok().filter(|v| v.is_finite() && d.check(*v as f32).is_ok());
+    let Some(v) = v else {
+        let what = if d.integer { format!("{} (a whole number)", d.range()) } else { d.range().to_string() };
+        return Err(opt("value out of range").field(d.name).value(value.trim()).allowed(what));
+    };
+    Ok((d, v))
+}
+
+/// The parameter assignments of a run: the `.params` file's lines (`--params FILE`) first, then
+/// each `--param NAME=VALUE` in order (a later one wins).
+pub fn assignments(
+    file: Option<&Path>,
+    given: &[String],
+) -> Result<Vec<(&'static params::Param, f64)>, CliError> {
+    let mut out = Vec::new();
+    if let Some(f) = file {
+        if !f.is_file() {
+            return Err(InputError::option("params", "not a file").value(f.display()).into());
+        }
+        for (name, v) in entries_of_qgc(&read(f)?, &f.display().to_string())? {
+            let Some(i) = params::index_of(name) else { continue };
+            out.push((&TABLE[i], f64::from(v)));
+        }
+    }
+    for s in given {
+        out.push(parse_assignment(s)?);
+    }
+    Ok(out)
 }
 
 fn read(path: &Path) -> Result<String, CliError> {

@@ -130,6 +130,10 @@ pub struct RunConfig {
     /// Obstacle memory parameters (`PCP_*`; the scene's `[controller]` `mem_*` and
     /// `fov_margin`, else the core's defaults): used by range-sensor perception only.
     pub memory: MemoryParams,
+    /// Parameters set by name (`--param NAME=VALUE`, `--params FILE`) that have no field of
+    /// their own here: written through the parameter table onto [`controller_params`]'s set,
+    /// in order (each value checked against its range when it was given).
+    pub param_overrides: Vec<(&'static str, f32)>,
 }
 
 impl RunConfig {
@@ -174,6 +178,7 @@ impl RunConfig {
             perception: None,
             battery: scene.battery.clone(),
             memory: memory_params(c)?,
+            param_overrides: Vec::new(),
         })
     }
 
@@ -236,8 +241,24 @@ pub fn default_delta(hull_radius: f64) -> f64 {
 }
 
 /// The controller parameters of a run: defaults of the core with the scene's
-/// vehicle and the run's tracking / filter / speed settings.
+/// vehicle and the run's tracking / filter / speed settings, then the parameters set by name
+/// ([`RunConfig::param_overrides`]).
 pub fn controller_params(
+    scene: &Scene,
+    cfg: &RunConfig,
+    cbf: CbfParams,
+    variant: FilterVariant,
+) -> ControllerParams {
+    let mut p = run_controller_params(scene, cfg, cbf, variant);
+    for (name, v) in &cfg.param_overrides {
+        // Checked against the parameter's range when given (`cli::params::parse_assignment`),
+        // so the table takes it; a name or value it refuses would leave the set unchanged.
+        let _ = parapet_core::params::set(&mut p, name, *v);
+    }
+    p
+}
+
+fn run_controller_params(
     scene: &Scene,
     cfg: &RunConfig,
     cbf: CbfParams,
@@ -606,6 +627,7 @@ pub fn run_with(
         path_source: cfg.path_source.clone(),
         path_waypoints: cfg.path.len(),
         params: cfg.params.clone(),
+        params_set: cfg.param_overrides.iter().map(|(n, v)| ((*n).to_string(), *v)).collect(),
         final_controller_state: ctrl.state_name(),
         seed: cfg.seed,
         noise: cfg.sensors.noise,

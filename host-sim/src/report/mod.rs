@@ -155,6 +155,10 @@ pub struct Summary {
     pub path_waypoints: usize,
     /// Controller parameters.
     pub params: RunParams,
+    /// Parameters set by name (`--param`, `--params`) beyond `params` and the scene's
+    /// `[controller]` keys: name → value flown (absent when none was set).
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub params_set: std::collections::BTreeMap<String, f32>,
     /// Failsafe state of the controller at the end of the run (normally "Armed").
     pub final_controller_state: String,
     /// Random seed (sensor noise; planner).

@@ -68,6 +68,10 @@ pub struct Identity {
     pub speed: GridRange,
     /// Seed count K (seeds 0..K).
     pub seeds: u64,
+    /// Parameters set by name for every run (`--param`, `--params`): name → value as given
+    /// (absent when none; a keyed one that the grid sets, μ, δ1 or the speed, is the grid's).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub params: std::collections::BTreeMap<String, f64>,
 }
 
 impl Identity {
@@ -80,9 +84,10 @@ impl Identity {
     pub fn first_difference(&self, other: &Identity) -> Option<(String, String, String)> {
         let (a, b) = (serde_json::to_value(self).ok()?, serde_json::to_value(other).ok()?);
         let (a, b) = (a.as_object()?, b.as_object()?);
-        a.iter().find_map(|(k, va)| {
-            let vb = b.get(k).cloned().unwrap_or_default();
-            (*va != vb).then(|| (k.clone(), va.to_string(), vb.to_string()))
+        // Every key of either side: a field one side leaves out (`params`) is null there.
+        a.keys().chain(b.keys().filter(|k| !a.contains_key(*k))).find_map(|k| {
+            let (va, vb) = (a.get(k).cloned().unwrap_or_default(), b.get(k).cloned().unwrap_or_default());
+            (va != vb).then(|| (k.clone(), va.to_string(), vb.to_string()))
         })
     }
 }
@@ -246,6 +251,7 @@ mod tests {
             delta1: GridRange::parse("0.06:0.3:2").unwrap(),
             speed: GridRange::parse("0.25").unwrap(),
             seeds: 1,
+            params: Default::default(),
         }
     }
 

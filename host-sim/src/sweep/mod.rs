@@ -172,6 +172,13 @@ pub struct SweepArgs {
     /// Output directory.
     #[arg(long, default_value = "out/sweep")]
     pub out: PathBuf,
+    /// Set any controller parameter by name for every run (repeatable), as `parapet run
+    /// --param NAME=VALUE`; the grid's μ, δ1 and speed win over CBF_MU, CBF_DELTA1, WP_SPEED.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub param: Vec<String>,
+    /// A QGroundControl `.params` file for every run, as `parapet run --params`.
+    #[arg(long = "params", value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
 }
 
 fn bad(m: impl Into<String>) -> CliError {
@@ -546,7 +553,19 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let cpus = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let jobs = a.jobs.unwrap_or(cpus.min(SWEEP_MAX_JOBS));
     // Loaded first: the loader checks the file (size cap included) before we hash it.
-    let scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
+    let mut scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
+    // --params FILE, then --param NAME=VALUE, as `parapet run` applies them.
+    let assigned = crate::cli::params::assignments(a.params_file.as_deref(), &a.param)?;
+    let mut overrides = Vec::new();
+    for &(p, x) in &assigned {
+        if p.key.is_some() {
+            scene
+                .apply_param(p, x)
+                .map_err(|e| bad_input(InputError::option("param", e).field(p.name).value(x)))?;
+        } else {
+            overrides.push((p.name, x as f32));
+        }
+    }
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
     let speed = a.speed.clone().unwrap_or(GridRange { start: scene.speed, end: scene.speed, n: 1 });
@@ -578,6 +597,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let mut base =
         RunConfig::for_scene(&scene, path).map_err(|err| bad(format!("{}: {err:#}", scene.source)))?;
     base.path_source = source.into();
+    base.param_overrides = overrides;
     if let Some(v) = a.filter {
         base.variant = v;
     }
@@ -636,6 +656,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         delta1: a.delta1.clone(),
         speed,
         seeds: a.seeds,
+        params: assigned.iter().map(|(p, x)| (p.name.to_string(), *x)).collect(),
     };
     let setup = SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration, given };
     // What the grid does not change must pass for the first run; a refusal about

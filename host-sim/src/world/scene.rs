@@ -101,6 +101,16 @@ impl From<SceneError> for InputError {
 }
 
 impl Scene {
+    /// Sets parameter `p` (one with a `[controller]` key) to `x` as the scene's `[controller]`
+    /// table would (`--param NAME=VALUE`; `speed` then is the reference speed, as at load).
+    pub fn apply_param(&mut self, p: &parapet_core::params::Param, x: f64) -> Result<(), String> {
+        self.controller.set_param(p, x)?;
+        if let Some(s) = self.controller.speed {
+            self.speed = s;
+        }
+        Ok(())
+    }
+
     /// Read and validate a scene file (at most `MAX_INPUT_FILE_BYTES`).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let file = path.display().to_string();

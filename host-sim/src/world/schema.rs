@@ -208,6 +208,28 @@ impl<T: Shown> Shown for &T {
 }
 
 impl ControllerOverrides {
+    /// Sets the field of parameter `p`'s key (`[controller] key = x`, as `--param NAME=x` asks):
+    /// the number, or, for a key that takes a name (`filter`, `yaw_mode`), the name of code `x`
+    /// from the table. Through the table's key and serde, so no field is named here. `Err` when
+    /// `p` has no key or the field takes neither.
+    pub fn set_param(&mut self, p: &parapet_core::params::Param, x: f64) -> Result<(), String> {
+        let key = p.key.ok_or_else(|| format!("{} has no [controller] key", p.name))?;
+        let mut table = match toml::Value::try_from(&*self) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => return Err("internal: [controller] is not a table".into()),
+        };
+        table.insert(key.into(), toml::Value::Float(x));
+        if let Ok(c) = toml::Value::Table(table.clone()).try_into::<ControllerOverrides>() {
+            *self = c;
+            return Ok(());
+        }
+        let name = p.label.and_then(|l| l(x as i32)).ok_or_else(|| format!("{key} = {x}: no such code"))?;
+        table.insert(key.into(), toml::Value::String(name.into()));
+        *self =
+            toml::Value::Table(table).try_into::<ControllerOverrides>().map_err(|e| format!("{key}: {e}"))?;
+        Ok(())
+    }
+
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
     /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
     /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys).
