@@ -1,5 +1,5 @@
-//! Run report: `summary.json`, `trajectory.csv`, plots (SVG and PNG) and a
-//! short summary table on stdout.
+//! Run report: `summary.json`, `trajectory.csv`, plots (SVG and PNG), the 3D replay page
+//! `replay.html` ([`replay`]) and a short summary table on stdout.
 //!
 //! Everything written here is in the file/plot frame **ENU** (x east, y
 //! north, z up, m; accelerations m/s² in ENU too); attitude angles are the
@@ -32,6 +32,7 @@
 //! drawn in the plots), plotters, serde.
 
 mod plots;
+pub mod replay;
 pub mod ulog;
 
 use std::fmt::Write as _;
@@ -299,6 +300,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
         dir.join("trajectory.csv"),
         dir.join(ulog::FLIGHT_LOG),
         dir.join(RANGES_CSV),
+        dir.join(replay::REPLAY_HTML),
     ];
     for name in PLOTS {
         v.push(dir.join(format!("{name}.svg")));
@@ -307,7 +309,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Write `summary.json`, `trajectory.csv` and the plots into `dir` (created if
+/// Write `summary.json`, `trajectory.csv`, `replay.html` and the plots into `dir` (created if
 /// needed). Returns the files written; a plot that fails (e.g. no usable font)
 /// is reported in the returned warnings instead of failing the run.
 pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<String>)> {
@@ -339,6 +341,9 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
             .with_context(|| format!("cannot write {}", path.display()))?;
         files.push(path);
     }
+    let page_path = dir.join(replay::REPLAY_HTML);
+    replay::write_replay(&page_path, rec).with_context(|| format!("cannot write {}", page_path.display()))?;
+    files.push(page_path);
     let mut warnings = Vec::new();
     for name in PLOTS {
         match plots::plot_both(dir, name, rec) {
