@@ -1,8 +1,9 @@
 //! `cargo xtask <command>`: project automation that does its own set-up.
 //!
 //! * `cargo xtask test` — the README's test command: installs what it needs
-//!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` via
-//!   apt-get when missing and root), runs every host test, builds
+//!   (the `thumbv7em-none-eabihf` target via rustup; `qemu-system-arm` and `chromium` (the
+//!   headless browser of the replay-page test) via apt-get when missing and root), runs every
+//!   host test, builds
 //!   `parapet-core` and the firmware for Cortex-M4F in release, checks the
 //!   firmware's flash/RAM budget (F405 ≤ 201 KiB / 32 KiB, with the excess over the 128 KiB target printed; the MATEKH743 image ≤ 256 KiB /
 //!   64 KiB), checks `parapet_core::fmath` on the Cortex-M4F in QEMU bit for
@@ -140,27 +141,41 @@ fn is_root() -> bool {
 /// Make sure `qemu-system-arm` is on PATH: apt-get install it when root, else stop
 /// with the exact command to run.
 fn ensure_qemu() -> Result<(), String> {
-    let have = || Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    ensure_apt("qemu-system-arm", "qemu-system-arm")
+}
+
+/// Make sure Debian's `chromium` runs (the headless browser of `host-sim/tests/replay_page.rs`,
+/// which looks at the report's `replay.html`): apt-get install it when root, else stop with the
+/// exact command to run. Returns the binary for `PARAPET_CHROMIUM`.
+fn ensure_chromium() -> Result<PathBuf, String> {
+    ensure_apt("chromium", "chromium")?;
+    let usr = PathBuf::from("/usr/bin/chromium");
+    Ok(if usr.is_file() { usr } else { PathBuf::from("chromium") })
+}
+
+/// Make sure `program --version` runs: apt-get install `package` when root, else stop with the
+/// exact command to run.
+fn ensure_apt(program: &str, package: &str) -> Result<(), String> {
+    let have = || Command::new(program).arg("--version").output().is_ok_and(|o| o.status.success());
     if have() {
         return Ok(());
     }
     if !is_root() {
-        return Err(
-            "qemu-system-arm is missing; run: sudo apt-get update && sudo apt-get install -y qemu-system-arm"
-                .into(),
-        );
+        return Err(format!(
+            "{program} is missing; run: sudo apt-get update && sudo apt-get install -y {package}"
+        ));
     }
     run("apt-get update", Command::new("apt-get").args(["update", "-qq"]))?;
     run(
-        "install qemu-system-arm",
+        &format!("install {package}"),
         Command::new("apt-get")
-            .args(["install", "-y", "-qq", "--no-install-recommends", "qemu-system-arm"])
+            .args(["install", "-y", "-qq", "--no-install-recommends", package])
             .env("DEBIAN_FRONTEND", "noninteractive"),
     )?;
     if have() {
         Ok(())
     } else {
-        Err("qemu-system-arm still not runnable after apt-get install".into())
+        Err(format!("{program} still not runnable after apt-get install"))
     }
 }
 
@@ -339,6 +354,8 @@ fn test() -> Result<(), String> {
     // ELF in qemu-system-arm: both are needed first.
     ensure_qemu()?;
     let qemu_elf = build_qemu_firmware()?;
+    // The headless browser that looks at the report's replay.html (host-sim/tests/replay_page.rs).
+    let chromium = ensure_chromium()?;
     // The ground-station clients (pymavlink, pyulog, MAVProxy, mavsdk) of tests/tests/gcs_clients.rs.
     let python = venv::ensure()?;
     let cases = std::env::var("PARAPET_PROPTEST_CASES").unwrap_or_else(|_| "10000".into());
@@ -350,7 +367,8 @@ fn test() -> Result<(), String> {
             .env("PARAPET_PROPTEST_CASES", &cases)
             .env("PROPTEST_RNG_SEED", &seed)
             .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf)
-            .env("PARAPET_PYTHON", &python),
+            .env("PARAPET_PYTHON", &python)
+            .env("PARAPET_CHROMIUM", &chromium),
     )?;
     slurm_test()?;
     run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
