@@ -67,8 +67,8 @@
   }
 
   // Obstacles, as the scene file has them (ENU); moving ones follow their motion.
-  var obstacleMat = new THREE.MeshStandardMaterial({ color: 0x8c9db3, roughness: 0.85, transparent: true, opacity: 0.88 });
-  var movingMat = new THREE.MeshStandardMaterial({ color: 0xb38cb0, roughness: 0.85, transparent: true, opacity: 0.88 });
+  var obstacleMat = new THREE.MeshStandardMaterial({ color: 0x8c9db3, roughness: 0.85, transparent: true, opacity: 0.72 });
+  var movingMat = new THREE.MeshStandardMaterial({ color: 0xb38cb0, roughness: 0.85, transparent: true, opacity: 0.72 });
   var activeMat = new THREE.MeshStandardMaterial({ color: 0xff7a1a, roughness: 0.6, emissive: 0x802000 });
   var edgeMat = new THREE.LineBasicMaterial({ color: 0x4d5a6b });
   var obstacleMeshes = [];
@@ -199,6 +199,10 @@
   vehicle.add(hull);
   scene.add(vehicle);
   vehicle.visible = N > 0;
+  // A drop line from the vehicle to the ground: where it is, seen from afar.
+  var drop = polyline([0, 0, 0, 0, 0, 0], new THREE.LineBasicMaterial({ color: 0xd62728 }));
+  drop.visible = N > 0;
+  scene.add(drop);
 
   var m4 = new THREE.Matrix4();
   // Body FRD → world ENU: T · R(yaw, pitch, roll) with R = Rz Ry Rx (FRD → NED) and T the
@@ -227,7 +231,7 @@
     if (mode === "orbit") {
       rig.target.copy(bctr);
       rig.dist = diag * 0.85;
-      rig.el = 0.75;
+      rig.el = 0.9;
     } else {
       rig.dist = Math.max(6 * D.hull, 1.6);
       rig.el = 0.5;
@@ -412,6 +416,11 @@
       slider.value = String(k);
       if (N > 0) {
         vehicle.position.set(num(S.x[k]), num(S.y[k]), num(S.z[k]));
+        var dp = drop.geometry.attributes.position;
+        dp.setXYZ(0, vehicle.position.x, vehicle.position.y, vehicle.position.z - D.hull);
+        dp.setXYZ(1, vehicle.position.x, vehicle.position.y, 0);
+        dp.needsUpdate = true;
+        drop.geometry.computeBoundingSphere();
         setAttitude(num(S.roll[k]), num(S.pitch[k]), num(S.yaw[k]));
         hullMat.color.setHex(regionColors[S.g[k]] || 0x9aa0a6);
         $("t-val").textContent = fmt(S.t[k], 4);
