@@ -351,7 +351,10 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
     assert!(dom.contains("This run has no trajectory samples"), "the banner says so");
 }
 
-/// `docs/figures/replay_office.png`: the default office flight at t = 30 s.
+/// The office screenshot's fragment: t = 9.8 s (the filter at the coat stand), free orbit.
+const SHOT: &str = "t=9.8&cam=orbit";
+
+/// `docs/figures/replay_office.png`: the default office flight, see [`SHOT`].
 #[test]
 #[ignore = "writes docs/figures/replay_office.png; run by hand (docs/simulator.md)"]
 fn office_screenshot() {
@@ -361,11 +364,11 @@ fn office_screenshot() {
     let o = parapet(&["run", "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let page = out.join("replay.html");
-    let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=30"), "--dump-dom"));
+    let p = probe(&chromium_run(&bin, &d, &file_url(&page, SHOT), "--dump-dom"));
     assert_no_errors(&p);
     assert_eq!(p["on_screen"], true, "{p}");
     let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures/replay_office.png");
-    chromium_run(&bin, &d, &file_url(&page, "t=30"), &format!("--screenshot={}", docs.display()));
+    chromium_run(&bin, &d, &file_url(&page, SHOT), &format!("--screenshot={}", docs.display()));
     let len = std::fs::metadata(&docs).map(|m| m.len()).unwrap_or(0);
     assert!(len > 50_000, "{} is {len} B", docs.display());
     eprintln!(
