@@ -408,6 +408,9 @@
 
   // ---------------------------------------------------------------- update and render
   var shownK = -1, activeMesh = null;
+  // Set (to the asked time, or null) once the page was opened with #t=… or #probe: the probe
+  // is then rewritten at every frame of a playback (#…&play), so a dump shows the last one.
+  var probing;
   function update(force) {
     var k = state.k;
     var t = N > 0 ? num(S.t[k]) : 0;
@@ -449,6 +452,7 @@
     if (rig.mode === "follow" && N > 0) rig.target.copy(vehicle.position);
     placeCamera();
     render();
+    if (probing !== undefined && state.playing) writeProbe(probing);
   }
   function resize() {
     var w = Math.max(canvas.clientWidth, 1), h = Math.max(canvas.clientHeight, 1);
@@ -490,10 +494,13 @@
     if (h.t !== undefined) {
       var t = parseFloat(h.t);
       seekTime(isFinite(t) ? t : 0);
-      writeProbe(t);
+      probing = isFinite(t) ? t : null;
+      writeProbe(probing);
     } else if ("probe" in h) {
+      probing = null;
       writeProbe(null);
     }
+    if ("play" in h && !state.playing) togglePlay();
   }
   function writeProbe(requested) {
     var p = { requested_t: isFinite(requested) ? requested : null, empty: N === 0, webgl: !!renderer, errors: [] };
@@ -521,6 +528,7 @@
       p.on_screen = Math.abs(s.x) <= 1 && Math.abs(s.y) <= 1 && s.z > -1 && s.z < 1;
       p.summary_shown = Array.prototype.map.call($("summary").rows, function (r) { return [r.cells[0].textContent, r.cells[1].textContent]; });
       p.camera = rig.mode;
+      p.playing = state.playing;
       p.ready_ms = Math.round(performance.now());
     } catch (e) {
       window.__errors.push("probe: " + e.message);
