@@ -242,6 +242,34 @@ fn assert_no_errors(p: &serde_json::Value) {
     assert_eq!(p["webgl"], true, "no WebGL: {p}");
 }
 
+/// The probe's sample: its texts are its `trajectory.csv` row's, the vehicle in the scene graph
+/// is at the row's position to the printed digit, on screen. Returns the row index.
+fn assert_at_row(p: &serde_json::Value, header: &[String], rows: &[Vec<String>]) -> usize {
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let i = p["sample_index"].as_u64().expect("sample_index") as usize;
+    let row = &rows[i];
+    assert_eq!(p["t_shown"], row[col("t")], "{p}");
+    let world: Vec<&str> =
+        p["vehicle_world"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert_eq!(world, [&row[col("x")], &row[col("y")], &row[col("z")]], "vehicle in the scene graph: {p}");
+    let now = &p["now"];
+    assert_eq!(now["t [s]"], row[col("t")]);
+    assert_eq!(now["x, y, z [m]"], format!("{}, {}, {}", row[col("x")], row[col("y")], row[col("z")]));
+    assert_eq!(now["clearance [m]"], row[col("clearance")]);
+    assert_eq!(now["h̄ [m²]"], row[col("h_bar")]);
+    assert_eq!(now["region"], row[col("region")]);
+    assert_eq!(now["mode"], row[col("mode")]);
+    let active = if row[col("active_obstacle")].is_empty() { "-" } else { &row[col("active_obstacle")] };
+    assert!(now["active obstacle"].as_str().unwrap().starts_with(active), "{p}");
+    // On screen, inside the canvas.
+    assert_eq!(p["on_screen"], true, "{p}");
+    let (w, h) = (p["canvas"][0].as_f64().unwrap(), p["canvas"][1].as_f64().unwrap());
+    let (x, y) = (p["screen"][0].as_f64().unwrap(), p["screen"][1].as_f64().unwrap());
+    assert!(w > 300.0 && h > 200.0, "{p}");
+    assert!((0.0..=w).contains(&x) && (0.0..=h).contains(&y), "{p}");
+    i
+}
+
 fn assert_summary_shown(report: &Path, p: &serde_json::Value) {
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(report.join("summary.json")).unwrap()).unwrap();
@@ -266,7 +294,6 @@ fn the_page_shows_the_flight_at_the_asked_time() {
     let size = std::fs::metadata(&page).unwrap().len();
     assert!(size < 2_000_000, "replay.html is {size} B");
     let (header, rows) = csv_rows(&report);
-    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     for t in ["0", "1.3", "2.5", "3.9999"] {
         let dom = chromium_run(&bin, &d, &file_url(&page, &format!("t={t}")), "--dump-dom");
         let p = probe(&dom);
@@ -274,36 +301,20 @@ fn the_page_shows_the_flight_at_the_asked_time() {
         assert_eq!(p["obstacle_meshes"], 3, "{p}");
         assert_eq!(p["scene_obstacles"], 3, "{p}");
         assert_eq!(p["n_samples"], rows.len(), "{p}");
-        // The sample shown: the row at or before the asked time (every row is displayed here).
-        let i = p["sample_index"].as_u64().expect("sample_index") as usize;
-        let row = &rows[i];
+        let i = assert_at_row(&p, &header, &rows);
         let asked: f64 = t.parse().unwrap();
-        assert!(row[col("t")].parse::<f64>().unwrap() <= asked + 1e-9, "{t}: row {row:?}");
+        // The sample shown: the row at or before the asked time (every row is displayed here).
+        assert!(rows[i][0].parse::<f64>().unwrap() <= asked + 1e-9, "{t}: row {:?}", rows[i]);
         if let Some(next) = rows.get(i + 1) {
-            assert!(next[col("t")].parse::<f64>().unwrap() > asked, "{t}: the next row is not later");
+            assert!(next[0].parse::<f64>().unwrap() > asked, "{t}: the next row is not later");
         }
-        assert_eq!(p["t_shown"], row[col("t")], "{p}");
-        let world: Vec<&str> =
-            p["vehicle_world"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
-        assert_eq!(
-            world,
-            [&row[col("x")], &row[col("y")], &row[col("z")]],
-            "vehicle in the scene graph at {t}"
-        );
-        let now = &p["now"];
-        assert_eq!(now["x, y, z [m]"], format!("{}, {}, {}", row[col("x")], row[col("y")], row[col("z")]));
-        assert_eq!(now["clearance [m]"], row[col("clearance")]);
-        assert_eq!(now["h̄ [m²]"], row[col("h_bar")]);
-        assert_eq!(now["region"], row[col("region")]);
-        assert_eq!(now["mode"], row[col("mode")]);
-        // On screen, inside the canvas.
-        assert_eq!(p["on_screen"], true, "{p}");
-        let (w, h) = (p["canvas"][0].as_f64().unwrap(), p["canvas"][1].as_f64().unwrap());
-        let (x, y) = (p["screen"][0].as_f64().unwrap(), p["screen"][1].as_f64().unwrap());
-        assert!(w > 300.0 && h > 200.0, "{p}");
-        assert!((0.0..=w).contains(&x) && (0.0..=h).contains(&y), "{p}");
         assert_summary_shown(&report, &p);
     }
+    // Played from 0.5 s (the probe follows every frame): later, and still at its row.
+    let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=0.5&rate=1&play"), "--dump-dom"));
+    assert_no_errors(&p);
+    let i = assert_at_row(&p, &header, &rows);
+    assert!(rows[i][0].parse::<f64>().unwrap() > 0.6, "no playback: {p}");
     // The free-orbit camera sees the vehicle too, and the page draws something.
     let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=2&cam=orbit"), "--dump-dom"));
     assert_no_errors(&p);
