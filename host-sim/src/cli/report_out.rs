@@ -1,5 +1,5 @@
 //! The report of `parapet run` / `parapet pil`: the report directory check (never an
-//! existing file, never replacing an input), summary.json / trajectory.csv / plots
+//! existing file, never replacing an input), summary.json / trajectory.csv / plots / replay.html
 //! ([`crate::report::write_report`]) and `flight.ulg`, in one place for both commands.
 //!
 //! May import: [`crate::report`], [`crate::flight`], [`crate::world`], [`crate::input`], the
