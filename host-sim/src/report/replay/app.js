@@ -526,6 +526,12 @@
       p.canvas = [cw, ch];
       p.screen = [(s.x + 1) / 2 * cw, (1 - s.y) / 2 * ch];
       p.on_screen = Math.abs(s.x) <= 1 && Math.abs(s.y) <= 1 && s.z > -1 && s.z < 1;
+      // Moving obstacles where the scene graph has them: [index, centre x, y, z] (mesh origin:
+      // box and sphere centre, cylinder axis midpoint).
+      p.moving = obstacleMeshes.filter(function (m) { return m.userData.moving; }).map(function (m) {
+        var c = m.getWorldPosition(new THREE.Vector3());
+        return [m.userData.obstacle, c.x, c.y, c.z];
+      });
       p.summary_shown = Array.prototype.map.call($("summary").rows, function (r) { return [r.cells[0].textContent, r.cells[1].textContent]; });
       p.camera = rig.mode;
       p.playing = state.playing;
