@@ -46,7 +46,16 @@ base = [1, 1.2, 0]
 radius = 0.15
 height = 2
 velocity = [0, -0.05, 0]
+[[obstacles]]
+kind = "sphere"
+name = "ball"
+center = [3, 1.5, 2]
+radius = 0.1
+waypoints = [[0.5, 3, 1.5, 2], [2, 2.5, 1.0, 1.8], [3.5, 2.5, 1.5, 2.2]]
 "#;
+
+/// Obstacles of [`SCENE`].
+const OBSTACLES: usize = 4;
 
 /// What a test that needs Chromium does.
 #[derive(Debug, PartialEq)]
@@ -242,6 +251,31 @@ fn assert_no_errors(p: &serde_json::Value) {
     assert_eq!(p["webgl"], true, "no WebGL: {p}");
 }
 
+/// The probe's moving obstacles (the cylinder, the ball) are where the simulator puts them at the
+/// shown time (`SceneObstacle::at`), to float32 rounding of the drawn geometry.
+fn assert_moving_obstacles_where_the_simulator_has_them(p: &serde_json::Value) {
+    use parapet_core::obstacle::Shape;
+    let scene = parapet_sim::world::scene::Scene::parse(SCENE, "replay_page.rs").unwrap();
+    let t: f64 = p["t_shown"].as_str().unwrap().parse().unwrap();
+    let moving = p["moving"].as_array().expect("moving");
+    assert_eq!(moving.len(), 2, "{p}");
+    for m in moving {
+        let i = m[0].as_u64().unwrap() as usize;
+        let (shape, _) = scene.obstacles[i].at(t);
+        // NED → ENU (x ↔ y, z → −z); the mesh origin of a cylinder is its axis midpoint.
+        let ned = match shape {
+            Shape::Sphere { center, .. } => [center[0], center[1], center[2]],
+            Shape::Cylinder { base, height, .. } => [base[0], base[1], base[2] - height / 2.0],
+            other => panic!("unexpected moving shape {other:?}"),
+        };
+        let want = [ned[1] as f64, ned[0] as f64, -ned[2] as f64];
+        for k in 0..3 {
+            let got = m[k + 1].as_f64().unwrap();
+            assert!((got - want[k]).abs() < 1e-4, "obstacle {i} at t {t}: {got} vs {} ({p})", want[k]);
+        }
+    }
+}
+
 /// The probe's sample: its texts are its `trajectory.csv` row's, the vehicle in the scene graph
 /// is at the row's position to the printed digit, on screen. Returns the row index.
 fn assert_at_row(p: &serde_json::Value, header: &[String], rows: &[Vec<String>]) -> usize {
@@ -298,8 +332,9 @@ fn the_page_shows_the_flight_at_the_asked_time() {
         let dom = chromium_run(&bin, &d, &file_url(&page, &format!("t={t}")), "--dump-dom");
         let p = probe(&dom);
         assert_no_errors(&p);
-        assert_eq!(p["obstacle_meshes"], 3, "{p}");
-        assert_eq!(p["scene_obstacles"], 3, "{p}");
+        assert_eq!(p["obstacle_meshes"], OBSTACLES, "{p}");
+        assert_eq!(p["scene_obstacles"], OBSTACLES, "{p}");
+        assert_moving_obstacles_where_the_simulator_has_them(&p);
         assert_eq!(p["n_samples"], rows.len(), "{p}");
         let i = assert_at_row(&p, &header, &rows);
         let asked: f64 = t.parse().unwrap();
@@ -358,7 +393,7 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
     let p = probe(&dom);
     assert_no_errors(&p);
     assert_eq!(p["empty"], true, "{p}");
-    assert_eq!(p["obstacle_meshes"], 3, "{p}");
+    assert_eq!(p["obstacle_meshes"], OBSTACLES, "{p}");
     assert!(dom.contains("This run has no trajectory samples"), "the banner says so");
 }
 
