@@ -521,6 +521,11 @@
       var w = vehicle.getWorldPosition(new THREE.Vector3());
       p.vehicle_world = [fmt(w.x, 4), fmt(w.y, 4), fmt(w.z, 4)];
       p.vehicle_visible = vehicle.visible;
+      // The body's forward (FRD x) and down (FRD z) axes in the world (ENU), as drawn.
+      var q = body.getWorldQuaternion(new THREE.Quaternion());
+      var fwd = new THREE.Vector3(1, 0, 0).applyQuaternion(q), down = new THREE.Vector3(0, 0, 1).applyQuaternion(q);
+      p.body_forward = [fwd.x, fwd.y, fwd.z];
+      p.body_down = [down.x, down.y, down.z];
       var s = w.clone().project(camera);
       var cw = canvas.clientWidth, ch = canvas.clientHeight;
       p.canvas = [cw, ch];
