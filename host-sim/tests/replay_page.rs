@@ -230,6 +230,10 @@ fn fly(dir: &Path, duration: &str) -> PathBuf {
         "--scene",
         scene.to_str().unwrap(),
         "--straight",
+        // Facing the direction of travel: the vehicle turns from north to east, so the drawn
+        // attitude's axes are checked away from the identity.
+        "--yaw-mode",
+        "travel",
         "--duration",
         duration,
         "--out",
@@ -295,6 +299,23 @@ fn assert_at_row(p: &serde_json::Value, header: &[String], rows: &[Vec<String>])
     assert_eq!(now["mode"], row[col("mode")]);
     let active = if row[col("active_obstacle")].is_empty() { "-" } else { &row[col("active_obstacle")] };
     assert!(now["active obstacle"].as_str().unwrap().starts_with(active), "{p}");
+    // The body as drawn: FRD → NED is Rz(yaw) Ry(pitch) Rx(roll) of the row; forward is its
+    // first column, down its third, in ENU (x ↔ y, z → −z). The page's angles have 4 decimals.
+    let a = |name: &str| row[col(name)].parse::<f64>().unwrap();
+    let (r, q, y) = (a("roll"), a("pitch"), a("yaw"));
+    let fwd_ned = [q.cos() * y.cos(), q.cos() * y.sin(), -q.sin()];
+    let down_ned = [
+        r.cos() * q.sin() * y.cos() + r.sin() * y.sin(),
+        r.cos() * q.sin() * y.sin() - r.sin() * y.cos(),
+        r.cos() * q.cos(),
+    ];
+    let enu = |v: [f64; 3]| [v[1], v[0], -v[2]];
+    for (key, want) in [("body_forward", enu(fwd_ned)), ("body_down", enu(down_ned))] {
+        for (k, w) in want.iter().enumerate() {
+            let got = p[key][k].as_f64().unwrap();
+            assert!((got - w).abs() < 2e-4, "{key}[{k}] {got} vs {w} (roll {r}, pitch {q}, yaw {y}): {p}");
+        }
+    }
     // On screen, inside the canvas.
     assert_eq!(p["on_screen"], true, "{p}");
     let (w, h) = (p["canvas"][0].as_f64().unwrap(), p["canvas"][1].as_f64().unwrap());
