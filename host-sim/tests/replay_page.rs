@@ -445,3 +445,29 @@ fn office_screenshot() {
         docs.display()
     );
 }
+
+/// `docs/figures/replay_forest.png`: a generated forest (400 trunks, seed 1) flown at
+/// `--speed 5`, follow camera at 9.5 s, 0.4 s before the collision the page shows.
+#[test]
+#[ignore = "writes docs/figures/replay_forest.png; run by hand (docs/simulator.md)"]
+fn forest_screenshot() {
+    let Some(bin) = chromium() else { return };
+    let d = tmp("forest");
+    let scene = d.join("forest.toml");
+    let s = scene.to_str().unwrap();
+    let o =
+        parapet(&["scene", "generate", "--kind", "forest", "--obstacles", "400", "--seed", "1", "--out", s]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = d.join("out");
+    let o = parapet(&["run", "--scene", s, "--speed", "5", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let page = out.join("replay.html");
+    let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=9.5"), "--dump-dom"));
+    assert_no_errors(&p);
+    assert_eq!((p["obstacle_meshes"].as_u64(), p["on_screen"].as_bool()), (Some(400), Some(true)), "{p}");
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures/replay_forest.png");
+    chromium_run(&bin, &d, &file_url(&page, "t=9.5"), &format!("--screenshot={}", docs.display()));
+    let len = std::fs::metadata(&docs).map(|m| m.len()).unwrap_or(0);
+    assert!(len > 50_000, "{} is {len} B", docs.display());
+    eprintln!("replay.html {} B, screenshot {}", std::fs::metadata(&page).unwrap().len(), docs.display());
+}
