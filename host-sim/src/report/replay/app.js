@@ -147,8 +147,11 @@
   }
   if (N > 1) {
     var rp = [], fp = [], col = [];
+    // Non-finite values (a diverged run's "NaN" texts) are left out of the lines.
+    var finite3 = function (a, b, c) { return isFinite(a) && isFinite(b) && isFinite(c); };
     for (var i = 0; i < N; i++) {
-      rp.push(num(S.rx[i]), num(S.ry[i]), num(S.rz[i]));
+      if (finite3(num(S.rx[i]), num(S.ry[i]), num(S.rz[i]))) rp.push(num(S.rx[i]), num(S.ry[i]), num(S.rz[i]));
+      if (!finite3(num(S.x[i]), num(S.y[i]), num(S.z[i]))) continue;
       fp.push(num(S.x[i]), num(S.y[i]), num(S.z[i]));
       var c = speedColor(num(S.v[i]) || 0);
       col.push(c.r, c.g, c.b);
@@ -162,8 +165,9 @@
   }
   if (D.collision_t !== null && N > 0) {
     var kc = sampleAt(num(D.collision_t));
-    var xm = marker([num(S.x[kc]), num(S.y[kc]), num(S.z[kc])], 0xff0000, Math.max(D.hull * 0.4, 0.04));
-    xm.material.wireframe = true;
+    if (isFinite(num(S.x[kc])) && isFinite(num(S.y[kc])) && isFinite(num(S.z[kc]))) {
+      marker([num(S.x[kc]), num(S.y[kc]), num(S.z[kc])], 0xff0000, Math.max(D.hull * 0.4, 0.04)).material.wireframe = true;
+    }
   }
 
   // The vehicle: built in body FRD (x forward, y right, z down), turned by its attitude.
@@ -418,7 +422,9 @@
       shownK = k;
       slider.value = String(k);
       if (N > 0) {
-        vehicle.position.set(num(S.x[k]), num(S.y[k]), num(S.z[k]));
+        var ok = isFinite(num(S.x[k])) && isFinite(num(S.y[k])) && isFinite(num(S.z[k]));
+        vehicle.visible = drop.visible = ok;
+        if (ok) vehicle.position.set(num(S.x[k]), num(S.y[k]), num(S.z[k]));
         var dp = drop.geometry.attributes.position;
         dp.setXYZ(0, vehicle.position.x, vehicle.position.y, vehicle.position.z - D.hull);
         dp.setXYZ(1, vehicle.position.x, vehicle.position.y, 0);
