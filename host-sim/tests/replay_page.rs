@@ -416,6 +416,24 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
     assert_eq!(p["empty"], true, "{p}");
     assert_eq!(p["obstacle_meshes"], OBSTACLES, "{p}");
     assert!(dom.contains("This run has no trajectory samples"), "the banner says so");
+    // A diverged sample (position NaN, written "NaN" in trajectory.csv) between two good ones:
+    // no error, the vehicle hidden at it.
+    let mut samples = vec![run.samples[0].clone(); 3];
+    for (k, s) in samples.iter_mut().enumerate() {
+        s.t += 0.004 * k as f64;
+    }
+    samples[1].pos.x = f64::NAN;
+    samples[1].h_bar = f64::INFINITY;
+    let dir = d.join("nan");
+    let rec = parapet_sim::report::RunRecord { samples: &samples, ..rec };
+    parapet_sim::report::write_report(&dir, &rec).unwrap();
+    let p = probe(&chromium_run(&bin, &d, &file_url(&dir.join("replay.html"), "t=0.005"), "--dump-dom"));
+    assert_no_errors(&p);
+    assert_eq!((p["sample_index"].as_u64(), p["vehicle_visible"].as_bool()), (Some(1), Some(false)), "{p}");
+    let (header, rows) = csv_rows(&dir);
+    assert_eq!(rows[1][header.iter().position(|h| h == "y").unwrap()], "NaN");
+    assert_eq!(p["now"]["x, y, z [m]"], format!("{}, NaN, {}", rows[1][4], rows[1][6]), "{p}");
+    assert_eq!(p["now"]["h̄ [m²]"], rows[1][header.iter().position(|h| h == "h_bar").unwrap()], "{p}");
 }
 
 /// The office screenshot's fragment: t = 9.8 s (the filter at the coat stand), free orbit.
