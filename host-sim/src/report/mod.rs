@@ -29,7 +29,8 @@
 //! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
 //! May import: `parapet-core`, [`crate::input`], [`crate::perception`] and
 //! [`crate::sim::range`] (range records), [`crate::world`] (the scene
-//! drawn in the plots), plotters, serde.
+//! drawn in the plots and the replay page), [`crate::decimal`] (the files' number text),
+//! plotters, serde.
 
 mod plots;
 pub mod replay;
