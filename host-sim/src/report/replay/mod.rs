@@ -240,7 +240,7 @@ fn data_json(rec: &RunRecord) -> String {
     for s in samples {
         if last_mode != Some(s.mode) {
             last_mode = Some(s.mode);
-            let m = mode_of(s.mode);
+            let m = mode_of(s.mode.as_str());
             if changes.len() < MAX_MARKS {
                 changes.push((s.t, m));
             } else {
@@ -248,7 +248,7 @@ fn data_json(rec: &RunRecord) -> String {
             }
         }
     }
-    let sample_modes: Vec<usize> = idx.iter().map(|&i| mode_of(samples[i].mode)).collect();
+    let sample_modes: Vec<usize> = idx.iter().map(|&i| mode_of(samples[i].mode.as_str())).collect();
     j.raw("],\"modes\":[");
     for (i, m) in modes.iter().enumerate() {
         j.sep(i);

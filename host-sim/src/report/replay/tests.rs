@@ -1,5 +1,6 @@
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
+use parapet_core::controller::{FlightMode, GuidanceMode};
 
 use super::*;
 use crate::report::{RunParams, SafetyFlags, SafetySteps, Summary};
@@ -61,6 +62,7 @@ fn summary(scene: &Scene, n: usize) -> Summary {
         path_source: "straight".into(),
         path_waypoints: 2,
         params: RunParams { mu: 1.4, delta: 0.05, delta1: 0.1, kp: 0.5, kd: 0.8, speed: 0.5 },
+        params_set: Default::default(),
         final_controller_state: "Armed".into(),
         seed: 0,
         noise: false,
@@ -85,7 +87,8 @@ fn sample(k: usize) -> Sample {
         h_bar: if k == 10 { f64::NAN } else { 0.5 },
         u_nominal: Vector3::zeros(),
         u_filtered: Vector3::zeros(),
-        mode: if k < 100 { "Takeoff" } else { "Mission" },
+        mode: if k < 100 { GuidanceMode::Takeoff } else { GuidanceMode::Mission },
+        flight_mode: FlightMode::Mission,
         wind: Vector3::zeros(),
         safety: SafetyFlags::default(),
         motors: [0.5; 4],
