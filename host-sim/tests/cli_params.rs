@@ -136,3 +136,49 @@ fn bad_names_values_and_files_exit_2_naming_them() {
     }
     assert!(!out.exists(), "a refused run writes no report");
 }
+
+/// A run says what it was (issue 37): a piloted or offboard run's summary has no path, goal or
+/// path-end rows from a mission it never had, and lists the parameters set by name.
+#[test]
+fn a_piloted_or_offboard_run_reports_no_mission_and_the_parameters_set() {
+    let d = tmp("what");
+    let (scene, script) = setup(&d);
+    let o = d.join("pilot");
+    let r = parapet(&[
+        "run",
+        "--scene",
+        &scene,
+        "--pilot",
+        &script,
+        "--param",
+        "PA_SPEED_MAX=2.5",
+        "--out",
+        o.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&r.stdout).into_owned();
+    assert!(r.status.success(), "{}", stderr(&r));
+    assert!(text.contains("none (pilot flight: no path, goal or path end)"), "{text}");
+    let row = |t: &str, k: &str| t.lines().any(|l| l.trim_start().starts_with(k));
+    assert!(!row(&text, "path end") && !row(&text, "reached goal") && !row(&text, "path "), "{text}");
+    assert!(text.contains("params set") && text.contains("PA_SPEED_MAX 2.5"), "{text}");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/pilot");
+    let o = d.join("offboard");
+    let r = parapet(&[
+        "run",
+        "--scene",
+        root.join("wall.toml").to_str().unwrap(),
+        "--offboard",
+        root.join("offboard_wall.offboard.toml").to_str().unwrap(),
+        "--out",
+        o.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&r.stdout).into_owned();
+    assert!(r.status.success(), "{}", stderr(&r));
+    assert!(text.contains("none (offboard flight"), "{text}");
+    assert_eq!(summary(&o)["path_source"], "offboard");
+    // A mission run keeps its rows.
+    let o = d.join("mission");
+    let r = parapet(&["run", "--scene", &scene, "--straight", "--out", o.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&r.stdout).into_owned();
+    assert!(row(&text, "reached goal") && row(&text, "path end") && !row(&text, "params set"), "{text}");
+}

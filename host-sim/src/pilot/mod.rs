@@ -44,11 +44,12 @@ pub struct PilotRun {
 }
 
 /// `cfg` made for a piloted flight: the path is the start alone (the mission only holds it
-/// until the pilot's mode is entered), the duration the script's, else the scene's `[sim]
-/// duration`, else the script's end + [`AFTER_SCRIPT_S`].
+/// until the pilot's mode is entered; the path source `pilot` for a stick script, `offboard`
+/// for a setpoint one: no mission, [`crate::report::NO_MISSION_SOURCES`]), the duration the
+/// script's, else the scene's `[sim] duration`, else the script's end + [`AFTER_SCRIPT_S`].
 pub fn piloted_config(scene: &Scene, mut cfg: RunConfig, script: &PilotScript) -> RunConfig {
     cfg.path = vec![scene.start];
-    cfg.path_source = "pilot".into();
+    cfg.path_source = if script.has_sticks() { "pilot" } else { "offboard" }.into();
     cfg.duration = script.duration.or(scene.sim.duration).unwrap_or(script.end_time() + AFTER_SCRIPT_S);
     cfg
 }

@@ -513,42 +513,22 @@ pub fn region_name(r: Region) -> &'static str {
     }
 }
 
+/// Path sources of runs without a mission (a pilot's sticks, a companion's setpoints): their
+/// summary table has no path, goal or path-end rows ([`summary_table`]); `summary.json` keeps
+/// the fields (the goal's distance is still the scene's).
+pub const NO_MISSION_SOURCES: [&str; 2] = ["pilot", "offboard"];
+
 /// The short summary table printed after a run.
 pub fn summary_table(s: &Summary) -> String {
     let opt = |x: Option<f64>, unit: &str| x.map(|v| format!("{v:.2} {unit}")).unwrap_or_else(|| "-".into());
-    let rows: Vec<(&str, String)> = vec![
+    let mission = !NO_MISSION_SOURCES.contains(&s.path_source.as_str());
+    let mut rows: Vec<(&str, String)> = vec![
         ("scene", format!("{} ({})", s.scene, s.scene_file)),
         ("filter", s.filter.clone()),
         ("yaw mode", s.yaw_mode.clone()),
         ("params", s.params.listed()),
-        (
-            "path",
-            format!(
-                "{} : {} waypoints, {:.2} m, planning {}",
-                s.path_source,
-                s.path_waypoints,
-                s.path_length_m,
-                opt(s.planning_time_ms, "ms")
-            ),
-        ),
+        ("mission", String::new()),
         ("end", s.end_reason.clone()),
-        (
-            "reached goal",
-            format!(
-                "{} (t = {}; scene goal, final distance {:.3} m)",
-                s.reached_goal,
-                opt(s.time_to_goal_s, "s"),
-                s.final_distance_to_goal_m
-            ),
-        ),
-        (
-            "path end",
-            format!(
-                "{} (last waypoint, final distance {:.3} m)",
-                if s.reached_path_end { "reached" } else { "not reached" },
-                s.final_distance_to_path_end_m
-            ),
-        ),
         (
             "collided",
             format!(
@@ -583,6 +563,48 @@ pub fn summary_table(s: &Summary) -> String {
             format!("{:.2} s in {:.3} s wall{factor}, {} steps", s.sim_time_s, s.wall_time_s, s.steps)
         }),
     ];
+    // A mission's path, goal and path end (the path row before the end, as always); a piloted or
+    // offboard run flew none.
+    let at = rows.iter().position(|r| r.0 == "mission").unwrap_or(rows.len());
+    let mission_rows: Vec<(&str, String)> = if mission {
+        vec![
+            (
+                "path",
+                format!(
+                    "{} : {} waypoints, {:.2} m, planning {}",
+                    s.path_source,
+                    s.path_waypoints,
+                    s.path_length_m,
+                    opt(s.planning_time_ms, "ms")
+                ),
+            ),
+            (
+                "reached goal",
+                format!(
+                    "{} (t = {}; scene goal, final distance {:.3} m)",
+                    s.reached_goal,
+                    opt(s.time_to_goal_s, "s"),
+                    s.final_distance_to_goal_m
+                ),
+            ),
+            (
+                "path end",
+                format!(
+                    "{} (last waypoint, final distance {:.3} m)",
+                    if s.reached_path_end { "reached" } else { "not reached" },
+                    s.final_distance_to_path_end_m
+                ),
+            ),
+        ]
+    } else {
+        vec![("mission", format!("none ({} flight: no path, goal or path end)", s.path_source))]
+    };
+    rows.splice(at..(at + 1).min(rows.len()), mission_rows);
+    if !s.params_set.is_empty() {
+        let set: Vec<String> = s.params_set.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        let at = rows.iter().position(|r| r.0 == "params").map_or(0, |i| i + 1);
+        rows.insert(at, ("params set", set.join(", ")));
+    }
     let w = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
     let mut out = String::new();
     for (k, v) in rows {
