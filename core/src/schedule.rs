@@ -12,7 +12,8 @@
 //!   by simulated time ([`crate::wire::lockstep::LockstepClock`]: first sample, then
 //!   `t ≥ next`, `next += period`, a skipped period or time going backwards restarts the phase).
 //!
-//! May import: [`crate::config::ControllerParams`] (read-only) and [`crate::wire::lockstep`].
+//! May import: [`crate::config::ControllerParams`] (read-only), [`crate::wire::lockstep`] and
+//! [`crate::wire::rates`].
 
 use crate::config::ControllerParams;
 use crate::wire::lockstep::LockstepClock;
@@ -46,7 +47,10 @@ impl OuterSchedule {
     }
 
     /// The default schedule: 250 Hz under 1 kHz.
-    pub const DEFAULT: Self = Self { period_us: 4_000, divider: 4 };
+    pub const DEFAULT: Self = Self {
+        period_us: crate::wire::rates::OUTER_PERIOD_US as u64,
+        divider: crate::wire::rates::OUTER_DIVIDER as u64,
+    };
 
     /// Outer period, µs (default 4 000).
     pub const fn period_us(&self) -> u64 {

@@ -102,7 +102,7 @@ mod firmware {
     use static_cell::StaticCell;
 
     /// Inner-loop period, µs (1 kHz, paced by the IMU's data-ready line).
-    const INNER_PERIOD_US: u32 = 1000;
+    const INNER_PERIOD_US: u32 = parapet_core::wire::rates::INNER_PERIOD_US;
     /// Missing data-ready edges tolerated before the sample is read anyway, µs.
     const IMU_TIMEOUT_US: u64 = 2000;
     /// Loop reports are published (and a new window started) after this many steps.

@@ -121,7 +121,7 @@ pub mod limits {
     pub const MIN_DT_S: f64 = 1e-5;
     /// Largest plant integration step, s: the inner-loop period (the plant takes
     /// round(1 ms / dt) steps per inner step). Equals `sim::INNER_DT`.
-    pub const MAX_DT_S: f64 = 1e-3;
+    pub const MAX_DT_S: f64 = 1.0 / parapet_core::wire::rates::INNER_RATE_HZ as f64;
     /// Most plant integration steps of one run or replay (duration / dt).
     pub const MAX_PLANT_STEPS: f64 = 4e8;
     /// Largest `[sensors] position_latency`, s: half the flight controller's

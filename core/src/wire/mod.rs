@@ -11,6 +11,7 @@
 //!   ODOMETRY yaw quaternion.
 //! - [`modes`]: PX4's `vehicle_status.nav_state` numbers of the flight and guidance modes (the
 //!   ULog of both sides), and the guidance mode a lockstep host infers from the phase.
+//! - [`rates`]: the inner and outer loop rates (1 kHz, 250 Hz), defined once.
 //! - [`lockstep`]: the lockstep rule (which HIL_SENSOR runs the outer loop) and the motor
 //!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
 //! - [`battery`]: the host's raw pack reading on the lockstep link (BATTERY_STATUS from the
@@ -27,3 +28,4 @@ pub mod ids;
 pub mod lockstep;
 pub mod modes;
 pub mod names;
+pub mod rates;

@@ -37,6 +37,9 @@ pub const GYRO_RAD_PER_LSB: f32 = (core::f32::consts::PI / 180.0) / 16.4;
 /// Accel scale at ±16 g, m/s² per LSB.
 pub const ACCEL_MS2_PER_LSB: f32 = parapet_core::frame::GRAVITY / 2048.0;
 
+// SMPLRT_DIV 0 with the DLPF on samples at 1 kHz: the core's inner-loop rate.
+const _: () = assert!(parapet_core::wire::rates::INNER_RATE_HZ == 1000);
+
 /// Register writes of the initialisation, in order (after the device reset).
 pub const INIT_SEQUENCE: [(u8, u8); 8] = [
     (reg::PWR_MGMT_1, 0x03),   // clock: PLL with gyro Z reference

@@ -78,7 +78,7 @@ pub const GOAL_SPEED_MPS: f64 = 0.1;
 /// goal: covers the `f32` round-off of path coordinates (under 1 mm up to 10 km).
 pub const PATH_END_ROUNDOFF_M: f64 = 1e-3;
 /// Inner-loop rate, Hz (times are computed as step / rate, exact in decimal).
-const INNER_HZ: f64 = 1000.0;
+const INNER_HZ: f64 = parapet_core::wire::rates::INNER_RATE_HZ as f64;
 /// The built-in default of the controller setting with scene/option key `key`: the
 /// parameter table's ([`parapet_core::params`], = `ControllerParams::default()`), as its
 /// shortest decimal (1.4, not 1.399999976158142). NaN for a key the table does not have

@@ -10,8 +10,8 @@
 //!
 //! Owns the physics and sensor models. May import: `parapet-core`, and of
 //! host-sim only [`crate::input`] (errors, limits).
-/// Plant step and inner-loop period, s (1 kHz).
-pub const INNER_DT: f64 = 0.001;
+/// Plant step and inner-loop period, s (1 kHz: `parapet_core::wire::rates`).
+pub const INNER_DT: f64 = 1.0 / parapet_core::wire::rates::INNER_RATE_HZ as f64;
 
 pub mod battery;
 pub mod disturbance;

@@ -35,7 +35,7 @@ pub use crate::sim::disturbance::faults::FaultParams;
 use crate::sim::plant::Plant;
 
 /// Period of the IMU samples the bias random walk assumes, s (1 kHz).
-pub const IMU_PERIOD_S: f64 = 0.001;
+pub const IMU_PERIOD_S: f64 = super::INNER_DT;
 
 /// Sensor noise and latency parameters (standard deviations, SI units).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
