@@ -10,7 +10,9 @@
 //!
 //! Owns [`guidance`] (nominal reference while Armed), [`inputs`] (position fix, obstacle
 //! set), [`waypoint`] (the path follower), [`tracking`] (PD tracking, eq. 2), [`thrust`]
-//! (acceleration → collective thrust and attitude, eq. 4-5), and [`OuterLoop`], which runs
+//! (acceleration → collective thrust and attitude, eq. 4-5), [`trajectory`] (issue 35, stage in
+//! progress: the jerk-limited online trajectory along a blended path; not wired into
+//! [`OuterLoop`] yet), and [`OuterLoop`], which runs
 //! them with the [`crate::supervisor::Supervisor`] and the [`crate::safety`] filter. It
 //! reads the inner loop only through the [`StateEstimate`] message
 //! ([`OuterLoop::on_estimate`]) and hands it only the [`AttitudeCommand`] and
@@ -30,6 +32,7 @@ pub mod path_yaw;
 pub mod return_path;
 pub mod thrust;
 pub mod tracking;
+pub mod trajectory;
 pub mod waypoint;
 
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter};

@@ -1,0 +1,504 @@
+//! Trajectory generation (issue 35, stage in progress): from a polyline of waypoints and the
+//! vehicle's limits, a jerk-limited, time-parameterised reference `p_d, ṗ_d, p̈_d` (and jerk)
+//! that slows for corners, stays within the corner tolerance of the polyline, starts and ends
+//! at rest, and whose clock waits for the vehicle. **Not yet wired into the outer loop**
+//! ([`super::guidance`] still flies [`super::waypoint`]).
+//!
+//! ## Method
+//! * **Geometry** ([`geometry`]): the polyline's legs are kept straight and each corner is
+//!   replaced by a symmetric quintic Bézier blend that leaves and joins the legs with zero
+//!   curvature (curvature-continuous path), cuts the corner by at most
+//!   [`TrajectoryParams::corner_tolerance`] and takes at most half of either leg. A reversal
+//!   (180°) or a zero tolerance makes a stop corner (speed 0 at the waypoint).
+//! * **Speed limits**: on a leg, the largest speed whose horizontal component is at most the
+//!   cruise speed and whose vertical component is at most the up/down limit; on a blend, also
+//!   over every direction of the blend and `√(A/κ_max)` (lateral acceleration ≤ `A`).
+//! * **Timing** ([`profile`]): a 1-D jerk-limited motion `(s, ṡ, s̈)` along the arc length,
+//!   advanced **online**, one bounded step at a time. Each step picks the largest speed target
+//!   `u ≤ clock_scale · (limit here)` such that, after following the time-optimal
+//!   jerk-limited velocity plan towards `u` for `dt` (integrated exactly, phase switches
+//!   inside the step included), the motion can still brake (jerk- and acceleration-limited)
+//!   to every upcoming speed limit before reaching it: the corners, the stop corners and the
+//!   goal at rest. The largest safe `u` is found by bisection ([`BISECTION_ITERATIONS`]
+//!   halvings); only limits within the current braking distance are looked at (at most all
+//!   `2N − 3` pieces). This is the approach of PX4's `PositionSmoothing`/`VelocitySmoothing`
+//!   (velocity set-point from the jerk-limited braking distance to the next waypoint) and of
+//!   ArduPilot's `SCurve` (jerk-limited S-curve segments that brake for the corner speed),
+//!   made into a safe-set rule evaluated every step as in on-line trajectory generation
+//!   (Haschke, Kröger, Wahl, "On-line trajectory generation: basic concepts for instantaneous
+//!   reactions to unforeseen events", IROS 2008; Berscheid, Kröger, "Jerk-limited real-time
+//!   trajectory generation with arbitrary target states" (Ruckig), RSS 2021).
+//!
+//! Why online and 1-D along a blended path: the path is fixed by the planner (its clearance
+//! is the corner tolerance), so only the timing remains and it is a scalar problem; each step
+//! costs a bounded `O(N)` regardless of the path's length; the clock that waits is natural
+//! (`clock_scale` scales the speed target, and the generator brakes jerk-limited when it
+//! drops); and re-generation when the mission changes is "build a new trajectory and carry
+//! on from the current state" rather than recomputing a global time-optimal schedule.
+//!
+//! ## A reference that never runs away
+//! [`Trajectory::step`] takes `clock_scale ∈ [0, 1]`, which scales the allowed speed. The
+//! outer loop will pass [`clock_scale`]`(tracking error, bound)` — 1 while the vehicle follows
+//! within half the bound, 0 at the bound — and 0 while the safety filter holds the vehicle
+//! back. With 0 the reference brakes jerk-limited and stops; it never jumps.
+//!
+//! ## Guarantees (checked by `core/tests/trajectory_properties.rs`)
+//! Starts at the first waypoint at rest; ends exactly at the last at rest ([`TrajectorySample::done`],
+//! after snapping the last ≤ [`SNAP_DISTANCE`] when the motion is at rest); position and
+//! velocity continuous; `ṡ ≤` the speed limit, `|s̈| ≤ A`, `|s⃛| ≤ J` along the path; lateral
+//! acceleration `≤ A` on the blends; every point within the corner tolerance of the polyline.
+//! `A` is the horizontal acceleration limit for a horizontal path, the smaller of the
+//! horizontal and vertical limits otherwise; on a blend the tangential and lateral
+//! accelerations are each bounded by `A` (their sum by `√2·A`).
+//!
+//! ## Capacity and cost
+//! At most `N` waypoints (const generic, default [`DEFAULT_PATH_CAPACITY`]); a longer path is
+//! rejected, never truncated. A step is `O(BISECTION_ITERATIONS · K)` with `K ≤ 2N` the limits
+//! within the braking distance; construction is `O(N)`. Memory: one [`geometry`] corner
+//! (≈ 30 `f32`) and one leg (≈ 8 `f32`) per waypoint.
+//!
+//! Owns [`TrajectoryParams`], [`Trajectory`], [`TrajectorySample`], [`clock_scale`] and its
+//! two private children [`geometry`] (blends, speed limits) and [`profile`] (the 1-D motion).
+//! May import [`crate::fmath`], [`crate::frame`], [`crate::Vec3`] and [`super::waypoint`]
+//! (capacity and path-error conventions); nothing else of the outer loop.
+
+mod geometry;
+mod params;
+mod profile;
+
+pub use params::{ParamError, TrajectoryParams};
+
+use super::waypoint::{PathError, COORDINATE_LIMIT, DEFAULT_PATH_CAPACITY};
+use crate::fmath::{maxf, minf, norm3};
+use crate::frame::is_finite3;
+use crate::Vec3;
+use geometry::{AxisLimits, Corner, Leg};
+use profile::{brake_distance, follow, velocity_plan, Limits, Motion};
+
+/// Consecutive waypoints closer than this (m) are a repeated waypoint (a zero-length leg).
+pub const MIN_LEG_LENGTH: f32 = 1.0e-3;
+
+/// Largest accepted step, s.
+pub const MAX_STEP_DT: f32 = 0.1;
+
+/// Halvings of the bisection for the speed target in each step.
+pub const BISECTION_ITERATIONS: usize = 12;
+
+/// Distance (m) to a stop corner or the goal below which a motion at rest snaps onto it.
+pub const SNAP_DISTANCE: f32 = 1.0e-3;
+
+/// Speed (m/s) below which the motion counts as at rest for the snap.
+pub const SNAP_SPEED: f32 = 1.0e-3;
+
+/// Why a trajectory or a step was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TrajectoryError {
+    /// A parameter is out of its range or not finite (the field is named).
+    Param(ParamError),
+    /// The waypoints are empty, too many, non-finite or out of range (as for the waypoint follower).
+    Path(PathError),
+    /// Waypoint `index` repeats waypoint `index − 1` (closer than [`MIN_LEG_LENGTH`]): a
+    /// zero-length leg has no direction.
+    RepeatedWaypoint {
+        /// Index of the repeating waypoint in the given slice.
+        index: usize,
+    },
+    /// The step's `dt` is not in (0, [`MAX_STEP_DT`]] s.
+    BadDt,
+    /// The clock scale is NaN or infinite.
+    BadClockScale,
+}
+
+impl From<ParamError> for TrajectoryError {
+    fn from(e: ParamError) -> Self {
+        TrajectoryError::Param(e)
+    }
+}
+
+impl From<PathError> for TrajectoryError {
+    fn from(e: PathError) -> Self {
+        TrajectoryError::Path(e)
+    }
+}
+
+/// The reference at one step, world NED, SI.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrajectorySample {
+    /// Desired position `p_d`, m.
+    pub position: Vec3,
+    /// Desired velocity `ṗ_d`, m/s.
+    pub velocity: Vec3,
+    /// Desired acceleration `p̈_d`, m/s² (tangential `s̈·T` plus lateral `ṡ²·κN`).
+    pub acceleration: Vec3,
+    /// Jerk over the last step, `(p̈_d − p̈_d,prev)/dt`, m/s³.
+    pub jerk: Vec3,
+    /// Arc length flown from the first waypoint, m.
+    pub s: f32,
+    /// Speed along the path `ṡ`, m/s.
+    pub speed: f32,
+    /// Acceleration along the path `s̈`, m/s².
+    pub path_acceleration: f32,
+    /// Speed limit of the piece being flown (before the clock scale), m/s.
+    pub speed_limit: f32,
+    /// `true` once the goal is reached at rest (the reference then stays there).
+    pub done: bool,
+    /// Leg being flown (leg `k` goes from waypoint `k` to `k + 1`; a blend counts to the
+    /// incoming leg up to its middle).
+    pub segment: usize,
+}
+
+/// `clock_scale` for [`Trajectory::step`] from the tracking error (m) and its bound (m):
+/// 1 up to half the bound, then linearly down to 0 at the bound and beyond. A non-finite
+/// error or a bound that is not positive and finite gives 0 (wait).
+pub fn clock_scale(tracking_error_m: f32, bound_m: f32) -> f32 {
+    if !tracking_error_m.is_finite() || !bound_m.is_finite() || bound_m <= 0.0 {
+        return 0.0;
+    }
+    let half = 0.5 * bound_m;
+    let e = tracking_error_m.abs();
+    if e <= half {
+        1.0
+    } else if e >= bound_m {
+        0.0
+    } else {
+        (bound_m - e) / half
+    }
+}
+
+/// An online jerk-limited trajectory along a polyline of at most `N` waypoints.
+#[derive(Clone, Debug)]
+pub struct Trajectory<const N: usize = DEFAULT_PATH_CAPACITY> {
+    params: TrajectoryParams,
+    lim: Limits,
+    legs: heapless::Vec<Leg, N>,
+    /// `corners[k]` joins leg `k` and leg `k + 1` (at waypoint `k + 1`).
+    corners: heapless::Vec<Corner, N>,
+    goal: Vec3,
+    /// Piece being flown: `2k` = straight part of leg `k`, `2k + 1` = corner `k`.
+    piece: usize,
+    /// Arc length of the start of `piece`, m.
+    piece_start: f32,
+    /// The motion, `s` local to `piece`.
+    motion: Motion,
+    total: f32,
+    done: bool,
+    last_acceleration: Vec3,
+}
+
+impl<const N: usize> Trajectory<N> {
+    /// A trajectory from `waypoints[0]` (normally the current position) through the others to
+    /// the last, starting at rest. Errors on invalid parameters, an empty slice, more than `N`
+    /// waypoints, a NaN/Inf coordinate, a coordinate beyond ±[`COORDINATE_LIMIT`] or a
+    /// repeated consecutive waypoint. One waypoint is a trajectory that is done at once.
+    pub fn new(params: TrajectoryParams, waypoints: &[Vec3]) -> Result<Self, TrajectoryError> {
+        params.validate()?;
+        if waypoints.is_empty() {
+            return Err(PathError::Empty.into());
+        }
+        if waypoints.len() > N {
+            return Err(PathError::TooMany { capacity: N }.into());
+        }
+        if let Some(index) = waypoints.iter().position(|w| !is_finite3(w)) {
+            return Err(PathError::NonFinite { index }.into());
+        }
+        if let Some(index) = waypoints.iter().position(|w| w.amax() > COORDINATE_LIMIT) {
+            return Err(PathError::OutOfRange { index }.into());
+        }
+        let axes =
+            AxisLimits { horizontal: params.cruise_speed, up: params.speed_up, down: params.speed_down };
+        let mut legs: heapless::Vec<Leg, N> = heapless::Vec::new();
+        let mut horizontal = true;
+        for (i, pair) in waypoints.windows(2).enumerate() {
+            let [a, b] = pair else {
+                continue;
+            };
+            let d = b - a;
+            let length = norm3(&d);
+            if length < MIN_LEG_LENGTH {
+                return Err(TrajectoryError::RepeatedWaypoint { index: i + 1 });
+            }
+            let dir = d / length;
+            horizontal &= dir.z.abs() <= 1e-6;
+            // Cannot fail: at most N − 1 legs.
+            let _ = legs.push(Leg { from: *a, dir, length, limit: axes.along(&dir) });
+        }
+        let accel = if horizontal {
+            params.accel_horizontal
+        } else {
+            minf(params.accel_horizontal, params.accel_vertical)
+        };
+        let mut corners: heapless::Vec<Corner, N> = heapless::Vec::new();
+        for pair in legs.windows(2) {
+            let [l0, l1] = pair else {
+                continue;
+            };
+            let at = l1.from;
+            let _ = corners.push(Corner::new(at, (l0, l1), params.corner_tolerance, accel, &axes));
+        }
+        let goal = waypoints.last().copied().unwrap_or_else(Vec3::zeros);
+        let mut t = Trajectory {
+            params,
+            lim: Limits { accel, jerk: params.jerk },
+            legs,
+            corners,
+            goal,
+            piece: 0,
+            piece_start: 0.0,
+            motion: Motion::default(),
+            total: 0.0,
+            done: waypoints.len() == 1,
+            last_acceleration: Vec3::zeros(),
+        };
+        t.total = (0..t.piece_count()).map(|p| t.piece_len(p)).sum();
+        Ok(t)
+    }
+
+    /// Capacity in waypoints (`N`).
+    pub const fn capacity(&self) -> usize {
+        N
+    }
+
+    /// Parameters in use.
+    pub fn params(&self) -> &TrajectoryParams {
+        &self.params
+    }
+
+    /// The goal (last waypoint), NED m.
+    pub fn goal(&self) -> Vec3 {
+        self.goal
+    }
+
+    /// Length of the flown curve (legs shortened by the blends, plus the blends), m.
+    pub fn total_length(&self) -> f32 {
+        self.total
+    }
+
+    /// Tangential acceleration bound `A` used along this path, m/s².
+    pub fn accel_limit(&self) -> f32 {
+        self.lim.accel
+    }
+
+    /// `true` once the goal has been reached at rest.
+    pub fn is_done(&self) -> bool {
+        self.done
+    }
+
+    fn piece_count(&self) -> usize {
+        (2 * self.legs.len()).saturating_sub(1)
+    }
+
+    /// Half-length of corner `k`'s blend (0 for none, also for `k` out of range).
+    fn corner_half(&self, k: Option<usize>) -> f32 {
+        k.and_then(|k| self.corners.get(k)).map_or(0.0, |c| c.half)
+    }
+
+    fn piece_len(&self, p: usize) -> f32 {
+        let k = p / 2;
+        if p % 2 == 1 {
+            return self.corners.get(k).map_or(0.0, |c| c.arc);
+        }
+        let Some(leg) = self.legs.get(k) else {
+            return 0.0;
+        };
+        let before = self.corner_half(k.checked_sub(1));
+        let after = self.corner_half(Some(k));
+        maxf(leg.length - before - after, 0.0)
+    }
+
+    fn piece_limit(&self, p: usize) -> f32 {
+        let k = p / 2;
+        if p % 2 == 1 {
+            self.corners.get(k).map_or(0.0, |c| c.limit)
+        } else {
+            self.legs.get(k).map_or(0.0, |l| l.limit)
+        }
+    }
+
+    fn piece_is_stop(&self, p: usize) -> bool {
+        p % 2 == 1 && self.corners.get(p / 2).is_some_and(|c| c.stop)
+    }
+
+    /// `true` when the end of `piece` is a point where the motion must be at rest (a stop
+    /// corner follows, or it is the last piece).
+    fn ends_at_rest(&self, p: usize) -> bool {
+        p + 1 >= self.piece_count() || self.piece_is_stop(p + 1)
+    }
+
+    /// Can the motion `m` (`s` local to the current piece) still brake to every upcoming
+    /// speed limit and to rest at the goal? Looks only as far as its braking distance to rest.
+    fn safe(&self, m: &Motion) -> bool {
+        let horizon = brake_distance(m.v, m.a, 0.0, self.lim);
+        let count = self.piece_count();
+        let mut start = 0.0f32; // start of piece p, local to the current piece
+        for p in self.piece..count {
+            if p > self.piece {
+                let d = start - m.s;
+                if d > horizon {
+                    return true;
+                }
+                if brake_distance(m.v, m.a, self.piece_limit(p), self.lim) > maxf(d, 0.0) {
+                    return false;
+                }
+                if self.piece_is_stop(p) {
+                    return true;
+                }
+            }
+            start += self.piece_len(p);
+        }
+        brake_distance(m.v, m.a, 0.0, self.lim) <= maxf(start - m.s, 0.0)
+    }
+
+    /// Advance the reference by `dt` seconds (in (0, [`MAX_STEP_DT`]]) with the allowed speed
+    /// scaled by `clock_scale` (clamped into [0, 1]; 0 = brake and wait). Returns the new
+    /// reference. Bounded time: `O(BISECTION_ITERATIONS · N)`.
+    pub fn step(&mut self, dt: f32, clock_scale: f32) -> Result<TrajectorySample, TrajectoryError> {
+        if !(dt > 0.0 && dt <= MAX_STEP_DT) {
+            return Err(TrajectoryError::BadDt);
+        }
+        if !clock_scale.is_finite() {
+            return Err(TrajectoryError::BadClockScale);
+        }
+        if self.done {
+            return Ok(self.finish(dt));
+        }
+        if self.arrive(dt) {
+            if self.done {
+                return Ok(self.finish(dt));
+            }
+            // At rest on a stop corner: this step reports the corner at rest, the next one
+            // leaves it (so the acceleration never jumps by more than J·dt).
+            return Ok(self.sample(dt));
+        }
+        let scale = clock_scale.clamp(0.0, 1.0);
+        let m = self.motion;
+        let target = scale * self.piece_limit(self.piece);
+        let next = |u: f32| follow(m, &velocity_plan(m.v, m.a, u, self.lim), dt);
+        let mut n = next(target);
+        if !self.safe(&n) {
+            let braking = next(0.0);
+            if self.safe(&braking) {
+                let (mut lo, mut hi) = (0.0f32, target);
+                n = braking;
+                for _ in 0..BISECTION_ITERATIONS {
+                    let mid = 0.5 * (lo + hi);
+                    let cand = next(mid);
+                    if self.safe(&cand) {
+                        lo = mid;
+                        n = cand;
+                    } else {
+                        hi = mid;
+                    }
+                }
+            } else {
+                n = braking;
+            }
+        }
+        self.advance(n);
+        Ok(self.sample(dt))
+    }
+
+    /// At rest within [`SNAP_DISTANCE`] of a stop corner or the goal (speed ≤ [`SNAP_SPEED`],
+    /// acceleration ≤ `J·dt/2`): snap onto it — done at the goal, onto the next leg at rest
+    /// after a stop corner. Returns `true` when it snapped.
+    fn arrive(&mut self, dt: f32) -> bool {
+        let count = self.piece_count();
+        let n = self.motion;
+        if !self.ends_at_rest(self.piece) {
+            return false;
+        }
+        let len = self.piece_len(self.piece);
+        let at_rest = n.v.abs() <= SNAP_SPEED && n.a.abs() <= 0.5 * self.lim.jerk * dt;
+        if !(len - n.s <= SNAP_DISTANCE && at_rest) {
+            return false;
+        }
+        if self.piece + 1 >= count {
+            self.done = true;
+            self.motion = Motion { s: len, v: 0.0, a: 0.0 };
+        } else {
+            // Past the stop corner (zero length), onto the next leg, at rest.
+            self.piece_start += len;
+            self.piece += 2;
+            self.motion = Motion::default();
+        }
+        true
+    }
+
+    /// Move the motion `n` (local to the current piece) onto the piece it lies in, never past
+    /// a stop corner or the goal (where [`arrive`](Self::arrive) takes over).
+    fn advance(&mut self, mut n: Motion) {
+        for _ in 0..self.piece_count() {
+            let len = self.piece_len(self.piece);
+            if self.ends_at_rest(self.piece) {
+                n.s = minf(n.s, len);
+                break;
+            }
+            if n.s < len {
+                break;
+            }
+            n.s -= len;
+            self.piece_start += len;
+            self.piece += 1;
+        }
+        self.motion = n;
+    }
+
+    /// The reference for the current motion.
+    fn sample(&mut self, dt: f32) -> TrajectorySample {
+        let m = self.motion;
+        let k = self.piece / 2;
+        let (position, tangent, curvature, segment) = if self.piece % 2 == 1 {
+            match self.corners.get(k) {
+                Some(c) => {
+                    let (p, t, kn) = c.eval(m.s);
+                    (p, t, kn, if m.s < 0.5 * c.arc { k } else { k + 1 })
+                }
+                None => (self.goal, Vec3::zeros(), Vec3::zeros(), k),
+            }
+        } else {
+            match self.legs.get(k) {
+                Some(l) => {
+                    let start = l.from + l.dir * self.corner_half(k.checked_sub(1));
+                    (start + l.dir * m.s, l.dir, Vec3::zeros(), k)
+                }
+                None => (self.goal, Vec3::zeros(), Vec3::zeros(), k),
+            }
+        };
+        let acceleration = tangent * m.a + curvature * (m.v * m.v);
+        let jerk = (acceleration - self.last_acceleration) / dt;
+        self.last_acceleration = acceleration;
+        TrajectorySample {
+            position,
+            velocity: tangent * m.v,
+            acceleration,
+            jerk,
+            s: self.piece_start + m.s,
+            speed: m.v,
+            path_acceleration: m.a,
+            speed_limit: self.piece_limit(self.piece),
+            done: false,
+            segment,
+        }
+    }
+
+    /// The reference once done: the goal at rest.
+    fn finish(&mut self, dt: f32) -> TrajectorySample {
+        let jerk = -self.last_acceleration / dt;
+        self.last_acceleration = Vec3::zeros();
+        TrajectorySample {
+            position: self.goal,
+            velocity: Vec3::zeros(),
+            acceleration: Vec3::zeros(),
+            jerk,
+            s: self.total,
+            speed: 0.0,
+            path_acceleration: 0.0,
+            speed_limit: 0.0,
+            done: true,
+            segment: self.legs.len().saturating_sub(1),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
