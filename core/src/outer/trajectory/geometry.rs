@@ -179,11 +179,33 @@ fn speed_at(t: f32, half: f32, cos_theta: f32) -> f32 {
     5.0 * half * sqrtf(maxf(al * al + be * be + 2.0 * al * be * cos_theta, 0.0))
 }
 
+/// Would a blend of arc length `arc` flown at `v_blend` take more than twice as long as
+/// stopping at the corner? The blend takes at least `arc/v_blend`; stopping replaces it by
+/// the `half` of polyline on each side flown from and to rest, each at least the larger of
+/// `(6·half/J)^⅓` (jerk only), `√(2·half/A)` (acceleration only) and `half/v_leg`, all lower
+/// bounds (at 90° the two are about equal, so the factor 2 keeps the blend there). A sharp
+/// turn whose blend would crawl (a near-reversal: `κ_max` grows as `1/cos²(θ/2)`) stops and
+/// turns instead.
+fn slower_than_stopping(arc: f32, v_blend: f32, half: f32, (accel, jerk): (f32, f32), v_leg: f32) -> bool {
+    if v_blend <= 0.0 {
+        return true;
+    }
+    // Half the blend time, halved again for the factor 2.
+    let t = 0.25 * arc / v_blend;
+    t * t * t > 6.0 * half / jerk && t * t > 2.0 * half / accel && t > half / v_leg
+}
+
 impl Corner {
     /// The corner at waypoint `at` between legs of directions `d0`, `d1` and lengths
     /// `len_in`, `len_out`, for the corner tolerance `tol` (m), the lateral acceleration
-    /// bound `accel` (m/s²) and the axis limits.
-    pub fn new(at: Vec3, legs: (&Leg, &Leg), tol: f32, accel: f32, axes: &AxisLimits) -> Corner {
+    /// bound `accel` (m/s²), the jerk bound `jerk` (m/s³) and the axis limits.
+    pub fn new(
+        at: Vec3,
+        legs: (&Leg, &Leg),
+        tol: f32,
+        (accel, jerk): (f32, f32),
+        axes: &AxisLimits,
+    ) -> Corner {
         let (d0, d1) = (legs.0.dir, legs.1.dir);
         let cos_theta = d0.dot(&d1).clamp(-1.0, 1.0);
         let mut c = Corner {
@@ -230,6 +252,13 @@ impl Corner {
             }
         }
         c.arc = acc;
+        if slower_than_stopping(acc, c.limit, half, (accel, jerk), minf(legs.0.limit, legs.1.limit)) {
+            c.stop = true;
+            c.limit = 0.0;
+            c.half = 0.0;
+            c.arc = 0.0;
+            c.table = [0.0; TABLE_INTERVALS + 1];
+        }
         c
     }
 
@@ -293,7 +322,7 @@ mod tests {
 
     fn right_angle(tol: f32) -> Corner {
         let (a, b, c) = (Vec3::zeros(), Vec3::new(10.0, 0.0, 0.0), Vec3::new(10.0, 10.0, 0.0));
-        Corner::new(b, (&leg(a, b), &leg(b, c)), tol, 3.0, &AXES)
+        Corner::new(b, (&leg(a, b), &leg(b, c)), tol, (3.0, 4.0), &AXES)
     }
 
     #[test]
@@ -337,9 +366,9 @@ mod tests {
     fn reversal_and_zero_tolerance_stop() {
         assert!(right_angle(0.0).stop);
         let (a, b) = (Vec3::zeros(), Vec3::new(5.0, 0.0, 0.0));
-        let c = Corner::new(b, (&leg(a, b), &leg(b, a)), 0.5, 3.0, &AXES);
+        let c = Corner::new(b, (&leg(a, b), &leg(b, a)), 0.5, (3.0, 4.0), &AXES);
         assert!(c.stop && c.limit == 0.0);
-        let straight = Corner::new(b, (&leg(a, b), &leg(b, b * 2.0)), 0.5, 3.0, &AXES);
+        let straight = Corner::new(b, (&leg(a, b), &leg(b, b * 2.0)), 0.5, (3.0, 4.0), &AXES);
         assert!(!straight.stop && straight.half == 0.0 && straight.limit == 3.0);
     }
 

@@ -234,7 +234,8 @@ impl<const N: usize> Trajectory<N> {
                 continue;
             };
             let at = l1.from;
-            let _ = corners.push(Corner::new(at, (l0, l1), params.corner_tolerance, accel, &axes));
+            let _ =
+                corners.push(Corner::new(at, (l0, l1), params.corner_tolerance, (accel, params.jerk), &axes));
         }
         let goal = waypoints.last().copied().unwrap_or_else(Vec3::zeros);
         let mut t = Trajectory {
@@ -371,7 +372,14 @@ impl<const N: usize> Trajectory<N> {
             return Ok(self.sample(dt));
         }
         let scale = clock_scale.clamp(0.0, 1.0);
-        let m = self.motion;
+        let mut m = self.motion;
+        // Rounding over many steps can leave a braking state slightly inconsistent: a
+        // deceleration that, ramped to zero at the jerk limit, would take the speed below 0
+        // (by ~1e-6 m/s). Lift the speed onto the consistent value so no plan reverses.
+        let floor = m.a * m.a / (2.0 * self.lim.jerk);
+        if m.a < 0.0 && m.v < floor {
+            m.v = floor;
+        }
         let target = scale * self.piece_limit(self.piece);
         let next = |u: f32| follow(m, &velocity_plan(m.v, m.a, u, self.lim), dt);
         let mut n = next(target);
@@ -393,6 +401,11 @@ impl<const N: usize> Trajectory<N> {
             } else {
                 n = braking;
             }
+        }
+        if n.v < 0.0 {
+            // Rounding at the end of a stop (the plans never reverse): rest, not backwards.
+            n.v = 0.0;
+            n.a = maxf(n.a, 0.0);
         }
         self.advance(n);
         Ok(self.sample(dt))
