@@ -150,7 +150,7 @@ fn fly_checked(w: &[Vec3], p: &TrajectoryParams, dt: f32, max_steps: usize) -> R
             s.path_acceleration
         );
         let jerk = (s.path_acceleration - prev.path_acceleration).abs() / dt;
-        prop_assert!(jerk <= p.jerk * (1.0 + 1e-3) + 1e-3 / dt * 1e-2, "step {i}: jerk {jerk}");
+        prop_assert!(jerk <= p.jerk * 1.001 + 1e-5 / dt, "step {i}: jerk {jerk}");
         if s.speed > 1e-3 {
             let tangent = s.velocity / s.speed;
             let lateral = (s.acceleration - tangent * s.path_acceleration).norm();
@@ -201,7 +201,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases()))]
     /// On random polylines of 2–10 waypoints in a 50 m box with random limits: continuous,
     /// within every limit, within the corner tolerance of the polyline, ends at the goal at
-    /// rest within a generous bound (stop-and-go time plus 30 s per corner), never NaN.
+    /// rest within a generous bound (twice the stop-and-go time plus 5 s per corner), never NaN.
     #[test]
     fn random_polylines_respect_limits_and_arrive(
         w in proptest::collection::vec(point(), 2..=10),
@@ -209,7 +209,8 @@ proptest! {
         dt in prop_oneof![Just(0.004f32), Just(0.01f32), Just(0.02f32)],
     ) {
         prop_assume!(w.windows(2).all(|x| (x[1] - x[0]).norm() >= MIN_LEG_LENGTH * 10.0));
-        let bound_s = stop_and_go_time(&w, &p) + 30.0 * (w.len() - 2) as f64 + 1.0;
+        // Blends are kept only while estimated at most 1.5 times as long as a stop and turn.
+        let bound_s = 2.0 * stop_and_go_time(&w, &p) + 5.0 * (w.len() - 2) as f64 + 1.0;
         let max_steps = (bound_s / dt as f64) as usize;
         let r = fly_checked(&w, &p, dt, max_steps)?;
         prop_assert!(r.done, "not at the goal after {} steps ({bound_s} s)", r.steps);
@@ -296,5 +297,52 @@ fn office_path_beats_stop_and_go_and_respects_the_lower_bound() {
         );
         assert!(time <= stop_go, "{time} vs stop-and-go {stop_go}");
         assert!(time >= lower);
+    }
+}
+
+/// Host cost of a step (`--ignored`, timing only): the office path at 3 m/s and a 64-waypoint
+/// gentle arc (2 m legs turning 0.5° each: corners at 15 m/s, so about 40 pieces lie within
+/// the braking distance, a bad case of the look-ahead) at 20 m/s, 250 Hz steps. Each step is timed on 7 clones of the trajectory and
+/// the fastest kept (removing preemption by other processes); reported are the mean and the
+/// largest of these per-step times.
+#[test]
+#[ignore]
+fn step_cost_on_the_host() {
+    let mut arc = vec![Vec3::new(0.0, 0.0, -1.0)];
+    for k in 0..63 {
+        let heading = (0.5f32 * k as f32).to_radians();
+        let last = *arc.last().unwrap();
+        arc.push(last + Vec3::new(heading.cos(), heading.sin(), 0.0) * 2.0);
+    }
+    for (name, w, cruise) in [("office", office(), 3.0f32), ("arc of 64", arc, 20.0)] {
+        let p = TrajectoryParams { cruise_speed: cruise, ..TrajectoryParams::default() };
+        let mut worst = std::time::Duration::ZERO;
+        let mut total = std::time::Duration::ZERO;
+        let mut steps = 0u32;
+        let mut t: Trajectory = Trajectory::new(p, &w).unwrap();
+        loop {
+            let mut best = std::time::Duration::MAX;
+            let mut next = None;
+            for _ in 0..7 {
+                let mut c = t.clone();
+                let start = std::time::Instant::now();
+                let s = std::hint::black_box(c.step(0.004, 1.0).unwrap());
+                best = best.min(start.elapsed());
+                next = Some((c, s));
+            }
+            let (c, s) = next.unwrap();
+            t = c;
+            worst = worst.max(best);
+            total += best;
+            steps += 1;
+            if s.done {
+                break;
+            }
+        }
+        println!(
+            "{name}: {steps} steps, mean {:.2} µs/step, largest {:.2} µs",
+            total.as_secs_f64() * 1e6 / steps as f64,
+            worst.as_secs_f64() * 1e6
+        );
     }
 }

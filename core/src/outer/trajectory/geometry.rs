@@ -40,6 +40,11 @@ pub(crate) const STRAIGHT_ANGLE: f32 = 1.0e-6;
 /// Turns of more than `π −` this (rad) stop at the corner.
 pub(crate) const REVERSAL_ANGLE: f32 = 1.0e-3;
 
+/// A blend is replaced by a stop corner when its estimated time exceeds this many times the
+/// stop's: a smooth pass is worth some time (at 90° and the default limits a blend is about
+/// 1.3 times the stop's estimate).
+pub(crate) const STOP_PREFERENCE: f32 = 1.5;
+
 /// Blends shorter than this (m, `L`) are replaced by a stop corner.
 pub(crate) const MIN_BLEND: f32 = 1.0e-4;
 
@@ -179,20 +184,29 @@ fn speed_at(t: f32, half: f32, cos_theta: f32) -> f32 {
     5.0 * half * sqrtf(maxf(al * al + be * be + 2.0 * al * be * cos_theta, 0.0))
 }
 
-/// Would a blend of arc length `arc` flown at `v_blend` take more than twice as long as
-/// stopping at the corner? The blend takes at least `arc/v_blend`; stopping replaces it by
-/// the `half` of polyline on each side flown from and to rest, each at least the larger of
-/// `(6·half/J)^⅓` (jerk only), `√(2·half/A)` (acceleration only) and `half/v_leg`, all lower
-/// bounds (at 90° the two are about equal, so the factor 2 keeps the blend there). A sharp
-/// turn whose blend would crawl (a near-reversal: `κ_max` grows as `1/cos²(θ/2)`) stops and
-/// turns instead.
+/// Time to change speed by `dv` (≥ 0) from and to zero acceleration, jerk-limited.
+fn ramp_time(dv: f32, accel: f32, jerk: f32) -> f32 {
+    if dv >= accel * accel / jerk {
+        dv / accel + accel / jerk
+    } else {
+        2.0 * sqrtf(dv / jerk)
+    }
+}
+
+/// Would a blend of arc length `arc` flown at `v_blend` take more than [`STOP_PREFERENCE`]
+/// times as long as stopping at the corner? Both are estimated against cruising at `v_leg`:
+/// the blend costs `arc/v_blend` plus the time lost slowing from and speeding back to
+/// `v_leg` (`T·(v_leg − v_blend)/v_leg` for a jerk-limited change of duration `T`), the stop
+/// `2·half/v_leg` plus the time lost by stopping (`T(v_leg)`). Sharp turns, whose blends crawl
+/// (`κ_max` grows as `1/cos²(θ/2)`), stop and turn instead.
 fn slower_than_stopping(arc: f32, v_blend: f32, half: f32, (accel, jerk): (f32, f32), v_leg: f32) -> bool {
     if v_blend <= 0.0 {
         return true;
     }
-    // Half the blend time, halved again for the factor 2.
-    let t = 0.25 * arc / v_blend;
-    t * t * t > 6.0 * half / jerk && t * t > 2.0 * half / accel && t > half / v_leg
+    let v_blend = minf(v_blend, v_leg);
+    let blend = arc / v_blend + ramp_time(v_leg - v_blend, accel, jerk) * (v_leg - v_blend) / v_leg;
+    let stop = 2.0 * half / v_leg + ramp_time(v_leg, accel, jerk);
+    blend > STOP_PREFERENCE * stop
 }
 
 impl Corner {

@@ -266,3 +266,11 @@ fn vertical_legs_respect_the_climb_and_descent_limits() {
     });
     assert!(f.done);
 }
+
+/// The memory of a trajectory of the default capacity stays about 10 KB (measured on the
+/// host: 10 096 bytes; `docs/cascade.md`).
+#[test]
+fn memory_of_a_default_trajectory() {
+    let size = core::mem::size_of::<Trajectory>();
+    assert!(size <= 10_240, "{size} bytes");
+}
