@@ -22,8 +22,9 @@
 //! (nearly) 180° or a zero tolerance makes a **stop corner**: no blend, speed 0 at `C`.
 //!
 //! Arc length along a blend: a table of [`TABLE_INTERVALS`]` + 1` cumulative lengths at
-//! uniform `t` (3-point Gauss-Legendre per interval) and cubic Hermite interpolation of
-//! `t(σ)` between the nodes (the node slopes are `1/|B'(tᵢ)|`).
+//! nodes in `t` that are denser near the middle ([`node`]; 3-point Gauss-Legendre per
+//! interval) and cubic Hermite interpolation of `t(σ)` between the nodes (the node slopes are
+//! `1/|B'(tᵢ)|`).
 //!
 //! Owns only geometry; imports [`crate::fmath`] and [`crate::Vec3`].
 
@@ -37,8 +38,11 @@ pub(crate) const TABLE_INTERVALS: usize = 16;
 /// by at most this angle without a blend (≤ 20 µm/s at 20 m/s).
 pub(crate) const STRAIGHT_ANGLE: f32 = 1.0e-6;
 
-/// Turns of more than `π −` this (rad) stop at the corner.
-pub(crate) const REVERSAL_ANGLE: f32 = 1.0e-3;
+/// `cos` of the sharpest turn that is blended (160°); sharper turns stop at the corner. Up
+/// to it the blend's arc-length parameterisation is within 1 % (test
+/// `arc_length_parameterisation_is_accurate_up_to_the_sharpest_blend`), and such blends crawl
+/// anyway (`v_c ≈ 0.1·√(A·L)` at 160°).
+pub(crate) const SHARPEST_BLEND_COS: f32 = -0.939_692_6;
 
 /// A blend is replaced by a stop corner when its estimated time exceeds this many times the
 /// stop's: a smooth pass is worth some time (at 90° and the default limits a blend is about
@@ -144,9 +148,9 @@ pub(crate) struct Corner {
     pub arc: f32,
     /// Speed limit on the blend, m/s (0 at a stop corner).
     pub limit: f32,
-    /// Stop at the corner (reversal or zero tolerance).
+    /// Stop at the corner (turn sharper than 160°, zero tolerance, or a blend slower than stopping).
     pub stop: bool,
-    /// Cumulative arc length at `t = i/TABLE_INTERVALS`, m.
+    /// Cumulative arc length at `t = node(i)`, m.
     pub table: [f32; TABLE_INTERVALS + 1],
 }
 
@@ -176,6 +180,17 @@ fn curvature_weights(t: f32) -> (f32, f32) {
     let gamma = -0.5 * 3.0 * t * u * u;
     let delta = 0.5 * 3.0 * t * t * u;
     (gamma, delta)
+}
+
+/// Slope of [`node`] at the blend's middle (the nodes are this much denser there than uniform).
+const NODE_MID_SLOPE: f32 = 0.25;
+
+/// Bézier parameter of table node `i`: `t(u) = ½ + (u − ½)·(k + (1 − k)·4(u − ½)²)` with
+/// `u = i/TABLE_INTERVALS` and `k` = [`NODE_MID_SLOPE`]: monotone, `t(0) = 0`, `t(1) = 1`, and
+/// dense near `t = ½`, where `|B'|` dips (to `∝ cos(θ/2)` for sharp turns).
+fn node(i: usize) -> f32 {
+    let u = i as f32 / TABLE_INTERVALS as f32 - 0.5;
+    0.5 + u * (NODE_MID_SLOPE + (1.0 - NODE_MID_SLOPE) * 4.0 * u * u)
 }
 
 /// `|B'(t)|` for a blend of half-length `half`.
@@ -240,8 +255,7 @@ impl Corner {
         if 2.0 * s_half < STRAIGHT_ANGLE {
             return c;
         }
-        // cos(θ/2) = sin((π − θ)/2) ≈ (π − θ)/2.
-        let reversal = c_half < 0.5 * REVERSAL_ANGLE;
+        let reversal = cos_theta < SHARPEST_BLEND_COS;
         let half = minf(tol / (DEVIATION_FACTOR * s_half), 0.5 * minf(legs.0.length, legs.1.length));
         if reversal || half < MIN_BLEND {
             c.stop = true;
@@ -253,11 +267,11 @@ impl Corner {
         let lateral = sqrtf(accel / kappa_max);
         c.limit = minf(minf(lateral, axes.along_arc(&d0, &d1, cos_theta)), c.limit);
         // Arc-length table (3-point Gauss-Legendre on each interval).
-        let h = 1.0 / TABLE_INTERVALS as f32;
         let g = 0.5 * sqrtf(0.6);
         let mut acc = 0.0f32;
         for i in 0..TABLE_INTERVALS {
-            let mid = (i as f32 + 0.5) * h;
+            let (t0, t1) = (node(i), node(i + 1));
+            let (h, mid) = (t1 - t0, 0.5 * (t0 + t1));
             let f = |x: f32| speed_at(x, half, cos_theta);
             let integral = h * (5.0 * f(mid - g * h) + 8.0 * f(mid) + 5.0 * f(mid + g * h)) / 18.0;
             acc += integral;
@@ -279,7 +293,6 @@ impl Corner {
     /// Bézier parameter `t` at arc length `sigma` (clamped into the blend).
     fn t_of(&self, sigma: f32) -> f32 {
         let sigma = sigma.clamp(0.0, self.arc);
-        let h = 1.0 / TABLE_INTERVALS as f32;
         let mut i = 0usize;
         while i + 1 < TABLE_INTERVALS && self.table.get(i + 1).is_some_and(|&x| x <= sigma) {
             i += 1;
@@ -287,11 +300,11 @@ impl Corner {
         let s0 = self.table.get(i).copied().unwrap_or(0.0);
         let s1 = self.table.get(i + 1).copied().unwrap_or(self.arc);
         let ds = s1 - s0;
+        let (t0, t1) = (node(i), node(i + 1));
         if ds <= 0.0 {
-            return i as f32 * h;
+            return t0;
         }
         let x = ((sigma - s0) / ds).clamp(0.0, 1.0);
-        let (t0, t1) = (i as f32 * h, (i + 1) as f32 * h);
         // Hermite with slopes dt/dσ·ds = ds/|B'(tᵢ)|.
         let m0 = ds / maxf(speed_at(t0, self.half, self.cos_theta), 1e-12);
         let m1 = ds / maxf(speed_at(t1, self.half, self.cos_theta), 1e-12);
@@ -329,9 +342,13 @@ mod tests {
     const AXES: AxisLimits = AxisLimits { horizontal: 3.0, up: 3.0, down: 1.5 };
 
     fn leg(from: Vec3, to: Vec3) -> Leg {
+        leg_with(from, to, &AXES)
+    }
+
+    fn leg_with(from: Vec3, to: Vec3, axes: &AxisLimits) -> Leg {
         let d = to - from;
         let length = d.norm();
-        Leg { from, dir: d / length, length, limit: AXES.along(&(d / length)) }
+        Leg { from, dir: d / length, length, limit: axes.along(&(d / length)) }
     }
 
     fn right_angle(tol: f32) -> Corner {
@@ -398,5 +415,38 @@ mod tests {
         assert!((AXES.along_arc(&d0, &d1, d0.dot(&d1)) - 1.5).abs() < 1e-5);
         // A horizontal turn: the horizontal limit.
         assert!((AXES.along_arc(&Vec3::x(), &Vec3::y(), 0.0) - 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn arc_length_parameterisation_is_accurate_up_to_the_sharpest_blend() {
+        // Slow legs so that even sharp turns keep their blends; 10 m legs, 1 m tolerance.
+        let axes = AxisLimits { horizontal: 0.3, up: 0.3, down: 0.3 };
+        for deg in [30.0f32, 60.0, 90.0, 120.0, 135.0, 150.0, 159.0] {
+            let th = deg.to_radians();
+            let (a, b) = (Vec3::new(-10.0, 0.0, 0.0), Vec3::zeros());
+            let c = Vec3::new(10.0 * libm::cosf(th), 10.0 * libm::sinf(th), 0.0);
+            let k = Corner::new(b, (&leg_with(a, b, &axes), &leg_with(b, c, &axes)), 1.0, (3.0, 4.0), &axes);
+            assert!(!k.stop, "{deg}");
+            // |Δp| over a small step of σ is the step: the speed ratio error of the reference.
+            let n = 4000;
+            let h = k.arc / n as f32;
+            let mut worst = 0.0f32;
+            for i in 0..n {
+                let (p0, _, _) = k.eval(i as f32 * h);
+                let (p1, _, _) = k.eval((i + 1) as f32 * h);
+                worst = worst.max(((p1 - p0).norm() / h - 1.0).abs());
+            }
+            assert!(worst < 0.01, "{deg}°: {worst}");
+            if deg <= 90.0 {
+                assert!(worst < 0.0025, "{deg}°: {worst}");
+            }
+        }
+        // 161°: a stop.
+        let th = 161.0f32.to_radians();
+        let c = Vec3::new(10.0 * libm::cosf(th), 10.0 * libm::sinf(th), 0.0);
+        let (a, b) = (Vec3::new(-10.0, 0.0, 0.0), Vec3::zeros());
+        assert!(
+            Corner::new(b, (&leg_with(a, b, &axes), &leg_with(b, c, &axes)), 1.0, (3.0, 4.0), &axes).stop
+        );
     }
 }

@@ -8,8 +8,9 @@
 //! * **Geometry** ([`geometry`]): the polyline's legs are kept straight and each corner is
 //!   replaced by a symmetric quintic Bézier blend that leaves and joins the legs with zero
 //!   curvature (curvature-continuous path), cuts the corner by at most
-//!   [`TrajectoryParams::corner_tolerance`] and takes at most half of either leg. A reversal
-//!   (180°) or a zero tolerance makes a stop corner (speed 0 at the waypoint).
+//!   [`TrajectoryParams::corner_tolerance`] and takes at most half of either leg. A turn
+//!   sharper than 160°, a zero tolerance, or a blend slower than stopping makes a stop
+//!   corner (speed 0 at the waypoint).
 //! * **Speed limits**: on a leg, the largest speed whose horizontal component is at most the
 //!   cruise speed and whose vertical component is at most the up/down limit; on a blend, also
 //!   over every direction of the blend and `√(A/κ_max)` (lateral acceleration ≤ `A`).
