@@ -74,7 +74,7 @@ use crate::fmath::{maxf, minf, norm3};
 use crate::frame::is_finite3;
 use crate::Vec3;
 use geometry::{AxisLimits, Corner, Leg};
-use profile::{brake_distance, follow, velocity_plan, Limits, Motion};
+use profile::{brake_distance, follow_delta, velocity_plan, Limits, Motion};
 
 /// Consecutive waypoints closer than this (m) are a repeated waypoint (a zero-length leg).
 pub const MIN_LEG_LENGTH: f32 = 1.0e-3;
@@ -167,6 +167,37 @@ pub fn clock_scale(tracking_error_m: f32, bound_m: f32) -> f32 {
     }
 }
 
+/// Distance (m) by which [`Trajectory`]'s safety check shortens each distance it compares
+/// with a braking distance: eight `f32` roundings (relative `ε`) of the arc lengths `a`, `b`
+/// whose difference the distance is and of the braking distance `brake`, at most a quarter of
+/// [`SNAP_DISTANCE`] (so a motion at rest that margin short of a stop still snaps onto it).
+fn rounding_margin(a: f32, b: f32, brake: f32) -> f32 {
+    minf(8.0 * f32::EPSILON * (a.abs() + b.abs() + brake), 0.25 * SNAP_DISTANCE)
+}
+
+/// Kahan compensations of the arc length and the speed (`true value ≈ stored − comp`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+struct Comp {
+    s: f32,
+    v: f32,
+}
+
+impl Comp {
+    /// `m` advanced by `d` with compensated sums; the new motion and compensations.
+    fn add(&self, m: &Motion, d: &profile::Delta, end_speed: f32) -> (Motion, Comp) {
+        let ys = d.ds - self.s;
+        let s = m.s + ys;
+        let (v, cv) = if d.complete {
+            (end_speed, 0.0)
+        } else {
+            let yv = d.dv - self.v;
+            let v = m.v + yv;
+            (v, (v - m.v) - yv)
+        };
+        (Motion { s, v, a: d.a }, Comp { s: (s - m.s) - ys, v: cv })
+    }
+}
+
 /// An online jerk-limited trajectory along a polyline of at most `N` waypoints.
 #[derive(Clone, Debug)]
 pub struct Trajectory<const N: usize = DEFAULT_PATH_CAPACITY> {
@@ -182,6 +213,10 @@ pub struct Trajectory<const N: usize = DEFAULT_PATH_CAPACITY> {
     piece_start: f32,
     /// The motion, `s` local to `piece`.
     motion: Motion,
+    /// Kahan compensation of `motion.s` and `motion.v`: the low-order parts of the step
+    /// changes lost to rounding, so that neither drifts from the integrated plans (a drift of
+    /// the speed over a long braking at the acceleration limit would leave no room to brake).
+    comp: Comp,
     total: f32,
     done: bool,
     last_acceleration: Vec3,
@@ -248,6 +283,7 @@ impl<const N: usize> Trajectory<N> {
             piece: 0,
             piece_start: 0.0,
             motion: Motion::default(),
+            comp: Comp::default(),
             total: 0.0,
             done: waypoints.len() == 1,
             last_acceleration: Vec3::zeros(),
@@ -329,6 +365,7 @@ impl<const N: usize> Trajectory<N> {
 
     /// Can the motion `m` (`s` local to the current piece) still brake to every upcoming
     /// speed limit and to rest at the goal? Looks only as far as its braking distance to rest.
+    /// Each distance is shortened by [`rounding_margin`] for the rounding of `f32` arc lengths.
     fn safe(&self, m: &Motion) -> bool {
         let horizon = brake_distance(m.v, m.a, 0.0, self.lim);
         let count = self.piece_count();
@@ -339,7 +376,8 @@ impl<const N: usize> Trajectory<N> {
                 if d > horizon {
                     return true;
                 }
-                if brake_distance(m.v, m.a, self.piece_limit(p), self.lim) > maxf(d, 0.0) {
+                let brake = brake_distance(m.v, m.a, self.piece_limit(p), self.lim);
+                if brake > maxf(d - rounding_margin(start, m.s, brake), 0.0) {
                     return false;
                 }
                 if self.piece_is_stop(p) {
@@ -348,7 +386,7 @@ impl<const N: usize> Trajectory<N> {
             }
             start += self.piece_len(p);
         }
-        brake_distance(m.v, m.a, 0.0, self.lim) <= maxf(start - m.s, 0.0)
+        horizon <= maxf(start - m.s - rounding_margin(start, m.s, horizon), 0.0)
     }
 
     /// Advance the reference by `dt` seconds (in (0, [`MAX_STEP_DT`]]) with the allowed speed
@@ -374,40 +412,44 @@ impl<const N: usize> Trajectory<N> {
         }
         let scale = clock_scale.clamp(0.0, 1.0);
         let mut m = self.motion;
-        // Rounding over many steps can leave a braking state slightly inconsistent: a
-        // deceleration that, ramped to zero at the jerk limit, would take the speed below 0
-        // (by ~1e-6 m/s). Lift the speed onto the consistent value so no plan reverses.
+        let mut comp = self.comp;
+        // Rounding can leave a braking state slightly inconsistent: a deceleration that,
+        // ramped to zero at the jerk limit, would take the speed below 0 (by ~1e-6 m/s). Lift
+        // the speed onto the consistent value so that no plan reverses.
         let floor = m.a * m.a / (2.0 * self.lim.jerk);
         if m.a < 0.0 && m.v < floor {
             m.v = floor;
+            comp.v = 0.0;
         }
         let target = scale * self.piece_limit(self.piece);
-        let next = |u: f32| follow(m, &velocity_plan(m.v, m.a, u, self.lim), dt);
-        let mut n = next(target);
+        let next = |u: f32| {
+            let plan = velocity_plan(m.v, m.a, u, self.lim);
+            comp.add(&m, &follow_delta(m.v, m.a, &plan, dt), plan.end_speed)
+        };
+        let (mut n, mut c) = next(target);
         if !self.safe(&n) {
-            let braking = next(0.0);
-            if self.safe(&braking) {
+            (n, c) = next(0.0);
+            if self.safe(&n) {
                 let (mut lo, mut hi) = (0.0f32, target);
-                n = braking;
                 for _ in 0..BISECTION_ITERATIONS {
                     let mid = 0.5 * (lo + hi);
                     let cand = next(mid);
-                    if self.safe(&cand) {
+                    if self.safe(&cand.0) {
                         lo = mid;
-                        n = cand;
+                        (n, c) = cand;
                     } else {
                         hi = mid;
                     }
                 }
-            } else {
-                n = braking;
             }
         }
         if n.v < 0.0 {
             // Rounding at the end of a stop (the plans never reverse): rest, not backwards.
             n.v = 0.0;
             n.a = maxf(n.a, 0.0);
+            c.v = 0.0;
         }
+        self.comp = c;
         self.advance(n);
         Ok(self.sample(dt))
     }
@@ -429,11 +471,13 @@ impl<const N: usize> Trajectory<N> {
         if self.piece + 1 >= count {
             self.done = true;
             self.motion = Motion { s: len, v: 0.0, a: 0.0 };
+            self.comp = Comp::default();
         } else {
             // Past the stop corner (zero length), onto the next leg, at rest.
             self.piece_start += len;
             self.piece += 2;
             self.motion = Motion::default();
+            self.comp = Comp::default();
         }
         true
     }

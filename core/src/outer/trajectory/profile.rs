@@ -66,36 +66,50 @@ pub(crate) fn velocity_plan(v: f32, a: f32, u: f32, lim: Limits) -> Plan {
     Plan { jerk: [d * j, 0.0, -d * j], dur: [maxf((ap - a0) / j, 0.0), hold, ap / j], end_speed: u }
 }
 
-/// Integrate one constant-jerk interval of length `t` exactly.
-fn advance(m: Motion, jerk: f32, t: f32) -> Motion {
-    Motion {
-        s: m.s + t * (m.v + t * (0.5 * m.a + t * jerk / 6.0)),
-        v: m.v + t * (m.a + 0.5 * t * jerk),
-        a: m.a + t * jerk,
-    }
+/// Change of a motion over a step: displacement, speed change and the final acceleration,
+/// kept apart from the (large) arc length and speed they are added to, so that the caller can
+/// add them without losing their low-order bits (compensated summation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Delta {
+    /// Displacement `Δs`, m.
+    pub ds: f32,
+    /// Speed change `Δṡ`, m/s (unused when `complete`).
+    pub dv: f32,
+    /// Acceleration at the end of the step, m/s².
+    pub a: f32,
+    /// The plan completed within the step: the speed is exactly the plan's end speed.
+    pub complete: bool,
 }
 
-/// Follow `plan` from `m` for `dt` seconds, integrating each phase exactly (a phase may end
-/// inside the step). When the plan completes within the step the acceleration is set to
-/// exactly 0 and the speed to the plan's end speed.
-pub(crate) fn follow(m: Motion, plan: &Plan, dt: f32) -> Motion {
-    let mut m = m;
+/// Follow `plan` from speed `v` and acceleration `a` for `dt` seconds, integrating each
+/// constant-jerk phase exactly (a phase may end inside the step). When the plan completes
+/// within the step the acceleration is exactly 0 and the speed the plan's end speed.
+pub(crate) fn follow_delta(v: f32, a: f32, plan: &Plan, dt: f32) -> Delta {
+    let (mut ds, mut dv, mut a) = (0.0f32, 0.0f32, a);
     let mut left = dt;
     for (jerk, dur) in plan.jerk.iter().zip(plan.dur.iter()) {
+        let t = minf(*dur, left);
+        let vt = v + dv;
+        ds += t * (vt + t * (0.5 * a + t * jerk / 6.0));
+        dv += t * (a + 0.5 * t * jerk);
+        a += t * jerk;
         if *dur > left {
-            // The step ends inside this phase.
-            return advance(m, *jerk, left);
+            return Delta { ds, dv, a, complete: false };
         }
-        m = advance(m, *jerk, *dur);
         left -= *dur;
     }
-    // The plan is complete: a = 0, v = u (up to rounding).
-    m.a = 0.0;
-    m.v = plan.end_speed;
+    // The plan is complete: a = 0, v = u.
     if left > 0.0 {
-        m.s += m.v * left;
+        ds += plan.end_speed * left;
     }
-    m
+    Delta { ds, dv: plan.end_speed - v, a: 0.0, complete: true }
+}
+
+/// [`follow_delta`] applied to `m` (plain sums; for tests).
+#[cfg(test)]
+pub(crate) fn follow(m: Motion, plan: &Plan, dt: f32) -> Motion {
+    let d = follow_delta(m.v, m.a, plan, dt);
+    Motion { s: m.s + d.ds, v: if d.complete { plan.end_speed } else { m.v + d.dv }, a: d.a }
 }
 
 /// Distance of a symmetric jerk-limited speed change from `v0` down to `vf` (`v0 ≥ vf`),
