@@ -110,17 +110,31 @@ struct Report {
 
 /// Fly `w` with `p` at `dt` for at most `max_steps`, checking every step's limits.
 fn fly_checked(w: &[Vec3], p: &TrajectoryParams, dt: f32, max_steps: usize) -> Result<Report, TestCaseError> {
-    let mut t: Trajectory = Trajectory::new(*p, w).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
+    let t: Trajectory = Trajectory::new(*p, w).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
+    fly_from(t, w, p, dt, max_steps, (0.0, 0.0))
+}
+
+/// Fly `t` (built on `w`, `p`, started at `(speed, accel)` along the first leg) at `dt` for at
+/// most `max_steps`, checking every step's limits.
+fn fly_from(
+    mut t: Trajectory,
+    w: &[Vec3],
+    p: &TrajectoryParams,
+    dt: f32,
+    max_steps: usize,
+    (speed, accel): (f32, f32),
+) -> Result<Report, TestCaseError> {
     let a_lim = t.accel_limit();
     let eps_v = 1e-4 * (1.0 + p.cruise_speed);
+    let dir = (w[1.min(w.len() - 1)] - w[0]).try_normalize(0.0).unwrap_or_else(Vec3::zeros);
     let mut prev = TrajectorySample {
         position: w[0],
-        velocity: Vec3::zeros(),
-        acceleration: Vec3::zeros(),
+        velocity: dir * speed,
+        acceleration: dir * accel,
         jerk: Vec3::zeros(),
         s: 0.0,
-        speed: 0.0,
-        path_acceleration: 0.0,
+        speed,
+        path_acceleration: accel,
         speed_limit: 0.0,
         done: false,
         segment: 0,
@@ -214,12 +228,24 @@ proptest! {
         w in proptest::collection::vec(point(), 2..=10),
         p in params(),
         dt in prop_oneof![Just(0.004f32), Just(0.01f32), Just(0.02f32)],
+        start in prop_oneof![1 => Just((0.0f32, 0.0f32)), 1 => (0.0f32..=1.0, -1.0f32..=1.0)],
     ) {
         prop_assume!(w.windows(2).all(|x| (x[1] - x[0]).norm() >= MIN_LEG_LENGTH * 10.0));
         // Blends are kept only while estimated at most 1.5 times as long as a stop and turn.
         let bound_s = 2.0 * stop_and_go_time(&w, &p) + 5.0 * (w.len() - 2) as f64 + 1.0;
         let max_steps = (bound_s / dt as f64) as usize;
-        let r = fly_checked(&w, &p, dt, max_steps)?;
+        // Half the cases start moving (re-generation): a fraction of the first leg's speed
+        // limit and of the acceleration limit; a start that cannot brake is refused and
+        // flown from rest instead.
+        let d = (w[1] - w[0]).normalize();
+        let t0: Trajectory = Trajectory::new(p, &w).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
+        let moving = (start.0 * leg_speed(&d, &p) * 0.999, start.1 * t0.accel_limit() * 0.999);
+        let (t, start) = match Trajectory::new_moving(p, &w, moving.0, moving.1) {
+            Ok(t) => (t, moving),
+            Err(TrajectoryError::BadStartState) => (t0, (0.0, 0.0)),
+            Err(e) => return Err(TestCaseError::fail(format!("{e:?}"))),
+        };
+        let r = fly_from(t, &w, &p, dt, max_steps, start)?;
         prop_assert!(r.done, "not at the goal after {} steps ({bound_s} s)", r.steps);
         let time = r.steps as f64 * dt as f64;
         prop_assert!(time >= length_over_speed(&w, &p) * 0.999, "{time} s is faster than the speed limits allow");

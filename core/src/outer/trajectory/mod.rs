@@ -5,7 +5,7 @@
 //! ([`super::guidance`] still flies [`super::waypoint`]).
 //!
 //! ## Method
-//! * **Geometry** ([`geometry`]): the polyline's legs are kept straight and each corner is
+//! * **Geometry** (`geometry.rs`): the polyline's legs are kept straight and each corner is
 //!   replaced by a symmetric quintic Bézier blend that leaves and joins the legs with zero
 //!   curvature (curvature-continuous path), cuts the corner by at most
 //!   [`TrajectoryParams::corner_tolerance`] and takes at most half of either leg. A turn
@@ -14,7 +14,7 @@
 //! * **Speed limits**: on a leg, the largest speed whose horizontal component is at most the
 //!   cruise speed and whose vertical component is at most the up/down limit; on a blend, also
 //!   over every direction of the blend and `√(A/κ_max)` (lateral acceleration ≤ `A`).
-//! * **Timing** ([`profile`]): a 1-D jerk-limited motion `(s, ṡ, s̈)` along the arc length,
+//! * **Timing** (`profile.rs`): a 1-D jerk-limited motion `(s, ṡ, s̈)` along the arc length,
 //!   advanced **online**, one bounded step at a time. Each step picks the largest speed target
 //!   `u ≤ clock_scale · (limit here)` such that, after following the time-optimal
 //!   jerk-limited velocity plan towards `u` for `dt` (integrated exactly, phase switches
@@ -55,11 +55,18 @@
 //! ## Capacity and cost
 //! At most `N` waypoints (const generic, default [`DEFAULT_PATH_CAPACITY`]); a longer path is
 //! rejected, never truncated. A step is `O(BISECTION_ITERATIONS · K)` with `K ≤ 2N` the limits
-//! within the braking distance; construction is `O(N)`. Memory: one [`geometry`] corner
-//! (≈ 30 `f32`) and one leg (≈ 8 `f32`) per waypoint.
+//! within the braking distance; construction is `O(N)`. Memory: one corner (124 bytes with
+//! its arc-length table) and one leg (32 bytes) per waypoint: `Trajectory<64>` is 10 096
+//! bytes on the host.
 //!
-//! Owns [`TrajectoryParams`], [`Trajectory`], [`TrajectorySample`], [`clock_scale`] and its
-//! two private children [`geometry`] (blends, speed limits) and [`profile`] (the 1-D motion).
+//! ## Numerics
+//! A braking at the acceleration limit is exactly tight, so the step's displacement and speed
+//! change are added to `s` and `ṡ` with compensated (Kahan) sums, and the safety check
+//! shortens each distance by a few `f32` roundings (at most ¼ of [`SNAP_DISTANCE`]).
+//!
+//! Owns [`TrajectoryParams`] and [`ParamError`] (child `params.rs`), [`Trajectory`],
+//! [`TrajectorySample`], [`TrajectoryError`], [`clock_scale`], and the private children
+//! `geometry.rs` (blends, speed limits) and `profile.rs` (the 1-D motion).
 //! May import [`crate::fmath`], [`crate::frame`], [`crate::Vec3`] and [`super::waypoint`]
 //! (capacity and path-error conventions); nothing else of the outer loop.
 
@@ -109,6 +116,9 @@ pub enum TrajectoryError {
     BadDt,
     /// The clock scale is NaN or infinite.
     BadClockScale,
+    /// [`Trajectory::new_moving`]: the start speed or acceleration is not finite or out of
+    /// range, or the motion could not brake for the limits ahead.
+    BadStartState,
 }
 
 impl From<ParamError> for TrajectoryError {
@@ -289,6 +299,45 @@ impl<const N: usize> Trajectory<N> {
             last_acceleration: Vec3::zeros(),
         };
         t.total = (0..t.piece_count()).map(|p| t.piece_len(p)).sum();
+        Ok(t)
+    }
+
+    /// A trajectory that starts **moving** along its first leg at `speed` (m/s) with the
+    /// tangential acceleration `accel` (m/s²): re-generation when the mission changes in
+    /// flight. `waypoints[0]` is the current reference position and the first leg must point
+    /// along the current reference velocity (the caller's to ensure: the velocity is taken as
+    /// `speed` along that leg). Errors as [`new`](Self::new), and
+    /// [`TrajectoryError::BadStartState`] when `speed` or `accel` is not finite, `speed` is
+    /// negative or above the first leg's speed limit, `|accel|` exceeds the acceleration limit,
+    /// the acceleration cannot be ramped out before the speed reaches 0 or the leg's limit
+    /// (`speed ∓ accel²/2J`), the path is a single waypoint while moving, or the motion cannot brake for the limits
+    /// ahead (then brake the old reference with `clock_scale` 0 first, and start from rest).
+    pub fn new_moving(
+        params: TrajectoryParams,
+        waypoints: &[Vec3],
+        speed: f32,
+        accel: f32,
+    ) -> Result<Self, TrajectoryError> {
+        let mut t = Self::new(params, waypoints)?;
+        let bad = !speed.is_finite()
+            || !accel.is_finite()
+            || speed < 0.0
+            || speed > t.piece_limit(0)
+            || accel.abs() > t.lim.accel
+            // An acceleration the jerk limit cannot ramp out before the speed reaches 0 or
+            // the first leg's limit.
+            || (accel < 0.0 && speed < accel * accel / (2.0 * t.lim.jerk))
+            || (accel > 0.0 && speed + accel * accel / (2.0 * t.lim.jerk) > t.piece_limit(0))
+            || (t.legs.is_empty() && (speed > 0.0 || accel != 0.0));
+        if bad {
+            return Err(TrajectoryError::BadStartState);
+        }
+        let m = Motion { s: 0.0, v: speed, a: accel };
+        if !t.legs.is_empty() && !t.safe(&m) {
+            return Err(TrajectoryError::BadStartState);
+        }
+        t.motion = m;
+        t.last_acceleration = t.legs.first().map_or(Vec3::zeros(), |l| l.dir * accel);
         Ok(t)
     }
 

@@ -274,3 +274,44 @@ fn memory_of_a_default_trajectory() {
     let size = core::mem::size_of::<Trajectory>();
     assert!(size <= 10_240, "{size} bytes");
 }
+
+#[test]
+fn regeneration_from_a_moving_state_is_continuous() {
+    let p = TrajectoryParams::default();
+    let mut old: Trajectory<4> = Trajectory::new(p, &[v3(0.0, 0.0, -1.0), v3(30.0, 0.0, -1.0)]).unwrap();
+    let mut s = old.step(DT, 1.0).unwrap();
+    for _ in 0..1000 {
+        s = old.step(DT, 1.0).unwrap();
+    }
+    assert!((s.speed - 3.0).abs() < 1e-4);
+    // The mission changes: carry on east, then turn north.
+    let w = [s.position, s.position + v3(10.0, 0.0, 0.0), s.position + v3(10.0, 10.0, 0.0)];
+    let mut new: Trajectory<4> = Trajectory::new_moving(p, &w, s.speed, s.path_acceleration).unwrap();
+    let mut prev = s;
+    let mut steps = 0;
+    loop {
+        let n = new.step(DT, 1.0).unwrap();
+        assert!((n.position - prev.position).norm() <= 3.0 * DT + 1e-4);
+        assert!((n.velocity - prev.velocity).norm() <= 2.0 * 3.0 * DT + 1e-4);
+        assert!((n.path_acceleration - prev.path_acceleration).abs() <= 4.0 * DT * 1.001 + 1e-6);
+        prev = n;
+        steps += 1;
+        if n.done {
+            break;
+        }
+        assert!(steps < 100_000);
+    }
+    assert_eq!(prev.position, w[2]);
+    // Too fast to stop before the goal, or above the leg's limit, or wild: refused.
+    let near = [v3(0.0, 0.0, 0.0), v3(0.5, 0.0, 0.0)];
+    assert_eq!(Trajectory::<4>::new_moving(p, &near, 3.0, 0.0).err(), Some(TrajectoryError::BadStartState));
+    let far = [v3(0.0, 0.0, 0.0), v3(50.0, 0.0, 0.0)];
+    assert!(Trajectory::<4>::new_moving(p, &far, 3.0, 0.0).is_ok());
+    for (v, a) in [(3.5, 0.0), (-0.1, 0.0), (1.0, 3.5), (f32::NAN, 0.0), (1.0, f32::INFINITY)] {
+        assert_eq!(Trajectory::<4>::new_moving(p, &far, v, a).err(), Some(TrajectoryError::BadStartState));
+    }
+    assert_eq!(
+        Trajectory::<4>::new_moving(p, &[v3(1.0, 2.0, 3.0)], 1.0, 0.0).err(),
+        Some(TrajectoryError::BadStartState)
+    );
+}
