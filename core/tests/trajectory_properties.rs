@@ -115,11 +115,11 @@ struct Report {
 /// Fly `w` with `p` at `dt` for at most `max_steps`, checking every step's limits.
 fn fly_checked(w: &[Vec3], p: &TrajectoryParams, dt: f32, max_steps: usize) -> Result<Report, TestCaseError> {
     let t: Trajectory = Trajectory::new(*p, w).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
-    fly_from(t, w, p, dt, max_steps, (0.0, 0.0))
+    fly_from(t, w, p, dt, max_steps, (0.0, 0.0), |_| 1.0)
 }
 
 /// Fly `t` (built on `w`, `p`, started at `(speed, accel)` along the first leg) at `dt` for at
-/// most `max_steps`, checking every step's limits.
+/// most `max_steps` with the clock scale `scale(step)`, checking every step's limits.
 fn fly_from(
     mut t: Trajectory,
     w: &[Vec3],
@@ -127,6 +127,7 @@ fn fly_from(
     dt: f32,
     max_steps: usize,
     (speed, accel): (f32, f32),
+    scale: impl Fn(usize) -> f32,
 ) -> Result<Report, TestCaseError> {
     let a_lim = t.accel_limit();
     let eps_v = 1e-4 * (1.0 + p.cruise_speed);
@@ -146,7 +147,7 @@ fn fly_from(
     let goal = *w.last().unwrap();
     let (mut slowest_limit, mut top_speed) = (f32::INFINITY, 0.0f32);
     for i in 0..max_steps {
-        let s = t.step(dt, 1.0).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
+        let s = t.step(dt, scale(i)).map_err(|e| TestCaseError::fail(format!("{e:?}")))?;
         let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
         prop_assert!(
             finite(&s.position) && finite(&s.velocity) && finite(&s.acceleration) && finite(&s.jerk)
@@ -229,19 +230,23 @@ fn point() -> impl Strategy<Value = Vec3> {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(cases()))]
-    /// On random polylines of 2–10 waypoints in a 50 m box with random limits: continuous,
+    /// On random polylines of 2–10 waypoints in a 50 m box with random limits, half of them
+    /// starting moving and half with the clock scaled down (or to 0) for 2 s: continuous,
     /// within every limit, within the corner tolerance of the polyline, ends at the goal at
-    /// rest within a generous bound (twice the stop-and-go time plus 5 s per corner), never NaN.
+    /// rest within a generous bound (twice the stop-and-go time plus 5 s per corner plus the
+    /// wait), never NaN.
     #[test]
     fn random_polylines_respect_limits_and_arrive(
         w in proptest::collection::vec(point(), 2..=10),
         p in params(),
         dt in prop_oneof![Just(0.004f32), Just(0.01f32), Just(0.02f32)],
         start in prop_oneof![1 => Just((0.0f32, 0.0f32)), 1 => (0.0f32..=1.0, -1.0f32..=1.0)],
+        hold in prop_oneof![1 => Just(None), 1 => (0usize..1000, prop_oneof![Just(0.0f32), 0.0f32..=1.0]).prop_map(Some)],
     ) {
         prop_assume!(w.windows(2).all(|x| (x[1] - x[0]).norm() >= MIN_LEG_LENGTH * 10.0));
         // Blends are kept only while estimated at most 1.5 times as long as a stop and turn.
-        let bound_s = 2.0 * stop_and_go_time(&w, &p) + 5.0 * (w.len() - 2) as f64 + 1.0;
+        // (Plus the waiting: the clock scale may hold the reference for 2 s.)
+        let bound_s = 2.0 * stop_and_go_time(&w, &p) + 5.0 * (w.len() - 2) as f64 + 1.0 + 2.5;
         let max_steps = (bound_s / dt as f64) as usize;
         // Half the cases start moving (re-generation): a fraction of the first leg's speed
         // limit and of the acceleration limit; a start that cannot brake is refused and
@@ -254,7 +259,12 @@ proptest! {
             Err(TrajectoryError::BadStartState) => (t0, (0.0, 0.0)),
             Err(e) => return Err(TestCaseError::fail(format!("{e:?}"))),
         };
-        let r = fly_from(t, &w, &p, dt, max_steps, start)?;
+        // Half the cases scale the clock down (to 0: wait) for 2 s from a random step.
+        let scale = |i: usize| match hold {
+            Some((from, c)) if i >= from && (i - from) as f32 * dt < 2.0 => c,
+            _ => 1.0,
+        };
+        let r = fly_from(t, &w, &p, dt, max_steps, start, scale)?;
         prop_assert!(r.done, "not at the goal after {} steps ({bound_s} s)", r.steps);
         let time = r.steps as f64 * dt as f64;
         prop_assert!(time >= length_over_speed(&w, &p) * 0.999, "{time} s is faster than the speed limits allow");
