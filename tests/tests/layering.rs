@@ -60,6 +60,9 @@ const CORE_RULES: &[(&str, &[&str])] = &[
     ("motor_test", &[]),
     ("calibration", &["frame", "fmath", "msg"]),
     ("msg", &[]),
+    // Issue 37: the wire contract names the filter's regions and the mode types (`wire::modes`,
+    // PX4's nav_state); `config` and `schedule` read its rates, never the other way round.
+    ("wire", &["safety", "fmath", "outer", "supervisor"]),
 ];
 
 fn scan(krate: &str, aliases: &[(&str, &str)]) -> Crate {
