@@ -225,9 +225,34 @@ pub enum Region {
 }
 
 impl Region {
+    /// Every region, in code order ([`Region::code`] is the index).
+    pub const ALL: [Region; 5] =
+        [Region::NoObstacle, Region::Far, Region::NominalSafe, Region::Perpendicular, Region::Fault];
+
+    /// Every region's [`Region::name`], in code order.
+    pub const NAMES: [&'static str; 5] = [
+        Region::NoObstacle.name(),
+        Region::Far.name(),
+        Region::NominalSafe.name(),
+        Region::Perpendicular.name(),
+        Region::Fault.name(),
+    ];
+
     /// Small integer code for logs and telemetry (0..=4 in declaration order).
     pub fn code(&self) -> u8 {
         *self as u8
+    }
+
+    /// The region's name in reports (`trajectory.csv`'s `region`, the replay page): `none`,
+    /// `far`, `nominal_safe`, `filtering` (`D_⊥`, the filter corrected the command), `fault`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Region::NoObstacle => "none",
+            Region::Far => "far",
+            Region::NominalSafe => "nominal_safe",
+            Region::Perpendicular => "filtering",
+            Region::Fault => "fault",
+        }
     }
 }
 

@@ -71,9 +71,7 @@ pub fn region_from_wire(y: f32) -> Region {
 
 /// The region with code `code`, if any.
 pub fn region_from_code(code: u8) -> Option<Region> {
-    [Region::NoObstacle, Region::Far, Region::NominalSafe, Region::Perpendicular, Region::Fault]
-        .into_iter()
-        .find(|r| r.code() == code)
+    Region::ALL.into_iter().find(|r| r.code() == code)
 }
 
 /// `DEBUG_VECT CBF.z`: the active obstacle id, −1 for none.
@@ -159,6 +157,10 @@ mod tests {
             assert_eq!(region_from_wire(region_to_wire(r)), r);
         }
         assert_eq!(region_from_code(5), None);
+        for (i, r) in Region::ALL.into_iter().enumerate() {
+            assert_eq!(usize::from(r.code()), i);
+            assert_eq!(Region::NAMES[i], r.name());
+        }
         assert_eq!(region_from_wire(f32::NAN), Region::Fault);
         assert_eq!(region_from_wire(9.0), Region::Fault);
         assert_eq!(active_id_from_wire(active_id_to_wire(Some(17))), Some(17));

@@ -502,15 +502,9 @@ pub const TRAJECTORY_COLUMNS: [&str; 32] = [
     "wind_z",
 ];
 
-/// Region name for reports and `trajectory.csv`.
+/// Region name for reports and `trajectory.csv` (the core's [`Region::name`]).
 pub fn region_name(r: Region) -> &'static str {
-    match r {
-        Region::NoObstacle => "none",
-        Region::Far => "far",
-        Region::NominalSafe => "nominal_safe",
-        Region::Perpendicular => "filtering",
-        Region::Fault => "fault",
-    }
+    r.name()
 }
 
 /// Path sources of runs without a mission (a pilot's sticks, a companion's setpoints): their

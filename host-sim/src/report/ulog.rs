@@ -226,7 +226,7 @@ impl<W: Write> ULogWriter<W> {
 }
 
 /// Filter regions in `cbf_status.region` order.
-pub const REGIONS: [&str; 5] = ["NoObstacle", "Far", "NominalSafe", "Perpendicular", "Fault"];
+pub const REGIONS: [&str; 5] = parapet_core::cbf::Region::NAMES;
 
 const LOCAL_POSITION: Topic = Topic {
     name: "vehicle_local_position",

@@ -29,7 +29,7 @@ use std::path::Path;
 
 use parapet_core::obstacle::Shape;
 
-use super::{region_name, RunRecord, Sample};
+use super::{RunRecord, Sample};
 use crate::decimal::push_fixed;
 use crate::world::scene::{ned_to_enu_arr, reference_point, to_f64, Motion};
 
@@ -50,8 +50,8 @@ const APP_JS: &str = include_str!("app.js");
 /// The page's style.
 const STYLE_CSS: &str = include_str!("style.css");
 
-/// The region names in the order of the page's `g` column (indices).
-const REGIONS: [&str; 5] = ["none", "far", "nominal_safe", "filtering", "fault"];
+/// The region names in the order of the page's `g` column (indices: `Region::code`).
+const REGIONS: [&str; 5] = parapet_core::cbf::Region::NAMES;
 
 /// Write `replay.html` for `rec` to `path`.
 pub(super) fn write_replay(path: &Path, rec: &RunRecord) -> std::io::Result<()> {
@@ -318,10 +318,7 @@ fn data_json(rec: &RunRecord) -> String {
         }
         j.raw("]");
     };
-    small(&mut j, "g", &|_, s| {
-        let name = region_name(s.filter.region);
-        REGIONS.iter().position(|&r| r == name).unwrap_or(0).to_string()
-    });
+    small(&mut j, "g", &|_, s| s.filter.region.code().to_string());
     small(&mut j, "f", &|_, s| u8::from(s.filter.intervened).to_string());
     small(&mut j, "a", &|_, s| s.filter.active_id.map_or("-1".into(), |a| a.to_string()));
     small(&mut j, "m", &|n, _| sample_modes.get(n).copied().unwrap_or(0).to_string());
