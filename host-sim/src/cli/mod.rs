@@ -144,7 +144,7 @@ pub struct RunArgs {
     #[arg(long, allow_negative_numbers = true)]
     sensing_range: Option<f64>,
     /// What the safety filter sees: `truth` (the exact closest points in range, default), or
-    /// range sensors through the obstacle memory: `lidar` (72 beams, 10 Hz), `lidar360`,
+    /// range sensors through the obstacle memory: `lidar` (72 beams, 10 Hz), `lidar360`, `lidar3d` (Mid-360-like, 360° × −7…52°, 40 m),
     /// `camera` (forward depth camera 87°×58°, 16×10, 30 Hz), `tof` (ten 8×8 ToF, 45°×45°, 4 m:
     /// eight every 45°, one up, one down), `tof4` (four: forward, right, back, left), `tof8` (the
     /// eight), `scene` (the scene's [[sensor]] tables), or a comma list (`lidar,camera`).

@@ -189,6 +189,16 @@ fn f32v(v: &Vector3<f64>) -> Vec3 {
 /// The memory's beam lattice of a sensor (the same directions as
 /// [`RangeSensor::beam_directions`], in `f32`).
 pub fn geometry_of(s: &RangeSensor) -> ScanGeometry {
+    let mut g = centred_geometry_of(s);
+    if s.elevation != 0.0 {
+        // The field's centre above the mounting plane (a 3D lidar's −7°…+52°).
+        g.el0 = (f64::from(g.el0) + s.elevation.to_radians()) as f32;
+    }
+    g
+}
+
+/// [`geometry_of`] with the vertical field centred on the mounting plane.
+fn centred_geometry_of(s: &RangeSensor) -> ScanGeometry {
     let (min, max) = (s.min_range as f32, s.max_range as f32);
     let (nc, nr) = (s.columns as u16, s.rows as u16);
     if s.fov_h >= 360.0 {

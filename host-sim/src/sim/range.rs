@@ -23,7 +23,7 @@
 //! maximum range), one below `min_range` [`Return::Unknown`] (too close for
 //! the sensor).
 //!
-//! Presets (`--perception lidar|lidar360|camera|tof|tof4|tof8`): see [`preset`].
+//! Presets (`--perception lidar|lidar360|lidar3d|camera|tof|tof4|tof8`): see [`preset`].
 //!
 //! Owns the sensor description and error model. May import: [`crate::input`]
 //! (limits, number format), rand, serde, nalgebra.
@@ -108,6 +108,11 @@ pub struct RangeSensorSpec {
     /// Vertical field of view, degrees.
     #[serde(default)]
     pub fov_v: Option<f64>,
+    /// Elevation of the vertical field's centre above the mounting plane, degrees (a 3D lidar's
+    /// asymmetric field, e.g. −7°…+52°: `fov_v` 59, `elevation` 22.5; unlike `pitch` it does
+    /// not tilt a 360° scan). Default 0.
+    #[serde(default)]
+    pub elevation: Option<f64>,
 }
 
 /// A range sensor with every value resolved (defaults applied, validated).
@@ -143,6 +148,13 @@ pub struct RangeSensor {
     pub fov_h: f64,
     /// Vertical field of view, degrees.
     pub fov_v: f64,
+    /// Elevation of the vertical field's centre above the mounting plane, degrees.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub elevation: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// The defaults of a kind: a 72-beam 360° lidar at 10 Hz (0.15–12 m, 1 cm,
@@ -166,6 +178,7 @@ pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
         rows: 1,
         fov_h: 360.0,
         fov_v: 0.0,
+        elevation: 0.0,
     };
     match kind {
         RangeKind::Lidar => base,
@@ -199,10 +212,35 @@ pub fn kind_defaults(kind: RangeKind) -> RangeSensor {
 }
 
 /// Names of the `--perception` presets.
-pub const PRESETS: [&str; 6] = ["lidar", "lidar360", "camera", "tof", "tof4", "tof8"];
+pub const PRESETS: [&str; 7] = ["lidar", "lidar360", "lidar3d", "camera", "tof", "tof4", "tof8"];
+
+/// The `lidar3d` preset, modelled on the Livox Mid-360: 360° × −7°…+52° (59° tall, centred 22.5°
+/// up), 10 Hz, 0.1–40 m (its range at 10 % reflectivity), σ 2 cm, 1 % dropouts, 50 ms latency
+/// (a 100 ms frame's mean age). Its 200,000 points/s are 20,000 per 10 Hz frame, spread by its
+/// non-repetitive pattern; the simulated scan is a regular 72 × 14 lattice (5° × 4.2°, 1,008
+/// beams): the controller's obstacle memory takes at most `parapet_core::perception::MAX_BEAMS`
+/// (1,024) beams per scan, so the simulated sensor is **coarser** than the real one — a thin
+/// obstacle between beams is seen later (5° is 0.26 m at 3 m, 1.7 m at 20 m).
+pub fn lidar3d() -> RangeSensor {
+    RangeSensor {
+        name: "lidar3d".into(),
+        elevation: 22.5,
+        rate: 10.0,
+        latency: 0.05,
+        min_range: 0.1,
+        max_range: 40.0,
+        noise: 0.02,
+        dropout: 0.01,
+        columns: 72,
+        rows: 14,
+        fov_h: 360.0,
+        fov_v: 59.0,
+        ..kind_defaults(RangeKind::Lidar)
+    }
+}
 
 /// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
-/// 1° steps), `camera` (one forward depth camera), `tof` (ten 8 × 8 ToF sensors: eight
+/// 1° steps), `lidar3d` (a Livox Mid-360-like 3D lidar, [`lidar3d`]), `camera` (one forward depth camera), `tof` (ten 8 × 8 ToF sensors: eight
 /// every 45°, a ring whose views meet, one looking up and one down, as a multi-ranger
 /// deck's up sensor and a flow deck's down sensor), `tof4` (four of them facing forward,
 /// right, back and left: 45° gaps between their views; `tof` until 2026-12-05), `tof8` (the
@@ -217,6 +255,7 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
         "lidar360" => {
             Some(vec![named(RangeSensor { columns: 360, ..kind_defaults(RangeKind::Lidar) }, "lidar360")])
         }
+        "lidar3d" => Some(vec![lidar3d()]),
         "camera" => Some(vec![named(kind_defaults(RangeKind::Camera), "camera")]),
         "tof4" => Some(
             [("tof4_front", 0.0), ("tof4_right", 90.0), ("tof4_back", 180.0), ("tof4_left", -90.0)]
@@ -279,6 +318,7 @@ impl RangeSensorSpec {
             rows: self.rows.unwrap_or(d.rows),
             fov_h: self.fov_h.unwrap_or(d.fov_h),
             fov_v: self.fov_v.unwrap_or(d.fov_v),
+            elevation: self.elevation.unwrap_or(d.elevation),
         };
         s.validate()?;
         Ok(s)
@@ -322,6 +362,14 @@ impl RangeSensor {
         within("dropout", s.dropout, 0.0, 1.0, false)?;
         within("fov_h", s.fov_h, 0.0, 360.0, false)?;
         within("fov_v", s.fov_v, 0.0, 180.0, false)?;
+        if !(s.elevation.is_finite() && s.elevation.abs() + 0.5 * s.fov_v <= 90.0) {
+            return Err(bad(
+                "elevation",
+                "the vertical field leaves ±90°",
+                s.elevation,
+                &format!("|elevation| + fov_v / 2 ≤ 90 degrees (fov_v {})", s.fov_v),
+            ));
+        }
         if s.columns == 0 || s.rows == 0 || (s.columns as usize) * (s.rows as usize) > MAX_BEAMS {
             return Err(bad(
                 "columns",
@@ -359,8 +407,9 @@ impl RangeSensor {
         let step_v = self.fov_v / nr as f64;
         let mut out = Vec::with_capacity(nc * nr);
         for r in 0..nr {
-            // Rows from the bottom: elevation −fov_v/2 + (r + ½) step.
-            let e = (-0.5 * self.fov_v + (r as f64 + 0.5) * step_v).to_radians();
+            // Rows from the bottom: elevation −fov_v/2 + (r + ½) step (+ the field's centre).
+            let e0 = -0.5 * self.fov_v + (r as f64 + 0.5) * step_v;
+            let e = if self.elevation == 0.0 { e0 } else { e0 + self.elevation }.to_radians();
             for c in 0..nc {
                 let a = if full_circle {
                     c as f64 * step_h
@@ -454,6 +503,28 @@ mod tests {
         assert!((m.normalize().z + 0.5).abs() < 1e-9);
     }
 
+    /// The Mid-360-like 3D lidar: 1,008 beams all around, from 7° below the horizon to 52°
+    /// above it (FRD: up is −z), 40 m.
+    #[test]
+    fn lidar3d_covers_360_by_minus_7_to_52_degrees() {
+        let l = &preset("lidar3d").unwrap()[0];
+        let d = l.beam_directions();
+        assert_eq!((d.len(), l.max_range, l.rate), (1008, 40.0, 10.0));
+        let elev: Vec<f64> = d.iter().map(|v| (-v.z).asin().to_degrees()).collect();
+        let (lo, hi) =
+            elev.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &e| (a.min(e), b.max(e)));
+        // Beam centres half a row inside the field's edges.
+        let half_row = 0.5 * l.fov_v / f64::from(l.rows);
+        assert!((lo - (-7.0 + half_row)).abs() < 1e-9 && (hi - (52.0 - half_row)).abs() < 1e-9, "{lo}..{hi}");
+        // Every 5° bearing has beams (the lamp above a planar scan is seen: elevation > 0).
+        for b in 0..72 {
+            let a = (b as f64 * 5.0).to_radians();
+            let u = Vector3::new(a.cos(), a.sin(), 0.0);
+            assert!(d.iter().any(|v| Vector3::new(v.x, v.y, 0.0).normalize().dot(&u) > 0.999), "bearing {b}");
+        }
+        assert!(!l.forward_only());
+    }
+
     /// Which sensors see only the front half (the default yaw mode follows it).
     #[test]
     fn forward_only_is_the_front_half() {
@@ -506,6 +577,19 @@ mod tests {
         assert!(e.contains("`dropout`"), "{e}");
         let e = spec(&|s| s.columns = Some(5000)).unwrap_err();
         assert!(e.contains("4096"), "{e}");
+        let e = spec(&|s| {
+            s.fov_v = Some(59.0);
+            s.elevation = Some(70.0);
+        })
+        .unwrap_err();
+        assert!(e.contains("`elevation`") && e.contains("70") && e.contains("≤ 90"), "{e}");
+        assert!(spec(&|s| s.elevation = Some(f64::NAN)).is_err());
+        let ok = spec(&|s| {
+            s.fov_v = Some(59.0);
+            s.rows = Some(14);
+            s.elevation = Some(22.5);
+        });
+        assert_eq!(ok.map(|s| s.elevation), Ok(22.5));
         assert!(toml::from_str::<RangeSensorSpec>("kind = \"sonar\"").is_err());
         assert!(toml::from_str::<RangeSensorSpec>("kind = \"tof\"\nbeams = 3").is_err());
     }
