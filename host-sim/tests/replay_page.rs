@@ -408,6 +408,7 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
         summary: &run.summary,
         ranges: &run.ranges,
         range_sensors: &[],
+        clock_us: parapet_sim::flight::stack::clock_us,
     };
     parapet_sim::report::write_report(&dir, &rec).unwrap();
     let dom = chromium_run(&bin, &d, &file_url(&dir.join("replay.html"), "probe"), "--dump-dom");

@@ -1,6 +1,6 @@
 //! The report of `parapet run` / `parapet pil`: the report directory check (never an
 //! existing file, never replacing an input), summary.json / trajectory.csv / plots / replay.html
-//! ([`crate::report::write_report`]) and `flight.ulg`, in one place for both commands.
+//! / flight.mcap ([`crate::report::write_report`]) and `flight.ulg`, in one place for both commands.
 //!
 //! May import: [`crate::report`], [`crate::flight`], [`crate::world`], [`crate::input`], the
 //! parent's errors and output helpers.
@@ -29,6 +29,7 @@ pub fn write_run_report(
         summary: &result.summary,
         ranges: &result.ranges,
         range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
+        clock_us: crate::flight::stack::clock_us,
     };
     let (_, warnings) = write_report(dir, &rec)?;
     write_flight_log(dir, scene, cfg, &result.samples, stack)?;

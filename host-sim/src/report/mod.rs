@@ -1,5 +1,6 @@
 //! Run report: `summary.json`, `trajectory.csv`, plots (SVG and PNG), the 3D replay page
-//! `replay.html` ([`replay`]) and a short summary table on stdout.
+//! `replay.html` ([`replay`]), the flight as MCAP for Foxglove `flight.mcap` ([`foxglove`]) and
+//! a short summary table on stdout.
 //!
 //! Everything written here is in the file/plot frame **ENU** (x east, y
 //! north, z up, m; accelerations m/s² in ENU too); attitude angles are the
@@ -30,8 +31,9 @@
 //! May import: `parapet-core`, [`crate::input`], [`crate::perception`] and
 //! [`crate::sim::range`] (range records), [`crate::world`] (the scene
 //! drawn in the plots and the replay page), [`crate::decimal`] (the files' number text),
-//! plotters, serde.
+//! plotters, serde, the `mcap` crate ([`foxglove`]).
 
+pub mod foxglove;
 mod plots;
 pub mod replay;
 pub mod ulog;
@@ -285,6 +287,9 @@ pub struct RunRecord<'a> {
     pub ranges: &'a crate::perception::RangeLog,
     /// The range sensors (names for `ranges.csv`).
     pub range_sensors: &'a [crate::sim::range::RangeSensor],
+    /// The controller clock: a sample's time (s) → the logs' timestamps (µs), as for the ULog
+    /// (`crate::flight::stack::clock_us`); `flight.mcap`'s log times are these in ns.
+    pub clock_us: fn(f64) -> u64,
 }
 
 /// Plots of the report: each is written as `<name>.svg` and `<name>.png`.
@@ -302,6 +307,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
         dir.join(ulog::FLIGHT_LOG),
         dir.join(RANGES_CSV),
         dir.join(replay::REPLAY_HTML),
+        dir.join(foxglove::FLIGHT_MCAP),
     ];
     for name in PLOTS {
         v.push(dir.join(format!("{name}.svg")));
@@ -310,7 +316,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Write `summary.json`, `trajectory.csv`, `replay.html` and the plots into `dir` (created if
+/// Write `summary.json`, `trajectory.csv`, `replay.html`, `flight.mcap` and the plots into `dir` (created if
 /// needed). Returns the files written; a plot that fails (e.g. no usable font)
 /// is reported in the returned warnings instead of failing the run.
 pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<String>)> {
@@ -345,6 +351,10 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
     let page_path = dir.join(replay::REPLAY_HTML);
     replay::write_replay(&page_path, rec).with_context(|| format!("cannot write {}", page_path.display()))?;
     files.push(page_path);
+    let mcap_path = dir.join(foxglove::FLIGHT_MCAP);
+    // Its errors name the file.
+    foxglove::write_flight_mcap(&mcap_path, rec, rec.clock_us)?;
+    files.push(mcap_path);
     let mut warnings = Vec::new();
     for name in PLOTS {
         match plots::plot_both(dir, name, rec) {

@@ -100,8 +100,15 @@ fn page_of(samples: &[Sample]) -> String {
     let s = summary(&scene, samples.len());
     let path = [scene.start, scene.goal];
     let ranges = crate::perception::RangeLog::default();
-    let rec =
-        RunRecord { scene: &scene, path: &path, samples, summary: &s, ranges: &ranges, range_sensors: &[] };
+    let rec = RunRecord {
+        scene: &scene,
+        path: &path,
+        samples,
+        summary: &s,
+        ranges: &ranges,
+        range_sensors: &[],
+        clock_us: |t| (t.max(0.0) * 1e6).round() as u64,
+    };
     page(&rec).unwrap()
 }
 
