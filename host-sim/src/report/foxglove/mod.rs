@@ -547,7 +547,7 @@ fn write_messages<W: Write + Seek>(
     let mut collision_sent = false;
     let mut msg = String::new();
     for s in rec.samples {
-        scans.send(out, s.t, &ns)?;
+        scans.send(out, s.t, ns)?;
         let ts_ns = ns(s.t);
         let ts = Time::of_ns(ts_ns);
         out.put(
@@ -630,7 +630,7 @@ fn write_messages<W: Write + Seek>(
         }
         last = Some(s);
     }
-    scans.send(out, f64::INFINITY, &ns)?;
+    scans.send(out, f64::INFINITY, ns)?;
     if let Some(s) = last {
         let ts_ns = ns(s.t);
         let text = format!("end: {}", rec.summary.end_reason);
