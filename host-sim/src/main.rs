@@ -21,7 +21,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Plan (or load) a path through a scene and fly it in closed loop on the 6-DOF
-    /// simulator; write summary.json, trajectory.csv, plots and replay.html (3D replay page).
+    /// simulator; write summary.json, trajectory.csv, flight.ulg, plots, replay.html (3D replay
+    /// page) and flight.mcap (Foxglove).
     #[command(after_help = help::run(), allow_negative_numbers = true)]
     Run(cli::RunArgs),
     /// Processor-in-the-loop: fly a scene like `run`, with the real firmware binary
