@@ -13,7 +13,8 @@
 //! * [`perception`]: range sensors in the loop (`--perception`): scans by exact
 //!   ray casts, latency, the core's obstacle memory, `ranges.csv`.
 //! * [`plan`]: the offline planner (RRT-Connect + shortcutting) and path files.
-//! * [`report`]: summary.json, trajectory.csv, plots, summary table.
+//! * [`report`]: summary.json, trajectory.csv, plots, flight.ulg, replay.html, flight.mcap
+//!   (Foxglove), summary table.
 //! * [`flight`]: the closed loop plant → sensors → flight stack, its settings,
 //!   metrics, up-front validation and pre-flight checks.
 //! * [`fc`]: the flight stacks the loop flies: the in-process `parapet-core`
