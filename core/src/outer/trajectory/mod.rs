@@ -371,6 +371,24 @@ impl<const N: usize> Trajectory<N> {
         self.done
     }
 
+    /// The unit direction of travel at the current point: the tangent of the piece being
+    /// flown, the outgoing leg's on a stop corner (at rest, about to turn onto it); zero once
+    /// done. Defined at rest too (the yaw along the path turns towards it before moving).
+    pub fn travel_direction(&self) -> Vec3 {
+        if self.done {
+            return Vec3::zeros();
+        }
+        let k = self.piece / 2;
+        let leg_dir = |i: usize| self.legs.get(i).map_or(Vec3::zeros(), |l| l.dir);
+        if self.piece.is_multiple_of(2) {
+            return leg_dir(k);
+        }
+        match self.corners.get(k) {
+            Some(c) if !c.stop => c.eval(self.motion.s).1,
+            _ => leg_dir(k + 1),
+        }
+    }
+
     fn piece_count(&self) -> usize {
         (2 * self.legs.len()).saturating_sub(1)
     }
