@@ -28,6 +28,10 @@ pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;
 /// Capacity of the mission trajectory: the start point and the path's waypoints.
 pub const TRAJECTORY_CAPACITY: usize = PATH_CAPACITY + 1;
 
+/// A new path during a trajectory mission carries the reference's motion over when the
+/// reference velocity is within this cosine (about 2.6°) of the new first leg.
+pub const CARRY_MAX_ANGLE_COS: f32 = 0.999;
+
 /// Which guidance flies a mission (`MIS_GUIDANCE`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -360,7 +364,9 @@ impl Guidance {
     ) -> Result<(), CommandError> {
         self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
         if let Mode::Mission { .. } = self.mode {
-            if self.follower.start(origin).is_ok() && self.build_trajectory(origin).is_ok() {
+            // A trajectory being flown carries its motion over when it can.
+            let carry = self.trajectory.as_ref().and(self.last_traj);
+            if self.follower.start(origin).is_ok() && self.build_trajectory(origin, carry).is_ok() {
                 self.mode = Mode::Mission { t0_us: now_us };
                 self.path_yaw.reset();
             } else {
@@ -423,7 +429,7 @@ impl Guidance {
             return Err(CommandError::NotFlying);
         }
         self.follower.start(origin).map_err(CommandError::Path)?;
-        self.build_trajectory(origin)?;
+        self.build_trajectory(origin, None)?;
         self.mode = Mode::Mission { t0_us: now_us };
         self.path_yaw.reset();
         Ok(())
@@ -435,7 +441,12 @@ impl Guidance {
     /// otherwise drop any. An error (parameters out of range, e.g. `WP_SPEED` above the
     /// trajectory's 20 m/s) refuses the start, as [`CommandError::Path`]: the vehicle keeps
     /// its current guidance, nothing is flown blindly.
-    fn build_trajectory(&mut self, origin: Vec3) -> Result<(), CommandError> {
+    ///
+    /// `carry` (a new path during a trajectory mission: the last reference) starts the new
+    /// trajectory moving ([`Trajectory::new_moving`]) when the reference moves along the new
+    /// first leg (within [`CARRY_MAX_ANGLE_COS`]) and the motion is one the new trajectory can
+    /// take over; otherwise it starts at rest.
+    fn build_trajectory(&mut self, origin: Vec3, carry: Option<Reference>) -> Result<(), CommandError> {
         self.trajectory = None;
         self.last_traj = None;
         if self.params.mission != MissionGuidance::Trajectory {
@@ -452,13 +463,28 @@ impl Guidance {
         let params =
             TrajectoryParams { cruise_speed: self.follower.params().cruise_speed, ..self.params.trajectory };
         let t = Trajectory::new(params, &points).map_err(|e| CommandError::Path(path_error(e)))?;
-        self.trajectory = Some(t);
-        self.last_traj = Some(Reference {
+        let mut start = Reference {
             position: origin,
             velocity: Vec3::zeros(),
             acceleration: Vec3::zeros(),
             yaw: self.yaw_ref,
+        };
+        let moving = carry.zip(points.get(1)).and_then(|(r, next)| {
+            let leg = next - origin;
+            let (speed, len) = (norm3(&r.velocity), norm3(&leg));
+            let dir = leg / len;
+            let along = r.velocity.dot(&dir);
+            if !(speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed) {
+                return None;
+            }
+            let accel = r.acceleration.dot(&dir);
+            let m = Trajectory::new_moving(params, &points, speed, accel).ok()?;
+            start.velocity = dir * speed;
+            start.acceleration = dir * accel;
+            Some(m)
         });
+        self.trajectory = Some(moving.unwrap_or(t));
+        self.last_traj = Some(start);
         Ok(())
     }
 
@@ -627,6 +653,32 @@ mod tests {
             let (_, r) = g.reference(4_000 * k, &held, &mut progress);
             assert_eq!(r.unwrap().position, origin);
         }
+    }
+
+    #[test]
+    fn a_new_path_along_the_motion_carries_it_over_else_restarts_at_rest() {
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let mut progress = Progress::default();
+        let mut p = origin;
+        let mut r = g.hold_ref(origin);
+        for k in 1..500u64 {
+            r = g.reference(4_000 * k, &steering(p), &mut progress).1.unwrap();
+            p = r.position;
+        }
+        assert!(r.velocity.x > 1.5, "{:?}", r.velocity);
+        // Straight on: the motion goes on without a jump.
+        g.set_path(&[Vec3::new(8.0, 0.0, -1.0)], 2_000_000, r.position).unwrap();
+        let r2 = g.reference(2_004_000, &steering(p), &mut progress).1.unwrap();
+        assert!((r2.velocity - r.velocity).norm() < 0.05, "{:?} -> {:?}", r.velocity, r2.velocity);
+        assert!((r2.position - r.position).norm() < 0.02, "{:?} -> {:?}", r.position, r2.position);
+        // Sideways: from rest at the current reference.
+        g.set_path(&[Vec3::new(r2.position.x, 5.0, -1.0)], 2_008_000, r2.position).unwrap();
+        let r3 = g.reference(2_012_000, &steering(p), &mut progress).1.unwrap();
+        assert!(r3.velocity.norm() < 0.01, "{:?}", r3.velocity);
+        assert!((r3.position - r2.position).norm() < 1e-3);
     }
 
     #[test]
