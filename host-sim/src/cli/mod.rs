@@ -483,14 +483,8 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
     }
     // --params FILE, then --param NAME=VALUE: the keyed ones as the scene's [controller] keys.
-    let mut overrides = Vec::new();
-    for (p, x) in params::assignments(a.params_file.as_deref(), &a.param)? {
-        if p.key.is_some() {
-            scene.apply_param(p, x).map_err(|e| InputError::option("param", e).field(p.name).value(x))?;
-        } else {
-            overrides.push((p.name, x as f32));
-        }
-    }
+    let overrides =
+        params::split_assignments(&mut scene, &params::assignments(a.params_file.as_deref(), &a.param)?)?;
     if let Some(s) = positive("speed", a.speed)? {
         scene.speed = s;
     }

@@ -182,6 +182,24 @@ pub fn parse_assignment(s: &str) -> Result<(&'static params::Param, f64), InputE
     Ok((d, v))
 }
 
+/// Applies `assigned` to a run: a parameter with a scene key onto `scene` (as its `[controller]`
+/// key, [`crate::world::scene::Scene::apply_param`]); the others returned, in order, for
+/// `RunConfig::param_overrides`.
+pub fn split_assignments(
+    scene: &mut crate::world::scene::Scene,
+    assigned: &[(&'static params::Param, f64)],
+) -> Result<Vec<(&'static str, f32)>, CliError> {
+    let mut overrides = Vec::new();
+    for &(p, x) in assigned {
+        if p.key.is_some() {
+            scene.apply_param(p, x).map_err(|e| InputError::option("param", e).field(p.name).value(x))?;
+        } else {
+            overrides.push((p.name, x as f32));
+        }
+    }
+    Ok(overrides)
+}
+
 /// The parameter assignments of a run: the `.params` file's lines (`--params FILE`) first, then
 /// each `--param NAME=VALUE` in order (a later one wins).
 pub fn assignments(

@@ -556,16 +556,7 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let mut scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
     // --params FILE, then --param NAME=VALUE, as `parapet run` applies them.
     let assigned = crate::cli::params::assignments(a.params_file.as_deref(), &a.param)?;
-    let mut overrides = Vec::new();
-    for &(p, x) in &assigned {
-        if p.key.is_some() {
-            scene
-                .apply_param(p, x)
-                .map_err(|e| bad_input(InputError::option("param", e).field(p.name).value(x)))?;
-        } else {
-            overrides.push((p.name, x as f32));
-        }
-    }
+    let overrides = crate::cli::params::split_assignments(&mut scene, &assigned)?;
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
     let speed = a.speed.clone().unwrap_or(GridRange { start: scene.speed, end: scene.speed, n: 1 });
