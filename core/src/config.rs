@@ -216,6 +216,7 @@ impl ControllerParams {
             && pos(g.takeoff_speed)
             && pos(g.takeoff_height_max)
             && g.path_yaw.is_valid()
+            && g.trajectory.validate().is_ok()
             && pos(l.land_speed)
             && pos(l.land_lead)
             && pos(l.landed_speed)

@@ -182,3 +182,42 @@ fn a_piloted_or_offboard_run_reports_no_mission_and_the_parameters_set() {
     let text = String::from_utf8_lossy(&r.stdout).into_owned();
     assert!(row(&text, "reached goal") && row(&text, "path end") && !row(&text, "params set"), "{text}");
 }
+
+/// `--guidance trajectory` (issue 35) is `--param MIS_GUIDANCE=1`: listed among the parameters
+/// set, and a straight 3 m mission at 2 m/s on it reaches the goal; an unknown name exits 2.
+#[test]
+fn guidance_trajectory_sets_mis_guidance_and_flies_the_mission() {
+    let d = tmp("guidance");
+    let (scene, _) = setup(&d);
+    let out = d.join("o");
+    let o = parapet(&[
+        "run",
+        "--scene",
+        &scene,
+        "--straight",
+        "--speed",
+        "2",
+        "--guidance",
+        "trajectory",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&out);
+    assert_eq!(s["params_set"]["MIS_GUIDANCE"], 1.0, "{s}");
+    assert_eq!(s["reached_goal"], true, "{s}");
+    assert_eq!(s["collided"], false, "{s}");
+    let bad = d.join("bad");
+    let o = parapet(&[
+        "run",
+        "--scene",
+        &scene,
+        "--straight",
+        "--guidance",
+        "fast",
+        "--out",
+        bad.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("paper or trajectory"), "{}", stderr(&o));
+}

@@ -36,6 +36,10 @@ use crate::Vec3;
 pub const RETURN_SETTLED_M: f32 = 0.1;
 /// … and slower than this, m/s.
 pub const RETURN_SETTLED_MPS: f32 = 0.1;
+/// The mission trajectory's clock stops while the safety filter takes more than this off the
+/// nominal command along the reference's velocity, m/s² (a third of the trajectory's default
+/// acceleration limit: a filter that only trims the command lets the clock run).
+pub const HELD_BACK_ACCEL: f32 = 1.0;
 
 impl OuterLoop {
     /// The selected flight mode.
@@ -240,6 +244,18 @@ impl OuterLoop {
         go
     }
 
+    /// The safety filter held the vehicle back in the last outer step: it took more than
+    /// [`HELD_BACK_ACCEL`] off the nominal command along the reference's velocity.
+    fn held_back(&self) -> bool {
+        let tel = &self.telemetry;
+        let v = tel.reference.velocity;
+        let speed = v.norm();
+        if !tel.filter_active || speed.is_nan() || speed <= 1e-3 {
+            return false;
+        }
+        (tel.u_nominal - tel.u_filtered).dot(&v) / speed > HELD_BACK_ACCEL
+    }
+
     /// The reference of one outer step while Armed, per mode; `None` on the ground and in
     /// Manual (whose setpoint is [`Self::manual_sp`]). `accel` is set for an offboard
     /// acceleration-only setpoint (the nominal command itself).
@@ -252,7 +268,12 @@ impl OuterLoop {
         accel: &mut Option<Vec3>,
     ) -> (GuidanceMode, Option<Reference>) {
         let mode = self.modes.mode();
-        let steering = Steering { position: fresh.map(|(p, _)| p), heading: self.estimate.attitude.yaw, dt };
+        let steering = Steering {
+            position: fresh.map(|(p, _)| p),
+            heading: self.estimate.attitude.yaw,
+            dt,
+            held_back: self.held_back(),
+        };
         if mode == FlightMode::Mission || (self.guidance.on_ground() && !self.liftoff(now_us)) {
             return self.guidance.reference(now_us, &steering, progress);
         }

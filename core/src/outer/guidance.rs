@@ -9,16 +9,76 @@
 //! May import: [`crate::waypoint`], [`crate::tracking::Reference`], [`super::path_yaw`], the
 //! command errors of [`crate::outer`], the crate root foundation.
 
-use super::path_yaw::{PathYaw, PathYawParams, Steering};
+use super::path_yaw::{PathYaw, PathYawParams, Steering, YawMode};
+use super::trajectory::{
+    clock_scale, Trajectory, TrajectoryError, TrajectoryParams, MAX_STEP_DT, MIN_LEG_LENGTH,
+};
 use super::CommandError;
 use crate::fmath::norm3;
 use crate::frame::is_finite3;
 use crate::tracking::Reference;
-use crate::waypoint::{PathError, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY};
+use crate::waypoint::{
+    PathError, PathSample, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY,
+};
 use crate::Vec3;
 
 /// Capacity of the controller's path, waypoints.
 pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;
+
+/// Capacity of the mission trajectory: the start point and the path's waypoints.
+pub const TRAJECTORY_CAPACITY: usize = PATH_CAPACITY + 1;
+
+/// A new path during a trajectory mission carries the reference's motion over when the
+/// reference velocity is within this cosine (about 2.6°) of the new first leg.
+pub const CARRY_MAX_ANGLE_COS: f32 = 0.999;
+
+/// Which guidance flies a mission (`MIS_GUIDANCE`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MissionGuidance {
+    /// 0: the paper's constant-speed point along the polyline (`s = V·t`, [`crate::waypoint`]).
+    #[default]
+    Paper,
+    /// 1: the jerk-limited trajectory ([`super::trajectory`]) whose clock waits for the vehicle.
+    Trajectory,
+}
+
+impl MissionGuidance {
+    /// Every guidance, in code order.
+    pub const ALL: [MissionGuidance; 2] = [MissionGuidance::Paper, MissionGuidance::Trajectory];
+
+    /// The name in scene files and on the command line: `paper`, `trajectory`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            MissionGuidance::Paper => "paper",
+            MissionGuidance::Trajectory => "trajectory",
+        }
+    }
+
+    /// The parameter code (0 paper, 1 trajectory).
+    pub const fn code(self) -> i32 {
+        match self {
+            MissionGuidance::Paper => 0,
+            MissionGuidance::Trajectory => 1,
+        }
+    }
+
+    /// The guidance with parameter code `c`.
+    pub const fn from_code(c: i32) -> Option<MissionGuidance> {
+        match c {
+            0 => Some(MissionGuidance::Paper),
+            1 => Some(MissionGuidance::Trajectory),
+            _ => None,
+        }
+    }
+}
+
+impl core::str::FromStr for MissionGuidance {
+    type Err = ();
+    fn from_str(s: &str) -> Result<Self, ()> {
+        MissionGuidance::ALL.into_iter().find(|m| m.as_str() == s).ok_or(())
+    }
+}
 
 /// Which guidance produced the reference (telemetry).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -121,6 +181,11 @@ pub struct GuidanceParams {
     pub takeoff_height_max: f32,
     /// The yaw along a path, Mission and Return (`MIS_YAW_*`). Default: hold the heading.
     pub path_yaw: PathYawParams,
+    /// Which guidance flies a mission (`MIS_GUIDANCE`). Default: the paper's.
+    pub mission: MissionGuidance,
+    /// The trajectory's limits (`TRJ_*`) for [`MissionGuidance::Trajectory`]; its cruise
+    /// speed is replaced by the path follower's (`WP_SPEED`) when a mission is built.
+    pub trajectory: TrajectoryParams,
 }
 
 /// Default takeoff height limit, m: 120 m, the height ceiling of the common drone rules (EU
@@ -135,6 +200,8 @@ impl Default for GuidanceParams {
             takeoff_speed: 0.5,
             takeoff_height_max: TAKEOFF_HEIGHT_MAX_DEFAULT,
             path_yaw: PathYawParams::default(),
+            mission: MissionGuidance::Paper,
+            trajectory: TrajectoryParams::default(),
         }
     }
 }
@@ -161,6 +228,10 @@ pub struct Guidance {
     yaw_ref: f32,
     home: Vec3,
     path_yaw: PathYaw,
+    /// The mission's trajectory ([`MissionGuidance::Trajectory`], built at the mission start).
+    trajectory: Option<Trajectory<TRAJECTORY_CAPACITY>>,
+    /// The trajectory's last reference (the clock's tracking error is measured against it).
+    last_traj: Option<Reference>,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -177,6 +248,8 @@ impl Guidance {
             yaw_ref: 0.0,
             home: Vec3::zeros(),
             path_yaw: PathYaw::default(),
+            trajectory: None,
+            last_traj: None,
         })
     }
 
@@ -261,6 +334,10 @@ impl Guidance {
                 }
                 (GuidanceMode::Takeoff, Some(r))
             }
+            Mode::Mission { .. } if self.trajectory.is_some() => {
+                let r = self.trajectory_ref(v, progress);
+                (GuidanceMode::Mission, Some(r))
+            }
             Mode::Mission { t0_us } => {
                 let p = &self.params.path_yaw;
                 let mut s = self.follower.sample(self.path_yaw.path_time(p, t0_us, now_us));
@@ -287,11 +364,14 @@ impl Guidance {
     ) -> Result<(), CommandError> {
         self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
         if let Mode::Mission { .. } = self.mode {
-            if self.follower.start(origin).is_ok() {
+            // A trajectory being flown carries its motion over when it can.
+            let carry = self.trajectory.as_ref().and(self.last_traj);
+            if self.follower.start(origin).is_ok() && self.build_trajectory(origin, carry).is_ok() {
                 self.mode = Mode::Mission { t0_us: now_us };
                 self.path_yaw.reset();
             } else {
                 self.mode = Mode::Hold(origin);
+                self.trajectory = None;
             }
         }
         Ok(())
@@ -349,9 +429,138 @@ impl Guidance {
             return Err(CommandError::NotFlying);
         }
         self.follower.start(origin).map_err(CommandError::Path)?;
+        self.build_trajectory(origin, None)?;
         self.mode = Mode::Mission { t0_us: now_us };
         self.path_yaw.reset();
         Ok(())
+    }
+
+    /// With [`MissionGuidance::Trajectory`], build the mission's trajectory from `origin`
+    /// through the stored path (waypoints within [`MIN_LEG_LENGTH`] of the previous one
+    /// dropped, so a path that starts where the vehicle is, or repeats a waypoint, is flown);
+    /// otherwise drop any. An error (parameters out of range, e.g. `WP_SPEED` above the
+    /// trajectory's 20 m/s) refuses the start, as [`CommandError::Path`]: the vehicle keeps
+    /// its current guidance, nothing is flown blindly.
+    ///
+    /// `carry` (a new path during a trajectory mission: the last reference) starts the new
+    /// trajectory moving ([`Trajectory::new_moving`]) when the reference moves along the new
+    /// first leg (within [`CARRY_MAX_ANGLE_COS`]) and the motion is one the new trajectory can
+    /// take over; otherwise it starts at rest.
+    fn build_trajectory(&mut self, origin: Vec3, carry: Option<Reference>) -> Result<(), CommandError> {
+        self.trajectory = None;
+        self.last_traj = None;
+        if self.params.mission != MissionGuidance::Trajectory {
+            return Ok(());
+        }
+        let mut points: heapless::Vec<Vec3, TRAJECTORY_CAPACITY> = heapless::Vec::new();
+        let _ = points.push(origin);
+        for w in self.follower.waypoints() {
+            let far = points.last().is_none_or(|q| norm3(&(w - q)) >= MIN_LEG_LENGTH);
+            if far && points.push(*w).is_err() {
+                return Err(CommandError::Path(PathError::TooMany { capacity: PATH_CAPACITY }));
+            }
+        }
+        let params =
+            TrajectoryParams { cruise_speed: self.follower.params().cruise_speed, ..self.params.trajectory };
+        let t = Trajectory::new(params, &points).map_err(|e| CommandError::Path(path_error(e)))?;
+        let mut start = Reference {
+            position: origin,
+            velocity: Vec3::zeros(),
+            acceleration: Vec3::zeros(),
+            yaw: self.yaw_ref,
+        };
+        let moving = carry.zip(points.get(1)).and_then(|(r, next)| {
+            let leg = next - origin;
+            let (speed, len) = (norm3(&r.velocity), norm3(&leg));
+            let dir = leg / len;
+            let along = r.velocity.dot(&dir);
+            if !(speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed) {
+                return None;
+            }
+            let accel = r.acceleration.dot(&dir);
+            let m = Trajectory::new_moving(params, &points, speed, accel).ok()?;
+            start.velocity = dir * speed;
+            start.acceleration = dir * accel;
+            Some(m)
+        });
+        self.trajectory = Some(moving.unwrap_or(t));
+        self.last_traj = Some(start);
+        Ok(())
+    }
+
+    /// One step of the mission trajectory (see [`super::trajectory`]): the clock runs at
+    /// `clock_scale(|p_d − p|, TRJ_ERR_MAX)`, and stops (0) without a position fix, while the
+    /// safety filter held the vehicle back in the previous step ([`Steering::held_back`]) and
+    /// while the path waits for the heading (`MIS_YAW_MODE` travel). A step that fails (a
+    /// time step out of range) keeps the last reference.
+    fn trajectory_ref(&mut self, v: &Steering, progress: &mut Progress) -> Reference {
+        let Some(traj) = self.trajectory.as_mut() else {
+            return Reference {
+                position: self.home,
+                velocity: Vec3::zeros(),
+                acceleration: Vec3::zeros(),
+                yaw: self.yaw_ref,
+            };
+        };
+        // Set with the trajectory (its start at rest); the goal at rest never happens.
+        let last = self.last_traj.unwrap_or(Reference {
+            position: traj.goal(),
+            velocity: Vec3::zeros(),
+            acceleration: Vec3::zeros(),
+            yaw: self.yaw_ref,
+        });
+        // The yaw: steer towards the direction of travel (the velocity, or at rest the
+        // tangent where the motion goes next); the clock waits while the heading is off.
+        let p = &self.params.path_yaw;
+        if p.mode == YawMode::Travel {
+            let moving = last.velocity.x * last.velocity.x + last.velocity.y * last.velocity.y > 1e-4;
+            let dir = if moving { last.velocity } else { traj.travel_direction() };
+            let mut probe = PathSample {
+                position: last.position,
+                velocity: dir,
+                acceleration: Vec3::zeros(),
+                progress: Progress::default(),
+            };
+            self.path_yaw.steer_sample(p, &mut probe, &mut self.yaw_ref, v);
+        }
+        let scale = match v.position {
+            Some(q) if !v.held_back && !self.path_yaw.waiting() => {
+                clock_scale(norm3(&(last.position - q)), self.params.trajectory.tracking_error_bound)
+            }
+            _ => 0.0,
+        };
+        let dt = v.dt.min(MAX_STEP_DT);
+        let r = match traj.step(dt, scale) {
+            Ok(s) => {
+                *progress = Progress {
+                    segment: u16::try_from(s.segment.saturating_add(1)).unwrap_or(u16::MAX),
+                    fraction: 0.0,
+                    done: s.done,
+                };
+                Reference {
+                    position: s.position,
+                    velocity: s.velocity,
+                    acceleration: s.acceleration,
+                    yaw: 0.0,
+                }
+            }
+            Err(_) => last,
+        };
+        let r = Reference { yaw: self.yaw_ref, ..r };
+        self.last_traj = Some(r);
+        r
+    }
+}
+
+/// A trajectory error as the path error a refused command reports.
+fn path_error(e: TrajectoryError) -> PathError {
+    match e {
+        TrajectoryError::Path(p) => p,
+        TrajectoryError::RepeatedWaypoint { .. }
+        | TrajectoryError::Param(_)
+        | TrajectoryError::BadDt
+        | TrajectoryError::BadClockScale
+        | TrajectoryError::BadStartState => PathError::BadParams,
     }
 }
 
@@ -359,6 +568,141 @@ impl Guidance {
 mod tests {
     extern crate std;
     use super::*;
+
+    fn steering(p: Vec3) -> Steering {
+        Steering { position: Some(p), heading: 0.0, dt: 0.004, held_back: false }
+    }
+
+    fn trajectory_guidance() -> Guidance {
+        let params = GuidanceParams { mission: MissionGuidance::Trajectory, ..GuidanceParams::default() };
+        let mut g = Guidance::new(params, WaypointParams { cruise_speed: 2.0, corner_radius: 0.0 }).unwrap();
+        g.arm(Vec3::zeros(), 0.0);
+        g.hold(Vec3::new(0.0, 0.0, -1.0));
+        g
+    }
+
+    #[test]
+    fn names_and_codes_round_trip() {
+        for m in MissionGuidance::ALL {
+            assert_eq!(m.as_str().parse::<MissionGuidance>(), Ok(m));
+            assert_eq!(MissionGuidance::from_code(m.code()), Some(m));
+        }
+        assert_eq!(MissionGuidance::from_code(2), None);
+        assert_eq!(MissionGuidance::default(), MissionGuidance::Paper);
+    }
+
+    #[test]
+    fn the_trajectory_mission_starts_at_rest_at_the_origin_and_ends_done_at_the_goal() {
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        // The first waypoint repeats the origin (a mission item at the takeoff point): dropped.
+        let path = [origin, Vec3::new(3.0, 0.0, -1.0), Vec3::new(3.0, 2.0, -1.0)];
+        g.set_path(&path, 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let mut progress = Progress::default();
+        let (mode, r) = g.reference(4_000, &steering(origin), &mut progress);
+        let r = r.unwrap();
+        assert_eq!(mode, GuidanceMode::Mission);
+        assert!(norm3(&(r.position - origin)) < 1e-4, "{:?}", r.position);
+        assert!(norm3(&r.velocity) < 1e-3, "{:?}", r.velocity);
+        // The vehicle follows the reference exactly: the clock runs at full speed.
+        let mut p = r.position;
+        let mut top = 0.0f32;
+        let mut steps = 1;
+        while !progress.done {
+            let (_, r) = g.reference(4_000 * (steps + 1), &steering(p), &mut progress);
+            let r = r.unwrap();
+            top = top.max(norm3(&r.velocity));
+            p = r.position;
+            steps += 1;
+            assert!(steps < 10_000, "not done after {steps} steps");
+        }
+        assert!(norm3(&(p - path[2])) < 1e-5, "{p:?}");
+        assert!(top > 1.5 && top <= 2.0 + 1e-3, "top speed {top}");
+        // Done: the goal held at rest.
+        let (_, r) = g.reference(4_000 * (steps + 1), &steering(p), &mut progress);
+        assert_eq!(r.unwrap().velocity, Vec3::zeros());
+    }
+
+    #[test]
+    fn the_trajectory_clock_waits_for_the_vehicle() {
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let mut progress = Progress::default();
+        // The vehicle stays at the origin: the reference gets at most TRJ_ERR_MAX ahead plus
+        // the jerk-limited braking distance from the speed it had when the clock began to
+        // slow (here 2.83 m from 0.25 m at 1 m/s, 2.9 m/s²), then stops and waits.
+        let mut far = 0.0f32;
+        let mut last = None;
+        for k in 1..5_000u64 {
+            let (_, r) = g.reference(4_000 * k, &steering(origin), &mut progress);
+            far = far.max(norm3(&(r.unwrap().position - origin)));
+            last = r;
+        }
+        assert!(far < 3.0, "ran away: {far}");
+        assert_eq!(last.unwrap().velocity, Vec3::zeros());
+        assert!(!progress.done);
+        // Held back by the filter: the clock stops at once.
+        let mut g = trajectory_guidance();
+        g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let held = Steering { held_back: true, ..steering(origin) };
+        for k in 1..1_000u64 {
+            let (_, r) = g.reference(4_000 * k, &held, &mut progress);
+            assert_eq!(r.unwrap().position, origin);
+        }
+    }
+
+    #[test]
+    fn a_new_path_along_the_motion_carries_it_over_else_restarts_at_rest() {
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let mut progress = Progress::default();
+        let mut p = origin;
+        let mut r = g.hold_ref(origin);
+        for k in 1..500u64 {
+            r = g.reference(4_000 * k, &steering(p), &mut progress).1.unwrap();
+            p = r.position;
+        }
+        assert!(r.velocity.x > 1.5, "{:?}", r.velocity);
+        // Straight on: the motion goes on without a jump.
+        g.set_path(&[Vec3::new(8.0, 0.0, -1.0)], 2_000_000, r.position).unwrap();
+        let r2 = g.reference(2_004_000, &steering(p), &mut progress).1.unwrap();
+        assert!((r2.velocity - r.velocity).norm() < 0.05, "{:?} -> {:?}", r.velocity, r2.velocity);
+        assert!((r2.position - r.position).norm() < 0.02, "{:?} -> {:?}", r.position, r2.position);
+        // Sideways: from rest at the current reference.
+        g.set_path(&[Vec3::new(r2.position.x, 5.0, -1.0)], 2_008_000, r2.position).unwrap();
+        let r3 = g.reference(2_012_000, &steering(p), &mut progress).1.unwrap();
+        assert!(r3.velocity.norm() < 0.01, "{:?}", r3.velocity);
+        assert!((r3.position - r2.position).norm() < 1e-3);
+    }
+
+    #[test]
+    fn a_trajectory_that_cannot_be_built_refuses_the_mission() {
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        // WP_SPEED above the trajectory's 20 m/s.
+        let params = GuidanceParams { mission: MissionGuidance::Trajectory, ..GuidanceParams::default() };
+        let mut fast =
+            Guidance::new(params, WaypointParams { cruise_speed: 50.0, corner_radius: 0.0 }).unwrap();
+        fast.arm(Vec3::zeros(), 0.0);
+        fast.hold(origin);
+        fast.set_path(&[Vec3::new(5.0, 0.0, -1.0)], 0, origin).unwrap();
+        assert_eq!(fast.start_mission(0, origin), Err(CommandError::Path(PathError::BadParams)));
+        let mut progress = Progress::default();
+        let (mode, r) = fast.reference(4_000, &steering(origin), &mut progress);
+        assert_eq!((mode, r.unwrap().position), (GuidanceMode::Hold, origin));
+        // A path that is only the origin: done at once, at the origin.
+        g.set_path(&[origin, origin], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let (_, r) = g.reference(4_000, &steering(origin), &mut progress);
+        assert_eq!(r.unwrap().position, origin);
+        assert!(progress.done);
+    }
 
     #[test]
     fn guidance_mode_names_are_the_variant_names() {

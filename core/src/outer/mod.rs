@@ -11,8 +11,8 @@
 //! Owns [`guidance`] (nominal reference while Armed), [`inputs`] (position fix, obstacle
 //! set), [`waypoint`] (the path follower), [`tracking`] (PD tracking, eq. 2), [`thrust`]
 //! (acceleration → collective thrust and attitude, eq. 4-5), [`trajectory`] (issue 35, stage in
-//! progress: the jerk-limited online trajectory along a blended path; not wired into
-//! [`OuterLoop`] yet), and [`OuterLoop`], which runs
+//! progress: the jerk-limited online trajectory along a blended path; [`guidance`] flies
+//! missions on it when `MIS_GUIDANCE` = 1), and [`OuterLoop`], which runs
 //! them with the [`crate::supervisor::Supervisor`] and the [`crate::safety`] filter. It
 //! reads the inner loop only through the [`StateEstimate`] message
 //! ([`OuterLoop::on_estimate`]) and hands it only the [`AttitudeCommand`] and

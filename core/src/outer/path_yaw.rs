@@ -127,6 +127,9 @@ pub struct Steering {
     pub heading: f32,
     /// Outer step, s.
     pub dt: f32,
+    /// The safety filter held the vehicle back along the reference's velocity in the last
+    /// outer step (the mission trajectory's clock stops, [`super::guidance`]).
+    pub held_back: bool,
 }
 
 /// The path clock and the waiting state of one path being flown (see the module docs).
@@ -366,7 +369,7 @@ mod tests {
         let mut corner_hold = 0u32;
         for k in 0..3000u64 {
             let now = k * 4000;
-            let v = Steering { position: None, heading: yaw, dt };
+            let v = Steering { position: None, heading: yaw, dt, held_back: false };
             let s = sample(&mut py, &TRAVEL, &f, (0, now), &mut yaw, &v);
             if py.waiting() {
                 first_wait.get_or_insert(now);
@@ -400,7 +403,12 @@ mod tests {
         let mut yaw = 0.7;
         for k in 0..1500u64 {
             let now = 1_000 + k * 4000;
-            let v = Steering { position: Some(Vec3::new(-3.0, 0.0, 0.0)), heading: 0.0, dt: 0.004 };
+            let v = Steering {
+                position: Some(Vec3::new(-3.0, 0.0, 0.0)),
+                heading: 0.0,
+                dt: 0.004,
+                held_back: false,
+            };
             let s = sample(&mut py, &hold, &f, (1_000, now), &mut yaw, &v);
             assert_eq!(s, f.sample((now - 1_000) as f32 * 1e-6));
             assert_eq!(yaw, 0.7);
@@ -419,7 +427,7 @@ mod tests {
         let done = 10_000_000;
         let past = Some(goal + Vec3::new(0.0, 0.5, 0.0));
         for k in 0..2000u64 {
-            let v = Steering { position: past, heading: yaw, dt: 0.004 };
+            let v = Steering { position: past, heading: yaw, dt: 0.004, held_back: false };
             let s = sample(&mut py, &TRAVEL, &f, (0, done + k * 4000), &mut yaw, &v);
             assert!(s.progress.done && !py.waiting());
             assert_eq!(s.position, goal);
@@ -428,7 +436,7 @@ mod tests {
         // Within FACE_POINT_RADIUS (or without a fix): the yaw is kept.
         for position in [Some(goal + Vec3::new(0.06, -0.06, 0.3)), None] {
             let before = yaw;
-            let v = Steering { position, heading: yaw, dt: 0.004 };
+            let v = Steering { position, heading: yaw, dt: 0.004, held_back: false };
             sample(&mut py, &TRAVEL, &f, (0, done), &mut yaw, &v);
             assert_eq!(yaw, before);
         }

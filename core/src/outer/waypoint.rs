@@ -196,6 +196,11 @@ impl<const N: usize> WaypointFollower<N> {
         Ok(())
     }
 
+    /// The stored waypoints (NED, m), in order.
+    pub fn waypoints(&self) -> &[Vec3] {
+        &self.points
+    }
+
     /// Drop the stored path (MAVLink MISSION_CLEAR_ALL): no waypoint is left, so a later
     /// [`start`](Self::start) fails with [`PathError::NoPath`] until a new path is set.
     pub fn clear(&mut self) {

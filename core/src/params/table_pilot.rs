@@ -4,10 +4,11 @@
 //! what [`super`] may.
 
 use super::*;
+use crate::outer::guidance::MissionGuidance;
 use crate::outer::path_yaw::YawMode;
 
 /// Entries of this part.
-pub(super) const N: usize = 32;
+pub(super) const N: usize = 40;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -292,6 +293,97 @@ pub(super) const TABLE: [Param; N] = [
          (MISSION_ACK INVALID_PARAM7), a higher NAV_TAKEOFF command or mission start is DENIED",
         |p| p.guidance.takeoff_height_max,
         |p, v| p.guidance.takeoff_height_max = v,
+    ),
+    // Issue 35: the mission's guidance (`outer::guidance`): the paper's constant-speed point
+    // (default, the paper reproduction) or the jerk-limited trajectory (`outer::trajectory`,
+    // cruise speed WP_SPEED) with these limits (PX4 MPC_ACC_HOR, MPC_JERK_AUTO, MPC_Z_V_AUTO_*,
+    // MPC_XY_ERR_MAX).
+    Param {
+        name: "MIS_GUIDANCE",
+        key: None,
+        unit: "",
+        default: 0.0,
+        min: 0.0,
+        max: 1.0,
+        integer: true,
+        decimals: 0,
+        group: "Mission",
+        description: host_text(
+            "Mission guidance: 0 paper (constant-speed point, s = V t), 1 trajectory (jerk-limited, waits for the vehicle)",
+        ),
+        label: Some(|c| MissionGuidance::from_code(c).map(MissionGuidance::as_str)),
+        get: |p| p.guidance.mission.code() as f32,
+        write: |p, v| p.guidance.mission = MissionGuidance::from_code(v as i32).unwrap_or(p.guidance.mission),
+    },
+    num(
+        "TRJ_ACC",
+        "Mission",
+        "m/s^2",
+        (0.1, 3.0, 15.0),
+        2,
+        "MIS_GUIDANCE 1: horizontal acceleration limit of the trajectory (tangential and lateral)",
+        |p| p.guidance.trajectory.accel_horizontal,
+        |p, v| p.guidance.trajectory.accel_horizontal = v,
+    ),
+    num(
+        "TRJ_ACC_VERT",
+        "Mission",
+        "m/s^2",
+        (0.1, 3.0, 15.0),
+        2,
+        "MIS_GUIDANCE 1: vertical acceleration limit of the trajectory",
+        |p| p.guidance.trajectory.accel_vertical,
+        |p, v| p.guidance.trajectory.accel_vertical = v,
+    ),
+    num(
+        "TRJ_JERK",
+        "Mission",
+        "m/s^3",
+        (0.1, 4.0, 80.0),
+        2,
+        "MIS_GUIDANCE 1: jerk limit along the trajectory",
+        |p| p.guidance.trajectory.jerk,
+        |p, v| p.guidance.trajectory.jerk = v,
+    ),
+    num(
+        "TRJ_V_UP",
+        "Mission",
+        "m/s",
+        (0.1, 3.0, 10.0),
+        2,
+        "MIS_GUIDANCE 1: upward speed limit of the trajectory",
+        |p| p.guidance.trajectory.speed_up,
+        |p, v| p.guidance.trajectory.speed_up = v,
+    ),
+    num(
+        "TRJ_V_DN",
+        "Mission",
+        "m/s",
+        (0.1, 1.5, 10.0),
+        2,
+        "MIS_GUIDANCE 1: downward speed limit of the trajectory",
+        |p| p.guidance.trajectory.speed_down,
+        |p, v| p.guidance.trajectory.speed_down = v,
+    ),
+    num(
+        "TRJ_CORNER_TOL",
+        "Mission",
+        "m",
+        (0.0, 0.1, 5.0),
+        3,
+        "MIS_GUIDANCE 1: largest corner cut of the trajectory (the planner's margin); 0 stops at every corner",
+        |p| p.guidance.trajectory.corner_tolerance,
+        |p, v| p.guidance.trajectory.corner_tolerance = v,
+    ),
+    num(
+        "TRJ_ERR_MAX",
+        "Mission",
+        "m",
+        (0.05, 0.5, 10.0),
+        2,
+        "MIS_GUIDANCE 1: tracking error at which the trajectory's clock stops (full speed up to half of it)",
+        |p| p.guidance.trajectory.tracking_error_bound,
+        |p, v| p.guidance.trajectory.tracking_error_bound = v,
     ),
     // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
     rc_map(

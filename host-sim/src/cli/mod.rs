@@ -31,6 +31,7 @@ use anyhow::anyhow;
 use clap::{Args, Parser};
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_core::outer::path_yaw::YawMode;
 
 pub use crate::cli::output::{out, refuse_overwrite};
@@ -111,6 +112,11 @@ pub struct RunArgs {
     /// sensor of --perception looks forward (camera), else hold]. See docs/cascade.md.
     #[arg(long, value_parser = parse_yaw_mode)]
     yaw_mode: Option<YawMode>,
+    /// Mission guidance (MIS_GUIDANCE): paper (the paper's constant-speed point, s = V·t; the
+    /// default) | trajectory (jerk-limited, corner-blended, its clock waits for the vehicle;
+    /// limits TRJ_*, cruise --speed). Same as `--param MIS_GUIDANCE=0|1`. See docs/cascade.md.
+    #[arg(long, value_parser = parse_guidance)]
+    guidance: Option<MissionGuidance>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
     mu: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Safety level δ, m² (hull radius squared)", "delta"))]
@@ -279,6 +285,10 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
 
 fn parse_variant(s: &str) -> Result<FilterVariant, String> {
     s.parse().map_err(|_| format!("unknown filter {s:?}: expected paper, relative, multi or multi-relative"))
+}
+
+fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
+    s.parse().map_err(|_| format!("unknown guidance {s:?}: expected paper or trajectory"))
 }
 
 fn parse_yaw_mode(s: &str) -> Result<YawMode, String> {
@@ -483,8 +493,12 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         return Err(CliError::BadInput("option --foreign-path: only with --path (a path file)".into()));
     }
     // --params FILE, then --param NAME=VALUE: the keyed ones as the scene's [controller] keys.
-    let overrides =
+    let mut overrides =
         params::split_assignments(&mut scene, &params::assignments(a.params_file.as_deref(), &a.param)?)?;
+    if let Some(g) = a.guidance {
+        overrides.retain(|(n, _)| *n != "MIS_GUIDANCE");
+        overrides.push(("MIS_GUIDANCE", g.code() as f32));
+    }
     if let Some(s) = positive("speed", a.speed)? {
         scene.speed = s;
     }

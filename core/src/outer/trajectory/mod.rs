@@ -1,8 +1,8 @@
 //! Trajectory generation (issue 35, stage in progress): from a polyline of waypoints and the
 //! vehicle's limits, a jerk-limited, time-parameterised reference `p_d, ṗ_d, p̈_d` (and jerk)
 //! that slows for corners, stays within the corner tolerance of the polyline, starts and ends
-//! at rest, and whose clock waits for the vehicle. **Not yet wired into the outer loop**
-//! ([`super::guidance`] still flies [`super::waypoint`]).
+//! at rest, and whose clock waits for the vehicle. [`super::guidance`] flies missions on it
+//! when `MIS_GUIDANCE` = 1 (the default, 0, still flies [`super::waypoint`]).
 //!
 //! ## Method
 //! * **Geometry** (`geometry.rs`): the polyline's legs are kept straight and each corner is
@@ -39,9 +39,9 @@
 //!
 //! ## A reference that never runs away
 //! [`Trajectory::step`] takes `clock_scale ∈ [0, 1]`, which scales the allowed speed. The
-//! outer loop will pass [`clock_scale`]`(tracking error, bound)` — 1 while the vehicle follows
-//! within half the bound, 0 at the bound — and 0 while the safety filter holds the vehicle
-//! back. With 0 the reference brakes jerk-limited and stops; it never jumps.
+//! guidance (`MIS_GUIDANCE` 1) passes [`clock_scale`]`(tracking error, bound)` — 1 while the
+//! vehicle follows within half the bound, 0 at the bound — and 0 while the safety filter
+//! holds the vehicle back. With 0 the reference brakes jerk-limited and stops; it never jumps.
 //!
 //! ## Guarantees (checked by `core/tests/trajectory_properties.rs`)
 //! Starts at the first waypoint at rest; ends exactly at the last at rest ([`TrajectorySample::done`],
@@ -369,6 +369,24 @@ impl<const N: usize> Trajectory<N> {
     /// `true` once the goal has been reached at rest.
     pub fn is_done(&self) -> bool {
         self.done
+    }
+
+    /// The unit direction of travel at the current point: the tangent of the piece being
+    /// flown, the outgoing leg's on a stop corner (at rest, about to turn onto it); zero once
+    /// done. Defined at rest too (the yaw along the path turns towards it before moving).
+    pub fn travel_direction(&self) -> Vec3 {
+        if self.done {
+            return Vec3::zeros();
+        }
+        let k = self.piece / 2;
+        let leg_dir = |i: usize| self.legs.get(i).map_or(Vec3::zeros(), |l| l.dir);
+        if self.piece.is_multiple_of(2) {
+            return leg_dir(k);
+        }
+        match self.corners.get(k) {
+            Some(c) if !c.stop => c.eval(self.motion.s).1,
+            _ => leg_dir(k + 1),
+        }
     }
 
     fn piece_count(&self) -> usize {
