@@ -228,8 +228,10 @@ pub struct Guidance {
     yaw_ref: f32,
     home: Vec3,
     path_yaw: PathYaw,
-    /// The mission's trajectory ([`MissionGuidance::Trajectory`], built at the mission start).
-    trajectory: Option<Trajectory<TRAJECTORY_CAPACITY>>,
+    /// The mission's trajectory ([`MissionGuidance::Trajectory`], built at the mission start
+    /// in place: [`Trajectory::rebuild`]); flown while `flying_trajectory`.
+    trajectory: Trajectory<TRAJECTORY_CAPACITY>,
+    flying_trajectory: bool,
     /// The trajectory's last reference (the clock's tracking error is measured against it).
     last_traj: Option<Reference>,
 }
@@ -248,7 +250,8 @@ impl Guidance {
             yaw_ref: 0.0,
             home: Vec3::zeros(),
             path_yaw: PathYaw::default(),
-            trajectory: None,
+            trajectory: Trajectory::idle(),
+            flying_trajectory: false,
             last_traj: None,
         })
     }
@@ -334,7 +337,7 @@ impl Guidance {
                 }
                 (GuidanceMode::Takeoff, Some(r))
             }
-            Mode::Mission { .. } if self.trajectory.is_some() => {
+            Mode::Mission { .. } if self.flying_trajectory => {
                 let r = self.trajectory_ref(v, progress);
                 (GuidanceMode::Mission, Some(r))
             }
@@ -365,13 +368,13 @@ impl Guidance {
         self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
         if let Mode::Mission { .. } = self.mode {
             // A trajectory being flown carries its motion over when it can.
-            let carry = self.trajectory.as_ref().and(self.last_traj);
+            let carry = self.last_traj.filter(|_| self.flying_trajectory);
             if self.follower.start(origin).is_ok() && self.build_trajectory(origin, carry).is_ok() {
                 self.mode = Mode::Mission { t0_us: now_us };
                 self.path_yaw.reset();
             } else {
                 self.mode = Mode::Hold(origin);
-                self.trajectory = None;
+                self.flying_trajectory = false;
             }
         }
         Ok(())
@@ -447,7 +450,7 @@ impl Guidance {
     /// first leg (within [`CARRY_MAX_ANGLE_COS`]) and the motion is one the new trajectory can
     /// take over; otherwise it starts at rest.
     fn build_trajectory(&mut self, origin: Vec3, carry: Option<Reference>) -> Result<(), CommandError> {
-        self.trajectory = None;
+        self.flying_trajectory = false;
         self.last_traj = None;
         if self.params.mission != MissionGuidance::Trajectory {
             return Ok(());
@@ -462,28 +465,34 @@ impl Guidance {
         }
         let params =
             TrajectoryParams { cruise_speed: self.follower.params().cruise_speed, ..self.params.trajectory };
-        let t = Trajectory::new(params, &points).map_err(|e| CommandError::Path(path_error(e)))?;
         let mut start = Reference {
             position: origin,
             velocity: Vec3::zeros(),
             acceleration: Vec3::zeros(),
             yaw: self.yaw_ref,
         };
+        // Moving when the reference moves along the new first leg and the new trajectory can
+        // take the motion over; else (or when that fails) at rest. Built in place.
         let moving = carry.zip(points.get(1)).and_then(|(r, next)| {
             let leg = next - origin;
             let (speed, len) = (norm3(&r.velocity), norm3(&leg));
             let dir = leg / len;
             let along = r.velocity.dot(&dir);
-            if !(speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed) {
-                return None;
-            }
-            let accel = r.acceleration.dot(&dir);
-            let m = Trajectory::new_moving(params, &points, speed, accel).ok()?;
-            start.velocity = dir * speed;
-            start.acceleration = dir * accel;
-            Some(m)
+            (speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed).then(|| (dir, speed, r))
         });
-        self.trajectory = Some(moving.unwrap_or(t));
+        let carried = moving.is_some_and(|(dir, speed, r)| {
+            let accel = r.acceleration.dot(&dir);
+            let ok = self.trajectory.rebuild_moving(params, &points, speed, accel).is_ok();
+            if ok {
+                start.velocity = dir * speed;
+                start.acceleration = dir * accel;
+            }
+            ok
+        });
+        if !carried {
+            self.trajectory.rebuild(params, &points).map_err(|e| CommandError::Path(path_error(e)))?;
+        }
+        self.flying_trajectory = true;
         self.last_traj = Some(start);
         Ok(())
     }
@@ -494,7 +503,8 @@ impl Guidance {
     /// while the path waits for the heading (`MIS_YAW_MODE` travel). A step that fails (a
     /// time step out of range) keeps the last reference.
     fn trajectory_ref(&mut self, v: &Steering, progress: &mut Progress) -> Reference {
-        let Some(traj) = self.trajectory.as_mut() else {
+        let traj = &mut self.trajectory;
+        if !self.flying_trajectory {
             return Reference {
                 position: self.home,
                 velocity: Vec3::zeros(),

@@ -224,7 +224,28 @@ fn slower_than_stopping(arc: f32, v_blend: f32, half: f32, (accel, jerk): (f32, 
     blend > STOP_PREFERENCE * stop
 }
 
+/// What the timing needs of a corner ahead: its blend's size and speed limit. The
+/// trajectory keeps one per corner and rebuilds the full [`Corner`] (its arc-length table)
+/// only for the corner being flown: [`Corner::new`] is a pure function of the legs, so the
+/// rebuilt corner is bit-identical, and a path costs 20 bytes per corner instead of 124.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub(crate) struct CornerBrief {
+    /// Length taken from each leg, m.
+    pub half: f32,
+    /// Arc length of the blend, m.
+    pub arc: f32,
+    /// Speed limit on the blend, m/s (0 at a stop corner).
+    pub limit: f32,
+    /// Stop at the corner.
+    pub stop: bool,
+}
+
 impl Corner {
+    /// The corner's [`CornerBrief`].
+    pub fn brief(&self) -> CornerBrief {
+        CornerBrief { half: self.half, arc: self.arc, limit: self.limit, stop: self.stop }
+    }
+
     /// The corner at waypoint `at` between legs of directions `d0`, `d1` and lengths
     /// `len_in`, `len_out`, for the corner tolerance `tol` (m), the lateral acceleration
     /// bound `accel` (m/s²), the jerk bound `jerk` (m/s³) and the axis limits.

@@ -55,9 +55,11 @@
 //! ## Capacity and cost
 //! At most `N` waypoints (const generic, default [`DEFAULT_PATH_CAPACITY`]); a longer path is
 //! rejected, never truncated. A step is `O(BISECTION_ITERATIONS · K)` with `K ≤ 2N` the limits
-//! within the braking distance; construction is `O(N)`. Memory: one corner (124 bytes with
-//! its arc-length table) and one leg (32 bytes) per waypoint: `Trajectory<64>` is 10 096
-//! bytes on the host.
+//! within the braking distance; construction is `O(N)`. Memory: one leg (32 bytes) and one
+//! corner brief (20 bytes) per waypoint, plus the full corner being flown (its arc-length
+//! table, rebuilt on entering the blend): `Trajectory<64>` is 3,328 bytes on the host
+//! (`the_trajectory_fits_the_flight_controllers_ram`). The flight controller keeps one in its
+//! guidance, re-built in place ([`Trajectory::rebuild`]) so that no copy passes the stack.
 //!
 //! ## Numerics
 //! A braking at the acceleration limit is exactly tight, so the step's displacement and speed
@@ -80,7 +82,7 @@ use super::waypoint::{PathError, COORDINATE_LIMIT, DEFAULT_PATH_CAPACITY};
 use crate::fmath::{maxf, minf, norm3};
 use crate::frame::is_finite3;
 use crate::Vec3;
-use geometry::{AxisLimits, Corner, Leg};
+use geometry::{AxisLimits, Corner, CornerBrief, Leg};
 use profile::{brake_distance, follow_delta, velocity_plan, Limits, Motion};
 
 /// Consecutive waypoints closer than this (m) are a repeated waypoint (a zero-length leg).
@@ -215,7 +217,9 @@ pub struct Trajectory<const N: usize = DEFAULT_PATH_CAPACITY> {
     lim: Limits,
     legs: heapless::Vec<Leg, N>,
     /// `corners[k]` joins leg `k` and leg `k + 1` (at waypoint `k + 1`).
-    corners: heapless::Vec<Corner, N>,
+    corners: heapless::Vec<CornerBrief, N>,
+    /// The corner being flown, `(k, corners[k] in full)`, rebuilt on entering its blend.
+    flown: Option<(usize, Corner)>,
     goal: Vec3,
     /// Piece being flown: `2k` = straight part of leg `k`, `2k + 1` = corner `k`.
     piece: usize,
@@ -232,12 +236,46 @@ pub struct Trajectory<const N: usize = DEFAULT_PATH_CAPACITY> {
     last_acceleration: Vec3,
 }
 
+/// The axis speed limits of `params`.
+fn axis_limits(params: &TrajectoryParams) -> AxisLimits {
+    AxisLimits { horizontal: params.cruise_speed, up: params.speed_up, down: params.speed_down }
+}
+
 impl<const N: usize> Trajectory<N> {
     /// A trajectory from `waypoints[0]` (normally the current position) through the others to
     /// the last, starting at rest. Errors on invalid parameters, an empty slice, more than `N`
     /// waypoints, a NaN/Inf coordinate, a coordinate beyond ±[`COORDINATE_LIMIT`] or a
     /// repeated consecutive waypoint. One waypoint is a trajectory that is done at once.
     pub fn new(params: TrajectoryParams, waypoints: &[Vec3]) -> Result<Self, TrajectoryError> {
+        let mut t = Self::idle();
+        t.rebuild(params, waypoints)?;
+        Ok(t)
+    }
+
+    /// An empty trajectory (no legs, done at the origin) with the default parameters: the
+    /// storage [`rebuild`](Self::rebuild) fills.
+    pub fn idle() -> Self {
+        Trajectory {
+            params: TrajectoryParams::default(),
+            lim: Limits { accel: 1.0, jerk: 1.0 },
+            legs: heapless::Vec::new(),
+            corners: heapless::Vec::new(),
+            flown: None,
+            goal: Vec3::zeros(),
+            piece: 0,
+            piece_start: 0.0,
+            motion: Motion::default(),
+            comp: Comp::default(),
+            total: 0.0,
+            done: true,
+            last_acceleration: Vec3::zeros(),
+        }
+    }
+
+    /// [`new`](Self::new) in place: this trajectory becomes the one through `waypoints`
+    /// (nothing of the old one is kept). On an error it is left [`idle`](Self::idle).
+    pub fn rebuild(&mut self, params: TrajectoryParams, waypoints: &[Vec3]) -> Result<(), TrajectoryError> {
+        self.clear();
         params.validate()?;
         if waypoints.is_empty() {
             return Err(PathError::Empty.into());
@@ -251,9 +289,7 @@ impl<const N: usize> Trajectory<N> {
         if let Some(index) = waypoints.iter().position(|w| w.amax() > COORDINATE_LIMIT) {
             return Err(PathError::OutOfRange { index }.into());
         }
-        let axes =
-            AxisLimits { horizontal: params.cruise_speed, up: params.speed_up, down: params.speed_down };
-        let mut legs: heapless::Vec<Leg, N> = heapless::Vec::new();
+        let axes = axis_limits(&params);
         let mut horizontal = true;
         for (i, pair) in waypoints.windows(2).enumerate() {
             let [a, b] = pair else {
@@ -262,44 +298,74 @@ impl<const N: usize> Trajectory<N> {
             let d = b - a;
             let length = norm3(&d);
             if length < MIN_LEG_LENGTH {
+                self.clear();
                 return Err(TrajectoryError::RepeatedWaypoint { index: i + 1 });
             }
             let dir = d / length;
             horizontal &= dir.z.abs() <= 1e-6;
             // Cannot fail: at most N − 1 legs.
-            let _ = legs.push(Leg { from: *a, dir, length, limit: axes.along(&dir) });
+            let _ = self.legs.push(Leg { from: *a, dir, length, limit: axes.along(&dir) });
         }
         let accel = if horizontal {
             params.accel_horizontal
         } else {
             minf(params.accel_horizontal, params.accel_vertical)
         };
-        let mut corners: heapless::Vec<Corner, N> = heapless::Vec::new();
-        for pair in legs.windows(2) {
-            let [l0, l1] = pair else {
-                continue;
-            };
-            let at = l1.from;
-            let _ =
-                corners.push(Corner::new(at, (l0, l1), params.corner_tolerance, (accel, params.jerk), &axes));
+        self.params = params;
+        self.lim = Limits { accel, jerk: params.jerk };
+        for k in 0..self.legs.len().saturating_sub(1) {
+            let brief = self.corner(k).map_or(CornerBrief::default(), |c| c.brief());
+            // Cannot fail: at most N − 2 corners.
+            let _ = self.corners.push(brief);
         }
-        let goal = waypoints.last().copied().unwrap_or_else(Vec3::zeros);
-        let mut t = Trajectory {
-            params,
-            lim: Limits { accel, jerk: params.jerk },
-            legs,
-            corners,
-            goal,
-            piece: 0,
-            piece_start: 0.0,
-            motion: Motion::default(),
-            comp: Comp::default(),
-            total: 0.0,
-            done: waypoints.len() == 1,
-            last_acceleration: Vec3::zeros(),
-        };
-        t.total = (0..t.piece_count()).map(|p| t.piece_len(p)).sum();
-        Ok(t)
+        self.goal = waypoints.last().copied().unwrap_or_else(Vec3::zeros);
+        self.done = waypoints.len() == 1;
+        self.total = (0..self.piece_count()).map(|p| self.piece_len(p)).sum();
+        Ok(())
+    }
+
+    /// Back to [`idle`](Self::idle), keeping the storage.
+    fn clear(&mut self) {
+        self.params = TrajectoryParams::default();
+        self.lim = Limits { accel: 1.0, jerk: 1.0 };
+        self.legs.clear();
+        self.corners.clear();
+        self.flown = None;
+        self.goal = Vec3::zeros();
+        self.piece = 0;
+        self.piece_start = 0.0;
+        self.motion = Motion::default();
+        self.comp = Comp::default();
+        self.total = 0.0;
+        self.done = true;
+        self.last_acceleration = Vec3::zeros();
+    }
+
+    /// Corner `k` in full (between legs `k` and `k + 1`), built from the legs and the
+    /// parameters: the same inputs at every call, so the same corner.
+    fn corner(&self, k: usize) -> Option<Corner> {
+        let (l0, l1) = (self.legs.get(k)?, self.legs.get(k + 1)?);
+        let axes = axis_limits(&self.params);
+        Some(Corner::new(l1.from, (l0, l1), self.params.corner_tolerance, (self.lim.accel, self.lim.jerk), &axes))
+    }
+
+    /// The corner of the current piece in full when it is a blend (cached in `flown`).
+    fn sync_flown(&mut self) {
+        let k = self.piece / 2;
+        let wanted = self.piece % 2 == 1;
+        if wanted && self.flown.as_ref().is_none_or(|(j, _)| *j != k) {
+            self.flown = self.corner(k).map(|c| (k, c));
+        } else if !wanted {
+            self.flown = None;
+        }
+    }
+
+    /// The full corner `k` from the cache when it is the one flown, else rebuilt.
+    fn flown_corner(&self, k: usize) -> Option<Corner> {
+        match &self.flown {
+            Some((j, c)) if *j == k => Some(*c),
+            _ => self.corner(k),
+        }
     }
 
     /// A trajectory that starts **moving** along its first leg at `speed` (m/s) with the
@@ -318,7 +384,22 @@ impl<const N: usize> Trajectory<N> {
         speed: f32,
         accel: f32,
     ) -> Result<Self, TrajectoryError> {
-        let mut t = Self::new(params, waypoints)?;
+        let mut t = Self::idle();
+        t.rebuild_moving(params, waypoints, speed, accel)?;
+        Ok(t)
+    }
+
+    /// [`new_moving`](Self::new_moving) in place. On an error it is left
+    /// [`idle`](Self::idle).
+    pub fn rebuild_moving(
+        &mut self,
+        params: TrajectoryParams,
+        waypoints: &[Vec3],
+        speed: f32,
+        accel: f32,
+    ) -> Result<(), TrajectoryError> {
+        self.rebuild(params, waypoints)?;
+        let t = self;
         let bad = !speed.is_finite()
             || !accel.is_finite()
             || speed < 0.0
@@ -329,16 +410,14 @@ impl<const N: usize> Trajectory<N> {
             || (accel < 0.0 && speed < accel * accel / (2.0 * t.lim.jerk))
             || (accel > 0.0 && speed + accel * accel / (2.0 * t.lim.jerk) > t.piece_limit(0))
             || (t.legs.is_empty() && (speed > 0.0 || accel != 0.0));
-        if bad {
-            return Err(TrajectoryError::BadStartState);
-        }
         let m = Motion { s: 0.0, v: speed, a: accel };
-        if !t.legs.is_empty() && !t.safe(&m) {
+        if bad || (!t.legs.is_empty() && !t.safe(&m)) {
+            t.clear();
             return Err(TrajectoryError::BadStartState);
         }
         t.motion = m;
         t.last_acceleration = t.legs.first().map_or(Vec3::zeros(), |l| l.dir * accel);
-        Ok(t)
+        Ok(())
     }
 
     /// Capacity in waypoints (`N`).
@@ -384,7 +463,7 @@ impl<const N: usize> Trajectory<N> {
             return leg_dir(k);
         }
         match self.corners.get(k) {
-            Some(c) if !c.stop => c.eval(self.motion.s).1,
+            Some(c) if !c.stop => self.flown_corner(k).map_or(leg_dir(k + 1), |c| c.eval(self.motion.s).1),
             _ => leg_dir(k + 1),
         }
     }
@@ -566,14 +645,16 @@ impl<const N: usize> Trajectory<N> {
             self.piece += 1;
         }
         self.motion = n;
+        self.sync_flown();
     }
 
     /// The reference for the current motion.
     fn sample(&mut self, dt: f32) -> TrajectorySample {
         let m = self.motion;
         let k = self.piece / 2;
+        self.sync_flown();
         let (position, tangent, curvature, segment) = if self.piece % 2 == 1 {
-            match self.corners.get(k) {
+            match self.flown_corner(k) {
                 Some(c) => {
                     let (p, t, kn) = c.eval(m.s);
                     (p, t, kn, if m.s < 0.5 * c.arc { k } else { k + 1 })
