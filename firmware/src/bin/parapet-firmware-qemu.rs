@@ -11,8 +11,8 @@
 //! reported as NAMED_VALUE_INT `ins_store` (instructions of each call that used the flash); the
 //! stack margin as `stack_free` (bytes never used since boot, `board::qemu::stack_free_bytes`).
 //!
-//! Stack: the 128 KiB SRAM holds `.bss` (≈ 84 KiB: the 58 KiB log ring, the application) and
-//! the stack above it. Building the cascade at boot is the deepest use (≈ 40 KiB of frames);
+//! Stack: the 128 KiB SRAM holds `.bss` (≈ 70 KiB: the 32 KiB log ring, the application) and
+//! the stack above it. Building the cascade at boot is the deepest use (≈ 59 KiB of frames);
 //! the application is therefore built straight into a `static` from a small `main` frame and
 //! the port and store are opened by the task (moved through `main` by value they overflowed the
 //! stack into `.bss` at boot). Build:
