@@ -36,10 +36,13 @@ pub const CARRY_MAX_ANGLE_COS: f32 = 0.999;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MissionGuidance {
-    /// 0: the paper's constant-speed point along the polyline (`s = V·t`, [`crate::waypoint`]).
+    /// 0 (default): the paper's constant-speed point along the polyline (`s = V·t`,
+    /// [`crate::waypoint`]).
     #[default]
     Paper,
-    /// 1: the jerk-limited trajectory ([`super::trajectory`]) whose clock waits for the vehicle.
+    /// 1: the jerk-limited trajectory ([`super::trajectory`]) whose clock waits for the
+    /// vehicle, tracked by the position → velocity cascade
+    /// ([`super::tracking::PdTracker::update_trajectory`]).
     Trajectory,
 }
 
@@ -254,6 +257,12 @@ impl Guidance {
             flying_trajectory: false,
             last_traj: None,
         })
+    }
+
+    /// `true` while a mission trajectory ([`MissionGuidance::Trajectory`]) is flown: the
+    /// outer loop tracks it with the cascade gains ([`super::tracking::PdTracker::update_trajectory`]).
+    pub fn flying_trajectory(&self) -> bool {
+        self.flying_trajectory && matches!(self.mode, Mode::Mission { .. })
     }
 
     /// `true` on the ground (armed and idle, or not armed).

@@ -577,7 +577,11 @@ impl OuterLoop {
         let yaw_ref = self.guidance.yaw_ref();
         match fresh {
             Some((p, v)) => {
-                let mut u_pd = self.tracker.update(&reference, &p, &v, dt);
+                let mut u_pd = if self.guidance.flying_trajectory() {
+                    self.tracker.update_trajectory(&reference, &p, &v, dt)
+                } else {
+                    self.tracker.update(&reference, &p, &v, dt)
+                };
                 if let Some(a) = accel_sp {
                     // Offboard acceleration setpoint: it is the nominal command.
                     u_pd = a;

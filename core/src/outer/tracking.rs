@@ -25,6 +25,12 @@ pub struct TrackingParams {
     pub accel_max_up: f32,
     /// Bound on downward acceleration (+z), m/s². Default 3.0.
     pub accel_max_down: f32,
+    /// While a mission trajectory is flown: horizontal position gain `K_p` of the position P →
+    /// velocity P cascade, 1/s (`TRJ_XY_P`; PX4's `MPC_XY_P` is 0.95). Default 1.0.
+    pub trajectory_pos_p: f32,
+    /// While a mission trajectory is flown: horizontal velocity gain `K_v`, 1/s
+    /// (`TRJ_XY_VEL_P`; PX4's `MPC_XY_VEL_P_ACC` is 1.8). Default 2.0.
+    pub trajectory_vel_p: f32,
 }
 
 impl Default for TrackingParams {
@@ -37,6 +43,8 @@ impl Default for TrackingParams {
             accel_max_xy: 4.0,
             accel_max_up: 4.0,
             accel_max_down: 3.0,
+            trajectory_pos_p: 1.0,
+            trajectory_vel_p: 2.0,
         }
     }
 }
@@ -96,14 +104,34 @@ impl PdTracker {
     /// advances for `0 < dt_s ≤ 0.1`). Non-finite input returns zero acceleration
     /// (hover) and sets [`input_fault`](Self::input_fault).
     pub fn update(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32) -> Vec3 {
+        let (kp, kd) = (Vec3::from(self.params.kp), Vec3::from(self.params.kd));
+        self.update_with(r, pos, vel, dt_s, (kp, kd))
+    }
+
+    /// [`update`](Self::update) for a mission trajectory (`MIS_GUIDANCE` 1): horizontally the
+    /// cascade of PX4's and ArduPilot's position controllers, a position P `K_p` giving a
+    /// velocity set-point on top of the velocity feed-forward and a velocity P `K_v` giving
+    /// the acceleration on top of the acceleration feed-forward,
+    /// `u = p̈_d + K_v·(ṗ_d + K_p·(p_d − p) − ṗ)`,
+    /// which is the PD law with `k_p = K_v·K_p` and `k_d = K_v` (defaults 2.0 1/s² and
+    /// 2.0 1/s: damping ratio 0.71, where the paper's 0.5 and 0.8 leave a lag of
+    /// `k_d·V/k_p` = 1.6 m per m/s of a constant-speed reference without feed-forward);
+    /// vertically the paper's gains with the integral, as [`update`](Self::update).
+    pub fn update_trajectory(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32) -> Vec3 {
+        let p = &self.params;
+        let (kv, kpos) = (p.trajectory_vel_p, p.trajectory_pos_p);
+        let kp = Vec3::new(kv * kpos, kv * kpos, p.kp[2]);
+        let kd = Vec3::new(kv, kv, p.kd[2]);
+        self.update_with(r, pos, vel, dt_s, (kp, kd))
+    }
+
+    fn update_with(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32, (kp, kd): (Vec3, Vec3)) -> Vec3 {
         let ok = [r.position, r.velocity, r.acceleration, *pos, *vel].iter().all(is_finite3);
         self.input_fault = !ok;
         if !ok {
             return Vec3::zeros();
         }
         let p = &self.params;
-        let kp = Vec3::from(p.kp);
-        let kd = Vec3::from(p.kd);
         let e = r.position - pos;
         let mut u = r.acceleration + kd.component_mul(&(r.velocity - vel)) + kp.component_mul(&e);
         u.z += self.integral_z;
@@ -138,6 +166,31 @@ impl PdTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn trajectory_cascade_hand_computed() {
+        // K_p 1.5, K_v 2: u_x = a + K_v·(v_d + K_p·e − v) = 0.1 + 2·(0.3 + 1.5·1 − 0.2) = 3.3;
+        // vertical: the PD gains (0.32, 0.5) on e_z = −1 − (−0.8) = −0.2, v_z 0.1: −0.114.
+        let params = TrackingParams {
+            ki_z: 0.0,
+            trajectory_pos_p: 1.5,
+            trajectory_vel_p: 2.0,
+            ..TrackingParams::uniform(0.32, 0.5)
+        };
+        let mut t = PdTracker::new(params);
+        let r = Reference {
+            position: Vec3::new(1.0, 0.0, -1.0),
+            velocity: Vec3::new(0.3, 0.0, 0.0),
+            acceleration: Vec3::new(0.1, 0.0, 0.0),
+            yaw: 0.0,
+        };
+        let u = t.update_trajectory(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004);
+        assert!((u.x - 3.3).abs() < 1e-5, "{u:?}");
+        assert!(u.y.abs() < 1e-6);
+        assert!((u.z - (0.32 * -0.2 + 0.5 * -0.1)).abs() < 1e-6, "{u:?}");
+        // The same state through the paper's PD law: 0.1 + 0.5·0.1 + 0.32·1 = 0.47.
+        assert!((t.update(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004).x - 0.47).abs() < 1e-5);
+    }
 
     #[test]
     fn pd_law_hand_computed() {

@@ -8,7 +8,7 @@ use crate::outer::guidance::MissionGuidance;
 use crate::outer::path_yaw::YawMode;
 
 /// Entries of this part.
-pub(super) const N: usize = 40;
+pub(super) const N: usize = 42;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -384,6 +384,26 @@ pub(super) const TABLE: [Param; N] = [
         "MIS_GUIDANCE 1: tracking error at which the trajectory's clock stops (full speed up to half of it)",
         |p| p.guidance.trajectory.tracking_error_bound,
         |p, v| p.guidance.trajectory.tracking_error_bound = v,
+    ),
+    num(
+        "TRJ_XY_P",
+        "Mission",
+        "1/s",
+        (0.1, 1.0, 5.0),
+        2,
+        "MIS_GUIDANCE 1: horizontal position gain of the position P -> velocity P tracking cascade",
+        |p| p.tracking.trajectory_pos_p,
+        |p, v| p.tracking.trajectory_pos_p = v,
+    ),
+    num(
+        "TRJ_XY_VEL_P",
+        "Mission",
+        "1/s",
+        (0.1, 2.0, 10.0),
+        2,
+        "MIS_GUIDANCE 1: horizontal velocity gain of the tracking cascade (acceleration per m/s of velocity error)",
+        |p| p.tracking.trajectory_vel_p,
+        |p, v| p.tracking.trajectory_vel_p = v,
     ),
     // Issue 21: the RC receiver's channel map and ranges (`rc::map`; the loss timeout is FS_RC_TIMEOUT).
     rc_map(
