@@ -133,7 +133,7 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Duration limit, s (default: the scene's, else 1.5 × the flown length (start → first
-    /// waypoint → … → last) / speed + 15 s).
+    /// waypoint → … → last) / min(speed, 1 m/s) + 15 s).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = format!(

@@ -18,11 +18,18 @@ pub fn flown_length(start: &Vector3<f64>, path: &[Vector3<f64>]) -> f64 {
     path.first().map_or(0.0, |w| (w - start).norm()) + path_length(path)
 }
 
-/// Default duration limit, s: 1.5 × the flown length ([`flown_length`]) at
-/// `speed` (m/s) + 15 s for the start-up and the settling at the end.
+/// Default duration limit, s: 1.5 × the flown length ([`flown_length`]) at `speed` (m/s), but
+/// at no more than [`DURATION_PACE`], + 15 s for the start-up and the settling at the end. The
+/// limit is a watchdog for a stuck run, not a target: at a cruise of metres per second the
+/// corners, the doors and the safety filter set the pace (the office's path takes ≈ 22 s at
+/// any cruise from 1 to 5 m/s), so a faster cruise does not shorten it below the walking-pace
+/// figure.
 pub fn default_duration(scene: &Scene, path: &[Vector3<f64>], speed: f64) -> f64 {
-    1.5 * flown_length(&scene.start, path) / speed + 15.0
+    1.5 * flown_length(&scene.start, path) / speed.min(DURATION_PACE) + 15.0
 }
+
+/// The fastest pace the default duration limit assumes, m/s ([`default_duration`]).
+pub const DURATION_PACE: f64 = 1.0;
 
 /// Signed distance (m) from `p` (NED) to the nearest obstacle surface or the
 /// ground plane (z = 0) at time `t`, and the obstacle index (`None` = ground).

@@ -15,7 +15,7 @@
 //!   ending elsewhere (`--foreign-path`) ends with `reached_path_end` only
 //!   (end reason `path_end`);
 //! * the **duration** limit (default [`default_duration`]: 1.5 × the flown
-//!   length start → first waypoint → … → last at the reference speed, + 15 s).
+//!   length start → first waypoint → … → last at the reference speed, at most 1 m/s, + 15 s).
 //!
 //! ## What the controller is told
 //! * Position fixes at the outer rate from [`crate::sim::sensors`] (noise, latency).

@@ -157,7 +157,7 @@ pub struct SweepArgs {
     /// Planner seed of the one path every run flies (when planning).
     #[arg(long, default_value_t = 0)]
     pub plan_seed: u64,
-    /// Duration limit of each run, s [default: the scene's [sim] duration, else 1.5 × flown path length / speed + 15 s].
+    /// Duration limit of each run, s [default: the scene's [sim] duration, else 1.5 × flown path length / min(speed, 1 m/s) + 15 s].
     #[arg(long)]
     pub duration: Option<f64>,
     /// Duration cap of each run, s (see Limits).

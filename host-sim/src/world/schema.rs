@@ -67,7 +67,7 @@ pub struct SimSettings {
     /// Range of the proximity sensor, m: obstacles farther than this (surface
     /// distance from the centre of mass) are not reported to the controller. Default 3.
     pub sensing_range: Option<f64>,
-    /// Duration limit of a run, s. Default: 1.5 × path length / speed + 15 s.
+    /// Duration limit of a run, s. Default: 1.5 × path length / min(speed, 1 m/s) + 15 s.
     pub duration: Option<f64>,
     /// Plant integration step, s. Default 0.001 (1 kHz).
     pub dt: Option<f64>,
