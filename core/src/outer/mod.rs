@@ -566,6 +566,12 @@ impl OuterLoop {
         }
         let Some(reference) = reference else {
             self.telemetry.mode = mode;
+            // Disarmed or on the ground the estimate is still reported (a ground station shows
+            // where the vehicle stands from power-on, as PX4 does, not the origin until arming).
+            if let Some((p, v)) = fresh {
+                self.telemetry.position = p;
+                self.telemetry.velocity = v;
+            }
             self.tracker.reset();
             if let Some(pa) = self.plant.as_mut() {
                 pa.reset();
