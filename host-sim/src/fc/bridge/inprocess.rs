@@ -95,7 +95,7 @@ impl<S: FlightStack> GcsStack<S> {
             sequence: self.seq,
         };
         self.seq = self.seq.wrapping_add(1);
-        self.bridge.firmware_frame(&h, m);
+        self.bridge.firmware_frame(&h, m, mavlink::MavlinkVersion::V2);
     }
 
     fn param_value(&mut self, index: usize) {
@@ -215,7 +215,7 @@ impl<S: FlightStack> GcsStack<S> {
             self.send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
                 custom_mode: mode.px4_custom_mode(),
                 mavtype: MavType::MAV_TYPE_QUADROTOR,
-                autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+                autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
                 base_mode: base,
                 system_status: if armed { MavState::MAV_STATE_ACTIVE } else { MavState::MAV_STATE_STANDBY },
                 mavlink_version: 3,

@@ -9,7 +9,13 @@
 //!   becomes that datagram's source (PX4 SITL updates its partner the same way), so a client
 //!   that connects from another port (MAVSDK's `udpout`, pymavlink `udpout:`) is answered there.
 //! * Firmware → every endpoint, except the host's own lockstep traffic ([`is_lockstep`]:
-//!   HIL_ACTUATOR_CONTROLS and the `ins_*` instruction counters), which stays internal.
+//!   HIL_ACTUATOR_CONTROLS and the `ins_*` instruction counters), which stays internal. The
+//!   forwarded frames are **re-sequenced** per system/component ([`Resequencer`]): the
+//!   lockstep frames took ~94 % of the firmware's sequence numbers, and a ground station that
+//!   saw only the rest computed 93–94 % packet loss on a loss-free link. Each endpoint thus sees
+//!   one gap-free sequence space per component, as from PX4 SITL; the `.tlog` keeps the
+//!   firmware's own numbers (it has every frame). MAVLink v1 frames (the firmware's answer to a
+//!   v1 ground station) are forwarded as v1.
 //! * Endpoint → the firmware (appended to the next step's stream, before its HIL_SENSOR) and
 //!   → every other endpoint (the GCS sees the API's traffic and back, as through a router).
 //! * The host's own frames to the firmware (HIL_SENSOR, ODOMETRY, obstacle batches, the raw
@@ -31,7 +37,7 @@ use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
 use std::time::{Duration, Instant};
 
 use mavlink::dialects::ardupilotmega::MavMessage;
-use mavlink::{MAVLinkV2MessageRaw, MavHeader};
+use mavlink::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion};
 use parapet_core::wire::names;
 
 /// Default remote port of `--gcs` (QGroundControl listens there).
@@ -51,8 +57,9 @@ pub trait LinkTap {
     /// The bytes the host writes to the firmware in the current step (the last
     /// `before_step`'s; 0 before the first).
     fn host_bytes(&mut self, bytes: &[u8]);
-    /// A frame from the firmware (decoded), received during the current step.
-    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage);
+    /// A frame from the firmware (decoded, with its MAVLink version), received during the
+    /// current step.
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage, version: MavlinkVersion);
 }
 
 /// A tap shared with its owner (who reads its counters and flushes it after the run).
@@ -63,8 +70,8 @@ impl<T: LinkTap> LinkTap for std::rc::Rc<std::cell::RefCell<T>> {
     fn host_bytes(&mut self, bytes: &[u8]) {
         self.borrow_mut().host_bytes(bytes)
     }
-    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage) {
-        self.borrow_mut().firmware_frame(header, msg)
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage, version: MavlinkVersion) {
+        self.borrow_mut().firmware_frame(header, msg, version)
     }
 }
 
@@ -102,9 +109,41 @@ pub fn is_lockstep(msg: &MavMessage) -> bool {
 /// `msg` as the MAVLink v2 frame with `header` (the bytes the firmware sent: it signs nothing
 /// and the `mavlink` crate trims payloads the same way).
 pub fn frame(header: MavHeader, msg: &MavMessage) -> Vec<u8> {
-    let mut raw = MAVLinkV2MessageRaw::new();
-    raw.serialize_message(header, msg);
-    raw.raw_bytes().to_vec()
+    frame_versioned(header, msg, MavlinkVersion::V2)
+}
+
+/// `msg` as the frame of MAVLink `version` with `header`.
+pub fn frame_versioned(header: MavHeader, msg: &MavMessage, version: MavlinkVersion) -> Vec<u8> {
+    match version {
+        MavlinkVersion::V2 => {
+            let mut raw = MAVLinkV2MessageRaw::new();
+            raw.serialize_message(header, msg);
+            raw.raw_bytes().to_vec()
+        }
+        MavlinkVersion::V1 => {
+            let mut raw = MAVLinkV1MessageRaw::new();
+            raw.serialize_message(header, msg);
+            raw.raw_bytes().to_vec()
+        }
+    }
+}
+
+/// One sequence space per (system, component) for the frames forwarded to the endpoints: the
+/// next number of each sender, counted over what the endpoints see (so the lockstep frames that
+/// stay inside the host leave no gaps).
+#[derive(Debug, Default)]
+pub struct Resequencer {
+    next: std::collections::HashMap<(u32, u8), u8>,
+}
+
+impl Resequencer {
+    /// `header` with the sender's next forwarded sequence number.
+    pub fn next(&mut self, header: &MavHeader) -> MavHeader {
+        let n = self.next.entry((header.system_id, header.component_id)).or_insert(0);
+        let h = MavHeader { sequence: *n, ..*header };
+        *n = n.wrapping_add(1);
+        h
+    }
 }
 
 /// One UDP endpoint.
@@ -181,12 +220,21 @@ pub struct Bridge {
     /// Wall time slept for pacing.
     pub slept: Duration,
     now_us: u64,
+    reseq: Resequencer,
 }
 
 impl Bridge {
     /// A bridge to `endpoints`; `realtime` paces firmware time to wall time.
     pub fn new(endpoints: Vec<Endpoint>, realtime: bool, tlog: Option<tlog::TlogWriter>) -> Self {
-        Bridge { endpoints, realtime, pace_origin: None, tlog, slept: Duration::ZERO, now_us: 0 }
+        Bridge {
+            endpoints,
+            realtime,
+            pace_origin: None,
+            tlog,
+            slept: Duration::ZERO,
+            now_us: 0,
+            reseq: Resequencer::default(),
+        }
     }
 
     /// Flush the `.tlog`.
@@ -235,12 +283,12 @@ impl LinkTap for Bridge {
         }
     }
 
-    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage) {
-        let bytes = frame(*header, msg);
+    fn firmware_frame(&mut self, header: &MavHeader, msg: &MavMessage, version: MavlinkVersion) {
         if let Some(t) = self.tlog.as_mut() {
-            t.record(self.now_us, &bytes);
+            t.record(self.now_us, &frame_versioned(*header, msg, version));
         }
-        if !is_lockstep(msg) {
+        if !is_lockstep(msg) && !self.endpoints.is_empty() {
+            let bytes = frame_versioned(self.reseq.next(header), msg, version);
             for e in &mut self.endpoints {
                 e.send(&bytes);
             }
@@ -286,12 +334,18 @@ mod tests {
         let e2 = Endpoint::new("api", api.local_addr().expect("addr")).expect("endpoint");
         let mut b = Bridge::new(vec![e1, e2], false, None);
         let h = MavHeader { system_id: 1, component_id: 1, sequence: 7 };
-        b.firmware_frame(&h, &MavMessage::HIL_ACTUATOR_CONTROLS(HIL_ACTUATOR_CONTROLS_DATA::default()));
-        b.firmware_frame(&h, &hb());
+        let v2 = MavlinkVersion::V2;
+        b.firmware_frame(&h, &MavMessage::HIL_ACTUATOR_CONTROLS(HIL_ACTUATOR_CONTROLS_DATA::default()), v2);
+        b.firmware_frame(&h, &hb(), v2);
         let mut buf = [0u8; 512];
+        let first = MavHeader { sequence: 0, ..h };
         for s in [&gcs, &api] {
             let (n, _) = s.recv_from(&mut buf).expect("heartbeat forwarded");
-            assert_eq!(&buf[..n], frame(h, &hb()).as_slice(), "only the heartbeat, not the lockstep frame");
+            assert_eq!(
+                &buf[..n],
+                frame(first, &hb()).as_slice(),
+                "only the heartbeat, not the lockstep frame"
+            );
         }
         // A client on a third socket talks to the GCS endpoint: its datagram goes to the
         // firmware and to the API endpoint's peer, and the GCS endpoint learns the client.
@@ -312,9 +366,62 @@ mod tests {
         let (n, _) = api.recv_from(&mut buf).expect("routed to the other endpoint");
         assert_eq!(&buf[..n], b"\xfd-ping");
         assert_eq!(b.endpoints[0].remote(), client.local_addr().expect("addr"));
-        b.firmware_frame(&h, &hb());
+        b.firmware_frame(&h, &hb(), v2);
         let (n, _) = client.recv_from(&mut buf).expect("answer to the learned peer");
         assert_eq!(n, frame(h, &hb()).len());
+    }
+
+    /// The firmware's frames share one sequence space with the lockstep frames the host keeps;
+    /// the endpoint sees each component's forwarded frames numbered without gaps (a ground
+    /// station computes 0 % loss), other components counted apart, and a v1 frame (the v1
+    /// refusal) arrives as v1. Before: the firmware's numbers were forwarded, 1 of ~16 seen.
+    #[test]
+    fn forwarded_frames_are_numbered_without_gaps_per_component() {
+        use mavlink::dialects::ardupilotmega::{MavSeverity, STATUSTEXT_DATA};
+        let gcs = UdpSocket::bind("127.0.0.1:0").expect("gcs socket");
+        gcs.set_read_timeout(Some(Duration::from_secs(2))).expect("timeout");
+        let e = Endpoint::new("gcs", gcs.local_addr().expect("addr")).expect("endpoint");
+        let mut b = Bridge::new(vec![e], false, None);
+        let lockstep = MavMessage::HIL_ACTUATOR_CONTROLS(HIL_ACTUATOR_CONTROLS_DATA::default());
+        let mut fw_seq = 200u8;
+        let mut sent = 0;
+        for k in 0..300 {
+            let h = MavHeader { system_id: 1, component_id: 1, sequence: fw_seq };
+            fw_seq = fw_seq.wrapping_add(1);
+            if k % 16 == 0 {
+                b.firmware_frame(&h, &hb(), MavlinkVersion::V2);
+                sent += 1;
+            } else {
+                b.firmware_frame(&h, &lockstep, MavlinkVersion::V2);
+            }
+        }
+        let other = MavHeader { system_id: 1, component_id: 100, sequence: 99 };
+        b.firmware_frame(&other, &hb(), MavlinkVersion::V2);
+        let mut t = [0u8; 50];
+        t[..23].copy_from_slice(b"MAVLink 1 not supported");
+        let text = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            severity: MavSeverity::MAV_SEVERITY_WARNING,
+            text: t.into(),
+            ..Default::default()
+        });
+        b.firmware_frame(
+            &MavHeader { system_id: 1, component_id: 1, sequence: 3 },
+            &text,
+            MavlinkVersion::V1,
+        );
+        let mut buf = [0u8; 512];
+        let mut seqs = Vec::new();
+        for _ in 0..sent {
+            let (n, _) = gcs.recv_from(&mut buf).expect("heartbeat");
+            assert_eq!(buf[0], 0xFD, "v2");
+            assert!(n > 4);
+            seqs.push(buf[4]);
+        }
+        assert_eq!(seqs, (0..sent as u8).collect::<Vec<_>>(), "one gap-free space");
+        let (_, _) = gcs.recv_from(&mut buf).expect("other component");
+        assert_eq!((buf[4], buf[6]), (0, 100), "its own space");
+        let (n, _) = gcs.recv_from(&mut buf).expect("the v1 text");
+        assert_eq!((buf[0], buf[2], buf[5], n), (0xFE, sent as u8, 253, 8 + 51), "v1, next in the space");
     }
 
     #[test]

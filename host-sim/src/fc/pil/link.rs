@@ -253,7 +253,7 @@ impl PilLink {
     /// Next inbound message within `timeout`.
     fn recv(&mut self, timeout: Duration) -> Result<Option<MavMessage>> {
         match self.rx.recv_timeout(timeout) {
-            Ok(Inbound::Msg(h, m)) => {
+            Ok(Inbound::Msg(h, m, version)) => {
                 if h.system_id == u32::from(VEHICLE_SYSTEM_ID) {
                     if let Some(last) = self.last_fw_seq {
                         self.fig.host_sequence_gaps +=
@@ -263,7 +263,7 @@ impl PilLink {
                 }
                 self.fig.frames_received += 1;
                 if let Some(tap) = self.tap.as_mut() {
-                    tap.firmware_frame(&h, &m);
+                    tap.firmware_frame(&h, &m, version);
                 }
                 observe(&m, self.rx_t_us, &mut self.telemetry, &mut self.fig);
                 Ok(Some(*m))

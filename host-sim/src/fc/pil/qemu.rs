@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, Result};
 use mavlink::dialects::ardupilotmega::MavMessage;
-use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
+use mavlink::{MavHeader, MavlinkReader, MavlinkVersion, Message};
 
 use super::PilOptions;
 
@@ -40,19 +40,32 @@ impl QemuGuard {
 
 /// What the reader thread got from the firmware.
 pub(super) enum Inbound {
-    Msg(MavHeader, Box<MavMessage>),
+    /// A frame: its header, message and MAVLink version (the firmware answers a v1 ground
+    /// station in v1: `firmware/src/link/v1.rs`).
+    Msg(MavHeader, Box<MavMessage>, MavlinkVersion),
     DecodeError,
     Closed(String),
 }
 
-/// Decode the firmware's MAVLink v2 stream into `tx` until the pipe closes.
+/// Decode the firmware's MAVLink stream (v2, and the v1 frames of its v1 refusal) into `tx`
+/// until the pipe closes.
 pub(super) fn reader_thread(from_fw: ChildStdout, tx: mpsc::Sender<Inbound>) {
     // Buffered: one `read(2)` takes a whole batch of frames (the firmware writes each batch
     // with one `SYS_WRITE`), instead of the parser's small reads.
     let mut reader = MavlinkReader::new(std::io::BufReader::with_capacity(4096, from_fw));
     loop {
-        let ev = match reader.read_message::<MavMessage>(MavlinkVersion::V2) {
-            Ok((h, m)) => Inbound::Msg(h, Box::new(m)),
+        let ev = match reader.read_any_raw_message::<MavMessage>() {
+            Ok(raw) => {
+                let h = MavHeader {
+                    system_id: raw.system_id(),
+                    component_id: raw.component_id(),
+                    sequence: raw.sequence(),
+                };
+                match MavMessage::parse(raw.version(), raw.message_id(), raw.payload()) {
+                    Ok(m) => Inbound::Msg(h, Box::new(m), raw.version()),
+                    Err(_) => Inbound::DecodeError,
+                }
+            }
             Err(mavlink::error::MessageReadError::Io(e)) => {
                 let _ = tx.send(Inbound::Closed(e.to_string()));
                 return;
