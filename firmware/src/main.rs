@@ -349,6 +349,7 @@ mod firmware {
         let mut ticker = Ticker::every(Duration::from_micros(period_us));
         let mut timer = LoopTimer::new(period_us.min(u64::from(u32::MAX)) as u32, SYSCLK_HZ / 1_000_000);
         let mut link = Link::new(VEHICLE_SYSTEM_ID, FixClock::Arrival);
+        link.set_uid(parapet_firmware::link::outbound::uid_of_mcu(embassy_stm32::uid::uid()));
         #[cfg(feature = "onboard-log")]
         let mut next_log_us = 0u64;
         loop {

@@ -9,7 +9,7 @@
 use mavlink_core::MessageData;
 use parapet_core::controller::ControllerParams;
 use parapet_core::params::{COUNT, TABLE};
-use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
+use parapet_firmware::app::autopilot::{Autopilot, FlightMode, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::dialect::{
     MavCmd, MavFrame, MavLandedState, MavMissionResult, MavMissionType, MavModeFlag, MavParamType,
@@ -435,7 +435,6 @@ fn fence_and_rally_are_refused_without_touching_the_mission() {
 /// modes, SAFETY_ARMED only when armed; the phase goes beside it (NAMED_VALUE_INT PHASE).
 #[test]
 fn heartbeat_flags_follow_arming_and_mode() {
-    use parapet_firmware::app::autopilot::FlightMode;
     let auto = MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED
         | MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
         | MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
@@ -465,12 +464,16 @@ fn do_set_mode_switches_between_the_phases() {
     let mut g = Sim::new();
     g.airborne();
     assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
-    let mode = |m: FlightPhase| [1.0, m.code() as f32, 0.0, 0.0, 0.0, 0.0, 0.0];
-    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Mission), 1);
+    // PX4's main/sub modes (what MAVProxy's `mode MISSION` / `mode LOITER` send).
+    let mode = |m: FlightMode| {
+        let (main, sub) = m.px4_main_sub();
+        [1.0, f32::from(main), f32::from(sub), 0.0, 0.0, 0.0, 0.0]
+    };
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightMode::Mission), 1);
     assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission);
-    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Hover), 1);
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightMode::Hold), 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_ACCEPTED);
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
@@ -479,9 +482,8 @@ fn do_set_mode_switches_between_the_phases() {
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
     let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, [1.0, 9.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_DENIED);
-    // p2 = 6 (once the failsafe phase code) is PX4's OFFBOARD main mode: refused for now
-    // without a fresh setpoint stream (issue 21).
-    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightPhase::Failsafe), 1);
+    // PX4's OFFBOARD main mode: refused without a fresh setpoint stream (issue 21).
+    let r = g.command(MavCmd::MAV_CMD_DO_SET_MODE, mode(FlightMode::Offboard), 1);
     assert_eq!(Sim::ack(&r).0, MavResult::MAV_RESULT_TEMPORARILY_REJECTED);
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Hover);
@@ -524,23 +526,29 @@ fn sys_status_and_extended_sys_state_come_with_the_heartbeat() {
 #[test]
 fn autopilot_version_timesync_on_request() {
     let mut g = Sim::new();
+    g.link.set_uid(0xABCD_0123);
     #[allow(deprecated)] // still sent by ground stations
     let old = MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES;
     for (cmd, p1) in [(MavCmd::MAV_CMD_REQUEST_MESSAGE, 148.0), (old, 1.0)] {
         let r = g.command(cmd, [p1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
         assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
         match r.as_slice() {
-            [_, Outbound::AutopilotVersion] => {
-                let v = autopilot_version();
+            [_, Outbound::AutopilotVersion(uid)] => {
+                assert_eq!(*uid, 0xABCD_0123, "the uid the board set");
+                let v = autopilot_version(*uid);
+                assert_eq!(v.uid, 0xABCD_0123);
                 let need = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
+                    | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                    | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST;
                 assert!(v.capabilities.contains(need), "{:?}", v.capabilities);
                 assert!(!v.capabilities.intersects(
                     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
                         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
-                        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP
+                        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
                 ));
             }
             other => panic!("{other:?}"),
@@ -569,7 +577,7 @@ fn autopilot_version_timesync_on_request() {
 #[test]
 #[allow(deprecated)] // MAV_CMD_GET_MESSAGE_INTERVAL: superseded, still sent by ground stations
 fn message_intervals_requests_and_the_global_position_streams() {
-    use parapet_firmware::link::services::HOME;
+    use parapet_firmware::link::services::ORIGIN;
     let mut g = Sim::new();
     g.airborne();
     assert_eq!(g.upload(&[[3.0, 0.0, -1.0], [3.0, 2.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
@@ -581,13 +589,13 @@ fn message_intervals_requests_and_the_global_position_streams() {
     let r = poll(&mut g);
     assert!(
         matches!(r.as_slice(), [Outbound::SystemTime(_), Outbound::GlobalPositionInt(_), Outbound::MissionCurrent(m), Outbound::HomePosition(h)]
-        if m.total == 2 && (h.latitude, h.longitude, h.altitude) == HOME),
+        if m.total == 2 && (h.latitude, h.longitude, h.altitude) == ORIGIN),
         "{r:?}"
     );
     let Outbound::GlobalPositionInt(p) = &r[1] else { unreachable!() };
     let pos = g.ap.telemetry().position_ned;
     assert!((p.relative_alt as f32 + pos.z * 1000.0).abs() < 2.0, "{p:?} vs {pos:?}");
-    assert!((p.lat - HOME.0) as f32 / 89.83 - pos.x < 0.02, "{p:?} vs {pos:?}");
+    assert!((p.lat - ORIGIN.0) as f32 / 89.83 - pos.x < 0.02, "{p:?} vs {pos:?}");
     // 50 Hz global position; GET answers it; SYSTEM_TIME stopped.
     let r = g.command(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, [33.0, 20_000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
     assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
@@ -634,11 +642,14 @@ fn ping_set_mode_and_mission_set_current_are_served() {
     );
     g.airborne();
     assert_eq!(g.upload(&[[3.0, 0.0, -1.0]]), MavMissionResult::MAV_MISSION_ACCEPTED);
-    let set_mode = SET_MODE_DATA { custom_mode: FlightPhase::Mission.code(), target_system: 1, base_mode: 1 };
+    // custom_mode in PX4's encoding, as the HEARTBEAT's (AUTO.MISSION flies the mission).
+    let set_mode =
+        SET_MODE_DATA { custom_mode: FlightMode::Mission.px4_custom_mode(), target_system: 1, base_mode: 1 };
     g.send(&set_mode);
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission);
-    let other = SET_MODE_DATA { target_system: 2, custom_mode: FlightPhase::Hover.code(), ..set_mode };
+    let other =
+        SET_MODE_DATA { target_system: 2, custom_mode: FlightMode::Hold.px4_custom_mode(), ..set_mode };
     g.send(&other);
     g.run(8);
     assert_eq!(g.ap.telemetry().phase, FlightPhase::Mission, "SET_MODE for system 2 applied");

@@ -19,12 +19,12 @@ use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::dialect::{
     MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavParamType, MavResult, MavSysStatusSensor,
-    MissionState, COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
-    MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA,
-    PARAM_SET_DATA,
+    MissionState, COMMAND_INT_DATA, COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA, OBSTACLE_DISTANCE_3D_DATA,
+    ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use parapet_firmware::link::framing::FrameWriter;
-use parapet_firmware::link::geo::HOME;
+use parapet_firmware::link::geo::ORIGIN;
 use parapet_firmware::link::obstacles::CLEAR_ID;
 use parapet_firmware::link::outbound::Outbound;
 use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};
@@ -40,6 +40,8 @@ struct Sim {
     tel: TelemetryScheduler,
     w: FrameWriter,
     k: u64,
+    /// Where the fixes put the vehicle (NED, m; the origin unless a test moves it).
+    at: [f32; 3],
 }
 
 impl Sim {
@@ -51,6 +53,7 @@ impl Sim {
             tel: TelemetryScheduler::new(),
             w: FrameWriter::new(255, 190),
             k: 0,
+            at: [0.0; 3],
         }
     }
 
@@ -70,6 +73,9 @@ impl Sim {
         if self.k.is_multiple_of(4) {
             let odo = ODOMETRY_DATA {
                 time_usec: t,
+                x: self.at[0],
+                y: self.at[1],
+                z: self.at[2],
                 q: [1.0, 0.0, 0.0, 0.0],
                 frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
                 child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
@@ -308,6 +314,106 @@ fn mission_current_and_item_reached_follow_the_mission() {
 
 /// With a battery measurement the cascade took, SYS_STATUS carries its voltage, current and
 /// remaining charge and BATTERY_STATUS streams at 1 Hz; the battery's health bit drops at Low.
+/// Issue 41: a vehicle standing at (1, 1, 0) reports that position from power-on
+/// (LOCAL_POSITION_NED, GLOBAL_POSITION_INT), not the origin until arming (was (0, 0, 0) and a
+/// 1.4 m jump at ARM); HOME_POSITION is its position, then where it armed, sent at once;
+/// MAV_CMD_GET_HOME_POSITION answers with it; MAV_CMD_DO_SET_HOME moves it while disarmed
+/// (COMMAND_INT, exact 10⁻⁷ °) and is DENIED armed; GPS_GLOBAL_ORIGIN comes on request.
+#[test]
+#[allow(deprecated)] // MAV_CMD_GET_HOME_POSITION: still sent by ground stations (MAVSDK, QGC)
+fn position_from_power_on_and_home_where_the_vehicle_armed() {
+    let mut g = Sim::new();
+    g.at = [1.0, 1.0, 0.0];
+    let out = g.run(300);
+    let local: Vec<_> = out
+        .iter()
+        .filter_map(|m| match m {
+            Outbound::LocalPositionNed(p) => Some((p.x, p.y, p.z)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(local.last(), Some(&(1.0, 1.0, 0.0)), "disarmed, where it stands: {local:?}");
+    let global = out.iter().rev().find_map(|m| match m {
+        Outbound::GlobalPositionInt(p) => Some((p.lat - ORIGIN.0, p.lon - ORIGIN.1, p.relative_alt)),
+        _ => None,
+    });
+    assert_eq!(global, Some((90, 133, 0)), "1 m north and east of the origin, on home's altitude");
+    let home = |out: &[Outbound]| {
+        out.iter().rev().find_map(|m| match m {
+            Outbound::HomePosition(h) => Some((h.x, h.y, h.latitude - ORIGIN.0, h.longitude - ORIGIN.1)),
+            _ => None,
+        })
+    };
+    assert_eq!(home(&out), Some((1.0, 1.0, 90, 133)), "home: its first position");
+    // Moved on the ground, then armed there: home follows, at once.
+    g.at = [2.0, 1.0, 0.0];
+    g.run(20);
+    let arm = COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM as u16,
+        param1: 1.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let mut out = g.send(&arm);
+    out.extend(g.run(5));
+    assert!(g.ap.telemetry().armed);
+    assert_eq!(home(&out), Some((2.0, 1.0, 180, 133)), "home where it armed, at once");
+    let asked = |g: &mut Sim| {
+        let c = COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_GET_HOME_POSITION as u16,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        let mut out = g.send(&c);
+        out.extend(g.run(2));
+        out
+    };
+    let out = asked(&mut g);
+    assert!(out
+        .iter()
+        .any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)));
+    assert_eq!(home(&out), Some((2.0, 1.0, 180, 133)), "GET_HOME_POSITION");
+    // DO_SET_HOME: denied armed, accepted disarmed (exact integers by COMMAND_INT).
+    assert_eq!(
+        g.command(MavCmd::MAV_CMD_DO_SET_HOME, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        MavResult::MAV_RESULT_DENIED
+    );
+    assert_eq!(g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    let set = COMMAND_INT_DATA {
+        command: MavCmd::MAV_CMD_DO_SET_HOME as u16,
+        frame: MavFrame::MAV_FRAME_GLOBAL,
+        x: ORIGIN.0 + 8983,
+        y: ORIGIN.1 - 1327,
+        z: 488.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let out = g.send(&set);
+    assert!(
+        out.iter()
+            .any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)),
+        "{out:?}"
+    );
+    let out = asked(&mut g);
+    assert_eq!(home(&out).map(|h| (h.2, h.3)), Some((8983, -1327)), "exactly where it was set");
+    // GPS_GLOBAL_ORIGIN on request.
+    let req = COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_REQUEST_MESSAGE as u16,
+        param1: 49.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let mut out = g.send(&req);
+    out.extend(g.run(2));
+    assert!(out.iter().any(
+        |m| matches!(m, Outbound::GpsGlobalOrigin(o) if (o.latitude, o.longitude, o.altitude) == ORIGIN)
+    ));
+}
+
 #[test]
 fn battery_status_and_sys_status_report_the_measurement() {
     let mut g = Sim::new();
@@ -550,7 +656,7 @@ fn a_global_frame_mission_is_flown_where_the_ground_station_planned_it() {
         _ => None,
     });
     let Some(gp) = gp else { panic!("no GLOBAL_POSITION_INT at rest") };
-    assert_eq!((gp.lat, gp.lon, gp.relative_alt), (HOME.0, HOME.1, 0), "at the origin: home");
+    assert_eq!((gp.lat, gp.lon, gp.relative_alt), (ORIGIN.0, ORIGIN.1, 0), "at the origin: home");
     g.airborne();
     let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
     let wp = |lat: i32, lon: i32, z: f32| MISSION_ITEM_INT_DATA {
@@ -572,8 +678,8 @@ fn a_global_frame_mission_is_flown_where_the_ground_station_planned_it() {
         ..wp(0, 0, 0.0)
     };
     // 1 m north at 1 m, then 1 m north and 1 m east at 1.5 m above home.
-    let goal = (HOME.0 + 90, HOME.1 + 133);
-    let plan = [wp(HOME.0 + 90, HOME.1, 1.0), speed, wp(goal.0, goal.1, 1.5)];
+    let goal = (ORIGIN.0 + 90, ORIGIN.1 + 133);
+    let plan = [wp(ORIGIN.0 + 90, ORIGIN.1, 1.0), speed, wp(goal.0, goal.1, 1.5)];
     assert_eq!(g.upload_items(&plan), MavMissionResult::MAV_MISSION_ACCEPTED);
     let down = g.download();
     assert_eq!(down.len(), 3, "every item, the DO_CHANGE_SPEED too, with its seq");
@@ -582,7 +688,7 @@ fn a_global_frame_mission_is_flown_where_the_ground_station_planned_it() {
         assert!((d.z - p.z).abs() < 1e-3, "{} vs {}", d.z, p.z);
     }
     assert_eq!(
-        g.upload_items(&[wp(900_000_001, HOME.1, 1.0)]),
+        g.upload_items(&[wp(900_000_001, ORIGIN.1, 1.0)]),
         MavMissionResult::MAV_MISSION_INVALID_PARAM5_X
     );
     assert_eq!(g.download().len(), 3, "a refused upload keeps the accepted mission");
@@ -611,10 +717,10 @@ fn float_mission_items_upload_and_download_for_old_ground_stations() {
         frame,
         ..to_us.clone()
     };
-    let north = HOME.0 + 180; // 2 m north
+    let north = ORIGIN.0 + 180; // 2 m north
     let plan = [
         item(MavCmd::MAV_CMD_NAV_TAKEOFF, rel, 0.0, 0.0, 1.5),
-        item(MavCmd::MAV_CMD_NAV_WAYPOINT, rel, deg(north), deg(HOME.1), 1.5),
+        item(MavCmd::MAV_CMD_NAV_WAYPOINT, rel, deg(north), deg(ORIGIN.1), 1.5),
         MISSION_ITEM_DATA {
             param2: 1.0,
             ..item(MavCmd::MAV_CMD_DO_CHANGE_SPEED, MavFrame::MAV_FRAME_MISSION, 0.0, 0.0, 0.0)
@@ -639,7 +745,7 @@ fn float_mission_items_upload_and_download_for_old_ground_stations() {
     assert_eq!(result, MavMissionResult::MAV_MISSION_ACCEPTED, "a MISSION_ITEM upload");
     let int = g.download();
     assert_eq!(int.len(), 5);
-    assert!((int[1].x - north).abs() <= 20 && (int[1].y - HOME.1).abs() <= 5, "{:?}", int[1]);
+    assert!((int[1].x - north).abs() <= 20 && (int[1].y - ORIGIN.1).abs() <= 5, "{:?}", int[1]);
     assert_eq!((int[3].frame, int[3].x, int[3].y), (MavFrame::MAV_FRAME_LOCAL_NED, 20_000, 20_000));
     assert_eq!(int[0].command, MavCmd::MAV_CMD_NAV_TAKEOFF as u16);
     // The download in MISSION_ITEM: degrees, the *_INT frame reported as the float one.
@@ -667,7 +773,7 @@ fn float_mission_items_upload_and_download_for_old_ground_stations() {
     let q = MISSION_REQUEST_DATA { seq: 0, target_system: 1, target_component: 1, ..Default::default() };
     let r = g.send(&q);
     assert!(
-        r.iter().any(|m| matches!(m, Outbound::MissionItem(i) if i.frame == rel && (i.x - deg(HOME.0 + 89)).abs() < 4e-6)),
+        r.iter().any(|m| matches!(m, Outbound::MissionItem(i) if i.frame == rel && (i.x - deg(ORIGIN.0 + 89)).abs() < 4e-6)),
         "{r:?}"
     );
 }
@@ -678,7 +784,7 @@ fn qgc_item(command: MavCmd, north_m: f32, east_m: f32, alt_m: f32) -> MISSION_I
     let (x, y) = if north_m == 0.0 && east_m == 0.0 {
         (0, 0)
     } else {
-        (HOME.0 + (north_m * 89.831_53) as i32, HOME.1 + (east_m * 132.709_22) as i32)
+        (ORIGIN.0 + (north_m * 89.831_53) as i32, ORIGIN.1 + (east_m * 132.709_22) as i32)
     };
     #[allow(deprecated)] // the *_INT frame, as QGroundControl sends it
     let frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;

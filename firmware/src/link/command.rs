@@ -7,7 +7,7 @@
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
-//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2 = custom mode (the HEARTBEAT's phase code): 3 hover (hold the current position), 4 mission (start it), 5 landing, each with p3 = 0; any other p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/3 Hold, 4/4 Mission, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual) | as OVERRIDE_GOTO hold / MISSION_START / NAV_LAND, or `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes or without the custom flag: DENIED |
+//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/0 and 4/4 Mission, 4/3 Hold, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual) | `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes or without the custom flag: DENIED |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
 //! component are ignored (no answer); target 0 is broadcast. The COMMAND_ACK is addressed to the
@@ -19,7 +19,7 @@
 
 use crate::link::dialect::{MavFrame, MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA};
 
-use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase, VehicleCommand};
+use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, VehicleCommand};
 
 /// COMPONENT_ARM_DISARM param2 value that forces a disarm in flight.
 pub use parapet_core::wire::ids::FORCE_DISARM_MAGIC;
@@ -55,6 +55,8 @@ pub mod id {
     /// MAV_CMD_GET_HOME_POSITION.
     #[allow(deprecated)] // still sent by ground stations
     pub const GET_HOME_POSITION: u16 = MavCmd::MAV_CMD_GET_HOME_POSITION as u16;
+    /// MAV_CMD_DO_SET_HOME.
+    pub const DO_SET_HOME: u16 = MavCmd::MAV_CMD_DO_SET_HOME as u16;
     /// MAV_CMD_REQUEST_PROTOCOL_VERSION.
     #[allow(deprecated)] // still sent by ground stations
     pub const REQUEST_PROTOCOL_VERSION: u16 = MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION as u16;
@@ -85,25 +87,19 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
         }
         id::LAND => Ok(VehicleCommand::Land),
         id::DO_SET_MODE => {
-            // p1 = MAV_MODE base flags, must carry CUSTOM_MODE_ENABLED (1); p2 = custom mode =
-            // the phase code of the HEARTBEAT (parapet_core::wire::codes::FlightPhase).
+            // p1 = MAV_MODE base flags, must carry CUSTOM_MODE_ENABLED (1); p2/p3 = PX4's main /
+            // sub mode (the HEARTBEAT's `custom_mode`, autopilot PX4), as pymavlink/MAVProxy,
+            // MAVSDK and QGroundControl send them. (Before the HEARTBEAT said PX4, p2 = 3/4/5
+            // with p3 = 0 meant the flight phases hover/mission/landing; that collided with PX4's
+            // POSCTL (3/0), AUTO (4/0) and ACRO (5/0) and is gone.)
             let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
-            // PX4 main/sub modes (p2, p3; issue 21): every pair but the legacy phase codes
-            // 3/4/5 with sub mode 0, which keep their meaning (hold, mission, land).
             let whole = |x: f32| (0.0..=255.0).contains(&x) && f32::from(x as u8) == x;
-            let legacy = cmd.param3 == 0.0 && matches!(cmd.param2 as u32, 3..=5);
-            if custom && !legacy && whole(cmd.param2) && whole(cmd.param3) {
-                return FlightMode::from_px4(cmd.param2 as u8, cmd.param3 as u8)
+            if custom && whole(cmd.param2) && whole(cmd.param3) {
+                FlightMode::from_px4(cmd.param2 as u8, cmd.param3 as u8)
                     .map(VehicleCommand::SetMode)
-                    .ok_or(MavResult::MAV_RESULT_DENIED);
-            }
-            match (custom, cmd.param2) {
-                (true, m) if m == FlightPhase::Hover.code() as f32 => {
-                    Ok(VehicleCommand::Hold { target_ned: None })
-                }
-                (true, m) if m == FlightPhase::Mission.code() as f32 => Ok(VehicleCommand::StartMission),
-                (true, m) if m == FlightPhase::Landing.code() as f32 => Ok(VehicleCommand::Land),
-                _ => Err(MavResult::MAV_RESULT_DENIED),
+                    .ok_or(MavResult::MAV_RESULT_DENIED)
+            } else {
+                Err(MavResult::MAV_RESULT_DENIED)
             }
         }
         id::MISSION_START => Ok(VehicleCommand::StartMission),
@@ -261,16 +257,9 @@ mod tests {
             decode_command(&cmd(MAV_CMD_DO_SET_MODE, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_DENIED)
         );
-        assert_eq!(decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 5.0, 0.0)), Ok(VehicleCommand::Land));
-        assert_eq!(
-            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 4.0, 0.0)),
-            Ok(VehicleCommand::StartMission)
-        );
-        assert_eq!(
-            decode_command(&cmd(MAV_CMD_DO_SET_MODE, 1.0, 3.0, 0.0)),
-            Ok(VehicleCommand::Hold { target_ned: None })
-        );
-        // PX4 main/sub modes (p2/p3) select flight modes; legacy 3/4/5 with sub 0 keep theirs.
+        // PX4 main/sub modes (p2/p3) select flight modes, as the HEARTBEAT (autopilot PX4)
+        // reports them; 3/0 is POSCTL (was the legacy hover code, a hold: MAVProxy's `mode
+        // POSCTL` held instead).
         let mode = |main: f32, sub: f32| {
             let mut c = cmd(MAV_CMD_DO_SET_MODE, 1.0, main, 0.0);
             c.param3 = sub;
@@ -279,14 +268,15 @@ mod tests {
         assert_eq!(mode(6.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Offboard)));
         assert_eq!(mode(1.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Manual)));
         assert_eq!(mode(2.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Position)));
+        assert_eq!(mode(3.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Position)));
         assert_eq!(mode(4.0, 3.0), Ok(VehicleCommand::SetMode(FlightMode::Hold)));
         assert_eq!(mode(4.0, 4.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
         assert_eq!(mode(4.0, 5.0), Ok(VehicleCommand::SetMode(FlightMode::Return)));
         assert_eq!(mode(4.0, 6.0), Ok(VehicleCommand::SetMode(FlightMode::Land)));
-        assert_eq!(mode(5.0, 1.0), Err(MavResult::MAV_RESULT_DENIED), "ACRO (5/0 is the legacy landing)");
+        assert_eq!(mode(5.0, 0.0), Err(MavResult::MAV_RESULT_DENIED), "ACRO (was the legacy landing)");
         assert_eq!(mode(9.0, 0.0), Err(MavResult::MAV_RESULT_DENIED));
         assert_eq!(mode(f32::NAN, 0.0), Err(MavResult::MAV_RESULT_DENIED));
-        assert_eq!(mode(4.0, 0.0), Ok(VehicleCommand::StartMission), "legacy");
+        assert_eq!(mode(4.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
         assert_eq!(
             decode_command(&cmd(MAV_CMD_DO_SET_SERVO, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_UNSUPPORTED)

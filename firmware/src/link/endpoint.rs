@@ -34,6 +34,12 @@ impl Link {
         Self { framer: Framer::new(), router: Router::new(own_system, fix_clock) }
     }
 
+    /// The vehicle's unique id for AUTOPILOT_VERSION `uid` (the board's MCU id,
+    /// [`crate::link::outbound::uid_of_mcu`]; the PIL's fixed one).
+    pub fn set_uid(&mut self, uid: u64) {
+        self.router.uid = uid;
+    }
+
     /// Feeds one received byte at firmware time `now_us`.
     pub fn push_byte<A: Autopilot>(&mut self, byte: u8, now_us: u64, ap: &mut A) {
         let router = &mut self.router;

@@ -1,11 +1,11 @@
 //! Global ↔ local conversion at the link boundary: the one world frame is local NED around
-//! [`HOME`]; GLOBAL_POSITION_INT, HOME_POSITION and global-frame mission items all go through
+//! [`ORIGIN`]; GLOBAL_POSITION_INT, HOME_POSITION and global-frame mission items all go through
 //! [`ned_to_global`] / [`global_to_ned`], so what the vehicle reports and what a ground station
 //! plans agree.
 //!
-//! **Projection**: flat earth (equirectangular) around [`HOME`] on a sphere of the WGS-84
+//! **Projection**: flat earth (equirectangular) around [`ORIGIN`] on a sphere of the WGS-84
 //! equatorial radius (6,378,137 m): north = Δlat · R, east = Δlon · R · cos(lat₀), with the two
-//! scales [`LAT_E7_PER_M`] and [`LON_E7_PER_M`] precomputed for [`HOME`] (no trigonometry on the
+//! scales [`LAT_E7_PER_M`] and [`LON_E7_PER_M`] precomputed for [`ORIGIN`] (no trigonometry on the
 //! vehicle). Down = −(altitude − home altitude).
 //!
 //! **Error bound**: the two directions are exact inverses up to rounding (1e-7° ≈ 1.1 cm north,
@@ -20,11 +20,13 @@
 
 use parapet_core::Vec3;
 
-/// Home (PX4 SITL default, Zurich): latitude and longitude 1e-7 °, altitude mm AMSL.
-pub const HOME: (i32, i32, i32) = (473_977_420, 85_455_940, 488_000);
+/// The local frame's origin (GPS_GLOBAL_ORIGIN; PX4 SITL's default home, Zurich): latitude and
+/// longitude 1e-7 °, altitude mm AMSL. The vehicle's home (HOME_POSITION, where it armed) is a
+/// point of this frame ([`crate::link::services`]).
+pub const ORIGIN: (i32, i32, i32) = (473_977_420, 85_455_940, 488_000);
 /// 1e-7 ° of latitude per metre north (WGS-84 equatorial radius 6,378,137 m).
 pub const LAT_E7_PER_M: f32 = 89.831_53;
-/// 1e-7 ° of longitude per metre east at [`HOME`]'s latitude (89.83153 / cos 47.397742°).
+/// 1e-7 ° of longitude per metre east at [`ORIGIN`]'s latitude (89.83153 / cos 47.397742°).
 pub const LON_E7_PER_M: f32 = 132.709_22;
 /// Farthest horizontal offset from home (north or east) a global position may have, m.
 pub const MAX_RANGE_M: f32 = 10_000.0;
@@ -43,14 +45,14 @@ pub enum GeoError {
 /// Altitude reference of a global position.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AltRef {
-    /// Metres above mean sea level (home is [`HOME`].2 mm AMSL).
+    /// Metres above mean sea level (home is [`ORIGIN`].2 mm AMSL).
     Amsl,
     /// Metres above home.
     Home,
 }
 
 fn home_alt_m() -> f32 {
-    HOME.2 as f32 / 1000.0
+    ORIGIN.2 as f32 / 1000.0
 }
 
 /// NED metres around home → (lat 1e-7 °, lon 1e-7 °, altitude mm AMSL); `None` when not finite
@@ -59,7 +61,7 @@ pub fn ned_to_global(p: Vec3) -> Option<(i32, i32, i32)> {
     let dlat = round_i32(p.x * LAT_E7_PER_M)?;
     let dlon = round_i32(p.y * LON_E7_PER_M)?;
     let down_mm = round_i32(p.z * 1000.0)?;
-    Some((HOME.0.checked_add(dlat)?, HOME.1.checked_add(dlon)?, HOME.2.checked_sub(down_mm)?))
+    Some((ORIGIN.0.checked_add(dlat)?, ORIGIN.1.checked_add(dlon)?, ORIGIN.2.checked_sub(down_mm)?))
 }
 
 /// The altitude of NED `down` (m) in `alt_ref`, m.
@@ -79,8 +81,8 @@ pub fn global_to_ned(lat_e7: i32, lon_e7: i32, alt_m: f32, alt_ref: AltRef) -> R
         return Err(GeoError::Longitude);
     }
     // Differences in i64 1e-7 ° (exact), then to metres.
-    let north = (i64::from(lat_e7) - i64::from(HOME.0)) as f32 / LAT_E7_PER_M;
-    let east = (i64::from(lon_e7) - i64::from(HOME.1)) as f32 / LON_E7_PER_M;
+    let north = (i64::from(lat_e7) - i64::from(ORIGIN.0)) as f32 / LAT_E7_PER_M;
+    let east = (i64::from(lon_e7) - i64::from(ORIGIN.1)) as f32 / LON_E7_PER_M;
     if north.abs() > MAX_RANGE_M {
         return Err(GeoError::Latitude);
     }
@@ -108,33 +110,33 @@ mod tests {
 
     #[test]
     fn home_is_the_origin_both_ways() {
-        assert_eq!(ned_to_global(Vec3::zeros()), Some(HOME));
-        let p = global_to_ned(HOME.0, HOME.1, 0.0, AltRef::Home).unwrap();
+        assert_eq!(ned_to_global(Vec3::zeros()), Some(ORIGIN));
+        let p = global_to_ned(ORIGIN.0, ORIGIN.1, 0.0, AltRef::Home).unwrap();
         assert_eq!(p, Vec3::zeros());
-        let p = global_to_ned(HOME.0, HOME.1, 488.0, AltRef::Amsl).unwrap();
+        let p = global_to_ned(ORIGIN.0, ORIGIN.1, 488.0, AltRef::Amsl).unwrap();
         assert!(p.norm() < 1e-6, "{p:?}");
     }
 
     #[test]
     fn offsets_round_trip_to_the_same_integers() {
         for (dlat, dlon) in [(8983, 6635), (-1, 1), (450_000, -900_000), (-898_315, 1_327_092), (7, -3)] {
-            let p = global_to_ned(HOME.0 + dlat, HOME.1 + dlon, 12.5, AltRef::Home).unwrap();
+            let p = global_to_ned(ORIGIN.0 + dlat, ORIGIN.1 + dlon, 12.5, AltRef::Home).unwrap();
             let (lat, lon, alt) = ned_to_global(p).unwrap();
-            assert_eq!((lat - HOME.0, lon - HOME.1), (dlat, dlon), "{p:?}");
-            assert_eq!(alt, HOME.2 + 12_500);
+            assert_eq!((lat - ORIGIN.0, lon - ORIGIN.1), (dlat, dlon), "{p:?}");
+            assert_eq!(alt, ORIGIN.2 + 12_500);
         }
         // 100 m north, 50 m east within 1 cm.
-        let p = global_to_ned(HOME.0 + 8983, HOME.1 + 6635, 10.0, AltRef::Home).unwrap();
+        let p = global_to_ned(ORIGIN.0 + 8983, ORIGIN.1 + 6635, 10.0, AltRef::Home).unwrap();
         assert!((p - Vec3::new(100.0, 50.0, -10.0)).norm() < 0.01, "{p:?}");
     }
 
     #[test]
     fn bad_positions_are_refused() {
-        assert_eq!(global_to_ned(900_000_001, HOME.1, 0.0, AltRef::Home), Err(GeoError::Latitude));
-        assert_eq!(global_to_ned(HOME.0 + 900_000, HOME.1, 0.0, AltRef::Home), Err(GeoError::Latitude));
-        assert_eq!(global_to_ned(HOME.0, i32::MIN, 0.0, AltRef::Home), Err(GeoError::Longitude));
-        assert_eq!(global_to_ned(HOME.0, HOME.1, f32::NAN, AltRef::Amsl), Err(GeoError::Altitude));
-        assert_eq!(global_to_ned(HOME.0, HOME.1, f32::INFINITY, AltRef::Home), Err(GeoError::Altitude));
+        assert_eq!(global_to_ned(900_000_001, ORIGIN.1, 0.0, AltRef::Home), Err(GeoError::Latitude));
+        assert_eq!(global_to_ned(ORIGIN.0 + 900_000, ORIGIN.1, 0.0, AltRef::Home), Err(GeoError::Latitude));
+        assert_eq!(global_to_ned(ORIGIN.0, i32::MIN, 0.0, AltRef::Home), Err(GeoError::Longitude));
+        assert_eq!(global_to_ned(ORIGIN.0, ORIGIN.1, f32::NAN, AltRef::Amsl), Err(GeoError::Altitude));
+        assert_eq!(global_to_ned(ORIGIN.0, ORIGIN.1, f32::INFINITY, AltRef::Home), Err(GeoError::Altitude));
         assert_eq!(ned_to_global(Vec3::new(f32::NAN, 0.0, 0.0)), None);
     }
 }

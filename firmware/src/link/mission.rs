@@ -465,7 +465,9 @@ fn down_of(it: &Item) -> Result<f32, MavMissionResult> {
     match alt_ref(it.frame)? {
         None if it.z.is_finite() => Ok(it.z),
         None => Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7),
-        Some(r) => geo::global_to_ned(geo::HOME.0, geo::HOME.1, it.z, r).map(|p| p.z).map_err(geo_refusal),
+        Some(r) => {
+            geo::global_to_ned(geo::ORIGIN.0, geo::ORIGIN.1, it.z, r).map(|p| p.z).map_err(geo_refusal)
+        }
     }
 }
 
@@ -722,17 +724,17 @@ mod tests {
 
     #[test]
     fn global_frames_become_local_ned_and_download_in_their_frame() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         let mut m = MissionUpload::new();
         let mut speed = item(1, 0.0, 0.0, 0.0);
         speed.command = MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16;
         speed.frame = MavFrame::MAV_FRAME_MISSION;
         let items = [
-            global(0, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, HOME.0 + 8983, HOME.1 + 6635, 10.0),
+            global(0, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, ORIGIN.0 + 8983, ORIGIN.1 + 6635, 10.0),
             speed,
-            global(2, MavFrame::MAV_FRAME_GLOBAL_INT, HOME.0 - 898, HOME.1, 493.0),
-            global(3, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, HOME.0, HOME.1 - 1327, 2.0),
-            global(4, MavFrame::MAV_FRAME_GLOBAL, HOME.0 + 1, HOME.1 + 1, 488.5),
+            global(2, MavFrame::MAV_FRAME_GLOBAL_INT, ORIGIN.0 - 898, ORIGIN.1, 493.0),
+            global(3, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, ORIGIN.0, ORIGIN.1 - 1327, 2.0),
+            global(4, MavFrame::MAV_FRAME_GLOBAL, ORIGIN.0 + 1, ORIGIN.1 + 1, 488.5),
             item(5, 1.5, -2.0, -1.0),
         ];
         m.on_count(&count(items.len() as u16), 255, 190, 0);
@@ -775,21 +777,24 @@ mod tests {
 
     #[test]
     fn bad_global_items_are_refused_with_the_parameter() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
         for (it, want) in [
-            (global(0, rel, 900_000_001, HOME.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
-            (global(0, rel, HOME.0 + 1_000_000, HOME.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
-            (global(0, rel, HOME.0, -1_800_000_001, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y),
-            (global(0, rel, HOME.0, HOME.1, f32::NAN), MavMissionResult::MAV_MISSION_INVALID_PARAM7),
+            (global(0, rel, 900_000_001, ORIGIN.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
             (
-                global(0, MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, HOME.0, HOME.1, 5.0),
+                global(0, rel, ORIGIN.0 + 1_000_000, ORIGIN.1, 5.0),
+                MavMissionResult::MAV_MISSION_INVALID_PARAM5_X,
+            ),
+            (global(0, rel, ORIGIN.0, -1_800_000_001, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y),
+            (global(0, rel, ORIGIN.0, ORIGIN.1, f32::NAN), MavMissionResult::MAV_MISSION_INVALID_PARAM7),
+            (
+                global(0, MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, ORIGIN.0, ORIGIN.1, 5.0),
                 MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME,
             ),
             (
                 MISSION_ITEM_INT_DATA {
                     command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
-                    ..global(0, rel, HOME.0, HOME.1, 5.0)
+                    ..global(0, rel, ORIGIN.0, ORIGIN.1, 5.0)
                 },
                 MavMissionResult::MAV_MISSION_UNSUPPORTED,
             ),
@@ -812,11 +817,11 @@ mod tests {
     /// and only the mission start was DENIED); at the limit it is accepted.
     #[test]
     fn a_takeoff_above_the_limit_is_refused_at_upload() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
         let takeoff = |z| MISSION_ITEM_INT_DATA {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
-            ..global(0, rel, HOME.0, HOME.1, z)
+            ..global(0, rel, ORIGIN.0, ORIGIN.1, z)
         };
         for (z, limit, want) in [
             (50.0, TKO, None),
@@ -861,13 +866,13 @@ mod tests {
     /// Before: the TAKEOFF was refused MAV_MISSION_UNSUPPORTED.
     #[test]
     fn takeoff_waypoints_and_return_keep_their_seqs() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         use MavCmd::*;
         let items = [
             cmd(0, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.5),
-            cmd(1, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0),
+            cmd(1, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1, 2.0),
             cmd(2, MAV_CMD_DO_CHANGE_SPEED, 0, 0, 0.0),
-            cmd(3, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1 + 265, 2.0),
+            cmd(3, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1 + 265, 2.0),
             cmd(4, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0),
             cmd(5, MAV_CMD_DO_SET_CAM_TRIGG_DIST, 0, 0, 0.0),
         ];
@@ -900,13 +905,13 @@ mod tests {
     /// none; TAKEOFF with a position flies there at its altitude.
     #[test]
     fn land_and_takeoff_positions() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         use MavCmd::*;
         let mut m = m_new();
         let items = [
-            cmd(0, MAV_CMD_NAV_TAKEOFF, HOME.0 + 90, HOME.1, 3.0),
-            cmd(1, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0),
-            cmd(2, MAV_CMD_NAV_LAND, HOME.0, HOME.1 + 133, 0.0),
+            cmd(0, MAV_CMD_NAV_TAKEOFF, ORIGIN.0 + 90, ORIGIN.1, 3.0),
+            cmd(1, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1, 2.0),
+            cmd(2, MAV_CMD_NAV_LAND, ORIGIN.0, ORIGIN.1 + 133, 0.0),
         ];
         assert_eq!(upload(&mut m, &items), Some(MissionReply::Complete));
         let path = m.path();
@@ -932,9 +937,9 @@ mod tests {
     /// position needs an altitude before it.
     #[test]
     fn item_order_is_checked() {
-        use crate::link::geo::HOME;
+        use crate::link::geo::ORIGIN;
         use MavCmd::*;
-        let wp = cmd(0, MAV_CMD_NAV_WAYPOINT, HOME.0 + 180, HOME.1, 2.0);
+        let wp = cmd(0, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1, 2.0);
         for items in [
             vec![wp.clone(), cmd(1, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.0)],
             vec![
@@ -942,7 +947,7 @@ mod tests {
                 MISSION_ITEM_INT_DATA { seq: 1, ..wp.clone() },
             ],
             vec![cmd(0, MAV_CMD_NAV_LAND, 0, 0, 0.0), cmd(1, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0)],
-            vec![cmd(0, MAV_CMD_NAV_LAND, HOME.0 + 90, HOME.1, 0.0)],
+            vec![cmd(0, MAV_CMD_NAV_LAND, ORIGIN.0 + 90, ORIGIN.1, 0.0)],
         ] {
             let mut m = m_new();
             assert_eq!(

@@ -52,7 +52,7 @@ fn xy_of(frame: MavFrame) -> Xy {
 
 /// `deg` degrees in 10⁻⁷ ° (NaN → 0; saturating beyond ±214°, which the mission refuses). In
 /// f32: up to 16 units (≈ 0.2 m) from the nearest, below the f32 degrees' own resolution.
-fn e7_of_degrees(deg: f32) -> i32 {
+pub fn e7_of_degrees(deg: f32) -> i32 {
     libm::roundf(deg * 1e7) as i32
 }
 
@@ -133,11 +133,13 @@ fn with_float_xy(i: &MISSION_ITEM_INT_DATA, x: f32, y: f32, frame: MavFrame) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::geo::HOME;
+    use crate::link::geo::ORIGIN;
 
     #[test]
     fn degrees_convert_within_the_stated_bounds() {
-        for v in [HOME.0, HOME.1, -HOME.0, 0, 1, -1, 899_999_999, -1_799_999_999, 9_999_999, -10_000_001] {
+        for v in
+            [ORIGIN.0, ORIGIN.1, -ORIGIN.0, 0, 1, -1, 899_999_999, -1_799_999_999, 9_999_999, -10_000_001]
+        {
             let deg = degrees_of_e7(v);
             // Within two f32 roundings of v·1e-7 (f64 reference).
             let want = (f64::from(v) * 1e-7) as f32;
@@ -162,10 +164,10 @@ mod tests {
 
     #[test]
     fn items_convert_per_frame_and_back() {
-        let lat = degrees_of_e7(HOME.0 + 8983);
+        let lat = degrees_of_e7(ORIGIN.0 + 8983);
         let g = int_item(&float(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, lat, 8.545_594));
-        assert!((g.x - (HOME.0 + 8983)).abs() <= 20, "{} (f32 resolution 38 units)", g.x);
-        assert!((g.y - HOME.1).abs() <= 5, "{}", g.y);
+        assert!((g.x - (ORIGIN.0 + 8983)).abs() <= 20, "{} (f32 resolution 38 units)", g.x);
+        assert!((g.y - ORIGIN.1).abs() <= 5, "{}", g.y);
         assert_eq!((g.z, g.seq, g.command, g.param1), (12.5, 3, 16, 0.5));
         let l = int_item(&float(MavFrame::MAV_FRAME_LOCAL_NED, 1.5, -2.25));
         assert_eq!((l.x, l.y), (15_000, -22_500));
@@ -175,8 +177,8 @@ mod tests {
         assert_eq!((here.x, here.y), (0, 0), "NaN: here");
         // Back: the *_INT frames become the float ones, the values their nearest f32.
         let i = MISSION_ITEM_INT_DATA {
-            x: HOME.0,
-            y: HOME.1,
+            x: ORIGIN.0,
+            y: ORIGIN.1,
             frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
             ..Default::default()
         };

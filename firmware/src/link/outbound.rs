@@ -10,9 +10,9 @@ use crate::link::dialect::{
 #[allow(deprecated)]
 // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it); MISSION_ITEM
 use crate::link::dialect::{
-    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
-    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA,
-    SYSTEM_TIME_DATA,
+    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_GLOBAL_ORIGIN_DATA,
+    HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_DATA,
+    MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
 };
 use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
@@ -22,20 +22,39 @@ use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, Mes
 
 use crate::link::framing::{FrameWriter, MAX_PAYLOAD};
 
-/// AUTOPILOT_VERSION capabilities: MAVLink 2, float parameters (C cast), MISSION_ITEM_INT,
-/// COMMAND_INT. No fence/rally, no SET_POSITION_TARGET_* (not handled).
+/// AUTOPILOT_VERSION capabilities, what the link implements: MAVLink 2, float parameters (C
+/// cast), MISSION_ITEM_INT and the deprecated float MISSION_ITEM (`mission_float`), COMMAND_INT,
+/// SET_POSITION_TARGET_LOCAL_NED (offboard, `offboard`). Not announced: fence and rally missions
+/// (refused), MAVLink FTP (every request answered NAK, `ftp`), SET_POSITION_TARGET_GLOBAL_INT
+/// and SET_ATTITUDE_TARGET (not handled), terrain, flight information.
 pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST)
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT)
-    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT);
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED);
 
-/// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`).
-pub fn autopilot_version() -> AUTOPILOT_VERSION_DATA {
+/// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`)
+/// on the vehicle with unique id `uid` ([`crate::link::Link::set_uid`]; ground stations and
+/// MAVSDK tell vehicles apart by it).
+pub fn autopilot_version(uid: u64) -> AUTOPILOT_VERSION_DATA {
     AUTOPILOT_VERSION_DATA {
         capabilities: CAPABILITIES,
         flight_sw_version: 0x0001_0000,
+        uid,
         ..Default::default()
     }
+}
+
+/// The 64-bit AUTOPILOT_VERSION `uid` of an STM32's 96-bit unique device id (`bytes` in memory
+/// order): the first 8 bytes (wafer x/y, wafer number, 3 bytes of the lot) with the last 4 of
+/// the lot folded in by XOR, so every byte counts.
+pub fn uid_of_mcu(bytes: [u8; 12]) -> u64 {
+    let mut lo = [0u8; 8];
+    lo.copy_from_slice(&bytes[..8]);
+    let mut hi = [0u8; 4];
+    hi.copy_from_slice(&bytes[8..]);
+    u64::from_le_bytes(lo) ^ (u64::from(u32::from_le_bytes(hi)) << 32)
 }
 
 /// HIL_ACTUATOR_CONTROLS as the lockstep answers (`crate::pil::lockstep`): `time_usec`,
@@ -111,8 +130,8 @@ pub enum Outbound {
     SysStatus(SYS_STATUS_DATA),
     /// EXTENDED_SYS_STATE (landed state).
     ExtendedSysState(EXTENDED_SYS_STATE_DATA),
-    /// AUTOPILOT_VERSION (capabilities; on request): [`autopilot_version`].
-    AutopilotVersion,
+    /// AUTOPILOT_VERSION (capabilities; on request): [`autopilot_version`] of this uid.
+    AutopilotVersion(u64),
     /// TIMESYNC answer.
     Timesync(TIMESYNC_DATA),
     /// SYSTEM_TIME (see [`crate::link::services`]).
@@ -123,6 +142,8 @@ pub enum Outbound {
     MissionCurrent(MISSION_CURRENT_DATA),
     /// HOME_POSITION.
     HomePosition(HOME_POSITION_DATA),
+    /// GPS_GLOBAL_ORIGIN (the local frame's origin, on request).
+    GpsGlobalOrigin(GPS_GLOBAL_ORIGIN_DATA),
     /// PING answer.
     Ping(PING_DATA),
     /// MESSAGE_INTERVAL (answer to MAV_CMD_GET_MESSAGE_INTERVAL).
@@ -195,12 +216,13 @@ impl Outbound {
             Outbound::MissionItem(m) => s(m, p),
             Outbound::SysStatus(m) => s(m, p),
             Outbound::ExtendedSysState(m) => s(m, p),
-            Outbound::AutopilotVersion => s(&autopilot_version(), p),
+            Outbound::AutopilotVersion(uid) => s(&autopilot_version(*uid), p),
             Outbound::Timesync(m) => s(m, p),
             Outbound::SystemTime(m) => s(m, p),
             Outbound::GlobalPositionInt(m) => s(m, p),
             Outbound::MissionCurrent(m) => s(m, p),
             Outbound::HomePosition(m) => s(m, p),
+            Outbound::GpsGlobalOrigin(m) => s(m, p),
             Outbound::Ping(m) => s(m, p),
             Outbound::MessageInterval(m) => s(m, p),
             Outbound::MissionItemReached(m) => s(m, p),
@@ -305,8 +327,10 @@ mod tests {
             };
             assert_eq!(Outbound::HilActuatorControls(hc).encode(&mut w).raw_bytes(), &theirs(&full, k)[..]);
         }
-        let want = theirs(&autopilot_version(), 2);
-        assert_eq!(Outbound::AutopilotVersion.encode(&mut w).raw_bytes(), &want[..]);
+        let want = theirs(&autopilot_version(0x0123_4567_89AB_CDEF), 2);
+        assert_eq!(Outbound::AutopilotVersion(0x0123_4567_89AB_CDEF).encode(&mut w).raw_bytes(), &want[..]);
+        let uid = uid_of_mcu([1, 2, 3, 4, 5, 6, 7, 8, 0x10, 0x20, 0x30, 0x40]);
+        assert_eq!(uid, 0x0807_0605_0403_0201 ^ 0x4030_2010_0000_0000);
         assert_eq!(core::mem::size_of::<Outbound>(), 80);
     }
 }

@@ -88,6 +88,8 @@ pub(crate) struct Router {
     pub(crate) odometry_text_us: Option<u64>,
     /// When the last v1 refusal went out ([`crate::link::v1`]).
     pub(crate) v1_text_us: Option<u64>,
+    /// AUTOPILOT_VERSION `uid` ([`crate::link::Link::set_uid`]; 0 until set).
+    pub(crate) uid: u64,
 }
 
 /// PARAM_VALUE for parameter `index` with `value`.
@@ -130,6 +132,7 @@ impl Router {
             manual: ManualControl::new(),
             odometry_text_us: None,
             v1_text_us: None,
+            uid: 0,
         }
     }
 
@@ -188,6 +191,21 @@ impl Router {
                 (MavResult::MAV_RESULT_ACCEPTED, false)
             }
             crate::link::command::id::REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
+            crate::link::command::id::GET_HOME_POSITION => {
+                let known = self.services.home().is_some()
+                    && self.services.request(crate::link::services::HOME_POSITION_ID as f32);
+                let r = if known {
+                    MavResult::MAV_RESULT_ACCEPTED
+                } else {
+                    MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+                };
+                (r, false)
+            }
+            crate::link::command::id::DO_SET_HOME => {
+                // p1 = 1: here; else p5/p6 latitude/longitude (degrees), p7 altitude AMSL (m).
+                let e7 = crate::link::mission_float::e7_of_degrees;
+                (self.do_set_home(cmd.param1 == 1.0, e7(cmd.param5), e7(cmd.param6), cmd.param7, ap), false)
+            }
             crate::link::command::id::SET_MESSAGE_INTERVAL => {
                 (self.services.set_interval(cmd.param1, cmd.param2), false)
             }
@@ -214,7 +232,7 @@ impl Router {
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
         if version {
-            self.reply(Outbound::AutopilotVersion);
+            self.reply(Outbound::AutopilotVersion(self.uid));
         }
         let asked = match cmd.command {
             crate::link::command::id::TAKEOFF => Some(cmd.param7),
@@ -224,6 +242,26 @@ impl Router {
         if result == MavResult::MAV_RESULT_DENIED {
             self.takeoff_refused(asked);
         }
+    }
+
+    /// MAV_CMD_DO_SET_HOME: home here (`here`) or at latitude/longitude (10⁻⁷ °) and altitude
+    /// AMSL (m) ([`crate::link::services::Services::set_home`]: refused while armed, or out of
+    /// the local frame's range).
+    fn do_set_home<A: Autopilot>(
+        &mut self,
+        here: bool,
+        lat_e7: i32,
+        lon_e7: i32,
+        alt_m: f32,
+        ap: &mut A,
+    ) -> MavResult {
+        let s = ap.telemetry();
+        let home = if here {
+            Some(s.position_ned)
+        } else {
+            crate::link::geo::global_to_ned(lat_e7, lon_e7, alt_m, crate::link::geo::AltRef::Amsl).ok()
+        };
+        home.map_or(MavResult::MAV_RESULT_DENIED, |h| self.services.set_home(h, s.armed))
     }
 
     /// A takeoff to `height_m` was refused Invalid: the STATUSTEXT of
@@ -566,13 +604,16 @@ impl Router {
             #[allow(deprecated)] // legacy SET_MODE: still sent by ground stations
             Inbound::SetMode(m) => {
                 if self.for_me(m.target_system, 0) {
+                    // custom_mode in PX4's encoding (main << 16 | sub << 24), as PX4 reads it.
                     let c = COMMAND_LONG_DATA {
                         command: crate::link::command::id::DO_SET_MODE,
                         param1: f32::from(m.base_mode),
-                        param2: m.custom_mode as f32,
+                        param2: f32::from((m.custom_mode >> 16) as u8),
+                        param3: f32::from((m.custom_mode >> 24) as u8),
                         ..Default::default()
                     };
-                    let _ = execute(&c, now_us, ap);
+                    let r = execute(&c, now_us, ap);
+                    self.mission_mode_flies(&c, r, now_us, ap);
                 }
             }
             #[allow(deprecated)] // MISSION_SET_CURRENT: still sent by ground stations
@@ -588,6 +629,17 @@ impl Router {
                         self.reply(Outbound::StatusText(t));
                     }
                     self.reply(Outbound::MissionCurrent(now));
+                }
+            }
+            Inbound::CommandInt(m) if m.command == crate::link::command::id::DO_SET_HOME => {
+                // x, y in 10⁻⁷ ° taken exactly (COMMAND_LONG's f32 of them is not).
+                if self.for_me(m.target_system, m.target_component) {
+                    let r = self.do_set_home(m.param1 == 1.0, m.x, m.y, m.z, ap);
+                    self.reply(Outbound::CommandAck(crate::link::command::ack(
+                        m.command,
+                        r,
+                        (f.sys_id, f.comp_id),
+                    )));
                 }
             }
             Inbound::CommandInt(m) => {

@@ -7,11 +7,12 @@
 //! | stream | id | default | content |
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
-//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`HOME`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
+//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`ORIGIN`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative to home mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
 //! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = the uploaded seq of the item being flown ([`crate::link::mission_run::MissionRun::progress`]; 0 before the mission was started), total = items of the accepted plan, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
 //! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
-//! | HOME_POSITION | 242 | 0.5 Hz | [`HOME`], local position 0, quaternion identity |
+//! | HOME_POSITION | 242 | 0.5 Hz, and at once when home changes | [`Services::home`]: where the vehicle armed (before the first arming: its first position; MAV_CMD_DO_SET_HOME while disarmed), as latitude/longitude/altitude around [`ORIGIN`] and as the local x, y, z; quaternion identity; not sent before a position is known. MAV_CMD_GET_HOME_POSITION sends it once |
+//! | GPS_GLOBAL_ORIGIN | 49 | on request only (MAV_CMD_REQUEST_MESSAGE) | [`ORIGIN`]: the local frame's origin |
 //!
 //! **MISSION_ITEM_REACHED** (46): once per item, in order, up to the progress's last item done
 //! (uploaded seq numbers, [`crate::link::mission_run`]).
@@ -27,7 +28,7 @@
 //! slower than its default 1 Hz ([`HEARTBEAT_MAX_INTERVAL_US`]; −1 or a longer period: DENIED).
 //! Other message ids are answered UNSUPPORTED. The tables are fixed (one slot per stream above).
 //!
-//! **Home**: fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
+//! **Origin and home**: the origin is fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
 //! Parapet flies in a local NED frame and has no GNSS; GLOBAL_POSITION_INT and HOME_POSITION
 //! exist so that map-based ground stations (QGroundControl, MAVSDK) show the vehicle. The
 //! conversion is [`crate::link::geo`] (the same one global-frame mission items use).
@@ -40,30 +41,36 @@
 use crate::app::autopilot::TelemetrySnapshot;
 use crate::link::dialect::{
     AttitudeTargetTypemask, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavResult,
-    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, HOME_POSITION_DATA,
-    MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
+    ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_GLOBAL_ORIGIN_DATA,
+    HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA,
+    SYSTEM_TIME_DATA,
 };
 pub use crate::link::mission_run::MissionProgress;
 use crate::link::outbound::Outbound;
 use parapet_core::battery::{BatteryLevel, BatteryState};
+use parapet_core::Vec3;
 
-pub use crate::link::geo::HOME;
+pub use crate::link::geo::ORIGIN;
 /// Shortest settable interval, µs (100 Hz).
 pub const MIN_INTERVAL_US: u32 = 10_000;
 
 /// The streams served here, in table order.
-const STREAMS: [(u32, u32); 6] = [
+/// A default period of 0: sent on request only.
+const STREAMS: [(u32, u32); 7] = [
     (SYSTEM_TIME_DATA_ID, 1_000_000),
     (GLOBAL_POSITION_INT_ID, 200_000),
     (MISSION_CURRENT_ID, 1_000_000),
     (HOME_POSITION_ID, 2_000_000),
     (ATTITUDE_TARGET_ID, 100_000),
     (BATTERY_STATUS_ID, 1_000_000),
+    (GPS_GLOBAL_ORIGIN_ID, 0),
 ];
+const GPS_GLOBAL_ORIGIN_ID: u32 = 49;
 const SYSTEM_TIME_DATA_ID: u32 = 2;
 const GLOBAL_POSITION_INT_ID: u32 = 33;
 const MISSION_CURRENT_ID: u32 = 42;
-const HOME_POSITION_ID: u32 = 242;
+/// HOME_POSITION's message id (MAV_CMD_GET_HOME_POSITION requests it).
+pub const HOME_POSITION_ID: u32 = 242;
 const ATTITUDE_TARGET_ID: u32 = 83;
 const BATTERY_STATUS_ID: u32 = 147;
 
@@ -120,6 +127,10 @@ pub struct Services {
     rates: StreamRates,
     /// Last item reported by MISSION_ITEM_REACHED since the upload.
     reached: Option<u16>,
+    /// Home, local NED ([`Services::home`]).
+    home: Option<Vec3>,
+    /// The vehicle was armed at the last poll (home is set on arming).
+    was_armed: bool,
 }
 
 impl Default for Services {
@@ -141,9 +152,13 @@ fn cm_s(x: f32) -> i16 {
     }
 }
 
-/// GLOBAL_POSITION_INT of the snapshot's local NED state around [`HOME`]; `None` when the
-/// position is not finite.
-pub fn global_position(time_boot_ms: u32, s: &TelemetrySnapshot) -> Option<GLOBAL_POSITION_INT_DATA> {
+/// GLOBAL_POSITION_INT of the snapshot's local NED state around [`ORIGIN`], the relative
+/// altitude above `home_alt_mm` (AMSL); `None` when the position is not finite.
+pub fn global_position(
+    time_boot_ms: u32,
+    s: &TelemetrySnapshot,
+    home_alt_mm: i32,
+) -> Option<GLOBAL_POSITION_INT_DATA> {
     let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
     let yaw = s.attitude_rpy.z;
     let hdg = if yaw.is_finite() {
@@ -158,7 +173,7 @@ pub fn global_position(time_boot_ms: u32, s: &TelemetrySnapshot) -> Option<GLOBA
         lat,
         lon,
         alt,
-        relative_alt: alt.saturating_sub(HOME.2),
+        relative_alt: alt.saturating_sub(home_alt_mm),
         vx: cm_s(s.velocity_ned.x),
         vy: cm_s(s.velocity_ned.y),
         vz: cm_s(s.velocity_ned.z),
@@ -166,16 +181,26 @@ pub fn global_position(time_boot_ms: u32, s: &TelemetrySnapshot) -> Option<GLOBA
     })
 }
 
-/// HOME_POSITION: [`HOME`] at the local origin.
-pub fn home_position(time_usec: u64) -> HOME_POSITION_DATA {
-    HOME_POSITION_DATA {
-        latitude: HOME.0,
-        longitude: HOME.1,
-        altitude: HOME.2,
+/// HOME_POSITION of `home` (local NED): global around [`ORIGIN`] and local; `None` when not
+/// finite.
+pub fn home_position(time_usec: u64, home: Vec3) -> Option<HOME_POSITION_DATA> {
+    let (latitude, longitude, altitude) = crate::link::geo::ned_to_global(home)?;
+    Some(HOME_POSITION_DATA {
+        latitude,
+        longitude,
+        altitude,
+        x: home.x,
+        y: home.y,
+        z: home.z,
         q: [1.0, 0.0, 0.0, 0.0],
         time_usec,
         ..Default::default()
-    }
+    })
+}
+
+/// GPS_GLOBAL_ORIGIN: [`ORIGIN`].
+pub fn global_origin(time_usec: u64) -> GPS_GLOBAL_ORIGIN_DATA {
+    GPS_GLOBAL_ORIGIN_DATA { latitude: ORIGIN.0, longitude: ORIGIN.1, altitude: ORIGIN.2, time_usec }
 }
 
 /// The answer to a PING request (`target_system` and `target_component` 0) from `sender`;
@@ -254,7 +279,7 @@ fn interval_of(interval_us: f32, default_us: u32) -> Result<Option<u32>, ()> {
     if interval_us == -1.0 {
         Ok(None)
     } else if interval_us == 0.0 {
-        Ok(Some(default_us))
+        Ok(Some(default_us).filter(|d| *d > 0))
     } else if interval_us.is_finite() && interval_us >= MIN_INTERVAL_US as f32 && interval_us <= 1e9 {
         Ok(Some(interval_us as u32))
     } else {
@@ -272,7 +297,7 @@ impl Services {
         let mut interval_us = [None; STREAMS.len()];
         let mut k = 0;
         while k < STREAMS.len() {
-            interval_us[k] = Some(STREAMS[k].1);
+            interval_us[k] = if STREAMS[k].1 > 0 { Some(STREAMS[k].1) } else { None };
             k += 1;
         }
         Self {
@@ -281,6 +306,38 @@ impl Services {
             requested: 0,
             rates: StreamRates::DEFAULT,
             reached: None,
+            home: None,
+            was_armed: false,
+        }
+    }
+
+    /// Home, local NED: where the vehicle last armed; before the first arming its first finite
+    /// position, or what MAV_CMD_DO_SET_HOME set while disarmed. `None` before a position.
+    pub fn home(&self) -> Option<Vec3> {
+        self.home
+    }
+
+    /// MAV_CMD_DO_SET_HOME: home at `home` (local NED), sent at once. Refused (DENIED) while
+    /// armed: Return flies the breadcrumb trail back to where the vehicle armed
+    /// (`parapet_core::outer::return_path`), and HOME_POSITION shows where Return goes.
+    pub fn set_home(&mut self, home: Vec3, armed: bool) -> MavResult {
+        if armed || !home.iter().all(|c| c.is_finite()) {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        self.home = Some(home);
+        let _ = self.request(HOME_POSITION_ID as f32);
+        MavResult::MAV_RESULT_ACCEPTED
+    }
+
+    /// Home follows the vehicle: set where it arms, and at its first position.
+    fn track_home(&mut self, s: &TelemetrySnapshot) {
+        let p = s.position_ned;
+        let finite = p.iter().all(|c| c.is_finite());
+        let arming = s.armed && !self.was_armed;
+        self.was_armed = s.armed;
+        if finite && (arming || self.home.is_none()) {
+            self.home = Some(p);
+            let _ = self.request(HOME_POSITION_ID as f32);
         }
     }
 
@@ -388,6 +445,8 @@ impl Services {
     ) {
         let mut left = budget;
         let ms = (now_us / 1000) as u32;
+        self.track_home(s);
+        let home_alt_mm = self.home.and_then(crate::link::geo::ned_to_global).map_or(ORIGIN.2, |g| g.2);
         if left > 0 {
             if let Some(r) = self.next_reached(mission) {
                 emit(Outbound::MissionItemReached(r));
@@ -407,11 +466,14 @@ impl Services {
                 SYSTEM_TIME_DATA_ID => {
                     Some(Outbound::SystemTime(SYSTEM_TIME_DATA { time_unix_usec: 0, time_boot_ms: ms }))
                 }
-                GLOBAL_POSITION_INT_ID => global_position(ms, s).map(Outbound::GlobalPositionInt),
+                GLOBAL_POSITION_INT_ID => {
+                    global_position(ms, s, home_alt_mm).map(Outbound::GlobalPositionInt)
+                }
                 MISSION_CURRENT_ID => Some(Outbound::MissionCurrent(self.mission_current(mission))),
                 ATTITUDE_TARGET_ID => Some(Outbound::AttitudeTarget(attitude_target(ms, s, thr_max))),
                 BATTERY_STATUS_ID => s.battery.as_ref().map(|b| Outbound::BatteryStatus(battery_status(b))),
-                _ => Some(Outbound::HomePosition(home_position(now_us))),
+                GPS_GLOBAL_ORIGIN_ID => Some(Outbound::GpsGlobalOrigin(global_origin(now_us))),
+                _ => self.home.and_then(|h| home_position(now_us, h)).map(Outbound::HomePosition),
             };
             if let Some(m) = m {
                 emit(m);
@@ -464,14 +526,65 @@ mod tests {
     #[test]
     fn global_position_is_the_local_position_around_home() {
         // 100 m north, 50 m east, 10 m up, heading west (-90°).
-        let g = global_position(5, &snap(Vec3::new(100.0, 50.0, -10.0), -core::f32::consts::FRAC_PI_2))
-            .expect("finite");
-        assert_eq!(g.lat - HOME.0, 8983, "100 m north = 8983e-7 deg");
-        assert_eq!(g.lon - HOME.1, 6635, "50 m east at 47.4 N = 6635e-7 deg");
-        assert_eq!((g.alt, g.relative_alt), (HOME.2 + 10_000, 10_000));
+        let at = |p, yaw| global_position(5, &snap(p, yaw), ORIGIN.2);
+        let g = at(Vec3::new(100.0, 50.0, -10.0), -core::f32::consts::FRAC_PI_2).expect("finite");
+        assert_eq!(g.lat - ORIGIN.0, 8983, "100 m north = 8983e-7 deg");
+        assert_eq!(g.lon - ORIGIN.1, 6635, "50 m east at 47.4 N = 6635e-7 deg");
+        assert_eq!((g.alt, g.relative_alt), (ORIGIN.2 + 10_000, 10_000));
         assert_eq!((g.vx, g.vy, g.vz, g.hdg), (100, -200, 50, 27_000));
-        assert!(global_position(5, &snap(Vec3::new(f32::NAN, 0.0, 0.0), 0.0)).is_none());
-        assert_eq!(global_position(5, &snap(Vec3::zeros(), f32::NAN)).map(|g| g.hdg), Some(u16::MAX));
+        assert!(at(Vec3::new(f32::NAN, 0.0, 0.0), 0.0).is_none());
+        assert_eq!(at(Vec3::zeros(), f32::NAN).map(|g| g.hdg), Some(u16::MAX));
+        let above_home = global_position(5, &snap(Vec3::new(0.0, 0.0, -10.0), 0.0), ORIGIN.2 + 2_000);
+        assert_eq!(above_home.map(|g| g.relative_alt), Some(8_000), "relative to home's altitude");
+    }
+
+    /// Home: the first position, then where the vehicle arms (sent at once each time, in local
+    /// and global coordinates); MAV_CMD_DO_SET_HOME only while disarmed; GPS_GLOBAL_ORIGIN on
+    /// request only, the origin. Before: HOME_POSITION was the origin whatever the vehicle did.
+    #[test]
+    fn home_is_where_the_vehicle_armed_and_the_origin_on_request() {
+        let mut s = Services::new();
+        for k in [2.0, 33.0, 42.0, 83.0] {
+            s.set_interval(k, -1.0);
+        }
+        let mut homes = Vec::new();
+        let mut origin = Vec::new();
+        let mut poll = |s: &mut Services, t: u64, sn: &TelemetrySnapshot| {
+            let mut out = Vec::new();
+            s.poll(t, sn, MissionProgress::NONE, 1000.0, 8, |m| out.push(m));
+            for m in out {
+                match m {
+                    Outbound::HomePosition(h) => homes.push((h.x, h.y, h.z, h.latitude - ORIGIN.0)),
+                    Outbound::GpsGlobalOrigin(o) => origin.push((o.latitude, o.longitude, o.altitude)),
+                    _ => {}
+                }
+            }
+            (homes.clone(), origin.clone())
+        };
+        let mut sn = snap(Vec3::new(1.0, 1.0, 0.0), 0.0);
+        poll(&mut s, 1_000_000, &sn);
+        poll(&mut s, 1_001_000, &sn);
+        sn.position_ned = Vec3::new(2.0, 1.0, 0.0);
+        let (homes, _) = poll(&mut s, 1_002_000, &sn);
+        assert_eq!(homes, vec![(1.0, 1.0, 0.0, 90)], "the first position, once until the period");
+        sn.armed = true;
+        let (homes, _) = poll(&mut s, 1_003_000, &sn);
+        assert_eq!(homes.last(), Some(&(2.0, 1.0, 0.0, 180)), "where it armed, at once");
+        sn.position_ned = Vec3::new(5.0, 1.0, -3.0);
+        poll(&mut s, 1_004_000, &sn);
+        assert_eq!(s.home(), Some(Vec3::new(2.0, 1.0, 0.0)), "not while flying");
+        assert_eq!(s.set_home(Vec3::new(0.0, 0.0, 0.0), true), MavResult::MAV_RESULT_DENIED);
+        sn.armed = false;
+        poll(&mut s, 1_005_000, &sn);
+        assert_eq!(s.set_home(Vec3::new(-1.0, 0.5, 0.0), false), MavResult::MAV_RESULT_ACCEPTED);
+        let (homes, origin) = poll(&mut s, 1_006_000, &sn);
+        assert_eq!(homes.last().map(|h| (h.0, h.1)), Some((-1.0, 0.5)));
+        assert_eq!(s.set_home(Vec3::new(f32::NAN, 0.0, 0.0), false), MavResult::MAV_RESULT_DENIED);
+        assert!(origin.is_empty(), "not streamed");
+        assert_eq!(s.message_interval(49.0).interval_us, -1);
+        assert!(s.request(49.0));
+        let (_, origin) = poll(&mut s, 9_000_000, &sn);
+        assert_eq!(origin, vec![ORIGIN]);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //!
 //! | stream | message | rate | content |
 //! |---|---|---|---|
-//! | heartbeat | HEARTBEAT | 1 Hz (settable: faster, never off or slower) | type QUADROTOR, autopilot GENERIC; custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
+//! | heartbeat | HEARTBEAT | 1 Hz (settable: faster, never off or slower) | type QUADROTOR, autopilot PX4 (`MAV_AUTOPILOT_PX4`: the `custom_mode` is PX4's encoding, and ground stations — MAVProxy, MAVSDK, QGroundControl — pick the mode decoder from this field); custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
 //! | phase | NAMED_VALUE_INT `PHASE` | 1 Hz (with the heartbeat) | [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe): the guidance phase, which the heartbeat carried before it carried the mode |
 //! | status | SYS_STATUS | 1 Hz (settable) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
 //! | landed state | EXTENDED_SYS_STATE | 1 Hz (settable) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
@@ -236,7 +236,7 @@ pub fn heartbeat(s: &TelemetrySnapshot) -> HEARTBEAT_DATA {
     HEARTBEAT_DATA {
         custom_mode: mode.px4_custom_mode(),
         mavtype: MavType::MAV_TYPE_QUADROTOR,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
         base_mode: base,
         system_status,
         mavlink_version: 3,
@@ -716,6 +716,7 @@ mod tests {
     fn heartbeat_reflects_arming() {
         let mut ap = RecordingAutopilot::new();
         let h = heartbeat(&ap.telemetry());
+        assert_eq!(h.autopilot, MavAutopilot::MAV_AUTOPILOT_PX4, "clients decode custom_mode as PX4's");
         assert!(!h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
         assert_eq!(h.system_status, MavState::MAV_STATE_STANDBY);
         ap.armed = true;

@@ -109,12 +109,21 @@ pub struct PilApp<A: ControlSteps> {
     battery: PilBattery,
 }
 
+/// AUTOPILOT_VERSION `uid` of the simulated vehicle: QEMU's netduinoplus2 has no unique device
+/// id, so the PIL vehicle has this fixed one (the ASCII of "PARAPET" + 1), the same every run
+/// as PX4 SITL's.
+pub const PIL_UID: u64 = u64::from_be_bytes(*b"PARAPET\x01");
+
 impl<A: ControlSteps> PilApp<A> {
     /// Application around `autopilot` with the start-up `calibration`.
     pub fn new(autopilot: A, calibration: InstructionCalibration) -> Self {
         Self {
             autopilot,
-            link: Link::new(VEHICLE_SYSTEM_ID, FixClock::Message),
+            link: {
+                let mut l = Link::new(VEHICLE_SYSTEM_ID, FixClock::Message);
+                l.set_uid(PIL_UID);
+                l
+            },
             scheduler: LockstepScheduler::default(),
             telemetry: TelemetryScheduler::new(),
             writer: FrameWriter::new(VEHICLE_SYSTEM_ID, AUTOPILOT_COMPONENT_ID),
