@@ -4,10 +4,14 @@
 pub const VEHICLE_SYSTEM_ID: u8 = 1;
 /// MAVLink component id of the autopilot (MAV_COMP_ID_AUTOPILOT1).
 pub const AUTOPILOT_COMPONENT_ID: u8 = 1;
-/// MAVLink system id the host (simulator / ground station of the PIL link) sends as.
-pub const HOST_SYSTEM_ID: u8 = 255;
-/// MAVLink component id the host sends as (MAV_COMP_ID_MISSIONPLANNER).
-pub const HOST_COMPONENT_ID: u8 = 190;
+/// MAVLink system id the host (the simulator driving the PIL link) sends as: its own, no ground
+/// station's (QGroundControl 255/190, MAVProxy 255/230, MAVSDK 245/190), so the firmware's
+/// answers to the host's start-up commands (COMMAND_ACK, MISSION_REQUEST_INT, …), which the
+/// bridge forwards with every other firmware frame, are addressed to nobody a ground station
+/// is (issue 41: they reached QGroundControl addressed to 255/190, its own ids).
+pub const HOST_SYSTEM_ID: u8 = 254;
+/// MAVLink component id the host sends as (MAV_COMP_ID_USER1).
+pub const HOST_COMPONENT_ID: u8 = 25;
 
 /// `obstacle_id` 65 535 of OBSTACLE_DISTANCE_3D: "unknown id" per the message definition, a
 /// **valid point** (issue 19; it used to mean "no obstacle"). Hosts never give a tracked

@@ -102,9 +102,23 @@ pub struct PilLink {
 struct GcsFlight {
     reference: Option<Vector3<f64>>,
     done: bool,
-    was_armed: bool,
-    /// Firmware time of the step that first saw the vehicle disarmed after it was armed.
+    /// The vehicle has left the ground armed (a phase past Idle: takeoff, flying, landing,
+    /// failsafe). Arming and disarming on the ground does not end the run (issue 41).
+    flew: bool,
+    /// Firmware time of the step that first saw the vehicle disarmed after it flew.
     disarmed_us: Option<u64>,
+}
+
+impl GcsFlight {
+    /// Takes the firmware's latest armed state and phase code at firmware time `t_us`.
+    fn observe(&mut self, armed: bool, phase: u32, t_us: u64) {
+        let on_ground =
+            matches!(FlightPhase::from_code(phase), Some(FlightPhase::Disarmed | FlightPhase::Idle));
+        self.flew |= armed && !on_ground;
+        if self.flew && !armed && self.disarmed_us.is_none() {
+            self.disarmed_us = Some(t_us);
+        }
+    }
 }
 
 /// The run goes on this long after the vehicle disarmed (µs), so that the ground station sees
@@ -579,10 +593,7 @@ impl PilLink {
                 _ => {}
             }
         }
-        self.gcs.was_armed |= self.telemetry.armed;
-        if self.gcs.was_armed && !self.telemetry.armed && self.gcs.disarmed_us.is_none() {
-            self.gcs.disarmed_us = Some(self.last_t_us);
-        }
+        self.gcs.observe(self.telemetry.armed, self.telemetry.phase, self.last_t_us);
     }
 
     fn latch(&mut self, e: anyhow::Error) {
@@ -712,5 +723,27 @@ impl FlightStack for PilLink {
             return format!("LinkFailed: {f}");
         }
         self.telemetry.state_name().into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--gcs-control`: arming and disarming on the ground keeps the session (the client stops
+    /// it or the flight ends); a disarm after a flight ends it. Before: the first disarm did.
+    #[test]
+    fn the_run_ends_at_the_disarm_after_a_flight_not_on_the_ground() {
+        let mut g = GcsFlight::default();
+        let (idle, off, takeoff) =
+            (FlightPhase::Idle.code(), FlightPhase::Disarmed.code(), FlightPhase::Takeoff.code());
+        g.observe(true, idle, 1);
+        g.observe(false, off, 2);
+        assert_eq!(g.disarmed_us, None, "armed and disarmed on the ground");
+        g.observe(true, idle, 3);
+        g.observe(true, takeoff, 4);
+        g.observe(true, idle, 5);
+        g.observe(false, off, 6);
+        assert_eq!(g.disarmed_us, Some(6));
     }
 }
