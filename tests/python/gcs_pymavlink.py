@@ -21,13 +21,29 @@ wait = waiter(m)
 sysid, compid = heartbeat(m)
 print("heartbeat from", sysid, compid, flush=True)
 
-# Telemetry through the bridge; the host's lockstep frames stay inside the host.
+# Telemetry through the bridge; the host's lockstep frames stay inside the host, and the
+# answers to the host's own start-up commands are addressed to the host's ids, not a GCS's.
 seen = {}
+addressed = set()
 end = time.time() + 3
 while time.time() < end:
     msg = m.recv_match(blocking=True, timeout=0.5)
     if msg is not None:
         seen[msg.get_type()] = seen.get(msg.get_type(), 0) + 1
+        if getattr(msg, "target_system", 0):
+            addressed.add((msg.get_type(), msg.target_system, getattr(msg, "target_component", 0)))
+if any(t[1:] in [(255, 190), (255, 230), (245, 190)] for t in addressed):
+    fail(f"messages addressed to a ground station's ids that never sent them: {sorted(addressed)}")
+# A loss-free local link: one gap-free sequence space per component (issue 41: the lockstep
+# frames the host keeps took ~94 % of the firmware's numbers and pymavlink counted them lost).
+if m.mav_count < 100 or m.mav_loss != 0:
+    fail(f"sequence: {m.mav_count} received, {m.mav_loss} lost ({m.packet_loss():.1f} %)")
+print(f"sequence: {m.mav_count} received, {m.mav_loss} lost", flush=True)
+# Identity: a PX4-class vehicle whose modes pymavlink decodes by name.
+hb = m.messages["HEARTBEAT"]
+if hb.autopilot != mavutil.mavlink.MAV_AUTOPILOT_PX4 or m.flightmode not in mavutil.px4_map:
+    fail(f"HEARTBEAT autopilot {hb.autopilot}, mode {m.flightmode!r} (custom_mode {hb.custom_mode})")
+print("autopilot PX4, mode", m.flightmode, flush=True)
 for need in ["LOCAL_POSITION_NED"] + ([] if mode == "readonly" else ["ATTITUDE"]):
     if not seen.get(need):
         fail(f"no {need} in 3 s: {seen}")
@@ -80,6 +96,29 @@ if mode != "readonly":
     if (ack.target_system, ack.target_component) != (250, 190):
         fail(f"COMMAND_ACK addressed to {ack.target_system}/{ack.target_component}, not the sender 250/190")
     print("COMMAND_ACK to", ack.target_system, ack.target_component, flush=True)
+    v = wait("AUTOPILOT_VERSION", 5)
+    caps = mavutil.mavlink
+    need = caps.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | caps.MAV_PROTOCOL_CAPABILITY_MISSION_INT | \
+        caps.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    if v is None or v.uid == 0 or v.capabilities & need != need or \
+            v.capabilities & (caps.MAV_PROTOCOL_CAPABILITY_FTP | caps.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE):
+        fail(f"AUTOPILOT_VERSION: {v}")
+    print(f"AUTOPILOT_VERSION uid {v.uid:#x} capabilities {v.capabilities:#x}", flush=True)
+    # Home where the vehicle armed (the host arms it at the scene's start, 1 m up; before: the
+    # origin, z 0), the origin on request.
+    m.mav.command_long_send(sysid, compid, mavutil.mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0)
+    home = wait("HOME_POSITION", 5)
+    m.mav.command_long_send(sysid, compid, mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 0, 49, 0, 0, 0, 0, 0, 0)
+    origin = wait("GPS_GLOBAL_ORIGIN", 5)
+    if home is None or origin is None or home.z > -0.5:
+        fail(f"HOME_POSITION {home}, GPS_GLOBAL_ORIGIN {origin}")
+    print(f"home x {home.x:.2f} y {home.y:.2f} z {home.z:.2f}, origin {origin.latitude} {origin.longitude}", flush=True)
+    # Mode changes by name (pymavlink's PX4 mode map): LOITER holds, MISSION goes on.
+    for name in ["LOITER", "MISSION"]:
+        m.set_mode(name)
+        if wait("HEARTBEAT", 5, lambda h, n=name: mavutil.interpret_px4_mode(h.base_mode, h.custom_mode) == n) is None:
+            fail(f"set_mode({name}) not shown by the HEARTBEAT (mode {m.flightmode})")
+        print("mode", name, flush=True)
 
 # Mission download.
 m.mav.mission_request_list_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)
