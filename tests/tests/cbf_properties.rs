@@ -23,7 +23,14 @@ fn params() -> impl Strategy<Value = CbfParams> {
     })
 }
 
+/// The variants on the paper's barrier (constraint 8 is theirs; the braking-distance
+/// barrier has its own properties in `core/tests/braking_properties.rs`).
 fn variant() -> impl Strategy<Value = FilterVariant> {
+    prop::sample::select(FilterVariant::SQUARED_DISTANCE.to_vec())
+}
+
+/// Every variant.
+fn any_variant() -> impl Strategy<Value = FilterVariant> {
     prop::sample::select(FilterVariant::ALL.to_vec())
 }
 
@@ -89,7 +96,7 @@ proptest! {
     /// Property 2: no input whatsoever produces a non-finite output or a panic.
     #[test]
     fn no_input_produces_non_finite_output(
-        var in variant(), p in nasty3(), v in nasty3(), u in nasty3(),
+        var in any_variant(), p in nasty3(), v in nasty3(), u in nasty3(),
         obs in prop::collection::vec((nasty3(), prop::option::of(nasty3())), 0..6),
         same_point in any::<bool>(),
     ) {

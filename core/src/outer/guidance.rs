@@ -487,7 +487,7 @@ impl Guidance {
             let (speed, len) = (norm3(&r.velocity), norm3(&leg));
             let dir = leg / len;
             let along = r.velocity.dot(&dir);
-            (speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed).then(|| (dir, speed, r))
+            (speed > 1e-3 && len > 0.0 && along >= CARRY_MAX_ANGLE_COS * speed).then_some((dir, speed, r))
         });
         let carried = moving.is_some_and(|(dir, speed, r)| {
             let accel = r.acceleration.dot(&dir);

@@ -298,6 +298,7 @@ fn variant_code(v: FilterVariant) -> f32 {
         FilterVariant::Relative => 1.0,
         FilterVariant::Multi => 2.0,
         FilterVariant::MultiRelative => 3.0,
+        FilterVariant::Braking => 4.0,
     }
 }
 
@@ -307,6 +308,7 @@ fn variant_of(code: i32) -> Option<FilterVariant> {
         1 => Some(FilterVariant::Relative),
         2 => Some(FilterVariant::Multi),
         3 => Some(FilterVariant::MultiRelative),
+        4 => Some(FilterVariant::Braking),
         _ => None,
     }
 }
@@ -537,8 +539,9 @@ mod tests {
 
     /// The ranges leave only the documented cross-constraints: with every other
     /// parameter at its default, each parameter's whole range validates except where
-    /// δ1 ≤ δ, δ < hull_radius² (issue 17) or the hover/thrust chain m·g < THR_MAX ≤
-    /// 4·VEH_ROTOR_TMAX breaks.
+    /// δ1 ≤ δ, δ < hull_radius² (issue 17), the hover/thrust chain m·g < THR_MAX ≤
+    /// 4·VEH_ROTOR_TMAX breaks, or the braking barrier's deceleration exceeds the filter's
+    /// u_max (`CBF_BRAKE_ACC` ≤ u_max, issue 36).
     #[test]
     fn only_the_documented_constraints_link_parameters() {
         for d in &TABLE {
@@ -549,7 +552,8 @@ mod tests {
                 let linked = p.cbf.delta1 <= p.cbf.delta
                     || p.cbf.delta < p.hull_radius * p.hull_radius * (1.0 - 1e-6)
                     || hover >= p.thrust.thrust_max
-                    || p.thrust.thrust_max > 4.0 * p.airframe.rotor_thrust_max;
+                    || p.thrust.thrust_max > 4.0 * p.airframe.rotor_thrust_max
+                    || p.cbf.brake_accel > p.cbf.u_max;
                 assert_eq!(consistency(&p).is_ok(), !linked, "{} = {v}: {:?}", d.name, consistency(&p));
             }
         }
@@ -563,7 +567,7 @@ mod tests {
         let v = find("CBF_VARIANT").unwrap();
         assert_eq!(
             v.range().to_string(),
-            "filter one of 0 (paper) 1 (relative) 2 (multi) 3 (multi-relative)"
+            "filter one of 0 (paper) 1 (relative) 2 (multi) 3 (multi-relative) 4 (braking)"
         );
     }
 }

@@ -6,7 +6,7 @@
 use super::*;
 
 /// Entries of this part.
-pub(super) const N: usize = 27;
+pub(super) const N: usize = 30;
 
 /// This part's entries, in `param_index` order.
 pub(super) const TABLE: [Param; N] = [
@@ -76,11 +76,11 @@ pub(super) const TABLE: [Param; N] = [
         unit: "",
         default: 3.0,
         min: 0.0,
-        max: 3.0,
+        max: 4.0,
         integer: true,
         decimals: 0,
         group: "CBF",
-        description: host_text("Filter law: 0 paper, 1 relative, 2 multi, 3 multi-relative"),
+        description: host_text("Filter law: 0 paper, 1 relative, 2 multi, 3 multi-relative, 4 braking (braking-distance barrier)"),
         label: Some(|c| variant_of(c).map(|v| v.as_str())),
         get: |p| variant_code(p.filter_variant),
         write: |p, v| {
@@ -168,6 +168,36 @@ pub(super) const TABLE: [Param; N] = [
         get: |p| p.cbf.velocity_margin,
         write: |p, v| p.cbf.velocity_margin = v,
     },
+    num(
+        "CBF_BRAKE_ACC",
+        "CBF",
+        "m/s^2",
+        (0.1, 3.0, 15.0),
+        2,
+        "CBF_VARIANT 4: deceleration the braking-distance barrier counts on (at most the filter's u_max)",
+        |p| p.cbf.brake_accel,
+        |p, v| p.cbf.brake_accel = v,
+    ),
+    num(
+        "CBF_BRAKE_DLY",
+        "CBF",
+        "s",
+        (0.01, 0.1, 1.0),
+        3,
+        "CBF_VARIANT 4: actuation lag plus sensing latency before braking takes effect",
+        |p| p.cbf.brake_delay,
+        |p, v| p.cbf.brake_delay = v,
+    ),
+    num(
+        "CBF_BRAKE_GAMMA",
+        "CBF",
+        "1/s",
+        (0.0, 2.0, 20.0),
+        2,
+        "CBF_VARIANT 4: class-K rate of the braking-distance barrier (how fast it may be approached)",
+        |p| p.cbf.brake_gamma,
+        |p, v| p.cbf.brake_gamma = v,
+    ),
     Param {
         name: "VEH_MASS",
         key: None,

@@ -18,7 +18,8 @@
 //! Variants ([`FilterVariant`]): `Paper` (eq. 12 + closest-active eq. 14, own
 //! velocity), `Relative` (closest-active, relative velocity, robust term),
 //! `Multi` (every near barrier at once, own velocity: exact min-norm QP),
-//! `MultiRelative` (both; the default).
+//! `MultiRelative` (both; the default), and `Braking` (the braking-distance barrier of
+//! [`super::braking`], every near barrier at once with relative velocity).
 
 use crate::fmath::{maxf, minf, norm3, sqrtf};
 use crate::obstacle::ObstaclePoint;
@@ -56,6 +57,10 @@ pub enum CbfError {
     VelocityMarginNegative,
     /// The class-K relaxation rate γ must be finite and ≥ 0.
     GammaNegative,
+    /// The braking deceleration must be finite, > 0 and ≤ u_max.
+    BrakeAccelOutOfRange,
+    /// The braking delay must be finite and in [0.01, 1] s.
+    BrakeDelayOutOfRange,
 }
 
 impl core::fmt::Display for CbfError {
@@ -69,6 +74,8 @@ impl core::fmt::Display for CbfError {
             CbfError::SampleTimeOutOfRange => "sample_time must be finite and in [0, 1] s",
             CbfError::VelocityMarginNegative => "velocity_margin must be finite and >= 0",
             CbfError::GammaNegative => "gamma must be finite and >= 0",
+            CbfError::BrakeAccelOutOfRange => "brake_accel must be finite, > 0 and <= u_max",
+            CbfError::BrakeDelayOutOfRange => "brake_delay must be finite and in [0.01, 1] s",
         })
     }
 }
@@ -108,6 +115,15 @@ pub struct CbfParams {
     /// same term pushes back out. The event rule (δ1, [`sample_time`](Self::sample_time))
     /// is unchanged. Default 0 (the paper's `ḣ ≥ 0`).
     pub gamma: f32,
+    /// a_b, m/s²: the deceleration the braking-distance barrier counts on
+    /// ([`FilterVariant::Braking`], `super::braking`); at most `u_max`. Default 3.0.
+    pub brake_accel: f32,
+    /// τ, s: actuation lag plus sensing latency before braking takes effect, in the
+    /// braking-distance barrier. Default 0.1.
+    pub brake_delay: f32,
+    /// γ_b, 1/s: class-K rate of the braking-distance barrier, `ḣ_b ≥ −γ_b h_b` (it is in
+    /// force for every point, slack far away). Default 2.0.
+    pub brake_gamma: f32,
 }
 
 impl Default for CbfParams {
@@ -121,6 +137,9 @@ impl Default for CbfParams {
             velocity_margin: 0.0,
             sample_time: 0.0,
             gamma: 0.0,
+            brake_accel: 3.0,
+            brake_delay: 0.1,
+            brake_gamma: 2.0,
         }
     }
 }
@@ -158,6 +177,15 @@ impl CbfParams {
         if !(self.gamma.is_finite() && self.gamma >= 0.0) {
             return Err(CbfError::GammaNegative);
         }
+        if !(self.brake_accel.is_finite() && self.brake_accel > 0.0 && self.brake_accel <= self.u_max) {
+            return Err(CbfError::BrakeAccelOutOfRange);
+        }
+        if !(self.brake_delay.is_finite() && (0.01..=1.0).contains(&self.brake_delay)) {
+            return Err(CbfError::BrakeDelayOutOfRange);
+        }
+        if !(self.brake_gamma.is_finite() && self.brake_gamma >= 0.0) {
+            return Err(CbfError::GammaNegative);
+        }
         Ok(())
     }
 }
@@ -175,11 +203,23 @@ pub enum FilterVariant {
     /// Every near barrier at once with relative velocity. The default.
     #[default]
     MultiRelative,
+    /// The braking-distance barrier `h_b = |d| − r − s²/(2a_b) − τs` (`super::braking`),
+    /// every near barrier at once, relative velocity.
+    Braking,
 }
 
 impl FilterVariant {
     /// All variants, in documentation order.
-    pub const ALL: [FilterVariant; 4] =
+    pub const ALL: [FilterVariant; 5] = [
+        FilterVariant::Paper,
+        FilterVariant::Relative,
+        FilterVariant::Multi,
+        FilterVariant::MultiRelative,
+        FilterVariant::Braking,
+    ];
+
+    /// The variants on the paper's barrier `h = |d|² + μdᵀḋ` (all but [`FilterVariant::Braking`]).
+    pub const SQUARED_DISTANCE: [FilterVariant; 4] =
         [FilterVariant::Paper, FilterVariant::Relative, FilterVariant::Multi, FilterVariant::MultiRelative];
 
     /// Name used on the command line and in reports.
@@ -189,15 +229,16 @@ impl FilterVariant {
             FilterVariant::Relative => "relative",
             FilterVariant::Multi => "multi",
             FilterVariant::MultiRelative => "multi-relative",
+            FilterVariant::Braking => "braking",
         }
     }
     /// `true` for the variants that use the obstacle's velocity.
     pub fn uses_relative_velocity(&self) -> bool {
-        matches!(self, FilterVariant::Relative | FilterVariant::MultiRelative)
+        matches!(self, FilterVariant::Relative | FilterVariant::MultiRelative | FilterVariant::Braking)
     }
     /// `true` for the variants that enforce several barriers at once.
     pub fn is_multi(&self) -> bool {
-        matches!(self, FilterVariant::Multi | FilterVariant::MultiRelative)
+        matches!(self, FilterVariant::Multi | FilterVariant::MultiRelative | FilterVariant::Braking)
     }
 }
 
@@ -511,7 +552,9 @@ impl SafetyFilter {
     ) -> (Vec3, FilterDiagnostics) {
         // One copy per kind of law, so each obstacle loop carries only its own bookkeeping
         // (measured on the Cortex-M4F: the shared loop cost `paper` ≈ 240 instructions at K = 16).
-        if self.variant.is_multi() {
+        if self.variant == FilterVariant::Braking {
+            super::braking::apply(self, p, v, u_nom, obstacles)
+        } else if self.variant.is_multi() {
             self.apply_as::<true>(p, v, u_nom, obstacles)
         } else {
             self.apply_as::<false>(p, v, u_nom, obstacles)
@@ -657,20 +700,28 @@ impl SafetyFilter {
             return (*u_nom, diag);
         }
         let u_brake = v * (-2.0 / self.params.mu);
-        // Bound: the optimum lies within 2|u* − u_brake| of the braking input whenever the
-        // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
-        // beyond it; 4·Σ max(c'_i, 0) leaves room for those (a single plane's projection is
-        // always within it, however large the class-K relaxation's demand: capped at 2·u_max
-        // the projection was out of reach and u* itself came back), and excludes the far
-        // sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
-        let shift: f32 = cons.iter().map(|h| maxf(h.c - h.n.dot(&u_brake), 0.0)).sum();
-        let bound = 2.0 * norm3(&(u_nom - u_brake)) + 4.0 * shift;
-        let sol = qp3::project_bounded(u_nom, cons, &u_brake, bound);
-        diag.region = Region::Perpendicular;
-        diag.intervened = true;
-        diag.infeasible = !sol.feasible;
-        (sol.u, diag)
+        (project_near(u_nom, cons, &u_brake, &mut diag), diag)
     }
+}
+
+/// The minimum-norm correction of `u_nom` onto the enforced constraints `cons` (violated by
+/// `u_nom`), searched around the braking input `u_brake`; sets the diagnostics' region
+/// (`D_⊥`), `intervened` and `infeasible`. Shared by the multi variants and
+/// [`super::braking`].
+pub(super) fn project_near(u_nom: &Vec3, cons: &[HalfSpace], u_brake: &Vec3, diag: &mut FilterDiagnostics) -> Vec3 {
+    // Bound: the optimum lies within 2|u* − u_brake| of the braking input whenever the
+    // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
+    // beyond it; 4·Σ max(c'_i, 0) leaves room for those (a single plane's projection is
+    // always within it, however large the class-K relaxation's demand: capped at 2·u_max
+    // the projection was out of reach and u* itself came back), and excludes the far
+    // sliver where nearly opposite, contradictory barriers meet (then: `infeasible`).
+    let shift: f32 = cons.iter().map(|h| maxf(h.c - h.n.dot(u_brake), 0.0)).sum();
+    let bound = 2.0 * norm3(&(u_nom - u_brake)) + 4.0 * shift;
+    let sol = qp3::project_bounded(u_nom, cons, u_brake, bound);
+    diag.region = Region::Perpendicular;
+    diag.intervened = true;
+    diag.infeasible = !sol.feasible;
+    sol.u
 }
 
 #[cfg(test)]
@@ -998,7 +1049,7 @@ mod tests {
                     accel_bound: accel,
                     ..CbfParams::new(1.4, 0.05, delta1).unwrap()
                 };
-                let f = SafetyFilter::new(params, FilterVariant::ALL[variant]).unwrap();
+                let f = SafetyFilter::new(params, FilterVariant::SQUARED_DISTANCE[variant]).unwrap();
                 let p = Vec3::new(1.0, -2.0, -1.5);
                 let obs: Vec<ObstaclePoint> =
                     obs.iter().map(|o| ObstaclePoint { point: p + o.point, ..*o }).collect();
@@ -1015,7 +1066,7 @@ mod tests {
         // At rest 0.3 m from a point (h = 0.09, δ = 0.05, δ1 = 0.1), nominal pulls at it.
         let obs = [ObstaclePoint::fixed(Vec3::zeros(), 3)];
         let u = Vec3::new(-1.0, 0.0, 0.0);
-        for variant in FilterVariant::ALL {
+        for variant in FilterVariant::SQUARED_DISTANCE {
             let mk = |gamma: f32| {
                 let p = CbfParams { gamma, ..CbfParams::new(1.4, 0.05, 0.1).unwrap() };
                 SafetyFilter::new(p, variant).unwrap()
