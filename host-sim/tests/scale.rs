@@ -79,6 +79,7 @@ fn forest_with_walkers() -> Scene {
                 name: None,
                 shape: Shape::cylinder(to_f32(&Vector3::new(c.x, c.y, 0.0)), 0.25, 1.8),
                 motion: Motion::Velocity(Vector3::new(0.2, -0.3 + 0.2 * k as f64, 0.0)),
+                mapped: true,
             },
         );
     }

@@ -35,6 +35,7 @@ fn big_scene() -> Scene {
             name: None,
             shape: Shape::sphere(to_f32(&c), 0.2),
             motion: Motion::Static,
+            mapped: true,
         });
     }
     s

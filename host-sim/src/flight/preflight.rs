@@ -23,9 +23,11 @@
 //! 3. **Every waypoint** `i` of the path: its centre inside the scene bounds
 //!    (the bounds are where the centre of mass may be, as for the planner; with
 //!    [`BOUNDS_TOLERANCE_M`] for the `f32` round-off of path files), the hull
-//!    clear of the ground and of every **static** obstacle. Moving obstacles
-//!    are not checked at waypoints: they are elsewhere when the vehicle gets
-//!    there, and the safety filter handles them in flight. Segments between
+//!    clear of the ground and of every **static mapped** obstacle (the map the
+//!    path was planned on). Moving obstacles are not checked at waypoints: they
+//!    are elsewhere when the vehicle gets there, and the safety filter handles
+//!    them in flight; unmapped ones (`mapped = false`) are not known before the
+//!    flight, and the sensors and the filter meet them in flight. Segments between
 //!    waypoints are not checked either (a straight line through an obstacle is
 //!    what the filter is there for).
 //!
@@ -124,14 +126,14 @@ pub fn check(scene: &Scene, cfg: &RunConfig, opts: &PreflightOptions) -> Result<
                 &origin,
                 format!(
                     "the waypoint puts the hull (radius {hull:.4} m) into {} of scene {}: {}",
-                    obstacle_label(scene, j),
+                    scene.obstacle_label(j),
                     scene.source,
                     depth(sd)
                 ),
             )
             .field(field(i))
             .value(fmt3(&e))
-            .allowed(format!("distance to every static obstacle ≥ {hull:.4} m")));
+            .allowed(format!("distance to every static mapped obstacle ≥ {hull:.4} m")));
         }
     }
     Ok(())
@@ -156,7 +158,7 @@ pub fn check_start(scene: &Scene) -> Result<(), InputError> {
             &scene.source,
             format!(
                 "the start puts the hull (radius {hull:.4} m) into {} at t = 0: {}",
-                obstacle_label(scene, j),
+                scene.obstacle_label(j),
                 depth(sd)
             ),
         )
@@ -192,11 +194,11 @@ fn ground_violation(p: &Vector3<f64>, hull: f64) -> Option<String> {
 }
 
 /// The first obstacle (index, signed distance of `p` to its surface at t = 0)
-/// that the hull at `p` intersects; only static obstacles when `static_only`.
-fn obstacle_violation(scene: &Scene, p: &Vector3<f64>, hull: f64, static_only: bool) -> Option<(usize, f64)> {
+/// that the hull at `p` intersects; only the map's (static, mapped) when `map_only`.
+fn obstacle_violation(scene: &Scene, p: &Vector3<f64>, hull: f64, map_only: bool) -> Option<(usize, f64)> {
     let pf = to_f32(p);
     scene.obstacles.iter().enumerate().find_map(|(j, o)| {
-        if static_only && !o.is_static() {
+        if map_only && !o.in_map() {
             return None;
         }
         let sd = o.at(0.0).0.signed_distance(&pf) as f64;
@@ -213,13 +215,6 @@ fn depth(sd: f64) -> String {
     }
 }
 
-/// `obstacles[j] ("name")` as in scene-file messages.
-fn obstacle_label(scene: &Scene, j: usize) -> String {
-    match scene.obstacles.get(j).and_then(|o| o.name.as_deref()) {
-        Some(n) => format!("obstacles[{j}] ({n})"),
-        None => format!("obstacles[{j}]"),
-    }
-}
 
 /// `[x, y, z]` with up to 4 decimals, as a user would write it.
 fn fmt3(a: &[f64; 3]) -> String {

@@ -588,10 +588,7 @@ pub fn run_with(
         first_collision_time_s: collided_at,
         collision_obstacle,
         collision_with: collided_at.map(|_| match collision_obstacle {
-            Some(i) => match &scene.obstacles[i].name {
-                Some(n) => format!("obstacles[{i}] ({n})"),
-                None => format!("obstacles[{i}]"),
-            },
+            Some(i) => scene.obstacle_label(i),
             None => "ground".to_string(),
         }),
         min_clearance_m: min_clear.min(samples.iter().map(|s| s.clearance).fold(f64::INFINITY, f64::min)),
@@ -632,6 +629,7 @@ pub fn run_with(
         seed: cfg.seed,
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
+        unmapped_obstacles: scene.unmapped_count(),
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
     Ok(RunOutput { samples, summary, ranges })
@@ -657,6 +655,7 @@ mod tests {
             name: Some("walker".into()),
             shape: Shape::sphere(to_f32(&a), 0.3),
             motion: Motion::Waypoints(vec![(0.0, a), (20.0, a + Vector3::new(4.0, 1.0, 0.0))]),
+            mapped: true,
         });
         s
     }

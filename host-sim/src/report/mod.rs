@@ -171,6 +171,9 @@ pub struct Summary {
     pub noise: bool,
     /// Outer steps with each safety flag (unavoidable, infeasible, deadlock, dropped obstacles).
     pub safety_steps: SafetySteps,
+    /// Obstacles of the scene with `mapped = false`: in the world (sensed, collided
+    /// with) but not in the map the path was planned on.
+    pub unmapped_obstacles: usize,
 }
 
 /// Safety flags of one outer step beyond the filter's own (issue 17).

@@ -15,6 +15,9 @@ use plotters::prelude::*;
 use super::{e, RunRecord};
 use crate::world::scene::{ned_to_enu_arr, to_f64};
 
+/// Fill of unmapped static obstacles in the top view (`mapped = false`).
+const UNMAPPED_FILL: RGBColor = RGBColor(230, 210, 60);
+
 pub(super) fn plot_both(dir: &Path, name: &str, rec: &RunRecord) -> Result<Vec<PathBuf>> {
     let (w, h) = plot_size(name, rec);
     let svg = dir.join(format!("{name}.svg"));
@@ -97,10 +100,11 @@ where
     root.fill(&WHITE).map_err(e)?;
     let (mn, mx) = rec.scene.bounds_enu;
     let title = format!(
-        "{} — {} (planned green, flown blue{}; light grey: below flight level{})",
+        "{} — {} (planned green, flown blue{}{}; light grey: below flight level{})",
         rec.summary.scene,
         rec.summary.filter,
         if rec.ranges.is_empty() { "" } else { ", orange: range returns" },
+        if rec.scene.unmapped_count() == 0 { "" } else { ", yellow: unmapped" },
         if rec.summary.collided { ", collision ×" } else { "" }
     );
     let mut chart = ChartBuilder::on(root)
@@ -123,10 +127,12 @@ where
         // Obstacles whose top is below the start height (desks, low furniture) are
         // drawn lighter: the vehicle may fly over them.
         let low = top_height(&o.shape) < -rec.scene.start.z - rec.scene.vehicle.hull_radius;
-        let fill = match (moving, low) {
-            (true, _) => RGBColor(230, 160, 160),
-            (false, true) => RGBColor(215, 215, 215),
-            (false, false) => RGBColor(160, 160, 160),
+        let fill = match (moving, low, o.mapped) {
+            (true, _, _) => RGBColor(230, 160, 160),
+            // Unmapped (not in the map the path was planned on): yellow, as on the replay page.
+            (false, _, false) => UNMAPPED_FILL,
+            (false, true, true) => RGBColor(215, 215, 215),
+            (false, false, true) => RGBColor(160, 160, 160),
         };
         if moving {
             // Track of its reference point, faint poses every 1/6 of the run, the
@@ -160,6 +166,11 @@ where
             }
         } else {
             chart.draw_series(std::iter::once(Polygon::new(outline(&o.shape), fill.filled()))).map_err(e)?;
+            if !o.mapped {
+                let mut edge = outline(&o.shape);
+                edge.extend(edge.first().copied());
+                chart.draw_series(std::iter::once(PathElement::new(edge, BLACK.stroke_width(1)))).map_err(e)?;
+            }
         }
     }
     let to2 = |v: &Vector3<f64>| {

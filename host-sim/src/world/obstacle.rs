@@ -32,6 +32,11 @@ pub struct SceneObstacle {
     pub shape: Shape,
     /// Motion.
     pub motion: Motion,
+    /// Part of the map (`mapped`, default `true`). An unmapped obstacle is in the
+    /// world — the sensors, the collision check and the reports see it — but not in
+    /// what the vehicle is told beforehand: the planner, the mission and the
+    /// pre-flight path check never see it ([`crate::world::scene::Scene::map_shapes`]).
+    pub mapped: bool,
 }
 
 fn v3(a: &[f32; 3]) -> Vector3<f64> {
@@ -49,6 +54,12 @@ pub fn reference_point(shape: &Shape) -> Vector3<f64> {
 }
 
 impl SceneObstacle {
+    /// `true` when the obstacle is static and part of the map: what an offline
+    /// planner knows about.
+    pub fn in_map(&self) -> bool {
+        self.mapped && self.is_static()
+    }
+
     /// `true` when the obstacle never moves.
     pub fn is_static(&self) -> bool {
         match &self.motion {

@@ -551,12 +551,13 @@ mod tests {
         let mut sc = Scene::parse(src, "r.toml").unwrap();
         sc.obstacles = crate::world::index::tests::random_shapes(&mut rng, n, 20.0)
             .into_iter()
-            .map(|shape| SceneObstacle { name: None, shape, motion: Motion::Static })
+            .map(|shape| SceneObstacle { name: None, shape, motion: Motion::Static, mapped: true })
             .collect();
         sc.obstacles.push(SceneObstacle {
             name: None,
             shape: Shape::sphere(Vec3::new(0.0, 3.0, -1.0), 0.5),
             motion: Motion::Velocity(Vector3::new(0.5, -0.3, 0.0)),
+            mapped: true,
         });
         sc
     }
@@ -598,6 +599,7 @@ mod tests {
                     name: None,
                     shape,
                     motion: crate::world::obstacle::Motion::Static,
+                    mapped: true,
                 })
                 .collect();
             sc.obstacles.extend(moving);

@@ -19,6 +19,8 @@
 //! [[obstacles]] kind = "cylinder" base = [x, y, z]    radius = r  height = h
 //! # any obstacle may move: velocity = [vx, vy, vz], or
 //! #   waypoints = [[t, x, y, z], ...]  (piecewise linear in time)
+//! # mapped = false: in the world (sensors, collisions, reports) but not in the map
+//! #   (planner, mission, pre-flight path check); default true. Never over the start.
 //! ```
 //!
 //! Unknown keys and invalid values are errors naming the file, the table
@@ -196,6 +198,8 @@ impl Scene {
             obstacles.push(convert_obstacle(o).map_err(|m| err(format!("obstacles[{i}]: {m}")))?);
         }
         super::check::obstacles(&obstacles).map_err(err)?;
+        unmapped_clear_of_start(&obstacles, &enu_arr_to_ned(raw.mission.start), vehicle.hull_radius)
+            .map_err(err)?;
         let range_sensors = super::schema::convert_sensors(&raw.sensor).map_err(err)?;
         if let Some(b) = &raw.battery {
             b.validate(file).map_err(|e| {
@@ -229,9 +233,35 @@ impl Scene {
         (a.inf(&b), a.sup(&b))
     }
 
-    /// Shapes of the static obstacles (NED), what an offline planner knows.
+    /// Shapes of the static obstacles (NED), mapped or not (the world as it stands).
     pub fn static_shapes(&self) -> Vec<Shape> {
         self.obstacles.iter().filter(|o| o.is_static()).map(|o| o.shape).collect()
+    }
+
+    /// Shapes of the static **mapped** obstacles (NED): the map, what an offline
+    /// planner and the mission know ([`SceneObstacle::in_map`]).
+    pub fn map_shapes(&self) -> Vec<Shape> {
+        self.obstacles.iter().filter(|o| o.in_map()).map(|o| o.shape).collect()
+    }
+
+    /// Number of obstacles with `mapped = false`.
+    pub fn unmapped_count(&self) -> usize {
+        self.obstacles.iter().filter(|o| !o.mapped).count()
+    }
+
+    /// `obstacles[i]`, with its name and `unmapped` when it is not in the map, as
+    /// messages and reports name an obstacle: `obstacles[3] (crate, unmapped)`.
+    pub fn obstacle_label(&self, i: usize) -> String {
+        let o = self.obstacles.get(i);
+        let mut notes: Vec<&str> = o.and_then(|o| o.name.as_deref()).into_iter().collect();
+        if o.is_some_and(|o| !o.mapped) {
+            notes.push("unmapped");
+        }
+        if notes.is_empty() {
+            format!("obstacles[{i}]")
+        } else {
+            format!("obstacles[{i}] ({})", notes.join(", "))
+        }
     }
 
     /// Every obstacle's shape and velocity at time `t` (s), NED.
@@ -252,6 +282,25 @@ impl Scene {
         }
         best
     }
+}
+
+/// An unmapped obstacle may not cover the mission start (the hull of radius `hull`
+/// at `start`, NED, intersecting it): the vehicle would start inside something the
+/// map does not know. The error names the obstacle and the field `mapped`.
+fn unmapped_clear_of_start(obstacles: &[SceneObstacle], start: &Vector3<f64>, hull: f64) -> Result<(), String> {
+    let p = to_f32(start);
+    for (i, o) in obstacles.iter().enumerate().filter(|(_, o)| !o.mapped) {
+        let sd = o.at(0.0).0.signed_distance(&p) as f64;
+        if sd.is_nan() || sd < hull {
+            return Err(format!(
+                "obstacles[{i}]: field `mapped`: false, but the obstacle covers the mission start {:?} \
+                 (distance from the start to its surface {sd:.4} m < hull radius {hull:.4} m; allowed: an \
+                 unmapped obstacle at least the hull radius from the start, or `mapped = true`)",
+                ned_to_enu_arr(start)
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -499,6 +548,7 @@ mod tracker {
             name: None,
             shape: Shape::sphere(to_f32(&(scene.start + Vector3::new(1.0, 0.0, 0.0))), 0.3),
             motion: Motion::Velocity(Vector3::new(0.1, 0.2, 0.0)),
+            mapped: true,
         });
         // A "moving" obstacle that stands still away from where its shape was written.
         let still = scene.start + Vector3::new(-0.6, 0.4, 0.0);
@@ -506,6 +556,7 @@ mod tracker {
             name: None,
             shape: Shape::aabb(Vec3::new(9.0, 9.0, -1.0), Vec3::new(9.3, 9.2, -0.5)),
             motion: Motion::Waypoints(vec![(0.0, still), (5.0, still)]),
+            mapped: true,
         });
         assert!(scene.obstacles[scene.obstacles.len() - 1].is_static());
         let n = scene.obstacles.len();

@@ -170,6 +170,9 @@ pub(crate) struct RawObstacle {
     velocity: Option<[f64; 3]>,
     #[serde(default, deserialize_with = "exact::option_arrays")]
     waypoints: Option<Vec<[f64; 4]>>,
+    /// `false`: in the world, not in the map (`SceneObstacle::mapped`); default `true`.
+    #[serde(default)]
+    mapped: Option<bool>,
 }
 
 /// `|x| ≤ MAX_COORDINATE_M` for every component.
@@ -420,7 +423,7 @@ pub(crate) fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> 
         }
         (None, None) => Motion::Static,
     };
-    Ok(SceneObstacle { name: o.name, shape, motion })
+    Ok(SceneObstacle { name: o.name, shape, motion, mapped: o.mapped.unwrap_or(true) })
 }
 
 /// Turn a TOML/serde error into "line N, <table>, field `k`: message".

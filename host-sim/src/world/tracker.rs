@@ -338,7 +338,7 @@ mod tests {
         let mut scene = Scene::parse(&src, "r.toml").unwrap();
         scene.obstacles = shapes
             .into_iter()
-            .map(|shape| SceneObstacle { name: None, shape, motion: Motion::Static })
+            .map(|shape| SceneObstacle { name: None, shape, motion: Motion::Static, mapped: true })
             .collect();
         for k in 0..2 {
             let c = Vec3::new(k as f32, 1.0, -1.0);
@@ -348,6 +348,7 @@ mod tests {
                     name: None,
                     shape: Shape::sphere(c, 0.4),
                     motion: Motion::Velocity(Vector3::new(0.3, -0.2, 0.0)),
+                    mapped: true,
                 },
             );
         }

@@ -69,6 +69,8 @@
   // Obstacles, as the scene file has them (ENU); moving ones follow their motion.
   var obstacleMat = new THREE.MeshStandardMaterial({ color: 0x8c9db3, roughness: 0.85, transparent: true, opacity: 0.72 });
   var movingMat = new THREE.MeshStandardMaterial({ color: 0xb38cb0, roughness: 0.85, transparent: true, opacity: 0.72 });
+  // Unmapped obstacles (`mapped = false`: in the world, not in the map the path was planned on).
+  var unmappedMat = new THREE.MeshStandardMaterial({ color: 0xe6d23c, roughness: 0.85, transparent: true, opacity: 0.72 });
   var activeMat = new THREE.MeshStandardMaterial({ color: 0xff7a1a, roughness: 0.6, emissive: 0x802000 });
   var edgeMat = new THREE.LineBasicMaterial({ color: 0x4d5a6b });
   var obstacleMeshes = [];
@@ -91,9 +93,10 @@
       pos = o.center.slice();
     }
     var moving = !!(o.velocity || o.waypoints);
-    var mesh = new THREE.Mesh(geo, moving ? movingMat : obstacleMat);
+    var unmapped = o.mapped === false;
+    var mesh = new THREE.Mesh(geo, moving ? movingMat : unmapped ? unmappedMat : obstacleMat);
     mesh.position.set(pos[0], pos[1], pos[2]);
-    mesh.userData = { obstacle: i, home: pos, moving: moving, baseMat: mesh.material };
+    mesh.userData = { obstacle: i, home: pos, moving: moving, unmapped: unmapped, baseMat: mesh.material };
     if (D.obstacles.length <= 3000) mesh.add(new THREE.LineSegments(new THREE.EdgesGeometry(geo), edgeMat));
     obstacleGroup.add(mesh);
     obstacleMeshes.push(mesh);
@@ -338,7 +341,7 @@
   if (D.mode_changes_cut) $("modes").appendChild(document.createTextNode("… (list cut)"));
   $("title").textContent = D.scene + " — " + D.filter + " — " + D.end_reason;
   $("note").textContent = "Drawn: " + N + " of " + D.n_samples + " samples (decimated for display; the texts are trajectory.csv's digits of the sample shown). " +
-    "Planned path green, reference dashed grey, flown track coloured by speed; hull coloured by the filter's region (grey far, green nominal safe, orange filtering, red fault); obstacle the filter acts on in orange; moving obstacles violet." +
+    "Planned path green, reference dashed grey, flown track coloured by speed; hull coloured by the filter's region (grey far, green nominal safe, orange filtering, red fault); obstacle the filter acts on in orange; moving obstacles violet; unmapped obstacles (not in the planned-on map) yellow." +
     (D.interventions_cut ? " Intervention list cut at its first entries." : "");
   $("legend").innerHTML = "speed 0<span class=\"bar\" style=\"background:linear-gradient(90deg,hsl(238,90%,45%),hsl(119,90%,45%),hsl(0,90%,45%))\"></span>" +
     vmax.toFixed(2) + " m/s <i style=\"background:#1f9d3a\"></i>planned <i style=\"background:#666\"></i>reference";
@@ -517,6 +520,7 @@
       scene.traverse(function (o) { if (o.isMesh && o.userData && o.userData.obstacle !== undefined) count++; });
       p.obstacle_meshes = count;
       p.scene_obstacles = D.obstacles.length;
+      p.unmapped_meshes = obstacleMeshes.filter(function (m) { return m.userData.unmapped; }).length;
       p.n_samples = D.n_samples;
       p.n_display = N;
       p.sample_index = N > 0 ? S.i[state.k] : null;

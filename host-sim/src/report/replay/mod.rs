@@ -31,7 +31,7 @@ use parapet_core::obstacle::Shape;
 
 use super::{RunRecord, Sample};
 use crate::decimal::push_fixed;
-use crate::world::scene::{ned_to_enu_arr, reference_point, to_f64, Motion};
+use crate::world::scene::{ned_to_enu_arr, reference_point, to_f64, Motion, SceneObstacle};
 
 /// The page's file name in a report directory.
 pub const REPLAY_HTML: &str = "replay.html";
@@ -218,7 +218,7 @@ fn data_json(rec: &RunRecord) -> String {
     j.raw("],\"obstacles\":[");
     for (i, o) in rec.scene.obstacles.iter().enumerate() {
         j.sep(i);
-        obstacle_json(&mut j, &o.name, &o.shape, &o.motion);
+        obstacle_json(&mut j, o);
     }
     j.raw("],\"regions\":[");
     for (i, r) in REGIONS.iter().enumerate() {
@@ -363,7 +363,8 @@ fn interventions(samples: &[Sample]) -> (Vec<(f64, f64)>, bool) {
 
 /// One obstacle: kind and sizes as the scene schema has them, in ENU (file frame), its
 /// reference point `r` (what waypoints move) and its motion.
-fn obstacle_json(j: &mut Json, name: &Option<String>, shape: &Shape, motion: &Motion) {
+fn obstacle_json(j: &mut Json, o: &SceneObstacle) {
+    let (name, shape, motion) = (&o.name, &o.shape, &o.motion);
     let enu = |a: &[f32; 3]| ned_to_enu_arr(&to_f64(&(*a).into()));
     j.raw("{\"kind\":");
     match shape {
@@ -418,6 +419,10 @@ fn obstacle_json(j: &mut Json, name: &Option<String>, shape: &Shape, motion: &Mo
             }
             j.raw("]");
         }
+    }
+    if !o.mapped {
+        // Only unmapped obstacles carry the flag (the page's default is mapped).
+        j.raw(",\"mapped\":false");
     }
     j.raw("}");
 }

@@ -67,6 +67,7 @@ fn summary(scene: &Scene, n: usize) -> Summary {
         seed: 0,
         noise: false,
         safety_steps: SafetySteps::default(),
+        unmapped_obstacles: scene.unmapped_count(),
     }
 }
 
