@@ -1,31 +1,50 @@
-//! Worlds at scale (issue 18): `cargo bench -p parapet-sim --bench scale`.
+//! Worlds at scale (issues 18, 38): `cargo bench -p parapet-sim --bench scale`.
 //!
-//! For generated scenes (`world::generate`, forest and city) of 10³, 10⁴ and
-//! 10⁵ obstacles, several generator seeds each, it measures and prints:
+//! For generated scenes (`world::generate`: the sparse forest of the defaults,
+//! 0.05 trunks/m²; the dense forest of issue 38, 0.35 trunks/m², radius
+//! 0.08–0.3 m; the city) of 10³, 10⁴ and 10⁵ obstacles, several generator seeds
+//! each, it measures and prints:
 //! * the scene file's size, the thread-CPU time (ms) to parse and validate it
 //!   (`Scene::parse`, the loader's work after reading the file) and to build
 //!   the planner's index;
 //! * `plan` over planner seeds: success count, median / p95 wall time and
 //!   median thread-CPU time **with a prebuilt index** (`plan_with_index`, what
 //!   a sweep or a second mission in the same world costs) and of the whole
-//!   `plan` call (index built inside), median iterations and path length.
+//!   `plan` call (index built inside), median iterations (RRT-Connect) or A*
+//!   expansions (grid), how many paths the grid search found, and the median
+//!   path length;
+//! * an independent clearance check of every path (`tests/common/clearance.rs`:
+//!   parry3d's segment–shape distances): the smallest clearance over all paths
+//!   minus the planner's hull radius + margin (must be ≥ −0.1 mm; the bench
+//!   fails otherwise).
 //!
 //! It writes `target/scale/plan_scale.csv` (one row per call) and the log-log
 //! plot of planning cost against obstacle count, `target/scale/plan_scale.svg`
 //! (copied to `docs/figures/` for `docs/performance.md`). `SCALE_QUICK=1` runs one
-//! scene seed and 5 planner seeds per size.
+//! scene seed and 5 planner seeds per size; `SCALE_KINDS=forest,dense,city` (any
+//! of them) and `SCALE_SIZES=10000,100000` choose the rows.
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
 use parapet_sim::plan::generate::generate;
-use parapet_sim::plan::{index_for, plan, plan_with_index, PlanProblem, PlannerParams};
+use parapet_sim::plan::{
+    index_for, plan, plan_with_index, PlanMethod, PlanProblem, PlannerParams, DEFAULT_MARGIN_M,
+};
 use parapet_sim::world::generate::{GenParams, Kind};
 use parapet_sim::world::scene::Scene;
 use plotters::prelude::*;
 
 mod common;
+#[path = "../tests/common/clearance.rs"]
+mod clearance;
+
+/// Comma list of an environment variable (`None` when unset or empty).
+fn env_list(name: &str) -> Option<Vec<String>> {
+    let v = std::env::var(name).ok().filter(|v| !v.is_empty())?;
+    Some(v.split(',').map(|x| x.trim().to_string()).collect())
+}
 
 /// This thread's CPU time, ns (0 where it cannot be read).
 fn thread_cpu_ns() -> u64 {
@@ -53,11 +72,14 @@ fn main() {
     let out_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scale");
     std::fs::create_dir_all(&out_dir).expect("target/scale");
     let mut csv = String::from(
-        "kind,obstacles,scene_seed,plan_seed,ok,wall_ms,cpu_ms,full_wall_ms,iterations,length_m\n",
+        "kind,obstacles,scene_seed,plan_seed,ok,wall_ms,cpu_ms,full_wall_ms,method,iterations,length_m,clearance_m\n",
     );
+    let kinds = env_list("SCALE_KINDS");
+    let sizes: Option<Vec<usize>> =
+        env_list("SCALE_SIZES").map(|v| v.iter().map(|x| x.parse().expect("SCALE_SIZES: numbers")).collect());
     let mut rows: Vec<Row> = Vec::new();
     println!(
-        "{:<7} {:>7} {:>6} {:>9} {:>8} {:>9} {:>7} {:>10} {:>9} {:>10} {:>11} {:>8} {:>8}",
+        "{:<7} {:>7} {:>6} {:>9} {:>8} {:>9} {:>7} {:>10} {:>9} {:>10} {:>11} {:>8} {:>8} {:>4} {:>8}",
         "kind",
         "obst",
         "scenes",
@@ -70,15 +92,29 @@ fn main() {
         "cpu_med_ms",
         "full_med_ms",
         "med_iter",
-        "len_m"
+        "len_m",
+        "grid",
+        "clear_mm"
     );
-    for (kind, name) in [(Kind::Forest, "forest"), (Kind::City, "city")] {
+    let dense = GenParams { density: 0.35, radius_min: 0.08, radius_max: 0.3, ..GenParams::default() };
+    let worlds = [
+        ("forest", GenParams { kind: Kind::Forest, ..GenParams::default() }),
+        ("dense", GenParams { kind: Kind::Forest, ..dense }),
+        ("city", GenParams { kind: Kind::City, ..GenParams::default() }),
+    ];
+    for (name, base) in worlds {
+        if kinds.as_ref().is_some_and(|k| !k.iter().any(|k| k == name)) {
+            continue;
+        }
         for n in [1_000usize, 10_000, 100_000] {
+            if sizes.as_ref().is_some_and(|v| !v.contains(&n)) {
+                continue;
+            }
             let (mut load, mut build, mut wall, mut cpu, mut full, mut iters, mut lens) =
                 (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
-            let (mut ok, mut total, mut bytes) = (0, 0, 0usize);
+            let (mut ok, mut total, mut bytes, mut grid, mut clear) = (0, 0, 0usize, 0, f64::INFINITY);
             for s in 0..scene_seeds {
-                let g = generate(&GenParams { kind, obstacles: n, seed: s, ..GenParams::default() })
+                let g = generate(&GenParams { obstacles: n, seed: s, ..base.clone() })
                     .unwrap_or_else(|e| panic!("{name} {n} seed {s}: {e}"));
                 bytes = g.toml.len();
                 let c = thread_cpu_ns();
@@ -88,6 +124,8 @@ fn main() {
                 let c = thread_cpu_ns();
                 let index = index_for(&problem);
                 build.push((thread_cpu_ns() - c) as f64 / 1e6);
+                let obstacles = clearance::Obstacles::new(&problem.obstacles);
+                let required = (problem.hull_radius + DEFAULT_MARGIN_M) as f64;
                 for seed in 0..plan_seeds {
                     let params = PlannerParams { seed, ..PlannerParams::default() };
                     let (t, c) = (Instant::now(), thread_cpu_ns());
@@ -100,11 +138,25 @@ fn main() {
                         assert_eq!(a.waypoints, b.waypoints, "{name} {n}: prebuilt index and plan differ");
                     }
                     total += 1;
-                    let (okk, it, len) = match &r {
-                        Ok(p) => (true, p.iterations as f64, p.length_m as f64),
-                        Err(_) => (false, f64::NAN, f64::NAN),
+                    let (okk, it, len, method, margin) = match &r {
+                        Ok(p) => {
+                            let (d, k, i) = obstacles.min_clearance(&p.waypoints, required + 1.0);
+                            assert!(
+                                d >= required - 1e-4,
+                                "{name} {n} seed {s}/{seed}: segment {k} is {d} m from obstacle {i} (< {required})"
+                            );
+                            (true, p.iterations as f64, p.length_m as f64, p.method.as_str(), d - required)
+                        }
+                        Err(_) => (false, f64::NAN, f64::NAN, "-", f64::NAN),
                     };
-                    let _ = writeln!(csv, "{name},{n},{s},{seed},{okk},{w:.4},{c:.4},{f:.4},{it},{len:.3}");
+                    if method == PlanMethod::Grid.as_str() {
+                        grid += 1;
+                    }
+                    clear = clear.min(margin);
+                    let _ = writeln!(
+                        csv,
+                        "{name},{n},{s},{seed},{okk},{w:.4},{c:.4},{f:.4},{method},{it},{len:.3},{margin:.5}"
+                    );
                     if okk {
                         ok += 1;
                         iters.push(it);
@@ -117,7 +169,7 @@ fn main() {
             }
             let median = pct(&mut wall, 0.5);
             println!(
-                "{:<7} {:>7} {:>6} {:>9.2} {:>8.1} {:>9.1} {:>3}/{:<3} {:>10.3} {:>9.3} {:>10.3} {:>11.3} {:>8.0} {:>8.2}",
+                "{:<7} {:>7} {:>6} {:>9.2} {:>8.1} {:>9.1} {:>3}/{:<3} {:>10.3} {:>9.3} {:>10.3} {:>11.3} {:>8.0} {:>8.2} {:>4} {:>8.2}",
                 name,
                 n,
                 scene_seeds,
@@ -131,7 +183,9 @@ fn main() {
                 pct(&mut cpu, 0.5),
                 pct(&mut full, 0.5),
                 pct(&mut iters, 0.5),
-                pct(&mut lens, 0.5)
+                pct(&mut lens, 0.5),
+                grid,
+                clear * 1e3
             );
             rows.push(Row { kind: name, n, median_ms: median });
         }
@@ -153,7 +207,7 @@ fn plot(path: &Path, rows: &[Row]) -> Result<(), Box<dyn std::error::Error>> {
         .y_label_area_size(60)
         .build_cartesian_2d((500f64..200_000f64).log_scale(), (lo..hi).log_scale())?;
     chart.configure_mesh().x_desc("static obstacles").y_desc("median planning time, ms").draw()?;
-    for (kind, color) in [("forest", &BLUE), ("city", &RED)] {
+    for (kind, color) in [("forest", &BLUE), ("dense", &GREEN), ("city", &RED)] {
         let pts: Vec<(f64, f64)> =
             rows.iter().filter(|r| r.kind == kind).map(|r| (r.n as f64, r.median_ms)).collect();
         chart

@@ -9,10 +9,11 @@ use crate::plan::{plan, PlanProblem, PlannerParams};
 use crate::world::generate::{generate_with, GenParams, Generated, PathCheck};
 use crate::world::scene::Scene;
 
-/// The planner's check: a path from the scene's start to its goal (iterations, length m).
+/// The planner's check: a path from the scene's start to its goal through every static
+/// obstacle, mapped or not ([`PlanProblem::of_world`]; iterations, length m).
 pub fn path_exists(scene: &Scene, seed: u64) -> PathCheck {
     let params = PlannerParams { seed, ..PlannerParams::default() };
-    plan(&PlanProblem::from_scene(scene), &params)
+    plan(&PlanProblem::of_world(scene), &params)
         .map(|path| (path.iterations, path.length_m))
         .map_err(|e| e.to_string())
 }

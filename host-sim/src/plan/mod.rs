@@ -1,4 +1,5 @@
-//! Offline path planner: bidirectional RRT-Connect on the vehicle's bounding
+//! Offline path planner: A* on an occupancy grid of the flight plane
+//! ([`grid`], issue 38) and bidirectional RRT-Connect on the vehicle's bounding
 //! sphere, followed by path shortcutting (paper §Planner; issue 5).
 //!
 //! # API
@@ -79,8 +80,28 @@
 //!
 //! # Algorithm
 //! 1. Validate the input; check start and goal (named errors).
-//! 2. Try the straight segment start → goal; if valid, done (0 iterations).
-//! 3. RRT-Connect (Kuffner & LaValle 2000): two trees rooted at start and
+//! 2. Try the straight segment start → goal; if valid, done (0 iterations,
+//!    [`PlanMethod::Straight`]).
+//! 3. Search, by the problem's size:
+//!    * **Indexed problems** (≥ [`INDEX_MIN_OBSTACLES`] obstacles: generated
+//!      forests, cities, warehouses): RRT-Connect below with at most
+//!      [`RRT_FIRST_ITERATIONS`] iterations, then the **grid search** ([`grid`]:
+//!      A* on a conservative occupancy grid of the horizontal plane through the
+//!      start, cells of `grid_cell_m`, in a region around start and goal that
+//!      grows while it holds no path; every grid move is collision-free by
+//!      construction, then string pulling with the segment check). Both paths
+//!      are shortcut (step 4) and the shorter is kept, so a path is never longer
+//!      than the one RRT-Connect alone returned when it succeeded within those
+//!      iterations. The grid search is deterministic and complete at its
+//!      resolution: it does not miss the gaps of a dense forest the way
+//!      sampling does. If neither finds a path (a world that needs a climb, or
+//!      no path at the grid's resolution), RRT-Connect runs again with the whole
+//!      budget.
+//!    * **Small problems** (every shipped scene): RRT-Connect first, with half
+//!      the wall-clock budget; if it finds nothing, the grid search gets the
+//!      rest. (Their paths are unchanged whenever RRT-Connect finds one.)
+//!
+//!    RRT-Connect (Kuffner & LaValle 2000): two trees rooted at start and
 //!    goal, nearest neighbours from a `kiddo` k-d tree per tree. Samples are
 //!    uniform in the bounds, redrawn (up to [`FREE_SAMPLE_TRIES`] times) until
 //!    clear of obstacles, with goal bias (with probability `goal_bias` the
@@ -101,7 +122,7 @@
 //!    the default `range_m` is 20 % of the region's largest extent. A mission of
 //!    60 m in a 1.4 km forest then samples where the path can be, not the
 //!    whole forest.
-//! 4. Shortcutting: random vertex-to-vertex shortcuts, `shortcut_attempts`
+//! 4. Shortcutting (of either search's path): random vertex-to-vertex shortcuts, `shortcut_attempts`
 //!    random shortcuts between points anywhere on the path, `corner_passes`
 //!    corner-cutting passes (each interior waypoint is replaced by two points
 //!    on its neighbouring segments, as far out as bisection finds valid), then
@@ -119,7 +140,9 @@
 //! shortcutting uses counts, not time. The same problem, parameters and seed
 //! give the same path, bit for bit, whenever the search ends by finding a
 //! path or by the iteration budget. Only a search cut short by the wall-clock
-//! `time_budget_ms` depends on the machine's speed.
+//! `time_budget_ms` depends on the machine's speed. RRT-Connect and its
+//! shortcutting draw from stream 0 of the seed, the grid path's shortcutting
+//! from stream 1; the grid search itself draws no random numbers.
 //!
 //! Owns the planner and [`pathfile`]; [`generate`] checks generated scenes with it.
 //! May import: `parapet-core` (shapes), [`crate::world`] (scene, index), [`crate::input`].
@@ -137,6 +160,7 @@ use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
 pub mod generate;
+pub mod grid;
 pub mod pathfile;
 mod shortcut;
 mod space;
@@ -187,15 +211,28 @@ pub struct PlanProblem {
 }
 
 impl PlanProblem {
-    /// The planning problem of a loaded scene: its NED bounds, its **static**
-    /// obstacles only (moving ones are left to the safety filter), mission
-    /// start and goal, and the vehicle's hull radius.
+    /// The planning problem of a loaded scene: its NED bounds, **the map** — its
+    /// static, mapped obstacles ([`Scene::map_shapes`]; moving ones are left to the
+    /// safety filter, unmapped ones to the sensors and the filter in flight) —,
+    /// mission start and goal, and the vehicle's hull radius.
+    ///
+    /// [`Scene::map_shapes`]: crate::world::scene::Scene::map_shapes
     pub fn from_scene(scene: &crate::world::scene::Scene) -> Self {
+        Self::with_obstacles(scene, scene.map_shapes())
+    }
+
+    /// [`Self::from_scene`] with every static obstacle, mapped or not: the world
+    /// as it stands (the scene generator's check that the world has a path).
+    pub fn of_world(scene: &crate::world::scene::Scene) -> Self {
+        Self::with_obstacles(scene, scene.static_shapes())
+    }
+
+    fn with_obstacles(scene: &crate::world::scene::Scene, obstacles: Vec<Shape>) -> Self {
         let (lo, hi) = scene.bounds_ned();
         PlanProblem {
             bounds_min: crate::world::scene::to_f32(&lo),
             bounds_max: crate::world::scene::to_f32(&hi),
-            obstacles: scene.static_shapes(),
+            obstacles,
             start: crate::world::scene::to_f32(&scene.start),
             goal: crate::world::scene::to_f32(&scene.goal),
             hull_radius: scene.vehicle.hull_radius as f32,
@@ -212,7 +249,7 @@ pub struct PlannerParams {
     pub seed: u64,
     /// RRT-Connect iteration budget (≥ 1; default 100 000).
     pub max_iterations: u32,
-    /// Wall-clock budget for the tree search, ms (> 0; default 1000).
+    /// Wall-clock budget of the search (grid and RRT-Connect), ms (> 0; default 1000).
     pub time_budget_ms: f64,
     /// Probability in [0, 1] that a sample is the other tree's root (default 0.05).
     pub goal_bias: f32,
@@ -232,6 +269,11 @@ pub struct PlannerParams {
     pub neighbours: usize,
     /// Corner-cutting passes after the random shortcuts (default 1; 0 disables).
     pub corner_passes: u32,
+    /// Cell edge of the grid search, m (0.01 ≤ x ≤ 10; default
+    /// [`grid::DEFAULT_GRID_CELL_M`] = 0.1). Gaps narrower than about the hull
+    /// diameter + margin + 1.4 cells are closed for the grid (RRT-Connect may
+    /// still find them).
+    pub grid_cell_m: f32,
 }
 
 impl Default for PlannerParams {
@@ -248,6 +290,7 @@ impl Default for PlannerParams {
             shortcut_attempts: 200,
             neighbours: 3,
             corner_passes: 1,
+            grid_cell_m: grid::DEFAULT_GRID_CELL_M,
         }
     }
 }
@@ -261,10 +304,35 @@ pub struct PlannedPath {
     pub length_m: f32,
     /// Wall-clock time of the whole `plan` call (search + shortcutting), ms.
     pub planning_time_ms: f64,
-    /// RRT-Connect iterations used (0 when the straight line was free).
+    /// RRT-Connect iterations, or A* expansions of the grid search (0 when the
+    /// straight line was free); see `method`.
     pub iterations: u32,
     /// The seed that produced this path.
     pub seed: u64,
+    /// Which search found the path.
+    pub method: PlanMethod,
+}
+
+/// Which search found a path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlanMethod {
+    /// The straight line start → goal was free.
+    Straight,
+    /// A* on the occupancy grid ([`grid`]).
+    Grid,
+    /// RRT-Connect.
+    RrtConnect,
+}
+
+impl PlanMethod {
+    /// The name in path files and messages: `straight`, `grid`, `rrt-connect`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlanMethod::Straight => "straight",
+            PlanMethod::Grid => "grid",
+            PlanMethod::RrtConnect => "rrt-connect",
+        }
+    }
 }
 
 /// Why planning failed.
@@ -323,6 +391,11 @@ pub const INDEX_MIN_OBSTACLES: usize = crate::world::tracker::INDEX_MIN_OBSTACLE
 /// Indexed problems: the first sampling region is the box around start and
 /// goal grown by this much or by half their distance, whichever is larger, m.
 pub const REGION_MIN_MARGIN_M: f32 = 20.0;
+
+/// Indexed problems: RRT-Connect's iterations before the grid search (the
+/// shorter of the two paths is kept; a sparse world is usually connected in
+/// tens of iterations, a dense one is left to the grid).
+pub const RRT_FIRST_ITERATIONS: u32 = 100;
 
 /// Indexed problems: the sampling region's margin doubles after this many
 /// iterations without a connection (until the region is the whole bounds).
@@ -473,6 +546,9 @@ fn validate(problem: &PlanProblem, params: &PlannerParams) -> Result<(), PlanErr
     if !(params.min_step_m.is_finite() && params.min_step_m > 0.0) {
         return bad(format!("min_step_m must be finite and > 0 m, got {}", params.min_step_m));
     }
+    if !(0.01..=10.0).contains(&params.grid_cell_m) {
+        return bad(format!("grid_cell_m must be in [0.01, 10] m, got {}", params.grid_cell_m));
+    }
     Ok(())
 }
 
@@ -543,13 +619,11 @@ pub fn plan_with_index(
         return Err(PlanError::GoalInCollision);
     }
 
-    let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
-    let (raw, iterations) = if space.segment_valid(&start, &goal) {
-        (vec![start, goal], 0)
+    let (waypoints, iterations, method) = if space.segment_valid(&start, &goal) {
+        (vec![start, goal], 0, PlanMethod::Straight)
     } else {
-        search(&mut space, problem, params, &mut rng, &t0)?
+        find_path(&mut space, problem, params, &t0)?
     };
-    let waypoints = simplify(&mut space, raw, params.shortcut_attempts, params.corner_passes, &mut rng);
     if waypoints.len() > params.max_waypoints {
         return Err(PlanError::TooManyWaypoints { n: waypoints.len(), max: params.max_waypoints });
     }
@@ -559,16 +633,66 @@ pub fn plan_with_index(
         planning_time_ms: t0.elapsed().as_secs_f64() * 1e3,
         iterations,
         seed: params.seed,
+        method,
     })
 }
 
-/// RRT-Connect search; returns the raw path (start first) and the iterations used.
+/// Steps 3 and 4 (module docs): the shortcut path, the iterations or
+/// expansions of the search that found it, and which search that was.
+fn find_path(
+    space: &mut Space,
+    problem: &PlanProblem,
+    params: &PlannerParams,
+    t0: &Instant,
+) -> Result<(Vec<Vec3>, u32, PlanMethod), PlanError> {
+    let budget = params.time_budget_ms;
+    // RRT-Connect and its shortcutting draw from the seed's stream 0, as they
+    // always did: the same seed gives the same path as before the grid search.
+    let rrt = |space: &mut Space, max_iterations: u32, budget_ms: f64| {
+        let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+        let capped = PlannerParams { max_iterations, ..params.clone() };
+        let (raw, it) = search(space, problem, &capped, &mut rng, t0, budget_ms)?;
+        let path = simplify(space, raw, params.shortcut_attempts, params.corner_passes, &mut rng);
+        Ok::<_, PlanError>((path, it, PlanMethod::RrtConnect))
+    };
+    let grid = |space: &mut Space, budget_ms: f64| {
+        let mut expansions = 0;
+        match grid::search(space, problem, params.grid_cell_m, budget_ms, t0, &mut expansions) {
+            grid::GridResult::Path(raw) => {
+                // The grid's shortcutting draws from stream 1.
+                let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+                rng.set_stream(1);
+                let path = simplify(space, raw, params.shortcut_attempts, params.corner_passes, &mut rng);
+                Some((path, expansions, PlanMethod::Grid))
+            }
+            grid::GridResult::NoPath | grid::GridResult::OutOfTime => None,
+        }
+    };
+    if space.index.is_none() {
+        return match rrt(space, params.max_iterations, 0.5 * budget) {
+            Err(PlanError::NoPathFound { iterations, .. }) => grid(space, budget).ok_or_else(|| {
+                PlanError::NoPathFound { iterations, elapsed_ms: t0.elapsed().as_secs_f64() * 1e3 }
+            }),
+            r => r,
+        };
+    }
+    let quick = rrt(space, params.max_iterations.min(RRT_FIRST_ITERATIONS), budget).ok();
+    match (quick, grid(space, budget)) {
+        (Some(q), Some(g)) => Ok(if path_length(&g.0) < path_length(&q.0) { g } else { q }),
+        (Some(p), None) | (None, Some(p)) => Ok(p),
+        (None, None) => rrt(space, params.max_iterations, budget),
+    }
+}
+
+/// RRT-Connect search until `budget_ms` after `t0`; returns the raw path
+/// (start first) and the iterations used.
 fn search(
     space: &mut Space,
     problem: &PlanProblem,
     params: &PlannerParams,
     rng: &mut ChaCha8Rng,
     t0: &Instant,
+    budget_ms: f64,
 ) -> Result<(Vec<Vec3>, u32), PlanError> {
     let (lo_b, hi_b) = (problem.bounds_min, problem.bounds_max);
     // Small problems sample the whole bounds; indexed ones a region around
@@ -591,7 +715,7 @@ fn search(
     // trees[a] grows towards the sample this iteration; trees[1 - a] connects.
     let mut a = 0usize;
     for it in 1..=params.max_iterations {
-        if it % 16 == 0 && t0.elapsed().as_secs_f64() * 1e3 > params.time_budget_ms {
+        if it % 16 == 0 && t0.elapsed().as_secs_f64() * 1e3 > budget_ms {
             return Err(PlanError::NoPathFound {
                 iterations: it - 1,
                 elapsed_ms: t0.elapsed().as_secs_f64() * 1e3,
@@ -676,11 +800,12 @@ fn free_sample(space: &mut Space, rng: &mut ChaCha8Rng, lo: &Vec3, extent: &Vec3
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::shortcut::{cumulative, point_at};
     use super::*;
 
-    fn problem(obstacles: Vec<Shape>) -> PlanProblem {
+    /// A 12 × 6 × 3 m box, start and goal 10 m apart at 1.5 m (also the grid's tests).
+    pub(in crate::plan) fn problem(obstacles: Vec<Shape>) -> PlanProblem {
         PlanProblem {
             bounds_min: Vec3::new(-1.0, -1.0, -3.0),
             bounds_max: Vec3::new(11.0, 5.0, 0.0),

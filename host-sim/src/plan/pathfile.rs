@@ -300,6 +300,7 @@ mod tests {
             planning_time_ms: 0.25,
             iterations: 17,
             seed: 42,
+            method: crate::plan::PlanMethod::RrtConnect,
         }
     }
 
