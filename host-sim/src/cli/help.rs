@@ -202,12 +202,16 @@ pub fn scene_generate() -> String {
     format!(
         "\
 Limits: 1 ≤ --obstacles ≤ 1,000,000; the mission must fit the scene (--mission-length at most
-  80 % of its side); the planner must connect start and goal, else no file is written.
+  80 % of its side); the planner must connect start and goal through every obstacle (mapped or
+  not), else no file is written. 0 ≤ --unmapped ≤ 1: that share of the obstacles gets
+  `mapped = false` (the sensors and collisions see them, the planner does not); the seed picks
+  them, the world and mission are those of --unmapped 0.
   --out never replaces an existing file unless --force.
 
 Examples:
   parapet scene generate --kind forest --obstacles 10000 --density 0.05 --seed 1 --out out/forest.toml
   parapet scene generate --kind city --street 8 --out out/city.toml
+  parapet scene generate --kind forest --obstacles 2000 --unmapped 0.3 --out out/forest_unmapped.toml
   parapet run --scene out/forest.toml --out out/forest_run
 
 {EXIT_CODES_HELP}"

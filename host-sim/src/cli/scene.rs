@@ -61,6 +61,10 @@ pub struct GenerateArgs {
     /// Mission reference speed, m/s.
     #[arg(long, default_value_t = 0.5)]
     speed: f64,
+    /// Share of the obstacles written with `mapped = false` (in the world, not in the map the
+    /// planner sees), 0 ≤ FRACTION ≤ 1; chosen by the seed, the world and mission unchanged.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.0, allow_negative_numbers = true)]
+    unmapped: f64,
     /// Output scene file (TOML); an existing file only with --force.
     #[arg(long)]
     out: std::path::PathBuf,
@@ -84,6 +88,7 @@ impl GenerateArgs {
             mission_length: self.mission_length,
             ceiling: self.ceiling,
             speed: self.speed,
+            unmapped: self.unmapped,
         }
     }
 }
@@ -109,9 +114,10 @@ pub fn cmd_scene(a: SceneArgs) -> Result<String, CliError> {
     std::fs::write(&g.out, &made.toml)
         .map_err(|e| CliError::Failed(anyhow::anyhow!("cannot write {}: {e}", g.out.display())))?;
     Ok(format!(
-        "{}: {} obstacles, bounds {:?} .. {:?} m, mission {:.1} m apart, path {:.1} m ({} iterations), {:.0} ms -> {}\n",
+        "{}: {} obstacles ({} unmapped), bounds {:?} .. {:?} m, mission {:.1} m apart, path {:.1} m ({} iterations), {:.0} ms -> {}\n",
         made.scene.name,
         made.scene.obstacles.len(),
+        made.scene.unmapped_count(),
         made.scene.bounds_enu.0,
         made.scene.bounds_enu.1,
         (made.scene.goal - made.scene.start).norm(),

@@ -20,9 +20,16 @@
 //! The mission (start and goal at 1.5 m height, `mission_length` m apart along
 //! the direction (0.8, 0.6), centred in the scene) is placed where both are at
 //! least 1 m clear of every obstacle, and accepted only when the planner finds
-//! a path (default
-//! parameters, the seed of the generator); otherwise another placement is
-//! tried (up to [`MISSION_TRIES`]). Coordinates are rounded to the millimetre
+//! a path through **every** obstacle, mapped or not (default parameters, the
+//! seed of the generator); otherwise another placement is tried (up to
+//! [`MISSION_TRIES`]).
+//!
+//! **Unmapped obstacles** (`unmapped` = a fraction in [0, 1]): that share of the
+//! obstacles, `round(fraction × count)` of them, chosen uniformly from a random
+//! stream of their own (the seed's ChaCha8 stream 1), is written with
+//! `mapped = false`. The obstacles and the mission do not depend on the
+//! fraction: the same seed gives the same world at every fraction, only the
+//! flags differ, and the world with all obstacles has a path. Coordinates are rounded to the millimetre
 //! and duplicates (after rounding) dropped, so the file loads as written;
 //! obstacles are written in Morton order of 4 m cells (neighbours, near indices).
 //!
@@ -100,6 +107,8 @@ pub struct GenParams {
     pub ceiling: f64,
     /// Mission reference speed, m/s.
     pub speed: f64,
+    /// Share of the obstacles written with `mapped = false`, in [0, 1].
+    pub unmapped: f64,
 }
 
 impl Default for GenParams {
@@ -117,6 +126,7 @@ impl Default for GenParams {
             mission_length: 60.0,
             ceiling: 5.0,
             speed: 0.5,
+            unmapped: 0.0,
         }
     }
 }
@@ -174,21 +184,18 @@ impl Obs {
         }
     }
 
-    fn write(&self, out: &mut String) {
+    fn write(&self, mapped: bool, out: &mut String) {
         let a = |v: [f64; 3]| format!("[{}, {}, {}]", v[0], v[1], v[2]);
         let _ = match *self {
-            Obs::Cylinder { base, radius, height } => writeln!(
-                out,
-                "{{ kind = \"cylinder\", base = {}, radius = {radius}, height = {height} }},",
-                a(base)
-            ),
-            Obs::Box { min, max } => {
-                writeln!(out, "{{ kind = \"box\", min = {}, max = {} }},", a(min), a(max))
+            Obs::Cylinder { base, radius, height } => {
+                write!(out, "{{ kind = \"cylinder\", base = {}, radius = {radius}, height = {height}", a(base))
             }
+            Obs::Box { min, max } => write!(out, "{{ kind = \"box\", min = {}, max = {}", a(min), a(max)),
             Obs::Sphere { center, radius } => {
-                writeln!(out, "{{ kind = \"sphere\", center = {}, radius = {radius} }},", a(center))
+                write!(out, "{{ kind = \"sphere\", center = {}, radius = {radius}", a(center))
             }
         };
+        out.push_str(if mapped { " },\n" } else { ", mapped = false },\n" });
     }
 }
 
@@ -224,6 +231,7 @@ fn check_params(p: &GenParams) -> Result<(), InputError> {
     )?;
     opt("ceiling", p.ceiling, (2.5..=100.0).contains(&p.ceiling), "2.5 ≤ ceiling ≤ 100 m")?;
     opt("speed", p.speed, p.speed > 0.0 && p.speed <= 20.0, "0 < speed ≤ 20 m/s")?;
+    opt("unmapped", p.unmapped, (0.0..=1.0).contains(&p.unmapped), "0 ≤ unmapped ≤ 1 (a fraction)")?;
     Ok(())
 }
 
@@ -364,6 +372,7 @@ pub fn generate_with(
     // near indices, so the simulator's per-obstacle data of a neighbourhood
     // shares cache lines (a 10^5-trunk forest flew 1.6x slower in random order).
     obs.sort_by_key(|o| morton(o.corner()));
+    let mapped = mapped_flags(obs.len(), p.unmapped, p.seed);
     let shapes: Vec<Shape> = obs.iter().map(Obs::shape).collect();
     let index = StaticIndex::from_shapes(&shapes);
     let (lo, hi) = ([0.0, 0.0, 0.0], [side, side, p.ceiling]);
@@ -394,7 +403,7 @@ pub fn generate_with(
             last_err = "no clear spot for the start or the goal".into();
             continue;
         }
-        let toml = write_toml(p, &obs, lo, hi, start, goal);
+        let toml = write_toml(p, &obs, &mapped, lo, hi, start, goal);
         let scene = Scene::parse(&toml, "generated scene").map_err(InputError::from)?;
         match path_exists(&scene, p.seed) {
             Ok((plan_iterations, plan_length_m)) => {
@@ -409,9 +418,24 @@ pub fn generate_with(
     .value(p.seed))
 }
 
+/// Per obstacle: `true` when mapped. `round(fraction × n)` obstacles are unmapped,
+/// chosen uniformly by stream 1 of the seed's ChaCha8 (the obstacles and the
+/// mission draw from stream 0, so they do not depend on the fraction).
+fn mapped_flags(n: usize, fraction: f64, seed: u64) -> Vec<bool> {
+    let mut flags = vec![true; n];
+    let k = ((fraction * n as f64).round() as usize).min(n);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(1);
+    for i in rand::seq::index::sample(&mut rng, n, k) {
+        flags[i] = false;
+    }
+    flags
+}
+
 fn write_toml(
     p: &GenParams,
     obs: &[Obs],
+    mapped: &[bool],
     lo: [f64; 3],
     hi: [f64; 3],
     start: [f64; 3],
@@ -421,8 +445,10 @@ fn write_toml(
     let k = p.kind.name();
     let _ = writeln!(
         s,
-        "# Generated by `parapet scene generate --kind {k} --seed {} --obstacles {}`.",
-        p.seed, p.obstacles
+        "# Generated by `parapet scene generate --kind {k} --seed {} --obstacles {}{}`.",
+        p.seed,
+        p.obstacles,
+        if p.unmapped > 0.0 { format!(" --unmapped {}", p.unmapped) } else { String::new() }
     );
     let _ = writeln!(s, "name = \"{k}-{}-{}\"", obs.len(), p.seed);
     let _ = writeln!(
@@ -439,8 +465,8 @@ fn write_toml(
     );
     // `obstacles` is a top-level key: before the first table.
     s.push_str("obstacles = [\n");
-    for o in obs {
-        o.write(&mut s);
+    for (o, &m) in obs.iter().zip(mapped) {
+        o.write(m, &mut s);
     }
     s.push_str("]\n");
     let a = |v: [f64; 3]| format!("[{}, {}, {}]", mm(v[0]), mm(v[1]), mm(v[2]));
