@@ -213,7 +213,7 @@ pub struct PlanArgs {
     /// Wall-clock budget of the search (grid and RRT-Connect), s (0 < t ≤ 3600).
     #[arg(long, default_value_t = crate::input::limits::PLANNER_BUDGET_S)]
     time_limit: f64,
-    /// RRT-Connect iteration budget (1 ≤ n ≤ 100000000).
+    /// RRT-Connect iteration budget (1 ≤ n ≤ 100000000; the grid search is bounded by --time-limit).
     #[arg(long, default_value_t = PlannerParams::default().max_iterations)]
     max_iterations: u32,
 }
