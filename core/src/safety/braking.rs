@@ -29,17 +29,43 @@
 //! every `h_b > √δ1 − √δ` and the nominal command satisfies them.
 //! [`FilterDiagnostics::h_bar`] is `min h_b` in metres for this variant.
 //!
-//! May import: [`super::cbf`], [`super::qp3`], the crate root foundation.
+//! Owns the barrier's arithmetic ([`barrier`], [`BrakingLimits`]); the filter loop that
+//! enforces it is [`super::cbf::SafetyFilter::apply`] with [`FilterVariant::Braking`]
+//! (`cbf` imports this module, never the reverse).
+//!
+//! May import: [`super::qp3`], the crate root foundation.
+//!
+//! [`FilterVariant::Braking`]: super::cbf::FilterVariant::Braking
+//! [`CbfParams::brake_accel`]: super::cbf::CbfParams::brake_accel
+//! [`CbfParams::brake_delay`]: super::cbf::CbfParams::brake_delay
+//! [`CbfParams::brake_gamma`]: super::cbf::CbfParams::brake_gamma
+//! [`CbfParams::accel_bound`]: super::cbf::CbfParams::accel_bound
+//! [`MAX_ACTIVE_BARRIERS`]: super::cbf::MAX_ACTIVE_BARRIERS
+//! [`FilterDiagnostics::h_bar`]: super::cbf::FilterDiagnostics::h_bar
 
-use super::cbf::{
-    CbfParams, FilterDiagnostics, FilterFault, FilterVariant, Region, SafetyFilter, MAX_ACTIVE_BARRIERS,
-    MIN_DISTANCE_SQ,
-};
-use super::cbf::project_near;
 use super::qp3::HalfSpace;
-use crate::fmath::{maxf, minf, norm3, sqrtf};
-use crate::obstacle::ObstaclePoint;
+use crate::fmath::{maxf, sqrtf};
 use crate::Vec3;
+
+/// Squared distance (m²) below which the direction to a point is undefined (as the filter's).
+const MIN_DISTANCE_SQ: f32 = 1.0e-10;
+
+/// What the braking barrier needs of the filter's parameters (`CbfParams::braking`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrakingLimits {
+    /// Hull radius `r = √δ`, m.
+    pub hull_radius: f32,
+    /// Braking deceleration `a_b`, m/s² (> 0).
+    pub accel: f32,
+    /// Delay `τ`, s (> 0).
+    pub delay: f32,
+    /// Class-K rate `γ_b`, 1/s.
+    pub gamma: f32,
+    /// Velocity margin `ε_v`, m/s.
+    pub velocity_margin: f32,
+    /// Robust term `A` (bound on the obstacle's acceleration), m/s².
+    pub accel_bound: f32,
+}
 
 /// One obstacle's braking barrier at the current state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,99 +79,29 @@ pub struct BrakingBarrier {
 }
 
 /// The braking barrier of a point at offset `d = p − p̄` (m, `|d|` > 0) with relative
-/// velocity `d_dot` (m/s) under `params` (module docs). `None` at zero distance or with a
+/// velocity `d_dot` (m/s) under `l` (module docs). `None` at zero distance or with a
 /// non-finite input.
-pub fn barrier(params: &CbfParams, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarrier> {
+pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarrier> {
     let dist_sq = d.norm_squared();
     if dist_sq.is_nan() || dist_sq <= MIN_DISTANCE_SQ || !dist_sq.is_finite() || !d_dot.iter().all(|x| x.is_finite()) {
         return None;
     }
     let dist = sqrtf(dist_sq);
     let n = d / dist;
-    let s = -n.dot(d_dot) + params.velocity_margin;
-    let (a, tau) = (params.brake_accel, params.brake_delay);
+    let s = -n.dot(d_dot) + l.velocity_margin;
     let sp = maxf(s, 0.0);
-    let h = dist - sqrtf(params.delta) - (sp * sp / (2.0 * a) + tau * sp);
-    let slope = sp / a + tau;
-    let c = (s - params.brake_gamma * h) / slope + params.accel_bound;
+    let h = dist - l.hull_radius - (sp * sp / (2.0 * l.accel) + l.delay * sp);
+    let slope = sp / l.accel + l.delay;
+    let c = (s - l.gamma * h) / slope + l.accel_bound;
     Some(BrakingBarrier { h, approach_speed: s, constraint: HalfSpace { n, c } })
-}
-
-/// [`SafetyFilter::apply`] for [`FilterVariant::Braking`] (module docs). Never panics; the
-/// output is always finite. Cost: O(len) plus the ≤ 15-candidate projection.
-pub fn apply(f: &SafetyFilter, p: &Vec3, v: &Vec3, u_nom: &Vec3, obstacles: &[ObstaclePoint]) -> (Vec3, FilterDiagnostics) {
-    let fault = |kind| {
-        let mut diag = FilterDiagnostics::new(Region::Fault);
-        diag.fault = Some(kind);
-        diag.intervened = true;
-        (f.brake(v), diag)
-    };
-    let ok = |x: &Vec3| x.iter().all(|c| c.abs() <= super::cbf::INPUT_LIMIT);
-    if !ok(p) || !ok(v) {
-        return fault(FilterFault::BadState);
-    }
-    if !ok(u_nom) {
-        return fault(FilterFault::BadNominal);
-    }
-    if obstacles.is_empty() {
-        return (*u_nom, FilterDiagnostics::new(Region::NoObstacle));
-    }
-    let params = &f.params;
-    let engage = sqrtf(params.delta1) - sqrtf(params.delta);
-    let mut diag = FilterDiagnostics::new(Region::Far);
-    let mut near: heapless::Vec<(BrakingBarrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
-    let mut closest: Option<(u16, f32)> = None;
-    for o in obstacles {
-        if !ok(&o.point) || !o.velocity.is_none_or(|w| ok(&w)) {
-            return fault(FilterFault::BadObstacle);
-        }
-        let d = p - o.point;
-        let d_dot = v - o.velocity.unwrap_or_else(Vec3::zeros);
-        let Some(b) = barrier(params, &d, &d_dot) else { return fault(FilterFault::ZeroDistance) };
-        diag.h_bar = minf(diag.h_bar, b.h);
-        if closest.is_none_or(|(_, h)| b.h < h) {
-            closest = Some((o.id, b.h));
-        }
-        if b.h <= engage {
-            diag.n_near = diag.n_near.saturating_add(1);
-        }
-        // Keep the K smallest h_b: replace the largest kept when full.
-        if let Err(item) = near.push((b, o.id)) {
-            let worst = near.iter().enumerate().fold(0, |w, (i, x)| if x.0.h > near[w].0.h { i } else { w });
-            if item.0.h < near[worst].0.h {
-                near[worst] = item;
-            }
-        }
-    }
-    diag.active_id = closest.map(|(id, _)| id);
-    if near.is_empty() {
-        return (*u_nom, diag);
-    }
-    let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
-    for (slot, (b, _)) in cons.iter_mut().zip(near.iter()) {
-        *slot = b.constraint;
-    }
-    let cons = &cons[..near.len()];
-    diag.unavoidable = cons.iter().any(|h| h.c > params.u_max);
-    diag.n_constraints = near.len() as u8;
-    diag.active_id = near.iter().min_by(|a, b| a.0.h.total_cmp(&b.0.h)).map(|x| x.1);
-    if cons.iter().all(|h| h.n.dot(u_nom) >= h.c) {
-        diag.region = if diag.n_near == 0 { Region::Far } else { Region::NominalSafe };
-        return (*u_nom, diag);
-    }
-    // Reference for the bounded projection: braking along the velocity at a_b.
-    let speed = norm3(v);
-    let u_brake = if speed > 1e-6 { v * (-minf(params.brake_accel, params.u_max) / speed) } else { Vec3::zeros() };
-    debug_assert!(f.variant == FilterVariant::Braking);
-    (project_near(u_nom, cons, &u_brake, &mut diag), diag)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn params() -> CbfParams {
-        CbfParams { brake_accel: 3.0, brake_delay: 0.1, brake_gamma: 0.0, ..CbfParams::default() }
+    fn params() -> BrakingLimits {
+        BrakingLimits { hull_radius: 0.05f32.sqrt(), accel: 3.0, delay: 0.1, gamma: 0.0, velocity_margin: 0.0, accel_bound: 0.0 }
     }
 
     #[test]
@@ -171,40 +127,7 @@ mod tests {
             let dist = 0.05f32.sqrt() + s * s / 6.0 + 0.1 * s;
             let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &Vec3::new(s, 0.0, 0.0)).unwrap();
             assert!(b.h.abs() < 1e-3 * dist, "{s}: {b:?}");
-            assert!(b.constraint.c < p.brake_accel, "{s}: {b:?}");
+            assert!(b.constraint.c < p.accel, "{s}: {b:?}");
         }
-    }
-
-    #[test]
-    fn the_filter_brakes_a_vehicle_that_pushes_towards_a_wall() {
-        let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
-        // Wall point 2 m ahead, closing at 2.5 m/s (h_b = 2 − 0.224 − 1.042 − 0.25 < engage).
-        let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, -1.0), 7)];
-        let (u, d) = apply(&f, &Vec3::new(0.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
-        assert!(d.intervened && d.region == Region::Perpendicular, "{d:?}");
-        assert_eq!(d.active_id, Some(7));
-        // −u_x ≥ c: it decelerates at least c; the sideways part is kept.
-        let b = barrier(&f.params, &Vec3::new(-2.0, 0.0, 0.0), &Vec3::new(2.5, 0.0, 0.0)).unwrap();
-        assert!(-u.x >= b.constraint.c - 1e-4, "{u:?} {b:?}");
-        assert!((u.y - 0.5).abs() < 1e-4, "{u:?}");
-        // Far away: the nominal passes.
-        let (u2, d2) = apply(&f, &Vec3::new(-20.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
-        assert_eq!(u2, Vec3::new(2.0, 0.5, 0.0));
-        assert_eq!(d2.region, Region::Far);
-    }
-
-    #[test]
-    fn bad_inputs_brake_with_a_finite_output() {
-        let f = SafetyFilter::new(params(), FilterVariant::Braking).unwrap();
-        let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, 0.0), 0)];
-        let nan = Vec3::new(f32::NAN, 0.0, 0.0);
-        for (p, v, u) in [(nan, Vec3::zeros(), Vec3::zeros()), (Vec3::zeros(), nan, Vec3::zeros()), (Vec3::zeros(), Vec3::zeros(), nan)] {
-            let (out, d) = apply(&f, &p, &v, &u, &o);
-            assert!(out.iter().all(|x| x.is_finite()));
-            assert!(d.fault.is_some());
-        }
-        let (out, d) = apply(&f, &Vec3::new(2.0, 0.0, 0.0), &Vec3::zeros(), &Vec3::zeros(), &o);
-        assert_eq!(d.fault, Some(FilterFault::ZeroDistance));
-        assert!(out.iter().all(|x| x.is_finite()));
     }
 }

@@ -24,6 +24,7 @@
 use crate::fmath::{maxf, minf, norm3, sqrtf};
 use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
+use super::braking::{self, BrakingBarrier, BrakingLimits};
 use crate::Vec3;
 
 /// Magnitude beyond which an input is treated as corrupt (m, m/s or m/s²).
@@ -145,6 +146,18 @@ impl Default for CbfParams {
 }
 
 impl CbfParams {
+    /// What the braking-distance barrier ([`super::braking`]) uses of these parameters.
+    pub fn braking(&self) -> BrakingLimits {
+        BrakingLimits {
+            hull_radius: sqrtf(self.delta),
+            accel: self.brake_accel,
+            delay: self.brake_delay,
+            gamma: self.brake_gamma,
+            velocity_margin: self.velocity_margin,
+            accel_bound: self.accel_bound,
+        }
+    }
+
     /// Parameters with the given μ (s), δ (m²), δ1 (m²) and the other defaults; validated.
     pub fn new(mu: f32, delta: f32, delta1: f32) -> Result<Self, CbfError> {
         let p = CbfParams { mu, delta, delta1, ..CbfParams::default() };
@@ -553,12 +566,75 @@ impl SafetyFilter {
         // One copy per kind of law, so each obstacle loop carries only its own bookkeeping
         // (measured on the Cortex-M4F: the shared loop cost `paper` ≈ 240 instructions at K = 16).
         if self.variant == FilterVariant::Braking {
-            super::braking::apply(self, p, v, u_nom, obstacles)
+            self.apply_braking(p, v, u_nom, obstacles)
         } else if self.variant.is_multi() {
             self.apply_as::<true>(p, v, u_nom, obstacles)
         } else {
             self.apply_as::<false>(p, v, u_nom, obstacles)
         }
+    }
+
+    /// The answer before any barrier: the braking fallback for a bad state or nominal
+    /// command, the nominal command with no obstacle; `None` to go on.
+    #[inline(always)]
+    fn screen(&self, p: &Vec3, v: &Vec3, u_nom: &Vec3, obstacles: &[ObstaclePoint]) -> Option<(Vec3, FilterDiagnostics)> {
+        if !within_limits(p) || !within_limits(v) {
+            return Some(self.fault(v, FilterFault::BadState));
+        }
+        if !within_limits(u_nom) {
+            return Some(self.fault(v, FilterFault::BadNominal));
+        }
+        obstacles.is_empty().then(|| (*u_nom, FilterDiagnostics::new(Region::NoObstacle)))
+    }
+
+    /// [`apply`](Self::apply) for [`FilterVariant::Braking`] (`super::braking`): every point's
+    /// braking barrier is in force; the `K` smallest `h_b` are projected on exactly. The
+    /// region is `far` while every `h_b > √δ1 − √δ` and the nominal satisfies them;
+    /// `diag.h_bar` is `min h_b` (m).
+    fn apply_braking(&self, p: &Vec3, v: &Vec3, u_nom: &Vec3, obstacles: &[ObstaclePoint]) -> (Vec3, FilterDiagnostics) {
+        if let Some(early) = self.screen(p, v, u_nom, obstacles) {
+            return early;
+        }
+        let limits = self.params.braking();
+        let engage = sqrtf(self.params.delta1) - limits.hull_radius;
+        let mut diag = FilterDiagnostics::new(Region::Far);
+        let mut near: heapless::Vec<(BrakingBarrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
+        for o in obstacles {
+            if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
+                return self.fault(v, FilterFault::BadObstacle);
+            }
+            let d_dot = v - o.velocity.unwrap_or_else(Vec3::zeros);
+            let Some(b) = braking::barrier(&limits, &(p - o.point), &d_dot) else {
+                return self.fault(v, FilterFault::ZeroDistance);
+            };
+            diag.h_bar = minf(diag.h_bar, b.h);
+            if b.h <= engage {
+                diag.n_near = diag.n_near.saturating_add(1);
+            }
+            // Keep the K smallest h_b: replace the largest kept when full.
+            if let Err(item) = near.push((b, o.id)) {
+                let worst = near.iter().enumerate().fold(0, |w, (i, x)| if x.0.h > near[w].0.h { i } else { w });
+                if item.0.h < near[worst].0.h {
+                    near[worst] = item;
+                }
+            }
+        }
+        let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
+        for (slot, (b, _)) in cons.iter_mut().zip(near.iter()) {
+            *slot = b.constraint;
+        }
+        let cons = &cons[..near.len()];
+        diag.unavoidable = cons.iter().any(|h| h.c > self.params.u_max);
+        diag.n_constraints = near.len() as u8;
+        diag.active_id = near.iter().min_by(|a, b| a.0.h.total_cmp(&b.0.h)).map(|x| x.1);
+        if cons.iter().all(|h| h.n.dot(u_nom) >= h.c) {
+            diag.region = if diag.n_near == 0 { Region::Far } else { Region::NominalSafe };
+            return (*u_nom, diag);
+        }
+        // Reference for the bounded projection: braking along the velocity at a_b.
+        let speed = norm3(v);
+        let u_brake = if speed > 1e-6 { v * (-minf(limits.accel, self.params.u_max) / speed) } else { Vec3::zeros() };
+        (project_near(u_nom, cons, &u_brake, &mut diag), diag)
     }
 
     /// [`apply`](Self::apply) for a multi (`MULTI`) or single-barrier variant.
@@ -569,14 +645,8 @@ impl SafetyFilter {
         u_nom: &Vec3,
         obstacles: &[ObstaclePoint],
     ) -> (Vec3, FilterDiagnostics) {
-        if !within_limits(p) || !within_limits(v) {
-            return self.fault(v, FilterFault::BadState);
-        }
-        if !within_limits(u_nom) {
-            return self.fault(v, FilterFault::BadNominal);
-        }
-        if obstacles.is_empty() {
-            return (*u_nom, FilterDiagnostics::new(Region::NoObstacle));
+        if let Some(early) = self.screen(p, v, u_nom, obstacles) {
+            return early;
         }
         let mut diag = FilterDiagnostics::new(Region::Far);
         // Closest obstacle (single-barrier variants) and the K most critical near ones (multi).
@@ -706,9 +776,9 @@ impl SafetyFilter {
 
 /// The minimum-norm correction of `u_nom` onto the enforced constraints `cons` (violated by
 /// `u_nom`), searched around the braking input `u_brake`; sets the diagnostics' region
-/// (`D_⊥`), `intervened` and `infeasible`. Shared by the multi variants and
-/// [`super::braking`].
-pub(super) fn project_near(u_nom: &Vec3, cons: &[HalfSpace], u_brake: &Vec3, diag: &mut FilterDiagnostics) -> Vec3 {
+/// (`D_⊥`), `intervened` and `infeasible`. Shared by the multi variants and the braking
+/// variant.
+fn project_near(u_nom: &Vec3, cons: &[HalfSpace], u_brake: &Vec3, diag: &mut FilterDiagnostics) -> Vec3 {
     // Bound: the optimum lies within 2|u* − u_brake| of the braking input whenever the
     // latter is feasible. Robust and margin terms shift each plane by c'_i = c_i − n_iᵀu_brake
     // beyond it; 4·Σ max(c'_i, 0) leaves room for those (a single plane's projection is
@@ -1102,5 +1172,38 @@ mod tests {
             let b = f.barrier(&p, &v, o).unwrap();
             assert!(b.constraint.n.dot(&out) >= b.constraint.c - 1e-5);
         }
+    }
+
+    #[test]
+    fn braking_variant_brakes_a_vehicle_that_pushes_towards_a_wall() {
+        let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
+        // Wall point 2 m ahead, closing at 2.5 m/s (h_b = 2 − 0.224 − 1.042 − 0.25 < engage).
+        let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, -1.0), 7)];
+        let (u, d) = f.apply(&Vec3::new(0.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
+        assert!(d.intervened && d.region == Region::Perpendicular, "{d:?}");
+        assert_eq!(d.active_id, Some(7));
+        // −u_x ≥ c: it decelerates at least c; the sideways part is kept.
+        let b = braking::barrier(&f.params.braking(), &Vec3::new(-2.0, 0.0, 0.0), &Vec3::new(2.5, 0.0, 0.0)).unwrap();
+        assert!(-u.x >= b.constraint.c - 1e-4, "{u:?} {b:?}");
+        assert!((u.y - 0.5).abs() < 1e-4, "{u:?}");
+        // Far away: the nominal passes.
+        let (u2, d2) = f.apply(&Vec3::new(-20.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
+        assert_eq!(u2, Vec3::new(2.0, 0.5, 0.0));
+        assert_eq!(d2.region, Region::Far);
+    }
+
+    #[test]
+    fn braking_variant_brakes_with_a_finite_output_on_bad_inputs() {
+        let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
+        let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, 0.0), 0)];
+        let nan = Vec3::new(f32::NAN, 0.0, 0.0);
+        for (p, v, u) in [(nan, Vec3::zeros(), Vec3::zeros()), (Vec3::zeros(), nan, Vec3::zeros()), (Vec3::zeros(), Vec3::zeros(), nan)] {
+            let (out, d) = f.apply(&p, &v, &u, &o);
+            assert!(out.iter().all(|x| x.is_finite()));
+            assert!(d.fault.is_some());
+        }
+        let (out, d) = f.apply(&Vec3::new(2.0, 0.0, 0.0), &Vec3::zeros(), &Vec3::zeros(), &o);
+        assert_eq!(d.fault, Some(FilterFault::ZeroDistance));
+        assert!(out.iter().all(|x| x.is_finite()));
     }
 }
