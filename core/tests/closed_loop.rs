@@ -176,11 +176,18 @@ fn arm_refused_with_an_obstacle_inside_the_hull() {
 fn arm_refusals_and_command_errors() {
     let mut ctl = FlightController::new(ControllerParams::default()).unwrap();
     let t = 1_000_000;
+    // The pre-arm check (`OuterLoop::arm_check`, a ground station's PREARM_CHECK bit) gives the
+    // arm command's answer without arming.
+    assert_eq!(ctl.outer().arm_check(t), Err(CommandError::Arm(ArmRefusal::NoFreshPosition)));
+    assert!(!ctl.outer().position_fresh(t));
     assert_eq!(ctl.arm(t), Err(CommandError::Arm(ArmRefusal::NoFreshPosition)));
     let fix = PositionFix { t_us: t, position: Vec3::zeros(), velocity: Vec3::zeros(), yaw: Some(0.0) };
     ctl.update_position(fix);
+    assert!(ctl.outer().position_fresh(t) && !ctl.outer().position_fresh(t + 300_000));
+    assert_eq!(ctl.outer().arm_check(t), Err(CommandError::Arm(ArmRefusal::NoFreshObstacles)));
     assert_eq!(ctl.arm(t), Err(CommandError::Arm(ArmRefusal::NoFreshObstacles)));
     ctl.update_obstacles(t, &[]);
+    assert_eq!(ctl.outer().arm_check(t), Err(CommandError::Arm(ArmRefusal::AttitudeNotReady)));
     assert_eq!(ctl.arm(t), Err(CommandError::Arm(ArmRefusal::AttitudeNotReady)));
     let level = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -GRAVITY) };
     let out = ctl.step_inner(t, &level);
@@ -203,7 +210,10 @@ fn arm_refusals_and_command_errors() {
         ctl.set_path(&[Vec3::new(0.0, f32::INFINITY, 0.0)]),
         Err(CommandError::Path(PathError::NonFinite { index: 0 }))
     );
+    assert_eq!(ctl.outer().arm_check(t), Ok(()), "the check passes where arming does");
+    assert_eq!(ctl.state(), FailsafeState::Disarmed, "the check does not arm");
     ctl.arm(t).unwrap();
+    assert_eq!(ctl.outer().arm_check(t), Err(CommandError::Arm(ArmRefusal::NotDisarmed)));
     assert_eq!(
         last_reason(&ctl),
         (FailsafeState::Disarmed, FailsafeState::Armed, TransitionReason::ArmCommand)

@@ -416,11 +416,30 @@ impl OuterLoop {
         self.guidance.clear_path(self.telemetry.reference.position);
     }
 
-    /// Arm (see [`crate::controller::FlightController::arm`]).
-    pub fn arm(&mut self, now_us: u64) -> Result<(), CommandError> {
+    /// The arm command's checks at `now_us` without arming (a ground station's pre-arm check):
+    /// `Ok` when [`OuterLoop::arm`] would arm. O(obstacles).
+    pub fn arm_check(&self, now_us: u64) -> Result<(), CommandError> {
+        let (health, _) = self.arm_health(now_us);
+        let est = self.estimate;
+        self.supervisor.arm_check(&health, est.initialised, est.tilt).map_err(CommandError::Arm)
+    }
+
+    /// The data health the arm checks use (with the obstacle-in-hull check) and the position.
+    fn arm_health(&self, now_us: u64) -> (DataHealth, Option<Vec3>) {
         let mut health = self.health(now_us);
         let position = self.inputs.position_estimate(now_us).map(|(p, _)| p);
         health.obstacle_in_hull = position.and_then(|p| self.inputs.obstacle_in_hull(&p));
+        (health, position)
+    }
+
+    /// `true` when the last position fix is fresh at `now_us` (the failsafe's position timeout).
+    pub fn position_fresh(&self, now_us: u64) -> bool {
+        self.supervisor.position_fresh(self.inputs.ages(now_us).0)
+    }
+
+    /// Arm (see [`crate::controller::FlightController::arm`]).
+    pub fn arm(&mut self, now_us: u64) -> Result<(), CommandError> {
+        let (health, position) = self.arm_health(now_us);
         let est = self.estimate;
         let tr =
             self.supervisor.arm(now_us, &health, est.initialised, est.tilt).map_err(CommandError::Arm)?;

@@ -125,7 +125,14 @@ impl PdTracker {
         self.update_with(r, pos, vel, dt_s, (kp, kd))
     }
 
-    fn update_with(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32, (kp, kd): (Vec3, Vec3)) -> Vec3 {
+    fn update_with(
+        &mut self,
+        r: &Reference,
+        pos: &Vec3,
+        vel: &Vec3,
+        dt_s: f32,
+        (kp, kd): (Vec3, Vec3),
+    ) -> Vec3 {
         let ok = [r.position, r.velocity, r.acceleration, *pos, *vel].iter().all(is_finite3);
         self.input_fault = !ok;
         if !ok {
@@ -189,7 +196,10 @@ mod tests {
         assert!(u.y.abs() < 1e-6);
         assert!((u.z - (0.32 * -0.2 + 0.5 * -0.1)).abs() < 1e-6, "{u:?}");
         // The same state through the paper's PD law: 0.1 + 0.5·0.1 + 0.32·1 = 0.47.
-        assert!((t.update(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004).x - 0.47).abs() < 1e-5);
+        assert!(
+            (t.update(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004).x - 0.47).abs()
+                < 1e-5
+        );
     }
 
     #[test]

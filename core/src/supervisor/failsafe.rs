@@ -338,6 +338,13 @@ impl Failsafe {
         attitude_ok: bool,
         tilt: f32,
     ) -> Result<Transition, ArmRefusal> {
+        self.arm_check(health, attitude_ok, tilt)?;
+        Ok(self.go(FailsafeState::Armed, TransitionReason::ArmCommand, t_us))
+    }
+
+    /// The arm command's checks without arming (the pre-arm check a ground station shows:
+    /// MAVLink `MAV_SYS_STATUS_PREARM_CHECK`): `Ok` when [`Failsafe::arm`] would arm.
+    pub fn arm_check(&self, health: &DataHealth, attitude_ok: bool, tilt: f32) -> Result<(), ArmRefusal> {
         if self.state != FailsafeState::Disarmed {
             return Err(ArmRefusal::NotDisarmed);
         }
@@ -356,7 +363,12 @@ impl Failsafe {
         if !attitude_ok || !tilt.is_finite() || tilt > self.params.tilt_limit {
             return Err(ArmRefusal::AttitudeNotReady);
         }
-        Ok(self.go(FailsafeState::Armed, TransitionReason::ArmCommand, t_us))
+        Ok(())
+    }
+
+    /// `true` when a position fix of age `age_us` is fresh (within `position_timeout_us`).
+    pub fn position_fresh(&self, age_us: Option<u64>) -> bool {
+        Self::fresh(age_us, self.params.position_timeout_us)
     }
 
     /// Disarm command: accepted in every state except Disarmed.

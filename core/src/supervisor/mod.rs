@@ -185,6 +185,16 @@ impl Supervisor {
         self.failsafe.arm(now_us, health, attitude_ok, tilt)
     }
 
+    /// The arm checks without arming ([`Failsafe::arm_check`]).
+    pub fn arm_check(&self, health: &DataHealth, attitude_ok: bool, tilt: f32) -> Result<(), ArmRefusal> {
+        self.failsafe.arm_check(health, attitude_ok, tilt)
+    }
+
+    /// `true` when a fix of age `age_us` is fresh (the failsafe's position timeout).
+    pub fn position_fresh(&self, age_us: Option<u64>) -> bool {
+        self.failsafe.position_fresh(age_us)
+    }
+
     /// Disarm (operator kill), from any state but Disarmed.
     pub fn disarm(&mut self, now_us: u64) -> Option<Transition> {
         self.failsafe.disarm(now_us)

@@ -346,7 +346,13 @@ impl<const N: usize> Trajectory<N> {
     fn corner(&self, k: usize) -> Option<Corner> {
         let (l0, l1) = (self.legs.get(k)?, self.legs.get(k + 1)?);
         let axes = axis_limits(&self.params);
-        Some(Corner::new(l1.from, (l0, l1), self.params.corner_tolerance, (self.lim.accel, self.lim.jerk), &axes))
+        Some(Corner::new(
+            l1.from,
+            (l0, l1),
+            self.params.corner_tolerance,
+            (self.lim.accel, self.lim.jerk),
+            &axes,
+        ))
     }
 
     /// The corner of the current piece in full when it is a blend (cached in `flown`).
