@@ -509,7 +509,25 @@ fn sys_status_and_extended_sys_state_come_with_the_heartbeat() {
     let Some(ss) = ss else { panic!("no SYS_STATUS: {out:?}") };
     assert_eq!((ss.voltage_battery, ss.current_battery, ss.battery_remaining), (u16::MAX, -1, -1));
     assert!(!ss.onboard_control_sensors_present.is_empty());
-    assert_eq!(ss.onboard_control_sensors_health, ss.onboard_control_sensors_present);
+    // No fix yet: the fix (vision position, GPS) and the pre-arm check are unhealthy, the rest is.
+    use parapet_firmware::link::dialect::MavSysStatusSensor as S;
+    let fix = S::MAV_SYS_STATUS_SENSOR_VISION_POSITION | S::MAV_SYS_STATUS_SENSOR_GPS;
+    assert_eq!(
+        ss.onboard_control_sensors_health,
+        ss.onboard_control_sensors_present - fix - S::MAV_SYS_STATUS_PREARM_CHECK
+    );
+    g.run(500);
+    let (mut out2, t) = (Vec::new(), g.t() + 1_000_000);
+    tel.poll(t, &inputs(&g), |m| out2.push(m));
+    let ss = out2.iter().find_map(|m| match m {
+        Outbound::SysStatus(s) => Some(s.clone()),
+        _ => None,
+    });
+    let ss = ss.expect("SYS_STATUS");
+    assert_eq!(
+        ss.onboard_control_sensors_health, ss.onboard_control_sensors_present,
+        "fixes and obstacles: all healthy, armable"
+    );
     let landed = |out: &[Outbound]| {
         out.iter().find_map(|m| match m {
             Outbound::ExtendedSysState(e) => Some(e.landed_state),

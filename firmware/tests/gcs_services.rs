@@ -427,6 +427,11 @@ fn battery_status_and_sys_status_report_the_measurement() {
     let s = sys(&first).expect("SYS_STATUS");
     assert_eq!((s.voltage_battery, s.current_battery, s.battery_remaining), (u16::MAX, -1, -1));
     assert_eq!(count(&first, |m| matches!(m, Outbound::BatteryStatus(_))), 0, "no measurement yet");
+    // No battery: a BATTERY_STATUS request is DENIED and nothing is sent (before: ACCEPTED, and
+    // the message never came).
+    let p = [147.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    assert_eq!(g.command(MavCmd::MAV_CMD_REQUEST_MESSAGE, p), MavResult::MAV_RESULT_DENIED);
+    assert_eq!(count(&g.run(100), |m| matches!(m, Outbound::BatteryStatus(_))), 0);
     let b = BatteryState {
         t_us: g.t(),
         voltage_v: 16.4,
@@ -438,6 +443,7 @@ fn battery_status_and_sys_status_report_the_measurement() {
     let out = g.run(2000);
     let s = sys(&out).expect("SYS_STATUS");
     assert_eq!((s.voltage_battery, s.current_battery, s.battery_remaining), (16_400, 250, 90));
+    assert_eq!(g.command(MavCmd::MAV_CMD_REQUEST_MESSAGE, p), MavResult::MAV_RESULT_ACCEPTED, "a battery");
     assert!(s.onboard_control_sensors_present.contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY));
     assert!(s.onboard_control_sensors_health.contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY));
     let bs: Vec<_> = out

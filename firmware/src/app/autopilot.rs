@@ -199,6 +199,12 @@ pub struct TelemetrySnapshot {
     pub attitude_sp: parapet_core::msg::AttitudeSetpoint,
     /// The latest pilot input (RC_CHANNELS), `None` before the first RC frame.
     pub rc: Option<RcReport>,
+    /// The last position fix is fresh (the failsafe's position timeout): SYS_STATUS's GPS
+    /// health, GPS_RAW_INT's 3D fix.
+    pub position_fresh: bool,
+    /// The arm command would be accepted now (the cascade's arm checks and a consistent
+    /// parameter set; kept `true` while armed): SYS_STATUS's `MAV_SYS_STATUS_PREARM_CHECK`.
+    pub armable: bool,
 }
 
 impl TelemetrySnapshot {
@@ -222,6 +228,8 @@ impl TelemetrySnapshot {
         mission_done: false,
         battery: None,
         rc: None,
+        position_fresh: false,
+        armable: false,
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,
@@ -400,6 +408,8 @@ pub(crate) mod test_double {
                 mode_changes: self.mode_changes,
                 mode_reason: self.mode_reason,
                 battery: self.battery,
+                position_fresh: true,
+                armable: !self.armed,
                 ..TelemetrySnapshot::BOOT
             }
         }

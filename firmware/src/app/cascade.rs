@@ -116,8 +116,11 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         mission_done: t.progress.done,
         battery: t.battery,
         attitude_sp: t.attitude_sp,
-        // The pilot input is the outer stage's (OuterStage::snapshot).
+        // The pilot input, fix freshness and arm check are the outer stage's
+        // (OuterStage::snapshot).
         rc: None,
+        position_fresh: false,
+        armable: false,
     }
 }
 
@@ -203,7 +206,16 @@ impl OuterStage {
 
     /// The telemetry snapshot now (with the latest pilot input).
     pub fn snapshot(&self) -> TelemetrySnapshot {
-        TelemetrySnapshot { rc: self.rc_report, ..snapshot(self.outer.telemetry(), &self.estimate) }
+        let t = self.outer.telemetry();
+        let s = snapshot(t, &self.estimate);
+        // At the last outer step's time; the arm checks only while disarmed (O(obstacles)).
+        let armable = s.armed || (self.params_consistent() && self.outer.arm_check(t.t_us).is_ok());
+        TelemetrySnapshot {
+            rc: self.rc_report,
+            position_fresh: self.outer.position_fresh(t.t_us),
+            armable,
+            ..s
+        }
     }
 
     /// The [`Autopilot`] view of this stage, publishing to `mb`.

@@ -11,8 +11,8 @@ use crate::link::dialect::{
 // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it); MISSION_ITEM
 use crate::link::dialect::{
     ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_GLOBAL_ORIGIN_DATA,
-    HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_DATA,
-    MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA,
+    GPS_RAW_INT_DATA, HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_DATA,
+    MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 use crate::link::dialect::{
     AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
@@ -154,6 +154,10 @@ pub enum Outbound {
     AttitudeTarget(ATTITUDE_TARGET_DATA),
     /// BATTERY_STATUS.
     BatteryStatus(BATTERY_STATUS_DATA),
+    /// GPS_RAW_INT (the position fix, [`crate::link::services::gps_raw_int`]).
+    GpsRawInt(GPS_RAW_INT_DATA),
+    /// VFR_HUD ([`crate::link::services::vfr_hud`]).
+    VfrHud(VFR_HUD_DATA),
     /// FILE_TRANSFER_PROTOCOL: the NAK to an FTP request ([`crate::link::ftp`]).
     FtpNak(crate::link::ftp::FtpNak),
     /// STATUSTEXT framed in MAVLink **v1** (the answer to a v1 ground station,
@@ -228,6 +232,8 @@ impl Outbound {
             Outbound::MissionItemReached(m) => s(m, p),
             Outbound::AttitudeTarget(m) => s(m, p),
             Outbound::BatteryStatus(m) => s(m, p),
+            Outbound::GpsRawInt(m) => s(m, p),
+            Outbound::VfrHud(m) => s(m, p),
             Outbound::FtpNak(m) => s(&m.data(), p),
         }
     }

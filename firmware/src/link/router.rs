@@ -56,6 +56,7 @@ use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::ObstacleAssembler;
 use crate::link::outbound::Outbound;
 use crate::link::received::{LinkStats, Received};
+use crate::link::services::FixAccuracy;
 use crate::link::services::{MissionProgress, Services};
 use crate::setup::SetupAck;
 
@@ -186,6 +187,11 @@ impl Router {
             }
             crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
                 (MavResult::MAV_RESULT_ACCEPTED, true)
+            }
+            crate::link::command::id::REQUEST_MESSAGE
+                if !self.services.can_send(cmd.param1, &ap.telemetry()) =>
+            {
+                (MavResult::MAV_RESULT_DENIED, false)
             }
             crate::link::command::id::REQUEST_MESSAGE if self.services.request(cmd.param1) => {
                 (MavResult::MAV_RESULT_ACCEPTED, false)
@@ -477,7 +483,10 @@ impl Router {
                     FixClock::Message => m.time_usec,
                 };
                 match odometry_fix(&m, t) {
-                    Some(fix) => ap.update_position(&fix),
+                    Some(fix) => {
+                        ap.update_position(&fix);
+                        self.services.on_fix(FixAccuracy::from_pose_covariance(&m.pose_covariance));
+                    }
                     None => {
                         self.stats.odometry_rejected = self.stats.odometry_rejected.saturating_add(1);
                         self.refuse_odometry_frame(&m, now_us);

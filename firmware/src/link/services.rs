@@ -13,6 +13,11 @@
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
 //! | HOME_POSITION | 242 | 0.5 Hz, and at once when home changes | [`Services::home`]: where the vehicle armed (before the first arming: its first position; MAV_CMD_DO_SET_HOME while disarmed), as latitude/longitude/altitude around [`ORIGIN`] and as the local x, y, z; quaternion identity; not sent before a position is known. MAV_CMD_GET_HOME_POSITION sends it once |
 //! | GPS_GLOBAL_ORIGIN | 49 | on request only (MAV_CMD_REQUEST_MESSAGE) | [`ORIGIN`]: the local frame's origin |
+//! | GPS_RAW_INT | 24 | 1 Hz | [`gps_raw_int`]: the external position fix as the vehicle's "GPS": 3D fix while fresh, eph/epv = its stated 1σ accuracy (ODOMETRY's pose covariance, [`FixAccuracy`]) in cm, h_acc/v_acc mm, satellites unknown (255) |
+//! | VFR_HUD | 74 | 4 Hz | [`vfr_hud`]: airspeed = groundspeed (horizontal speed), heading, throttle %, alt AMSL, climb |
+//!
+//! MAV_CMD_REQUEST_MESSAGE for BATTERY_STATUS without a battery measurement (no battery) or for
+//! HOME_POSITION before a position is answered DENIED and nothing is sent ([`Services::can_send`]).
 //!
 //! **MISSION_ITEM_REACHED** (46): once per item, in order, up to the progress's last item done
 //! (uploaded seq numbers, [`crate::link::mission_run`]).
@@ -40,10 +45,10 @@
 
 use crate::app::autopilot::TelemetrySnapshot;
 use crate::link::dialect::{
-    AttitudeTargetTypemask, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavResult,
+    AttitudeTargetTypemask, GpsFixType, MavBatteryChargeState, MavBatteryFunction, MavBatteryType, MavResult,
     ATTITUDE_TARGET_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_GLOBAL_ORIGIN_DATA,
-    HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, PING_DATA,
-    SYSTEM_TIME_DATA,
+    GPS_RAW_INT_DATA, HOME_POSITION_DATA, MESSAGE_INTERVAL_DATA, MISSION_CURRENT_DATA,
+    MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 pub use crate::link::mission_run::MissionProgress;
 use crate::link::outbound::Outbound;
@@ -56,7 +61,7 @@ pub const MIN_INTERVAL_US: u32 = 10_000;
 
 /// The streams served here, in table order.
 /// A default period of 0: sent on request only.
-const STREAMS: [(u32, u32); 7] = [
+const STREAMS: [(u32, u32); 9] = [
     (SYSTEM_TIME_DATA_ID, 1_000_000),
     (GLOBAL_POSITION_INT_ID, 200_000),
     (MISSION_CURRENT_ID, 1_000_000),
@@ -64,7 +69,14 @@ const STREAMS: [(u32, u32); 7] = [
     (ATTITUDE_TARGET_ID, 100_000),
     (BATTERY_STATUS_ID, 1_000_000),
     (GPS_GLOBAL_ORIGIN_ID, 0),
+    (GPS_RAW_INT_ID, 1_000_000),
+    (VFR_HUD_ID, 250_000),
 ];
+const _: () = assert!(STREAMS.len() <= 16, "Services::requested holds one bit per stream");
+/// GPS_RAW_INT's message id.
+pub const GPS_RAW_INT_ID: u32 = 24;
+/// VFR_HUD's message id.
+pub const VFR_HUD_ID: u32 = 74;
 const GPS_GLOBAL_ORIGIN_ID: u32 = 49;
 const SYSTEM_TIME_DATA_ID: u32 = 2;
 const GLOBAL_POSITION_INT_ID: u32 = 33;
@@ -72,7 +84,8 @@ const MISSION_CURRENT_ID: u32 = 42;
 /// HOME_POSITION's message id (MAV_CMD_GET_HOME_POSITION requests it).
 pub const HOME_POSITION_ID: u32 = 242;
 const ATTITUDE_TARGET_ID: u32 = 83;
-const BATTERY_STATUS_ID: u32 = 147;
+/// BATTERY_STATUS's message id.
+pub const BATTERY_STATUS_ID: u32 = 147;
 
 /// The telemetry scheduler's streams whose rates are set here: ATTITUDE, LOCAL_POSITION_NED,
 /// POSITION_TARGET_LOCAL_NED, HEARTBEAT, SYS_STATUS, EXTENDED_SYS_STATE, with their default
@@ -121,8 +134,9 @@ pub struct Services {
     /// Period per stream, µs; `None` = stopped.
     interval_us: [Option<u32>; STREAMS.len()],
     next_due_us: [u64; STREAMS.len()],
-    /// One-shot requests (REQUEST_MESSAGE), one bit per stream.
-    requested: u8,
+    /// One-shot requests (REQUEST_MESSAGE), one bit per stream (16 bits: at most 16 streams,
+    /// checked at compile time below).
+    requested: u16,
     /// The scheduler's streams.
     rates: StreamRates,
     /// Last item reported by MISSION_ITEM_REACHED since the upload.
@@ -131,6 +145,32 @@ pub struct Services {
     home: Option<Vec3>,
     /// The vehicle was armed at the last poll (home is set on arming).
     was_armed: bool,
+    /// The last position fix's accuracy ([`Services::on_fix`]).
+    fix: FixAccuracy,
+}
+
+/// The accuracy of the position fix as its source states it (ODOMETRY's pose covariance):
+/// 1σ, m; `None` unknown.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FixAccuracy {
+    /// Horizontal: √max(σx², σy²) (as PX4's estimator reports `eph`).
+    pub horizontal_m: Option<f32>,
+    /// Vertical: σz.
+    pub vertical_m: Option<f32>,
+}
+
+impl FixAccuracy {
+    /// From ODOMETRY's `pose_covariance` (upper triangle of the 6×6 x, y, z, roll, pitch, yaw
+    /// matrix, row-major: x² at 0, y² at 6, z² at 11; a NaN first element = unknown, as
+    /// MAVLink specifies). Negative or non-finite variances are unknown.
+    pub fn from_pose_covariance(c: &[f32; 21]) -> Self {
+        let std = |v: f32| (v.is_finite() && v >= 0.0).then(|| libm::sqrtf(v));
+        if c[0].is_nan() {
+            return Self::default();
+        }
+        let horizontal_m = std(c[0]).zip(std(c[6])).map(|(x, y)| x.max(y));
+        Self { horizontal_m, vertical_m: std(c[11]) }
+    }
 }
 
 impl Default for Services {
@@ -160,14 +200,7 @@ pub fn global_position(
     home_alt_mm: i32,
 ) -> Option<GLOBAL_POSITION_INT_DATA> {
     let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
-    let yaw = s.attitude_rpy.z;
-    let hdg = if yaw.is_finite() {
-        let deg = libm::fmodf(yaw.to_degrees(), 360.0);
-        let deg = if deg < 0.0 { deg + 360.0 } else { deg };
-        ((deg * 100.0) as u16).min(35_999)
-    } else {
-        u16::MAX
-    };
+    let hdg = heading_deg(s.attitude_rpy.z).map_or(u16::MAX, |d| ((d * 100.0) as u16).min(35_999));
     Some(GLOBAL_POSITION_INT_DATA {
         time_boot_ms,
         lat,
@@ -195,6 +228,84 @@ pub fn home_position(time_usec: u64, home: Vec3) -> Option<HOME_POSITION_DATA> {
         q: [1.0, 0.0, 0.0, 0.0],
         time_usec,
         ..Default::default()
+    })
+}
+
+/// Heading of yaw `yaw` (rad) in [0, 360) degrees; `None` when not finite.
+fn heading_deg(yaw: f32) -> Option<f32> {
+    if !yaw.is_finite() {
+        return None;
+    }
+    let deg = libm::fmodf(yaw.to_degrees(), 360.0);
+    Some(if deg < 0.0 { deg + 360.0 } else { deg }.min(359.99))
+}
+
+/// `x` × `scale` rounded up into `0..=max` (an accuracy is never reported better than it is).
+fn scaled_up(x: f32, scale: f32, max: f32) -> f32 {
+    libm::ceilf(x * scale).clamp(0.0, max)
+}
+
+/// GPS_RAW_INT of the position fix the vehicle navigates by (the external fix: Parapet has no
+/// GNSS receiver; ground stations and MAVSDK's `gps_info` / `health()` want this message):
+/// fix type 3D while the fix is fresh (the failsafe's position timeout), NO_FIX otherwise; the
+/// position and ground velocity of the estimate as latitude/longitude/altitude around
+/// [`ORIGIN`]; `eph` / `epv` = the fix's stated 1σ accuracy in cm (the convention of HIL_GPS as
+/// PX4's simulator reads it: eph/100 m), `h_acc` / `v_acc` in mm, UINT16_MAX / 0 when the source
+/// does not state it; course over ground cdeg (UINT16_MAX below 0.1 m/s); satellites_visible
+/// UINT8_MAX (MAVLink's "unknown": the fix is not a satellite one); yaw 0 (not sent).
+/// `None` while the position is not finite.
+pub fn gps_raw_int(time_usec: u64, s: &TelemetrySnapshot, fix: FixAccuracy) -> Option<GPS_RAW_INT_DATA> {
+    let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
+    let v = s.velocity_ned;
+    let ground = libm::sqrtf(v.x * v.x + v.y * v.y);
+    let (vel, cog) = if ground.is_finite() {
+        let cog = if ground >= 0.1 { heading_deg(libm::atan2f(v.y, v.x)) } else { None };
+        ((ground * 100.0).min(65_534.0) as u16, cog.map_or(u16::MAX, |d| (d * 100.0) as u16))
+    } else {
+        (u16::MAX, u16::MAX)
+    };
+    let cm = |a: Option<f32>| a.map_or(u16::MAX, |m| scaled_up(m, 100.0, 65_534.0) as u16);
+    let mm = |a: Option<f32>| a.map_or(0, |m| scaled_up(m, 1000.0, 4.0e9) as u32);
+    Some(GPS_RAW_INT_DATA {
+        time_usec,
+        lat,
+        lon,
+        alt,
+        eph: cm(fix.horizontal_m),
+        epv: cm(fix.vertical_m),
+        vel,
+        cog,
+        fix_type: if s.position_fresh {
+            GpsFixType::GPS_FIX_TYPE_3D_FIX
+        } else {
+            GpsFixType::GPS_FIX_TYPE_NO_FIX
+        },
+        satellites_visible: u8::MAX,
+        h_acc: mm(fix.horizontal_m),
+        v_acc: mm(fix.vertical_m),
+        ..Default::default()
+    })
+}
+
+/// VFR_HUD: airspeed = groundspeed = the horizontal speed of the estimate (no airspeed sensor;
+/// indoors there is no wind to tell them apart), heading deg (0..359) of the estimated yaw,
+/// throttle % = the collective thrust setpoint / `thr_max` (as ATTITUDE_TARGET's thrust), alt m
+/// AMSL around [`ORIGIN`], climb m/s (up positive). `None` while the position is not finite.
+pub fn vfr_hud(s: &TelemetrySnapshot, thr_max: f32) -> Option<VFR_HUD_DATA> {
+    let (_, _, alt_mm) = crate::link::geo::ned_to_global(s.position_ned)?;
+    let v = s.velocity_ned;
+    let ground = libm::sqrtf(v.x * v.x + v.y * v.y);
+    let ground = if ground.is_finite() { ground } else { 0.0 };
+    let thrust = s.attitude_sp.thrust;
+    let throttle =
+        if thr_max > 0.0 && thrust.is_finite() { (100.0 * thrust / thr_max).clamp(0.0, 100.0) } else { 0.0 };
+    Some(VFR_HUD_DATA {
+        airspeed: ground,
+        groundspeed: ground,
+        alt: alt_mm as f32 / 1000.0,
+        climb: if v.z.is_finite() { -v.z } else { 0.0 },
+        heading: heading_deg(s.attitude_rpy.z).map_or(0, |d| d as i16),
+        throttle: libm::roundf(throttle) as u16,
     })
 }
 
@@ -308,6 +419,23 @@ impl Services {
             reached: None,
             home: None,
             was_armed: false,
+            fix: FixAccuracy { horizontal_m: None, vertical_m: None },
+        }
+    }
+
+    /// A position fix arrived with accuracy `a` (GPS_RAW_INT reports the last one).
+    pub fn on_fix(&mut self, a: FixAccuracy) {
+        self.fix = a;
+    }
+
+    /// `false` for a message the vehicle cannot send now (BATTERY_STATUS before a battery
+    /// measurement: no battery; HOME_POSITION before a position): MAV_CMD_REQUEST_MESSAGE for
+    /// it is answered DENIED and nothing is sent.
+    pub fn can_send(&self, msg_id: f32, s: &TelemetrySnapshot) -> bool {
+        match msg_id_of(msg_id) {
+            Some(BATTERY_STATUS_ID) => s.battery.is_some(),
+            Some(HOME_POSITION_ID) => self.home.is_some(),
+            _ => true,
         }
     }
 
@@ -473,6 +601,8 @@ impl Services {
                 ATTITUDE_TARGET_ID => Some(Outbound::AttitudeTarget(attitude_target(ms, s, thr_max))),
                 BATTERY_STATUS_ID => s.battery.as_ref().map(|b| Outbound::BatteryStatus(battery_status(b))),
                 GPS_GLOBAL_ORIGIN_ID => Some(Outbound::GpsGlobalOrigin(global_origin(now_us))),
+                GPS_RAW_INT_ID => gps_raw_int(now_us, s, self.fix).map(Outbound::GpsRawInt),
+                VFR_HUD_ID => vfr_hud(s, thr_max).map(Outbound::VfrHud),
                 _ => self.home.and_then(|h| home_position(now_us, h)).map(Outbound::HomePosition),
             };
             if let Some(m) = m {
@@ -517,6 +647,8 @@ mod tests {
                 Outbound::AttitudeTarget(_) => 83,
                 Outbound::BatteryStatus(_) => 147,
                 Outbound::MissionItemReached(_) => 46,
+                Outbound::GpsRawInt(_) => 24,
+                Outbound::VfrHud(_) => 74,
                 _ => 0,
             })
         });
@@ -591,8 +723,10 @@ mod tests {
     fn streams_follow_their_intervals_and_requests() {
         let mut s = Services::new();
         let sn = snap(Vec3::zeros(), 0.0);
-        assert_eq!(ids(&mut s, 1_000_000, &sn, 8), vec![2, 33, 42, 242, 83], "no battery: no 147");
+        assert_eq!(ids(&mut s, 1_000_000, &sn, 8), vec![2, 33, 42, 242, 83, 24, 74], "no battery: no 147");
         assert_eq!(s.set_interval(83.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(24.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
+        assert_eq!(s.set_interval(74.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(ids(&mut s, 1_100_000, &sn, 8), Vec::<u32>::new());
         assert_eq!(ids(&mut s, 1_200_000, &sn, 8), vec![33]);
         // 50 Hz global position, system time stopped, home requested once.
@@ -743,7 +877,7 @@ mod tests {
         let sn = snap(Vec3::zeros(), 0.0);
         assert_eq!(ids(&mut s, 1_000_000, &sn, 1), vec![2]);
         assert_eq!(ids(&mut s, 1_000_001, &sn, 0), Vec::<u32>::new());
-        assert_eq!(ids(&mut s, 1_000_002, &sn, 8), vec![33, 42, 242]);
+        assert_eq!(ids(&mut s, 1_000_002, &sn, 8), vec![33, 42, 242, 24, 74]);
     }
 
     #[test]
@@ -752,5 +886,75 @@ mod tests {
         let r = ping_reply(&req, (255, 190)).expect("a request");
         assert_eq!((r.time_usec, r.seq, r.target_system, r.target_component), (42, 7, 255, 190));
         assert!(ping_reply(&PING_DATA { target_system: 1, ..req }, (255, 190)).is_none());
+    }
+
+    /// GPS_RAW_INT: the fix as a 3D "GPS" while fresh (NO_FIX when stale), the position around
+    /// the origin, the stated accuracy rounded up (cm, mm; unknown: UINT16_MAX / 0), the course
+    /// over ground, satellites unknown. Before: never sent (MAVSDK's `gps_info` never arrived).
+    #[test]
+    fn gps_raw_int_reports_the_fix_and_its_accuracy() {
+        let mut sn = snap(Vec3::new(100.0, 50.0, -10.0), 0.0);
+        sn.velocity_ned = Vec3::new(0.0, -2.0, 0.5);
+        sn.position_fresh = true;
+        // The PIL's sensor model: 5 mm per axis (variance 2.5e-5 m²).
+        let mut cov = [0.0f32; 21];
+        (cov[0], cov[6], cov[11]) = (2.5e-5, 2.5e-5, 2.5e-5);
+        let a = FixAccuracy::from_pose_covariance(&cov);
+        assert!((a.horizontal_m.unwrap_or(0.0) - 0.005).abs() < 1e-6 && a.vertical_m.is_some());
+        let g = gps_raw_int(7, &sn, a).expect("finite");
+        assert_eq!(g.fix_type, GpsFixType::GPS_FIX_TYPE_3D_FIX);
+        assert_eq!((g.lat - ORIGIN.0, g.lon - ORIGIN.1, g.alt), (8983, 6635, ORIGIN.2 + 10_000));
+        assert_eq!((g.eph, g.epv, g.h_acc, g.v_acc), (1, 1, 5, 5), "5 mm: 1 cm, 5 mm");
+        assert_eq!((g.vel, g.cog, g.satellites_visible), (200, 27_000, u8::MAX), "2 m/s west");
+        // Unknown accuracy (NaN first element), stale fix, standing still.
+        cov[0] = f32::NAN;
+        sn.position_fresh = false;
+        sn.velocity_ned = Vec3::zeros();
+        let g = gps_raw_int(7, &sn, FixAccuracy::from_pose_covariance(&cov)).expect("finite");
+        assert_eq!(g.fix_type, GpsFixType::GPS_FIX_TYPE_NO_FIX);
+        assert_eq!((g.eph, g.epv, g.h_acc, g.v_acc, g.vel, g.cog), (u16::MAX, u16::MAX, 0, 0, 0, u16::MAX));
+        sn.position_ned.x = f32::NAN;
+        assert!(gps_raw_int(7, &sn, a).is_none());
+        // A larger sigma on one axis is the horizontal accuracy; a negative variance is unknown.
+        (cov[0], cov[6], cov[11]) = (0.04, 0.01, -1.0);
+        let a = FixAccuracy::from_pose_covariance(&cov);
+        assert_eq!((a.horizontal_m, a.vertical_m), (Some(0.2), None));
+    }
+
+    /// VFR_HUD: airspeed = groundspeed = horizontal speed, heading of the yaw, throttle % of
+    /// the thrust setpoint, altitude AMSL, climb up-positive.
+    #[test]
+    fn vfr_hud_reports_speed_heading_throttle_altitude_and_climb() {
+        let mut sn = snap(Vec3::new(0.0, 0.0, -2.0), -core::f32::consts::FRAC_PI_2);
+        sn.velocity_ned = Vec3::new(3.0, 4.0, -0.5);
+        sn.attitude_sp.thrust = 4.0;
+        let h = vfr_hud(&sn, 10.0).expect("finite");
+        assert_eq!((h.airspeed, h.groundspeed, h.heading, h.throttle), (5.0, 5.0, 270, 40));
+        assert!((h.alt - (ORIGIN.2 as f32 / 1000.0 + 2.0)).abs() < 1e-3 && h.climb == 0.5);
+        sn.attitude_sp.thrust = f32::NAN;
+        assert_eq!(vfr_hud(&sn, 10.0).map(|h| h.throttle), Some(0));
+        sn.position_ned.z = f32::INFINITY;
+        assert!(vfr_hud(&sn, 10.0).is_none());
+    }
+
+    /// REQUEST_MESSAGE for BATTERY_STATUS without a battery (or HOME_POSITION before a
+    /// position) cannot be served: the router answers DENIED. Before: ACCEPTED, never sent.
+    #[test]
+    fn no_battery_no_battery_status() {
+        let mut s = Services::new();
+        let mut sn = snap(Vec3::zeros(), 0.0);
+        assert!(!s.can_send(147.0, &sn), "no battery");
+        assert!(!s.can_send(242.0, &sn), "no home before the first poll");
+        assert!(s.can_send(24.0, &sn) && s.can_send(33.0, &sn));
+        s.poll(1, &sn, MissionProgress::NONE, 1000.0, 8, |_| {});
+        assert!(s.can_send(242.0, &sn), "home known");
+        sn.battery = Some(BatteryState {
+            voltage_v: 12.0,
+            current_a: None,
+            remaining: None,
+            level: BatteryLevel::Ok,
+            t_us: 0,
+        });
+        assert!(s.can_send(147.0, &sn));
     }
 }

@@ -4,7 +4,7 @@
 //! |---|---|---|---|
 //! | heartbeat | HEARTBEAT | 1 Hz (settable: faster, never off or slower) | type QUADROTOR, autopilot PX4 (`MAV_AUTOPILOT_PX4`: the `custom_mode` is PX4's encoding, and ground stations — MAVProxy, MAVSDK, QGroundControl — pick the mode decoder from this field); custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
 //! | phase | NAMED_VALUE_INT `PHASE` | 1 Hz (with the heartbeat) | [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe): the guidance phase, which the heartbeat carried before it carried the mode |
-//! | status | SYS_STATUS | 1 Hz (settable) | sensors present = enabled: 3D gyro, 3D accel, vision position (the external fix), angular-rate, attitude, z and xy control, motor outputs, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
+//! | status | SYS_STATUS | 1 Hz (settable) | sensors present = enabled: 3D gyro, 3D accel, vision position and GPS (both the external position fix: ground stations and MAVSDK derive "global position ok" from the GPS bit, and GPS_RAW_INT reports that fix), angular-rate, attitude, z and xy control, motor outputs, `MAV_SYS_STATUS_PREARM_CHECK`, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without vision position and GPS while the fix is not fresh (the failsafe's position timeout), without PREARM_CHECK while the arm command would be refused (the cascade's arm checks, an inconsistent parameter set; healthy while armed), without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
 //! | landed state | EXTENDED_SYS_STATE | 1 Hz (settable) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
 //! | attitude | ATTITUDE | 50 Hz (settable) | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
 //! | position | LOCAL_POSITION_NED | 25 Hz (settable) | position NED m, velocity NED m/s |
@@ -265,11 +265,19 @@ pub fn sys_status(inp: &TelemetryInputs) -> SYS_STATUS_DATA {
         | S::MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
         | S::MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
         | S::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-        | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+        | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        | S::MAV_SYS_STATUS_SENSOR_GPS
+        | S::MAV_SYS_STATUS_PREARM_CHECK;
     let mut health = present;
     if inp.snapshot.failsafe.is_some() {
         health
             .remove(S::MAV_SYS_STATUS_SENSOR_VISION_POSITION | S::MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL);
+    }
+    if !inp.snapshot.position_fresh {
+        health.remove(S::MAV_SYS_STATUS_SENSOR_VISION_POSITION | S::MAV_SYS_STATUS_SENSOR_GPS);
+    }
+    if !inp.snapshot.armable {
+        health.remove(S::MAV_SYS_STATUS_PREARM_CHECK);
     }
     let battery = inp.snapshot.battery;
     let mut present = present;
@@ -723,5 +731,32 @@ mod tests {
         let h = heartbeat(&ap.telemetry());
         assert!(h.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
         assert_eq!(h.system_status, MavState::MAV_STATE_ACTIVE);
+    }
+
+    /// SYS_STATUS: GPS and PREARM_CHECK present and enabled, GPS healthy while the fix is fresh,
+    /// PREARM_CHECK healthy while the arm command would pass; no battery: voltage UINT16_MAX,
+    /// current and remaining −1 (MAVLink's "unknown"), the battery bit absent. Before: no GPS
+    /// or pre-arm bit (MAVSDK's `is_global_position_ok` / `is_armable` stayed False).
+    #[test]
+    fn sys_status_reports_gps_and_prearm_health_and_no_battery() {
+        use MavSysStatusSensor as S;
+        let ap = RecordingAutopilot::new();
+        let mut inp = inputs(&ap);
+        let m = sys_status(&inp);
+        let bits = S::MAV_SYS_STATUS_SENSOR_GPS | S::MAV_SYS_STATUS_PREARM_CHECK;
+        assert!(m.onboard_control_sensors_present.contains(bits));
+        assert!(m.onboard_control_sensors_enabled.contains(bits));
+        assert!(m.onboard_control_sensors_health.contains(bits), "fresh fix, armable");
+        assert!(!m.onboard_control_sensors_present.contains(S::MAV_SYS_STATUS_SENSOR_BATTERY));
+        assert_eq!((m.voltage_battery, m.current_battery, m.battery_remaining), (u16::MAX, -1, -1));
+        inp.snapshot.position_fresh = false;
+        let m = sys_status(&inp);
+        assert!(!m.onboard_control_sensors_health.contains(S::MAV_SYS_STATUS_SENSOR_GPS));
+        assert!(!m.onboard_control_sensors_health.contains(S::MAV_SYS_STATUS_SENSOR_VISION_POSITION));
+        assert!(m.onboard_control_sensors_health.contains(S::MAV_SYS_STATUS_PREARM_CHECK));
+        inp.snapshot.armable = false;
+        let m = sys_status(&inp);
+        assert!(!m.onboard_control_sensors_health.contains(S::MAV_SYS_STATUS_PREARM_CHECK));
+        assert!(m.onboard_control_sensors_present.contains(S::MAV_SYS_STATUS_PREARM_CHECK));
     }
 }

@@ -99,10 +99,21 @@ pub(super) fn preroll_start(t0_us: u64, n_params: usize, n_wp: usize, sched: &Ou
     t0_us.saturating_sub(steps * 1000)
 }
 
-/// ODOMETRY with a fix measured at `t_us`: position, velocity (NED) and the heading as the
-/// level quaternion of the wire contract.
-pub(super) fn odometry(t_us: u64, fix: &PositionReading) -> MavMessage {
+/// ODOMETRY with a fix measured at `t_us`: position, velocity (NED), the heading as the
+/// level quaternion of the wire contract, and the position source's noise `std_m` (1σ per
+/// axis, m) as the pose covariance's x, y, z variances (MAVLink's upper-triangle layout:
+/// indices 0, 6, 11; the rotation variances and the velocity covariance unknown: NaN first
+/// element). The firmware reports it as GPS_RAW_INT's accuracy.
+pub(super) fn odometry(t_us: u64, fix: &PositionReading, std_m: f64) -> MavMessage {
+    let var = (std_m * std_m) as f32;
+    let mut pose_covariance = [0.0f32; 21];
+    (pose_covariance[0], pose_covariance[6], pose_covariance[11]) = (var, var, var);
+    (pose_covariance[15], pose_covariance[18], pose_covariance[20]) = (f32::NAN, f32::NAN, f32::NAN);
+    let mut velocity_covariance = [0.0f32; 21];
+    velocity_covariance[0] = f32::NAN;
     MavMessage::ODOMETRY(ODOMETRY_DATA {
+        pose_covariance,
+        velocity_covariance,
         time_usec: t_us,
         x: fix.position.x as f32,
         y: fix.position.y as f32,

@@ -95,6 +95,9 @@ pub struct PilLink {
     /// The range scans go to the firmware as `OBSTACLE_DISTANCE` ([`super::proximity`]) and
     /// no obstacle batches are sent in flight.
     proximity: bool,
+    /// The position source's noise, 1σ per axis, m (the run's sensor model; 0 without noise):
+    /// sent as ODOMETRY's pose covariance.
+    fix_std_m: f64,
 }
 
 /// What a ground station's flight (`PilOptions::gcs_control`) reports back to the host.
@@ -180,6 +183,7 @@ impl PilLink {
             tap: None,
             gcs: GcsFlight::default(),
             proximity: false,
+            fix_std_m: if cfg.sensors.noise { cfg.sensors.position_noise } else { 0.0 },
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -426,7 +430,7 @@ impl PilLink {
     }
 
     fn queue_odometry(&mut self, t_us: u64, fix: &PositionReading) {
-        self.queue(&odometry(t_us, fix));
+        self.queue(&odometry(t_us, fix, self.fix_std_m));
     }
 
     fn queue_obstacles(&mut self, t_us: u64, obstacles: &[ObstaclePoint]) {
