@@ -17,6 +17,7 @@ import json
 import math
 import os
 import socket
+import struct
 import sys
 
 from mavsdk import System
@@ -160,8 +161,9 @@ async def main(port, waypoints, plugin):
     else:
         items = [
             mission_raw.MissionItem(
+                # hold 0 s, acceptance radius 0.25 m + 0.125 per item: distinct params to compare
                 i, MAV_FRAME_LOCAL_NED, MAV_CMD_NAV_WAYPOINT, 1 if i == 0 else 0, 1,
-                0.0, 0.0, 0.0, float("nan"),
+                0.0, 0.25 + 0.125 * i, 0.0, float("nan"),
                 int(round(w[0] * 1e4)), int(round(w[1] * 1e4)), float(w[2]), 0,
             )
             for i, w in enumerate(waypoints)
@@ -171,6 +173,20 @@ async def main(port, waypoints, plugin):
         down = await drone.mission_raw.download_mission()
         if len(down) != len(items):
             fail(f"downloaded {len(down)} items, uploaded {len(items)}")
+
+        def fields(it):
+            # Every field, floats as the float32 on the wire, NaN as NaN (issue 41: param1-4
+            # came back 0).
+            return tuple(
+                ("nan" if math.isnan(v) else struct.unpack("f", struct.pack("f", v))[0]) if isinstance(v, float) else v
+                for v in (it.seq, it.frame, it.command, it.current, it.autocontinue, it.param1, it.param2,
+                          it.param3, it.param4, it.x, it.y, it.z, it.mission_type)
+            )
+
+        for a, b in zip(items, down):
+            if fields(a) != fields(b):
+                fail(f"downloaded {b} for uploaded {a}")
+        print("mission downloaded field for field", flush=True)
         api = drone.mission_raw
 
     await drone.action.arm()

@@ -38,8 +38,9 @@
 //!
 //! Every item keeps the ground station's seq: MISSION_CURRENT / MISSION_ITEM_REACHED report the
 //! uploaded seq ([`MissionUpload::path_seq`], [`crate::link::mission_run`]) and a download returns
-//! each item with its command, frame, x, y and z as uploaded (param1–4 are not stored: a
-//! download returns them 0). The plan's path (waypoints, a takeoff position, a landing approach)
+//! each item field for field as uploaded: param1–4, x, y, z, command, frame, autocontinue and
+//! mission_type (issue 41: param1–4 came back 0 and autocontinue 1, and MAVSDK's
+//! `download_mission` failed UNSUPPORTED on the difference); `current` is 1 for item 0. The plan's path (waypoints, a takeoff position, a landing approach)
 //! is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
 //! whether the cascade took it. The non-path items run in [`crate::link::mission_run`].
 //!
@@ -47,7 +48,7 @@
 //! by [`crate::link::mission_float`].
 //!
 //! Capacity: [`MAX_WAYPOINTS`] items of any kind (MISSION_COUNT above that →
-//! MAV_MISSION_NO_SPACE), 20 bytes each, twice (the upload and the accepted plan). A stalled
+//! MAV_MISSION_NO_SPACE), 36 bytes each, twice (the upload and the accepted plan). A stalled
 //! upload re-requests the expected item every [`RETRY_INTERVAL_US`] and is cancelled
 //! (MAV_MISSION_OPERATION_CANCELLED) after [`MAX_RETRIES`] re-requests. Every walk over the
 //! items is O([`MAX_WAYPOINTS`]).
@@ -104,14 +105,17 @@ enum State {
     Receiving { count: u16, next: u16, partner_sys: u8, partner_comp: u8, last_us: u64, retries: u8 },
 }
 
-/// One item as the ground station uploaded it (what a download returns).
+/// One item as the ground station uploaded it (what a download returns, field for field).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Item {
     x: i32,
     y: i32,
     z: f32,
+    /// param1..param4 as uploaded (hold time, acceptance radius, yaw, ...).
+    params: [f32; 4],
     command: u16,
     frame: MavFrame,
+    autocontinue: u8,
 }
 
 /// What one navigation item makes the vehicle do (see the module docs).
@@ -273,7 +277,7 @@ impl MissionUpload {
     }
 
     /// MISSION_REQUEST_INT(`seq`) of `mission_type` from (`sys`, `comp`): the stored item as
-    /// uploaded (command, frame, x, y, z; params 0), or a refusal.
+    /// uploaded (param1–4, x, y, z, command, frame, autocontinue, mission_type), or a refusal.
     pub fn on_request_item(
         &self,
         seq: u16,
@@ -297,7 +301,12 @@ impl MissionUpload {
                 mission_type,
             ));
         };
+        let [param1, param2, param3, param4] = it.params;
         DownloadReply::Item(MISSION_ITEM_INT_DATA {
+            param1,
+            param2,
+            param3,
+            param4,
             x: it.x,
             y: it.y,
             z: it.z,
@@ -307,9 +316,8 @@ impl MissionUpload {
             target_component: comp,
             frame: it.frame,
             current: u8::from(seq == 0),
-            autocontinue: 1,
+            autocontinue: it.autocontinue,
             mission_type,
-            ..Default::default()
         })
     }
 
@@ -374,7 +382,15 @@ impl MissionUpload {
         if msg.seq > next {
             return Some(self.fail(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         }
-        let it = Item { x: msg.x, y: msg.y, z: msg.z, command: msg.command, frame: msg.frame };
+        let it = Item {
+            x: msg.x,
+            y: msg.y,
+            z: msg.z,
+            params: [msg.param1, msg.param2, msg.param3, msg.param4],
+            command: msg.command,
+            frame: msg.frame,
+            autocontinue: msg.autocontinue,
+        };
         let checked = step_of(&it).and_then(|s| match s {
             Some(Step::Takeoff { height_m, .. }) if height_m > takeoff_max_m => {
                 Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7)
@@ -709,6 +725,52 @@ mod tests {
             DownloadReply::Count(c) if c.count == 1));
         m.clear();
         assert_eq!(m.stored_len(), 0);
+    }
+
+    /// A download returns every item field for field as uploaded: param1–4 (hold time,
+    /// acceptance radius, pass radius, yaw; a DO_CHANGE_SPEED's speed type and speed), x, y, z,
+    /// command, frame, autocontinue and mission_type. Before: param1–4 came back 0 and
+    /// autocontinue 1, and MAVSDK's `download_mission` failed UNSUPPORTED on the difference.
+    #[test]
+    fn download_returns_every_field_as_uploaded() {
+        let wp = MISSION_ITEM_INT_DATA {
+            param1: 2.5,
+            param2: 0.3,
+            param3: 0.0,
+            param4: f32::NAN,
+            autocontinue: 1,
+            ..item(0, 1.5, -2.0, -1.0)
+        };
+        let speed = MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16,
+            param1: 1.0,
+            param2: 0.7,
+            param3: -1.0,
+            autocontinue: 0,
+            frame: MavFrame::MAV_FRAME_MISSION,
+            ..item(1, 0.0, 0.0, 0.0)
+        };
+        let mut m = MissionUpload::new();
+        m.on_count(&count(2), 255, 190, 0);
+        m.on_item(&wp, 255, 190, 0, TKO);
+        assert_eq!(m.on_item(&speed, 255, 190, 0, TKO), Some(MissionReply::Complete));
+        m.accept();
+        for up in [wp, speed] {
+            let DownloadReply::Item(down) =
+                m.on_request_item(up.seq, MavMissionType::MAV_MISSION_TYPE_MISSION, 9, 8)
+            else {
+                panic!("item {}", up.seq)
+            };
+            let key = |i: &MISSION_ITEM_INT_DATA| {
+                let p = [i.param1, i.param2, i.param3, i.param4].map(f32::to_bits);
+                (p, i.x, i.y, i.z.to_bits(), i.command, i.frame, i.autocontinue, i.mission_type, i.seq)
+            };
+            assert_eq!(key(&down), key(&up), "item {}", up.seq);
+            assert_eq!(
+                (down.target_system, down.target_component, down.current),
+                (9, 8, u8::from(up.seq == 0))
+            );
+        }
     }
 
     fn global(seq: u16, frame: MavFrame, lat: i32, lon: i32, z: f32) -> MISSION_ITEM_INT_DATA {
