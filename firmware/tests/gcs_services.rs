@@ -897,6 +897,27 @@ fn qgc_default_plan_takes_off_flies_returns_and_lands() {
     assert!(f.refs.iter().any(|p| (p.x - 2.0).abs() < 0.1 && (p.y - 2.0).abs() < 0.1), "the path is flown");
 }
 
+/// A plan without a TAKEOFF item started armed on the ground takes off by itself (the cascade's
+/// default 1 m), then flies the path and lands (issue 41, as PX4). Before: MISSION_START was
+/// refused on the ground (MAVSDK's `start_mission` did nothing).
+#[test]
+fn a_plan_without_takeoff_started_on_the_ground_takes_off_by_itself() {
+    let mut g = Sim::new();
+    let plan = [
+        qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 2.0, 0.0, 1.5),
+        qgc_item(MavCmd::MAV_CMD_NAV_LAND, 0.0, 0.0, 0.0),
+    ];
+    assert_eq!(g.upload_items(&plan), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let f = fly_from_ground(&mut g, 60_000);
+    assert!(!f.armed, "landed and disarmed ({:?})", g.ap.telemetry().phase);
+    assert_eq!(f.reached, vec![0, 1], "MISSION_ITEM_REACHED in the uploaded seqs");
+    assert!(f.complete, "COMPLETE at the end");
+    assert!(
+        f.refs.iter().any(|p| (p.x - 2.0).abs() < 0.05 && (p.z + 1.5).abs() < 0.05),
+        "the waypoint is flown"
+    );
+}
+
 /// A mission whose first item is TAKEOFF, started while the vehicle is already in the air
 /// (holding 1 m up), first goes straight up or down to the item's altitude where the vehicle is
 /// (TAKEOFF reached there), then flies on. Before: the climb was skipped and the first leg flew

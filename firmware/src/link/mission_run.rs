@@ -5,6 +5,7 @@
 //!  MISSION_START / DO_SET_MODE Mission
 //!    plan has NAV_TAKEOFF, armed on the ground or airborne ─▶ TakingOff (cascade Takeoff to its
 //!                                                             height: climb, or descend when above)
+//!    no NAV_TAKEOFF, a path, armed on the ground           ─▶ TakingOff (the cascade's default height)
 //!    no NAV_TAKEOFF, airborne (Hover / Takeoff phase)      ─▶ Flying    (cascade StartMission)
 //!  TakingOff ── the ramp seen, then Hover ─▶ Flying, or the end action when the path is empty
 //!  Flying ──── follower done ───────▶ Ending: NAV_LAND → cascade Land; NAV_RETURN_TO_LAUNCH →
@@ -16,8 +17,9 @@
 //! Every segment is flown by the cascade's own guidance (takeoff ramp, path follower, Land,
 //! Return), so the safety filter is in the loop throughout; this module only issues the
 //! commands a pilot would, at the link's poll rate (≥ 10 Hz, so an end action starts within
-//! one poll period of the follower's arrival). A plan without TAKEOFF started on the ground is
-//! refused as before (the cascade's StartMission needs the vehicle airborne).
+//! one poll period of the follower's arrival). A plan without TAKEOFF started armed on the
+//! ground takes off by itself (issue 41; as PX4): the cascade's default takeoff (its
+//! `Takeoff` without a height: 1 m, capped by `MIS_TKO_ALT_MAX`), then the path.
 //!
 //! [`MissionRun::progress`] gives MISSION_CURRENT / MISSION_ITEM_REACHED in the uploaded seq
 //! numbers ([`crate::link::services`] emits them): the item being flown and the last item done
@@ -101,9 +103,11 @@ impl MissionRun {
         *self = Self::new();
     }
 
-    /// `true` when a mission start on the ground would take off (the plan has NAV_TAKEOFF).
+    /// `true` when a mission start on the ground would take off (the plan has NAV_TAKEOFF, or a
+    /// path: then the cascade's default takeoff first).
     pub fn takes_off(m: &MissionUpload) -> bool {
-        m.plan().takeoff.is_some()
+        let plan = m.plan();
+        plan.takeoff.is_some() || plan.path_len > 0
     }
 
     /// MISSION_START (or DO_SET_MODE Mission) at `now_us`: with a TAKEOFF item, armed on the
@@ -118,10 +122,16 @@ impl MissionRun {
     ) -> Result<(), CommandRejected> {
         let plan = m.plan();
         let s = ap.telemetry();
-        if let Some((_, h)) =
-            plan.takeoff.filter(|_| s.armed && (s.phase == FlightPhase::Idle || airborne(&s)))
-        {
-            ap.command(now_us, VehicleCommand::Takeoff { height_m: Some(h) })?;
+        let on_ground = s.armed && s.phase == FlightPhase::Idle;
+        let height = match plan.takeoff {
+            Some((_, h)) if on_ground || airborne(&s) => Some(Some(h)),
+            // No TAKEOFF item, armed on the ground: the cascade's default takeoff first, as PX4
+            // takes off to MIS_TAKEOFF_ALT before a plan without one.
+            None if on_ground && plan.path_len > 0 => Some(None),
+            _ => None,
+        };
+        if let Some(height_m) = height {
+            ap.command(now_us, VehicleCommand::Takeoff { height_m })?;
             self.run = Run::TakingOff { seen: false };
             self.started = true;
             self.climbed = false;
