@@ -60,8 +60,9 @@ const FLASH_TARGET: u64 = 128 * 1024;
 /// size — 219,472 B on 2026-12-06 with the jerk-limited trajectory guidance (issue 35, +≈ 26 KB
 /// of code over 193,492 B; `cargo xtask size`). The product budget (DEVELOPERS.md) is 512 KiB,
 /// half of the STM32F405RG's 1 MiB; the 128 KiB target of issue 22 is missed (`firmware/README.md`
-/// § Budgets).
-const FLASH_BUDGET: u64 = 216 * 1024;
+/// § Budgets). Raised to 218 KiB on 2026-12-06 (issue 41): 221,160 B before → 222,480 B with
+/// GPS_RAW_INT, VFR_HUD, the pre-arm check and missions stored field for field (+1,320 B).
+const FLASH_BUDGET: u64 = 218 * 1024;
 /// Static RAM limit CI enforces (.data + .bss), bytes: a regression guard ≤ 2 KiB above today's
 /// 41,440 B (2026-12-06: the mission trajectory, `Trajectory<64>`, ≈ 10 KB, joined the outer
 /// stage). The product budget (DEVELOPERS.md) is 96 KiB of the F405's 128 KiB SRAM; issue 22's
