@@ -36,9 +36,9 @@ use parapet_sim::world::generate::{GenParams, Kind};
 use parapet_sim::world::scene::Scene;
 use plotters::prelude::*;
 
-mod common;
 #[path = "../tests/common/clearance.rs"]
 mod clearance;
+mod common;
 
 /// Comma list of an environment variable (`None` when unset or empty).
 fn env_list(name: &str) -> Option<Vec<String>> {

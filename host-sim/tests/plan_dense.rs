@@ -5,7 +5,9 @@
 //! (`cargo bench -p parapet-sim --bench scale`, `docs/performance.md`), not a test.
 
 use parapet_sim::plan::generate::generate;
-use parapet_sim::plan::{index_for, plan_with_index, PlanMethod, PlanProblem, PlannerParams, DEFAULT_MARGIN_M};
+use parapet_sim::plan::{
+    index_for, plan_with_index, PlanMethod, PlanProblem, PlannerParams, DEFAULT_MARGIN_M,
+};
 use parapet_sim::world::generate::{GenParams, Kind};
 
 #[path = "common/clearance.rs"]
@@ -40,7 +42,11 @@ fn dense_forest_every_seed_solves_with_clearance() {
             let (d, k, i) = obstacles.min_clearance(&p.waypoints, required + 1.0);
             assert!(d >= required - 1e-4, "{n}/{scene_seed} seed {seed}: segment {k} {d} m from trunk {i}");
             // The sampling planner's paths in these forests were 1.3–1.5 × the straight line.
-            assert!(p.length_m < 1.1 * straight, "{n}/{scene_seed} seed {seed}: {} m for {straight} m", p.length_m);
+            assert!(
+                p.length_m < 1.1 * straight,
+                "{n}/{scene_seed} seed {seed}: {} m for {straight} m",
+                p.length_m
+            );
             assert_eq!(p.method, PlanMethod::Grid, "{n}/{scene_seed} seed {seed}");
         }
     }

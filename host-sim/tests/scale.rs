@@ -174,6 +174,10 @@ fn cli_scene_generate_writes_a_loadable_scene_and_plan_takes_budgets() {
     // (issue 38), which the iteration budget does not limit, still finds the path.
     let o = parapet(&["plan", "--scene", f, "--out", p, "--force", "--max-iterations", "1"]);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(String::from_utf8_lossy(&o.stdout).contains(", grid, "), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains(", grid, "),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

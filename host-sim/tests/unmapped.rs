@@ -85,14 +85,20 @@ fn bad_mapped_values_are_named() {
     assert!(Scene::parse(&over_start.replace("mapped = false\n", ""), "hall.toml").is_ok());
     // Through the command line: exit 2, the file named.
     let d = tmp("unmapped", "bad");
-    for (name, text) in [("bad_value.toml", HALL.replace("MAPPED", "mapped = \"no\"")), ("over_start.toml", over_start)] {
+    for (name, text) in
+        [("bad_value.toml", HALL.replace("MAPPED", "mapped = \"no\"")), ("over_start.toml", over_start)]
+    {
         let f = d.join(name);
         std::fs::write(&f, text).unwrap();
         let out = d.join("p.json");
         for cmd in ["plan", "run"] {
             let o = parapet(&[cmd, "--scene", f.to_str().unwrap(), "--out", out.to_str().unwrap()]);
             assert_eq!(o.status.code(), Some(2), "{cmd} {name}: {}", stderr(&o));
-            assert!(stderr(&o).contains(name) && stderr(&o).contains("mapped"), "{cmd} {name}: {}", stderr(&o));
+            assert!(
+                stderr(&o).contains(name) && stderr(&o).contains("mapped"),
+                "{cmd} {name}: {}",
+                stderr(&o)
+            );
         }
     }
 }
@@ -120,9 +126,22 @@ fn generated_unmapped_share_is_seeded_and_keeps_the_world() {
     let d = tmp("unmapped", "gen");
     let out = d.join("f.toml");
     for bad in ["1.5", "-0.1", "nan"] {
-        let o = parapet(&["scene", "generate", "--obstacles", "100", "--unmapped", bad, "--out", out.to_str().unwrap()]);
+        let o = parapet(&[
+            "scene",
+            "generate",
+            "--obstacles",
+            "100",
+            "--unmapped",
+            bad,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
-        assert!(stderr(&o).contains("--unmapped") && stderr(&o).contains("0 ≤ unmapped ≤ 1"), "{bad}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--unmapped") && stderr(&o).contains("0 ≤ unmapped ≤ 1"),
+            "{bad}: {}",
+            stderr(&o)
+        );
     }
 }
 
@@ -141,7 +160,14 @@ fn two_doors_blocked_is_flown_into_the_crate_without_contact() {
     assert!(through, "the planned path should run through the unmapped crate: {:?}", path.waypoints);
     let d = tmp("unmapped", "fly");
     let out = d.join("run");
-    let o = parapet(&["run", "--scene", "scenes/two_doors_blocked.toml", "--no-noise", "--out", out.to_str().unwrap()]);
+    let o = parapet(&[
+        "run",
+        "--scene",
+        "scenes/two_doors_blocked.toml",
+        "--no-noise",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

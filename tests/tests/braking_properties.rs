@@ -104,14 +104,28 @@ proptest! {
 fn a_head_on_wall_at_8_m_s_is_stopped_short_of_it() {
     // The case: 8 m/s straight at a wall point 12 m ahead (a 12 m lidar), pushing on.
     let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
-    let worst = fly(&f, Vec3::zeros(), Vec3::new(8.0, 0.0, 0.0), Vec3::new(3.0, 0.0, 0.0), &[(Vec3::new(12.5, 0.0, 0.0), Vec3::zeros())], 0.03);
+    let worst = fly(
+        &f,
+        Vec3::zeros(),
+        Vec3::new(8.0, 0.0, 0.0),
+        Vec3::new(3.0, 0.0, 0.0),
+        &[(Vec3::new(12.5, 0.0, 0.0), Vec3::zeros())],
+        0.03,
+    );
     assert!(worst >= 0.0, "{worst}");
     // The paper's barrier (multi-relative, μ 1.4 s) at the same state asks for more braking
     // than the vehicle has: c = (2/μ)·8 = 11.4 m/s² > u_max 6 (unavoidable); the braking
     // barrier's constraint stays below a_b.
     let paper = SafetyFilter::new(CbfParams::default(), FilterVariant::MultiRelative).unwrap();
-    let b = paper.barrier(&Vec3::zeros(), &Vec3::new(8.0, 0.0, 0.0), &ObstaclePoint::fixed(Vec3::new(12.5, 0.0, 0.0), 0)).unwrap();
+    let b = paper
+        .barrier(
+            &Vec3::zeros(),
+            &Vec3::new(8.0, 0.0, 0.0),
+            &ObstaclePoint::fixed(Vec3::new(12.5, 0.0, 0.0), 0),
+        )
+        .unwrap();
     assert!(b.constraint.c > paper.params.u_max, "{b:?}");
-    let bb = braking::barrier(&f.params.braking(), &Vec3::new(-12.5, 0.0, 0.0), &Vec3::new(8.0, 0.0, 0.0)).unwrap();
+    let bb = braking::barrier(&f.params.braking(), &Vec3::new(-12.5, 0.0, 0.0), &Vec3::new(8.0, 0.0, 0.0))
+        .unwrap();
     assert!(bb.h > 0.0 && bb.constraint.c < f.params.brake_accel, "{bb:?}");
 }

@@ -83,7 +83,11 @@ pub struct BrakingBarrier {
 /// non-finite input.
 pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarrier> {
     let dist_sq = d.norm_squared();
-    if dist_sq.is_nan() || dist_sq <= MIN_DISTANCE_SQ || !dist_sq.is_finite() || !d_dot.iter().all(|x| x.is_finite()) {
+    if dist_sq.is_nan()
+        || dist_sq <= MIN_DISTANCE_SQ
+        || !dist_sq.is_finite()
+        || !d_dot.iter().all(|x| x.is_finite())
+    {
         return None;
     }
     let dist = sqrtf(dist_sq);
@@ -101,7 +105,14 @@ mod tests {
     use super::*;
 
     fn params() -> BrakingLimits {
-        BrakingLimits { hull_radius: 0.05f32.sqrt(), accel: 3.0, delay: 0.1, gamma: 0.0, velocity_margin: 0.0, accel_bound: 0.0 }
+        BrakingLimits {
+            hull_radius: 0.05f32.sqrt(),
+            accel: 3.0,
+            delay: 0.1,
+            gamma: 0.0,
+            velocity_margin: 0.0,
+            accel_bound: 0.0,
+        }
     }
 
     #[test]

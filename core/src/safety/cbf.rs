@@ -21,10 +21,10 @@
 //! `MultiRelative` (both; the default), and `Braking` (the braking-distance barrier of
 //! [`super::braking`], every near barrier at once with relative velocity).
 
+use super::braking::{self, BrakingBarrier, BrakingLimits};
 use crate::fmath::{maxf, minf, norm3, sqrtf};
 use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
-use super::braking::{self, BrakingBarrier, BrakingLimits};
 use crate::Vec3;
 
 /// Magnitude beyond which an input is treated as corrupt (m, m/s or m/s²).
@@ -577,7 +577,13 @@ impl SafetyFilter {
     /// The answer before any barrier: the braking fallback for a bad state or nominal
     /// command, the nominal command with no obstacle; `None` to go on.
     #[inline(always)]
-    fn screen(&self, p: &Vec3, v: &Vec3, u_nom: &Vec3, obstacles: &[ObstaclePoint]) -> Option<(Vec3, FilterDiagnostics)> {
+    fn screen(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        u_nom: &Vec3,
+        obstacles: &[ObstaclePoint],
+    ) -> Option<(Vec3, FilterDiagnostics)> {
         if !within_limits(p) || !within_limits(v) {
             return Some(self.fault(v, FilterFault::BadState));
         }
@@ -591,7 +597,13 @@ impl SafetyFilter {
     /// braking barrier is in force; the `K` smallest `h_b` are projected on exactly. The
     /// region is `far` while every `h_b > √δ1 − √δ` and the nominal satisfies them;
     /// `diag.h_bar` is `min h_b` (m).
-    fn apply_braking(&self, p: &Vec3, v: &Vec3, u_nom: &Vec3, obstacles: &[ObstaclePoint]) -> (Vec3, FilterDiagnostics) {
+    fn apply_braking(
+        &self,
+        p: &Vec3,
+        v: &Vec3,
+        u_nom: &Vec3,
+        obstacles: &[ObstaclePoint],
+    ) -> (Vec3, FilterDiagnostics) {
         if let Some(early) = self.screen(p, v, u_nom, obstacles) {
             return early;
         }
@@ -613,7 +625,8 @@ impl SafetyFilter {
             }
             // Keep the K smallest h_b: replace the largest kept when full.
             if let Err(item) = near.push((b, o.id)) {
-                let worst = near.iter().enumerate().fold(0, |w, (i, x)| if x.0.h > near[w].0.h { i } else { w });
+                let worst =
+                    near.iter().enumerate().fold(0, |w, (i, x)| if x.0.h > near[w].0.h { i } else { w });
                 if item.0.h < near[worst].0.h {
                     near[worst] = item;
                 }
@@ -633,7 +646,8 @@ impl SafetyFilter {
         }
         // Reference for the bounded projection: braking along the velocity at a_b.
         let speed = norm3(v);
-        let u_brake = if speed > 1e-6 { v * (-minf(limits.accel, self.params.u_max) / speed) } else { Vec3::zeros() };
+        let u_brake =
+            if speed > 1e-6 { v * (-minf(limits.accel, self.params.u_max) / speed) } else { Vec3::zeros() };
         (project_near(u_nom, cons, &u_brake, &mut diag), diag)
     }
 
@@ -1179,15 +1193,18 @@ mod tests {
         let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
         // Wall point 2 m ahead, closing at 2.5 m/s (h_b = 2 − 0.224 − 1.042 − 0.25 < engage).
         let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, -1.0), 7)];
-        let (u, d) = f.apply(&Vec3::new(0.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
+        let (u, d) =
+            f.apply(&Vec3::new(0.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
         assert!(d.intervened && d.region == Region::Perpendicular, "{d:?}");
         assert_eq!(d.active_id, Some(7));
         // −u_x ≥ c: it decelerates at least c; the sideways part is kept.
-        let b = braking::barrier(&f.params.braking(), &Vec3::new(-2.0, 0.0, 0.0), &Vec3::new(2.5, 0.0, 0.0)).unwrap();
+        let b = braking::barrier(&f.params.braking(), &Vec3::new(-2.0, 0.0, 0.0), &Vec3::new(2.5, 0.0, 0.0))
+            .unwrap();
         assert!(-u.x >= b.constraint.c - 1e-4, "{u:?} {b:?}");
         assert!((u.y - 0.5).abs() < 1e-4, "{u:?}");
         // Far away: the nominal passes.
-        let (u2, d2) = f.apply(&Vec3::new(-20.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
+        let (u2, d2) =
+            f.apply(&Vec3::new(-20.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
         assert_eq!(u2, Vec3::new(2.0, 0.5, 0.0));
         assert_eq!(d2.region, Region::Far);
     }
@@ -1197,7 +1214,11 @@ mod tests {
         let f = SafetyFilter::new(CbfParams::default(), FilterVariant::Braking).unwrap();
         let o = [ObstaclePoint::fixed(Vec3::new(2.0, 0.0, 0.0), 0)];
         let nan = Vec3::new(f32::NAN, 0.0, 0.0);
-        for (p, v, u) in [(nan, Vec3::zeros(), Vec3::zeros()), (Vec3::zeros(), nan, Vec3::zeros()), (Vec3::zeros(), Vec3::zeros(), nan)] {
+        for (p, v, u) in [
+            (nan, Vec3::zeros(), Vec3::zeros()),
+            (Vec3::zeros(), nan, Vec3::zeros()),
+            (Vec3::zeros(), Vec3::zeros(), nan),
+        ] {
             let (out, d) = f.apply(&p, &v, &u, &o);
             assert!(out.iter().all(|x| x.is_finite()));
             assert!(d.fault.is_some());

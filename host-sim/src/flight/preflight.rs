@@ -215,7 +215,6 @@ fn depth(sd: f64) -> String {
     }
 }
 
-
 /// `[x, y, z]` with up to 4 decimals, as a user would write it.
 fn fmt3(a: &[f64; 3]) -> String {
     let f = |x: f64| {

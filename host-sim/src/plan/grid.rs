@@ -182,7 +182,11 @@ impl Grid {
     fn rasterise(&mut self, space: &Space) {
         let r = self.reach;
         let lo = [self.x0 - r, self.y0 - r, self.z - r];
-        let hi = [self.x0 + (self.nx - 1) as f64 * self.h + r, self.y0 + (self.ny - 1) as f64 * self.h + r, self.z + r];
+        let hi = [
+            self.x0 + (self.nx - 1) as f64 * self.h + r,
+            self.y0 + (self.ny - 1) as f64 * self.h + r,
+            self.z + r,
+        ];
         match &space.index {
             Some(index) => index.for_each_overlapping(&lo, &hi, |leaf| {
                 self.mark(index.leaf(leaf).1);
@@ -226,7 +230,8 @@ impl Grid {
         let Some((ax, ay, rho)) = cut else { return };
         let j_lo = ((ay[0] - rho - self.y0) / self.h).ceil().max(0.0);
         let j_hi = ((ay[1] + rho - self.y0) / self.h).floor().min((self.ny - 1) as f64);
-        if !(j_lo <= j_hi) {
+        // Empty (or NaN) row range: nothing to mark.
+        if j_lo.partial_cmp(&j_hi).is_none_or(|o| o == std::cmp::Ordering::Greater) {
             return;
         }
         for j in j_lo as usize..=j_hi as usize {
@@ -331,7 +336,7 @@ impl Grid {
                 continue;
             }
             *expansions = expansions.saturating_add(1);
-            if *expansions % 4096 == 0 && t0.elapsed().as_secs_f64() * 1e3 > budget_ms {
+            if (*expansions).is_multiple_of(4096) && t0.elapsed().as_secs_f64() * 1e3 > budget_ms {
                 return Astar::OutOfTime;
             }
             if is_target[cu] {
@@ -429,7 +434,12 @@ mod tests {
             if (d - grid.reach).abs() < 1e-4 {
                 continue;
             }
-            assert_eq!(grid.blocked[c], d < grid.reach, "cell {c} at {q:?}: distance {d}, reach {}", grid.reach);
+            assert_eq!(
+                grid.blocked[c],
+                d < grid.reach,
+                "cell {c} at {q:?}: distance {d}, reach {}",
+                grid.reach
+            );
             blocked += usize::from(grid.blocked[c]);
         }
         assert!(blocked > 1000, "{blocked}");

@@ -169,7 +169,9 @@ where
             if !o.mapped {
                 let mut edge = outline(&o.shape);
                 edge.extend(edge.first().copied());
-                chart.draw_series(std::iter::once(PathElement::new(edge, BLACK.stroke_width(1)))).map_err(e)?;
+                chart
+                    .draw_series(std::iter::once(PathElement::new(edge, BLACK.stroke_width(1))))
+                    .map_err(e)?;
             }
         }
     }

@@ -188,7 +188,11 @@ impl Obs {
         let a = |v: [f64; 3]| format!("[{}, {}, {}]", v[0], v[1], v[2]);
         let _ = match *self {
             Obs::Cylinder { base, radius, height } => {
-                write!(out, "{{ kind = \"cylinder\", base = {}, radius = {radius}, height = {height}", a(base))
+                write!(
+                    out,
+                    "{{ kind = \"cylinder\", base = {}, radius = {radius}, height = {height}",
+                    a(base)
+                )
             }
             Obs::Box { min, max } => write!(out, "{{ kind = \"box\", min = {}, max = {}", a(min), a(max)),
             Obs::Sphere { center, radius } => {

@@ -287,7 +287,11 @@ impl Scene {
 /// An unmapped obstacle may not cover the mission start (the hull of radius `hull`
 /// at `start`, NED, intersecting it): the vehicle would start inside something the
 /// map does not know. The error names the obstacle and the field `mapped`.
-fn unmapped_clear_of_start(obstacles: &[SceneObstacle], start: &Vector3<f64>, hull: f64) -> Result<(), String> {
+fn unmapped_clear_of_start(
+    obstacles: &[SceneObstacle],
+    start: &Vector3<f64>,
+    hull: f64,
+) -> Result<(), String> {
     let p = to_f32(start);
     for (i, o) in obstacles.iter().enumerate().filter(|(_, o)| !o.mapped) {
         let sd = o.at(0.0).0.signed_distance(&p) as f64;

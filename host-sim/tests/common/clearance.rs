@@ -18,7 +18,9 @@ fn v(a: &[f32; 3]) -> Vector {
 fn parry(shape: &Shape) -> (Pose, Box<dyn parry3d_f64::shape::Shape>) {
     match shape {
         Shape::Point { center } => (Pose::from_translation(v(center)), Box::new(Ball::new(0.0))),
-        Shape::Sphere { center, radius } => (Pose::from_translation(v(center)), Box::new(Ball::new(*radius as f64))),
+        Shape::Sphere { center, radius } => {
+            (Pose::from_translation(v(center)), Box::new(Ball::new(*radius as f64)))
+        }
         Shape::Box { min, max } => {
             let (a, b) = (v(min), v(max));
             (Pose::from_translation((a + b) * 0.5), Box::new(Cuboid::new((b - a) * 0.5)))
@@ -63,7 +65,8 @@ impl Obstacles {
             let (lo, hi) = (a.min(b), a.max(b));
             let seg = Segment::new(a, b);
             for (i, (pose, s, bb)) in self.0.iter().enumerate() {
-                let gap = [lo.x - bb[3], bb[0] - hi.x, lo.y - bb[4], bb[1] - hi.y, lo.z - bb[5], bb[2] - hi.z];
+                let gap =
+                    [lo.x - bb[3], bb[0] - hi.x, lo.y - bb[4], bb[1] - hi.y, lo.z - bb[5], bb[2] - hi.z];
                 if gap.iter().any(|g| *g > cutoff) {
                     continue;
                 }

@@ -291,7 +291,9 @@ fn filter(variant: FilterVariant) -> SafetyFilter {
 }
 
 fn bench_filter(c: &Counter) {
-    for variant in [FilterVariant::Multi, FilterVariant::MultiRelative, FilterVariant::Paper, FilterVariant::Braking] {
+    for variant in
+        [FilterVariant::Multi, FilterVariant::MultiRelative, FilterVariant::Paper, FilterVariant::Braking]
+    {
         let f = filter(variant);
         for k in [1usize, 4, 16, 32] {
             let mut rng = SplitMix64(SEED ^ (k as u64).wrapping_mul(0x1000_0000_01B3));
