@@ -103,7 +103,8 @@ pub struct RunArgs {
     /// Disable the CBF safety filter (nominal PD tracking only).
     #[arg(long)]
     no_cbf: bool,
-    /// Filter variant: paper | relative | multi | multi-relative (default: the scene's, else multi-relative).
+    /// Filter variant: paper | relative | multi | multi-relative | braking (the braking-distance
+    /// barrier, CBF_BRAKE_*; docs/filter.md §16) (default: the scene's, else multi-relative).
     #[arg(long, value_parser = parse_variant)]
     filter: Option<FilterVariant>,
     /// Yaw along the path (MIS_YAW_MODE): hold (the heading at arming) | travel (face the direction
@@ -284,7 +285,10 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
 }
 
 fn parse_variant(s: &str) -> Result<FilterVariant, String> {
-    s.parse().map_err(|_| format!("unknown filter {s:?}: expected paper, relative, multi or multi-relative"))
+    s.parse().map_err(|_| {
+        let names: Vec<&str> = FilterVariant::ALL.iter().map(|v| v.as_str()).collect();
+        format!("unknown filter {s:?}: expected one of {}", names.join(", "))
+    })
 }
 
 fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
