@@ -43,6 +43,7 @@ use parapet_core::fmath;
 use parapet_core::frame::wrap_pi;
 use parapet_core::mixer::Mixer;
 use parapet_core::obstacle::ObstaclePoint;
+use parapet_core::outer::trajectory::{Trajectory, TrajectoryParams};
 use parapet_core::robust::{lag_time_constant, PlantAware, RobustParams, StepInput};
 use parapet_core::thrust::map_acceleration;
 use parapet_core::tracking::{PdTracker, Reference};
@@ -410,6 +411,43 @@ fn bench_blocks(c: &Counter) {
     bar.report("SafetyFilter::barrier (one obstacle)");
 }
 
+/// One outer step (4 ms) of the mission trajectory (issue 35, `parapet_core::outer::trajectory`)
+/// along a 64-waypoint zigzag of 2 m legs turning ±30° at a 5 m/s cruise: 64 measurements, each
+/// `REPS` consecutive steps, 100 unmeasured steps apart (the whole path is sampled: corners,
+/// blends and the braking look-ahead over many pieces), and the in-place rebuild at a mission
+/// start.
+fn bench_trajectory(c: &Counter) {
+    let params = TrajectoryParams { cruise_speed: 5.0, ..TrajectoryParams::default() };
+    let mut pts: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let (mut x, mut y) = (0.0f32, 0.0f32);
+    for i in 0..64 {
+        let _ = pts.push(Vec3::new(x, y, -1.5));
+        let a = if i % 2 == 0 { 0.5236f32 } else { -0.5236 };
+        x += 2.0 * fmath::cosf(a);
+        y += 2.0 * libm::sinf(a);
+    }
+    let mut t: Trajectory<64> = Trajectory::idle();
+    let build = c.measure(|| {
+        black_box(t.rebuild(black_box(params), black_box(&pts)).is_ok());
+    });
+    let mut build_stats = Stats::default();
+    build_stats.add(build);
+    if t.rebuild(params, &pts).is_err() {
+        exit(false);
+    }
+    let mut step = Stats::default();
+    for _ in 0..64 {
+        step.add(c.measure(|| {
+            black_box(t.step(black_box(0.004), black_box(1.0)).is_ok());
+        }));
+        for _ in 0..100 {
+            let _ = t.step(0.004, 1.0);
+        }
+    }
+    step.report("trajectory step (64-waypoint zigzag, 5 m/s)");
+    build_stats.report("trajectory rebuild in place (64 waypoints)");
+}
+
 /// The parts of the cascade and the libm functions they call, each repeated on one input
 /// (stateful parts too: repeating an estimator or PID update on the same sample is fine for
 /// counting). Tells where the instructions of `step_outer`/`step_inner` go.
@@ -746,6 +784,7 @@ fn main() -> ! {
     bench_blocks(&c);
     bench_cascade_parts(&c);
     bench_filter(&c);
+    bench_trajectory(&c);
     bench_cascade(&c);
     bench_memory(&c, false);
     bench_memory(&c, true);
