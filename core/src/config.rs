@@ -163,6 +163,19 @@ pub enum ParamError {
     Loop,
 }
 
+impl core::fmt::Display for ParamError {
+    /// The rule broken, in words (the CBF's with its own message; the others by kind).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ParamError::Cbf(e) => write!(f, "filter: {e}"),
+            ParamError::DeltaBelowHull { delta, hull_sq } => {
+                write!(f, "CBF_DELTA {delta} m^2 is below the squared hull radius {hull_sq} m^2")
+            }
+            other => write!(f, "{other:?}"),
+        }
+    }
+}
+
 impl ControllerParams {
     /// Check every parameter (see [`ParamError`]).
     pub fn validate(&self) -> Result<(), ParamError> {

@@ -121,6 +121,9 @@ fn bad_names_values_and_files_exit_2_naming_them() {
         (vec!["--params".into(), missing.display().to_string()], "option --params"),
         // The cross-parameter rules: a hover needs more than the vehicle's weight in thrust.
         (vec!["--param".into(), "VEH_MASS=5".into()], "inconsistent"),
+        // A braking deceleration beyond what the filter may command (issue 36).
+        (vec!["--param".into(), "CBF_BRAKE_ACC=10".into()], "brake_accel must be finite, > 0 and <= u_max"),
+        (vec!["--param".into(), "CBF_BRAKE_DLY=0".into()], "0.01 ≤ CBF_BRAKE_DLY ≤ 1 s"),
     ];
     let out = d.join("o");
     for (extra, want) in cases {

@@ -585,7 +585,7 @@ fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         let set = crate::flight::runner::controller_params(&scene, &cfg, cbf, cfg.variant);
         set.validate().map_err(|e| {
             InputError::option("param", "the parameter set is inconsistent")
-                .value(format!("{e:?}"))
+                .value(e.to_string())
                 .allowed("a consistent set (docs/cascade.md, the parameter table's cross-parameter rules)")
         })?;
     }

@@ -92,7 +92,7 @@ pub fn from_qgc(text: &str, source: &str) -> Result<ControllerParams, InputError
             .map_err(|_| InputError::file(source, "value refused").field(name).value(v))?;
     }
     p.validate().map_err(|e| {
-        InputError::file(source, "the parameter set is inconsistent").value(format!("{e:?}")).allowed(
+        InputError::file(source, "the parameter set is inconsistent").value(e.to_string()).allowed(
             "a consistent set (see `parapet run --help` and docs/cascade.md for the cross-parameter rules)",
         )
     })?;
