@@ -23,6 +23,9 @@ pub mod pilot;
 pub mod report_out;
 pub mod scene;
 pub mod sitl;
+mod values;
+
+use values::{default_help, parse_guidance, parse_variant, parse_vec3, parse_yaw_mode, speed_help};
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -252,51 +255,6 @@ pub struct ReplayArgs {
     /// Simulate the ground plane z = 0 (default off: free space).
     #[arg(long)]
     ground: bool,
-}
-
-/// The help line of `--speed` with the parameter table's range.
-fn speed_help() -> String {
-    let range = parapet_core::params::by_key("speed").map(|p| p.range().to_string()).unwrap_or_default();
-    format!("Reference speed along the path, m/s, {range} [default: the scene's]")
-}
-
-/// The help line of a controller option with its built-in default (the parameter
-/// table's, shortest decimals).
-fn default_help(what: &str, name: &str) -> String {
-    let d = crate::flight::runner::table_default(name);
-    format!("{what} [default: the scene's [controller] {name}, else {d}]")
-}
-
-/// `x,y,z` (three finite numbers, commas, optional spaces).
-fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(format!("expected x,y,z (three numbers), got {s:?}"));
-    }
-    let mut v = [0.0; 3];
-    for (k, p) in parts.iter().enumerate() {
-        v[k] = p
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("{p:?} is not a finite number"))?;
-    }
-    Ok(v)
-}
-
-fn parse_variant(s: &str) -> Result<FilterVariant, String> {
-    s.parse().map_err(|_| {
-        let names: Vec<&str> = FilterVariant::ALL.iter().map(|v| v.as_str()).collect();
-        format!("unknown filter {s:?}: expected one of {}", names.join(", "))
-    })
-}
-
-fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
-    s.parse().map_err(|_| format!("unknown guidance {s:?}: expected paper or trajectory"))
-}
-
-fn parse_yaw_mode(s: &str) -> Result<YawMode, String> {
-    s.parse().map_err(|_| format!("unknown yaw mode {s:?}: expected hold or travel"))
 }
 
 /// A failure with its exit code.
