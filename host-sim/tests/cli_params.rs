@@ -222,5 +222,5 @@ fn guidance_trajectory_sets_mis_guidance_and_flies_the_mission() {
         bad.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("paper or trajectory"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("expected one of paper, trajectory"), "{}", stderr(&o));
 }
