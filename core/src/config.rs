@@ -4,7 +4,7 @@
 //! takes its own part ([`crate::outer::OuterParams`], [`crate::inner::InnerParams`]).
 //!
 //! May import: the stages' parameter types ([`crate::outer`], [`crate::inner`],
-//! [`crate::safety`], [`crate::robust`], [`crate::supervisor`]), never their loops or the controller facade.
+//! [`crate::safety`], [`crate::plant_aware`], [`crate::supervisor`]), never their loops or the controller facade.
 
 use crate::airframe::Airframe;
 use crate::attitude::{AttitudeController, AttitudeError, AttitudeParams};
@@ -17,8 +17,8 @@ use crate::frame::GRAVITY;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
 use crate::perception::MemoryParams;
+use crate::plant_aware::{PlantAwareError, PlantAwareParams};
 use crate::rc::map::RcParams;
-use crate::robust::{RobustError, RobustParams};
 use crate::supervisor::modes::ModeParams;
 use crate::supervisor::LandingParams;
 use crate::thrust::ThrustParams;
@@ -44,8 +44,8 @@ pub struct ControllerParams {
     /// Filter law. Default [`FilterVariant::default`].
     pub filter_variant: FilterVariant,
     /// Plant-aware wrapping of the filter (lag, disturbance observer, ground and
-    /// ceiling, stall), used by every variant but `Paper`. Default [`RobustParams::default`].
-    pub robust: RobustParams,
+    /// ceiling, stall), used by every variant but `Paper`. Default [`PlantAwareParams::default`].
+    pub plant_aware: PlantAwareParams,
     /// Radius of the sphere bounding the vehicle, m: `cbf.delta` must be at least
     /// its square (refused otherwise, [`ParamError::DeltaBelowHull`]). Default √0.05 m.
     pub hull_radius: f32,
@@ -97,7 +97,7 @@ impl Default for ControllerParams {
             tracking: TrackingParams { ki_z: 0.0, ..TrackingParams::uniform(0.5, 0.8) },
             cbf: CbfParams::default(),
             filter_variant: FilterVariant::default(),
-            robust: RobustParams::default(),
+            plant_aware: PlantAwareParams::default(),
             hull_radius: DEFAULT_HULL_RADIUS,
             thrust: ThrustParams::default(),
             attitude: AttitudeParams::default(),
@@ -125,7 +125,8 @@ impl ControllerParams {
     /// the path's yaw mode (`MIS_YAW_MODE` 0, heading held: walls when `PCP_FOV_WALLS` is 2).
     pub fn memory_params(&self) -> MemoryParams {
         let held = matches!(self.guidance.path_yaw.mode, crate::outer::path_yaw::YawMode::Hold);
-        MemoryParams { ground_height: self.robust.ground_height, ..self.perception }.with_heading_held(held)
+        MemoryParams { ground_height: self.plant_aware.ground_height, ..self.perception }
+            .with_heading_held(held)
     }
 }
 
@@ -134,7 +135,7 @@ impl ControllerParams {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamError {
     /// Plant-aware wrapping parameters.
-    Robust(RobustError),
+    PlantAware(PlantAwareError),
     /// `cbf.delta` is below the squared hull radius: the filter would let obstacles
     /// inside the hull. Both values are given (m²).
     DeltaBelowHull {
@@ -180,7 +181,7 @@ impl ControllerParams {
     /// Check every parameter (see [`ParamError`]).
     pub fn validate(&self) -> Result<(), ParamError> {
         self.cbf.validate().map_err(ParamError::Cbf)?;
-        self.robust.validate().map_err(ParamError::Robust)?;
+        self.plant_aware.validate().map_err(ParamError::PlantAware)?;
         let hull_sq = self.hull_radius * self.hull_radius;
         // A relative tolerance of 1e-6 accepts δ = r² computed in either precision.
         if !(self.hull_radius.is_finite() && self.hull_radius > 0.0)

@@ -62,7 +62,7 @@ use crate::obstacle::ObstaclePoint;
 use crate::obstacle_set::SetReport;
 use crate::outer::inputs::InputParams;
 use crate::outer::{OuterError, OuterLoop, OuterParams};
-use crate::robust::{lag_time_constant, RobustTelemetry};
+use crate::plant_aware::{lag_time_constant, PlantAwareTelemetry};
 use crate::supervisor::SupervisorParams;
 use crate::tracking::Reference;
 use crate::waypoint::Progress;
@@ -134,7 +134,7 @@ pub struct Telemetry {
     /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
     pub obstacle_set: SetReport,
     /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
-    pub robust: RobustTelemetry,
+    pub plant_aware: PlantAwareTelemetry,
     /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
     pub non_finite_inputs: u32,
     /// Outer steps run.
@@ -168,14 +168,14 @@ impl ControllerParams {
             cbf.sample_time = maxf(cbf.sample_time, 1.0 / self.outer_rate_hz);
             // Plant-aware (docs/filter.md §9-§12): class-K relaxation, and the observer's
             // error bound ē joins the robust term A.
-            cbf.gamma = maxf(cbf.gamma, self.robust.gamma);
-            if self.robust.dob_bandwidth > 0.0 {
-                cbf.accel_bound += self.robust.dob_margin;
+            cbf.gamma = maxf(cbf.gamma, self.plant_aware.gamma);
+            if self.plant_aware.dob_bandwidth > 0.0 {
+                cbf.accel_bound += self.plant_aware.dob_margin;
             }
         }
         OuterParams {
-            robust: self.robust,
-            lag_tau: lag_time_constant(&self.attitude.att_p, self.robust.motor_tau),
+            plant_aware: self.plant_aware,
+            lag_tau: lag_time_constant(&self.attitude.att_p, self.plant_aware.motor_tau),
             rate_hz: self.outer_rate_hz,
             tracking: self.tracking,
             cbf,
@@ -301,7 +301,7 @@ impl FlightController {
             obstacle_count: o.obstacle_count,
             obstacles_dropped: o.obstacles_dropped,
             obstacle_set: o.obstacle_set,
-            robust: o.robust,
+            plant_aware: o.plant_aware,
             non_finite_inputs: o.non_finite_inputs,
             outer_count: o.count,
             inner_count: i.count,

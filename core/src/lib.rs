@@ -13,8 +13,13 @@
 //! ## Modules (folders follow the cascade, `docs/cascade.md`)
 //! - [`outer`]: the outer loop — [`waypoint`] follower, [`tracking`] (PD, eq. 2),
 //!   [`thrust`] (acceleration → collective thrust + attitude, eq. 4-5).
-//! - [`safety`]: [`obstacle`] geometry and set, the closed-form CBF filter [`cbf`]
-//!   (paper eq. 7-14, plus the relative-velocity and multi-barrier variants), [`qp3`].
+//! - [`safety`]: the safety filter in one folder — [`obstacle`] geometry and set, the
+//!   closed-form CBF filter [`cbf`] (paper eq. 7-14, plus the relative-velocity,
+//!   multi-barrier and braking variants), [`braking`], [`qp3`], the obstacle-set policy
+//!   [`obstacle_set`] (which offered points the set keeps at capacity, most critical first,
+//!   one per obstacle, and the report of what was dropped) and the plant-aware wrapping
+//!   [`plant_aware`] (actuation lag, disturbance observer, ground/ceiling barriers, stall
+//!   detection; issue 17).
 //! - [`inner`]: the inner loop — [`estimator`], [`attitude`] (attitude P, rate PID), [`mixer`].
 //! - [`supervisor`]: [`failsafe`] state machine, arming, modes, landing.
 //! - [`msg`]: the `Copy` messages the stages exchange (attitude command, state estimate, …).
@@ -23,10 +28,6 @@
 //! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
 //!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
-//! - [`obstacle_set`]: which offered points the set keeps at capacity (most
-//!   critical first, one per obstacle) and the report of what was dropped.
-//! - [`robust`]: the plant-aware wrapping of the filter (actuation lag, disturbance
-//!   observer, ground/ceiling barriers, stall detection; issue 17).
 //! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
 //! - [`perception`]: range scans → a bounded world-frame obstacle memory (voxel merge,
 //!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
@@ -60,12 +61,10 @@ pub mod frame;
 pub mod inner;
 pub mod motor_test;
 pub mod msg;
-pub mod obstacle_set;
 pub mod outer;
 pub mod params;
 pub mod perception;
 pub mod rc;
-pub mod robust;
 pub mod safety;
 pub mod schedule;
 pub mod supervisor;
@@ -73,7 +72,7 @@ pub mod wire;
 
 pub use inner::{attitude, estimator, mixer};
 pub use outer::{thrust, tracking, waypoint};
-pub use safety::{cbf, obstacle, qp3};
+pub use safety::{braking, cbf, obstacle, obstacle_set, plant_aware, qp3};
 pub use supervisor::failsafe;
 
 pub use nalgebra;

@@ -30,7 +30,7 @@
 
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::obstacle::{ObstaclePoint, Shape};
-use parapet_core::robust::{lag_time_constant, PlantAware, RobustParams, StepInput};
+use parapet_core::plant_aware::{lag_time_constant, PlantAware, PlantAwareParams, StepInput};
 use parapet_core::Vec3;
 use parapet_tests::proptest_cases;
 use proptest::prelude::*;
@@ -83,7 +83,7 @@ struct Outcome {
 /// Fly case `c`; `None` when it starts inside a barrier (rejected). With `start_only` only
 /// that check is made (the outcome is then all +∞).
 fn fly(c: &Case, start_only: bool) -> Option<Outcome> {
-    let rp = RobustParams::default();
+    let rp = PlantAwareParams::default();
     let params = CbfParams { sample_time: DT * OUTER_EVERY as f32, gamma: rp.gamma, ..CbfParams::default() };
     let params = CbfParams { accel_bound: params.accel_bound + rp.dob_margin, ..params };
     let filter = SafetyFilter::new(params, FilterVariant::MultiRelative).ok()?;

@@ -23,6 +23,9 @@ const CORE_ALIASES: &[(&str, &str)] = &[
     ("cbf", "safety::cbf"),
     ("obstacle", "safety::obstacle"),
     ("qp3", "safety::qp3"),
+    ("braking", "safety::braking"),
+    ("obstacle_set", "safety::obstacle_set"),
+    ("plant_aware", "safety::plant_aware"),
     ("failsafe", "supervisor::failsafe"),
 ];
 
@@ -48,11 +51,8 @@ const CORE_RULES: &[(&str, &[&str])] = &[
     // Issue 21/22: the mode machine reads the pilot input and the battery level.
     ("supervisor", &["airframe", "frame", "fmath", "msg", "rc", "battery"]),
     ("safety", &["airframe", "frame", "fmath"]),
-    // Issue 17: the obstacle-set policy and the plant-aware wrapping sit on the filter.
-    ("obstacle_set", &["frame", "fmath", "safety"]),
-    ("robust", &["airframe", "frame", "fmath", "safety"]),
     // Issue 19: the obstacle memory turns range scans into points for the filter's set.
-    ("perception", &["frame", "fmath", "safety", "obstacle_set"]),
+    ("perception", &["frame", "fmath", "safety"]),
     // Issue 21: pilot input (decoders, channel map) and issue 22: the battery message.
     ("rc", &["fmath"]),
     ("battery", &["fmath"]),

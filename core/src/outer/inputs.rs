@@ -111,7 +111,7 @@ impl Inputs {
 
     /// Where the vehicle was when the current obstacle set was reported ([`Self::position_at`]
     /// the update's time stamp): the filter aims each point's tangent plane from there
-    /// (`crate::robust::StepInput::seen_from`). `None` before the first update or without a fix.
+    /// (`crate::plant_aware::StepInput::seen_from`). `None` before the first update or without a fix.
     pub fn obstacles_seen_from(&self) -> Option<Vec3> {
         self.obstacle_from
     }

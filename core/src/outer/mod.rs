@@ -20,7 +20,7 @@
 //!
 //! May import: the crate root foundation ([`crate::frame`], [`crate::fmath`],
 //! [`crate::airframe`], [`crate::Vec3`]), [`crate::msg`], [`crate::safety`] (with
-//! [`crate::obstacle_set`] and [`crate::robust`], the filter's set policy and plant-aware
+//! [`crate::obstacle_set`] and [`crate::plant_aware`], the filter's set policy and plant-aware
 //! wrapping) and [`crate::supervisor`]. Never [`crate::inner`], [`crate::config`] or the facade.
 
 pub mod assist;
@@ -42,8 +42,8 @@ use crate::fmath::minf;
 use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
 use crate::obstacle::ObstaclePoint;
 use crate::obstacle_set::{Ranking, SetReport};
-use crate::robust::stall::STALL_TRACKING_ERROR_M;
-use crate::robust::{PlantAware, RobustParams, RobustTelemetry, StepInput};
+use crate::plant_aware::stall::STALL_TRACKING_ERROR_M;
+use crate::plant_aware::{PlantAware, PlantAwareParams, PlantAwareTelemetry, StepInput};
 use crate::supervisor::modes::{FlightMode, ModeParams, ModeTransition, Modes};
 use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
 use crate::Vec3;
@@ -95,9 +95,9 @@ pub struct OuterParams {
     pub cbf: CbfParams,
     /// Filter law.
     pub filter_variant: FilterVariant,
-    /// Plant-aware wrapping of the filter (every variant but `Paper`; [`crate::robust`]).
-    pub robust: RobustParams,
-    /// Actuation-lag time constant derived from the attitude gains, s ([`crate::robust::lag_time_constant`]).
+    /// Plant-aware wrapping of the filter (every variant but `Paper`; [`crate::plant_aware`]).
+    pub plant_aware: PlantAwareParams,
+    /// Actuation-lag time constant derived from the attitude gains, s ([`crate::plant_aware::lag_time_constant`]).
     pub lag_tau: f32,
     /// Thrust/attitude map.
     pub thrust: ThrustParams,
@@ -155,7 +155,7 @@ pub struct OuterTelemetry {
     /// What the last obstacle update kept and dropped ([`crate::obstacle_set`]).
     pub obstacle_set: SetReport,
     /// Plant-aware wrapping of the last outer step (disturbance estimate, deadlock).
-    pub robust: RobustTelemetry,
+    pub plant_aware: PlantAwareTelemetry,
     /// Inputs rejected as NaN/Inf since start (fixes, obstacle points, IMU samples).
     pub non_finite_inputs: u32,
     /// Outer steps run.
@@ -199,7 +199,7 @@ pub struct OuterLoop {
     tracker: PdTracker,
     filter: SafetyFilter,
     /// `Some` for every variant but `Paper`.
-    plant: Option<PlantAware>,
+    plant_aware: Option<PlantAware>,
     stage: MotorStage,
     sp: AttitudeSetpoint,
     last_us: Option<u64>,
@@ -244,7 +244,7 @@ impl OuterLoop {
             obstacle_count: 0,
             obstacles_dropped: 0,
             obstacle_set: SetReport::default(),
-            robust: RobustTelemetry::default(),
+            plant_aware: PlantAwareTelemetry::default(),
             non_finite_inputs: 0,
             count: 0,
             flight_mode: FlightMode::default(),
@@ -256,8 +256,8 @@ impl OuterLoop {
             offboard_rejected: 0,
             battery: None,
         };
-        let plant = (params.filter_variant != FilterVariant::Paper).then(|| {
-            PlantAware::new(params.robust, params.lag_tau)
+        let plant_aware = (params.filter_variant != FilterVariant::Paper).then(|| {
+            PlantAware::new(params.plant_aware, params.lag_tau)
                 .with_limits(thrust::accel_limits(&params.thrust, params.mass))
         });
         Ok(OuterLoop {
@@ -266,7 +266,7 @@ impl OuterLoop {
             supervisor: Supervisor::new(params.supervisor),
             tracker: PdTracker::new(params.tracking),
             filter,
-            plant,
+            plant_aware,
             stage: MotorStage::Off,
             sp: AttitudeSetpoint::default(),
             last_us: None,
@@ -501,8 +501,8 @@ impl OuterLoop {
         self.require_armed()?;
         self.guidance.start_mission(now_us, self.telemetry.reference.position)?;
         self.mission_mode(now_us);
-        self.telemetry.robust.deadlock = false;
-        if let Some(pa) = self.plant.as_mut() {
+        self.telemetry.plant_aware.deadlock = false;
+        if let Some(pa) = self.plant_aware.as_mut() {
             pa.reset_stall();
         }
         Ok(())
@@ -569,7 +569,7 @@ impl OuterLoop {
             // The safety pilot's mode: sticks straight to the inner loop, no filter.
             self.sp = self.manual_sp(now_us);
             self.tracker.reset();
-            if let Some(pa) = self.plant.as_mut() {
+            if let Some(pa) = self.plant_aware.as_mut() {
                 pa.reset();
             }
             let tel = &mut self.telemetry;
@@ -592,7 +592,7 @@ impl OuterLoop {
                 self.telemetry.velocity = v;
             }
             self.tracker.reset();
-            if let Some(pa) = self.plant.as_mut() {
+            if let Some(pa) = self.plant_aware.as_mut() {
                 pa.reset();
             }
             return self.command();
@@ -611,7 +611,7 @@ impl OuterLoop {
                     // Offboard acceleration setpoint: it is the nominal command.
                     u_pd = a;
                 }
-                let (u_star, u, diag) = match self.plant.as_mut() {
+                let (u_star, u, diag) = match self.plant_aware.as_mut() {
                     None => {
                         let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.inputs.obstacles());
                         (u_pd, u, diag)
@@ -643,11 +643,11 @@ impl OuterLoop {
                         let (u_star, u, diag, mut rt) = pa.apply(&self.filter, &input);
                         // Deadlock: latched until the next mission start; the vehicle holds
                         // where it stalled (docs/filter.md §11).
-                        if rt.deadlock && !self.telemetry.robust.deadlock {
+                        if rt.deadlock && !self.telemetry.plant_aware.deadlock {
                             self.guidance.hold(p);
                         }
-                        rt.deadlock |= self.telemetry.robust.deadlock;
-                        self.telemetry.robust = rt;
+                        rt.deadlock |= self.telemetry.plant_aware.deadlock;
+                        self.telemetry.plant_aware = rt;
                         (u_star, u, diag)
                     }
                 };
@@ -671,7 +671,7 @@ impl OuterLoop {
             None => {
                 let u = self.supervisor.blind_accel(now_us);
                 self.tracker.reset();
-                if let Some(pa) = self.plant.as_mut() {
+                if let Some(pa) = self.plant_aware.as_mut() {
                     pa.open_loop(&u, dt);
                 }
                 self.sp =

@@ -17,7 +17,7 @@
 use crate::fmath::{cosf, maxf, sincosf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 pub use crate::msg::AttitudeSetpoint;
-use crate::robust::limits::AccelLimits;
+use crate::plant_aware::limits::AccelLimits;
 use crate::Vec3;
 
 /// Limits of the thrust/attitude mapping.

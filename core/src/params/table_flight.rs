@@ -360,8 +360,8 @@ pub(super) const TABLE: [Param; N] = [
             "Ground height (up); the filter keeps the plane z = -GND_HEIGHT as a barrier in flight",
         ),
         label: None,
-        get: |p| p.robust.ground_height,
-        write: |p, v| p.robust.ground_height = v,
+        get: |p| p.plant_aware.ground_height,
+        write: |p, v| p.plant_aware.ground_height = v,
     },
     Param {
         name: "CEIL_HEIGHT",
@@ -375,8 +375,8 @@ pub(super) const TABLE: [Param; N] = [
         group: "CBF",
         description: host_text("Ceiling height (up) kept as a barrier in flight; 0 = no ceiling"),
         label: None,
-        get: |p| p.robust.ceiling_height,
-        write: |p, v| p.robust.ceiling_height = v,
+        get: |p| p.plant_aware.ceiling_height,
+        write: |p, v| p.plant_aware.ceiling_height = v,
     },
     // Issue 19: the obstacle memory of the range-sensor perception (`crate::perception`).
     Param {

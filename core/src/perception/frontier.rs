@@ -50,7 +50,7 @@
 //! of a held sensor set would be crossed diagonally towards what the sensors barely see
 //! (measured, `docs/perception.md`).
 //!
-//! Vertical motion is not limited here (the ground and ceiling barriers of `crate::robust`).
+//! Vertical motion is not limited here (the ground and ceiling barriers of `crate::plant_aware`).
 //!
 //! May import: `crate::fmath`, `crate::Vec3`, the parent module's types.
 

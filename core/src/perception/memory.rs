@@ -32,7 +32,7 @@
 //! hands its cells out with its velocity and extrapolated by it: `q + w·age`.
 //!
 //! **Ground.** Returns lower than `ground_clip` above the ground plane are not stored (the
-//! ground barrier of `crate::robust` handles the ground); they still clear along their beam.
+//! ground barrier of `crate::plant_aware` handles the ground); they still clear along their beam.
 //!
 //! **Cost** of [`ObstacleMemory::insert_scan`] for B beams and N cells: clearing O(N) (a
 //! nearest-beam lookup and one slab test per cell whose direction is on the beam lattice; a cell

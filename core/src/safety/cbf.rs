@@ -27,6 +27,9 @@ use crate::obstacle::ObstaclePoint;
 use crate::qp3::{self, HalfSpace};
 use crate::Vec3;
 
+pub use super::diagnostics::{FilterDiagnostics, FilterFault, Region};
+pub use super::variant::FilterVariant;
+
 /// Magnitude beyond which an input is treated as corrupt (m, m/s or m/s²).
 pub const INPUT_LIMIT: f32 = 1.0e5;
 
@@ -200,172 +203,6 @@ impl CbfParams {
             return Err(CbfError::GammaNegative);
         }
         Ok(())
-    }
-}
-
-/// Which filter law to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FilterVariant {
-    /// Paper eq. 12 on the closest obstacle (eq. 14), vehicle velocity only.
-    Paper,
-    /// Closest obstacle, relative velocity `ṗ − v̄` and robust term for |ā| ≤ A.
-    Relative,
-    /// Every near barrier at once (exact min-norm QP over the K most critical), vehicle velocity.
-    Multi,
-    /// Every near barrier at once with relative velocity. The default.
-    #[default]
-    MultiRelative,
-    /// The braking-distance barrier `h_b = |d| − r − s²/(2a_b) − τs` (`super::braking`),
-    /// every near barrier at once, relative velocity.
-    Braking,
-}
-
-impl FilterVariant {
-    /// All variants, in documentation order.
-    pub const ALL: [FilterVariant; 5] = [
-        FilterVariant::Paper,
-        FilterVariant::Relative,
-        FilterVariant::Multi,
-        FilterVariant::MultiRelative,
-        FilterVariant::Braking,
-    ];
-
-    /// The variants on the paper's barrier `h = |d|² + μdᵀḋ` (all but [`FilterVariant::Braking`]).
-    pub const SQUARED_DISTANCE: [FilterVariant; 4] =
-        [FilterVariant::Paper, FilterVariant::Relative, FilterVariant::Multi, FilterVariant::MultiRelative];
-
-    /// Name used on the command line and in reports.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            FilterVariant::Paper => "paper",
-            FilterVariant::Relative => "relative",
-            FilterVariant::Multi => "multi",
-            FilterVariant::MultiRelative => "multi-relative",
-            FilterVariant::Braking => "braking",
-        }
-    }
-    /// `true` for the variants that use the obstacle's velocity.
-    pub fn uses_relative_velocity(&self) -> bool {
-        matches!(self, FilterVariant::Relative | FilterVariant::MultiRelative | FilterVariant::Braking)
-    }
-    /// `true` for the variants that enforce several barriers at once.
-    pub fn is_multi(&self) -> bool {
-        matches!(self, FilterVariant::Multi | FilterVariant::MultiRelative | FilterVariant::Braking)
-    }
-}
-
-impl core::str::FromStr for FilterVariant {
-    type Err = ();
-    fn from_str(s: &str) -> Result<Self, ()> {
-        FilterVariant::ALL.into_iter().find(|v| v.as_str() == s).ok_or(())
-    }
-}
-
-/// The region of the state space the filter found the vehicle in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Region {
-    /// No obstacle given: `u = u*`.
-    NoObstacle,
-    /// `D_δ1`: every considered barrier has `h > δ1`: `u = u*`.
-    Far,
-    /// `D_u*`: the nominal input already satisfies every near constraint: `u = u*`.
-    NominalSafe,
-    /// `D_⊥`: the filter corrected `u*`.
-    Perpendicular,
-    /// Bad input: a bounded braking command was returned (see [`FilterFault`]).
-    Fault,
-}
-
-impl Region {
-    /// Every region, in code order ([`Region::code`] is the index).
-    pub const ALL: [Region; 5] =
-        [Region::NoObstacle, Region::Far, Region::NominalSafe, Region::Perpendicular, Region::Fault];
-
-    /// Every region's [`Region::name`], in code order.
-    pub const NAMES: [&'static str; 5] = [
-        Region::NoObstacle.name(),
-        Region::Far.name(),
-        Region::NominalSafe.name(),
-        Region::Perpendicular.name(),
-        Region::Fault.name(),
-    ];
-
-    /// Small integer code for logs and telemetry (0..=4 in declaration order).
-    pub fn code(&self) -> u8 {
-        *self as u8
-    }
-
-    /// The region's name in reports (`trajectory.csv`'s `region`, the replay page): `none`,
-    /// `far`, `nominal_safe`, `filtering` (`D_⊥`, the filter corrected the command), `fault`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Region::NoObstacle => "none",
-            Region::Far => "far",
-            Region::NominalSafe => "nominal_safe",
-            Region::Perpendicular => "filtering",
-            Region::Fault => "fault",
-        }
-    }
-}
-
-/// Why the filter returned its braking command.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum FilterFault {
-    /// Vehicle position or velocity non-finite or beyond [`INPUT_LIMIT`].
-    BadState,
-    /// Nominal acceleration non-finite or beyond [`INPUT_LIMIT`].
-    BadNominal,
-    /// An obstacle point or velocity non-finite or beyond [`INPUT_LIMIT`].
-    BadObstacle,
-    /// The vehicle's centre is at an obstacle point: the direction `Π` is undefined.
-    ZeroDistance,
-}
-
-/// What the filter did in one step (for logs, telemetry and tests).
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FilterDiagnostics {
-    /// Region of the decision.
-    pub region: Region,
-    /// Id of the deciding obstacle: the closest (single-barrier variants) or the
-    /// most critical enforced one (multi variants); `None` when none.
-    pub active_id: Option<u16>,
-    /// Smallest `h̄ = h − δ` over all given obstacles, m²; `+∞` with none.
-    pub h_bar: f32,
-    /// `true` when the output differs from the nominal input.
-    pub intervened: bool,
-    /// Number of barriers enforced this step (0 ..= [`MAX_ACTIVE_BARRIERS`]).
-    pub n_constraints: u8,
-    /// Number of barriers with `h ≤ δ1` (may exceed `n_constraints`).
-    pub n_near: u8,
-    /// An enforced constraint needs more than `u_max` along its normal: the
-    /// vehicle cannot keep `ḣ ≥ 0` with the acceleration it has.
-    pub unavoidable: bool,
-    /// The enforced constraints have no common solution (possible only with
-    /// relative velocity); the least-violation answer was returned.
-    pub infeasible: bool,
-    /// Set when the output is the braking fallback.
-    pub fault: Option<FilterFault>,
-}
-
-impl FilterDiagnostics {
-    /// Nothing decided yet in `region`: no active obstacle, `h̄ = +∞`, no flags (with
-    /// [`Region::NoObstacle`]: the diagnostics before the first filter step).
-    pub const fn new(region: Region) -> Self {
-        FilterDiagnostics {
-            region,
-            active_id: None,
-            h_bar: f32::INFINITY,
-            intervened: false,
-            n_constraints: 0,
-            n_near: 0,
-            unavoidable: false,
-            infeasible: false,
-            fault: None,
-        }
     }
 }
 
@@ -610,7 +447,7 @@ impl SafetyFilter {
         let limits = self.params.braking();
         let engage = sqrtf(self.params.delta1) - limits.hull_radius;
         let mut diag = FilterDiagnostics::new(Region::Far);
-        let mut near: heapless::Vec<(BrakingBarrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
+        let mut near: Smallest<(BrakingBarrier, u16), MAX_ACTIVE_BARRIERS> = Smallest::new();
         for o in obstacles {
             if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
                 return self.fault(v, FilterFault::BadObstacle);
@@ -623,15 +460,9 @@ impl SafetyFilter {
             if b.h <= engage {
                 diag.n_near = diag.n_near.saturating_add(1);
             }
-            // Keep the K smallest h_b: replace the largest kept when full.
-            if let Err(item) = near.push((b, o.id)) {
-                let worst =
-                    near.iter().enumerate().fold(0, |w, (i, x)| if x.0.h > near[w].0.h { i } else { w });
-                if item.0.h < near[worst].0.h {
-                    near[worst] = item;
-                }
-            }
+            near.offer(b.h, (b, o.id));
         }
+        let near = near.kept();
         let mut cons = [HalfSpace { n: Vec3::zeros(), c: 0.0 }; MAX_ACTIVE_BARRIERS];
         for (slot, (b, _)) in cons.iter_mut().zip(near.iter()) {
             *slot = b.constraint;
@@ -665,12 +496,10 @@ impl SafetyFilter {
         let mut diag = FilterDiagnostics::new(Region::Far);
         // Closest obstacle (single-barrier variants) and the K most critical near ones (multi).
         let mut closest: Option<(usize, f32)> = None; // (index, |d|²)
-        let mut near: heapless::Vec<(Barrier, u16), MAX_ACTIVE_BARRIERS> = heapless::Vec::new();
+        let mut near: Smallest<(Barrier, u16), MAX_ACTIVE_BARRIERS> = Smallest::new();
         let (mu, delta, delta1) = (self.params.mu, self.params.delta, self.params.delta1);
         let multi = MULTI;
         let u_norm = norm3(u_nom);
-        // Index and h of the (first) largest h in `near` once it is full (+∞ before).
-        let (mut worst, mut worst_h) = (0usize, f32::INFINITY);
         // ḋ = ṗ and the far test's weights for the obstacles without a velocity (the same
         // values the per-obstacle evaluation gives: ṗ − 0 = ṗ exactly).
         let (v_fixed, a_fixed) = self.relative_velocity(v, &ObstaclePoint::fixed(Vec3::zeros(), 0));
@@ -696,7 +525,7 @@ impl SafetyFilter {
             // Near for sure, multi, the K kept are full and none has a larger h: it is
             // counted but cannot replace one of them (the replacement below needs a
             // strictly smaller h), so its barrier is not needed.
-            if near_for_sure && multi && near.is_full() && h >= worst_h {
+            if near_for_sure && multi && near.is_full() && h >= near.bound() {
                 diag.n_near = diag.n_near.saturating_add(1);
                 continue;
             }
@@ -714,31 +543,15 @@ impl SafetyFilter {
             let b = self.barrier_at(&d, dist_sq, dist, &d_dot, a_bound);
             if near_for_sure || self.trigger_at(&b, dist, u_nom) <= delta1 {
                 diag.n_near = diag.n_near.saturating_add(1);
-                // Keep the K smallest h: replace the (first) largest when full (multi
-                // variants; the others use only the closest obstacle's barrier, below).
-                // The class-K relaxation is applied to the K kept, after the loop.
-                if !multi {
-                    continue;
-                }
-                if let Err(item) = near.push((b, o.id)) {
-                    if item.0.h < worst_h {
-                        near[worst] = item;
-                    } else {
-                        continue;
-                    }
-                }
-                // The (first) largest h of the kept ones, once they are K.
-                if near.is_full() {
-                    worst = 0;
-                    for (i, (nb, _)) in near.iter().enumerate() {
-                        if nb.h > near[worst].0.h {
-                            worst = i;
-                        }
-                    }
-                    worst_h = near[worst].0.h;
+                // Keep the K smallest h (multi variants; the others use only the closest
+                // obstacle's barrier, below). The class-K relaxation is applied to the K
+                // kept, after the loop.
+                if multi {
+                    near.offer(b.h, (b, o.id));
                 }
             }
         }
+        let near = near.kept();
 
         let u_max = self.params.u_max;
         if !multi {
@@ -785,6 +598,74 @@ impl SafetyFilter {
         }
         let u_brake = v * (-2.0 / self.params.mu);
         (project_near(u_nom, cons, &u_brake, &mut diag), diag)
+    }
+}
+
+/// The `K` items with the smallest keys offered so far (fixed capacity, no allocation): once
+/// `K` are kept, an item replaces the (first) largest kept key when its key is strictly
+/// smaller, so ties keep the item offered first. The barriers the multi variants and the
+/// braking variant enforce (keyed by `h`).
+struct Smallest<T, const K: usize> {
+    items: heapless::Vec<T, K>,
+    /// `keys[i]` is `items[i]`'s key.
+    keys: [f32; K],
+    /// Index of the (first) largest key once `K` are kept (0 before).
+    worst: usize,
+}
+
+impl<T, const K: usize> Smallest<T, K> {
+    fn new() -> Self {
+        Smallest { items: heapless::Vec::new(), keys: [f32::INFINITY; K], worst: 0 }
+    }
+
+    fn is_full(&self) -> bool {
+        self.items.is_full()
+    }
+
+    /// The largest kept key once `K` are kept, `+∞` before.
+    fn bound(&self) -> f32 {
+        match self.keys.get(self.worst) {
+            Some(key) if self.items.is_full() => *key,
+            _ => f32::INFINITY,
+        }
+    }
+
+    /// Offers `item` with `key`: kept while there is room, else in place of the largest kept
+    /// key if `key` is strictly smaller.
+    fn offer(&mut self, key: f32, item: T) {
+        let at = if self.items.is_full() {
+            if key >= self.bound() {
+                return;
+            }
+            match self.items.get_mut(self.worst) {
+                Some(slot) => *slot = item,
+                None => return, // unreachable: worst < K when full
+            }
+            self.worst
+        } else {
+            let at = self.items.len();
+            if self.items.push(item).is_err() {
+                return; // unreachable: not full
+            }
+            at
+        };
+        if let Some(k) = self.keys.get_mut(at) {
+            *k = key;
+        }
+        if self.items.is_full() {
+            let mut worst = 0;
+            for (i, k) in self.keys.iter().enumerate() {
+                if self.keys.get(worst).is_some_and(|w| k > w) {
+                    worst = i;
+                }
+            }
+            self.worst = worst;
+        }
+    }
+
+    /// The kept items, in the order they were placed.
+    fn kept(&self) -> &[T] {
+        &self.items
     }
 }
 

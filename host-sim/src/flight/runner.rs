@@ -280,7 +280,10 @@ fn run_controller_params(
         filter_variant: variant,
         // The scene's hull bounds δ from below; the lag model uses its motor (issue 17).
         hull_radius: scene.vehicle.hull_radius as f32,
-        robust: parapet_core::robust::RobustParams { motor_tau: scene.vehicle.motor_tau as f32, ..d.robust },
+        plant_aware: parapet_core::plant_aware::PlantAwareParams {
+            motor_tau: scene.vehicle.motor_tau as f32,
+            ..d.plant_aware
+        },
         thrust: ThrustParams {
             // 90 % of the rotors' total, leaving attitude authority (the core's default rule).
             thrust_max: 0.9 * 4.0 * af.rotor_thrust_max,

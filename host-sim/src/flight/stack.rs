@@ -64,7 +64,7 @@ impl OuterOut {
             mode: tel.mode,
             flight_mode: tel.flight_mode,
             safety: SafetyFlags {
-                deadlock: tel.robust.deadlock,
+                deadlock: tel.plant_aware.deadlock,
                 obstacles_dropped: tel.obstacle_set.dropped,
                 obstacles_dropped_near: tel.obstacle_set.dropped_near,
             },

@@ -353,7 +353,7 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
                 .value(format!("{delta}"))
                 .allowed(format!("delta >= hull_radius² = {hull_sq} m²"))
         }
-        ParamError::Robust(r) => {
+        ParamError::PlantAware(r) => {
             InputError::file(file, format!("plant-aware filter parameters rejected: {r}")).table("controller")
         }
         ParamError::Estimator(_) | ParamError::Failsafe | ParamError::Loop => InputError::file(

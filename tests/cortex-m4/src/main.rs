@@ -44,7 +44,7 @@ use parapet_core::frame::wrap_pi;
 use parapet_core::mixer::Mixer;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::outer::trajectory::{Trajectory, TrajectoryParams};
-use parapet_core::robust::{lag_time_constant, PlantAware, RobustParams, StepInput};
+use parapet_core::plant_aware::{lag_time_constant, PlantAware, PlantAwareParams, StepInput};
 use parapet_core::thrust::map_acceleration;
 use parapet_core::tracking::{PdTracker, Reference};
 use parapet_core::Vec3;
@@ -331,7 +331,7 @@ fn bench_filter(c: &Counter) {
 /// actual-state h̄. The wrapper has state; each call starts from the same primed copy.
 fn bench_plant_aware(c: &Counter) {
     let f = filter(FilterVariant::MultiRelative);
-    let rp = RobustParams::default();
+    let rp = PlantAwareParams::default();
     let tau = lag_time_constant(&parapet_core::attitude::AttitudeParams::default().att_p, rp.motor_tau);
     // The limits the outer loop gives it (the default vehicle): the lag model is fed the
     // realisable command, as flown.

@@ -42,7 +42,7 @@ pub const CEILING_ID: u16 = u16::MAX - 1;
 /// Invalid plant-aware parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum RobustError {
+pub enum PlantAwareError {
     /// The motor time constant must be finite and in [0, 1] s, γ and the relaxation margin finite and ≥ 0.
     LagOutOfRange,
     /// Observer bandwidth finite and in [0, 50] rad/s, margin and limit finite and ≥ 0.
@@ -53,19 +53,19 @@ pub enum RobustError {
     StallInvalid,
 }
 
-impl core::fmt::Display for RobustError {
+impl core::fmt::Display for PlantAwareError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            RobustError::LagOutOfRange => {
+            PlantAwareError::LagOutOfRange => {
                 "lag_tau and motor_tau must be finite and in [0, 1] s, gamma and relax_margin finite and >= 0"
             }
-            RobustError::ObserverOutOfRange => {
+            PlantAwareError::ObserverOutOfRange => {
                 "dob_bandwidth must be in [0, 50] rad/s, dob_margin and dob_limit finite and >= 0"
             }
-            RobustError::BoundariesInvalid => {
+            PlantAwareError::BoundariesInvalid => {
                 "ground_height must be finite, ceiling_height 0 (off) or above the ground"
             }
-            RobustError::StallInvalid => "stall_time must be > 0 s, stall_distance >= 0 m",
+            PlantAwareError::StallInvalid => "stall_time must be > 0 s, stall_distance >= 0 m",
         })
     }
 }
@@ -74,7 +74,7 @@ impl core::fmt::Display for RobustError {
 /// `paper`, which stays exactly as published).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct RobustParams {
+pub struct PlantAwareParams {
     /// Evaluate the filter at the lag-predicted state (τ from [`lag_time_constant`]
     /// of the controller's attitude gains and `motor_tau`). Default true.
     pub lag_prediction: bool,
@@ -134,9 +134,9 @@ pub struct RobustParams {
     pub stall_distance_m: f32,
 }
 
-impl Default for RobustParams {
+impl Default for PlantAwareParams {
     fn default() -> Self {
-        RobustParams {
+        PlantAwareParams {
             lag_prediction: true,
             lag_tau: 0.0,
             motor_tau: DEFAULT_MOTOR_TAU_S,
@@ -178,9 +178,9 @@ pub fn lag_time_constant(att_p: &[f32; 3], motor_tau_s: f32) -> f32 {
     maxf(att_part + motor_tau_s - DEFAULT_MOTOR_TAU_S, 0.0)
 }
 
-impl RobustParams {
-    /// Check the ranges of [`RobustError`].
-    pub fn validate(&self) -> Result<(), RobustError> {
+impl PlantAwareParams {
+    /// Check the ranges of [`PlantAwareError`].
+    pub fn validate(&self) -> Result<(), PlantAwareError> {
         let nonneg = |x: f32| x.is_finite() && x >= 0.0;
         if !(nonneg(self.motor_tau)
             && self.motor_tau <= 1.0
@@ -189,7 +189,7 @@ impl RobustParams {
             && nonneg(self.gamma)
             && nonneg(self.relax_margin))
         {
-            return Err(RobustError::LagOutOfRange);
+            return Err(PlantAwareError::LagOutOfRange);
         }
         if !(nonneg(self.dob_bandwidth)
             && self.dob_bandwidth <= 50.0
@@ -197,15 +197,15 @@ impl RobustParams {
             && nonneg(self.dob_limit)
             && nonneg(self.dob_spread_gain))
         {
-            return Err(RobustError::ObserverOutOfRange);
+            return Err(PlantAwareError::ObserverOutOfRange);
         }
         let ceiling_ok = self.ceiling_height == 0.0
             || (self.ceiling_height.is_finite() && self.ceiling_height > self.ground_height);
         if !(self.ground_height.is_finite() && ceiling_ok) {
-            return Err(RobustError::BoundariesInvalid);
+            return Err(PlantAwareError::BoundariesInvalid);
         }
         if !(self.stall_time_s.is_finite() && self.stall_time_s > 0.0 && nonneg(self.stall_distance_m)) {
-            return Err(RobustError::StallInvalid);
+            return Err(PlantAwareError::StallInvalid);
         }
         Ok(())
     }
@@ -385,7 +385,7 @@ impl Boundaries {
 
 /// What the plant-aware filter adds to one outer step (telemetry).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct RobustTelemetry {
+pub struct PlantAwareTelemetry {
     /// Disturbance estimate `d̂`, m/s² NED.
     pub disturbance: Vec3,
     /// Modelled realised acceleration `a`, m/s² NED.
@@ -425,7 +425,7 @@ pub const MAX_FILTER_POINTS: usize = crate::obstacle::DEFAULT_OBSTACLE_CAPACITY 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlantAware {
     /// Parameters (validated by the owner).
-    pub params: RobustParams,
+    pub params: PlantAwareParams,
     /// τ used for the prediction, s.
     pub tau: f32,
     lag: LagModel,
@@ -465,7 +465,7 @@ pub struct StepInput<'a> {
 impl PlantAware {
     /// Wrapping with parameters `params`; `derived_tau` (s) is used unless
     /// `params.lag_tau` sets one.
-    pub fn new(params: RobustParams, derived_tau: f32) -> Self {
+    pub fn new(params: PlantAwareParams, derived_tau: f32) -> Self {
         let tau = if params.lag_tau > 0.0 { params.lag_tau } else { derived_tau };
         PlantAware {
             params,
@@ -517,7 +517,7 @@ impl PlantAware {
         &mut self,
         filter: &crate::cbf::SafetyFilter,
         s: &StepInput<'_>,
-    ) -> (Vec3, Vec3, crate::cbf::FilterDiagnostics, RobustTelemetry) {
+    ) -> (Vec3, Vec3, crate::cbf::FilterDiagnostics, PlantAwareTelemetry) {
         let rp = self.params;
         let a = self.lag.realised();
         self.dob.update(&s.v, &a, s.dt, rp.dob_bandwidth, rp.dob_limit);
@@ -591,7 +591,7 @@ impl PlantAware {
         let w_nom = u_nom + d_hat;
         // ISSf margin: the static ē is already in the filter's A; add k_s·spread.
         let mut f = *filter;
-        // The relaxation's level δ_r (RobustParams::relax_margin): only the class-K term reads
+        // The relaxation's level δ_r (PlantAwareParams::relax_margin): only the class-K term reads
         // δ in the filter's constraints (the diagnostics' h̄ is replaced by h_bar_now below).
         f.params.delta += minf(rp.relax_margin, 0.5 * (f.params.delta1 - delta)).max(0.0);
         let extra = rp.dob_spread_gain * self.dob.spread();
@@ -616,7 +616,7 @@ impl PlantAware {
             rp.stall_time_s,
             rp.stall_distance_m,
         );
-        let tel = RobustTelemetry {
+        let tel = PlantAwareTelemetry {
             disturbance: d_hat,
             realised: a,
             accel_margin: f.params.accel_bound,
@@ -666,13 +666,13 @@ mod tests {
     #[test]
     fn default_lag_follows_the_gains() {
         // The default attitude gains (AttitudeParams::default().att_p).
-        let tau = lag_time_constant(&[6.5, 6.5, 2.8], RobustParams::default().motor_tau);
+        let tau = lag_time_constant(&[6.5, 6.5, 2.8], PlantAwareParams::default().motor_tau);
         assert!((tau - 0.7 / 6.5).abs() < 1e-6, "{tau}");
         let slow = [6.5 * 0.3, 6.5 * 0.3, 2.8];
         assert!((lag_time_constant(&slow, 0.05) - (0.7 / 1.95 + 0.03)).abs() < 1e-6);
-        assert!(RobustParams::default().validate().is_ok());
-        let bad = RobustParams { ceiling_height: -1.0, ..RobustParams::default() };
-        assert_eq!(bad.validate(), Err(RobustError::BoundariesInvalid));
+        assert!(PlantAwareParams::default().validate().is_ok());
+        let bad = PlantAwareParams { ceiling_height: -1.0, ..PlantAwareParams::default() };
+        assert_eq!(bad.validate(), Err(PlantAwareError::BoundariesInvalid));
     }
 
     #[test]
@@ -731,7 +731,7 @@ mod tests {
             crate::cbf::FilterVariant::MultiRelative,
         )
         .unwrap();
-        let rp = RobustParams::default();
+        let rp = PlantAwareParams::default();
         // A wall 0.25 m ahead (+x); the measured velocity grows towards it at twice the
         // observer's limit (an unmodelled push), the nominal command is zero.
         let mut pa = PlantAware::new(rp, 0.1);
@@ -777,7 +777,7 @@ mod tests {
         .unwrap();
         let limits = AccelLimits { tilt_max: 0.61, a_min: 1.2, a_max: 22.0 };
         let worst_d_hat = |with_limits: bool| {
-            let pa = PlantAware::new(RobustParams::default(), 0.1);
+            let pa = PlantAware::new(PlantAwareParams::default(), 0.1);
             let mut pa = if with_limits { pa.with_limits(Some(limits)) } else { pa };
             let mut truth = LagModel::default();
             let obs = [ObstaclePoint::fixed(Vec3::new(0.0, 0.0, -1.0), 1)];
@@ -821,7 +821,8 @@ mod tests {
         .unwrap();
         // The relaxation's level at δ itself (relax_margin 0): the tests below check the
         // tangent planes against the class-K term's value at δ.
-        let mut pa = PlantAware::new(RobustParams { relax_margin: 0.0, ..RobustParams::default() }, 0.108);
+        let mut pa =
+            PlantAware::new(PlantAwareParams { relax_margin: 0.0, ..PlantAwareParams::default() }, 0.108);
         let obs = [o];
         let s = StepInput {
             now_us: 0,
