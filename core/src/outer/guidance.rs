@@ -14,9 +14,9 @@ use super::trajectory::{
     clock_scale, Trajectory, TrajectoryError, TrajectoryParams, MAX_STEP_DT, MIN_LEG_LENGTH,
 };
 use super::CommandError;
-use crate::fmath::norm3;
+use crate::fmath::{hypotf, norm3};
 use crate::frame::is_finite3;
-use crate::tracking::Reference;
+use crate::tracking::{limit_lead, Reference, MOVING_REFERENCE_SPEED};
 use crate::waypoint::{
     PathError, PathSample, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY,
 };
@@ -507,7 +507,8 @@ impl Guidance {
     }
 
     /// One step of the mission trajectory (see [`super::trajectory`]): the clock runs at
-    /// `clock_scale(|p_d − p|, TRJ_ERR_MAX)`, and stops (0) without a position fix, while the
+    /// `clock_scale(|p_d − p|, TRJ_ERR_MAX)` (the error without the vehicle's lead along the
+    /// travel, [`limit_lead`]: a vehicle pushed ahead does not stop the reference), and stops (0) without a position fix, while the
     /// safety filter held the vehicle back in the previous step ([`Steering::held_back`]) and
     /// while the path waits for the heading (`MIS_YAW_MODE` travel). A step that fails (a
     /// time step out of range) keeps the last reference.
@@ -544,7 +545,12 @@ impl Guidance {
         }
         let scale = match v.position {
             Some(q) if !v.held_back && !self.path_yaw.waiting() => {
-                clock_scale(norm3(&(last.position - q)), self.params.trajectory.tracking_error_bound)
+                // A lead (the vehicle ahead along the travel, or at rest along where the
+                // motion goes next) does not stop the clock.
+                let moving = hypotf(last.velocity.x, last.velocity.y) > MOVING_REFERENCE_SPEED;
+                let dir = if moving { last.velocity } else { traj.travel_direction() };
+                let behind = limit_lead(last.position - q, &dir, 0.0);
+                clock_scale(norm3(&behind), self.params.trajectory.tracking_error_bound)
             }
             _ => 0.0,
         };
@@ -663,6 +669,18 @@ mod tests {
         assert!(far < 3.0, "ran away: {far}");
         assert_eq!(last.unwrap().velocity, Vec3::zeros());
         assert!(!progress.done);
+        // A vehicle ahead along the travel (pushed there) does not stop the clock: the
+        // reference keeps moving towards it (stopped, it would stay within 3 m, as above).
+        let mut g = trajectory_guidance();
+        g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let ahead = Vec3::new(8.0, 0.0, -1.0);
+        let mut r = None;
+        for k in 1..1_500u64 {
+            r = g.reference(4_000 * k, &steering(ahead), &mut progress).1;
+        }
+        let x = r.unwrap().position.x;
+        assert!(x > 5.0, "reference at {x} after 6 s");
         // Held back by the filter: the clock stops at once.
         let mut g = trajectory_guidance();
         g.set_path(&[Vec3::new(10.0, 0.0, -1.0)], 0, origin).unwrap();

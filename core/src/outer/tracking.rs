@@ -117,12 +117,23 @@ impl PdTracker {
     /// 2.0 1/s: damping ratio 0.71, where the paper's 0.5 and 0.8 leave a lag of
     /// `k_d·V/k_p` = 1.6 m per m/s of a constant-speed reference without feed-forward);
     /// vertically the paper's gains with the integral, as [`update`](Self::update).
+    ///
+    /// A vehicle ahead of the moving reference along its direction of travel (pushed there by
+    /// the safety filter, e.g. away from an obstacle closing from behind) is pulled back by
+    /// at most the reference's own speed: the position error's along-track part is limited
+    /// to `−|ṗ_d,xy|/K_p` ([`limit_lead`]), so the velocity set-point never points backwards
+    /// along the path. Without the limit the reference, its clock stopped by the large error,
+    /// pulled the vehicle back into the obstacle with the full acceleration limit
+    /// (`scenes/sphere_overtaking.toml`, `docs/cascade.md`).
     pub fn update_trajectory(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32) -> Vec3 {
         let p = &self.params;
         let (kv, kpos) = (p.trajectory_vel_p, p.trajectory_pos_p);
         let kp = Vec3::new(kv * kpos, kv * kpos, p.kp[2]);
         let kd = Vec3::new(kv, kv, p.kd[2]);
-        self.update_with(r, pos, vel, dt_s, (kp, kd))
+        let lead_max = if kpos > 0.0 { hypotf(r.velocity.x, r.velocity.y) / kpos } else { f32::INFINITY };
+        let e = limit_lead(r.position - pos, &r.velocity, lead_max);
+        let r = Reference { position: pos + e, ..*r };
+        self.update_with(&r, pos, vel, dt_s, (kp, kd))
     }
 
     fn update_with(
@@ -170,6 +181,29 @@ impl PdTracker {
     }
 }
 
+/// Horizontal speed below which a reference has no direction of travel, m/s ([`limit_lead`]).
+pub const MOVING_REFERENCE_SPEED: f32 = 0.05;
+
+/// The position error `e = p_d − p` (m) with the vehicle's lead limited: where the reference
+/// moves horizontally (faster than [`MOVING_REFERENCE_SPEED`]) in direction `t`, the part of
+/// `e` along `t` is raised to `−lead_max` when the vehicle is further ahead than `lead_max`
+/// (m). The cross-track and vertical parts, a vehicle behind and a reference at rest are
+/// unchanged. Non-finite input returns `e` unchanged (the caller screens it).
+pub fn limit_lead(e: Vec3, v_d: &Vec3, lead_max: f32) -> Vec3 {
+    let speed = hypotf(v_d.x, v_d.y);
+    if !(speed > MOVING_REFERENCE_SPEED && speed.is_finite()) || lead_max.is_nan() {
+        return e;
+    }
+    let t = Vec3::new(v_d.x / speed, v_d.y / speed, 0.0);
+    let along = e.dot(&t);
+    let floor = -lead_max.abs();
+    if along < floor {
+        e - t * (along - floor)
+    } else {
+        e
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,6 +234,50 @@ mod tests {
             (t.update(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004).x - 0.47).abs()
                 < 1e-5
         );
+    }
+
+    #[test]
+    fn a_vehicle_pushed_ahead_is_pulled_back_by_at_most_the_reference_speed() {
+        // Reference at x = 1 moving +x at 0.3 m/s; vehicle 4 m ahead at 1 m/s. K_p 1, K_v 2:
+        // unlimited, u_x = 2·(0.3 + 1·(1 − 5) − 1) = −9.4 (saturated); limited, the along-track
+        // error is −0.3 m, so u_x = 2·(0.3 − 0.3 − 1) = −2.
+        let params = TrackingParams {
+            ki_z: 0.0,
+            accel_max_xy: 20.0,
+            trajectory_pos_p: 1.0,
+            trajectory_vel_p: 2.0,
+            ..TrackingParams::uniform(0.32, 0.5)
+        };
+        let mut t = PdTracker::new(params);
+        let r = Reference {
+            position: Vec3::new(1.0, 0.0, -1.0),
+            velocity: Vec3::new(0.3, 0.0, 0.0),
+            acceleration: Vec3::zeros(),
+            yaw: 0.0,
+        };
+        let (pos, vel) = (Vec3::new(5.0, 0.5, -1.0), Vec3::new(1.0, 0.0, 0.0));
+        let u = t.update_trajectory(&r, &pos, &vel, 0.004);
+        assert!((u.x + 2.0).abs() < 1e-5, "{u:?}");
+        // The cross-track error is untouched: 2·1·(0 − 0.5) = −1.
+        assert!((u.y + 1.0).abs() < 1e-5, "{u:?}");
+        // Behind the reference, or a reference at rest: the full error.
+        let behind = Vec3::new(-3.0, 0.0, -1.0);
+        let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004);
+        assert!((u.x - 2.0 * (0.3 + 4.0)).abs() < 1e-5, "{u:?}");
+        let rest = Reference { velocity: Vec3::zeros(), ..r };
+        let u = t.update_trajectory(&rest, &pos, &Vec3::zeros(), 0.004);
+        assert!((u.x - 2.0 * -4.0).abs() < 1e-5, "{u:?}");
+    }
+
+    #[test]
+    fn limit_lead_changes_only_a_lead_beyond_the_limit() {
+        let v = Vec3::new(0.0, 2.0, 0.0);
+        assert_eq!(limit_lead(Vec3::new(1.0, -3.0, 0.5), &v, 1.0), Vec3::new(1.0, -1.0, 0.5));
+        assert_eq!(limit_lead(Vec3::new(1.0, -0.5, 0.5), &v, 1.0), Vec3::new(1.0, -0.5, 0.5));
+        assert_eq!(limit_lead(Vec3::new(1.0, 3.0, 0.5), &v, 1.0), Vec3::new(1.0, 3.0, 0.5));
+        assert_eq!(limit_lead(Vec3::new(1.0, -3.0, 0.5), &Vec3::new(0.0, 0.01, 5.0), 0.0).y, -3.0);
+        let nan = Vec3::new(f32::NAN, 0.0, 0.0);
+        assert_eq!(limit_lead(Vec3::new(1.0, -3.0, 0.5), &nan, 1.0), Vec3::new(1.0, -3.0, 0.5));
     }
 
     #[test]
