@@ -259,6 +259,12 @@ impl Guidance {
         })
     }
 
+    /// The mission's cruise speed, m/s (`MIS_SPEED`, or a DO_CHANGE_SPEED): the limit of the
+    /// trajectory tracking's horizontal velocity set-point.
+    pub fn mission_speed(&self) -> f32 {
+        self.follower.params().cruise_speed
+    }
+
     /// `true` while a mission trajectory ([`MissionGuidance::Trajectory`]) is flown: the
     /// outer loop tracks it with the cascade gains ([`super::tracking::PdTracker::update_trajectory`]).
     pub fn flying_trajectory(&self) -> bool {

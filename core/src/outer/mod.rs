@@ -603,7 +603,7 @@ impl OuterLoop {
         match fresh {
             Some((p, v)) => {
                 let mut u_pd = if self.guidance.flying_trajectory() {
-                    self.tracker.update_trajectory(&reference, &p, &v, dt)
+                    self.tracker.update_trajectory(&reference, &p, &v, dt, self.guidance.mission_speed())
                 } else {
                     self.tracker.update(&reference, &p, &v, dt)
                 };

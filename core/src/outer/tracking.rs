@@ -3,7 +3,7 @@
 //!
 //! `u* = p̈_d + K_d (ṗ_d − ṗ) + K_p (p_d − p) + e_z ∫ k_i (z_d − z) dt`, world NED, m/s².
 
-use crate::fmath::hypotf;
+use crate::fmath::{hypotf, maxf};
 use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
@@ -125,13 +125,39 @@ impl PdTracker {
     /// along the path. Without the limit the reference, its clock stopped by the large error,
     /// pulled the vehicle back into the obstacle with the full acceleration limit
     /// (`scenes/sphere_overtaking.toml`, `docs/cascade.md`).
-    pub fn update_trajectory(&mut self, r: &Reference, pos: &Vec3, vel: &Vec3, dt_s: f32) -> Vec3 {
+    ///
+    /// The horizontal velocity set-point `ṗ_d + K_p·(p_d − p)` is limited to
+    /// `max(speed_max, |ṗ_d|)` (`speed_max`: the mission's cruise speed), as PX4 limits its
+    /// velocity set-point to the cruise speed in missions: a vehicle pushed off its reference
+    /// by the filter (a person walking at it head-on) is driven back at no more than the
+    /// mission's speed, not with the gain times the whole error.
+    pub fn update_trajectory(
+        &mut self,
+        r: &Reference,
+        pos: &Vec3,
+        vel: &Vec3,
+        dt_s: f32,
+        speed_max: f32,
+    ) -> Vec3 {
         let p = &self.params;
         let (kv, kpos) = (p.trajectory_vel_p, p.trajectory_pos_p);
         let kp = Vec3::new(kv * kpos, kv * kpos, p.kp[2]);
         let kd = Vec3::new(kv, kv, p.kd[2]);
-        let lead_max = if kpos > 0.0 { hypotf(r.velocity.x, r.velocity.y) / kpos } else { f32::INFINITY };
-        let e = limit_lead(r.position - pos, &r.velocity, lead_max);
+        let ref_speed = hypotf(r.velocity.x, r.velocity.y);
+        let lead_max = if kpos > 0.0 { ref_speed / kpos } else { f32::INFINITY };
+        let mut e = limit_lead(r.position - pos, &r.velocity, lead_max);
+        // Velocity set-point limit (horizontal): scale v_sp = ṗ_d + K_p·e onto the limit and
+        // give the tracker the error that yields it.
+        let limit = maxf(speed_max, ref_speed);
+        if kpos > 0.0 && limit.is_finite() {
+            let (sx, sy) = (r.velocity.x + kpos * e.x, r.velocity.y + kpos * e.y);
+            let sp = hypotf(sx, sy);
+            if sp > limit {
+                let k = limit / sp;
+                e.x = (sx * k - r.velocity.x) / kpos;
+                e.y = (sy * k - r.velocity.y) / kpos;
+            }
+        }
         let r = Reference { position: pos + e, ..*r };
         self.update_with(&r, pos, vel, dt_s, (kp, kd))
     }
@@ -225,7 +251,7 @@ mod tests {
             acceleration: Vec3::new(0.1, 0.0, 0.0),
             yaw: 0.0,
         };
-        let u = t.update_trajectory(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004);
+        let u = t.update_trajectory(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004, 5.0);
         assert!((u.x - 3.3).abs() < 1e-5, "{u:?}");
         assert!(u.y.abs() < 1e-6);
         assert!((u.z - (0.32 * -0.2 + 0.5 * -0.1)).abs() < 1e-6, "{u:?}");
@@ -256,17 +282,41 @@ mod tests {
             yaw: 0.0,
         };
         let (pos, vel) = (Vec3::new(5.0, 0.5, -1.0), Vec3::new(1.0, 0.0, 0.0));
-        let u = t.update_trajectory(&r, &pos, &vel, 0.004);
+        let u = t.update_trajectory(&r, &pos, &vel, 0.004, 50.0);
         assert!((u.x + 2.0).abs() < 1e-5, "{u:?}");
         // The cross-track error is untouched: 2·1·(0 − 0.5) = −1.
         assert!((u.y + 1.0).abs() < 1e-5, "{u:?}");
         // Behind the reference, or a reference at rest: the full error.
         let behind = Vec3::new(-3.0, 0.0, -1.0);
-        let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004);
+        let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004, 50.0);
         assert!((u.x - 2.0 * (0.3 + 4.0)).abs() < 1e-5, "{u:?}");
         let rest = Reference { velocity: Vec3::zeros(), ..r };
-        let u = t.update_trajectory(&rest, &pos, &Vec3::zeros(), 0.004);
+        let u = t.update_trajectory(&rest, &pos, &Vec3::zeros(), 0.004, 50.0);
         assert!((u.x - 2.0 * -4.0).abs() < 1e-5, "{u:?}");
+    }
+
+    #[test]
+    fn the_velocity_set_point_is_limited_to_the_mission_speed() {
+        // Reference at rest at x = 1, vehicle 3 m behind, at rest; K_p 1, K_v 2, speed 0.5:
+        // v_sp = 3 m/s unlimited (u_x = 6), 0.5 m/s limited (u_x = 1).
+        let params = TrackingParams {
+            ki_z: 0.0,
+            accel_max_xy: 20.0,
+            trajectory_pos_p: 1.0,
+            trajectory_vel_p: 2.0,
+            ..TrackingParams::uniform(0.32, 0.5)
+        };
+        let mut t = PdTracker::new(params);
+        let r = Reference { position: Vec3::new(1.0, 0.0, -1.0), ..Reference::default() };
+        let pos = Vec3::new(-2.0, 0.0, -1.0);
+        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 0.5);
+        assert!((u.x - 1.0).abs() < 1e-5, "{u:?}");
+        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 50.0);
+        assert!((u.x - 6.0).abs() < 1e-5, "{u:?}");
+        // A reference faster than the limit keeps its own speed as the limit.
+        let fast = Reference { velocity: Vec3::new(2.0, 0.0, 0.0), ..r };
+        let u = t.update_trajectory(&fast, &pos, &Vec3::zeros(), 0.004, 0.5);
+        assert!((u.x - 4.0).abs() < 1e-5, "{u:?}");
     }
 
     #[test]
