@@ -300,7 +300,7 @@ pub(super) const TABLE: [Param; N] = [
     // MPC_XY_ERR_MAX).
     Param {
         name: "MIS_GUIDANCE",
-        key: None,
+        key: Some(host_text("guidance")),
         unit: "",
         default: 0.0,
         min: 0.0,

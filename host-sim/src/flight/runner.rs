@@ -51,7 +51,8 @@ use anyhow::{anyhow, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::ControllerParams;
-use parapet_core::outer::{guidance::GuidanceParams, path_yaw::PathYawParams, path_yaw::YawMode};
+use parapet_core::outer::guidance::{GuidanceParams, MissionGuidance};
+use parapet_core::outer::{path_yaw::PathYawParams, path_yaw::YawMode};
 use parapet_core::perception::MemoryParams;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::thrust::ThrustParams;
@@ -104,6 +105,9 @@ pub struct RunConfig {
     pub variant: FilterVariant,
     /// Yaw along the path (`MIS_YAW_MODE`; `--yaw-mode`, `[controller] yaw_mode`).
     pub yaw_mode: YawMode,
+    /// Mission guidance (`MIS_GUIDANCE`; `[controller] guidance`; `--guidance` and
+    /// `--param MIS_GUIDANCE=…` override it).
+    pub guidance: MissionGuidance,
     /// Controller parameters as flown (scene/CLI overrides already applied).
     pub params: RunParams,
     /// Bound on unknown obstacle acceleration, m/s² (relative variants).
@@ -148,6 +152,9 @@ impl RunConfig {
         };
         let yaw_mode = c.yaw_mode.as_deref().map_or(Ok(YawMode::default()), str::parse::<YawMode>);
         let yaw_mode = yaw_mode.map_err(|()| anyhow!("unknown yaw mode {:?}", c.yaw_mode))?;
+        let guidance =
+            c.guidance.as_deref().map_or(Ok(MissionGuidance::default()), str::parse::<MissionGuidance>);
+        let guidance = guidance.map_err(|()| anyhow!("unknown guidance {:?}", c.guidance))?;
         // The table's f32 defaults as their shortest decimals: the same f32 values reach
         // the filter, and reports print them as written.
         let d = table_default;
@@ -167,6 +174,7 @@ impl RunConfig {
             cbf: true,
             variant,
             yaw_mode,
+            guidance,
             params,
             accel_bound: c.accel_bound.unwrap_or_else(|| d("accel_bound")),
             velocity_margin: c.velocity_margin.unwrap_or_else(|| d("velocity_margin")),
@@ -292,6 +300,7 @@ fn run_controller_params(
         waypoint: WaypointParams { cruise_speed: cfg.params.speed as f32, ..d.waypoint },
         guidance: GuidanceParams {
             path_yaw: PathYawParams { mode: cfg.yaw_mode, ..d.guidance.path_yaw },
+            mission: cfg.guidance,
             ..d.guidance
         },
         // A simulated pack's cells and resistance (BatteryModelParams::estimator_params).

@@ -16,6 +16,7 @@ use crate::input::{exact, limits, num};
 use crate::sim::plant::VehicleParams;
 use crate::sim::sensors::SensorParams;
 use parapet_core::obstacle::Shape;
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_core::outer::path_yaw::YawMode;
 
 /// Optional controller overrides (`[controller]` table). Missing values keep
@@ -45,6 +46,9 @@ pub struct ControllerOverrides {
     /// Yaw along the path: a `parapet_core::outer::path_yaw::YawMode` name (`hold`, `travel`;
     /// the parameter table's `MIS_YAW_MODE`).
     pub yaw_mode: Option<String>,
+    /// Mission guidance: a `parapet_core::outer::guidance::MissionGuidance` name (`paper`,
+    /// `trajectory`; the parameter table's `MIS_GUIDANCE`).
+    pub guidance: Option<String>,
     /// Obstacle memory voxel edge, m (`PCP_VOXEL`; range-sensor perception only).
     pub mem_voxel: Option<f64>,
     /// Obstacle memory forget time, s (`PCP_FORGET`).
@@ -212,7 +216,7 @@ impl<T: Shown> Shown for &T {
 
 impl ControllerOverrides {
     /// Sets the field of parameter `p`'s key (`[controller] key = x`, as `--param NAME=x` asks):
-    /// the number, or, for a key that takes a name (`filter`, `yaw_mode`), the name of code `x`
+    /// the number, or, for a key that takes a name (`filter`, `yaw_mode`, `guidance`), the name of code `x`
     /// from the table. Through the table's key and serde, so no field is named here. `Err` when
     /// `p` has no key or the field takes neither.
     pub fn set_param(&mut self, p: &parapet_core::params::Param, x: f64) -> Result<(), String> {
@@ -235,7 +239,7 @@ impl ControllerOverrides {
 
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
     /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
-    /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys).
+    /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys; `guidance` `MIS_GUIDANCE`'s).
     pub fn numbers(&self) -> [(&'static str, Option<f64>); 14] {
         [
             ("mu", self.mu),
@@ -286,6 +290,12 @@ pub(crate) fn validate_controller(c: &ControllerOverrides) -> Result<(), String>
         if m.parse::<YawMode>().is_err() {
             let names = YawMode::ALL.map(|v| v.as_str());
             return Err(format!("field `yaw_mode`: unknown yaw mode {m:?}, expected one of {names:?}"));
+        }
+    }
+    if let Some(g) = &c.guidance {
+        if g.parse::<MissionGuidance>().is_err() {
+            let names = MissionGuidance::ALL.map(|v| v.as_str());
+            return Err(format!("field `guidance`: unknown guidance {g:?}, expected one of {names:?}"));
         }
     }
     Ok(())
@@ -483,6 +493,7 @@ mod tests {
             velocity_margin: Some(7.0),
             speed: Some(8.0),
             yaw_mode: Some("travel".into()),
+            guidance: Some("trajectory".into()),
             mem_voxel: Some(0.25),
             mem_forget: Some(9.0),
             mem_clear_margin: Some(0.5),
@@ -492,7 +503,7 @@ mod tests {
         };
         let table = toml::Table::try_from(&all).unwrap();
         let numbers = all.numbers();
-        assert_eq!(table.len(), numbers.len() + 2);
+        assert_eq!(table.len(), numbers.len() + 3);
         for (key, x) in numbers {
             assert_eq!(table[key].as_float(), x, "{key}");
             assert!(parapet_core::params::by_key(key).is_some(), "{key} is not in the parameter table");
@@ -512,6 +523,14 @@ mod tests {
         assert!(e.contains("field `yaw_mode`") && e.contains("\"north\"") && e.contains("travel"), "{e}");
         assert_eq!(with_yaw("travel"), Ok(()));
         assert_eq!(with_yaw("hold"), Ok(()));
+        assert_eq!(parapet_core::params::by_key("guidance").map(|p| p.name), Some("MIS_GUIDANCE"));
+        let with_guidance = |g: &str| {
+            validate_controller(&ControllerOverrides { guidance: Some(g.into()), ..Default::default() })
+        };
+        let e = with_guidance("fast").unwrap_err();
+        assert!(e.contains("field `guidance`") && e.contains("\"fast\"") && e.contains("trajectory"), "{e}");
+        assert_eq!(with_guidance("paper"), Ok(()));
+        assert_eq!(with_guidance("trajectory"), Ok(()));
     }
 
     #[test]
