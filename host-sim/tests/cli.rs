@@ -124,12 +124,19 @@ fn run_writes_the_report() {
     // Rows are ENU: the flight level is z = +1 (up).
     let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
     assert!((row[6].parse::<f64>().unwrap() - 1.0).abs() < 0.05, "{row:?}");
-    for p in ["top_view", "clearance", "filter_activity"] {
+    for p in ["top_view", "clearance", "speed", "filter_activity"] {
         for ext in ["svg", "png"] {
             let file = out.join(format!("{p}.{ext}"));
             assert!(std::fs::metadata(&file).map(|m| m.len() > 1000).unwrap_or(false), "{}", file.display());
         }
     }
+    // The speed plot names the run's cruise speed (its limit line).
+    let speed = std::fs::read_to_string(out.join("speed.svg")).unwrap();
+    let cruise = s["params"]["speed"].as_f64().unwrap();
+    assert!(
+        speed.contains(&format!("cruise (mission speed) {cruise} m/s")),
+        "speed.svg lacks the cruise {cruise}"
+    );
 }
 
 #[test]

@@ -296,7 +296,7 @@ pub struct RunRecord<'a> {
 }
 
 /// Plots of the report: each is written as `<name>.svg` and `<name>.png`.
-pub const PLOTS: [&str; 3] = ["top_view", "clearance", "filter_activity"];
+pub const PLOTS: [&str; 4] = ["top_view", "clearance", "speed", "filter_activity"];
 
 /// The range-sensor beams of a `--perception` run (`crate::perception::write_ranges_csv`).
 pub const RANGES_CSV: &str = "ranges.csv";

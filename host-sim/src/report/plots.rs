@@ -1,5 +1,6 @@
 //! The report's plots (SVG and PNG): the top view (planned and flown paths, obstacles, range
-//! returns), clearance over time and filter activity, drawn with plotters in the file frame ENU.
+//! returns), clearance over time, speed over time with its limit, and filter activity, drawn
+//! with plotters in the file frame ENU.
 //!
 //! Owns the drawing only; the records it draws are [`super::RunRecord`]'s.
 //! May import: what [`super`] may (parapet-core, [`crate::world`], plotters).
@@ -42,6 +43,7 @@ where
     match name {
         "top_view" => draw_top_view_any(root, rec),
         "clearance" => draw_clearance_any(root, rec),
+        "speed" => draw_speed_any(root, rec),
         _ => draw_filter_activity_any(root, rec),
     }
 }
@@ -289,4 +291,70 @@ where
         )
         .map_err(e)?;
     Ok(())
+}
+
+/// The reference's speed at each sample, m/s: its displacement over the time since the
+/// previous sample (0 at the first), horizontal and vertical together.
+/// (A repeated time gives 0.)
+fn reference_speeds(samples: impl ExactSizeIterator<Item = (f64, Vector3<f64>)>) -> Vec<f64> {
+    let mut out = Vec::with_capacity(samples.len());
+    let mut prev: Option<(f64, Vector3<f64>)> = None;
+    for (t, pos) in samples {
+        let v = match prev {
+            Some((t0, p0)) if t > t0 => (pos - p0).norm() / (t - t0),
+            _ => 0.0,
+        };
+        out.push(v);
+        prev = Some((t, pos));
+    }
+    out
+}
+
+/// Speed against time (issue 35): the flown speed, the reference's, and the mission's cruise
+/// speed (`summary.params.speed`, the guidance's limit).
+fn draw_speed_any<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, rec: &RunRecord) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(e)?;
+    let cruise = rec.summary.params.speed;
+    let refs = reference_speeds(rec.samples.iter().map(|s| (s.t, s.ref_pos)));
+    let flown_max = rec.samples.iter().map(|s| s.vel.norm()).fold(0.0f64, f64::max);
+    let ymax = flown_max.max(cruise).max(0.1) * 1.15;
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            format!("Speed: flown blue, reference green; cruise (mission speed) {cruise} m/s red"),
+            ("sans-serif", 16),
+        )
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(50)
+        .build_cartesian_2d(time_range(rec), 0.0..ymax)
+        .map_err(e)?;
+    chart.configure_mesh().x_desc("t [s]").y_desc("speed [m/s]").draw().map_err(e)?;
+    let tr = time_range(rec);
+    chart
+        .draw_series(LineSeries::new(vec![(tr.start, cruise), (tr.end, cruise)], RED.stroke_width(2)))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(
+            rec.samples.iter().zip(&refs).map(|(s, v)| (s.t, v.min(ymax))),
+            RGBColor(0, 160, 0),
+        ))
+        .map_err(e)?;
+    chart
+        .draw_series(LineSeries::new(rec.samples.iter().map(|s| (s.t, s.vel.norm())), BLUE.stroke_width(2)))
+        .map_err(e)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_speed_is_displacement_over_time() {
+        let pts = [(0.0, Vector3::zeros()), (0.5, Vector3::new(3.0, 4.0, 0.0)), (0.5, Vector3::zeros())];
+        assert_eq!(reference_speeds(pts.into_iter()), vec![0.0, 10.0, 0.0]);
+    }
 }
