@@ -80,6 +80,7 @@ fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
     {
         assert!(out.join(f).is_file(), "{f}");
     }
+    assert_worst_reports(&out, &summary, &rows, &head);
     // The worst flight's command flies it again, bit for bit.
     let worst = &summary["worst"][0];
     let flight = worst["flight"].as_u64().unwrap() as usize;
@@ -108,6 +109,45 @@ fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
         rows[flight][col("tracking_rms_m")].parse::<f64>().unwrap()
     );
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// The first `WORST_REPORTS` worst flights have their full report (flown again after the
+/// campaign): its `summary.json` is the flight's campaign row to the bit, its `replay.html` draws
+/// that flight (its sample count is the row's outer steps), `worst.txt` and `summary.json` name
+/// it; the other worst flights have none.
+fn assert_worst_reports(out: &Path, summary: &serde_json::Value, rows: &[Vec<String>], head: &[String]) {
+    use parapet_sim::campaign::output::WORST_REPORTS;
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let worst = summary["worst"].as_array().unwrap();
+    assert_eq!(worst.len(), 10);
+    let text = std::fs::read_to_string(out.join("worst.txt")).unwrap();
+    for (k, w) in worst.iter().enumerate() {
+        let flight = w["flight"].as_u64().unwrap();
+        let dir = format!("worst/flight_{flight:06}");
+        if k >= WORST_REPORTS {
+            assert!(w["report"].is_null(), "{w}");
+            assert!(!out.join(&dir).exists(), "{dir}");
+            continue;
+        }
+        assert_eq!(w["report"], dir.as_str(), "{w}");
+        assert!(text.contains(&format!("the flight in 3D: {dir}/replay.html")), "{text}");
+        let row = &rows[flight as usize];
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join(&dir).join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(
+            s["min_clearance_m"].as_f64().unwrap().to_bits(),
+            row[col("min_clearance_m")].parse::<f64>().unwrap().to_bits(),
+            "{dir}"
+        );
+        assert_eq!(s["end_reason"], row[col("end_reason")].as_str());
+        let page = std::fs::read_to_string(out.join(&dir).join("replay.html")).unwrap();
+        let steps = row[col("outer_steps")].as_str();
+        assert!(page.contains(&format!("\"n_samples\":{steps},")), "{dir}: {steps} samples");
+        let csv_rows =
+            std::fs::read_to_string(out.join(&dir).join("trajectory.csv")).unwrap().lines().count();
+        assert_eq!(csv_rows, steps.parse::<usize>().unwrap() + 1, "{dir}: header and one row per step");
+    }
 }
 
 /// A small campaign over two scenes (absolute paths), `seed` and `flights` given.
@@ -145,6 +185,13 @@ fn shards_merge_byte_identical_and_mixed_campaigns_are_refused() {
             std::fs::read(dir.join("merged").join(f)).unwrap(),
         );
         assert!(a == b, "{f} differs");
+    }
+    // The merge writes the worst flights' reports as a single process does.
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("merged/summary.json")).unwrap()).unwrap();
+    let report = s["worst"][0]["report"].as_str().expect("the worst flight's report");
+    for d in ["single", "merged"] {
+        assert!(dir.join(d).join(report).join("replay.html").is_file(), "{d}/{report}/replay.html");
     }
     assert_eq!(
         csv_rows(&dir.join("s2/campaign.csv")).iter().map(|r| r[0].clone()).collect::<Vec<_>>(),

@@ -12,11 +12,13 @@
 //! with i mod N = I − 1, and the merged files equal a single-process run's byte for byte.
 //!
 //! Outputs ([`output`]): `campaign.csv`, `summary.json`, `worst.txt` (the commands),
-//! `worst/*.toml`, plots (`min_clearance_hist.svg`, `outcome_vs_<quantity>.svg`) and
+//! `worst/*.toml`, the full `parapet run` report of the [`output::WORST_REPORTS`] worst flights
+//! (flown again after the campaign, one at a time: `worst/flight_NNNNNN/`, with `replay.html`), plots (`min_clearance_hist.svg`, `outcome_vs_<quantity>.svg`) and
 //! `timing.json` (wall time; the only file that differs between runs). A shard
 //! writes its `campaign.csv` and `shard.json` only.
 //!
-//! Memory: one row per flight (the samples of a flight are dropped when it ends);
+//! Memory: one row per flight (the samples of a flight are dropped when it ends; a worst
+//! flight's report is written from a second flight of it, not from kept samples);
 //! time: the flights' durations are bounded as `parapet run`'s.
 //!
 //! May import: `crate::cli` (run options, errors), `crate::fc` (the in-process run), `crate::flight::runner`,
@@ -99,6 +101,42 @@ fn parse_shard(s: &str) -> Result<(u64, u64), InputError> {
     Ok((i, n))
 }
 
+/// The scene and run configuration of flight `i` of `c`: its `parapet run` options plus its
+/// drawn disturbances, the drawn plant checked as `--disturbances` would check it (so the
+/// worst-flight command flies too). The error names the scene when it was read.
+fn flight_config(
+    c: &Campaign,
+    i: u64,
+) -> Result<(crate::world::scene::Scene, crate::flight::runner::RunConfig), (Option<String>, String)> {
+    let d = c.flight(i);
+    let (scene, mut cfg) = run_config_from_args(&d.args).map_err(|e| (None, e.to_string()))?;
+    cfg.disturbances = d.disturbances(&cfg.disturbances, &scene.vehicle);
+    if let Some(p) = &cfg.disturbances.plant {
+        let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
+        if let Err((field, value, allowed)) =
+            checked.and_then(|_| crate::sim::disturbance::check_integrable(p))
+        {
+            let why = format!("the drawn [plant] field `{field}`: {value} {allowed}");
+            return Err((Some(scene.name.clone()), why));
+        }
+    }
+    Ok((scene, cfg))
+}
+
+/// Fly the worst flight `i` of `c` again (bit for bit as in the campaign, the command of
+/// `worst.txt`) and write its full `parapet run` report — `replay.html` among it — into `dir`.
+/// One flight's samples in memory at a time; they are dropped on return.
+fn write_worst_report(c: &Campaign, i: u64, dir: &Path) -> Result<(), CliError> {
+    let (scene, cfg) = flight_config(c, i)
+        .map_err(|(_, e)| CliError::Failed(anyhow!("worst flight {i} cannot be flown again: {e}")))?;
+    let out = crate::fc::control::run(&scene, &cfg, &mut |_| {})
+        .map_err(|e| CliError::Failed(anyhow!("worst flight {i} flown again: {e:#}")))?;
+    for w in crate::cli::report_out::write_run_report(dir, &scene, &cfg, &out, "run")? {
+        eprintln!("warning: worst flight {i}: {w}");
+    }
+    Ok(())
+}
+
 /// Fly flight `i` of `c`.
 pub fn fly(c: &Campaign, i: u64) -> Row {
     let d = c.flight(i);
@@ -117,21 +155,16 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
         row.outcome = Outcome { end_reason: "error".into(), error: e, ..Default::default() };
         row
     };
-    let (scene, mut cfg) = match run_config_from_args(&d.args) {
+    let (scene, cfg) = match flight_config(c, i) {
         Ok(x) => x,
-        Err(e) => return failed(row, e.to_string()),
+        Err((scene, e)) => {
+            if let Some(name) = scene {
+                row.scene = name;
+            }
+            return failed(row, e);
+        }
     };
     row.scene = scene.name.clone();
-    cfg.disturbances = d.disturbances(&cfg.disturbances, &scene.vehicle);
-    // The drawn plant as `--disturbances` would check it (so the worst-flight command flies too).
-    if let Some(p) = &cfg.disturbances.plant {
-        let checked = p.validate().map_err(|e| (e.field.to_string(), e.reason, String::new()));
-        if let Err((field, value, allowed)) =
-            checked.and_then(|_| crate::sim::disturbance::check_integrable(p))
-        {
-            return failed(row, format!("the drawn [plant] field `{field}`: {value} {allowed}"));
-        }
-    }
     match crate::fc::control::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
@@ -212,8 +245,6 @@ fn finish(c: &Campaign, rows: &[Row], out: &Path) -> Result<output::Summary, Cli
     output::write_csv(&out.join("campaign.csv"), &names, rows)?;
     let args_of = |i: u64| c.flight(i).args;
     let summary = output::summarise(c, rows, &args_of);
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| anyhow!("{e}"))? + "\n";
-    std::fs::write(out.join("summary.json"), json).context("cannot write summary.json")?;
     // The worst flights' disturbance files and commands.
     let worst_dir = out.join("worst");
     if worst_dir.exists() {
@@ -232,9 +263,16 @@ fn finish(c: &Campaign, rows: &[Row], out: &Path) -> Result<output::Summary, Cli
         let mut cmd: Vec<String> = vec!["parapet".into(), "run".into()];
         cmd.extend(d.args.iter().cloned());
         cmd.extend(["--disturbances".into(), file.display().to_string()]);
-        cmd.extend(["--out".into(), out.join(format!("worst/flight_{:06}", w.flight)).display().to_string()]);
+        cmd.extend(["--out".into(), out.join(output::worst_report_dir(w.flight)).display().to_string()]);
+        let report = match &w.report {
+            Some(dir) => {
+                write_worst_report(c, w.flight, &out.join(dir))?;
+                format!("; its report: {dir}/, the flight in 3D: {dir}/replay.html")
+            }
+            None => String::new(),
+        };
         text += &format!(
-            "# flight {} ({}, {}, min clearance {:.4} m{})\n{}\n",
+            "# flight {} ({}, {}, min clearance {:.4} m{}{report})\n{}\n",
             w.flight,
             w.scene,
             w.end_reason,
@@ -244,6 +282,9 @@ fn finish(c: &Campaign, rows: &[Row], out: &Path) -> Result<output::Summary, Cli
         );
     }
     std::fs::write(out.join("worst.txt"), text).context("cannot write worst.txt")?;
+    // Written once the worst flights' reports it names are.
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| anyhow!("{e}"))? + "\n";
+    std::fs::write(out.join("summary.json"), json).context("cannot write summary.json")?;
     for w in output::plots(out, &names, rows) {
         eprintln!("warning: {w}");
     }

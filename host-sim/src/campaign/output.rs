@@ -321,6 +321,21 @@ pub struct Worst {
     pub disturbances_file: String,
     /// The `parapet run` options that fly it (plus `--disturbances <out>/<file>`).
     pub run_args: Vec<String>,
+    /// Its full `parapet run` report (`replay.html`, `summary.json`, `trajectory.csv`, …),
+    /// relative to the campaign's output directory: the first [`WORST_REPORTS`] worst flights
+    /// only (null for the others).
+    pub report: Option<String>,
+}
+
+/// How many of the worst flights (the first of [`Summary::worst`]: smallest min clearance,
+/// collisions first) are flown again after the campaign to write their full report with its
+/// replay page, `worst/flight_NNNNNN/` ([`worst_report_dir`]).
+pub const WORST_REPORTS: usize = 3;
+
+/// The report directory of a worst flight, relative to the output directory: the `--out` of
+/// its command in `worst.txt`.
+pub fn worst_report_dir(flight: u64) -> String {
+    format!("worst/flight_{flight:06}")
 }
 
 /// `summary.json`.
@@ -340,7 +355,8 @@ pub struct Summary {
     pub per_scene: BTreeMap<String, Rates>,
     /// Collisions by scene and obstacle: `scene: { what: count }`.
     pub collisions_by_obstacle: BTreeMap<String, BTreeMap<String, u64>>,
-    /// The 10 flights with the smallest min clearance (collisions first).
+    /// The 10 flights with the smallest min clearance (collisions first); the first
+    /// [`WORST_REPORTS`] with their full report.
     pub worst: Vec<Worst>,
 }
 
@@ -370,7 +386,8 @@ pub fn summarise(
     let worst = flown
         .iter()
         .take(10)
-        .map(|r| Worst {
+        .enumerate()
+        .map(|(k, r)| Worst {
             flight: r.flight,
             scene: r.scene.clone(),
             end_reason: r.outcome.end_reason.clone(),
@@ -378,6 +395,7 @@ pub fn summarise(
             collision_with: r.outcome.collision_with.clone(),
             disturbances_file: worst_file(r.flight),
             run_args: worst_args(r.flight),
+            report: (k < WORST_REPORTS).then(|| worst_report_dir(r.flight)),
         })
         .collect();
     Summary {
