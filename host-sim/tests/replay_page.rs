@@ -297,6 +297,7 @@ fn assert_at_row(p: &serde_json::Value, header: &[String], rows: &[Vec<String>])
     assert_eq!(now["h̄ [m²]"], row[col("h_bar")]);
     assert_eq!(now["region"], row[col("region")]);
     assert_eq!(now["mode"], row[col("mode")]);
+    assert_eq!(now["barriers enforced"], row[col("n_constraints")]);
     let active = if row[col("active_obstacle")].is_empty() { "-" } else { &row[col("active_obstacle")] };
     assert!(now["active obstacle"].as_str().unwrap().starts_with(active), "{p}");
     // The body as drawn: FRD → NED is Rz(yaw) Ry(pitch) Rx(roll) of the row; forward is its
@@ -365,6 +366,7 @@ fn the_page_shows_the_flight_at_the_asked_time() {
             assert!(next[0].parse::<f64>().unwrap() > asked, "{t}: the next row is not later");
         }
         assert_summary_shown(&report, &p);
+        assert_lists(&report, &p);
     }
     // Played from 0.5 s (the probe follows every frame): later, and still at its row.
     let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=0.5&rate=1&play"), "--dump-dom"));
@@ -408,6 +410,7 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
         summary: &run.summary,
         ranges: &run.ranges,
         range_sensors: &[],
+        filter_points: &run.filter_points,
         clock_us: parapet_sim::flight::stack::clock_us,
     };
     parapet_sim::report::write_report(&dir, &rec).unwrap();
@@ -435,6 +438,143 @@ fn a_run_that_ended_at_once_and_an_empty_report_give_pages_that_say_so() {
     assert_eq!(rows[1][header.iter().position(|h| h == "y").unwrap()], "NaN");
     assert_eq!(p["now"]["x, y, z [m]"], format!("{}, NaN, {}", rows[1][4], rows[1][6]), "{p}");
     assert_eq!(p["now"]["h̄ [m²]"], rows[1][header.iter().position(|h| h == "h_bar").unwrap()], "{p}");
+}
+
+/// `name`'s rows of a report CSV (header dropped).
+fn csv_of(report: &Path, name: &str) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(report.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    text.lines().skip(1).map(|l| l.split(',').map(String::from).collect()).collect()
+}
+
+/// The probe's overlays at its time against the report's files: the filter's points drawn are
+/// `filter_points.csv`'s rows of the latest logged step at or before the shown time (every step
+/// is in the page of a short flight); each drawn scan is the sensor's scan in `ranges.csv` with
+/// as many returns, every `stride`-th drawn, at most one kept-scan period old.
+fn assert_overlays(report: &Path, p: &serde_json::Value) -> (usize, usize) {
+    let t: f64 = p["t_shown"].as_str().unwrap().parse().unwrap();
+    let fp = csv_of(report, "filter_points.csv");
+    // The step drawn (a logged step without points has no row): at most one logging period
+    // (0.1 s) before the shown time, no row of a later step up to it.
+    let step: f64 = p["filter_points_t"].as_str().expect("a logged step").parse().unwrap();
+    assert!((0.0..0.1 + 1e-9).contains(&(t - step)), "{step} vs {t}: {p}");
+    let later =
+        fp.iter().filter(|r| (step + 1e-9..=t + 1e-9).contains(&r[0].parse::<f64>().unwrap())).count();
+    assert_eq!(later, 0, "{p}");
+    let n_fp = fp.iter().filter(|r| Some(r[0].as_str()) == p["filter_points_t"].as_str()).count();
+    assert_eq!(p["filter_points_drawn"].as_u64(), Some(n_fp as u64), "{p}");
+    let ranges = csv_of(report, "ranges.csv");
+    let stride = p["returns_stride"].as_u64().unwrap() as usize;
+    let mut drawn = 0;
+    for sc in p["returns_scans"].as_array().unwrap() {
+        let (st, sensor) = (sc["t"].as_str().unwrap(), sc["sensor"].as_str().unwrap());
+        let hits = ranges.iter().filter(|r| r[0] == st && r[1] == sensor && !r[3].is_empty()).count();
+        assert!(
+            ranges.iter().any(|r| r[0] == st && r[1] == sensor),
+            "no scan {st} of {sensor} in ranges.csv"
+        );
+        assert_eq!(sc["hits"].as_u64(), Some(hits as u64), "{p}");
+        assert_eq!(sc["drawn"].as_u64(), Some(hits.div_ceil(stride) as u64), "{p}");
+        let age = t - st.parse::<f64>().unwrap();
+        assert!(
+            (0.0..=1.0 / parapet_sim::report::replay::MAX_SCANS_PER_S + 0.0041).contains(&age),
+            "{age}: {p}"
+        );
+        drawn += hits.div_ceil(stride);
+    }
+    assert_eq!(p["returns_drawn"].as_u64(), Some(drawn as u64), "{p}");
+    (n_fp, drawn)
+}
+
+/// The page's lists against `trajectory.csv`: every guidance-mode change listed at its row's
+/// time and name, the first filter intervention at the first `filter_active` row, and the
+/// failsafe guidance entered at its row (when the run has one).
+fn assert_lists(report: &Path, p: &serde_json::Value) {
+    let (header, rows) = csv_rows(report);
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let mut want = Vec::new();
+    let mut last = "";
+    for r in &rows {
+        if r[col("mode")] != last {
+            last = &r[col("mode")];
+            want.push(format!("{} s  guidance {last}", r[0]));
+        }
+    }
+    let shown: Vec<String> = p["modes_shown"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .filter(|v| v.contains("guidance"))
+        .collect();
+    assert_eq!(shown, want, "{p}");
+    if let Some(r) = rows.iter().find(|r| r[col("filter_active")] == "1") {
+        let first = p["barriers_shown"][0].as_str().unwrap();
+        assert!(first.starts_with(&format!("{} s  – ", r[0])), "{first} vs {}", r[0]);
+    }
+    let events: Vec<&str> =
+        p["events_shown"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    // Every entry into a failsafe's guidance, at its row.
+    let failsafe: Vec<&str> =
+        parapet_sim::report::replay::FAILSAFE_GUIDANCE.iter().map(|m| m.as_str()).collect();
+    let mut last = "";
+    let mut entered = 0;
+    for r in &rows {
+        let m = r[col("mode")].as_str();
+        if m != last && failsafe.contains(&m) {
+            let e = format!("{} s  guidance entered: {m}", r[0]);
+            assert!(events.contains(&e.as_str()), "{e} not in {events:?}");
+            entered += 1;
+        }
+        last = m;
+    }
+    assert_eq!(events.iter().filter(|e| e.contains("guidance entered")).count(), entered, "{events:?}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report.join("summary.json")).unwrap()).unwrap();
+    let end = format!(
+        "{} s  end: {} (controller {})",
+        rows.last().unwrap()[0],
+        s["end_reason"].as_str().unwrap(),
+        s["final_controller_state"].as_str().unwrap()
+    );
+    assert_eq!(events.last().copied(), Some(end.as_str()), "{events:?}");
+}
+
+/// `parapet run` of `scenes/pilot/wall.toml` with the pilot script `script` of `scenes/pilot/`
+/// and a lidar into `dir/out`; the report directory.
+fn fly_pilot_at_the_wall(dir: &Path, script: &str) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/pilot");
+    let out = dir.join("out");
+    let (scene, script) = (root.join("wall.toml"), root.join(script));
+    let args = ["run", "--scene", scene.to_str().unwrap(), "--pilot", script.to_str().unwrap()];
+    let o = parapet(&[&args[..], &["--perception", "lidar", "--out", out.to_str().unwrap()]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
+/// A piloted flight at the wall with a lidar whose RC link is lost at 2 s (`scenes/pilot/`):
+/// the page at several times draws the filter's points and the lidar's returns of that time,
+/// the failsafe's guidance changes are listed at their `trajectory.csv` times.
+#[test]
+fn the_page_draws_the_points_and_returns_of_the_time_and_lists_the_failsafe() {
+    let Some(bin) = chromium() else { return };
+    let d = tmp("overlays");
+    let out = fly_pilot_at_the_wall(&d, "rc_loss.pilot.toml");
+    let (header, rows) = csv_rows(&out);
+    let modes: Vec<&str> =
+        rows.iter().map(|r| r[header.iter().position(|h| h == "mode").unwrap()].as_str()).collect();
+    assert!(modes.contains(&"Hold") && modes.contains(&"Land"), "the RC-loss failsafe holds, then lands");
+    let page = out.join("replay.html");
+    let (mut fp_total, mut ret_total) = (0, 0);
+    for t in ["1.5", "4.2", "11"] {
+        let p = probe(&chromium_run(&bin, &d, &file_url(&page, &format!("t={t}")), "--dump-dom"));
+        assert_no_errors(&p);
+        assert_at_row(&p, &header, &rows);
+        let (a, b) = assert_overlays(&out, &p);
+        fp_total += a;
+        ret_total += b;
+        assert_lists(&out, &p);
+    }
+    assert!(fp_total > 0 && ret_total > 0, "points {fp_total}, returns {ret_total}");
 }
 
 /// The office screenshot's fragment: t = 9.8 s (the filter at the coat stand), free orbit.
@@ -484,8 +624,43 @@ fn forest_screenshot() {
     let p = probe(&chromium_run(&bin, &d, &file_url(&page, "t=9.5"), "--dump-dom"));
     assert_no_errors(&p);
     assert_eq!((p["obstacle_meshes"].as_u64(), p["on_screen"].as_bool()), (Some(400), Some(true)), "{p}");
+    // At speed: the shown row's speed is at least 3 m/s.
+    let (header, rows) = csv_rows(&out);
+    let i = assert_at_row(&p, &header, &rows);
+    let v = |n: &str| rows[i][header.iter().position(|h| h == n).unwrap()].parse::<f64>().unwrap();
+    let speed = (v("vx").powi(2) + v("vy").powi(2) + v("vz").powi(2)).sqrt();
+    assert!(speed >= 3.0, "{speed} m/s at the shot");
+    eprintln!("forest shot at {} s: {speed:.2} m/s", rows[i][0]);
     let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures/replay_forest.png");
     chromium_run(&bin, &d, &file_url(&page, "t=9.5"), &format!("--screenshot={}", docs.display()));
+    let len = std::fs::metadata(&docs).map(|m| m.len()).unwrap_or(0);
+    assert!(len > 50_000, "{} is {len} B", docs.display());
+    eprintln!("replay.html {} B, screenshot {}", std::fs::metadata(&page).unwrap().len(), docs.display());
+}
+
+/// `docs/figures/replay_wall_slide.png`: the piloted wall slide (`scenes/pilot/wall.toml`,
+/// `wall_slide.pilot.toml`: full forward and half right stick at the wall) with a lidar, at
+/// 6 s in free orbit: the vehicle sliding east along the wall, the filter's points on the wall
+/// (cyan) and the lidar's returns (magenta).
+#[test]
+#[ignore = "writes docs/figures/replay_wall_slide.png; run by hand (docs/simulator.md)"]
+fn wall_slide_screenshot() {
+    let Some(bin) = chromium() else { return };
+    let d = tmp("wall-slide");
+    let out = fly_pilot_at_the_wall(&d, "wall_slide.pilot.toml");
+    let page = out.join("replay.html");
+    let shot = "t=6&cam=orbit";
+    let p = probe(&chromium_run(&bin, &d, &file_url(&page, shot), "--dump-dom"));
+    assert_no_errors(&p);
+    let (header, rows) = csv_rows(&out);
+    assert_at_row(&p, &header, &rows);
+    let (points, returns) = assert_overlays(&out, &p);
+    assert!(points > 0 && returns > 0, "{p}");
+    assert_lists(&out, &p);
+    // Sliding: the filter acts at the shown time.
+    assert_eq!(p["now"]["filter"], "intervened", "{p}");
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/figures/replay_wall_slide.png");
+    chromium_run(&bin, &d, &file_url(&page, shot), &format!("--screenshot={}", docs.display()));
     let len = std::fs::metadata(&docs).map(|m| m.len()).unwrap_or(0);
     assert!(len > 50_000, "{} is {len} B", docs.display());
     eprintln!("replay.html {} B, screenshot {}", std::fs::metadata(&page).unwrap().len(), docs.display());

@@ -58,6 +58,7 @@ fn mcap_matches_the_trajectory_message_by_message() {
         summary: &out.summary,
         ranges: &out.ranges,
         range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
+        filter_points: &out.filter_points,
         clock_us,
     };
     let dir = root.join("flight");

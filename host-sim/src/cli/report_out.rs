@@ -29,6 +29,7 @@ pub fn write_run_report(
         summary: &result.summary,
         ranges: &result.ranges,
         range_sensors: cfg.perception.as_deref().unwrap_or(&[]),
+        filter_points: &result.filter_points,
         clock_us: crate::flight::stack::clock_us,
     };
     let (_, warnings) = write_report(dir, &rec)?;

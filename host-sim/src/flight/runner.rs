@@ -356,6 +356,8 @@ pub struct RunOutput {
     pub summary: Summary,
     /// Every beam of the range sensors (empty without `perception`), for `ranges.csv`.
     pub ranges: crate::perception::RangeLog,
+    /// The obstacle points given to the controller, at 10 Hz (`crate::report::points`).
+    pub filter_points: crate::report::points::FilterPointLog,
 }
 
 /// Fly `scene` with `cfg` and any [`FlightStack`] (in-process: `crate::fc::control::run`;
@@ -451,6 +453,7 @@ pub fn run_with(
     // Memory grows with the time flown, not with the duration limit: reserve at
     // most a minute of samples up front.
     let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
+    let mut filter_points = crate::report::points::FilterPointLog::default();
     let (mut collided_at, mut collision_obstacle) = (None, None);
     let mut goal_at = None;
     // A ground station's flight ended: landed and disarmed (`FlightStack::finished`).
@@ -497,6 +500,9 @@ pub fn run_with(
                 }
             }
             let out = ctrl.outer(t, &scratch.seen);
+            if n_outer % crate::report::points::FILTER_POINTS_PERIOD == 0 {
+                filter_points.record(t, &scratch.seen, &plant.state.pos);
+            }
             let sd = sd_now;
             let ref_clear =
                 with_ground(ref_tracker.nearest(scene, &out.reference, t), &out.reference).0 - hull;
@@ -644,7 +650,7 @@ pub fn run_with(
         unmapped_obstacles: scene.unmapped_count(),
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
-    Ok(RunOutput { samples, summary, ranges })
+    Ok(RunOutput { samples, summary, ranges, filter_points })
 }
 
 #[cfg(test)]

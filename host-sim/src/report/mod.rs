@@ -27,6 +27,9 @@
 //! `ranges.csv` (runs with `--perception`): one row per beam of every scan,
 //! `t,sensor,beam,range,x,y,z` (see `crate::perception::write_ranges_csv`).
 //!
+//! `filter_points.csv`: the obstacle points given to the controller, at 10 Hz, `t,id,x,y,z`
+//! ([`points`]).
+//!
 //! Owns the report files and the run's record types ([`Sample`], [`Summary`]).
 //! May import: `parapet-core`, [`crate::input`], [`crate::perception`] and
 //! [`crate::sim::range`] (range records), [`crate::world`] (the scene
@@ -35,6 +38,7 @@
 
 pub mod foxglove;
 mod plots;
+pub mod points;
 pub mod replay;
 pub mod ulog;
 
@@ -290,6 +294,9 @@ pub struct RunRecord<'a> {
     pub ranges: &'a crate::perception::RangeLog,
     /// The range sensors (names for `ranges.csv`).
     pub range_sensors: &'a [crate::sim::range::RangeSensor],
+    /// The obstacle points given to the controller, logged at 10 Hz ([`points`]):
+    /// `filter_points.csv` and the replay page.
+    pub filter_points: &'a points::FilterPointLog,
     /// The controller clock: a sample's time (s) → the logs' timestamps (µs), as for the ULog
     /// (`crate::flight::stack::clock_us`); `flight.mcap`'s log times are these in ns.
     pub clock_us: fn(f64) -> u64,
@@ -309,6 +316,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
         dir.join("trajectory.csv"),
         dir.join(ulog::FLIGHT_LOG),
         dir.join(RANGES_CSV),
+        dir.join(points::FILTER_POINTS_CSV),
         dir.join(replay::REPLAY_HTML),
         dir.join(foxglove::FLIGHT_MCAP),
     ];
@@ -319,7 +327,7 @@ pub fn report_files(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Write `summary.json`, `trajectory.csv`, `replay.html`, `flight.mcap` and the plots into `dir` (created if
+/// Write `summary.json`, `trajectory.csv`, `filter_points.csv`, `replay.html`, `flight.mcap` and the plots into `dir` (created if
 /// needed). Returns the files written; a plot that fails (e.g. no usable font)
 /// is reported in the returned warnings instead of failing the run.
 pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<String>)> {
@@ -351,6 +359,15 @@ pub fn write_report(dir: &Path, rec: &RunRecord) -> Result<(Vec<PathBuf>, Vec<St
             .with_context(|| format!("cannot write {}", path.display()))?;
         files.push(path);
     }
+    let path = dir.join(points::FILTER_POINTS_CSV);
+    std::fs::File::create(&path)
+        .map(std::io::BufWriter::new)
+        .and_then(|mut w| {
+            points::write_filter_points_csv(&mut w, rec.filter_points)?;
+            std::io::Write::flush(&mut w)
+        })
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    files.push(path);
     let page_path = dir.join(replay::REPLAY_HTML);
     replay::write_replay(&page_path, rec).with_context(|| format!("cannot write {}", page_path.display()))?;
     files.push(page_path);

@@ -223,6 +223,72 @@
     body.quaternion.setFromRotationMatrix(m4);
   }
 
+  // ---------------------------------------------------------------- range returns
+  // Per sensor, the latest shown scan at or before the time (D.scans.shown is in scan order,
+  // i.e. by time); its drawn returns (every stride-th) as one point cloud, magenta.
+  var SC = D.scans, scanBySensor = [];
+  SC.shown.forEach(function (sc, i) { (scanBySensor[sc[1]] = scanBySensor[sc[1]] || []).push(i); });
+  var maxPts = 0;
+  scanBySensor.forEach(function (l) { var m = 0; l.forEach(function (i) { m = Math.max(m, SC.shown[i][3].length / 3); }); maxPts += m; });
+  var returnsGeo = new THREE.BufferGeometry();
+  returnsGeo.setAttribute("position", new THREE.Float32BufferAttribute(new Float32Array(Math.max(maxPts, 1) * 3), 3));
+  returnsGeo.setDrawRange(0, 0);
+  var returns = new THREE.Points(returnsGeo, new THREE.PointsMaterial({ color: 0xd0208a, size: 3, sizeAttenuation: false }));
+  returns.name = "returns";
+  returns.frustumCulled = false;
+  scene.add(returns);
+  var returnsShown = [];
+  function latestScan(list, t) {
+    var lo = 0, hi = list.length - 1, best = -1;
+    while (lo <= hi) {
+      var mid = (lo + hi) >> 1;
+      if (num(SC.shown[list[mid]][0]) <= t) { best = list[mid]; lo = mid + 1; } else hi = mid - 1;
+    }
+    return best;
+  }
+  function showReturns(t) {
+    var pos = returnsGeo.attributes.position, n = 0;
+    returnsShown = [];
+    scanBySensor.forEach(function (list, sensor) {
+      var i = latestScan(list, t);
+      if (i < 0) return;
+      var sc = SC.shown[i], p = sc[3];
+      for (var q = 0; q + 2 < p.length; q += 3) pos.setXYZ(n++, num(p[q]), num(p[q + 1]), num(p[q + 2]));
+      returnsShown.push({ sensor: SC.sensors[sensor] || String(sensor), t: fmt(sc[0], 4), hits: sc[2], drawn: p.length / 3 });
+    });
+    pos.needsUpdate = true;
+    returnsGeo.setDrawRange(0, n);
+    if (nowRows["returns drawn"]) nowRows["returns drawn"].textContent = SC.shown.length ? String(n) + " (1 in " + SC.stride + " of the scan)" : "-";
+  }
+
+  // ---------------------------------------------------------------- obstacle points given to the filter
+  // The latest shown logged step at or before the time: its points as cyan dots.
+  var FP = D.filter_points, maxFp = 1;
+  FP.shown.forEach(function (st) { maxFp = Math.max(maxFp, st[1].length / 3); });
+  var fpGeo = new THREE.BufferGeometry();
+  fpGeo.setAttribute("position", new THREE.Float32BufferAttribute(new Float32Array(maxFp * 3), 3));
+  fpGeo.setDrawRange(0, 0);
+  var fpCloud = new THREE.Points(fpGeo, new THREE.PointsMaterial({ color: 0x00a6c8, size: 7, sizeAttenuation: false }));
+  fpCloud.name = "filter_points";
+  fpCloud.frustumCulled = false;
+  scene.add(fpCloud);
+  var fpShownT = null;
+  function showFilterPoints(t) {
+    var lo = 0, hi = FP.shown.length - 1, best = -1, n = 0, pos = fpGeo.attributes.position;
+    while (lo <= hi) {
+      var mid = (lo + hi) >> 1;
+      if (num(FP.shown[mid][0]) <= t) { best = mid; lo = mid + 1; } else hi = mid - 1;
+    }
+    fpShownT = best < 0 ? null : fmt(FP.shown[best][0], 4);
+    if (best >= 0) {
+      var p = FP.shown[best][1];
+      for (var q = 0; q + 2 < p.length; q += 3) pos.setXYZ(n++, num(p[q]), num(p[q + 1]), num(p[q + 2]));
+    }
+    pos.needsUpdate = true;
+    fpGeo.setDrawRange(0, n);
+    if (nowRows["filter's points"]) nowRows["filter's points"].textContent = best < 0 ? "-" : n + " (logged at " + fpShownT + " s)";
+  }
+
   // ---------------------------------------------------------------- camera control
   // One spherical rig (azimuth, elevation, distance) about a target: "follow" keeps the target on
   // the vehicle, "orbit" leaves it where it is (drag: turn; shift/right drag: pan; wheel: zoom).
@@ -317,7 +383,7 @@
 
   // ---------------------------------------------------------------- side panel
   var nowRows = {};
-  ["t [s]", "x, y, z [m]", "clearance [m]", "h̄ [m²]", "region", "filter", "active obstacle", "mode"].forEach(function (name) {
+  ["t [s]", "x, y, z [m]", "clearance [m]", "h̄ [m²]", "region", "filter", "barriers enforced", "active obstacle", "mode", "flight mode", "filter's points", "returns drawn"].forEach(function (name) {
     var tr = document.createElement("tr");
     var a = document.createElement("td"), b = document.createElement("td");
     a.textContent = name;
@@ -332,16 +398,33 @@
     tr.appendChild(a); tr.appendChild(b);
     $("summary").appendChild(tr);
   });
-  D.mode_changes.forEach(function (mc) {
+  // A clickable list entry: seeks to its time.
+  function entry(list, t, text) {
     var div = document.createElement("div");
-    div.textContent = fmt(mc[0], 4) + " s  " + D.modes[mc[1]];
-    div.addEventListener("click", function () { seekTime(num(mc[0])); });
-    $("modes").appendChild(div);
+    div.textContent = fmt(t, 4) + " s  " + text;
+    div.addEventListener("click", function () { seekTime(num(t)); });
+    $(list).appendChild(div);
+  }
+  // Guidance and flight-mode changes, in time order.
+  var changes = D.mode_changes.map(function (mc) { return [mc[0], "guidance " + D.modes[mc[1]]]; })
+    .concat(D.flight_mode_changes.map(function (mc) { return [mc[0], "flight mode " + D.flight_modes[mc[1]]]; }));
+  changes.sort(function (a, b) { return num(a[0]) - num(b[0]); });
+  changes.forEach(function (c) { entry("modes", c[0], c[1]); });
+  if (D.mode_changes_cut || D.flight_mode_changes_cut) $("modes").appendChild(document.createTextNode("… (list cut)"));
+  D.events.forEach(function (e) { entry("events", e[0], e[1]); });
+  if (D.events_cut) $("events").appendChild(document.createTextNode("… (list cut)"));
+  D.interventions.forEach(function (iv) {
+    entry("barriers", iv[0], "– " + fmt(iv[1], 4) + " s: up to " + iv[2] + " barrier" + (iv[2] === 1 ? "" : "s") +
+      (iv[3].length ? ", obstacle" + (iv[3].length > 1 ? "s " : " ") + iv[3].join(", ") : ""));
   });
-  if (D.mode_changes_cut) $("modes").appendChild(document.createTextNode("… (list cut)"));
+  if (D.interventions_cut) $("barriers").appendChild(document.createTextNode("… (list cut)"));
+  if (D.interventions.length === 0) $("barriers").textContent = "The filter never changed u*.";
   $("title").textContent = D.scene + " — " + D.filter + " — " + D.end_reason;
   $("note").textContent = "Drawn: " + N + " of " + D.n_samples + " samples (decimated for display; the texts are trajectory.csv's digits of the sample shown). " +
-    "Planned path green, reference dashed grey, flown track coloured by speed; hull coloured by the filter's region (grey far, green nominal safe, orange filtering, red fault); obstacle the filter acts on in orange; moving obstacles violet; unmapped obstacles (not in the planned-on map) yellow." +
+    "Planned path green, reference dashed grey, flown track coloured by speed; hull coloured by the filter's region (grey far, green nominal safe, orange filtering, red fault); obstacle the filter acts on in orange; moving obstacles violet; unmapped obstacles (not in the planned-on map) yellow. " +
+    (D.scans.shown.length ? "Range returns magenta: each sensor's latest scan shown (" + D.scans.shown.length + " of " + D.scans.n_scans + " scans kept, every " + D.scans.stride + ". return drawn; ranges.csv has them all). " : "") +
+    "Obstacle points given to the filter cyan (the latest of " + FP.shown.length + " of " + FP.n_steps + " logged steps, filter_points.csv). " +
+    "Plots: filter interventions shaded orange, mode changes dashed grey, events dashed red." +
     (D.interventions_cut ? " Intervention list cut at its first entries." : "");
   $("legend").innerHTML = "speed 0<span class=\"bar\" style=\"background:linear-gradient(90deg,hsl(238,90%,45%),hsl(119,90%,45%),hsl(0,90%,45%))\"></span>" +
     vmax.toFixed(2) + " m/s <i style=\"background:#1f9d3a\"></i>planned <i style=\"background:#666\"></i>reference";
@@ -390,6 +473,8 @@
     if (p.zero) { g.beginPath(); g.moveTo(L, Y(0)); g.lineTo(L + pw, Y(0)); g.stroke(); }
     g.setLineDash([3, 3]); g.strokeStyle = "#99a";
     D.mode_changes.forEach(function (mc, i) { if (i > 0) { var x = X(num(mc[0])); g.beginPath(); g.moveTo(x, T); g.lineTo(x, T + ph); g.stroke(); } });
+    g.strokeStyle = "#d62728";
+    D.events.forEach(function (e) { var x = X(num(e[0])); g.beginPath(); g.moveTo(x, T); g.lineTo(x, T + ph); g.stroke(); });
     g.setLineDash([]);
     g.strokeStyle = "#1f5fbf"; g.beginPath();
     var pen = false;
@@ -445,12 +530,16 @@
         var a = S.a[k];
         nowRows["active obstacle"].textContent = a < 0 ? "-" : (D.act_is_index && D.obstacles[a] && D.obstacles[a].name ? a + " (" + D.obstacles[a].name + ")" : String(a));
         nowRows["mode"].textContent = D.modes[S.m[k]];
+        nowRows["flight mode"].textContent = D.flight_modes[S.fm[k]];
+        nowRows["barriers enforced"].textContent = String(S.n[k]);
         if (activeMesh) { activeMesh.material = activeMesh.userData.baseMat; activeMesh = null; }
         if (D.act_is_index && a >= 0 && a < obstacleMeshes.length && S.f[k]) {
           activeMesh = obstacleMeshes[a];
           activeMesh.material = activeMat;
         }
       }
+      showReturns(t);
+      showFilterPoints(t);
       obstacleMeshes.forEach(function (m) {
         if (!m.userData.moving) return;
         var off = obstacleOffset(D.obstacles[m.userData.obstacle], t), h = m.userData.home;
@@ -547,6 +636,14 @@
         var c = m.getWorldPosition(new THREE.Vector3());
         return [m.userData.obstacle, c.x, c.y, c.z];
       });
+      p.returns_drawn = returnsGeo.drawRange.count;
+      p.filter_points_drawn = fpGeo.drawRange.count;
+      p.filter_points_t = fpShownT;
+      p.returns_scans = returnsShown;
+      p.returns_stride = SC.stride;
+      p.events_shown = Array.prototype.map.call($("events").children, function (d) { return d.textContent; });
+      p.modes_shown = Array.prototype.map.call($("modes").children, function (d) { return d.textContent; });
+      p.barriers_shown = Array.prototype.map.call($("barriers").children, function (d) { return d.textContent; });
       p.summary_shown = Array.prototype.map.call($("summary").rows, function (r) { return [r.cells[0].textContent, r.cells[1].textContent]; });
       p.camera = rig.mode;
       p.playing = state.playing;

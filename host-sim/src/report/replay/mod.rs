@@ -1,7 +1,9 @@
 //! `replay.html`: the flight as one self-contained page that opens from disk (no server, no
 //! network) — the scene's obstacles in 3D (moving ones animated), start and goal, the planned
 //! path, the reference track, the flown track coloured by speed, the vehicle with its hull at
-//! its attitude, the filter's region and interventions, the guidance-mode changes; play/pause,
+//! its attitude, the filter's region and interventions, the barriers it enforced, the obstacle
+//! points it was given and the range sensors' returns at the shown time, the guidance- and
+//! flight-mode changes and the events (failsafes, collision, end; [`overlays`]); play/pause,
 //! a time slider, speed ×0.25–×16, follow camera or free orbit, and plots of speed, clearance
 //! and h̄ with a cursor linked to the slider.
 //!
@@ -11,8 +13,9 @@
 //! minimum-clearance / minimum-h̄ samples always kept); every number the page shows as text is
 //! the report's own text: a displayed sample's `t`, `x`, `y`, `z`, `clearance`, `h_bar` are the
 //! digits of its `trajectory.csv` row (`crate::decimal`, the same writer), and the
-//! `summary.json` table holds each value as serde_json writes it there. Mode changes and
-//! filter-intervention intervals are taken from **every** sample (bounded by [`MAX_MARKS`]).
+//! `summary.json` table holds each value as serde_json writes it there. Mode changes, events
+//! and filter-intervention intervals are taken from **every** sample (bounded by
+//! [`MAX_MARKS`]); the filter's points and the returns are decimated as [`overlays`] says.
 //!
 //! Opened with `#t=SECONDS` (optionally `&cam=orbit`) the page jumps there, renders once and
 //! writes a probe (`<pre id="probe">` JSON: obstacle meshes in the scene graph, the vehicle's
@@ -107,7 +110,9 @@ const BODY: &str = r#"<div id="top">
  <div id="viewwrap"><canvas id="view"></canvas><div id="banner" hidden></div><div id="legend"></div></div>
  <div id="side">
   <table id="now"></table>
+  <details open><summary>Events</summary><div id="events"></div></details>
   <details open><summary>Mode changes</summary><div id="modes"></div></details>
+  <details><summary>Barriers enforced (filter interventions)</summary><div id="barriers"></div></details>
   <details><summary>summary.json</summary><table id="summary"></table></details>
   <p class="note" id="note"></p>
  </div>
@@ -262,18 +267,12 @@ fn data_json(rec: &RunRecord) -> String {
         j.raw(&format!(",{m}]"));
     }
     j.raw(if changes_cut { "],\"mode_changes_cut\":true" } else { "],\"mode_changes_cut\":false" });
-    // Filter interventions [t0, t1] over every sample.
-    let (intervals, intervals_cut) = interventions(samples);
-    j.raw(",\"interventions\":[");
-    for (i, (a, b)) in intervals.iter().enumerate() {
-        j.sep(i);
-        j.raw("[");
-        j.num(*a, 4);
-        j.raw(",");
-        j.num(*b, 4);
-        j.raw("]");
-    }
-    j.raw(if intervals_cut { "],\"interventions_cut\":true" } else { "],\"interventions_cut\":false" });
+    // Filter interventions over every sample, flight modes, events, range returns.
+    overlays::interventions_json(&mut j, samples);
+    overlays::flight_modes_json(&mut j, samples);
+    overlays::events_json(&mut j, rec);
+    overlays::scans_json(&mut j, rec);
+    overlays::filter_points_json(&mut j, rec);
     j.raw(&format!(",\"n_samples\":{},\"n_display\":{}", samples.len(), idx.len()));
     j.raw(",\"collision_t\":");
     match rec.summary.first_collision_time_s {
@@ -322,43 +321,13 @@ fn data_json(rec: &RunRecord) -> String {
     small(&mut j, "f", &|_, s| u8::from(s.filter.intervened).to_string());
     small(&mut j, "a", &|_, s| s.filter.active_id.map_or("-1".into(), |a| a.to_string()));
     small(&mut j, "m", &|n, _| sample_modes.get(n).copied().unwrap_or(0).to_string());
+    small(&mut j, "n", &|_, s| s.filter.n_constraints.to_string());
+    small(&mut j, "fm", &|_, s| (s.flight_mode as usize).to_string());
     j.raw("},\"summary\":[");
     summary_pairs(&mut j, rec.summary);
     j.raw("]}");
     // Only ASCII digits, punctuation and serde_json's (valid UTF-8) strings went in.
     String::from_utf8(j.0).unwrap_or_default()
-}
-
-/// Contiguous runs of `filter.intervened` as `(t0, t1)`, at most [`MAX_MARKS`] (and whether
-/// more were cut).
-fn interventions(samples: &[Sample]) -> (Vec<(f64, f64)>, bool) {
-    let mut out = Vec::new();
-    let mut open: Option<(f64, f64)> = None;
-    let mut cut = false;
-    for s in samples {
-        match (&mut open, s.filter.intervened) {
-            (Some(iv), true) => iv.1 = s.t,
-            (None, true) => open = Some((s.t, s.t)),
-            (Some(_), false) => {
-                if let Some(iv) = open.take() {
-                    if out.len() < MAX_MARKS {
-                        out.push(iv);
-                    } else {
-                        cut = true;
-                    }
-                }
-            }
-            (None, false) => {}
-        }
-    }
-    if let Some(iv) = open {
-        if out.len() < MAX_MARKS {
-            out.push(iv);
-        } else {
-            cut = true;
-        }
-    }
-    (out, cut)
 }
 
 /// One obstacle: kind and sizes as the scene schema has them, in ENU (file frame), its
@@ -509,6 +478,12 @@ impl Json {
         self.raw("]");
     }
 }
+
+mod overlays;
+pub use overlays::{
+    interventions, Intervention, FAILSAFE_GUIDANCE, MAX_DRAWN_RETURNS, MAX_FILTER_STEPS_SHOWN,
+    MAX_SCANS_PER_S,
+};
 
 #[cfg(test)]
 mod tests;

@@ -71,7 +71,7 @@ fn summary(scene: &Scene, n: usize) -> Summary {
     }
 }
 
-fn sample(k: usize) -> Sample {
+pub(super) fn sample(k: usize) -> Sample {
     let t = k as f64 * 0.004;
     let mut filter = FilterDiagnostics::new(Region::Far);
     filter.intervened = k % 7 < 3;
@@ -108,6 +108,7 @@ fn page_of(samples: &[Sample]) -> String {
         summary: &s,
         ranges: &ranges,
         range_sensors: &[],
+        filter_points: &Default::default(),
         clock_us: |t| (t.max(0.0) * 1e6).round() as u64,
     };
     page(&rec).unwrap()
