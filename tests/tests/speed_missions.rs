@@ -4,10 +4,9 @@
 //! the goal within the default duration limit, no collision. The same flights with the paper's
 //! guidance (`MIS_GUIDANCE` 0) are the "before" of `docs/cascade.md` § Trajectory generation.
 //!
-//! Range sensing with moving obstacles is not asserted here: with the cascade's stiffer
-//! horizontal gains, `sphere_overtaking` (lidar, tof8) and `person_headon` (camera) collide on
-//! seed 0 — a finding recorded in `docs/cascade.md` (the trajectory stays opt-in until the
-//! speed issue's braking-consistent barriers land).
+//! Range sensing with moving obstacles is asserted in
+//! `perception_flights::ci_subset_movers_on_the_trajectory` (`docs/cascade.md`: why the
+//! trajectory is not yet the default).
 
 use std::path::PathBuf;
 
