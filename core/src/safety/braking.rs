@@ -100,6 +100,23 @@ pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarri
     Some(BrakingBarrier { h, approach_speed: s, constraint: HalfSpace { n, c } })
 }
 
+/// `true` when the barrier of a point at squared distance `dist_sq` (m²) is certainly above
+/// `level` (m) for every approach speed up to `speed_max` (m/s, `|ḋ|` bounds `s − ε_v`): then
+/// `h_b ≥ |d| − r − φ(speed_max + ε_v) > level`, with a margin of 10⁻⁴·(1 + that distance) for
+/// the `f32` roundings of [`barrier`]. The filter skips such a point once it keeps `K` barriers
+/// all below `level` (its `h_b` could neither enter them nor lower their minimum): the
+/// "certainly far" shortcut of the paper's variants for this barrier. `false` on a non-finite
+/// input (the point is then evaluated).
+pub fn certainly_above(l: &BrakingLimits, dist_sq: f32, speed_max: f32, level: f32) -> bool {
+    let sp = maxf(speed_max + l.velocity_margin, 0.0);
+    let reach = level + l.hull_radius + sp * sp / (2.0 * l.accel) + l.delay * sp;
+    let need = reach + 1.0e-4 * (1.0 + reach.abs());
+    need.is_finite()
+        && dist_sq.is_finite()
+        && dist_sq > MIN_DISTANCE_SQ
+        && (need <= 0.0 || dist_sq > need * need)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,6 +146,29 @@ mod tests {
         assert!((r.h - (5.0 - 0.05f32.sqrt())).abs() < 1e-5);
         assert!(barrier(&params(), &Vec3::zeros(), &Vec3::zeros()).is_none());
         assert!(barrier(&params(), &Vec3::new(1.0, 0.0, 0.0), &Vec3::new(f32::NAN, 0.0, 0.0)).is_none());
+    }
+
+    #[test]
+    fn certainly_above_is_a_lower_bound_of_the_barrier() {
+        // Every direction of the relative velocity at |ḋ| ≤ speed_max: the computed h_b is
+        // above the level whenever certainly_above says so, and it says so 2 cm beyond.
+        let p = BrakingLimits { velocity_margin: 0.1, ..params() };
+        for (speed, level) in [(0.0f32, 0.5f32), (3.0, 0.2), (8.0, 1.0), (1.0, -0.3)] {
+            let phi = |s: f32| s * s / 6.0 + 0.1 * s;
+            let edge = level + p.hull_radius + phi(speed + 0.1);
+            for dist in [edge - 0.02, edge + 0.02, edge + 1.0] {
+                let yes = certainly_above(&p, dist * dist, speed, level);
+                assert_eq!(yes, dist > edge, "speed {speed} level {level} dist {dist}");
+                for k in 0..16 {
+                    let a = k as f32 * core::f32::consts::PI / 8.0;
+                    let d_dot = Vec3::new(a.cos(), a.sin(), 0.0) * speed;
+                    let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &d_dot).unwrap();
+                    assert!(!yes || b.h > level, "{b:?} at level {level}");
+                }
+            }
+        }
+        assert!(!certainly_above(&p, f32::NAN, 1.0, 0.0));
+        assert!(!certainly_above(&p, 100.0, f32::INFINITY, 0.0));
     }
 
     #[test]

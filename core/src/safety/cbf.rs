@@ -448,12 +448,24 @@ impl SafetyFilter {
         let engage = sqrtf(self.params.delta1) - limits.hull_radius;
         let mut diag = FilterDiagnostics::new(Region::Far);
         let mut near: Smallest<(BrakingBarrier, u16), MAX_ACTIVE_BARRIERS> = Smallest::new();
+        let own_speed = norm3(v);
         for o in obstacles {
             if !within_limits(&o.point) || !o.velocity.is_none_or(|w| within_limits(&w)) {
                 return self.fault(v, FilterFault::BadObstacle);
             }
             let d_dot = v - o.velocity.unwrap_or_else(Vec3::zeros);
-            let Some(b) = braking::barrier(&limits, &(p - o.point), &d_dot) else {
+            let d = p - o.point;
+            // Certainly far: with K barriers kept, a point whose h_b is surely above both the
+            // largest kept one and the engagement level changes nothing (not kept, not near,
+            // not the minimum), so its barrier is not needed.
+            if near.is_full() {
+                let speed_max = if o.velocity.is_none() { own_speed } else { norm3(&d_dot) };
+                let level = maxf(near.bound(), engage);
+                if braking::certainly_above(&limits, d.norm_squared(), speed_max, level) {
+                    continue;
+                }
+            }
+            let Some(b) = braking::barrier(&limits, &d, &d_dot) else {
                 return self.fault(v, FilterFault::ZeroDistance);
             };
             diag.h_bar = minf(diag.h_bar, b.h);
