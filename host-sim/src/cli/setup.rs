@@ -197,6 +197,12 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     // Every setting against the core's limits and the caps, naming its origin.
     crate::flight::validate::check_run(&scene, &cfg, &given(a)?)?;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
+    // [preflight] what the range sensors cannot see of the hull's sweep (reported, not refused).
+    for gap in
+        crate::flight::runner::coverage_gaps(&scene, &cfg).map_err(|e| CliError::BadInput(e.to_string()))?
+    {
+        eprintln!("preflight: --perception {}: {gap}", a.perception);
+    }
     // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
     let opts = crate::flight::preflight::PreflightOptions {
         path_file: a.path.as_ref().map(|p| p.display().to_string()),

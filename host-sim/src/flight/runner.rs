@@ -251,6 +251,8 @@ pub fn default_delta(hull_radius: f64) -> f64 {
 /// The controller parameters of a run: defaults of the core with the scene's
 /// vehicle and the run's tracking / filter / speed settings, then the parameters set by name
 /// ([`RunConfig::param_overrides`]).
+///
+/// See also [`coverage_gaps`], the pre-flight coverage check of the run's range sensors.
 pub fn controller_params(
     scene: &Scene,
     cfg: &RunConfig,
@@ -264,6 +266,20 @@ pub fn controller_params(
         let _ = parapet_core::params::set(&mut p, name, *v);
     }
     p
+}
+
+/// What the run's range sensors cannot see of the hull's sweep at the mission speed
+/// ([`crate::sim::coverage`], with the braking barrier's deceleration and delay of the
+/// parameters flown); empty for ground truth.
+pub fn coverage_gaps(scene: &Scene, cfg: &RunConfig) -> Result<Vec<String>> {
+    let Some(sensors) = cfg.perception.as_deref() else { return Ok(Vec::new()) };
+    let cbf = cfg.cbf_params()?;
+    let p = controller_params(scene, cfg, cbf, cfg.variant);
+    let braking = crate::sim::coverage::Braking {
+        accel: f64::from(p.cbf.brake_accel),
+        delay: f64::from(p.cbf.brake_delay),
+    };
+    Ok(crate::sim::coverage::gaps(sensors, scene.vehicle.hull_radius, cfg.params.speed, braking))
 }
 
 fn run_controller_params(
@@ -648,6 +664,7 @@ pub fn run_with(
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
         unmapped_obstacles: scene.unmapped_count(),
+        coverage_gaps: coverage_gaps(scene, cfg)?,
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
     Ok(RunOutput { samples, summary, ranges, filter_points })

@@ -178,6 +178,10 @@ pub struct Summary {
     /// Obstacles of the scene with `mapped = false`: in the world (sensed, collided
     /// with) but not in the map the path was planned on.
     pub unmapped_obstacles: usize,
+    /// What the range sensors cannot see of the hull's sweep at the mission speed, one sentence
+    /// per gap (the pre-flight coverage check, `crate::sim::coverage`); empty with ground truth
+    /// or a set that covers it.
+    pub coverage_gaps: Vec<String>,
 }
 
 /// Safety flags of one outer step beyond the filter's own (issue 17).

@@ -14,6 +14,7 @@
 pub const INNER_DT: f64 = 1.0 / parapet_core::wire::rates::INNER_RATE_HZ as f64;
 
 pub mod battery;
+pub mod coverage;
 pub mod disturbance;
 pub mod plant;
 pub mod range;
