@@ -16,6 +16,8 @@
 //!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
 //! - [`battery`]: the host's raw pack reading on the lockstep link (BATTERY_STATUS from the
 //!   host's id: mV, cA).
+//! - [`ulog`]: the one ULog writer (PX4's flight-log format; the firmware's onboard log and the
+//!   host's `flight.ulg`), [`log_topics`]: the topics of a flight log and their records.
 //!
 //! Message types themselves come from the `mavlink` crate on both sides (this module is
 //! `no_std` and does not depend on it). May import: [`crate::cbf`] (region codes),
@@ -26,6 +28,8 @@ pub mod battery;
 pub mod codes;
 pub mod ids;
 pub mod lockstep;
+pub mod log_topics;
 pub mod modes;
 pub mod names;
 pub mod rates;
+pub mod ulog;

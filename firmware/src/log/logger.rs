@@ -12,23 +12,21 @@
 //! - **Errors**: a store error is counted; [`LogError::Full`] stops the log's records (the
 //!   log stays readable up to there, `truncated`).
 //!
-//! Topics (names and fields as the host simulator's `flight.ulg`, `parapet_sim::report::ulog`,
-//! so the same tools plot both); the onboard log has no ground truth, so `cbf_status.h_bar`
-//! (true h̄) and `clearance` are NaN and `vehicle_local_position` is the estimate.
+//! Topics and records are the host simulator's `flight.ulg` ones, defined once in
+//! `parapet_core::wire::log_topics` (so the same tools plot both); the onboard log has no ground
+//! truth, so `cbf_status.h_bar` (true h̄) and `clearance` are NaN and `vehicle_local_position`
+//! is the estimate.
 //!
 //! May import: [`crate::log::ulog`], [`crate::log::store`], [`crate::app::autopilot`]
-//! (the telemetry snapshot), `parapet_core` (parameters, thrust map).
+//! (the telemetry snapshot), `parapet_core` (parameters, thrust map, the ULog writer).
 
 use parapet_core::controller::ControllerParams;
 use parapet_core::thrust::{map_acceleration, ThrustParams};
-use parapet_core::wire::modes::px4_nav_state;
+use parapet_core::wire::log_topics::{write_definitions, write_records, FlightRecord};
 
 use crate::app::autopilot::TelemetrySnapshot;
-use crate::log::store::LogStore;
-use crate::log::ulog::{
-    write_data, write_format, write_header, write_info, write_param_f32, write_subscription, LogError,
-    Record, Topic,
-};
+use crate::log::store::{Appender, LogStore};
+use crate::log::ulog::LogError;
 
 /// Default record period, µs (25 Hz).
 pub const DEFAULT_PERIOD_US: u64 = 40_000;
@@ -58,70 +56,6 @@ pub struct LoggerStats {
     /// The current (or last) log was cut because the store was full.
     pub truncated: bool,
 }
-
-const LOCAL_POSITION: Topic = Topic {
-    name: "vehicle_local_position",
-    fields: &[
-        ("uint64_t", "timestamp"),
-        ("float", "x"),
-        ("float", "y"),
-        ("float", "z"),
-        ("float", "vx"),
-        ("float", "vy"),
-        ("float", "vz"),
-        ("float", "heading"),
-        ("bool", "xy_valid"),
-        ("bool", "z_valid"),
-        ("bool", "v_xy_valid"),
-        ("bool", "v_z_valid"),
-    ],
-};
-const ATTITUDE: Topic =
-    Topic { name: "vehicle_attitude", fields: &[("uint64_t", "timestamp"), ("float[4]", "q")] };
-const ATTITUDE_SETPOINT: Topic = Topic {
-    name: "vehicle_attitude_setpoint",
-    fields: &[
-        ("uint64_t", "timestamp"),
-        ("float", "roll_body"),
-        ("float", "pitch_body"),
-        ("float", "yaw_body"),
-        ("float[4]", "q_d"),
-        ("float[3]", "thrust_body"),
-    ],
-};
-const MOTORS: Topic = Topic {
-    name: "actuator_motors",
-    fields: &[("uint64_t", "timestamp"), ("uint64_t", "timestamp_sample"), ("float[12]", "control")],
-};
-const STATUS: Topic = Topic {
-    name: "vehicle_status",
-    fields: &[
-        ("uint64_t", "timestamp"),
-        ("uint8_t", "arming_state"),
-        ("uint8_t", "nav_state"),
-        ("uint8_t", "parapet_mode"),
-    ],
-};
-const CBF_STATUS: Topic = Topic {
-    name: "cbf_status",
-    fields: &[
-        ("uint64_t", "timestamp"),
-        ("float", "h_bar"),
-        ("float", "h_bar_filter"),
-        ("float", "clearance"),
-        ("uint8_t", "region"),
-        ("int32_t", "active_id"),
-        ("uint8_t", "n_constraints"),
-        ("bool", "intervened"),
-        ("bool", "unavoidable"),
-        ("bool", "infeasible"),
-        ("float[3]", "u_nominal"),
-        ("float[3]", "u"),
-    ],
-};
-
-/// Every topic of an onboard log, in message-id order.
-pub const TOPICS: [Topic; 6] = [LOCAL_POSITION, ATTITUDE, ATTITUDE_SETPOINT, MOTORS, STATUS, CBF_STATUS];
 
 /// PX4 quaternion (w, x, y, z), body FRD → NED, of ZYX Euler angles (`quat_from_euler`: the
 /// sines of `libm::sincosf`, which this function called itself before, bit for bit).
@@ -226,64 +160,39 @@ impl FlightLogger {
         store: &mut S,
         param: &mut impl FnMut(&str) -> Option<f32>,
     ) -> Result<(), LogError> {
-        write_header(store, t0_us)?;
-        for t in &TOPICS {
-            write_format(store, t)?;
-        }
-        write_info(store, "sys_name", "Parapet")?;
-        write_info(store, "ver_sw", env!("CARGO_PKG_VERSION"))?;
-        write_info(store, "parapet_board", self.board)?;
-        for p in &parapet_core::params::TABLE {
-            if let Some(v) = param(p.name) {
-                write_param_f32(store, p.name, v)?;
-            }
-        }
-        for (id, t) in TOPICS.iter().enumerate() {
-            write_subscription(store, id as u16, t.name)?;
-        }
-        Ok(())
+        let params = parapet_core::params::TABLE.iter().filter_map(|p| Some((p.name, param(p.name)?)));
+        let infos = [("parapet_board", self.board)];
+        write_definitions(&mut Appender(store), t0_us, env!("CARGO_PKG_VERSION"), infos, params)
     }
 
     fn records<S: LogStore>(&self, s: &LogSample, store: &mut S) -> Result<(), LogError> {
-        let ts = s.t_us;
         let t = &s.snapshot;
         let [roll, pitch, yaw] = [t.attitude_rpy.x, t.attitude_rpy.y, t.attitude_rpy.z];
-        let p = t.position_ned;
-        let v = t.velocity_ned;
-        let r = Record::at(ts).f32s(&[p.x, p.y, p.z, v.x, v.y, v.z, yaw]).u8(1).u8(1).u8(1).u8(1);
-        write_data(store, 0, &r)?;
-        write_data(store, 1, &Record::at(ts).f32s(&quat(roll, pitch, yaw)))?;
+        let (p, v) = (t.position_ned, t.velocity_ned);
         let u = t.setpoint.accel_filtered_ned;
         let sp = map_acceleration(&self.thrust, self.mass, &u, yaw, roll, pitch);
         let thrust_norm = if self.thrust.thrust_max > 0.0 { sp.thrust / self.thrust.thrust_max } else { 0.0 };
-        let r = Record::at(ts)
-            .f32s(&[sp.roll, sp.pitch, sp.yaw])
-            .f32s(&quat(sp.roll, sp.pitch, sp.yaw))
-            .f32s(&[0.0, 0.0, -thrust_norm]);
-        write_data(store, 2, &r)?;
-        let mut control = [f32::NAN; 12];
-        for (c, m) in control.iter_mut().zip(s.motors) {
-            *c = m;
-        }
-        write_data(store, 3, &Record::at(ts).u64(ts).f32s(&control))?;
-        let arming = if t.armed { 2 } else { 1 };
-        write_data(
-            store,
-            4,
-            &Record::at(ts).u8(arming).u8(px4_nav_state(t.guidance, t.mode)).u8(t.guidance.code()),
-        )?;
-        let f = &t.filter;
         let un = t.setpoint.accel_nominal_ned;
-        let r = Record::at(ts)
-            .f32s(&[f32::NAN, f.h_bar, f32::NAN])
-            .u8(f.region.code())
-            .i32(f.active_id.map(i32::from).unwrap_or(-1))
-            .u8(f.n_constraints)
-            .u8(u8::from(f.intervened))
-            .u8(u8::from(f.unavoidable))
-            .u8(u8::from(f.infeasible))
-            .f32s(&[un.x, un.y, un.z, u.x, u.y, u.z]);
-        write_data(store, 5, &r)
+        let r = FlightRecord {
+            t_us: s.t_us,
+            position: [p.x, p.y, p.z],
+            velocity: [v.x, v.y, v.z],
+            heading: yaw,
+            attitude_q: quat(roll, pitch, yaw),
+            setpoint_rpy: [sp.roll, sp.pitch, sp.yaw],
+            setpoint_q: quat(sp.roll, sp.pitch, sp.yaw),
+            thrust_norm,
+            motors: s.motors,
+            armed: t.armed,
+            guidance: t.guidance,
+            mode: t.mode,
+            h_bar_true: f32::NAN,
+            clearance: f32::NAN,
+            filter: t.filter,
+            u_nominal: [un.x, un.y, un.z],
+            u: [u.x, u.y, u.z],
+        };
+        write_records(&mut Appender(store), &r)
     }
 }
 
@@ -294,6 +203,11 @@ pub(crate) mod tests {
     use parapet_core::controller::GuidanceMode;
     use parapet_core::wire::codes::FlightPhase;
     use parapet_core::Vec3;
+
+    /// (type, payload) of every message after the 16-byte header.
+    fn parse(bytes: &[u8]) -> std::vec::Vec<(u8, &[u8])> {
+        parapet_core::wire::ulog::messages(bytes).expect("ULog magic").collect()
+    }
 
     pub(crate) fn sample(t_us: u64, armed: bool) -> LogSample {
         let mut snapshot = TelemetrySnapshot::BOOT;
@@ -331,7 +245,7 @@ pub(crate) mod tests {
         let mut bytes = std::vec![0u8; store.info(0).unwrap().size as usize];
         let id = store.info(0).unwrap().id;
         assert_eq!(store.read(id, 0, &mut bytes), Ok(bytes.len()));
-        let msgs = crate::log::ulog::tests::parse(&bytes);
+        let msgs = parse(&bytes);
         let n = |ty: u8| msgs.iter().filter(|m| m.0 == ty).count();
         assert_eq!((n(b'F'), n(b'A'), n(b'D')), (6, 6, 6 * 26));
         assert_eq!(n(b'P'), parapet_core::params::COUNT);

@@ -1,4 +1,5 @@
-//! The onboard flight log: ULog encoding ([`ulog`], `no_std`, fixed buffers), where logs are
+//! The onboard flight log: the log error ([`ulog`]; the ULog encoding and the topics are the
+//! core's, `parapet_core::wire::ulog` and `log_topics`, shared with the host), where logs are
 //! kept ([`store`]: the [`store::LogStore`] trait and its RAM ring for the QEMU board; [`card`]: a
 //! raw-block store on a microSD card, the F405's) and the logger that turns
 //! telemetry samples into records from arming to disarming at a bounded rate ([`logger`]), and

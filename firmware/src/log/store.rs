@@ -7,11 +7,13 @@
 //! [`LogError::Full`] (counted by the logger) and the bytes written so far stay readable, so the
 //! ULog header and definitions at its start are never overwritten.
 //!
-//! May import: [`crate::log::ulog`] (the error type and the sink trait).
+//! May import: [`crate::log::ulog`] (the error type), `parapet_core::wire::ulog` (the sink trait).
 
 use heapless::Deque;
 
-use crate::log::ulog::{LogError, LogSink};
+use parapet_core::wire::ulog::ULogSink;
+
+use crate::log::ulog::LogError;
 
 /// One stored log as the MAVLink log protocol lists it (LOG_ENTRY).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,10 +52,13 @@ pub trait LogStore {
     }
 }
 
-/// Every store is a sink for the ULog writer (appends to the open log).
-impl<S: LogStore> LogSink for S {
+/// A store's open log as the ULog writer's sink (each message appended in one piece).
+pub struct Appender<'a, S>(pub &'a mut S);
+
+impl<S: LogStore> ULogSink for Appender<'_, S> {
+    type Error = LogError;
     fn write(&mut self, bytes: &[u8]) -> Result<(), LogError> {
-        self.append(bytes)
+        self.0.append(bytes)
     }
 }
 

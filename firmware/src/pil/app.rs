@@ -700,6 +700,6 @@ mod tests {
         let id = log.store().info(0).expect("log").id;
         assert_eq!(log.store().read(id, 0, &mut stored), Ok(size as usize));
         assert_eq!(bytes, stored);
-        assert_eq!(&bytes[..8], &crate::log::ulog::MAGIC);
+        assert_eq!(&bytes[..8], &parapet_core::wire::ulog::MAGIC);
     }
 }
