@@ -2,7 +2,9 @@
 //! RAM (`firmware/src/log/`); a pymavlink ground station on `parapet pil --gcs` lists them,
 //! fetches the newest with the MAVLink log protocol and pyulog parses it
 //! (`tests/python/gcs_log_download.py`); then `parapet log`'s client (`parapet_sim::cli::log`)
-//! pulls it through the second (`--api`) endpoint.
+//! pulls it through the second (`--api`) endpoint, and the pulled log's
+//! `vehicle_status.nav_state` is checked with pyulog against PX4's numbers for the modes flown
+//! (`tests/python/check_ulog_modes.py`; issue 37: the nav_state check in PIL).
 //!
 //! Needs QEMU and the board-qemu ELF (`parapet_tests::pil_support`) and the venv's python with
 //! pymavlink and pyulog (`cargo xtask venv`); without them the test SKIPs loudly, except with
@@ -16,9 +18,17 @@ use parapet_sim::cli::sitl::{bridge, run_pil_bridged, SitlArgs};
 use parapet_sim::fc::pil::PilOptions;
 use parapet_tests::pil_support::{config, firmware, scene, venv_python, workspace_root};
 
+/// PX4 `nav_state` values the onboard log holds in this order: AUTO_MISSION (3) for the
+/// straight mission of `pil_support::config`, from arming (the guidance waits on the ground in
+/// the selected Mission mode) on. Every record is also checked against PX4's number for the
+/// guidance mode logged beside it (`parapet_mode`).
+const MODES_FLOWN: &str = "3";
+
 /// pymavlink lists and fetches the QEMU firmware's onboard log during a PIL flight; the file
 /// parses with pyulog with every topic, armed records and the parameter table. Later in the
-/// flight `parapet log`'s client lists and pulls the same log, byte-exact ULog.
+/// flight `parapet log`'s client lists and pulls the same log, byte-exact ULog, whose
+/// `vehicle_status.nav_state` is PX4's for every record (pyulog): AUTO_MISSION (3) for the
+/// mission flown.
 #[test]
 fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it() {
     let Some(py) = venv_python("pymavlink, pyulog", "the onboard log download") else { return };
@@ -83,5 +93,17 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     // The log grew since the pymavlink download: the same start, more records.
     let first = std::fs::read(&fetched).expect("pymavlink's file");
     assert!(bytes.len() > first.len() && bytes[..first.len()] == first[..], "not the same log");
+    // The firmware's log names PX4's modes (the host's: tests/tests/ulog_modes.rs).
+    let pulled = dir.join("pulled.ulg");
+    std::fs::write(&pulled, &bytes).expect("write the pulled log");
+    let o = Command::new(&py)
+        .arg(workspace_root().join("tests/python/check_ulog_modes.py"))
+        .arg(&pulled)
+        .arg(MODES_FLOWN)
+        .output()
+        .expect("run check_ulog_modes.py");
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    println!("{text}");
+    assert!(o.status.success() && text.contains("nav_state changes"), "nav_state check failed:\n{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
