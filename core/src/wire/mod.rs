@@ -16,6 +16,8 @@
 //!   command with its sanitiser (what HIL_ACTUATOR_CONTROLS carries).
 //! - [`battery`]: the host's raw pack reading on the lockstep link (BATTERY_STATUS from the
 //!   host's id: mV, cA).
+//! - [`streams`]: the telemetry stream registry (message, default rate, settable), used by the
+//!   firmware's scheduler and interval service and the host's ground-station bridge.
 //! - [`ulog`]: the one ULog writer (PX4's flight-log format; the firmware's onboard log and the
 //!   host's `flight.ulg`), [`log_topics`]: the topics of a flight log and their records.
 //!
@@ -32,4 +34,5 @@ pub mod log_topics;
 pub mod modes;
 pub mod names;
 pub mod rates;
+pub mod streams;
 pub mod ulog;

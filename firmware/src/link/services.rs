@@ -53,6 +53,7 @@ use crate::link::dialect::{
 pub use crate::link::mission_run::MissionProgress;
 use crate::link::outbound::Outbound;
 use parapet_core::battery::{BatteryLevel, BatteryState};
+use parapet_core::wire::streams::{HEARTBEAT_ID, SETTABLE, SETTABLE_COUNT};
 use parapet_core::Vec3;
 
 pub use crate::link::geo::ORIGIN;
@@ -87,13 +88,11 @@ const ATTITUDE_TARGET_ID: u32 = 83;
 /// BATTERY_STATUS's message id.
 pub const BATTERY_STATUS_ID: u32 = 147;
 
-/// The telemetry scheduler's streams whose rates are set here: ATTITUDE, LOCAL_POSITION_NED,
-/// POSITION_TARGET_LOCAL_NED, HEARTBEAT, SYS_STATUS, EXTENDED_SYS_STATE, with their default
-/// periods (µs), in [`StreamRates`] slot order.
-pub const SCHEDULED: [(u32, u32); 6] =
-    [(30, 20_000), (32, 40_000), (85, 40_000), (HEARTBEAT_ID, 1_000_000), (1, 1_000_000), (245, 1_000_000)];
-/// HEARTBEAT's message id.
-const HEARTBEAT_ID: u32 = 0;
+/// The telemetry scheduler's streams whose rates are set here (HEARTBEAT, SYS_STATUS,
+/// EXTENDED_SYS_STATE, ATTITUDE, LOCAL_POSITION_NED, POSITION_TARGET_LOCAL_NED) as
+/// `(message id, default period µs)`, in [`StreamRates`] slot order: the stream registry's
+/// settable entries (`parapet_core::wire::streams`).
+pub const SCHEDULED: [(u32, u32); SETTABLE_COUNT] = SETTABLE;
 /// Longest HEARTBEAT interval a ground station may set, µs: its default 1 Hz. HEARTBEAT is never
 /// stopped nor slowed (−1 or a longer period: DENIED): the heartbeat protocol requires a
 /// component to broadcast it regularly, ground stations and MAVSDK declare the vehicle lost after
@@ -749,23 +748,32 @@ mod tests {
         assert_eq!(s.message_interval(31.0).interval_us, 0);
     }
 
+    /// The [`StreamRates`] slot of a scheduler stream's message id (the registry's order).
+    fn slot_of(msg_id: u32) -> usize {
+        scheduled_slot(msg_id).expect("a scheduler stream")
+    }
+
     #[test]
     fn the_schedulers_streams_are_set_here() {
         let mut s = Services::new();
+        let (att, pos, target) = (slot_of(30), slot_of(32), slot_of(85));
         // ATTITUDE 10 Hz, LOCAL_POSITION_NED stopped, POSITION_TARGET_LOCAL_NED requested once.
         assert_eq!(s.message_interval(30.0).interval_us, 20_000);
         assert_eq!(s.set_interval(30.0, 100_000.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(s.set_interval(32.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
         assert!(s.request(85.0));
         let r = s.rates();
-        assert_eq!((r.period_us(0), r.period_us(1), r.period_us(2)), (Some(100_000), None, Some(40_000)));
-        assert_eq!(r.requests, [0, 0, 1, 0, 0, 0]);
+        assert_eq!(
+            (r.period_us(att), r.period_us(pos), r.period_us(target)),
+            (Some(100_000), None, Some(40_000))
+        );
+        assert_eq!((r.requests[target], r.requests.iter().sum::<u8>()), (1, 1));
         assert_eq!(s.message_interval(30.0).interval_us, 100_000);
         assert_eq!(s.message_interval(32.0).interval_us, -1);
         assert_eq!(s.set_interval(85.0, 5_000.0), MavResult::MAV_RESULT_DENIED, "faster than 100 Hz");
         assert_eq!(s.set_interval(30.0, 0.0), MavResult::MAV_RESULT_ACCEPTED);
-        assert_eq!(s.rates().period_us(0), Some(20_000));
-        assert_eq!(StreamRates::default().period_us(2), Some(40_000), "the default is the default rate");
+        assert_eq!(s.rates().period_us(att), Some(20_000));
+        assert_eq!(StreamRates::default().period_us(target), Some(40_000), "the default is the default rate");
     }
 
     /// HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE are the scheduler's too; HEARTBEAT is never
@@ -777,7 +785,11 @@ mod tests {
         assert_eq!(s.set_interval(245.0, -1.0), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(s.set_interval(0.0, 100_000.0), MavResult::MAV_RESULT_ACCEPTED);
         let r = s.rates();
-        assert_eq!((r.period_us(3), r.period_us(4), r.period_us(5)), (Some(100_000), Some(200_000), None));
+        let (hb, status, landed) = (slot_of(0), slot_of(1), slot_of(245));
+        assert_eq!(
+            (r.period_us(hb), r.period_us(status), r.period_us(landed)),
+            (Some(100_000), Some(200_000), None)
+        );
         for refused in [-1.0, 1_000_001.0, 5_000_000.0, 5_000.0, f32::NAN] {
             assert_eq!(s.set_interval(0.0, refused), MavResult::MAV_RESULT_DENIED, "HEARTBEAT {refused}");
         }
@@ -787,7 +799,8 @@ mod tests {
         assert_eq!(s.message_interval(0.0).interval_us, 1_000_000);
         assert_eq!(s.message_interval(245.0).interval_us, -1);
         assert!(s.request(245.0) && s.request(0.0));
-        assert_eq!(s.rates().requests, [0, 0, 0, 1, 0, 1]);
+        let r = s.rates().requests;
+        assert_eq!((r[hb], r[landed], r.iter().sum::<u8>()), (1, 1, 2));
     }
 
     /// MISSION_ITEM_REACHED reports each item once, in order, up to the progress's last item

@@ -22,6 +22,10 @@
 //! | flight mode | STATUSTEXT | on every mode change (issue 21) | "MODE Position: mode-switch"; severity WARNING when a failsafe chose the mode (rc-loss, offboard-loss, battery-low, battery-critical, kill-switch), INFO otherwise |
 //! | RC | RC_CHANNELS (65) | 5 Hz once a pilot input arrived (issue 21) | the latest frame's channels µs (a receiver's as received; MAVLink pilot input as the channel map gives it back, `parapet_core::rc::map::channels_of`), unused `UINT16_MAX`, chancount, rssi = link quality × 254 / 100 (0 when no frame came for [`RC_STALE_US`]) |
 //!
+//! The periodic streams, their messages, default rates and which are settable are one registry,
+//! `parapet_core::wire::streams::STREAMS` (shared with the host's ground-station bridge); the
+//! scheduler walks it in order and encodes each entry by its `Stream` below.
+//!
 //! "Settable": MAV_CMD_SET_MESSAGE_INTERVAL / REQUEST_MESSAGE through the link
 //! ([`crate::link::services::StreamRates`], read from [`ErrorCounters::rates`]); a changed
 //! interval restarts the stream at once, a request sends the message once more.
@@ -40,6 +44,7 @@ use crate::link::frame_parser::ParserStats;
 use crate::link::manual_control::rc_channels;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
 use crate::link::services::StreamRates;
+use parapet_core::wire::streams::{Stream, SLOTS, STREAMS};
 use parapet_core::wire::{codes, names};
 
 /// Everything the telemetry streams read.
@@ -94,54 +99,6 @@ impl ErrorCounters {
             uart_errors: 0,
             rates: link.stream_rates(),
         }
-    }
-}
-
-/// Stream periods, µs.
-const HEARTBEAT_US: u64 = 1_000_000;
-const ATTITUDE_US: u64 = 20_000;
-const POSITION_US: u64 = 40_000;
-const FILTER_US: u64 = 40_000;
-const LOOPS_US: u64 = 500_000;
-const LINK_US: u64 = 1_000_000;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Stream {
-    Heartbeat,
-    SysStatus,
-    LandedState,
-    Attitude,
-    Position,
-    Filter,
-    Loops,
-    Link,
-    Target,
-}
-
-/// Default periods; Attitude, Position, Target, Heartbeat, SysStatus and LandedState are
-/// settable ([`StreamRates`] slots 0..5, [`rate_slot`]).
-const STREAMS: [(Stream, u64); 9] = [
-    (Stream::Heartbeat, HEARTBEAT_US),
-    (Stream::SysStatus, HEARTBEAT_US),
-    (Stream::LandedState, HEARTBEAT_US),
-    (Stream::Attitude, ATTITUDE_US),
-    (Stream::Position, POSITION_US),
-    (Stream::Filter, FILTER_US),
-    (Stream::Loops, LOOPS_US),
-    (Stream::Link, LINK_US),
-    (Stream::Target, FILTER_US),
-];
-
-/// The [`StreamRates`] slot of a settable stream.
-fn rate_slot(s: Stream) -> Option<usize> {
-    match s {
-        Stream::Attitude => Some(0),
-        Stream::Position => Some(1),
-        Stream::Target => Some(2),
-        Stream::Heartbeat => Some(3),
-        Stream::SysStatus => Some(4),
-        Stream::LandedState => Some(5),
-        Stream::Filter | Stream::Loops | Stream::Link => None,
     }
 }
 
@@ -379,9 +336,9 @@ impl TelemetryScheduler {
             emit(Outbound::StatusText(mode_text(s)));
         }
         let rates = inp.counters.rates;
-        for (k, (stream, default)) in STREAMS.iter().enumerate() {
+        for (k, (spec, slot)) in STREAMS.iter().zip(SLOTS).enumerate() {
             let mut requested = false;
-            let period = match rate_slot(*stream) {
+            let period = match slot {
                 Some(r) => {
                     if rates.interval_us[r] != self.rates.interval_us[r] {
                         self.next_due_us[k] = 0;
@@ -389,7 +346,7 @@ impl TelemetryScheduler {
                     requested = rates.requests[r] != self.rates.requests[r];
                     rates.period_us(r)
                 }
-                None => Some(*default),
+                None => Some(u64::from(spec.default_us)),
             };
             let due = period.is_some_and(|_| now_us >= self.next_due_us[k]);
             if !due && !requested {
@@ -404,7 +361,8 @@ impl TelemetryScheduler {
                     self.next_due_us[k].saturating_add(period)
                 };
             }
-            match stream {
+            // The stream's encoder.
+            match spec.stream {
                 Stream::Heartbeat => {
                     emit(Outbound::Heartbeat(heartbeat(s)));
                     emit(named_int(ms, names::PHASE, s.phase.code() as i32));

@@ -41,16 +41,20 @@ use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params::TABLE;
 use parapet_core::wire::ids::{local_xy_to_wire, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+use parapet_core::wire::streams::{spec_of, Stream};
 
 use super::{Bridge, LinkTap};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::sensors::{ImuReading, PositionReading};
 use parapet_core::controller::FlightMode;
 
-/// Telemetry period of LOCAL_POSITION_NED / POSITION_TARGET_LOCAL_NED, µs (25 Hz).
-pub const TELEMETRY_PERIOD_US: u64 = 40_000;
-/// HEARTBEAT period, µs.
-pub const HEARTBEAT_PERIOD_US: u64 = 1_000_000;
+/// Telemetry period of LOCAL_POSITION_NED / POSITION_TARGET_LOCAL_NED, µs (25 Hz): the
+/// firmware's, from the stream registry.
+pub const TELEMETRY_PERIOD_US: u64 = spec_of(Stream::Position).default_us as u64;
+/// HEARTBEAT period, µs (the registry's).
+pub const HEARTBEAT_PERIOD_US: u64 = spec_of(Stream::Heartbeat).default_us as u64;
+// The bridge sends the setpoint with the position, at one period.
+const _: () = assert!(spec_of(Stream::Target).default_us == spec_of(Stream::Position).default_us);
 
 /// A flight stack with a ground-station link (see the module docs).
 pub struct GcsStack<S: FlightStack> {
