@@ -262,19 +262,23 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_vehicle_pushed_ahead_is_pulled_back_by_at_most_the_reference_speed() {
-        // Reference at x = 1 moving +x at 0.3 m/s; vehicle 4 m ahead at 1 m/s. K_p 1, K_v 2:
-        // unlimited, u_x = 2·(0.3 + 1·(1 − 5) − 1) = −9.4 (saturated); limited, the along-track
-        // error is −0.3 m, so u_x = 2·(0.3 − 0.3 − 1) = −2.
-        let params = TrackingParams {
+    /// The trajectory cascade with K_p 1, K_v 2, no integral and a wide acceleration limit.
+    fn cascade() -> PdTracker {
+        PdTracker::new(TrackingParams {
             ki_z: 0.0,
             accel_max_xy: 20.0,
             trajectory_pos_p: 1.0,
             trajectory_vel_p: 2.0,
             ..TrackingParams::uniform(0.32, 0.5)
-        };
-        let mut t = PdTracker::new(params);
+        })
+    }
+
+    #[test]
+    fn a_vehicle_pushed_ahead_is_pulled_back_by_at_most_the_reference_speed() {
+        // Reference at x = 1 moving +x at 0.3 m/s; vehicle 4 m ahead at 1 m/s. K_p 1, K_v 2:
+        // unlimited, u_x = 2·(0.3 + 1·(1 − 5) − 1) = −9.4 (saturated); limited, the along-track
+        // error is −0.3 m, so u_x = 2·(0.3 − 0.3 − 1) = −2.
+        let mut t = cascade();
         let r = Reference {
             position: Vec3::new(1.0, 0.0, -1.0),
             velocity: Vec3::new(0.3, 0.0, 0.0),
@@ -299,14 +303,7 @@ mod tests {
     fn the_velocity_set_point_is_limited_to_the_mission_speed() {
         // Reference at rest at x = 1, vehicle 3 m behind, at rest; K_p 1, K_v 2, speed 0.5:
         // v_sp = 3 m/s unlimited (u_x = 6), 0.5 m/s limited (u_x = 1).
-        let params = TrackingParams {
-            ki_z: 0.0,
-            accel_max_xy: 20.0,
-            trajectory_pos_p: 1.0,
-            trajectory_vel_p: 2.0,
-            ..TrackingParams::uniform(0.32, 0.5)
-        };
-        let mut t = PdTracker::new(params);
+        let mut t = cascade();
         let r = Reference { position: Vec3::new(1.0, 0.0, -1.0), ..Reference::default() };
         let pos = Vec3::new(-2.0, 0.0, -1.0);
         let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 0.5);
