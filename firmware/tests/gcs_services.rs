@@ -42,6 +42,11 @@ struct Sim {
     k: u64,
     /// Where the fixes put the vehicle (NED, m; the origin unless a test moves it).
     at: [f32; 3],
+    /// The fixes follow the reference (down to the ground at z = 0) and the attitude setpoint's
+    /// heading (a perfect tracker).
+    follow: bool,
+    /// The fixes' heading, rad.
+    yaw: f32,
 }
 
 impl Sim {
@@ -54,6 +59,8 @@ impl Sim {
             w: FrameWriter::new(255, 190),
             k: 0,
             at: [0.0; 3],
+            follow: false,
+            yaw: 0.0,
         }
     }
 
@@ -71,12 +78,18 @@ impl Sim {
     fn step(&mut self, msgs: &[Vec<u8>]) -> Vec<Outbound> {
         let t = self.t();
         if self.k.is_multiple_of(4) {
+            if self.follow {
+                let s = self.ap.telemetry();
+                let p = s.setpoint.position_ned;
+                (self.at, self.yaw) = ([p.x, p.y, p.z.min(0.0)], s.attitude_sp.yaw);
+            }
+            let (sin, cos) = (self.yaw / 2.0).sin_cos();
             let odo = ODOMETRY_DATA {
                 time_usec: t,
                 x: self.at[0],
                 y: self.at[1],
                 z: self.at[2],
-                q: [1.0, 0.0, 0.0, 0.0],
+                q: [cos, 0.0, 0.0, sin],
                 frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
                 child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
                 ..Default::default()
@@ -815,6 +828,8 @@ struct Flown {
     complete: bool,
     modes: Vec<parapet_firmware::app::autopilot::FlightMode>,
     refs: Vec<parapet_core::Vec3>,
+    /// The attitude setpoints' heading, rad.
+    yaws: Vec<f32>,
     armed: bool,
 }
 
@@ -827,8 +842,15 @@ fn fly_from_ground(g: &mut Sim, max_steps: usize) -> Flown {
     );
     assert_eq!(g.interval(42.0, 50_000.0), MavResult::MAV_RESULT_ACCEPTED);
     assert_eq!(g.command(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
-    let mut f =
-        Flown { current: vec![], reached: vec![], complete: false, modes: vec![], refs: vec![], armed: true };
+    let mut f = Flown {
+        current: vec![],
+        reached: vec![],
+        complete: false,
+        modes: vec![],
+        refs: vec![],
+        yaws: vec![],
+        armed: true,
+    };
     for _ in 0..max_steps {
         for m in g.step(&[]) {
             match m {
@@ -848,6 +870,7 @@ fn fly_from_ground(g: &mut Sim, max_steps: usize) -> Flown {
         }
         if s.armed {
             f.refs.push(s.setpoint.position_ned);
+            f.yaws.push(s.attitude_sp.yaw);
         } else {
             f.armed = false;
             g.run(300).iter().for_each(|m| match m {
@@ -1065,4 +1088,54 @@ fn takeoff_then_land_here_needs_no_path() {
     assert_eq!(f.reached, vec![0, 1]);
     let top = f.refs.iter().map(|p| -p.z).fold(f32::MIN, f32::max);
     assert!((top - 1.0).abs() < 0.1, "climbed to 1 m: {top}");
+}
+
+/// Issue 41: the items of a QGroundControl plan besides takeoff, waypoints and the end are
+/// flown as PX4 flies them — a waypoint's hold time after its acceptance radius, LOITER_TIME at
+/// its position, NAV_DELAY where the vehicle is, DO_CHANGE_SPEED for the following legs,
+/// CONDITION_YAW (the heading reference turns, the mission waits for it), then RTL. Before:
+/// LOITER_TIME, NAV_DELAY and CONDITION_YAW were refused UNSUPPORTED, the hold time and the
+/// speed change were stored and ignored.
+#[test]
+fn holds_loiter_delay_speed_and_yaw_items_are_flown() {
+    let mut g = Sim::new();
+    g.follow = true;
+    let with = |mut it: MISSION_ITEM_INT_DATA, p: [f32; 4]| {
+        [it.param1, it.param2, it.param3, it.param4] = p;
+        it
+    };
+    let plan = [
+        qgc_item(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 1.0),
+        with(qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 1.0, 0.0, 1.0), [2.0, 0.2, 0.0, f32::NAN]),
+        with(qgc_item(MavCmd::MAV_CMD_NAV_LOITER_TIME, 1.0, 1.0, 1.0), [1.5, 0.0, 0.0, f32::NAN]),
+        with(qgc_item(MavCmd::MAV_CMD_NAV_DELAY, 0.0, 0.0, 0.0), [1.0, -1.0, -1.0, -1.0]),
+        with(qgc_item(MavCmd::MAV_CMD_DO_CHANGE_SPEED, 0.0, 0.0, 0.0), [1.0, 0.5, -1.0, 0.0]),
+        with(qgc_item(MavCmd::MAV_CMD_CONDITION_YAW, 0.0, 0.0, 0.0), [90.0, 30.0, 1.0, 0.0]),
+        qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 3.0, 1.0, 1.0),
+        qgc_item(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, 0.0, 0.0, 0.0),
+    ];
+    assert_eq!(g.upload_items(&plan), MavMissionResult::MAV_MISSION_ACCEPTED);
+    let down = g.download();
+    let key = |i: &MISSION_ITEM_INT_DATA| (i.command, i.x, i.y, i.param1.to_bits(), i.param2.to_bits());
+    assert_eq!(down.iter().map(key).collect::<Vec<_>>(), plan.iter().map(key).collect::<Vec<_>>());
+    let f = fly_from_ground(&mut g, 120_000);
+    assert!(!f.armed, "landed and disarmed ({:?})", g.ap.telemetry().phase);
+    assert_eq!(f.reached, (0..8).collect::<Vec<u16>>(), "MISSION_ITEM_REACHED in the uploaded seqs");
+    assert!(f.complete, "COMPLETE at the end");
+    // The reference stays at each held point (1 ms per step).
+    let near =
+        |n: f32, e: f32| f.refs.iter().filter(|p| (p.x - n).abs() < 0.01 && (p.y - e).abs() < 0.01).count();
+    let (at_wp, at_loiter) = (near(1.0, 0.0), near(1.0, 1.0));
+    println!("held {at_wp} ms at the waypoint, {at_loiter} ms at the loiter point");
+    assert!((2000..2600).contains(&at_wp), "waypoint hold 2 s: {at_wp} ms");
+    // Loiter 1.5 s, delay 1 s, then the turn of 90° (the heading estimate follows the fixes'
+    // in ~2 s here).
+    assert!((2500..6000).contains(&at_loiter), "loiter 1.5 s + delay 1 s + the turn: {at_loiter} ms");
+    // The last leg (1, 1) → (3, 1), 2 m at 0.5 m/s (WP_SPEED 0.25 before): 4 s.
+    let end = f.refs.iter().position(|p| p.x > 2.99).expect("the last waypoint is flown");
+    let leg = f.refs[..end].iter().filter(|p| p.x > 1.01 && (p.y - 1.0).abs() < 0.01).count();
+    assert!((3700..4300).contains(&leg), "2 m at the changed 0.5 m/s: {leg} ms");
+    assert!(f.modes.contains(&parapet_firmware::app::autopilot::FlightMode::Return), "{:?}", f.modes);
+    let yaw = f.yaws.iter().map(|y| y.to_degrees()).fold(f32::MIN, f32::max);
+    assert!((yaw - 90.0).abs() < 1.0, "CONDITION_YAW 90°: the heading reference reached {yaw}°");
 }

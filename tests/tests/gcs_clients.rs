@@ -379,13 +379,15 @@ fn fly_client_on_the_pil(
     Some(out)
 }
 
-/// QGroundControl's default plan from a pymavlink ground station (`tests/python/gcs_qgc_plan.py`):
-/// NAV_TAKEOFF (here, 1 m), two NAV_WAYPOINTs beside and past the sphere, a DO_CHANGE_SPEED,
-/// NAV_RETURN_TO_LAUNCH, in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT; ARM and MISSION_START from the
-/// ground. MISSION_ITEM_REACHED must come for seqs 0..4 as uploaded, the vehicle must report
-/// Return, come back, land within 0.3 m of its start and disarm by itself; no collision. Before:
-/// the upload was refused MAV_MISSION_UNSUPPORTED (the TAKEOFF item), and the DO item was dropped
-/// so the seq numbers shifted.
+/// A QGroundControl-style plan from a pymavlink ground station (`tests/python/gcs_qgc_plan.py`):
+/// NAV_TAKEOFF (here, 1 m), a NAV_WAYPOINT beside the sphere held 2 s, a DO_CHANGE_SPEED, a
+/// NAV_LOITER_TIME of 1.5 s past the sphere, a NAV_DELAY of 1 s, a CONDITION_YAW to 90°,
+/// NAV_RETURN_TO_LAUNCH, in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT; downloaded field for field; ARM and
+/// MISSION_START from the ground. MISSION_ITEM_REACHED must come for seqs 0..6 as uploaded, the
+/// holds must last (the script times them), the heading must be 90° at the yaw item, the vehicle
+/// must report Return, come back, land within 0.3 m of its start and disarm by itself; no
+/// collision. Before: the upload was refused MAV_MISSION_UNSUPPORTED (the TAKEOFF item, then
+/// issue 41: LOITER_TIME, NAV_DELAY, CONDITION_YAW), the hold time and the speed were ignored.
 #[test]
 fn pymavlink_flies_qgroundcontrols_default_plan_and_returns() {
     let s = scene();

@@ -395,6 +395,12 @@ impl Guidance {
         Ok(())
     }
 
+    /// The mission's cruise speed from the next path start on (m/s, the follower's range; a
+    /// mission item's DO_CHANGE_SPEED). Refused out of range, the speed unchanged.
+    pub fn set_cruise_speed(&mut self, speed: f32) -> Result<(), CommandError> {
+        self.follower.set_cruise_speed(speed).map_err(CommandError::Path)
+    }
+
     /// Drop the stored path; while flying the mission, hold `origin` (the current reference
     /// position) instead. A later mission start fails until a new path is set.
     pub fn clear_path(&mut self, origin: Vec3) {

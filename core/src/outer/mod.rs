@@ -496,6 +496,23 @@ impl OuterLoop {
         Ok(())
     }
 
+    /// The mission's cruise speed from the next path start on (m/s; a mission item's
+    /// DO_CHANGE_SPEED): [`Guidance::set_cruise_speed`].
+    pub fn set_mission_speed(&mut self, speed: f32) -> Result<(), CommandError> {
+        self.guidance.set_cruise_speed(speed)
+    }
+
+    /// Face `yaw` (rad, NED heading; a mission item's CONDITION_YAW): the yaw reference of
+    /// every guidance mode from now on. Needs Armed; a non-finite yaw is refused.
+    pub fn set_yaw(&mut self, yaw: f32) -> Result<(), CommandError> {
+        self.require_armed()?;
+        if !yaw.is_finite() {
+            return Err(CommandError::BadTarget);
+        }
+        self.guidance.set_yaw_ref(crate::frame::wrap_pi(yaw));
+        Ok(())
+    }
+
     /// Fly the stored path (see [`crate::controller::FlightController::start_mission`]).
     pub fn start_mission(&mut self, now_us: u64) -> Result<(), CommandError> {
         self.require_armed()?;

@@ -169,6 +169,16 @@ impl<const N: usize> WaypointFollower<N> {
         &self.params
     }
 
+    /// Change the cruise speed (m/s, in (0, [`PARAM_LIMIT`]]; else [`PathError::BadParams`] and
+    /// the speed unchanged). A path being flown keeps its timing: the new speed applies from
+    /// the next [`start`](Self::start) (a mission item's DO_CHANGE_SPEED at a segment boundary).
+    pub fn set_cruise_speed(&mut self, speed: f32) -> Result<(), PathError> {
+        let params = WaypointParams { cruise_speed: speed, ..self.params };
+        params.validate()?;
+        self.params = params;
+        Ok(())
+    }
+
     /// Replace the path (waypoints NED, m). Errors — leaving the previous path
     /// untouched — on an empty slice, more than `N` points, or a non-finite
     /// coordinate. Stops any path being flown ([`start`](Self::start) again).
@@ -385,6 +395,23 @@ mod tests {
 
     fn follower(speed: f32, radius: f32) -> WaypointFollower<8> {
         WaypointFollower::new(WaypointParams { cruise_speed: speed, corner_radius: radius }).unwrap()
+    }
+
+    /// A mission's DO_CHANGE_SPEED: the new speed times the next start; out of range refused,
+    /// the speed unchanged.
+    #[test]
+    fn cruise_speed_changes_apply_from_the_next_start() {
+        let mut f = follower(1.0, 0.0);
+        f.set_path(&[Vec3::new(2.0, 0.0, 0.0)]).unwrap();
+        f.start(Vec3::zeros()).unwrap();
+        assert!((f.duration() - 2.0).abs() < 1e-6);
+        f.set_cruise_speed(0.5).unwrap();
+        f.start(Vec3::zeros()).unwrap();
+        assert!((f.duration() - 4.0).abs() < 1e-6);
+        for bad in [0.0, -1.0, f32::NAN, PARAM_LIMIT * 2.0] {
+            assert_eq!(f.set_cruise_speed(bad), Err(PathError::BadParams));
+        }
+        assert_eq!(f.params().cruise_speed, 0.5);
     }
 
     /// Three segments of lengths 1, 2 and 0.5 m (the second one diagonal in 3-D

@@ -79,6 +79,18 @@ pub enum VehicleCommand {
     /// Select a flight mode (MAV_CMD_DO_SET_MODE with the PX4 custom mode,
     /// [`FlightMode::from_px4`]).
     SetMode(FlightMode),
+    /// Face a heading (rad, NED; a mission's CONDITION_YAW); armed only.
+    SetYaw {
+        /// Heading, rad (wrapped to (−π, π]).
+        yaw_rad: f32,
+    },
+    /// The mission's path speed from the next path start (a mission's DO_CHANGE_SPEED): `Some`
+    /// m/s, capped at the vehicle's limit (the larger of `WP_SPEED` and `PA_SPEED_MAX`);
+    /// `None`: back to `WP_SPEED`.
+    SetSpeed {
+        /// Speed, m/s (> 0).
+        m_s: Option<f32>,
+    },
 }
 
 /// A command the cascade refused.

@@ -302,6 +302,12 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
                 o.hold_position(now_us, target)
             }
             VehicleCommand::SetMode(m) => o.set_mode(now_us, m),
+            VehicleCommand::SetYaw { yaw_rad } => o.set_yaw(yaw_rad),
+            VehicleCommand::SetSpeed { m_s } => {
+                let limit = s.flown.waypoint.cruise_speed.max(s.flown.modes.assist_speed);
+                let v = m_s.map_or(s.flown.waypoint.cruise_speed, |v| if v > limit { limit } else { v });
+                o.set_mission_speed(v)
+            }
         };
         // Arm, disarm, land and mode changes change the output stage at once (as the facade).
         if r.is_ok()

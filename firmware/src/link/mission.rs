@@ -59,6 +59,7 @@ use crate::link::dialect::{
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
 use crate::link::geo::{self, AltRef, GeoError};
+use crate::link::mission_items::{self, Action};
 use heapless::Vec as HVec;
 use parapet_core::Vec3;
 
@@ -137,6 +138,29 @@ pub enum Step {
     },
     /// Return mode (back along the breadcrumbs to home, land).
     Return,
+    /// Stay where the vehicle is for the item's action (NAV_DELAY, CONDITION_YAW, a loiter
+    /// at (0, 0); [`crate::link::mission_items`]).
+    Pause,
+}
+
+/// What the executor does next from an item on ([`MissionUpload::next_from`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Next {
+    /// Fly the accepted path's points `from..=to`; `last` is the seq of point `to`'s item.
+    Fly {
+        /// First path index.
+        from: u16,
+        /// Last path index.
+        to: u16,
+        /// Seq of the item of point `to`.
+        last: u16,
+    },
+    /// Item `seq`'s action where the vehicle is ([`MissionUpload::action_at`]).
+    Act(u16),
+    /// Item `seq` ends the flight (LAND here, RTL).
+    End(u16),
+    /// Nothing left.
+    Done,
 }
 
 /// How the plan ends after its path.
@@ -199,11 +223,64 @@ impl MissionUpload {
     /// The path of the last completed upload (waypoints, takeoff position, landing approach),
     /// NED, m.
     pub fn path(&self) -> HVec<Vec3, MAX_WAYPOINTS> {
-        let mut out = HVec::new();
-        walk(&self.items, |_, p| {
-            let _ = out.push(p); // at most one point per item: never full
+        points(&self.items)
+    }
+
+    /// The accepted plan's path (what [`MissionUpload::path`] was when it was accepted).
+    pub fn accepted_path(&self) -> HVec<Vec3, MAX_WAYPOINTS> {
+        points(&self.stored)
+    }
+
+    /// The action of the accepted plan's item `seq` ([`crate::link::mission_items`]).
+    pub fn action_at(&self, seq: u16) -> Option<Action> {
+        let it = self.stored.get(usize::from(seq))?;
+        mission_items::check(it.command, it.params).ok().flatten()
+    }
+
+    /// `true` when the accepted plan's item `seq` ends the flight (LAND, RTL).
+    pub fn ends_at(&self, seq: u16) -> bool {
+        let it = self.stored.get(usize::from(seq));
+        matches!(it.map(step_of), Some(Ok(Some(Step::Land { .. } | Step::Return))))
+    }
+
+    /// What to do from the accepted plan's item `seq` on: skip ignored items (and a TAKEOFF
+    /// without a position: its climb is flown before); a point starts a flight through the
+    /// following points up to the first item with an action or a LAND approach; a pause or an
+    /// item's action where the vehicle is; the end item. O([`MAX_WAYPOINTS`]).
+    pub fn next_from(&self, seq: u16) -> Next {
+        let mut seqs: HVec<u16, MAX_WAYPOINTS> = HVec::new();
+        walk(&self.stored, |q, _| {
+            let _ = seqs.push(q); // at most one point per item: never full
         });
-        out
+        let index = |q: u16| seqs.iter().position(|&s| s == q).map(|k| k as u16);
+        let stops = |q: u16| self.action_at(q).is_some() || self.ends_at(q);
+        for q in seq..self.stored_len() {
+            if let Some(from) = index(q) {
+                let (mut to, mut last) = (from, q);
+                let mut r = q;
+                while !stops(last) && r + 1 < self.stored_len() {
+                    r += 1;
+                    match index(r) {
+                        Some(k) => (to, last) = (k, r),
+                        None if stops(r) || self.pauses_at(r) => break,
+                        None => {}
+                    }
+                }
+                return Next::Fly { from, to, last };
+            }
+            if self.ends_at(q) {
+                return Next::End(q);
+            }
+            if self.action_at(q).is_some() {
+                return Next::Act(q);
+            }
+        }
+        Next::Done
+    }
+
+    fn pauses_at(&self, seq: u16) -> bool {
+        let it = self.stored.get(usize::from(seq));
+        matches!(it.map(step_of), Some(Ok(Some(Step::Pause))))
     }
 
     /// The accepted plan's summary.
@@ -495,13 +572,27 @@ fn horizontal(it: &Item) -> Result<Option<(f32, f32)>, MavMissionResult> {
     position(&Item { z: 0.0, ..*it }).map(|p| Some((p.x, p.y)))
 }
 
+/// The path points of `items` (NED, m).
+fn points(items: &[Item]) -> HVec<Vec3, MAX_WAYPOINTS> {
+    let mut out = HVec::new();
+    walk(items, |_, p| {
+        let _ = out.push(p); // at most one point per item: never full
+    });
+    out
+}
+
 /// What item `it` makes the vehicle do (`None`: accepted and ignored), or the refusal.
 fn step_of(it: &Item) -> Result<Option<Step>, MavMissionResult> {
+    mission_items::check(it.command, it.params)?;
     if is_ignored_command(it.command) {
         return Ok(None);
     }
     match it.command {
         id::WAYPOINT => position(it).map(|p| Some(Step::Waypoint(p))),
+        c if mission_items::is_pause(c) && horizontal(it)?.is_some() && c != mission_items::DELAY => {
+            position(it).map(|p| Some(Step::Waypoint(p)))
+        }
+        c if mission_items::is_pause(c) => Ok(Some(Step::Pause)),
         id::TAKEOFF => {
             let down = down_of(it)?;
             if down.is_nan() || down >= 0.0 {
@@ -563,6 +654,7 @@ fn walk(items: &[Item], mut point: impl FnMut(u16, Vec3)) -> Plan {
                 plan.end = Some((seq, EndAction::Return));
                 None
             }
+            Step::Pause => None,
         };
         if let Some(p) = p {
             plan.path_len = plan.path_len.saturating_add(1);
@@ -855,10 +947,18 @@ mod tests {
             ),
             (
                 MISSION_ITEM_INT_DATA {
-                    command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
+                    command: MavCmd::MAV_CMD_NAV_LOITER_TURNS as u16,
                     ..global(0, rel, ORIGIN.0, ORIGIN.1, 5.0)
                 },
                 MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            ),
+            (
+                MISSION_ITEM_INT_DATA {
+                    command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
+                    param1: -2.0,
+                    ..global(0, rel, ORIGIN.0, ORIGIN.1, 5.0)
+                },
+                MavMissionResult::MAV_MISSION_INVALID_PARAM1,
             ),
             (
                 MISSION_ITEM_INT_DATA {
@@ -957,6 +1057,52 @@ mod tests {
             (m.done_through(0), m.done_through(1), m.done_through(3), m.done_through(4)),
             (0, 2, 3, 5)
         );
+    }
+
+    /// The executor's walk over a QGroundControl-style plan: flights run up to the first item
+    /// with an action; pauses, speed changes and the end come one by one.
+    #[test]
+    fn next_from_splits_the_plan_at_the_items_with_actions() {
+        use crate::link::geo::ORIGIN;
+        use crate::link::mission_items::Action;
+        use MavCmd::*;
+        let with = |mut it: MISSION_ITEM_INT_DATA, p: [f32; 4]| {
+            [it.param1, it.param2, it.param3, it.param4] = p;
+            it
+        };
+        let items = [
+            cmd(0, MAV_CMD_NAV_TAKEOFF, 0, 0, 1.0),
+            cmd(1, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 90, ORIGIN.1, 1.0),
+            with(cmd(2, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1, 1.0), [2.0, 0.3, 0.0, f32::NAN]),
+            with(cmd(3, MAV_CMD_NAV_LOITER_TIME, ORIGIN.0 + 180, ORIGIN.1 + 133, 1.0), [1.5, 0.0, 0.0, 0.0]),
+            with(cmd(4, MAV_CMD_NAV_DELAY, 0, 0, 0.0), [1.0, -1.0, -1.0, -1.0]),
+            with(cmd(5, MAV_CMD_DO_CHANGE_SPEED, 0, 0, 0.0), [1.0, 0.5, -1.0, 0.0]),
+            with(cmd(6, MAV_CMD_CONDITION_YAW, 0, 0, 0.0), [90.0, 20.0, 1.0, 0.0]),
+            cmd(7, MAV_CMD_NAV_WAYPOINT, ORIGIN.0, ORIGIN.1 + 133, 1.0),
+            cmd(8, MAV_CMD_DO_SET_CAM_TRIGG_DIST, 0, 0, 0.0),
+            cmd(9, MAV_CMD_NAV_WAYPOINT, ORIGIN.0, ORIGIN.1, 1.0),
+            cmd(10, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0),
+        ];
+        let mut m = m_new();
+        assert_eq!(upload(&mut m, &items), Some(MissionReply::Complete));
+        m.accept();
+        assert_eq!(m.plan().path_len, 5);
+        assert_eq!(m.next_from(0), Next::Fly { from: 0, to: 1, last: 2 }, "takeoff here, 1, held 2");
+        assert_eq!(m.action_at(2), Some(Action::Hold { secs: Some(2.0), radius_m: 0.3 }));
+        assert_eq!(m.next_from(3), Next::Fly { from: 2, to: 2, last: 3 }, "the loiter's point");
+        assert_eq!(m.action_at(3), Some(Action::Hold { secs: Some(1.5), radius_m: 0.0 }));
+        assert_eq!(m.next_from(4), Next::Act(4));
+        assert_eq!(m.next_from(5), Next::Act(5));
+        assert_eq!(m.action_at(5), Some(Action::Speed(Some(0.5))));
+        assert_eq!(m.next_from(6), Next::Act(6));
+        assert_eq!(m.next_from(7), Next::Fly { from: 3, to: 4, last: 9 }, "through the ignored DO item");
+        assert_eq!(m.next_from(10), Next::End(10));
+        assert!(m.ends_at(10) && !m.ends_at(9));
+        assert_eq!(m.next_from(11), Next::Done);
+        // A delay after RTL is refused like any navigation item.
+        let mut bad = m_new();
+        let late = [cmd(0, MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0), cmd(1, MAV_CMD_NAV_DELAY, 0, 0, 0.0)];
+        assert_eq!(upload(&mut bad, &late).map(|r| matches!(r, MissionReply::Ack(_))), Some(true));
     }
 
     fn m_new() -> MissionUpload {

@@ -1,56 +1,86 @@
-//! Mission executor: runs the accepted plan's items that are not path waypoints through the
-//! cascade's commands and modes, and maps the flight to the ground station's item numbers.
+//! Mission executor: runs the accepted plan item by item through the cascade's commands and
+//! modes, and maps the flight to the ground station's item numbers.
 //!
 //! ```text
 //!  MISSION_START / DO_SET_MODE Mission
 //!    plan has NAV_TAKEOFF, armed on the ground or airborne ─▶ TakingOff (cascade Takeoff to its
 //!                                                             height: climb, or descend when above)
 //!    no NAV_TAKEOFF, a path, armed on the ground           ─▶ TakingOff (the cascade's default height)
-//!    no NAV_TAKEOFF, airborne (Hover / Takeoff phase)      ─▶ Flying    (cascade StartMission)
-//!  TakingOff ── the ramp seen, then Hover ─▶ Flying, or the end action when the path is empty
-//!  Flying ──── follower done ───────▶ Ending: NAV_LAND → cascade Land; NAV_RETURN_TO_LAUNCH →
-//!                                     Return mode (the battery failsafe's return); none → Done
+//!    no NAV_TAKEOFF, airborne (Hover / Takeoff phase)      ─▶ the first item
+//!  TakingOff ── the ramp seen, then Hover ─▶ the item after the climb
+//!  an item (MissionUpload::next_from): points ─▶ Flying (the cascade's path follower through the
+//!    points up to the first item with an action); an action where the vehicle is ─▶ Acting;
+//!    NAV_LAND / NAV_RETURN_TO_LAUNCH ─▶ Ending (cascade Land / Return mode); none left ─▶ Done
+//!  Flying ──── follower done ───────▶ the last point's action (Acting), the end, or the next item
+//!  Acting ──── hold time over / heading reached / speed set ─▶ the next item (LOITER_UNLIM: never)
 //!  Ending ──── disarmed on the ground ─▶ Done
-//!  disarmed, a failsafe, Landing or another mode selected while TakingOff/Flying ─▶ Idle (paused)
+//!  disarmed, a failsafe, Landing or another mode selected while TakingOff/Flying/Acting ─▶ Idle (paused)
 //! ```
 //!
 //! Every segment is flown by the cascade's own guidance (takeoff ramp, path follower, Land,
 //! Return), so the safety filter is in the loop throughout; this module only issues the
-//! commands a pilot would, at the link's poll rate (≥ 10 Hz, so an end action starts within
-//! one poll period of the follower's arrival). A plan without TAKEOFF started armed on the
-//! ground takes off by itself (issue 41; as PX4): the cascade's default takeoff (its
-//! `Takeoff` without a height: 1 m, capped by `MIS_TKO_ALT_MAX`), then the path.
+//! commands a pilot would, at the link's poll rate (≥ 10 Hz, so an action starts within one
+//! poll period of the follower's arrival). The path is handed to the cascade one segment at a
+//! time (`set_path` with the points up to the next item with an action; a plan without such
+//! items is one segment, the whole path, as before). Actions ([`crate::link::mission_items`]):
+//! a hold (NAV_WAYPOINT p1 after reaching p2, NAV_LOITER_TIME, NAV_DELAY) keeps the vehicle at
+//! the reference where the segment ended, NAV_LOITER_UNLIM until another mode or plan;
+//! CONDITION_YAW sets the cascade's yaw reference and waits for the heading; DO_CHANGE_SPEED
+//! sets the path speed of the following segments (reset to `WP_SPEED` at every start). A plan
+//! without TAKEOFF started armed on the ground takes off by itself (issue 41; as PX4): the
+//! cascade's default takeoff (1 m, capped by `MIS_TKO_ALT_MAX`), then the items.
 //!
 //! [`MissionRun::progress`] gives MISSION_CURRENT / MISSION_ITEM_REACHED in the uploaded seq
 //! numbers ([`crate::link::services`] emits them): the item being flown and the last item done
 //! (ignored DO_* items count as done with the navigation item before them; NAV_TAKEOFF when the
-//! climb ends, a waypoint when the follower passes it, NAV_LAND / RTL when the vehicle has
-//! landed and disarmed, trailing DO_* items with the end).
+//! climb ends, a waypoint when the follower passes it (a held one on arrival), a hold, delay or
+//! yaw when it is over, NAV_LAND / RTL when the vehicle has landed and disarmed).
 //!
 //! May import: [`crate::app::autopilot`] (the `Autopilot` boundary), [`crate::link::mission`],
-//! the dialect. O(1) state, every call O([`crate::link::mission::MAX_WAYPOINTS`]).
+//! [`crate::link::mission_items`], the dialect. O(1) state, every call
+//! O([`crate::link::mission::MAX_WAYPOINTS`]²) at most (a transition's item scan).
 
 use crate::app::autopilot::{
     Autopilot, CommandRejected, FlightMode, FlightPhase, TelemetrySnapshot, VehicleCommand,
 };
 use crate::link::dialect::MissionState;
-use crate::link::mission::{EndAction, MissionUpload, Plan};
+use crate::link::mission::{EndAction, MissionUpload, Next};
+use crate::link::mission_items::{self, Action};
+use parapet_core::Vec3;
+
+/// A new segment's follower fields are its own after this, µs (a few outer steps: the
+/// snapshot of the step before still shows the previous segment done).
+const SEGMENT_SETTLE_US: u64 = 40_000;
 
 /// Executor state (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Run {
     /// Not running the plan (never started, or paused by another command or a failsafe).
     Idle,
     /// The cascade's takeoff ramp goes to the plan's takeoff height; `seen` once its phase
     /// showed Takeoff (before, a Hover is the state before the command took effect).
     TakingOff { seen: bool },
-    /// The cascade flies the path; `seen` once its phase showed Mission (the snapshot's
-    /// follower fields are this mission's from then on).
-    Flying { seen: bool },
+    /// The cascade flies path points `from..=to` (item `last` is point `to`'s); `seen` once
+    /// the snapshot's follower fields are this segment's (from `since_us` +
+    /// [`SEGMENT_SETTLE_US`] in phase Mission).
+    Flying { seen: bool, since_us: u64, from: u16, to: u16, last: u16 },
+    /// Item `seq`'s action.
+    Acting { seq: u16, step: Acting },
     /// The end action (LAND / RTL item `seq`) runs until the vehicle disarms.
     Ending { seq: u16 },
     /// The whole plan was flown.
     Done,
+}
+
+/// Where an action is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Acting {
+    /// A hold waits until the vehicle is within `radius_m` of `at`.
+    Arriving { at: Vec3, radius_m: f32, secs: Option<f32> },
+    /// Holding until `until_us` (`None`: unlimited).
+    Holding { until_us: Option<u64> },
+    /// Turning to `yaw` (rad) since `since_us`.
+    Turning { yaw: f32, since_us: u64 },
 }
 
 /// MISSION_CURRENT / MISSION_ITEM_REACHED state in the uploaded seq numbers.
@@ -78,8 +108,10 @@ pub struct MissionRun {
     run: Run,
     /// The plan was started since it was uploaded.
     started: bool,
-    /// The takeoff climb is over (or there was none).
-    climbed: bool,
+    /// The item being flown when paused (MISSION_CURRENT while Idle).
+    current: u16,
+    /// The last item done.
+    reached: Option<u16>,
 }
 
 impl Default for MissionRun {
@@ -92,10 +124,15 @@ fn airborne(s: &TelemetrySnapshot) -> bool {
     s.armed && matches!(s.phase, FlightPhase::Hover | FlightPhase::Takeoff | FlightPhase::Mission)
 }
 
+fn dist(a: Vec3, b: Vec3) -> f32 {
+    let d = a - b;
+    libm::sqrtf(d.x * d.x + d.y * d.y + d.z * d.z)
+}
+
 impl MissionRun {
     /// Nothing started.
     pub const fn new() -> Self {
-        Self { run: Run::Idle, started: false, climbed: false }
+        Self { run: Run::Idle, started: false, current: 0, reached: None }
     }
 
     /// A new plan was accepted, or the plan was cleared: not started.
@@ -112,8 +149,8 @@ impl MissionRun {
 
     /// MISSION_START (or DO_SET_MODE Mission) at `now_us`: with a TAKEOFF item, armed on the
     /// ground or airborne, the cascade's takeoff ramp to the item's height where the vehicle is
-    /// (airborne: up or down to it, as PX4 flies a TAKEOFF item in the air); else the cascade's
-    /// StartMission. The cascade's refusal is returned.
+    /// (airborne: up or down to it, as PX4 flies a TAKEOFF item in the air); else the first
+    /// item. The path speed is reset to `WP_SPEED`. The cascade's refusal is returned.
     pub fn start<A: Autopilot>(
         &mut self,
         m: &MissionUpload,
@@ -132,28 +169,120 @@ impl MissionRun {
         };
         if let Some(height_m) = height {
             ap.command(now_us, VehicleCommand::Takeoff { height_m })?;
-            self.run = Run::TakingOff { seen: false };
-            self.started = true;
-            self.climbed = false;
+            let _ = ap.command(now_us, VehicleCommand::SetSpeed { m_s: None });
+            *self = Self { run: Run::TakingOff { seen: false }, started: true, current: 0, reached: None };
+            self.current = plan.takeoff.map_or(0, |t| t.0);
             return Ok(());
         }
-        if plan.path_len == 0 && plan.count > 0 && airborne(&s) {
-            self.started = true;
-            self.climbed = true;
-            self.end(&plan, now_us, ap);
-            return Ok(());
+        if !airborne(&s) || plan.count == 0 {
+            // The cascade's own refusal (not armed, not flying, no path).
+            ap.command(now_us, VehicleCommand::StartMission)?;
         }
-        ap.command(now_us, VehicleCommand::StartMission)?;
-        self.run = Run::Flying { seen: false };
-        self.started = true;
-        self.climbed = true;
+        let _ = ap.command(now_us, VehicleCommand::SetSpeed { m_s: None });
+        *self = Self { run: Run::Idle, started: true, current: 0, reached: None };
+        match self.next(m, 0, now_us, ap) {
+            Err(e) => {
+                self.run = Run::Idle;
+                Err(e)
+            }
+            Ok(()) => Ok(()),
+        }
+    }
+
+    /// Runs the plan from item `seq` on ([`MissionUpload::next_from`]).
+    fn next<A: Autopilot>(
+        &mut self,
+        m: &MissionUpload,
+        seq: u16,
+        now_us: u64,
+        ap: &mut A,
+    ) -> Result<(), CommandRejected> {
+        // Speed changes take effect at once and go on: at most one per item.
+        let mut seq = seq;
+        for _ in 0..crate::link::mission::MAX_WAYPOINTS {
+            match m.next_from(seq) {
+                Next::Fly { from, to, last } => {
+                    self.current = m.path_seq(from).unwrap_or(last);
+                    return self.fly(m, from, to, last, now_us, ap);
+                }
+                Next::Act(q) => {
+                    if let Some(Action::Speed(v)) = m.action_at(q) {
+                        let _ = ap.command(now_us, VehicleCommand::SetSpeed { m_s: v });
+                        self.reached = Some(m.done_through(q));
+                        seq = q + 1;
+                        continue;
+                    }
+                    self.act(m, q, None, now_us, ap);
+                    return Ok(());
+                }
+                Next::End(q) => {
+                    self.end(q, m.plan().end.map(|e| e.1), now_us, ap);
+                    return Ok(());
+                }
+                Next::Done => {
+                    self.run = Run::Done;
+                    return Ok(());
+                }
+            }
+        }
+        self.run = Run::Done;
         Ok(())
     }
 
-    /// Starts the end action after the path (or finishes).
-    fn end<A: Autopilot>(&mut self, plan: &Plan, now_us: u64, ap: &mut A) {
-        self.run = match plan.end {
-            Some((seq, action)) => {
+    /// Flies path points `from..=to` (see [`Run::Flying`]).
+    fn fly<A: Autopilot>(
+        &mut self,
+        m: &MissionUpload,
+        from: u16,
+        to: u16,
+        last: u16,
+        now_us: u64,
+        ap: &mut A,
+    ) -> Result<(), CommandRejected> {
+        let path = m.accepted_path();
+        let seg = path.get(usize::from(from)..=usize::from(to)).unwrap_or(&[]);
+        if ap.set_path(seg).is_err() {
+            self.run = Run::Idle;
+            return Err(CommandRejected::Invalid);
+        }
+        // In phase Mission the new path restarts the follower from the reference itself.
+        if ap.telemetry().phase != FlightPhase::Mission {
+            if let Err(e) = ap.command(now_us, VehicleCommand::StartMission) {
+                self.run = Run::Idle;
+                return Err(e);
+            }
+        }
+        self.run = Run::Flying { seen: false, since_us: now_us, from, to, last };
+        Ok(())
+    }
+
+    /// Starts item `seq`'s action where the vehicle is (`at`: the point just flown to).
+    fn act<A: Autopilot>(&mut self, m: &MissionUpload, seq: u16, at: Option<Vec3>, now_us: u64, ap: &mut A) {
+        self.current = seq;
+        let s = ap.telemetry();
+        let step = match m.action_at(seq) {
+            Some(Action::Hold { secs, radius_m }) => {
+                Acting::Arriving { at: at.unwrap_or(s.setpoint.position_ned), radius_m, secs }
+            }
+            Some(Action::Yaw { deg, dir, relative }) => {
+                let yaw = mission_items::yaw_target(deg, dir, relative, s.attitude_rpy.z);
+                if ap.command(now_us, VehicleCommand::SetYaw { yaw_rad: yaw }).is_err() {
+                    self.run = Run::Idle;
+                    return;
+                }
+                Acting::Turning { yaw, since_us: now_us }
+            }
+            // Speed is set in `next`; nothing else acts.
+            Some(Action::Speed(_)) | None => Acting::Holding { until_us: Some(now_us) },
+        };
+        self.run = Run::Acting { seq, step };
+    }
+
+    /// Starts the end action of item `seq` (or finishes).
+    fn end<A: Autopilot>(&mut self, seq: u16, action: Option<EndAction>, now_us: u64, ap: &mut A) {
+        self.current = seq;
+        self.run = match action {
+            Some(action) => {
                 let cmd = match action {
                     EndAction::Land => VehicleCommand::Land,
                     EndAction::Return => VehicleCommand::SetMode(FlightMode::Return),
@@ -170,6 +299,9 @@ impl MissionRun {
     /// Periodic step (the link's poll): the transitions of the module docs.
     pub fn poll<A: Autopilot>(&mut self, m: &MissionUpload, now_us: u64, ap: &mut A) {
         let s = ap.telemetry();
+        let in_mission = s.armed
+            && s.mode == FlightMode::Mission
+            && matches!(s.phase, FlightPhase::Hover | FlightPhase::Mission);
         match self.run {
             Run::Idle | Run::Done => {}
             Run::TakingOff { seen } => {
@@ -182,34 +314,54 @@ impl MissionRun {
                     || !(before || matches!(s.phase, FlightPhase::Takeoff | FlightPhase::Hover))
                 {
                     self.run = Run::Idle;
-                } else if !seen {
-                    self.run = Run::TakingOff { seen };
-                } else if s.phase == FlightPhase::Hover {
-                    self.climbed = true;
+                } else if seen && s.phase == FlightPhase::Hover {
                     let plan = m.plan();
-                    if plan.path_len == 0 {
-                        self.end(&plan, now_us, ap);
-                    } else {
-                        self.run = match ap.command(now_us, VehicleCommand::StartMission) {
-                            Ok(()) => Run::Flying { seen: false },
-                            Err(_) => Run::Idle,
-                        };
+                    let first = plan.takeoff.map_or(0, |t| t.0);
+                    if plan.takeoff.is_some() {
+                        self.reached = Some(m.done_through(first));
+                    }
+                    if self.next(m, first, now_us, ap).is_err() {
+                        self.run = Run::Idle;
                     }
                 } else {
                     self.run = Run::TakingOff { seen };
                 }
             }
-            Run::Flying { seen } => {
-                let seen = seen || s.phase == FlightPhase::Mission;
-                if !s.armed
-                    || s.mode != FlightMode::Mission
-                    || !matches!(s.phase, FlightPhase::Hover | FlightPhase::Mission)
-                {
-                    self.run = Run::Idle;
+            Run::Flying { seen, since_us, from, to, last } => {
+                let seen =
+                    seen || (s.phase == FlightPhase::Mission && now_us >= since_us + SEGMENT_SETTLE_US);
+                if !in_mission {
+                    self.pause(m, &s);
                 } else if seen && s.mission_done {
-                    self.end(&m.plan(), now_us, ap);
+                    self.arrived(m, to, last, now_us, ap);
                 } else {
-                    self.run = Run::Flying { seen };
+                    self.run = Run::Flying { seen, since_us, from, to, last };
+                }
+            }
+            Run::Acting { seq, step } => {
+                if !in_mission {
+                    self.run = Run::Idle;
+                    return;
+                }
+                let done = match step {
+                    Acting::Arriving { at, radius_m, secs } => {
+                        if radius_m <= 0.0 || dist(s.position_ned, at) <= radius_m {
+                            let until_us = secs.map(|t| now_us + (t * 1e6) as u64);
+                            self.run = Run::Acting { seq, step: Acting::Holding { until_us } };
+                        }
+                        false
+                    }
+                    Acting::Holding { until_us } => until_us.is_some_and(|t| now_us >= t),
+                    Acting::Turning { yaw, since_us } => {
+                        mission_items::yaw_reached(s.attitude_rpy.z, yaw)
+                            || now_us.saturating_sub(since_us) >= mission_items::YAW_TIMEOUT_US
+                    }
+                };
+                if done {
+                    self.reached = Some(m.done_through(seq));
+                    if self.next(m, seq + 1, now_us, ap).is_err() {
+                        self.run = Run::Idle;
+                    }
                 }
             }
             Run::Ending { .. } => {
@@ -218,6 +370,33 @@ impl MissionRun {
                 }
             }
         }
+    }
+
+    /// The follower reached point `to` (item `last`): its action, the end, or the next items.
+    fn arrived<A: Autopilot>(&mut self, m: &MissionUpload, to: u16, last: u16, now_us: u64, ap: &mut A) {
+        if m.ends_at(last) {
+            // A LAND item's approach point: reaching it is not reaching the LAND item.
+            self.reached = last.checked_sub(1).map(|q| m.done_through(q)).max(self.reached);
+            self.end(last, m.plan().end.map(|e| e.1), now_us, ap);
+            return;
+        }
+        // Reached on arrival, a held waypoint or loiter too (as PX4), before its hold.
+        self.reached = Some(m.done_through(last)).max(self.reached);
+        if m.action_at(last).is_some_and(|a| !matches!(a, Action::Speed(_))) {
+            let at = m.accepted_path().get(usize::from(to)).copied();
+            self.act(m, last, at, now_us, ap);
+        } else if self.next(m, last + 1, now_us, ap).is_err() {
+            self.run = Run::Idle;
+        }
+    }
+
+    /// Paused while flying a segment: remember the item being flown.
+    fn pause(&mut self, m: &MissionUpload, s: &TelemetrySnapshot) {
+        if let Run::Flying { seen: true, from, to, .. } = self.run {
+            let k = from.saturating_add(s.mission_seq).min(to);
+            self.current = m.path_seq(k).unwrap_or(self.current);
+        }
+        self.run = Run::Idle;
     }
 
     /// MISSION_CURRENT / MISSION_ITEM_REACHED state for plan `m` and snapshot `s`.
@@ -238,33 +417,31 @@ impl MissionRun {
                 state: MissionState::MISSION_STATE_NOT_STARTED,
             };
         }
-        let first = plan.takeoff.map_or(0, |(seq, _)| seq);
-        // Done: the item and the ignored items after it.
-        let done = |seq: Option<u16>| seq.map(|q| m.done_through(q));
-        let climbed = if self.climbed { done(plan.takeoff.map(|(seq, _)| seq)) } else { None };
-        // Done up to path waypoint k (a landing approach is not the LAND item).
-        let upto = |k: u16| -> Option<u16> {
-            let seq = m.path_seq(k)?;
-            let approach = plan.land_approach && k + 1 == plan.path_len;
-            done(if approach { seq.checked_sub(1) } else { Some(seq) })
-        };
-        let path_end = plan.path_len.checked_sub(1).and_then(upto).max(climbed);
-        let active = MissionState::MISSION_STATE_ACTIVE;
-        let (current, reached, state) = match self.run {
-            Run::Done => (last, Some(last), MissionState::MISSION_STATE_COMPLETE),
-            Run::Ending { seq } => (seq, done(seq.checked_sub(1)).max(path_end), active),
-            Run::TakingOff { .. } => (first, first.checked_sub(1), active),
-            Run::Flying { seen: false } => (m.path_seq(0).unwrap_or(first), climbed, active),
-            Run::Flying { seen: true } | Run::Idle => {
-                let k = s.mission_seq.min(plan.path_len.saturating_sub(1));
-                let (cur, reached) = if s.mission_done {
-                    (plan.end.map_or(last, |(seq, _)| seq), path_end)
-                } else {
-                    (m.path_seq(k).unwrap_or(first), k.checked_sub(1).and_then(upto).max(climbed))
-                };
-                let state = if self.run == Run::Idle { MissionState::MISSION_STATE_PAUSED } else { active };
-                (cur, reached, state)
+        let run = match self.run {
+            Run::Idle if !self.started => {
+                let to = plan.path_len.saturating_sub(1);
+                Run::Flying { seen: true, since_us: 0, from: 0, to, last: m.path_seq(to).unwrap_or(last) }
             }
+            r => r,
+        };
+        let active = MissionState::MISSION_STATE_ACTIVE;
+        let done = |seq: Option<u16>| seq.map(|q| m.done_through(q));
+        let (current, reached, state) = match run {
+            Run::Done => (last, Some(last), MissionState::MISSION_STATE_COMPLETE),
+            Run::Ending { seq } => (seq, done(seq.checked_sub(1)).max(self.reached), active),
+            Run::TakingOff { .. } => (self.current, self.current.checked_sub(1), active),
+            Run::Acting { seq, .. } => (seq, self.reached, active),
+            Run::Flying { seen: false, .. } => (self.current, self.reached, active),
+            Run::Flying { seen: true, from, to, last: end, .. } => {
+                let k = from.saturating_add(s.mission_seq).min(to);
+                if s.mission_done {
+                    (end, self.reached, active)
+                } else {
+                    let before = k.checked_sub(1).filter(|&j| j >= from).and_then(|j| m.path_seq(j));
+                    (m.path_seq(k).unwrap_or(end), done(before).max(self.reached), active)
+                }
+            }
+            Run::Idle => (self.current, self.reached, MissionState::MISSION_STATE_PAUSED),
         };
         MissionProgress { total, current: current.min(last), reached: reached.map(|r| r.min(last)), state }
     }

@@ -26,6 +26,7 @@ pub mod manual_control;
 pub mod messages;
 pub mod mission;
 pub mod mission_float;
+pub mod mission_items;
 pub mod mission_run;
 pub mod obstacles;
 pub mod offboard;
