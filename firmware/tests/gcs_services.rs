@@ -1139,3 +1139,54 @@ fn holds_loiter_delay_speed_and_yaw_items_are_flown() {
     let yaw = f.yaws.iter().map(|y| y.to_degrees()).fold(f32::MIN, f32::max);
     assert!((yaw - 90.0).abs() < 1.0, "CONDITION_YAW 90°: the heading reference reached {yaw}°");
 }
+
+/// Issue 41: MAV_CMD_DO_REPOSITION (QGroundControl's "Go to location", MAVSDK's
+/// `goto_location`) flies to the global position (COMMAND_INT exact, altitude in the command's
+/// frame; COMMAND_LONG in degrees and m AMSL) and holds there; refused on the ground. Before:
+/// UNSUPPORTED.
+#[test]
+fn do_reposition_flies_to_the_global_position_and_holds() {
+    let mut g = Sim::new();
+    g.run(500);
+    let int = |x: i32, y: i32, z: f32| {
+        #[allow(deprecated)] // the *_INT frame, as MAVSDK sends it
+        let frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
+        COMMAND_INT_DATA {
+            param1: -1.0,
+            param4: f32::NAN,
+            x,
+            y,
+            z,
+            command: MavCmd::MAV_CMD_DO_REPOSITION as u16,
+            target_system: 1,
+            target_component: 1,
+            frame,
+            ..Default::default()
+        }
+    };
+    let ack = |out: Vec<Outbound>| {
+        out.iter().find_map(|m| match m {
+            Outbound::CommandAck(a) if a.command == MavCmd::MAV_CMD_DO_REPOSITION as u16 => Some(a.result),
+            _ => None,
+        })
+    };
+    let goal = int(ORIGIN.0 + 90, ORIGIN.1 + 133, 2.0); // ≈ 1 m north, 1 m east, 2 m up
+    assert_eq!(ack(g.send(&goal)), Some(MavResult::MAV_RESULT_TEMPORARILY_REJECTED), "on the ground");
+    g.follow = true;
+    g.airborne();
+    assert_eq!(ack(g.send(&goal)), Some(MavResult::MAV_RESULT_ACCEPTED));
+    g.run(15_000);
+    let r = g.ap.telemetry().setpoint.position_ned;
+    assert!((r.x - 1.0).abs() < 0.02 && (r.y - 1.0).abs() < 0.02 && (r.z + 2.0).abs() < 0.01, "{r:?}");
+    g.run(2_000);
+    assert_eq!(g.ap.telemetry().setpoint.position_ned, r, "held there");
+    // COMMAND_LONG: degrees, m AMSL; NaN altitude keeps the current one.
+    let deg = |e7: i32| e7 as f32 * 1e-7;
+    let p = [-1.0, 0.0, 0.0, f32::NAN, deg(ORIGIN.0), deg(ORIGIN.1), f32::NAN];
+    assert_eq!(g.command(MavCmd::MAV_CMD_DO_REPOSITION, p), MavResult::MAV_RESULT_ACCEPTED);
+    g.run(15_000);
+    let r = g.ap.telemetry().setpoint.position_ned;
+    assert!(r.x.abs() < 0.3 && r.y.abs() < 0.3 && (r.z + 2.0).abs() < 0.01, "back above the origin: {r:?}");
+    let far = int(ORIGIN.0 + 20_000_000, ORIGIN.1, 2.0);
+    assert_eq!(ack(g.send(&far)), Some(MavResult::MAV_RESULT_DENIED), "beyond the local frame");
+}

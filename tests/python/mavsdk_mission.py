@@ -2,7 +2,8 @@
 connects over UDP, reads telemetry (on the ground, disarmed, not in air; health flags global/local/
 home position ok and armable, gps_info with a 3D fix, raw_gps accuracy, VFR_HUD), uploads the mission,
 arms, takes off, starts the mission, watches it reach the last waypoint (mission progress and
-position), lands and disarms. The plan is uploaded with
+position), flies back to the previous waypoint with `action.goto_location` ("Go to location",
+DO_REPOSITION) and holds there, lands and disarms. The plan is uploaded with
 - `raw` (default): `mission_raw`, MAV_FRAME_LOCAL_NED items (x, y in 1e-4 m, z in m);
 - `plugin`: the standard `mission` plugin (as PX4 SITL is flown): MissionItems at latitude/
   longitude = home (from telemetry) + the NED offsets (the firmware's flat-earth scales around
@@ -191,7 +192,9 @@ async def main(port, waypoints, plugin):
 
     await drone.action.arm()
     await first(drone.telemetry.armed(), lambda a: a, "armed", 10)
-    print("armed", flush=True)
+    pv = await first(drone.telemetry.position_velocity_ned(), lambda p: True, "LOCAL_POSITION_NED", 10)
+    home_ned = (pv.position.north_m, pv.position.east_m, pv.position.down_m)  # where it armed: home
+    print("armed at", home_ned, flush=True)
     await drone.action.takeoff()
     await first(drone.telemetry.in_air(), lambda a: a, "in air", 15)
     # MAVSDK's takeoff leaves the height to the vehicle (the firmware's default, capped by its
@@ -219,6 +222,25 @@ async def main(port, waypoints, plugin):
 
     pv = await first(drone.telemetry.position_velocity_ned(), at_goal, "the goal (within 8 cm, settled)", 30)
     print("reached the goal", pv.position.north_m, pv.position.east_m, pv.position.down_m, flush=True)
+
+    # "Go to location" (issue 41): action.goto_location (DO_REPOSITION in COMMAND_INT, global
+    # frame, altitude AMSL) back to the path's previous waypoint, converted around the origin
+    # the vehicle reports; it flies there and holds.
+    back = waypoints[-2] if len(waypoints) > 1 else waypoints[0]
+    home = await first(drone.telemetry.home(), lambda h: True, "HOME_POSITION", 10)
+    # Home is where the vehicle armed: the NED offsets are taken from the local position there.
+    lat = home.latitude_deg + (back[0] - home_ned[0]) * LAT_E7_PER_M * 1e-7
+    lon = home.longitude_deg + (back[1] - home_ned[1]) * LON_E7_PER_M * 1e-7
+    amsl = home.absolute_altitude_m - (back[2] - home_ned[2])
+    await drone.action.goto_location(lat, lon, amsl, float("nan"))
+    print("goto_location", lat, lon, amsl, flush=True)
+
+    def at_back(p):
+        d = (p.position.north_m - back[0], p.position.east_m - back[1], p.position.down_m - back[2])
+        return math.sqrt(sum(x * x for x in d)) < 0.1 and speed(p) < 0.05
+
+    pv = await first(drone.telemetry.position_velocity_ned(), at_back, "the goto location (within 10 cm, settled)", 40)
+    print("holding at the goto location", pv.position.north_m, pv.position.east_m, pv.position.down_m, flush=True)
 
     await drone.action.land()
     print("landing", flush=True)

@@ -55,6 +55,8 @@ pub mod id {
     /// MAV_CMD_GET_HOME_POSITION.
     #[allow(deprecated)] // still sent by ground stations
     pub const GET_HOME_POSITION: u16 = MavCmd::MAV_CMD_GET_HOME_POSITION as u16;
+    /// MAV_CMD_DO_REPOSITION.
+    pub const DO_REPOSITION: u16 = MavCmd::MAV_CMD_DO_REPOSITION as u16;
     /// MAV_CMD_DO_SET_HOME.
     pub const DO_SET_HOME: u16 = MavCmd::MAV_CMD_DO_SET_HOME as u16;
     /// MAV_CMD_REQUEST_PROTOCOL_VERSION.

@@ -390,6 +390,14 @@ impl MissionRun {
         }
     }
 
+    /// Another command took the vehicle (a reposition): paused where it was.
+    pub fn stop(&mut self) {
+        if !matches!(self.run, Run::Done) {
+            self.started = true;
+            self.run = Run::Idle;
+        }
+    }
+
     /// Paused while flying a segment: remember the item being flown.
     fn pause(&mut self, m: &MissionUpload, s: &TelemetrySnapshot) {
         if let Run::Flying { seen: true, from, to, .. } = self.run {

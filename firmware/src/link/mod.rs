@@ -33,6 +33,7 @@ pub mod offboard;
 pub mod outbound;
 pub mod params;
 pub mod received;
+pub mod reposition;
 pub mod router;
 pub mod services;
 pub mod takeoff_limit;

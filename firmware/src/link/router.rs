@@ -212,6 +212,9 @@ impl Router {
                 let e7 = crate::link::mission_float::e7_of_degrees;
                 (self.do_set_home(cmd.param1 == 1.0, e7(cmd.param5), e7(cmd.param6), cmd.param7, ap), false)
             }
+            crate::link::command::id::DO_REPOSITION => {
+                (self.reposition(&crate::link::reposition::of_long(cmd), now_us, ap), false)
+            }
             crate::link::command::id::SET_MESSAGE_INTERVAL => {
                 (self.services.set_interval(cmd.param1, cmd.param2), false)
             }
@@ -268,6 +271,20 @@ impl Router {
             crate::link::geo::global_to_ned(lat_e7, lon_e7, alt_m, crate::link::geo::AltRef::Amsl).ok()
         };
         home.map_or(MavResult::MAV_RESULT_DENIED, |h| self.services.set_home(h, s.armed))
+    }
+
+    /// MAV_CMD_DO_REPOSITION ([`crate::link::reposition`]): an accepted one pauses the mission.
+    fn reposition<A: Autopilot>(
+        &mut self,
+        g: &crate::link::reposition::Goto,
+        now_us: u64,
+        ap: &mut A,
+    ) -> MavResult {
+        let r = crate::link::reposition::execute(g, now_us, ap);
+        if r == MavResult::MAV_RESULT_ACCEPTED {
+            self.run.stop();
+        }
+        r
     }
 
     /// A takeoff to `height_m` was refused Invalid: the STATUSTEXT of
@@ -644,6 +661,18 @@ impl Router {
                 // x, y in 10⁻⁷ ° taken exactly (COMMAND_LONG's f32 of them is not).
                 if self.for_me(m.target_system, m.target_component) {
                     let r = self.do_set_home(m.param1 == 1.0, m.x, m.y, m.z, ap);
+                    self.reply(Outbound::CommandAck(crate::link::command::ack(
+                        m.command,
+                        r,
+                        (f.sys_id, f.comp_id),
+                    )));
+                }
+            }
+            Inbound::CommandInt(m) if m.command == crate::link::command::id::DO_REPOSITION => {
+                // x, y in 10⁻⁷ ° taken exactly, z in the command's frame.
+                if self.for_me(m.target_system, m.target_component) {
+                    let r = crate::link::reposition::of_int(&m)
+                        .map_or_else(|r| r, |g| self.reposition(&g, now_us, ap));
                     self.reply(Outbound::CommandAck(crate::link::command::ack(
                         m.command,
                         r,
