@@ -1190,3 +1190,54 @@ fn do_reposition_flies_to_the_global_position_and_holds() {
     let far = int(ORIGIN.0 + 20_000_000, ORIGIN.1, 2.0);
     assert_eq!(ack(g.send(&far)), Some(MavResult::MAV_RESULT_DENIED), "beyond the local frame");
 }
+
+/// Issue 41: PARAM_SET in flight, as PX4 allows in-flight tuning. While armed and flying, an
+/// in-flight tunable (TRK_KP, WP_SPEED, …: `parapet_core::params::IN_FLIGHT`) is taken and
+/// echoed, the flight goes on (still hovering, the reference where it was: no rebuilt
+/// controller); a set-up parameter (VEH_MASS) is refused — PARAM_VALUE with the old value and
+/// a STATUSTEXT naming it. Before: every PARAM_SET was refused while armed, silently.
+#[test]
+fn param_set_in_flight_takes_the_tunables_and_refuses_set_up_with_a_reason() {
+    let mut g = Sim::new();
+    g.follow = true;
+    g.airborne();
+    g.run(3000);
+    let before = g.ap.telemetry();
+    assert_eq!(before.phase, FlightPhase::Hover);
+    let set = |name: &str, v: f32| PARAM_SET_DATA {
+        param_value: v,
+        target_system: 1,
+        target_component: 1,
+        param_id: parapet_firmware::link::outbound::name(name),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    };
+    let echo = |out: &[Outbound]| {
+        out.iter().find_map(|m| match m {
+            Outbound::ParamValue(p) => Some(p.param_value),
+            _ => None,
+        })
+    };
+    let text = |out: &[Outbound]| {
+        out.iter().find_map(|m| match m {
+            Outbound::StatusText(t) => {
+                Some(String::from_utf8_lossy(&t.text.to_vec()).trim_end_matches('\0').to_string())
+            }
+            _ => None,
+        })
+    };
+    let out = g.send(&set("TRK_KP", 0.8));
+    assert_eq!(echo(&out), Some(0.8), "{out:?}");
+    assert_eq!(text(&out), None);
+    assert_eq!(g.ap.flown_params().tracking.kp, [0.8; 3], "flown at once");
+    let out = g.send(&set("WP_SPEED", 0.5));
+    assert_eq!(echo(&out), Some(0.5));
+    g.run(100);
+    let after = g.ap.telemetry();
+    assert!(after.armed && after.phase == FlightPhase::Hover, "the flight goes on: {:?}", after.phase);
+    assert_eq!(after.setpoint.position_ned, before.setpoint.position_ned, "the hold point is kept");
+    // Set-up: refused with the value in effect and the reason.
+    let out = g.send(&set("VEH_MASS", 0.7));
+    assert_eq!(echo(&out), Some(ControllerParams::default().airframe.mass));
+    assert_eq!(text(&out).as_deref(), Some("Set-up, disarm to change: VEH_MASS"));
+    assert_eq!(g.ap.get_param("VEH_MASS"), Some(ControllerParams::default().airframe.mass));
+}

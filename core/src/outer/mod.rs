@@ -496,6 +496,25 @@ impl OuterLoop {
         Ok(())
     }
 
+    /// In-flight tuning (a ground station's PARAM_SET while armed, applied between two outer
+    /// steps): takes `p`'s PD gains (`tracking`), filter parameters (`cbf`, the same law) and
+    /// the path speed (`waypoint.cruise_speed`, from the next path start); everything else of
+    /// `p` is ignored (set-up and the stateful parts' parameters change only disarmed, by a new
+    /// loop). Refused (nothing changed) when the filter parameters or the speed are invalid.
+    /// The integrator and every state are kept.
+    pub fn retune(&mut self, p: &OuterParams) -> Result<(), OuterError> {
+        let filter = SafetyFilter::new(p.cbf, self.params.filter_variant).map_err(OuterError::Cbf)?;
+        self.guidance
+            .set_cruise_speed(p.waypoint.cruise_speed)
+            .map_err(|_| OuterError::Waypoint(PathError::BadParams))?;
+        self.filter = filter;
+        self.tracker.params = p.tracking;
+        self.params.tracking = p.tracking;
+        self.params.cbf = p.cbf;
+        self.params.waypoint.cruise_speed = p.waypoint.cruise_speed;
+        Ok(())
+    }
+
     /// The mission's cruise speed from the next path start on (m/s; a mission item's
     /// DO_CHANGE_SPEED): [`Guidance::set_cruise_speed`].
     pub fn set_mission_speed(&mut self, speed: f32) -> Result<(), CommandError> {

@@ -280,6 +280,21 @@ impl core::fmt::Display for RangeText<'_> {
     }
 }
 
+/// Parameters a ground station may change while the vehicle is armed (in-flight tuning, as
+/// PX4 allows): the PD gains, the safety filter's μ, δ, δ1, A and velocity margin, and the path
+/// speed — what [`crate::outer::OuterLoop::retune`] applies in place between two outer steps.
+/// Every other parameter is set-up (airframe, thrust, board rotation, calibration, RC map,
+/// battery), or belongs to a part with state (filter law, modes and failsafes, perception,
+/// trajectory, return path, takeoff limit) that is rebuilt only disarmed: PARAM_SET refused
+/// while armed ([`ParamRejected::NotNow`]).
+pub const IN_FLIGHT: [&str; 8] =
+    ["TRK_KP", "TRK_KD", "CBF_MU", "CBF_DELTA", "CBF_DELTA1", "CBF_ACC_BOUND", "CBF_VEL_MARGIN", "WP_SPEED"];
+
+/// `true` when `name` may change while armed ([`IN_FLIGHT`]).
+pub fn in_flight(name: &str) -> bool {
+    IN_FLIGHT.contains(&name)
+}
+
 /// Why a value was not taken (the parameter keeps its value).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -410,6 +425,14 @@ mod tests {
     use super::*;
     use proptest::strategy::Strategy;
     use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+    /// The in-flight tunables are parameters of the table, and only those.
+    #[test]
+    fn in_flight_names_are_table_parameters() {
+        assert!(IN_FLIGHT.iter().all(|n| find(n).is_some()), "{IN_FLIGHT:?}");
+        assert!(in_flight("TRK_KP") && in_flight("WP_SPEED"));
+        assert!(!in_flight("VEH_MASS") && !in_flight("CBF_VARIANT") && !in_flight("NOPE"));
+    }
 
     #[test]
     fn names_are_mavlink_ids_and_unique() {

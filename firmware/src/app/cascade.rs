@@ -329,7 +329,21 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
         let mut p = self.stage.stored;
         let v = params::set(&mut p, name, value)?;
         if self.stage.outer.state() != FailsafeState::Disarmed {
-            return Err(ParamRejected::NotNow);
+            // In-flight tuning (issue 41): only the IN_FLIGHT parameters, into the flown set in
+            // place (between two outer steps: the link task holds the stage), the whole set
+            // consistent; set-up and stateful parts' parameters wait for the disarm.
+            // (Armed, the stored set is the flown one: arming needs a consistent set.)
+            if !params::in_flight(name) {
+                return Err(ParamRejected::NotNow);
+            }
+            if p.validate().is_err() {
+                return Err(ParamRejected::Invalid);
+            }
+            let s = &mut *self.stage;
+            s.outer.retune(&p.outer_params()).map_err(|_| ParamRejected::Invalid)?;
+            s.stored = p;
+            s.flown = p;
+            return Ok(v);
         }
         self.stage.stored = p;
         // An inconsistent set is stored only (arming refused until it is consistent).
@@ -823,8 +837,12 @@ mod tests {
             last_motors = out.motors;
         }
         assert_eq!(acks, vec![MavResult::MAV_RESULT_ACCEPTED, MavResult::MAV_RESULT_ACCEPTED]);
-        // Parameters are refused while armed, and a hold command switches to hover.
-        assert_eq!(ap.set_param("CBF_MU", 0.9), Err(ParamRejected::NotNow));
+        // Armed: set-up parameters are refused, the in-flight tunables taken in place (issue
+        // 41); a hold command switches to hover.
+        assert_eq!(ap.set_param("VEH_MASS", 0.6), Err(ParamRejected::NotNow));
+        assert_eq!(ap.set_param("CBF_MU", 0.9), Ok(0.9));
+        assert_eq!(ap.flown_params().cbf.mu, 0.9);
+        assert_eq!(ap.set_param("CBF_DELTA1", 0.01), Err(ParamRejected::Invalid), "δ1 below δ");
         assert_eq!(ap.command(2_500_000, VehicleCommand::Hold { target_ned: None }), Ok(()));
         ap.step_outer(2_500_000);
         assert_eq!(ap.telemetry().phase, FlightPhase::Hover);

@@ -464,10 +464,17 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        // Armed: refused, answered with the value still in effect.
+        // Refused as not now (the test double refuses every parameter armed): the reason as a
+        // STATUSTEXT naming it, and the value still in effect.
         ap.armed = true;
         l.push_bytes(&send(&mut w, &set("CBF_MU", 0.5)), 0, &mut ap);
-        assert!(matches!(&replies(&mut l)[..], [Outbound::ParamValue(v)] if v.param_value == 0.9));
+        match &replies(&mut l)[..] {
+            [Outbound::StatusText(t), Outbound::ParamValue(v)] => {
+                assert_eq!(t.text.to_str().ok(), Some("Set-up, disarm to change: CBF_MU"));
+                assert_eq!(v.param_value, 0.9);
+            }
+            other => panic!("{other:?}"),
+        }
         // Unknown names are not answered.
         l.push_bytes(&send(&mut w, &set("NOPE", 1.0)), 0, &mut ap);
         assert!(replies(&mut l).is_empty());

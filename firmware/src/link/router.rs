@@ -599,8 +599,17 @@ impl Router {
                 if self.for_me(m.target_system, m.target_component) {
                     let name = m.param_id.to_str().unwrap_or("");
                     // Refused values are answered with the value still in effect (MAVLink
-                    // parameter protocol); unknown names are not answered.
-                    let _ = ap.set_param(name, m.param_value);
+                    // parameter protocol); unknown names are not answered. Armed, only the
+                    // in-flight tunables change (parapet_core::params::IN_FLIGHT); the others
+                    // are refused with a STATUSTEXT saying why.
+                    if ap.set_param(name, m.param_value) == Err(crate::link::params::ParamRejected::NotNow) {
+                        let t = crate::link::telemetry::status_text(
+                            crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+                            crate::link::params::PARAM_ARMED_TEXT,
+                            name,
+                        );
+                        self.reply(Outbound::StatusText(t));
+                    }
                     self.param_reply(crate::link::params::index_of(name), ap);
                 }
             }
