@@ -84,9 +84,10 @@ fn main() -> ExitCode {
         Some("bench") => bench::bench(&args[1..]),
         Some("fuzz") => fuzz::fuzz(&args[1..]),
         Some("params") => params::params(&args[1..]),
-        Some("venv") => {
-            venv::ensure().map(|py| eprintln!("xtask: ground-station clients in {}", py.display()))
-        }
+        Some("venv") => venv::ensure()
+            .map(|py| eprintln!("xtask: ground-station clients in {}", py.display()))
+            .and_then(|()| venv::ensure_mavsdk4())
+            .map(|py| eprintln!("xtask: MAVSDK-Python 4 in {}", py.display())),
         Some("m4") => ensure_target().and_then(|()| ensure_qemu()).and_then(|()| m4::check()),
         _ => {
             eprintln!(
@@ -364,6 +365,8 @@ fn test() -> Result<(), String> {
     let chromium = ensure_chromium()?;
     // The ground-station clients (pymavlink, pyulog, MAVProxy, mavsdk) of tests/tests/gcs_clients.rs.
     let python = venv::ensure()?;
+    // MAVSDK-Python 4 (the docs' snippet), a venv of its own.
+    let mavsdk4 = venv::ensure_mavsdk4()?;
     let cases = std::env::var("PARAPET_PROPTEST_CASES").unwrap_or_else(|_| "10000".into());
     let seed = std::env::var("PROPTEST_RNG_SEED").unwrap_or_else(|_| PROPTEST_SEED.to_string());
     run(
@@ -374,6 +377,7 @@ fn test() -> Result<(), String> {
             .env("PROPTEST_RNG_SEED", &seed)
             .env("PARAPET_FIRMWARE_QEMU_ELF", &qemu_elf)
             .env("PARAPET_PYTHON", &python)
+            .env("PARAPET_MAVSDK4_PYTHON", &mavsdk4)
             .env("PARAPET_CHROMIUM", &chromium),
     )?;
     slurm_test()?;

@@ -9,6 +9,11 @@
 //! printed. Re-used when the requirements are already installed (a stamp file holds the
 //! requirements the venv was made from).
 //!
+//! A second venv, `<target>/venv-mavsdk4`, holds MAVSDK-Python 4 (`tests/python/requirements-mavsdk4.txt`:
+//! the native binding, another API than the 3.x gRPC wrapper of the first venv, same package
+//! name, so the two cannot share one venv): the docs' MAVSDK 4 snippet is run by
+//! `gcs_clients::mavsdk4_snippet_of_the_docs_runs_as_written`.
+//!
 //! May import: std, [`super`] (run, root, target dir).
 
 use std::path::PathBuf;
@@ -19,11 +24,24 @@ use super::{is_root, root, run, target_dir};
 /// The requirements file (pinned versions).
 const REQUIREMENTS: &str = "tests/python/requirements.txt";
 
+/// MAVSDK-Python 4's requirements (pinned).
+const REQUIREMENTS_MAVSDK4: &str = "tests/python/requirements-mavsdk4.txt";
+
 /// The venv's python, created and filled when needed.
 pub fn ensure() -> Result<PathBuf, String> {
-    let venv = target_dir().join("venv");
+    make("venv", REQUIREMENTS)
+}
+
+/// The MAVSDK-Python 4 venv's python, created and filled when needed.
+pub fn ensure_mavsdk4() -> Result<PathBuf, String> {
+    make("venv-mavsdk4", REQUIREMENTS_MAVSDK4)
+}
+
+/// `<target>/NAME` with the pinned packages of `requirements` (see the module docs).
+fn make(name: &str, requirements: &str) -> Result<PathBuf, String> {
+    let venv = target_dir().join(name);
     let py = venv.join("bin/python");
-    let req_path = root().join(REQUIREMENTS);
+    let req_path = root().join(requirements);
     let req =
         std::fs::read_to_string(&req_path).map_err(|e| format!("cannot read {}: {e}", req_path.display()))?;
     let stamp = venv.join("parapet-requirements.txt");
