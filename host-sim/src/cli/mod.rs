@@ -395,6 +395,7 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
         a.straight = true;
     }
     let (scene, mut cfg) = run_setup(&a)?;
+    setup::print_coverage_gaps(&scene, &cfg, &a.perception)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
     let mut pilot_run = None;
@@ -429,6 +430,7 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
 pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     use crate::fc::pil::{add_figures_to_summary, build_firmware, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
+    setup::print_coverage_gaps(&scene, &cfg, &a.run.perception)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
     if timeout > limits::MAX_PIL_TIMEOUT_S {
         return Err(InputError::option("timeout", "longer than the largest firmware timeout")

@@ -197,12 +197,6 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     // Every setting against the core's limits and the caps, naming its origin.
     crate::flight::validate::check_run(&scene, &cfg, &given(a)?)?;
     cfg.cbf_params().map_err(|e| CliError::BadInput(e.to_string()))?;
-    // [preflight] what the range sensors cannot see of the hull's sweep (reported, not refused).
-    for gap in
-        crate::flight::runner::coverage_gaps(&scene, &cfg).map_err(|e| CliError::BadInput(e.to_string()))?
-    {
-        eprintln!("preflight: --perception {}: {gap}", a.perception);
-    }
     // [preflight] start and waypoints in bounds and clear, the path belongs to the scene.
     let opts = crate::flight::preflight::PreflightOptions {
         path_file: a.path.as_ref().map(|p| p.display().to_string()),
@@ -210,6 +204,18 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     };
     crate::flight::preflight::check(&scene, &cfg, &opts).map_err(|e| CliError::BadInput(e.to_string()))?;
     Ok((scene, cfg))
+}
+
+/// [preflight] What the range sensors of `cfg` cannot see of the hull's sweep, on stderr
+/// (reported, not refused; `summary.json` keeps it too). `parapet run` and `pil` call it; a
+/// campaign's flights, which go through [`run_setup`] too, do not print it.
+pub(super) fn print_coverage_gaps(scene: &Scene, cfg: &RunConfig, perception: &str) -> Result<(), CliError> {
+    let gaps =
+        crate::flight::runner::coverage_gaps(scene, cfg).map_err(|e| CliError::BadInput(e.to_string()))?;
+    for gap in gaps {
+        eprintln!("preflight: --perception {perception}: {gap}");
+    }
+    Ok(())
 }
 
 /// The scene and run configuration of a `parapet run` command line (`args`: the
