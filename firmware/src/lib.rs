@@ -20,7 +20,8 @@
 //! No import cycle between sibling modules (checked by the workspace's `tests/tests/layering.rs`).
 //! Tasks reach the flight-control cascade only through [`app::autopilot`]. The board layers
 //! (`src/board/*.rs`) build only for `target_os = "none"`; the executors and tasks live in the
-//! binaries (`src/main.rs` for the STM32F405 board, `src/bin/parapet-firmware-qemu.rs` for QEMU).
+//! binaries (`src/bin/parapet-firmware.rs` and `parapet-firmware-h743.rs`, one per STM32 board,
+//! with the tasks of `src/bin/fc/`; `src/bin/parapet-firmware-qemu.rs` for QEMU).
 //!
 //! Frames: world NED, body FRD, SI units; see `firmware/README.md` for the wire protocol.
 #![cfg_attr(not(test), no_std)]

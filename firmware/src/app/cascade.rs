@@ -10,7 +10,7 @@
 //!   mixer). Each step takes the queued commands, the latest aid and a new parameter set if
 //!   any, runs, and publishes its state estimate.
 //!
-//! On the board each stage is owned by its own task (`src/main.rs`). [`Cascade`] owns both
+//! On the board each stage is owned by its own task (`src/bin/fc/mod.rs`). [`Cascade`] owns both
 //! stages and their mailboxes and runs them in one context in the order of
 //! `parapet_core::controller::FlightController` (inner step, estimate to the outer loop, outer
 //! step): the PIL application and the host tests use it.

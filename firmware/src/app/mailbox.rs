@@ -26,7 +26,7 @@
 //! inner periods after the frame.)
 //!
 //! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
-//! tasks that own it (`src/main.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
+//! tasks that own it (`src/bin/fc/mod.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
 //! `parapet_core::rc`, `parapet_core::battery`, `parapet_core::supervisor::modes` (the kill check),
 //! [`crate::app::autopilot`].
 

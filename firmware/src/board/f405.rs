@@ -24,26 +24,28 @@
 //! `MOTOR_PINS` below) accordingly; the IMU axis map [`IMU_AXES`] is the board's `CW180`
 //! mounting (Betaflight `GYRO_1_ALIGN CW180_DEG`); check both on the bench before flight.
 
-use embassy_embedded_hal::shared_bus::asynch::spi::SpiDeviceWithConfig;
 use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel, SampleTime, VrefInt};
 use embassy_stm32::exti::{self, ExtiInput};
 use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
-use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
 use embassy_stm32::spi::{self, Spi};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
 use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::timer::Channel;
-use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartRx, UartTx};
+use embassy_stm32::usart::{self, Uart, UartRx};
 use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
-use embassy_sync::blocking_mutex::raw::NoopRawMutex;
-use embassy_sync::mutex::Mutex;
 
+#[cfg(feature = "onboard-log")]
+use super::stm32::LogCardDevice;
+use super::stm32::{
+    imu_spi_config, rc_uart_config, BatteryInput, BoardError, FlightBoard, ImuParts, MotorOutput,
+    Peripherals, COMPANION_BAUD, COMPANION_RX_RING, IMU_SPI_SLOW_HZ,
+};
 use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
-use crate::drivers::mpu6000::{AxisMap, Mpu6000};
+use crate::drivers::mpu6000::AxisMap;
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
 #[cfg(feature = "onboard-log")]
 use crate::log::card::{BlockDevice, BLOCK};
@@ -51,20 +53,8 @@ use crate::log::card::{BlockDevice, BLOCK};
 use crate::log::ulog::LogError;
 use parapet_core::battery::AdcReading;
 
-/// Companion UART baud rate.
-pub const COMPANION_BAUD: u32 = 921_600;
-/// Core clock, Hz (DWT cycle counter rate).
-pub const SYSCLK_HZ: u32 = 168_000_000;
 /// IMU mounting: Betaflight `CW180_DEG` on a chip whose default frame is x forward, y left, z up.
 pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, 1, -1] };
-/// SPI clock for MPU-6000 register writes (datasheet: ≤ 1 MHz).
-pub const IMU_SPI_SLOW_HZ: u32 = 1_000_000;
-/// SPI clock for sensor reads (datasheet: ≤ 20 MHz; APB2 84 MHz / 8).
-pub const IMU_SPI_FAST_HZ: u32 = 10_500_000;
-/// The parameter store's range in the internal flash (offsets from 0x0800_0000): sectors 10-11.
-pub const PARAM_RANGE: core::ops::Range<u32> = crate::storage::F405_RANGE;
-/// DMA ring buffer for the companion UART receiver, bytes.
-pub const COMPANION_RX_RING: usize = 1024;
 
 bind_interrupts!(
     /// Interrupt bindings of the board's drivers.
@@ -105,41 +95,6 @@ pub fn clock_config() -> Config {
     config
 }
 
-/// SPI1, the IMU's bus (one device on it).
-pub type ImuSpiBus = Spi<'static, Async, spi::mode::Master>;
-/// The bus behind an async mutex, as [`ImuSpi`] shares it. The inner-loop task owns it (no other
-/// task touches SPI1), so the mutex is a [`NoopRawMutex`]: it never masks interrupts.
-pub type ImuSpiBusMutex = Mutex<NoopRawMutex, ImuSpiBus>;
-/// The IMU's SPI device: `embassy-embedded-hal`'s device on [`ImuSpiBus`] with the GPIO chip
-/// select PC2 and its own bus configuration (set before every transaction).
-pub type ImuSpi<'a> = SpiDeviceWithConfig<'a, NoopRawMutex, ImuSpiBus, Output<'static>>;
-
-/// The IMU's SPI configuration at `hz`: mode 3 ([`IMU_SPI_SLOW_HZ`] for register writes,
-/// [`IMU_SPI_FAST_HZ`] for sample reads).
-pub fn imu_spi_config(hz: u32) -> spi::Config {
-    let mut cfg = spi::Config::default();
-    cfg.mode = spi::MODE_3;
-    cfg.frequency = Hertz(hz);
-    cfg
-}
-
-/// The IMU's bus and chip select, for the inner-loop task to build its [`ImuSpi`] and the
-/// `Mpu6000` driver on ([`ImuParts::device`]).
-pub struct ImuParts {
-    /// SPI1.
-    pub bus: ImuSpiBus,
-    /// Chip select (high = idle).
-    pub cs: Output<'static>,
-}
-
-impl ImuParts {
-    /// The MPU-6000 driver on `bus` (the [`ImuSpiBusMutex`] made from [`ImuParts::bus`]) at the
-    /// slow register-write clock.
-    pub fn device<'a>(bus: &'a ImuSpiBusMutex, cs: Output<'static>) -> Mpu6000<ImuSpi<'a>> {
-        Mpu6000::new(SpiDeviceWithConfig::new(bus, cs, imu_spi_config(IMU_SPI_SLOW_HZ)), IMU_AXES)
-    }
-}
-
 /// Four DShot600 outputs on TIM8 CH1..CH4, updated together by one DMA burst per frame.
 pub struct DshotMotors {
     pwm: SimplePwm<'static, peripherals::TIM8>,
@@ -148,9 +103,9 @@ pub struct DshotMotors {
     buf: [u16; dshot::BURST_LEN],
 }
 
-impl DshotMotors {
+impl MotorOutput for DshotMotors {
     /// Sends one frame per motor (≈ 30 µs). Disarmed → DShot 0 (motor stop).
-    pub async fn write(&mut self, cmd: &MotorCommand) {
+    async fn write(&mut self, cmd: &MotorCommand) {
         let cmd = cmd.sanitized();
         let frames = cmd.throttle.map(|t| dshot::frame(dshot::throttle_to_value(t, cmd.armed), false));
         dshot::fill_burst(frames, self.period, &mut self.buf);
@@ -158,18 +113,6 @@ impl DshotMotors {
             .waveform_up_multi_channel(self.dma.reborrow(), Irqs, Channel::Ch1, Channel::Ch4, &self.buf)
             .await;
     }
-}
-
-/// Panic / fault path: stops the motor outputs at register level, whatever the drivers were
-/// doing (TIM8 DMA requests off, compare values 0, main output disabled → lines low; DShot ESCs
-/// stop on signal loss).
-pub fn force_motors_off() {
-    let tim = embassy_stm32::pac::TIM8;
-    tim.dier().modify(|w| w.set_ude(false));
-    for ch in 0..4 {
-        tim.ccr(ch).write_value(embassy_stm32::pac::timer::regs::Ccr1ch(0));
-    }
-    tim.bdtr().modify(|w| w.set_moe(false));
 }
 
 /// The battery inputs (see the pin table): VBAT, current, and the internal reference for the
@@ -184,10 +127,10 @@ pub struct BatteryAdc {
 /// Address of the STM32F405's factory VREFINT calibration word (DS8626: measured at VDDA 3.3 V).
 const VREFINT_CAL_ADDR: usize = 0x1FFF_7A2A;
 
-impl BatteryAdc {
+impl BatteryInput for BatteryAdc {
     /// One blocking conversion of each input: 3 × (480 + 12) ADC cycles at 21 MHz ≈ 70 µs,
     /// busy-waiting in the calling (lowest-priority) task; the control tasks preempt it.
-    pub fn read(&mut self) -> AdcReading {
+    fn read(&mut self) -> AdcReading {
         let vbat = self.adc.blocking_read(&mut self.vbat, SampleTime::CYCLES480);
         let current = self.adc.blocking_read(&mut self.current, SampleTime::CYCLES480);
         let vref = self.adc.blocking_read(&mut self.vrefint, SampleTime::CYCLES480);
@@ -201,8 +144,6 @@ impl BatteryAdc {
 pub const SD_SPI_SLOW_HZ: u32 = 400_000;
 /// SPI clock after the card answered (SD spec: ≤ 25 MHz; APB1 42 MHz / 2).
 pub const SD_SPI_FAST_HZ: u32 = 21_000_000;
-/// The board name the log records (`parapet_board`).
-pub const BOARD_NAME: &str = "matekf405";
 
 /// The SD card's SPI configuration at `hz` (mode 0).
 #[cfg(feature = "onboard-log")]
@@ -226,9 +167,9 @@ type SdDevice = embedded_hal_bus::spi::ExclusiveDevice<
 pub struct LogCard(embedded_sdmmc::SdCard<SdDevice, embassy_time::Delay>);
 
 #[cfg(feature = "onboard-log")]
-impl LogCard {
+impl LogCardDevice for LogCard {
     /// The SPI clock after the card answered ([`SD_SPI_FAST_HZ`]).
-    pub fn go_fast(&mut self) {
+    fn go_fast(&mut self) {
         let _ = self.0.spi(|d| d.bus_mut().set_config(&sd_spi_config(SD_SPI_FAST_HZ)));
     }
 }
@@ -253,121 +194,115 @@ impl BlockDevice for LogCard {
     }
 }
 
-/// The board's drivers, ready for the tasks.
-pub struct Board {
-    /// SPI1 and the MPU-6000's chip select (the inner-loop task builds the driver on them).
-    pub imu: ImuParts,
-    /// Data-ready line of the IMU.
-    pub imu_ready: ExtiInput<'static, Async>,
-    /// Motor outputs.
-    pub motors: DshotMotors,
-    /// Companion link transmitter.
-    pub link_tx: UartTx<'static, Async>,
-    /// Companion link receiver (DMA ring buffer).
-    pub link_rx: RingBufferedUartRx<'static>,
-    /// RC receiver ([`RC_RECEIVER`]: CRSF on USART1 or SBUS on USART2; DMA ring buffer).
-    pub rc_rx: RingBufferedUartRx<'static>,
-    /// The internal flash (the parameter store's sectors, `storage::F405_RANGE`).
-    pub flash: Flash<'static, flash::Async>,
-    /// The battery inputs.
-    pub battery: BatteryAdc,
-    /// The log's microSD card (not yet initialised: the first access does it).
-    #[cfg(feature = "onboard-log")]
-    pub log_card: LogCard,
-}
-
 /// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
 /// choice, like the pin map: only the chosen decoder and UART are linked (flash), and both
 /// arms are type-checked in every build. Change it here and rebuild for an SBUS receiver.
+/// (Inversion: in hardware, the SBUS pad's inverter; the F405's USART has no RXINV.)
 pub const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
 
-/// The UART configuration of an RC protocol's line ([`RcProtocol::line`]; 8 data bits, with
-/// parity a 9-bit word).
-pub fn rc_uart_config(protocol: RcProtocol) -> usart::Config {
-    let line = protocol.line();
-    let mut cfg = usart::Config::default();
-    cfg.baudrate = line.baud;
-    cfg.data_bits = usart::DataBits::DataBits8;
-    cfg.parity = if line.even_parity { usart::Parity::ParityEven } else { usart::Parity::ParityNone };
-    cfg.stop_bits = if line.two_stop_bits { usart::StopBits::STOP2 } else { usart::StopBits::STOP1 };
-    // Inversion: in hardware (the SBUS pad's inverter); the F405's USART has no RXINV.
-    cfg
-}
+/// The MATEKF405 board (the pin table above): the [`FlightBoard`] of `parapet-firmware`.
+pub struct MatekF405;
 
-/// Errors of the board bring-up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum BoardError {
-    /// A UART configuration (companion or RC receiver) was refused.
-    Uart,
-}
-
-/// Clocks, pins and drivers. `rx_ring` is the DMA ring buffer of the companion receiver,
-/// `rc_ring` that of the RC receiver.
-pub fn init(
-    rx_ring: &'static mut [u8; COMPANION_RX_RING],
-    rc_ring: &'static mut [u8; RC_RX_RING],
-) -> Result<Board, BoardError> {
-    let p = embassy_stm32::init(clock_config());
-
-    let bus =
-        Spi::new(p.SPI1, p.PA5, p.PA7, p.PA6, p.DMA2_CH3, p.DMA2_CH0, Irqs, imu_spi_config(IMU_SPI_SLOW_HZ));
-    let cs = Output::new(p.PC2, Level::High, Speed::VeryHigh);
-    let imu = ImuParts { bus, cs };
-    let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
-
-    let pwm = SimplePwm::new(
-        p.TIM8,
-        Some(PwmPin::new(p.PC6, OutputType::PushPull)),
-        Some(PwmPin::new(p.PC7, OutputType::PushPull)),
-        Some(PwmPin::new(p.PC8, OutputType::PushPull)),
-        Some(PwmPin::new(p.PC9, OutputType::PushPull)),
-        Hertz(dshot::BITRATE_HZ),
-        CountingMode::EdgeAlignedUp,
-    );
-    let period = u16::try_from(pwm.max_duty_cycle()).unwrap_or(u16::MAX);
-    let motors = DshotMotors { pwm, dma: p.DMA2_CH1, period, buf: [0; dshot::BURST_LEN] };
-
-    let mut uart_cfg = usart::Config::default();
-    uart_cfg.baudrate = COMPANION_BAUD;
-    let uart = Uart::new(p.USART3, p.PC11, p.PC10, p.DMA1_CH3, p.DMA1_CH1, Irqs, uart_cfg)
-        .map_err(|_| BoardError::Uart)?;
-    let (link_tx, rx) = uart.split();
-    let link_rx = rx.into_ring_buffered(rx_ring);
-
-    let cfg = rc_uart_config(RC_RECEIVER);
-    let rc_uart = match RC_RECEIVER {
-        RcProtocol::Crsf => UartRx::new(p.USART1, p.PA10, p.DMA2_CH2, Irqs, cfg),
-        RcProtocol::Sbus => UartRx::new(p.USART2, p.PA3, p.DMA1_CH5, Irqs, cfg),
-    };
-    let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
-
-    let flash = Flash::new(p.FLASH, Irqs);
-    let adc = Adc::new(p.ADC1);
-    let vrefint = adc.enable_vrefint();
-    let battery = BatteryAdc { adc, vbat: p.PC5.degrade_adc(), current: p.PC4.degrade_adc(), vrefint };
-
+impl FlightBoard for MatekF405 {
+    const NAME: &'static str = "matekf405";
+    /// Core clock, Hz (DWT cycle counter rate).
+    const SYSCLK_HZ: u32 = 168_000_000;
+    /// SPI clock for sensor reads (datasheet: ≤ 20 MHz; APB2 84 MHz / 8).
+    const IMU_SPI_FAST_HZ: u32 = 10_500_000;
+    /// The parameter store's range in the internal flash (offsets from 0x0800_0000): sectors 10-11.
+    const PARAM_RANGE: core::ops::Range<u32> = crate::storage::F405_RANGE;
+    const RC_RECEIVER: RcProtocol = RC_RECEIVER;
+    type Motors = DshotMotors;
+    type Battery = BatteryAdc;
     #[cfg(feature = "onboard-log")]
-    let log_card = {
-        // The SD card: 80 clocks with CS high before its first command (SD spec, SPI mode).
-        let mut sd_bus = Spi::new_blocking(p.SPI3, p.PB3, p.PB5, p.PB4, sd_spi_config(SD_SPI_SLOW_HZ));
-        let _ = sd_bus.blocking_write(&[0xFFu8; 10]);
-        let sd_cs = Output::new(p.PC1, Level::High, Speed::VeryHigh);
-        match embedded_hal_bus::spi::ExclusiveDevice::new(sd_bus, sd_cs, embassy_time::Delay) {
-            Ok(d) => LogCard(embedded_sdmmc::SdCard::new(d, embassy_time::Delay)),
-            Err(e) => match e {},
-        }
-    };
+    type LogCard = LogCard;
 
-    Ok(Board {
-        imu,
-        imu_ready,
-        motors,
-        link_tx,
-        link_rx,
-        rc_rx,
-        flash,
-        battery,
+    fn init(
+        rx_ring: &'static mut [u8; COMPANION_RX_RING],
+        rc_ring: &'static mut [u8; RC_RX_RING],
+    ) -> Result<Peripherals<Self>, BoardError> {
+        let p = embassy_stm32::init(clock_config());
+
+        let bus = Spi::new(
+            p.SPI1,
+            p.PA5,
+            p.PA7,
+            p.PA6,
+            p.DMA2_CH3,
+            p.DMA2_CH0,
+            Irqs,
+            imu_spi_config(IMU_SPI_SLOW_HZ),
+        );
+        let cs = Output::new(p.PC2, Level::High, Speed::VeryHigh);
+        let imu = ImuParts { bus, cs, axes: IMU_AXES };
+        let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
+
+        let pwm = SimplePwm::new(
+            p.TIM8,
+            Some(PwmPin::new(p.PC6, OutputType::PushPull)),
+            Some(PwmPin::new(p.PC7, OutputType::PushPull)),
+            Some(PwmPin::new(p.PC8, OutputType::PushPull)),
+            Some(PwmPin::new(p.PC9, OutputType::PushPull)),
+            Hertz(dshot::BITRATE_HZ),
+            CountingMode::EdgeAlignedUp,
+        );
+        let period = u16::try_from(pwm.max_duty_cycle()).unwrap_or(u16::MAX);
+        let motors = DshotMotors { pwm, dma: p.DMA2_CH1, period, buf: [0; dshot::BURST_LEN] };
+
+        let mut uart_cfg = usart::Config::default();
+        uart_cfg.baudrate = COMPANION_BAUD;
+        let uart = Uart::new(p.USART3, p.PC11, p.PC10, p.DMA1_CH3, p.DMA1_CH1, Irqs, uart_cfg)
+            .map_err(|_| BoardError::Uart)?;
+        let (link_tx, rx) = uart.split();
+        let link_rx = rx.into_ring_buffered(rx_ring);
+
+        let cfg = rc_uart_config(RC_RECEIVER);
+        let rc_uart = match RC_RECEIVER {
+            RcProtocol::Crsf => UartRx::new(p.USART1, p.PA10, p.DMA2_CH2, Irqs, cfg),
+            RcProtocol::Sbus => UartRx::new(p.USART2, p.PA3, p.DMA1_CH5, Irqs, cfg),
+        };
+        let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
+
+        let flash = Flash::new(p.FLASH, Irqs);
+        let adc = Adc::new(p.ADC1);
+        let vrefint = adc.enable_vrefint();
+        let battery = BatteryAdc { adc, vbat: p.PC5.degrade_adc(), current: p.PC4.degrade_adc(), vrefint };
+
         #[cfg(feature = "onboard-log")]
-        log_card,
-    })
+        let log_card = {
+            // The SD card: 80 clocks with CS high before its first command (SD spec, SPI mode).
+            let mut sd_bus = Spi::new_blocking(p.SPI3, p.PB3, p.PB5, p.PB4, sd_spi_config(SD_SPI_SLOW_HZ));
+            let _ = sd_bus.blocking_write(&[0xFFu8; 10]);
+            let sd_cs = Output::new(p.PC1, Level::High, Speed::VeryHigh);
+            match embedded_hal_bus::spi::ExclusiveDevice::new(sd_bus, sd_cs, embassy_time::Delay) {
+                Ok(d) => LogCard(embedded_sdmmc::SdCard::new(d, embassy_time::Delay)),
+                Err(e) => match e {},
+            }
+        };
+
+        Ok(Peripherals {
+            imu,
+            imu_ready,
+            motors,
+            link_tx,
+            link_rx,
+            rc_rx,
+            flash,
+            battery,
+            #[cfg(feature = "onboard-log")]
+            log_card,
+        })
+    }
+
+    /// Panic / fault path: stops the motor outputs at register level, whatever the drivers were
+    /// doing (TIM8 DMA requests off, compare values 0, main output disabled → lines low; DShot ESCs
+    /// stop on signal loss).
+    fn force_motors_off() {
+        let tim = embassy_stm32::pac::TIM8;
+        tim.dier().modify(|w| w.set_ude(false));
+        for ch in 0..4 {
+            tim.ccr(ch).write_value(embassy_stm32::pac::timer::regs::Ccr1ch(0));
+        }
+        tim.bdtr().modify(|w| w.set_moe(false));
+    }
 }

@@ -1,7 +1,7 @@
 //! Board layer: MATEKH743 (STM32H743VIT6, 8 MHz HSE, MPU-6000 on SPI1) — the second board,
-//! with the same public items as [`crate::board::f405`] so the same binary (`src/main.rs`,
-//! built as `parapet-firmware-h743` with `--no-default-features --features board-h743`) runs
-//! the same tasks on it. Pins from Matek's H743 wiring as Betaflight's/INAV's `MATEKH743`
+//! a [`FlightBoard`] like [`crate::board::f405`], so its binary (`src/bin/parapet-firmware-h743.rs`,
+//! built with `--no-default-features --features board-h743`) runs the same tasks (`src/bin/fc/`)
+//! on it. Pins from Matek's H743 wiring as Betaflight's/INAV's `MATEKH743`
 //! targets describe it; **not flown yet: check the IMU axes, the motor order and the UART
 //! on the bench** (`docs/bring-up.md`).
 //!
@@ -16,7 +16,7 @@
 //! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART6 | RX PC7 (pad R6); inverted by the H7's USART (RXINV), no inverter on the board | RX DMA1 stream 7 (ring buffer) |
 //! | battery voltage (VBAT divider, `BAT_V_DIV` 11: Betaflight `vbat_scale` 110) | ADC1 INP10, 12-bit | PC0 | – (blocking reads, [`BatteryAdc`]) |
 //! | battery current (pad CURR, `BAT_A_PER_V`; Betaflight `ibata_scale` 250 = 40 A/V) | ADC1 INP11 | PC1 | – |
-//! | parameter store | FLASH bank 2, sectors 6-7 (0x081C_0000..0x0820_0000, [`PARAM_RANGE`]; kept out of `FLASH` by `memory-h743.x`) | – | – (FLASH interrupt) |
+//! | parameter store | FLASH bank 2, sectors 6-7 (0x081C_0000..0x0820_0000, `FlightBoard::PARAM_RANGE`; kept out of `FLASH` by `memory-h743.x`) | – | – (FLASH interrupt) |
 //! | embassy time driver | TIM2 | – | – |
 //! | software interrupts for the executors | UART4 (high), UART5 (medium), I2C1_EV (RC + battery) | unused UARTs, unused I2C1 | – |
 //!
@@ -33,45 +33,38 @@
 //! erase there does not stall instruction fetches (RM0433, dual-bank flash). The four motors sit on two timers, so a motor update is two DMA bursts
 //! (≈ 30 µs each, run concurrently).
 
-use embassy_embedded_hal::shared_bus::asynch::spi::SpiDeviceWithConfig;
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, AnyAdcChannel, Resolution, SampleTime};
 use embassy_stm32::exti::{self, ExtiInput};
 use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
-use embassy_stm32::mode::Async;
 use embassy_stm32::peripherals;
-use embassy_stm32::spi::{self, Spi};
+use embassy_stm32::spi::Spi;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::timer::low_level::CountingMode;
 use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
 use embassy_stm32::timer::Channel;
-use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartRx, UartTx};
+use embassy_stm32::usart::{self, Uart, UartRx};
 use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
-use embassy_sync::blocking_mutex::raw::NoopRawMutex;
-use embassy_sync::mutex::Mutex;
 
+#[cfg(feature = "onboard-log")]
+use super::stm32::LogCardDevice;
+use super::stm32::{
+    imu_spi_config, rc_uart_config, BatteryInput, BoardError, FlightBoard, ImuParts, MotorOutput,
+    Peripherals, COMPANION_BAUD, COMPANION_RX_RING, IMU_SPI_SLOW_HZ,
+};
 use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
-use crate::drivers::mpu6000::{AxisMap, Mpu6000};
+use crate::drivers::mpu6000::AxisMap;
 use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+#[cfg(feature = "onboard-log")]
 use crate::log::card::{BlockDevice, BLOCK};
+#[cfg(feature = "onboard-log")]
 use crate::log::ulog::LogError;
 use parapet_core::battery::AdcReading;
 
-/// Companion UART baud rate.
-pub const COMPANION_BAUD: u32 = 921_600;
-/// Core clock, Hz (DWT cycle counter rate).
-pub const SYSCLK_HZ: u32 = 400_000_000;
 /// IMU mounting: Betaflight `CW0_DEG_FLIP` (chip upside down) on a chip whose default frame is
 /// x forward, y left, z up: FRD = (−x, −y, z).
 pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, -1, 1] };
-/// SPI clock for MPU-6000 register writes (datasheet: ≤ 1 MHz).
-pub const IMU_SPI_SLOW_HZ: u32 = 1_000_000;
-/// SPI clock asked for sensor reads (datasheet: ≤ 20 MHz); the driver takes the highest
-/// power-of-two division of the 100 MHz kernel clock at or below it: 6.25 MHz.
-pub const IMU_SPI_FAST_HZ: u32 = 10_000_000;
-/// DMA ring buffer for the companion UART receiver, bytes.
-pub const COMPANION_RX_RING: usize = 1024;
 
 /// Compare slots of a two-channel DShot burst.
 const PAIR_BURST_LEN: usize = dshot::SLOTS * 2;
@@ -94,10 +87,6 @@ bind_interrupts!(
     FLASH => flash::InterruptHandler;
 });
 
-/// The parameter store's range (offsets from 0x0800_0000): the last two 128 KiB sectors of
-/// bank 2.
-pub const PARAM_RANGE: core::ops::Range<u32> = 0x001C_0000..0x0020_0000;
-
 /// The battery inputs (see the pin table), 12-bit conversions; the analog supply is taken as the
 /// nominal 3.3 V (the H7's VREFINT calibration is a 16-bit value: not used here).
 pub struct BatteryAdc {
@@ -106,10 +95,10 @@ pub struct BatteryAdc {
     current: AnyAdcChannel<'static, peripherals::ADC1>,
 }
 
-impl BatteryAdc {
+impl BatteryInput for BatteryAdc {
     /// One blocking conversion of each input (2 × 810.5 ADC cycles), in the calling
     /// (lowest-priority) task.
-    pub fn read(&mut self) -> AdcReading {
+    fn read(&mut self) -> AdcReading {
         let vbat = self.adc.blocking_read(&mut self.vbat, SampleTime::CYCLES810_5);
         let current = self.adc.blocking_read(&mut self.current, SampleTime::CYCLES810_5);
         AdcReading { vbat, current: Some(current), vrefint: None }
@@ -143,36 +132,6 @@ pub fn clock_config() -> Config {
     config
 }
 
-/// SPI1, the IMU's bus (one device on it).
-pub type ImuSpiBus = Spi<'static, Async, spi::mode::Master>;
-/// The bus behind an async mutex (the inner-loop task is its only user: [`NoopRawMutex`]).
-pub type ImuSpiBusMutex = Mutex<NoopRawMutex, ImuSpiBus>;
-/// The IMU's SPI device: chip select PC15, its own bus configuration per transaction.
-pub type ImuSpi<'a> = SpiDeviceWithConfig<'a, NoopRawMutex, ImuSpiBus, Output<'static>>;
-
-/// The IMU's SPI configuration at `hz` (mode 3).
-pub fn imu_spi_config(hz: u32) -> spi::Config {
-    let mut cfg = spi::Config::default();
-    cfg.mode = spi::MODE_3;
-    cfg.frequency = Hertz(hz);
-    cfg
-}
-
-/// The IMU's bus and chip select.
-pub struct ImuParts {
-    /// SPI1.
-    pub bus: ImuSpiBus,
-    /// Chip select (high = idle).
-    pub cs: Output<'static>,
-}
-
-impl ImuParts {
-    /// The MPU-6000 driver on `bus` at the slow register-write clock.
-    pub fn device<'a>(bus: &'a ImuSpiBusMutex, cs: Output<'static>) -> Mpu6000<ImuSpi<'a>> {
-        Mpu6000::new(SpiDeviceWithConfig::new(bus, cs, imu_spi_config(IMU_SPI_SLOW_HZ)), IMU_AXES)
-    }
-}
-
 /// Four DShot600 outputs: M1, M2 on TIM3 CH3/CH4, M3, M4 on TIM5 CH1/CH2; each pair updated by
 /// one DMA burst, both bursts concurrently.
 pub struct DshotMotors {
@@ -198,9 +157,9 @@ fn pair_burst(frames: [u16; dshot::CHANNELS], first: usize, period: u16, out: &m
     }
 }
 
-impl DshotMotors {
+impl MotorOutput for DshotMotors {
     /// Sends one frame per motor (≈ 30 µs). Disarmed → DShot 0 (motor stop).
-    pub async fn write(&mut self, cmd: &MotorCommand) {
+    async fn write(&mut self, cmd: &MotorCommand) {
         let cmd = cmd.sanitized();
         let frames = cmd.throttle.map(|t| dshot::frame(dshot::throttle_to_value(t, cmd.armed), false));
         pair_burst(frames, 0, self.period12, &mut self.buf12);
@@ -223,34 +182,19 @@ impl DshotMotors {
     }
 }
 
-/// Panic / fault path: stops the motor outputs at register level (DMA requests off, compare
-/// values 0 → lines low; DShot ESCs stop on signal loss).
-pub fn force_motors_off() {
-    let t3 = embassy_stm32::pac::TIM3;
-    t3.dier().modify(|w| w.set_ude(false));
-    for ch in 2..4 {
-        t3.ccr(ch).write_value(embassy_stm32::pac::timer::regs::Ccr1ch(0));
-    }
-    let t5 = embassy_stm32::pac::TIM5;
-    t5.dier().modify(|w| w.set_ude(false));
-    for ch in 0..2 {
-        t5.ccr(ch).write_value(0);
-    }
-}
-
-/// The board name the log records (`parapet_board`).
-pub const BOARD_NAME: &str = "matekh743";
-
 /// The log card of this board: **not implemented** (the microSD is on SDMMC1; no SDMMC driver is
 /// wired yet). Every access fails, so the log store stays off: the link task says so once in a
 /// STATUSTEXT and nothing is logged (docs/bring-up.md §9).
+#[cfg(feature = "onboard-log")]
 pub struct LogCard;
 
-impl LogCard {
+#[cfg(feature = "onboard-log")]
+impl LogCardDevice for LogCard {
     /// No bus clock to change.
-    pub fn go_fast(&mut self) {}
+    fn go_fast(&mut self) {}
 }
 
+#[cfg(feature = "onboard-log")]
 impl BlockDevice for LogCard {
     fn read(&mut self, _lba: u32, _buf: &mut [u8; BLOCK]) -> Result<(), LogError> {
         Err(LogError::Device)
@@ -263,116 +207,128 @@ impl BlockDevice for LogCard {
     }
 }
 
-/// The board's drivers, ready for the tasks.
-pub struct Board {
-    /// SPI1 and the MPU-6000's chip select.
-    pub imu: ImuParts,
-    /// Data-ready line of the IMU.
-    pub imu_ready: ExtiInput<'static, Async>,
-    /// Motor outputs.
-    pub motors: DshotMotors,
-    /// Companion link transmitter.
-    pub link_tx: UartTx<'static, Async>,
-    /// Companion link receiver (DMA ring buffer).
-    pub link_rx: RingBufferedUartRx<'static>,
-    /// RC receiver ([`RC_RECEIVER`]: CRSF on USART2 or SBUS on USART6; DMA ring buffer).
-    pub rc_rx: RingBufferedUartRx<'static>,
-    /// The internal flash (the parameter store's sectors, [`PARAM_RANGE`]).
-    pub flash: Flash<'static, flash::Async>,
-    /// The battery inputs.
-    pub battery: BatteryAdc,
-    /// The log card ([`LogCard`]: none on this board yet).
-    pub log_card: LogCard,
-}
-
 /// The RC receiver's protocol on this board (as on the F405: one receiver).
 pub const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
 
-/// The UART configuration of an RC protocol's line (8 data bits; with parity a 9-bit word;
-/// an inverted line is inverted by the USART itself).
-pub fn rc_uart_config(protocol: RcProtocol) -> usart::Config {
-    let line = protocol.line();
-    let mut cfg = usart::Config::default();
-    cfg.baudrate = line.baud;
-    cfg.data_bits = usart::DataBits::DataBits8;
-    cfg.parity = if line.even_parity { usart::Parity::ParityEven } else { usart::Parity::ParityNone };
-    cfg.stop_bits = if line.two_stop_bits { usart::StopBits::STOP2 } else { usart::StopBits::STOP1 };
-    cfg.invert_rx = line.inverted;
-    cfg
-}
+/// The MATEKH743 board (the pin table above): the [`FlightBoard`] of `parapet-firmware-h743`.
+pub struct MatekH743;
 
-/// Errors of the board bring-up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum BoardError {
-    /// A UART configuration (companion or RC receiver) was refused.
-    Uart,
-}
+impl FlightBoard for MatekH743 {
+    const NAME: &'static str = "matekh743";
+    /// Core clock, Hz (DWT cycle counter rate).
+    const SYSCLK_HZ: u32 = 400_000_000;
+    /// SPI clock asked for sensor reads (datasheet: ≤ 20 MHz); the driver takes the highest
+    /// power-of-two division of the 100 MHz kernel clock at or below it: 6.25 MHz.
+    const IMU_SPI_FAST_HZ: u32 = 10_000_000;
+    /// The parameter store's range (offsets from 0x0800_0000): the last two 128 KiB sectors of
+    /// bank 2.
+    const PARAM_RANGE: core::ops::Range<u32> = 0x001C_0000..0x0020_0000;
+    const RC_RECEIVER: RcProtocol = RC_RECEIVER;
+    type Motors = DshotMotors;
+    type Battery = BatteryAdc;
+    #[cfg(feature = "onboard-log")]
+    type LogCard = LogCard;
 
-/// Clocks, pins and drivers. `rx_ring` is the DMA ring buffer of the companion receiver,
-/// `rc_ring` that of the RC receiver.
-pub fn init(
-    rx_ring: &'static mut [u8; COMPANION_RX_RING],
-    rc_ring: &'static mut [u8; RC_RX_RING],
-) -> Result<Board, BoardError> {
-    let p = embassy_stm32::init(clock_config());
+    fn init(
+        rx_ring: &'static mut [u8; COMPANION_RX_RING],
+        rc_ring: &'static mut [u8; RC_RX_RING],
+    ) -> Result<Peripherals<Self>, BoardError> {
+        let p = embassy_stm32::init(clock_config());
 
-    let bus =
-        Spi::new(p.SPI1, p.PA5, p.PD7, p.PA6, p.DMA1_CH0, p.DMA1_CH1, Irqs, imu_spi_config(IMU_SPI_SLOW_HZ));
-    let cs = Output::new(p.PC15, Level::High, Speed::VeryHigh);
-    let imu = ImuParts { bus, cs };
-    let imu_ready = ExtiInput::new(p.PB2, p.EXTI2, Pull::None, Irqs);
+        let bus = Spi::new(
+            p.SPI1,
+            p.PA5,
+            p.PD7,
+            p.PA6,
+            p.DMA1_CH0,
+            p.DMA1_CH1,
+            Irqs,
+            imu_spi_config(IMU_SPI_SLOW_HZ),
+        );
+        let cs = Output::new(p.PC15, Level::High, Speed::VeryHigh);
+        let imu = ImuParts { bus, cs, axes: IMU_AXES };
+        let imu_ready = ExtiInput::new(p.PB2, p.EXTI2, Pull::None, Irqs);
 
-    let pwm12 = SimplePwm::new(
-        p.TIM3,
-        None,
-        None,
-        Some(PwmPin::new(p.PB0, OutputType::PushPull)),
-        Some(PwmPin::new(p.PB1, OutputType::PushPull)),
-        Hertz(dshot::BITRATE_HZ),
-        CountingMode::EdgeAlignedUp,
-    );
-    let pwm34 = SimplePwm::new(
-        p.TIM5,
-        Some(PwmPin::new(p.PA0, OutputType::PushPull)),
-        Some(PwmPin::new(p.PA1, OutputType::PushPull)),
-        None,
-        None,
-        Hertz(dshot::BITRATE_HZ),
-        CountingMode::EdgeAlignedUp,
-    );
-    let period12 = u16::try_from(pwm12.max_duty_cycle()).unwrap_or(u16::MAX);
-    let period34 = u16::try_from(pwm34.max_duty_cycle()).unwrap_or(u16::MAX);
-    let motors = DshotMotors {
-        pwm12,
-        pwm34,
-        dma12: p.DMA1_CH2,
-        dma34: p.DMA1_CH3,
-        period12,
-        period34,
-        buf12: [0; PAIR_BURST_LEN],
-        buf34: [0; PAIR_BURST_LEN],
-    };
+        let pwm12 = SimplePwm::new(
+            p.TIM3,
+            None,
+            None,
+            Some(PwmPin::new(p.PB0, OutputType::PushPull)),
+            Some(PwmPin::new(p.PB1, OutputType::PushPull)),
+            Hertz(dshot::BITRATE_HZ),
+            CountingMode::EdgeAlignedUp,
+        );
+        let pwm34 = SimplePwm::new(
+            p.TIM5,
+            Some(PwmPin::new(p.PA0, OutputType::PushPull)),
+            Some(PwmPin::new(p.PA1, OutputType::PushPull)),
+            None,
+            None,
+            Hertz(dshot::BITRATE_HZ),
+            CountingMode::EdgeAlignedUp,
+        );
+        let period12 = u16::try_from(pwm12.max_duty_cycle()).unwrap_or(u16::MAX);
+        let period34 = u16::try_from(pwm34.max_duty_cycle()).unwrap_or(u16::MAX);
+        let motors = DshotMotors {
+            pwm12,
+            pwm34,
+            dma12: p.DMA1_CH2,
+            dma34: p.DMA1_CH3,
+            period12,
+            period34,
+            buf12: [0; PAIR_BURST_LEN],
+            buf34: [0; PAIR_BURST_LEN],
+        };
 
-    let mut uart_cfg = usart::Config::default();
-    uart_cfg.baudrate = COMPANION_BAUD;
-    let uart = Uart::new(p.USART1, p.PA10, p.PA9, p.DMA1_CH4, p.DMA1_CH5, Irqs, uart_cfg)
-        .map_err(|_| BoardError::Uart)?;
-    let (link_tx, rx) = uart.split();
-    let link_rx = rx.into_ring_buffered(rx_ring);
+        let mut uart_cfg = usart::Config::default();
+        uart_cfg.baudrate = COMPANION_BAUD;
+        let uart = Uart::new(p.USART1, p.PA10, p.PA9, p.DMA1_CH4, p.DMA1_CH5, Irqs, uart_cfg)
+            .map_err(|_| BoardError::Uart)?;
+        let (link_tx, rx) = uart.split();
+        let link_rx = rx.into_ring_buffered(rx_ring);
 
-    let cfg = rc_uart_config(RC_RECEIVER);
-    let rc_uart = match RC_RECEIVER {
-        RcProtocol::Crsf => UartRx::new(p.USART2, p.PD6, p.DMA1_CH6, Irqs, cfg),
-        RcProtocol::Sbus => UartRx::new(p.USART6, p.PC7, p.DMA1_CH7, Irqs, cfg),
-    };
-    let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
+        let mut cfg = rc_uart_config(RC_RECEIVER);
+        // No inverter on the board: an inverted line (SBUS) is inverted by the H7's USART.
+        cfg.invert_rx = RC_RECEIVER.line().inverted;
+        let rc_uart = match RC_RECEIVER {
+            RcProtocol::Crsf => UartRx::new(p.USART2, p.PD6, p.DMA1_CH6, Irqs, cfg),
+            RcProtocol::Sbus => UartRx::new(p.USART6, p.PC7, p.DMA1_CH7, Irqs, cfg),
+        };
+        let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
 
-    let flash = Flash::new(p.FLASH, Irqs);
-    let adc = Adc::new_with_config(
-        p.ADC1,
-        AdcConfig { resolution: Some(Resolution::BITS12), ..Default::default() },
-    );
-    let battery = BatteryAdc { adc, vbat: p.PC0.degrade_adc(), current: p.PC1.degrade_adc() };
+        let flash = Flash::new(p.FLASH, Irqs);
+        let adc = Adc::new_with_config(
+            p.ADC1,
+            AdcConfig { resolution: Some(Resolution::BITS12), ..Default::default() },
+        );
+        let battery = BatteryAdc { adc, vbat: p.PC0.degrade_adc(), current: p.PC1.degrade_adc() };
 
-    Ok(Board { imu, imu_ready, motors, link_tx, link_rx, rc_rx, flash, battery, log_card: LogCard })
+        Ok(Peripherals {
+            imu,
+            imu_ready,
+            motors,
+            link_tx,
+            link_rx,
+            rc_rx,
+            flash,
+            battery,
+            #[cfg(feature = "onboard-log")]
+            log_card: LogCard,
+        })
+    }
+
+    /// Panic / fault path: stops the motor outputs at register level (DMA requests off, compare
+    /// values 0 → lines low; DShot ESCs stop on signal loss).
+    fn force_motors_off() {
+        let t3 = embassy_stm32::pac::TIM3;
+        t3.dier().modify(|w| w.set_ude(false));
+        for ch in 2..4 {
+            t3.ccr(ch).write_value(embassy_stm32::pac::timer::regs::Ccr1ch(0));
+        }
+        let t5 = embassy_stm32::pac::TIM5;
+        t5.dier().modify(|w| w.set_ude(false));
+        for ch in 0..2 {
+            t5.ccr(ch).write_value(0);
+        }
+    }
 }

@@ -1,9 +1,10 @@
 //! Board layers (Cortex-M only): one file per board, holding its whole pin map, clocks and
 //! peripheral drivers (`f405`: the MATEKF405 flight controller; `h743`: the MATEKH743; `qemu`:
 //! QEMU's netduinoplus2, with the measuring critical-section implementation of the PIL build).
-//! Thin: no control or protocol logic. The two flight-controller boards expose the same items
-//! (`init`, `Board`, `DshotMotors`, `ImuParts`, …), and [`active`] is the one the build selected:
-//! the binary `src/main.rs` runs the same tasks on either.
+//! Thin: no control or protocol logic. The flight-controller boards implement
+//! [`stm32::FlightBoard`] (what the flight binary needs of a board, checked by the compiler) on
+//! a marker type ([`f405::MatekF405`], [`h743::MatekH743`]); each binary under `src/bin/` names
+//! its board once and runs the same tasks (`src/bin/fc/`) on it.
 //!
 //! May import: everything of the crate (drivers, app types, link framing, PIL traits) and the
 //! HALs. Nothing imports a board except the binaries.
@@ -13,11 +14,5 @@ pub mod f405;
 pub mod h743;
 #[cfg(feature = "board-qemu")]
 pub mod qemu;
-
-/// The flight-controller board of this build (`board-f405` or `board-h743`; they exclude each
-/// other).
-#[cfg(all(feature = "board-f405", not(feature = "board-h743")))]
-pub use f405 as active;
-/// The flight-controller board of this build.
-#[cfg(feature = "board-h743")]
-pub use h743 as active;
+#[cfg(any(feature = "board-f405", feature = "board-h743"))]
+pub mod stm32;

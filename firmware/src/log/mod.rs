@@ -24,7 +24,7 @@
 //!
 //! With the 32 KiB RAM store of the QEMU board a log holds ≈ 4.6 s at 25 Hz; it is cut there.
 //! On the F405 (cargo feature `onboard-log`, on by default) a log task alone in thread mode (with
-//! the parameter storage) owns the logger, the card store and the download (`src/main.rs`);
+//! the parameter storage) owns the logger, the card store and the download (`src/bin/fc/`);
 //! the H743 has no card driver yet (its log store is always off).
 //!
 //! May import: [`crate::app`] (the telemetry snapshot), [`crate::link`]'s dialect, framing,

@@ -2,7 +2,7 @@
 //! `[battery]`) arrives as a raw reading on the lockstep link — BATTERY_STATUS (147) from the
 //! host's system and component id, `voltages[0]` mV, `current_battery` cA (the wire contract
 //! `parapet_core::wire::battery`) — and is measured the way a board's battery task measures its
-//! ADC (`src/main.rs` `battery_task`): `parapet_core::battery::BatteryEstimator` with the `BAT_*`
+//! ADC (`src/bin/fc/mod.rs` `battery_task`): `parapet_core::battery::BatteryEstimator` with the `BAT_*`
 //! parameters as set (followed with `set_params` when they change, which keeps the filter and
 //! the level reached), armed from the cascade's telemetry, and every resulting state to the
 //! cascade's `set_battery` (low → Return, critical → Land). Bad readings (unknown or non-finite

@@ -1,5 +1,5 @@
 //! The setup services of [`super::SetupVehicle`] on a board whose cascade runs in two tasks
-//! (`src/main.rs`: the inner stage at the IMU rate, the outer stage with the link at the outer
+//! (`src/bin/fc/mod.rs`: the inner stage at the IMU rate, the outer stage with the link at the outer
 //! rate) and whose flash is written by a third, lowest-priority task. Each part runs where its
 //! data is, and they talk through [`SetupMailboxes`] (embassy-sync, `Copy` messages):
 //!

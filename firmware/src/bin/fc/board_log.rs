@@ -1,7 +1,7 @@
-//! The onboard log of the STM32 boards' binary (`src/main.rs`): the log task's state
+//! The onboard log of the STM32 boards' binaries (`src/bin/fc/`): the log task's state
 //! ([`BoardLog`]: the card store, the ULog logger, the MAVLink log download), the queue the
 //! outer task samples into and the LOG_* request/reply channels the link task uses (see
-//! `src/main.rs`'s module doc for the tasks and priorities). With the `onboard-log` feature;
+//! `src/bin/fc/mod.rs`'s module doc for the tasks and priorities). With the `onboard-log` feature;
 //! without it the same functions are no-ops (no log in the image).
 //!
 //! A module of the binary, not of the library: it owns statics of the board image. May
@@ -36,6 +36,7 @@ pub fn motors(_cmd: &MotorCommand) {}
 mod on {
     use core::sync::atomic::{AtomicU32, Ordering};
 
+    use crate::Board;
     use embassy_futures::select::{select3, Either3};
     use embassy_stm32::mode::Async;
     use embassy_stm32::usart::UartTx;
@@ -45,7 +46,7 @@ mod on {
     use parapet_core::controller::ControllerParams;
     use parapet_firmware::app::autopilot::MotorCommand;
     use parapet_firmware::app::cascade::OuterStage;
-    use parapet_firmware::board::active::{LogCard, BOARD_NAME};
+    use parapet_firmware::board::stm32::{FlightBoard, LogCardDevice};
     use parapet_firmware::link::dialect::{MavSeverity, STATUSTEXT_DATA};
     use parapet_firmware::link::frame_parser::RawFrame;
     use parapet_firmware::link::framing::{FrameWriter, VEHICLE_SYSTEM_ID};
@@ -54,6 +55,9 @@ mod on {
     use parapet_firmware::log::logger::{FlightLogger, LogSample, DEFAULT_PERIOD_US};
     use parapet_firmware::log::transfer::{LogReply, LogTransfer, REPLIES_PER_POLL};
     use static_cell::StaticCell;
+
+    /// The board's log card.
+    type LogCard = <Board as FlightBoard>::LogCard;
 
     /// Log samples in flight from the outer task to the log task (25 Hz: the log task,
     /// alone in thread mode, takes each within a pass unless the card or a flash write
@@ -83,7 +87,7 @@ mod on {
     static MOTOR_OUT: [AtomicU32; 4] = [const { AtomicU32::new(0) }; 4];
     static STORE: StaticCell<CardStore<LogCard>> = StaticCell::new();
     static PARAMS: StaticCell<ControllerParams> = StaticCell::new();
-    /// The log task's state (handed over by reference: module doc of `main.rs`).
+    /// The log task's state (handed over by reference: module doc of `src/bin/fc/mod.rs`).
     pub static LOG: StaticCell<BoardLog> = StaticCell::new();
 
     /// A LOG_* request copied out of the link task's framer.
@@ -191,7 +195,7 @@ mod on {
             Self {
                 store: STORE.init(CardStore::new(card)),
                 params,
-                logger: FlightLogger::new(DEFAULT_PERIOD_US, params, BOARD_NAME),
+                logger: FlightLogger::new(DEFAULT_PERIOD_US, params, Board::NAME),
                 transfer: LogTransfer::new(VEHICLE_SYSTEM_ID),
             }
         }
