@@ -237,7 +237,7 @@ fn param_request_list_streams_every_parameter_once_broadcast_and_addressed() {
             assert_eq!(usize::from(v.param_index), i);
             assert_eq!(usize::from(v.param_count), COUNT);
             assert_eq!(v.param_id.to_str().unwrap_or(""), p.name);
-            assert_eq!(v.param_value, p.default, "{}", p.name);
+            assert_eq!(v.param_value, p.default_value(), "{}", p.name);
             assert_eq!(v.param_type, MavParamType::MAV_PARAM_TYPE_REAL32);
         }
     }
@@ -274,7 +274,7 @@ fn messages_for_another_component_or_system_are_ignored() {
     assert!(g.send(&set).is_empty());
     assert_eq!(
         g.ap.get_param("CBF_MU"),
-        Some(TABLE.iter().find(|p| p.name == "CBF_MU").map_or(0.0, |p| p.default))
+        Some(TABLE.iter().find(|p| p.name == "CBF_MU").map_or(0.0, |p| p.default_value()))
     );
     g.run(500);
     // An ARM for component 154 or system 2: no action, no answer.

@@ -77,7 +77,7 @@ fn every_table_entry_answers_under_its_index_name_and_default() {
             (id(&v), usize::from(v.param_index), usize::from(v.param_count)),
             (p.name.into(), i, COUNT)
         );
-        assert_eq!(v.param_value, p.default, "{}", p.name);
+        assert_eq!(v.param_value, p.default_value(), "{}", p.name);
     }
 }
 
@@ -87,9 +87,14 @@ fn out_of_range_is_refused_with_the_value_in_effect_and_in_range_is_taken() {
     for p in &TABLE {
         for bad in [p.min - (1.0 + p.min.abs()), p.max * 2.0 + 1.0, f32::NAN] {
             let v = g.set(p.name, bad);
-            assert_eq!((id(&v), v.param_value), (p.name.into(), p.default), "{} = {bad} taken", p.name);
+            assert_eq!(
+                (id(&v), v.param_value),
+                (p.name.into(), p.default_value()),
+                "{} = {bad} taken",
+                p.name
+            );
         }
-        for good in [p.max, p.min, p.default] {
+        for good in [p.max, p.min, p.default_value()] {
             assert_eq!(g.set(p.name, good).param_value, good, "{} = {good}", p.name);
         }
     }

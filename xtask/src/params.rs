@@ -32,7 +32,7 @@ fn entry(p: &Param) -> Value {
     let mut e = json!({
         "name": p.name,
         "type": "Float",
-        "default": num(p.default),
+        "default": num(p.default_value()),
         "min": num(p.min),
         "max": num(p.max),
         "units": p.unit,
@@ -95,7 +95,7 @@ mod tests {
             let e = e[0];
             let f = |k: &str| e[k].as_f64().unwrap_or_else(|| panic!("{}: {k} missing", p.name));
             assert!(f("min") <= f("default") && f("default") <= f("max"), "{}: {e}", p.name);
-            assert_eq!(f("default") as f32, p.default, "{}", p.name);
+            assert_eq!(f("default") as f32, p.default_value(), "{}", p.name);
             assert_eq!(e["type"], "Float");
             assert_eq!(e["units"], p.unit);
             assert_eq!(e["group"], p.group);

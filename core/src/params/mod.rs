@@ -1,6 +1,7 @@
 //! The controller's parameter table: every tunable parameter **once**, with its
-//! MAVLink name, unit, default, range, one-line description and how it reads and
-//! writes [`ControllerParams`]. Everything that names parameters is driven by
+//! MAVLink name, unit, range, one-line description and how it reads and writes
+//! [`ControllerParams`] (one [`Param::new`] entry each; the default is the stage's own,
+//! [`Param::default_value`], written once in its parameters struct). Everything that names parameters is driven by
 //! [`TABLE`]: the firmware's MAVLink parameter protocol (PARAM_SET /
 //! PARAM_REQUEST_READ → PARAM_VALUE, `param_index` = table index, `param_count` =
 //! [`COUNT`]), the processor-in-the-loop host (which sends a scene's settings as
@@ -87,104 +88,57 @@ pub const fn host_text(s: &'static str) -> HostText {
     s
 }
 
+/// Reads and writes of a parameter: `(get, write)` ([`Param::get`], the private write).
+pub type Access = (fn(&ControllerParams) -> f32, fn(&mut ControllerParams, f32));
+
+/// The [`Access`] of an `f32` field of [`ControllerParams`]: `field!(cbf.mu)`.
+macro_rules! field {
+    ($($path:tt)+) => {
+        (|p: &ControllerParams| p.$($path)+, |p: &mut ControllerParams, v: f32| p.$($path)+ = v)
+    };
+}
+
+/// The [`Access`] of a `u8` field (a count or channel; written from a checked whole value).
+macro_rules! u8_field {
+    ($($path:tt)+) => {
+        (|p: &ControllerParams| f32::from(p.$($path)+), |p: &mut ControllerParams, v: f32| p.$($path)+ = v as u8)
+    };
+}
+
+/// The [`Access`] of a `bool` field (1 = on).
+macro_rules! flag {
+    ($($path:tt)+) => {
+        (
+            |p: &ControllerParams| f32::from(u8::from(p.$($path)+)),
+            |p: &mut ControllerParams, v: f32| p.$($path)+ = v != 0.0,
+        )
+    };
+}
+
 /// An `RC_MAP_*` entry: a whole channel number up to 18 (issue 21, `rc::map`).
-const fn rc_map(
-    name: &'static str,
-    min: f32,
-    default: f32,
-    description: &'static str,
-    get: fn(&ControllerParams) -> f32,
-    write: fn(&mut ControllerParams, f32),
-) -> Param {
-    Param {
-        name,
-        key: None,
-        unit: "",
-        default,
-        min,
-        max: 18.0,
-        integer: true,
-        decimals: 0,
-        group: "RC",
-        description: host_text(description),
-        label: None,
-        get,
-        write,
-    }
+const fn rc_map(name: &'static str, min: f32, access: Access, description: &'static str) -> Param {
+    Param::new(name, "RC", "", (min, 18.0), 0, access, description).whole()
 }
 
 /// An RC pulse-width entry (`RC_*_US`), µs.
-const fn rc_us(
-    name: &'static str,
-    (min, default, max): (f32, f32, f32),
-    description: &'static str,
-    get: fn(&ControllerParams) -> f32,
-    write: fn(&mut ControllerParams, f32),
-) -> Param {
-    Param {
-        name,
-        key: None,
-        unit: "us",
-        default,
-        min,
-        max,
-        integer: false,
-        decimals: 0,
-        group: "RC",
-        description: host_text(description),
-        label: None,
-        get,
-        write,
-    }
-}
-
-/// A continuous entry without a scene/option key (the battery and sensor groups, issue 22; the
-/// path yaw rate and error, issue 19).
-#[allow(clippy::too_many_arguments)]
-const fn num(
-    name: &'static str,
-    group: &'static str,
-    unit: &'static str,
-    (min, default, max): (f32, f32, f32),
-    decimals: u8,
-    description: &'static str,
-    get: fn(&ControllerParams) -> f32,
-    write: fn(&mut ControllerParams, f32),
-) -> Param {
-    Param {
-        name,
-        key: None,
-        unit,
-        default,
-        min,
-        max,
-        integer: false,
-        decimals,
-        group,
-        description: host_text(description),
-        label: None,
-        get,
-        write,
-    }
+const fn rc_us(name: &'static str, range: (f32, f32), access: Access, description: &'static str) -> Param {
+    Param::new(name, "RC", "us", range, 0, access, description)
 }
 
 /// An accelerometer calibration entry (`CAL_ACC0_*`), per sensor axis.
-const fn acc(
-    name: &'static str,
-    scale: bool,
-    description: &'static str,
-    get: fn(&ControllerParams) -> f32,
-    write: fn(&mut ControllerParams, f32),
-) -> Param {
+const fn acc(name: &'static str, scale: bool, access: Access, description: &'static str) -> Param {
     let (unit, range) = if scale {
-        ("", (crate::calibration::ACCEL_SCALE_RANGE.0, 1.0, crate::calibration::ACCEL_SCALE_RANGE.1))
+        ("", crate::calibration::ACCEL_SCALE_RANGE)
     } else {
-        ("m/s^2", (-crate::calibration::ACCEL_OFFSET_MAX, 0.0, crate::calibration::ACCEL_OFFSET_MAX))
+        ("m/s^2", (-crate::calibration::ACCEL_OFFSET_MAX, crate::calibration::ACCEL_OFFSET_MAX))
     };
-    num(name, "Sensors", unit, range, 4, description, get, write)
+    Param::new(name, "Sensors", unit, range, 4, access, description)
 }
 
-/// One parameter: the single place its name, unit, default, range and meaning are written.
+/// One parameter: the single place its name, unit, range and meaning are written; its default
+/// is the one of the stage's own parameters struct (`CbfParams::default()`, …, gathered by
+/// [`ControllerParams::default`]), read through [`Param::get`] ([`Param::default_value`]), so it
+/// is written once, beside the code that uses it.
 #[derive(Clone, Copy)]
 pub struct Param {
     /// MAVLink `param_id` (≤ 16 ASCII bytes), e.g. `CBF_MU`.
@@ -196,8 +150,6 @@ pub struct Param {
     pub key: Option<HostText>,
     /// Unit (SI), `""` for codes and flags.
     pub unit: &'static str,
-    /// Default value: [`ControllerParams::default`]'s (a test checks they agree).
-    pub default: f32,
     /// Smallest allowed value.
     pub min: f32,
     /// Largest allowed value.
@@ -223,7 +175,7 @@ impl core::fmt::Debug for Param {
         f.debug_struct("Param")
             .field("name", &self.name)
             .field("unit", &self.unit)
-            .field("default", &self.default)
+            .field("default", &self.default_value())
             .field("min", &self.min)
             .field("max", &self.max)
             .finish_non_exhaustive()
@@ -231,6 +183,55 @@ impl core::fmt::Debug for Param {
 }
 
 impl Param {
+    /// A continuous parameter without a scene/option key: `name`, ground-station `group`, SI
+    /// `unit`, allowed `(min, max)`, `decimals` shown, how it is read and written
+    /// (`field!(cbf.mu)` for an `f32` field) and a one-line `description`. Chain [`Param::key`], [`Param::whole`],
+    /// [`Param::code`].
+    pub const fn new(
+        name: &'static str,
+        group: &'static str,
+        unit: &'static str,
+        (min, max): (f32, f32),
+        decimals: u8,
+        (get, write): Access,
+        description: &'static str,
+    ) -> Param {
+        Param {
+            name,
+            key: None,
+            unit,
+            min,
+            max,
+            integer: false,
+            decimals,
+            group,
+            description: host_text(description),
+            label: None,
+            get,
+            write,
+        }
+    }
+
+    /// The scene file's `[controller]` key and command-line option of this parameter.
+    pub const fn key(self, key: &'static str) -> Param {
+        Param { key: Some(host_text(key)), ..self }
+    }
+
+    /// Only whole numbers (counts, flags).
+    pub const fn whole(self) -> Param {
+        Param { integer: true, ..self }
+    }
+
+    /// A code: whole numbers, each named by `label`.
+    pub const fn code(self, label: fn(i32) -> Option<&'static str>) -> Param {
+        Param { integer: true, label: Some(label), ..self }
+    }
+
+    /// The default value: [`ControllerParams::default`]'s.
+    pub fn default_value(&self) -> f32 {
+        (self.get)(&ControllerParams::default())
+    }
+
     /// `value` if this parameter accepts it: finite, in `[min, max]`, whole for codes.
     pub fn check(&self, value: f32) -> Result<f32, ParamRejected> {
         // `!(a ≤ x ≤ b)` also refuses NaN; ±∞ are outside every finite range.
@@ -452,8 +453,8 @@ mod tests {
         let p = ControllerParams::default();
         for d in &TABLE {
             assert!(d.min < d.max, "{}", d.name);
-            assert_eq!(d.check(d.default), Ok(d.default), "{} default out of range", d.name);
-            assert_eq!((d.get)(&p).to_bits(), d.default.to_bits(), "{}", d.name);
+            let default = (d.get)(&p);
+            assert_eq!(d.check(default), Ok(default), "{} default {default} out of range", d.name);
         }
         assert!(consistency(&p).is_ok());
     }
@@ -461,7 +462,7 @@ mod tests {
     /// Values to try for `d`: both ends, the default and a point inside.
     fn samples(d: &Param) -> [f32; 4] {
         let mid = if d.integer { ((d.min + d.max) / 2.0) as i32 as f32 } else { 0.5 * (d.min + d.max) };
-        [d.min, d.max, d.default, mid]
+        [d.min, d.max, d.default_value(), mid]
     }
 
     #[test]

@@ -88,7 +88,10 @@ pub const F405_RANGE: core::ops::Range<u32> = 0x000C_0000..0x0010_0000;
 /// 2: [`record`]'s whole-table records, 1: the sequential-storage map).
 pub const FORMAT: u32 = 2;
 
-/// FNV-1a over the table's names, defaults and ranges and [`FORMAT`].
+/// FNV-1a over the table's names and ranges and [`FORMAT`]. Not the defaults: a stored value
+/// is still a value of the same parameter when a new firmware changes its default (the
+/// defaults are the stages' own, `Param::default_value`; PX4 likewise keeps set parameters
+/// across a default change).
 const fn layout_version() -> u32 {
     const PRIME: u32 = 0x0100_0193;
     let mut h: u32 = 0x811c_9dc5 ^ FORMAT;
@@ -101,9 +104,9 @@ const fn layout_version() -> u32 {
             h = (h ^ name[k] as u32).wrapping_mul(PRIME);
             k += 1;
         }
-        let nums = [p.default.to_bits(), p.min.to_bits(), p.max.to_bits()];
+        let nums = [p.min.to_bits(), p.max.to_bits()];
         let mut n = 0;
-        while n < 3 {
+        while n < 2 {
             h = (h ^ nums[n]).wrapping_mul(PRIME);
             n += 1;
         }

@@ -85,7 +85,7 @@ const INNER_HZ: f64 = parapet_core::wire::rates::INNER_RATE_HZ as f64;
 /// shortest decimal (1.4, not 1.399999976158142). NaN for a key the table does not have
 /// (refused by the run check).
 pub fn table_default(key: &str) -> f64 {
-    parapet_core::params::by_key(key).map_or(f64::NAN, |p| f32_as_f64(p.default))
+    parapet_core::params::by_key(key).map_or(f64::NAN, |p| f32_as_f64(p.default_value()))
 }
 /// Default proximity-sensor range, m.
 pub const DEFAULT_SENSING_RANGE: f64 = 3.0;

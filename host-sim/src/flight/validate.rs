@@ -407,9 +407,9 @@ pub fn defaults_help() -> String {
     let list: Vec<String> = params::TABLE
         .iter()
         .filter_map(|p| p.key.filter(|k| *k != "speed").map(|k| (p, k)))
-        .map(|(p, k)| match p.label.and_then(|l| l(p.default as i32)) {
+        .map(|(p, k)| match p.label.and_then(|l| l(p.default_value() as i32)) {
             Some(name) => format!("{k} {name}"),
-            None => format!("{k} {} {}", f32_as_f64(p.default), p.unit),
+            None => format!("{k} {} {}", f32_as_f64(p.default_value()), p.unit),
         })
         .collect();
     format!(
