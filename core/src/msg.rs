@@ -44,6 +44,13 @@ pub struct ImuSample {
     pub accel: Vec3,
 }
 
+impl ImuSample {
+    /// `true` when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.gyro.iter().chain(self.accel.iter()).all(|x| x.is_finite())
+    }
+}
+
 /// What the estimator did with a sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -31,7 +31,6 @@ use embedded_storage_async::nor_flash::NorFlash;
 use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::calibration::ImuCorrection;
 use parapet_core::config::ControllerParams;
-use parapet_core::msg;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params::{self, ParamRejected, TABLE};
 use parapet_core::rc::map::RcParams;
@@ -212,7 +211,7 @@ impl<A: ControlSteps> Autopilot for SetupVehicle<A> {
 impl<A: ControlSteps> ControlSteps for SetupVehicle<A> {
     fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand {
         self.now_us = now_us;
-        let raw = msg::ImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd };
+        let raw = *imu;
         if self.setup.calibrating() {
             let mut p = self.params;
             if self.setup.imu(now_us, &raw, &mut p) {
@@ -233,7 +232,7 @@ impl<A: ControlSteps> ControlSteps for SetupVehicle<A> {
             }
         }
         let c = self.correction.apply(&raw);
-        let mut out = self.inner.step_inner(now_us, &ImuSample { gyro_frd: c.gyro, accel_frd: c.accel });
+        let mut out = self.inner.step_inner(now_us, &c);
         self.armed = out.armed;
         if out.armed {
             self.setup.stop_motors();

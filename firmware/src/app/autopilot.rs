@@ -18,35 +18,9 @@ pub use parapet_core::supervisor::modes::FlightMode;
 pub use parapet_core::params::ParamRejected;
 use parapet_core::Vec3;
 
-/// One IMU sample in the body FRD frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuSample {
-    /// Angular rate, body FRD, rad/s.
-    pub gyro_frd: Vec3,
-    /// Specific force (what an accelerometer measures: at rest ≈ (0, 0, −9.81)), body FRD, m/s².
-    pub accel_frd: Vec3,
-}
-
-impl ImuSample {
-    /// `true` when every component is finite.
-    pub fn is_finite(&self) -> bool {
-        self.gyro_frd.iter().chain(self.accel_frd.iter()).all(|x| x.is_finite())
-    }
-}
-
-/// External position/velocity estimate (motion capture, VIO, simulator).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PositionFix {
-    /// Measurement time on the firmware's clock, µs.
-    pub t_us: u64,
-    /// Position, world NED, m.
-    pub position_ned: Vec3,
-    /// Velocity, world NED, m/s.
-    pub velocity_ned: Vec3,
-    /// Heading (ZYX yaw, rad) if the source measures it (ODOMETRY `q`); corrects the
-    /// estimator's yaw drift.
-    pub yaw: Option<f32>,
-}
+/// The IMU sample and the external position fix: the core's messages (`parapet_core::msg`),
+/// passed through the firmware as they are (defined once).
+pub use parapet_core::msg::{ImuSample, PositionFix};
 
 /// Motor command for the four rotors and its sanitiser: the wire contract's
 /// (`parapet_core::wire::lockstep`), so the host twin applies exactly the same rule.

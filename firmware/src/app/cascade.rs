@@ -30,9 +30,7 @@ use parapet_core::battery::{BatteryParams, BatteryState};
 use parapet_core::controller::{CommandError, ControllerParams, FlightController, GuidanceMode, ParamError};
 use parapet_core::failsafe::{FailsafeState, TransitionReason};
 use parapet_core::inner::InnerLoop;
-use parapet_core::msg::{
-    AttitudeCommand, ImuSample as CoreImuSample, MotorStage, PositionFix as CoreFix, StateEstimate,
-};
+use parapet_core::msg::{AttitudeCommand, MotorStage, StateEstimate};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::outer::{OuterLoop, OuterTelemetry};
 use parapet_core::params;
@@ -252,12 +250,7 @@ impl<M: RawMutex> OuterPort<'_, M> {
 impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
     fn update_position(&mut self, fix: &PositionFix) {
         let s = &mut *self.stage;
-        s.outer.update_position(CoreFix {
-            t_us: fix.t_us,
-            position: fix.position_ned,
-            velocity: fix.velocity_ned,
-            yaw: fix.yaw,
-        });
+        s.outer.update_position(*fix);
         self.mb.aid.signal(s.outer.aid());
     }
 
@@ -421,7 +414,7 @@ impl InnerStage {
         if mb.kill.try_take().is_some() {
             self.inner.set_command(AttitudeCommand { stage: MotorStage::Off, ..AttitudeCommand::default() });
         }
-        let out = self.inner.step(now_us, &CoreImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd });
+        let out = self.inner.step(now_us, imu);
         mb.estimate.signal(self.inner.estimate());
         MotorCommand { throttle: out.throttle, armed: out.armed }
     }
@@ -539,14 +532,8 @@ mod tests {
             let t = 1_000_000 + k * 1000;
             if k % 4 == 0 {
                 let pos = Vec3::new(0.0, 0.0, -(k as f32) * 1e-4);
-                let fix =
-                    PositionFix { t_us: t, position_ned: pos, velocity_ned: Vec3::zeros(), yaw: Some(0.01) };
-                fc.update_position(CoreFix {
-                    t_us: t,
-                    position: pos,
-                    velocity: Vec3::zeros(),
-                    yaw: Some(0.01),
-                });
+                let fix = PositionFix { t_us: t, position: pos, velocity: Vec3::zeros(), yaw: Some(0.01) };
+                fc.update_position(fix);
                 st.update_position(&fix);
                 fc.update_obstacles(t, &obstacle);
                 st.update_obstacles(t, &obstacle);
@@ -570,9 +557,8 @@ mod tests {
                 assert_eq!(st.command(t, c).is_ok(), r_fc.is_ok(), "step {k}: {c:?}");
             }
             let w = 0.02 * ((k as f32) * 0.01).sin();
-            let imu =
-                ImuSample { gyro_frd: Vec3::new(w, -w, 0.5 * w), accel_frd: Vec3::new(0.1 * w, 0.0, -9.81) };
-            let a = fc.step_inner(t, &CoreImuSample { gyro: imu.gyro_frd, accel: imu.accel_frd });
+            let imu = ImuSample { gyro: Vec3::new(w, -w, 0.5 * w), accel: Vec3::new(0.1 * w, 0.0, -9.81) };
+            let a = fc.step_inner(t, &imu);
             let b = st.step_inner(t, &imu);
             assert_eq!(a.throttle.map(f32::to_bits), b.throttle.map(f32::to_bits), "step {k}");
             assert_eq!(a.armed, b.armed, "step {k}");
@@ -623,7 +609,7 @@ mod tests {
         use parapet_core::rc::map::RcFrame;
         use parapet_core::rc::{RawChannels, RcSource};
         let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("defaults") };
-        let imu = ImuSample { gyro_frd: Vec3::zeros(), accel_frd: Vec3::new(0.0, 0.0, -9.81) };
+        let imu = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -9.81) };
         let frame = |t_us, kill: bool| {
             let mut us = [1500u16; parapet_core::rc::MAX_CHANNELS];
             us[2] = 1500; // throttle mid
@@ -640,8 +626,8 @@ mod tests {
             if k % 4 == 0 {
                 let fix = PositionFix {
                     t_us: t,
-                    position_ned: Vec3::new(0.0, 0.0, -1.0),
-                    velocity_ned: Vec3::zeros(),
+                    position: Vec3::new(0.0, 0.0, -1.0),
+                    velocity: Vec3::zeros(),
                     yaw: Some(0.0),
                 };
                 ap.update_position(&fix);
@@ -697,16 +683,11 @@ mod tests {
     fn position_fix_yaw_sets_the_estimated_heading() {
         let heading = |yaw: Option<f32>| {
             let Ok(mut ap) = Cascade::new(ControllerParams::default()) else { panic!("default params") };
-            let imu = ImuSample { gyro_frd: Vec3::zeros(), accel_frd: Vec3::new(0.0, 0.0, -9.81) };
+            let imu = ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -9.81) };
             for k in 0..50u64 {
                 let t = 1_000_000 + k * 1000;
                 if k % 4 == 0 {
-                    let fix = PositionFix {
-                        t_us: t,
-                        position_ned: Vec3::zeros(),
-                        velocity_ned: Vec3::zeros(),
-                        yaw,
-                    };
+                    let fix = PositionFix { t_us: t, position: Vec3::zeros(), velocity: Vec3::zeros(), yaw };
                     ap.update_position(&fix);
                 }
                 let _ = ap.step_inner(t, &imu);

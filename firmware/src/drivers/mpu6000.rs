@@ -87,7 +87,7 @@ pub fn convert_burst(raw: &[u8; 14], map: &AxisMap) -> ImuSample {
     let w = |i: usize| f32::from(i16::from_be_bytes([raw[i], raw[i + 1]]));
     let acc = [w(0) * ACCEL_MS2_PER_LSB, w(2) * ACCEL_MS2_PER_LSB, w(4) * ACCEL_MS2_PER_LSB];
     let gyr = [w(8) * GYRO_RAD_PER_LSB, w(10) * GYRO_RAD_PER_LSB, w(12) * GYRO_RAD_PER_LSB];
-    ImuSample { gyro_frd: map.apply(gyr), accel_frd: map.apply(acc) }
+    ImuSample { gyro: map.apply(gyr), accel: map.apply(acc) }
 }
 
 /// MPU-6000 on an SPI device (chip select handled by the `SpiDevice`).
@@ -211,9 +211,9 @@ mod tests {
         let chip = FakeChip { writes: Vec::new(), who: WHO_AM_I_VALUE, burst };
         let mut imu = Mpu6000::new(chip, AxisMap::X_FORWARD_Z_UP);
         let s = embassy_futures::block_on(imu.read()).expect("fake bus");
-        assert!((s.accel_frd - Vec3::new(0.0, 0.0, -9.81)).norm() < 1e-4, "{s:?}");
+        assert!((s.accel - Vec3::new(0.0, 0.0, -9.81)).norm() < 1e-4, "{s:?}");
         let deg = core::f32::consts::PI / 180.0;
-        assert!((s.gyro_frd.x - 16.0 / 16.4 * deg).abs() < 1e-6);
-        assert!((s.gyro_frd.z - 10.0 * deg).abs() < 1e-6);
+        assert!((s.gyro.x - 16.0 / 16.4 * deg).abs() < 1e-6);
+        assert!((s.gyro.z - 10.0 * deg).abs() < 1e-6);
     }
 }

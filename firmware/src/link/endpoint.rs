@@ -381,7 +381,7 @@ mod tests {
         l.push_bytes(&send(&mut w, &odo), 0, &mut ap);
         assert_eq!(ap.fixes.len(), 1);
         assert_eq!(ap.fixes[0].t_us, 1234);
-        assert_eq!(ap.fixes[0].velocity_ned, Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(ap.fixes[0].velocity, Vec3::new(0.5, 0.0, 0.0));
         let mut bad = odo;
         bad.x = f32::NAN;
         l.push_bytes(&send(&mut w, &bad), 0, &mut ap);
@@ -435,7 +435,7 @@ mod tests {
             child_frame_id: MavFrame::MAV_FRAME_BODY_FRD,
             ..Default::default()
         };
-        let f = odometry_fix(&odo, 0).map(|f| f.velocity_ned);
+        let f = odometry_fix(&odo, 0).map(|f| f.velocity);
         assert!(f.is_some_and(|v| (v - Vec3::new(0.0, 1.0, 0.0)).norm() < 1e-5), "{f:?}");
         let mut enu = odo;
         enu.frame_id = MavFrame::MAV_FRAME_LOCAL_ENU;

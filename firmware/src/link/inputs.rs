@@ -24,8 +24,8 @@ impl HilSample {
         Self {
             time_usec: m.time_usec,
             imu: ImuSample {
-                gyro_frd: Vec3::new(m.xgyro, m.ygyro, m.zgyro),
-                accel_frd: Vec3::new(m.xacc, m.yacc, m.zacc),
+                gyro: Vec3::new(m.xgyro, m.ygyro, m.zgyro),
+                accel: Vec3::new(m.xacc, m.yacc, m.zacc),
             },
         }
     }
@@ -72,5 +72,5 @@ pub fn odometry_fix(m: &ODOMETRY_DATA, t_us: u64) -> Option<PositionFix> {
     // The heading the fix measures (as `parapet run` feeds the estimator); unknown (zero or
     // NaN quaternion) → none.
     let yaw = parapet_core::wire::codes::odometry_yaw(m.q);
-    Some(PositionFix { t_us, position_ned: p, velocity_ned: v, yaw })
+    Some(PositionFix { t_us, position: p, velocity: v, yaw })
 }

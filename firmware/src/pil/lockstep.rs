@@ -171,10 +171,7 @@ mod tests {
     fn sample(t: u64) -> HilSample {
         HilSample {
             time_usec: t,
-            imu: crate::app::autopilot::ImuSample {
-                gyro_frd: Vec3::zeros(),
-                accel_frd: Vec3::new(0.0, 0.0, -9.81),
-            },
+            imu: crate::app::autopilot::ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -9.81) },
         }
     }
 

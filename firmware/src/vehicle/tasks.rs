@@ -189,12 +189,11 @@ impl SetupInner {
         if let Some(c) = mb.correction.try_take() {
             self.correction = c;
         }
-        let raw = msg::ImuSample { gyro: raw.gyro_frd, accel: raw.accel_frd };
+        let raw = *raw;
         if mb.calibrating.load(Ordering::Relaxed) {
             mb.raw_imu.signal((now_us, raw));
         }
-        let c = self.correction.apply(&raw);
-        ImuSample { gyro_frd: c.gyro, accel_frd: c.accel }
+        self.correction.apply(&raw)
     }
 
     /// The command for the ESCs: the cascade's `out`, or while disarmed a motor test's output

@@ -53,7 +53,7 @@ fn vehicle() -> SetupVehicle<Rec> {
 }
 
 fn imu(accel: Vec3) -> ImuSample {
-    ImuSample { gyro_frd: Vec3::new(0.01, 0.0, 0.0), accel_frd: accel }
+    ImuSample { gyro: Vec3::new(0.01, 0.0, 0.0), accel }
 }
 
 #[test]
@@ -63,8 +63,8 @@ fn board_rotation_and_calibration_parameters_correct_every_sample() {
     v.set_param("CAL_ACC0_ZOFF", 0.5).unwrap();
     v.step_inner(0, &imu(Vec3::new(1.0, 2.0, -9.3)));
     let got = v.inner().imu[0];
-    assert!((got.accel_frd - Vec3::new(-1.0, -2.0, -9.8)).norm() < 1e-5, "{got:?}");
-    assert!((got.gyro_frd - Vec3::new(-0.01, 0.0, 0.0)).norm() < 1e-6);
+    assert!((got.accel - Vec3::new(-1.0, -2.0, -9.8)).norm() < 1e-5, "{got:?}");
+    assert!((got.gyro - Vec3::new(-0.01, 0.0, 0.0)).norm() < 1e-6);
     // The cascade got the parameters too, and a save is scheduled.
     assert_eq!(v.get_param("SENS_BOARD_ROT"), Some(4.0));
     assert!(v.setup().save_due(2_000_000, false));
@@ -108,7 +108,7 @@ fn six_position_calibration_through_the_control_steps() {
     // From now on the cascade sees calibrated samples.
     v.step_inner(t, &imu(Vec3::new(0.0, 0.0, -GRAVITY).component_div(&scale) + offset));
     let last = v.inner().imu.last().copied().unwrap();
-    assert!((last.accel_frd - Vec3::new(0.0, 0.0, -GRAVITY)).norm() < 0.03, "{last:?}");
+    assert!((last.accel - Vec3::new(0.0, 0.0, -GRAVITY)).norm() < 0.03, "{last:?}");
 }
 
 #[test]

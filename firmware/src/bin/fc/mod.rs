@@ -317,7 +317,7 @@ async fn inner_loop(
             Err(_) => {
                 IMU_ERRORS.fetch_add(1, Ordering::Relaxed);
                 // A non-finite sample makes the cascade take its bad-input failsafe.
-                ImuSample { gyro_frd: Vec3::repeat(f32::NAN), accel_frd: Vec3::repeat(f32::NAN) }
+                ImuSample { gyro: Vec3::repeat(f32::NAN), accel: Vec3::repeat(f32::NAN) }
             }
         };
         let now = now_us();

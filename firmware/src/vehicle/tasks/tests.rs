@@ -192,10 +192,8 @@ fn level_calibration_runs_on_the_inner_tasks_raw_samples_and_corrects_the_inner_
     let mut outer = SetupOuter::new(ControllerParams::default(), Loaded::Empty);
     let mut inner = SetupInner::new(&ControllerParams::default());
     let tilt: f32 = 0.05;
-    let raw = ImuSample {
-        gyro_frd: Vec3::zeros(),
-        accel_frd: Vec3::new(GRAVITY * tilt.sin(), 0.0, -GRAVITY * tilt.cos()),
-    };
+    let raw =
+        ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(GRAVITY * tilt.sin(), 0.0, -GRAVITY * tilt.cos()) };
     let level = [0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0];
     assert_eq!(
         outer.port(&mut fake, &mb).setup_command(0, CMD_PREFLIGHT_CALIBRATION, level),
@@ -217,7 +215,7 @@ fn level_calibration_runs_on_the_inner_tasks_raw_samples_and_corrects_the_inner_
     assert!(texts(&mut outer).iter().any(|t| t == "[cal] calibration done: level"));
     // The inner task took the new correction: the tilted board now reads level.
     let c = inner.imu(t, &raw, &mb);
-    assert!(c.accel_frd.x.abs() < 0.05 && (c.accel_frd.z + GRAVITY).abs() < 0.05, "{:?}", c.accel_frd);
+    assert!(c.accel.x.abs() < 0.05 && (c.accel.z + GRAVITY).abs() < 0.05, "{:?}", c.accel);
 }
 
 #[test]
