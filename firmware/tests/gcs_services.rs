@@ -1241,3 +1241,86 @@ fn param_set_in_flight_takes_the_tunables_and_refuses_set_up_with_a_reason() {
     assert_eq!(text(&out).as_deref(), Some("Set-up, disarm to change: VEH_MASS"));
     assert_eq!(g.ap.get_param("VEH_MASS"), Some(ControllerParams::default().airframe.mass));
 }
+
+/// The standard modes protocol (issue 41; QGroundControl 4.4+ and MAVSDK list modes from it):
+/// AVAILABLE_MODES on request (all after the ACK, one by index, a bad index DENIED),
+/// CURRENT_MODE and AVAILABLE_MODES_MONITOR with each HEARTBEAT and CURRENT_MODE at a mode
+/// change, MAV_CMD_DO_SET_STANDARD_MODE switching the mode.
+#[test]
+fn standard_modes_are_listed_reported_and_set() {
+    use parapet_firmware::app::autopilot::FlightMode;
+    use parapet_firmware::link::dialect::MavStandardMode;
+    let mut g = Sim::new();
+    let out = g.run(2500);
+    let beats = count(&out, |m| matches!(m, Outbound::Heartbeat(_)));
+    assert!(beats >= 2, "{beats}");
+    assert_eq!(count(&out, |m| matches!(m, Outbound::CurrentMode(_))), beats);
+    assert_eq!(count(&out, |m| matches!(m, Outbound::AvailableModesMonitor)), beats);
+    let request = |index: f32| COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_REQUEST_MESSAGE as u16,
+        param1: 435.0,
+        param2: index,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    };
+    let listed = |out: &[Outbound]| -> Vec<u8> {
+        out.iter()
+            .filter_map(|m| match m {
+                Outbound::AvailableMode(i) => Some(*i),
+                _ => None,
+            })
+            .collect()
+    };
+    let ack = |out: &[Outbound]| {
+        out.iter().position(
+            |m| matches!(m, Outbound::CommandAck(a) if a.command == MavCmd::MAV_CMD_REQUEST_MESSAGE as u16),
+        )
+    };
+    let mut out = g.send(&request(0.0));
+    out.extend(g.run(20));
+    assert_eq!(listed(&out), (1..=FlightMode::COUNT as u8).collect::<Vec<_>>());
+    let first = out.iter().position(|m| matches!(m, Outbound::AvailableMode(_)));
+    assert!(ack(&out) < first, "the ACK first: {out:?}");
+    let mut out = g.send(&request(4.0));
+    out.extend(g.run(5));
+    assert_eq!(listed(&out), vec![4]);
+    let mut out = g.send(&request(99.0));
+    out.extend(g.run(5));
+    assert!(listed(&out).is_empty());
+    assert!(out
+        .iter()
+        .any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_DENIED)));
+
+    // DO_SET_STANDARD_MODE: LAND (7) lands; a standard mode not flown (ORBIT 2) and
+    // NON_STANDARD are DENIED.
+    g.airborne();
+    let set = |n: f32| [n, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    assert_eq!(g.command(MavCmd::MAV_CMD_DO_SET_STANDARD_MODE, set(2.0)), MavResult::MAV_RESULT_DENIED);
+    assert_eq!(g.command(MavCmd::MAV_CMD_DO_SET_STANDARD_MODE, set(0.0)), MavResult::MAV_RESULT_DENIED);
+    let before = g.ap.telemetry().mode;
+    g.run(2);
+    assert_eq!(g.ap.telemetry().mode, before, "unchanged");
+    let mut out = g.send(&COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_DO_SET_STANDARD_MODE as u16,
+        param1: 7.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    });
+    out.extend(g.run(5));
+    assert!(out
+        .iter()
+        .any(|m| matches!(m, Outbound::CommandAck(a) if a.result == MavResult::MAV_RESULT_ACCEPTED)));
+    let current = out.iter().find_map(|m| match m {
+        Outbound::CurrentMode(c) => Some(c.clone()),
+        _ => None,
+    });
+    let Some(c) = current else { panic!("no CURRENT_MODE at the mode change: {out:?}") };
+    assert_eq!(c.standard_mode, MavStandardMode::MAV_STANDARD_MODE_LAND);
+    assert_eq!(
+        (c.custom_mode, c.intended_custom_mode),
+        (FlightMode::Land.px4_custom_mode(), FlightMode::Land.px4_custom_mode())
+    );
+    assert_eq!(g.ap.telemetry().mode, FlightMode::Land);
+}

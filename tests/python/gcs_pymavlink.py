@@ -113,12 +113,33 @@ if mode != "readonly":
     if home is None or origin is None or home.z > -0.5:
         fail(f"HOME_POSITION {home}, GPS_GLOBAL_ORIGIN {origin}")
     print(f"home x {home.x:.2f} y {home.y:.2f} z {home.z:.2f}, origin {origin.latitude} {origin.longitude}", flush=True)
+    # The standard modes protocol (QGroundControl 4.4+, MAVSDK): every mode listed once, by name,
+    # with PX4's custom_mode and its standard mode; CURRENT_MODE streamed.
+    m.mav.command_long_send(sysid, compid, mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 0, 435, 0, 0, 0, 0, 0, 0)
+    modes = {}
+    for _ in range(7):
+        am = wait("AVAILABLE_MODES", 5)
+        if am is None:
+            fail(f"AVAILABLE_MODES: {len(modes)} of 7 modes")
+        name = am.mode_name.rstrip("\x00") if isinstance(am.mode_name, str) else am.mode_name
+        modes[am.mode_index] = (name, am.standard_mode, mavutil.interpret_px4_mode(0, am.custom_mode))
+    want = {"Manual": (0, "MANUAL"), "Position": (1, "POSCTL"), "Mission": (6, "MISSION"),
+            "Hold": (0, "LOITER"), "Return": (5, "RTL"), "Land": (7, "LAND"), "Offboard": (0, "OFFBOARD")}
+    got = {n: (std, px4) for (n, std, px4) in modes.values()}
+    if sorted(modes) != list(range(1, 8)) or got != want:
+        fail(f"AVAILABLE_MODES {modes}")
+    print("AVAILABLE_MODES", ", ".join(f"{n} ({std})" for (n, std, _) in modes.values()), flush=True)
+    if wait("CURRENT_MODE", 10) is None:
+        fail("no CURRENT_MODE")
     # Mode changes by name (pymavlink's PX4 mode map): LOITER holds, MISSION goes on.
     for name in ["LOITER", "MISSION"]:
         m.set_mode(name)
         if wait("HEARTBEAT", 5, lambda h, n=name: mavutil.interpret_px4_mode(h.base_mode, h.custom_mode) == n) is None:
             fail(f"set_mode({name}) not shown by the HEARTBEAT (mode {m.flightmode})")
         print("mode", name, flush=True)
+    cur = wait("CURRENT_MODE", 10)
+    if cur is None or cur.standard_mode != 6 or mavutil.interpret_px4_mode(0, cur.intended_custom_mode) != "MISSION":
+        fail(f"CURRENT_MODE after MISSION: {cur}")
 
 # Mission download.
 m.mav.mission_request_list_send(sysid, compid, mavutil.mavlink.MAV_MISSION_TYPE_MISSION)

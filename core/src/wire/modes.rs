@@ -66,6 +66,80 @@ pub const fn px4_nav_state(guidance: GuidanceMode, selected: FlightMode) -> u8 {
     }
 }
 
+/// MAVLink's standard flight modes (`MAV_STANDARD_MODE`, common.xml; the standard modes
+/// protocol: AVAILABLE_MODES, CURRENT_MODE, MAV_CMD_DO_SET_STANDARD_MODE).
+pub mod standard_mode {
+    /// A mode without a standard meaning (named in AVAILABLE_MODES).
+    pub const NON_STANDARD: u8 = 0;
+    /// Position hold with the sticks (PX4 POSCTL).
+    pub const POSITION_HOLD: u8 = 1;
+    /// Safe recovery: return to launch (PX4 AUTO.RTL).
+    pub const SAFE_RECOVERY: u8 = 5;
+    /// The uploaded mission (PX4 AUTO.MISSION).
+    pub const MISSION: u8 = 6;
+    /// Land here (PX4 AUTO.LAND).
+    pub const LAND: u8 = 7;
+}
+
+/// `MAV_MODE_PROPERTY` bits of AVAILABLE_MODES `properties`.
+pub mod mode_property {
+    /// An advanced mode (a ground station may hide it from a simple mode list).
+    pub const ADVANCED: u32 = 1;
+    /// Not selectable by the user (entered by the vehicle or a companion only).
+    pub const NOT_USER_SELECTABLE: u32 = 2;
+}
+
+/// The modes AVAILABLE_MODES lists, in `mode_index` order (index `i + 1`): every [`FlightMode`].
+pub const AVAILABLE_MODES: [FlightMode; FlightMode::COUNT] = FlightMode::ALL;
+
+impl FlightMode {
+    /// Its `MAV_STANDARD_MODE` (PX4's mapping: POSCTL → POSITION_HOLD, AUTO.RTL → SAFE_RECOVERY,
+    /// AUTO.MISSION → MISSION, AUTO.LAND → LAND; Manual, Hold and Offboard are PX4-specific).
+    pub const fn standard_mode(self) -> u8 {
+        match self {
+            FlightMode::Position => standard_mode::POSITION_HOLD,
+            FlightMode::Return => standard_mode::SAFE_RECOVERY,
+            FlightMode::Mission => standard_mode::MISSION,
+            FlightMode::Land => standard_mode::LAND,
+            FlightMode::Manual | FlightMode::Hold | FlightMode::Offboard => standard_mode::NON_STANDARD,
+        }
+    }
+
+    /// The mode of a standard mode (MAV_CMD_DO_SET_STANDARD_MODE param1), `None` for
+    /// NON_STANDARD and the standard modes this vehicle does not fly (orbit, cruise, altitude
+    /// hold, takeoff).
+    pub fn from_standard_mode(mode: u8) -> Option<FlightMode> {
+        if mode == standard_mode::NON_STANDARD {
+            return None;
+        }
+        Self::ALL.into_iter().find(|m| m.standard_mode() == mode)
+    }
+
+    /// Its AVAILABLE_MODES `properties`: Offboard is entered by a companion computer streaming
+    /// set-points (NOT_USER_SELECTABLE, as PX4 lists it for a ground station's mode menu);
+    /// Manual is ADVANCED (no position control, no safety filter).
+    pub const fn mode_properties(self) -> u32 {
+        match self {
+            FlightMode::Offboard => mode_property::NOT_USER_SELECTABLE,
+            FlightMode::Manual => mode_property::ADVANCED,
+            _ => 0,
+        }
+    }
+
+    /// The name a ground station shows (AVAILABLE_MODES `mode_name`), as PX4 names its modes.
+    pub const fn display_name(self) -> &'static str {
+        match self {
+            FlightMode::Manual => "Manual",
+            FlightMode::Position => "Position",
+            FlightMode::Mission => "Mission",
+            FlightMode::Hold => "Hold",
+            FlightMode::Return => "Return",
+            FlightMode::Land => "Land",
+            FlightMode::Offboard => "Offboard",
+        }
+    }
+}
+
 /// The guidance mode a lockstep host infers from what the firmware reports: the phase
 /// (NAMED_VALUE_INT `PHASE`, [`super::codes::FlightPhase`]) and the selected mode (HEARTBEAT
 /// `custom_mode`). The phase merges some guidance modes (Return flies as `Mission`, the piloted
@@ -107,6 +181,32 @@ mod tests {
         for (m, n) in want {
             assert_eq!(m.px4_nav_state(), n, "{}", m.as_str());
         }
+    }
+
+    #[test]
+    fn standard_modes_round_trip_and_the_rest_are_named() {
+        let want = [
+            (FlightMode::Manual, 0),
+            (FlightMode::Position, 1),
+            (FlightMode::Mission, 6),
+            (FlightMode::Hold, 0),
+            (FlightMode::Return, 5),
+            (FlightMode::Offboard, 0),
+            (FlightMode::Land, 7),
+        ];
+        assert_eq!(want.len(), FlightMode::COUNT);
+        for (m, n) in want {
+            assert_eq!(m.standard_mode(), n, "{}", m.as_str());
+            if n != 0 {
+                assert_eq!(FlightMode::from_standard_mode(n), Some(m));
+            }
+            assert!(!m.display_name().is_empty() && m.display_name().len() < 35);
+        }
+        // NON_STANDARD, orbit (2), cruise (3), altitude hold (4), takeoff (8), unknown: not flown.
+        for n in [0, 2, 3, 4, 8, 9, 255] {
+            assert_eq!(FlightMode::from_standard_mode(n), None, "{n}");
+        }
+        assert_eq!(AVAILABLE_MODES.len(), FlightMode::COUNT);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
 //! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/0 and 4/4 Mission, 4/3 Hold, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual) | `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes or without the custom flag: DENIED |
+//! | DO_SET_STANDARD_MODE (262) | p1 = MAV_STANDARD_MODE (`FlightMode::from_standard_mode`: POSITION_HOLD → Position, MISSION → Mission, SAFE_RECOVERY → Return, LAND → Land) | `VehicleCommand::SetMode` as DO_SET_MODE; NON_STANDARD and the standard modes not flown: DENIED |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
 //! component are ignored (no answer); target 0 is broadcast. The COMMAND_ACK is addressed to the
@@ -38,6 +39,8 @@ pub mod id {
     pub const WAYPOINT: u16 = MavCmd::MAV_CMD_NAV_WAYPOINT as u16;
     /// MAV_CMD_DO_SET_MODE.
     pub const DO_SET_MODE: u16 = MavCmd::MAV_CMD_DO_SET_MODE as u16;
+    /// MAV_CMD_DO_SET_STANDARD_MODE.
+    pub const DO_SET_STANDARD_MODE: u16 = MavCmd::MAV_CMD_DO_SET_STANDARD_MODE as u16;
     /// MAV_CMD_MISSION_START.
     pub const MISSION_START: u16 = MavCmd::MAV_CMD_MISSION_START as u16;
     /// MAV_CMD_OVERRIDE_GOTO.
@@ -103,6 +106,16 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             } else {
                 Err(MavResult::MAV_RESULT_DENIED)
             }
+        }
+        id::DO_SET_STANDARD_MODE => {
+            // p1 = MAV_STANDARD_MODE (`FlightMode::from_standard_mode`: POSITION_HOLD, MISSION,
+            // SAFE_RECOVERY, LAND); the others (and NON_STANDARD) are not flown: DENIED.
+            let whole = (0.0..=255.0).contains(&cmd.param1) && f32::from(cmd.param1 as u8) == cmd.param1;
+            whole
+                .then(|| FlightMode::from_standard_mode(cmd.param1 as u8))
+                .flatten()
+                .map(VehicleCommand::SetMode)
+                .ok_or(MavResult::MAV_RESULT_DENIED)
         }
         id::MISSION_START => Ok(VehicleCommand::StartMission),
         id::OVERRIDE_GOTO => {

@@ -80,6 +80,7 @@ impl Link {
             self.router.mission_reply(r, ap);
         }
         self.router.stream_params(ap);
+        self.router.stream_modes();
         self.router.obstacles.poll(now_us, ap);
         self.router.run.poll(&self.router.mission, now_us, ap);
         let free = REPLY_QUEUE_LEN - self.router.replies.len();

@@ -277,6 +277,6 @@ mod tests {
         for id in ids {
             assert_eq!(frame_extra_crc(id), old(id), "id {id}");
         }
-        assert_eq!(FRAME_IDS.len(), 88);
+        assert_eq!(FRAME_IDS.len(), 91);
     }
 }

@@ -6,7 +6,8 @@
 //! ([`manual_control`]: MANUAL_CONTROL, RC_CHANNELS_OVERRIDE, RC_CHANNELS) and the link-level
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
 //! message intervals, ATTITUDE_TARGET, BATTERY_STATUS, MISSION_ITEM_REACHED) and the MAVLink v1
-//! refusal ([`v1`]), the NAK to every MAVLink FTP request ([`ftp`]), the takeoff height limit's
+//! refusal ([`v1`]), the standard modes protocol ([`standard_modes`]: AVAILABLE_MODES,
+//! CURRENT_MODE), the NAK to every MAVLink FTP request ([`ftp`]), the takeoff height limit's
 //! refusals ([`takeoff_limit`]) and the global ↔
 //! local NED conversion around home ([`geo`]).
 //!
@@ -36,6 +37,7 @@ pub mod received;
 pub mod reposition;
 pub mod router;
 pub mod services;
+pub mod standard_modes;
 pub mod takeoff_limit;
 pub mod telemetry;
 pub mod v1;

@@ -15,8 +15,8 @@ use crate::link::dialect::{
     MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 use crate::link::dialect::{
-    AUTOPILOT_VERSION_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
-    PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
+    AUTOPILOT_VERSION_DATA, CURRENT_MODE_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA,
+    MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
 use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
 
@@ -160,6 +160,12 @@ pub enum Outbound {
     VfrHud(VFR_HUD_DATA),
     /// FILE_TRANSFER_PROTOCOL: the NAK to an FTP request ([`crate::link::ftp`]).
     FtpNak(crate::link::ftp::FtpNak),
+    /// AVAILABLE_MODES of mode index `i` (from 1; [`crate::link::standard_modes::available_mode`]).
+    AvailableMode(u8),
+    /// CURRENT_MODE ([`crate::link::standard_modes::current_mode`]).
+    CurrentMode(CURRENT_MODE_DATA),
+    /// AVAILABLE_MODES_MONITOR ([`crate::link::standard_modes::monitor`]).
+    AvailableModesMonitor,
     /// STATUSTEXT framed in MAVLink **v1** (the answer to a v1 ground station,
     /// [`crate::link::v1`]).
     StatusTextV1(STATUSTEXT_DATA),
@@ -235,6 +241,12 @@ impl Outbound {
             Outbound::GpsRawInt(m) => s(m, p),
             Outbound::VfrHud(m) => s(m, p),
             Outbound::FtpNak(m) => s(&m.data(), p),
+            // Only listed indices are queued (the router's request check).
+            Outbound::AvailableMode(i) => {
+                s(&crate::link::standard_modes::available_mode(*i).unwrap_or_default(), p)
+            }
+            Outbound::CurrentMode(m) => s(m, p),
+            Outbound::AvailableModesMonitor => s(&crate::link::standard_modes::monitor(), p),
         }
     }
 }

@@ -20,7 +20,7 @@
 //! | PING (4) | a request (target 0/0) is answered to the sender, see [`crate::link::services`] |
 //! | SET_MODE (11) | legacy mode change: executed as MAV_CMD_DO_SET_MODE (base_mode, custom_mode); no ACK (the next HEARTBEAT shows the mode) |
 //! | MISSION_SET_CURRENT (41) | answered with MISSION_CURRENT; jumping to another item is not supported (STATUSTEXT) |
-//! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION |
+//! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION and AVAILABLE_MODES (param2 = mode index, 0 = all; streamed after the ACK, [`crate::link::standard_modes`]) |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
@@ -58,6 +58,7 @@ use crate::link::outbound::Outbound;
 use crate::link::received::{LinkStats, Received};
 use crate::link::services::FixAccuracy;
 use crate::link::services::{MissionProgress, Services};
+use crate::link::standard_modes;
 use crate::setup::SetupAck;
 
 /// Reply queue capacity.
@@ -83,6 +84,9 @@ pub(crate) struct Router {
     pub(crate) peer_seen: bool,
     /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
     pub(crate) param_stream: Option<u16>,
+    /// AVAILABLE_MODES still to send: the next and the last mode index (from 1), as the
+    /// parameter stream ([`crate::link::standard_modes`]).
+    pub(crate) modes_stream: Option<(u8, u8)>,
     pub(crate) services: Services,
     pub(crate) manual: ManualControl,
     /// When the last "ODOMETRY refused" STATUSTEXT went out.
@@ -129,6 +133,7 @@ impl Router {
             },
             peer_seen: false,
             param_stream: None,
+            modes_stream: None,
             services: Services::new(),
             manual: ManualControl::new(),
             odometry_text_us: None,
@@ -159,6 +164,17 @@ impl Router {
         }
     }
 
+    /// Continues an AVAILABLE_MODES answer: one mode per call while more than
+    /// [`REPLY_RESERVE`] queue slots are free.
+    pub(crate) fn stream_modes(&mut self) {
+        let Some((next, last)) = self.modes_stream else { return };
+        if REPLY_QUEUE_LEN - self.replies.len() <= REPLY_RESERVE {
+            return;
+        }
+        self.reply(Outbound::AvailableMode(next));
+        self.modes_stream = (next < last).then_some((next + 1, last));
+    }
+
     fn on_command<A: Autopilot>(
         &mut self,
         cmd: &COMMAND_LONG_DATA,
@@ -187,6 +203,15 @@ impl Router {
             }
             crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
                 (MavResult::MAV_RESULT_ACCEPTED, true)
+            }
+            crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == standard_modes::AVAILABLE_MODES_ID => {
+                match standard_modes::requested(cmd.param2) {
+                    Some(range) => {
+                        self.modes_stream = Some(range);
+                        (MavResult::MAV_RESULT_ACCEPTED, false)
+                    }
+                    None => (MavResult::MAV_RESULT_DENIED, false),
+                }
             }
             crate::link::command::id::REQUEST_MESSAGE
                 if !self.services.can_send(cmd.param1, &ap.telemetry()) =>
@@ -306,8 +331,10 @@ impl Router {
         now_us: u64,
         ap: &mut A,
     ) {
-        let to_mission = cmd.command == crate::link::command::id::DO_SET_MODE
-            && r == MavResult::MAV_RESULT_ACCEPTED
+        let to_mission = matches!(
+            cmd.command,
+            crate::link::command::id::DO_SET_MODE | crate::link::command::id::DO_SET_STANDARD_MODE
+        ) && r == MavResult::MAV_RESULT_ACCEPTED
             && crate::link::command::decode_command(cmd) == Ok(VehicleCommand::SetMode(FlightMode::Mission));
         let s = ap.telemetry();
         let on_ground_takes_off = s.phase == FlightPhase::Idle && MissionRun::takes_off(&self.mission);
@@ -694,6 +721,7 @@ impl Router {
             }
         }
         self.stream_params(ap);
+        self.stream_modes();
     }
 }
 

@@ -4,6 +4,7 @@
 //! |---|---|---|---|
 //! | heartbeat | HEARTBEAT | 1 Hz (settable: faster, never off or slower) | type QUADROTOR, autopilot PX4 (`MAV_AUTOPILOT_PX4`: the `custom_mode` is PX4's encoding, and ground stations — MAVProxy, MAVSDK, QGroundControl — pick the mode decoder from this field); custom_mode = PX4's encoding (`main << 16 \| sub << 24`, [`FlightMode::px4_custom_mode`]) of the mode flown ([`reported_mode`]: the selected flight mode, Land while the failsafe machine lands, Hold while it brakes): Manual 1/0, Position 3/0, Mission 4/4, Hold 4/3, Return 4/5, Land 4/6, Offboard 6/0; base_mode as PX4 sets it: CUSTOM_MODE_ENABLED always, SAFETY_ARMED when armed, MANUAL_INPUT + STABILIZE in Manual, MANUAL_INPUT + STABILIZE + GUIDED in Position, AUTO + STABILIZE + GUIDED in Mission, Hold, Return, Land and Offboard; system_status STANDBY/ACTIVE/CRITICAL (failsafe) |
 //! | phase | NAMED_VALUE_INT `PHASE` | 1 Hz (with the heartbeat) | [`FlightPhase`] code (0 disarmed, 1 idle (armed, on the ground), 2 takeoff, 3 hover/hold, 4 mission, 5 landing, 6 failsafe): the guidance phase, which the heartbeat carried before it carried the mode |
+//! | standard modes | CURRENT_MODE, AVAILABLE_MODES_MONITOR | 1 Hz (with the heartbeat); CURRENT_MODE also at once on a mode change | the mode flown (as HEARTBEAT's `custom_mode`) with its `MAV_STANDARD_MODE` and the selected mode (`intended_custom_mode`); the monitor's `seq` 0 (the list never changes); [`crate::link::standard_modes`] |
 //! | status | SYS_STATUS | 1 Hz (settable) | sensors present = enabled: 3D gyro, 3D accel, vision position and GPS (both the external position fix: ground stations and MAVSDK derive "global position ok" from the GPS bit, and GPS_RAW_INT reports that fix), angular-rate, attitude, z and xy control, motor outputs, `MAV_SYS_STATUS_PREARM_CHECK`, and the battery once a measurement arrived; health: all, without vision position and xy control while a failsafe is active, without vision position and GPS while the fix is not fresh (the failsafe's position timeout), without PREARM_CHECK while the arm command would be refused (the cascade's arm checks, an inconsistent parameter set; healthy while armed), without the battery while its level is Low or Critical; load = outer loop max execution / period (‰ of the window); battery: the last measurement's voltage mV, current cA (−1 not measured), remaining % (−1 unknown); before one: voltage 65535, current −1, remaining −1; errors_comm = CRC errors (saturating) |
 //! | landed state | EXTENDED_SYS_STATE | 1 Hz (settable) | ON_GROUND (disarmed, idle), TAKEOFF, IN_AIR (hover, mission, failsafe while armed), LANDING |
 //! | attitude | ATTITUDE | 50 Hz (settable) | roll, pitch, yaw (rad, FRD w.r.t. NED, ZYX); body rates FRD rad/s |
@@ -44,6 +45,7 @@ use crate::link::frame_parser::ParserStats;
 use crate::link::manual_control::rc_channels;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
 use crate::link::services::StreamRates;
+use crate::link::standard_modes;
 use parapet_core::wire::streams::{Stream, SLOTS, STREAMS};
 use parapet_core::wire::{codes, names};
 
@@ -103,7 +105,7 @@ impl ErrorCounters {
 }
 
 /// Messages one [`TelemetryScheduler::poll`] emits at most (callers size their queue by it).
-pub const MAX_PER_POLL: usize = 21;
+pub const MAX_PER_POLL: usize = 24;
 /// RC_CHANNELS period, µs (5 Hz).
 const RC_CHANNELS_US: u64 = 200_000;
 /// No pilot input for this long: RC_CHANNELS reports rssi 0, µs.
@@ -304,7 +306,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 1 mode, 1 RC, 2 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 2 mode, 1 RC, 4 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -334,6 +336,7 @@ impl TelemetryScheduler {
         if s.mode_changes != self.last_mode_changes {
             self.last_mode_changes = s.mode_changes;
             emit(Outbound::StatusText(mode_text(s)));
+            emit(Outbound::CurrentMode(standard_modes::current_mode(reported_mode(s), s)));
         }
         let rates = inp.counters.rates;
         for (k, (spec, slot)) in STREAMS.iter().zip(SLOTS).enumerate() {
@@ -366,6 +369,8 @@ impl TelemetryScheduler {
                 Stream::Heartbeat => {
                     emit(Outbound::Heartbeat(heartbeat(s)));
                     emit(named_int(ms, names::PHASE, s.phase.code() as i32));
+                    emit(Outbound::CurrentMode(standard_modes::current_mode(reported_mode(s), s)));
+                    emit(Outbound::AvailableModesMonitor);
                 }
                 Stream::SysStatus => emit(Outbound::SysStatus(sys_status(inp))),
                 Stream::LandedState => emit(Outbound::ExtendedSysState(EXTENDED_SYS_STATE_DATA {
