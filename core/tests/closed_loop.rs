@@ -485,7 +485,10 @@ fn defaults_are_the_papers_office_setting() {
 #[test]
 fn replanning_mid_mission_continues_without_a_jump() {
     let at = Vec3::new(0.0, 0.0, -1.0);
-    let mut sim = hovering(ControllerParams::default(), at);
+    // The paper's constant-speed reference (`MIS_GUIDANCE` 0), whose speed the checks use.
+    let mut p = ControllerParams::default();
+    parapet_core::params::set(&mut p, "MIS_GUIDANCE", 0.0).unwrap();
+    let mut sim = hovering(p, at);
     sim.ctl.set_path(&[at, Vec3::new(2.0, 0.0, -1.0)]).unwrap();
     sim.ctl.start_mission(sim.t_us).unwrap();
     sim.run(2.0, |_, _| {});

@@ -51,6 +51,8 @@ fn fly_mission(mode: f32) -> (Sim, Flown) {
     let mut p = ControllerParams::default();
     params::set(&mut p, "MIS_YAW_MODE", mode).unwrap();
     params::set(&mut p, "WP_SPEED", 0.5).unwrap();
+    // The paper's reference (`MIS_GUIDANCE` 0): it stops while the vehicle turns to a leg.
+    params::set(&mut p, "MIS_GUIDANCE", 0.0).unwrap();
     let mut sim = Sim::new(p, HOVER);
     sim.ctl.arm(sim.t_us).unwrap();
     sim.ctl.hold_position(sim.t_us, HOVER).unwrap();

@@ -238,6 +238,9 @@ fn default_duration_covers_the_leg_to_the_first_waypoint() {
         "--path",
         &one,
         "--foreign-path",
+        // The paper's constant-speed reference: 12 s of cruise at 0.5 m/s.
+        "--guidance",
+        "paper",
         "--out",
         out.to_str().unwrap(),
     ]);

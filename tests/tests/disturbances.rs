@@ -6,6 +6,7 @@
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_sim::fc::control::run;
 use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::sim::disturbance::faults::{FaultParams, RotorFault};
@@ -35,6 +36,8 @@ fn hover_with(scene: &Scene, duration: f64, seed: u64, variant: FilterVariant) -
     cfg.duration = duration;
     cfg.seed = seed;
     cfg.variant = variant;
+    // The paper's guidance and PD law, whose drift under drag the checks predict.
+    cfg.guidance = MissionGuidance::Paper;
     run(scene, &cfg, &mut |_| {}).unwrap()
 }
 
@@ -63,6 +66,7 @@ fn a_heavier_plant_than_the_controller_knows_sags_as_the_pd_law_predicts() {
     let mut cfg = RunConfig::for_scene(&base, vec![base.start, base.goal]).unwrap();
     cfg.duration = 40.0;
     cfg.variant = FilterVariant::Paper;
+    cfg.guidance = MissionGuidance::Paper;
     cfg.disturbances.plant = Some(Mismatch { mass: 1.04, ..Default::default() }.apply(&base.vehicle));
     let out = run(&base, &cfg, &mut |_| {}).unwrap();
     let last = out.samples.last().unwrap();

@@ -26,6 +26,7 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant};
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_sim::fc::control::{run, Controller};
 use parapet_sim::flight::runner::{controller_params, path_length, run_with, RunConfig, RunOutput};
 use parapet_sim::plan::pathfile::PathFile;
@@ -322,6 +323,10 @@ fn slowed_office(variant: FilterVariant, scale: f32, seed: u64) -> Summary {
     let s = scene("office");
     let mut cfg = config(&s, committed_path("office"), Some(0.051), None, seed);
     cfg.variant = variant;
+    if variant == FilterVariant::Paper {
+        // The published method: the paper's guidance with the paper's law.
+        cfg.guidance = MissionGuidance::Paper;
+    }
     let cbf = cfg.cbf_params().unwrap_or_else(|e| panic!("{e}"));
     let mut params = controller_params(&s, &cfg, cbf, variant);
     for g in params.attitude.att_p.iter_mut() {

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use parapet_core::cbf::FilterVariant;
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_sim::fc::control::run;
 use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::world::scene::Scene;
@@ -67,6 +68,8 @@ fn mid_flight_error_with(s: &Scene, variant: FilterVariant) -> (f64, RunOutput) 
     let mut cfg = RunConfig::for_scene(s, vec![s.start, s.goal]).unwrap();
     cfg.sensors.noise = false;
     cfg.variant = variant;
+    // The paper's guidance (constant speed along the path), whose PD lag the checks predict.
+    cfg.guidance = MissionGuidance::Paper;
     let out = run(s, &cfg, &mut |_| {}).unwrap();
     let mid: Vec<f64> =
         out.samples.iter().filter(|k| k.t > 12.0 && k.t < 18.0).map(|k| (k.pos - k.ref_pos).norm()).collect();

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 use parapet_core::cbf::FilterVariant;
+use parapet_core::outer::guidance::MissionGuidance;
 use parapet_sim::fc::control::run;
 use parapet_sim::flight::runner::{RunConfig, RunOutput};
 use parapet_sim::plan::pathfile::PathFile;
@@ -39,6 +40,8 @@ pub fn fly(
 ) -> RunOutput {
     let mut cfg = RunConfig::for_scene(s, path.to_vec()).unwrap();
     cfg.variant = FilterVariant::Paper;
+    // The paper's guidance: a point at constant speed along the polyline (`MIS_GUIDANCE` 0).
+    cfg.guidance = MissionGuidance::Paper;
     cfg.cbf = cbf;
     cfg.seed = seed;
     cfg.sensors.noise = noise;
