@@ -14,6 +14,7 @@ use crate::cbf::{CbfError, CbfParams, FilterVariant};
 use crate::estimator::{EstimatorError, EstimatorParams};
 use crate::failsafe::FailsafeParams;
 use crate::frame::GRAVITY;
+use crate::governor::GovernorParams;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
 use crate::perception::MemoryParams;
@@ -84,6 +85,8 @@ pub struct ControllerParams {
     pub battery: BatteryParams,
     /// IMU calibration and board orientation (issue 22; see [`SensorCal`]).
     pub sensors: SensorCal,
+    /// The in-flight speed governor (issue 36; `GOV_*`, [`crate::governor`]).
+    pub governor: GovernorParams,
 }
 
 /// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
@@ -115,6 +118,7 @@ impl Default for ControllerParams {
             perception: MemoryParams::default(),
             battery: BatteryParams::default(),
             sensors: SensorCal::default(),
+            governor: GovernorParams::default(),
         }
     }
 }
@@ -162,6 +166,8 @@ pub enum ParamError {
     Thrust,
     /// A rate, speed, time or factor is not finite and positive / in range.
     Loop,
+    /// Speed-governor parameters out of range (`GOV_MARGIN`, `GOV_DELAY`, `GOV_RANGE`).
+    Governor,
 }
 
 impl core::fmt::Display for ParamError {
@@ -182,6 +188,9 @@ impl ControllerParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         self.cbf.validate().map_err(ParamError::Cbf)?;
         self.plant_aware.validate().map_err(ParamError::PlantAware)?;
+        if !self.governor.valid() {
+            return Err(ParamError::Governor);
+        }
         let hull_sq = self.hull_radius * self.hull_radius;
         // A relative tolerance of 1e-6 accepts δ = r² computed in either precision.
         if !(self.hull_radius.is_finite() && self.hull_radius > 0.0)

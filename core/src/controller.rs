@@ -55,6 +55,7 @@ use crate::cbf::{FilterDiagnostics, FilterVariant};
 use crate::estimator::AttitudeEstimator;
 use crate::failsafe::{FailsafeState, Transition};
 use crate::fmath::maxf;
+use crate::governor::GovernorTelemetry;
 use crate::inner::{InnerError, InnerLoop, InnerParams};
 use crate::mixer::MixerOutput;
 use crate::msg::{AttitudeSetpoint, Euler, ImuSample, ImuStatus};
@@ -155,6 +156,8 @@ pub struct Telemetry {
     pub rc_rejected: u32,
     /// Offboard setpoints rejected since start.
     pub offboard_rejected: u32,
+    /// The speed governor's limit and its cause at the last outer step ([`crate::governor`]).
+    pub governor: GovernorTelemetry,
 }
 
 impl ControllerParams {
@@ -192,6 +195,16 @@ impl ControllerParams {
             },
             supervisor: SupervisorParams { failsafe: self.failsafe, landing: self.landing },
             modes: self.modes,
+            governor: self.governor,
+            // The braking the filter assumes: its deceleration, within what the tilt limit gives.
+            governor_vehicle: crate::governor::Vehicle {
+                accel: crate::fmath::minf(
+                    self.cbf.brake_accel,
+                    crate::frame::GRAVITY * crate::fmath::tanf(self.thrust.tilt_max),
+                ),
+                delay: self.cbf.brake_delay + self.governor.delay,
+                hull_radius: self.hull_radius,
+            },
         }
     }
 
@@ -312,6 +325,7 @@ impl FlightController {
             filter_interventions: o.filter_interventions,
             rc_rejected: o.rc_rejected,
             offboard_rejected: o.offboard_rejected,
+            governor: o.governor,
         }
     }
 

@@ -72,7 +72,7 @@ pub mod wire;
 
 pub use inner::{attitude, estimator, mixer};
 pub use outer::{thrust, tracking, waypoint};
-pub use safety::{braking, cbf, obstacle, obstacle_set, plant_aware, qp3};
+pub use safety::{braking, cbf, governor, obstacle, obstacle_set, plant_aware, qp3};
 pub use supervisor::failsafe;
 
 pub use nalgebra;

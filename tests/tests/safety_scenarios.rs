@@ -311,10 +311,8 @@ fn many_points_then_a_wall_keep_the_wall_and_report_the_drops() {
         assert!(f.obstacles_dropped * 2 > f.outer, "{tag}: {f:?}");
         assert!(f.max_obstacles_dropped as usize >= 600 - 32, "{tag}: {f:?}");
         let csv = parapet_sim::report::trajectory_csv(&out.samples[..10]);
-        assert!(csv
-            .lines()
-            .next()
-            .is_some_and(|h| h.ends_with(",deadlock,obstacles_dropped,obstacles_dropped_near")));
+        assert!(csv.lines().next().is_some_and(|h| h
+            .ends_with(",deadlock,obstacles_dropped,obstacles_dropped_near,gov_limit,gov_cause,gov_active")));
     }
 }
 

@@ -39,6 +39,7 @@ use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFi
 use crate::failsafe::ArmRefusal;
 use crate::failsafe::{DataHealth, FailsafeState, Transition};
 use crate::fmath::minf;
+use crate::governor::{self, GovernorParams, GovernorTelemetry};
 use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
 use crate::obstacle::ObstaclePoint;
 use crate::obstacle_set::{Ranking, SetReport};
@@ -113,6 +114,10 @@ pub struct OuterParams {
     pub supervisor: SupervisorParams,
     /// Flight modes (issue 21).
     pub modes: ModeParams,
+    /// Speed governor (issue 36).
+    pub governor: GovernorParams,
+    /// The braking the governor counts on.
+    pub governor_vehicle: governor::Vehicle,
 }
 
 /// The outer loop's part of the telemetry (updated by every outer step and command).
@@ -178,6 +183,8 @@ pub struct OuterTelemetry {
     /// The last battery measurement taken ([`OuterLoop::set_battery`]; `None` before the
     /// first): what a ground station's BATTERY_STATUS / SYS_STATUS report.
     pub battery: Option<crate::battery::BatteryState>,
+    /// The speed governor at the last outer step ([`crate::governor`]).
+    pub governor: GovernorTelemetry,
 }
 
 /// Why the outer loop could not be built.
@@ -255,6 +262,7 @@ impl OuterLoop {
             rc_rejected: 0,
             offboard_rejected: 0,
             battery: None,
+            governor: GovernorTelemetry::default(),
         };
         let plant_aware = (params.filter_variant != FilterVariant::Paper).then(|| {
             PlantAware::new(params.plant_aware, params.lag_tau)
@@ -647,6 +655,18 @@ impl OuterLoop {
                     // Offboard acceleration setpoint: it is the nominal command.
                     u_pd = a;
                 }
+                // Speed governor: what can stop inside observed space (every mode but Manual).
+                let age = self.telemetry.obstacle_age_us.map_or(0.0, |a| a as f32 * 1e-6);
+                let (u_pd, gov) = governor::govern(
+                    &self.params.governor,
+                    &self.params.governor_vehicle,
+                    &p,
+                    &v,
+                    &u_pd,
+                    self.inputs.obstacles(),
+                    age,
+                );
+                self.telemetry.governor = gov;
                 let (u_star, u, diag) = match self.plant_aware.as_mut() {
                     None => {
                         let (u, diag) = self.filter.apply(&p, &v, &u_pd, self.inputs.obstacles());

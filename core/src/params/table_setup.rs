@@ -1,4 +1,4 @@
-//! Part of [`super::TABLE`]: the set-up parameters: battery measurement and thresholds, accelerometer calibration, level trim, board rotation (issue 22).
+//! Part of [`super::TABLE`]: the set-up parameters: battery measurement and thresholds, accelerometer calibration, level trim, board rotation (issue 22); the speed governor (`GOV_*`, issue 36).
 //!
 //! Entries in MAVLink `param_index` order; [`super`] concatenates the parts. May import
 //! what [`super`] may.
@@ -6,7 +6,7 @@
 use super::*;
 
 /// Entries of this part.
-pub(super) const N: usize = 16;
+pub(super) const N: usize = 20;
 
 /// This part's entries, in `param_index` order.
 #[rustfmt::skip] // one entry per parameter, laid out by hand
@@ -51,4 +51,16 @@ pub(super) const TABLE: [Param; N] = [
             }
         }),
         "IMU orientation on the board (PX4 SENS_BOARD_ROT codes 0-15)").code(crate::calibration::BoardRotation::name),
+    Param::new("GOV_ENABLE", "Governor", "", (0.0, 1.0), 0, flag!(governor.enable),
+        "Speed governor: 1 limits the speed towards each direction to what can stop inside observed free space (docs/filter.md)").code(|c| match c {
+            0 => Some("off"),
+            1 => Some("on"),
+            _ => None,
+        }),
+    Param::new("GOV_MARGIN", "Governor", "m", (0.0, 2.0), 2, field!(governor.margin),
+        "Speed governor: distance kept beyond the hull radius when stopped"),
+    Param::new("GOV_DELAY", "Governor", "s", (0.0, 1.0), 3, field!(governor.delay),
+        "Speed governor: latency added to CBF_BRAKE_DLY (plus the obstacle data age) before braking"),
+    Param::new("GOV_RANGE", "Governor", "m", (0.5, 100.0), 1, field!(governor.range),
+        "Speed governor: sensing range; space beyond it counts as blocked (set from the sensors by the simulator)"),
 ];

@@ -4,7 +4,7 @@
 //! reads), [`cbf`] (the filter laws, paper eq. 7-14 and the relative-velocity and
 //! multi-barrier variants), [`variant`] (which law runs), [`diagnostics`] (the one
 //! filter-diagnostics type, [`diagnostics::FilterDiagnostics`], and the regions),
-//! [`braking`] (the braking-distance barrier), [`qp3`] (the exact 3-D projection the
+//! [`braking`] (the braking-distance barrier), [`governor`] (the in-flight speed governor: the speed towards each direction limited to what can stop inside observed space), [`qp3`] (the exact 3-D projection the
 //! multi-barrier variants use), [`obstacle_set`] (which offered points the fixed-capacity set keeps, and
 //! the report of what was dropped) and [`plant_aware`] (the filter wrapped for the real plant:
 //! actuation lag, disturbance observer, ground and ceiling barriers, stall detection). The
@@ -17,6 +17,7 @@
 pub mod braking;
 pub mod cbf;
 pub mod diagnostics;
+pub mod governor;
 pub mod obstacle;
 pub mod obstacle_set;
 pub mod plant_aware;

@@ -11,7 +11,7 @@
 //! | `vehicle_attitude_setpoint` | `roll_body pitch_body yaw_body` (rad), `q_d[4]`, `thrust_body[3]` (`[0, 0, −thrust/THR_MAX]`) |
 //! | `actuator_motors` | `timestamp_sample`, `control[12]` (throttle 0..1 of rotors 1-4, NaN for unused outputs as in PX4) |
 //! | `vehicle_status` | `arming_state` (1 disarmed, 2 armed), `nav_state` (PX4's, [`super::modes`]), `parapet_mode` ([`GuidanceMode::code`]) |
-//! | `cbf_status` | `h_bar` (true min h̄, m²; NaN without ground truth), `h_bar_filter` (the filter's own, m²), `clearance` (m; NaN without ground truth), `region` ([`crate::cbf::Region::code`]), `active_id` (−1 none), `n_constraints`, `intervened`, `unavoidable`, `infeasible`, `u_nominal[3]` (u*, m/s²), `u[3]` (m/s²) |
+//! | `cbf_status` | `h_bar` (true min h̄, m²; NaN without ground truth), `h_bar_filter` (the filter's own, m²), `clearance` (m; NaN without ground truth), `region` ([`crate::cbf::Region::code`]), `active_id` (−1 none), `n_constraints`, `intervened`, `unavoidable`, `infeasible`, `u_nominal[3]` (u*, m/s²), `u[3]` (m/s²), `gov_limit` (the speed governor's limit along the motion, m/s; NaN none), `gov_cause` ([`crate::governor::GovernorCause`]) |
 //!
 //! A log is [`write_definitions`] once (header, formats, infos, parameters, subscriptions),
 //! then [`write_records`] per step. May import: [`super::ulog`], [`super::modes`] and the types
@@ -83,6 +83,8 @@ const CBF_STATUS: Topic = Topic {
         ("bool", "infeasible"),
         ("float[3]", "u_nominal"),
         ("float[3]", "u"),
+        ("float", "gov_limit"),
+        ("uint8_t", "gov_cause"),
     ],
 };
 
@@ -128,6 +130,10 @@ pub struct FlightRecord {
     pub u_nominal: [f32; 3],
     /// Filtered acceleration u, m/s².
     pub u: [f32; 3],
+    /// The speed governor's limit along the motion, m/s (NaN: none).
+    pub governor_limit: f32,
+    /// What sets it ([`crate::governor::GovernorCause`] as `u8`).
+    pub governor_cause: u8,
 }
 
 /// Header (start `t0_us`), the formats of [`FLIGHT_TOPICS`], the infos `sys_name` (Parapet),
@@ -185,7 +191,9 @@ pub fn write_records<S: ULogSink>(sink: &mut S, r: &FlightRecord) -> Result<(), 
         .u8(u8::from(f.unavoidable))
         .u8(u8::from(f.infeasible))
         .f32s(&r.u_nominal)
-        .f32s(&r.u);
+        .f32s(&r.u)
+        .f32s(&[r.governor_limit])
+        .u8(r.governor_cause);
     write_data(sink, 5, &status)
 }
 
@@ -216,6 +224,8 @@ mod tests {
             filter: FilterDiagnostics::new(Region::Far),
             u_nominal: [0.0; 3],
             u: [0.0, 0.0, 1.0],
+            governor_limit: 2.5,
+            governor_cause: 3,
         }
     }
 
@@ -237,5 +247,9 @@ mod tests {
         // thrust_body z is −thrust/THR_MAX; unused motor outputs NaN.
         assert_eq!(f32::from_le_bytes(data[2].1[2 + 8 + 36..][..4].try_into().unwrap()), -0.5);
         assert!(f32::from_le_bytes(data[3].1[2 + 16 + 16..][..4].try_into().unwrap()).is_nan());
+        // cbf_status ends with the governor's limit and cause.
+        let st = &data[5].1;
+        assert_eq!(f32::from_le_bytes(st[st.len() - 5..][..4].try_into().unwrap()), 2.5);
+        assert_eq!(st[st.len() - 1], 3);
     }
 }

@@ -191,6 +191,9 @@ impl FlightLogger {
             filter: t.filter,
             u_nominal: [un.x, un.y, un.z],
             u: [u.x, u.y, u.z],
+            // The governor's limit is not in the firmware's telemetry snapshot (yet).
+            governor_limit: f32::NAN,
+            governor_cause: 0,
         };
         write_records(&mut Appender(store), &r)
     }

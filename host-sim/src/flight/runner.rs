@@ -322,6 +322,29 @@ fn run_controller_params(
         // A simulated pack's cells and resistance (BatteryModelParams::estimator_params).
         battery: cfg.battery.as_ref().map_or(d.battery, |b| b.estimator_params(d.battery)),
         perception: cfg.memory,
+        governor: governor_sensing(cfg, d.governor),
+        ..d
+    }
+}
+
+/// The governor's sensing range and latency from the run's sensors: the longest range of the
+/// range sensors (the memory's frontier limits each direction further) and at least their
+/// largest latency; with ground truth the truth range (`sensing_range`). `GOV_RANGE` /
+/// `GOV_DELAY` set by name override them.
+fn governor_sensing(
+    cfg: &RunConfig,
+    d: parapet_core::governor::GovernorParams,
+) -> parapet_core::governor::GovernorParams {
+    let (range, latency) = match cfg.perception.as_deref() {
+        Some(s) => (
+            s.iter().map(|x| x.max_range).fold(0.0, f64::max),
+            s.iter().map(|x| x.latency).fold(0.0, f64::max),
+        ),
+        None => (cfg.sensing_range, 0.0),
+    };
+    parapet_core::governor::GovernorParams {
+        range: range.clamp(0.5, 100.0) as f32,
+        delay: d.delay.max(latency.min(1.0) as f32),
         ..d
     }
 }

@@ -67,6 +67,9 @@ impl OuterOut {
                 deadlock: tel.plant_aware.deadlock,
                 obstacles_dropped: tel.obstacle_set.dropped,
                 obstacles_dropped_near: tel.obstacle_set.dropped_near,
+                governor_limit: tel.governor.limit.is_finite().then_some(tel.governor.limit),
+                governor_cause: tel.governor.cause,
+                governor_active: tel.governor.active,
             },
         }
     }

@@ -356,6 +356,10 @@ pub fn describe_param_error(scene: &Scene, params: &ControllerParams, e: ParamEr
         ParamError::PlantAware(r) => {
             InputError::file(file, format!("plant-aware filter parameters rejected: {r}")).table("controller")
         }
+        ParamError::Governor => InputError::file(file, "speed governor parameters rejected")
+            .table("controller")
+            .field("GOV_MARGIN, GOV_DELAY, GOV_RANGE")
+            .allowed("0 <= GOV_MARGIN <= 2 m, 0 <= GOV_DELAY <= 1 s, 0.5 <= GOV_RANGE <= 100 m"),
         ParamError::Estimator(_) | ParamError::Failsafe | ParamError::Loop => InputError::file(
             file,
             "the flight controller's built-in parameters were rejected (a parapet bug)",

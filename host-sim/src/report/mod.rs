@@ -21,8 +21,11 @@
 //! ENU; 0 in still air, see `crate::sim::disturbance`); `deadlock` (0/1, the controller's
 //! stall flag), `obstacles_dropped` and `obstacles_dropped_near` (points the
 //! controller's obstacle set dropped at capacity in that step, and of them those with
-//! `h ≤ δ1`; `parapet_core::obstacle_set`). `summary.json`'s `safety_steps` counts the
-//! outer steps with each flag.
+//! `h ≤ δ1`; `parapet_core::obstacle_set`); `gov_limit` (m/s, the speed governor's limit
+//! along the direction of motion, empty without one), `gov_cause` (none, range, obstacle,
+//! unseen, data_age) and `gov_active` (0/1, the governor changed u*;
+//! `parapet_core::governor`). `summary.json`'s `safety_steps` counts the outer steps with
+//! each flag, `governor` the limited time and the limit's minimum and mean.
 //!
 //! `ranges.csv` (runs with `--perception`): one row per beam of every scan,
 //! `t,sensor,beam,range,x,y,z` (see `crate::perception::write_ranges_csv`).
@@ -49,6 +52,7 @@ use anyhow::{anyhow, Context, Result};
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
 use parapet_core::controller::{FlightMode, GuidanceMode};
+use parapet_core::governor::GovernorCause;
 use serde::Serialize;
 
 use crate::input::Fixed;
@@ -193,6 +197,29 @@ pub struct SafetyFlags {
     pub obstacles_dropped: u16,
     /// Of those, points whose barrier had `h ≤ δ1` (the filter would have considered them).
     pub obstacles_dropped_near: u16,
+    /// The speed governor's limit along the direction of motion, m/s (`None`: no limit: off,
+    /// at rest, or a PIL flight, whose link does not carry it).
+    pub governor_limit: Option<f32>,
+    /// What sets it (`parapet_core::governor::GovernorCause`).
+    #[serde(serialize_with = "cause_name")]
+    pub governor_cause: GovernorCause,
+    /// The governor changed the nominal command in that step.
+    pub governor_active: bool,
+}
+
+/// A governor cause's name in reports.
+pub fn governor_cause_name(c: GovernorCause) -> &'static str {
+    match c {
+        GovernorCause::None => "none",
+        GovernorCause::Range => "range",
+        GovernorCause::Obstacle => "obstacle",
+        GovernorCause::Unseen => "unseen",
+        GovernorCause::DataAge => "data_age",
+    }
+}
+
+fn cause_name<S: serde::Serializer>(c: &GovernorCause, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(governor_cause_name(*c))
 }
 
 /// Outer steps of a run with each safety flag (`summary.json`, `safety_steps`).
@@ -218,13 +245,33 @@ pub struct SafetySteps {
     pub first_unavoidable_time_s: Option<f64>,
     /// Time of the first `deadlock` step, s (null if none).
     pub first_deadlock_time_s: Option<f64>,
+    /// Steps where the speed governor changed the nominal command.
+    pub governor_active: u64,
+    /// Time those steps cover, s (the samples' spacing summed).
+    pub governor_limited_s: f64,
+    /// Smallest speed limit along the motion the governor reported, m/s (null: none).
+    pub governor_min_limit: Option<f64>,
+    /// Mean over the steps with a limit, m/s (null: none).
+    pub governor_mean_limit: Option<f64>,
 }
 
 impl SafetySteps {
     /// The counts over `samples`.
     pub fn of(samples: &[Sample]) -> Self {
         let mut c = SafetySteps::default();
+        let (mut sum, mut n, mut prev_t) = (0.0, 0u64, None::<f64>);
         for k in samples {
+            if k.safety.governor_active {
+                c.governor_active += 1;
+                c.governor_limited_s += prev_t.map_or(0.0, |t0| (k.t - t0).max(0.0));
+            }
+            prev_t = Some(k.t);
+            if let Some(l) = k.safety.governor_limit {
+                let l = f64::from(l);
+                c.governor_min_limit = Some(c.governor_min_limit.map_or(l, |m: f64| m.min(l)));
+                sum += l;
+                n += 1;
+            }
             c.outer += 1;
             c.filter_active += u64::from(k.filter.intervened);
             c.unavoidable += u64::from(k.filter.unavoidable);
@@ -240,6 +287,7 @@ impl SafetySteps {
                 c.first_deadlock_time_s = Some(k.t);
             }
         }
+        c.governor_mean_limit = (n > 0).then(|| sum / n as f64);
         c
     }
 }
@@ -435,6 +483,9 @@ struct TrajectoryRow {
     deadlock: u8,
     obstacles_dropped: u16,
     obstacles_dropped_near: u16,
+    gov_limit: Option<Fixed<3>>,
+    gov_cause: &'static str,
+    gov_active: u8,
 }
 
 impl TrajectoryRow {
@@ -483,6 +534,9 @@ impl TrajectoryRow {
             deadlock: u8::from(k.safety.deadlock),
             obstacles_dropped: k.safety.obstacles_dropped,
             obstacles_dropped_near: k.safety.obstacles_dropped_near,
+            gov_limit: k.safety.governor_limit.map(|v| Fixed(f64::from(v))),
+            gov_cause: governor_cause_name(k.safety.governor_cause),
+            gov_active: u8::from(k.safety.governor_active),
         }
     }
 }
@@ -501,7 +555,7 @@ pub fn write_trajectory_csv(w: &mut dyn std::io::Write, samples: &[Sample]) -> s
 }
 
 /// Column names of `trajectory.csv`.
-pub const TRAJECTORY_COLUMNS: [&str; 32] = [
+pub const TRAJECTORY_COLUMNS: [&str; 38] = [
     "t",
     "ref_x",
     "ref_y",
@@ -534,6 +588,12 @@ pub const TRAJECTORY_COLUMNS: [&str; 32] = [
     "wind_x",
     "wind_y",
     "wind_z",
+    "deadlock",
+    "obstacles_dropped",
+    "obstacles_dropped_near",
+    "gov_limit",
+    "gov_cause",
+    "gov_active",
 ];
 
 /// Region name for reports and `trajectory.csv` (the core's [`Region::name`]).

@@ -77,6 +77,8 @@ fn record(s: &Sample, t_us: u64, params: &ControllerParams) -> FlightRecord {
         filter: s.filter,
         u_nominal: v3(&s.u_nominal),
         u: v3(&s.u_filtered),
+        governor_limit: s.safety.governor_limit.unwrap_or(f32::NAN),
+        governor_cause: s.safety.governor_cause as u8,
     }
 }
 
