@@ -256,15 +256,6 @@ impl OuterLoop {
         (tel.u_nominal - tel.u_filtered).dot(&v) / speed > HELD_BACK_ACCEL
     }
 
-    /// The speed governor held the vehicle back in the last outer step: it took more than
-    /// [`HELD_BACK_ACCEL`] off the nominal command along the reference's velocity.
-    fn governed(&self) -> bool {
-        let tel = &self.telemetry;
-        let v = tel.reference.velocity;
-        let speed = v.norm();
-        tel.governor.active && speed > 1e-3 && tel.governor.cut.dot(&v) / speed > HELD_BACK_ACCEL
-    }
-
     /// The reference of one outer step while Armed, per mode; `None` on the ground and in
     /// Manual (whose setpoint is [`Self::manual_sp`]). `accel` is set for an offboard
     /// acceleration-only setpoint (the nominal command itself).
@@ -282,7 +273,7 @@ impl OuterLoop {
             heading: self.estimate.attitude.yaw,
             dt,
             held_back: self.held_back(),
-            governed: self.governed(),
+            speed_limit: self.telemetry.governor.limit,
         };
         if mode == FlightMode::Mission || (self.guidance.on_ground() && !self.liftoff(now_us)) {
             return self.guidance.reference(now_us, &steering, progress);

@@ -358,7 +358,12 @@ impl Guidance {
             }
             Mode::Mission { t0_us } => {
                 let p = &self.params.path_yaw;
-                let mut s = self.follower.sample(self.path_yaw.governed_time(p, t0_us, now_us, v.governed));
+                let mut s = self.follower.sample(self.path_yaw.governed_time(
+                    p,
+                    t0_us,
+                    now_us,
+                    v.speed_limit / self.mission_speed(),
+                ));
                 self.path_yaw.steer_sample(p, &mut s, &mut self.yaw_ref, v);
                 *progress = s.progress;
                 let r = Reference {
@@ -556,7 +561,7 @@ impl Guidance {
             self.path_yaw.steer_sample(p, &mut probe, &mut self.yaw_ref, v);
         }
         let scale = match v.position {
-            Some(q) if !v.held_back && !v.governed && !self.path_yaw.waiting() => {
+            Some(q) if !v.held_back && !self.path_yaw.waiting() => {
                 // A lead (the vehicle ahead along the travel, or at rest along where the
                 // motion goes next) does not stop the clock.
                 let moving = hypotf(last.velocity.x, last.velocity.y) > MOVING_REFERENCE_SPEED;
@@ -566,6 +571,8 @@ impl Guidance {
             }
             _ => 0.0,
         };
+        // The speed governor's limit along the motion caps the allowed speed (scale × cruise).
+        let scale = scale.min(v.speed_limit / self.follower.params().cruise_speed);
         let dt = v.dt.min(MAX_STEP_DT);
         let r = match traj.step(dt, scale) {
             Ok(s) => {
@@ -607,7 +614,7 @@ mod tests {
     use super::*;
 
     fn steering(p: Vec3) -> Steering {
-        Steering { position: Some(p), heading: 0.0, dt: 0.004, held_back: false, governed: false }
+        Steering { position: Some(p), heading: 0.0, dt: 0.004, held_back: false, speed_limit: f32::INFINITY }
     }
 
     fn trajectory_guidance() -> Guidance {

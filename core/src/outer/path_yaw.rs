@@ -130,9 +130,11 @@ pub struct Steering {
     /// The safety filter held the vehicle back along the reference's velocity in the last
     /// outer step (the mission trajectory's clock stops, [`super::guidance`]).
     pub held_back: bool,
-    /// The speed governor (`crate::governor`) held the vehicle back along the reference's
-    /// velocity in the last outer step: the mission's clock stops (both guidances).
-    pub governed: bool,
+    /// The speed governor's limit along the motion at the last outer step, m/s (`+∞`: none;
+    /// `crate::governor`): the mission's reference advances no faster (the paper guidance's
+    /// clock through [`PathYaw::governed_time`], the trajectory's clock scale), so it does not
+    /// run ahead of a vehicle the governor slows (towards the goal, through walls).
+    pub speed_limit: f32,
 }
 
 /// The path clock and the waiting state of one path being flown (see the module docs).
@@ -144,7 +146,7 @@ pub struct PathYaw {
     last_us: u64,
     /// The last sample waited for the heading.
     waiting: bool,
-    /// Time the speed governor held the vehicle back since the path's start, µs.
+    /// Path time lost to the speed governor since the path's start, µs.
     governed_us: u64,
     /// Time of the last [`Self::governed_time`], µs.
     governed_last_us: Option<u64>,
@@ -181,14 +183,14 @@ impl PathYaw {
         elapsed.saturating_sub(self.waited_us) as f32 * 1e-6
     }
 
-    /// [`Self::path_time`] minus the time the speed governor held the vehicle back
-    /// (`governed` at the steps since the path's start): the reference waits for a vehicle the
-    /// governor slows, instead of running ahead of it (through walls, towards the goal).
-    pub fn governed_time(&mut self, p: &PathYawParams, t0_us: u64, now_us: u64, governed: bool) -> f32 {
-        if governed {
-            let dt = self.governed_last_us.map_or(0, |t| now_us.saturating_sub(t));
-            self.governed_us = self.governed_us.saturating_add(dt);
-        }
+    /// [`Self::path_time`] minus the time lost to the speed governor: between two calls the
+    /// path advances at the rate `min(1, speed_limit / speed)` (`speed` the path's speed at
+    /// the previous sample, `speed_limit` the governor's, [`Steering::speed_limit`]), so the
+    /// reference moves no faster than the governor lets the vehicle.
+    pub fn governed_time(&mut self, p: &PathYawParams, t0_us: u64, now_us: u64, rate: f32) -> f32 {
+        let rate = if rate.is_nan() { 1.0 } else { rate.clamp(0.0, 1.0) };
+        let dt = self.governed_last_us.map_or(0, |t| now_us.saturating_sub(t));
+        self.governed_us = self.governed_us.saturating_add((dt as f32 * (1.0 - rate)) as u64);
         self.governed_last_us = Some(now_us);
         (self.path_time(p, t0_us, now_us) - self.governed_us as f32 * 1e-6).max(0.0)
     }
@@ -388,7 +390,8 @@ mod tests {
         let mut corner_hold = 0u32;
         for k in 0..3000u64 {
             let now = k * 4000;
-            let v = Steering { position: None, heading: yaw, dt, held_back: false, governed: false };
+            let v =
+                Steering { position: None, heading: yaw, dt, held_back: false, speed_limit: f32::INFINITY };
             let s = sample(&mut py, &TRAVEL, &f, (0, now), &mut yaw, &v);
             if py.waiting() {
                 first_wait.get_or_insert(now);
@@ -427,7 +430,7 @@ mod tests {
                 heading: 0.0,
                 dt: 0.004,
                 held_back: false,
-                governed: false,
+                speed_limit: f32::INFINITY,
             };
             let s = sample(&mut py, &hold, &f, (1_000, now), &mut yaw, &v);
             assert_eq!(s, f.sample((now - 1_000) as f32 * 1e-6));
@@ -447,7 +450,13 @@ mod tests {
         let done = 10_000_000;
         let past = Some(goal + Vec3::new(0.0, 0.5, 0.0));
         for k in 0..2000u64 {
-            let v = Steering { position: past, heading: yaw, dt: 0.004, held_back: false, governed: false };
+            let v = Steering {
+                position: past,
+                heading: yaw,
+                dt: 0.004,
+                held_back: false,
+                speed_limit: f32::INFINITY,
+            };
             let s = sample(&mut py, &TRAVEL, &f, (0, done + k * 4000), &mut yaw, &v);
             assert!(s.progress.done && !py.waiting());
             assert_eq!(s.position, goal);
@@ -456,7 +465,8 @@ mod tests {
         // Within FACE_POINT_RADIUS (or without a fix): the yaw is kept.
         for position in [Some(goal + Vec3::new(0.06, -0.06, 0.3)), None] {
             let before = yaw;
-            let v = Steering { position, heading: yaw, dt: 0.004, held_back: false, governed: false };
+            let v =
+                Steering { position, heading: yaw, dt: 0.004, held_back: false, speed_limit: f32::INFINITY };
             sample(&mut py, &TRAVEL, &f, (0, done), &mut yaw, &v);
             assert_eq!(yaw, before);
         }

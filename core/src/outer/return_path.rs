@@ -170,7 +170,13 @@ mod tests {
         assert!(r.start(0, p).is_ok());
         let hold = PathYawParams::default();
         let mut yaw = 0.0;
-        let v = Steering { position: None, heading: 0.0, dt: 0.004, held_back: false, governed: false };
+        let v = Steering {
+            position: None,
+            heading: 0.0,
+            dt: 0.004,
+            held_back: false,
+            speed_limit: f32::INFINITY,
+        };
         let (r0, _) = r.reference(0, &hold, &mut yaw, &v).unwrap_or_else(|| unreachable!());
         assert!((r0.position - p).norm() < 1e-4);
         let (end, prog) = r.reference(60_000_000, &hold, &mut yaw, &v).unwrap_or_else(|| unreachable!());
