@@ -324,6 +324,39 @@ fn bench_filter(c: &Counter) {
         }
     }
     bench_plant_aware(c);
+    bench_governor(c);
+}
+
+/// The speed governor (issue 36, `safety::governor::govern`) on the filter's problems: one
+/// call per outer step before the filter, K = 1, 4, 16, 32 obstacle points, on, with the
+/// F405 build's braking values (3 m/s², 0.1 s) and a 0.05 s data age.
+fn bench_governor(c: &Counter) {
+    use parapet_core::safety::governor::{govern, GovernorParams, Vehicle};
+    let params = GovernorParams { enable: true, ..GovernorParams::default() };
+    let veh = Vehicle { accel: 3.0, delay: 0.1, hull_radius: 0.22 };
+    for k in [1usize, 4, 16, 32] {
+        let mut rng = SplitMix64(SEED ^ (k as u64).wrapping_mul(0x1000_0000_01B3));
+        let mut all = Stats::default();
+        for _ in 0..PROBLEMS {
+            let pr = next_problem(&mut rng, k);
+            let obs = &pr.obstacles[..pr.k];
+            let ins = c.measure(|| {
+                black_box(govern(
+                    black_box(&params),
+                    black_box(&veh),
+                    black_box(&pr.p),
+                    black_box(&pr.v),
+                    black_box(&pr.u_nom),
+                    black_box(obs),
+                    black_box(0.05),
+                ));
+            });
+            all.add(ins);
+        }
+        let mut name: heapless::String<64> = heapless::String::new();
+        let _ = write!(name, "governor K={k}");
+        all.report(&name);
+    }
 }
 
 /// The default filter as flown (issue 17): [`PlantAware::apply`] around multi-relative —
