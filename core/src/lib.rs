@@ -61,6 +61,7 @@ pub mod frame;
 pub mod inner;
 pub mod motor_test;
 pub mod msg;
+pub mod nav;
 pub mod outer;
 pub mod params;
 pub mod perception;
