@@ -128,6 +128,20 @@ pub mod limits {
     /// position timeout (`FailsafeParams::position_timeout_us`, 0.2 s), so a fix
     /// delayed by the latency and one outer period is still fresh when arming.
     pub const MAX_POSITION_LATENCY_S: f64 = 0.1;
+    /// Largest `[sensors] position_latency` with a filtered source (`position_source` other
+    /// than `mocap`), s: the navigation filter's history (`parapet_core::nav`, 0.512 s).
+    pub const MAX_FILTERED_LATENCY_S: f64 = 0.5;
+    /// Largest `[sensors] rate`, Hz: one fix per outer step.
+    pub const MAX_FIX_RATE_HZ: f64 = parapet_core::wire::rates::INNER_RATE_HZ as f64 / 4.0;
+    /// The latency cap of a source: [`MAX_POSITION_LATENCY_S`] for motion capture (the
+    /// controller extrapolates the latest fix), [`MAX_FILTERED_LATENCY_S`] otherwise.
+    pub fn max_position_latency_s(mocap: bool) -> f64 {
+        if mocap {
+            MAX_POSITION_LATENCY_S
+        } else {
+            MAX_FILTERED_LATENCY_S
+        }
+    }
     /// Largest noise standard deviation in `[sensors]` (rad/s, m/s², m, m/s).
     pub const MAX_SENSOR_NOISE: f64 = 100.0;
     /// Largest reference speed (`--speed`, `[mission] speed`, `[controller] speed`),

@@ -26,6 +26,7 @@ use parapet_core::estimator::ImuSample;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 
+use crate::fc::nav::NavAid;
 use crate::flight::runner::{controller_params, run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::battery::BatteryReading;
@@ -38,6 +39,8 @@ pub struct Controller {
     cbf: bool,
     /// The battery estimator fed by the simulated pack (`[battery]`), as the F405's ADC task.
     battery: BatteryEstimator,
+    /// The navigation filter of a filtered position source (`None`: motion capture).
+    nav: Option<NavAid>,
 }
 
 impl Controller {
@@ -55,7 +58,8 @@ impl Controller {
         fc.set_path(&wps).map_err(|e| {
             anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
         })?;
-        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery) })
+        let nav = NavAid::for_sensors(&cfg.sensors);
+        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery), nav })
     }
 
     fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
@@ -76,6 +80,11 @@ impl Controller {
         &self.fc
     }
 
+    /// The navigation filter, with a filtered position source.
+    pub fn nav(&self) -> Option<&NavAid> {
+        self.nav.as_ref()
+    }
+
     /// The controller, for commands besides the start-up (pilot input, `crate::pilot`).
     pub fn fc_mut(&mut self) -> &mut FlightController {
         &mut self.fc
@@ -93,8 +102,9 @@ impl FlightStack for Controller {
         imu: &ImuReading,
     ) -> Result<()> {
         let now = clock_us(t);
-        self.fc.step_inner(now, &imu_sample(imu));
+        self.inner(t, imu);
         self.position_fix(fix);
+        self.outer_fix(now);
         self.report_obstacles(now, obstacles);
         self.fc.arm(now).map_err(|e| match e {
             CommandError::Arm(r) => anyhow!("the flight controller refused to arm at the start: {r}"),
@@ -115,6 +125,10 @@ impl FlightStack for Controller {
 
     /// A position/velocity/yaw fix (measured at `fix.t_measured`).
     fn position_fix(&mut self, fix: PositionReading) {
+        if let Some(nav) = self.nav.as_mut() {
+            nav.fix(clock_us(fix.t_measured), &fix);
+            return;
+        }
         self.fc.update_position(PositionFix {
             t_us: clock_us(fix.t_measured),
             position: to_f32(&fix.position),
@@ -126,6 +140,7 @@ impl FlightStack for Controller {
     /// One outer step at simulated time `t` with the obstacles the proximity sensor reports.
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let now = clock_us(t);
+        self.outer_fix(now);
         self.report_obstacles(now, obstacles);
         self.fc.step_outer(now);
         OuterOut::from_telemetry(&self.fc.telemetry())
@@ -133,7 +148,25 @@ impl FlightStack for Controller {
 
     /// One inner step at simulated time `t`: IMU in, throttles out.
     fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
-        self.fc.step_inner(clock_us(t), &imu_sample(imu)).throttle
+        let (now, sample) = (clock_us(t), imu_sample(imu));
+        let out = self.fc.step_inner(now, &sample);
+        if let Some(nav) = self.nav.as_mut() {
+            nav.imu(now, &sample.accel, &self.fc.inner().estimate().attitude);
+        }
+        out.throttle
+    }
+
+    fn navigation(&self, t: f64) -> Option<(Vector3<f64>, f64)> {
+        let nav = self.nav.as_ref()?;
+        let (p, _) = nav.estimate(clock_us(t))?;
+        let s = nav.status().sigma_p;
+        Some((Vector3::new(p.x as f64, p.y as f64, p.z as f64), s.x.max(s.y) as f64))
+    }
+
+    fn height_fix(&mut self, t: f64, down: f64) {
+        if let Some(nav) = self.nav.as_mut() {
+            nav.height(clock_us(t), down);
+        }
     }
 
     fn state_name(&self) -> String {
@@ -146,6 +179,16 @@ impl FlightStack for Controller {
         let armed = self.fc.state() != parapet_core::failsafe::FailsafeState::Disarmed;
         let s = self.battery.update(clock_us(t), r.voltage_v, r.current_a, armed).state();
         self.fc.set_battery(&s);
+    }
+}
+
+impl Controller {
+    /// With a filtered source, hand the filter's estimate to the controller as its fix of
+    /// `now` (none in the navigation failsafe, `crate::fc::nav`).
+    fn outer_fix(&mut self, now: u64) {
+        if let Some(fix) = self.nav.as_ref().and_then(|n| n.controller_fix(now)) {
+            self.fc.update_position(fix);
+        }
     }
 }
 

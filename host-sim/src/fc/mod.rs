@@ -1,6 +1,7 @@
 //! The flight stacks the closed loop of [`crate::flight`] flies.
 //!
 //! * [`control`]: the in-process `parapet-core` `FlightController`.
+//! * [`nav`]: the navigation filter between a filtered position source and [`control`].
 //! * [`pil`]: processor-in-the-loop: the QEMU firmware flies the scene over MAVLink
 //!   lockstep, and its pure-host twin.
 //! * [`bridge`]: the SITL side of the PIL: UDP ground-station endpoints, wall-clock pacing,
@@ -10,4 +11,5 @@
 //! [`crate::report`], [`crate::flight`].
 pub mod bridge;
 pub mod control;
+pub mod nav;
 pub mod pil;

@@ -59,6 +59,7 @@ use parapet_core::thrust::ThrustParams;
 use parapet_core::tracking::TrackingParams;
 use parapet_core::waypoint::WaypointParams;
 
+use crate::flight::sensing::to_estimate_frame;
 pub use crate::flight::sensing::{bound_report, sense_and_h_bar, sense_obstacles, true_h_bar, OuterScratch};
 use crate::flight::stack::{clock_us, FlightStack};
 use crate::input::f32_as_f64;
@@ -374,11 +375,9 @@ pub fn check_bounded(cfg: &RunConfig) -> Result<()> {
         ));
     }
     let lat = cfg.sensors.position_latency;
-    if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
-        return Err(anyhow!(
-            "position latency must be in [0, {}] s, got {lat}",
-            limits::MAX_POSITION_LATENCY_S
-        ));
+    let lat_cap = limits::max_position_latency_s(cfg.sensors.position_source.is_mocap());
+    if !(lat.is_finite() && (0.0..=lat_cap).contains(&lat)) {
+        return Err(anyhow!("position latency must be in [0, {lat_cap}] s, got {lat}"));
     }
     Ok(())
 }
@@ -515,6 +514,9 @@ pub fn run_with(
             if let Some(fix) = sensors.position_with_yaw(t, &plant, yaw) {
                 ctrl.position_fix(fix);
             }
+            if let Some(down) = sensors.baro(t, &plant) {
+                ctrl.height_fix(t, down);
+            }
             let (pos, vel) = (plant.state.pos, plant.state.vel);
             let h_bar = sense_and_h_bar(
                 scene,
@@ -537,6 +539,9 @@ pub fn run_with(
                         }
                     }
                 }
+            }
+            if let Some((est, sigma)) = ctrl.navigation(t) {
+                to_estimate_frame(&mut scratch.seen, &(est - pos), &est, sigma, perception.is_some());
             }
             let out = ctrl.outer(t, &scratch.seen);
             if n_outer % crate::report::points::FILTER_POINTS_PERIOD == 0 {

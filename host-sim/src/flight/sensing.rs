@@ -6,8 +6,11 @@
 //! matter skipped through the vehicle's [`NearestTracker`]). Split out of [`super::runner`]
 //! (which re-exports these names) as its own concern.
 //!
+//! With a filtered position source the report is given in the frame of the vehicle's
+//! estimate ([`to_estimate_frame`], issue 39).
+//!
 //! Owns: [`OuterScratch`], [`true_h_bar`], [`sense_and_h_bar`], [`sense_obstacles`],
-//! [`bound_report`]. May import: `parapet-core`, [`crate::input`] (limits), [`crate::sim`]
+//! [`bound_report`], [`to_estimate_frame`]. May import: `parapet-core`, [`crate::input`] (limits), [`crate::sim`]
 //! (sensors, track ids), [`crate::world`] (scene, nearest-distance tracker).
 
 use nalgebra::Vector3;
@@ -249,4 +252,41 @@ pub fn bound_report(seen: &mut Vec<ObstaclePoint>, p: &Vec3) {
     }
     let mut k = keep.into_iter();
     seen.retain(|_| k.next().unwrap_or(false));
+}
+
+/// Margin on mapped obstacles, in σ of the navigation filter's horizontal position.
+pub const MAPPED_MARGIN_SIGMA: f64 = 3.0;
+
+/// Put an obstacle report into the frame the controller flies in when its position comes
+/// from the navigation filter (estimate `est`, NED m, horizontal σ `sigma` m; `err` = estimate
+/// − truth), `docs/filter.md` § Position uncertainty:
+///
+/// * `sensed` (range sensors, `--perception`): the vehicle measures obstacles relative to
+///   itself, so the points are the true ones shifted by the estimation error (`q + err`): the
+///   relative geometry the barrier uses is exact, whatever the global error.
+/// * mapped (the ground-truth report: a map in the world frame): the points stay where the
+///   map says, moved towards the estimate by [`MAPPED_MARGIN_SIGMA`]·σ, so the barrier keeps
+///   3σ of margin (at least 1 cm of distance is left).
+pub fn to_estimate_frame(
+    seen: &mut [ObstaclePoint],
+    err: &Vector3<f64>,
+    est: &Vector3<f64>,
+    sigma: f64,
+    sensed: bool,
+) {
+    if sensed {
+        let e = to_f32(err);
+        for o in seen.iter_mut() {
+            o.point += e;
+        }
+        return;
+    }
+    let (e, m) = (to_f32(est), (MAPPED_MARGIN_SIGMA * sigma) as f32);
+    for o in seen.iter_mut() {
+        let d = o.point - e;
+        let n = d.norm();
+        if n > 0.0 {
+            o.point = e + d * ((n - m).max(0.01) / n);
+        }
+    }
 }

@@ -92,6 +92,15 @@ pub trait FlightStack {
     ) -> Result<()>;
     /// A position/velocity/yaw fix measured at `fix.t_measured`.
     fn position_fix(&mut self, fix: PositionReading);
+    /// A barometer reading at `t` (NED down, m; filtered position sources, issue 39).
+    /// Default: ignored (a stack without a navigation filter).
+    fn height_fix(&mut self, _t: f64, _down: f64) {}
+    /// The navigation filter's position estimate at `t` (NED, m) and its horizontal σ (m),
+    /// for the obstacle report's frame ([`crate::flight::sensing::to_estimate_frame`]).
+    /// Default: `None` (the controller flies the fix: motion capture).
+    fn navigation(&self, _t: f64) -> Option<(Vector3<f64>, f64)> {
+        None
+    }
     /// Outer step at `t` with the sensed obstacles; returns what the recorder needs.
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut;
     /// Inner step at `t`: IMU in, motor throttles (0..1, rotors 1..4) out.

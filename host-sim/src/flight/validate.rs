@@ -168,7 +168,8 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
             .allowed(format!("0 < sensing range ≤ {} m", limits::MAX_COORDINATE_M)));
     }
     let lat = cfg.sensors.position_latency;
-    if !(lat.is_finite() && (0.0..=limits::MAX_POSITION_LATENCY_S).contains(&lat)) {
+    let lat_cap = limits::max_position_latency_s(cfg.sensors.position_source.is_mocap());
+    if !(lat.is_finite() && (0.0..=lat_cap).contains(&lat)) {
         return Err(InputError::file(
             &scene.source,
             format!(
@@ -179,7 +180,7 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         .table("sensors")
         .field("position_latency")
         .value(num(lat))
-        .allowed(format!("0 ≤ position_latency ≤ {} s", limits::MAX_POSITION_LATENCY_S)));
+        .allowed(format!("0 ≤ position_latency ≤ {} s", num(lat_cap))));
     }
     // The core's own parameter check, for what the scene's vehicle implies.
     let cbf = CbfParams {

@@ -3,6 +3,7 @@
 //! * [`plant`]: rigid-body 6-DOF quadrotor (NED/FRD), RK4 at 1 kHz, RotorPy-style aerodynamics.
 //! * [`battery`]: LiPo pack (charge, voltage sag with the motor current) and its voltage/current sensor.
 //! * [`sensors`]: IMU and position/velocity measurement with noise and latency.
+//! * [`source`]: the position-source presets (mocap, GPS, RTK, VIO), magnetometer yaw, barometer.
 //! * [`disturbance`]: wind (steady, Dryden, gusts), vehicle mismatch, sensor/report/rotor faults.
 //! * [`range`]: range sensors (lidar, depth camera, ToF): description, beam pattern, noise, dropouts.
 //! * [`replay`]: open-loop replay of rotor speeds from a CSV.
@@ -20,4 +21,5 @@ pub mod plant;
 pub mod range;
 pub mod replay;
 pub mod sensors;
+pub mod source;
 pub mod track_ids;

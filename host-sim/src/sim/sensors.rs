@@ -33,6 +33,8 @@ use parapet_core::obstacle::ObstaclePoint;
 
 pub use crate::sim::disturbance::faults::FaultParams;
 use crate::sim::plant::Plant;
+pub use crate::sim::source::PositionSource;
+use crate::sim::source::SourceModel;
 
 /// Period of the IMU samples the bias random walk assumes, s (1 kHz).
 pub const IMU_PERIOD_S: f64 = super::INNER_DT;
@@ -60,6 +62,14 @@ pub struct SensorParams {
     /// Noise on the velocity of moving obstacles as the proximity sensor /
     /// tracker reports it, m/s per axis (default 0: the true velocity).
     pub obstacle_velocity_noise: f64,
+    /// Where the fix comes from (`crate::sim::source`; default motion capture, as before).
+    pub position_source: PositionSource,
+    /// Fix rate, Hz (0: one fix per outer step, the motion-capture default).
+    pub rate: f64,
+    /// Start of a window without any fix, s (with `dropout_length` > 0).
+    pub dropout_start: f64,
+    /// Length of that window, s (0: none).
+    pub dropout_length: f64,
 }
 
 impl Default for SensorParams {
@@ -77,6 +87,32 @@ impl Default for SensorParams {
             velocity_noise: 0.02,
             position_latency: 0.01,
             obstacle_velocity_noise: 0.0,
+            position_source: PositionSource::Mocap,
+            rate: 0.0,
+            dropout_start: 0.0,
+            dropout_length: 0.0,
+        }
+    }
+}
+
+impl SensorParams {
+    /// Apply the `position_source` preset to every source value not in `explicit` (the keys
+    /// the scene's `[sensors]` table sets): `position_noise`, `velocity_noise`,
+    /// `position_latency`, `rate`. Motion capture's preset is the defaults: nothing changes.
+    pub fn apply_source_preset(&mut self, explicit: &[&str]) {
+        let p = self.position_source.preset();
+        let keep = |k: &str| explicit.contains(&k);
+        if !keep("position_noise") {
+            self.position_noise = p.position_noise;
+        }
+        if !keep("velocity_noise") {
+            self.velocity_noise = p.velocity_noise;
+        }
+        if !keep("position_latency") {
+            self.position_latency = p.position_latency;
+        }
+        if !keep("rate") {
+            self.rate = p.rate_hz;
         }
     }
 }
@@ -122,6 +158,10 @@ pub struct Sensors {
     last_delivery: f64,
     /// Obstacle reports measured, with their time.
     reports: VecDeque<(f64, Vec<ObstaclePoint>)>,
+    /// The source's errors (`None` for motion capture: nothing drawn).
+    source: Option<SourceModel>,
+    /// No fix is measured before this time (the fix rate), s.
+    next_fix_t: f64,
 }
 
 fn normal3(rng: &mut ChaCha8Rng, std: f64) -> Vector3<f64> {
@@ -141,7 +181,6 @@ impl Sensors {
             (Vector3::zeros(), Vector3::zeros())
         };
         Sensors {
-            params,
             rng,
             gyro_bias,
             accel_bias,
@@ -152,7 +191,34 @@ impl Sensors {
             last_fix_call: None,
             last_delivery: f64::NEG_INFINITY,
             reports: VecDeque::new(),
+            source: (!params.position_source.is_mocap())
+                .then(|| SourceModel::new(params.position_source.preset(), seed)),
+            next_fix_t: f64::NEG_INFINITY,
+            params,
         }
+    }
+
+    /// A barometer reading (NED down, m) at `t`, if the source has a barometer and one is due.
+    pub fn baro(&mut self, t: f64, plant: &Plant) -> Option<f64> {
+        self.source.as_mut()?.baro(t, plant.state.pos.z)
+    }
+
+    /// `false` when no fix is measured at `t`: between fixes of the `rate`, or in the
+    /// `dropout_start`/`dropout_length` window.
+    fn fix_due(&mut self, t: f64) -> bool {
+        let p = &self.params;
+        if p.dropout_length > 0.0 && t >= p.dropout_start && t < p.dropout_start + p.dropout_length {
+            return false;
+        }
+        if p.rate > 0.0 {
+            if t < self.next_fix_t - 1e-9 {
+                return false;
+            }
+            let period = 1.0 / p.rate;
+            self.next_fix_t =
+                if self.next_fix_t + period > t { self.next_fix_t + period } else { t + period };
+        }
+        true
     }
 
     /// [`new`](Self::new) with faults (the same noise stream as without them).
@@ -220,17 +286,8 @@ impl Sensors {
     /// [`position`](Self::position) with the plant's true yaw (rad) given by a
     /// caller that has already computed the Euler angles of this state.
     pub fn position_with_yaw(&mut self, t: f64, plant: &Plant, yaw: f64) -> Option<PositionReading> {
-        let mut r =
-            PositionReading { t_measured: t, position: plant.state.pos, velocity: plant.state.vel, yaw };
-        if self.params.noise {
-            r.position += normal3(&mut self.rng, self.params.position_noise);
-            r.velocity += normal3(&mut self.rng, self.params.velocity_noise);
-        }
-        let mut delivery = t + self.params.position_latency;
-        let measured =
-            if self.faults.fix_faults() { self.fix_faults(t, &mut r, &mut delivery) } else { true };
-        if measured {
-            self.pending.push_back((delivery, r));
+        if self.fix_due(t) {
+            self.measure_fix(t, plant, yaw);
         }
         let mut out = None;
         // Small tolerance so a latency that is a multiple of the call period is exact.
@@ -242,6 +299,25 @@ impl Sensors {
             }
         }
         out
+    }
+
+    /// Measure the fix of `t` and queue it for its delivery time.
+    fn measure_fix(&mut self, t: f64, plant: &Plant, yaw: f64) {
+        let mut r =
+            PositionReading { t_measured: t, position: plant.state.pos, velocity: plant.state.vel, yaw };
+        if self.params.noise {
+            r.position += normal3(&mut self.rng, self.params.position_noise);
+            r.velocity += normal3(&mut self.rng, self.params.velocity_noise);
+        }
+        if let Some(s) = self.source.as_mut().filter(|_| self.params.noise) {
+            s.corrupt(t, &mut r.position, &mut r.yaw);
+        }
+        let mut delivery = t + self.params.position_latency;
+        let measured =
+            if self.faults.fix_faults() { self.fix_faults(t, &mut r, &mut delivery) } else { true };
+        if measured {
+            self.pending.push_back((delivery, r));
+        }
     }
 
     /// Dropout bursts, outliers and latency jitter of the fix measured at `t`;

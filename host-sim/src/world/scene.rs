@@ -127,7 +127,7 @@ impl Scene {
     /// Parse and validate scene TOML text; `file` labels error messages.
     pub fn parse(src: &str, file: &str) -> Result<Scene, SceneError> {
         let err = |message: String| SceneError { file: file.to_string(), message };
-        let raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
+        let mut raw: RawScene = toml::from_str(src).map_err(|e| err(describe_toml_error(src, &e)))?;
         let coord = format!("finite, |x| ≤ {} m", limits::MAX_COORDINATE_M);
         let finite3 = |table: &str, field: &str, a: [f64; 3]| -> Result<(), SceneError> {
             if a.iter().all(|x| x.is_finite()) && within_limit(&a) {
@@ -183,7 +183,10 @@ impl Scene {
                 )));
             }
         }
-        if let Some(s) = &raw.sensors {
+        if let Some(s) = raw.sensors.as_mut() {
+            // The source's preset under the keys the table sets (issue 39).
+            let keys = super::schema::sensors_keys(src);
+            s.apply_source_preset(&keys.iter().map(String::as_str).collect::<Vec<_>>());
             validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
         }
         let mut disturbances = crate::sim::disturbance::Disturbances::default();

@@ -302,6 +302,7 @@ pub(crate) fn validate_controller(c: &ControllerOverrides) -> Result<(), String>
 }
 
 pub(crate) fn validate_sensors(s: &SensorParams) -> Result<(), String> {
+    let lat_cap = limits::max_position_latency_s(s.position_source.is_mocap());
     for (field, x) in [
         ("gyro_noise", s.gyro_noise),
         ("gyro_bias", s.gyro_bias),
@@ -311,25 +312,43 @@ pub(crate) fn validate_sensors(s: &SensorParams) -> Result<(), String> {
         ("velocity_noise", s.velocity_noise),
         ("position_latency", s.position_latency),
         ("obstacle_velocity_noise", s.obstacle_velocity_noise),
+        ("rate", s.rate),
+        ("dropout_start", s.dropout_start),
+        ("dropout_length", s.dropout_length),
     ] {
-        let cap = if field == "position_latency" {
-            limits::MAX_POSITION_LATENCY_S
-        } else {
-            limits::MAX_SENSOR_NOISE
+        let (cap, unit) = match field {
+            "position_latency" => (lat_cap, " s"),
+            "rate" => (limits::MAX_FIX_RATE_HZ, " Hz"),
+            "dropout_start" | "dropout_length" => (limits::MAX_DURATION_CEILING_S, " s"),
+            _ => (limits::MAX_SENSOR_NOISE, ""),
         };
         if !(x.is_finite() && (0.0..=cap).contains(&x)) {
-            let why = if field == "position_latency" {
+            let why = if field == "position_latency" && s.position_source.is_mocap() {
                 format!(
-                    "beyond the cap (the flight controller's position timeout is {} s)",
-                    num(limits::position_timeout_s())
+                    "beyond the cap (the flight controller's position timeout is {} s; a filtered \
+                     `position_source` allows {} s)",
+                    num(limits::position_timeout_s()),
+                    num(limits::MAX_FILTERED_LATENCY_S)
                 )
+            } else if field == "position_latency" {
+                "beyond the navigation filter's history".to_string()
             } else {
                 "out of range".to_string()
             };
-            return Err(bad(field, &why, x, &format!("0 ≤ {field} ≤ {cap}")));
+            return Err(bad(field, &why, x, &format!("0 ≤ {field} ≤ {}{unit}", num(cap))));
         }
     }
     Ok(())
+}
+
+/// The keys a `[sensors]` table of the scene text `src` sets (for
+/// [`SensorParams::apply_source_preset`]); empty when there is no such table.
+pub(crate) fn sensors_keys(src: &str) -> Vec<String> {
+    let table: toml::Table = toml::from_str(src).unwrap_or_default();
+    match table.get("sensors") {
+        Some(toml::Value::Table(t)) => t.keys().cloned().collect(),
+        _ => Vec::new(),
+    }
 }
 
 pub(crate) fn convert_obstacle(o: RawObstacle) -> Result<SceneObstacle, String> {
