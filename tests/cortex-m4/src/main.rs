@@ -805,6 +805,35 @@ fn bench_memory(c: &Counter, forward: bool) {
     let _ = writeln!(Console, "memory cells after 40 scans: {cells}");
 }
 
+/// The navigation filter (`parapet_core::nav`, issue 39): one predict (IMU sample, 9×9
+/// covariance) and one delayed position + velocity update (150 ms old), each measured once
+/// per call over 64 IMU steps of a filter in flight.
+fn bench_nav(c: &Counter) {
+    use parapet_core::nav::{FixKind, NavFilter, NavParams};
+    let mut f = NavFilter::new(NavParams::default());
+    let rot = parapet_core::frame::rotation_from_euler(0.05, -0.03, 0.4);
+    let acc = rot.inverse() * Vec3::new(0.3, -0.2, -9.81);
+    let _ = f.predict(0, &acc, &rot);
+    let _ = f.fuse_position(0, &Vec3::new(1.0, 2.0, -1.5), 0.5, FixKind::Absolute);
+    let (mut pred, mut upd) = (Stats::default(), Stats::default());
+    for k in 1..=640u64 {
+        let t = k * 1_000;
+        pred.add(c.measure_once(|| {
+            let _ = black_box(f.predict(black_box(t), &acc, &rot));
+        }));
+        if k % 10 == 0 && k >= 200 {
+            let tm = t - 150_000;
+            let z = Vec3::new(1.0, 2.0, -1.5);
+            upd.add(c.measure_once(|| {
+                let _ = black_box(f.fuse_position(tm, &z, 0.5, FixKind::Absolute));
+                let _ = black_box(f.fuse_velocity(tm, &Vec3::zeros(), 0.1));
+            }));
+        }
+    }
+    pred.report("nav predict (1 IMU sample)");
+    upd.report("nav update (delayed position + velocity)");
+}
+
 #[entry]
 fn main() -> ! {
     let cp = match cortex_m::Peripherals::take() {
@@ -822,6 +851,7 @@ fn main() -> ! {
     bench_memory(&c, false);
     bench_memory(&c, true);
     storage::bench_storage(&c);
+    bench_nav(&c);
     print("done\n");
     exit(true)
 }
