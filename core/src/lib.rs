@@ -32,6 +32,8 @@
 //! - [`perception`]: range scans → a bounded world-frame obstacle memory (voxel merge,
 //!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
 //!   the filter's obstacle points (issue 19).
+//! - [`replan`]: on-board replanning around what the map lacked (grid A* on the sensed
+//!   obstacles, trigger, cooldown; issue 38).
 //! - [`rc`]: pilot input (CRSF/SBUS/MAVLink manual control → [`rc::RcInput`]; issue 21).
 //! - [`battery`]: the battery measurement message ([`battery::BatteryState`]) and its estimator
 //!   (filter, cell count, low/critical levels, remaining charge; issue 22).
@@ -66,6 +68,7 @@ pub mod outer;
 pub mod params;
 pub mod perception;
 pub mod rc;
+pub mod replan;
 pub mod safety;
 pub mod schedule;
 pub mod supervisor;

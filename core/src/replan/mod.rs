@@ -1,0 +1,400 @@
+//! On-board replanning (issue 38): when the map the mission was planned on is wrong, the
+//! vehicle plans a detour by itself, from what it has sensed, and flies it through the same
+//! guidance and safety filter.
+//!
+//! **What it knows** ([`grid`]): a persistent [`grid::GRID`]² horizontal occupancy grid at
+//! the flight level (default cell 0.2 m: a 12.8 m square that follows the vehicle in whole
+//! cells), marked with the static obstacle points the filter is given (ground truth's closest
+//! points, or the obstacle memory's points with range sensing) that lie within `band_m` of the
+//! vehicle's height. Occupied cells are grown by the hull radius + `margin_m`. **Unknown space
+//! is assumed free**: a detour through space nobody has seen is flown under the same safety
+//! filter, which stops the vehicle before anything it then senses, and the next check replans.
+//!
+//! **Trigger** ([`Replanner::step`]): checked at `rate_hz` (≥ 1 Hz; default 2): the remaining
+//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) crosses a
+//! blocked cell; or the filter reports a stall (`deadlock`, `crate::plant_aware`) and the
+//! remaining path is blocked anywhere in the grid. After a replan, a no-path or a budget
+//! result the next plan waits `cooldown_s` (no thrashing).
+//!
+//! **Plan** ([`Replanner::plan`]): A* with octile costs on the grid ([`search`]; Hart, Nilsson
+//! & Raphael 1968) from the vehicle's cell to the **target**: the first point of the remaining
+//! path beyond the blockage that is free and inside the grid; if that is not reachable, each
+//! later waypoint in the grid in turn ([`MAX_TARGETS`] tries). The cell path is simplified by
+//! line of sight on the grid (a waypoint only where the straight line would cross a blocked
+//! cell), and the new path is: detour waypoints → the target → the rest of the mission.
+//! Cells within the inflation radius of the vehicle that are not themselves occupied are
+//! passable, so a vehicle already near an obstacle can leave it.
+//!
+//! **Results** ([`ReplanOutcome`]): `Replanned` (the caller sets the new path with
+//! `FlightController::set_path`, whose reference continues from where it is); `NotNeeded`
+//! (path clear in the grid); `NoPath` (no target reachable: the vehicle keeps its path, the
+//! filter holds it in front of the blockage and the stall detector reports `deadlock`; the
+//! caller reports the event; retried after the cooldown, as the grid may change);
+//! `BudgetExceeded` (the search's expansion cap or open list, or the new path would exceed
+//! the detour or path capacity: handled like `NoPath`).
+//!
+//! **Bounds.** Memory: the grid 1 KiB, the search ≈ 20 KiB (`Replanner` ≈ 21 KiB in all).
+//! Time: at most [`MAX_TARGETS`] searches of at most `max_expansions` (≤ 4096) expansions of 8
+//! neighbours, plus O(path cells · 2·GRID) line-of-sight tests.
+//!
+//! May import: `crate::obstacle`, `crate::fmath`, `crate::Vec3`.
+
+pub mod grid;
+pub mod search;
+
+use crate::obstacle::ObstaclePoint;
+use crate::Vec3;
+use grid::{Grid, CELLS, GRID};
+use search::{Search, SearchResult};
+
+/// Targets tried per plan (the first free point beyond the blockage, then later waypoints).
+pub const MAX_TARGETS: usize = 4;
+/// Detour waypoints at most (before the target).
+pub const MAX_DETOUR: usize = 16;
+/// Obstacle points moving faster than this (m/s) are not marked (the grid is for the static world).
+pub const STATIC_SPEED: f32 = 0.1;
+
+/// Parameters of the replanner (the `RPL_*` parameters).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReplanParams {
+    /// Replanning on. Default on.
+    pub enable: bool,
+    /// Checks per second, Hz. Default 2.
+    pub rate_hz: f32,
+    /// Wait after a replan (or no-path / budget result) before the next plan, s. Default 2.
+    pub cooldown_s: f32,
+    /// Length of the remaining path checked for a blockage, m. Default 3.
+    pub horizon_m: f32,
+    /// Clearance beyond the hull radius the detour keeps from obstacle cells, m. Default 0.1.
+    pub margin_m: f32,
+    /// Grid cell edge, m. Default 0.2 (the grid is 64 cells = 12.8 m across).
+    pub cell_m: f32,
+    /// Points within this height of the vehicle mark the grid, m. Default 0.5.
+    pub band_m: f32,
+    /// Expansions per search at most (≤ 4096). Default 4096.
+    pub max_expansions: u16,
+}
+
+impl Default for ReplanParams {
+    fn default() -> Self {
+        ReplanParams {
+            enable: true,
+            rate_hz: 2.0,
+            cooldown_s: 2.0,
+            horizon_m: 3.0,
+            margin_m: 0.1,
+            cell_m: 0.2,
+            band_m: 0.5,
+            max_expansions: CELLS as u16,
+        }
+    }
+}
+
+impl ReplanParams {
+    /// Every field finite and in its range (rate [1, 50] Hz, cooldown [0, 60] s, horizon
+    /// (0, 50] m, margin [0, 2] m, cell [0.05, 1] m, band (0, 5] m, expansions ≥ 1).
+    pub fn valid(&self) -> bool {
+        (1.0..=50.0).contains(&self.rate_hz)
+            && (0.0..=60.0).contains(&self.cooldown_s)
+            && self.horizon_m > 0.0
+            && self.horizon_m <= 50.0
+            && (0.0..=2.0).contains(&self.margin_m)
+            && (0.05..=1.0).contains(&self.cell_m)
+            && self.band_m > 0.0
+            && self.band_m <= 5.0
+            && self.max_expansions >= 1
+    }
+}
+
+/// What one plan did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ReplanOutcome {
+    /// A new path was written: `detour` waypoints before the target, `waypoints` in all.
+    Replanned {
+        /// Detour waypoints (before the target point).
+        detour: u8,
+        /// Waypoints of the new path.
+        waypoints: u8,
+    },
+    /// The remaining path is clear in the grid.
+    NotNeeded,
+    /// No target beyond the blockage is reachable through the grid.
+    NoPath,
+    /// The search's cap or a capacity was reached first.
+    BudgetExceeded,
+}
+
+/// Counters since start.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReplanStats {
+    /// Plans run (checks that were due and not in cooldown).
+    pub checks: u32,
+    /// New paths.
+    pub replans: u32,
+    /// `NoPath` results.
+    pub no_path: u32,
+    /// `BudgetExceeded` results.
+    pub budget: u32,
+}
+
+/// The on-board replanner (see the module documentation). Keeps its grid between calls.
+#[derive(Clone, Debug)]
+pub struct Replanner {
+    params: ReplanParams,
+    hull: f32,
+    grid: Grid,
+    search: Search,
+    next_check_us: u64,
+    stats: ReplanStats,
+}
+
+/// A point on the remaining path: where, and the index of the waypoint its segment ends at.
+#[derive(Clone, Copy, Debug)]
+struct Target {
+    p: Vec3,
+    /// Index into the remaining path of the segment's end waypoint.
+    next: usize,
+    /// The point is that waypoint itself.
+    at_waypoint: bool,
+}
+
+impl Replanner {
+    /// A replanner for a vehicle of hull radius `hull` m (invalid parameters: the defaults).
+    pub fn new(params: ReplanParams, hull: f32) -> Self {
+        let params = if params.valid() { params } else { ReplanParams::default() };
+        Replanner {
+            params,
+            hull: if hull.is_finite() && hull >= 0.0 { hull } else { 0.0 },
+            grid: Grid::new(params.cell_m, &Vec3::zeros()),
+            search: Search::default(),
+            next_check_us: 0,
+            stats: ReplanStats::default(),
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &ReplanParams {
+        &self.params
+    }
+
+    /// Counters since start.
+    pub fn stats(&self) -> ReplanStats {
+        self.stats
+    }
+
+    /// The grid (plots, tests).
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Mark the static `points` within the height band of the vehicle at `pos` (NED) in the
+    /// grid, which first follows the vehicle. O(points + GRID).
+    pub fn observe(&mut self, pos: &Vec3, points: &[ObstaclePoint]) {
+        if !pos.iter().all(|c| c.is_finite()) {
+            return;
+        }
+        self.grid.follow(pos);
+        for o in points {
+            let moving = o.velocity.is_some_and(|v| v.norm_squared() > STATIC_SPEED * STATIC_SPEED);
+            if !moving && (o.point.z - pos.z).abs() <= self.params.band_m {
+                self.grid.mark(&o.point);
+            }
+        }
+    }
+
+    /// The trigger at `now_us`: when a check is due (rate, cooldown) and replanning is on,
+    /// [`Replanner::plan`] from `pos` along `remaining` (the waypoints not yet reached), with
+    /// the whole remaining path in the grid checked when `stalled`. `None`: no check was due.
+    pub fn step<const N: usize>(
+        &mut self,
+        now_us: u64,
+        pos: &Vec3,
+        stalled: bool,
+        remaining: &[Vec3],
+        out: &mut heapless::Vec<Vec3, N>,
+    ) -> Option<ReplanOutcome> {
+        if !self.params.enable || now_us < self.next_check_us || remaining.is_empty() {
+            return None;
+        }
+        let horizon = if stalled { f32::INFINITY } else { self.params.horizon_m };
+        let r = self.plan(pos, remaining, horizon, out);
+        let wait = match r {
+            ReplanOutcome::NotNeeded => 1.0 / self.params.rate_hz,
+            _ => self.params.cooldown_s.max(1.0 / self.params.rate_hz),
+        };
+        self.next_check_us = now_us.saturating_add((wait * 1e6) as u64);
+        Some(r)
+    }
+
+    /// Plan from `pos` along `remaining`, checking `horizon` m of it for a blockage; the new
+    /// path (when [`ReplanOutcome::Replanned`]) is written to `out`, otherwise `out` is left
+    /// empty. See the module documentation.
+    pub fn plan<const N: usize>(
+        &mut self,
+        pos: &Vec3,
+        remaining: &[Vec3],
+        horizon: f32,
+        out: &mut heapless::Vec<Vec3, N>,
+    ) -> ReplanOutcome {
+        out.clear();
+        self.stats.checks = self.stats.checks.saturating_add(1);
+        if !pos.iter().all(|c| c.is_finite()) || remaining.is_empty() {
+            return ReplanOutcome::NotNeeded;
+        }
+        let radius = self.hull + self.params.margin_m;
+        self.grid.follow(pos);
+        self.grid.inflate(radius);
+        let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
+        if !self.find_targets(pos, remaining, horizon, radius, &mut targets) {
+            return ReplanOutcome::NotNeeded;
+        }
+        let r = self.search_targets(pos, remaining, radius, &targets, out);
+        match r {
+            ReplanOutcome::Replanned { .. } => self.stats.replans = self.stats.replans.saturating_add(1),
+            ReplanOutcome::NoPath => self.stats.no_path = self.stats.no_path.saturating_add(1),
+            ReplanOutcome::BudgetExceeded => self.stats.budget = self.stats.budget.saturating_add(1),
+            ReplanOutcome::NotNeeded => {}
+        }
+        if !matches!(r, ReplanOutcome::Replanned { .. }) {
+            out.clear();
+        }
+        r
+    }
+
+    /// Walk the remaining path from `pos` every half cell: `false` when the first `horizon` m
+    /// cross no blocked cell (or it leaves the grid first); otherwise the targets: the first
+    /// free sample after the blockage, then later waypoints that are free and in the grid.
+    fn find_targets(
+        &self,
+        pos: &Vec3,
+        remaining: &[Vec3],
+        horizon: f32,
+        radius: f32,
+        targets: &mut heapless::Vec<Target, MAX_TARGETS>,
+    ) -> bool {
+        let step = 0.5 * self.grid.cell();
+        let free = |p: &Vec3| self.grid.cell_of(p).map(|(i, j)| passable(&self.grid, i, j, pos, radius));
+        let (mut s, mut blocked_at) = (0.0f32, None::<usize>);
+        let mut a = *pos;
+        for (k, b) in remaining.iter().enumerate() {
+            let len = crate::fmath::norm3(&(b - a));
+            let n = ((len / step) as u32).min(4 * GRID as u32) + 1;
+            for m in 1..=n {
+                let p = a + (b - a) * (m as f32 / n as f32);
+                let at_waypoint = m == n;
+                match (blocked_at, free(&p)) {
+                    (None, None) => return false,
+                    (None, Some(false)) if s + len * m as f32 / n as f32 <= horizon => blocked_at = Some(k),
+                    (None, Some(false)) => return false,
+                    (Some(_), Some(true)) if targets.is_empty() => {
+                        let _ = targets.push(Target { p, next: k, at_waypoint });
+                    }
+                    _ => {}
+                }
+                if !targets.is_empty() {
+                    break;
+                }
+            }
+            s += len;
+            if blocked_at.is_none() && s > horizon {
+                return false;
+            }
+            if !targets.is_empty() {
+                // Fallbacks: the later waypoints that are free and in the grid.
+                for (kk, w) in remaining.iter().enumerate().skip(k + 1) {
+                    if free(w) == Some(true)
+                        && targets.push(Target { p: *w, next: kk, at_waypoint: true }).is_err()
+                    {
+                        break;
+                    }
+                }
+                return true;
+            }
+            a = *b;
+        }
+        // Blocked and nothing free in the grid beyond: no target (NoPath from the search).
+        blocked_at.is_some()
+    }
+
+    fn search_targets<const N: usize>(
+        &mut self,
+        pos: &Vec3,
+        remaining: &[Vec3],
+        radius: f32,
+        targets: &[Target],
+        out: &mut heapless::Vec<Vec3, N>,
+    ) -> ReplanOutcome {
+        let Some(start) = self.grid.cell_of(pos) else { return ReplanOutcome::NoPath };
+        for t in targets {
+            let Some(goal) = self.grid.cell_of(&t.p) else { continue };
+            let grid = &self.grid;
+            let passable = |i: usize, j: usize| passable(grid, i, j, pos, radius);
+            match self.search.run(start, goal, passable, u32::from(self.params.max_expansions)) {
+                SearchResult::Budget => return ReplanOutcome::BudgetExceeded,
+                SearchResult::NoPath(_) => continue,
+                SearchResult::Found(_) => return self.assemble(pos, remaining, radius, start, goal, t, out),
+            }
+        }
+        ReplanOutcome::NoPath
+    }
+
+    /// The new path of a found search: line-of-sight waypoints from the target back to the
+    /// vehicle, reversed, then the target and the rest of the mission.
+    #[allow(clippy::too_many_arguments)]
+    fn assemble<const N: usize>(
+        &self,
+        pos: &Vec3,
+        remaining: &[Vec3],
+        radius: f32,
+        start: (usize, usize),
+        goal: (usize, usize),
+        t: &Target,
+        out: &mut heapless::Vec<Vec3, N>,
+    ) -> ReplanOutcome {
+        let free = |i: usize, j: usize| passable(&self.grid, i, j, pos, radius);
+        let z = t.p.z;
+        let mut back: heapless::Vec<Vec3, MAX_DETOUR> = heapless::Vec::new();
+        let mut anchor = t.p;
+        let (mut cell, mut last) = (goal, t.p);
+        for _ in 0..CELLS {
+            let Some(prev) = self.search.parent(cell.0, cell.1) else { break };
+            let q = if prev == start { *pos } else { self.grid.centre(prev.0, prev.1, z) };
+            if !self.grid.line_free(&anchor, &q, free) {
+                // `last` is the farthest cell seen from the anchor: a corner of the detour.
+                if back.push(Vec3::new(last.x, last.y, z)).is_err() {
+                    return ReplanOutcome::BudgetExceeded;
+                }
+                anchor = last;
+            }
+            last = q;
+            cell = prev;
+        }
+        let rest = if t.at_waypoint {
+            &remaining[(t.next + 1).min(remaining.len())..]
+        } else {
+            &remaining[t.next..]
+        };
+        if back.len() + 1 + rest.len() > N {
+            return ReplanOutcome::BudgetExceeded;
+        }
+        for w in back.iter().rev().chain(core::iter::once(&t.p)).chain(rest.iter()) {
+            let _ = out.push(*w);
+        }
+        ReplanOutcome::Replanned { detour: back.len() as u8, waypoints: out.len().min(255) as u8 }
+    }
+}
+
+/// A cell the search may enter: not blocked, or blocked only by inflation within `radius` of
+/// the vehicle at `start` (so that a vehicle already near an obstacle can leave it).
+fn passable(grid: &Grid, i: usize, j: usize, start: &Vec3, radius: f32) -> bool {
+    if !grid.is_blocked(i, j) {
+        return true;
+    }
+    let c = grid.centre(i, j, start.z);
+    !grid.is_occupied(i, j) && (c - start).xy().norm_squared() <= radius * radius
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,172 @@
+//! Hand-checkable replanning cases: a wall with one gap, no gap, a waypoint inside an
+//! obstacle, the expansion cap, the trigger's rate and cooldown.
+
+use super::*;
+
+const Z: f32 = -1.0;
+const HULL: f32 = 0.22;
+
+fn v(x: f32, y: f32) -> Vec3 {
+    Vec3::new(x, y, Z)
+}
+
+/// Static points every 0.1 m along x = `x` for y in [y0, y1] (m).
+fn wall(x: f32, y0: f32, y1: f32, out: &mut heapless::Vec<ObstaclePoint, 512>) {
+    let n = ((y1 - y0) / 0.1) as i32;
+    for k in 0..=n {
+        let _ = out.push(ObstaclePoint::fixed(v(x, y0 + 0.1 * k as f32), 1));
+    }
+}
+
+/// Static points every 0.1 m along y = `y` for x in [x0, x1] (m).
+fn wall_x(y: f32, x0: f32, x1: f32, out: &mut heapless::Vec<ObstaclePoint, 512>) {
+    let n = ((x1 - x0) / 0.1) as i32;
+    for k in 0..=n {
+        let _ = out.push(ObstaclePoint::fixed(v(x0 + 0.1 * k as f32, y), 1));
+    }
+}
+
+/// Smallest distance (x, y) from the segments of `path` (from `start`) to the points.
+fn clearance(start: &Vec3, path: &[Vec3], pts: &[ObstaclePoint]) -> f32 {
+    let mut a = *start;
+    let mut best = f32::INFINITY;
+    for b in path {
+        for o in pts {
+            let (ab, ap) = ((b - a).xy(), (o.point - a).xy());
+            let t =
+                if ab.norm_squared() > 0.0 { (ap.dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
+            best = best.min((ap - ab * t).norm());
+        }
+        a = *b;
+    }
+    best
+}
+
+fn replanner_with(pts: &[ObstaclePoint], at: &Vec3) -> Replanner {
+    let mut r = Replanner::new(ReplanParams::default(), HULL);
+    r.observe(at, pts);
+    r
+}
+
+#[test]
+fn a_wall_with_one_gap_is_passed_through_the_gap() {
+    // Wall across x = 2 from y = -3 to 3 with a 1.2 m gap at y 1.4..2.6; mission straight on.
+    let mut pts = heapless::Vec::new();
+    wall(2.0, -3.0, 1.3, &mut pts);
+    wall(2.0, 2.7, 3.0, &mut pts);
+    let (at, goal) = (v(0.0, 0.0), v(4.0, 0.0));
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let res = r.plan(&at, &[goal], 3.0, &mut out);
+    assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
+    assert_eq!(out.last(), Some(&goal), "the rest of the mission follows: {out:?}");
+    // Through the gap: a waypoint near it, and every leg clear of the wall by hull + margin
+    // less the grid's rounding (half a cell diagonal).
+    assert!(out.iter().any(|w| (1.4..=2.6).contains(&w.y)), "{out:?}");
+    let c = clearance(&at, &out, &pts);
+    assert!(c >= HULL + 0.1 - 0.15, "clearance {c} of {out:?}");
+    // A detour of two or three line-of-sight legs, not one per cell.
+    assert!(out.len() <= 4, "{out:?}");
+    assert!(out.iter().all(|w| w.z == Z));
+    assert_eq!(r.stats().replans, 1);
+}
+
+#[test]
+fn a_wall_without_a_gap_is_no_path() {
+    let mut pts = heapless::Vec::new();
+    wall(2.0, -7.0, 7.0, &mut pts);
+    let at = v(0.0, 0.0);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    assert_eq!(r.plan(&at, &[v(4.0, 0.0), v(5.0, 0.0)], 3.0, &mut out), ReplanOutcome::NoPath);
+    assert!(out.is_empty());
+    assert_eq!((r.stats().no_path, r.stats().replans), (1, 0));
+}
+
+#[test]
+fn a_clear_path_needs_no_plan_and_a_far_blockage_waits() {
+    let mut pts = heapless::Vec::new();
+    wall(5.0, -3.0, 3.0, &mut pts);
+    let at = v(0.0, 0.0);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    assert_eq!(r.plan(&at, &[v(3.0, 0.0), v(3.0, 3.0)], 3.0, &mut out), ReplanOutcome::NotNeeded);
+    // The wall 5 m ahead is beyond the 3 m horizon; with an unlimited horizon it is planned round.
+    assert_eq!(r.plan(&at, &[v(6.0, 0.0)], 3.0, &mut out), ReplanOutcome::NotNeeded);
+    assert!(matches!(r.plan(&at, &[v(6.0, 0.0)], f32::INFINITY, &mut out), ReplanOutcome::Replanned { .. }));
+}
+
+#[test]
+fn a_waypoint_inside_an_obstacle_is_skipped_for_the_next_reachable_one() {
+    // A closed room (2 m square walls) around the first waypoint: the first free point beyond
+    // the blockage is inside the room, unreachable; the next waypoint, outside, is the target.
+    let mut pts = heapless::Vec::new();
+    wall(2.0, -1.0, 1.0, &mut pts);
+    wall(4.0, -1.0, 1.0, &mut pts);
+    wall_x(-1.0, 2.0, 4.0, &mut pts);
+    wall_x(1.0, 2.0, 4.0, &mut pts);
+    let at = v(0.0, 0.0);
+    let (inside, after) = (v(3.0, 0.0), v(6.0, 0.0));
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let res = r.plan(&at, &[inside, after, v(6.0, 3.0)], 3.0, &mut out);
+    assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
+    assert!(!out.contains(&inside), "{out:?}");
+    assert_eq!(&out[out.len() - 2..], &[after, v(6.0, 3.0)]);
+    assert!(clearance(&at, &out, &pts) >= HULL);
+}
+
+#[test]
+fn the_expansion_cap_is_a_defined_result() {
+    let mut pts = heapless::Vec::new();
+    wall(2.0, -3.0, 1.3, &mut pts);
+    wall(2.0, 2.7, 3.0, &mut pts);
+    let at = v(0.0, 0.0);
+    let mut r = Replanner::new(ReplanParams { max_expansions: 10, ..ReplanParams::default() }, HULL);
+    r.observe(&at, &pts);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    assert_eq!(r.plan(&at, &[v(4.0, 0.0)], 3.0, &mut out), ReplanOutcome::BudgetExceeded);
+    assert!(out.is_empty());
+    // A path that would not fit the capacity: the same result, nothing written.
+    let mut r = replanner_with(&pts, &at);
+    let mut small: heapless::Vec<Vec3, 2> = heapless::Vec::new();
+    assert_eq!(r.plan(&at, &[v(4.0, 0.0), v(5.0, 0.0)], 3.0, &mut small), ReplanOutcome::BudgetExceeded);
+    assert!(small.is_empty());
+}
+
+#[test]
+fn the_trigger_keeps_its_rate_and_cooldown() {
+    let mut pts = heapless::Vec::new();
+    wall(2.0, -3.0, 1.3, &mut pts);
+    wall(2.0, 2.7, 3.0, &mut pts);
+    let at = v(0.0, 0.0);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let path = [v(4.0, 0.0)];
+    assert!(matches!(r.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::Replanned { .. })));
+    // Cooldown 2 s: nothing until then, whatever the path.
+    assert_eq!(r.step(1_999_999, &at, false, &path, &mut out), None);
+    assert!(r.step(2_000_000, &at, false, &path, &mut out).is_some());
+    // A clear path is checked again after 1 / rate = 0.5 s.
+    let mut clear = Replanner::new(ReplanParams::default(), HULL);
+    assert_eq!(clear.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
+    assert_eq!(clear.step(499_999, &at, false, &path, &mut out), None);
+    assert_eq!(clear.step(500_000, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
+    // Off: never.
+    let mut off = Replanner::new(ReplanParams { enable: false, ..ReplanParams::default() }, HULL);
+    off.observe(&at, &pts);
+    assert_eq!(off.step(0, &at, true, &path, &mut out), None);
+}
+
+#[test]
+fn moving_points_and_points_off_the_flight_level_are_not_marked() {
+    let mut r = Replanner::new(ReplanParams::default(), HULL);
+    let at = v(0.0, 0.0);
+    let walker =
+        ObstaclePoint { point: v(1.0, 0.0), velocity: Some(Vec3::new(0.5, 0.0, 0.0)), id: 2, normal: None };
+    let low = ObstaclePoint::fixed(Vec3::new(1.0, 0.0, Z + 1.0), 3);
+    r.observe(&at, &[walker, low]);
+    assert_eq!(r.grid().occupied_count(), 0);
+    r.observe(&at, &[ObstaclePoint::fixed(v(1.0, 0.0), 4)]);
+    assert_eq!(r.grid().occupied_count(), 1);
+}
