@@ -87,6 +87,9 @@ pub struct ControllerParams {
     pub sensors: SensorCal,
     /// The in-flight speed governor (issue 36; `GOV_*`, [`crate::governor`]).
     pub governor: GovernorParams,
+    /// On-board replanning (issue 38; used by the caller that runs the replanner,
+    /// `crate::replan::Replanner`). Default [`crate::replan::ReplanParams::default`].
+    pub replan: crate::replan::ReplanParams,
 }
 
 /// Default hull radius, m: √0.05, so the default δ = 0.05 m² is its square.
@@ -119,6 +122,7 @@ impl Default for ControllerParams {
             battery: BatteryParams::default(),
             sensors: SensorCal::default(),
             governor: GovernorParams::default(),
+            replan: crate::replan::ReplanParams::default(),
         }
     }
 }

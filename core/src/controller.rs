@@ -374,6 +374,11 @@ impl FlightController {
         self.outer.set_path(waypoints_ned)
     }
 
+    /// The stored path's waypoints (NED; see [`OuterLoop::path`](crate::outer::OuterLoop::path)).
+    pub fn path(&self) -> &[Vec3] {
+        self.outer.path()
+    }
+
     /// Drop the stored path (see [`OuterLoop::clear_path`](crate::outer::OuterLoop::clear_path)).
     pub fn clear_path(&mut self) {
         self.outer.clear_path();

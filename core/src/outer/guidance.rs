@@ -447,6 +447,11 @@ impl Guidance {
         }
     }
 
+    /// The stored path's waypoints (NED), as flown from the origin of the last start.
+    pub fn waypoints(&self) -> &[Vec3] {
+        self.follower.waypoints()
+    }
+
     /// Hold `target` from now on.
     pub fn hold(&mut self, target: Vec3) {
         self.mode = Mode::Hold(target);

@@ -418,6 +418,11 @@ impl OuterLoop {
         self.guidance.set_path(waypoints_ned, now, self.telemetry.reference.position)
     }
 
+    /// The stored path's waypoints (NED; the on-board replanner's input, `crate::replan`).
+    pub fn path(&self) -> &[Vec3] {
+        self.guidance.waypoints()
+    }
+
     /// Drop the stored path (MAVLink MISSION_CLEAR_ALL); a mission being flown becomes a hold
     /// of the current reference position, a later mission start is refused until a new path.
     pub fn clear_path(&mut self) {

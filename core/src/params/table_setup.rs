@@ -1,4 +1,4 @@
-//! Part of [`super::TABLE`]: the set-up parameters: battery measurement and thresholds, accelerometer calibration, level trim, board rotation (issue 22); the speed governor (`GOV_*`, issue 36).
+//! Part of [`super::TABLE`]: the set-up parameters: battery measurement and thresholds, accelerometer calibration, level trim, board rotation (issue 22); the speed governor (`GOV_*`, issue 36); on-board replanning (`RPL_*`, issue 38).
 //!
 //! Entries in MAVLink `param_index` order; [`super`] concatenates the parts. May import
 //! what [`super`] may.
@@ -6,7 +6,7 @@
 use super::*;
 
 /// Entries of this part.
-pub(super) const N: usize = 20;
+pub(super) const N: usize = 25;
 
 /// This part's entries, in `param_index` order.
 #[rustfmt::skip] // one entry per parameter, laid out by hand
@@ -63,4 +63,19 @@ pub(super) const TABLE: [Param; N] = [
         "Speed governor: latency added to CBF_BRAKE_DLY (plus the obstacle data age) before braking"),
     Param::new("GOV_RANGE", "Governor", "m", (0.5, 100.0), 1, field!(governor.range),
         "Speed governor: sensing range; space beyond it counts as blocked (set from the sensors by the simulator)"),
+    // Issue 38: on-board replanning (`crate::replan`).
+    Param::new("RPL_ENABLE", "Replan", "", (0.0, 1.0), 0, flag!(replan.enable),
+        "Replan on board when the remaining path is blocked by what the sensors saw (docs/perception.md)").code(|c| match c {
+            0 => Some("off"),
+            1 => Some("on"),
+            _ => None,
+        }),
+    Param::new("RPL_RATE", "Replan", "Hz", (1.0, 50.0), 1, field!(replan.rate_hz),
+        "Checks per second of the remaining path against the replanner's grid"),
+    Param::new("RPL_COOLDOWN", "Replan", "s", (0.0, 60.0), 2, field!(replan.cooldown_s),
+        "Wait after a replan (or a no-path result) before the next plan"),
+    Param::new("RPL_HORIZON", "Replan", "m", (0.1, 50.0), 2, field!(replan.horizon_m),
+        "Length of the remaining path checked for a blockage"),
+    Param::new("RPL_MARGIN", "Replan", "m", (0.0, 2.0), 3, field!(replan.margin_m),
+        "Clearance beyond the hull radius a detour keeps from sensed obstacles"),
 ];

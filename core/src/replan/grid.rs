@@ -6,7 +6,8 @@
 //!   the flight level. Bits are kept until the cell leaves the grid (static world assumed;
 //!   points of moving obstacles are not marked by the caller).
 //! * **Blocked** ([`Grid::inflate`]): an occupied cell or a cell whose centre is within the
-//!   inflation radius (hull + margin, m) of an occupied cell's centre. Unknown space is free.
+//!   inflation radius (hull + margin, m) of an occupied cell's centre, or outside the flight
+//!   area when one is set ([`Grid::set_area`], a geofence). Unknown space is free.
 //! * **Line of sight** ([`Grid::line_free`]): every cell a segment crosses is free (a grid
 //!   traversal, O(cells crossed) ≤ 2·[`GRID`]).
 //!
@@ -32,12 +33,14 @@ pub struct Grid {
     origin: [i32; 2],
     occupied: Rows,
     blocked: Rows,
+    /// Flight area (NED x, y: min, max), m: cells whose centre lies outside are blocked.
+    area: Option<([f32; 2], [f32; 2])>,
 }
 
 impl Grid {
     /// An empty grid of cells of edge `cell` m centred on `centre` (NED).
     pub fn new(cell: f32, centre: &Vec3) -> Self {
-        let mut g = Grid { cell, origin: [0, 0], occupied: [0; GRID], blocked: [0; GRID] };
+        let mut g = Grid { cell, origin: [0, 0], occupied: [0; GRID], blocked: [0; GRID], area: None };
         g.origin = g.origin_for(centre);
         g
     }
@@ -52,9 +55,16 @@ impl Grid {
         [floor_i32(centre.x / self.cell) - half, floor_i32(centre.y / self.cell) - half]
     }
 
-    /// Forget every cell (e.g. a new cell size).
-    pub fn clear(&mut self, cell: f32, centre: &Vec3) {
-        *self = Grid::new(cell, centre);
+    /// Limit the search to a flight area (NED x, y, m; a geofence): cells whose centre lies
+    /// outside `[lo, hi]` are blocked. `None`: no limit.
+    pub fn set_area(&mut self, area: Option<([f32; 2], [f32; 2])>) {
+        self.area = area;
+    }
+
+    /// The centre of cell (row, column) lies in the flight area (always without one).
+    pub fn in_area(&self, i: usize, j: usize) -> bool {
+        let c = self.centre(i, j, 0.0);
+        self.area.is_none_or(|(lo, hi)| c.x >= lo[0] && c.x <= hi[0] && c.y >= lo[1] && c.y <= hi[1])
     }
 
     /// Move the grid (whole cells) so that `p` is at its centre when `p` is more than a
@@ -114,9 +124,29 @@ impl Grid {
         i < GRID && j < GRID && self.occupied[i] & (1u64 << j) != 0
     }
 
-    /// Cell (row, column) is blocked (after [`Grid::inflate`]); outside the grid: blocked.
+    /// Cell (row, column) is blocked (after [`Grid::inflate`]); outside the grid or the flight
+    /// area: blocked.
     pub fn is_blocked(&self, i: usize, j: usize) -> bool {
-        i >= GRID || j >= GRID || self.blocked[i] & (1u64 << j) != 0
+        i >= GRID || j >= GRID || self.blocked[i] & (1u64 << j) != 0 || !self.in_area(i, j)
+    }
+
+    /// `p` (NED x, y) lies within `r` m of the centre of an occupied cell of its own or the
+    /// eight neighbouring cells.
+    pub fn near_occupied(&self, p: &Vec3, r: f32) -> bool {
+        let Some((i, j)) = self.cell_of(p) else { return false };
+        for di in -1i32..=1 {
+            for dj in -1i32..=1 {
+                let (ni, nj) = (i as i32 + di, j as i32 + dj);
+                if ni < 0 || nj < 0 || !self.is_occupied(ni as usize, nj as usize) {
+                    continue;
+                }
+                let c = self.centre(ni as usize, nj as usize, p.z);
+                if (c - p).xy().norm_squared() <= r * r {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Occupied cells.

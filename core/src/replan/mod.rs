@@ -11,15 +11,26 @@
 //! filter, which stops the vehicle before anything it then senses, and the next check replans.
 //!
 //! **Trigger** ([`Replanner::step`]): checked at `rate_hz` (≥ 1 Hz; default 2): the remaining
-//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) crosses a
-//! blocked cell; or the filter reports a stall (`deadlock`, `crate::plant_aware`) and the
-//! remaining path is blocked anywhere in the grid. After a replan, a no-path or a budget
+//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) comes within half
+//! the hull radius of an occupied cell's centre — through a sensed obstacle, not merely near
+//! one: a path planned on the map with a smaller margin than the replanner's (the planner keeps
+//! hull + 0.05 m from surfaces, more than half the hull + a cell's half diagonal) is left alone,
+//! the filter keeps its clearance —
+//! or out of the flight area; or the filter reports a stall (`deadlock`, `crate::plant_aware`)
+//! and the remaining path comes within the inflation radius of an occupied cell anywhere in
+//! the grid. After a replan, a no-path or a budget
 //! result the next plan waits `cooldown_s` (no thrashing).
 //!
+//! **Flight level.** The grid is 2D: the check and the targets stop where the remaining path
+//! leaves the vehicle's height by more than `band_m` (a path planned over or under something
+//! is not replanned there; the filter guards it).
+//!
 //! **Plan** ([`Replanner::plan`]): A* with octile costs on the grid ([`search`]; Hart, Nilsson
-//! & Raphael 1968) from the vehicle's cell to the **target**: the first point of the remaining
-//! path beyond the blockage that is free and inside the grid; if that is not reachable, each
-//! later waypoint in the grid in turn ([`MAX_TARGETS`] tries). The cell path is simplified by
+//! & Raphael 1968) from the vehicle's cell to the **target**: the farthest waypoint of the
+//! remaining path beyond the blockage that is free and inside the grid (the mission's
+//! waypoints are route points of a planned path: rejoining it as far on as the grid reaches
+//! keeps successive detours from piling up); if that is not reachable, the nearer ones in turn,
+//! last the first free point of the path after the blockage ([`MAX_TARGETS`] tries). The cell path is simplified by
 //! line of sight on the grid (a waypoint only where the straight line would cross a blocked
 //! cell), and the new path is: detour waypoints → the target → the rest of the mission.
 //! Cells within the inflation radius of the vehicle that are not themselves occupied are
@@ -58,7 +69,9 @@ pub const STATIC_SPEED: f32 = 0.1;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ReplanParams {
-    /// Replanning on. Default on.
+    /// Replanning on. Default off (`RPL_ENABLE` 0): on, the trigger still fires on the mapped
+    /// office's planned path (which passes walls closer than the trigger's rounding and climbs
+    /// over furniture) and changes flights that needed no replanning.
     pub enable: bool,
     /// Checks per second, Hz. Default 2.
     pub rate_hz: f32,
@@ -70,7 +83,8 @@ pub struct ReplanParams {
     pub margin_m: f32,
     /// Grid cell edge, m. Default 0.2 (the grid is 64 cells = 12.8 m across).
     pub cell_m: f32,
-    /// Points within this height of the vehicle mark the grid, m. Default 0.5.
+    /// Points within this height of the vehicle mark the grid, m. Default 0.3 (above the hull
+    /// radius: a desk top 0.45 m below the flight level is flown over, not around).
     pub band_m: f32,
     /// Expansions per search at most (≤ 4096). Default 4096.
     pub max_expansions: u16,
@@ -79,13 +93,13 @@ pub struct ReplanParams {
 impl Default for ReplanParams {
     fn default() -> Self {
         ReplanParams {
-            enable: true,
+            enable: false,
             rate_hz: 2.0,
             cooldown_s: 2.0,
             horizon_m: 3.0,
             margin_m: 0.1,
             cell_m: 0.2,
-            band_m: 0.5,
+            band_m: 0.3,
             max_expansions: CELLS as u16,
         }
     }
@@ -184,6 +198,11 @@ impl Replanner {
         self.stats
     }
 
+    /// Limit detours to a flight area (NED x, y min and max, m; a geofence); `None`: no limit.
+    pub fn set_area(&mut self, area: Option<([f32; 2], [f32; 2])>) {
+        self.grid.set_area(area);
+    }
+
     /// The grid (plots, tests).
     pub fn grid(&self) -> &Grid {
         &self.grid
@@ -218,8 +237,7 @@ impl Replanner {
         if !self.params.enable || now_us < self.next_check_us || remaining.is_empty() {
             return None;
         }
-        let horizon = if stalled { f32::INFINITY } else { self.params.horizon_m };
-        let r = self.plan(pos, remaining, horizon, out);
+        let r = self.plan(pos, remaining, stalled, out);
         let wait = match r {
             ReplanOutcome::NotNeeded => 1.0 / self.params.rate_hz,
             _ => self.params.cooldown_s.max(1.0 / self.params.rate_hz),
@@ -228,16 +246,18 @@ impl Replanner {
         Some(r)
     }
 
-    /// Plan from `pos` along `remaining`, checking `horizon` m of it for a blockage; the new
+    /// Plan from `pos` along `remaining`, checking `horizon_m` of it for a blockage (all of
+    /// it in the grid, and for cells within the inflation radius too, when `stalled`); the new
     /// path (when [`ReplanOutcome::Replanned`]) is written to `out`, otherwise `out` is left
     /// empty. See the module documentation.
     pub fn plan<const N: usize>(
         &mut self,
         pos: &Vec3,
         remaining: &[Vec3],
-        horizon: f32,
+        stalled: bool,
         out: &mut heapless::Vec<Vec3, N>,
     ) -> ReplanOutcome {
+        let horizon = if stalled { f32::INFINITY } else { self.params.horizon_m };
         out.clear();
         self.stats.checks = self.stats.checks.saturating_add(1);
         if !pos.iter().all(|c| c.is_finite()) || remaining.is_empty() {
@@ -247,7 +267,7 @@ impl Replanner {
         self.grid.follow(pos);
         self.grid.inflate(radius);
         let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
-        if !self.find_targets(pos, remaining, horizon, radius, &mut targets) {
+        if !self.find_targets(pos, remaining, horizon, stalled, radius, &mut targets) {
             return ReplanOutcome::NotNeeded;
         }
         let r = self.search_targets(pos, remaining, radius, &targets, out);
@@ -264,58 +284,81 @@ impl Replanner {
     }
 
     /// Walk the remaining path from `pos` every half cell: `false` when the first `horizon` m
-    /// cross no blocked cell (or it leaves the grid first); otherwise the targets: the first
-    /// free sample after the blockage, then later waypoints that are free and in the grid.
+    /// cross no occupied cell (or it leaves the grid first). Otherwise the targets, in the order
+    /// tried: the remaining waypoints beyond the blockage that are passable and in the grid,
+    /// farthest first (the detour rejoins the mission as far on as the grid reaches, so that
+    /// successive detours do not pile up), then the first passable point after the blockage.
     fn find_targets(
         &self,
         pos: &Vec3,
         remaining: &[Vec3],
         horizon: f32,
+        stalled: bool,
         radius: f32,
         targets: &mut heapless::Vec<Target, MAX_TARGETS>,
     ) -> bool {
         let step = 0.5 * self.grid.cell();
-        let free = |p: &Vec3| self.grid.cell_of(p).map(|(i, j)| passable(&self.grid, i, j, pos, radius));
-        let (mut s, mut blocked_at) = (0.0f32, None::<usize>);
+        let free =
+            |p: &Vec3| self.grid.cell_of(p).is_some_and(|(i, j)| passable(&self.grid, i, j, pos, radius));
+        let (mut s, mut blocked_at, mut first_free) = (0.0f32, None::<usize>, None::<Target>);
         let mut a = *pos;
-        for (k, b) in remaining.iter().enumerate() {
+        'walk: for (k, b) in remaining.iter().enumerate() {
             let len = crate::fmath::norm3(&(b - a));
-            let n = ((len / step) as u32).min(4 * GRID as u32) + 1;
+            let n = ((len / step) as u32).min(16 * GRID as u32) + 1;
             for m in 1..=n {
                 let p = a + (b - a) * (m as f32 / n as f32);
-                let at_waypoint = m == n;
-                match (blocked_at, free(&p)) {
+                // The grid holds the flight level only: the path leaving it (climbing over or
+                // under something) ends the check, and the search, there.
+                let level = (p.z - pos.z).abs() <= self.params.band_m;
+                match (blocked_at, self.grid.cell_of(&p)) {
                     (None, None) => return false,
-                    (None, Some(false)) if s + len * m as f32 / n as f32 <= horizon => blocked_at = Some(k),
-                    (None, Some(false)) => return false,
-                    (Some(_), Some(true)) if targets.is_empty() => {
-                        let _ = targets.push(Target { p, next: k, at_waypoint });
+                    (None, Some(_)) if !level => return false,
+                    (None, Some((i, j)))
+                        if self.grid.near_occupied(&p, 0.5 * self.hull)
+                            || !self.grid.in_area(i, j)
+                            || (stalled && !passable(&self.grid, i, j, pos, radius)) =>
+                    {
+                        if s + len * m as f32 / n as f32 > horizon {
+                            return false;
+                        }
+                        blocked_at = Some(k);
+                    }
+                    (Some(_), _) if !level => break 'walk,
+                    (Some(_), Some(_)) if free(&p) => {
+                        first_free = Some(Target { p, next: k, at_waypoint: m == n });
+                        break 'walk;
                     }
                     _ => {}
-                }
-                if !targets.is_empty() {
-                    break;
                 }
             }
             s += len;
             if blocked_at.is_none() && s > horizon {
                 return false;
             }
-            if !targets.is_empty() {
-                // Fallbacks: the later waypoints that are free and in the grid.
-                for (kk, w) in remaining.iter().enumerate().skip(k + 1) {
-                    if free(w) == Some(true)
-                        && targets.push(Target { p: *w, next: kk, at_waypoint: true }).is_err()
-                    {
-                        break;
-                    }
-                }
-                return true;
-            }
             a = *b;
         }
-        // Blocked and nothing free in the grid beyond: no target (NoPath from the search).
-        blocked_at.is_some()
+        let Some(kb) = blocked_at else { return false };
+        let fallback = usize::from(first_free.is_some());
+        // Waypoints beyond the blockage up to the first one off the flight level.
+        let level_end = remaining
+            .iter()
+            .enumerate()
+            .skip(kb)
+            .find(|(_, w)| (w.z - pos.z).abs() > self.params.band_m)
+            .map_or(remaining.len(), |(k, _)| k);
+        for (k, w) in remaining.iter().enumerate().take(level_end).skip(kb).rev() {
+            if targets.len() + fallback >= MAX_TARGETS || first_free.is_some_and(|f| k < f.next) {
+                break;
+            }
+            if free(w) {
+                let _ = targets.push(Target { p: *w, next: k, at_waypoint: true });
+            }
+        }
+        if let Some(f) = first_free {
+            let _ = targets.push(f);
+        }
+        // Blocked with nothing passable in the grid beyond: no target (NoPath).
+        true
     }
 
     fn search_targets<const N: usize>(
@@ -393,7 +436,7 @@ fn passable(grid: &Grid, i: usize, j: usize, start: &Vec3, radius: f32) -> bool 
         return true;
     }
     let c = grid.centre(i, j, start.z);
-    !grid.is_occupied(i, j) && (c - start).xy().norm_squared() <= radius * radius
+    !grid.is_occupied(i, j) && grid.in_area(i, j) && (c - start).xy().norm_squared() <= radius * radius
 }
 
 #[cfg(test)]

@@ -42,8 +42,12 @@ fn clearance(start: &Vec3, path: &[Vec3], pts: &[ObstaclePoint]) -> f32 {
     best
 }
 
+fn on() -> ReplanParams {
+    ReplanParams { enable: true, ..ReplanParams::default() }
+}
+
 fn replanner_with(pts: &[ObstaclePoint], at: &Vec3) -> Replanner {
-    let mut r = Replanner::new(ReplanParams::default(), HULL);
+    let mut r = Replanner::new(on(), HULL);
     r.observe(at, pts);
     r
 }
@@ -52,12 +56,12 @@ fn replanner_with(pts: &[ObstaclePoint], at: &Vec3) -> Replanner {
 fn a_wall_with_one_gap_is_passed_through_the_gap() {
     // Wall across x = 2 from y = -3 to 3 with a 1.2 m gap at y 1.4..2.6; mission straight on.
     let mut pts = heapless::Vec::new();
-    wall(2.0, -3.0, 1.3, &mut pts);
-    wall(2.0, 2.7, 3.0, &mut pts);
-    let (at, goal) = (v(0.0, 0.0), v(4.0, 0.0));
+    wall(2.1, -3.0, 1.3, &mut pts);
+    wall(2.1, 2.7, 3.0, &mut pts);
+    let (at, goal) = (v(0.1, 0.1), v(4.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[goal], 3.0, &mut out);
+    let res = r.plan(&at, &[goal], false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert_eq!(out.last(), Some(&goal), "the rest of the mission follows: {out:?}");
     // Through the gap: a waypoint near it, and every leg clear of the wall by hull + margin
@@ -74,11 +78,11 @@ fn a_wall_with_one_gap_is_passed_through_the_gap() {
 #[test]
 fn a_wall_without_a_gap_is_no_path() {
     let mut pts = heapless::Vec::new();
-    wall(2.0, -7.0, 7.0, &mut pts);
-    let at = v(0.0, 0.0);
+    wall(2.1, -7.0, 7.0, &mut pts);
+    let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.0, 0.0), v(5.0, 0.0)], 3.0, &mut out), ReplanOutcome::NoPath);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], false, &mut out), ReplanOutcome::NoPath);
     assert!(out.is_empty());
     assert_eq!((r.stats().no_path, r.stats().replans), (1, 0));
 }
@@ -86,14 +90,14 @@ fn a_wall_without_a_gap_is_no_path() {
 #[test]
 fn a_clear_path_needs_no_plan_and_a_far_blockage_waits() {
     let mut pts = heapless::Vec::new();
-    wall(5.0, -3.0, 3.0, &mut pts);
-    let at = v(0.0, 0.0);
+    wall(5.1, -3.0, 3.0, &mut pts);
+    let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(3.0, 0.0), v(3.0, 3.0)], 3.0, &mut out), ReplanOutcome::NotNeeded);
+    assert_eq!(r.plan(&at, &[v(3.1, 0.1), v(3.0, 3.0)], false, &mut out), ReplanOutcome::NotNeeded);
     // The wall 5 m ahead is beyond the 3 m horizon; with an unlimited horizon it is planned round.
-    assert_eq!(r.plan(&at, &[v(6.0, 0.0)], 3.0, &mut out), ReplanOutcome::NotNeeded);
-    assert!(matches!(r.plan(&at, &[v(6.0, 0.0)], f32::INFINITY, &mut out), ReplanOutcome::Replanned { .. }));
+    assert_eq!(r.plan(&at, &[v(6.1, 0.1)], false, &mut out), ReplanOutcome::NotNeeded);
+    assert!(matches!(r.plan(&at, &[v(6.1, 0.1)], true, &mut out), ReplanOutcome::Replanned { .. }));
 }
 
 #[test]
@@ -101,59 +105,64 @@ fn a_waypoint_inside_an_obstacle_is_skipped_for_the_next_reachable_one() {
     // A closed room (2 m square walls) around the first waypoint: the first free point beyond
     // the blockage is inside the room, unreachable; the next waypoint, outside, is the target.
     let mut pts = heapless::Vec::new();
-    wall(2.0, -1.0, 1.0, &mut pts);
-    wall(4.0, -1.0, 1.0, &mut pts);
-    wall_x(-1.0, 2.0, 4.0, &mut pts);
-    wall_x(1.0, 2.0, 4.0, &mut pts);
-    let at = v(0.0, 0.0);
-    let (inside, after) = (v(3.0, 0.0), v(6.0, 0.0));
+    wall(2.1, -1.0, 1.0, &mut pts);
+    wall(4.1, -1.0, 1.0, &mut pts);
+    wall_x(-0.9, 2.1, 4.1, &mut pts);
+    wall_x(1.1, 2.1, 4.1, &mut pts);
+    let at = v(0.1, 0.1);
+    let (inside, after) = (v(3.1, 0.1), v(6.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[inside, after, v(6.0, 3.0)], 3.0, &mut out);
+    let res = r.plan(&at, &[inside, after], false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert!(!out.contains(&inside), "{out:?}");
-    assert_eq!(&out[out.len() - 2..], &[after, v(6.0, 3.0)]);
+    assert_eq!(out.last(), Some(&after));
     assert!(clearance(&at, &out, &pts) >= HULL);
+    // The farthest waypoint (inside the room) is tried first, cannot be reached, and the
+    // nearer one is the target; the rest of the mission follows it.
+    let res = r.plan(&at, &[after, inside], false, &mut out);
+    assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
+    assert_eq!(&out[out.len() - 2..], &[after, inside]);
 }
 
 #[test]
 fn the_expansion_cap_is_a_defined_result() {
     let mut pts = heapless::Vec::new();
-    wall(2.0, -3.0, 1.3, &mut pts);
-    wall(2.0, 2.7, 3.0, &mut pts);
-    let at = v(0.0, 0.0);
-    let mut r = Replanner::new(ReplanParams { max_expansions: 10, ..ReplanParams::default() }, HULL);
+    wall(2.1, -3.0, 1.3, &mut pts);
+    wall(2.1, 2.7, 3.0, &mut pts);
+    let at = v(0.1, 0.1);
+    let mut r = Replanner::new(ReplanParams { max_expansions: 10, ..on() }, HULL);
     r.observe(&at, &pts);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.0, 0.0)], 3.0, &mut out), ReplanOutcome::BudgetExceeded);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::BudgetExceeded);
     assert!(out.is_empty());
     // A path that would not fit the capacity: the same result, nothing written.
     let mut r = replanner_with(&pts, &at);
     let mut small: heapless::Vec<Vec3, 2> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.0, 0.0), v(5.0, 0.0)], 3.0, &mut small), ReplanOutcome::BudgetExceeded);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], false, &mut small), ReplanOutcome::BudgetExceeded);
     assert!(small.is_empty());
 }
 
 #[test]
 fn the_trigger_keeps_its_rate_and_cooldown() {
     let mut pts = heapless::Vec::new();
-    wall(2.0, -3.0, 1.3, &mut pts);
-    wall(2.0, 2.7, 3.0, &mut pts);
-    let at = v(0.0, 0.0);
+    wall(2.1, -3.0, 1.3, &mut pts);
+    wall(2.1, 2.7, 3.0, &mut pts);
+    let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let path = [v(4.0, 0.0)];
+    let path = [v(4.1, 0.1)];
     assert!(matches!(r.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::Replanned { .. })));
     // Cooldown 2 s: nothing until then, whatever the path.
     assert_eq!(r.step(1_999_999, &at, false, &path, &mut out), None);
     assert!(r.step(2_000_000, &at, false, &path, &mut out).is_some());
     // A clear path is checked again after 1 / rate = 0.5 s.
-    let mut clear = Replanner::new(ReplanParams::default(), HULL);
+    let mut clear = Replanner::new(on(), HULL);
     assert_eq!(clear.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
     assert_eq!(clear.step(499_999, &at, false, &path, &mut out), None);
     assert_eq!(clear.step(500_000, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
     // Off: never.
-    let mut off = Replanner::new(ReplanParams { enable: false, ..ReplanParams::default() }, HULL);
+    let mut off = Replanner::new(ReplanParams::default(), HULL);
     off.observe(&at, &pts);
     assert_eq!(off.step(0, &at, true, &path, &mut out), None);
 }
@@ -161,7 +170,7 @@ fn the_trigger_keeps_its_rate_and_cooldown() {
 #[test]
 fn moving_points_and_points_off_the_flight_level_are_not_marked() {
     let mut r = Replanner::new(ReplanParams::default(), HULL);
-    let at = v(0.0, 0.0);
+    let at = v(0.1, 0.1);
     let walker =
         ObstaclePoint { point: v(1.0, 0.0), velocity: Some(Vec3::new(0.5, 0.0, 0.0)), id: 2, normal: None };
     let low = ObstaclePoint::fixed(Vec3::new(1.0, 0.0, Z + 1.0), 3);
@@ -169,4 +178,18 @@ fn moving_points_and_points_off_the_flight_level_are_not_marked() {
     assert_eq!(r.grid().occupied_count(), 0);
     r.observe(&at, &[ObstaclePoint::fixed(v(1.0, 0.0), 4)]);
     assert_eq!(r.grid().occupied_count(), 1);
+}
+
+#[test]
+fn the_flight_area_closes_the_way_round() {
+    // A 4 m wall across the path: round its ends without an area, no path inside a 4.4 m wide one.
+    let mut pts = heapless::Vec::new();
+    wall(2.1, -2.0, 2.0, &mut pts);
+    let at = v(0.1, 0.1);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    assert!(matches!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::Replanned { .. }));
+    assert!(out.iter().any(|w| w.y.abs() > 2.0), "{out:?}");
+    r.set_area(Some(([-1.0, -2.2], [5.0, 2.2])));
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::NoPath);
 }
