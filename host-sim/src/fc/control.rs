@@ -41,6 +41,8 @@ pub struct Controller {
     battery: BatteryEstimator,
     /// The navigation filter of a filtered position source (`None`: motion capture).
     nav: Option<NavAid>,
+    /// The on-board replanner (`RPL_*`; issue 38), run after each outer step.
+    replan: crate::fc::replan::OnboardReplan,
 }
 
 impl Controller {
@@ -59,7 +61,10 @@ impl Controller {
             anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
         })?;
         let nav = NavAid::for_sensors(&cfg.sensors);
-        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery), nav })
+        let (lo, hi) = scene.bounds_ned();
+        let area = ([lo.x as f32, lo.y as f32], [hi.x as f32, hi.y as f32]);
+        let replan = crate::fc::replan::OnboardReplan::new(&fc, area);
+        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery), nav, replan })
     }
 
     fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
@@ -143,6 +148,9 @@ impl FlightStack for Controller {
         self.outer_fix(now);
         self.report_obstacles(now, obstacles);
         self.fc.step_outer(now);
+        if self.cbf {
+            self.replan.step(t, now, &mut self.fc, obstacles);
+        }
         OuterOut::from_telemetry(&self.fc.telemetry())
     }
 
@@ -171,6 +179,10 @@ impl FlightStack for Controller {
 
     fn state_name(&self) -> String {
         format!("{:?}", self.fc.state())
+    }
+
+    fn replan_summary(&self) -> crate::report::ReplanSummary {
+        self.replan.summary()
     }
 
     /// A reading of the simulated pack: the estimator (as the F405's ADC task runs it) and

@@ -692,6 +692,7 @@ pub fn run_with(
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
         unmapped_obstacles: scene.unmapped_count(),
+        replan: ctrl.replan_summary(),
         coverage_gaps: coverage_gaps(scene, cfg)?,
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();

@@ -107,6 +107,10 @@ pub trait FlightStack {
     fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4];
     /// Name of the controller's failsafe state (e.g. "Armed").
     fn state_name(&self) -> String;
+    /// What the stack's on-board replanner did (issue 38). Default: none (a stack without one).
+    fn replan_summary(&self) -> crate::report::ReplanSummary {
+        crate::report::ReplanSummary::default()
+    }
     /// A battery reading of the simulated pack (`[battery]`; issue 22). Default: ignored
     /// (a stack without a battery path).
     fn battery(&mut self, _t: f64, _reading: &crate::sim::battery::BatteryReading) {}

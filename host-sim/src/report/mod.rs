@@ -186,6 +186,39 @@ pub struct Summary {
     /// per gap (the pre-flight coverage check, `crate::sim::coverage`); empty with ground truth
     /// or a set that covers it.
     pub coverage_gaps: Vec<String>,
+    /// On-board replanning (issue 38): `replans`, `replan_no_path`, … at the top level.
+    #[serde(flatten)]
+    pub replan: ReplanSummary,
+}
+
+/// What the on-board replanner did in a run (`summary.json`; `parapet_core::replan`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ReplanSummary {
+    /// Replanning was on (`RPL_ENABLE`; stacks without an on-board replanner: false).
+    pub replan_enabled: bool,
+    /// Plans run (checks due and out of cooldown).
+    pub replan_checks: u32,
+    /// New paths flown.
+    pub replans: u32,
+    /// Plans that found no path (the vehicle kept its path; the filter holds it).
+    pub replan_no_path: u32,
+    /// Plans that hit the search's cap or a capacity (handled as no path).
+    pub replan_budget: u32,
+    /// Every plan that was not `NotNeeded`, in order.
+    pub replan_events: Vec<ReplanEvent>,
+}
+
+/// One replanning event.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReplanEvent {
+    /// Simulated time, s.
+    pub t_s: f64,
+    /// "replanned", "no_path" or "budget".
+    pub outcome: &'static str,
+    /// Waypoints of the new path (0 unless replanned).
+    pub waypoints: usize,
+    /// Detour waypoints before the rejoined mission (0 unless replanned).
+    pub detour: usize,
 }
 
 /// Safety flags of one outer step beyond the filter's own (issue 17).

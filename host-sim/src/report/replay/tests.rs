@@ -68,6 +68,7 @@ fn summary(scene: &Scene, n: usize) -> Summary {
         noise: false,
         safety_steps: SafetySteps::default(),
         unmapped_obstacles: scene.unmapped_count(),
+        replan: Default::default(),
         coverage_gaps: Vec::new(),
     }
 }
