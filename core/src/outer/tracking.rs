@@ -3,7 +3,7 @@
 //!
 //! `u* = p̈_d + K_d (ṗ_d − ṗ) + K_p (p_d − p) + e_z ∫ k_i (z_d − z) dt`, world NED, m/s².
 
-use crate::fmath::{hypotf, maxf};
+use crate::fmath::hypotf;
 use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
@@ -126,11 +126,12 @@ impl PdTracker {
     /// pulled the vehicle back into the obstacle with the full acceleration limit
     /// (`scenes/sphere_overtaking.toml`, `docs/cascade.md`).
     ///
-    /// The horizontal velocity set-point `ṗ_d + K_p·(p_d − p)` is limited to
-    /// `max(speed_max, |ṗ_d|)` (`speed_max`: the mission's cruise speed), as PX4 limits its
-    /// velocity set-point to the cruise speed in missions: a vehicle pushed off its reference
-    /// by the filter (a person walking at it head-on) is driven back at no more than the
-    /// mission's speed, not with the gain times the whole error.
+    /// The horizontal correction `K_p·(p_d − p)` of the velocity set-point is limited to
+    /// `speed_max` (the mission's cruise speed): a vehicle pushed off its reference by the
+    /// filter (a person walking at it head-on) is driven back at no more than the mission's
+    /// speed, not with the gain times the whole error, and a vehicle lagging a reference that
+    /// moves at cruise still closes the lag (a limit on the whole set-point at cruise left a
+    /// steady lag of up to `TRJ_ERR_MAX`/2: the office with `lidar`, seed 1, met printer B).
     pub fn update_trajectory(
         &mut self,
         r: &Reference,
@@ -145,17 +146,33 @@ impl PdTracker {
         let kd = Vec3::new(kv, kv, p.kd[2]);
         let ref_speed = hypotf(r.velocity.x, r.velocity.y);
         let lead_max = if kpos > 0.0 { ref_speed / kpos } else { f32::INFINITY };
-        let mut e = limit_lead(r.position - pos, &r.velocity, lead_max);
-        // Velocity set-point limit (horizontal): scale v_sp = ṗ_d + K_p·e onto the limit and
-        // give the tracker the error that yields it.
-        let limit = maxf(speed_max, ref_speed);
-        if kpos > 0.0 && limit.is_finite() {
-            let (sx, sy) = (r.velocity.x + kpos * e.x, r.velocity.y + kpos * e.y);
-            let sp = hypotf(sx, sy);
-            if sp > limit {
-                let k = limit / sp;
-                e.x = (sx * k - r.velocity.x) / kpos;
-                e.y = (sy * k - r.velocity.y) / kpos;
+        let raw = r.position - pos;
+        let mut e = limit_lead(raw, &r.velocity, lead_max);
+        let t = Vec3::new(r.velocity.x / ref_speed, r.velocity.y / ref_speed, 0.0);
+        let excess = vel.dot(&t) - ref_speed;
+        if e != raw && excess > 0.0 && kpos > 0.0 {
+            // Pushed ahead of the moving reference and faster than it (by the filter:
+            // something closing from behind, e.g. `scenes/sphere_overtaking.toml`): step aside
+            // instead of being herded along the path — the cross-track pull is replaced by a
+            // set-point away from the path, on the side the vehicle already is (left of the
+            // travel when exactly on it), as fast as the vehicle is pushed beyond the
+            // reference's speed. Once it is no longer pushed the pull returns.
+            let along = e.dot(&t);
+            let left = Vec3::new(-t.y, t.x, 0.0);
+            let side = if (-raw).dot(&left) >= 0.0 { left } else { -left };
+            let aside = side * (excess / kpos);
+            e = Vec3::new(t.x * along + aside.x, t.y * along + aside.y, e.z);
+        }
+        // Correction limit (horizontal): the position term K_p·e of the velocity set-point
+        // v_sp = ṗ_d + K_p·e is scaled onto `speed_max`, so a vehicle behind a reference moving
+        // at cruise still closes the gap (the set-point may exceed the cruise speed by at most
+        // the cruise speed, as PX4's is bounded by MPC_XY_VEL_MAX above MPC_XY_CRUISE).
+        if kpos > 0.0 && speed_max.is_finite() && speed_max >= 0.0 {
+            let c = kpos * hypotf(e.x, e.y);
+            if c > speed_max {
+                let k = speed_max / c;
+                e.x *= k;
+                e.y *= k;
             }
         }
         let r = Reference { position: pos + e, ..*r };
@@ -288,8 +305,9 @@ mod tests {
         let (pos, vel) = (Vec3::new(5.0, 0.5, -1.0), Vec3::new(1.0, 0.0, 0.0));
         let u = t.update_trajectory(&r, &pos, &vel, 0.004, 50.0);
         assert!((u.x + 2.0).abs() < 1e-5, "{u:?}");
-        // The cross-track error is untouched: 2·1·(0 − 0.5) = −1.
-        assert!((u.y + 1.0).abs() < 1e-5, "{u:?}");
+        // Pushed faster than the reference, it steps aside on its side (+y) at the excess
+        // speed: 2·(1 − 0.3)/1 = 1.4 (`pushed_ahead_steps_aside_and_a_lag_at_cruise_closes`).
+        assert!((u.y - 1.4).abs() < 1e-5, "{u:?}");
         // Behind the reference, or a reference at rest: the full error.
         let behind = Vec3::new(-3.0, 0.0, -1.0);
         let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004, 50.0);
@@ -310,10 +328,11 @@ mod tests {
         assert!((u.x - 1.0).abs() < 1e-5, "{u:?}");
         let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 50.0);
         assert!((u.x - 6.0).abs() < 1e-5, "{u:?}");
-        // A reference faster than the limit keeps its own speed as the limit.
+        // The limit bounds the correction, not the reference's own speed: behind a reference
+        // at 2 m/s, v_sp = 2 + 0.5, u_x = 2·2.5 = 5.
         let fast = Reference { velocity: Vec3::new(2.0, 0.0, 0.0), ..r };
         let u = t.update_trajectory(&fast, &pos, &Vec3::zeros(), 0.004, 0.5);
-        assert!((u.x - 4.0).abs() < 1e-5, "{u:?}");
+        assert!((u.x - 5.0).abs() < 1e-5, "{u:?}");
     }
 
     #[test]
@@ -363,5 +382,40 @@ mod tests {
         }
         assert!(t.integral_z() < 0.0);
         assert!(t.integral_z() >= -1.0 - 1e-6);
+    }
+
+    /// Pushed ahead of a moving reference faster than it, the vehicle steps aside (on its
+    /// side of the path, as fast as it is pushed beyond the reference's speed); at the
+    /// reference's speed the cross-track error pulls it back; behind, a lag at cruise closes
+    /// (the correction, not the whole set-point, is limited to the cruise speed).
+    #[test]
+    fn pushed_ahead_steps_aside_and_a_lag_at_cruise_closes() {
+        let params = TrackingParams { ki_z: 0.0, ..TrackingParams::default() };
+        let r = Reference {
+            position: Vec3::new(0.0, 0.0, -1.0),
+            velocity: Vec3::new(0.3, 0.0, 0.0),
+            acceleration: Vec3::zeros(),
+            yaw: 0.0,
+        };
+        let pos = Vec3::new(1.0, 0.05, -1.0);
+        let mut t = PdTracker::new(params);
+        // K_v 2, K_p 1: aside set-point (1.0 − 0.3)/1 = 0.7 m/s → u_y = 2·0.7 = 1.4.
+        // (Cruise 5 m/s here, so the correction limit does not act.) Along the path: the lead
+        // limited to 0.3 m, u_x = 2·(0.3 − 0.3 − 1) = −2.
+        let pushed = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 5.0);
+        assert!((pushed.y - 1.4).abs() < 1e-4 && (pushed.x + 2.0).abs() < 1e-4, "{pushed:?}");
+        let mirrored =
+            t.update_trajectory(&r, &Vec3::new(1.0, -0.05, -1.0), &Vec3::new(1.0, 0.0, 0.0), 0.004, 5.0);
+        assert!((mirrored.y + 1.4).abs() < 1e-4, "{mirrored:?}");
+        // Not pushed (at the reference's speed): pulled back towards the path, −2·1·0.05.
+        let held = t.update_trajectory(&r, &pos, &Vec3::new(0.3, 0.0, 0.0), 0.004, 5.0);
+        assert!((held.y + 0.1).abs() < 1e-4, "{held:?}");
+        // With cruise 0.3 m/s the whole correction (lead and aside) is scaled onto 0.3 m/s.
+        let slow = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 0.3);
+        let k = 0.3 / libm::hypotf(0.3, 0.7);
+        assert!((slow.y - 2.0 * 0.7 * k).abs() < 1e-4, "{slow:?}");
+        // 0.2 m behind a reference at cruise (0.3 m/s), at its speed: u_x = 2·(1·0.2) = 0.4.
+        let lag = t.update_trajectory(&r, &Vec3::new(-0.2, 0.0, -1.0), &Vec3::new(0.3, 0.0, 0.0), 0.004, 0.3);
+        assert!((lag.x - 0.4).abs() < 1e-4, "{lag:?}");
     }
 }
