@@ -36,13 +36,13 @@ pub const CARRY_MAX_ANGLE_COS: f32 = 0.999;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MissionGuidance {
-    /// 0 (default): the paper's constant-speed point along the polyline (`s = V·t`,
-    /// [`crate::waypoint`]).
-    #[default]
+    /// 0: the paper's constant-speed point along the polyline (`s = V·t`,
+    /// [`crate::waypoint`]), as the paper flies it (0.25 m/s); the paper reproduction names it.
     Paper,
-    /// 1: the jerk-limited trajectory ([`super::trajectory`]) whose clock waits for the
-    /// vehicle, tracked by the position → velocity cascade
+    /// 1 (default): the jerk-limited trajectory ([`super::trajectory`]) whose clock waits for
+    /// the vehicle, tracked by the position → velocity cascade
     /// ([`super::tracking::PdTracker::update_trajectory`]).
+    #[default]
     Trajectory,
 }
 
@@ -203,7 +203,7 @@ impl Default for GuidanceParams {
             takeoff_speed: 0.5,
             takeoff_height_max: TAKEOFF_HEIGHT_MAX_DEFAULT,
             path_yaw: PathYawParams::default(),
-            mission: MissionGuidance::Paper,
+            mission: MissionGuidance::default(),
             trajectory: TrajectoryParams::default(),
         }
     }
@@ -637,7 +637,7 @@ mod tests {
             assert_eq!(MissionGuidance::from_code(m.code()), Some(m));
         }
         assert_eq!(MissionGuidance::from_code(2), None);
-        assert_eq!(MissionGuidance::default(), MissionGuidance::Paper);
+        assert_eq!(MissionGuidance::default(), MissionGuidance::Trajectory);
     }
 
     #[test]

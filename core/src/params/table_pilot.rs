@@ -71,7 +71,7 @@ pub(super) const TABLE: [Param; N] = [
         "Largest takeoff height above home: a higher TAKEOFF mission item is refused at upload \
          (MISSION_ACK INVALID_PARAM7), a higher NAV_TAKEOFF command or mission start is DENIED"),
     // Issue 35: the mission's guidance (`outer::guidance`): the paper's constant-speed point
-    // (default, the paper reproduction) or the jerk-limited trajectory (`outer::trajectory`,
+    // (the paper reproduction) or the jerk-limited trajectory (default; `outer::trajectory`,
     // cruise speed WP_SPEED) with these limits (PX4 MPC_ACC_HOR, MPC_JERK_AUTO, MPC_Z_V_AUTO_*,
     // MPC_XY_ERR_MAX).
     Param::new("MIS_GUIDANCE", "Mission", "", (0.0, 1.0), 0, (|p| p.guidance.mission.code() as f32, |p, v| p.guidance.mission = MissionGuidance::from_code(v as i32).unwrap_or(p.guidance.mission)),

@@ -24,7 +24,7 @@ pub mod report_out;
 pub mod scene;
 mod setup;
 pub mod sitl;
-mod values;
+pub(crate) mod values;
 
 pub use setup::run_config_from_args;
 use setup::{positive, run_setup};
@@ -120,9 +120,10 @@ pub struct RunArgs {
     /// sensor of --perception looks forward (camera), else hold]. See docs/cascade.md.
     #[arg(long, value_parser = parse_yaw_mode)]
     yaw_mode: Option<YawMode>,
-    /// Mission guidance (MIS_GUIDANCE): paper (the paper's constant-speed point, s = V·t; the
-    /// default) | trajectory (jerk-limited, corner-blended, its clock waits for the vehicle;
-    /// limits TRJ_*, cruise --speed). Same as `--param MIS_GUIDANCE=0|1`. See docs/cascade.md.
+    /// Mission guidance (MIS_GUIDANCE): trajectory (the default: jerk-limited, corner-blended,
+    /// its clock waits for the vehicle; limits TRJ_*, cruise --speed) | paper (the paper's
+    /// constant-speed point, s = V·t, as the paper flies it). Same as `--param
+    /// MIS_GUIDANCE=1|0`. See docs/cascade.md.
     #[arg(long, value_parser = parse_guidance)]
     guidance: Option<MissionGuidance>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
