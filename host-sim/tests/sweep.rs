@@ -535,6 +535,27 @@ fn a_closed_stdout_is_not_a_panic() {
     assert!(d.join("merged").join("sweep.csv").exists());
 }
 
+/// `--guidance paper|trajectory` (issue 35) flies every run with that mission guidance, as
+/// `--param MIS_GUIDANCE=0|1` does (the same rows), changes the rows against the other
+/// guidance, and an unknown guidance exits 2 naming the option and the allowed names.
+#[test]
+fn guidance_option_sets_the_mission_guidance_of_every_run() {
+    let d = tmp("guidance");
+    let paper = shards(&d, "p", "scenes/one_sphere.toml", 2, &[2], &["--guidance", "paper"]);
+    let by_param = shards(&d, "q", "scenes/one_sphere.toml", 2, &[2], &["--param", "MIS_GUIDANCE=0"]);
+    let traj = shards(&d, "t", "scenes/one_sphere.toml", 2, &[2], &["--guidance", "trajectory"]);
+    let rows = |dir: &str| read_csv(&Path::new(dir).join("sweep.csv"));
+    let ((head, a), (_, b), (_, c)) = (rows(&paper[0]), rows(&by_param[0]), rows(&traj[0]));
+    let rms = head.iter().position(|c| c == "tracking_rms_m").unwrap();
+    assert_eq!(a, b, "--guidance paper and --param MIS_GUIDANCE=0 differ");
+    assert!(a.iter().zip(&c).all(|(x, y)| x[rms] != y[rms]), "the guidance changed no run");
+    let o = d.join("bad");
+    let r =
+        sweep_any("scenes/one_sphere.toml", &o, &["--mu", "0.9", "--delta1", "0.1", "--guidance", "fast"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(err(&r).contains("--guidance") && err(&r).contains("paper"), "{}", err(&r));
+}
+
 /// `--param NAME=VALUE` sets a parameter for every run (issue 37): the rows change, the manifest
 /// records it, shards flown with other parameters do not merge, bad names exit 2.
 #[test]

@@ -45,7 +45,7 @@ pub(super) fn parse_variant(s: &str) -> Result<FilterVariant, String> {
     })
 }
 
-pub(super) fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
+pub(crate) fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
     s.parse().map_err(|_| {
         let names: Vec<&str> = MissionGuidance::ALL.iter().map(|g| g.as_str()).collect();
         format!("unknown guidance {s:?}: expected one of {}", names.join(", "))

@@ -179,6 +179,11 @@ pub struct SweepArgs {
     /// A QGroundControl `.params` file for every run, as `parapet run --params`.
     #[arg(long = "params", value_name = "FILE")]
     pub params_file: Option<PathBuf>,
+    /// Mission guidance of every run (MIS_GUIDANCE), as `parapet run --guidance`: trajectory
+    /// (the default) | paper (the paper's constant-speed point; the paper's sweeps name it).
+    /// Wins over `--param MIS_GUIDANCE`.
+    #[arg(long, value_parser = crate::cli::values::parse_guidance)]
+    pub guidance: Option<parapet_core::outer::guidance::MissionGuidance>,
 }
 
 fn bad(m: impl Into<String>) -> CliError {
@@ -555,7 +560,11 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     // Loaded first: the loader checks the file (size cap included) before we hash it.
     let mut scene = Scene::load(&a.scene).map_err(|err| bad(err.to_string()))?;
     // --params FILE, then --param NAME=VALUE, as `parapet run` applies them.
-    let assigned = crate::cli::params::assignments(a.params_file.as_deref(), &a.param)?;
+    let mut given = a.param.clone();
+    if let Some(g) = a.guidance {
+        given.push(format!("MIS_GUIDANCE={}", g.code()));
+    }
+    let assigned = crate::cli::params::assignments(a.params_file.as_deref(), &given)?;
     let overrides = crate::cli::params::split_assignments(&mut scene, &assigned)?;
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
