@@ -2,7 +2,7 @@
 //! * with exact sensing (`truth`, 3 m range) a 40 m open leg at a cruise of 8 m/s is flown at
 //!   the braking-limited ceiling `v* = √((aτ)² + 2a(R − r − m)) − aτ`, at least 85 % of it and
 //!   not above it (the governor, not the trajectory, sets the speed; without it the leg is flown
-//!   at the cruise);
+//!   at the cruise), and `summary.json`'s `speed_limited_by` names the range as the cause;
 //! * a pilot at full forward stick in Position mode with `PA_SPEED_MAX` 5 m/s and the planar
 //!   `lidar` stops in front of the wall without contact.
 //!
@@ -62,8 +62,14 @@ fn an_open_leg_is_flown_at_the_braking_limited_ceiling_with_truth() {
     assert!(s.safety_steps.governor_active > 0);
     let lim = s.safety_steps.governor_min_limit.unwrap_or(f64::NAN);
     assert!((lim - v_star).abs() < 0.05, "reported limit {lim} vs v* {v_star}");
+    // summary.json says why the flight went slower than its cruise: the sensing range, most of it.
+    let by = s.speed_limited_by.as_ref().expect("speed_limited_by with the governor limiting");
+    println!("speed_limited_by {by:?}");
+    assert_eq!(by.cause, "range", "{by:?}");
+    assert!(by.fraction > 0.5 && by.cause_s > 0.9 * by.limited_s, "{by:?}");
     // Without it, the trajectory flies the cruise: the governor sets the speed above.
     let off = open_leg(false);
+    assert_eq!(off.summary.speed_limited_by, None);
     let fastest = off.samples.iter().map(|k| k.vel.xy().norm()).fold(0.0, f64::max);
     assert!(fastest > 1.5 * v_star, "without the governor {fastest:.2} m/s");
 }

@@ -691,6 +691,7 @@ pub fn run_with(
         seed: cfg.seed,
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
+        speed_limited_by: crate::report::speed_limit::SpeedLimitedBy::of(&samples),
         unmapped_obstacles: scene.unmapped_count(),
         replan: ctrl.replan_summary(),
         coverage_gaps: coverage_gaps(scene, cfg)?,

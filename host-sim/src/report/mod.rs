@@ -43,6 +43,7 @@ pub mod foxglove;
 mod plots;
 pub mod points;
 pub mod replay;
+pub mod speed_limit;
 pub mod ulog;
 
 use std::fmt::Write as _;
@@ -186,6 +187,9 @@ pub struct Summary {
     /// per gap (the pre-flight coverage check, `crate::sim::coverage`); empty with ground truth
     /// or a set that covers it.
     pub coverage_gaps: Vec<String>,
+    /// Where the speed governor limited the flight and why: the cause that limited longest and
+    /// the fraction of the flight ([`speed_limit::SpeedLimitedBy`]; null when it never acted).
+    pub speed_limited_by: Option<speed_limit::SpeedLimitedBy>,
     /// On-board replanning (issue 38): `replans`, `replan_no_path`, … at the top level.
     #[serde(flatten)]
     pub replan: ReplanSummary,

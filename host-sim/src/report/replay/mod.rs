@@ -486,4 +486,4 @@ pub use overlays::{
 };
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

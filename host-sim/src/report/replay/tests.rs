@@ -70,10 +70,12 @@ fn summary(scene: &Scene, n: usize) -> Summary {
         unmapped_obstacles: scene.unmapped_count(),
         replan: Default::default(),
         coverage_gaps: Vec::new(),
+        speed_limited_by: None,
     }
 }
 
-pub(super) fn sample(k: usize) -> Sample {
+/// Sample `k` of a test flight (4 ms apart); `crate::report::speed_limit`'s tests use it too.
+pub(crate) fn sample(k: usize) -> Sample {
     let t = k as f64 * 0.004;
     let mut filter = FilterDiagnostics::new(Region::Far);
     filter.intervened = k % 7 < 3;
