@@ -40,6 +40,8 @@ fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {
         "--straight",
         "--perception",
         "lidar",
+        "--assume",
+        "no-overhangs,no-low-obstacles",
         "--out",
         out.to_str().unwrap(),
     ]);
@@ -124,17 +126,20 @@ fn yaw_mode_from_the_option_and_the_scene() {
     let (mode, _, _) = fly(&travel, &["--yaw-mode", "hold"]);
     assert_eq!(mode, "hold", "the option wins over the scene");
     // Without either: travel when every range sensor looks forward (the camera), else hold.
+    // (The sets' coverage gaps assumed away: `coverage_cli.rs`.)
+    let assume = ["--assume", "no-overhangs,no-low-obstacles,forward-flight"];
     for (perception, want) in
         [("camera", "travel"), ("lidar", "hold"), ("tof", "hold"), ("camera,lidar", "hold")]
     {
-        let (mode, _, _) = fly(&plain, &["--perception", perception]);
+        let (mode, _, _) = fly(&plain, &[&["--perception", perception][..], &assume].concat());
         assert_eq!(mode, want, "--perception {perception}");
     }
-    let (mode, _, _) = fly(&plain, &["--perception", "camera", "--yaw-mode", "hold"]);
+    let (mode, _, _) =
+        fly(&plain, &["--perception", "camera", "--yaw-mode", "hold", "--assume", "forward-flight"]);
     assert_eq!(mode, "hold", "the option wins over the sensors");
     let hold = d.join("hold.toml");
     std::fs::write(&hold, format!("{SCENE}[controller]\nyaw_mode = \"hold\"\n")).unwrap();
-    let (mode, _, _) = fly(&hold, &["--perception", "camera"]);
+    let (mode, _, _) = fly(&hold, &["--perception", "camera", "--assume", "forward-flight"]);
     assert_eq!(mode, "hold", "the scene wins over the sensors");
 
     let o = parapet(&["run", "--scene", plain.to_str().unwrap(), "--straight", "--yaw-mode", "north"]);

@@ -29,7 +29,9 @@ pub(crate) mod values;
 pub use setup::run_config_from_args;
 use setup::{positive, run_setup};
 
-use values::{default_help, parse_guidance, parse_variant, parse_vec3, parse_yaw_mode, speed_help};
+use values::{
+    default_help, parse_assumption, parse_guidance, parse_variant, parse_vec3, parse_yaw_mode, speed_help,
+};
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -167,6 +169,13 @@ pub struct RunArgs {
     /// obstacle memory); others → the host memory's points as OBSTACLE_DISTANCE_3D (docs/perception.md).
     #[arg(long, default_value = "truth")]
     perception: String,
+    /// [preflight] World assumptions that let a `--perception` set with a coverage gap fly (comma
+    /// list or repeated; added to the scene's `[sensors] assume`): `no-overhangs` (a gap above
+    /// the sensors' band), `no-low-obstacles` (below it; a planar lidar needs both),
+    /// `forward-flight` (bearings no sensor sees: a forward camera). A gap without its assumption
+    /// is refused (exit 2); range gaps are the speed governor's. docs/perception.md § Coverage check.
+    #[arg(long, value_delimiter = ',', value_parser = parse_assumption)]
+    assume: Vec<crate::sim::coverage::Assumption>,
     /// Output directory [default: out/run; `pil`: out/pil]; must not hold an input file.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -396,7 +405,7 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
         a.straight = true;
     }
     let (scene, mut cfg) = run_setup(&a)?;
-    setup::print_coverage_gaps(&scene, &cfg, &a.perception)?;
+    setup::check_coverage(&scene, &cfg, &a.perception)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out/run"));
     check_report_dir(&dir, &scene, a.path.as_deref(), a.disturb.disturbances.as_deref())?;
     let mut pilot_run = None;
@@ -431,7 +440,7 @@ pub fn cmd_run(mut a: RunArgs) -> Result<(), CliError> {
 pub fn cmd_pil(a: PilArgs) -> Result<(), CliError> {
     use crate::fc::pil::{add_figures_to_summary, build_firmware, PilOptions};
     let (scene, cfg) = run_setup(&a.run)?;
-    setup::print_coverage_gaps(&scene, &cfg, &a.run.perception)?;
+    setup::check_coverage(&scene, &cfg, &a.run.perception)?;
     let timeout = positive("timeout", Some(a.timeout))?.unwrap_or(3.0);
     if timeout > limits::MAX_PIL_TIMEOUT_S {
         return Err(InputError::option("timeout", "longer than the largest firmware timeout")

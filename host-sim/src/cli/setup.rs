@@ -172,6 +172,11 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
     }
     cfg.perception = perception_sensors(&a.perception, &scene)?;
+    for x in &a.assume {
+        if !cfg.sensors.assume.contains(x) {
+            cfg.sensors.assume.push(*x);
+        }
+    }
     if a.yaw_mode.is_none() && scene.controller.yaw_mode.is_none() {
         cfg.yaw_mode = crate::flight::runner::default_yaw_mode(cfg.perception.as_deref());
     }
@@ -207,15 +212,39 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
 }
 
 /// [preflight] What the range sensors of `cfg` cannot see of the hull's sweep, on stderr
-/// (reported, not refused; `summary.json` keeps it too). `parapet run` and `pil` call it; a
-/// campaign's flights, which go through [`run_setup`] too, do not print it.
-pub(super) fn print_coverage_gaps(scene: &Scene, cfg: &RunConfig, perception: &str) -> Result<(), CliError> {
+/// (`summary.json` keeps it too); a set that covers nothing, and a bearing or vertical gap that
+/// no given assumption accepts, refuse the flight (exit 2, naming the gap and the `--assume`
+/// value that would accept it; `crate::sim::coverage`). `parapet run` and `pil` call it; a campaign's flights, which go
+/// through [`run_setup`] too, do not.
+pub(super) fn check_coverage(scene: &Scene, cfg: &RunConfig, perception: &str) -> Result<(), CliError> {
     let gaps =
         crate::flight::runner::coverage_gaps(scene, cfg).map_err(|e| CliError::BadInput(e.to_string()))?;
-    for gap in gaps {
-        eprintln!("preflight: --perception {perception}: {gap}");
+    let assumed = &cfg.sensors.assume;
+    let mut refused = Vec::new();
+    for gap in &gaps {
+        let accept = gap.accepted_by();
+        if gap.refuses(assumed) {
+            refused.push(match accept {
+                Some(a) => format!("{} (accept it with --assume {})", gap.text, a.as_str()),
+                None => gap.text.clone(),
+            });
+        } else if let Some(a) = accept {
+            eprintln!("preflight: --perception {perception}: {} (assumed away: {})", gap.text, a.as_str());
+        } else {
+            eprintln!("preflight: --perception {perception}: {}", gap.text);
+        }
     }
-    Ok(())
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(InputError::option("perception", "the sensors cannot see the volume the hull sweeps")
+        .value(format!("{perception}: {}", refused.join("; ")))
+        .allowed(format!(
+            "a sensor set that covers the sweep (lidar3d, tof), or a world assumption given with \
+             --assume or the scene's [sensors] assume = [...] ({}; docs/perception.md § Coverage check)",
+            crate::sim::coverage::Assumption::names()
+        ))
+        .into())
 }
 
 /// The scene and run configuration of a `parapet run` command line (`args`: the

@@ -52,6 +52,10 @@ pub(crate) fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
     })
 }
 
+pub(super) fn parse_assumption(s: &str) -> Result<crate::sim::coverage::Assumption, String> {
+    s.parse()
+}
+
 pub(super) fn parse_yaw_mode(s: &str) -> Result<YawMode, String> {
     s.parse().map_err(|_| format!("unknown yaw mode {s:?}: expected hold or travel"))
 }

@@ -271,8 +271,9 @@ pub fn controller_params(
 
 /// What the run's range sensors cannot see of the hull's sweep at the mission speed
 /// ([`crate::sim::coverage`], with the braking barrier's deceleration and delay of the
-/// parameters flown); empty for ground truth.
-pub fn coverage_gaps(scene: &Scene, cfg: &RunConfig) -> Result<Vec<String>> {
+/// parameters flown); empty for ground truth. [`crate::sim::coverage::Gap::refuses`] tells
+/// which of them the run's assumptions (`cfg.sensors.assume`) leave refused.
+pub fn coverage_gaps(scene: &Scene, cfg: &RunConfig) -> Result<Vec<crate::sim::coverage::Gap>> {
     let Some(sensors) = cfg.perception.as_deref() else { return Ok(Vec::new()) };
     let cbf = cfg.cbf_params()?;
     let p = controller_params(scene, cfg, cbf, cfg.variant);
@@ -694,7 +695,13 @@ pub fn run_with(
         speed_limited_by: crate::report::speed_limit::SpeedLimitedBy::of(&samples),
         unmapped_obstacles: scene.unmapped_count(),
         replan: ctrl.replan_summary(),
-        coverage_gaps: coverage_gaps(scene, cfg)?,
+        coverage_gaps: coverage_gaps(scene, cfg)?
+            .into_iter()
+            .map(|g| match g.accepted_by().filter(|a| cfg.sensors.assume.contains(a)) {
+                Some(a) => format!("{} (assumed away: {})", g.text, a.as_str()),
+                None => g.text,
+            })
+            .collect(),
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
     Ok(RunOutput { samples, summary, ranges, filter_points })

@@ -20,10 +20,18 @@
 //! The check assumes static obstacles and an obstacle memory that keeps what was seen while the
 //! vehicle closes in (`PCP_FORGET`); sensors looking up or down (|pitch| ≥ 45°) do not count for
 //! horizontal motion. The result names each gap in words; `parapet run` prints it and
-//! `summary.json` keeps it (`coverage_gaps`). It does not refuse the flight (see
-//! `docs/perception.md` § Coverage check).
+//! `summary.json` keeps it (`coverage_gaps`).
 //!
-//! Work: 360 one-degree bearings × the sensors. May import: [`super::range`].
+//! **Refusal.** A bearing or vertical gap means part of the hull's sweep is never observed, at
+//! any speed: `parapet run` / `pil` refuse such a flight (exit 2) unless an [`Assumption`] about
+//! the world (`--assume`, or the scene's `[sensors] assume`) says no obstacle lies there
+//! ([`Gap::accepted_by`]). A range gap is not refused: the speed governor (`GOV_ENABLE`) keeps
+//! the speed under the ceiling it names (`docs/perception.md` § Coverage check).
+//!
+//! Work: 360 one-degree bearings × the sensors. Owns [`Gap`], [`GapKind`], [`Assumption`].
+//! May import: [`super::range`].
+
+use serde::{Deserialize, Serialize};
 
 use super::range::RangeSensor;
 
@@ -52,9 +60,99 @@ pub fn speed_ceiling(hull: f64, range: f64, b: Braking) -> f64 {
     b.accel * ((b.delay * b.delay + 2.0 * (range - hull) / b.accel).sqrt() - b.delay)
 }
 
-/// What `sensors` cannot see of the hull's sweep at `speed` (module docs), one sentence per gap;
+/// What kind of gap ([`gaps`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GapKind {
+    /// No sensor sees any horizontal bearing (all look up or down): refused whatever is assumed.
+    Blind,
+    /// Horizontal bearings no sensor sees.
+    Bearing,
+    /// The range is shorter than the stopping distance at the mission speed.
+    Range,
+    /// Elevations above the observed band within the hull's reach.
+    Above,
+    /// Elevations below it.
+    Below,
+}
+
+/// One gap of a sensor set: its kind and the sentence that names it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gap {
+    /// What is not seen.
+    pub kind: GapKind,
+    /// The gap in words (what, where, why it matters).
+    pub text: String,
+}
+
+/// A world assumption that lets a sensor set with a gap fly (`--assume`, scene `[sensors]
+/// assume`); each is a claim about the scene the check cannot verify, off unless given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Assumption {
+    /// Nothing hangs into the hull's reach above the sensors' observed band without also
+    /// crossing the band (no lamps, shelves or lintels at the flight level): accepts a gap above.
+    NoOverhangs,
+    /// Nothing stands within the hull's reach below the band without also rising into it (no
+    /// low furniture or kerbs topped out under a planar lidar's plane): accepts a gap below.
+    NoLowObstacles,
+    /// The vehicle only moves towards bearings its sensors see (a forward camera with the yaw
+    /// along the path, `--yaw-mode travel`, and no sideways or backward stick): accepts
+    /// bearing gaps.
+    ForwardFlight,
+}
+
+impl Assumption {
+    /// Every assumption, in the order the messages list them.
+    pub const ALL: [Assumption; 3] =
+        [Assumption::NoOverhangs, Assumption::NoLowObstacles, Assumption::ForwardFlight];
+
+    /// The name on the command line and in scene files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Assumption::NoOverhangs => "no-overhangs",
+            Assumption::NoLowObstacles => "no-low-obstacles",
+            Assumption::ForwardFlight => "forward-flight",
+        }
+    }
+
+    /// The names, comma-separated (for messages).
+    pub fn names() -> String {
+        Self::ALL.map(Assumption::as_str).join(", ")
+    }
+}
+
+impl std::str::FromStr for Assumption {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|a| a.as_str() == s)
+            .ok_or_else(|| format!("unknown assumption {s:?} (allowed: {})", Self::names()))
+    }
+}
+
+impl Gap {
+    /// The assumption that accepts this gap (`None`: a range gap, never refused; the governor
+    /// limits the speed to the ceiling it names).
+    pub fn accepted_by(&self) -> Option<Assumption> {
+        match self.kind {
+            GapKind::Bearing => Some(Assumption::ForwardFlight),
+            GapKind::Blind | GapKind::Range => None,
+            GapKind::Above => Some(Assumption::NoOverhangs),
+            GapKind::Below => Some(Assumption::NoLowObstacles),
+        }
+    }
+
+    /// This gap refuses the flight under `assumed`: a blind set, or a gap whose assumption is
+    /// not given.
+    pub fn refuses(&self, assumed: &[Assumption]) -> bool {
+        self.kind == GapKind::Blind || self.accepted_by().is_some_and(|a| !assumed.contains(&a))
+    }
+}
+
+/// What `sensors` cannot see of the hull's sweep at `speed` (module docs), one [`Gap`] each;
 /// empty when the set covers it.
-pub fn gaps(sensors: &[RangeSensor], hull: f64, speed: f64, braking: Braking) -> Vec<String> {
+pub fn gaps(sensors: &[RangeSensor], hull: f64, speed: f64, braking: Braking) -> Vec<Gap> {
     // Per bearing: lowest and highest elevation seen, longest range, largest latency.
     let mut seen: Vec<Option<(f64, f64, f64, f64)>> = vec![None; BEARINGS];
     for s in sensors.iter().filter(|s| s.pitch.abs() < 45.0) {
@@ -71,12 +169,20 @@ pub fn gaps(sensors: &[RangeSensor], hull: f64, speed: f64, braking: Braking) ->
     }
     let mut out = Vec::new();
     let unseen: Vec<usize> = (0..BEARINGS).filter(|&d| seen[d].is_none()).collect();
+    if unseen.len() == BEARINGS {
+        let text = "no sensor sees any horizontal bearing (each looks up or down, |pitch| ≥ 45°): \
+                    the set covers nothing of the hull's sweep"
+            .to_string();
+        out.push(Gap { kind: GapKind::Blind, text });
+        return out;
+    }
     if !unseen.is_empty() {
-        out.push(format!(
+        let text = format!(
             "bearings {} (body, degrees clockwise from the nose) are seen by no sensor: obstacles there \
              are not seen before the vehicle moves that way",
             ranges(&unseen)
-        ));
+        );
+        out.push(Gap { kind: GapKind::Bearing, text });
     }
     let covered: Vec<(f64, f64, f64, f64)> = seen.iter().flatten().copied().collect();
     if covered.is_empty() {
@@ -87,25 +193,29 @@ pub fn gaps(sensors: &[RangeSensor], hull: f64, speed: f64, braking: Braking) ->
     let b = Braking { delay: braking.delay + latency, ..braking };
     let d_s = stopping_distance(hull, speed, b);
     if range < d_s {
-        out.push(format!(
+        let text = format!(
             "range {range} m is shorter than the stopping distance {d_s:.2} m at {speed} m/s \
              (braking {} m/s² after {:.2} s, hull {hull:.2} m): the sensors allow at most {:.2} m/s",
             b.accel,
             b.delay,
             speed_ceiling(hull, range, b)
-        ));
+        );
+        out.push(Gap { kind: GapKind::Range, text });
     }
     let need = (hull / range).atan().to_degrees();
     let hi = covered.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
     let lo = covered.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
-    for (side, edge, ok) in [("above", hi, hi >= need), ("below", lo, lo <= -need)] {
+    for (kind, side, edge, ok) in
+        [(GapKind::Above, "above", hi, hi >= need), (GapKind::Below, "below", lo, lo <= -need)]
+    {
         if !ok {
-            out.push(format!(
+            let text = format!(
                 "elevations {side} {edge:+.1}° are seen by no sensor at some bearings, where the hull's \
                  reach ({hull:.2} m) needs {}{need:.1}° at the sensors' {range} m: obstacles {side} the \
                  observed band within the hull's reach are never seen",
                 if side == "above" { "+" } else { "−" }
-            ));
+            );
+            out.push(Gap { kind, text });
         }
     }
     out
@@ -134,7 +244,7 @@ mod tests {
     const B: Braking = Braking { accel: 3.0, delay: 0.1 };
 
     fn gaps_of(name: &str, speed: f64) -> Vec<String> {
-        gaps(&preset(name).unwrap(), 0.22, speed, B)
+        gaps(&preset(name).unwrap(), 0.22, speed, B).into_iter().map(|g| g.text).collect()
     }
 
     #[test]
@@ -175,5 +285,36 @@ mod tests {
             assert!((speed_ceiling(0.22, d, B) - v).abs() < 1e-9);
         }
         assert_eq!(speed_ceiling(0.22, 0.1, B), 0.0);
+    }
+
+    #[test]
+    fn a_planar_lidar_flies_only_with_both_vertical_assumptions_and_a_camera_with_forward_flight() {
+        use Assumption::{ForwardFlight, NoLowObstacles, NoOverhangs};
+        let refused = |name: &str, speed: f64, assumed: &[Assumption]| {
+            gaps(&preset(name).unwrap(), 0.22, speed, B).iter().filter(|g| g.refuses(assumed)).count()
+        };
+        assert_eq!(refused("lidar", 1.0, &[]), 2);
+        assert_eq!(refused("lidar", 1.0, &[NoOverhangs]), 1);
+        assert_eq!(refused("lidar", 1.0, &[NoOverhangs, NoLowObstacles]), 0);
+        assert_eq!(refused("camera", 1.0, &[NoOverhangs, NoLowObstacles]), 1);
+        assert_eq!(refused("camera", 1.0, &[ForwardFlight]), 0);
+        // Range gaps are the governor's: never refused.
+        assert_eq!(refused("tof8", 5.0, &[]), 0);
+        assert_eq!(refused("lidar3d", 8.0, &[]), 0);
+        // A set that only looks up covers nothing: refused whatever is assumed.
+        let up: Vec<RangeSensor> =
+            preset("tof4").unwrap().into_iter().map(|s| RangeSensor { pitch: 90.0, ..s }).collect();
+        let g = gaps(&up, 0.22, 1.0, B);
+        assert_eq!(g.len(), 1, "{g:?}");
+        assert!(g[0].refuses(&Assumption::ALL) && g[0].text.contains("covers nothing"), "{g:?}");
+    }
+
+    #[test]
+    fn assumptions_parse_by_name_and_refuse_unknown_ones() {
+        for a in Assumption::ALL {
+            assert_eq!(a.as_str().parse::<Assumption>(), Ok(a));
+        }
+        let e = "obstacles-are-nice".parse::<Assumption>().unwrap_err();
+        assert!(e.contains("\"obstacles-are-nice\"") && e.contains("no-overhangs, no-low-obstacles"), "{e}");
     }
 }

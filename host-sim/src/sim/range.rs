@@ -358,8 +358,24 @@ impl RangeSensor {
         within("latency", s.latency, 0.0, MAX_LATENCY_S, false)?;
         within("max_range", s.max_range, 0.0, MAX_RANGE_M, true)?;
         within("min_range", s.min_range, 0.0, s.max_range, false)?;
+        if s.min_range >= s.max_range {
+            return Err(bad(
+                "min_range",
+                "the sensor covers nothing (no range between min_range and max_range)",
+                s.min_range,
+                &format!("0 ≤ min_range < max_range ({})", s.max_range),
+            ));
+        }
         within("noise", s.noise, 0.0, MAX_NOISE_M, false)?;
         within("dropout", s.dropout, 0.0, 1.0, false)?;
+        if s.dropout >= 1.0 {
+            return Err(bad(
+                "dropout",
+                "the sensor covers nothing (every beam is dropped)",
+                s.dropout,
+                "0 ≤ dropout < 1",
+            ));
+        }
         within("fov_h", s.fov_h, 0.0, 360.0, false)?;
         within("fov_v", s.fov_v, 0.0, 180.0, false)?;
         if !(s.elevation.is_finite() && s.elevation.abs() + 0.5 * s.fov_v <= 90.0) {
@@ -575,6 +591,16 @@ mod tests {
         assert!(e.contains("`min_range`") && e.contains("12"), "{e}");
         let e = spec(&|s| s.dropout = Some(f64::NAN)).unwrap_err();
         assert!(e.contains("`dropout`"), "{e}");
+        // A sensor that covers nothing, a negative latency (issue 36).
+        let e = spec(&|s| s.min_range = Some(12.0)).unwrap_err();
+        assert!(
+            e.contains("`min_range`") && e.contains("covers nothing") && e.contains("< max_range"),
+            "{e}"
+        );
+        let e = spec(&|s| s.dropout = Some(1.0)).unwrap_err();
+        assert!(e.contains("`dropout`") && e.contains("covers nothing") && e.contains("dropout < 1"), "{e}");
+        let e = spec(&|s| s.latency = Some(-0.1)).unwrap_err();
+        assert!(e.contains("`latency`") && e.contains("-0.1") && e.contains("0 ≤ latency"), "{e}");
         let e = spec(&|s| s.columns = Some(5000)).unwrap_err();
         assert!(e.contains("4096"), "{e}");
         let e = spec(&|s| {

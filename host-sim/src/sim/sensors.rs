@@ -70,6 +70,10 @@ pub struct SensorParams {
     pub dropout_start: f64,
     /// Length of that window, s (0: none).
     pub dropout_length: f64,
+    /// World assumptions that let a range-sensor set with a coverage gap fly
+    /// (`crate::sim::coverage::Assumption`; `--assume` adds to them). None by default.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub assume: Vec<crate::sim::coverage::Assumption>,
 }
 
 impl Default for SensorParams {
@@ -91,6 +95,7 @@ impl Default for SensorParams {
             rate: 0.0,
             dropout_start: 0.0,
             dropout_length: 0.0,
+            assume: Vec::new(),
         }
     }
 }
