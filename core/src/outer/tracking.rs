@@ -148,9 +148,15 @@ impl PdTracker {
         let lead_max = if kpos > 0.0 { ref_speed / kpos } else { f32::INFINITY };
         let raw = r.position - pos;
         let mut e = limit_lead(raw, &r.velocity, lead_max);
-        let t = Vec3::new(r.velocity.x / ref_speed, r.velocity.y / ref_speed, 0.0);
+        // `e != raw` only where the reference moves (faster than MOVING_REFERENCE_SPEED).
+        let moving = e != raw && ref_speed > MOVING_REFERENCE_SPEED;
+        let t = if moving {
+            Vec3::new(r.velocity.x / ref_speed, r.velocity.y / ref_speed, 0.0)
+        } else {
+            Vec3::zeros()
+        };
         let excess = vel.dot(&t) - ref_speed;
-        if e != raw && excess > 0.0 && kpos > 0.0 {
+        if moving && excess > 0.0 && kpos > 0.0 {
             // Pushed ahead of the moving reference and faster than it (by the filter:
             // something closing from behind, e.g. `scenes/sphere_overtaking.toml`): step aside
             // instead of being herded along the path — the cross-track pull is replaced by a
