@@ -291,6 +291,8 @@ fn count(out: &[Outbound], f: impl Fn(&Outbound) -> bool) -> usize {
 fn mission_current_and_item_reached_follow_the_mission() {
     let mut g = Sim::new();
     g.airborne();
+    // A vehicle that follows the reference (the trajectory's clock waits for it).
+    g.follow = true;
     let path = [[1.0, 0.0, -1.0], [1.0, 1.0, -1.0], [0.0, 1.0, -1.0]];
     assert_eq!(g.upload(&path), MavMissionResult::MAV_MISSION_ACCEPTED);
     assert_eq!(g.interval(42.0, 50_000.0), MavResult::MAV_RESULT_ACCEPTED);
@@ -835,6 +837,9 @@ struct Flown {
 
 /// Arms on the ground, MISSION_START, and runs until disarmed (at most `max_steps` ms).
 fn fly_from_ground(g: &mut Sim, max_steps: usize) -> Flown {
+    // The fixes follow the reference: the mission's trajectory (the default guidance) waits for
+    // a vehicle that does not follow it.
+    g.follow = true;
     g.run(500);
     assert_eq!(
         g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
@@ -950,6 +955,7 @@ fn a_takeoff_item_started_in_the_air_goes_to_its_altitude_first() {
     for alt in [2.0, 0.5] {
         let mut g = Sim::new();
         g.airborne();
+        g.follow = true;
         let plan = [
             qgc_item(MavCmd::MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, alt),
             qgc_item(MavCmd::MAV_CMD_NAV_WAYPOINT, 2.0, 0.0, 1.0),

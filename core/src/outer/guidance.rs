@@ -237,6 +237,11 @@ pub struct Guidance {
     flying_trajectory: bool,
     /// The trajectory's last reference (the clock's tracking error is measured against it).
     last_traj: Option<Reference>,
+    /// For each point of the trajectory, the index of the stored path's waypoint it is (the
+    /// origin counts as 0; waypoints within `MIN_LEG_LENGTH` of the previous point are not
+    /// points): [`Progress::segment`] of leg `k` is the waypoint it ends at, `point_waypoint[k + 1]`,
+    /// as the paper's follower numbers its segments (segment 0 is origin → w₀).
+    point_waypoint: heapless::Vec<u16, TRAJECTORY_CAPACITY>,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -256,6 +261,7 @@ impl Guidance {
             trajectory: Trajectory::idle(),
             flying_trajectory: false,
             last_traj: None,
+            point_waypoint: heapless::Vec::new(),
         })
     }
 
@@ -488,10 +494,15 @@ impl Guidance {
         }
         let mut points: heapless::Vec<Vec3, TRAJECTORY_CAPACITY> = heapless::Vec::new();
         let _ = points.push(origin);
-        for w in self.follower.waypoints() {
+        self.point_waypoint.clear();
+        let _ = self.point_waypoint.push(0);
+        for (i, w) in self.follower.waypoints().iter().enumerate() {
             let far = points.last().is_none_or(|q| norm3(&(w - q)) >= MIN_LEG_LENGTH);
-            if far && points.push(*w).is_err() {
-                return Err(CommandError::Path(PathError::TooMany { capacity: PATH_CAPACITY }));
+            if far {
+                let index = u16::try_from(i).unwrap_or(u16::MAX);
+                if points.push(*w).is_err() || self.point_waypoint.push(index).is_err() {
+                    return Err(CommandError::Path(PathError::TooMany { capacity: PATH_CAPACITY }));
+                }
             }
         }
         let params =
@@ -581,8 +592,10 @@ impl Guidance {
         let dt = v.dt.min(MAX_STEP_DT);
         let r = match traj.step(dt, scale) {
             Ok(s) => {
+                let end = s.segment.saturating_add(1);
+                let last = self.point_waypoint.last().copied().unwrap_or(0);
                 *progress = Progress {
-                    segment: u16::try_from(s.segment.saturating_add(1)).unwrap_or(u16::MAX),
+                    segment: self.point_waypoint.get(end).copied().unwrap_or(last),
                     fraction: 0.0,
                     done: s.done,
                 };
@@ -671,6 +684,36 @@ mod tests {
         // Done: the goal held at rest.
         let (_, r) = g.reference(4_000 * (steps + 1), &steering(p), &mut progress);
         assert_eq!(r.unwrap().velocity, Vec3::zeros());
+    }
+
+    /// `Progress::segment` numbers the legs by the stored path's waypoint they end at, as the
+    /// paper's follower does (segment 0 is origin → w₀): for a path that starts elsewhere the
+    /// first leg is 0 (MISSION_CURRENT 0 for the first mission item), for one whose first
+    /// waypoint repeats the origin (dropped) the first leg flown is 1.
+    #[test]
+    fn trajectory_segments_are_the_waypoints_the_legs_end_at() {
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        let (a, b) = (Vec3::new(2.0, 0.0, -1.0), Vec3::new(2.0, 2.0, -1.0));
+        for (path, want) in [(&[a, b][..], [0u16, 1]), (&[origin, a, b][..], [1, 2])] {
+            let mut g = trajectory_guidance();
+            g.set_path(path, 0, origin).unwrap();
+            g.start_mission(0, origin).unwrap();
+            let mut progress = Progress::default();
+            let mut p = origin;
+            let mut seen: heapless::Vec<u16, 8> = heapless::Vec::new();
+            for k in 1..5_000u64 {
+                let (_, r) = g.reference(4_000 * k, &steering(p), &mut progress);
+                p = r.unwrap().position;
+                if seen.last() != Some(&progress.segment) {
+                    seen.push(progress.segment).unwrap();
+                }
+                if progress.done {
+                    break;
+                }
+            }
+            assert!(progress.done);
+            assert_eq!(seen[..], want[..], "{path:?}");
+        }
     }
 
     #[test]
