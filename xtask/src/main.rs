@@ -389,7 +389,9 @@ fn test() -> Result<(), String> {
             .env("PARAPET_CHROMIUM", &chromium),
     )?;
     slurm_test()?;
-    run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib"]))?;
+    // The library's unit tests and the host-side link tests of firmware/tests (gcs_services,
+    // gcs_link, …; qemu_pil's test is #[ignore]d there and run below with the ELF).
+    run("firmware host tests", cargo().args(["test", "-p", "parapet-firmware", "--lib", "--tests"]))?;
     fuzz::smoke()?;
     run(
         "firmware QEMU smoke test",
