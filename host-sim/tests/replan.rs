@@ -13,7 +13,8 @@ fn summary(dir: &std::path::Path) -> serde_json::Value {
 
 fn fly(name: &str, args: &[&str]) -> serde_json::Value {
     let out = tmp("replan", name);
-    let mut all = vec!["run"];
+    // The guidance is named: the tests hold under either default (MIS_GUIDANCE 0 or 1).
+    let mut all = vec!["run", "--guidance", "trajectory"];
     all.extend_from_slice(args);
     all.extend_from_slice(&["--out", out.to_str().unwrap()]);
     let o = parapet(&all);
@@ -92,4 +93,33 @@ fn an_unmapped_forest_is_crossed_at_3_m_s_with_replanning() {
     let s = fly("forest-lidar360", &[&["--scene", scene.to_str().unwrap()][..], &LIDAR360].concat());
     assert_goal_without_contact(&s, "forest seed 0");
     assert_eq!(s["unmapped_obstacles"], 300);
+}
+
+/// The mapped office (nothing unmapped): its planned path passes over desks and plants and
+/// near door posts, which the trigger leaves alone — no replan, the goal as without
+/// replanning (docs/perception.md § On-board replanning).
+#[test]
+fn the_mapped_office_flies_without_a_replan() {
+    for perception in ["truth", "lidar"] {
+        let s = fly(
+            &format!("office-{perception}"),
+            &[
+                "--scene",
+                "scenes/office.toml",
+                "--perception",
+                perception,
+                "--speed",
+                "1",
+                "--param",
+                "RPL_ENABLE=1",
+            ],
+        );
+        assert_eq!(s["end_reason"], "goal", "{perception}: {s}");
+        assert_eq!(s["replan_enabled"], true);
+        assert_eq!(
+            (s["replans"].as_u64(), s["replan_no_path"].as_u64()),
+            (Some(0), Some(0)),
+            "{perception}: {s}"
+        );
+    }
 }

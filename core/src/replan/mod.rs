@@ -5,20 +5,25 @@
 //! **What it knows** ([`grid`]): a persistent [`grid::GRID`]² horizontal occupancy grid at
 //! the flight level (default cell 0.2 m: a 12.8 m square that follows the vehicle in whole
 //! cells), marked with the static obstacle points the filter is given (ground truth's closest
-//! points, or the obstacle memory's points with range sensing) that lie within `band_m` of the
+//! points, or the obstacle memory's points with range sensing; not the virtual frontier,
+//! ceiling and ground points, [`VIRTUAL_ID`]) that lie within `band_m` of the
 //! vehicle's height. Occupied cells are grown by the hull radius + `margin_m`. **Unknown space
 //! is assumed free**: a detour through space nobody has seen is flown under the same safety
 //! filter, which stops the vehicle before anything it then senses, and the next check replans.
 //!
 //! **Trigger** ([`Replanner::step`]): checked at `rate_hz` (≥ 1 Hz; default 2): the remaining
-//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) comes within half
-//! the hull radius of an occupied cell's centre — through a sensed obstacle, not merely near
-//! one: a path planned on the map with a smaller margin than the replanner's (the planner keeps
-//! hull + 0.05 m from surfaces, more than half the hull + a cell's half diagonal) is left alone,
-//! the filter keeps its clearance —
-//! or out of the flight area; or the filter reports a stall (`deadlock`, `crate::plant_aware`)
-//! and the remaining path comes within the inflation radius of an occupied cell anywhere in
-//! the grid. After a replan, a no-path or a budget
+//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) comes within the
+//! hull radius, in 3D, of a static obstacle point the filter is given now — a blockage the
+//! offline planner's own clearance (hull + 0.05 m from surfaces) would have rejected. The test
+//! is 3D and against the points, not the grid: the grid is 2D and rounds to cells, so a planned
+//! path that passes over a table, a plant or under a lamp within the height band, or a door
+//! edge a cell's half diagonal closer than it is, would look blocked (it did, on the mapped
+//! office: 10 replans and no goal). Samples within the hull radius of the vehicle are left to
+//! the filter, and leaving the flight area is no trigger (the vehicle may stand a few cm outside
+//! it, the mission's path was planned inside it). Or the filter reports a
+//! stall (`deadlock`, `crate::plant_aware`), or the vehicle has stayed within [`STUCK_M`] of
+//! one place for [`STUCK_S`], and the remaining path comes within the inflation
+//! radius of an occupied cell anywhere in the grid. After a replan, a no-path or a budget
 //! result the next plan waits `cooldown_s` (no thrashing).
 //!
 //! **Flight level.** The grid is 2D: the check and the targets stop where the remaining path
@@ -45,10 +50,12 @@
 //! the detour or path capacity: handled like `NoPath`).
 //!
 //! **Bounds.** Memory: the grid 1 KiB, the search ≈ 20 KiB (`Replanner` ≈ 21 KiB in all).
-//! Time: at most [`MAX_TARGETS`] searches of at most `max_expansions` (≤ 4096) expansions of 8
+//! Time: the trigger tests at most `horizon_m` / (cell / 2) path samples against the points
+//! given (one distance each); at most [`MAX_TARGETS`] searches of at most `max_expansions` (≤ 4096) expansions of 8
 //! neighbours, plus O(path cells · 2·GRID) line-of-sight tests.
 //!
-//! May import: `crate::obstacle`, `crate::fmath`, `crate::Vec3`.
+//! May import: `crate::obstacle`, `crate::fmath`, `crate::Vec3`, the virtual points' ids of
+//! `crate::perception` and `crate::safety::plant_aware`.
 
 pub mod grid;
 pub mod search;
@@ -62,6 +69,10 @@ use search::{Search, SearchResult};
 pub const MAX_TARGETS: usize = 4;
 /// Detour waypoints at most (before the target).
 pub const MAX_DETOUR: usize = 16;
+/// The vehicle within this of one place (m) ...
+pub const STUCK_M: f32 = 0.15;
+/// ... for this long (s) counts as stalled.
+pub const STUCK_S: f32 = 3.0;
 /// Obstacle points moving faster than this (m/s) are not marked (the grid is for the static world).
 pub const STATIC_SPEED: f32 = 0.1;
 
@@ -69,9 +80,9 @@ pub const STATIC_SPEED: f32 = 0.1;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ReplanParams {
-    /// Replanning on. Default off (`RPL_ENABLE` 0): on, the trigger still fires on the mapped
-    /// office's planned path (which passes walls closer than the trigger's rounding and climbs
-    /// over furniture) and changes flights that needed no replanning.
+    /// Replanning on. Default off (`RPL_ENABLE` 0): the mapped office now flies without a
+    /// replan, but the mission tests of `tests/` have not been run with it on
+    /// (docs/perception.md § On-board replanning).
     pub enable: bool,
     /// Checks per second, Hz. Default 2.
     pub rate_hz: f32,
@@ -162,6 +173,8 @@ pub struct Replanner {
     search: Search,
     next_check_us: u64,
     stats: ReplanStats,
+    /// Where the vehicle was, and since when (µs), for [`Replanner::no_progress`].
+    anchor: (Vec3, u64),
 }
 
 /// A point on the remaining path: where, and the index of the waypoint its segment ends at.
@@ -185,6 +198,7 @@ impl Replanner {
             search: Search::default(),
             next_check_us: 0,
             stats: ReplanStats::default(),
+            anchor: (Vec3::new(f32::INFINITY, 0.0, 0.0), 0),
         }
     }
 
@@ -216,28 +230,33 @@ impl Replanner {
         }
         self.grid.follow(pos);
         for o in points {
-            let moving = o.velocity.is_some_and(|v| v.norm_squared() > STATIC_SPEED * STATIC_SPEED);
-            if !moving && (o.point.z - pos.z).abs() <= self.params.band_m {
+            if !ignored(o) && (o.point.z - pos.z).abs() <= self.params.band_m {
                 self.grid.mark(&o.point);
             }
         }
     }
 
     /// The trigger at `now_us`: when a check is due (rate, cooldown) and replanning is on,
-    /// [`Replanner::plan`] from `pos` along `remaining` (the waypoints not yet reached), with
-    /// the whole remaining path in the grid checked when `stalled`. `None`: no check was due.
+    /// [`Replanner::plan`] from `pos` along `remaining` (the waypoints not yet reached) against
+    /// the obstacle `points` given now, with the whole remaining path in the grid checked when
+    /// `stalled`. `None`: no check was due.
     pub fn step<const N: usize>(
         &mut self,
         now_us: u64,
         pos: &Vec3,
         stalled: bool,
         remaining: &[Vec3],
+        points: &[ObstaclePoint],
         out: &mut heapless::Vec<Vec3, N>,
     ) -> Option<ReplanOutcome> {
-        if !self.params.enable || now_us < self.next_check_us || remaining.is_empty() {
+        if !self.params.enable {
             return None;
         }
-        let r = self.plan(pos, remaining, stalled, out);
+        let stuck = self.no_progress(now_us, pos);
+        if now_us < self.next_check_us || remaining.is_empty() {
+            return None;
+        }
+        let r = self.plan(pos, remaining, points, stalled || stuck, out);
         let wait = match r {
             ReplanOutcome::NotNeeded => 1.0 / self.params.rate_hz,
             _ => self.params.cooldown_s.max(1.0 / self.params.rate_hz),
@@ -246,14 +265,26 @@ impl Replanner {
         Some(r)
     }
 
-    /// Plan from `pos` along `remaining`, checking `horizon_m` of it for a blockage (all of
-    /// it in the grid, and for cells within the inflation radius too, when `stalled`); the new
-    /// path (when [`ReplanOutcome::Replanned`]) is written to `out`, otherwise `out` is left
-    /// empty. See the module documentation.
+    /// The vehicle has stayed within [`STUCK_M`] of one place for [`STUCK_S`] (a stall the
+    /// filter need not report: the trajectory guidance's clock waits for the vehicle).
+    fn no_progress(&mut self, now_us: u64, pos: &Vec3) -> bool {
+        let moved = (pos - self.anchor.0).norm_squared() > STUCK_M * STUCK_M;
+        if moved || !pos.iter().all(|c| c.is_finite()) || now_us < self.anchor.1 {
+            self.anchor = (*pos, now_us);
+            return false;
+        }
+        now_us - self.anchor.1 >= (STUCK_S * 1e6) as u64
+    }
+
+    /// Plan from `pos` along `remaining`, checking `horizon_m` of it for a blockage by the
+    /// static `points` (all of it, and for grid cells within the inflation radius too, when
+    /// `stalled`); the new path (when [`ReplanOutcome::Replanned`]) is written to `out`,
+    /// otherwise `out` is left empty. See the module documentation.
     pub fn plan<const N: usize>(
         &mut self,
         pos: &Vec3,
         remaining: &[Vec3],
+        points: &[ObstaclePoint],
         stalled: bool,
         out: &mut heapless::Vec<Vec3, N>,
     ) -> ReplanOutcome {
@@ -267,7 +298,7 @@ impl Replanner {
         self.grid.follow(pos);
         self.grid.inflate(radius);
         let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
-        if !self.find_targets(pos, remaining, horizon, stalled, radius, &mut targets) {
+        if !self.find_targets(pos, remaining, points, horizon, stalled, radius, &mut targets) {
             return ReplanOutcome::NotNeeded;
         }
         let r = self.search_targets(pos, remaining, radius, &targets, out);
@@ -284,14 +315,16 @@ impl Replanner {
     }
 
     /// Walk the remaining path from `pos` every half cell: `false` when the first `horizon` m
-    /// cross no occupied cell (or it leaves the grid first). Otherwise the targets, in the order
+    /// pass no static point of `points` within the hull radius (or it leaves the grid first). Otherwise the targets, in the order
     /// tried: the remaining waypoints beyond the blockage that are passable and in the grid,
     /// farthest first (the detour rejoins the mission as far on as the grid reaches, so that
     /// successive detours do not pile up), then the first passable point after the blockage.
+    #[allow(clippy::too_many_arguments)]
     fn find_targets(
         &self,
         pos: &Vec3,
         remaining: &[Vec3],
+        points: &[ObstaclePoint],
         horizon: f32,
         stalled: bool,
         radius: f32,
@@ -313,9 +346,11 @@ impl Replanner {
                 match (blocked_at, self.grid.cell_of(&p)) {
                     (None, None) => return false,
                     (None, Some(_)) if !level => return false,
+                    // Samples within the hull radius of the vehicle are the filter's (the
+                    // vehicle there is as near the points as the filter let it come).
                     (None, Some((i, j)))
-                        if self.grid.near_occupied(&p, 0.5 * self.hull)
-                            || !self.grid.in_area(i, j)
+                        if (touches(points, &p, self.hull)
+                            && (p - pos).norm_squared() > self.hull * self.hull)
                             || (stalled && !passable(&self.grid, i, j, pos, radius)) =>
                     {
                         if s + len * m as f32 / n as f32 > horizon {
@@ -427,6 +462,24 @@ impl Replanner {
         }
         ReplanOutcome::Replanned { detour: back.len() as u8, waypoints: out.len().min(255) as u8 }
     }
+}
+
+/// A static point of `points` lies within `r` m (3D) of `p`.
+fn touches(points: &[ObstaclePoint], p: &Vec3, r: f32) -> bool {
+    points.iter().any(|o| !ignored(o) && (o.point - p).norm_squared() <= r * r)
+}
+
+/// First obstacle id of the virtual points the filter is given besides obstacles: the
+/// field-of-view frontier (`crate::perception::FRONTIER_ID`), the ceiling and the ground
+/// (`crate::safety::plant_aware`). They stand for unseen space or the flight envelope, not for
+/// something in the way: the replanner neither marks nor tests them.
+pub const VIRTUAL_ID: u16 = crate::perception::FRONTIER_ID;
+const _: () = assert!(crate::safety::plant_aware::CEILING_ID >= VIRTUAL_ID); // GROUND_ID is u16::MAX.
+
+/// The point is not a static obstacle: a moving one's (faster than [`STATIC_SPEED`]) or a
+/// virtual one ([`VIRTUAL_ID`]).
+fn ignored(o: &ObstaclePoint) -> bool {
+    o.id >= VIRTUAL_ID || o.velocity.is_some_and(|v| v.norm_squared() > STATIC_SPEED * STATIC_SPEED)
 }
 
 /// A cell the search may enter: not blocked, or blocked only by inflation within `radius` of

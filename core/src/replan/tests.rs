@@ -61,7 +61,7 @@ fn a_wall_with_one_gap_is_passed_through_the_gap() {
     let (at, goal) = (v(0.1, 0.1), v(4.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[goal], false, &mut out);
+    let res = r.plan(&at, &[goal], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert_eq!(out.last(), Some(&goal), "the rest of the mission follows: {out:?}");
     // Through the gap: a waypoint near it, and every leg clear of the wall by hull + margin
@@ -82,7 +82,7 @@ fn a_wall_without_a_gap_is_no_path() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], false, &mut out), ReplanOutcome::NoPath);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
     assert!(out.is_empty());
     assert_eq!((r.stats().no_path, r.stats().replans), (1, 0));
 }
@@ -94,10 +94,31 @@ fn a_clear_path_needs_no_plan_and_a_far_blockage_waits() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(3.1, 0.1), v(3.0, 3.0)], false, &mut out), ReplanOutcome::NotNeeded);
+    assert_eq!(r.plan(&at, &[v(3.1, 0.1), v(3.0, 3.0)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
     // The wall 5 m ahead is beyond the 3 m horizon; with an unlimited horizon it is planned round.
-    assert_eq!(r.plan(&at, &[v(6.1, 0.1)], false, &mut out), ReplanOutcome::NotNeeded);
-    assert!(matches!(r.plan(&at, &[v(6.1, 0.1)], true, &mut out), ReplanOutcome::Replanned { .. }));
+    assert_eq!(r.plan(&at, &[v(6.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
+    assert!(matches!(r.plan(&at, &[v(6.1, 0.1)], &pts, true, &mut out), ReplanOutcome::Replanned { .. }));
+}
+
+#[test]
+fn a_path_over_a_table_or_past_a_door_edge_is_clear() {
+    // A table top 0.25 m below the path (within the 0.3 m band: the grid marks it) and a door
+    // post 0.25 m beside it (its cell's centre closer): the planner's clearance (hull + 0.05 m)
+    // holds in 3D, so nothing is replanned.
+    let mut pts: heapless::Vec<ObstaclePoint, 512> = heapless::Vec::new();
+    for k in 0..10 {
+        let _ = pts.push(ObstaclePoint::fixed(Vec3::new(1.0 + 0.1 * k as f32, 0.1, Z + 0.25), 1));
+    }
+    let _ = pts.push(ObstaclePoint::fixed(v(2.5, 0.35), 2));
+    let at = v(0.1, 0.1);
+    let mut r = replanner_with(&pts, &at);
+    assert!(r.grid().occupied_count() >= 5, "the table is in the grid");
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    assert_eq!(r.plan(&at, &[v(3.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
+    // 0.15 m below the path: within the hull radius, blocked.
+    let _ = pts.push(ObstaclePoint::fixed(Vec3::new(1.5, 0.1, Z + 0.15), 3));
+    let res = r.plan(&at, &[v(3.1, 0.1)], &pts, false, &mut out);
+    assert_ne!(res, ReplanOutcome::NotNeeded);
 }
 
 #[test]
@@ -113,14 +134,14 @@ fn a_waypoint_inside_an_obstacle_is_skipped_for_the_next_reachable_one() {
     let (inside, after) = (v(3.1, 0.1), v(6.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[inside, after], false, &mut out);
+    let res = r.plan(&at, &[inside, after], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert!(!out.contains(&inside), "{out:?}");
     assert_eq!(out.last(), Some(&after));
     assert!(clearance(&at, &out, &pts) >= HULL);
     // The farthest waypoint (inside the room) is tried first, cannot be reached, and the
     // nearer one is the target; the rest of the mission follows it.
-    let res = r.plan(&at, &[after, inside], false, &mut out);
+    let res = r.plan(&at, &[after, inside], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert_eq!(&out[out.len() - 2..], &[after, inside]);
 }
@@ -134,12 +155,15 @@ fn the_expansion_cap_is_a_defined_result() {
     let mut r = Replanner::new(ReplanParams { max_expansions: 10, ..on() }, HULL);
     r.observe(&at, &pts);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::BudgetExceeded);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::BudgetExceeded);
     assert!(out.is_empty());
     // A path that would not fit the capacity: the same result, nothing written.
     let mut r = replanner_with(&pts, &at);
     let mut small: heapless::Vec<Vec3, 2> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], false, &mut small), ReplanOutcome::BudgetExceeded);
+    assert_eq!(
+        r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut small),
+        ReplanOutcome::BudgetExceeded
+    );
     assert!(small.is_empty());
 }
 
@@ -152,19 +176,19 @@ fn the_trigger_keeps_its_rate_and_cooldown() {
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
     let path = [v(4.1, 0.1)];
-    assert!(matches!(r.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::Replanned { .. })));
+    assert!(matches!(r.step(0, &at, false, &path, &pts, &mut out), Some(ReplanOutcome::Replanned { .. })));
     // Cooldown 2 s: nothing until then, whatever the path.
-    assert_eq!(r.step(1_999_999, &at, false, &path, &mut out), None);
-    assert!(r.step(2_000_000, &at, false, &path, &mut out).is_some());
+    assert_eq!(r.step(1_999_999, &at, false, &path, &pts, &mut out), None);
+    assert!(r.step(2_000_000, &at, false, &path, &pts, &mut out).is_some());
     // A clear path is checked again after 1 / rate = 0.5 s.
     let mut clear = Replanner::new(on(), HULL);
-    assert_eq!(clear.step(0, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
-    assert_eq!(clear.step(499_999, &at, false, &path, &mut out), None);
-    assert_eq!(clear.step(500_000, &at, false, &path, &mut out), Some(ReplanOutcome::NotNeeded));
+    assert_eq!(clear.step(0, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
+    assert_eq!(clear.step(499_999, &at, false, &path, &[], &mut out), None);
+    assert_eq!(clear.step(500_000, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
     // Off: never.
     let mut off = Replanner::new(ReplanParams::default(), HULL);
     off.observe(&at, &pts);
-    assert_eq!(off.step(0, &at, true, &path, &mut out), None);
+    assert_eq!(off.step(0, &at, true, &path, &pts, &mut out), None);
 }
 
 #[test]
@@ -188,8 +212,8 @@ fn the_flight_area_closes_the_way_round() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert!(matches!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::Replanned { .. }));
+    assert!(matches!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::Replanned { .. }));
     assert!(out.iter().any(|w| w.y.abs() > 2.0), "{out:?}");
     r.set_area(Some(([-1.0, -2.2], [5.0, 2.2])));
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], false, &mut out), ReplanOutcome::NoPath);
+    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
 }

@@ -55,7 +55,8 @@ impl OnboardReplan {
         }
         let path = fc.path();
         let remaining = &path[usize::from(tel.progress.segment).min(path.len())..];
-        let Some(r) = self.core.step(now_us, &tel.position, stalled, remaining, &mut self.buf) else {
+        let Some(r) = self.core.step(now_us, &tel.position, stalled, remaining, obstacles, &mut self.buf)
+        else {
             return;
         };
         let (outcome, waypoints, detour) = match r {
