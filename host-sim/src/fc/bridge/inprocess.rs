@@ -8,7 +8,9 @@
 //!   encoding as the firmware sends it (`FlightMode::px4_custom_mode`), `MAV_MODE_FLAG_CUSTOM_MODE_ENABLED`, `SAFETY_ARMED` +
 //!   `AUTO_ENABLED` while armed), LOCAL_POSITION_NED (25 Hz, the latest position fix) and
 //!   POSITION_TARGET_LOCAL_NED (25 Hz: the reference position, the filtered acceleration `u`
-//!   in `afx..afz`), STATUSTEXT on each failsafe-state change;
+//!   in `afx..afz`), STATUSTEXT on each failsafe-state change and on each event of the
+//!   on-board replanner (issue 38: `Replan: new path, N wp (D detour)` INFO, `Replan: no path,
+//!   holding` / `Replan: budget exceeded, holding` WARNING);
 //! * served: PARAM_REQUEST_LIST / PARAM_REQUEST_READ (the run's parameters, table order, all
 //!   REAL32); PARAM_SET is refused the protocol's way (the PARAM_VALUE in effect is echoed:
 //!   the run's parameters are fixed); MISSION_REQUEST_LIST / MISSION_REQUEST_INT (the flown
@@ -68,6 +70,8 @@ pub struct GcsStack<S: FlightStack> {
     fix: Option<PositionReading>,
     out: Option<OuterOut>,
     state: String,
+    /// Replanner events already sent as STATUSTEXT.
+    replan_sent: usize,
 }
 
 impl<S: FlightStack> GcsStack<S> {
@@ -84,6 +88,7 @@ impl<S: FlightStack> GcsStack<S> {
             fix: None,
             out: None,
             state: String::new(),
+            replan_sent: 0,
         }
     }
 
@@ -195,16 +200,37 @@ impl<S: FlightStack> GcsStack<S> {
         }));
     }
 
+    fn status_text(&mut self, severity: MavSeverity, line: &str) {
+        let mut text = [0u8; 50];
+        text.iter_mut().zip(line.bytes()).for_each(|(b, c)| *b = c);
+        self.send(&MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+            severity,
+            text: text.into(),
+            ..Default::default()
+        }));
+    }
+
+    /// A STATUSTEXT for each replanner event not sent yet.
+    fn replan_texts(&mut self) {
+        let events = self.inner.replan_summary().replan_events;
+        for e in events.iter().skip(self.replan_sent) {
+            let (severity, line) = match e.outcome {
+                "replanned" => (
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    format!("Replan: new path, {} wp ({} detour)", e.waypoints, e.detour),
+                ),
+                "no_path" => (MavSeverity::MAV_SEVERITY_WARNING, "Replan: no path, holding".to_owned()),
+                other => (MavSeverity::MAV_SEVERITY_WARNING, format!("Replan: {other}, holding")),
+            };
+            self.status_text(severity, &line);
+        }
+        self.replan_sent = self.replan_sent.max(events.len());
+    }
+
     fn telemetry(&mut self, t_us: u64) {
         let state = self.inner.state_name();
         if state != self.state {
-            let mut text = [0u8; 50];
-            text.iter_mut().zip(format!("state {state}").bytes()).for_each(|(b, c)| *b = c);
-            self.send(&MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-                severity: MavSeverity::MAV_SEVERITY_INFO,
-                text: text.into(),
-                ..Default::default()
-            }));
+            self.status_text(MavSeverity::MAV_SEVERITY_INFO, &format!("state {state}"));
             self.state = state;
         }
         let time_boot_ms = (t_us / 1000) as u32;
@@ -296,6 +322,7 @@ impl<S: FlightStack> FlightStack for GcsStack<S> {
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let out = self.inner.outer(t, obstacles);
         self.out = Some(out.clone());
+        self.replan_texts();
         out
     }
 
@@ -311,6 +338,10 @@ impl<S: FlightStack> FlightStack for GcsStack<S> {
 
     fn state_name(&self) -> String {
         self.inner.state_name()
+    }
+
+    fn replan_summary(&self) -> crate::report::ReplanSummary {
+        self.inner.replan_summary()
     }
 }
 
@@ -355,20 +386,101 @@ mod tests {
         }
     }
 
-    /// A GCS gets HEARTBEAT and LOCAL_POSITION_NED, the whole parameter list and a
-    /// COMMAND_ACK UNSUPPORTED addressed to it; the wrapped stack's throttles pass unchanged.
-    #[test]
-    fn serves_heartbeat_params_and_acks() {
+    /// [`Hover`] that reports one replan and one no-path result of its replanner.
+    struct Replanning;
+    impl FlightStack for Replanning {
+        fn start(
+            &mut self,
+            t: f64,
+            s: Vector3<f64>,
+            f: PositionReading,
+            o: &[ObstaclePoint],
+            i: &ImuReading,
+        ) -> anyhow::Result<()> {
+            Hover.start(t, s, f, o, i)
+        }
+        fn position_fix(&mut self, _: PositionReading) {}
+        fn outer(&mut self, t: f64, o: &[ObstaclePoint]) -> OuterOut {
+            Hover.outer(t, o)
+        }
+        fn inner(&mut self, t: f64, i: &ImuReading) -> [f32; 4] {
+            Hover.inner(t, i)
+        }
+        fn state_name(&self) -> String {
+            Hover.state_name()
+        }
+        fn replan_summary(&self) -> crate::report::ReplanSummary {
+            use crate::report::{ReplanEvent, ReplanSummary};
+            let replanned = ReplanEvent { t_s: 1.0, outcome: "replanned", waypoints: 7, detour: 2 };
+            let no_path = ReplanEvent { t_s: 2.0, outcome: "no_path", waypoints: 0, detour: 0 };
+            ReplanSummary {
+                replan_enabled: true,
+                replans: 1,
+                replan_events: vec![replanned, no_path],
+                ..Default::default()
+            }
+        }
+    }
+
+    /// `stack` flying `path` behind a bridge to a local GCS socket: the socket, the bridge's
+    /// port, the stack.
+    fn behind_a_gcs<S: FlightStack>(stack: S, path: Vec<Vector3<f64>>) -> (UdpSocket, u16, GcsStack<S>) {
         let gcs = UdpSocket::bind("127.0.0.1:0").expect("gcs");
         gcs.set_read_timeout(Some(Duration::from_millis(200))).expect("timeout");
         let ep = Endpoint::new("gcs", gcs.local_addr().expect("addr")).expect("endpoint");
         let port = ep.local().expect("local").port();
-        let mut s = GcsStack::new(
-            Hover,
-            Bridge::new(vec![ep], false, None),
-            ControllerParams::default(),
-            vec![Vector3::zeros(); 3],
+        (
+            gcs,
+            port,
+            GcsStack::new(stack, Bridge::new(vec![ep], false, None), ControllerParams::default(), path),
+        )
+    }
+
+    /// Each replanner event reaches the ground station once as a STATUSTEXT (issue 38), and
+    /// the wrapped stack's replanning record is the run's.
+    #[test]
+    fn replan_events_are_sent_as_statustext_once() {
+        let (gcs, port, mut s) = behind_a_gcs(Replanning, vec![]);
+        // The endpoint learns its peer from a first datagram.
+        let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
+        gcs.send_to(
+            &frame(MavHeader { system_id: 250, component_id: 190, sequence: 0 }, &hb),
+            ("127.0.0.1", port),
+        )
+        .expect("send");
+        std::thread::sleep(Duration::from_millis(50));
+        let imu = ImuReading { gyro: Vector3::zeros(), accel: Vector3::zeros() };
+        for k in 0..3 {
+            s.inner(k as f64 * 0.001, &imu);
+            s.outer(k as f64 * 0.001, &[]);
+        }
+        let mut texts = Vec::new();
+        let mut buf = [0u8; 600];
+        while let Ok((n, _)) = gcs.recv_from(&mut buf) {
+            for (_, m) in decode_all(&buf[..n]) {
+                if let MavMessage::STATUSTEXT(t) = m {
+                    let text = String::from_utf8_lossy(&t.text[..]).trim_end_matches('\0').to_owned();
+                    if text.starts_with("Replan") {
+                        texts.push((t.severity, text));
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            texts,
+            vec![
+                (MavSeverity::MAV_SEVERITY_INFO, "Replan: new path, 7 wp (2 detour)".to_owned()),
+                (MavSeverity::MAV_SEVERITY_WARNING, "Replan: no path, holding".to_owned()),
+            ]
         );
+        assert_eq!(s.replan_summary().replans, 1);
+    }
+
+    /// A GCS gets HEARTBEAT and LOCAL_POSITION_NED, the whole parameter list and a
+    /// COMMAND_ACK UNSUPPORTED addressed to it; the wrapped stack's throttles pass unchanged.
+    #[test]
+    fn serves_heartbeat_params_and_acks() {
+        let (gcs, port, mut s) = behind_a_gcs(Hover, vec![Vector3::zeros(); 3]);
         let fix = PositionReading {
             t_measured: 0.0,
             position: Vector3::new(1.0, 2.0, -3.0),
