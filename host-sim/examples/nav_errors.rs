@@ -4,9 +4,10 @@
 //! controller flew before the filter), the failsafe states seen, collision and goal.
 //!
 //! ```sh
-//! cargo run --release -p parapet-sim --example nav_errors -- SCENE PATH SOURCE SPEED SEED [PERCEPTION] [DROPOUT_START DROPOUT_LENGTH]
+//! cargo run --release -p parapet-sim --example nav_errors -- SCENE PATH SOURCE SPEED SEED [PERCEPTION] [DROPOUT_START DROPOUT_LENGTH] [guidance=NAME]
 //! ```
-//! PERCEPTION: `truth` or a `--perception` preset (`lidar`). Output: one tab-separated line.
+//! PERCEPTION: `truth` or a `--perception` preset (`lidar`); `guidance=paper|trajectory`
+//! (anywhere after SEED) sets `MIS_GUIDANCE`. Output: one tab-separated line.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -95,14 +96,16 @@ fn stats(errs: &[(f64, f64)], n: usize) -> String {
 }
 
 fn main() -> Result<()> {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    let guidance = all.iter().find_map(|x| x.strip_prefix("guidance="));
+    let a: Vec<&String> = all.iter().filter(|x| !x.starts_with("guidance=")).collect();
     if a.len() < 5 {
         return Err(anyhow!(
             "usage: SCENE PATH SOURCE SPEED SEED [PERCEPTION] [DROPOUT_START DROPOUT_LENGTH]"
         ));
     }
-    let scene = Scene::load(Path::new(&a[0])).map_err(|e| anyhow!("{e}"))?;
-    let path = PathFile::read(Path::new(&a[1])).map_err(|e| anyhow!("{e}"))?;
+    let scene = Scene::load(Path::new(a[0])).map_err(|e| anyhow!("{e}"))?;
+    let path = PathFile::read(Path::new(a[1])).map_err(|e| anyhow!("{e}"))?;
     let wps: Vec<Vector3<f64>> =
         path.waypoints.iter().map(|w| Vector3::new(w[1] as f64, w[0] as f64, -(w[2] as f64))).collect();
     let mut cfg = RunConfig::for_scene(&scene, wps)?;
@@ -110,6 +113,9 @@ fn main() -> Result<()> {
     cfg.sensors.apply_source_preset(&[]);
     cfg.params.speed = a[3].parse()?;
     cfg.seed = a[4].parse()?;
+    if let Some(g) = guidance {
+        cfg.guidance = g.parse().map_err(|()| anyhow!("unknown guidance {g}"))?;
+    }
     if let Some(p) = a.get(5).filter(|p| p.as_str() != "truth") {
         cfg.perception = parapet_sim::sim::range::preset(p);
         cfg.yaw_mode = default_yaw_mode(cfg.perception.as_deref());
@@ -136,7 +142,7 @@ fn main() -> Result<()> {
     let st = rec.c.nav().map(|n| n.status());
     let states: Vec<&str> = rec.states.iter().map(String::as_str).collect();
     println!(
-        "{}\t{}\t{}\t{}\tnav\t{}\tlatest-fix\t{}\tcollided={}\tgoal={}\tstates={}\tgated={}\tresets={}",
+        "{}\t{}\t{}\t{}\tnav\t{}\tlatest-fix\t{}\tcollided={}\tmin_clearance={:.3}\tgoal={}\tend={}@{:.1}s\tto_goal={:.2}m\tvmax={:.2}\tstates={}\tgated={}\tresets={}",
         scene.name,
         a[2],
         a[3],
@@ -144,7 +150,12 @@ fn main() -> Result<()> {
         stats(&nav, n),
         stats(&base, n),
         out.summary.collided,
+        out.summary.min_clearance_m,
         out.summary.reached_goal,
+        out.summary.end_reason,
+        out.summary.sim_time_s,
+        out.summary.final_distance_to_goal_m,
+        out.samples.iter().map(|s| s.vel.norm()).fold(0.0, f64::max),
         states.join(","),
         st.map_or(0, |s| s.gated),
         st.map_or(0, |s| s.resets),
