@@ -82,6 +82,7 @@ impl Link {
         self.router.stream_params(ap);
         self.router.stream_modes();
         self.router.obstacles.poll(now_us, ap);
+        self.router.poll_sources(now_us);
         self.router.run.poll(&self.router.mission, now_us, ap);
         let free = REPLY_QUEUE_LEN - self.router.replies.len();
         let progress = self.router.mission_progress(ap);
@@ -182,6 +183,7 @@ mod tests {
     use crate::link::messages::DecodeError;
     use mavlink_core::MessageData;
     use parapet_core::Vec3;
+    use std::string::{String, ToString};
     use std::vec::Vec;
 
     fn gcs() -> FrameWriter {
@@ -401,6 +403,62 @@ mod tests {
         assert_eq!(ap.obstacle_batches.len(), 1);
         assert_eq!(ap.obstacle_batches[0][0].id, 4);
         assert!(l.peer_seen());
+    }
+
+    fn texts(l: &mut Link) -> Vec<String> {
+        let text = |t: &crate::link::dialect::STATUSTEXT_DATA| {
+            String::from_utf8_lossy(&t.text[..]).trim_end_matches('\0').to_string()
+        };
+        replies(l)
+            .iter()
+            .filter_map(|r| if let Outbound::StatusText(t) = r { Some(text(t)) } else { None })
+            .collect()
+    }
+
+    /// GPS_INPUT and VISION_POSITION_ESTIMATE reach the autopilot as local NED fixes; bad ones
+    /// are refused and counted; the ground station hears the source, a switch and a loss.
+    #[test]
+    fn gps_input_and_vision_feed_the_fix_path_and_the_source_is_reported() {
+        use crate::link::dialect::{
+            GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA,
+        };
+        use crate::link::geo::ORIGIN;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = gcs();
+        let gps = |t: u64, alt: f32| GPS_INPUT_DATA {
+            time_usec: t,
+            fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+            lat: ORIGIN.0,
+            lon: ORIGIN.1,
+            alt,
+            vn: 1.0,
+            ignore_flags: GpsInputIgnoreFlags::empty(),
+            ..Default::default()
+        };
+        let home = ORIGIN.2 as f32 / 1000.0;
+        l.push_bytes(&send(&mut w, &gps(100_000, home + 2.0)), 150_000, &mut ap);
+        assert_eq!(ap.fixes.len(), 1);
+        assert_eq!((ap.fixes[0].t_us, ap.fixes[0].velocity), (100_000, Vec3::new(1.0, 0.0, 0.0)));
+        assert!((ap.fixes[0].position.z + 2.0).abs() < 1e-3, "{:?}", ap.fixes[0].position);
+        assert!(texts(&mut l).is_empty(), "the first source is not announced");
+        // NaN altitude, a 2-s-old fix: refused, counted, not forwarded.
+        l.push_bytes(&send(&mut w, &gps(200_000, f32::NAN)), 250_000, &mut ap);
+        l.push_bytes(&send(&mut w, &gps(300_000, home)), 2_400_000, &mut ap);
+        assert_eq!((ap.fixes.len(), l.stats().position_rejected), (1, 2));
+        // No fix for more than a second: lost, once.
+        l.poll(2_400_000, &mut ap);
+        l.poll(2_500_000, &mut ap);
+        assert_eq!(texts(&mut l).iter().filter(|t| t.as_str() == "Position source lost").count(), 1);
+        // Vision: the second estimate goes on, with the differenced velocity; a switch.
+        let vis =
+            |t: u64, x: f32| VISION_POSITION_ESTIMATE_DATA { usec: t, x, yaw: 0.5, ..Default::default() };
+        l.push_bytes(&send(&mut w, &vis(3_000_000, 1.0)), 3_000_000, &mut ap);
+        l.push_bytes(&send(&mut w, &vis(3_100_000, 1.2)), 3_100_000, &mut ap);
+        assert_eq!(ap.fixes.len(), 2);
+        let f = ap.fixes[1];
+        assert!((f.velocity.x - 2.0).abs() < 1e-3 && f.yaw == Some(0.5), "{f:?}");
+        assert_eq!(texts(&mut l), vec!["Position source: VISION_POSITION_ESTIMATE".to_string()]);
     }
 
     #[test]

@@ -16,6 +16,7 @@ use crate::link::dialect::{
     MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
     OBSTACLE_DISTANCE_3D_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
 };
+use crate::link::dialect::{GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA};
 use crate::link::dialect::{
     MANUAL_CONTROL_DATA, RC_CHANNELS_OVERRIDE_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
@@ -36,6 +37,10 @@ pub enum Inbound {
     HilSensor(HIL_SENSOR_DATA),
     /// External position/velocity estimate (motion capture, VIO, simulator).
     Odometry(ODOMETRY_DATA),
+    /// GNSS fix from a companion or an external receiver ([`crate::link::position_sources`]).
+    GpsInput(GPS_INPUT_DATA),
+    /// Vision position estimate ([`crate::link::position_sources`]).
+    VisionPosition(VISION_POSITION_ESTIMATE_DATA),
     /// One obstacle point.
     Obstacle(OBSTACLE_DISTANCE_3D_DATA),
     /// Obstacle distances in sectors (PX4 / ArduPilot proximity), into the obstacle memory.
@@ -225,6 +230,8 @@ pub fn decode(frame: &RawFrame<'_>) -> Result<Inbound, DecodeError> {
         HEARTBEAT_DATA::ID => Inbound::Heartbeat(de(p)?),
         HIL_SENSOR_DATA::ID => Inbound::HilSensor(de(p)?),
         ODOMETRY_DATA::ID => Inbound::Odometry(de(p)?),
+        GPS_INPUT_DATA::ID => Inbound::GpsInput(de(p)?),
+        VISION_POSITION_ESTIMATE_DATA::ID => Inbound::VisionPosition(de(p)?),
         OBSTACLE_DISTANCE_3D_DATA::ID => Inbound::Obstacle(de(p)?),
         // Decoded by hand with their extension fields (see crate::link::obstacles).
         OBSTACLE_DISTANCE_DATA::ID => {
@@ -277,6 +284,6 @@ mod tests {
         for id in ids {
             assert_eq!(frame_extra_crc(id), old(id), "id {id}");
         }
-        assert_eq!(FRAME_IDS.len(), 91);
+        assert_eq!(FRAME_IDS.len(), 93);
     }
 }

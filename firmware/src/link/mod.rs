@@ -33,6 +33,7 @@ pub mod obstacles;
 pub mod offboard;
 pub mod outbound;
 pub mod params;
+pub mod position_sources;
 pub mod received;
 pub mod reposition;
 pub mod router;

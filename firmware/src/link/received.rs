@@ -23,6 +23,9 @@ pub struct LinkStats {
     pub replies_dropped: u32,
     /// ODOMETRY messages rejected (unsupported frame or non-finite values).
     pub odometry_rejected: u32,
+    /// GPS_INPUT / VISION_POSITION_ESTIMATE fixes refused (no 3D fix, non-finite, out of
+    /// range, stale: [`crate::link::position_sources`]).
+    pub position_rejected: u32,
     /// HIL_SENSOR samples received.
     pub hil_samples: u32,
     /// HIL_SENSOR samples overwritten before the control step took them.

@@ -9,6 +9,7 @@
 //! | message | action |
 //! |---|---|
 //! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted; other frames (LOCAL_FRD, …) → rejected, counted, STATUSTEXT WARNING [`ODOMETRY_REFUSED_TEXT`] at most every 10 s |
+//! | GPS_INPUT (232), VISION_POSITION_ESTIMATE (102) | `update_position` after the conversion to local NED and the checks of [`crate::link::position_sources`]; refused fixes counted (`position_rejected`). Any accepted fix (ODOMETRY too): STATUSTEXT INFO [`crate::link::position_sources::POSITION_SOURCE_TEXT`] + the message name when the source changes (not for the first); none for 1 s: WARNING [`crate::link::position_sources::POSITION_LOST_TEXT`] once |
 //! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
 //! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
 //! | MISSION_COUNT / MISSION_ITEM_INT / MISSION_CLEAR_ALL | mission upload, see [`crate::link::mission`] |
@@ -55,6 +56,7 @@ use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::ObstacleAssembler;
 use crate::link::outbound::Outbound;
+use crate::link::position_sources::{gps_input_fix, Source, SourceMonitor, VisionVelocity};
 use crate::link::received::{LinkStats, Received};
 use crate::link::services::FixAccuracy;
 use crate::link::services::{MissionProgress, Services};
@@ -91,6 +93,10 @@ pub(crate) struct Router {
     pub(crate) manual: ManualControl,
     /// When the last "ODOMETRY refused" STATUSTEXT went out.
     pub(crate) odometry_text_us: Option<u64>,
+    /// VISION_POSITION_ESTIMATE's velocity by differences.
+    pub(crate) vision: VisionVelocity,
+    /// Which source feeds the fixes (STATUSTEXT on a switch or a loss).
+    pub(crate) sources: SourceMonitor,
     /// When the last v1 refusal went out ([`crate::link::v1`]).
     pub(crate) v1_text_us: Option<u64>,
     /// AUTOPILOT_VERSION `uid` ([`crate::link::Link::set_uid`]; 0 until set).
@@ -125,6 +131,7 @@ impl Router {
                 ignored: 0,
                 replies_dropped: 0,
                 odometry_rejected: 0,
+                position_rejected: 0,
                 hil_samples: 0,
                 hil_overwritten: 0,
                 unknown_params: 0,
@@ -137,6 +144,8 @@ impl Router {
             services: Services::new(),
             manual: ManualControl::new(),
             odometry_text_us: None,
+            vision: VisionVelocity::new(),
+            sources: SourceMonitor::new(),
             v1_text_us: None,
             uid: 0,
         }
@@ -366,6 +375,14 @@ impl Router {
     /// An ODOMETRY in a frame other than LOCAL_NED (e.g. PX4's LOCAL_FRD, a vision frame of
     /// unknown heading: no conversion to NED is possible without its yaw offset) is refused:
     /// counted, and a STATUSTEXT WARNING says so, at most once per [`ODOMETRY_TEXT_US`].
+    /// The time stamp of a fix whose message says `msg_us` ([`FixClock`]).
+    pub(crate) fn fix_time(&self, msg_us: u64, now_us: u64) -> u64 {
+        match self.fix_clock {
+            FixClock::Arrival => now_us,
+            FixClock::Message => msg_us,
+        }
+    }
+
     fn refuse_odometry_frame(&mut self, m: &ODOMETRY_DATA, now_us: u64) {
         let frame_ok = m.frame_id == MavFrame::MAV_FRAME_LOCAL_NED
             && matches!(m.child_frame_id, MavFrame::MAV_FRAME_LOCAL_NED | MavFrame::MAV_FRAME_BODY_FRD);
@@ -521,21 +538,26 @@ impl Router {
                     self.stats.hil_overwritten = self.stats.hil_overwritten.saturating_add(1);
                 }
             }
-            Inbound::Odometry(m) => {
-                let t = match self.fix_clock {
-                    FixClock::Arrival => now_us,
-                    FixClock::Message => m.time_usec,
-                };
-                match odometry_fix(&m, t) {
-                    Some(fix) => {
-                        ap.update_position(&fix);
-                        self.services.on_fix(FixAccuracy::from_pose_covariance(&m.pose_covariance));
-                    }
-                    None => {
-                        self.stats.odometry_rejected = self.stats.odometry_rejected.saturating_add(1);
-                        self.refuse_odometry_frame(&m, now_us);
-                    }
+            Inbound::Odometry(m) => match odometry_fix(&m, self.fix_time(m.time_usec, now_us)) {
+                Some(fix) => {
+                    ap.update_position(&fix);
+                    self.source_accepted(Source::Odometry, now_us);
+                    self.services.on_fix(FixAccuracy::from_pose_covariance(&m.pose_covariance));
                 }
+                None => {
+                    self.stats.odometry_rejected = self.stats.odometry_rejected.saturating_add(1);
+                    self.refuse_odometry_frame(&m, now_us);
+                }
+            },
+            Inbound::GpsInput(m) => {
+                let t = self.fix_time(m.time_usec, now_us);
+                let fix = gps_input_fix(&m, t).map(Some);
+                self.external_fix(fix, Source::Gps, now_us, ap);
+            }
+            Inbound::VisionPosition(m) => {
+                let t = self.fix_time(m.usec, now_us);
+                let fix = self.vision.fix(&m, t);
+                self.external_fix(fix, Source::Vision, now_us, ap);
             }
             Inbound::Obstacle(m) => self.obstacles.on_point(&m, now_us, ap),
             Inbound::ObstacleDistance(m) => self.obstacles.on_obstacle_distance(&m, now_us, ap),

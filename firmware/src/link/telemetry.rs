@@ -92,6 +92,7 @@ impl ErrorCounters {
             inputs_rejected: l
                 .decode_errors
                 .saturating_add(l.odometry_rejected)
+                .saturating_add(l.position_rejected)
                 .saturating_add(l.unknown_params),
             obstacles_rejected: o
                 .rejected_frame
