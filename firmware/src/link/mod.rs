@@ -38,6 +38,7 @@ pub mod received;
 pub mod reposition;
 pub mod router;
 pub mod services;
+pub mod source_dispatch;
 pub mod standard_modes;
 pub mod takeoff_limit;
 pub mod telemetry;

@@ -24,17 +24,14 @@
 //! The fixes feed the existing fix path (`Autopilot::update_position`, the latest fix
 //! extrapolated): the firmware does not run the core's navigation filter yet.
 //!
-//! Owns: the conversions, [`SourceMonitor`] and the dispatcher's handling of these fixes
-//! (`impl Router`). May import: `parapet_core`, the dialect, [`crate::app`] (the boundary
-//! types), [`crate::link::geo`], [`crate::link::router`] (its state), [`crate::link::telemetry`]
-//! (STATUSTEXT). No allocation, no panics.
+//! Owns: the conversions, the checks and [`SourceMonitor`]; the dispatcher's handling of these
+//! fixes (`impl Router`) is [`crate::link::source_dispatch`], apart so that the router may
+//! import this module without a cycle. May import: `parapet_core`, the dialect, [`crate::app`]
+//! (the boundary types), [`crate::link::geo`]. No allocation, no panics.
 
-use crate::app::autopilot::{Autopilot, PositionFix};
+use crate::app::autopilot::PositionFix;
 use crate::link::dialect::{GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA};
 use crate::link::geo::{global_to_ned, AltRef, MAX_RANGE_M};
-use crate::link::inputs::FixClock;
-use crate::link::outbound::Outbound;
-use crate::link::router::Router;
 use parapet_core::Vec3;
 
 /// Fastest speed a fix may report, m/s (a multirotor's fix beyond it is a bad value).
@@ -155,58 +152,6 @@ impl VisionVelocity {
 pub const POSITION_SOURCE_TEXT: &str = "Position source: ";
 /// STATUSTEXT when the position source has fed no fix for [`SOURCE_LOSS_US`].
 pub const POSITION_LOST_TEXT: &str = "Position source lost";
-
-/// The dispatcher's side of the sources (its state: `Router::vision`, `Router::sources`).
-impl Router {
-    /// A GPS_INPUT / VISION_POSITION_ESTIMATE fix: checked, then to the autopilot; refusals
-    /// counted ([`crate::link::position_sources`]).
-    pub(crate) fn external_fix<A: Autopilot>(
-        &mut self,
-        fix: Result<Option<PositionFix>, FixRefusal>,
-        source: Source,
-        now_us: u64,
-        ap: &mut A,
-    ) {
-        let lockstep = self.fix_clock == FixClock::Message;
-        let checked = fix.and_then(|f| match f {
-            Some(f) => check_fix(&f, lockstep.then(|| now_us.saturating_sub(f.t_us))).map(|()| Some(f)),
-            None => Ok(None),
-        });
-        match checked {
-            Ok(Some(f)) => {
-                ap.update_position(&f);
-                self.source_accepted(source, now_us);
-            }
-            Ok(None) => {}
-            Err(_) => self.stats.position_rejected = self.stats.position_rejected.saturating_add(1),
-        }
-    }
-
-    /// A fix of `source` went to the autopilot: STATUSTEXT INFO when the source changed.
-    pub(crate) fn source_accepted(&mut self, source: Source, now_us: u64) {
-        if let Some(name) = self.sources.accepted(source, now_us) {
-            let t = crate::link::telemetry::status_text(
-                crate::link::dialect::MavSeverity::MAV_SEVERITY_INFO,
-                POSITION_SOURCE_TEXT,
-                name,
-            );
-            self.reply(Outbound::StatusText(t));
-        }
-    }
-
-    /// At firmware time `now_us`: STATUSTEXT WARNING [`POSITION_LOST_TEXT`] once when the
-    /// source has fed no fix for [`crate::link::position_sources::SOURCE_LOSS_US`].
-    pub(crate) fn poll_sources(&mut self, now_us: u64) {
-        if self.sources.poll(now_us) {
-            let t = crate::link::telemetry::status_text(
-                crate::link::dialect::MavSeverity::MAV_SEVERITY_WARNING,
-                POSITION_LOST_TEXT,
-                "",
-            );
-            self.reply(Outbound::StatusText(t));
-        }
-    }
-}
 
 /// Which source feeds the vehicle, for the ground station.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
