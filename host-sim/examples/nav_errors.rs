@@ -20,7 +20,7 @@ use parapet_sim::flight::runner::{default_duration, default_yaw_mode, run_with, 
 use parapet_sim::flight::stack::{clock_us, FlightStack, OuterOut};
 use parapet_sim::plan::pathfile::PathFile;
 use parapet_sim::sim::sensors::{ImuReading, PositionReading};
-use parapet_sim::world::scene::Scene;
+use parapet_sim::world::scene::{to_f64, Scene};
 
 type Est = Option<(Vector3<f64>, Vector3<f64>)>;
 
@@ -29,10 +29,6 @@ struct Recorder {
     last_fix: Option<PositionReading>,
     est: Vec<(Est, Est)>,
     states: BTreeSet<String>,
-}
-
-fn f64v(v: &parapet_core::Vec3) -> Vector3<f64> {
-    Vector3::new(v.x as f64, v.y as f64, v.z as f64)
 }
 
 impl FlightStack for Recorder {
@@ -59,7 +55,7 @@ impl FlightStack for Recorder {
     }
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let out = self.c.outer(t, obstacles);
-        let nav = self.c.nav().and_then(|n| n.estimate(clock_us(t))).map(|(p, v)| (f64v(&p), f64v(&v)));
+        let nav = self.c.nav().and_then(|n| n.estimate(clock_us(t))).map(|(p, v)| (to_f64(&p), to_f64(&v)));
         let base = self.last_fix.filter(|f| t - f.t_measured <= 0.2).map(|f| {
             let age = t - f.t_measured;
             (f.position + f.velocity * age, f.velocity)
