@@ -324,7 +324,7 @@ mod tests {
     }
 
     #[test]
-    fn the_velocity_set_point_is_limited_to_the_mission_speed() {
+    fn the_correction_is_limited_to_the_mission_speed() {
         // Reference at rest at x = 1, vehicle 3 m behind, at rest; K_p 1, K_v 2, speed 0.5:
         // v_sp = 3 m/s unlimited (u_x = 6), 0.5 m/s limited (u_x = 1).
         let mut t = cascade();
