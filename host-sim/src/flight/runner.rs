@@ -52,6 +52,7 @@ use nalgebra::Vector3;
 use parapet_core::cbf::{CbfParams, FilterVariant, SafetyFilter};
 use parapet_core::controller::ControllerParams;
 use parapet_core::outer::guidance::{GuidanceParams, MissionGuidance};
+use parapet_core::outer::trajectory::TrajectoryParams;
 use parapet_core::outer::{path_yaw::PathYawParams, path_yaw::YawMode};
 use parapet_core::perception::MemoryParams;
 use parapet_core::schedule::OuterSchedule;
@@ -693,6 +694,7 @@ pub fn run_with(
         noise: cfg.sensors.noise,
         safety_steps: SafetySteps::of(&samples),
         speed_limited_by: crate::report::speed_limit::SpeedLimitedBy::of(&samples),
+        pace: mission_pace(scene, cfg, goal_at, &samples)?,
         unmapped_obstacles: scene.unmapped_count(),
         replan: ctrl.replan_summary(),
         coverage_gaps: coverage_gaps(scene, cfg)?
@@ -705,6 +707,23 @@ pub fn run_with(
     };
     let ranges = perception.map(|mut p| p.take_records()).unwrap_or_default();
     Ok(RunOutput { samples, summary, ranges, filter_points })
+}
+
+/// The pace of a mission flown on the trajectory guidance (`summary.json` `pace`,
+/// [`crate::report::pace`]); `None` for the paper's guidance.
+fn mission_pace(
+    scene: &Scene,
+    cfg: &RunConfig,
+    goal_at: Option<f64>,
+    samples: &[Sample],
+) -> Result<Option<crate::report::pace::Pace>> {
+    let p = controller_params(scene, cfg, cfg.cbf_params()?, cfg.variant);
+    if p.guidance.mission != MissionGuidance::Trajectory {
+        return Ok(None);
+    }
+    let trajectory = TrajectoryParams { cruise_speed: p.waypoint.cruise_speed, ..p.guidance.trajectory };
+    let governed = crate::report::speed_limit::SpeedLimitedBy::of(samples).is_some();
+    Ok(crate::report::pace::Pace::of(&cfg.path, &trajectory, goal_at, governed))
 }
 
 #[cfg(test)]

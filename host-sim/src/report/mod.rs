@@ -40,6 +40,7 @@
 //! plotters, serde, the `mcap` crate ([`foxglove`]).
 
 pub mod foxglove;
+pub mod pace;
 mod plots;
 pub mod points;
 pub mod replay;
@@ -190,6 +191,10 @@ pub struct Summary {
     /// Where the speed governor limited the flight and why: the cause that limited longest and
     /// the fraction of the flight ([`speed_limit::SpeedLimitedBy`]; null when it never acted).
     pub speed_limited_by: Option<speed_limit::SpeedLimitedBy>,
+    /// A mission trajectory's pace: time to goal against the time-optimal time for the same
+    /// path and limits, the generator's own time, and what slowed the flight
+    /// ([`pace::Pace`]; null without a mission trajectory).
+    pub pace: Option<pace::Pace>,
     /// On-board replanning (issue 38): `replans`, `replan_no_path`, … at the top level.
     #[serde(flatten)]
     pub replan: ReplanSummary,

@@ -71,6 +71,7 @@ fn summary(scene: &Scene, n: usize) -> Summary {
         replan: Default::default(),
         coverage_gaps: Vec::new(),
         speed_limited_by: None,
+        pace: None,
     }
 }
 
