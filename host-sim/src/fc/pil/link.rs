@@ -98,6 +98,30 @@ pub struct PilLink {
     /// The position source's noise, 1σ per axis, m (the run's sensor model; 0 without noise):
     /// sent as ODOMETRY's pose covariance.
     fix_std_m: f64,
+    /// The mission flies the trajectory guidance (`MIS_GUIDANCE` 1): the reference recorded is
+    /// the firmware's own ([`FirmwareTarget`]), not the host's replay of the paper's point.
+    trajectory: bool,
+    /// The firmware's latest POSITION_TARGET_LOCAL_NED (25 Hz).
+    target: Option<FirmwareTarget>,
+    /// The firmware reported the path's last item reached (MISSION_ITEM_REACHED).
+    target_done: bool,
+}
+
+/// The set-point the firmware last reported (POSITION_TARGET_LOCAL_NED), with the firmware
+/// time of the step that carried it.
+#[derive(Clone, Copy, Debug)]
+struct FirmwareTarget {
+    t_us: u64,
+    position: Vector3<f64>,
+    velocity: Vector3<f64>,
+}
+
+impl FirmwareTarget {
+    /// The reference at firmware time `t_us`, extrapolated along the reported velocity (the
+    /// stream's 40 ms: at most ½·a·(40 ms)² = 2.4 mm off at the trajectory's 3 m/s²).
+    fn at(&self, t_us: u64) -> Vector3<f64> {
+        self.position + self.velocity * (t_us.saturating_sub(self.t_us) as f64 * 1e-6)
+    }
 }
 
 /// What a ground station's flight (`PilOptions::gcs_control`) reports back to the host.
@@ -184,6 +208,9 @@ impl PilLink {
             gcs: GcsFlight::default(),
             proximity: false,
             fix_std_m: if cfg.sensors.noise { cfg.sensors.position_noise } else { 0.0 },
+            trajectory: params.guidance.mission == parapet_core::outer::guidance::MissionGuidance::Trajectory,
+            target: None,
+            target_done: false,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -650,6 +677,10 @@ impl FlightStack for PilLink {
             // The GCS flies: the firmware's own reference and progress, not the host's replay.
             s.position = self.gcs.reference.map_or(s.position, |r| to_f32(&r));
             s.progress.done = self.gcs.done;
+        } else if let Some(target) = self.target.filter(|_| self.trajectory) {
+            // The trajectory's clock waits for the vehicle: only the firmware knows its reference.
+            s.position = to_f32(&target.at(now));
+            s.progress.done = self.target_done;
         }
         self.telemetry.outer_out(&s)
     }
@@ -664,6 +695,20 @@ impl FlightStack for PilLink {
         self.flight_sim_steps += 1;
         match r {
             Ok(ans) => {
+                let last = self.path.len().saturating_sub(1);
+                for m in &ans.replies {
+                    match m {
+                        MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
+                            self.target = Some(FirmwareTarget {
+                                t_us: clock_us(t),
+                                position: Vector3::new(p.x, p.y, p.z).cast(),
+                                velocity: Vector3::new(p.vx, p.vy, p.vz).cast(),
+                            })
+                        }
+                        MavMessage::MISSION_ITEM_REACHED(r) => self.target_done |= usize::from(r.seq) >= last,
+                        _ => {}
+                    }
+                }
                 if self.opts.gcs_control {
                     self.observe_gcs(&ans.replies);
                 }
