@@ -25,6 +25,7 @@ fn campaign(file: &Path, out: &Path, shard: Option<&str>) {
         out: out.into(),
         jobs: Some(2),
         shard: shard.map(String::from),
+        guidance: None,
     };
     cmd_campaign(a).unwrap_or_else(|e| panic!("{e}"));
 }
@@ -176,7 +177,12 @@ fn shards_merge_byte_identical_and_mixed_campaigns_are_refused() {
     }
     let shards: Vec<PathBuf> = [3, 1, 2].iter().map(|i| dir.join(format!("s{i}"))).collect();
     let merge = |shards: Vec<PathBuf>, file: &Path| {
-        cmd_campaign_merge(CampaignMergeArgs { campaign: file.into(), out: dir.join("merged"), shards })
+        cmd_campaign_merge(CampaignMergeArgs {
+            campaign: file.into(),
+            out: dir.join("merged"),
+            shards,
+            guidance: None,
+        })
     };
     merge(shards.clone(), &c).unwrap_or_else(|e| panic!("{e}"));
     for f in ["campaign.csv", "summary.json"] {

@@ -40,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::cli::{run_config_from_args, CliError};
 use crate::input::InputError;
 use output::{Outcome, Row};
+use parapet_core::outer::guidance::MissionGuidance;
 use spec::Campaign;
 
 /// Options of `parapet campaign`.
@@ -57,6 +58,10 @@ pub struct CampaignArgs {
     /// writes campaign.csv and shard.json for `parapet campaign-merge`.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    /// Mission guidance of every flight (MIS_GUIDANCE): trajectory | paper, over the file's
+    /// `[run] guidance`; part of the campaign's identity (give it to `campaign-merge` too).
+    #[arg(long, value_parser = crate::cli::values::parse_guidance)]
+    pub guidance: Option<MissionGuidance>,
 }
 
 /// Options of `parapet campaign-merge`.
@@ -71,6 +76,9 @@ pub struct CampaignMergeArgs {
     /// The shards' output directories (each with campaign.csv and shard.json).
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
+    /// The `--guidance` the shards flew with (part of the campaign's identity).
+    #[arg(long, value_parser = crate::cli::values::parse_guidance)]
+    pub guidance: Option<MissionGuidance>,
 }
 
 /// `shard.json`: what a shard flew.
@@ -324,7 +332,7 @@ pub fn process_cpu_seconds() -> Option<f64> {
 
 /// `parapet campaign`.
 pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?;
+    let c = Campaign::load(&a.campaign)?.with_guidance(a.guidance);
     let jobs = match a.jobs {
         Some(j) if !(1..=256).contains(&j) => {
             return Err(InputError::option("jobs", "out of range").value(j).allowed("1 ≤ jobs ≤ 256").into())
@@ -396,7 +404,7 @@ pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
 
 /// `parapet campaign-merge`.
 pub fn cmd_campaign_merge(a: CampaignMergeArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?;
+    let c = Campaign::load(&a.campaign)?.with_guidance(a.guidance);
     let names: Vec<String> = c.draw.keys().cloned().collect();
     let mut seen: Vec<Option<PathBuf>> = Vec::new();
     let mut rows = Vec::new();

@@ -49,6 +49,7 @@ use crate::sim::disturbance::faults::RotorFault;
 use crate::sim::disturbance::wind::Gust;
 use crate::sim::disturbance::{Disturbances, Mismatch};
 use crate::sim::plant::VehicleParams;
+use parapet_core::outer::guidance::MissionGuidance;
 
 /// Largest number of flights of a campaign.
 pub const MAX_FLIGHTS: u64 = crate::input::limits::CAMPAIGN_MAX_FLIGHTS;
@@ -306,6 +307,10 @@ impl Campaign {
                 match (k.as_str(), v) {
                     ("filter", toml::Value::String(s)) => run_args.extend(["--filter".into(), s.clone()]),
                     ("yaw_mode", toml::Value::String(s)) => run_args.extend(["--yaw-mode".into(), s.clone()]),
+                    ("guidance", toml::Value::String(s)) => {
+                        crate::cli::values::parse_guidance(s).map_err(|e| f("not a guidance").allowed(e))?;
+                        run_args.extend(["--guidance".into(), s.clone()])
+                    }
                     ("noise", toml::Value::Boolean(b)) => {
                         run_args.push(if *b { "--noise" } else { "--no-noise" }.into())
                     }
@@ -331,7 +336,7 @@ impl Campaign {
                         run_args.extend(["--param".into(), format!("{}={}", a.0.name, a.1)]);
                     }
                     _ => return Err(f("unknown key or wrong type").allowed(
-                        "filter, yaw_mode (string), noise, no_cbf (bool), duration, sensing_range (number), \
+                        "filter, yaw_mode, guidance (string), noise, no_cbf (bool), duration, sensing_range (number), \
                          a parameter name (number)",
                     )),
                 }
@@ -396,6 +401,19 @@ impl Campaign {
             draw,
             identity: format!("{id:016x}"),
         })
+    }
+
+    /// Every flight with the mission guidance `g` (`parapet campaign --guidance`, after the
+    /// file's `[run]` options, so it wins), which also enters the identity; `None`: unchanged.
+    pub fn with_guidance(mut self, g: Option<MissionGuidance>) -> Campaign {
+        if let Some(g) = g {
+            if let Some(i) = self.run_args.iter().position(|a| a == "--guidance") {
+                self.run_args.drain(i..(i + 2).min(self.run_args.len()));
+            }
+            self.run_args.extend(["--guidance".into(), g.as_str().into()]);
+            self.identity = format!("{}-{}", self.identity, g.as_str());
+        }
+        self
     }
 
     /// The draws of flight `i`.
@@ -552,6 +570,31 @@ mod tests {
                 Campaign::load(&write(&dir, "bad.toml", &format!("{head}{bad}"))).unwrap_err().to_string();
             assert!(e.contains(field), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn the_guidance_is_a_run_key_and_an_option_that_enters_the_identity() {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-guidance-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sc = scene_dir().join("one_sphere.toml");
+        let head =
+            format!("flights = 2\n[[scenes]]\nfile = {:?}\nstraight = true\n", sc.display().to_string());
+        let c =
+            Campaign::load(&write(&dir, "g.toml", &format!("{head}[run]\nguidance = \"paper\"\n"))).unwrap();
+        let guidance = |args: &[String]| {
+            let (_, cfg) = crate::cli::run_config_from_args(args).unwrap_or_else(|e| panic!("{e}"));
+            cfg.param_overrides.iter().find(|(n, _)| *n == "MIS_GUIDANCE").map(|(_, v)| *v)
+        };
+        assert_eq!(guidance(&c.flight(0).args), Some(MissionGuidance::Paper.code() as f32));
+        // The option wins over the file and changes the identity (shards of one campaign agree).
+        let id = c.identity.clone();
+        let t = c.with_guidance(Some(MissionGuidance::Trajectory));
+        assert_ne!(t.identity, id);
+        assert_eq!(guidance(&t.flight(1).args), Some(MissionGuidance::Trajectory.code() as f32));
+        let e = Campaign::load(&write(&dir, "bad.toml", &format!("{head}[run]\nguidance = \"fast\"\n")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("guidance") && e.contains("fast") && e.contains("trajectory"), "{e}");
     }
 
     #[test]
