@@ -7,7 +7,7 @@
 //! | NAV_LAND (21) | – | land in place |
 //! | MISSION_START (300) | – | fly the uploaded path |
 //! | OVERRIDE_GOTO (252) | p1 = 0 (hold); p2 = 2 current position, or 3 with p3 = 1 (LOCAL_NED) and p5, p6, p7 = x, y, z NED m | hold a position |
-//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/0 and 4/4 Mission, 4/3 Hold, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual) | `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes or without the custom flag: DENIED |
+//! | DO_SET_MODE (176) | p1 = base mode with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1); p2/p3 = PX4 main/sub mode (`FlightMode::from_px4`: 1 Manual, 2/3 Position, 4/0 and 4/4 Mission, 4/3 Hold, 4/5 Return, 4/6 Land, 6 Offboard, 7 Manual). Without the custom flag, the base mode alone as PX4's Commander reads it ([`base_mode_px4`]: AUTO → Mission; MANUAL_INPUT with GUIDED → Position, else Manual): MAVProxy's `mode 4` | `VehicleCommand::SetMode` (TEMPORARILY_REJECTED when the mode cannot be flown now); unknown modes: DENIED |
 //! | DO_SET_STANDARD_MODE (262) | p1 = MAV_STANDARD_MODE (`FlightMode::from_standard_mode`: POSITION_HOLD → Position, MISSION → Mission, SAFE_RECOVERY → Return, LAND → Land) | `VehicleCommand::SetMode` as DO_SET_MODE; NON_STANDARD and the standard modes not flown: DENIED |
 //!
 //! Anything else is answered MAV_RESULT_UNSUPPORTED. Commands addressed to another system or
@@ -67,6 +67,27 @@ pub mod id {
     pub const REQUEST_PROTOCOL_VERSION: u16 = MavCmd::MAV_CMD_REQUEST_PROTOCOL_VERSION as u16;
 }
 
+/// The PX4 main/sub mode of a DO_SET_MODE base mode without MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+/// as PX4's Commander reads it ("use base mode"): AUTO_ENABLED (4) → AUTO (Mission);
+/// MANUAL_INPUT_ENABLED (64) with GUIDED_ENABLED (8) → POSCTL, with STABILIZE_ENABLED (16) →
+/// STABILIZED, alone → MANUAL; anything else none. MAVProxy 1.8.75 sends it for `mode N`
+/// (pymavlink's `set_mode_px4(N, 0, 0)`).
+pub fn base_mode_px4(base: u8) -> Option<(u8, u8)> {
+    if base & 4 != 0 {
+        Some((4, 0))
+    } else if base & 64 != 0 {
+        Some(if base & 8 != 0 {
+            (3, 0)
+        } else if base & 16 != 0 {
+            (7, 0)
+        } else {
+            (1, 0)
+        })
+    } else {
+        None
+    }
+}
+
 /// Decodes a COMMAND_LONG; `Err` holds the result to report without executing.
 pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResult> {
     match cmd.command {
@@ -97,15 +118,19 @@ pub fn decode_command(cmd: &COMMAND_LONG_DATA) -> Result<VehicleCommand, MavResu
             // MAVSDK and QGroundControl send them. (Before the HEARTBEAT said PX4, p2 = 3/4/5
             // with p3 = 0 meant the flight phases hover/mission/landing; that collided with PX4's
             // POSCTL (3/0), AUTO (4/0) and ACRO (5/0) and is gone.)
-            let custom = cmd.param1.is_finite() && (cmd.param1 as u32) & 1 == 1;
+            // Without CUSTOM_MODE_ENABLED: the base mode alone, as PX4 (MAVProxy's `mode 4`).
             let whole = |x: f32| (0.0..=255.0).contains(&x) && f32::from(x as u8) == x;
-            if custom && whole(cmd.param2) && whole(cmd.param3) {
-                FlightMode::from_px4(cmd.param2 as u8, cmd.param3 as u8)
-                    .map(VehicleCommand::SetMode)
-                    .ok_or(MavResult::MAV_RESULT_DENIED)
-            } else {
-                Err(MavResult::MAV_RESULT_DENIED)
-            }
+            let main_sub = match whole(cmd.param1).then_some(cmd.param1 as u8) {
+                Some(base) if base & 1 == 1 => {
+                    (whole(cmd.param2) && whole(cmd.param3)).then_some((cmd.param2 as u8, cmd.param3 as u8))
+                }
+                Some(base) => base_mode_px4(base),
+                None => None,
+            };
+            main_sub
+                .and_then(|(main, sub)| FlightMode::from_px4(main, sub))
+                .map(VehicleCommand::SetMode)
+                .ok_or(MavResult::MAV_RESULT_DENIED)
         }
         id::DO_SET_STANDARD_MODE => {
             // p1 = MAV_STANDARD_MODE (`FlightMode::from_standard_mode`: POSITION_HOLD, MISSION,
@@ -292,6 +317,18 @@ mod tests {
         assert_eq!(mode(9.0, 0.0), Err(MavResult::MAV_RESULT_DENIED));
         assert_eq!(mode(f32::NAN, 0.0), Err(MavResult::MAV_RESULT_DENIED));
         assert_eq!(mode(4.0, 0.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
+        // Without the custom flag, the base mode alone as PX4's Commander reads it (MAVProxy's
+        // `mode 4` sends DO_SET_MODE 4/0/0; was DENIED): AUTO → Mission, MANUAL_INPUT + GUIDED
+        // → Position, MANUAL_INPUT (+ STABILIZE) → Manual; no mode bit, 1.5, NaN → DENIED.
+        let base = |b: f32| decode_command(&cmd(MAV_CMD_DO_SET_MODE, b, 0.0, 0.0));
+        assert_eq!(base(4.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
+        assert_eq!(base(4.0 + 128.0), Ok(VehicleCommand::SetMode(FlightMode::Mission)));
+        assert_eq!(base(64.0 + 8.0), Ok(VehicleCommand::SetMode(FlightMode::Position)));
+        assert_eq!(base(64.0 + 16.0), Ok(VehicleCommand::SetMode(FlightMode::Manual)));
+        assert_eq!(base(64.0), Ok(VehicleCommand::SetMode(FlightMode::Manual)));
+        for b in [0.0, 8.0, 16.0, 128.0, 1.5, f32::NAN, 300.0] {
+            assert_eq!(base(b), Err(MavResult::MAV_RESULT_DENIED), "base mode {b}");
+        }
         assert_eq!(
             decode_command(&cmd(MAV_CMD_DO_SET_SERVO, 0.0, 0.0, 0.0)),
             Err(MavResult::MAV_RESULT_UNSUPPORTED)
