@@ -4,7 +4,9 @@
 //! schema): `{"version": 1, "parameters": [{"name", "type", "default", "min", "max",
 //! "units", "shortDesc", "longDesc", "group", "decimalPlaces"[, "values"]}, …]}`, so a
 //! ground station shows units, ranges and code names. Default output:
-//! `out/params/parameters.json`.
+//! `out/params/parameters.json`. `--firmware` writes the same document without indentation to
+//! [`FIRMWARE_FILE`], the copy the firmware serves by MAVLink FTP (COMPONENT_METADATA,
+//! `firmware/src/link/metadata.rs`); a test fails when that committed copy is stale.
 //!
 //! Every value on the wire is MAV_PARAM_TYPE_REAL32, so every entry is `"Float"`;
 //! named codes and flags carry `"values"` (`{"value", "description"}` per allowed code).
@@ -58,18 +60,30 @@ pub fn metadata() -> Value {
     })
 }
 
-/// `cargo xtask params [--out FILE]`.
+/// The firmware's copy of the metadata (served by MAVLink FTP), relative to the repository root.
+pub const FIRMWARE_FILE: &str = "firmware/metadata/parameters.json";
+
+/// The firmware's copy: the document on one line (no indentation: ~30 % less flash) + newline.
+pub fn firmware_text() -> Result<String, String> {
+    serde_json::to_string(&metadata()).map(|t| t + "\n").map_err(|e| format!("params: {e}"))
+}
+
+/// `cargo xtask params [--out FILE | --firmware]`.
 pub fn params(args: &[String]) -> Result<(), String> {
-    let out = match args {
-        [] => crate::root().join("out/params/parameters.json"),
-        [flag, file] if flag == "--out" => PathBuf::from(file),
-        _ => return Err("usage: cargo xtask params [--out FILE]".into()),
+    let (out, text) = match args {
+        [] => (crate::root().join("out/params/parameters.json"), None),
+        [flag, file] if flag == "--out" => (PathBuf::from(file), None),
+        [flag] if flag == "--firmware" => (crate::root().join(FIRMWARE_FILE), Some(firmware_text()?)),
+        _ => return Err("usage: cargo xtask params [--out FILE | --firmware]".into()),
     };
-    let text = serde_json::to_string_pretty(&metadata()).map_err(|e| format!("params: {e}"))?;
+    let text = match text {
+        Some(t) => t,
+        None => serde_json::to_string_pretty(&metadata()).map_err(|e| format!("params: {e}"))? + "\n",
+    };
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| format!("params: cannot create {}: {e}", dir.display()))?;
     }
-    std::fs::write(&out, text + "\n").map_err(|e| format!("params: cannot write {}: {e}", out.display()))?;
+    std::fs::write(&out, text).map_err(|e| format!("params: cannot write {}: {e}", out.display()))?;
     eprintln!("xtask: {} parameters written to {}", TABLE.len(), out.display());
     Ok(())
 }
@@ -110,5 +124,18 @@ mod tests {
         let v = list.iter().find(|e| e["name"] == "CBF_VARIANT").unwrap();
         assert_eq!(v["values"][3]["description"], "multi-relative");
         assert!(params(&["--bogus".into()]).is_err());
+    }
+
+    /// The metadata the firmware serves by MAVLink FTP is the table's: regenerate it with
+    /// `cargo xtask params --firmware` when this fails (a parameter added, renamed, re-ranged).
+    #[test]
+    fn the_firmwares_parameter_metadata_is_not_stale() {
+        let file = crate::root().join(FIRMWARE_FILE);
+        let committed = std::fs::read_to_string(&file).unwrap_or_default();
+        assert!(
+            committed == firmware_text().unwrap(),
+            "{} is stale: run `cargo xtask params --firmware`",
+            file.display()
+        );
     }
 }
