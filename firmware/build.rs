@@ -4,7 +4,10 @@
 //!    target. The XML holds only the messages the firmware speaks, cut verbatim out of
 //!    `ardupilotmega` (see `mavlink/extract.py`), so the image links none of the ~300 other
 //!    messages' code while ids, CRC_EXTRA bytes and wire layout stay those of the full dialect;
-//! 2. for the Cortex-M builds, makes the board's memory map visible to cortex-m-rt's `link.x`
+//! 2. writes the component metadata the firmware serves by MAVLink FTP (`crate::link::metadata`):
+//!    `OUT_DIR/general.json` (pointing to `metadata/parameters.json` with its CRC) and
+//!    `OUT_DIR/metadata.rs` (both files' bytes and MAVLink CRC32s, `metadata/crc32.rs`);
+//! 3. for the Cortex-M builds, makes the board's memory map visible to cortex-m-rt's `link.x`
 //!    as `memory.x` (the workspace-root `memory.x`, the F405's, for `board-f405` and
 //!    `board-qemu`; `memory-h743.x` for `board-h743`) and adds the linker scripts (`defmt.x`
 //!    only for the real boards, whose builds link defmt).
@@ -17,6 +20,7 @@ fn main() {
     let out = PathBuf::from(env::var("OUT_DIR").unwrap_or_default());
     println!("cargo:rerun-if-changed=build.rs");
     generate_dialect(&manifest, &out);
+    generate_metadata(&manifest, &out);
 
     let target = env::var("TARGET").unwrap_or_default();
     let h743 = env::var_os("CARGO_FEATURE_BOARD_H743").is_some();
@@ -33,6 +37,45 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     if env::var_os("CARGO_FEATURE_BOARD_F405").is_some() || h743 {
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}
+
+include!("metadata/crc32.rs");
+
+/// `OUT_DIR/general.json` (COMP_METADATA_TYPE_GENERAL: version 1, the parameter metadata's URI
+/// and CRC) and `OUT_DIR/metadata.rs` (`GENERAL_JSON`, `PARAMETERS_JSON`, their CRCs,
+/// `PARAMETERS_URI`), included by `src/link/metadata.rs`.
+fn generate_metadata(manifest: &std::path::Path, out: &std::path::Path) {
+    let params = manifest.join("metadata/parameters.json");
+    println!("cargo:rerun-if-changed={}", params.display());
+    println!("cargo:rerun-if-changed={}", manifest.join("metadata/crc32.rs").display());
+    let bytes = match fs::read(&params) {
+        Ok(b) => b,
+        Err(e) => panic!("{}: {e} (write it with `cargo xtask params --firmware`)", params.display()),
+    };
+    let params_uri = "mftp://[;comp=1]/parameters.json";
+    let params_crc = mavlink_crc32(&bytes);
+    let general = format!(
+        "{{\"version\":1,\"vendorName\":\"Parapet\",\"modelName\":\"Parapet quadrotor\",\
+         \"firmwareVersion\":\"{}\",\"metadataTypes\":[{{\"type\":1,\"uri\":\"{params_uri}\",\
+         \"fileCrc\":{params_crc}}}]}}\n",
+        env::var("CARGO_PKG_VERSION").unwrap_or_default()
+    );
+    let general_path = out.join("general.json");
+    let code = format!(
+        "/// `general.json`.\npub static GENERAL_JSON: &[u8] = include_bytes!({:?});\n\
+         /// MAVLink CRC32 of `general.json`.\npub const GENERAL_CRC: u32 = {:#010x};\n\
+         /// `parameters.json`.\npub static PARAMETERS_JSON: &[u8] = include_bytes!({:?});\n\
+         /// MAVLink CRC32 of `parameters.json`.\npub const PARAMETERS_CRC: u32 = {params_crc:#010x};\n\
+         /// `parameters.json`'s URI in `general.json`.\npub const PARAMETERS_URI: &str = {params_uri:?};\n",
+        general_path.display().to_string(),
+        mavlink_crc32(general.as_bytes()),
+        params.display().to_string(),
+    );
+    for (path, text) in [(general_path.clone(), general.as_str()), (out.join("metadata.rs"), code.as_str())] {
+        if let Err(e) = fs::write(&path, text) {
+            panic!("{}: {e}", path.display());
+        }
     }
 }
 

@@ -560,17 +560,25 @@ fn autopilot_version_timesync_on_request() {
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                     | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
-                    | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST;
+                    | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
+                    | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP;
                 assert!(v.capabilities.contains(need), "{:?}", v.capabilities);
                 assert!(!v.capabilities.intersects(
                     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
                         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
-                        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP
                         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
                 ));
             }
             other => panic!("{other:?}"),
         }
+    }
+    // COMPONENT_METADATA (397): ACCEPTED, then the general metadata's mftp URI and CRC (issue 41:
+    // was DENIED; the files are served by MAVLink FTP, link::ftp).
+    let r = g.command(MavCmd::MAV_CMD_REQUEST_MESSAGE, [397.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);
+    assert_eq!(Sim::ack(&r), (MavResult::MAV_RESULT_ACCEPTED, GCS));
+    match r.as_slice() {
+        [_, Outbound::ComponentMetadata(_)] => {}
+        other => panic!("{other:?}"),
     }
     // A message id the firmware cannot send on request: denied.
     let r = g.command(MavCmd::MAV_CMD_REQUEST_MESSAGE, [9999.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1);

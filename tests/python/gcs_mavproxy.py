@@ -1,13 +1,18 @@
-"""MAVProxy on `parapet pil --gcs udp:127.0.0.1:PORT`: `param fetch` and `wp list` complete.
+"""MAVProxy on `parapet pil --gcs udp:127.0.0.1:PORT`: `param fetch` and `wp list` complete, `ftp
+list` and `ftp get` read the component metadata files, `mode 4` and `guided LAT LON ALT` are
+accepted.
 
 usage: gcs_mavproxy.py VENV_BIN PORT LOGDIR
 
 MAVProxy runs interactively with its console on a pipe: the commands are typed only after the
 vehicle's first heartbeat was seen (a command given with --cmd at start-up goes out before the
 vehicle exists and is lost), each waits for its answer, and a time-out fails the test. The
-parameter fetch must see its MAVLink FTP request refused (NAK), not timed out.
+parameter fetch must see its MAVLink FTP request for `@PARAM/param.pck` refused (NAK
+FileNotFound), not timed out.
 """
+import json
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -58,9 +63,10 @@ wait_for(lambda l: "Detected vehicle" in l or "online system" in l, 30, "vehicle
 # The mode by name (HEARTBEAT autopilot PX4; before: "Mode(67371008)" and ArduCopter's list).
 PX4_MODES = ["MANUAL", "POSCTL", "MISSION", "LOITER", "RTL", "LAND", "OFFBOARD", "TAKEOFF"]
 mode = wait_for(lambda l: "Mode " in l and l.rsplit("Mode ", 1)[1] in PX4_MODES, 30, "the mode announced by name")
-# MAVProxy asks for the parameter file by MAVLink FTP first; the firmware answers every FTP
-# request NAK (firmware/src/link/ftp.rs). With the ftp module's debug on, MAVProxy prints "ftp open
-# failed" for that NAK and "FTP: request timed out" if no answer comes (before the NAK: ~10 s).
+# MAVProxy asks for the parameter file by MAVLink FTP first; the firmware serves only its
+# metadata files and answers NAK FileNotFound (firmware/src/link/ftp.rs). With the ftp module's
+# debug on, MAVProxy prints "ftp open failed" for that NAK and "FTP: request timed out" if no
+# answer comes (before any answer: ~10 s).
 send("ftp set debug 1")
 send("param fetch")
 t_fetch = time.time()
@@ -74,10 +80,35 @@ if not any("ftp open failed" in l for l in text) or any("request timed out" in l
     proc.kill()
     sys.exit(1)
 print(f"param fetch: {t_fetch:.1f} s (FTP refused, then the parameter protocol)")
+# MAVProxy's own FTP client on the read-only server: the listing, then general.json downloaded.
+send("ftp list /")
+wait_for(lambda l: "parameters.json" in l, 20, "ftp list / showing parameters.json")
+local = os.path.join(logdir, "general.json")
+send(f"ftp get /general.json {local}")
+wait_for(lambda l: l.startswith("Wrote ") and "general.json" in l, 20, "ftp get /general.json")
+with open(local) as f:
+    general = json.load(f)
+if general.get("version") != 1 or [e["type"] for e in general.get("metadataTypes", [])] != [1]:
+    print(f"FAIL: general.json {general}")
+    proc.kill()
+    sys.exit(1)
+print("ftp get /general.json:", general["metadataTypes"][0]["uri"])
 send("wp list")
 wp = wait_for(lambda l: ("Requesting" in l and "waypoints" in l) or ("Saved" in l and "waypoints" in l),
               30, "wp list")
 wait_for(lambda l: "Saved" in l and "waypoints" in l, 30, "waypoint list saved")
+# Mode changes a MAVProxy 1.8.75 user can make on a PX4-identified vehicle: `mode NAME` crashes
+# in the client (docs/ground-station.md § MAVProxy and modes), `mode 4` (a number: DO_SET_MODE
+# with base mode AUTO, PX4 Commander's base-mode path) selects Mission, and `guided LAT LON ALT`
+# sends DO_REPOSITION (MAVProxy's default guided_use_reposition) to fly there and hold.
+send("mode 4")
+wait_for(lambda l: "COMMAND_ACK" in l and "DO_SET_MODE" in l and "ACCEPTED" in l, 10, "mode 4 accepted")
+send("status GLOBAL_POSITION_INT")
+pos = wait_for(lambda l: "GLOBAL_POSITION_INT" in l and "lat" in l, 10, "the vehicle's position")
+lat = int(re.search(r"lat : (-?\d+)", pos).group(1)) / 1e7
+lon = int(re.search(r"lon : (-?\d+)", pos).group(1)) / 1e7
+send(f"guided {lat:.7f} {lon:.7f} 1.5")
+wait_for(lambda l: "COMMAND_ACK" in l and "DO_REPOSITION" in l and "ACCEPTED" in l, 10, "guided accepted")
 # MAVProxy's link statistics on a loss-free local link: 0 lost (before: 93-94 % loss, the
 # lockstep frames the host keeps counted as lost).
 send("link")

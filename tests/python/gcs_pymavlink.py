@@ -3,7 +3,8 @@ every parameter, set one, download the mission, clear it and check the clear too
 
 usage: gcs_pymavlink.py PORT [basic|full]   (exit 0 = every step passed; the failed step is
 printed). `basic`: heartbeat, telemetry, no lockstep frame leaks to the GCS, a PARAM_REQUEST_READ
-round trip through the bridge. `full` (default): basic, then the parameter and mission services.
+round trip through the bridge. `full` (default): basic, then the parameter and mission services
+and the component metadata by MAVLink FTP (gcs_metadata.py).
 `readonly` (`parapet run --gcs`): basic without ATTITUDE, the parameter list and set, the mission
 download (the in-process run has no mission clear).
 """
@@ -13,6 +14,7 @@ import time
 from pymavlink import mavutil
 
 from gcs_common import connect, fail, heartbeat, waiter
+from gcs_metadata import check_component_metadata
 
 port = int(sys.argv[1])
 mode = sys.argv[2] if len(sys.argv) > 2 else "full"
@@ -61,18 +63,22 @@ if mode == "basic":
 
 # Parameters: the whole list, each index once.
 m.mav.param_request_list_send(sysid, compid)
-got, count = {}, None
+got, values, count = {}, {}, None
 end = time.time() + 20
 while time.time() < end and (count is None or len(got) < count):
     p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
     if p is not None:
         count = p.param_count
         got[p.param_index] = p.param_id
+        values[p.param_id] = p.param_value
 if count is None:
     fail("PARAM_REQUEST_LIST not answered")
 if len(got) != count or sorted(got) != list(range(count)):
     fail(f"param list incomplete: {len(got)} of {count}")
 print(f"params: {count}", flush=True)
+if mode == "full":
+    # COMPONENT_METADATA → general.json → parameters.json by MAVLink FTP (pymavlink's client).
+    check_component_metadata(m, wait, sysid, compid, values)
 
 # Set one (the velocity margin to its own value + 0: accepted and echoed).
 name = "CBF_MU" if "CBF_MU" in got.values() else next(iter(got.values()))
@@ -100,8 +106,9 @@ if mode != "readonly":
     caps = mavutil.mavlink
     need = caps.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | caps.MAV_PROTOCOL_CAPABILITY_MISSION_INT | \
         caps.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    need |= caps.MAV_PROTOCOL_CAPABILITY_FTP  # read-only: the component metadata files
     if v is None or v.uid == 0 or v.capabilities & need != need or \
-            v.capabilities & (caps.MAV_PROTOCOL_CAPABILITY_FTP | caps.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE):
+            v.capabilities & caps.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE:
         fail(f"AUTOPILOT_VERSION: {v}")
     print(f"AUTOPILOT_VERSION uid {v.uid:#x} capabilities {v.capabilities:#x}", flush=True)
     # Home where the vehicle armed (the host arms it at the scene's start, 1 m up; before: the

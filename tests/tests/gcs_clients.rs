@@ -121,7 +121,7 @@ fn python_ground_stations_share_gcs_common() {
         }
     }
     listeners.sort();
-    assert_eq!(listeners, ["gcs_log_download.py", "gcs_pymavlink.py", "gcs_qgc_plan.py"]);
+    assert_eq!(listeners, ["gcs_log_download.py", "gcs_metadata.py", "gcs_pymavlink.py", "gcs_qgc_plan.py"]);
 }
 
 /// A free UDP port on localhost (bound and released).
@@ -173,7 +173,10 @@ fn pymavlink_gcs_through_the_bridge_and_tlog_replay() {
 }
 
 /// The parameter and mission microservices as a GCS uses them (issue 20's defects): the whole
-/// PARAM_REQUEST_LIST, PARAM_SET echo, mission download, MISSION_CLEAR_ALL and count 0 after.
+/// PARAM_REQUEST_LIST, PARAM_SET echo, mission download, MISSION_CLEAR_ALL and count 0 after;
+/// and the component metadata (issue 41, `tests/python/gcs_metadata.py`): COMPONENT_METADATA's
+/// `mftp://` URI, general.json and the parameter metadata it points to downloaded with pymavlink's
+/// MAVLink FTP client, their CRCs checked, every parameter of the list there with units and range.
 #[test]
 fn pymavlink_parameter_and_mission_services() {
     let Some(py) = python() else { return };

@@ -81,6 +81,7 @@ impl Link {
         }
         self.router.stream_params(ap);
         self.router.stream_modes();
+        self.router.stream_ftp();
         self.router.obstacles.poll(now_us, ap);
         self.router.poll_sources(now_us);
         self.router.run.poll(&self.router.mission, now_us, ap);
@@ -209,39 +210,89 @@ mod tests {
         core::iter::from_fn(|| l.pop_reply()).collect()
     }
 
-    /// MAVProxy's FTP OpenFileRO of the parameter file, addressed to this vehicle, is answered at
-    /// once with a NAK to the sender (before: ignored, and MAVProxy waited ~10 s before its
-    /// parameter download); one addressed to another system is not answered.
-    #[test]
-    fn an_ftp_request_is_answered_nak_to_the_sender() {
+    /// An FTP request payload (pymavlink's `FTP_OP.pack` layout) from the GCS to `target`.
+    fn ftp(target: u8, seq: u16, session: u8, opcode: u8, size: u8, offset: u32, data: &[u8]) -> Vec<u8> {
         use crate::link::dialect::FILE_TRANSFER_PROTOCOL_DATA;
+        let mut payload = [0u8; 251];
+        payload[0..2].copy_from_slice(&seq.to_le_bytes());
+        payload[2] = session;
+        payload[3] = opcode;
+        payload[4] = size;
+        payload[8..12].copy_from_slice(&offset.to_le_bytes());
+        payload[12..12 + data.len()].copy_from_slice(data);
+        let req = FILE_TRANSFER_PROTOCOL_DATA {
+            target_network: 0,
+            target_system: target,
+            target_component: 0,
+            payload,
+        };
+        send(&mut gcs(), &req)
+    }
+
+    /// MAVProxy's FTP OpenFileRO of the parameter file, addressed to this vehicle, is answered at
+    /// once with a NAK FileNotFound to the sender (so its `param fetch` falls back to the
+    /// parameter protocol at once; before any answer it waited ~10 s); one addressed to another
+    /// system is not answered.
+    #[test]
+    fn an_ftp_request_is_answered_to_the_sender() {
+        use crate::link::ftp::{err, op};
         let mut ap = RecordingAutopilot::new();
         let mut l = Link::new(1, FixClock::Arrival);
-        let mut w = gcs();
-        let mut payload = [0u8; 251];
-        payload[0..2].copy_from_slice(&7u16.to_le_bytes());
-        payload[3] = 4; // OpenFileRO
-        payload[4] = 15;
-        payload[12..27].copy_from_slice(b"@PARAM/param.pc");
         for (target, answered) in [(1, true), (0, true), (2, false)] {
-            let req = FILE_TRANSFER_PROTOCOL_DATA {
-                target_network: 0,
-                target_system: target,
-                target_component: 0,
-                payload,
-            };
-            l.push_bytes(&send(&mut w, &req), 0, &mut ap);
+            l.push_bytes(&ftp(target, 7, 0, op::OPEN_FILE_RO, 15, 0, b"@PARAM/param.pc"), 0, &mut ap);
             let r = replies(&mut l);
             if !answered {
                 assert!(r.is_empty(), "to system {target}: {r:?}");
                 continue;
             }
-            let [Outbound::FtpNak(nak)] = r[..] else { panic!("to system {target}: {r:?}") };
-            let m = nak.data();
+            let [Outbound::Ftp(a)] = r[..] else { panic!("to system {target}: {r:?}") };
+            let m = a.data();
             assert_eq!((m.target_system, m.target_component), (255, 190));
-            assert_eq!(&m.payload[..6], &[8, 0, 0, crate::link::ftp::RSP_NAK, 1, 4]);
-            assert_eq!(m.payload[12], crate::link::ftp::ERR_UNKNOWN_COMMAND);
+            assert_eq!(&m.payload[..6], &[8, 0, 0, op::NAK, 1, op::OPEN_FILE_RO]);
+            assert_eq!(m.payload[12], err::FILE_NOT_FOUND);
         }
+    }
+
+    /// A BurstReadFile of parameters.json through the link: the packets go out over successive
+    /// polls, never more than the queue's free slots above the reserve, and put together they
+    /// are the file; other replies still find room meanwhile.
+    #[test]
+    fn an_ftp_burst_is_paced_by_the_polls_and_delivers_the_file() {
+        use crate::link::ftp::op;
+        use crate::link::metadata::FILES;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Arrival);
+        l.push_bytes(&ftp(1, 1, 0, op::OPEN_FILE_RO, 16, 0, b"/parameters.json"), 0, &mut ap);
+        let [Outbound::Ftp(open)] = replies(&mut l)[..] else { panic!("open not answered") };
+        l.push_bytes(&ftp(1, 2, open.session, op::BURST_READ_FILE, 239, 0, &[]), 0, &mut ap);
+        let mut file = Vec::new();
+        let mut packets = 0;
+        for poll in 0..10_000u64 {
+            l.poll(poll * 1000, &mut ap);
+            let mut ftp_here = 0;
+            let mut done = false;
+            for r in replies(&mut l) {
+                if let Outbound::Ftp(a) = r {
+                    let m = a.data();
+                    let size = usize::from(m.payload[4]);
+                    file.extend_from_slice(&m.payload[12..12 + size]);
+                    assert_eq!(
+                        u16::from_le_bytes([m.payload[0], m.payload[1]]),
+                        3 + packets,
+                        "seq counts up"
+                    );
+                    packets += 1;
+                    ftp_here += 1;
+                    done = m.payload[6] == 1;
+                }
+            }
+            assert!(ftp_here <= REPLY_QUEUE_LEN - REPLY_RESERVE, "poll {poll}: {ftp_here} packets");
+            if done {
+                break;
+            }
+        }
+        assert_eq!(file, FILES[1].bytes, "{packets} packets");
+        assert_eq!(usize::from(packets), FILES[1].bytes.len().div_ceil(239));
     }
 
     #[test]

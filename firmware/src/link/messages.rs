@@ -73,8 +73,7 @@ pub enum Inbound {
     CommandInt(COMMAND_INT_DATA),
     /// Time synchronisation request (tc1 = 0) or answer.
     Timesync(TIMESYNC_DATA),
-    /// A MAVLink FTP request (FILE_TRANSFER_PROTOCOL; header only, answered NAK:
-    /// [`crate::link::ftp`]).
+    /// A MAVLink FTP request (FILE_TRANSFER_PROTOCOL: header and path, [`crate::link::ftp`]).
     FtpRequest(crate::link::ftp::FtpRequest),
     /// PING request (answered) or answer (ignored).
     Ping(PING_DATA),
@@ -284,6 +283,6 @@ mod tests {
         for id in ids {
             assert_eq!(frame_extra_crc(id), old(id), "id {id}");
         }
-        assert_eq!(FRAME_IDS.len(), 93);
+        assert_eq!(FRAME_IDS.len(), 94);
     }
 }

@@ -7,7 +7,8 @@
 //! services ([`services`]: PING, SYSTEM_TIME, GLOBAL_POSITION_INT, MISSION_CURRENT, HOME_POSITION,
 //! message intervals, ATTITUDE_TARGET, BATTERY_STATUS, MISSION_ITEM_REACHED) and the MAVLink v1
 //! refusal ([`v1`]), the standard modes protocol ([`standard_modes`]: AVAILABLE_MODES,
-//! CURRENT_MODE), the NAK to every MAVLink FTP request ([`ftp`]), the takeoff height limit's
+//! CURRENT_MODE), the read-only MAVLink FTP server ([`ftp`]) over the component metadata files
+//! ([`metadata`]: COMPONENT_METADATA), the takeoff height limit's
 //! refusals ([`takeoff_limit`]) and the global ↔
 //! local NED conversion around home ([`geo`]).
 //!
@@ -25,6 +26,7 @@ pub mod geo;
 pub mod inputs;
 pub mod manual_control;
 pub mod messages;
+pub mod metadata;
 pub mod mission;
 pub mod mission_float;
 pub mod mission_items;

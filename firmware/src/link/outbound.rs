@@ -24,15 +24,16 @@ use crate::link::framing::{FrameWriter, MAX_PAYLOAD};
 
 /// AUTOPILOT_VERSION capabilities, what the link implements: MAVLink 2, float parameters (C
 /// cast), MISSION_ITEM_INT and the deprecated float MISSION_ITEM (`mission_float`), COMMAND_INT,
-/// SET_POSITION_TARGET_LOCAL_NED (offboard, `offboard`). Not announced: fence and rally missions
-/// (refused), MAVLink FTP (every request answered NAK, `ftp`), SET_POSITION_TARGET_GLOBAL_INT
+/// SET_POSITION_TARGET_LOCAL_NED (offboard, `offboard`), MAVLink FTP (read-only: the component
+/// metadata files, `ftp`). Not announced: fence and rally missions (refused), SET_POSITION_TARGET_GLOBAL_INT
 /// and SET_ATTITUDE_TARGET (not handled), terrain, flight information.
 pub const CAPABILITIES: MavProtocolCapability = MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST)
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT)
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
     .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT)
-    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED);
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED)
+    .union(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP);
 
 /// AUTOPILOT_VERSION of this firmware (version 0.1.0 as `major << 24 | minor << 16 | patch << 8`)
 /// on the vehicle with unique id `uid` ([`crate::link::Link::set_uid`]; ground stations and
@@ -158,8 +159,11 @@ pub enum Outbound {
     GpsRawInt(GPS_RAW_INT_DATA),
     /// VFR_HUD ([`crate::link::services::vfr_hud`]).
     VfrHud(VFR_HUD_DATA),
-    /// FILE_TRANSFER_PROTOCOL: the NAK to an FTP request ([`crate::link::ftp`]).
-    FtpNak(crate::link::ftp::FtpNak),
+    /// FILE_TRANSFER_PROTOCOL: an FTP reply ([`crate::link::ftp`]; data copied from flash when
+    /// encoded).
+    Ftp(crate::link::ftp::FtpReply),
+    /// COMPONENT_METADATA at this `time_boot_ms` ([`crate::link::metadata::component_metadata`]).
+    ComponentMetadata(u32),
     /// AVAILABLE_MODES of mode index `i` (from 1; [`crate::link::standard_modes::available_mode`]).
     AvailableMode(u8),
     /// CURRENT_MODE ([`crate::link::standard_modes::current_mode`]).
@@ -240,7 +244,8 @@ impl Outbound {
             Outbound::BatteryStatus(m) => s(m, p),
             Outbound::GpsRawInt(m) => s(m, p),
             Outbound::VfrHud(m) => s(m, p),
-            Outbound::FtpNak(m) => s(&m.data(), p),
+            Outbound::Ftp(m) => s(&m.data(), p),
+            Outbound::ComponentMetadata(t) => s(&crate::link::metadata::component_metadata(*t), p),
             // Only listed indices are queued (the router's request check).
             Outbound::AvailableMode(i) => {
                 s(&crate::link::standard_modes::available_mode(*i).unwrap_or_default(), p)

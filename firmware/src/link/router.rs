@@ -21,7 +21,8 @@
 //! | PING (4) | a request (target 0/0) is answered to the sender, see [`crate::link::services`] |
 //! | SET_MODE (11) | legacy mode change: executed as MAV_CMD_DO_SET_MODE (base_mode, custom_mode); no ACK (the next HEARTBEAT shows the mode) |
 //! | MISSION_SET_CURRENT (41) | answered with MISSION_CURRENT; jumping to another item is not supported (STATUSTEXT) |
-//! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION and AVAILABLE_MODES (param2 = mode index, 0 = all; streamed after the ACK, [`crate::link::standard_modes`]) |
+//! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION, COMPONENT_METADATA ([`crate::link::metadata`]) and AVAILABLE_MODES (param2 = mode index, 0 = all; streamed after the ACK, [`crate::link::standard_modes`]) |
+//! | FILE_TRANSFER_PROTOCOL (110) | the read-only FTP server of [`crate::link::ftp`]; a BurstReadFile's packets are paced like the parameter stream (one per poll or frame while more than [`REPLY_RESERVE`] queue slots are free) |
 //! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
@@ -101,6 +102,8 @@ pub(crate) struct Router {
     pub(crate) v1_text_us: Option<u64>,
     /// AUTOPILOT_VERSION `uid` ([`crate::link::Link::set_uid`]; 0 until set).
     pub(crate) uid: u64,
+    /// The MAVLink FTP server ([`crate::link::ftp`]).
+    pub(crate) ftp: crate::link::ftp::FtpServer,
 }
 
 /// PARAM_VALUE for parameter `index` with `value`.
@@ -148,6 +151,7 @@ impl Router {
             sources: SourceMonitor::new(),
             v1_text_us: None,
             uid: 0,
+            ftp: crate::link::ftp::FtpServer::new(),
         }
     }
 
@@ -184,6 +188,17 @@ impl Router {
         self.modes_stream = (next < last).then_some((next + 1, last));
     }
 
+    /// Continues an FTP burst: one packet per call while more than [`REPLY_RESERVE`] queue
+    /// slots are free.
+    pub(crate) fn stream_ftp(&mut self) {
+        if REPLY_QUEUE_LEN - self.replies.len() <= REPLY_RESERVE {
+            return;
+        }
+        if let Some(r) = self.ftp.next_burst() {
+            self.reply(Outbound::Ftp(r));
+        }
+    }
+
     fn on_command<A: Autopilot>(
         &mut self,
         cmd: &COMMAND_LONG_DATA,
@@ -206,31 +221,38 @@ impl Router {
             return;
         }
         #[allow(deprecated)] // REQUEST_AUTOPILOT_CAPABILITIES: still sent by ground stations
-        let (result, version) = match cmd.command {
+        let version = Some(Outbound::AutopilotVersion(self.uid));
+        let (result, then) = match cmd.command {
             crate::link::command::id::REQUEST_AUTOPILOT_CAPABILITIES => {
-                (MavResult::MAV_RESULT_ACCEPTED, true)
+                (MavResult::MAV_RESULT_ACCEPTED, version)
             }
             crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == AUTOPILOT_VERSION_ID => {
-                (MavResult::MAV_RESULT_ACCEPTED, true)
+                (MavResult::MAV_RESULT_ACCEPTED, version)
+            }
+            crate::link::command::id::REQUEST_MESSAGE
+                if cmd.param1 == crate::link::metadata::COMPONENT_METADATA_ID =>
+            {
+                let ms = u32::try_from(now_us / 1000).unwrap_or(u32::MAX);
+                (MavResult::MAV_RESULT_ACCEPTED, Some(Outbound::ComponentMetadata(ms)))
             }
             crate::link::command::id::REQUEST_MESSAGE if cmd.param1 == standard_modes::AVAILABLE_MODES_ID => {
                 match standard_modes::requested(cmd.param2) {
                     Some(range) => {
                         self.modes_stream = Some(range);
-                        (MavResult::MAV_RESULT_ACCEPTED, false)
+                        (MavResult::MAV_RESULT_ACCEPTED, None)
                     }
-                    None => (MavResult::MAV_RESULT_DENIED, false),
+                    None => (MavResult::MAV_RESULT_DENIED, None),
                 }
             }
             crate::link::command::id::REQUEST_MESSAGE
                 if !self.services.can_send(cmd.param1, &ap.telemetry()) =>
             {
-                (MavResult::MAV_RESULT_DENIED, false)
+                (MavResult::MAV_RESULT_DENIED, None)
             }
             crate::link::command::id::REQUEST_MESSAGE if self.services.request(cmd.param1) => {
-                (MavResult::MAV_RESULT_ACCEPTED, false)
+                (MavResult::MAV_RESULT_ACCEPTED, None)
             }
-            crate::link::command::id::REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, false),
+            crate::link::command::id::REQUEST_MESSAGE => (MavResult::MAV_RESULT_DENIED, None),
             crate::link::command::id::GET_HOME_POSITION => {
                 let known = self.services.home().is_some()
                     && self.services.request(crate::link::services::HOME_POSITION_ID as f32);
@@ -239,18 +261,18 @@ impl Router {
                 } else {
                     MavResult::MAV_RESULT_TEMPORARILY_REJECTED
                 };
-                (r, false)
+                (r, None)
             }
             crate::link::command::id::DO_SET_HOME => {
                 // p1 = 1: here; else p5/p6 latitude/longitude (degrees), p7 altitude AMSL (m).
                 let e7 = crate::link::mission_float::e7_of_degrees;
-                (self.do_set_home(cmd.param1 == 1.0, e7(cmd.param5), e7(cmd.param6), cmd.param7, ap), false)
+                (self.do_set_home(cmd.param1 == 1.0, e7(cmd.param5), e7(cmd.param6), cmd.param7, ap), None)
             }
             crate::link::command::id::DO_REPOSITION => {
-                (self.reposition(&crate::link::reposition::of_long(cmd), now_us, ap), false)
+                (self.reposition(&crate::link::reposition::of_long(cmd), now_us, ap), None)
             }
             crate::link::command::id::SET_MESSAGE_INTERVAL => {
-                (self.services.set_interval(cmd.param1, cmd.param2), false)
+                (self.services.set_interval(cmd.param1, cmd.param2), None)
             }
             crate::link::command::id::GET_MESSAGE_INTERVAL => {
                 let m = self.services.message_interval(cmd.param1);
@@ -270,12 +292,12 @@ impl Router {
                     _ => execute(cmd, now_us, ap),
                 };
                 self.mission_mode_flies(cmd, r, now_us, ap);
-                (r, false)
+                (r, None)
             }
         };
         self.reply(Outbound::CommandAck(crate::link::command::ack(cmd.command, result, sender)));
-        if version {
-            self.reply(Outbound::AutopilotVersion(self.uid));
+        if let Some(m) = then {
+            self.reply(m);
         }
         let asked = match cmd.command {
             crate::link::command::id::TAKEOFF => Some(cmd.param7),
@@ -675,8 +697,8 @@ impl Router {
             Inbound::CommandLong(m) => self.on_command(&m, (f.sys_id, f.comp_id), now_us, ap),
             Inbound::FtpRequest(r) => {
                 if self.for_me(r.target_system, r.target_component) {
-                    if let Some(nak) = crate::link::ftp::answer(&r, f.sys_id, f.comp_id) {
-                        self.reply(Outbound::FtpNak(nak));
+                    if let Some(a) = self.ftp.on_request(&r, (f.sys_id, f.comp_id)) {
+                        self.reply(Outbound::Ftp(a));
                     }
                 }
             }
@@ -744,6 +766,7 @@ impl Router {
         }
         self.stream_params(ap);
         self.stream_modes();
+        self.stream_ftp();
     }
 }
 
