@@ -13,8 +13,18 @@
 //! Why not `mavlink`'s `dialect-ardupilotmega`: its `MavMessage` covers ~300 messages and its
 //! tables and enum conversions cost flash on the F405; a message listed here but not used costs
 //! nothing. Imports nothing but `mavlink_core`, `bitflags` and `num_traits` (from the generated
-//! code).
+//! code). Also the one text-field helper every message builder uses ([`name`]), here so that
+//! the modules that build messages need nothing above the dialect.
 
 include!(concat!(env!("OUT_DIR"), "/mod.rs"));
 
 pub use parapet::*;
+
+/// A NUL-padded MAVLink name/text field from `s` (truncated to `N` bytes).
+pub fn name<const N: usize>(s: &str) -> mavlink_core::types::CharArray<N> {
+    let mut b = [0u8; N];
+    for (d, c) in b.iter_mut().zip(s.bytes()) {
+        *d = c;
+    }
+    b.into()
+}

@@ -47,7 +47,7 @@ pub fn component_metadata(time_boot_ms: u32) -> COMPONENT_METADATA_DATA {
     COMPONENT_METADATA_DATA {
         time_boot_ms,
         file_crc: GENERAL_CRC,
-        uri: crate::link::outbound::name(GENERAL_URI),
+        uri: crate::link::dialect::name(GENERAL_URI),
     }
 }
 

@@ -256,14 +256,7 @@ impl Outbound {
     }
 }
 
-/// A NUL-padded MAVLink name field from `s` (truncated to `N` bytes).
-pub fn name<const N: usize>(s: &str) -> mavlink_core::types::CharArray<N> {
-    let mut b = [0u8; N];
-    for (d, c) in b.iter_mut().zip(s.bytes()) {
-        *d = c;
-    }
-    b.into()
-}
+pub use crate::link::dialect::name;
 
 /// NAMED_VALUE_INT helper.
 pub fn named_int(time_boot_ms: u32, key: &str, value: i32) -> Outbound {
