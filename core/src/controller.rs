@@ -481,3 +481,20 @@ impl FlightController {
         out
     }
 }
+
+/// The on-board replanner's view of the facade (the host's in-process controller runs
+/// [`crate::replan::onboard`] on it; the firmware on its `OuterLoop`).
+impl crate::replan::onboard::MissionControl for FlightController {
+    fn outer_telemetry(&self) -> &crate::outer::OuterTelemetry {
+        self.outer.telemetry()
+    }
+    fn mission_path(&self) -> &[Vec3] {
+        self.path()
+    }
+    fn replace_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), CommandError> {
+        self.set_path(waypoints_ned)
+    }
+    fn restart_mission(&mut self, now_us: u64) -> Result<(), CommandError> {
+        self.start_mission(now_us)
+    }
+}

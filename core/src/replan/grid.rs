@@ -38,6 +38,10 @@ pub struct Grid {
 }
 
 impl Grid {
+    /// An empty grid of cell edge 0 at the origin, as a constant ([`crate::replan::Replanner::ZEROED`]).
+    pub const ZEROED: Grid =
+        Grid { cell: 0.0, origin: [0, 0], occupied: [0; GRID], blocked: [0; GRID], area: None };
+
     /// An empty grid of cells of edge `cell` m centred on `centre` (NED).
     pub fn new(cell: f32, centre: &Vec3) -> Self {
         let mut g = Grid { cell, origin: [0, 0], occupied: [0; GRID], blocked: [0; GRID], area: None };
@@ -59,6 +63,11 @@ impl Grid {
     /// outside `[lo, hi]` are blocked. `None`: no limit.
     pub fn set_area(&mut self, area: Option<([f32; 2], [f32; 2])>) {
         self.area = area;
+    }
+
+    /// The flight area set, if any.
+    pub fn area(&self) -> Option<([f32; 2], [f32; 2])> {
+        self.area
     }
 
     /// The centre of cell (row, column) lies in the flight area (always without one).

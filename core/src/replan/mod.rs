@@ -54,10 +54,15 @@
 //! given (one distance each); at most [`MAX_TARGETS`] searches of at most `max_expansions` (≤ 4096) expansions of 8
 //! neighbours, plus O(path cells · 2·GRID) line-of-sight tests.
 //!
+//! **Where it runs** ([`onboard`]): beside the outer loop, off the control loops — the outer
+//! side takes a snapshot at `rate_hz`, the planner serves it, the outer side applies the new
+//! path; the host's in-process controller and the firmware's replanner task run that one driver.
+//!
 //! May import: `crate::obstacle`, `crate::fmath`, `crate::Vec3`, the virtual points' ids of
-//! `crate::perception` and `crate::safety::plant_aware`.
+//! `crate::perception` and `crate::safety::plant_aware`; [`onboard`] also `crate::outer`.
 
 pub mod grid;
+pub mod onboard;
 pub mod search;
 
 use crate::obstacle::ObstaclePoint;
@@ -103,20 +108,53 @@ pub struct ReplanParams {
 
 impl Default for ReplanParams {
     fn default() -> Self {
-        ReplanParams {
-            enable: false,
-            rate_hz: 2.0,
-            cooldown_s: 2.0,
-            horizon_m: 3.0,
-            margin_m: 0.1,
-            cell_m: 0.2,
-            band_m: 0.3,
-            max_expansions: CELLS as u16,
-        }
+        Self::DEFAULT
+    }
+}
+
+/// A hull radius the replanner uses: finite and ≥ 0, else 0.
+pub fn sane_hull(hull: f32) -> f32 {
+    if hull.is_finite() && hull >= 0.0 {
+        hull
+    } else {
+        0.0
     }
 }
 
 impl ReplanParams {
+    /// The defaults (see each field).
+    pub const DEFAULT: ReplanParams = ReplanParams {
+        enable: false,
+        rate_hz: 2.0,
+        cooldown_s: 2.0,
+        horizon_m: 3.0,
+        margin_m: 0.1,
+        cell_m: 0.2,
+        band_m: 0.3,
+        max_expansions: CELLS as u16,
+    };
+
+    /// Every field zero (invalid: a placeholder no request carries; [`Replanner::ZEROED`]).
+    pub const ZEROED: ReplanParams = ReplanParams {
+        enable: false,
+        rate_hz: 0.0,
+        cooldown_s: 0.0,
+        horizon_m: 0.0,
+        margin_m: 0.0,
+        cell_m: 0.0,
+        band_m: 0.0,
+        max_expansions: 0,
+    };
+
+    /// These parameters when [`ReplanParams::valid`], else the defaults.
+    pub fn checked(self) -> Self {
+        if self.valid() {
+            self
+        } else {
+            ReplanParams::default()
+        }
+    }
+
     /// Every field finite and in its range (rate [1, 50] Hz, cooldown [0, 60] s, horizon
     /// (0, 50] m, margin [0, 2] m, cell [0.05, 1] m, band (0, 5] m, expansions ≥ 1).
     pub fn valid(&self) -> bool {
@@ -188,18 +226,51 @@ struct Target {
 }
 
 impl Replanner {
+    /// A replanner with every field zero (all-zero parameters, which no request carries: the
+    /// first [`Replanner::serve`] takes the request's parameters with
+    /// [`Replanner::reconfigure`]), as a constant: the firmware's `static` of it is built at
+    /// compile time, never on a stack (≈ 21 KiB), and is all zero bytes (it lives in a section
+    /// the firmware zeroes at boot).
+    pub const ZEROED: Replanner = Replanner {
+        params: ReplanParams::ZEROED,
+        hull: 0.0,
+        grid: Grid::ZEROED,
+        search: Search::ZEROED,
+        next_check_us: 0,
+        stats: ReplanStats { checks: 0, replans: 0, no_path: 0, budget: 0 },
+        anchor: (Vec3::new(0.0, 0.0, 0.0), 0),
+    };
+
     /// A replanner for a vehicle of hull radius `hull` m (invalid parameters: the defaults).
     pub fn new(params: ReplanParams, hull: f32) -> Self {
-        let params = if params.valid() { params } else { ReplanParams::default() };
+        let params = params.checked();
         Replanner {
             params,
-            hull: if hull.is_finite() && hull >= 0.0 { hull } else { 0.0 },
+            hull: sane_hull(hull),
             grid: Grid::new(params.cell_m, &Vec3::zeros()),
             search: Search::default(),
             next_check_us: 0,
             stats: ReplanStats::default(),
             anchor: (Vec3::new(f32::INFINITY, 0.0, 0.0), 0),
         }
+    }
+
+    /// New parameters and hull radius, in place (the search's buffers are kept: no 20 KiB
+    /// value on the stack): the grid starts empty, the counters and flight area are kept.
+    pub fn reconfigure(&mut self, params: ReplanParams, hull: f32) {
+        // A flight area set on a configured replanner is kept ([`Replanner::ZEROED`] has none).
+        let area = if self.params.valid() { self.grid.area() } else { None };
+        self.params = params.checked();
+        self.hull = sane_hull(hull);
+        self.grid = Grid::new(self.params.cell_m, &Vec3::zeros());
+        self.grid.set_area(area);
+        self.next_check_us = 0;
+        self.anchor = (Vec3::new(f32::INFINITY, 0.0, 0.0), 0);
+    }
+
+    /// The hull radius in use, m.
+    pub fn hull(&self) -> f32 {
+        self.hull
     }
 
     /// The parameters in use.

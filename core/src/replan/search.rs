@@ -45,6 +45,13 @@ pub struct Search {
     open: BinaryHeap<u32, Min, OPEN_CAP>,
 }
 
+impl Search {
+    /// Every buffer zero, as a constant (a `static` of it needs no start-up copy and no
+    /// stack): as good as [`Search::default`], since every search resets its buffers first.
+    pub const ZEROED: Search =
+        Search { g: [0; CELLS], parent: [0; CELLS], closed: [0; GRID], open: BinaryHeap::new() };
+}
+
 impl Default for Search {
     fn default() -> Self {
         Search { g: [UNSEEN; CELLS], parent: [NO_PARENT; CELLS], closed: [0; GRID], open: BinaryHeap::new() }
@@ -66,9 +73,10 @@ impl Search {
         passable: impl Fn(usize, usize) -> bool,
         max_expansions: u32,
     ) -> SearchResult {
-        self.g = [UNSEEN; CELLS];
-        self.parent = [NO_PARENT; CELLS];
-        self.closed = [0; GRID];
+        // In place: no 8 KiB array value on the stack (the firmware's planner task).
+        self.g.fill(UNSEEN);
+        self.parent.fill(NO_PARENT);
+        self.closed.fill(0);
         self.open.clear();
         if start.0 >= GRID || start.1 >= GRID || goal.0 >= GRID || goal.1 >= GRID {
             return SearchResult::NoPath(0);

@@ -149,7 +149,7 @@ impl FlightStack for Controller {
         self.report_obstacles(now, obstacles);
         self.fc.step_outer(now);
         if self.cbf {
-            self.replan.step(t, now, &mut self.fc, obstacles);
+            self.replan.step(t, now, &mut self.fc);
         }
         OuterOut::from_telemetry(&self.fc.telemetry())
     }

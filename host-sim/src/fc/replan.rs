@@ -1,28 +1,27 @@
 //! The on-board replanner of the in-process controller (issue 38): `parapet_core::replan`'s
-//! [`Replanner`] run beside the [`FlightController`] as the firmware would run it, off the
-//! control loops: every outer step it marks the obstacle points the filter was given (the
-//! controller's own input: ground truth's closest points, or the obstacle memory's points
-//! with range sensing) in its grid; at `RPL_RATE` it checks the controller's remaining path
-//! (`FlightController::path` from the segment being flown) and, on a new path, sets it with
-//! `FlightController::set_path` (the reference continues from where it is; after a `deadlock`
-//! the mission is started again). Every result other than `NotNeeded` is an event
-//! ([`ReplanSummary`], `summary.json`).
+//! [`Replanner`] run beside the [`FlightController`] through the driver the firmware's replanner
+//! task runs too ([`parapet_core::replan::onboard`]), all in one outer step here: after each
+//! outer step, when a snapshot is due (`RPL_RATE`, while a mission is flown or a stall holds
+//! it), the controller's position, stall flag and remaining path and the obstacle points it kept
+//! of those given (ground truth's closest points, or the obstacle memory's points with range sensing)
+//! are served by the planner at once and a new path is set (the reference continues from where
+//! it is; after a `deadlock` the mission is started again). Every result other than
+//! `NotNeeded` is an event ([`ReplanSummary`], `summary.json`).
 //!
 //! May import: `parapet-core`, [`crate::report`] (the summary's types).
 
-use parapet_core::controller::{FlightController, GuidanceMode};
-use parapet_core::obstacle::ObstaclePoint;
-use parapet_core::outer::guidance::PATH_CAPACITY;
+use parapet_core::controller::FlightController;
+use parapet_core::replan::onboard::{apply, ReplanClock, ReplanRequest};
 use parapet_core::replan::{ReplanOutcome, Replanner};
-use parapet_core::Vec3;
 
 use crate::report::{ReplanEvent, ReplanSummary};
 
-/// The replanner, its output buffer and its record.
+/// The replanner, its clock, its request and its record.
 #[derive(Clone, Debug)]
 pub struct OnboardReplan {
     core: Box<Replanner>,
-    buf: heapless::Vec<Vec3, PATH_CAPACITY>,
+    clock: ReplanClock,
+    request: Box<ReplanRequest>,
     summary: ReplanSummary,
 }
 
@@ -36,48 +35,32 @@ impl OnboardReplan {
         core.set_area(Some(area));
         OnboardReplan {
             core,
-            buf: heapless::Vec::new(),
+            clock: ReplanClock::new(&p.replan, p.hull_radius),
+            request: Box::default(),
             summary: ReplanSummary { replan_enabled: p.replan.enable, ..ReplanSummary::default() },
         }
     }
 
-    /// After the outer step at `now_us` (simulated `t` s) that was given `obstacles`.
-    pub fn step(&mut self, t: f64, now_us: u64, fc: &mut FlightController, obstacles: &[ObstaclePoint]) {
-        if !self.summary.replan_enabled {
+    /// After the outer step at `now_us` (simulated `t` s), with the obstacle points the
+    /// controller kept of those it was given (the nearest 32: what the firmware's outer loop
+    /// holds too).
+    pub fn step(&mut self, t: f64, now_us: u64, fc: &mut FlightController) {
+        if !self.clock.snapshot(now_us, fc, fc.obstacles(), &mut self.request) {
             return;
         }
-        let tel = fc.telemetry();
-        self.core.observe(&tel.position, obstacles);
-        let stalled = tel.plant_aware.deadlock;
-        let flying = tel.mode == GuidanceMode::Mission || (stalled && tel.mode == GuidanceMode::Hold);
-        if !flying || tel.progress.done {
-            return;
-        }
-        let path = fc.path();
-        let remaining = &path[usize::from(tel.progress.segment).min(path.len())..];
-        let Some(r) = self.core.step(now_us, &tel.position, stalled, remaining, obstacles, &mut self.buf)
-        else {
-            return;
-        };
-        let (outcome, waypoints, detour) = match r {
-            ReplanOutcome::NotNeeded => return,
-            ReplanOutcome::Replanned { detour, .. } => {
-                if fc.set_path(&self.buf).is_err() {
-                    return;
-                }
-                if stalled {
-                    let _ = fc.start_mission(now_us);
-                }
-                ("replanned", self.buf.len(), usize::from(detour))
-            }
-            ReplanOutcome::NoPath => ("no_path", 0, 0),
-            ReplanOutcome::BudgetExceeded => ("budget", 0, 0),
+        self.core.serve(&mut self.request);
+        let Some(e) = apply(now_us, fc, &self.request) else { return };
+        let outcome = match e.outcome {
+            ReplanOutcome::Replanned { .. } => "replanned",
+            ReplanOutcome::NoPath => "no_path",
+            ReplanOutcome::BudgetExceeded | ReplanOutcome::NotNeeded => "budget",
         };
         let s = self.core.stats();
         self.summary.replan_checks = s.checks;
         self.summary.replans = s.replans;
         self.summary.replan_no_path = s.no_path;
         self.summary.replan_budget = s.budget;
+        let (waypoints, detour) = (usize::from(e.waypoints), usize::from(e.detour));
         self.summary.replan_events.push(ReplanEvent { t_s: t, outcome, waypoints, detour });
     }
 
