@@ -10,7 +10,8 @@
 //! 3. for the Cortex-M builds, makes the board's memory map visible to cortex-m-rt's `link.x`
 //!    as `memory.x` (the workspace-root `memory.x`, the F405's, for `board-f405` and
 //!    `board-qemu`; `memory-h743.x` for `board-h743`) and adds the linker scripts (`defmt.x`
-//!    only for the real boards, whose builds link defmt).
+//!    only for the real boards, whose builds link defmt; `ccm.x`, generated, placing the
+//!    CPU-only `.ccmram` section per board).
 use std::env;
 use std::fs;
 use std::path::PathBuf;
@@ -38,6 +39,33 @@ fn main() {
     if env::var_os("CARGO_FEATURE_BOARD_F405").is_some() || h743 {
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     }
+    let qemu = env::var_os("CARGO_FEATURE_BOARD_QEMU").is_some();
+    if let Err(e) = fs::write(out.join("ccm.x"), ccm_script(qemu, h743)) {
+        println!("cargo:warning=cannot write ccm.x: {e}");
+    }
+    println!("cargo:rustc-link-arg-bins=-Tccm.x");
+}
+
+/// `ccm.x`: where the `.ccmram` section (the CPU-only memory, `src/board/ccm.rs`) goes — the
+/// F405's CCM (`memory.x`'s `CCMRAM`, 64 KiB at 0x1000_0000); on QEMU's netduinoplus2, which
+/// models no CCM but 192 KiB of SRAM, the 64 KiB past the F405's 128 KiB (0x2002_0000), so that
+/// the QEMU image's SRAM use and stack margin stay the F405's; on the H743, its `RAM`. NOLOAD:
+/// the firmware zeroes it at boot.
+fn ccm_script(qemu: bool, h743: bool) -> String {
+    // In another region: after `.got`, past cortex-m-rt's `__ebss` and `_stack_end` (a section
+    // inserted after `.bss` moves them and must stay in RAM); in RAM (the H743): after `.bss`,
+    // inside cortex-m-rt's zeroed range and below the stack.
+    let (memory, region, after) = if qemu {
+        ("MEMORY { QEMU_CCM : ORIGIN = 0x20020000, LENGTH = 64K }\n", "QEMU_CCM", ".got")
+    } else if h743 {
+        ("", "RAM", ".bss")
+    } else {
+        ("", "CCMRAM", ".got")
+    };
+    format!(
+        "{memory}SECTIONS\n{{\n  .ccmram (NOLOAD) : ALIGN(4)\n  {{\n    __sccmram = .;\n    \
+         *(.ccmram .ccmram.*);\n    . = ALIGN(4);\n    __eccmram = .;\n  }} > {region}\n}} INSERT AFTER {after};\n"
+    )
 }
 
 include!("metadata/crc32.rs");

@@ -247,6 +247,14 @@ impl<A: ControlSteps> ControlSteps for SetupVehicle<A> {
         self.now_us = now_us;
         self.inner.step_outer(now_us)
     }
+
+    fn serve_replan(&mut self, planner: &mut parapet_core::replan::Replanner) -> bool {
+        self.inner.serve_replan(planner)
+    }
+
+    fn install_replan(&mut self, request: &'static mut parapet_core::replan::onboard::ReplanRequest) {
+        self.inner.install_replan(request);
+    }
 }
 
 pub mod tasks;

@@ -41,6 +41,9 @@ pub const INS_OUTER: &str = "ins_outer";
 /// NAMED_VALUE_INT (PIL, every step, before `ins_step`): longest section with interrupts masked
 /// during this step, instructions.
 pub const INS_MASKED: &str = "ins_masked";
+/// NAMED_VALUE_INT (PIL, after a step batch in which the on-board replanner served a request;
+/// issue 38): instructions of that plan.
+pub const INS_REPLAN: &str = "ins_rpl";
 
 /// STATUSTEXT the PIL firmware sends once it is ready for the lockstep.
 pub const PIL_READY_TEXT: &str = "parapet PIL ready";
@@ -61,7 +64,7 @@ mod tests {
     fn names_fit_the_ten_byte_field_and_compare_padded() {
         for n in [
             CBF, CBF_FLAGS, U_NOM, LOOP_IN, LOOP_OUT, OVR_IN, OVR_OUT, LINK, LINK_DROP, HW_ERR, FAILSAFE,
-            PHASE, INS_CAL_N, INS_CAL, INS_STEP, INS_OUTER, INS_MASKED,
+            PHASE, INS_CAL_N, INS_CAL, INS_STEP, INS_OUTER, INS_MASKED, INS_REPLAN,
         ] {
             assert!(n.len() <= 10, "{n}");
         }

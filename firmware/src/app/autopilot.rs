@@ -191,6 +191,8 @@ pub struct TelemetrySnapshot {
     /// The arm command would be accepted now (the cascade's arm checks and a consistent
     /// parameter set; kept `true` while armed): SYS_STATUS's `MAV_SYS_STATUS_PREARM_CHECK`.
     pub armable: bool,
+    /// The on-board replanner's events (issue 38; STATUSTEXT and the log).
+    pub replan: crate::app::replanner::ReplanReport,
 }
 
 impl TelemetrySnapshot {
@@ -216,6 +218,7 @@ impl TelemetrySnapshot {
         rc: None,
         position_fresh: false,
         armable: false,
+        replan: crate::app::replanner::ReplanReport { events: 0, last: None },
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,
@@ -284,6 +287,18 @@ pub trait ControlSteps: Autopilot {
     fn step_inner(&mut self, now_us: u64, imu: &ImuSample) -> MotorCommand;
     /// Outer loop: waypoint reference → PD tracking → CBF filter → thrust/attitude setpoint.
     fn step_outer(&mut self, now_us: u64);
+    /// The on-board replanner's task side, once, between control steps (the PIL application;
+    /// a board runs it in a task of its own): serves a waiting request with `planner`
+    /// (`crate::app::replanner::serve_pending`). `false`: none was waiting (or no replanner).
+    fn serve_replan(&mut self, planner: &mut parapet_core::replan::Replanner) -> bool {
+        let _ = planner;
+        false
+    }
+    /// Hands the replanner's mailbox its request buffer (`ReplanMailbox::install`); without
+    /// one (or a replanner) nothing.
+    fn install_replan(&mut self, request: &'static mut parapet_core::replan::onboard::ReplanRequest) {
+        let _ = request;
+    }
 }
 
 #[cfg(test)]

@@ -23,7 +23,8 @@
 //! not consistent, the loops keep the last consistent set and arming is refused
 //! (MAV_RESULT_TEMPORARILY_REJECTED), so no order of PARAM_SETs is ever needed.
 //!
-//! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`].
+//! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`],
+//! [`crate::app::replanner`].
 
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
 use parapet_core::battery::{BatteryParams, BatteryState};
@@ -46,6 +47,7 @@ use crate::app::autopilot::{
     VehicleCommand,
 };
 use crate::app::mailbox::Mailboxes;
+use crate::app::replanner::ReplanOuter;
 
 /// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
 pub const DEFAULT_TAKEOFF_HEIGHT_M: f32 = 1.0;
@@ -119,6 +121,7 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         rc: None,
         position_fresh: false,
         armable: false,
+        replan: crate::app::replanner::ReplanReport { events: 0, last: None },
     }
 }
 
@@ -134,6 +137,8 @@ pub struct OuterStage {
     estimate: StateEstimate,
     /// The latest pilot input for RC_CHANNELS.
     rc_report: Option<RcReport>,
+    /// The on-board replanner's outer side (`RPL_*`).
+    replan: ReplanOuter,
 }
 
 impl OuterStage {
@@ -141,7 +146,8 @@ impl OuterStage {
     pub fn new(params: ControllerParams) -> Result<(Self, InnerLoop), ParamError> {
         let (outer, inner) = FlightController::new(params)?.into_loops();
         let estimate = inner.estimate();
-        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None }, inner))
+        let replan = ReplanOuter::new(&params.replan, params.hull_radius);
+        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None, replan }, inner))
     }
 
     /// `true` when the stored parameter set is the one the loops fly (it satisfies the
@@ -195,10 +201,12 @@ impl OuterStage {
         }
     }
 
-    /// One outer step at `now_us`; publishes the attitude command and the snapshot.
+    /// One outer step at `now_us`; publishes the attitude command and the snapshot. Then
+    /// the replanner's outer side: a new path is flown from the next step on.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
         self.take_inputs(mb);
         mb.send_command(self.outer.step(now_us));
+        self.replan.step(now_us, &mut self.outer, &mb.replan);
         mb.snapshot.signal(self.snapshot());
     }
 
@@ -212,6 +220,7 @@ impl OuterStage {
             rc: self.rc_report,
             position_fresh: self.outer.position_fresh(t.t_us),
             armable,
+            replan: self.replan.report(),
             ..s
         }
     }
@@ -240,6 +249,7 @@ impl<M: RawMutex> OuterPort<'_, M> {
         self.mb.estimate.reset();
         let s = &mut *self.stage;
         s.outer = outer;
+        s.replan.retune(&p.replan, p.hull_radius);
         s.estimate = inner.estimate();
         s.flown = p;
         self.mb.snapshot.signal(s.snapshot());
@@ -469,6 +479,14 @@ impl ControlSteps for Cascade {
 
     fn step_outer(&mut self, now_us: u64) {
         self.outer.step(now_us, &self.mb);
+    }
+
+    fn serve_replan(&mut self, planner: &mut parapet_core::replan::Replanner) -> bool {
+        crate::app::replanner::serve_pending(planner, &self.mb.replan)
+    }
+
+    fn install_replan(&mut self, request: &'static mut parapet_core::replan::onboard::ReplanRequest) {
+        self.mb.replan.install(request);
     }
 }
 

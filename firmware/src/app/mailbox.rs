@@ -14,6 +14,7 @@
 //! | [`Mailboxes::rc`] | RC receiver → outer | `Signal` | the latest receiver frame ([`RcFrame`], mapped by the outer stage with the live `RC_*` parameters; latest wins: the mode machine wants the newest sticks, and the loss timeout runs on the frames' times) |
 //! | [`Mailboxes::kill`] | RC receiver → inner | `Signal` | a frame whose kill switch the mode machine will act on (its time): the inner stage stops the motors at the top of its next step |
 //! | [`Mailboxes::rc_params`] | outer → RC receiver | `Signal` | the live `RC_*` parameters after a rebuild (the receiver task maps the kill channel with them) |
+//! | [`Mailboxes::replan`] | outer ⇄ replanner | async `Mutex` + `Signal` | one request buffer (≈ 3 KiB, the board's, installed at boot) handed back and forth by reference, never copied: a held lock masks nothing ([`crate::app::replanner`]) |
 //!
 //! **The kill switch** ([`Mailboxes::deliver_rc`]): the receiver task maps each frame's kill
 //! channel itself ([`kill_requested`]) and, after publishing the frame, signals
@@ -28,7 +29,7 @@
 //! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
 //! tasks that own it (`src/bin/fc/mod.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
 //! `parapet_core::rc`, `parapet_core::battery`, `parapet_core::supervisor::modes` (the kill check),
-//! [`crate::app::autopilot`].
+//! [`crate::app::autopilot`], [`crate::app::replanner`] (its mailbox).
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::{Channel, TrySendError};
@@ -40,6 +41,7 @@ use parapet_core::rc::map::{RcFrame, RcParams};
 use parapet_core::supervisor::modes::kill_requested;
 
 use crate::app::autopilot::TelemetrySnapshot;
+use crate::app::replanner::ReplanMailbox;
 
 /// Attitude commands queued for the inner loop (the outer loop publishes at most two per outer
 /// step; the inner loop, at higher priority, drains them every inner step).
@@ -66,6 +68,8 @@ pub struct Mailboxes<M: RawMutex> {
     pub kill: Signal<M, u64>,
     /// Outer → RC receiver: the live `RC_*` parameters after a rebuild.
     pub rc_params: Signal<M, RcParams>,
+    /// Outer ⇄ replanner task: the replanning request.
+    pub replan: ReplanMailbox<M>,
 }
 
 impl<M: RawMutex> Default for Mailboxes<M> {
@@ -87,6 +91,7 @@ impl<M: RawMutex> Mailboxes<M> {
             battery: Signal::new(),
             kill: Signal::new(),
             rc_params: Signal::new(),
+            replan: ReplanMailbox::new(),
         }
     }
 

@@ -10,6 +10,9 @@
 //! between lockstep steps, never inside one (the board's lowest-priority context), and is
 //! reported as NAMED_VALUE_INT `ins_store` (instructions of each call that used the flash); the
 //! stack margin as `stack_free` (bytes never used since boot, `board::qemu::stack_free_bytes`).
+//! The on-board replanner (issue 38) is served there too, as the board's lowest-priority
+//! replanner task would serve it: its planner in `board::ccm` (QEMU's stand-in for the F405's
+//! CCM), each plan reported as NAMED_VALUE_INT `ins_rpl` (its instructions).
 //!
 //! Stack: the 128 KiB SRAM holds `.bss` (≈ 70 KiB: the 32 KiB log ring, the application) and
 //! the stack above it. Building the cascade at boot is the deepest use (≈ 59 KiB of frames);
@@ -26,7 +29,10 @@
 mod firmware {
     use embassy_executor::Spawner;
     use parapet_core::controller::ControllerParams;
+    use parapet_core::replan::Replanner;
+    use parapet_firmware::app::autopilot::ControlSteps;
     use parapet_firmware::app::cascade::Cascade;
+    use parapet_firmware::board::ccm;
     use parapet_firmware::board::qemu::{
         paint_stack, panic_write, param_flash, stack_free_bytes, InstructionCounter, ParamFlash, Semihost,
         PARAM_FLASH_SIZE,
@@ -46,6 +52,8 @@ mod firmware {
     const INS_STORE: &str = "ins_store";
     /// NAMED_VALUE_INT of the stack never used so far, bytes (`board::qemu::stack_free_bytes`).
     const STACK_FREE: &str = "stack_free";
+    /// NAMED_VALUE_INT of the instructions of one served replanning request.
+    const INS_RPL: &str = parapet_core::wire::names::INS_REPLAN;
     type Vehicle = SetupVehicle<Cascade>;
 
     /// How long one handshake round reads the bytes already received: 1 ms of virtual time at
@@ -67,6 +75,7 @@ mod firmware {
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
+        ccm::zero();
         paint_stack();
         let Some(cp) = cortex_m::Peripherals::take() else {
             report_and_halt("core peripherals taken twice");
@@ -76,7 +85,10 @@ mod firmware {
         // The deepest stack use of the whole run (building the cascade): with as little as
         // possible in this frame (the port and the store are opened by the task).
         let app = build_app(calibration);
-        match lockstep(app, counter) {
+        let Some(planner) = ccm::PLANNER.try_take() else { report_and_halt("replanner taken twice") };
+        let Some(request) = ccm::REQUEST.try_take() else { report_and_halt("replan request taken twice") };
+        app.autopilot_mut().install_replan(request);
+        match lockstep(app, counter, planner) {
             Ok(token) => spawner.spawn(token),
             Err(_) => report_and_halt("lockstep task spawn failed"),
         }
@@ -106,7 +118,11 @@ mod firmware {
     /// before the handshake (a RAM store: empty at every QEMU start); after each batch the
     /// store's due work runs (outside the control steps) and reports `ins_store`.
     #[embassy_executor::task]
-    async fn lockstep(app: &'static mut PilApp<Vehicle>, counter: InstructionCounter) {
+    async fn lockstep(
+        app: &'static mut PilApp<Vehicle>,
+        counter: InstructionCounter,
+        planner: &'static mut Replanner,
+    ) {
         let Some(mut port) = Semihost::open() else {
             report_and_halt("semihosting console refused");
         };
@@ -134,6 +150,11 @@ mod firmware {
                 let ins = app.calibration().instructions_for(ticks);
                 app.report(&mut port, INS_STORE, ins);
             }
+            let t0 = counter.now();
+            if serve_replan(app, planner) {
+                let ins = app.calibration().instructions_for(counter.since(t0));
+                app.report(&mut port, INS_RPL, ins);
+            }
             port.wait_readable();
         }
     }
@@ -144,6 +165,12 @@ mod firmware {
     #[inline(never)]
     fn boot_load(app: &mut PilApp<Vehicle>, store: &mut ParamStore<&'static mut ParamFlash>) {
         embassy_futures::block_on(app.autopilot_mut().boot_load(store));
+    }
+
+    /// The replanner's plan, outside the task's poll (its frames, ≈ 1 KiB, only while it runs).
+    #[inline(never)]
+    fn serve_replan(app: &mut PilApp<Vehicle>, planner: &mut Replanner) -> bool {
+        app.autopilot_mut().serve_replan(planner)
     }
 
     #[inline(never)]

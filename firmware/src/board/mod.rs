@@ -8,6 +8,8 @@
 //!
 //! May import: everything of the crate (drivers, app types, link framing, PIL traits) and the
 //! HALs. Nothing imports a board except the binaries.
+#[cfg(all(target_os = "none", any(feature = "board-f405", feature = "board-h743", feature = "board-qemu")))]
+pub mod ccm;
 #[cfg(feature = "board-f405")]
 pub mod f405;
 #[cfg(feature = "board-h743")]

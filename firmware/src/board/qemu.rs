@@ -302,13 +302,17 @@ pub const PARAM_FLASH_SIZE: usize = 2 * PARAM_FLASH_PAGE;
 /// The QEMU board's parameter flash (module docs).
 pub type ParamFlash = RamFlash<PARAM_FLASH_SIZE, PARAM_FLASH_PAGE>;
 
-/// The flash in `.bss` (zeroed at reset, not an 0xFF image in `.data`: that would cost the
-/// same again in flash and did not leave the stack enough room at boot).
+/// The flash in zeroed memory (not an 0xFF image in `.data`: that would cost the same again in
+/// flash and did not leave the stack enough room at boot): the `.ccmram` section
+/// (`board::ccm`, zeroed at boot; here the SRAM past the F405's 128 KiB), since it stands for
+/// the F405's flash, not for its SRAM (in `.bss` it left the stack 1.7 KiB, and nothing with the
+/// replanner's 130 B).
+#[link_section = ".ccmram"]
 static PARAM_FLASH: ConstStaticCell<ParamFlash> = ConstStaticCell::new(ParamFlash::zeroed());
 
 /// The parameter store's RAM flash, erased (module docs); `None` after the first call.
 /// QEMU's netduinoplus2 has no core-coupled memory (a write to 0x1000_0000 is a bus fault),
-/// so it lives in SRAM.
+/// so it lives in SRAM (`board::ccm`'s stand-in).
 pub fn param_flash() -> Option<&'static mut ParamFlash> {
     let flash = PARAM_FLASH.try_take()?;
     // Erased: every byte 0xFF (what `NorFlash::erase` does, without a future to run).

@@ -41,11 +41,14 @@ use crate::link::dialect::{
 
 use crate::app::autopilot::{Failsafe, FlightMode, FlightPhase, TelemetrySnapshot};
 use crate::app::loop_timing::LoopReport;
+use crate::app::replanner::event_text;
 use crate::link::frame_parser::ParserStats;
 use crate::link::manual_control::rc_channels;
 use crate::link::outbound::{debug_vect, named_int, Outbound};
 use crate::link::services::StreamRates;
 use crate::link::standard_modes;
+use parapet_core::replan::onboard::ReplanEvent;
+use parapet_core::replan::ReplanOutcome;
 use parapet_core::wire::streams::{Stream, SLOTS, STREAMS};
 use parapet_core::wire::{codes, names};
 
@@ -106,7 +109,7 @@ impl ErrorCounters {
 }
 
 /// Messages one [`TelemetryScheduler::poll`] emits at most (callers size their queue by it).
-pub const MAX_PER_POLL: usize = 24;
+pub const MAX_PER_POLL: usize = 25;
 /// RC_CHANNELS period, µs (5 Hz).
 const RC_CHANNELS_US: u64 = 200_000;
 /// No pilot input for this long: RC_CHANNELS reports rssi 0, µs.
@@ -138,6 +141,8 @@ pub struct TelemetryScheduler {
     rates: StreamRates,
     last_failsafe: Option<Failsafe>,
     last_mode_changes: u32,
+    /// The replanner's event count at the last poll (issue 38).
+    last_replan_events: u16,
     rc: RcChannelsStream,
     /// `true` when the loop-timing stream fired in the last [`TelemetryScheduler::poll`] (the
     /// caller then starts new loop-timing windows).
@@ -284,6 +289,18 @@ pub fn mode_text(s: &TelemetrySnapshot) -> STATUSTEXT_DATA {
     STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() }
 }
 
+/// STATUSTEXT of an on-board replanner event (issue 38): INFO for a new path, WARNING for a
+/// no-path or budget result (the vehicle holds).
+pub fn replan_text(e: &ReplanEvent) -> STATUSTEXT_DATA {
+    let mut buf = [0u8; 50];
+    event_text(e, &mut buf);
+    let severity = match e.outcome {
+        ReplanOutcome::Replanned { .. } => MavSeverity::MAV_SEVERITY_INFO,
+        _ => MavSeverity::MAV_SEVERITY_WARNING,
+    };
+    STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() }
+}
+
 /// STATUSTEXT with `text` (truncated to 50 bytes).
 pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEXT_DATA {
     let mut buf = [0u8; 50];
@@ -301,13 +318,14 @@ impl TelemetryScheduler {
             rates: StreamRates::DEFAULT,
             last_failsafe: None,
             last_mode_changes: 0,
+            last_replan_events: 0,
             rc: RcChannelsStream { next_due_us: 0 },
             loops_reported: false,
         }
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 2 mode, 1 RC, 4 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 2 mode, 1 replan, 1 RC, 4 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -338,6 +356,12 @@ impl TelemetryScheduler {
             self.last_mode_changes = s.mode_changes;
             emit(Outbound::StatusText(mode_text(s)));
             emit(Outbound::CurrentMode(standard_modes::current_mode(reported_mode(s), s)));
+        }
+        if s.replan.events != self.last_replan_events {
+            self.last_replan_events = s.replan.events;
+            if let Some(e) = s.replan.last {
+                emit(Outbound::StatusText(replan_text(&e)));
+            }
         }
         let rates = inp.counters.rates;
         for (k, (spec, slot)) in STREAMS.iter().zip(SLOTS).enumerate() {

@@ -9,6 +9,9 @@
 //!   ≈ 320 bytes: 8 KB/s at 25 Hz.
 //! - **Bounded work**: a sample writes at most one record set (6 messages), the first one also
 //!   the definitions (6 formats, 3 infos, `parapet_core::params::COUNT` parameters).
+//! - **Replanner events** (issue 38): each event of the on-board replanner seen in a written
+//!   sample is a logged string (ULog `L`, INFO for a new path, WARNING for no path), worded as
+//!   its STATUSTEXT (`crate::app::replanner::event_text`).
 //! - **Errors**: a store error is counted; [`LogError::Full`] stops the log's records (the
 //!   log stays readable up to there, `truncated`).
 //!
@@ -18,15 +21,18 @@
 //! is the estimate.
 //!
 //! May import: [`crate::log::ulog`], [`crate::log::store`], [`crate::app::autopilot`]
-//! (the telemetry snapshot), `parapet_core` (parameters, thrust map, the ULog writer).
+//! (the telemetry snapshot), [`crate::app::replanner`] (the events' text), `parapet_core` (parameters, thrust map, the ULog writer).
 
 use parapet_core::controller::ControllerParams;
 use parapet_core::thrust::{map_acceleration, ThrustParams};
 use parapet_core::wire::log_topics::{write_definitions, write_records, FlightRecord};
 
 use crate::app::autopilot::TelemetrySnapshot;
+use crate::app::replanner::event_text;
 use crate::log::store::{Appender, LogStore};
 use crate::log::ulog::LogError;
+use parapet_core::replan::ReplanOutcome;
+use parapet_core::wire::ulog::write_logging;
 
 /// Default record period, µs (25 Hz).
 pub const DEFAULT_PERIOD_US: u64 = 40_000;
@@ -73,6 +79,8 @@ pub struct FlightLogger {
     mass: f32,
     board: &'static str,
     stats: LoggerStats,
+    /// The replanner's event count last logged.
+    replan_events: u16,
 }
 
 impl FlightLogger {
@@ -87,6 +95,7 @@ impl FlightLogger {
             mass: params.airframe.mass,
             board,
             stats: LoggerStats::default(),
+            replan_events: 0,
         }
     }
 
@@ -146,6 +155,8 @@ impl FlightLogger {
             if self.count(r) {
                 self.stats.records = self.stats.records.saturating_add(1);
             }
+            let r = self.replan_event(s, store);
+            self.count(r);
         }
         self.next_us = s.t_us.saturating_add(self.period_us);
         if !armed {
@@ -163,6 +174,21 @@ impl FlightLogger {
         let params = parapet_core::params::TABLE.iter().filter_map(|p| Some((p.name, param(p.name)?)));
         let infos = [("parapet_board", self.board)];
         write_definitions(&mut Appender(store), t0_us, env!("CARGO_PKG_VERSION"), infos, params)
+    }
+
+    /// The replanner's latest event as a logged string, once (module docs).
+    fn replan_event<S: LogStore>(&mut self, s: &LogSample, store: &mut S) -> Result<(), LogError> {
+        let r = s.snapshot.replan;
+        if r.events == self.replan_events {
+            return Ok(());
+        }
+        self.replan_events = r.events;
+        let Some(e) = r.last else { return Ok(()) };
+        let mut buf = [0u8; 50];
+        let n = event_text(&e, &mut buf);
+        let text = core::str::from_utf8(buf.get(..n).unwrap_or(&[])).unwrap_or("Replan");
+        let level = if matches!(e.outcome, ReplanOutcome::Replanned { .. }) { b'6' } else { b'4' };
+        write_logging(&mut Appender(store), level, s.t_us, text)
     }
 
     fn records<S: LogStore>(&self, s: &LogSample, store: &mut S) -> Result<(), LogError> {

@@ -45,6 +45,12 @@
 //! - **battery** (the link's executor above): [`BATTERY_PERIOD_MS`] ADC reads of VBAT, current and
 //!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → the stages' `battery` mailbox (the outer
 //!   stage's low/critical battery failsafes).
+//! - **replanner** (thread-mode executor, with the log and storage tasks; issue 38): the on-board
+//!   replanner (`app::replanner`), its planner (≈ 21 KiB) in the CPU-only RAM (`board::ccm`).
+//!   The outer task hands it a request (state, remaining mission, obstacle points) at
+//!   `RPL_RATE` by reference; the plan runs with interrupts enabled, preempted by every
+//!   other task (it shares thread mode: a card write delays it, it delays the log writer), and
+//!   the outer task flies the new path from its next step.
 //!
 //! The setup services (calibration, motor test, storage requests, IMU correction) are split over
 //! the inner and outer tasks (`parapet_firmware::vehicle::tasks`). At boot the stored parameters
@@ -78,12 +84,15 @@ use embassy_time::{Duration, Instant, Ticker, Timer};
 use parapet_core::battery::{BatteryEstimator, BatteryParams};
 use parapet_core::controller::ControllerParams;
 use parapet_core::rc::map::{CrsfReceiver, RcFrame, RcParams, SbusReceiver};
+use parapet_core::replan::Replanner;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::Vec3;
 use parapet_firmware::app::autopilot::{ImuSample, MotorCommand, TelemetrySnapshot};
 use parapet_firmware::app::cascade::{InnerStage, OuterStage};
 use parapet_firmware::app::loop_timing::{LoopReport, LoopTimer};
 use parapet_firmware::app::mailbox::Mailboxes;
+use parapet_firmware::app::replanner;
+use parapet_firmware::board::ccm;
 // The board of the binary (`crate::Board`), reached only through its `FlightBoard` trait.
 use parapet_firmware::board::stm32::{
     imu_spi_config, BatteryInput, FlightBoard, ImuParts, MotorOutput, COMPANION_RX_RING,
@@ -199,6 +208,7 @@ fn halt(reason: &str) -> ! {
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
+    parapet_firmware::board::ccm::zero();
     let Some(mut cp) = cortex_m::Peripherals::take() else { halt("core peripherals") };
     cp.DCB.enable_trace();
     cp.DWT.enable_cycle_counter();
@@ -272,7 +282,22 @@ fn main() -> ! {
             Ok(t) => spawner.spawn(t),
             Err(_) => halt("spawn storage"),
         }
+        // In the CPU-only RAM (≈ 21 KiB, never on a stack); requests bring the RPL_* parameters.
+        let Some(planner) = ccm::PLANNER.try_take() else { halt("replanner taken twice") };
+        let Some(request) = ccm::REQUEST.try_take() else { halt("replan request taken twice") };
+        b.stages.replan.install(request);
+        match replanner_task(planner, b) {
+            Ok(t) => spawner.spawn(t),
+            Err(_) => halt("spawn replanner"),
+        }
     })
+}
+
+/// The on-board replanner (issue 38, `parapet_firmware::app::replanner`): waits for the outer
+/// stage's request, plans (milliseconds, preempted by every other task), hands the path back.
+#[embassy_executor::task]
+async fn replanner_task(planner: &'static mut Replanner, b: &'static Boxes) {
+    replanner::run(planner, &b.stages.replan).await
 }
 
 /// Attitude + rate loop at the IMU rate.

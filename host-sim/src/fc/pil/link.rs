@@ -105,6 +105,8 @@ pub struct PilLink {
     target: Option<FirmwareTarget>,
     /// The firmware reported the path's last item reached (MISSION_ITEM_REACHED).
     target_done: bool,
+    /// `RPL_ENABLE` of the flight's parameters (the firmware's on-board replanner, issue 38).
+    replan_enabled: bool,
 }
 
 /// The set-point the firmware last reported (POSITION_TARGET_LOCAL_NED), with the firmware
@@ -211,6 +213,7 @@ impl PilLink {
             trajectory: params.guidance.mission == parapet_core::outer::guidance::MissionGuidance::Trajectory,
             target: None,
             target_done: false,
+            replan_enabled: params.replan.enable,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -765,6 +768,10 @@ impl FlightStack for PilLink {
     fn finished(&self) -> bool {
         let after = |t: u64| self.last_t_us.saturating_sub(t) >= GCS_AFTER_DISARM_US;
         self.opts.gcs_control && !self.telemetry.armed && self.gcs.disarmed_us.is_some_and(after)
+    }
+
+    fn replan_summary(&self) -> crate::report::ReplanSummary {
+        super::telemetry::replan_summary(self.replan_enabled, &self.fig.replan_texts)
     }
 
     fn state_name(&self) -> String {

@@ -118,6 +118,45 @@ pub struct PilFigures {
     pub mode_changes: Vec<TimedText>,
     /// The scene's battery over the link.
     pub battery: BatteryFigures,
+    /// The firmware's on-board replanner (issue 38): its "Replan: …" STATUSTEXTs with the
+    /// simulated time of the step they came with (the first 256).
+    pub replan_texts: Vec<TimedText>,
+    /// Instructions of each plan the firmware served (NAMED_VALUE_INT `ins_rpl`; the first 256).
+    pub replan_instructions: Vec<u64>,
+}
+
+/// How the firmware's replanner STATUSTEXTs begin (`parapet_firmware::app::replanner::event_text`).
+const REPLAN_PREFIX: &str = "Replan: ";
+
+/// The firmware's replanning record from its STATUSTEXTs (`summary.json`'s `replans`, … of a PIL
+/// run; `replan_checks` is not reported by the firmware: 0).
+pub(super) fn replan_summary(enabled: bool, texts: &[TimedText]) -> crate::report::ReplanSummary {
+    let events: Vec<crate::report::ReplanEvent> = texts.iter().filter_map(replan_event).collect();
+    let count = |o: &str| events.iter().filter(|e| e.outcome == o).count() as u32;
+    crate::report::ReplanSummary {
+        replan_enabled: enabled,
+        replan_checks: 0,
+        replans: count("replanned"),
+        replan_no_path: count("no_path"),
+        replan_budget: count("budget"),
+        replan_events: events,
+    }
+}
+
+/// One "Replan: new path, N wp (D detour)" / "Replan: no path, holding" / "Replan: budget,
+/// holding" text as an event.
+fn replan_event(t: &TimedText) -> Option<crate::report::ReplanEvent> {
+    let rest = t.text.strip_prefix(REPLAN_PREFIX)?;
+    let number = |s: &str| s.trim().parse::<usize>().ok();
+    let (outcome, waypoints, detour) = if let Some(r) = rest.strip_prefix("new path, ") {
+        let (wp, d) = r.split_once(" wp (")?;
+        ("replanned", number(wp)?, number(d.strip_suffix(" detour)")?)?)
+    } else if rest.starts_with("no path") {
+        ("no_path", 0, 0)
+    } else {
+        ("budget", 0, 0)
+    };
+    Some(crate::report::ReplanEvent { t_s: t.t_s, outcome, waypoints, detour })
 }
 
 /// A STATUSTEXT and the simulated time of the lockstep step it came with.
@@ -281,6 +320,9 @@ pub(super) fn observe(m: &MavMessage, t_us: u64, t: &mut FirmwareTelemetry, fig:
                 names::INS_CAL_N => {
                     fig.instructions_per_control_step.calibration_instructions = n.value.into()
                 }
+                names::INS_REPLAN if fig.replan_instructions.len() < 256 => {
+                    fig.replan_instructions.push(u64::try_from(n.value).unwrap_or(0))
+                }
                 _ => {}
             }
         }
@@ -310,6 +352,9 @@ pub(super) fn observe(m: &MavMessage, t_us: u64, t: &mut FirmwareTelemetry, fig:
                 if fig.mode_changes.len() < 64 {
                     fig.mode_changes.push(TimedText { t_s, text: text.clone() });
                 }
+            }
+            if text.starts_with(REPLAN_PREFIX) && fig.replan_texts.len() < 256 {
+                fig.replan_texts.push(TimedText { t_s, text: text.clone() });
             }
             if fig.status_texts.len() < 64 {
                 fig.status_texts.push(format!("{:?}: {text}", s.severity));
