@@ -17,6 +17,8 @@
 //! * the cascade of `FlightController` flying a mission with 16 obstacles:
 //!   `update_obstacles` (16 points), `step_outer`, `step_inner`, over 256 steps;
 //! * the firmware's parameter store (`storage.rs`): load, first save, one-parameter saves.
+//! * one on-board replan (`replan.rs`, issue 38): a typical detour and the worst case (every
+//!   target unreachable: four full searches).
 //!
 //! Results go to the host console by semihosting; the program then exits QEMU.
 //! Run: `cd tests/cortex-m4 && cargo run --release` (README.md).
@@ -28,6 +30,7 @@ use core::fmt::Write;
 use core::hint::black_box;
 
 mod check;
+mod replan;
 mod storage;
 
 use cortex_m::peripheral::syst::SystClkSource;
@@ -851,6 +854,7 @@ fn main() -> ! {
     bench_memory(&c, false);
     bench_memory(&c, true);
     storage::bench_storage(&c);
+    replan::bench_replan(&c);
     bench_nav(&c);
     print("done\n");
     exit(true)
