@@ -79,14 +79,14 @@ const FLASH_TARGET: u64 = 128 * 1024;
 /// metadata JSON in flash (`firmware/metadata/parameters.json`, 34,499 B for 97 parameters;
 /// not xz-compressed, `docs/ground-station.md` § Component metadata by MAVLink FTP), the
 /// read-only FTP server and COMPONENT_METADATA (static RAM 37,680 B). Raised to 280 KiB (286,720 B) the same day
-/// (issue 38): FWREPLAN_F405 with the on-board replanner (its grid A*, the replanner task, its
+/// (issue 38): 282,996 B (+8,708 B) with the on-board replanner (its grid A*, the replanner task, its
 /// STATUSTEXT and log string).
 const FLASH_BUDGET: u64 = 280 * 1024;
 /// Static RAM limit CI enforces (.data + .bss), bytes: a regression guard above today's
 /// 36,968 B (2026-12-06: the mission trajectory, `Trajectory<64>`, 3.3 KB, joined the outer
 /// stage; mission items kept field for field). The product budget (DEVELOPERS.md) is 96 KiB of the F405's 128 KiB SRAM; issue 22's
-/// 32 KiB guard held until then. Raised to 64 KiB (2026-12-06, issue 38): 63,152 B counted
-/// (every NOBITS section): 37,856 B of SRAM (.data 80 + .bss and .uninit 37,776) and 25,296 B of the
+/// 32 KiB guard held until then. Raised to 64 KiB (2026-12-06, issue 38): 63,176 B counted
+/// (every NOBITS section): 37,880 B of SRAM (.data 80 + .bss and .uninit 37,800) and 25,296 B of the
 /// F405's 64 KiB CCM (`.ccmram`: the on-board replanner's planner and request,
 /// `firmware/src/board/ccm.rs`), which the 96 KiB SRAM budget does not include.
 const RAM_BUDGET: u64 = 64 * 1024;
