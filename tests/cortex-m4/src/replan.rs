@@ -64,7 +64,8 @@ fn two_doors() -> ReplanRequest {
 
 /// The path's last waypoints inside a closed ring of radius 1 m around (4, 0): 32 points.
 fn enclosed() -> ReplanRequest {
-    let path = [Vec3::new(3.8, 0.0, Z), Vec3::new(4.0, 0.0, Z), Vec3::new(4.2, 0.0, Z), Vec3::new(4.2, 0.2, Z)];
+    let path =
+        [Vec3::new(3.8, 0.0, Z), Vec3::new(4.0, 0.0, Z), Vec3::new(4.2, 0.0, Z), Vec3::new(4.2, 0.2, Z)];
     let ring = (0..32u16).map(|k| {
         let a = f32::from(k) * core::f32::consts::TAU / 32.0;
         point(4.0 + libm::cosf(a), libm::sinf(a), k)
@@ -73,7 +74,8 @@ fn enclosed() -> ReplanRequest {
 }
 
 pub(crate) fn bench_replan(c: &Counter) {
-    for (name, make) in [("typical (two doors)", two_doors as fn() -> ReplanRequest), ("worst (enclosed goal)", enclosed)]
+    for (name, make) in
+        [("typical (two doors)", two_doors as fn() -> ReplanRequest), ("worst (enclosed goal)", enclosed)]
     {
         let mut req = make();
         let mut planner = Replanner::new(req.params, req.hull);
