@@ -8,8 +8,8 @@
 //! | IMU data ready | EXTI3 | PC3 (rising edge) | – |
 //! | motors M1..M4, DShot600 | TIM8 CH1..CH4 (AF3) | PC6, PC7, PC8, PC9 | TIM8_UP burst, DMA2 stream 1 |
 //! | companion link, MAVLink 921 600 Bd | USART3 | TX PC10, RX PC11 | TX DMA1 stream 3, RX DMA1 stream 1 (ring buffer) |
-//! | RC receiver CRSF (ExpressLRS / Crossfire), 420 000 Bd 8N1 — [`RC_RECEIVER`] `Crsf` (default) | USART1 | RX PA10 (pad R1; receiver TX → R1; TX PA9 unused) | RX DMA2 stream 2 (ring buffer) |
-//! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART2 | RX PA3 (the board's SBUS pad: hardware inverter in front of R2) | RX DMA1 stream 5 (ring buffer) |
+//! | RC receiver CRSF (ExpressLRS / Crossfire), 420 000 Bd 8N1 — `RC_RECEIVER` (of `impl FlightBoard for MatekF405`) `Crsf` (default) | USART1 | RX PA10 (pad R1; receiver TX → R1; TX PA9 unused) | RX DMA2 stream 2 (ring buffer) |
+//! | RC receiver SBUS, 100 000 Bd 8E2, inverted — `RC_RECEIVER` (of `impl FlightBoard for MatekF405`) `Sbus` | USART2 | RX PA3 (the board's SBUS pad: hardware inverter in front of R2) | RX DMA1 stream 5 (ring buffer) |
 //! | battery voltage (VBAT divider 10 kΩ / 1 kΩ, `BAT_V_DIV` 11) | ADC1 IN15 | PC5 | – (blocking reads, [`BatteryAdc`]) |
 //! | battery current (pad CURR, external sensor, `BAT_A_PER_V`) | ADC1 IN14 | PC4 | – |
 //! | log card, microSD (raw blocks: `log::card`) | SPI3, mode 0, 400 kHz (init) / 21 MHz | SCK PB3, MISO PB4, MOSI PB5, CS PC1 (Betaflight `MATEKF405` `SDCARD_SPI_CS_PIN`) | – (blocking, in the link task) |
@@ -25,28 +25,26 @@
 //! mounting (Betaflight `GYRO_1_ALIGN CW180_DEG`); check both on the bench before flight.
 
 use embassy_stm32::adc::{Adc, AdcChannel, AnyAdcChannel, SampleTime, VrefInt};
-use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::flash::{self, Flash};
-use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
+use embassy_stm32::exti::ExtiInput;
+use embassy_stm32::flash::Flash;
+use embassy_stm32::gpio::{Output, Pull};
 use embassy_stm32::peripherals;
 use embassy_stm32::spi::{self, Spi};
 use embassy_stm32::time::Hertz;
-use embassy_stm32::timer::low_level::CountingMode;
-use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+use embassy_stm32::timer::simple_pwm::SimplePwm;
 use embassy_stm32::timer::Channel;
-use embassy_stm32::usart::{self, Uart, UartRx};
-use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
+use embassy_stm32::{Config, Peri};
 
 #[cfg(feature = "onboard-log")]
 use super::stm32::LogCardDevice;
 use super::stm32::{
-    imu_spi_config, rc_uart_config, BatteryInput, BoardError, FlightBoard, ImuParts, MotorOutput,
-    Peripherals, COMPANION_BAUD, COMPANION_RX_RING, IMU_SPI_SLOW_HZ,
+    chip_select, companion_link, dshot_timer, imu_bus, motor_pin, rc_receiver, rc_uart_config, stm32_irqs,
+    BatteryInput, BoardError, ChipParts, FlightBoard, ImuParts, MotorOutput, Peripherals, Rings,
 };
 use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::AxisMap;
-use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+use crate::drivers::rc_uart::RcProtocol;
 #[cfg(feature = "onboard-log")]
 use crate::log::card::{BlockDevice, BLOCK};
 #[cfg(feature = "onboard-log")]
@@ -56,44 +54,12 @@ use parapet_core::battery::AdcReading;
 /// IMU mounting: Betaflight `CW180_DEG` on a chip whose default frame is x forward, y left, z up.
 pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, 1, -1] };
 
-bind_interrupts!(
-    /// Interrupt bindings of the board's drivers.
-    pub struct Irqs {
-    USART3 => usart::InterruptHandler<peripherals::USART3>;
-    USART1 => usart::InterruptHandler<peripherals::USART1>;
-    USART2 => usart::InterruptHandler<peripherals::USART2>;
-    DMA2_STREAM2 => dma::InterruptHandler<peripherals::DMA2_CH2>;
-    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
-    EXTI3 => exti::InterruptHandler<interrupt::typelevel::EXTI3>;
-    DMA2_STREAM0 => dma::InterruptHandler<peripherals::DMA2_CH0>;
-    DMA2_STREAM1 => dma::InterruptHandler<peripherals::DMA2_CH1>;
-    DMA2_STREAM3 => dma::InterruptHandler<peripherals::DMA2_CH3>;
-    DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
-    DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
-    FLASH => flash::InterruptHandler;
-});
-
-/// Clock tree of the board (see the module docs).
-pub fn clock_config() -> Config {
-    use embassy_stm32::rcc::{
-        AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource, Sysclk,
-    };
-    let mut config = Config::default();
-    config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
-    config.rcc.pll_src = PllSource::HSE;
-    config.rcc.pll = Some(Pll {
-        prediv: PllPreDiv::DIV4,
-        mul: PllMul::MUL168,
-        divp: Some(PllPDiv::DIV2),
-        divq: Some(PllQDiv::DIV7),
-        divr: None,
-    });
-    config.rcc.ahb_pre = AHBPrescaler::DIV1;
-    config.rcc.apb1_pre = APBPrescaler::DIV4;
-    config.rcc.apb2_pre = APBPrescaler::DIV2;
-    config.rcc.sys = Sysclk::PLL1_P;
-    config
-}
+stm32_irqs!(
+    uarts: [USART3, USART1, USART2],
+    dma: [DMA2_STREAM2 => DMA2_CH2, DMA1_STREAM5 => DMA1_CH5, DMA2_STREAM0 => DMA2_CH0, DMA2_STREAM1 => DMA2_CH1,
+        DMA2_STREAM3 => DMA2_CH3, DMA1_STREAM1 => DMA1_CH1, DMA1_STREAM3 => DMA1_CH3],
+    exti: EXTI3
+);
 
 /// Four DShot600 outputs on TIM8 CH1..CH4, updated together by one DMA burst per frame.
 pub struct DshotMotors {
@@ -107,7 +73,7 @@ impl MotorOutput for DshotMotors {
     /// Sends one frame per motor (≈ 30 µs). Disarmed → DShot 0 (motor stop).
     async fn write(&mut self, cmd: &MotorCommand) {
         let cmd = cmd.sanitized();
-        let frames = cmd.throttle.map(|t| dshot::frame(dshot::throttle_to_value(t, cmd.armed), false));
+        let frames = dshot::frames(cmd.throttle, cmd.armed);
         dshot::fill_burst(frames, self.period, &mut self.buf);
         self.pwm
             .waveform_up_multi_channel(self.dma.reborrow(), Irqs, Channel::Ch1, Channel::Ch4, &self.buf)
@@ -194,12 +160,6 @@ impl BlockDevice for LogCard {
     }
 }
 
-/// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
-/// choice, like the pin map: only the chosen decoder and UART are linked (flash), and both
-/// arms are type-checked in every build. Change it here and rebuild for an SBUS receiver.
-/// (Inversion: in hardware, the SBUS pad's inverter; the F405's USART has no RXINV.)
-pub const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
-
 /// The MATEKF405 board (the pin table above): the [`FlightBoard`] of `parapet-firmware`.
 pub struct MatekF405;
 
@@ -209,61 +169,57 @@ impl FlightBoard for MatekF405 {
     const SYSCLK_HZ: u32 = 168_000_000;
     /// SPI clock for sensor reads (datasheet: ≤ 20 MHz; APB2 84 MHz / 8).
     const IMU_SPI_FAST_HZ: u32 = 10_500_000;
+    /// The RC receiver of this build: one protocol on its UART (see the pin table). A build-time
+    /// choice, like the pin map: only the chosen decoder and UART are linked (flash), and both
+    /// arms are type-checked in every build. Change it here and rebuild for an SBUS receiver.
+    /// (Inversion: in hardware, the SBUS pad's inverter; the F405's USART has no RXINV.)
+    const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
     /// The parameter store's range in the internal flash (offsets from 0x0800_0000): sectors 10-11.
     const PARAM_RANGE: core::ops::Range<u32> = crate::storage::F405_RANGE;
-    const RC_RECEIVER: RcProtocol = RC_RECEIVER;
     type Motors = DshotMotors;
     type Battery = BatteryAdc;
     #[cfg(feature = "onboard-log")]
     type LogCard = LogCard;
 
-    fn init(
-        rx_ring: &'static mut [u8; COMPANION_RX_RING],
-        rc_ring: &'static mut [u8; RC_RX_RING],
-    ) -> Result<Peripherals<Self>, BoardError> {
-        let p = embassy_stm32::init(clock_config());
+    /// Clock tree of the board (see the module docs).
+    fn clock_config() -> Config {
+        use embassy_stm32::rcc::{
+            AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource,
+            Sysclk,
+        };
+        let mut config = Config::default();
+        config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
+        config.rcc.pll_src = PllSource::HSE;
+        config.rcc.pll = Some(Pll {
+            prediv: PllPreDiv::DIV4,
+            mul: PllMul::MUL168,
+            divp: Some(PllPDiv::DIV2),
+            divq: Some(PllQDiv::DIV7),
+            divr: None,
+        });
+        config.rcc.ahb_pre = AHBPrescaler::DIV1;
+        config.rcc.apb1_pre = APBPrescaler::DIV4;
+        config.rcc.apb2_pre = APBPrescaler::DIV2;
+        config.rcc.sys = Sysclk::PLL1_P;
+        config
+    }
 
-        let bus = Spi::new(
-            p.SPI1,
-            p.PA5,
-            p.PA7,
-            p.PA6,
-            p.DMA2_CH3,
-            p.DMA2_CH0,
-            Irqs,
-            imu_spi_config(IMU_SPI_SLOW_HZ),
-        );
-        let cs = Output::new(p.PC2, Level::High, Speed::VeryHigh);
-        let imu = ImuParts { bus, cs, axes: IMU_AXES };
-        let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
-
-        let pwm = SimplePwm::new(
-            p.TIM8,
-            Some(PwmPin::new(p.PC6, OutputType::PushPull)),
-            Some(PwmPin::new(p.PC7, OutputType::PushPull)),
-            Some(PwmPin::new(p.PC8, OutputType::PushPull)),
-            Some(PwmPin::new(p.PC9, OutputType::PushPull)),
-            Hertz(dshot::BITRATE_HZ),
-            CountingMode::EdgeAlignedUp,
-        );
-        let period = u16::try_from(pwm.max_duty_cycle()).unwrap_or(u16::MAX);
+    fn bring_up(p: embassy_stm32::Peripherals, rings: Rings) -> Result<Peripherals<Self>, BoardError> {
+        let (pwm, period) =
+            dshot_timer(p.TIM8, motor_pin(p.PC6), motor_pin(p.PC7), motor_pin(p.PC8), motor_pin(p.PC9));
         let motors = DshotMotors { pwm, dma: p.DMA2_CH1, period, buf: [0; dshot::BURST_LEN] };
 
-        let mut uart_cfg = usart::Config::default();
-        uart_cfg.baudrate = COMPANION_BAUD;
-        let uart = Uart::new(p.USART3, p.PC11, p.PC10, p.DMA1_CH3, p.DMA1_CH1, Irqs, uart_cfg)
-            .map_err(|_| BoardError::Uart)?;
-        let (link_tx, rx) = uart.split();
-        let link_rx = rx.into_ring_buffered(rx_ring);
+        let bus = imu_bus(p.SPI1, p.PA5, p.PA7, p.PA6, p.DMA2_CH3, p.DMA2_CH0, Irqs);
+        let imu = ImuParts { bus, cs: chip_select(p.PC2), axes: IMU_AXES };
+        let imu_ready = ExtiInput::new(p.PC3, p.EXTI3, Pull::None, Irqs);
+        let link = companion_link(p.USART3, p.PC11, p.PC10, p.DMA1_CH3, p.DMA1_CH1, Irqs, rings.link)?;
+        let cfg = rc_uart_config(Self::RC_RECEIVER);
+        let rc_rx = match Self::RC_RECEIVER {
+            RcProtocol::Crsf => rc_receiver(p.USART1, p.PA10, p.DMA2_CH2, Irqs, cfg, rings.rc),
+            RcProtocol::Sbus => rc_receiver(p.USART2, p.PA3, p.DMA1_CH5, Irqs, cfg, rings.rc),
+        }?;
+        let chip = ChipParts { imu, imu_ready, link, rc_rx, flash: Flash::new(p.FLASH, Irqs) };
 
-        let cfg = rc_uart_config(RC_RECEIVER);
-        let rc_uart = match RC_RECEIVER {
-            RcProtocol::Crsf => UartRx::new(p.USART1, p.PA10, p.DMA2_CH2, Irqs, cfg),
-            RcProtocol::Sbus => UartRx::new(p.USART2, p.PA3, p.DMA1_CH5, Irqs, cfg),
-        };
-        let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
-
-        let flash = Flash::new(p.FLASH, Irqs);
         let adc = Adc::new(p.ADC1);
         let vrefint = adc.enable_vrefint();
         let battery = BatteryAdc { adc, vbat: p.PC5.degrade_adc(), current: p.PC4.degrade_adc(), vrefint };
@@ -273,25 +229,19 @@ impl FlightBoard for MatekF405 {
             // The SD card: 80 clocks with CS high before its first command (SD spec, SPI mode).
             let mut sd_bus = Spi::new_blocking(p.SPI3, p.PB3, p.PB5, p.PB4, sd_spi_config(SD_SPI_SLOW_HZ));
             let _ = sd_bus.blocking_write(&[0xFFu8; 10]);
-            let sd_cs = Output::new(p.PC1, Level::High, Speed::VeryHigh);
-            match embedded_hal_bus::spi::ExclusiveDevice::new(sd_bus, sd_cs, embassy_time::Delay) {
+            match embedded_hal_bus::spi::ExclusiveDevice::new(sd_bus, chip_select(p.PC1), embassy_time::Delay)
+            {
                 Ok(d) => LogCard(embedded_sdmmc::SdCard::new(d, embassy_time::Delay)),
                 Err(e) => match e {},
             }
         };
 
-        Ok(Peripherals {
-            imu,
-            imu_ready,
-            motors,
-            link_tx,
-            link_rx,
-            rc_rx,
-            flash,
-            battery,
+        Ok(Peripherals::new(
+            chip,
+            (motors, battery),
             #[cfg(feature = "onboard-log")]
             log_card,
-        })
+        ))
     }
 
     /// Panic / fault path: stops the motor outputs at register level, whatever the drivers were

@@ -12,8 +12,8 @@
 //! | motors M1, M2, DShot600 | TIM3 CH3, CH4 | PB0, PB1 | TIM3_UP burst, DMA1 stream 2 |
 //! | motors M3, M4, DShot600 | TIM5 CH1, CH2 | PA0, PA1 | TIM5_UP burst, DMA1 stream 3 |
 //! | companion link, MAVLink 921 600 Bd | USART1 | TX PA9, RX PA10 (pads TX1/RX1) | TX DMA1 stream 4, RX DMA1 stream 5 (ring buffer) |
-//! | RC receiver CRSF, 420 000 Bd 8N1 — [`RC_RECEIVER`] `Crsf` (default) | USART2 | RX PD6 (pad R2; receiver TX → R2) | RX DMA1 stream 6 (ring buffer) |
-//! | RC receiver SBUS, 100 000 Bd 8E2, inverted — [`RC_RECEIVER`] `Sbus` | USART6 | RX PC7 (pad R6); inverted by the H7's USART (RXINV), no inverter on the board | RX DMA1 stream 7 (ring buffer) |
+//! | RC receiver CRSF, 420 000 Bd 8N1 — `RC_RECEIVER` (of `impl FlightBoard for MatekH743`) `Crsf` (default) | USART2 | RX PD6 (pad R2; receiver TX → R2) | RX DMA1 stream 6 (ring buffer) |
+//! | RC receiver SBUS, 100 000 Bd 8E2, inverted — `RC_RECEIVER` (of `impl FlightBoard for MatekH743`) `Sbus` | USART6 | RX PC7 (pad R6); inverted by the H7's USART (RXINV), no inverter on the board | RX DMA1 stream 7 (ring buffer) |
 //! | battery voltage (VBAT divider, `BAT_V_DIV` 11: Betaflight `vbat_scale` 110) | ADC1 INP10, 12-bit | PC0 | – (blocking reads, [`BatteryAdc`]) |
 //! | battery current (pad CURR, `BAT_A_PER_V`; Betaflight `ibata_scale` 250 = 40 A/V) | ADC1 INP11 | PC1 | – |
 //! | parameter store | FLASH bank 2, sectors 6-7 (0x081C_0000..0x0820_0000, `FlightBoard::PARAM_RANGE`; kept out of `FLASH` by `memory-h743.x`) | – | – (FLASH interrupt) |
@@ -34,28 +34,25 @@
 //! (≈ 30 µs each, run concurrently).
 
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, AnyAdcChannel, Resolution, SampleTime};
-use embassy_stm32::exti::{self, ExtiInput};
-use embassy_stm32::flash::{self, Flash};
-use embassy_stm32::gpio::{Level, Output, OutputType, Pull, Speed};
+use embassy_stm32::exti::ExtiInput;
+use embassy_stm32::flash::Flash;
+use embassy_stm32::gpio::Pull;
 use embassy_stm32::peripherals;
-use embassy_stm32::spi::Spi;
 use embassy_stm32::time::Hertz;
-use embassy_stm32::timer::low_level::CountingMode;
-use embassy_stm32::timer::simple_pwm::{PwmPin, SimplePwm};
+use embassy_stm32::timer::simple_pwm::SimplePwm;
 use embassy_stm32::timer::Channel;
-use embassy_stm32::usart::{self, Uart, UartRx};
-use embassy_stm32::{bind_interrupts, dma, interrupt, Config, Peri};
+use embassy_stm32::{Config, Peri};
 
 #[cfg(feature = "onboard-log")]
 use super::stm32::LogCardDevice;
 use super::stm32::{
-    imu_spi_config, rc_uart_config, BatteryInput, BoardError, FlightBoard, ImuParts, MotorOutput,
-    Peripherals, COMPANION_BAUD, COMPANION_RX_RING, IMU_SPI_SLOW_HZ,
+    chip_select, companion_link, dshot_timer, imu_bus, motor_pin, rc_receiver, rc_uart_config, stm32_irqs,
+    BatteryInput, BoardError, ChipParts, FlightBoard, ImuParts, MotorOutput, Peripherals, Rings,
 };
 use crate::app::autopilot::MotorCommand;
 use crate::drivers::dshot;
 use crate::drivers::mpu6000::AxisMap;
-use crate::drivers::rc_uart::{RcProtocol, RC_RX_RING};
+use crate::drivers::rc_uart::RcProtocol;
 #[cfg(feature = "onboard-log")]
 use crate::log::card::{BlockDevice, BLOCK};
 #[cfg(feature = "onboard-log")]
@@ -69,23 +66,12 @@ pub const IMU_AXES: AxisMap = AxisMap { axis: [0, 1, 2], sign: [-1, -1, 1] };
 /// Compare slots of a two-channel DShot burst.
 const PAIR_BURST_LEN: usize = dshot::SLOTS * 2;
 
-bind_interrupts!(
-    /// Interrupt bindings of the board's drivers.
-    pub struct Irqs {
-    USART1 => usart::InterruptHandler<peripherals::USART1>;
-    USART2 => usart::InterruptHandler<peripherals::USART2>;
-    USART6 => usart::InterruptHandler<peripherals::USART6>;
-    EXTI2 => exti::InterruptHandler<interrupt::typelevel::EXTI2>;
-    DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
-    DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
-    DMA1_STREAM2 => dma::InterruptHandler<peripherals::DMA1_CH2>;
-    DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
-    DMA1_STREAM4 => dma::InterruptHandler<peripherals::DMA1_CH4>;
-    DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
-    DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
-    DMA1_STREAM7 => dma::InterruptHandler<peripherals::DMA1_CH7>;
-    FLASH => flash::InterruptHandler;
-});
+stm32_irqs!(
+    uarts: [USART1, USART2, USART6],
+    dma: [DMA1_STREAM0 => DMA1_CH0, DMA1_STREAM1 => DMA1_CH1, DMA1_STREAM2 => DMA1_CH2, DMA1_STREAM3 => DMA1_CH3,
+        DMA1_STREAM4 => DMA1_CH4, DMA1_STREAM5 => DMA1_CH5, DMA1_STREAM6 => DMA1_CH6, DMA1_STREAM7 => DMA1_CH7],
+    exti: EXTI2
+);
 
 /// The battery inputs (see the pin table), 12-bit conversions; the analog supply is taken as the
 /// nominal 3.3 V (the H7's VREFINT calibration is a 16-bit value: not used here).
@@ -103,33 +89,6 @@ impl BatteryInput for BatteryAdc {
         let current = self.adc.blocking_read(&mut self.current, SampleTime::CYCLES810_5);
         AdcReading { vbat, current: Some(current), vrefint: None }
     }
-}
-
-/// Clock tree of the board (see the module docs).
-pub fn clock_config() -> Config {
-    use embassy_stm32::rcc::{
-        AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllDiv, PllMul, PllPreDiv, PllSource, Sysclk,
-        VoltageScale,
-    };
-    let mut config = Config::default();
-    config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
-    config.rcc.pll1 = Some(Pll {
-        source: PllSource::HSE,
-        prediv: PllPreDiv::DIV2,
-        mul: PllMul::MUL200,
-        fracn: None,
-        divp: Some(PllDiv::DIV2),
-        divq: Some(PllDiv::DIV8),
-        divr: None,
-    });
-    config.rcc.sys = Sysclk::PLL1_P;
-    config.rcc.ahb_pre = AHBPrescaler::DIV2;
-    config.rcc.apb1_pre = APBPrescaler::DIV2;
-    config.rcc.apb2_pre = APBPrescaler::DIV2;
-    config.rcc.apb3_pre = APBPrescaler::DIV2;
-    config.rcc.apb4_pre = APBPrescaler::DIV2;
-    config.rcc.voltage_scale = VoltageScale::Scale1;
-    config
 }
 
 /// Four DShot600 outputs: M1, M2 on TIM3 CH3/CH4, M3, M4 on TIM5 CH1/CH2; each pair updated by
@@ -161,7 +120,7 @@ impl MotorOutput for DshotMotors {
     /// Sends one frame per motor (≈ 30 µs). Disarmed → DShot 0 (motor stop).
     async fn write(&mut self, cmd: &MotorCommand) {
         let cmd = cmd.sanitized();
-        let frames = cmd.throttle.map(|t| dshot::frame(dshot::throttle_to_value(t, cmd.armed), false));
+        let frames = dshot::frames(cmd.throttle, cmd.armed);
         pair_burst(frames, 0, self.period12, &mut self.buf12);
         pair_burst(frames, 2, self.period34, &mut self.buf34);
         let a = self.pwm12.waveform_up_multi_channel(
@@ -207,9 +166,6 @@ impl BlockDevice for LogCard {
     }
 }
 
-/// The RC receiver's protocol on this board (as on the F405: one receiver).
-pub const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
-
 /// The MATEKH743 board (the pin table above): the [`FlightBoard`] of `parapet-firmware-h743`.
 pub struct MatekH743;
 
@@ -220,55 +176,46 @@ impl FlightBoard for MatekH743 {
     /// SPI clock asked for sensor reads (datasheet: ≤ 20 MHz); the driver takes the highest
     /// power-of-two division of the 100 MHz kernel clock at or below it: 6.25 MHz.
     const IMU_SPI_FAST_HZ: u32 = 10_000_000;
+    /// The RC receiver's protocol on this board (as on the F405: one receiver).
+    const RC_RECEIVER: RcProtocol = RcProtocol::Crsf;
     /// The parameter store's range (offsets from 0x0800_0000): the last two 128 KiB sectors of
     /// bank 2.
     const PARAM_RANGE: core::ops::Range<u32> = 0x001C_0000..0x0020_0000;
-    const RC_RECEIVER: RcProtocol = RC_RECEIVER;
     type Motors = DshotMotors;
     type Battery = BatteryAdc;
     #[cfg(feature = "onboard-log")]
     type LogCard = LogCard;
 
-    fn init(
-        rx_ring: &'static mut [u8; COMPANION_RX_RING],
-        rc_ring: &'static mut [u8; RC_RX_RING],
-    ) -> Result<Peripherals<Self>, BoardError> {
-        let p = embassy_stm32::init(clock_config());
+    /// Clock tree of the board (see the module docs).
+    fn clock_config() -> Config {
+        use embassy_stm32::rcc::{
+            AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllDiv, PllMul, PllPreDiv, PllSource, Sysclk,
+            VoltageScale,
+        };
+        let mut config = Config::default();
+        config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
+        config.rcc.pll1 = Some(Pll {
+            source: PllSource::HSE,
+            prediv: PllPreDiv::DIV2,
+            mul: PllMul::MUL200,
+            fracn: None,
+            divp: Some(PllDiv::DIV2),
+            divq: Some(PllDiv::DIV8),
+            divr: None,
+        });
+        config.rcc.sys = Sysclk::PLL1_P;
+        config.rcc.ahb_pre = AHBPrescaler::DIV2;
+        config.rcc.apb1_pre = APBPrescaler::DIV2;
+        config.rcc.apb2_pre = APBPrescaler::DIV2;
+        config.rcc.apb3_pre = APBPrescaler::DIV2;
+        config.rcc.apb4_pre = APBPrescaler::DIV2;
+        config.rcc.voltage_scale = VoltageScale::Scale1;
+        config
+    }
 
-        let bus = Spi::new(
-            p.SPI1,
-            p.PA5,
-            p.PD7,
-            p.PA6,
-            p.DMA1_CH0,
-            p.DMA1_CH1,
-            Irqs,
-            imu_spi_config(IMU_SPI_SLOW_HZ),
-        );
-        let cs = Output::new(p.PC15, Level::High, Speed::VeryHigh);
-        let imu = ImuParts { bus, cs, axes: IMU_AXES };
-        let imu_ready = ExtiInput::new(p.PB2, p.EXTI2, Pull::None, Irqs);
-
-        let pwm12 = SimplePwm::new(
-            p.TIM3,
-            None,
-            None,
-            Some(PwmPin::new(p.PB0, OutputType::PushPull)),
-            Some(PwmPin::new(p.PB1, OutputType::PushPull)),
-            Hertz(dshot::BITRATE_HZ),
-            CountingMode::EdgeAlignedUp,
-        );
-        let pwm34 = SimplePwm::new(
-            p.TIM5,
-            Some(PwmPin::new(p.PA0, OutputType::PushPull)),
-            Some(PwmPin::new(p.PA1, OutputType::PushPull)),
-            None,
-            None,
-            Hertz(dshot::BITRATE_HZ),
-            CountingMode::EdgeAlignedUp,
-        );
-        let period12 = u16::try_from(pwm12.max_duty_cycle()).unwrap_or(u16::MAX);
-        let period34 = u16::try_from(pwm34.max_duty_cycle()).unwrap_or(u16::MAX);
+    fn bring_up(p: embassy_stm32::Peripherals, rings: Rings) -> Result<Peripherals<Self>, BoardError> {
+        let (pwm12, period12) = dshot_timer(p.TIM3, None, None, motor_pin(p.PB0), motor_pin(p.PB1));
+        let (pwm34, period34) = dshot_timer(p.TIM5, motor_pin(p.PA0), motor_pin(p.PA1), None, None);
         let motors = DshotMotors {
             pwm12,
             pwm34,
@@ -280,41 +227,31 @@ impl FlightBoard for MatekH743 {
             buf34: [0; PAIR_BURST_LEN],
         };
 
-        let mut uart_cfg = usart::Config::default();
-        uart_cfg.baudrate = COMPANION_BAUD;
-        let uart = Uart::new(p.USART1, p.PA10, p.PA9, p.DMA1_CH4, p.DMA1_CH5, Irqs, uart_cfg)
-            .map_err(|_| BoardError::Uart)?;
-        let (link_tx, rx) = uart.split();
-        let link_rx = rx.into_ring_buffered(rx_ring);
-
-        let mut cfg = rc_uart_config(RC_RECEIVER);
+        let bus = imu_bus(p.SPI1, p.PA5, p.PD7, p.PA6, p.DMA1_CH0, p.DMA1_CH1, Irqs);
+        let imu = ImuParts { bus, cs: chip_select(p.PC15), axes: IMU_AXES };
+        let imu_ready = ExtiInput::new(p.PB2, p.EXTI2, Pull::None, Irqs);
+        let link = companion_link(p.USART1, p.PA10, p.PA9, p.DMA1_CH4, p.DMA1_CH5, Irqs, rings.link)?;
+        let mut cfg = rc_uart_config(Self::RC_RECEIVER);
         // No inverter on the board: an inverted line (SBUS) is inverted by the H7's USART.
-        cfg.invert_rx = RC_RECEIVER.line().inverted;
-        let rc_uart = match RC_RECEIVER {
-            RcProtocol::Crsf => UartRx::new(p.USART2, p.PD6, p.DMA1_CH6, Irqs, cfg),
-            RcProtocol::Sbus => UartRx::new(p.USART6, p.PC7, p.DMA1_CH7, Irqs, cfg),
-        };
-        let rc_rx = rc_uart.map_err(|_| BoardError::Uart)?.into_ring_buffered(rc_ring);
+        cfg.invert_rx = Self::RC_RECEIVER.line().inverted;
+        let rc_rx = match Self::RC_RECEIVER {
+            RcProtocol::Crsf => rc_receiver(p.USART2, p.PD6, p.DMA1_CH6, Irqs, cfg, rings.rc),
+            RcProtocol::Sbus => rc_receiver(p.USART6, p.PC7, p.DMA1_CH7, Irqs, cfg, rings.rc),
+        }?;
+        let chip = ChipParts { imu, imu_ready, link, rc_rx, flash: Flash::new(p.FLASH, Irqs) };
 
-        let flash = Flash::new(p.FLASH, Irqs);
         let adc = Adc::new_with_config(
             p.ADC1,
             AdcConfig { resolution: Some(Resolution::BITS12), ..Default::default() },
         );
         let battery = BatteryAdc { adc, vbat: p.PC0.degrade_adc(), current: p.PC1.degrade_adc() };
 
-        Ok(Peripherals {
-            imu,
-            imu_ready,
-            motors,
-            link_tx,
-            link_rx,
-            rc_rx,
-            flash,
-            battery,
+        Ok(Peripherals::new(
+            chip,
+            (motors, battery),
             #[cfg(feature = "onboard-log")]
-            log_card: LogCard,
-        })
+            LogCard,
+        ))
     }
 
     /// Panic / fault path: stops the motor outputs at register level (DMA requests off, compare

@@ -33,6 +33,12 @@ pub fn throttle_to_value(throttle: f32, armed: bool) -> u16 {
     THROTTLE_MIN + libm::roundf(t * span) as u16
 }
 
+/// The four motors' frames (no telemetry request) for normalised throttles, [`throttle_to_value`]
+/// each.
+pub fn frames(throttle: [f32; CHANNELS], armed: bool) -> [u16; CHANNELS] {
+    throttle.map(|t| frame(throttle_to_value(t, armed), false))
+}
+
 /// The 16-bit frame for `value` (0..2047) with the telemetry bit `telemetry`.
 pub fn frame(value: u16, telemetry: bool) -> u16 {
     let v = ((value & 0x07FF) << 1) | u16::from(telemetry);
@@ -81,6 +87,14 @@ mod tests {
         assert_eq!(frame(0, false), 0);
         // Telemetry bit sits just above the CRC.
         assert_eq!(frame(0, true) & 0x10, 0x10);
+    }
+
+    #[test]
+    fn frames_per_motor_and_disarmed_stop() {
+        // Value 1046 (throttle ≈ 0.4995) → 0x82C6, as above; disarmed → all motor-stop frames.
+        let t = (1046.0 - 48.0) / 1999.0;
+        assert_eq!(frames([t, 0.0, 1.0, f32::NAN], true), [0x82C6, frame(48, false), frame(2047, false), 0]);
+        assert_eq!(frames([t, 0.0, 1.0, 0.5], false), [0; CHANNELS]);
     }
 
     #[test]
