@@ -32,16 +32,9 @@ struct Recorder {
 }
 
 impl FlightStack for Recorder {
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()> {
-        self.last_fix = Some(fix);
-        self.c.start(t, start, fix, obstacles, imu)
+    fn start(&mut self, s: &parapet_sim::flight::stack::StackStart<'_>) -> Result<()> {
+        self.last_fix = Some(s.fix);
+        self.c.start(s)
     }
     fn position_fix(&mut self, fix: PositionReading) {
         self.last_fix = Some(fix);

@@ -98,14 +98,8 @@ impl Controller {
 
 impl FlightStack for Controller {
     /// Start-up at simulated time `t` (see the module docs).
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()> {
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
+        let crate::flight::stack::StackStart { t, start, fix, obstacles, imu } = *s;
         let now = clock_us(t);
         self.inner(t, imu);
         self.position_fix(fix);

@@ -62,7 +62,7 @@ use parapet_core::waypoint::WaypointParams;
 
 use crate::flight::sensing::to_estimate_frame;
 pub use crate::flight::sensing::{bound_report, sense_and_h_bar, sense_obstacles, true_h_bar, OuterScratch};
-use crate::flight::stack::{clock_us, FlightStack};
+use crate::flight::stack::{clock_us, FlightStack, StackStart};
 use crate::input::f32_as_f64;
 use crate::input::limits;
 use crate::perception::Perception;
@@ -480,7 +480,7 @@ pub fn run_with(
         p.step_plant(scene, 0.0, &plant.state, plant.state.euler(), clock_us, &mut seen0);
     }
     let imu0 = sensors.imu(&plant);
-    ctrl.start(0.0, scene.start, fix, &seen0, &imu0)?;
+    ctrl.start(&StackStart { t: 0.0, start: scene.start, fix, obstacles: &seen0, imu: &imu0 })?;
 
     // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
     let mut tracker = world_tracker;

@@ -75,21 +75,30 @@ impl OuterOut {
     }
 }
 
+/// What a flight stack is started with ([`FlightStack::start`]): written once, so a stack, a
+/// wrapper around one and the runner pass it whole.
+#[derive(Debug, Clone, Copy)]
+pub struct StackStart<'a> {
+    /// Simulated time of the start, s.
+    pub t: f64,
+    /// Where the vehicle hovers (NED, m): the position held until the mission starts.
+    pub start: Vector3<f64>,
+    /// The first position fix.
+    pub fix: PositionReading,
+    /// The obstacles sensed at the start.
+    pub obstacles: &'a [ObstaclePoint],
+    /// The first IMU reading.
+    pub imu: &'a ImuReading,
+}
+
 /// What the runner needs from a flight controller, in simulated time `t` (s).
 /// Implemented by `crate::fc::control::Controller` (in-process `FlightController`),
 /// `crate::fc::pil::PilLink` (the firmware in QEMU) and `crate::fc::pil::FirmwareTwin`. Call order per 1 ms step:
 /// every 4th step `position_fix` (when a fix is due) then `outer`; every step `inner`.
 pub trait FlightStack {
-    /// Start-up at `t` with the vehicle hovering at `start` (NED): initialise,
-    /// arm, hold `start`, start the mission.
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()>;
+    /// Start-up at `s.t` with the vehicle hovering at `s.start` (NED): initialise,
+    /// arm, hold `s.start`, start the mission.
+    fn start(&mut self, s: &StackStart<'_>) -> Result<()>;
     /// A position/velocity/yaw fix measured at `fix.t_measured`.
     fn position_fix(&mut self, fix: PositionReading);
     /// A barometer reading at `t` (NED down, m; filtered position sources, issue 39).

@@ -119,15 +119,8 @@ impl PilotSink for PilotedController {
 }
 
 impl FlightStack for PilotedController {
-    fn start(
-        &mut self,
-        t: f64,
-        start: nalgebra::Vector3<f64>,
-        fix: crate::sim::sensors::PositionReading,
-        obstacles: &[parapet_core::obstacle::ObstaclePoint],
-        imu: &crate::sim::sensors::ImuReading,
-    ) -> Result<()> {
-        self.ctrl.start(t, start, fix, obstacles, imu)
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
+        self.ctrl.start(s)
     }
 
     fn position_fix(&mut self, fix: crate::sim::sensors::PositionReading) {

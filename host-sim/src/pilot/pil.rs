@@ -176,15 +176,8 @@ impl PilotSink for PilotedPil {
 }
 
 impl FlightStack for PilotedPil {
-    fn start(
-        &mut self,
-        t: f64,
-        start: nalgebra::Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()> {
-        self.link.start(t, start, fix, obstacles, imu)
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
+        self.link.start(s)
     }
 
     fn position_fix(&mut self, fix: PositionReading) {

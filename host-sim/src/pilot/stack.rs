@@ -171,19 +171,12 @@ impl<'a, S: FlightStack + PilotSink> Piloted<'a, S> {
 }
 
 impl<S: FlightStack + PilotSink> FlightStack for Piloted<'_, S> {
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()> {
-        self.fix = Some(fix);
-        self.stack.start(t, start, fix, obstacles, imu)?;
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
+        self.fix = Some(s.fix);
+        self.stack.start(s)?;
         // The first frame / setpoint before the mode change (a mode needs its input fresh).
-        self.deliver(t);
-        self.stack.enter(clock_us(t), self.mode)
+        self.deliver(s.t);
+        self.stack.enter(clock_us(s.t), self.mode)
     }
 
     fn position_fix(&mut self, fix: PositionReading) {

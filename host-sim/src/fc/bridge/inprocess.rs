@@ -302,16 +302,9 @@ pub fn decode_all(bytes: &[u8]) -> Vec<(MavHeader, MavMessage)> {
 }
 
 impl<S: FlightStack> FlightStack for GcsStack<S> {
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> anyhow::Result<()> {
-        self.fix = Some(fix);
-        self.inner.start(t, start, fix, obstacles, imu)
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> anyhow::Result<()> {
+        self.fix = Some(s.fix);
+        self.inner.start(s)
     }
 
     fn position_fix(&mut self, fix: PositionReading) {
@@ -355,14 +348,7 @@ mod tests {
 
     struct Hover;
     impl FlightStack for Hover {
-        fn start(
-            &mut self,
-            _: f64,
-            _: Vector3<f64>,
-            _: PositionReading,
-            _: &[ObstaclePoint],
-            _: &ImuReading,
-        ) -> anyhow::Result<()> {
+        fn start(&mut self, _: &crate::flight::stack::StackStart<'_>) -> anyhow::Result<()> {
             Ok(())
         }
         fn position_fix(&mut self, _: PositionReading) {}
@@ -389,15 +375,8 @@ mod tests {
     /// [`Hover`] that reports one replan and one no-path result of its replanner.
     struct Replanning;
     impl FlightStack for Replanning {
-        fn start(
-            &mut self,
-            t: f64,
-            s: Vector3<f64>,
-            f: PositionReading,
-            o: &[ObstaclePoint],
-            i: &ImuReading,
-        ) -> anyhow::Result<()> {
-            Hover.start(t, s, f, o, i)
+        fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> anyhow::Result<()> {
+            Hover.start(s)
         }
         fn position_fix(&mut self, _: PositionReading) {}
         fn outer(&mut self, t: f64, o: &[ObstaclePoint]) -> OuterOut {

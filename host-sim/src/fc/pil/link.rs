@@ -646,15 +646,8 @@ impl Drop for PilLink {
 }
 
 impl FlightStack for PilLink {
-    fn start(
-        &mut self,
-        t: f64,
-        start: Vector3<f64>,
-        fix: PositionReading,
-        obstacles: &[ObstaclePoint],
-        imu: &ImuReading,
-    ) -> Result<()> {
-        let r = self.startup(clock_us(t), start, &fix, obstacles, imu);
+    fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
+        let r = self.startup(clock_us(s.t), s.start, &s.fix, s.obstacles, s.imu);
         r.map_err(|e| self.with_qemu_log(e))
     }
 
