@@ -14,24 +14,7 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-const GOOD: &str = r#"
-name = "cli"
-[bounds]
-min = [-1, -2, 0.3]
-max = [7, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [6, 0, 1]
-speed = 0.5
-[[obstacles]]
-kind = "sphere"
-center = [3, 1.2, 1]
-radius = 0.3
-[[obstacles]]
-kind = "box"
-min = [4, -2, 0]
-max = [4.5, -1, 2]
-"#;
+const GOOD: &str = include_str!("data/scenes/cli_good.toml");
 
 fn write_scene(dir: &Path, text: &str) -> String {
     let p = dir.join("scene.toml");

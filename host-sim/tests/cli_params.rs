@@ -16,16 +16,7 @@ fn stderr(o: &Output) -> String {
 }
 
 /// Open ground north of the start (ENU: the vehicle faces +y): 40 m to fly at full stick.
-const OPEN: &str = r#"
-name = "open"
-[bounds]
-min = [-5, -3, 0.3]
-max = [5, 45, 3]
-[mission]
-start = [0, 0, 1.2]
-goal = [0, 3, 1.2]
-speed = 0.5
-"#;
+const OPEN: &str = include_str!("data/scenes/cli_params_open.toml");
 
 const FORWARD: &str = "name = \"forward\"\nduration = 9.0\n[[stick]]\nt = 0.0\npitch = 1.0\n";
 

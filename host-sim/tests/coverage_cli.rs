@@ -11,16 +11,7 @@ use std::process::Output;
 mod common;
 use common::parapet;
 
-const SCENE: &str = r#"
-name = "coverage_cli"
-[bounds]
-min = [-1, -2, 0.3]
-max = [4, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [3, 0, 1]
-speed = 1.0
-"#;
+const SCENE: &str = include_str!("data/scenes/coverage_cli.toml");
 
 /// `parapet run --straight --duration 0.5` of `scene` (text) with `extra`; the output and the
 /// report directory.

@@ -10,21 +10,7 @@ fn tmp(name: &str) -> PathBuf {
     common::tmp("perception_cli", name)
 }
 
-const SCENE: &str = r#"
-name = "perception_cli"
-[bounds]
-min = [-1, -2, 0.3]
-max = [5, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [4, 0, 1]
-speed = 0.5
-[[obstacles]]
-kind = "cylinder"
-base = [2, 1.0, 0]
-radius = 0.2
-height = 2.5
-"#;
+const SCENE: &str = include_str!("data/scenes/perception_cli.toml");
 
 #[test]
 fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {

@@ -18,33 +18,7 @@ fn stderr(o: &Output) -> String {
 
 /// Start (0, 0, 1), goal (6, 0, 1), an open line between them; a named sphere and
 /// a box off the line, a walker that starts at x = 5.
-const SCENE: &str = r#"
-name = "pre"
-[bounds]
-min = [-1, -2, 0.1]
-max = [7, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [6, 0, 1]
-speed = 0.5
-[sensors]
-noise = false
-[[obstacles]]
-name = "ball"
-kind = "sphere"
-center = [3, 1.2, 1]
-radius = 0.3
-[[obstacles]]
-kind = "box"
-min = [4, -2, 0]
-max = [4.5, -1, 2]
-[[obstacles]]
-name = "walker"
-kind = "sphere"
-center = [5, 1.6, 1]
-radius = 0.3
-velocity = [0, 0.2, 0]
-"#;
+const SCENE: &str = include_str!("data/scenes/preflight_cli.toml");
 
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let p = dir.join(name);

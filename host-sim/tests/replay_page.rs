@@ -20,39 +20,7 @@ use std::time::{Duration, Instant};
 mod common;
 use common::parapet;
 
-const SCENE: &str = r#"
-name = "replay_short"
-[bounds]
-min = [-1, -2, 0]
-max = [5, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [4, 0, 1]
-speed = 0.8
-[sensors]
-noise = false
-[[obstacles]]
-kind = "sphere"
-center = [2, 0.1, 1]
-radius = 0.25
-[[obstacles]]
-kind = "box"
-name = "crate"
-min = [3, -2, 0]
-max = [3.4, -1, 2]
-[[obstacles]]
-kind = "cylinder"
-base = [1, 1.2, 0]
-radius = 0.15
-height = 2
-velocity = [0, -0.05, 0]
-[[obstacles]]
-kind = "sphere"
-name = "ball"
-center = [3, 1.5, 2]
-radius = 0.1
-waypoints = [[0.5, 3, 1.5, 2], [2, 2.5, 1.0, 1.8], [3.5, 2.5, 1.5, 2.2]]
-"#;
+const SCENE: &str = include_str!("data/scenes/replay_page.toml");
 
 /// Obstacles of [`SCENE`].
 const OBSTACLES: usize = 4;

@@ -11,30 +11,7 @@ use parapet_sim::plan::{path_is_valid, plan, PlanProblem, PlannerParams, DEFAULT
 use parapet_sim::world::generate::{GenParams, Kind};
 use parapet_sim::world::scene::Scene;
 
-const HALL: &str = r#"
-name = "hall"
-[bounds]
-min = [0.0, 0.0, 0.3]
-max = [12.0, 10.0, 2.5]
-[mission]
-start = [1.0, 3.5, 1.2]
-goal = [11.0, 3.5, 1.2]
-speed = 0.5
-[[obstacles]]
-kind = "box"
-min = [5.95, 0.0, 0.0]
-max = [6.05, 3.0, 2.8]
-[[obstacles]]
-kind = "box"
-min = [5.95, 4.0, 0.0]
-max = [6.05, 10.0, 2.8]
-[[obstacles]]
-name = "crate"
-kind = "box"
-min = [5.7, 3.0, 0.0]
-max = [6.3, 4.0, 2.6]
-MAPPED
-"#;
+const HALL: &str = include_str!("data/scenes/unmapped_hall.toml");
 
 fn scene(mapped: &str) -> Result<Scene, String> {
     Scene::parse(&HALL.replace("MAPPED", mapped), "hall.toml").map_err(|e| e.to_string())

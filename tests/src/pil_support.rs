@@ -14,30 +14,7 @@ use parapet_sim::world::scene::Scene;
 /// (r 0.224 m) hits it. The vehicle is not the default one (heavier, larger, stronger rotors)
 /// and the filter has a velocity margin, so the PIL flight checks that the firmware receives
 /// the scene's airframe and settings over PARAM_SET (`parapet_sim::fc::pil::firmware_params`).
-pub const SCENE: &str = r#"
-name = "pil_short"
-[bounds]
-min = [-1.0, -1.5, 0.3]
-max = [3.5, 1.5, 2.0]
-[mission]
-start = [0.0, 0.0, 1.0]
-goal = [2.4, 0.0, 1.0]
-speed = 0.4
-[sensors]
-noise = false
-[vehicle]
-mass = 0.62
-inertia = [0.0024, 0.0025, 0.0041]
-arm_length = 0.15
-k_f = 2.6e-6
-k_m = 4.3e-8
-[controller]
-velocity_margin = 0.02
-[[obstacles]]
-kind = "sphere"
-center = [1.2, 0.05, 1.0]
-radius = 0.2
-"#;
+pub const SCENE: &str = include_str!("../data/scenes/pil_short.toml");
 
 pub fn scene() -> Scene {
     Scene::parse(SCENE, "pil_short (parapet_tests::pil_support)").expect("scene parses")

@@ -17,17 +17,7 @@ use parapet_sim::pilot::{piloted_config, run_piloted, AssistParams, PilotMode, P
 use parapet_sim::sim::range::preset;
 use parapet_sim::world::scene::Scene;
 
-const OPEN_LEG: &str = r#"
-name = "open_leg"
-description = "A 40 m straight leg in the open"
-[bounds]
-min = [-2.0, -3.0, 0.3]
-max = [44.0, 3.0, 2.5]
-[mission]
-start = [0.0, 0.0, 1.0]
-goal = [40.0, 0.0, 1.0]
-speed = 8.0
-"#;
+const OPEN_LEG: &str = include_str!("../data/scenes/open_leg.toml");
 
 fn open_leg(governor: bool) -> RunOutput {
     let s = Scene::parse(OPEN_LEG, "open_leg").unwrap_or_else(|e| panic!("{e}"));

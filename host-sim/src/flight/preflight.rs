@@ -236,31 +236,7 @@ mod tests {
 
     /// Start (0, 0, 1), goal (6, 0, 1); a static sphere at x = 3 beside the line,
     /// a box wall at x = 4.5, and a sphere walking from far away at t = 0.
-    const SCENE: &str = r#"
-name = "pf"
-[bounds]
-min = [-1, -2, 0.1]
-max = [7, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [6, 0, 1]
-speed = 0.5
-[[obstacles]]
-name = "ball"
-kind = "sphere"
-center = [3, 1.2, 1]
-radius = 0.3
-[[obstacles]]
-kind = "box"
-min = [4, -2, 0]
-max = [4.5, -1, 2]
-[[obstacles]]
-name = "walker"
-kind = "sphere"
-center = [5, 1.5, 1]
-radius = 0.3
-velocity = [-0.5, 0, 0]
-"#;
+    const SCENE: &str = include_str!("../../tests/data/scenes/preflight_unit.toml");
 
     fn scene(text: &str) -> Scene {
         Scene::parse(text, "pf.toml").unwrap_or_else(|e| panic!("{e}"))

@@ -427,16 +427,7 @@ pub fn defaults_help() -> String {
 mod tests {
     use super::*;
 
-    const SCENE: &str = r#"
-name = "t"
-[bounds]
-min = [-1, -2, 0]
-max = [7, 2, 3]
-[mission]
-start = [0, 0, 1]
-goal = [6, 0, 1]
-speed = 0.5
-"#;
+    const SCENE: &str = include_str!("../../tests/data/scenes/validate_unit.toml");
 
     fn setup(extra: &str) -> (Scene, RunConfig) {
         let s = Scene::parse(&format!("{SCENE}{extra}"), "t.toml").unwrap_or_else(|e| panic!("{e}"));

@@ -316,35 +316,7 @@ mod tests {
     use parapet_core::frame::{enu_to_ned, ned_to_enu};
     use parapet_core::Vec3;
 
-    const OK: &str = r#"
-name = "t"
-[bounds]
-min = [-1, -1, 0]
-max = [10, 5, 3]
-[mission]
-start = [0, 0, 1]
-goal = [8, 0, 1]
-speed = 0.3
-[controller]
-mu = 1.4
-filter = "paper"
-speed = 0.4
-[[obstacles]]
-kind = "sphere"
-center = [4, 0, 1]
-radius = 0.3
-[[obstacles]]
-kind = "cylinder"
-base = [6, 2, 0]
-radius = 0.25
-height = 1.8
-velocity = [0, -0.5, 0]
-[[obstacles]]
-kind = "box"
-min = [1, 1, 0]
-max = [2, 2, 2]
-waypoints = [[0, 1.5, 1.5, 1], [2, 1.5, 3.5, 1]]
-"#;
+    const OK: &str = include_str!("../../tests/data/scenes/scene_ok.toml");
 
     #[test]
     fn f64_conversions_match_core() {

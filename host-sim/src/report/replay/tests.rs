@@ -6,31 +6,7 @@ use super::*;
 use crate::report::{RunParams, SafetyFlags, SafetySteps, Summary};
 use crate::world::scene::Scene;
 
-const SCENE: &str = r#"
-name = "replay </script> test"
-[bounds]
-min = [-1, -2, 0]
-max = [7, 2, 2.5]
-[mission]
-start = [0, 0, 1]
-goal = [6, 0, 1]
-speed = 0.5
-[[obstacles]]
-kind = "sphere"
-center = [3, 1.2, 1]
-radius = 0.3
-[[obstacles]]
-kind = "box"
-name = "crate <b>"
-min = [4, -2, 0]
-max = [4.5, -1, 2]
-[[obstacles]]
-kind = "cylinder"
-base = [2, -1, 0]
-radius = 0.2
-height = 2.5
-velocity = [0, 0.1, 0]
-"#;
+const SCENE: &str = include_str!("../../../tests/data/scenes/replay_unit.toml");
 
 fn summary(scene: &Scene, n: usize) -> Summary {
     Summary {
