@@ -11,6 +11,7 @@ use parapet_core::controller::ControllerParams;
 use parapet_core::params::{COUNT, TABLE};
 use parapet_firmware::app::autopilot::{Autopilot, FlightMode, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::command::command_long;
 use parapet_firmware::link::dialect::{
     MavCmd, MavFrame, MavLandedState, MavMissionResult, MavMissionType, MavModeFlag, MavParamType,
     MavProtocolCapability, MavResult, COMMAND_INT_DATA, COMMAND_LONG_DATA, HEARTBEAT_DATA, HIL_SENSOR_DATA,
@@ -172,19 +173,7 @@ impl Sim {
     }
 
     fn command(&mut self, command: MavCmd, p: [f32; 7], target_component: u8) -> Vec<Outbound> {
-        let c = COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command: command as u16,
-            target_system: 1,
-            target_component,
-            ..Default::default()
-        };
+        let c = command_long(command as u16, p, (1, target_component));
         self.send(&c)
     }
 

@@ -17,6 +17,7 @@ use parapet_core::battery::{BatteryLevel, BatteryState};
 use parapet_core::controller::ControllerParams;
 use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
+use parapet_firmware::link::command::command_long;
 use parapet_firmware::link::dialect::{
     MavBatteryChargeState, MavCmd, MavFrame, MavMissionResult, MavParamType, MavResult, MavSysStatusSensor,
     MissionState, COMMAND_INT_DATA, COMMAND_LONG_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA,
@@ -140,19 +141,7 @@ impl Sim {
     }
 
     fn command(&mut self, command: MavCmd, p: [f32; 7]) -> MavResult {
-        let c = COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command: command as u16,
-            target_system: 1,
-            target_component: 1,
-            ..Default::default()
-        };
+        let c = command_long(command as u16, p, (1, 1));
         let r = self.send(&c);
         match r.iter().find_map(|m| match m {
             Outbound::CommandAck(a) if a.command == command as u16 => Some(a.result),

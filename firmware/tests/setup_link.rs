@@ -13,7 +13,8 @@ use parapet_firmware::app::autopilot::{
     Autopilot, CommandRejected, PathRejected, PositionFix, TelemetrySnapshot, VehicleCommand,
 };
 use parapet_firmware::app::cascade::Cascade;
-use parapet_firmware::link::dialect::{MavResult, COMMAND_LONG_DATA};
+use parapet_firmware::link::command::command_long;
+use parapet_firmware::link::dialect::MavResult;
 use parapet_firmware::link::framing::FrameWriter;
 use parapet_firmware::link::outbound::Outbound;
 use parapet_firmware::link::{FixClock, Link};
@@ -119,19 +120,7 @@ impl Gcs {
 
     /// COMMAND_LONG `id` with `p`: its ACK result and the STATUSTEXTs that came with it.
     fn command(&mut self, id: u16, p: [f32; 7]) -> (MavResult, Vec<String>) {
-        let m = COMMAND_LONG_DATA {
-            target_system: 1,
-            target_component: 1,
-            command: id,
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            ..Default::default()
-        };
+        let m = command_long(id, p, (1, 1));
         let mut result = None;
         let mut texts = Vec::new();
         for o in self.send(&m) {

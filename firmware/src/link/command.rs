@@ -170,17 +170,23 @@ pub fn command_long_of_int(c: &COMMAND_INT_DATA) -> COMMAND_LONG_DATA {
         MavFrame::MAV_FRAME_LOCAL_NED | MavFrame::MAV_FRAME_LOCAL_OFFSET_NED | MavFrame::MAV_FRAME_LOCAL_ENU
     );
     let xy = |v: i32| if local { parapet_core::wire::ids::local_xy_from_wire(v) } else { v as f32 };
+    let p = [c.param1, c.param2, c.param3, c.param4, xy(c.x), xy(c.y), c.z];
+    command_long(c.command, p, (c.target_system, c.target_component))
+}
+
+/// COMMAND_LONG `command` with param1..param7 = `p`, for `target` (system, component id).
+pub fn command_long(command: u16, p: [f32; 7], target: (u8, u8)) -> COMMAND_LONG_DATA {
     COMMAND_LONG_DATA {
-        param1: c.param1,
-        param2: c.param2,
-        param3: c.param3,
-        param4: c.param4,
-        param5: xy(c.x),
-        param6: xy(c.y),
-        param7: c.z,
-        command: c.command,
-        target_system: c.target_system,
-        target_component: c.target_component,
+        param1: p[0],
+        param2: p[1],
+        param3: p[2],
+        param4: p[3],
+        param5: p[4],
+        param6: p[5],
+        param7: p[6],
+        command,
+        target_system: target.0,
+        target_component: target.1,
         confirmation: 0,
     }
 }
