@@ -13,17 +13,11 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::Vec3;
 use proptest::prelude::*;
 
+#[path = "support/wild.rs"]
+mod wild;
+
 fn wild() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        8 => -20.0f32..20.0,
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(1e30f32),
-        1 => Just(-1e30f32),
-        1 => Just(0.0f32),
-        1 => any::<f32>(),
-    ]
+    wild::wild(8, -20.0..20.0)
 }
 
 fn wild3() -> impl Strategy<Value = Vec3> {

@@ -34,18 +34,11 @@ fn any_variant() -> impl Strategy<Value = FilterVariant> {
     prop::sample::select(FilterVariant::ALL.to_vec())
 }
 
-/// Any f32 with heavy weight on the nasty ones.
+#[path = "../../core/tests/support/wild.rs"]
+mod wild;
+
 fn nasty() -> impl Strategy<Value = f32> {
-    prop_oneof![
-        3 => -5.0f32..5.0,
-        1 => Just(f32::NAN),
-        1 => Just(f32::INFINITY),
-        1 => Just(f32::NEG_INFINITY),
-        1 => Just(1e30f32),
-        1 => Just(-1e30f32),
-        1 => Just(0.0f32),
-        1 => any::<f32>(),
-    ]
+    wild::wild(3, -5.0..5.0)
 }
 
 fn nasty3() -> impl Strategy<Value = Vec3> {

@@ -385,6 +385,11 @@ impl<const N: usize> WaypointFollower<N> {
     }
 }
 
+/// The property tests' `f32` strategy (shared with `core/tests`, `tests/tests`).
+#[cfg(test)]
+#[path = "../../tests/support/wild.rs"]
+mod wild;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -566,16 +571,7 @@ mod tests {
         use proptest::prelude::*;
 
         fn wild() -> impl Strategy<Value = f32> {
-            prop_oneof![
-                6 => -50.0f32..50.0,
-                1 => Just(f32::NAN),
-                1 => Just(f32::INFINITY),
-                1 => Just(f32::NEG_INFINITY),
-                1 => Just(1e30f32),
-                1 => Just(-1e30f32),
-                1 => Just(0.0f32),
-                1 => any::<f32>(),
-            ]
+            super::super::wild::wild(6, -50.0..50.0)
         }
 
         fn wild3() -> impl Strategy<Value = Vec3> {
