@@ -7,18 +7,14 @@ usage: check_onboard_ulog.py FILE RATE_HZ [MIN_RECORDS] [X Y]
   X Y          if given: vehicle_local_position.x / .y of every record (m, NED)
 Exit 0 when every check passes; prints what failed otherwise (exit 1).
 """
-import subprocess
 import sys
 
-from pyulog import ULog
+from ulog_common import load, require_fields
 
 path, rate = sys.argv[1], float(sys.argv[2])
 min_records = int(sys.argv[3]) if len(sys.argv) > 3 else 10
 xy = (float(sys.argv[4]), float(sys.argv[5])) if len(sys.argv) > 5 else None
-# ulog_info (the pyulog CLI) must read it too.
-subprocess.run([sys.executable, "-m", "pyulog.info", path], check=True, stdout=subprocess.DEVNULL)
-u = ULog(path)
-topics = {d.name: d.data for d in u.data_list}
+u, topics = load(path)
 need = {
     "vehicle_local_position": ["timestamp", "x", "y", "z", "vx", "vy", "vz", "heading"],
     "vehicle_attitude": ["timestamp", "q[0]", "q[3]"],
@@ -27,17 +23,8 @@ need = {
     "vehicle_status": ["timestamp", "arming_state", "nav_state", "parapet_mode"],
     "cbf_status": ["timestamp", "h_bar_filter", "region", "active_id", "u_nominal[0]", "u[2]"],
 }
+require_fields(topics, need)
 errors = []
-for t, fields in need.items():
-    if t not in topics:
-        errors.append(f"topic {t} missing (have {sorted(topics)})")
-        continue
-    for f in fields:
-        if f not in topics[t]:
-            errors.append(f"{t}.{f} missing")
-if errors:
-    print("\n".join(errors))
-    sys.exit(1)
 if u.msg_info_dict.get("sys_name") != "Parapet":
     errors.append(f"sys_name = {u.msg_info_dict.get('sys_name')!r}")
 if "CBF_MU" not in u.initial_parameters:

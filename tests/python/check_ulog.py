@@ -4,16 +4,12 @@ usage: check_ulog.py FILE START_NED_Z SPEED_MAX
 Exit 0 when every check passes; prints what failed otherwise (exit 1).
 """
 import math
-import subprocess
 import sys
 
-from pyulog import ULog
+from ulog_common import load, require_fields
 
 path, start_z, speed_max = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
-# ulog_info (the pyulog CLI) must read it too.
-subprocess.run([sys.executable, "-m", "pyulog.info", path], check=True, stdout=subprocess.DEVNULL)
-u = ULog(path)
-topics = {d.name: d.data for d in u.data_list}
+u, topics = load(path)
 need = {
     "vehicle_local_position": ["timestamp", "x", "y", "z", "vx", "vy", "vz", "heading"],
     "vehicle_attitude": ["timestamp", "q[0]", "q[1]", "q[2]", "q[3]"],
@@ -22,17 +18,8 @@ need = {
     "vehicle_status": ["timestamp", "arming_state", "nav_state"],
     "cbf_status": ["timestamp", "h_bar", "region", "active_id", "u_nominal[0]", "u[2]"],
 }
+require_fields(topics, need)
 errors = []
-for t, fields in need.items():
-    if t not in topics:
-        errors.append(f"topic {t} missing (have {sorted(topics)})")
-        continue
-    for f in fields:
-        if f not in topics[t]:
-            errors.append(f"{t}.{f} missing")
-if errors:
-    print("\n".join(errors))
-    sys.exit(1)
 lp = topics["vehicle_local_position"]
 n = len(lp["timestamp"])
 if n < 100:
