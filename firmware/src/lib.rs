@@ -41,3 +41,30 @@ pub mod vehicle;
 
 #[cfg(test)]
 extern crate std;
+
+/// A flight binary (`src/bin/parapet-firmware*.rs`), written once for every STM32 board: on the
+/// Cortex-M target `type Board = $board` and the tasks of `src/bin/fc/` on it; on the host a stub
+/// that builds the binary for the target with the board's cargo feature arguments and flashes it
+/// through probe-rs (`src/bin/fc/host.rs`). Invoked from a file in `src/bin/` (the module paths
+/// are relative to it).
+#[macro_export]
+macro_rules! flight_binary {
+    ($board:ty, [$($feature:literal),* $(,)?]) => {
+        /// The board of this binary.
+        #[cfg(target_os = "none")]
+        type Board = $board;
+
+        #[cfg(target_os = "none")]
+        #[path = "fc/mod.rs"]
+        mod fc;
+
+        #[cfg(not(target_os = "none"))]
+        #[path = "fc/host.rs"]
+        mod host;
+
+        #[cfg(not(target_os = "none"))]
+        fn main() {
+            host::main(env!("CARGO_BIN_NAME"), &[$($feature),*])
+        }
+    };
+}

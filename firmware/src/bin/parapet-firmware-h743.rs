@@ -1,5 +1,5 @@
 //! Parapet flight-control firmware for the MATEKH743 (STM32H743) flight controller: the tasks of
-//! `src/bin/fc/` on [`MatekH743`] (`board::h743`). Not flown yet (`docs/bring-up.md`).
+//! `src/bin/fc/` (`flight_binary!`) on [`MatekH743`] (`board::h743`). Not flown yet (`docs/bring-up.md`).
 //!
 //! Build: `cargo build --release -p parapet-firmware --target thumbv7em-none-eabihf
 //! --no-default-features --features board-h743 --bin parapet-firmware-h743`.
@@ -7,19 +7,7 @@
 #![cfg_attr(target_os = "none", no_main)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-/// The board of this binary.
-#[cfg(target_os = "none")]
-type Board = parapet_firmware::board::h743::MatekH743;
-
-#[cfg(target_os = "none")]
-#[path = "fc/mod.rs"]
-mod fc;
-
-#[cfg(not(target_os = "none"))]
-#[path = "fc/host.rs"]
-mod host;
-
-#[cfg(not(target_os = "none"))]
-fn main() {
-    host::main("parapet-firmware-h743", &["--no-default-features", "--features", "board-h743"])
-}
+parapet_firmware::flight_binary!(
+    parapet_firmware::board::h743::MatekH743,
+    ["--no-default-features", "--features", "board-h743"]
+);

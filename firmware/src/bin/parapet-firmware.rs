@@ -1,24 +1,9 @@
 //! Parapet flight-control firmware for the MATEKF405 (STM32F405) flight controller: the tasks of
-//! `src/bin/fc/` on [`MatekF405`] (`board::f405`).
+//! `src/bin/fc/` (`flight_binary!`) on [`MatekF405`] (`board::f405`).
 //!
 //! `cargo run -p parapet-firmware --release` flashes it through probe-rs; logs are defmt over RTT.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-/// The board of this binary.
-#[cfg(target_os = "none")]
-type Board = parapet_firmware::board::f405::MatekF405;
-
-#[cfg(target_os = "none")]
-#[path = "fc/mod.rs"]
-mod fc;
-
-#[cfg(not(target_os = "none"))]
-#[path = "fc/host.rs"]
-mod host;
-
-#[cfg(not(target_os = "none"))]
-fn main() {
-    host::main("parapet-firmware", &[])
-}
+parapet_firmware::flight_binary!(parapet_firmware::board::f405::MatekF405, []);

@@ -10,7 +10,7 @@
 //! A board file (`f405.rs`, `h743.rs`) holds only what differs: which pins, clocks, DMA streams,
 //! motor timers, ADC, log card; it implements [`FlightBoard::clock_config`] and
 //! [`FlightBoard::bring_up`] by calling the helpers here with its pins. A binary names its board once (`src/bin/parapet-firmware.rs`:
-//! `type Board = MatekF405`) and runs the tasks of `src/bin/fc/` on it, which reach the board
+//! `flight_binary!(…::MatekF405, [])`) and runs the tasks of `src/bin/fc/` on it, which reach the board
 //! only through this trait. May import: the HAL, [`crate::drivers`], [`crate::app`]
 //! (the motor command), [`crate::log`] (the card's block device).
 
