@@ -65,7 +65,19 @@ pub fn run_piloted(
     progress: &mut dyn FnMut(f64),
 ) -> Result<PilotRun> {
     let mut pc = PilotedController::new(scene, cfg, assist)?;
-    let mut p = Piloted::new(&mut pc, script, mode);
+    fly_in_process(scene, cfg, &mut pc, script, mode, progress)
+}
+
+/// The closed loop of the in-process runs: `pc` piloted by `script` in `mode`.
+fn fly_in_process(
+    scene: &Scene,
+    cfg: &RunConfig,
+    pc: &mut PilotedController,
+    script: &PilotScript,
+    mode: PilotMode,
+    progress: &mut dyn FnMut(f64),
+) -> Result<PilotRun> {
+    let mut p = Piloted::new(pc, script, mode);
     let out = run_with(scene, cfg, &mut p, progress)?;
     Ok(PilotRun {
         out,
@@ -110,13 +122,5 @@ pub fn run_piloted_via_switch(
 ) -> Result<PilotRun> {
     let mut pc = PilotedController::new(scene, cfg, assist)?;
     pc.via_switch = true;
-    let mut p = Piloted::new(&mut pc, script, PilotMode::Position);
-    let out = run_with(scene, cfg, &mut p, progress)?;
-    Ok(PilotRun {
-        out,
-        log: p.log,
-        kill_sent_at: p.kill_sent_at,
-        motors_off_at: p.motors_off_at,
-        status_texts: Vec::new(),
-    })
+    fly_in_process(scene, cfg, &mut pc, script, PilotMode::Position, progress)
 }
