@@ -1,7 +1,8 @@
 //! `parapet run --perception …` from the command line (issue 19): the report's
 //! `ranges.csv`, and bad option values naming the option, the value and what is allowed.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 mod common;
 use common::parapet;
@@ -12,6 +13,11 @@ fn tmp(name: &str) -> PathBuf {
 
 const SCENE: &str = include_str!("data/scenes/perception_cli.toml");
 
+/// `parapet run --scene SCENE --straight ARGS --out OUT`.
+fn run_straight(scene: &str, args: &[&str], out: &Path) -> Output {
+    parapet(&[&["run", "--scene", scene, "--straight"], args, &["--out", out.to_str().unwrap()]].concat())
+}
+
 #[test]
 fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {
     let d = tmp("run");
@@ -19,18 +25,7 @@ fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {
     std::fs::write(&scene, SCENE).unwrap();
     let sc = scene.to_str().unwrap();
     let out = d.join("report");
-    let o = parapet(&[
-        "run",
-        "--scene",
-        sc,
-        "--straight",
-        "--perception",
-        "lidar",
-        "--assume",
-        "no-overhangs,no-low-obstacles",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_straight(sc, &["--perception", "lidar", "--assume", "no-overhangs,no-low-obstacles"], &out);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("ranges.csv")).unwrap();
     let mut lines = csv.lines();
@@ -53,16 +48,7 @@ fn lidar_run_writes_ranges_csv_and_bad_values_exit_2() {
     for (value, want) in
         [("sonar", "unknown sensor set"), ("scene", "no [[sensor]] table"), ("lidar,lidar", "twice")]
     {
-        let o = parapet(&[
-            "run",
-            "--scene",
-            sc,
-            "--straight",
-            "--perception",
-            value,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let o = run_straight(sc, &["--perception", value], &out);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{value}: {err}");
         assert!(err.contains("perception") && err.contains(want) && err.contains(value), "{value}: {err}");
