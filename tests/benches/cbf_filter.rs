@@ -20,8 +20,7 @@
 
 use std::hint::black_box;
 
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SupportedConeT};
+use clarabel::solver::DefaultSettings;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use parapet_core::cbf::FilterVariant;
 use parapet_core::qp3::HalfSpace;
@@ -40,17 +39,7 @@ const N_AGREE: usize = 1000;
 
 /// The CBF-QP `min |u − u*|² s.t. nᵢᵀu ≥ cᵢ` with clarabel's default settings.
 fn qp_default(u_nom: &Vec3, cons: &[HalfSpace]) -> Vec3 {
-    let p = CscMatrix::<f64>::from(&[[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]);
-    let q: Vec<f64> = u_nom.iter().map(|x| -2.0 * f64::from(*x)).collect();
-    let rows: Vec<[f64; 3]> = cons.iter().map(|h| [-h.n.x as f64, -h.n.y as f64, -h.n.z as f64]).collect();
-    let a = CscMatrix::<f64>::from(&rows);
-    let b: Vec<f64> = cons.iter().map(|h| -f64::from(h.c)).collect();
-    let cones = [SupportedConeT::NonnegativeConeT(cons.len())];
-    let settings = DefaultSettings { verbose: false, ..DefaultSettings::default() };
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).expect("well-formed QP");
-    solver.solve();
-    let x = &solver.solution.x;
-    Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32)
+    reference_qp::solve_with(u_nom, cons, DefaultSettings { verbose: false, ..DefaultSettings::default() }).u
 }
 
 fn bench_filter(c: &mut Criterion) {

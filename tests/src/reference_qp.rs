@@ -3,7 +3,9 @@
 //! checked against (agreement tests) and timed against (benchmarks).
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::{
+    DefaultSettings, DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
 use parapet_core::qp3::HalfSpace;
 use parapet_core::Vec3;
 
@@ -18,13 +20,6 @@ pub struct Reference {
 
 /// Solve the CBF-QP with clarabel (tight tolerances).
 pub fn solve(u_nom: &Vec3, cons: &[HalfSpace]) -> Reference {
-    // ½uᵀPu + qᵀu with P = 2I, q = −2u*; constraints −nᵀu + s = −c, s ≥ 0.
-    let p = CscMatrix::<f64>::from(&[[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]);
-    let q: Vec<f64> = u_nom.iter().map(|x| -2.0 * f64::from(*x)).collect();
-    let rows: Vec<[f64; 3]> = cons.iter().map(|h| [-h.n.x as f64, -h.n.y as f64, -h.n.z as f64]).collect();
-    let a = CscMatrix::<f64>::from(&rows);
-    let b: Vec<f64> = cons.iter().map(|h| -f64::from(h.c)).collect();
-    let cones = [SupportedConeT::NonnegativeConeT(cons.len())];
     let settings = DefaultSettingsBuilder::default()
         .verbose(false)
         .tol_gap_abs(1e-10)
@@ -32,6 +27,18 @@ pub fn solve(u_nom: &Vec3, cons: &[HalfSpace]) -> Reference {
         .tol_feas(1e-10)
         .build()
         .expect("valid clarabel settings");
+    solve_with(u_nom, cons, settings)
+}
+
+/// Solve the CBF-QP with clarabel's `settings` (the benchmarks time its defaults).
+pub fn solve_with(u_nom: &Vec3, cons: &[HalfSpace], settings: DefaultSettings<f64>) -> Reference {
+    // ½uᵀPu + qᵀu with P = 2I, q = −2u*; constraints −nᵀu + s = −c, s ≥ 0.
+    let p = CscMatrix::<f64>::from(&[[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]]);
+    let q: Vec<f64> = u_nom.iter().map(|x| -2.0 * f64::from(*x)).collect();
+    let rows: Vec<[f64; 3]> = cons.iter().map(|h| [-h.n.x as f64, -h.n.y as f64, -h.n.z as f64]).collect();
+    let a = CscMatrix::<f64>::from(&rows);
+    let b: Vec<f64> = cons.iter().map(|h| -f64::from(h.c)).collect();
+    let cones = [SupportedConeT::NonnegativeConeT(cons.len())];
     let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).expect("well-formed QP");
     solver.solve();
     let x = &solver.solution.x;
