@@ -20,7 +20,7 @@
 //! Exit codes: 2 for a bad `--port`/`--out`/`--id` (named with the value and what is allowed),
 //! 1 when the vehicle does not answer or a log does not arrive complete.
 //!
-//! May import: [`super`] (errors, output), [`crate::fc::bridge`] (frame splitting),
+//! May import: [`super`] (errors, output), [`crate::fc::bridge`] (frame splitting and decoding),
 //! [`crate::input`], `mavlink`, std.
 
 use std::fs::{File, OpenOptions};
@@ -35,9 +35,10 @@ use mavlink::dialects::ardupilotmega::{
     MavMessage, HEARTBEAT_DATA, LOG_ENTRY_DATA, LOG_REQUEST_DATA_DATA, LOG_REQUEST_END_DATA,
     LOG_REQUEST_LIST_DATA,
 };
-use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkReader, MavlinkVersion};
+use mavlink::{MAVLinkV2MessageRaw, MavHeader};
 
 use super::CliError;
+use crate::fc::bridge::inprocess::decode_all as decode;
 use crate::fc::bridge::tlog::frame_len;
 use crate::input::InputError;
 
@@ -402,19 +403,6 @@ impl Conn {
         }))?;
         Ok(data)
     }
-}
-
-fn decode(bytes: &[u8]) -> Vec<(MavHeader, MavMessage)> {
-    let mut r = MavlinkReader::new(bytes);
-    let mut out = Vec::new();
-    loop {
-        match r.read_message::<MavMessage>(MavlinkVersion::V2) {
-            Ok(m) => out.push(m),
-            Err(mavlink::error::MessageReadError::Io(_)) => break,
-            Err(_) => {}
-        }
-    }
-    out
 }
 
 fn open(p: &PortArgs) -> Result<Conn, CliError> {
