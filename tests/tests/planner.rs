@@ -11,6 +11,7 @@ use parapet_core::Vec3;
 use parapet_sim::plan::pathfile::PathFile;
 use parapet_sim::plan::{path_is_valid, plan, PlanError, PlanProblem, PlannerParams};
 use parapet_sim::world::scene::Scene;
+use parapet_tests::bench_states::SplitMix64;
 
 /// Sampling step of the independent check, m.
 const CHECK_STEP_M: f32 = 0.01;
@@ -115,28 +116,14 @@ fn office_scene_needs_a_search_and_seeds_matter() {
     assert!(paths.iter().any(|p| p.waypoints != paths[0].waypoints));
 }
 
-/// SplitMix64: a tiny deterministic generator for building test scenes.
-struct SplitMix(u64);
-impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [lo, hi).
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32)
-    }
-    fn point(&mut self, lo: &Vec3, hi: &Vec3) -> Vec3 {
-        Vec3::new(self.range(lo.x, hi.x), self.range(lo.y, hi.y), self.range(lo.z, hi.z))
-    }
-}
-
 /// A random scene: 10 × 10 × 3 m (NED, z from -3 to 0), 6–20 spheres, boxes
 /// and vertical cylinders, start and goal at free positions far apart.
-fn random_problem(rng: &mut SplitMix) -> PlanProblem {
+/// A point uniform in the box `lo`..`hi`.
+fn point(rng: &mut SplitMix64, lo: &Vec3, hi: &Vec3) -> Vec3 {
+    Vec3::new(rng.uniform(lo.x, hi.x), rng.uniform(lo.y, hi.y), rng.uniform(lo.z, hi.z))
+}
+
+fn random_problem(rng: &mut SplitMix64) -> PlanProblem {
     let lo = Vec3::new(0.0, 0.0, -3.0);
     let hi = Vec3::new(10.0, 10.0, 0.0);
     let hull_radius = 0.2236;
@@ -144,23 +131,23 @@ fn random_problem(rng: &mut SplitMix) -> PlanProblem {
     let n = 6 + (rng.next_u64() % 15) as usize;
     let mut obstacles = Vec::with_capacity(n);
     for _ in 0..n {
-        let c = rng.point(&lo, &hi);
+        let c = point(rng, &lo, &hi);
         let shape = match rng.next_u64() % 3 {
-            0 => Shape::sphere(c, rng.range(0.2, 1.2)),
+            0 => Shape::sphere(c, rng.uniform(0.2, 1.2)),
             1 => {
-                let half = Vec3::new(rng.range(0.05, 1.0), rng.range(0.05, 1.0), rng.range(0.1, 1.5));
+                let half = Vec3::new(rng.uniform(0.05, 1.0), rng.uniform(0.05, 1.0), rng.uniform(0.1, 1.5));
                 Shape::aabb(c - half, c + half)
             }
             _ => {
                 let base = Vec3::new(c.x, c.y, 0.0);
-                Shape::cylinder(base, rng.range(0.1, 0.6), rng.range(0.5, 3.5))
+                Shape::cylinder(base, rng.uniform(0.1, 0.6), rng.uniform(0.5, 3.5))
             }
         };
         obstacles.push(shape);
     }
     let free = |p: &Vec3, obs: &[Shape]| obs.iter().all(|o| o.signed_distance(p) >= required + 0.01);
-    let pick = |rng: &mut SplitMix| loop {
-        let p = rng.point(&lo, &hi);
+    let pick = |rng: &mut SplitMix64| loop {
+        let p = point(rng, &lo, &hi);
         if free(&p, &obstacles) {
             return p;
         }
@@ -177,7 +164,7 @@ fn random_problem(rng: &mut SplitMix) -> PlanProblem {
 
 #[test]
 fn random_scenes_give_collision_free_paths() {
-    let mut rng = SplitMix(0x5EED_0005);
+    let mut rng = SplitMix64::new(0x5EED_0005);
     let params = PlannerParams { max_iterations: 20_000, time_budget_ms: 5_000.0, ..Default::default() };
     let (mut solved, mut searched, mut no_path) = (0, 0, 0);
     for k in 0..200 {
@@ -240,7 +227,7 @@ fn goal_enclosed_in_a_box_shell_has_no_path() {
 
 #[test]
 fn same_seed_same_path() {
-    let mut rng = SplitMix(77);
+    let mut rng = SplitMix64::new(77);
     let mut problems: Vec<PlanProblem> = (0..20).map(|_| random_problem(&mut rng)).collect();
     let (_, office) = shipped_scenes().into_iter().find(|(_, s)| s.name == "office").expect("office scene");
     problems.push(PlanProblem::from_scene(&office));
