@@ -75,18 +75,23 @@ impl Face {
     pub fn detect(body: &Vec3) -> Option<Face> {
         let tol = 0.3 * GRAVITY;
         let near = |x: f32, t: f32| (x - t).abs() < tol;
-        let (x, y, z) = (body.x, body.y, body.z);
-        [
-            (Face::Back, (GRAVITY, 0.0, 0.0)),
-            (Face::Front, (-GRAVITY, 0.0, 0.0)),
-            (Face::Left, (0.0, GRAVITY, 0.0)),
-            (Face::Right, (0.0, -GRAVITY, 0.0)),
-            (Face::Up, (0.0, 0.0, GRAVITY)),
-            (Face::Down, (0.0, 0.0, -GRAVITY)),
-        ]
-        .into_iter()
-        .find(|(_, (a, b, c))| near(x, *a) && near(y, *b) && near(z, *c))
-        .map(|(f, _)| f)
+        Face::ALL.into_iter().find(|f| {
+            let g = f.specific_force();
+            near(body.x, g.x) && near(body.y, g.y) && near(body.z, g.z)
+        })
+    }
+
+    /// The body-frame specific force at rest on this face (±g along one axis, the variants'
+    /// docs).
+    pub fn specific_force(self) -> Vec3 {
+        match self {
+            Face::Back => Vec3::new(GRAVITY, 0.0, 0.0),
+            Face::Front => Vec3::new(-GRAVITY, 0.0, 0.0),
+            Face::Left => Vec3::new(0.0, GRAVITY, 0.0),
+            Face::Right => Vec3::new(0.0, -GRAVITY, 0.0),
+            Face::Up => Vec3::new(0.0, 0.0, GRAVITY),
+            Face::Down => Vec3::new(0.0, 0.0, -GRAVITY),
+        }
     }
 }
 
@@ -432,14 +437,7 @@ mod tests {
     }
 
     fn face_truth(f: Face) -> Vec3 {
-        match f {
-            Face::Back => Vec3::new(GRAVITY, 0.0, 0.0),
-            Face::Front => Vec3::new(-GRAVITY, 0.0, 0.0),
-            Face::Left => Vec3::new(0.0, GRAVITY, 0.0),
-            Face::Right => Vec3::new(0.0, -GRAVITY, 0.0),
-            Face::Up => Vec3::new(0.0, 0.0, GRAVITY),
-            Face::Down => Vec3::new(0.0, 0.0, -GRAVITY),
-        }
+        f.specific_force()
     }
 
     /// Run a calibration: for each face, `hold_s` at rest at 200 Hz, then a 0.5 s turn.

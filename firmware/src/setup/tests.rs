@@ -1,6 +1,7 @@
 //! Host tests of the setup commands (storage, calibration, motor test) without a link.
 
 use super::*;
+use parapet_core::calibration::accel::Face;
 use parapet_core::frame::GRAVITY;
 use std::string::ToString;
 use std::vec::Vec;
@@ -82,14 +83,8 @@ fn six_position_calibration_writes_the_parameters_and_schedules_a_save() {
         s.command(0, CMD_PREFLIGHT_CALIBRATION, cmd, false, &params),
         Some(SetupAck::TemporarilyRejected)
     );
-    let faces = [
-        Vec3::new(0.0, 0.0, -GRAVITY),
-        Vec3::new(0.0, 0.0, GRAVITY),
-        Vec3::new(GRAVITY, 0.0, 0.0),
-        Vec3::new(-GRAVITY, 0.0, 0.0),
-        Vec3::new(0.0, GRAVITY, 0.0),
-        Vec3::new(0.0, -GRAVITY, 0.0),
-    ];
+    let faces =
+        [Face::Down, Face::Up, Face::Back, Face::Front, Face::Left, Face::Right].map(Face::specific_force);
     let mut t = 0u64;
     let mut all = Vec::new();
     let mut wrote = false;

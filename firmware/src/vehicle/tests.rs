@@ -5,6 +5,7 @@ use super::*;
 use crate::setup::{CMD_DO_MOTOR_TEST, CMD_PREFLIGHT_CALIBRATION, CMD_PREFLIGHT_STORAGE};
 use crate::storage::ram::RamFlash;
 use embassy_futures::block_on;
+use parapet_core::calibration::accel::Face;
 use parapet_core::frame::GRAVITY;
 use std::vec::Vec;
 
@@ -78,14 +79,8 @@ fn six_position_calibration_through_the_control_steps() {
         v.setup_command(0, CMD_PREFLIGHT_CALIBRATION, [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]),
         Some(SetupAck::Accepted)
     );
-    let faces = [
-        Vec3::new(0.0, 0.0, -GRAVITY),
-        Vec3::new(0.0, 0.0, GRAVITY),
-        Vec3::new(GRAVITY, 0.0, 0.0),
-        Vec3::new(-GRAVITY, 0.0, 0.0),
-        Vec3::new(0.0, GRAVITY, 0.0),
-        Vec3::new(0.0, -GRAVITY, 0.0),
-    ];
+    let faces =
+        [Face::Down, Face::Up, Face::Back, Face::Front, Face::Left, Face::Right].map(Face::specific_force);
     let mut t = 0;
     let mut texts = Vec::new();
     for f in faces {
