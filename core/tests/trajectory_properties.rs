@@ -48,25 +48,9 @@ fn leg_speed(d: &Vec3, p: &TrajectoryParams) -> f32 {
     v
 }
 
-/// Textbook jerk-limited rest-to-rest time over `len` with speed `v`, acceleration `a`, jerk `j`
-/// (the peak speed lowered by bisection when the two ramps do not fit).
-fn s_curve_time(len: f64, v: f64, a: f64, j: f64) -> f64 {
-    let ramp_t = |v: f64| if v >= a * a / j { v / a + a / j } else { 2.0 * (v / j).sqrt() };
-    let ramp_d = |v: f64| 0.5 * v * ramp_t(v);
-    if 2.0 * ramp_d(v) <= len {
-        return 2.0 * ramp_t(v) + (len - 2.0 * ramp_d(v)) / v;
-    }
-    let (mut lo, mut hi) = (0.0f64, v);
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if 2.0 * ramp_d(mid) <= len {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    2.0 * ramp_t(lo)
-}
+#[path = "support/s_curve.rs"]
+mod s_curve;
+use s_curve::s_curve_time;
 
 /// Stop-and-go reference: every leg flown rest to rest at its own axis speed limit, with the
 /// tangential acceleration bound `A` (the horizontal one for a horizontal path, else the

@@ -49,27 +49,9 @@ fn fly<const N: usize>(
     f
 }
 
-/// Rest-to-rest time over `len` with speed `v`, acceleration `a` and jerk `j`, computed here
-/// from the textbook S-curve (not from the generator's code): reaching `v` from rest takes
-/// `v/a + a/j` when `v ≥ a²/j` (else `2√(v/j)`) over `v/2` times that distance; if the two
-/// ramps do not fit, the peak speed is lowered by bisection until they do.
-fn s_curve_time(len: f32, v: f32, a: f32, j: f32) -> f32 {
-    let ramp_t = |v: f32| if v >= a * a / j { v / a + a / j } else { 2.0 * libm::sqrtf(v / j) };
-    let ramp_d = |v: f32| 0.5 * v * ramp_t(v);
-    if 2.0 * ramp_d(v) <= len {
-        return 2.0 * ramp_t(v) + (len - 2.0 * ramp_d(v)) / v;
-    }
-    let (mut lo, mut hi) = (0.0f32, v);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if 2.0 * ramp_d(mid) <= len {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    2.0 * ramp_t(lo)
-}
+#[path = "../../../tests/support/s_curve.rs"]
+mod s_curve;
+use s_curve::s_curve_time;
 
 #[test]
 fn straight_leg_takes_the_analytic_s_curve_time() {
@@ -79,7 +61,7 @@ fn straight_leg_takes_the_analytic_s_curve_time() {
         let f = fly(&mut t, 100_000, |_| {});
         assert!(f.done);
         let time = f.steps as f32 * DT;
-        let analytic = s_curve_time(len, 3.0, 3.0, 4.0);
+        let analytic = s_curve_time(f64::from(len), 3.0, 3.0, 4.0) as f32;
         assert!(
             time <= 1.05 * analytic + 2.0 * DT && time >= analytic - 2.0 * DT,
             "{len} m: {time} s vs {analytic} s"
