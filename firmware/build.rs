@@ -8,8 +8,10 @@
 //!    `OUT_DIR/general.json` (pointing to `metadata/parameters.json` with its CRC) and
 //!    `OUT_DIR/metadata.rs` (both files' bytes and MAVLink CRC32s, `metadata/crc32.rs`);
 //! 3. for the Cortex-M builds, makes the board's memory map visible to cortex-m-rt's `link.x`
-//!    as `memory.x` (the workspace-root `memory.x`, the F405's, for `board-f405` and
-//!    `board-qemu`; `memory-h743.x` for `board-h743`) and adds the linker scripts (`defmt.x`
+//!    as `memory.x` in `OUT_DIR` (`memory-f405.x` for `board-f405` and `board-qemu`,
+//!    `memory-h743.x` for `board-h743`; no file named `memory.x` may lie in the workspace root,
+//!    where the linker looks first: the H743 image linked the F405's map from there, `.data`
+//!    in the DTCM at 0x2000_0000 that its DMA cannot reach) and adds the linker scripts (`defmt.x`
 //!    only for the real boards, whose builds link defmt; `ccm.x`, generated, placing the
 //!    CPU-only `.ccmram` section per board).
 use std::env;
@@ -25,7 +27,7 @@ fn main() {
 
     let target = env::var("TARGET").unwrap_or_default();
     let h743 = env::var_os("CARGO_FEATURE_BOARD_H743").is_some();
-    let root_memory_x = if h743 { manifest.join("memory-h743.x") } else { manifest.join("../memory.x") };
+    let root_memory_x = if h743 { manifest.join("memory-h743.x") } else { manifest.join("memory-f405.x") };
     println!("cargo:rerun-if-changed={}", root_memory_x.display());
     if !target.starts_with("thumb") {
         return;
@@ -47,7 +49,7 @@ fn main() {
 }
 
 /// `ccm.x`: where the `.ccmram` section (the CPU-only memory, `src/board/ccm.rs`) goes — the
-/// F405's CCM (`memory.x`'s `CCMRAM`, 64 KiB at 0x1000_0000); on QEMU's netduinoplus2, which
+/// F405's CCM (`memory-f405.x`'s `CCMRAM`, 64 KiB at 0x1000_0000); on QEMU's netduinoplus2, which
 /// models no CCM but 192 KiB of SRAM, the 64 KiB past the F405's 128 KiB (0x2002_0000), so that
 /// the QEMU image's SRAM use and stack margin stay the F405's; on the H743, its `RAM`. NOLOAD:
 /// the firmware zeroes it at boot.

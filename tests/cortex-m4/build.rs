@@ -1,4 +1,4 @@
-//! Build script: the linker set-up (the workspace-root `memory.x`, STM32F405, and cortex-m-rt's
+//! Build script: the linker set-up (the F405's `firmware/memory-f405.x` as `memory.x`, and cortex-m-rt's
 //! `link.x`), and the host reference values of the on-target fmath check (`src/check.rs`).
 //!
 //! The reference: this script is compiled for the HOST with the same `parapet-core` source (a
@@ -24,7 +24,7 @@ fn main() {
     if let Err(e) = fs::write(&reference, reference_tables()) {
         panic!("cannot write {}: {e}", reference.display());
     }
-    let memory_x = dir.join("../../memory.x");
+    let memory_x = dir.join("../../firmware/memory-f405.x");
     println!("cargo:rerun-if-changed={}", memory_x.display());
     if !env::var("TARGET").unwrap_or_default().starts_with("thumb") {
         return;

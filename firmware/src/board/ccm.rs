@@ -1,7 +1,7 @@
 //! The memory the CPU alone reaches, for large buffers no DMA touches (issue 38: the on-board
 //! replanner's planner, ≈ 21 KiB, and its request buffer, ≈ 3 KiB, `crate::app::replanner`): the linker's `.ccmram` section,
 //! placed per board by the generated `ccm.x` (`firmware/build.rs`) — the F405's 64 KiB
-//! core-coupled RAM at 0x1000_0000 (`memory.x`'s `CCMRAM`); on QEMU's netduinoplus2, which
+//! core-coupled RAM at 0x1000_0000 (`memory-f405.x`'s `CCMRAM`); on QEMU's netduinoplus2, which
 //! models no CCM but 192 KiB of SRAM, the 64 KiB past the F405's 128 KiB at 0x2002_0000, so that
 //! the QEMU image's SRAM use and stack margin stay the F405's; on the H743 its `RAM`. The
 //! section is NOLOAD: [`zero`] clears it at boot, before anything in it is used, so its statics

@@ -1,6 +1,6 @@
 //! Parameter storage: the [`parapet_core::params::TABLE`] values kept across power cycles in
 //! the board's NOR flash (`embedded-storage-async` traits): the STM32F405's internal flash
-//! (sectors 10-11, see `memory.x`), the H743's bank-2 sectors 6-7, a [`ram::RamFlash`] on the
+//! (sectors 10-11, see `memory-f405.x`), the H743's bank-2 sectors 6-7, a [`ram::RamFlash`] on the
 //! QEMU board and in the host tests.
 //!
 //! Owns [`ParamStore`], [`Loaded`], [`StoreError`], [`LAYOUT_VERSION`], [`SaveSchedule`]; the
@@ -81,7 +81,7 @@ use record::{CHUNK, CRC_OFFSET, MAGIC, RECORD_LEN};
 
 /// The store's range on the STM32F405, as offsets from the flash base 0x0800_0000 (what
 /// embassy-stm32's flash driver takes): sectors 10 and 11, 2 × 128 KiB, kept out of the
-/// linker's `FLASH` region by `memory.x`.
+/// linker's `FLASH` region by `memory-f405.x`.
 pub const F405_RANGE: core::ops::Range<u32> = 0x000C_0000..0x0010_0000;
 
 /// Storage format number, part of [`LAYOUT_VERSION`] (bump when the record layout changes;
