@@ -140,6 +140,34 @@ impl PdTracker {
         dt_s: f32,
         speed_max: f32,
     ) -> Vec3 {
+        self.trajectory_command(r, pos, vel, dt_s, speed_max, false)
+    }
+
+    /// [`update_trajectory`](Self::update_trajectory) once the trajectory has ended at its
+    /// goal (at rest there): a vehicle pushed off the goal steps aside
+    /// ([`step_aside_at_rest`]) instead of being pulled back into what pushes it. (Not while
+    /// the trajectory's clock merely waits: stepping aside there made `outdoor_person` at
+    /// 3 m/s 1.8 s slower.)
+    pub fn update_trajectory_ended(
+        &mut self,
+        r: &Reference,
+        pos: &Vec3,
+        vel: &Vec3,
+        dt_s: f32,
+        speed_max: f32,
+    ) -> Vec3 {
+        self.trajectory_command(r, pos, vel, dt_s, speed_max, true)
+    }
+
+    fn trajectory_command(
+        &mut self,
+        r: &Reference,
+        pos: &Vec3,
+        vel: &Vec3,
+        dt_s: f32,
+        speed_max: f32,
+        ended: bool,
+    ) -> Vec3 {
         let p = &self.params;
         let (kv, kpos) = (p.trajectory_vel_p, p.trajectory_pos_p);
         let kp = Vec3::new(kv * kpos, kv * kpos, p.kp[2]);
@@ -168,6 +196,8 @@ impl PdTracker {
             let side = if (-raw).dot(&left) >= 0.0 { left } else { -left };
             let aside = side * (excess / kpos);
             e = Vec3::new(t.x * along + aside.x, t.y * along + aside.y, e.z);
+        } else if ended && !moving && kpos > 0.0 {
+            e = step_aside_at_rest(e, &raw, vel, kpos);
         }
         // Correction limit (horizontal): the position term K_p·e of the velocity set-point
         // v_sp = ṗ_d + K_p·e is scaled onto `speed_max`, so a vehicle behind a reference moving
@@ -232,6 +262,38 @@ impl PdTracker {
 
 /// Horizontal speed below which a reference has no direction of travel, m/s ([`limit_lead`]).
 pub const MOVING_REFERENCE_SPEED: f32 = 0.05;
+
+/// A vehicle farther than this from a reference at rest (m, horizontally) ...
+pub const PUSHED_AT_REST_DISTANCE: f32 = 0.1;
+/// ... and moving away from it faster than this (m/s) is being pushed off it (the safety
+/// filter giving way to something closing in: the trajectory's own stop overshoots by
+/// millimetres at centimetres per second).
+pub const PUSHED_AT_REST_SPEED: f32 = 0.3;
+
+/// The position error of [`PdTracker::update_trajectory_ended`] at the trajectory's goal: a vehicle pushed off it ([`PUSHED_AT_REST_DISTANCE`],
+/// [`PUSHED_AT_REST_SPEED`]) is not pulled straight back into what pushes it — something
+/// closing from behind at the goal, `scenes/sphere_overtaking.toml` with `tof8` at 1 m/s, where
+/// the pull of up to the cruise speed between the filter's interventions let the sphere catch
+/// the vehicle — but steps aside: the set-point is perpendicular to the push, on the side of
+/// the push line the reference leaves the vehicle (left of the push when on it), at the push
+/// speed. `e` is the error so far, `raw = p_d − p`; vertical untouched. Once the push stops
+/// the pull returns.
+fn step_aside_at_rest(e: Vec3, raw: &Vec3, vel: &Vec3, kpos: f32) -> Vec3 {
+    let away = Vec3::new(-raw.x, -raw.y, 0.0);
+    let d = hypotf(away.x, away.y);
+    let speed = hypotf(vel.x, vel.y);
+    if !(d > PUSHED_AT_REST_DISTANCE && speed > PUSHED_AT_REST_SPEED) {
+        return e;
+    }
+    let push = Vec3::new(vel.x / speed, vel.y / speed, 0.0);
+    if push.dot(&away) / d * speed <= PUSHED_AT_REST_SPEED {
+        return e;
+    }
+    let left = Vec3::new(-push.y, push.x, 0.0);
+    let side = if away.dot(&left) >= 0.0 { left } else { -left };
+    let aside = side * (speed / kpos);
+    Vec3::new(aside.x, aside.y, e.z)
+}
 
 /// The position error `e = p_d − p` (m) with the vehicle's lead limited: where the reference
 /// moves horizontally (faster than [`MOVING_REFERENCE_SPEED`]) in direction `t`, the part of
@@ -423,5 +485,43 @@ mod tests {
         // 0.2 m behind a reference at cruise (0.3 m/s), at its speed: u_x = 2·(1·0.2) = 0.4.
         let lag = t.update_trajectory(&r, &Vec3::new(-0.2, 0.0, -1.0), &Vec3::new(0.3, 0.0, 0.0), 0.004, 0.3);
         assert!((lag.x - 0.4).abs() < 1e-4, "{lag:?}");
+    }
+
+    /// At a reference at rest (the goal), a vehicle pushed away from it faster than 0.3 m/s
+    /// steps aside instead of being pulled back through what pushes it; slower, or closer
+    /// than 0.1 m, it is pulled back as before.
+    #[test]
+    fn pushed_off_a_reference_at_rest_steps_aside() {
+        let params = TrackingParams { ki_z: 0.0, ..TrackingParams::default() };
+        let r = Reference { position: Vec3::new(0.0, 0.0, -1.0), ..Reference::default() };
+        let mut t = PdTracker::new(params);
+        // 1 m past the goal along +x, 0.05 m to its right (+y), pushed at 0.8 m/s along +x:
+        // K_v 2, K_p 1, set-point 0.8 m/s perpendicular to the push on the vehicle's side
+        // (+y): u = 2·(0.8·ŷ − 0.8·x̂) = (−1.6, 1.6).
+        let pos = Vec3::new(1.0, 0.05, -1.0);
+        let pushed = t.update_trajectory_ended(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+        assert!((pushed.x + 1.6).abs() < 1e-4 && (pushed.y - 1.6).abs() < 1e-4, "{pushed:?}");
+        // While the trajectory runs (its clock waiting, say), the same state is pulled back:
+        // u = 2·((−1, −0.05) − (0.8, 0)) = (−3.6, −0.1).
+        let waiting = t.update_trajectory(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+        assert!((waiting.x + 3.6).abs() < 1e-4 && (waiting.y + 0.1).abs() < 1e-4, "{waiting:?}");
+        let mirrored = t.update_trajectory_ended(
+            &r,
+            &Vec3::new(1.0, -0.05, -1.0),
+            &Vec3::new(0.8, 0.0, 0.0),
+            0.004,
+            5.0,
+        );
+        assert!((mirrored.y + 1.6).abs() < 1e-4, "{mirrored:?}");
+        // Drifting away at 0.2 m/s: pulled back, u_x = 2·(1·(−1) − 0.2) = −2.4.
+        let slow = t.update_trajectory_ended(&r, &pos, &Vec3::new(0.2, 0.0, 0.0), 0.004, 5.0);
+        assert!((slow.x + 2.4).abs() < 1e-4, "{slow:?}");
+        // Coming back at 0.8 m/s: not pushed, u_x = 2·(−1 + 0.8) = −0.4.
+        let back = t.update_trajectory_ended(&r, &pos, &Vec3::new(-0.8, 0.0, 0.0), 0.004, 5.0);
+        assert!((back.x + 0.4).abs() < 1e-4, "{back:?}");
+        // 5 cm off (the trajectory's own stop): pulled back, u_x = 2·(−0.05 − 0.8) = −1.7.
+        let near =
+            t.update_trajectory_ended(&r, &Vec3::new(0.05, 0.0, -1.0), &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+        assert!((near.x + 1.7).abs() < 1e-4, "{near:?}");
     }
 }
