@@ -165,6 +165,12 @@ fn ci_subset_movers_on_the_trajectory() {
         let out = check_with("person_headon", "camera", seed, YawMode::Travel, &trajectory);
         assert!(out.summary.reached_goal, "person_headon camera seed {seed}: no goal");
     }
+    // At 1 m/s (the sphere's speed) the vehicle waits at the goal for the sphere: it collided
+    // in 3/3 seeds with `tof8` until the cascade stepped aside at the ended trajectory's goal
+    // too (docs/filter.md § 16).
+    let fast = [("MIS_GUIDANCE", 1.0), ("WP_SPEED", 1.0)];
+    let out = check_with("sphere_overtaking", "tof8", 0, YawMode::Hold, &fast);
+    assert!(out.summary.reached_goal, "sphere_overtaking tof8 at 1 m/s: no goal");
 }
 
 /// The ring plus one ToF looking up and one down (`tof`): 0 collisions in the 70 flights of
