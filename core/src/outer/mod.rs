@@ -652,12 +652,8 @@ impl OuterLoop {
         match fresh {
             Some((p, v)) => {
                 let mut u_pd = if self.guidance.flying_trajectory() {
-                    let speed = self.guidance.mission_speed();
-                    if self.telemetry.progress.done {
-                        self.tracker.update_trajectory_ended(&reference, &p, &v, dt, speed)
-                    } else {
-                        self.tracker.update_trajectory(&reference, &p, &v, dt, speed)
-                    }
+                    let (speed, ended) = (self.guidance.mission_speed(), self.telemetry.progress.done);
+                    self.tracker.update_trajectory(&reference, &p, &v, dt, speed, ended)
                 } else {
                     self.tracker.update(&reference, &p, &v, dt)
                 };

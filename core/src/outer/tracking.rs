@@ -132,34 +132,12 @@ impl PdTracker {
     /// speed, not with the gain times the whole error, and a vehicle lagging a reference that
     /// moves at cruise still closes the lag (a limit on the whole set-point at cruise left a
     /// steady lag of up to `TRJ_ERR_MAX`/2: the office with `lidar`, seed 1, met printer B).
+    ///
+    /// `ended`: the trajectory has ended at its goal (at rest there); a vehicle pushed off the
+    /// goal then steps aside ([`step_aside_at_rest`]) instead of being pulled back into what
+    /// pushes it. Not while the trajectory's clock merely waits: stepping aside there made
+    /// `outdoor_person` at 3 m/s 1.8 s slower.
     pub fn update_trajectory(
-        &mut self,
-        r: &Reference,
-        pos: &Vec3,
-        vel: &Vec3,
-        dt_s: f32,
-        speed_max: f32,
-    ) -> Vec3 {
-        self.trajectory_command(r, pos, vel, dt_s, speed_max, false)
-    }
-
-    /// [`update_trajectory`](Self::update_trajectory) once the trajectory has ended at its
-    /// goal (at rest there): a vehicle pushed off the goal steps aside
-    /// ([`step_aside_at_rest`]) instead of being pulled back into what pushes it. (Not while
-    /// the trajectory's clock merely waits: stepping aside there made `outdoor_person` at
-    /// 3 m/s 1.8 s slower.)
-    pub fn update_trajectory_ended(
-        &mut self,
-        r: &Reference,
-        pos: &Vec3,
-        vel: &Vec3,
-        dt_s: f32,
-        speed_max: f32,
-    ) -> Vec3 {
-        self.trajectory_command(r, pos, vel, dt_s, speed_max, true)
-    }
-
-    fn trajectory_command(
         &mut self,
         r: &Reference,
         pos: &Vec3,
@@ -270,7 +248,7 @@ pub const PUSHED_AT_REST_DISTANCE: f32 = 0.1;
 /// millimetres at centimetres per second).
 pub const PUSHED_AT_REST_SPEED: f32 = 0.3;
 
-/// The position error of [`PdTracker::update_trajectory_ended`] at the trajectory's goal: a vehicle pushed off it ([`PUSHED_AT_REST_DISTANCE`],
+/// The position error of [`PdTracker::update_trajectory`] with `ended` (the trajectory at rest at its goal): a vehicle pushed off it ([`PUSHED_AT_REST_DISTANCE`],
 /// [`PUSHED_AT_REST_SPEED`]) is not pulled straight back into what pushes it — something
 /// closing from behind at the goal, `scenes/sphere_overtaking.toml` with `tof8` at 1 m/s, where
 /// the pull of up to the cruise speed between the filter's interventions let the sphere catch
@@ -336,7 +314,8 @@ mod tests {
             acceleration: Vec3::new(0.1, 0.0, 0.0),
             yaw: 0.0,
         };
-        let u = t.update_trajectory(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004, 5.0);
+        let u =
+            t.update_trajectory(&r, &Vec3::new(0.0, 0.0, -0.8), &Vec3::new(0.2, 0.0, 0.1), 0.004, 5.0, false);
         assert!((u.x - 3.3).abs() < 1e-5, "{u:?}");
         assert!(u.y.abs() < 1e-6);
         assert!((u.z - (0.32 * -0.2 + 0.5 * -0.1)).abs() < 1e-6, "{u:?}");
@@ -371,17 +350,17 @@ mod tests {
             yaw: 0.0,
         };
         let (pos, vel) = (Vec3::new(5.0, 0.5, -1.0), Vec3::new(1.0, 0.0, 0.0));
-        let u = t.update_trajectory(&r, &pos, &vel, 0.004, 50.0);
+        let u = t.update_trajectory(&r, &pos, &vel, 0.004, 50.0, false);
         assert!((u.x + 2.0).abs() < 1e-5, "{u:?}");
         // Pushed faster than the reference, it steps aside on its side (+y) at the excess
         // speed: 2·(1 − 0.3)/1 = 1.4 (`pushed_ahead_steps_aside_and_a_lag_at_cruise_closes`).
         assert!((u.y - 1.4).abs() < 1e-5, "{u:?}");
         // Behind the reference, or a reference at rest: the full error.
         let behind = Vec3::new(-3.0, 0.0, -1.0);
-        let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004, 50.0);
+        let u = t.update_trajectory(&r, &behind, &Vec3::zeros(), 0.004, 50.0, false);
         assert!((u.x - 2.0 * (0.3 + 4.0)).abs() < 1e-5, "{u:?}");
         let rest = Reference { velocity: Vec3::zeros(), ..r };
-        let u = t.update_trajectory(&rest, &pos, &Vec3::zeros(), 0.004, 50.0);
+        let u = t.update_trajectory(&rest, &pos, &Vec3::zeros(), 0.004, 50.0, false);
         assert!((u.x - 2.0 * -4.0).abs() < 1e-5, "{u:?}");
     }
 
@@ -392,14 +371,14 @@ mod tests {
         let mut t = cascade();
         let r = Reference { position: Vec3::new(1.0, 0.0, -1.0), ..Reference::default() };
         let pos = Vec3::new(-2.0, 0.0, -1.0);
-        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 0.5);
+        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 0.5, false);
         assert!((u.x - 1.0).abs() < 1e-5, "{u:?}");
-        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 50.0);
+        let u = t.update_trajectory(&r, &pos, &Vec3::zeros(), 0.004, 50.0, false);
         assert!((u.x - 6.0).abs() < 1e-5, "{u:?}");
         // The limit bounds the correction, not the reference's own speed: behind a reference
         // at 2 m/s, v_sp = 2 + 0.5, u_x = 2·2.5 = 5.
         let fast = Reference { velocity: Vec3::new(2.0, 0.0, 0.0), ..r };
-        let u = t.update_trajectory(&fast, &pos, &Vec3::zeros(), 0.004, 0.5);
+        let u = t.update_trajectory(&fast, &pos, &Vec3::zeros(), 0.004, 0.5, false);
         assert!((u.x - 5.0).abs() < 1e-5, "{u:?}");
     }
 
@@ -470,20 +449,33 @@ mod tests {
         // K_v 2, K_p 1: aside set-point (1.0 − 0.3)/1 = 0.7 m/s → u_y = 2·0.7 = 1.4.
         // (Cruise 5 m/s here, so the correction limit does not act.) Along the path: the lead
         // limited to 0.3 m, u_x = 2·(0.3 − 0.3 − 1) = −2.
-        let pushed = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 5.0);
+        let pushed = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 5.0, false);
         assert!((pushed.y - 1.4).abs() < 1e-4 && (pushed.x + 2.0).abs() < 1e-4, "{pushed:?}");
-        let mirrored =
-            t.update_trajectory(&r, &Vec3::new(1.0, -0.05, -1.0), &Vec3::new(1.0, 0.0, 0.0), 0.004, 5.0);
+        let mirrored = t.update_trajectory(
+            &r,
+            &Vec3::new(1.0, -0.05, -1.0),
+            &Vec3::new(1.0, 0.0, 0.0),
+            0.004,
+            5.0,
+            false,
+        );
         assert!((mirrored.y + 1.4).abs() < 1e-4, "{mirrored:?}");
         // Not pushed (at the reference's speed): pulled back towards the path, −2·1·0.05.
-        let held = t.update_trajectory(&r, &pos, &Vec3::new(0.3, 0.0, 0.0), 0.004, 5.0);
+        let held = t.update_trajectory(&r, &pos, &Vec3::new(0.3, 0.0, 0.0), 0.004, 5.0, false);
         assert!((held.y + 0.1).abs() < 1e-4, "{held:?}");
         // With cruise 0.3 m/s the whole correction (lead and aside) is scaled onto 0.3 m/s.
-        let slow = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 0.3);
+        let slow = t.update_trajectory(&r, &pos, &Vec3::new(1.0, 0.0, 0.0), 0.004, 0.3, false);
         let k = 0.3 / libm::hypotf(0.3, 0.7);
         assert!((slow.y - 2.0 * 0.7 * k).abs() < 1e-4, "{slow:?}");
         // 0.2 m behind a reference at cruise (0.3 m/s), at its speed: u_x = 2·(1·0.2) = 0.4.
-        let lag = t.update_trajectory(&r, &Vec3::new(-0.2, 0.0, -1.0), &Vec3::new(0.3, 0.0, 0.0), 0.004, 0.3);
+        let lag = t.update_trajectory(
+            &r,
+            &Vec3::new(-0.2, 0.0, -1.0),
+            &Vec3::new(0.3, 0.0, 0.0),
+            0.004,
+            0.3,
+            false,
+        );
         assert!((lag.x - 0.4).abs() < 1e-4, "{lag:?}");
     }
 
@@ -499,29 +491,30 @@ mod tests {
         // K_v 2, K_p 1, set-point 0.8 m/s perpendicular to the push on the vehicle's side
         // (+y): u = 2·(0.8·ŷ − 0.8·x̂) = (−1.6, 1.6).
         let pos = Vec3::new(1.0, 0.05, -1.0);
-        let pushed = t.update_trajectory_ended(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+        let pushed = t.update_trajectory(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0, true);
         assert!((pushed.x + 1.6).abs() < 1e-4 && (pushed.y - 1.6).abs() < 1e-4, "{pushed:?}");
         // While the trajectory runs (its clock waiting, say), the same state is pulled back:
         // u = 2·((−1, −0.05) − (0.8, 0)) = (−3.6, −0.1).
-        let waiting = t.update_trajectory(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+        let waiting = t.update_trajectory(&r, &pos, &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0, false);
         assert!((waiting.x + 3.6).abs() < 1e-4 && (waiting.y + 0.1).abs() < 1e-4, "{waiting:?}");
-        let mirrored = t.update_trajectory_ended(
+        let mirrored = t.update_trajectory(
             &r,
             &Vec3::new(1.0, -0.05, -1.0),
             &Vec3::new(0.8, 0.0, 0.0),
             0.004,
             5.0,
+            true,
         );
         assert!((mirrored.y + 1.6).abs() < 1e-4, "{mirrored:?}");
         // Drifting away at 0.2 m/s: pulled back, u_x = 2·(1·(−1) − 0.2) = −2.4.
-        let slow = t.update_trajectory_ended(&r, &pos, &Vec3::new(0.2, 0.0, 0.0), 0.004, 5.0);
+        let slow = t.update_trajectory(&r, &pos, &Vec3::new(0.2, 0.0, 0.0), 0.004, 5.0, true);
         assert!((slow.x + 2.4).abs() < 1e-4, "{slow:?}");
         // Coming back at 0.8 m/s: not pushed, u_x = 2·(−1 + 0.8) = −0.4.
-        let back = t.update_trajectory_ended(&r, &pos, &Vec3::new(-0.8, 0.0, 0.0), 0.004, 5.0);
+        let back = t.update_trajectory(&r, &pos, &Vec3::new(-0.8, 0.0, 0.0), 0.004, 5.0, true);
         assert!((back.x + 0.4).abs() < 1e-4, "{back:?}");
         // 5 cm off (the trajectory's own stop): pulled back, u_x = 2·(−0.05 − 0.8) = −1.7.
         let near =
-            t.update_trajectory_ended(&r, &Vec3::new(0.05, 0.0, -1.0), &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0);
+            t.update_trajectory(&r, &Vec3::new(0.05, 0.0, -1.0), &Vec3::new(0.8, 0.0, 0.0), 0.004, 5.0, true);
         assert!((near.x + 1.7).abs() < 1e-4, "{near:?}");
     }
 }
