@@ -92,7 +92,7 @@ proptest! {
         obs.extend(others.iter().map(|(q, w)| (*q, if moving { *w } else { Vec3::zeros() })));
         // Inside the safe set, with a margin of one filter period at this speed.
         let inside = obs.iter().all(|(q, w)| {
-            braking::barrier(&params.braking(), &(p0 - q), &(v0 - w)).is_some_and(|b| b.h > 0.004 * speed)
+            braking::barrier(&params.braking(), &(p0 - q), &(v0 - w), true).is_some_and(|b| b.h > 0.004 * speed)
         });
         prop_assume!(inside);
         let worst = fly(&f, p0, v0, u_nom, &obs, lag);
@@ -125,7 +125,8 @@ fn a_head_on_wall_at_8_m_s_is_stopped_short_of_it() {
         )
         .unwrap();
     assert!(b.constraint.c > paper.params.u_max, "{b:?}");
-    let bb = braking::barrier(&f.params.braking(), &Vec3::new(-12.5, 0.0, 0.0), &Vec3::new(8.0, 0.0, 0.0))
-        .unwrap();
+    let bb =
+        braking::barrier(&f.params.braking(), &Vec3::new(-12.5, 0.0, 0.0), &Vec3::new(8.0, 0.0, 0.0), true)
+            .unwrap();
     assert!(bb.h > 0.0 && bb.constraint.c < f.params.brake_accel, "{bb:?}");
 }

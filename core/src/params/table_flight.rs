@@ -6,7 +6,7 @@
 use super::*;
 
 /// Entries of this part.
-pub(super) const N: usize = 30;
+pub(super) const N: usize = 31;
 
 /// This part's entries, in `param_index` order.
 #[rustfmt::skip] // one entry per parameter, laid out by hand
@@ -45,6 +45,8 @@ pub(super) const TABLE: [Param; N] = [
         "CBF_VARIANT 4: actuation lag plus sensing latency before braking takes effect"),
     Param::new("CBF_BRAKE_GAMMA", "CBF", "1/s", (0.0, 20.0), 2, field!(cbf.brake_gamma),
         "CBF_VARIANT 4: class-K rate of the braking-distance barrier (how fast it may be approached)"),
+    Param::new("CBF_BRAKE_UNK_V", "CBF", "m/s", (0.0, 10.0), 2, field!(cbf.brake_unknown_speed),
+        "CBF_VARIANT 4: speed at which a sensed small cluster not proven moving may approach (0: static)"),
     Param::new("VEH_MASS", "Vehicle", "kg", (0.07, 50.0), 3, (|p| p.airframe.mass, |p, v| {
             p.airframe.mass = v;
         }),

@@ -58,10 +58,11 @@ pub const HORIZONTAL_BAND: f32 = 0.2618;
 
 /// Obstacle id of the virtual frontier point (unseen space ahead, see [`frontier`]).
 pub const FRONTIER_ID: u16 = 65_534;
+const _: () = assert!(FRONTIER_ID >= crate::obstacle::VIRTUAL_ID);
 
 /// First obstacle id of the memory's cells: a cell's point carries `CELL_ID_BASE + slot`
 /// of its track, or [`STATIC_ID`] for untracked (static) cells.
-pub const CELL_ID_BASE: u16 = 60_000;
+pub const CELL_ID_BASE: u16 = crate::obstacle::CLUSTER_ID_BASE;
 
 /// Obstacle id of every untracked (static) memory cell. Cells are parts of extended
 /// obstacles, so they share one id: the set policy keeps the most critical ones

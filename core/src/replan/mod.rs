@@ -540,12 +540,10 @@ fn touches(points: &[ObstaclePoint], p: &Vec3, r: f32) -> bool {
     points.iter().any(|o| !ignored(o) && (o.point - p).norm_squared() <= r * r)
 }
 
-/// First obstacle id of the virtual points the filter is given besides obstacles: the
-/// field-of-view frontier (`crate::perception::FRONTIER_ID`), the ceiling and the ground
-/// (`crate::safety::plant_aware`). They stand for unseen space or the flight envelope, not for
-/// something in the way: the replanner neither marks nor tests them.
-pub const VIRTUAL_ID: u16 = crate::perception::FRONTIER_ID;
-const _: () = assert!(crate::safety::plant_aware::CEILING_ID >= VIRTUAL_ID); // GROUND_ID is u16::MAX.
+/// The virtual points' first id ([`crate::obstacle::VIRTUAL_ID`]): they stand for unseen space
+/// or the flight envelope, not for something in the way: the replanner neither marks nor tests
+/// them.
+pub use crate::obstacle::VIRTUAL_ID;
 
 /// The point is not a static obstacle: a moving one's (faster than [`STATIC_SPEED`]) or a
 /// virtual one ([`VIRTUAL_ID`]).

@@ -4,7 +4,11 @@
 //!
 //! For an obstacle point `p̄` with velocity `v̄` (relative velocity, as `multi-relative`),
 //! `d = p − p̄`, `n = d/|d|`, the approach speed `s = −nᵀ(ṗ − v̄) + ε_v` and the hull radius
-//! `r = √δ`:
+//! `r = √δ`. A point whose velocity is **unknown** (a range return the obstacle memory has not
+//! proven moving: a small cluster's point without velocity, `crate::obstacle::may_move_unseen`) is not assumed static: it may approach at
+//! up to `w` ([`CbfParams::brake_unknown_speed`]), so `v̄ = 0` and `s = −nᵀṗ + ε_v + w`, an
+//! upper bound of the true approach speed of any point moving at `|v̄| ≤ w` (`docs/filter.md`
+//! § 16, "Clusters of unknown velocity"; default `w` = 0):
 //!
 //! * barrier `h_b = |d| − r − φ(s)`, `φ(s) = s⁺²/(2a_b) + τ·s⁺` (`s⁺ = max(s, 0)`): the
 //!   distance left after braking at `a_b` (m/s², [`CbfParams::brake_accel`]) once the
@@ -39,6 +43,7 @@
 //! [`CbfParams::brake_accel`]: super::cbf::CbfParams::brake_accel
 //! [`CbfParams::brake_delay`]: super::cbf::CbfParams::brake_delay
 //! [`CbfParams::brake_gamma`]: super::cbf::CbfParams::brake_gamma
+//! [`CbfParams::brake_unknown_speed`]: super::cbf::CbfParams::brake_unknown_speed
 //! [`CbfParams::accel_bound`]: super::cbf::CbfParams::accel_bound
 //! [`MAX_ACTIVE_BARRIERS`]: super::cbf::MAX_ACTIVE_BARRIERS
 //! [`FilterDiagnostics::h_bar`]: super::cbf::FilterDiagnostics::h_bar
@@ -65,6 +70,8 @@ pub struct BrakingLimits {
     pub velocity_margin: f32,
     /// Robust term `A` (bound on the obstacle's acceleration), m/s².
     pub accel_bound: f32,
+    /// `w`, m/s: the speed a point of unknown velocity may approach at (added to its `s`).
+    pub unknown_speed: f32,
 }
 
 /// One obstacle's braking barrier at the current state.
@@ -79,9 +86,10 @@ pub struct BrakingBarrier {
 }
 
 /// The braking barrier of a point at offset `d = p − p̄` (m, `|d|` > 0) with relative
-/// velocity `d_dot` (m/s) under `l` (module docs). `None` at zero distance or with a
-/// non-finite input.
-pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarrier> {
+/// velocity `d_dot` (m/s) under `l` (module docs); `velocity_known` false adds the unknown
+/// point's speed `w` to the approach speed. `None` at zero distance or with a non-finite
+/// input.
+pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3, velocity_known: bool) -> Option<BrakingBarrier> {
     let dist_sq = d.norm_squared();
     if dist_sq.is_nan()
         || dist_sq <= MIN_DISTANCE_SQ
@@ -92,7 +100,8 @@ pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarri
     }
     let dist = sqrtf(dist_sq);
     let n = d / dist;
-    let s = -n.dot(d_dot) + l.velocity_margin;
+    let unknown = if velocity_known { 0.0 } else { l.unknown_speed };
+    let s = -n.dot(d_dot) + l.velocity_margin + unknown;
     let sp = maxf(s, 0.0);
     let h = dist - l.hull_radius - (sp * sp / (2.0 * l.accel) + l.delay * sp);
     let slope = sp / l.accel + l.delay;
@@ -101,7 +110,8 @@ pub fn barrier(l: &BrakingLimits, d: &Vec3, d_dot: &Vec3) -> Option<BrakingBarri
 }
 
 /// `true` when the barrier of a point at squared distance `dist_sq` (m²) is certainly above
-/// `level` (m) for every approach speed up to `speed_max` (m/s, `|ḋ|` bounds `s − ε_v`): then
+/// `level` (m) for every approach speed up to `speed_max` (m/s, `|ḋ|` bounds `s − ε_v`, plus
+/// `w` for a point of unknown velocity: the caller adds it): then
 /// `h_b ≥ |d| − r − φ(speed_max + ε_v) > level`, with a margin of 10⁻⁴·(1 + that distance) for
 /// the `f32` roundings of [`barrier`]. The filter skips such a point once it keeps `K` barriers
 /// all below `level` (its `h_b` could neither enter them nor lower their minimum): the
@@ -129,23 +139,24 @@ mod tests {
             gamma: 0.0,
             velocity_margin: 0.0,
             accel_bound: 0.0,
+            unknown_speed: 0.0,
         }
     }
 
     #[test]
     fn barrier_hand_computed() {
         // 5 m ahead (obstacle at +x), closing at 3 m/s: φ = 9/6 + 0.3 = 1.8, r = √0.05.
-        let b = barrier(&params(), &Vec3::new(-5.0, 0.0, 0.0), &Vec3::new(3.0, 0.0, 0.0)).unwrap();
+        let b = barrier(&params(), &Vec3::new(-5.0, 0.0, 0.0), &Vec3::new(3.0, 0.0, 0.0), true).unwrap();
         assert!((b.h - (5.0 - 0.05f32.sqrt() - 1.8)).abs() < 1e-5, "{b:?}");
         assert!((b.approach_speed - 3.0).abs() < 1e-6);
         // c = s/(s/a + τ) = 3/(1 + 0.1) with γ = 0; n points from the obstacle to the vehicle.
         assert!((b.constraint.c - 3.0 / 1.1).abs() < 1e-5);
         assert!((b.constraint.n - Vec3::new(-1.0, 0.0, 0.0)).norm() < 1e-6);
         // Receding: no braking term, h_b = |d| − r.
-        let r = barrier(&params(), &Vec3::new(-5.0, 0.0, 0.0), &Vec3::new(-1.0, 0.0, 0.0)).unwrap();
+        let r = barrier(&params(), &Vec3::new(-5.0, 0.0, 0.0), &Vec3::new(-1.0, 0.0, 0.0), true).unwrap();
         assert!((r.h - (5.0 - 0.05f32.sqrt())).abs() < 1e-5);
-        assert!(barrier(&params(), &Vec3::zeros(), &Vec3::zeros()).is_none());
-        assert!(barrier(&params(), &Vec3::new(1.0, 0.0, 0.0), &Vec3::new(f32::NAN, 0.0, 0.0)).is_none());
+        assert!(barrier(&params(), &Vec3::zeros(), &Vec3::zeros(), true).is_none());
+        assert!(barrier(&params(), &Vec3::new(1.0, 0.0, 0.0), &Vec3::new(f32::NAN, 0.0, 0.0), true).is_none());
     }
 
     #[test]
@@ -162,7 +173,7 @@ mod tests {
                 for k in 0..16 {
                     let a = k as f32 * core::f32::consts::PI / 8.0;
                     let d_dot = Vec3::new(a.cos(), a.sin(), 0.0) * speed;
-                    let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &d_dot).unwrap();
+                    let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &d_dot, true).unwrap();
                     assert!(!yes || b.h > level, "{b:?} at level {level}");
                 }
             }
@@ -176,7 +187,7 @@ mod tests {
         let p = params();
         for s in [0.5f32, 2.0, 5.0, 10.0, 20.0] {
             let dist = 0.05f32.sqrt() + s * s / 6.0 + 0.1 * s;
-            let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &Vec3::new(s, 0.0, 0.0)).unwrap();
+            let b = barrier(&p, &Vec3::new(-dist, 0.0, 0.0), &Vec3::new(s, 0.0, 0.0), true).unwrap();
             assert!(b.h.abs() < 1e-3 * dist, "{s}: {b:?}");
             assert!(b.constraint.c < p.accel, "{s}: {b:?}");
         }

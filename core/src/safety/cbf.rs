@@ -23,7 +23,7 @@
 
 use super::braking::{self, BrakingBarrier, BrakingLimits};
 use crate::fmath::{maxf, minf, norm3, sqrtf};
-use crate::obstacle::ObstaclePoint;
+use crate::obstacle::{may_move_unseen, ObstaclePoint};
 use crate::qp3::{self, HalfSpace};
 use crate::Vec3;
 
@@ -65,6 +65,8 @@ pub enum CbfError {
     BrakeAccelOutOfRange,
     /// The braking delay must be finite and in [0.01, 1] s.
     BrakeDelayOutOfRange,
+    /// The unknown points' speed `w` is not in [0, 10] m/s.
+    BrakeUnknownSpeedOutOfRange,
 }
 
 impl core::fmt::Display for CbfError {
@@ -80,6 +82,7 @@ impl core::fmt::Display for CbfError {
             CbfError::GammaNegative => "gamma must be finite and >= 0",
             CbfError::BrakeAccelOutOfRange => "brake_accel must be finite, > 0 and <= u_max",
             CbfError::BrakeDelayOutOfRange => "brake_delay must be finite and in [0.01, 1] s",
+            CbfError::BrakeUnknownSpeedOutOfRange => "brake_unknown_speed must be finite and in [0, 10] m/s",
         })
     }
 }
@@ -128,6 +131,15 @@ pub struct CbfParams {
     /// γ_b, 1/s: class-K rate of the braking-distance barrier, `ḣ_b ≥ −γ_b h_b` (it is in
     /// force for every point, slack far away). Default 2.0.
     pub brake_gamma: f32,
+    /// w, m/s: the speed at which a sensed small cluster of **unknown** velocity (one the
+    /// obstacle memory tracks but has not proven moving, [`crate::obstacle::may_move_unseen`])
+    /// may approach, in the braking-distance barrier: its approach speed counts `w` more than
+    /// the vehicle's own. Walls' cells and virtual points stay static. 0 treats such clusters
+    /// as static (a person walking into a stopped vehicle then pushes it through `h_b < 0`).
+    /// Default 0: with `w` > 0 the vehicle keeps `r + φ(w) + w/γ_b` from every such cluster
+    /// even at rest, which stalls it in clutter (`docs/filter.md` § 16, "Clusters of unknown
+    /// velocity").
+    pub brake_unknown_speed: f32,
 }
 
 impl Default for CbfParams {
@@ -144,6 +156,7 @@ impl Default for CbfParams {
             brake_accel: 3.0,
             brake_delay: 0.1,
             brake_gamma: 2.0,
+            brake_unknown_speed: 0.0,
         }
     }
 }
@@ -158,6 +171,7 @@ impl CbfParams {
             gamma: self.brake_gamma,
             velocity_margin: self.velocity_margin,
             accel_bound: self.accel_bound,
+            unknown_speed: self.brake_unknown_speed,
         }
     }
 
@@ -201,6 +215,9 @@ impl CbfParams {
         }
         if !(self.brake_gamma.is_finite() && self.brake_gamma >= 0.0) {
             return Err(CbfError::GammaNegative);
+        }
+        if !(self.brake_unknown_speed.is_finite() && (0.0..=10.0).contains(&self.brake_unknown_speed)) {
+            return Err(CbfError::BrakeUnknownSpeedOutOfRange);
         }
         Ok(())
     }
@@ -458,14 +475,17 @@ impl SafetyFilter {
             // Certainly far: with K barriers kept, a point whose h_b is surely above both the
             // largest kept one and the engagement level changes nothing (not kept, not near,
             // not the minimum), so its barrier is not needed.
+            // A sensed cluster's point of unknown velocity may approach at `w`; a wall's cell
+            // and a virtual point (ground, ceiling, unseen-space frontier) are static.
+            let velocity_known = !may_move_unseen(o);
             if near.is_full() {
-                let speed_max = if o.velocity.is_none() { own_speed } else { norm3(&d_dot) };
+                let speed_max = if velocity_known { norm3(&d_dot) } else { own_speed + limits.unknown_speed };
                 let level = maxf(near.bound(), engage);
                 if braking::certainly_above(&limits, d.norm_squared(), speed_max, level) {
                     continue;
                 }
             }
-            let Some(b) = braking::barrier(&limits, &d, &d_dot) else {
+            let Some(b) = braking::barrier(&limits, &d, &d_dot, velocity_known) else {
                 return self.fault(v, FilterFault::ZeroDistance);
             };
             diag.h_bar = minf(diag.h_bar, b.h);
@@ -704,6 +724,7 @@ fn project_near(u_nom: &Vec3, cons: &[HalfSpace], u_brake: &Vec3, diag: &mut Fil
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::obstacle::CLUSTER_ID_BASE;
     use nalgebra::Matrix3;
 
     fn filt(variant: FilterVariant) -> SafetyFilter {
@@ -1091,8 +1112,13 @@ mod tests {
         assert!(d.intervened && d.region == Region::Perpendicular, "{d:?}");
         assert_eq!(d.active_id, Some(7));
         // −u_x ≥ c: it decelerates at least c; the sideways part is kept.
-        let b = braking::barrier(&f.params.braking(), &Vec3::new(-2.0, 0.0, 0.0), &Vec3::new(2.5, 0.0, 0.0))
-            .unwrap();
+        let b = braking::barrier(
+            &f.params.braking(),
+            &Vec3::new(-2.0, 0.0, 0.0),
+            &Vec3::new(2.5, 0.0, 0.0),
+            true,
+        )
+        .unwrap();
         assert!(-u.x >= b.constraint.c - 1e-4, "{u:?} {b:?}");
         assert!((u.y - 0.5).abs() < 1e-4, "{u:?}");
         // Far away: the nominal passes.
@@ -1100,6 +1126,38 @@ mod tests {
             f.apply(&Vec3::new(-20.0, 0.0, -1.0), &Vec3::new(2.5, 0.0, 0.0), &Vec3::new(2.0, 0.5, 0.0), &o);
         assert_eq!(u2, Vec3::new(2.0, 0.5, 0.0));
         assert_eq!(d2.region, Region::Far);
+    }
+
+    /// A double integrator at rest whose nominal command pushes it at 2 m/s² towards a point
+    /// that walks into it at 0.3 m/s, reported every 4 ms as a cluster's point without velocity
+    /// (what the obstacle memory gives for a mover it has not proven moving): the smallest distance
+    /// between the vehicle and the point over 10 s.
+    fn closest_approach_to_an_unproven_walker(unknown_speed: f32) -> f32 {
+        let params = CbfParams { brake_unknown_speed: unknown_speed, ..CbfParams::default() };
+        let f = SafetyFilter::new(params, FilterVariant::Braking).unwrap();
+        let (dt, mut p, mut v) = (0.004f32, Vec3::zeros(), Vec3::zeros());
+        let mut closest = f32::INFINITY;
+        for k in 0..2500 {
+            let walker = Vec3::new(1.5 - 0.3 * dt * k as f32, 0.0, 0.0);
+            let (u, _) =
+                f.apply(&p, &v, &Vec3::new(2.0, 0.0, 0.0), &[ObstaclePoint::fixed(walker, CLUSTER_ID_BASE)]);
+            p += v * dt + u * (0.5 * dt * dt);
+            v += u * dt;
+            closest = closest.min((walker - p).norm());
+        }
+        closest
+    }
+
+    #[test]
+    fn an_unproven_walker_is_kept_off_the_hull_by_the_unknown_speed() {
+        let r = CbfParams::default().delta.sqrt();
+        // w = 0.5 m/s ≥ the walker's 0.3: the vehicle backs off and keeps h_b ≥ 0 off the hull.
+        let kept = closest_approach_to_an_unproven_walker(0.5);
+        assert!(kept > r + 0.05, "closest {kept} with hull radius {r}");
+        // Treated as static (w = 0) the walker pushes the vehicle through its hull radius:
+        // with no approach speed of its own, h_b < 0 only pushes back once it is crossed.
+        let static_model = closest_approach_to_an_unproven_walker(0.0);
+        assert!(static_model < r, "closest {static_model} with hull radius {r}");
     }
 
     #[test]

@@ -10,6 +10,27 @@ use crate::fmath::{norm3, sqrtf};
 use crate::frame::{clampf, is_finite3};
 use crate::Vec3;
 
+/// First obstacle id of the **virtual** points the filter is given besides obstacles: the
+/// field-of-view frontier (`crate::perception::FRONTIER_ID`), the ceiling and the ground
+/// (`crate::safety::plant_aware::{CEILING_ID, GROUND_ID}`; each asserts it is at least this).
+/// They stand for unseen space or the flight envelope and are static by construction, although
+/// they carry no velocity (`ObstaclePoint::velocity` `None`).
+pub const VIRTUAL_ID: u16 = 65_534;
+
+/// First obstacle id of the points of **small clusters** a range sensor saw (ids up to
+/// [`VIRTUAL_ID`], exclusive): what may be a mover — a person, a pole, a drone — as opposed to
+/// the cells of walls and other extended surfaces (below this id). The obstacle memory gives
+/// each tracked cluster's cells `CLUSTER_ID_BASE + track slot` (`crate::perception::CELL_ID_BASE`
+/// is this value); a cluster it has not proven moving carries no velocity, and the braking
+/// barrier lets it approach at `CbfParams::brake_unknown_speed`.
+pub const CLUSTER_ID_BASE: u16 = 60_000;
+
+/// `true` for the point of a sensed small cluster whose velocity is unknown (id in
+/// [`CLUSTER_ID_BASE`]`..`[`VIRTUAL_ID`], no velocity): it may be a mover not yet proven moving.
+pub fn may_move_unseen(o: &ObstaclePoint) -> bool {
+    o.velocity.is_none() && (CLUSTER_ID_BASE..VIRTUAL_ID).contains(&o.id)
+}
+
 /// Obstacle geometry in the world NED frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -38,6 +38,7 @@ use crate::Vec3;
 pub const GROUND_ID: u16 = u16::MAX;
 /// Obstacle id of the ceiling plane in the filter's obstacle list.
 pub const CEILING_ID: u16 = u16::MAX - 1;
+const _: () = assert!(CEILING_ID >= crate::obstacle::VIRTUAL_ID); // GROUND_ID is u16::MAX.
 
 /// Invalid plant-aware parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
