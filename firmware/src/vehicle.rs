@@ -22,8 +22,8 @@
 //! calibration's per-sample work).
 
 use crate::app::autopilot::{
-    Autopilot, CommandRejected, ControlSteps, ImuSample, MotorCommand, OffboardSetpoint, PathRejected,
-    PositionFix, TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, ControlSteps, FixKind, ImuSample, MotorCommand, OffboardSetpoint,
+    PathRejected, PositionFix, SourceNoise, TelemetrySnapshot, VehicleCommand,
 };
 use crate::setup::{Setup, SetupAck, StorageRequest, Text};
 use crate::storage::{Loaded, ParamStore};
@@ -156,6 +156,9 @@ impl<A: ControlSteps> SetupVehicle<A> {
 impl<A: ControlSteps> Autopilot for SetupVehicle<A> {
     fn update_position(&mut self, fix: &PositionFix) {
         self.inner.update_position(fix)
+    }
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
+        self.inner.navigation_fix(fix, kind, noise)
     }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.inner.update_obstacles(now_us, obstacles)

@@ -10,7 +10,8 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params::ParamRejected;
 use parapet_core::Vec3;
 use parapet_firmware::app::autopilot::{
-    Autopilot, CommandRejected, PathRejected, PositionFix, TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, FixKind, PathRejected, PositionFix, SourceNoise, TelemetrySnapshot,
+    VehicleCommand,
 };
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::command::command_long;
@@ -67,6 +68,9 @@ impl Vehicle {
 impl Autopilot for Vehicle {
     fn update_position(&mut self, fix: &PositionFix) {
         self.cascade.update_position(fix)
+    }
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
+        self.cascade.navigation_fix(fix, kind, noise)
     }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.cascade.update_obstacles(now_us, obstacles)

@@ -32,9 +32,14 @@
 //! Fixed size, `f32`, no allocation, no panic, bounded time: one predict is one 9×9
 //! covariance product; one update a 3×3 Cholesky and a pass over the 128-entry buffer.
 //!
+//! How a flight controller runs it (IMU-rate predict, fixes in, the controller's fix out, the
+//! dropout failsafe) is [`aid::NavAid`], shared by the host and the firmware.
+//!
 //! Owns: [`NavFilter`], [`NavParams`], [`NavStatus`], [`FixKind`], [`Fusion`]. May import:
-//! the crate root foundation ([`crate::Vec3`], [`crate::frame`], [`crate::fmath`]).
+//! the crate root foundation ([`crate::Vec3`], [`crate::frame`], [`crate::fmath`]) and, in
+//! [`aid`], the stages' messages ([`crate::msg`]).
 
+pub mod aid;
 pub mod history;
 mod update;
 
@@ -130,8 +135,13 @@ pub struct NavStatus {
     pub sigma_p: Vec3,
     /// Velocity σ per axis, m/s.
     pub sigma_v: Vec3,
-    /// Normalised innovation squared of the last position fix.
+    /// Normalised innovation squared of the last position fix (fused or gated; compare with
+    /// [`CHI2_GATE`]`[2]`).
     pub last_nis: f32,
+    /// Normalised innovation squared of the last velocity fix (gate [`CHI2_GATE`]`[2]`).
+    pub last_velocity_nis: f32,
+    /// Normalised innovation squared of the last height fix (gate [`CHI2_GATE`]`[0]`).
+    pub last_height_nis: f32,
 }
 
 /// The navigation filter (see the module documentation).
@@ -155,6 +165,8 @@ pub struct NavFilter {
     consecutive_gated: u8,
     /// Time of the last fused position fix, µs.
     last_position_us: Option<u64>,
+    /// The normalised innovation squared of the last update (fused or gated).
+    nis: f32,
     status: NavStatus,
 }
 
@@ -179,6 +191,7 @@ impl NavFilter {
             history: History::new(),
             consecutive_gated: 0,
             last_position_us: None,
+            nis: 0.0,
             status: NavStatus::default(),
         }
     }
@@ -223,6 +236,12 @@ impl NavFilter {
         }
         let dt = if now_us >= t { (now_us - t) as f32 * 1e-6 } else { -((t - now_us) as f32) * 1e-6 };
         Some((self.p + self.v * dt, self.v))
+    }
+
+    /// Position fixes gated in a row (0 after a fused one): a source that disagrees with the
+    /// prediction (EKF2's GPS glitch).
+    pub fn consecutive_gated(&self) -> u8 {
+        self.consecutive_gated
     }
 
     /// Age of the last fused position fix at `now_us`, µs.

@@ -59,9 +59,10 @@ impl NavFilter {
         let y = z - d.past.p - offset;
         let r = sigma * sigma + self.process_position(d.delay);
         let h = self.h_position(d.delay);
-        match self.update::<3>(&h, &SVector::<f32, 3>::from(y), r) {
-            Some(nis) => {
-                self.status.last_nis = nis;
+        let fused = self.update::<3>(&h, &SVector::<f32, 3>::from(y), r);
+        self.status.last_nis = self.nis;
+        match fused {
+            Some(_) => {
                 self.consecutive_gated = 0;
                 self.last_position_us = Some(t_us.max(self.last_position_us.unwrap_or(0)));
                 Fusion::Fused
@@ -88,7 +89,9 @@ impl NavFilter {
         let mut h = SMatrix::<f32, 3, 9>::zeros();
         h.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
         h.fixed_view_mut::<3, 3>(0, 6).copy_from(&(self.rot.matrix() * d.delay));
-        match self.update::<3>(&h, &SVector::<f32, 3>::from(y), r) {
+        let fused = self.update::<3>(&h, &SVector::<f32, 3>::from(y), r);
+        self.status.last_velocity_nis = self.nis;
+        match fused {
             Some(_) => Fusion::Fused,
             None => Fusion::Gated,
         }
@@ -104,7 +107,9 @@ impl NavFilter {
         let y = down - d.past.p.z;
         let r = sigma * sigma + self.process_position(d.delay);
         let h = self.h_position(d.delay).fixed_rows::<1>(2).into_owned();
-        match self.update::<1>(&h, &SVector::<f32, 1>::new(y), r) {
+        let fused = self.update::<1>(&h, &SVector::<f32, 1>::new(y), r);
+        self.status.last_height_nis = self.nis;
+        match fused {
             Some(_) => Fusion::Fused,
             None => Fusion::Gated,
         }
@@ -126,7 +131,8 @@ impl NavFilter {
 
     /// Kalman update with innovation `y`, Jacobian `h` and noise `r` per component: returns
     /// the normalised innovation squared when fused, `None` when gated (counted) or when `S`
-    /// is not positive definite.
+    /// is not positive definite. The NIS, fused or gated, is left in `self.nis` (0 when `S`
+    /// is not positive definite) for the status's test ratios.
     fn update<const M: usize>(&mut self, h: &SMatrix<f32, M, 9>, y: &SVector<f32, M>, r: f32) -> Option<f32> {
         let pht = self.cov * h.transpose();
         let mut s = h * pht;
@@ -134,12 +140,14 @@ impl NavFilter {
             s[(i, i)] += r;
         }
         let chol = s.cholesky();
+        self.nis = 0.0;
         let Some(chol) = chol else {
             self.status.invalid = self.status.invalid.wrapping_add(1);
             return None;
         };
         let s_inv_y = chol.solve(y);
         let nis = y.dot(&s_inv_y);
+        self.nis = nis;
         if !nis.is_finite() || nis > CHI2_GATE[M.min(3) - 1] {
             self.status.gated = self.status.gated.wrapping_add(1);
             return None;

@@ -21,6 +21,8 @@ use parapet_core::Vec3;
 /// The IMU sample and the external position fix: the core's messages (`parapet_core::msg`),
 /// passed through the firmware as they are (defined once).
 pub use parapet_core::msg::{ImuSample, PositionFix};
+pub use parapet_core::nav::aid::SourceNoise;
+pub use parapet_core::nav::FixKind;
 
 /// Motor command for the four rotors and its sanitiser: the wire contract's
 /// (`parapet_core::wire::lockstep`), so the host twin applies exactly the same rule.
@@ -193,6 +195,9 @@ pub struct TelemetrySnapshot {
     pub armable: bool,
     /// The on-board replanner's events (issue 38; STATUSTEXT and the log).
     pub replan: crate::app::replanner::ReplanReport,
+    /// The navigation filter's status (ESTIMATOR_STATUS), once a filtered source (GPS_INPUT,
+    /// VISION_POSITION_ESTIMATE) initialised it.
+    pub nav: Option<crate::app::navigation::NavReport>,
 }
 
 impl TelemetrySnapshot {
@@ -219,6 +224,7 @@ impl TelemetrySnapshot {
         position_fresh: false,
         armable: false,
         replan: crate::app::replanner::ReplanReport { events: 0, last: None },
+        nav: None,
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,
@@ -235,6 +241,10 @@ impl TelemetrySnapshot {
 pub trait Autopilot {
     /// New position/velocity estimate.
     fn update_position(&mut self, fix: &PositionFix);
+    /// A fix of a filtered source (GPS_INPUT: `Absolute`, VISION_POSITION_ESTIMATE:
+    /// `Relative`) with the σ it states, for the navigation filter
+    /// ([`crate::app::navigation`]). Required, so that no wrapper falls back to the fix path.
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise);
     /// Replaces the obstacle points (world NED) seen at `now_us`.
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
     /// Replaces the waypoint path (world NED, m).
@@ -347,6 +357,9 @@ pub(crate) mod test_double {
 
     impl Autopilot for RecordingAutopilot {
         fn update_position(&mut self, fix: &PositionFix) {
+            self.fixes.push(*fix);
+        }
+        fn navigation_fix(&mut self, fix: &PositionFix, _kind: FixKind, _noise: SourceNoise) {
             self.fixes.push(*fix);
         }
         fn update_obstacles(&mut self, _now_us: u64, obstacles: &[ObstaclePoint]) {

@@ -2,13 +2,15 @@
 //! [`Mailboxes`] (see [`crate::app::mailbox`]):
 //!
 //! - [`OuterStage`]: `parapet_core::outer::OuterLoop` (guidance, PD tracking, CBF filter,
-//!   thrust/attitude map, supervisor) plus the parameter set a ground station edits. It takes
-//!   everything the link delivers (fixes, obstacles, path, commands, parameters) through
-//!   [`OuterPort`], its [`Autopilot`] view, and publishes attitude commands, the estimator aid
-//!   and the telemetry snapshot.
+//!   thrust/attitude map, supervisor) plus the parameter set a ground station edits and the
+//!   navigation filter ([`crate::app::navigation`]: predicted with the inner stage's samples,
+//!   its estimate the outer loop's fix before each step). It takes everything the link
+//!   delivers (fixes, obstacles, path, commands, parameters) through [`OuterPort`], its
+//!   [`Autopilot`] view, and publishes attitude commands, the estimator aid and the telemetry
+//!   snapshot.
 //! - [`InnerStage`]: `parapet_core::inner::InnerLoop` (estimator, attitude and rate control,
 //!   mixer). Each step takes the queued commands, the latest aid and a new parameter set if
-//!   any, runs, and publishes its state estimate.
+//!   any, runs, and publishes its state estimate and the IMU sample for the navigation filter.
 //!
 //! On the board each stage is owned by its own task (`src/bin/fc/mod.rs`). [`Cascade`] owns both
 //! stages and their mailboxes and runs them in one context in the order of
@@ -24,7 +26,7 @@
 //! (MAV_RESULT_TEMPORARILY_REJECTED), so no order of PARAM_SETs is ever needed.
 //!
 //! May import: `parapet_core`, [`crate::app::autopilot`], [`crate::app::mailbox`],
-//! [`crate::app::replanner`].
+//! [`crate::app::replanner`], [`crate::app::navigation`].
 
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, RawMutex};
 use parapet_core::battery::{BatteryParams, BatteryState};
@@ -42,11 +44,12 @@ use parapet_core::wire::codes;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{
-    Autopilot, CommandRejected, ControlSteps, Failsafe, FlightPhase, ImuSample, MotorCommand,
-    OffboardSetpoint, ParamRejected, PathRejected, PositionFix, RcReport, SetpointReport, TelemetrySnapshot,
-    VehicleCommand,
+    Autopilot, CommandRejected, ControlSteps, Failsafe, FixKind, FlightPhase, ImuSample, MotorCommand,
+    OffboardSetpoint, ParamRejected, PathRejected, PositionFix, RcReport, SetpointReport, SourceNoise,
+    TelemetrySnapshot, VehicleCommand,
 };
 use crate::app::mailbox::Mailboxes;
+use crate::app::navigation::{NavSample, Navigation, NAV_SAMPLE_DEPTH};
 use crate::app::replanner::ReplanOuter;
 
 /// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
@@ -116,12 +119,13 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         mission_done: t.progress.done,
         battery: t.battery,
         attitude_sp: t.attitude_sp,
-        // The pilot input, fix freshness and arm check are the outer stage's
-        // (OuterStage::snapshot).
+        // The pilot input, fix freshness, arm check and navigation status are the outer
+        // stage's (OuterStage::snapshot).
         rc: None,
         position_fresh: false,
         armable: false,
         replan: crate::app::replanner::ReplanReport { events: 0, last: None },
+        nav: None,
     }
 }
 
@@ -139,6 +143,8 @@ pub struct OuterStage {
     rc_report: Option<RcReport>,
     /// The on-board replanner's outer side (`RPL_*`).
     replan: ReplanOuter,
+    /// The navigation filter (GPS_INPUT, VISION_POSITION_ESTIMATE).
+    nav: Navigation,
 }
 
 impl OuterStage {
@@ -147,7 +153,8 @@ impl OuterStage {
         let (outer, inner) = FlightController::new(params)?.into_loops();
         let estimate = inner.estimate();
         let replan = ReplanOuter::new(&params.replan, params.hull_radius);
-        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None, replan }, inner))
+        let nav = Navigation::new();
+        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None, replan, nav }, inner))
     }
 
     /// `true` when the stored parameter set is the one the loops fly (it satisfies the
@@ -201,10 +208,31 @@ impl OuterStage {
         }
     }
 
-    /// One outer step at `now_us`; publishes the attitude command and the snapshot. Then
-    /// the replanner's outer side: a new path is flown from the next step on.
+    /// The navigation filter (read-only).
+    pub fn navigation(&self) -> &Navigation {
+        &self.nav
+    }
+
+    /// Predicts the navigation filter with every queued IMU sample.
+    fn predict_nav<M: RawMutex>(&mut self, mb: &Mailboxes<M>) {
+        for _ in 0..NAV_SAMPLE_DEPTH {
+            match mb.nav.try_receive() {
+                Ok(s) => self.nav.sample(&s),
+                Err(_) => break,
+            }
+        }
+    }
+
+    /// One outer step at `now_us`: the navigation filter's estimate as the fix of now (when it
+    /// is usable), the step; publishes the attitude command and the snapshot. Then the
+    /// replanner's outer side: a new path is flown from the next step on.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
         self.take_inputs(mb);
+        self.predict_nav(mb);
+        if let Some(fix) = self.nav.controller_fix(now_us) {
+            self.outer.update_position(fix);
+            mb.aid.signal(self.outer.aid());
+        }
         mb.send_command(self.outer.step(now_us));
         self.replan.step(now_us, &mut self.outer, &mb.replan);
         mb.snapshot.signal(self.snapshot());
@@ -221,6 +249,7 @@ impl OuterStage {
             position_fresh: self.outer.position_fresh(t.t_us),
             armable,
             replan: self.replan.report(),
+            nav: self.nav.report(t.t_us),
             ..s
         }
     }
@@ -262,6 +291,11 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
         let s = &mut *self.stage;
         s.outer.update_position(*fix);
         self.mb.aid.signal(s.outer.aid());
+    }
+
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
+        self.stage.predict_nav(self.mb);
+        let _ = self.stage.nav.fix(fix, kind, noise);
     }
 
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
@@ -425,7 +459,9 @@ impl InnerStage {
             self.inner.set_command(AttitudeCommand { stage: MotorStage::Off, ..AttitudeCommand::default() });
         }
         let out = self.inner.step(now_us, imu);
-        mb.estimate.signal(self.inner.estimate());
+        let est = self.inner.estimate();
+        mb.estimate.signal(est);
+        mb.send_nav_sample(NavSample { t_us: now_us, accel: imu.accel, attitude: est.attitude });
         MotorCommand { throttle: out.throttle, armed: out.armed }
     }
 }
@@ -493,6 +529,9 @@ impl ControlSteps for Cascade {
 impl Autopilot for Cascade {
     fn update_position(&mut self, fix: &PositionFix) {
         self.port().update_position(fix);
+    }
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
+        self.port().navigation_fix(fix, kind, noise);
     }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.port().update_obstacles(now_us, obstacles);

@@ -9,6 +9,7 @@
 //! | [`Mailboxes::aid`] | outer → inner | `Signal` | the estimator aid of the latest position fix (latest wins) |
 //! | [`Mailboxes::inner_params`] | outer → inner | `Signal` | a new parameter set: the inner task rebuilds its loop itself, outside any critical section |
 //! | [`Mailboxes::estimate`] | inner → outer | `Signal` | the latest `StateEstimate` (cumulative counters, sticky tilt trip: latest wins) |
+//! | [`Mailboxes::nav`] | inner → outer | `Channel` (depth [`NAV_SAMPLE_DEPTH`]) | every IMU sample for the navigation filter's predict, in order ([`crate::app::navigation`]; full: the oldest go) |
 //! | [`Mailboxes::snapshot`] | outer → link | `Signal` | the telemetry snapshot ([`TelemetrySnapshot`], `Copy`) |
 //! | [`Mailboxes::battery`] | battery measurement → outer | `Signal` | the latest [`BatteryState`] (latest wins: the level only goes down) |
 //! | [`Mailboxes::rc`] | RC receiver → outer | `Signal` | the latest receiver frame ([`RcFrame`], mapped by the outer stage with the live `RC_*` parameters; latest wins: the mode machine wants the newest sticks, and the loss timeout runs on the frames' times) |
@@ -29,7 +30,8 @@
 //! The board's link plumbing (decoded inbound messages, replies, loop reports) lives next to the
 //! tasks that own it (`src/bin/fc/mod.rs`). May import: `parapet_core::msg`, `parapet_core::inner`,
 //! `parapet_core::rc`, `parapet_core::battery`, `parapet_core::supervisor::modes` (the kill check),
-//! [`crate::app::autopilot`], [`crate::app::replanner`] (its mailbox).
+//! [`crate::app::autopilot`], [`crate::app::replanner`] (its mailbox), [`crate::app::navigation`]
+//! (its sample).
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::{Channel, TrySendError};
@@ -41,6 +43,7 @@ use parapet_core::rc::map::{RcFrame, RcParams};
 use parapet_core::supervisor::modes::kill_requested;
 
 use crate::app::autopilot::TelemetrySnapshot;
+use crate::app::navigation::{NavSample, NAV_SAMPLE_DEPTH};
 use crate::app::replanner::ReplanMailbox;
 
 /// Attitude commands queued for the inner loop (the outer loop publishes at most two per outer
@@ -58,6 +61,8 @@ pub struct Mailboxes<M: RawMutex> {
     pub inner_params: Signal<M, InnerParams>,
     /// Inner → outer: latest state estimate.
     pub estimate: Signal<M, StateEstimate>,
+    /// Inner → outer: the IMU samples for the navigation filter, in order.
+    pub nav: Channel<M, NavSample, NAV_SAMPLE_DEPTH>,
     /// Outer → link: latest telemetry snapshot.
     pub snapshot: Signal<M, TelemetrySnapshot>,
     /// RC receiver → outer: latest receiver frame.
@@ -86,6 +91,7 @@ impl<M: RawMutex> Mailboxes<M> {
             aid: Signal::new(),
             inner_params: Signal::new(),
             estimate: Signal::new(),
+            nav: Channel::new(),
             snapshot: Signal::new(),
             rc: Signal::new(),
             battery: Signal::new(),
@@ -104,6 +110,15 @@ impl<M: RawMutex> Mailboxes<M> {
         self.rc.signal(frame);
         if kill_requested(&frame.input(p)) {
             self.kill.signal(frame.t_us);
+        }
+    }
+
+    /// Queues an IMU sample for the navigation filter; a full queue (the outer task stalled)
+    /// drops its oldest sample.
+    pub fn send_nav_sample(&self, sample: NavSample) {
+        if let Err(TrySendError::Full(s)) = self.nav.try_send(sample) {
+            let _ = self.nav.try_receive();
+            let _ = self.nav.try_send(s);
         }
     }
 
@@ -168,6 +183,7 @@ mod sizes {
             core::mem::size_of::<TelemetrySnapshot>(),
             core::mem::size_of::<RcFrame>(),
             core::mem::size_of::<BatteryState>(),
+            core::mem::size_of::<NavSample>(),
             core::mem::size_of::<RcParams>(),
         ];
         std::println!("mailbox message sizes (host): {sizes:?}");

@@ -60,8 +60,12 @@ mod firmware {
     /// the 168 MHz SysTick clock (≈ 10⁶ instructions, far more than one frame needs).
     const HEARTBEAT_PERIOD_TICKS: u32 = 168_000;
 
-    /// The onboard log's RAM store (in .bss; `ConstStaticCell` hands it out without a copy
-    /// through the stack).
+    /// The onboard log's RAM store (`ConstStaticCell` hands it out without a copy through the
+    /// stack). In `.ccmram` (`board::ccm`, zeroed at boot; here the SRAM past the F405's 128 KiB;
+    /// its value is all zero bytes, as it was in `.bss`), since it stands for the board's SD
+    /// card, not for its SRAM, as the parameter flash does: in `.bss` its 33 KB and the
+    /// navigation filter's 4.5 KB in the cascade (issue 39) left the boot stack no room.
+    #[link_section = ".ccmram"]
     static LOG_STORE: ConstStaticCell<RamLogStore> = ConstStaticCell::new(RamLogStore::new());
 
     fn report_and_halt(text: &str) -> ! {

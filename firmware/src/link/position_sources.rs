@@ -21,15 +21,17 @@
 //! on the lockstep link (message time = firmware time), a fix older than [`MAX_FIX_AGE_US`]
 //! are refused and counted ([`FixRefusal`], `LinkStats::position_rejected`).
 //!
-//! The fixes feed the existing fix path (`Autopilot::update_position`, the latest fix
-//! extrapolated): the firmware does not run the core's navigation filter yet.
+//! The fixes go to the navigation filter (`Autopilot::navigation_fix`,
+//! [`crate::app::navigation`]) with the σ they state ([`gps_input_noise`], [`vision_noise`]):
+//! GPS_INPUT as an absolute source, VISION_POSITION_ESTIMATE as a relative one (its frame may
+//! jump). ODOMETRY stays on the latest-fix path (motion capture).
 //!
 //! Owns: the conversions, the checks and [`SourceMonitor`]; the dispatcher's handling of these
 //! fixes (`impl Router`) is [`crate::link::source_dispatch`], apart so that the router may
 //! import this module without a cycle. May import: `parapet_core`, the dialect, [`crate::app`]
 //! (the boundary types), [`crate::link::geo`]. No allocation, no panics.
 
-use crate::app::autopilot::PositionFix;
+use crate::app::autopilot::{PositionFix, SourceNoise};
 use crate::link::dialect::{GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA};
 use crate::link::geo::{global_to_ned, AltRef, MAX_RANGE_M};
 use parapet_core::Vec3;
@@ -54,6 +56,53 @@ pub enum FixRefusal {
     Stale,
     /// GPS_INPUT without a 3D fix, or with the altitude or horizontal velocity ignored.
     NoFix,
+}
+
+/// σ of a GPS_INPUT that states no accuracy (PX4 EKF2's `EKF2_GPS_P_NOISE`, `EKF2_GPS_V_NOISE`).
+pub const GPS_DEFAULT_NOISE: SourceNoise = SourceNoise { position: 0.5, velocity: 0.3 };
+/// σ of a VISION_POSITION_ESTIMATE without a covariance (position: PX4's `EKF2_EVP_NOISE`;
+/// velocity: the difference of two estimates is noisier than a measured one).
+pub const VISION_DEFAULT_NOISE: SourceNoise = SourceNoise { position: 0.1, velocity: 0.3 };
+/// Smallest σ given to the filter (a noise-free source keeps the update well posed; the
+/// host's `fc/nav.rs` floors the scene's noise the same way).
+pub const MIN_SIGMA: f32 = 0.01;
+
+fn stated(x: f32, ignored: bool, default: f32) -> f32 {
+    if ignored || !x.is_finite() || x <= 0.0 {
+        default
+    } else {
+        x.max(MIN_SIGMA)
+    }
+}
+
+/// The σ of a GPS_INPUT's fix: `horiz_accuracy` and `speed_accuracy` when given (not flagged
+/// as ignored, finite, > 0; floored at [`MIN_SIGMA`]), else [`GPS_DEFAULT_NOISE`].
+pub fn gps_input_noise(m: &GPS_INPUT_DATA) -> SourceNoise {
+    let f = m.ignore_flags;
+    SourceNoise {
+        position: stated(
+            m.horiz_accuracy,
+            f.contains(GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY),
+            GPS_DEFAULT_NOISE.position,
+        ),
+        velocity: stated(
+            m.speed_accuracy,
+            f.contains(GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY),
+            GPS_DEFAULT_NOISE.velocity,
+        ),
+    }
+}
+
+/// The σ of a VISION_POSITION_ESTIMATE's fix: √ of the x variance (`covariance[0]`) when
+/// given, else [`VISION_DEFAULT_NOISE`]; the velocity σ is always the default.
+pub fn vision_noise(m: &VISION_POSITION_ESTIMATE_DATA) -> SourceNoise {
+    let var = m.covariance[0];
+    let position = if var.is_finite() && var > 0.0 {
+        libm::sqrtf(var).max(MIN_SIGMA)
+    } else {
+        VISION_DEFAULT_NOISE.position
+    };
+    SourceNoise { position, velocity: VISION_DEFAULT_NOISE.velocity }
 }
 
 /// Which message fed the last accepted fix.

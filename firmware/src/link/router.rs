@@ -57,7 +57,9 @@ use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
 use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::ObstacleAssembler;
 use crate::link::outbound::Outbound;
-use crate::link::position_sources::{gps_input_fix, Source, SourceMonitor, VisionVelocity};
+use crate::link::position_sources::{
+    gps_input_fix, gps_input_noise, vision_noise, Source, SourceMonitor, VisionVelocity,
+};
 use crate::link::received::{LinkStats, Received};
 use crate::link::services::FixAccuracy;
 use crate::link::services::{MissionProgress, Services};
@@ -574,12 +576,12 @@ impl Router {
             Inbound::GpsInput(m) => {
                 let t = self.fix_time(m.time_usec, now_us);
                 let fix = gps_input_fix(&m, t).map(Some);
-                self.external_fix(fix, Source::Gps, now_us, ap);
+                self.external_fix(fix, Source::Gps, gps_input_noise(&m), now_us, ap);
             }
             Inbound::VisionPosition(m) => {
                 let t = self.fix_time(m.usec, now_us);
                 let fix = self.vision.fix(&m, t);
-                self.external_fix(fix, Source::Vision, now_us, ap);
+                self.external_fix(fix, Source::Vision, vision_noise(&m), now_us, ap);
             }
             Inbound::Obstacle(m) => self.obstacles.on_point(&m, now_us, ap),
             Inbound::ObstacleDistance(m) => self.obstacles.on_obstacle_distance(&m, now_us, ap),

@@ -5,7 +5,7 @@
 //! that `router` may import `position_sources` without a cycle. May import: the router, the
 //! position sources, the link's outbound/telemetry helpers, [`crate::app`].
 
-use crate::app::autopilot::{Autopilot, PositionFix};
+use crate::app::autopilot::{Autopilot, FixKind, PositionFix, SourceNoise};
 use crate::link::inputs::FixClock;
 use crate::link::outbound::Outbound;
 use crate::link::position_sources::{
@@ -15,12 +15,14 @@ use crate::link::router::Router;
 
 /// The dispatcher's side of the sources (its state: `Router::vision`, `Router::sources`).
 impl Router {
-    /// A GPS_INPUT / VISION_POSITION_ESTIMATE fix: checked, then to the autopilot; refusals
-    /// counted ([`crate::link::position_sources`]).
+    /// A GPS_INPUT / VISION_POSITION_ESTIMATE fix: checked, then to the autopilot's
+    /// navigation filter with σ `noise` (GPS absolute, vision relative); refusals counted
+    /// ([`crate::link::position_sources`]).
     pub(crate) fn external_fix<A: Autopilot>(
         &mut self,
         fix: Result<Option<PositionFix>, FixRefusal>,
         source: Source,
+        noise: SourceNoise,
         now_us: u64,
         ap: &mut A,
     ) {
@@ -31,7 +33,8 @@ impl Router {
         });
         match checked {
             Ok(Some(f)) => {
-                ap.update_position(&f);
+                let kind = if source == Source::Vision { FixKind::Relative } else { FixKind::Absolute };
+                ap.navigation_fix(&f, kind, noise);
                 self.source_accepted(source, now_us);
             }
             Ok(None) => {}

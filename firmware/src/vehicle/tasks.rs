@@ -39,8 +39,8 @@ use parapet_core::rc::RcInput;
 use parapet_core::Vec3;
 
 use crate::app::autopilot::{
-    Autopilot, CommandRejected, ImuSample, MotorCommand, OffboardSetpoint, PathRejected, PositionFix,
-    TelemetrySnapshot, VehicleCommand,
+    Autopilot, CommandRejected, FixKind, ImuSample, MotorCommand, OffboardSetpoint, PathRejected,
+    PositionFix, SourceNoise, TelemetrySnapshot, VehicleCommand,
 };
 use crate::setup::{Setup, SetupAck, StorageRequest, Text};
 use crate::storage::{Loaded, ParamStore};
@@ -408,6 +408,9 @@ impl<P: Autopilot, M: RawMutex> SetupPort<'_, P, M> {
 impl<P: Autopilot, M: RawMutex> Autopilot for SetupPort<'_, P, M> {
     fn update_position(&mut self, fix: &PositionFix) {
         self.inner.update_position(fix)
+    }
+    fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
+        self.inner.navigation_fix(fix, kind, noise)
     }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.inner.update_obstacles(now_us, obstacles)

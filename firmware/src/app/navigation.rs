@@ -1,0 +1,235 @@
+//! The navigation filter on the vehicle (issue 39): [`parapet_core::nav::aid::NavAid`] — the
+//! code the host's in-process controller runs (`host-sim/src/fc/nav.rs`) — in the outer stage,
+//! fed with the inner stage's IMU samples and the filtered sources' fixes, and read by the
+//! outer stage as its position fix at every outer step.
+//!
+//! * **Predict**: the inner stage publishes one [`NavSample`] per step (the sample's time, its
+//!   specific force and the attitude estimate after the step, as the host feeds the filter
+//!   after `step_inner`) into [`crate::app::mailbox::Mailboxes::nav`]; the outer stage
+//!   predicts with every queued sample before it fuses a fix and before its step, so fixes and
+//!   samples reach the filter in the order they happened (≤ [`NAV_SAMPLE_DEPTH`] samples wait
+//!   between two outer steps; on an overflow the oldest go and the next predict spans the gap).
+//!   The predict (≈ 7.6k instructions on the Cortex-M4F, `docs/performance.md`) runs in the
+//!   outer task, not in the 1 ms inner step.
+//! * **Fixes**: GPS_INPUT (absolute) and VISION_POSITION_ESTIMATE (relative: its frame may jump)
+//!   go to the filter with the σ they state ([`crate::link::position_sources`]); ODOMETRY — the
+//!   motion capture of the PIL and the lab — keeps the latest-fix path, as the host flies
+//!   `mocap` without the filter (so the PIL flights and their host twin are unchanged).
+//! * **The controller's fix**: while the filter is usable (a position fused within
+//!   `NAV_TIMEOUT_US`, σ within bounds) it is handed to the outer loop as the fix of now before
+//!   each outer step; afterwards nothing is, and the outer loop's 0.2 s position timeout brakes
+//!   and lands (the failsafe of `docs/navigation.md` § Dropouts).
+//! * **Status**: [`NavReport`] for ESTIMATOR_STATUS (flags, test ratios, accuracies).
+//!
+//! Owns: [`Navigation`], [`NavSample`], [`NavReport`]. May import: `parapet_core`.
+
+use parapet_core::msg::{Euler, PositionFix};
+use parapet_core::nav::aid::{NavAid, SourceNoise};
+use parapet_core::nav::{FixKind, Fusion, NavParams, CHI2_GATE};
+use parapet_core::Vec3;
+
+/// IMU samples that may wait for the outer stage (16 ms at 1 kHz; 4 per outer step).
+pub const NAV_SAMPLE_DEPTH: usize = 16;
+
+/// One IMU sample for the filter: time, specific force (body FRD, m/s²), attitude estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NavSample {
+    /// Sample time, µs.
+    pub t_us: u64,
+    /// Specific force, body FRD, m/s².
+    pub accel: Vec3,
+    /// The attitude estimator's attitude after the step.
+    pub attitude: Euler,
+}
+
+/// ESTIMATOR_STATUS's `flags` bits (MAVLink `ESTIMATOR_STATUS_FLAGS`).
+pub mod flags {
+    /// Attitude estimate good.
+    pub const ATTITUDE: u16 = 1;
+    /// Horizontal velocity good.
+    pub const VELOCITY_HORIZ: u16 = 2;
+    /// Vertical velocity good.
+    pub const VELOCITY_VERT: u16 = 4;
+    /// Horizontal position (relative) good.
+    pub const POS_HORIZ_REL: u16 = 8;
+    /// Horizontal position (absolute) good.
+    pub const POS_HORIZ_ABS: u16 = 16;
+    /// Vertical position (absolute) good.
+    pub const POS_VERT_ABS: u16 = 32;
+    /// The source's fixes disagree with the prediction (gated in a row).
+    pub const GPS_GLITCH: u16 = 1024;
+}
+
+/// What ESTIMATOR_STATUS reports of the filter.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct NavReport {
+    /// [`flags`] bits.
+    pub flags: u16,
+    /// Velocity test ratio: the last velocity fix's NIS / its χ² gate (> 1: gated).
+    pub vel_ratio: f32,
+    /// Position test ratio: the last position fix's NIS / its χ² gate (horizontal and
+    /// vertical share the one 3-D test).
+    pub pos_ratio: f32,
+    /// Horizontal position σ (the larger of north and east), m.
+    pub pos_horiz_accuracy: f32,
+    /// Vertical position σ, m.
+    pub pos_vert_accuracy: f32,
+}
+
+/// The filter, the kind of the source feeding it, and whether it feeds the controller.
+#[derive(Clone, Debug)]
+pub struct Navigation {
+    aid: NavAid,
+    kind: Option<FixKind>,
+}
+
+impl Default for Navigation {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Navigation {
+    /// No fix yet: the controller keeps the latest-fix path until a filtered source speaks.
+    pub fn new() -> Self {
+        Self { aid: NavAid::new(NavParams::default()), kind: None }
+    }
+
+    /// Predict with one IMU sample.
+    pub fn sample(&mut self, s: &NavSample) {
+        let _ = self.aid.imu(s.t_us, &s.accel, &s.attitude);
+    }
+
+    /// A fix of a filtered source of `kind` with σ `noise`.
+    pub fn fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) -> Fusion {
+        self.kind = Some(kind);
+        self.aid.fix(fix, noise, kind)
+    }
+
+    /// The outer loop's fix of `now_us`: `None` without a filtered source and in the failsafe.
+    pub fn controller_fix(&self, now_us: u64) -> Option<PositionFix> {
+        self.kind?;
+        self.aid.controller_fix(now_us)
+    }
+
+    /// The filter (read-only).
+    pub fn aid(&self) -> &NavAid {
+        &self.aid
+    }
+
+    /// ESTIMATOR_STATUS of `now_us`; `None` until a filtered source has initialised the filter.
+    pub fn report(&self, now_us: u64) -> Option<NavReport> {
+        let kind = self.kind?;
+        if !self.aid.filter().is_initialised() {
+            return None;
+        }
+        let st = self.aid.status();
+        let mut f = flags::ATTITUDE;
+        if self.aid.usable(now_us) {
+            f |= flags::VELOCITY_HORIZ | flags::VELOCITY_VERT | flags::POS_HORIZ_REL;
+            if kind == FixKind::Absolute {
+                f |= flags::POS_HORIZ_ABS | flags::POS_VERT_ABS;
+            }
+        }
+        if self.aid.filter().consecutive_gated() > 0 {
+            f |= flags::GPS_GLITCH;
+        }
+        Some(NavReport {
+            flags: f,
+            vel_ratio: st.last_velocity_nis / CHI2_GATE[2],
+            pos_ratio: st.last_nis / CHI2_GATE[2],
+            pos_horiz_accuracy: st.sigma_p.x.max(st.sigma_p.y),
+            pos_vert_accuracy: st.sigma_p.z,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::autopilot::{Autopilot, ControlSteps, ImuSample};
+    use crate::app::cascade::Cascade;
+    use parapet_core::controller::ControllerParams;
+    use parapet_core::nav::aid::NAV_TIMEOUT_US;
+
+    const GPS: SourceNoise = SourceNoise { position: 0.5, velocity: 0.1 };
+
+    fn imu(t_us: u64) -> ImuSample {
+        let w = (t_us as f32 * 1e-4).sin();
+        ImuSample { gyro: Vec3::new(0.01 * w, 0.0, 0.0), accel: Vec3::new(0.3 * w, -0.1, -9.81) }
+    }
+
+    /// A fix every 100 ms describing the time 150 ms before (GPS-like), moving north.
+    fn fix_due(t_us: u64) -> Option<PositionFix> {
+        (t_us >= 200_000 && t_us.is_multiple_of(100_000)).then(|| {
+            let tm = t_us - 150_000;
+            let x = tm as f32 * 1e-6;
+            PositionFix {
+                t_us: tm,
+                position: Vec3::new(x, 0.2, -1.0),
+                velocity: Vec3::new(1.0, 0.0, 0.0),
+                yaw: None,
+            }
+        })
+    }
+
+    /// The cascade's stages (samples through the mailbox, fixes through the port, the estimate
+    /// at each outer step) compute exactly what the core's `NavAid` computes when driven in the
+    /// host's order (`host-sim/src/fc/control.rs`): the firmware and the host run one filter.
+    #[test]
+    fn the_outer_loop_flies_the_filter_estimate_bit_for_bit_as_the_host_drives_it() {
+        let Ok(mut c) = Cascade::new(ControllerParams::default()) else { panic!("cascade") };
+        let mut host = NavAid::new(NavParams::default());
+        let mut compared = 0;
+        for k in 1..=1_500u64 {
+            let t = k * 1_000;
+            if let Some(f) = fix_due(t) {
+                c.navigation_fix(&f, FixKind::Absolute, GPS);
+                host.fix(&f, GPS, FixKind::Absolute);
+            }
+            let s = imu(t);
+            c.step_inner(t, &s);
+            host.imu(t, &s.accel, &c.inner().inner().estimate().attitude);
+            if t.is_multiple_of(4_000) {
+                c.step_outer(t);
+                if let Some(h) = host.controller_fix(t) {
+                    let o = c.outer().outer().telemetry();
+                    assert_eq!((o.position, o.velocity), (h.position, h.velocity), "t = {t}");
+                    compared += 1;
+                }
+            }
+        }
+        assert!(compared > 300, "{compared}");
+        let r = c.telemetry().nav.map(|n| n.flags);
+        assert_eq!(r, Some(flags::ATTITUDE | 0b11_1110), "{r:?}");
+    }
+
+    /// Fixes stop: the estimate is flown for `NAV_TIMEOUT_US` (bridged), then the controller
+    /// gets no fix and its position goes stale (the brake-and-land failsafe's trigger).
+    #[test]
+    fn a_dropout_is_bridged_for_the_timeout_then_the_position_goes_stale() {
+        let Ok(mut c) = Cascade::new(ControllerParams::default()) else { panic!("cascade") };
+        let last_fix = 1_000_000;
+        let mut fresh_until = 0;
+        for k in 1..=4_000u64 {
+            let t = k * 1_000;
+            if let Some(f) = fix_due(t).filter(|_| t <= last_fix) {
+                c.navigation_fix(&f, FixKind::Absolute, GPS);
+            }
+            c.step_inner(t, &imu(t));
+            if t.is_multiple_of(4_000) {
+                c.step_outer(t);
+                if c.telemetry().position_fresh {
+                    fresh_until = t;
+                }
+            }
+        }
+        // The last fix describes 850 ms; it is flown until NAV_TIMEOUT_US after it, then the
+        // outer loop's 0.2 s position timeout runs out.
+        let last_fused = last_fix - 150_000;
+        assert!(fresh_until >= last_fused + NAV_TIMEOUT_US, "{fresh_until}");
+        assert!(fresh_until <= last_fused + NAV_TIMEOUT_US + 204_000, "{fresh_until}");
+        let r = c.telemetry().nav.map(|n| n.flags);
+        assert_eq!(r, Some(flags::ATTITUDE), "{r:?}");
+    }
+}
