@@ -30,6 +30,9 @@ pub enum Stream {
     Link,
     /// POSITION_TARGET_LOCAL_NED.
     Target,
+    /// ESTIMATOR_STATUS (the navigation filter's flags, test ratios and accuracies; sent only
+    /// once a filtered position source initialised it).
+    Estimator,
 }
 
 /// One registry entry.
@@ -55,7 +58,7 @@ pub const HEARTBEAT_ID: u32 = 0;
 const DEBUG_VECT_ID: u32 = 250;
 
 /// Every stream of the scheduler, in the order one poll sends them.
-pub const STREAMS: [StreamSpec; 9] = [
+pub const STREAMS: [StreamSpec; 10] = [
     spec(Stream::Heartbeat, HEARTBEAT_ID, 1_000_000, true),
     spec(Stream::SysStatus, 1, 1_000_000, true),
     spec(Stream::LandedState, 245, 1_000_000, true),
@@ -65,6 +68,7 @@ pub const STREAMS: [StreamSpec; 9] = [
     spec(Stream::Loops, DEBUG_VECT_ID, 500_000, false),
     spec(Stream::Link, DEBUG_VECT_ID, 1_000_000, false),
     spec(Stream::Target, 85, 40_000, true),
+    spec(Stream::Estimator, 230, 500_000, true),
 ];
 
 /// Number of settable streams.
@@ -150,6 +154,7 @@ mod tests {
             Stream::Loops,
             Stream::Link,
             Stream::Target,
+            Stream::Estimator,
         ];
         for s in all {
             assert_eq!(STREAMS.iter().filter(|e| e.stream == s).count(), 1, "{s:?}");
@@ -158,7 +163,7 @@ mod tests {
         for (i, a) in SETTABLE.iter().enumerate() {
             assert!(SETTABLE[i + 1..].iter().all(|b| b.0 != a.0), "message {} twice", a.0);
         }
-        assert_eq!(SETTABLE_COUNT, 6);
+        assert_eq!(SETTABLE_COUNT, 7);
         assert_eq!(slot(Stream::Heartbeat), Some(0));
         assert_eq!(slot(Stream::Target), Some(5));
         assert_eq!(slot(Stream::Filter), None);

@@ -15,8 +15,8 @@ use crate::link::dialect::{
     MISSION_ITEM_REACHED_DATA, PING_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA,
 };
 use crate::link::dialect::{
-    AUTOPILOT_VERSION_DATA, CURRENT_MODE_DATA, EXTENDED_SYS_STATE_DATA, MISSION_COUNT_DATA,
-    MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
+    AUTOPILOT_VERSION_DATA, CURRENT_MODE_DATA, ESTIMATOR_STATUS_DATA, EXTENDED_SYS_STATE_DATA,
+    MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA, SYS_STATUS_DATA, TIMESYNC_DATA,
 };
 use mavlink_core::{MAVLinkV1MessageRaw, MAVLinkV2MessageRaw, MavlinkVersion, MessageData};
 
@@ -100,6 +100,8 @@ pub enum Outbound {
     Attitude(ATTITUDE_DATA),
     /// LOCAL_POSITION_NED.
     LocalPositionNed(LOCAL_POSITION_NED_DATA),
+    /// ESTIMATOR_STATUS (the navigation filter).
+    EstimatorStatus(ESTIMATOR_STATUS_DATA),
     /// POSITION_TARGET_LOCAL_NED (outer-loop reference and filtered acceleration).
     PositionTargetLocalNed(POSITION_TARGET_LOCAL_NED_DATA),
     /// DEBUG_VECT (filter diagnostics, loop timing, link statistics).
@@ -216,6 +218,7 @@ impl Outbound {
             Outbound::RcChannels(m) => s(m, p),
             Outbound::Attitude(m) => s(m, p),
             Outbound::LocalPositionNed(m) => s(m, p),
+            Outbound::EstimatorStatus(m) => s(m, p),
             Outbound::PositionTargetLocalNed(m) => s(m, p),
             Outbound::DebugVect(m) => s(m, p),
             Outbound::NamedValueInt(m) => s(m, p),

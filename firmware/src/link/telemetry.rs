@@ -34,9 +34,10 @@
 //! Times: `time_boot_ms` / `time_usec` are the firmware clock (simulated time on the PIL link).
 
 use crate::link::dialect::{
-    MavAutopilot, MavFrame, MavLandedState, MavModeFlag, MavSeverity, MavState, MavSysStatusSensor, MavType,
-    MavVtolState, PositionTargetTypemask, ATTITUDE_DATA, EXTENDED_SYS_STATE_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA, SYS_STATUS_DATA,
+    EstimatorStatusFlags, MavAutopilot, MavFrame, MavLandedState, MavModeFlag, MavSeverity, MavState,
+    MavSysStatusSensor, MavType, MavVtolState, PositionTargetTypemask, ATTITUDE_DATA, ESTIMATOR_STATUS_DATA,
+    EXTENDED_SYS_STATE_DATA, HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, POSITION_TARGET_LOCAL_NED_DATA,
+    STATUSTEXT_DATA, SYS_STATUS_DATA,
 };
 
 use crate::app::autopilot::{Failsafe, FlightMode, FlightPhase, TelemetrySnapshot};
@@ -109,7 +110,7 @@ impl ErrorCounters {
 }
 
 /// Messages one [`TelemetryScheduler::poll`] emits at most (callers size their queue by it).
-pub const MAX_PER_POLL: usize = 25;
+pub const MAX_PER_POLL: usize = 26;
 /// RC_CHANNELS period, µs (5 Hz).
 const RC_CHANNELS_US: u64 = 200_000;
 /// No pilot input for this long: RC_CHANNELS reports rssi 0, µs.
@@ -301,6 +302,24 @@ pub fn replan_text(e: &ReplanEvent) -> STATUSTEXT_DATA {
     STATUSTEXT_DATA { severity, text: buf.into(), ..Default::default() }
 }
 
+/// ESTIMATOR_STATUS of the navigation filter's report `n` at `now_us` (`docs/navigation.md`
+/// § Firmware: test ratios = NIS / χ² gate, > 1 gated; horizontal and vertical position share
+/// the one 3-D test; no magnetometer, height-above-ground or airspeed fusion: their ratios 0).
+pub fn estimator_status(now_us: u64, n: &crate::app::navigation::NavReport) -> ESTIMATOR_STATUS_DATA {
+    ESTIMATOR_STATUS_DATA {
+        time_usec: now_us,
+        vel_ratio: n.vel_ratio,
+        pos_horiz_ratio: n.pos_ratio,
+        pos_vert_ratio: n.pos_ratio,
+        mag_ratio: 0.0,
+        hagl_ratio: 0.0,
+        tas_ratio: 0.0,
+        pos_horiz_accuracy: n.pos_horiz_accuracy,
+        pos_vert_accuracy: n.pos_vert_accuracy,
+        flags: EstimatorStatusFlags::from_bits_truncate(n.flags),
+    }
+}
+
 /// STATUSTEXT with `text` (truncated to 50 bytes).
 pub fn status_text(severity: MavSeverity, prefix: &str, text: &str) -> STATUSTEXT_DATA {
     let mut buf = [0u8; 50];
@@ -325,7 +344,7 @@ impl TelemetryScheduler {
     }
 
     /// Emits the messages due at `now_us` (and a STATUSTEXT on a failsafe transition) through
-    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 2 mode, 1 replan, 1 RC, 4 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link).
+    /// `emit`. Bounded: at most [`MAX_PER_POLL`] messages per call (2 failsafe, 2 mode, 1 replan, 1 RC, 4 heartbeat + 1 status + 1 landed state, 1 + 1 streams, 4 filter, 4 loops, 3 link, 1 estimator).
     pub fn poll(&mut self, now_us: u64, inp: &TelemetryInputs, mut emit: impl FnMut(Outbound)) {
         let ms = (now_us / 1000) as u32;
         let s = &inp.snapshot;
@@ -473,6 +492,11 @@ impl TelemetryScheduler {
                         c.obstacles_rejected as f32,
                     ));
                     emit(debug_vect(now_us, names::HW_ERR, c.imu_errors as f32, c.uart_errors as f32, 0.0));
+                }
+                Stream::Estimator => {
+                    if let Some(n) = &s.nav {
+                        emit(Outbound::EstimatorStatus(estimator_status(now_us, n)));
+                    }
                 }
                 Stream::Target => {
                     let sp = &s.setpoint;

@@ -118,11 +118,13 @@ const REPORT_EVERY_OUTER: u32 = 125;
 /// Decoded messages in flight from the link task to the outer task.
 const INBOUND_DEPTH: usize = 2;
 /// Bytes of one telemetry poll's frames. The `telemetry::MAX_PER_POLL` breakdown with each group's
-/// longest frames (MAVLink 2: header 10 + payload + CRC 2) needs at most 979 B: failsafe
+/// longest frames (MAVLink 2: header 10 + payload + CRC 2) needs at most 1,099 B: failsafe
 /// STATUSTEXT 66 + NAMED_VALUE_INT 30, mode STATUSTEXT 66 + CURRENT_MODE 21, RC_CHANNELS 54,
 /// heartbeat group 21 + 30 + 21 (CURRENT_MODE) + 13 (AVAILABLE_MODES_MONITOR) + 55 + 14, two
-/// streams ≤ 2 × 63, filter and loop groups ≤ 4 × 42 each, link 3 × 42. A frame that does not fit is dropped and counted as a UART error.
-const TX_BATCH: usize = 1024;
+/// streams ≤ 2 × 63, filter and loop groups ≤ 4 × 42 each, link 3 × 42; with the replan
+/// STATUSTEXT 66 and ESTIMATOR_STATUS 54 (issue 39) 1,099 B. A frame that does not fit is
+/// dropped and counted as a UART error.
+const TX_BATCH: usize = 1152;
 /// Replies in flight from the outer task to the link task.
 const REPLY_DEPTH: usize = 8;
 
