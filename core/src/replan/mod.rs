@@ -12,9 +12,14 @@
 //! filter, which stops the vehicle before anything it then senses, and the next check replans.
 //!
 //! **Trigger** ([`Replanner::step`]): checked at `rate_hz` (≥ 1 Hz; default 2): the remaining
-//! mission path (from the vehicle, `horizon_m` of it, sampled every half cell) comes within the
-//! hull radius, in 3D, of a static obstacle point the filter is given now — a blockage the
-//! offline planner's own clearance (hull + 0.05 m from surfaces) would have rejected. The test
+//! mission path (from the guidance's reference on it, `horizon_m` of it, sampled every half
+//! cell) comes within the hull radius less [`POINT_SLACK_M`], in 3D, of a static obstacle point
+//! the filter is given now — a blockage the offline planner's own clearance (hull + 0.05 m from
+//! surfaces) would have rejected, allowing for an obstacle memory's point standing up to half a
+//! voxel nearer than the surface. The path is walked from the reference, not from the vehicle:
+//! the straight line from a vehicle the filter pushed off the path to the next waypoint is not
+//! the path, and it cut door corners of the mapped office (stalled, below, from the vehicle:
+//! the reference may have run past the wall the vehicle is held in front of). The test
 //! is 3D and against the points, not the grid: the grid is 2D and rounds to cells, so a planned
 //! path that passes over a table, a plant or under a lamp within the height band, or a door
 //! edge a cell's half diagonal closer than it is, would look blocked (it did, on the mapped
@@ -78,6 +83,15 @@ pub const MAX_DETOUR: usize = 16;
 pub const STUCK_M: f32 = 0.15;
 /// ... for this long (s) counts as stalled.
 pub const STUCK_S: f32 = 3.0;
+/// The blockage trigger's slack, m: a path sample counts as blocked when it lies within the
+/// hull radius minus this of a static point. The offline planner keeps the hull radius + 0.05 m
+/// from the surfaces it knows, and an obstacle memory's point stands up to about half a
+/// voxel (0.1 m at the default 0.2 m) nearer the vehicle than the surface it was seen on (a
+/// cell hands out its returns' box point nearest the vehicle; on the mapped office 0.083 m off
+/// pillar B2 and 0.084 m off lamp C, lidar3d and lidar): hull + 0.05 − 0.1 = hull − 0.05 is
+/// the nearest a mapped path can come to such a point; an unmapped obstacle across the path
+/// puts a point within a few cm of a sample.
+pub const POINT_SLACK_M: f32 = 0.05;
 /// Obstacle points moving faster than this (m/s) are not marked (the grid is for the static world).
 pub const STATIC_SPEED: f32 = 0.1;
 
@@ -308,13 +322,16 @@ impl Replanner {
     }
 
     /// The trigger at `now_us`: when a check is due (rate, cooldown) and replanning is on,
-    /// [`Replanner::plan`] from `pos` along `remaining` (the waypoints not yet reached) against
-    /// the obstacle `points` given now, with the whole remaining path in the grid checked when
-    /// `stalled`. `None`: no check was due.
+    /// [`Replanner::plan`] from `pos` along `remaining` (the waypoints not yet reached, checked
+    /// from `along`: the guidance's reference on the path) against the obstacle `points` given
+    /// now, with the whole remaining path in the grid checked when `stalled`. `None`: no check
+    /// was due.
+    #[allow(clippy::too_many_arguments)]
     pub fn step<const N: usize>(
         &mut self,
         now_us: u64,
         pos: &Vec3,
+        along: &Vec3,
         stalled: bool,
         remaining: &[Vec3],
         points: &[ObstaclePoint],
@@ -327,7 +344,7 @@ impl Replanner {
         if now_us < self.next_check_us || remaining.is_empty() {
             return None;
         }
-        let r = self.plan(pos, remaining, points, stalled || stuck, out);
+        let r = self.plan(pos, along, remaining, points, stalled || stuck, out);
         let wait = match r {
             ReplanOutcome::NotNeeded => 1.0 / self.params.rate_hz,
             _ => self.params.cooldown_s.max(1.0 / self.params.rate_hz),
@@ -347,13 +364,17 @@ impl Replanner {
         now_us - self.anchor.1 >= (STUCK_S * 1e6) as u64
     }
 
-    /// Plan from `pos` along `remaining`, checking `horizon_m` of it for a blockage by the
+    /// Plan from `pos` along `remaining`, checking `horizon_m` of it, from the point `along`
+    /// (the guidance's reference: the path as planned, not the line from wherever the vehicle
+    /// stands to the next waypoint; from `pos` when `stalled` or `along` is not finite), for a
+    /// blockage by the
     /// static `points` (all of it, and for grid cells within the inflation radius too, when
     /// `stalled`); the new path (when [`ReplanOutcome::Replanned`]) is written to `out`,
     /// otherwise `out` is left empty. See the module documentation.
     pub fn plan<const N: usize>(
         &mut self,
         pos: &Vec3,
+        along: &Vec3,
         remaining: &[Vec3],
         points: &[ObstaclePoint],
         stalled: bool,
@@ -369,7 +390,10 @@ impl Replanner {
         self.grid.follow(pos);
         self.grid.inflate(radius);
         let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
-        if !self.find_targets(pos, remaining, points, horizon, stalled, radius, &mut targets) {
+        // Stalled, the way on from where the vehicle stands is what is blocked (the reference
+        // may have run past a thin wall the filter holds the vehicle in front of).
+        let from = if stalled || !along.iter().all(|c| c.is_finite()) { pos } else { along };
+        if !self.find_targets(pos, from, remaining, points, horizon, stalled, radius, &mut targets) {
             return ReplanOutcome::NotNeeded;
         }
         let r = self.search_targets(pos, remaining, radius, &targets, out);
@@ -394,6 +418,7 @@ impl Replanner {
     fn find_targets(
         &self,
         pos: &Vec3,
+        from: &Vec3,
         remaining: &[Vec3],
         points: &[ObstaclePoint],
         horizon: f32,
@@ -405,7 +430,7 @@ impl Replanner {
         let free =
             |p: &Vec3| self.grid.cell_of(p).is_some_and(|(i, j)| passable(&self.grid, i, j, pos, radius));
         let (mut s, mut blocked_at, mut first_free) = (0.0f32, None::<usize>, None::<Target>);
-        let mut a = *pos;
+        let mut a = *from;
         'walk: for (k, b) in remaining.iter().enumerate() {
             let len = crate::fmath::norm3(&(b - a));
             let n = ((len / step) as u32).min(16 * GRID as u32) + 1;
@@ -420,7 +445,7 @@ impl Replanner {
                     // Samples within the hull radius of the vehicle are the filter's (the
                     // vehicle there is as near the points as the filter let it come).
                     (None, Some((i, j)))
-                        if (touches(points, &p, self.hull)
+                        if (touches(points, &p, (self.hull - POINT_SLACK_M).max(0.0))
                             && (p - pos).norm_squared() > self.hull * self.hull)
                             || (stalled && !passable(&self.grid, i, j, pos, radius)) =>
                     {

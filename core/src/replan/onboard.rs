@@ -68,6 +68,9 @@ pub struct ReplanRequest {
     pub t_us: u64,
     /// The vehicle's position, NED m.
     pub position: Vec3,
+    /// The guidance's reference position (on the path being flown), NED m: where the check of
+    /// the remaining path starts.
+    pub reference: Vec3,
     /// The filter reported a stall (`deadlock`).
     pub stalled: bool,
     /// The waypoints not yet reached.
@@ -104,6 +107,7 @@ impl ReplanRequest {
             hull: 0.0,
             t_us: 0,
             position: Vec3::new(0.0, 0.0, 0.0),
+            reference: Vec3::new(0.0, 0.0, 0.0),
             stalled: false,
             remaining: heapless::Vec::new(),
             points: heapless::Vec::new(),
@@ -163,6 +167,7 @@ impl ReplanClock {
         req.hull = self.hull;
         req.t_us = now_us;
         req.position = tel.position;
+        req.reference = tel.reference.position;
         req.stalled = stalled;
         req.remaining.clear();
         let _ = req.remaining.extend_from_slice(&remaining[..remaining.len().min(PATH_CAPACITY)]);
@@ -194,8 +199,8 @@ impl Replanner {
             self.reconfigure(req.params, req.hull);
         }
         self.observe(&req.position, &req.points);
-        let ReplanRequest { t_us, position, stalled, remaining, points, outcome, path, .. } = req;
-        *outcome = self.step(*t_us, position, *stalled, remaining, points, path);
+        let ReplanRequest { t_us, position, reference, stalled, remaining, points, outcome, path, .. } = req;
+        *outcome = self.step(*t_us, position, reference, *stalled, remaining, points, path);
     }
 }
 

@@ -61,7 +61,7 @@ fn a_wall_with_one_gap_is_passed_through_the_gap() {
     let (at, goal) = (v(0.1, 0.1), v(4.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[goal], &pts, false, &mut out);
+    let res = r.plan(&at, &at, &[goal], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert_eq!(out.last(), Some(&goal), "the rest of the mission follows: {out:?}");
     // Through the gap: a waypoint near it, and every leg clear of the wall by hull + margin
@@ -82,7 +82,7 @@ fn a_wall_without_a_gap_is_no_path() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
+    assert_eq!(r.plan(&at, &at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
     assert!(out.is_empty());
     assert_eq!((r.stats().no_path, r.stats().replans), (1, 0));
 }
@@ -94,10 +94,16 @@ fn a_clear_path_needs_no_plan_and_a_far_blockage_waits() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(3.1, 0.1), v(3.0, 3.0)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
+    assert_eq!(
+        r.plan(&at, &at, &[v(3.1, 0.1), v(3.0, 3.0)], &pts, false, &mut out),
+        ReplanOutcome::NotNeeded
+    );
     // The wall 5 m ahead is beyond the 3 m horizon; with an unlimited horizon it is planned round.
-    assert_eq!(r.plan(&at, &[v(6.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
-    assert!(matches!(r.plan(&at, &[v(6.1, 0.1)], &pts, true, &mut out), ReplanOutcome::Replanned { .. }));
+    assert_eq!(r.plan(&at, &at, &[v(6.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
+    assert!(matches!(
+        r.plan(&at, &at, &[v(6.1, 0.1)], &pts, true, &mut out),
+        ReplanOutcome::Replanned { .. }
+    ));
 }
 
 #[test]
@@ -114,11 +120,38 @@ fn a_path_over_a_table_or_past_a_door_edge_is_clear() {
     let mut r = replanner_with(&pts, &at);
     assert!(r.grid().occupied_count() >= 5, "the table is in the grid");
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(3.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
+    assert_eq!(r.plan(&at, &at, &[v(3.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NotNeeded);
     // 0.15 m below the path: within the hull radius, blocked.
     let _ = pts.push(ObstaclePoint::fixed(Vec3::new(1.5, 0.1, Z + 0.15), 3));
-    let res = r.plan(&at, &[v(3.1, 0.1)], &pts, false, &mut out);
+    let res = r.plan(&at, &at, &[v(3.1, 0.1)], &pts, false, &mut out);
     assert_ne!(res, ReplanOutcome::NotNeeded);
+}
+
+/// The two false triggers of the mapped office (docs/perception.md § On-board replanning):
+/// the check walks the path from the guidance's reference, not the line from a vehicle pushed
+/// off the path (truth seed 4 at 1 m/s cut a door corner that way: 6 replans, 5 no-path, no
+/// goal); and a memory point up to half a voxel nearer than the surface the planner kept
+/// hull + 0.05 m from ([`POINT_SLACK_M`]) is no blockage.
+#[test]
+fn a_vehicle_off_its_path_or_a_conservative_memory_point_is_no_blockage() {
+    // A door edge at (2.0, 0.5); the path runs along y = 0.2 (0.3 m from it: clear).
+    let edge = [ObstaclePoint::fixed(v(2.0, 0.5), 1)];
+    let (reference, vehicle, next) = (v(1.0, 0.2), v(1.0, 0.6), v(3.0, 0.2));
+    let mut r = replanner_with(&edge, &vehicle);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    // From the vehicle, 0.4 m off the path, the straight line to the next waypoint passes
+    // 0.06 m from the edge; the path itself does not.
+    assert_eq!(r.plan(&vehicle, &reference, &[next], &edge, false, &mut out), ReplanOutcome::NotNeeded);
+    assert_ne!(r.plan(&vehicle, &vehicle, &[next], &edge, false, &mut out), ReplanOutcome::NotNeeded);
+    // A point 0.19 m from the path (the planner's 0.27 m less a memory cell's 0.08 m): clear;
+    // 0.15 m: blocked.
+    let at = v(0.1, 0.2);
+    for (d, blocked) in [(HULL - 0.03, false), (HULL - POINT_SLACK_M - 0.02, true)] {
+        let p = [ObstaclePoint::fixed(v(2.0, 0.2 + d), 1)];
+        let mut r = replanner_with(&p, &at);
+        let res = r.plan(&at, &at, &[next], &p, false, &mut out);
+        assert_eq!(res != ReplanOutcome::NotNeeded, blocked, "point {d} m from the path: {res:?}");
+    }
 }
 
 #[test]
@@ -134,14 +167,14 @@ fn a_waypoint_inside_an_obstacle_is_skipped_for_the_next_reachable_one() {
     let (inside, after) = (v(3.1, 0.1), v(6.1, 0.1));
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    let res = r.plan(&at, &[inside, after], &pts, false, &mut out);
+    let res = r.plan(&at, &at, &[inside, after], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert!(!out.contains(&inside), "{out:?}");
     assert_eq!(out.last(), Some(&after));
     assert!(clearance(&at, &out, &pts) >= HULL);
     // The farthest waypoint (inside the room) is tried first, cannot be reached, and the
     // nearer one is the target; the rest of the mission follows it.
-    let res = r.plan(&at, &[after, inside], &pts, false, &mut out);
+    let res = r.plan(&at, &at, &[after, inside], &pts, false, &mut out);
     assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
     assert_eq!(&out[out.len() - 2..], &[after, inside]);
 }
@@ -155,13 +188,13 @@ fn the_expansion_cap_is_a_defined_result() {
     let mut r = Replanner::new(ReplanParams { max_expansions: 10, ..on() }, HULL);
     r.observe(&at, &pts);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::BudgetExceeded);
+    assert_eq!(r.plan(&at, &at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::BudgetExceeded);
     assert!(out.is_empty());
     // A path that would not fit the capacity: the same result, nothing written.
     let mut r = replanner_with(&pts, &at);
     let mut small: heapless::Vec<Vec3, 2> = heapless::Vec::new();
     assert_eq!(
-        r.plan(&at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut small),
+        r.plan(&at, &at, &[v(4.1, 0.1), v(5.1, 0.1)], &pts, false, &mut small),
         ReplanOutcome::BudgetExceeded
     );
     assert!(small.is_empty());
@@ -176,19 +209,22 @@ fn the_trigger_keeps_its_rate_and_cooldown() {
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
     let path = [v(4.1, 0.1)];
-    assert!(matches!(r.step(0, &at, false, &path, &pts, &mut out), Some(ReplanOutcome::Replanned { .. })));
+    assert!(matches!(
+        r.step(0, &at, &at, false, &path, &pts, &mut out),
+        Some(ReplanOutcome::Replanned { .. })
+    ));
     // Cooldown 2 s: nothing until then, whatever the path.
-    assert_eq!(r.step(1_999_999, &at, false, &path, &pts, &mut out), None);
-    assert!(r.step(2_000_000, &at, false, &path, &pts, &mut out).is_some());
+    assert_eq!(r.step(1_999_999, &at, &at, false, &path, &pts, &mut out), None);
+    assert!(r.step(2_000_000, &at, &at, false, &path, &pts, &mut out).is_some());
     // A clear path is checked again after 1 / rate = 0.5 s.
     let mut clear = Replanner::new(on(), HULL);
-    assert_eq!(clear.step(0, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
-    assert_eq!(clear.step(499_999, &at, false, &path, &[], &mut out), None);
-    assert_eq!(clear.step(500_000, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
+    assert_eq!(clear.step(0, &at, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
+    assert_eq!(clear.step(499_999, &at, &at, false, &path, &[], &mut out), None);
+    assert_eq!(clear.step(500_000, &at, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
     // Off: never.
     let mut off = Replanner::new(ReplanParams::default(), HULL);
     off.observe(&at, &pts);
-    assert_eq!(off.step(0, &at, true, &path, &pts, &mut out), None);
+    assert_eq!(off.step(0, &at, &at, true, &path, &pts, &mut out), None);
 }
 
 #[test]
@@ -212,8 +248,11 @@ fn the_flight_area_closes_the_way_round() {
     let at = v(0.1, 0.1);
     let mut r = replanner_with(&pts, &at);
     let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
-    assert!(matches!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::Replanned { .. }));
+    assert!(matches!(
+        r.plan(&at, &at, &[v(4.1, 0.1)], &pts, false, &mut out),
+        ReplanOutcome::Replanned { .. }
+    ));
     assert!(out.iter().any(|w| w.y.abs() > 2.0), "{out:?}");
     r.set_area(Some(([-1.0, -2.2], [5.0, 2.2])));
-    assert_eq!(r.plan(&at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
+    assert_eq!(r.plan(&at, &at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
 }
