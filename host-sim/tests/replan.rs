@@ -21,11 +21,12 @@ fn fly(name: &str, args: &[&str]) -> serde_json::Value {
     summary(&out)
 }
 
-fn assert_goal_without_contact(s: &serde_json::Value, what: &str) {
+/// Goal, no contact, at least `min_replans` replans, each reported as an event.
+fn assert_goal_without_contact(s: &serde_json::Value, what: &str, min_replans: u64) {
     assert_eq!(s["end_reason"], "goal", "{what}: {s}");
     assert_eq!(s["collided"], false, "{what}");
     assert!(s["min_clearance_m"].as_f64().unwrap() > 0.0, "{what}");
-    assert!(s["replans"].as_u64().unwrap() >= 1, "{what}");
+    assert!(s["replans"].as_u64().unwrap() >= min_replans, "{what}");
     assert_eq!(s["replan_enabled"], true, "{what}");
     let events = s["replan_events"].as_array().unwrap();
     let replanned = events.iter().filter(|e| e["outcome"] == "replanned").count() as u64;
@@ -43,7 +44,7 @@ fn two_doors_with_truth_reaches_the_goal_by_replanning() {
         "td-truth",
         &["--guidance", "trajectory", "--scene", scene, "--param", "RPL_ENABLE=1", "--duration", "120"],
     );
-    assert_goal_without_contact(&on, "truth");
+    assert_goal_without_contact(&on, "truth", 1);
     let off = fly("td-truth-off", &["--guidance", "trajectory", "--scene", scene]);
     assert_eq!(off["end_reason"], "duration", "{off}");
     assert_eq!((off["replans"].as_u64(), off["replan_enabled"].as_bool()), (Some(0), Some(false)));
@@ -66,11 +67,13 @@ fn two_doors_with_lidar360_reaches_the_goal_by_replanning() {
         &["--duration", "120"],
     ]
     .concat();
-    assert_goal_without_contact(&fly("td-lidar360", &args), "lidar360");
+    assert_goal_without_contact(&fly("td-lidar360", &args), "lidar360", 1);
 }
 
 /// A generated forest with 30 % of its trunks unmapped, crossed at 3 m/s with the 360° lidar
-/// (seed 0; seeds 0–4 in docs/perception.md § On-board replanning).
+/// (seed 0; seeds 0–4 in docs/perception.md § On-board replanning): goal, no contact, the
+/// replans counted (none on this seed since the trigger allows for the memory's points: the
+/// filter alone slips between the thin unmapped trunks; one before, at 45.8 s against 43.9 s).
 #[test]
 fn an_unmapped_forest_is_crossed_at_3_m_s_with_replanning() {
     let dir = tmp("replan", "forest");
@@ -94,18 +97,22 @@ fn an_unmapped_forest_is_crossed_at_3_m_s_with_replanning() {
         "forest-lidar360",
         &[&["--guidance", "trajectory", "--scene", scene.to_str().unwrap()][..], &LIDAR360].concat(),
     );
-    assert_goal_without_contact(&s, "forest seed 0");
+    assert_goal_without_contact(&s, "forest seed 0", 0);
     assert_eq!(s["unmapped_obstacles"], 300);
 }
 
 /// The mapped office (nothing unmapped): its planned path passes over desks and plants and
 /// near door posts, which the trigger leaves alone — no replan, the goal as without
-/// replanning (docs/perception.md § On-board replanning).
+/// replanning (docs/perception.md § On-board replanning). Seeds 4 (truth), 3 (lidar) and 0
+/// (lidar3d) lost the goal to 10–12 replan / no-path events each while the trigger walked the
+/// path from the vehicle and took memory points for surfaces.
 #[test]
 fn the_mapped_office_flies_without_a_replan() {
-    for perception in ["truth", "lidar"] {
+    for (perception, seed) in
+        [("truth", "0"), ("lidar", "0"), ("truth", "4"), ("lidar", "3"), ("lidar3d", "0")]
+    {
         let s = fly(
-            &format!("office-{perception}"),
+            &format!("office-{perception}-{seed}"),
             &[
                 "--guidance",
                 "trajectory",
@@ -117,6 +124,8 @@ fn the_mapped_office_flies_without_a_replan() {
                 "no-overhangs,no-low-obstacles",
                 "--speed",
                 "1",
+                "--seed",
+                seed,
                 "--param",
                 "RPL_ENABLE=1",
             ],
@@ -149,5 +158,5 @@ fn the_blocked_office_with_truth_reaches_the_goal_by_replanning() {
             "200",
         ],
     );
-    assert_goal_without_contact(&s, "office_blocked truth");
+    assert_goal_without_contact(&s, "office_blocked truth", 1);
 }
