@@ -39,6 +39,8 @@ fn request(path: &[Vec3], points: impl Iterator<Item = ObstaclePoint>) -> Replan
     r.hull = DEFAULT_HULL_RADIUS;
     r.t_us = 1_000_000;
     r.position = Vec3::new(0.0, 0.0, Z);
+    // The guidance's reference, where the path check starts: on the vehicle here.
+    r.reference = r.position;
     let _ = r.remaining.extend_from_slice(&path[..path.len().min(PATH_CAPACITY)]);
     for p in points {
         if r.points.push(p).is_err() {
