@@ -156,6 +156,7 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default(),
         seed: d.seed,
+        position_source: d.position_source.map(|s| s.as_str().to_string()).unwrap_or_default(),
         values: d.values.values().copied().collect(),
         outcome: Outcome::default(),
     };
@@ -173,6 +174,7 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
         }
     };
     row.scene = scene.name.clone();
+    row.position_source = cfg.sensors.position_source.as_str().to_string();
     match crate::fc::control::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
@@ -316,6 +318,14 @@ fn print_summary(s: &output::Summary, out: &Path) {
         a.min_clearance_m["p5"],
         a.min_clearance_m["p50"]
     );
+    if s.per_source.len() > 1 {
+        for (src, r) in &s.per_source {
+            println!(
+                "  {src}: {} flights, {} collisions ({} not flagged beforehand), 95 % upper bound {:.4}, goal {:.3}",
+                r.flights, r.collisions, r.collisions_unflagged, r.collision_rate_upper_95, r.goal_rate
+            );
+        }
+    }
     println!("  report: {}", out.display());
 }
 

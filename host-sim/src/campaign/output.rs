@@ -67,6 +67,9 @@ pub struct Row {
     pub scene: String,
     /// Noise / planner seed.
     pub seed: u64,
+    /// The position source flown (`[draw] position_source`, else the scene's; empty when the
+    /// flight's options could not be read).
+    pub position_source: String,
     /// Drawn values in the campaign's quantity order.
     pub values: Vec<f64>,
     /// Outcome.
@@ -95,7 +98,7 @@ pub const OUTCOME_COLUMNS: [&str; 16] = [
 
 /// The header of `campaign.csv` for the drawn quantities `names`.
 pub fn header(names: &[String]) -> Vec<String> {
-    let mut h = vec!["flight".to_string(), "scene".into(), "seed".into()];
+    let mut h = vec!["flight".to_string(), "scene".into(), "seed".into(), "position_source".into()];
     h.extend(names.iter().cloned());
     h.extend(OUTCOME_COLUMNS.iter().map(|s| s.to_string()));
     h
@@ -135,12 +138,14 @@ mod shortest_opt {
 }
 
 impl Row {
-    /// The CSV record: flight, scene, seed, the drawn values, then the [`Outcome`] fields.
-    fn record(&self) -> (u64, &str, u64, Vec<Shortest>, &Outcome) {
+    /// The CSV record: flight, scene, seed, position source, the drawn values, then the
+    /// [`Outcome`] fields.
+    fn record(&self) -> (u64, &str, u64, &str, Vec<Shortest>, &Outcome) {
         (
             self.flight,
             &self.scene,
             self.seed,
+            &self.position_source,
             self.values.iter().map(|v| Shortest(*v)).collect(),
             &self.outcome,
         )
@@ -148,18 +153,26 @@ impl Row {
 
     /// Parse a record written by [`write_csv`] with `n` drawn values.
     pub fn parse(rec: &csv::StringRecord, n: usize) -> Result<Row> {
-        if rec.len() != 3 + n + OUTCOME_COLUMNS.len() {
-            return Err(anyhow!("expected {} columns, got {}", 3 + n + OUTCOME_COLUMNS.len(), rec.len()));
+        const FIXED: usize = 4;
+        if rec.len() != FIXED + n + OUTCOME_COLUMNS.len() {
+            return Err(anyhow!("expected {} columns, got {}", FIXED + n + OUTCOME_COLUMNS.len(), rec.len()));
         }
         let f = |i: usize| rec.get(i).unwrap_or("");
         let num = |i: usize| f(i).parse::<f64>().map_err(|e| anyhow!("column {}: `{}`: {e}", i + 1, f(i)));
         let int = |i: usize| f(i).parse::<u64>().map_err(|e| anyhow!("column {}: `{}`: {e}", i + 1, f(i)));
-        let values = (0..n).map(|k| num(3 + k)).collect::<Result<Vec<_>>>()?;
-        let tail: csv::StringRecord = rec.iter().skip(3 + n).collect();
+        let values = (0..n).map(|k| num(FIXED + k)).collect::<Result<Vec<_>>>()?;
+        let tail: csv::StringRecord = rec.iter().skip(FIXED + n).collect();
         let header: csv::StringRecord = OUTCOME_COLUMNS.iter().collect();
         let outcome: Outcome =
             tail.deserialize(Some(&header)).map_err(|e| anyhow!("outcome columns: {e}"))?;
-        Ok(Row { flight: int(0)?, scene: f(1).to_string(), seed: int(2)?, values, outcome })
+        Ok(Row {
+            flight: int(0)?,
+            scene: f(1).to_string(),
+            seed: int(2)?,
+            position_source: f(3).to_string(),
+            values,
+            outcome,
+        })
     }
 
     fn flown(&self) -> bool {
@@ -353,6 +366,8 @@ pub struct Summary {
     pub all: Rates,
     /// Per scene.
     pub per_scene: BTreeMap<String, Rates>,
+    /// Per position source (`campaign.csv`'s `position_source`).
+    pub per_source: BTreeMap<String, Rates>,
     /// Collisions by scene and obstacle: `scene: { what: count }`.
     pub collisions_by_obstacle: BTreeMap<String, BTreeMap<String, u64>>,
     /// The 10 flights with the smallest min clearance (collisions first); the first
@@ -368,9 +383,11 @@ pub fn summarise(
 ) -> Summary {
     let all: Vec<&Row> = rows.iter().collect();
     let mut scenes: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
+    let mut sources: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
     let mut by_obstacle: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
     for r in rows {
         scenes.entry(r.scene.clone()).or_default().push(r);
+        sources.entry(r.position_source.clone()).or_default().push(r);
         if r.outcome.collided {
             *by_obstacle
                 .entry(r.scene.clone())
@@ -405,6 +422,7 @@ pub fn summarise(
         distributions: c.draw.iter().map(|(k, d)| (k.clone(), format!("{d:?}"))).collect(),
         all: rates(&all),
         per_scene: scenes.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
+        per_source: sources.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
         collisions_by_obstacle: by_obstacle,
         worst,
     }
@@ -538,6 +556,7 @@ mod tests {
                 flight: 0,
                 scene: "office, big".into(),
                 seed: u64::MAX,
+                position_source: "gps".into(),
                 values: vec![1.0 / 3.0, 2.5e-7],
                 outcome: Outcome {
                     collided: true,
@@ -553,6 +572,7 @@ mod tests {
                 flight: 1,
                 scene: "x".into(),
                 seed: 3,
+                position_source: String::new(),
                 values: vec![0.1, 0.2],
                 outcome: Outcome { reached_goal: true, time_to_goal_s: Some(60.828), ..Default::default() },
             },

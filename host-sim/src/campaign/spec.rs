@@ -16,6 +16,8 @@
 //! motor_tau = { log_uniform = [0.5, 2.0] }
 //! fix_dropout_length = { fixed = 0.2 }
 //! CBF_ACC_BOUND = { uniform = [0.5, 2.0] }   # any parameter by name: `--param NAME=x`
+//! position_source = { choice = ["mocap", "gps", "rtk", "vio"] }  # or one name; optional
+//!                             #   weights = [1, 1, 1, 1] (relative, ≥ 0, not all 0)
 //! ```
 //!
 //! Quantities ([`QUANTITIES`]): wind (`wind_speed` m/s, `wind_direction_deg` from,
@@ -30,12 +32,15 @@
 //! (`parapet params export`), passed as `--param NAME=x`: a drawn parameter must be continuous
 //! (not a code) and its distribution's support (uniform, log-uniform bounds; normal's min and
 //! max, which must then be given) inside the parameter's range, checked when the file is read.
+//! `position_source` (issue 39) is drawn among named sources (`crate::sim::source`: the
+//! `[sensors] position_source` presets), passed as `--position-source NAME` and recorded in
+//! `campaign.csv`'s `position_source` column (the source every flight flew, drawn or not).
 //!
 //! Determinism: each quantity of flight i is drawn from its own ChaCha8 stream
 //! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
 //! seed is a mix of (campaign seed, i). Adding a quantity does not change the others.
 //!
-//! May import: `crate::sim::disturbance`, `crate::input`, the external crates.
+//! May import: `crate::sim::disturbance`, `crate::sim::source`, `crate::input`, the external crates.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -49,6 +54,7 @@ use crate::sim::disturbance::faults::RotorFault;
 use crate::sim::disturbance::wind::Gust;
 use crate::sim::disturbance::{Disturbances, Mismatch};
 use crate::sim::plant::VehicleParams;
+use crate::sim::source::PositionSource;
 use parapet_core::outer::guidance::MissionGuidance;
 
 /// Largest number of flights of a campaign.
@@ -150,6 +156,9 @@ pub struct Campaign {
     pub scenes: Vec<CampaignScene>,
     /// Distributions by quantity (sorted by name).
     pub draw: BTreeMap<String, Dist>,
+    /// The position sources drawn, with their relative weights (`[draw] position_source`);
+    /// `None`: each scene's own.
+    pub position_source: Option<Vec<(PositionSource, f64)>>,
     /// Identity (FNV-1a of the campaign text and every scene and path file), hex.
     pub identity: String,
 }
@@ -165,6 +174,8 @@ pub struct FlightDraw {
     pub seed: u64,
     /// Drawn values, by quantity.
     pub values: BTreeMap<String, f64>,
+    /// The drawn position source, if the campaign draws it.
+    pub position_source: Option<PositionSource>,
     /// The `parapet run` options (without `--disturbances` and `--out`).
     pub args: Vec<String>,
 }
@@ -235,6 +246,78 @@ fn parse_dist(file: &Path, name: &str, v: &toml::Value) -> Result<Dist, InputErr
         }
         _ => Err(err("unknown distribution")),
     }
+}
+
+/// The quantity name of the position-source draw.
+pub const POSITION_SOURCE: &str = "position_source";
+
+/// `[draw] position_source`: one source name, or `{ choice = [names], weights = [w] }`.
+fn parse_source_draw(file: &Path, v: &toml::Value) -> Result<Vec<(PositionSource, f64)>, InputError> {
+    let names: Vec<&str> = PositionSource::ALL.iter().map(|p| p.as_str()).collect();
+    let allowed = format!(
+        "a source name or {{ choice = [names], weights = [w ≥ 0, …] }} with names among {}",
+        names.join(", ")
+    );
+    let err = |reason: &str, value: String| {
+        bad(file, "draw", POSITION_SOURCE, reason).value(value).allowed(allowed.clone())
+    };
+    let source = |x: &toml::Value| -> Result<PositionSource, InputError> {
+        x.as_str().and_then(|s| s.parse().ok()).ok_or_else(|| err("unknown position source", x.to_string()))
+    };
+    if let Some(t) = v.as_table() {
+        for k in t.keys() {
+            if !matches!(k.as_str(), "choice" | "weights") {
+                return Err(err("unknown key (choice, weights)", k.clone()));
+            }
+        }
+        let choice = t
+            .get("choice")
+            .and_then(|c| c.as_array())
+            .filter(|c| !c.is_empty())
+            .ok_or_else(|| err("choice needs a non-empty list of names", v.to_string()))?;
+        let sources = choice.iter().map(source).collect::<Result<Vec<_>, _>>()?;
+        let weights = match t.get("weights") {
+            None => vec![1.0; sources.len()],
+            Some(w) => {
+                let w: Option<Vec<f64>> = w.as_array().map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
+                        .collect()
+                });
+                match w {
+                    Some(w)
+                        if w.len() == sources.len()
+                            && w.iter().all(|x| x.is_finite() && *x >= 0.0)
+                            && w.iter().sum::<f64>() > 0.0 =>
+                    {
+                        w
+                    }
+                    _ => return Err(err("weights: one number ≥ 0 per choice, not all 0", v.to_string())),
+                }
+            }
+        };
+        for (k, s) in sources.iter().enumerate() {
+            if sources[..k].contains(s) {
+                return Err(err("a source named twice", s.as_str().to_string()));
+            }
+        }
+        return Ok(sources.into_iter().zip(weights).collect());
+    }
+    Ok(vec![(source(v)?, 1.0)])
+}
+
+/// One draw among weighted sources (`u` uniform in [0, 1)).
+fn pick_source(sources: &[(PositionSource, f64)], u: f64) -> PositionSource {
+    let total: f64 = sources.iter().map(|s| s.1).sum();
+    let mut x = u * total;
+    for &(s, w) in sources {
+        if x < w {
+            return s;
+        }
+        x -= w;
+    }
+    // Rounding at the top end: the last source with a weight.
+    sources.iter().rev().find(|s| s.1 > 0.0).map_or(PositionSource::Mocap, |s| s.0)
 }
 
 /// A parameter drawn by name: continuous, every value the distribution can give in its range.
@@ -374,13 +457,18 @@ impl Campaign {
             return Err(top("scenes", "at least one [[scenes]] table"));
         }
         let mut draw = BTreeMap::new();
+        let mut position_source = None;
         if let Some(d) = table.get("draw") {
             let d = d.as_table().ok_or_else(|| top("draw", "not a table"))?;
             for (k, v) in d {
+                if k == POSITION_SOURCE {
+                    position_source = Some(parse_source_draw(path, v)?);
+                    continue;
+                }
                 let param = parapet_core::params::index_of(k).map(|i| &parapet_core::params::TABLE[i]);
                 if !QUANTITIES.contains(&k.as_str()) && param.is_none() {
                     return Err(bad(path, "draw", k, "unknown quantity").allowed(format!(
-                        "{}, or a parameter name of `parapet params export`",
+                        "{}, {POSITION_SOURCE}, or a parameter name of `parapet params export`",
                         QUANTITIES.join(", ")
                     )));
                 }
@@ -399,6 +487,7 @@ impl Campaign {
             run_args,
             scenes,
             draw,
+            position_source,
             identity: format!("{id:016x}"),
         })
     }
@@ -426,6 +515,10 @@ impl Campaign {
             let mut rng = ChaCha8Rng::seed_from_u64(mix(base ^ fnv(name.as_bytes(), FNV0)));
             values.insert(name.clone(), dist.sample(&mut rng));
         }
+        let position_source = self.position_source.as_deref().map(|sources| {
+            let mut rng = ChaCha8Rng::seed_from_u64(mix(base ^ fnv(POSITION_SOURCE.as_bytes(), FNV0)));
+            pick_source(sources, rng.random::<f64>())
+        });
         let sc = &self.scenes[scene];
         let mut args = vec!["--scene".to_string(), sc.file.display().to_string()];
         if let Some(p) = &sc.path {
@@ -435,6 +528,9 @@ impl Campaign {
         }
         args.extend(["--seed".into(), seed.to_string()]);
         args.extend(self.run_args.iter().cloned());
+        if let Some(src) = position_source {
+            args.extend(["--position-source".into(), src.as_str().into()]);
+        }
         for q in ["mu", "delta", "delta1", "kp", "kd", "speed"] {
             if let Some(x) = values.get(q) {
                 args.extend([format!("--{q}"), format!("{x}")]);
@@ -445,7 +541,7 @@ impl Campaign {
                 args.extend(["--param".into(), format!("{name}={x}")]);
             }
         }
-        FlightDraw { index: i, scene, seed, values, args }
+        FlightDraw { index: i, scene, seed, values, position_source, args }
     }
 }
 
@@ -595,6 +691,64 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("guidance") && e.contains("fast") && e.contains("trajectory"), "{e}");
+    }
+
+    #[test]
+    fn the_position_source_is_drawn_by_weight_passed_as_an_option_and_checked() {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-source-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sc = scene_dir().join("one_sphere.toml");
+        let head =
+            format!("flights = 400\n[[scenes]]\nfile = {:?}\nstraight = true\n", sc.display().to_string());
+        let text = format!(
+            "{head}[draw]\nwind_speed = {{ uniform = [0, 3] }}\n\
+             position_source = {{ choice = [\"gps\", \"vio\", \"rtk\"], weights = [3, 1, 0] }}\n"
+        );
+        let c = Campaign::load(&write(&dir, "s.toml", &text)).unwrap_or_else(|e| panic!("{e}"));
+        let mut counts = BTreeMap::new();
+        for i in 0..400 {
+            let f = c.flight(i);
+            let src = f.position_source.expect("drawn");
+            *counts.entry(src.as_str()).or_insert(0) += 1;
+            assert!(f.args.windows(2).any(|w| w == ["--position-source", src.as_str()]), "{:?}", f.args);
+            let (_, cfg) = crate::cli::run_config_from_args(&f.args).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(cfg.sensors.position_source, src);
+            assert_eq!(cfg.sensors.rate, src.preset().rate_hz, "the preset comes with the source");
+        }
+        // Weights 3 : 1 : 0 (binomial σ ≈ 9 of 400).
+        assert_eq!(counts.get("rtk"), None, "{counts:?}");
+        assert!((270..=330).contains(&counts["gps"]), "{counts:?}");
+        // The other quantities' draws do not depend on whether the source is drawn.
+        let plain = Campaign::load(&write(
+            &dir,
+            "p.toml",
+            &format!("{head}[draw]\nwind_speed = {{ uniform = [0, 3] }}\n"),
+        ))
+        .unwrap();
+        assert_eq!(plain.flight(5).values, c.flight(5).values);
+        assert!(plain.flight(5).position_source.is_none());
+        let one =
+            Campaign::load(&write(&dir, "o.toml", &format!("{head}[draw]\nposition_source = \"vio\"\n")))
+                .unwrap();
+        assert_eq!(one.flight(3).position_source, Some(PositionSource::Vio));
+        for (body, value) in [
+            ("position_source = \"galileo\"", "galileo"),
+            ("position_source = { choice = [\"gps\", \"lidar\"] }", "lidar"),
+            ("position_source = { choice = [] }", "choice"),
+            ("position_source = { choice = [\"gps\"], weights = [-1] }", "-1"),
+            ("position_source = { choice = [\"gps\", \"rtk\"], weights = [0, 0] }", "weights"),
+            ("position_source = { choice = [\"gps\", \"gps\"] }", "gps"),
+            ("position_source = { pick = [\"gps\"] }", "pick"),
+            ("position_source = 3", "3"),
+        ] {
+            let e = Campaign::load(&write(&dir, "bad.toml", &format!("{head}[draw]\n{body}\n")))
+                .unwrap_err()
+                .to_string();
+            for want in ["bad.toml", "[draw]", "position_source", value, "mocap, gps, rtk, vio"] {
+                assert!(e.contains(want), "{body}: `{want}` not in {e}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

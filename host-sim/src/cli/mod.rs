@@ -128,6 +128,11 @@ pub struct RunArgs {
     /// MIS_GUIDANCE=1|0`. See docs/cascade.md.
     #[arg(long, value_parser = parse_guidance)]
     guidance: Option<MissionGuidance>,
+    /// Where the position fix comes from, as the scene's `[sensors] position_source`: mocap |
+    /// gps | rtk | vio (their preset rate, noise and latency under the keys the scene's
+    /// `[sensors]` table sets; docs/navigation.md) [default: the scene's, else mocap].
+    #[arg(long, value_parser = values::parse_position_source)]
+    position_source: Option<crate::sim::source::PositionSource>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Barrier velocity weight μ, s", "mu"))]
     mu: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = default_help("Safety level δ, m² (hull radius squared)", "delta"))]

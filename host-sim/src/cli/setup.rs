@@ -188,6 +188,10 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     } else if a.noise {
         cfg.sensors.noise = true;
     }
+    if let Some(src) = a.position_source {
+        cfg.sensors.position_source = src;
+        cfg.sensors.apply_source_preset(&scene.sensors_keys.iter().map(String::as_str).collect::<Vec<_>>());
+    }
     cfg.seed = a.seed;
     if let (false, Ok(cbf)) = (cfg.param_overrides.is_empty(), cfg.cbf_params()) {
         // The cross-parameter rules (docs/cascade.md) on the whole set the controller gets,

@@ -52,6 +52,15 @@ pub(crate) fn parse_guidance(s: &str) -> Result<MissionGuidance, String> {
     })
 }
 
+/// A `--position-source` name (the `[sensors] position_source` presets, `crate::sim::source`).
+pub(crate) fn parse_position_source(s: &str) -> Result<crate::sim::source::PositionSource, String> {
+    use crate::sim::source::PositionSource;
+    s.parse().map_err(|()| {
+        let names: Vec<&str> = PositionSource::ALL.iter().map(|p| p.as_str()).collect();
+        format!("unknown position source {s:?}: expected one of {}", names.join(", "))
+    })
+}
+
 pub(super) fn parse_assumption(s: &str) -> Result<crate::sim::coverage::Assumption, String> {
     s.parse()
 }

@@ -83,6 +83,9 @@ pub struct Scene {
     pub controller: ControllerOverrides,
     /// Sensor parameters from `[sensors]`, if the table is present.
     pub sensors: Option<SensorParams>,
+    /// The keys the `[sensors]` table sets (they win over a `position_source` preset, also
+    /// one given by `parapet run --position-source`).
+    pub sensors_keys: Vec<String>,
     /// Simulation settings from `[sim]`.
     pub sim: SimSettings,
     /// Disturbances from `[wind]`, `[plant]`, `[faults]` (see [`crate::sim::disturbance`]).
@@ -183,9 +186,10 @@ impl Scene {
                 )));
             }
         }
+        let sensors_keys = super::schema::sensors_keys(src);
         if let Some(s) = raw.sensors.as_mut() {
             // The source's preset under the keys the table sets (issue 39).
-            let keys = super::schema::sensors_keys(src);
+            let keys = &sensors_keys;
             s.apply_source_preset(&keys.iter().map(String::as_str).collect::<Vec<_>>());
             validate_sensors(s).map_err(|m| err(format!("[sensors]: {m}")))?;
         }
@@ -221,6 +225,7 @@ impl Scene {
             vehicle,
             controller,
             sensors: raw.sensors,
+            sensors_keys,
             disturbances,
             sim,
             obstacles,
