@@ -161,8 +161,8 @@ impl FlightStack for Controller {
     fn navigation(&self, t: f64) -> Option<(Vector3<f64>, f64)> {
         let nav = self.nav.as_ref()?;
         let (p, _) = nav.estimate(clock_us(t))?;
-        let s = nav.status().sigma_p;
-        Some((Vector3::new(p.x as f64, p.y as f64, p.z as f64), s.x.max(s.y) as f64))
+        let sigma = nav.world_sigma(clock_us(t));
+        Some((Vector3::new(p.x as f64, p.y as f64, p.z as f64), sigma as f64))
     }
 
     fn height_fix(&mut self, t: f64, down: f64) {

@@ -4,6 +4,11 @@
 //! dropout failsafe of [`parapet_core::nav::aid::NAV_TIMEOUT_US`]) fed with the simulator's
 //! readings and the σ the scene states for its source.
 //!
+//! **Relative sources** (`vio`): the filter fuses the odometry in its own frame, whose drift
+//! against the world it cannot observe, so its σ says nothing of it. For the margin of mapped
+//! obstacles (`docs/filter.md` § 18) [`NavAid::world_sigma`] adds the source's declared drift
+//! (random walk, m/√s) since the first fix: `σ_w² = σ² + drift² · t`.
+//!
 //! Owns: [`NavAid`]. May import: `parapet-core`, [`crate::sim`].
 
 use parapet_core::controller::PositionFix;
@@ -22,6 +27,10 @@ pub struct NavAid {
     kind: FixKind,
     noise: SourceNoise,
     sigma_baro: f32,
+    /// A relative source's drift, m/√s (0 for an absolute one).
+    drift: f32,
+    /// Time of the first fix, µs.
+    first_fix_us: Option<u64>,
 }
 
 impl NavAid {
@@ -37,6 +46,8 @@ impl NavAid {
             kind: Self::kind_of(src),
             noise: Self::noise_of(sensors),
             sigma_baro: floor(baro) * 1.5,
+            drift: if Self::kind_of(src) == FixKind::Relative { src.preset().drift as f32 } else { 0.0 },
+            first_fix_us: None,
         })
     }
 
@@ -63,6 +74,7 @@ impl NavAid {
     /// A delayed fix (`t_us`: the time it describes).
     pub fn fix(&mut self, t_us: u64, r: &PositionReading) {
         let _ = self.aid.fix(&reading_fix(t_us, r), self.noise, self.kind);
+        self.first_fix_us.get_or_insert(t_us);
     }
 
     /// A barometer reading (NED down, m) of `t_us`.
@@ -78,6 +90,15 @@ impl NavAid {
     /// The estimate at `now_us` (NED position, velocity).
     pub fn estimate(&self, now_us: u64) -> Option<(Vec3, Vec3)> {
         self.aid.estimate(now_us)
+    }
+
+    /// The horizontal position σ against the world at `now_us`, m: the filter's, plus a relative
+    /// source's drift since the first fix (module docs).
+    pub fn world_sigma(&self, now_us: u64) -> f32 {
+        let s = self.aid.status().sigma_p;
+        let h = s.x.max(s.y);
+        let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f32 * 1e-6);
+        (h * h + self.drift * self.drift * t).sqrt()
     }
 
     /// Counters and σ.
