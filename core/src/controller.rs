@@ -357,6 +357,15 @@ impl FlightController {
         self.inner.set_aid(self.outer.aid());
     }
 
+    /// The navigation filter reset its position to a source that jumped: the estimate (the
+    /// next fixes) jumped by `delta` (NED, m; `NavStatus::last_reset_delta` of an absolute
+    /// source). The guidance moves its reference with it (`outer::reset_shift`), so the
+    /// commanded acceleration does not jump. Call it once per reset, before the first fix
+    /// after it. Non-finite: ignored.
+    pub fn position_reset(&mut self, delta: Vec3) {
+        self.outer.position_reset(delta);
+    }
+
     /// Replace the obstacle set with `obstacles` (closest surface points, NED),
     /// valid at `now_us`. At most [`OBSTACLE_CAPACITY`] are kept (the nearest to
     /// the vehicle); points (or velocities) that are non-finite or beyond

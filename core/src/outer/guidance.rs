@@ -6,10 +6,15 @@
 //! path with `MIS_YAW_MODE` = travel, turned towards the direction of travel while the path
 //! waits for the heading ([`super::path_yaw`]).
 //!
-//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], [`super::path_yaw`], the
+//! A position reset of the navigation filter ([`Guidance::shift_reference`]) moves a hold
+//! point and a takeoff ramp with the estimate and shifts a mission's reference by the reset's
+//! delta, decaying back to the path ([`super::reset_shift`]).
+//!
+//! May import: [`crate::waypoint`], [`crate::tracking::Reference`], [`super::path_yaw`], [`super::reset_shift`], the
 //! command errors of [`crate::outer`], the crate root foundation.
 
 use super::path_yaw::{PathYaw, PathYawParams, Steering, YawMode};
+use super::reset_shift::ResetShift;
 use super::trajectory::{
     clock_scale, Trajectory, TrajectoryError, TrajectoryParams, MAX_STEP_DT, MIN_LEG_LENGTH,
 };
@@ -242,6 +247,8 @@ pub struct Guidance {
     /// points): [`Progress::segment`] of leg `k` is the waypoint it ends at, `point_waypoint[k + 1]`,
     /// as the paper's follower numbers its segments (segment 0 is origin → w₀).
     point_waypoint: heapless::Vec<u16, TRAJECTORY_CAPACITY>,
+    /// The mission reference's shift after a position reset, decaying.
+    reset_shift: Option<ResetShift>,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -262,6 +269,7 @@ impl Guidance {
             flying_trajectory: false,
             last_traj: None,
             point_waypoint: heapless::Vec::new(),
+            reset_shift: None,
         })
     }
 
@@ -348,6 +356,17 @@ impl Guidance {
         v: &Steering,
         progress: &mut Progress,
     ) -> (GuidanceMode, Option<Reference>) {
+        let shift = self.reset_shift.and_then(|s| s.at(now_us));
+        if shift.is_none() {
+            self.reset_shift = None;
+        }
+        let (sp, sv, sa) = shift.unwrap_or((Vec3::zeros(), Vec3::zeros(), Vec3::zeros()));
+        let shifted = |r: Reference| Reference {
+            position: r.position + sp,
+            velocity: r.velocity + sv,
+            acceleration: r.acceleration + sa,
+            ..r
+        };
         match self.mode {
             Mode::Ground => (GuidanceMode::Ground, None),
             Mode::Hold(target) => (GuidanceMode::Hold, Some(self.hold_ref(target))),
@@ -359,8 +378,8 @@ impl Guidance {
                 (GuidanceMode::Takeoff, Some(r))
             }
             Mode::Mission { .. } if self.flying_trajectory => {
-                let r = self.trajectory_ref(v, progress);
-                (GuidanceMode::Mission, Some(r))
+                let r = self.trajectory_ref(v, progress, &sp);
+                (GuidanceMode::Mission, Some(shifted(r)))
             }
             Mode::Mission { t0_us } => {
                 let p = &self.params.path_yaw;
@@ -378,7 +397,30 @@ impl Guidance {
                     acceleration: s.acceleration,
                     yaw: self.yaw_ref,
                 };
-                (GuidanceMode::Mission, Some(r))
+                (GuidanceMode::Mission, Some(shifted(r)))
+            }
+        }
+    }
+
+    /// The navigation filter reset its position by `delta` (NED, m; the estimate jumped by it)
+    /// at `now_us`: a hold point and a takeoff ramp move with the estimate (the vehicle stays
+    /// where it is), a mission's reference is shifted by `delta`, the shift decaying back to the
+    /// path ([`super::reset_shift`]), so the tracking error does not jump. Non-finite: ignored.
+    pub fn shift_reference(&mut self, now_us: u64, delta: Vec3) {
+        if !is_finite3(&delta) {
+            return;
+        }
+        match &mut self.mode {
+            Mode::Ground => {}
+            Mode::Hold(target) => *target += delta,
+            Mode::Ramp { from, to, .. } => {
+                *from += delta;
+                *to += delta;
+            }
+            Mode::Mission { .. } => {
+                // A shift still decaying carries on from where it is.
+                let now = self.reset_shift.and_then(|s| s.at(now_us)).map_or(Vec3::zeros(), |s| s.0);
+                self.reset_shift = ResetShift::new(now + delta, now_us);
             }
         }
     }
@@ -393,6 +435,8 @@ impl Guidance {
     ) -> Result<(), CommandError> {
         self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
         if let Mode::Mission { .. } = self.mode {
+            // `origin`, the current reference, has the shift in it.
+            self.reset_shift = None;
             // A trajectory being flown carries its motion over when it can.
             let carry = self.last_traj.filter(|_| self.flying_trajectory);
             if self.follower.start(origin).is_ok() && self.build_trajectory(origin, carry).is_ok() {
@@ -461,6 +505,7 @@ impl Guidance {
     /// Hold `target` from now on.
     pub fn hold(&mut self, target: Vec3) {
         self.mode = Mode::Hold(target);
+        self.reset_shift = None;
     }
 
     /// Fly the stored path from `origin` (the current reference position), from `now_us`.
@@ -471,6 +516,7 @@ impl Guidance {
         self.follower.start(origin).map_err(CommandError::Path)?;
         self.build_trajectory(origin, None)?;
         self.mode = Mode::Mission { t0_us: now_us };
+        self.reset_shift = None;
         self.path_yaw.reset();
         Ok(())
     }
@@ -545,7 +591,8 @@ impl Guidance {
     /// safety filter held the vehicle back in the previous step ([`Steering::held_back`]) and
     /// while the path waits for the heading (`MIS_YAW_MODE` travel). A step that fails (a
     /// time step out of range) keeps the last reference.
-    fn trajectory_ref(&mut self, v: &Steering, progress: &mut Progress) -> Reference {
+    /// `shift`: the reset shift the reference gets (the clock measures the error against it).
+    fn trajectory_ref(&mut self, v: &Steering, progress: &mut Progress, shift: &Vec3) -> Reference {
         let traj = &mut self.trajectory;
         if !self.flying_trajectory {
             return Reference {
@@ -582,7 +629,7 @@ impl Guidance {
                 // motion goes next) does not stop the clock.
                 let moving = hypotf(last.velocity.x, last.velocity.y) > MOVING_REFERENCE_SPEED;
                 let dir = if moving { last.velocity } else { traj.travel_direction() };
-                let behind = limit_lead(last.position - q, &dir, 0.0);
+                let behind = limit_lead(last.position + shift - q, &dir, 0.0);
                 clock_scale(norm3(&behind), self.params.trajectory.tracking_error_bound)
             }
             _ => 0.0,
@@ -651,6 +698,67 @@ mod tests {
         }
         assert_eq!(MissionGuidance::from_code(2), None);
         assert_eq!(MissionGuidance::default(), MissionGuidance::Trajectory);
+    }
+
+    /// Fly a trajectory mission with the vehicle (its estimate) on the reference; at 1.5 s the
+    /// estimate jumps by `delta` (an absolute source's reset), the guidance told (`shift`) or
+    /// not. Returns the largest step of the commanded acceleration (the cascade's
+    /// `update_trajectory`) between consecutive steps, and its largest step before the jump.
+    fn command_steps_across_a_reset(delta: Vec3, shift: bool) -> (f32, f32) {
+        use crate::tracking::{PdTracker, TrackingParams};
+        let mut g = trajectory_guidance();
+        let origin = Vec3::new(0.0, 0.0, -1.0);
+        g.set_path(&[Vec3::new(6.0, 0.0, -1.0), Vec3::new(6.0, 4.0, -1.0)], 0, origin).unwrap();
+        g.start_mission(0, origin).unwrap();
+        let mut tracker = PdTracker::new(TrackingParams::default());
+        let (mut progress, mut p, mut v) = (Progress::default(), origin, Vec3::zeros());
+        let (mut prev, mut before, mut after) = (None::<Vec3>, 0.0f32, 0.0f32);
+        let dt = 0.004;
+        for k in 1..1500u64 {
+            let now = 4_000 * k;
+            if k == 375 {
+                // The true vehicle does not move; its estimate (what the loop flies) jumps.
+                p += delta;
+                if shift {
+                    g.shift_reference(now, delta);
+                }
+            }
+            let (_, r) = g.reference(now, &steering(p), &mut progress);
+            let r = r.unwrap();
+            let a = tracker.update_trajectory(&r, &p, &v, dt, g.mission_speed(), false);
+            if let Some(q) = prev {
+                let step = norm3(&(a - q));
+                if k < 375 {
+                    before = before.max(step);
+                } else {
+                    after = after.max(step);
+                }
+            }
+            prev = Some(a);
+            // The vehicle flies the commanded acceleration (a double integrator).
+            v += a * dt;
+            p += v * dt;
+        }
+        (after, before)
+    }
+
+    /// Issue 39: a GPS jump of 1.5 m across the travel in flight (the filter resets its
+    /// position, the estimate jumps) does not jump the commanded acceleration when the
+    /// guidance shifts its reference with the reset; without the shift it jumps by the
+    /// position gain times the jump.
+    #[test]
+    fn a_position_reset_shifts_the_reference_so_the_command_does_not_jump() {
+        let delta = Vec3::new(0.3, 1.5, 0.0);
+        let (after, before) = command_steps_across_a_reset(delta, true);
+        assert!(after <= before.max(0.05) * 2.0, "step after the reset {after} m/s², before {before}");
+        let (unshifted, _) = command_steps_across_a_reset(delta, false);
+        assert!(unshifted > 10.0 * after.max(0.05), "without the shift: {unshifted} m/s² (with: {after})");
+        // A hold moves with the estimate: the reference jumps with it.
+        let mut g = trajectory_guidance();
+        let mut progress = Progress::default();
+        g.shift_reference(0, delta);
+        let (_, r) = g.reference(4_000, &steering(Vec3::zeros()), &mut progress);
+        assert!(norm3(&(r.unwrap().position - (Vec3::new(0.0, 0.0, -1.0) + delta))) < 1e-6);
     }
 
     #[test]

@@ -29,6 +29,7 @@ pub mod guidance;
 pub mod inputs;
 pub mod offboard;
 pub mod path_yaw;
+pub mod reset_shift;
 pub mod return_path;
 pub mod thrust;
 pub mod tracking;
@@ -387,6 +388,14 @@ impl OuterLoop {
     pub fn update_position(&mut self, fix: PositionFix) {
         if !self.inputs.update_position(fix, self.clock_us()) {
             self.note_fault();
+        }
+    }
+
+    /// The navigation filter reset its position by `delta` (see
+    /// [`crate::controller::FlightController::position_reset`]).
+    pub fn position_reset(&mut self, delta: Vec3) {
+        if let Some(now) = self.clock_us() {
+            self.guidance.shift_reference(now, delta);
         }
     }
 

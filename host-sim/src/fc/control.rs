@@ -192,6 +192,9 @@ impl Controller {
     /// With a filtered source, hand the filter's estimate to the controller as its fix of
     /// `now` (none in the navigation failsafe, `crate::fc::nav`).
     fn outer_fix(&mut self, now: u64) {
+        if let Some(delta) = self.nav.as_mut().and_then(NavAid::take_reset) {
+            self.fc.position_reset(delta);
+        }
         if let Some(fix) = self.nav.as_ref().and_then(|n| n.controller_fix(now)) {
             self.fc.update_position(fix);
         }

@@ -31,6 +31,8 @@ pub struct NavAid {
     drift: f32,
     /// Time of the first fix, µs.
     first_fix_us: Option<u64>,
+    /// Resets already handed to the controller ([`NavAid::take_reset`]).
+    seen_resets: u32,
 }
 
 impl NavAid {
@@ -48,6 +50,7 @@ impl NavAid {
             sigma_baro: floor(baro) * 1.5,
             drift: if Self::kind_of(src) == FixKind::Relative { src.preset().drift as f32 } else { 0.0 },
             first_fix_us: None,
+            seen_resets: 0,
         })
     }
 
@@ -99,6 +102,16 @@ impl NavAid {
         let h = s.x.max(s.y);
         let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f32 * 1e-6);
         (h * h + self.drift * self.drift * t).sqrt()
+    }
+
+    /// The delta of an absolute source's reset not yet handed on (the estimate jumped by it;
+    /// `FlightController::position_reset`), once per reset. A relative source's reset moves
+    /// only the frame offset: the estimate does not jump, nothing to hand on.
+    pub fn take_reset(&mut self) -> Option<Vec3> {
+        let st = self.aid.status();
+        let new = st.resets != self.seen_resets;
+        self.seen_resets = st.resets;
+        (new && self.kind == FixKind::Absolute).then_some(st.last_reset_delta)
     }
 
     /// Counters and σ.
