@@ -40,6 +40,8 @@ fn fake() -> Fake {
     let mut tel = *fc.outer().telemetry();
     tel.mode = GuidanceMode::Mission;
     tel.position = Vec3::new(0.0, 0.0, -1.0);
+    // The guidance's reference (where the check of the remaining path starts): on the vehicle.
+    tel.reference.position = tel.position;
     let mut path = heapless::Vec::new();
     let _ = path.extend_from_slice(&[Vec3::new(4.0, 0.0, -1.0), Vec3::new(8.0, 0.0, -1.0)]);
     Fake { tel, path, restarts: 0 }
