@@ -35,26 +35,28 @@ fn csv_rows(p: &Path) -> Vec<Vec<String>> {
     r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect()
 }
 
+fn csv_head(p: &Path) -> Vec<String> {
+    csv::Reader::from_path(p).unwrap().headers().unwrap().iter().map(String::from).collect()
+}
+
+/// The campaign's `summary.json` in `out`.
+fn summary_json(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
 #[test]
 fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
     let out = tmp("ci");
     campaign(&root().join("scenes/campaigns/ci.toml"), &out, None);
     let rows = csv_rows(&out.join("campaign.csv"));
     assert_eq!(rows.len(), 200);
-    let head: Vec<String> = csv::Reader::from_path(out.join("campaign.csv"))
-        .unwrap()
-        .headers()
-        .unwrap()
-        .iter()
-        .map(String::from)
-        .collect();
+    let head = csv_head(&out.join("campaign.csv"));
     let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
     let (collided, reason, clearance) = (col("collided"), col("end_reason"), col("min_clearance_m"));
     for q in ["wind_speed", "mass", "k_f", "motor_tau", "fix_dropout_length", "speed"] {
         col(q);
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = summary_json(&out);
     let n_coll = rows.iter().filter(|r| r[collided] == "true").count() as u64;
     let all = &summary["all"];
     assert_eq!(all["flights"], 200);
@@ -245,17 +247,10 @@ fn the_navigation_campaign_draws_records_and_tables_the_position_source() {
     campaign(&root().join("scenes/campaigns/navigation_ci.toml"), &out, None);
     let rows = csv_rows(&out.join("campaign.csv"));
     assert_eq!(rows.len(), 24);
-    let head: Vec<String> = csv::Reader::from_path(out.join("campaign.csv"))
-        .unwrap()
-        .headers()
-        .unwrap()
-        .iter()
-        .map(String::from)
-        .collect();
+    let head = csv_head(&out.join("campaign.csv"));
     let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
     let (src, collided, clearance) = (col("position_source"), col("collided"), col("min_clearance_m"));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = summary_json(&out);
     let per = summary["per_source"].as_object().unwrap();
     for name in ["mocap", "gps", "rtk", "vio"] {
         let n = rows.iter().filter(|r| r[src] == name).count() as u64;
