@@ -291,6 +291,51 @@ fn the_navigation_campaign_draws_records_and_tables_the_position_source() {
     std::fs::remove_dir_all(&out).ok();
 }
 
+/// The speed CI campaign (`scenes/campaigns/speed_ci.toml`, issue 36): each flight's perception
+/// is drawn, passed as `--perception`, recorded in `campaign.csv` and tabled per perception in
+/// `summary.json`; a drawn sensor set the pre-flight coverage check refuses (the planar lidar:
+/// no world assumption given) is not flown and its row names the gap, so the campaign ends
+/// with "could not be flown" (exit 4) and keeps the others; no collision the filter did not
+/// flag beforehand.
+#[test]
+fn the_speed_campaign_draws_the_perception_and_refuses_a_set_that_cannot_see_the_sweep() {
+    let out = tmp("speed");
+    let file = root().join("scenes/campaigns/speed_ci.toml");
+    let a =
+        CampaignArgs { campaign: file.clone(), out: out.clone(), jobs: Some(2), shard: None, guidance: None };
+    match cmd_campaign(a) {
+        Err(e) => assert!(e.to_string().contains("could not be flown"), "{e}"),
+        Ok(()) => panic!("the planar lidar's draws must be refused before flight"),
+    }
+    let rows = csv_rows(&out.join("campaign.csv"));
+    assert_eq!(rows.len(), 20);
+    let head = csv_head(&out.join("campaign.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let (perc, end, error) = (col("perception"), col("end_reason"), col("error"));
+    let c = parapet_sim::campaign::spec::Campaign::load(&file).unwrap();
+    for (i, r) in rows.iter().enumerate() {
+        let args = c.flight(i as u64).args;
+        let k = args.iter().position(|a| a == "--perception").expect("the drawn perception is an option");
+        assert_eq!(args[k + 1], r[perc], "flight {i}");
+        if r[perc] == "lidar" {
+            assert_eq!(r[end], "error", "flight {i}: {r:?}");
+            assert!(r[error].contains("refused before flight (coverage)"), "flight {i}: {}", r[error]);
+        } else {
+            assert_ne!(r[end], "error", "flight {i} flies: {r:?}");
+        }
+    }
+    let summary = summary_json(&out);
+    let per = summary["per_perception"].as_object().unwrap();
+    for name in ["truth", "lidar", "lidar3d", "camera", "tof"] {
+        let n = rows.iter().filter(|r| r[perc] == name).count() as u64;
+        assert!(n > 0, "{name} drawn");
+        assert_eq!(per[name]["flights"].as_u64(), Some(n), "{name}: {}", per[name]);
+        assert_eq!(per[name]["collisions_unflagged"], 0, "{name}: {}", per[name]);
+    }
+    assert_eq!(per["lidar"]["failed"], per["lidar"]["flights"]);
+    std::fs::remove_dir_all(&out).ok();
+}
+
 /// `--position-source` of `parapet run`: an unknown name exits 2 naming the option, the value
 /// and the allowed names.
 #[test]

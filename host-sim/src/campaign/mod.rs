@@ -145,6 +145,14 @@ fn write_worst_report(c: &Campaign, i: u64, dir: &Path) -> Result<(), CliError> 
     Ok(())
 }
 
+/// The `--perception` value of a flight's options (the last given), else `truth`.
+fn perception_of(args: &[String]) -> &str {
+    args.iter()
+        .rposition(|a| a == "--perception")
+        .and_then(|k| args.get(k + 1))
+        .map_or("truth", |s| s.as_str())
+}
+
 /// Fly flight `i` of `c`.
 pub fn fly(c: &Campaign, i: u64) -> Row {
     let d = c.flight(i);
@@ -157,6 +165,7 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
             .unwrap_or_default(),
         seed: d.seed,
         position_source: d.position_source.map(|s| s.as_str().to_string()).unwrap_or_default(),
+        perception: String::new(),
         values: d.values.values().copied().collect(),
         outcome: Outcome::default(),
     };
@@ -175,6 +184,19 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     };
     row.scene = scene.name.clone();
     row.position_source = cfg.sensors.position_source.as_str().to_string();
+    row.perception = perception_of(&d.args).to_string();
+    // The pre-flight coverage check of `parapet run`: a sensor set that cannot see the sweep
+    // without an assumption the flight was not given does not fly.
+    match crate::flight::runner::coverage_gaps(&scene, &cfg) {
+        Err(e) => return failed(row, format!("{e:#}")),
+        Ok(gaps) => {
+            let refused: Vec<&str> =
+                gaps.iter().filter(|g| g.refuses(&cfg.sensors.assume)).map(|g| g.text.as_str()).collect();
+            if !refused.is_empty() {
+                return failed(row, format!("refused before flight (coverage): {}", refused.join("; ")));
+            }
+        }
+    }
     match crate::fc::control::run(&scene, &cfg, &mut |_| {}) {
         Err(e) => failed(row, format!("{e:#}")),
         Ok(out) => {
@@ -318,12 +340,15 @@ fn print_summary(s: &output::Summary, out: &Path) {
         a.min_clearance_m["p5"],
         a.min_clearance_m["p50"]
     );
-    if s.per_source.len() > 1 {
-        for (src, r) in &s.per_source {
-            println!(
-                "  {src}: {} flights, {} collisions ({} not flagged beforehand), 95 % upper bound {:.4}, goal {:.3}",
-                r.flights, r.collisions, r.collisions_unflagged, r.collision_rate_upper_95, r.goal_rate
-            );
+    for per in [&s.per_source, &s.per_perception] {
+        if per.len() > 1 {
+            for (name, r) in per {
+                println!(
+                    "  {name}: {} flights ({} failed), {} collisions ({} not flagged beforehand), 95 % upper bound \
+                     {:.4}, goal {:.3}",
+                    r.flights, r.failed, r.collisions, r.collisions_unflagged, r.collision_rate_upper_95, r.goal_rate
+                );
+            }
         }
     }
     println!("  report: {}", out.display());

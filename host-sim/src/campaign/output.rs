@@ -70,6 +70,9 @@ pub struct Row {
     /// The position source flown (`[draw] position_source`, else the scene's; empty when the
     /// flight's options could not be read).
     pub position_source: String,
+    /// The perception flown (`truth` or a `--perception` value; empty when the flight's options
+    /// could not be read).
+    pub perception: String,
     /// Drawn values in the campaign's quantity order.
     pub values: Vec<f64>,
     /// Outcome.
@@ -98,7 +101,13 @@ pub const OUTCOME_COLUMNS: [&str; 16] = [
 
 /// The header of `campaign.csv` for the drawn quantities `names`.
 pub fn header(names: &[String]) -> Vec<String> {
-    let mut h = vec!["flight".to_string(), "scene".into(), "seed".into(), "position_source".into()];
+    let mut h = vec![
+        "flight".to_string(),
+        "scene".into(),
+        "seed".into(),
+        "position_source".into(),
+        "perception".into(),
+    ];
     h.extend(names.iter().cloned());
     h.extend(OUTCOME_COLUMNS.iter().map(|s| s.to_string()));
     h
@@ -138,14 +147,15 @@ mod shortest_opt {
 }
 
 impl Row {
-    /// The CSV record: flight, scene, seed, position source, the drawn values, then the
-    /// [`Outcome`] fields.
-    fn record(&self) -> (u64, &str, u64, &str, Vec<Shortest>, &Outcome) {
+    /// The CSV record: flight, scene, seed, position source, perception, the drawn values,
+    /// then the [`Outcome`] fields.
+    fn record(&self) -> (u64, &str, u64, &str, &str, Vec<Shortest>, &Outcome) {
         (
             self.flight,
             &self.scene,
             self.seed,
             &self.position_source,
+            &self.perception,
             self.values.iter().map(|v| Shortest(*v)).collect(),
             &self.outcome,
         )
@@ -153,7 +163,7 @@ impl Row {
 
     /// Parse a record written by [`write_csv`] with `n` drawn values.
     pub fn parse(rec: &csv::StringRecord, n: usize) -> Result<Row> {
-        const FIXED: usize = 4;
+        const FIXED: usize = 5;
         if rec.len() != FIXED + n + OUTCOME_COLUMNS.len() {
             return Err(anyhow!("expected {} columns, got {}", FIXED + n + OUTCOME_COLUMNS.len(), rec.len()));
         }
@@ -170,6 +180,7 @@ impl Row {
             scene: f(1).to_string(),
             seed: int(2)?,
             position_source: f(3).to_string(),
+            perception: f(4).to_string(),
             values,
             outcome,
         })
@@ -368,6 +379,8 @@ pub struct Summary {
     pub per_scene: BTreeMap<String, Rates>,
     /// Per position source (`campaign.csv`'s `position_source`).
     pub per_source: BTreeMap<String, Rates>,
+    /// Per perception (`campaign.csv`'s `perception`).
+    pub per_perception: BTreeMap<String, Rates>,
     /// Collisions by scene and obstacle: `scene: { what: count }`.
     pub collisions_by_obstacle: BTreeMap<String, BTreeMap<String, u64>>,
     /// The 10 flights with the smallest min clearance (collisions first); the first
@@ -384,10 +397,12 @@ pub fn summarise(
     let all: Vec<&Row> = rows.iter().collect();
     let mut scenes: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
     let mut sources: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
+    let mut perceptions: BTreeMap<String, Vec<&Row>> = BTreeMap::new();
     let mut by_obstacle: BTreeMap<String, BTreeMap<String, u64>> = BTreeMap::new();
     for r in rows {
         scenes.entry(r.scene.clone()).or_default().push(r);
         sources.entry(r.position_source.clone()).or_default().push(r);
+        perceptions.entry(r.perception.clone()).or_default().push(r);
         if r.outcome.collided {
             *by_obstacle
                 .entry(r.scene.clone())
@@ -423,6 +438,7 @@ pub fn summarise(
         all: rates(&all),
         per_scene: scenes.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
         per_source: sources.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
+        per_perception: perceptions.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
         collisions_by_obstacle: by_obstacle,
         worst,
     }
@@ -557,6 +573,7 @@ mod tests {
                 scene: "office, big".into(),
                 seed: u64::MAX,
                 position_source: "gps".into(),
+                perception: "lidar3d".into(),
                 values: vec![1.0 / 3.0, 2.5e-7],
                 outcome: Outcome {
                     collided: true,
@@ -573,6 +590,7 @@ mod tests {
                 scene: "x".into(),
                 seed: 3,
                 position_source: String::new(),
+                perception: "truth".into(),
                 values: vec![0.1, 0.2],
                 outcome: Outcome { reached_goal: true, time_to_goal_s: Some(60.828), ..Default::default() },
             },

@@ -6,6 +6,7 @@
 //! flights = 200
 //! [run]                       # `parapet run` options every flight gets (optional)
 //! filter = "multi-relative"   #   filter, yaw_mode, noise (bool), no_cbf (bool), duration, sensing_range,
+//! assume = ["forward-flight"] #   world assumptions (`--assume`: docs/perception.md § Coverage check),
 //! PA_SPEED_MAX = 3.0          #   or any parameter by its name (`--param NAME=VALUE`)
 //! [[scenes]]                  # flight i flies scenes[i mod n]
 //! file = "../office.toml"     # relative to the campaign file
@@ -18,6 +19,7 @@
 //! CBF_ACC_BOUND = { uniform = [0.5, 2.0] }   # any parameter by name: `--param NAME=x`
 //! position_source = { choice = ["mocap", "gps", "rtk", "vio"] }  # or one name; optional
 //!                             #   weights = [1, 1, 1, 1] (relative, ≥ 0, not all 0)
+//! perception = { choice = ["truth", "lidar3d", "tof"] }  # likewise: truth or a `--perception` preset
 //! ```
 //!
 //! Quantities ([`QUANTITIES`]): wind (`wind_speed` m/s, `wind_direction_deg` from,
@@ -35,6 +37,10 @@
 //! `position_source` (issue 39) is drawn among named sources (`crate::sim::source`: the
 //! `[sensors] position_source` presets), passed as `--position-source NAME` and recorded in
 //! `campaign.csv`'s `position_source` column (the source every flight flew, drawn or not).
+//! `perception` (issue 36) is drawn likewise among `truth` and the `--perception` presets,
+//! passed as `--perception NAME` and recorded in the `perception` column. A flight whose sensor
+//! set the pre-flight coverage check refuses (as `parapet run` does, with the `[run] assume`
+//! list) is not flown: `end_reason` `error`, its `error` naming the gap.
 //!
 //! Determinism: each quantity of flight i is drawn from its own ChaCha8 stream
 //! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
@@ -159,6 +165,9 @@ pub struct Campaign {
     /// The position sources drawn, with their relative weights (`[draw] position_source`);
     /// `None`: each scene's own.
     pub position_source: Option<Vec<(PositionSource, f64)>>,
+    /// The perceptions drawn (`[draw] perception`: `truth` or a `--perception` preset), with
+    /// their relative weights; `None`: the `[run]` options' (default `truth`).
+    pub perception: Option<Vec<(&'static str, f64)>>,
     /// Identity (FNV-1a of the campaign text and every scene and path file), hex.
     pub identity: String,
 }
@@ -176,6 +185,8 @@ pub struct FlightDraw {
     pub values: BTreeMap<String, f64>,
     /// The drawn position source, if the campaign draws it.
     pub position_source: Option<PositionSource>,
+    /// The drawn perception, if the campaign draws it.
+    pub perception: Option<&'static str>,
     /// The `parapet run` options (without `--disturbances` and `--out`).
     pub args: Vec<String>,
 }
@@ -250,74 +261,86 @@ fn parse_dist(file: &Path, name: &str, v: &toml::Value) -> Result<Dist, InputErr
 
 /// The quantity name of the position-source draw.
 pub const POSITION_SOURCE: &str = "position_source";
-
-/// `[draw] position_source`: one source name, or `{ choice = [names], weights = [w] }`.
-fn parse_source_draw(file: &Path, v: &toml::Value) -> Result<Vec<(PositionSource, f64)>, InputError> {
-    let names: Vec<&str> = PositionSource::ALL.iter().map(|p| p.as_str()).collect();
-    let allowed = format!(
-        "a source name or {{ choice = [names], weights = [w ≥ 0, …] }} with names among {}",
-        names.join(", ")
-    );
-    let err = |reason: &str, value: String| {
-        bad(file, "draw", POSITION_SOURCE, reason).value(value).allowed(allowed.clone())
-    };
-    let source = |x: &toml::Value| -> Result<PositionSource, InputError> {
-        x.as_str().and_then(|s| s.parse().ok()).ok_or_else(|| err("unknown position source", x.to_string()))
-    };
-    if let Some(t) = v.as_table() {
-        for k in t.keys() {
-            if !matches!(k.as_str(), "choice" | "weights") {
-                return Err(err("unknown key (choice, weights)", k.clone()));
-            }
-        }
-        let choice = t
-            .get("choice")
-            .and_then(|c| c.as_array())
-            .filter(|c| !c.is_empty())
-            .ok_or_else(|| err("choice needs a non-empty list of names", v.to_string()))?;
-        let sources = choice.iter().map(source).collect::<Result<Vec<_>, _>>()?;
-        let weights = match t.get("weights") {
-            None => vec![1.0; sources.len()],
-            Some(w) => {
-                let w: Option<Vec<f64>> = w.as_array().map(|a| {
-                    a.iter()
-                        .filter_map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)))
-                        .collect()
-                });
-                match w {
-                    Some(w)
-                        if w.len() == sources.len()
-                            && w.iter().all(|x| x.is_finite() && *x >= 0.0)
-                            && w.iter().sum::<f64>() > 0.0 =>
-                    {
-                        w
-                    }
-                    _ => return Err(err("weights: one number ≥ 0 per choice, not all 0", v.to_string())),
-                }
-            }
-        };
-        for (k, s) in sources.iter().enumerate() {
-            if sources[..k].contains(s) {
-                return Err(err("a source named twice", s.as_str().to_string()));
-            }
-        }
-        return Ok(sources.into_iter().zip(weights).collect());
-    }
-    Ok(vec![(source(v)?, 1.0)])
+/// The quantity name of the perception draw (issue 36's speed campaign).
+pub const PERCEPTION: &str = "perception";
+/// The perceptions a campaign may draw: `truth` (the default) and the `--perception` presets.
+pub fn perception_names() -> Vec<&'static str> {
+    std::iter::once("truth").chain(crate::sim::range::PRESETS).collect()
 }
 
-/// One draw among weighted sources (`u` uniform in [0, 1)).
-fn pick_source(sources: &[(PositionSource, f64)], u: f64) -> PositionSource {
-    let total: f64 = sources.iter().map(|s| s.1).sum();
+/// A `[draw]` choice among named values (`all`: name and value): one name, or
+/// `{ choice = [names], weights = [w] }` (relative weights ≥ 0, not all 0; each name once).
+/// `what` names a value in messages ("position source").
+fn parse_choice<T: Copy + PartialEq>(
+    file: &Path,
+    key: &str,
+    what: &str,
+    v: &toml::Value,
+    all: &[(&str, T)],
+) -> Result<Vec<(T, f64)>, InputError> {
+    let names: Vec<&str> = all.iter().map(|a| a.0).collect();
+    let allowed = format!(
+        "a {what} name or {{ choice = [names], weights = [w ≥ 0, …] }} with names among {}",
+        names.join(", ")
+    );
+    let err =
+        |reason: &str, value: String| bad(file, "draw", key, reason).value(value).allowed(allowed.clone());
+    let one = |x: &toml::Value| -> Result<T, InputError> {
+        x.as_str()
+            .and_then(|s| all.iter().find(|a| a.0 == s))
+            .map(|a| a.1)
+            .ok_or_else(|| err(&format!("unknown {what}"), x.to_string()))
+    };
+    let Some(t) = v.as_table() else { return Ok(vec![(one(v)?, 1.0)]) };
+    for k in t.keys() {
+        if !matches!(k.as_str(), "choice" | "weights") {
+            return Err(err("unknown key (choice, weights)", k.clone()));
+        }
+    }
+    let choice = t
+        .get("choice")
+        .and_then(|c| c.as_array())
+        .filter(|c| !c.is_empty())
+        .ok_or_else(|| err("choice needs a non-empty list of names", v.to_string()))?;
+    let values = choice.iter().map(one).collect::<Result<Vec<_>, _>>()?;
+    let weights = match t.get("weights") {
+        None => vec![1.0; values.len()],
+        Some(w) => {
+            let w: Option<Vec<f64>> = w.as_array().map(|a| {
+                a.iter().filter_map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64))).collect()
+            });
+            match w {
+                Some(w)
+                    if w.len() == values.len()
+                        && w.iter().all(|x| x.is_finite() && *x >= 0.0)
+                        && w.iter().sum::<f64>() > 0.0 =>
+                {
+                    w
+                }
+                _ => return Err(err("weights: one number ≥ 0 per choice, not all 0", v.to_string())),
+            }
+        }
+    };
+    for (k, x) in choice.iter().enumerate() {
+        if choice[..k].contains(x) {
+            return Err(err(&format!("a {what} named twice"), x.to_string()));
+        }
+    }
+    Ok(values.into_iter().zip(weights).collect())
+}
+
+/// One draw among weighted values (`u` uniform in [0, 1)); `None` only for an empty list.
+fn pick<T: Copy>(choices: &[(T, f64)], u: f64) -> Option<T> {
+    let total: f64 = choices.iter().map(|s| s.1).sum();
     let mut x = u * total;
-    for &(s, w) in sources {
+    for &(s, w) in choices {
         if x < w {
-            return s;
+            return Some(s);
         }
         x -= w;
     }
-    // Rounding at the top end: the last source with a weight.
-    sources.iter().rev().find(|s| s.1 > 0.0).map_or(PositionSource::Mocap, |s| s.0)
+    // Rounding at the top end: the last value with a weight.
+    choices.iter().rev().find(|s| s.1 > 0.0).or(choices.last()).map(|s| s.0)
 }
 
 /// A parameter drawn by name: continuous, every value the distribution can give in its range.
@@ -394,6 +417,18 @@ impl Campaign {
                         crate::cli::values::parse_guidance(s).map_err(|e| f("not a guidance").allowed(e))?;
                         run_args.extend(["--guidance".into(), s.clone()])
                     }
+                    ("assume", toml::Value::Array(list)) => {
+                        let names = crate::sim::coverage::Assumption::names();
+                        for x in list {
+                            let ok = x.as_str().is_some_and(|n| n.parse::<crate::sim::coverage::Assumption>().is_ok());
+                            if !ok {
+                                return Err(bad(path, "run", k, "not a world assumption")
+                                    .value(x.to_string())
+                                    .allowed(format!("a list of names among {names}")));
+                            }
+                            run_args.extend(["--assume".into(), x.as_str().unwrap_or_default().to_string()]);
+                        }
+                    }
                     ("noise", toml::Value::Boolean(b)) => {
                         run_args.push(if *b { "--noise" } else { "--no-noise" }.into())
                     }
@@ -420,7 +455,7 @@ impl Campaign {
                     }
                     _ => return Err(f("unknown key or wrong type").allowed(
                         "filter, yaw_mode, guidance (string), noise, no_cbf (bool), duration, sensing_range (number), \
-                         a parameter name (number)",
+                         assume (list of world assumptions), a parameter name (number)",
                     )),
                 }
             }
@@ -458,17 +493,24 @@ impl Campaign {
         }
         let mut draw = BTreeMap::new();
         let mut position_source = None;
+        let mut perception = None;
         if let Some(d) = table.get("draw") {
             let d = d.as_table().ok_or_else(|| top("draw", "not a table"))?;
             for (k, v) in d {
                 if k == POSITION_SOURCE {
-                    position_source = Some(parse_source_draw(path, v)?);
+                    let all: Vec<_> = PositionSource::ALL.iter().map(|p| (p.as_str(), *p)).collect();
+                    position_source = Some(parse_choice(path, k, "position source", v, &all)?);
+                    continue;
+                }
+                if k == PERCEPTION {
+                    let all: Vec<_> = perception_names().into_iter().map(|p| (p, p)).collect();
+                    perception = Some(parse_choice(path, k, "perception", v, &all)?);
                     continue;
                 }
                 let param = parapet_core::params::index_of(k).map(|i| &parapet_core::params::TABLE[i]);
                 if !QUANTITIES.contains(&k.as_str()) && param.is_none() {
                     return Err(bad(path, "draw", k, "unknown quantity").allowed(format!(
-                        "{}, {POSITION_SOURCE}, or a parameter name of `parapet params export`",
+                        "{}, {POSITION_SOURCE}, {PERCEPTION}, or a parameter name of `parapet params export`",
                         QUANTITIES.join(", ")
                     )));
                 }
@@ -488,6 +530,7 @@ impl Campaign {
             scenes,
             draw,
             position_source,
+            perception,
             identity: format!("{id:016x}"),
         })
     }
@@ -515,10 +558,10 @@ impl Campaign {
             let mut rng = ChaCha8Rng::seed_from_u64(mix(base ^ fnv(name.as_bytes(), FNV0)));
             values.insert(name.clone(), dist.sample(&mut rng));
         }
-        let position_source = self.position_source.as_deref().map(|sources| {
-            let mut rng = ChaCha8Rng::seed_from_u64(mix(base ^ fnv(POSITION_SOURCE.as_bytes(), FNV0)));
-            pick_source(sources, rng.random::<f64>())
-        });
+        let choose =
+            |key: &str| ChaCha8Rng::seed_from_u64(mix(base ^ fnv(key.as_bytes(), FNV0))).random::<f64>();
+        let position_source = self.position_source.as_deref().and_then(|c| pick(c, choose(POSITION_SOURCE)));
+        let perception = self.perception.as_deref().and_then(|c| pick(c, choose(PERCEPTION)));
         let sc = &self.scenes[scene];
         let mut args = vec!["--scene".to_string(), sc.file.display().to_string()];
         if let Some(p) = &sc.path {
@@ -531,6 +574,9 @@ impl Campaign {
         if let Some(src) = position_source {
             args.extend(["--position-source".into(), src.as_str().into()]);
         }
+        if let Some(p) = perception {
+            args.extend(["--perception".into(), p.into()]);
+        }
         for q in ["mu", "delta", "delta1", "kp", "kd", "speed"] {
             if let Some(x) = values.get(q) {
                 args.extend([format!("--{q}"), format!("{x}")]);
@@ -541,7 +587,7 @@ impl Campaign {
                 args.extend(["--param".into(), format!("{name}={x}")]);
             }
         }
-        FlightDraw { index: i, scene, seed, values, position_source, args }
+        FlightDraw { index: i, scene, seed, values, position_source, perception, args }
     }
 }
 
@@ -745,6 +791,45 @@ mod tests {
                 .unwrap_err()
                 .to_string();
             for want in ["bad.toml", "[draw]", "position_source", value, "mocap, gps, rtk, vio"] {
+                assert!(e.contains(want), "{body}: `{want}` not in {e}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `[draw] perception` (issue 36) draws among `truth` and the presets and is passed as
+    /// `--perception`; `[run] assume` as `--assume`; bad names are refused naming the field.
+    #[test]
+    fn the_perception_is_drawn_and_passed_and_bad_names_are_refused() {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-perc-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sc = scene_dir().join("one_sphere.toml");
+        let head =
+            format!("flights = 40\n[[scenes]]\nfile = {:?}\nstraight = true\n", sc.display().to_string());
+        let text = format!("{head}[run]\nassume = [\"forward-flight\"]\n[draw]\nperception = {{ choice = [\"truth\", \"tof\"], weights = [1, 3] }}\n");
+        let c = Campaign::load(&write(&dir, "p.toml", &text)).unwrap();
+        let mut tof = 0;
+        for i in 0..40 {
+            let f = c.flight(i);
+            let p = f.perception.expect("drawn");
+            let k = f.args.iter().position(|a| a == "--perception").expect("passed");
+            assert_eq!(f.args[k + 1], p);
+            assert!(
+                f.args.windows(2).any(|w| w[0] == "--assume" && w[1] == "forward-flight"),
+                "{:?}",
+                f.args
+            );
+            tof += usize::from(p == "tof");
+        }
+        assert!((20..40).contains(&tof), "weights 1:3 give mostly tof: {tof} of 40");
+        for (body, field, value) in [
+            ("[draw]\nperception = \"sonar\"", "perception", "sonar"),
+            ("[draw]\nperception = { choice = [\"tof\", \"tof\"] }", "perception", "tof"),
+            ("[run]\nassume = [\"no-walls\"]", "assume", "no-walls"),
+        ] {
+            let e =
+                Campaign::load(&write(&dir, "bad.toml", &format!("{head}{body}\n"))).unwrap_err().to_string();
+            for want in ["bad.toml", field, value] {
                 assert!(e.contains(want), "{body}: `{want}` not in {e}");
             }
         }
