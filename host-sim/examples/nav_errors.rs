@@ -9,6 +9,9 @@
 //! PERCEPTION: `truth` or a `--perception` preset (`lidar`); `guidance=paper|trajectory`
 //! (anywhere after SEED) sets `MIS_GUIDANCE`. Output: one tab-separated line.
 
+#[macro_use]
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -19,7 +22,7 @@ use parapet_sim::fc::control::Controller;
 use parapet_sim::flight::runner::{default_duration, default_yaw_mode, run_with, RunConfig};
 use parapet_sim::flight::stack::{clock_us, FlightStack, OuterOut};
 use parapet_sim::plan::pathfile::PathFile;
-use parapet_sim::sim::sensors::{ImuReading, PositionReading};
+use parapet_sim::sim::sensors::PositionReading;
 use parapet_sim::world::scene::{to_f64, Scene};
 
 type Est = Option<(Vector3<f64>, Vector3<f64>)>;
@@ -40,12 +43,6 @@ impl FlightStack for Recorder {
         self.last_fix = Some(fix);
         self.c.position_fix(fix);
     }
-    fn height_fix(&mut self, t: f64, down: f64) {
-        self.c.height_fix(t, down);
-    }
-    fn navigation(&self, t: f64) -> Option<(Vector3<f64>, f64)> {
-        self.c.navigation(t)
-    }
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
         let out = self.c.outer(t, obstacles);
         let nav = self.c.nav().and_then(|n| n.estimate(clock_us(t))).map(|(p, v)| (to_f64(&p), to_f64(&v)));
@@ -57,12 +54,7 @@ impl FlightStack for Recorder {
         self.states.insert(self.c.state_name());
         out
     }
-    fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
-        self.c.inner(t, imu)
-    }
-    fn state_name(&self) -> String {
-        self.c.state_name()
-    }
+    forward_to_controller!();
 }
 
 /// RMS and max of the position and velocity errors (m, m/s) over the steps with an estimate,

@@ -112,7 +112,7 @@ fn parse_shard(s: &str) -> Result<(u64, u64), InputError> {
 /// The scene and run configuration of flight `i` of `c`: its `parapet run` options plus its
 /// drawn disturbances, the drawn plant checked as `--disturbances` would check it (so the
 /// worst-flight command flies too). The error names the scene when it was read.
-fn flight_config(
+pub fn flight_config(
     c: &Campaign,
     i: u64,
 ) -> Result<(crate::world::scene::Scene, crate::flight::runner::RunConfig), (Option<String>, String)> {

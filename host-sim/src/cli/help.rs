@@ -174,6 +174,7 @@ Examples:
   parapet campaign scenes/campaigns/ci.toml --out out/campaign
   parapet campaign scenes/campaigns/robustness.toml --jobs 2
   parapet campaign scenes/campaigns/ci.toml --shard 2/4 --out out/shard2   # then campaign-merge
+  parapet campaign scenes/campaigns/navigation.toml --shard 6581/10000      # flight 6580 alone (N = flights)
 
 {codes}",
         flights = l::CAMPAIGN_MAX_FLIGHTS,

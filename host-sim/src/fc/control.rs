@@ -158,11 +158,10 @@ impl FlightStack for Controller {
         out.throttle
     }
 
-    fn navigation(&self, t: f64) -> Option<(Vector3<f64>, f64)> {
+    fn navigation(&self, t: f64) -> Option<(Vector3<f64>, crate::flight::sensing::ErrorBound)> {
         let nav = self.nav.as_ref()?;
         let (p, _) = nav.estimate(clock_us(t))?;
-        let sigma = nav.world_sigma(clock_us(t));
-        Some((Vector3::new(p.x as f64, p.y as f64, p.z as f64), sigma as f64))
+        Some((Vector3::new(p.x as f64, p.y as f64, p.z as f64), nav.error_bound(clock_us(t))))
     }
 
     fn height_fix(&mut self, t: f64, down: f64) {

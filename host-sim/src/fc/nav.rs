@@ -4,12 +4,26 @@
 //! dropout failsafe of [`parapet_core::nav::aid::NAV_TIMEOUT_US`]) fed with the simulator's
 //! readings and the σ the scene states for its source.
 //!
-//! **Relative sources** (`vio`): the filter fuses the odometry in its own frame, whose drift
-//! against the world it cannot observe, so its σ says nothing of it. For the margin of mapped
-//! obstacles (`docs/filter.md` § 18) [`NavAid::world_sigma`] adds the source's declared drift
-//! (random walk, m/√s) since the first fix: `σ_w² = σ² + drift² · t`.
+//! **The error bound of mapped obstacles' margin** (`docs/filter.md` § 18,
+//! [`NavAid::error_bound`]): `3σ` of the filter per axis (horizontal, vertical) plus the bound
+//! of the random walks the filter cannot observe, which its σ says nothing of:
 //!
-//! Owns: [`NavAid`]. May import: `parapet-core`, [`crate::sim`].
+//! * a relative source's (`vio`) frame drift (m/√s, 3-D) since the first fix;
+//! * the barometer's drift (m/√s), on the vertical, weighted by the barometer's share of the
+//!   height information (`w = I_b / (I_b + I_s)`, `I = rate / σ²`: the filter's height is that
+//!   weighted mean of the two, so it carries `w` of the barometer's drift — 0.86 with `gps`,
+//!   0.01 with `rtk`, 0.003 with `vio`).
+//!
+//! A random walk's σ at `t` does not bound it over the flight: pressed against an obstacle,
+//! the vehicle meets the walk's excursions, and `W(s) > 3σ(s)` for some `s ≤ t` is far likelier
+//! than at one `s` (the traced `vio` office flights collided at 4σ). The bound is the normal
+//! mixture's (Robbins 1970; Ville's inequality on the martingale
+//! `(ρ/(s+ρ))^{d/2} exp(|W_s|²/(2σ₁²(s+ρ)))`): `|W(s)| ≤ σ₁ √((s+ρ)(2 ln(1/α) + d ln(1+s/ρ)))`
+//! for **every** `s ≥ 0` with probability ≥ 1 − α (`d` the walk's dimensions, `σ₁` its rate;
+//! [`DRIFT_BOUND_ALPHA`], [`DRIFT_BOUND_RHO_S`]).
+//!
+//! Owns: [`NavAid`], [`drift_bound`]. May import: `parapet-core`, [`crate::sim`],
+//! [`crate::flight`] (the error bound's type).
 
 use parapet_core::controller::PositionFix;
 use parapet_core::msg::Euler;
@@ -17,8 +31,21 @@ use parapet_core::nav::aid::{NavAid as CoreAid, SourceNoise};
 use parapet_core::nav::{FixKind, NavParams, NavStatus};
 use parapet_core::Vec3;
 
+use crate::flight::sensing::{ErrorBound, MAPPED_MARGIN_SIGMA};
 use crate::sim::sensors::{PositionReading, SensorParams};
-use crate::sim::source::PositionSource;
+use crate::sim::source::{PositionSource, BARO_RATE_HZ};
+
+/// Probability that an unobserved drift leaves its bound at any time of the flight.
+pub const DRIFT_BOUND_ALPHA: f64 = 1e-4;
+/// Time scale of the drift bound, s: where it is tightest against the walk's σ.
+pub const DRIFT_BOUND_RHO_S: f64 = 1.0;
+
+/// Bound on a `dims`-dimensional random walk of rate `rate` (m/√s) over the whole of
+/// `[0, t]` (module docs): `rate √((t+ρ)(2 ln(1/α) + dims·ln(1+t/ρ)))`.
+pub fn drift_bound(rate: f64, t: f64, dims: f64) -> f64 {
+    let (rho, t) = (DRIFT_BOUND_RHO_S, t.max(0.0));
+    rate * ((t + rho) * (2.0 * (1.0 / DRIFT_BOUND_ALPHA).ln() + dims * (t / rho).ln_1p())).sqrt()
+}
 
 /// The filter and what it knows of its source.
 #[derive(Clone, Debug)]
@@ -29,6 +56,9 @@ pub struct NavAid {
     sigma_baro: f32,
     /// A relative source's drift, m/√s (0 for an absolute one).
     drift: f32,
+    /// The barometer's drift carried by the filter's height, m/√s (its rate × its share
+    /// of the height information; module docs).
+    baro_drift: f64,
     /// Time of the first fix, µs.
     first_fix_us: Option<u64>,
     /// Resets already handed to the controller ([`NavAid::take_reset`]).
@@ -43,11 +73,20 @@ impl NavAid {
             return None;
         }
         let baro = src.preset().baro.map_or(1.0, |(n, _)| n);
+        let noise = Self::noise_of(sensors);
+        let rate = if sensors.rate > 0.0 { sensors.rate } else { src.preset().rate_hz.max(1.0) };
+        let sigma_baro = floor(baro) * 1.5;
+        let baro_drift = src.preset().baro.map_or(0.0, |(_, d)| {
+            let ib = BARO_RATE_HZ / f64::from(sigma_baro * sigma_baro);
+            let is = rate / f64::from(noise.position * noise.position);
+            d * ib / (ib + is)
+        });
         Some(NavAid {
             aid: CoreAid::new(NavParams::default()),
             kind: Self::kind_of(src),
-            noise: Self::noise_of(sensors),
-            sigma_baro: floor(baro) * 1.5,
+            noise,
+            sigma_baro,
+            baro_drift,
             drift: if Self::kind_of(src) == FixKind::Relative { src.preset().drift as f32 } else { 0.0 },
             first_fix_us: None,
             seen_resets: 0,
@@ -95,13 +134,19 @@ impl NavAid {
         self.aid.estimate(now_us)
     }
 
-    /// The horizontal position σ against the world at `now_us`, m: the filter's, plus a relative
-    /// source's drift since the first fix (module docs).
-    pub fn world_sigma(&self, now_us: u64) -> f32 {
+    /// The bound on the estimate's error against the world at `now_us` (module docs): the
+    /// filter's [`MAPPED_MARGIN_SIGMA`]·σ per axis plus the unobserved drifts since the first
+    /// fix (a relative source's on every axis, the barometer's on the vertical).
+    pub fn error_bound(&self, now_us: u64) -> ErrorBound {
         let s = self.aid.status().sigma_p;
-        let h = s.x.max(s.y);
-        let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f32 * 1e-6);
-        (h * h + self.drift * self.drift * t).sqrt()
+        let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f64 * 1e-6);
+        let rel = if self.drift > 0.0 { drift_bound(f64::from(self.drift), t, 3.0) } else { 0.0 };
+        let baro = if self.baro_drift > 0.0 { drift_bound(self.baro_drift, t, 1.0) } else { 0.0 };
+        let k = MAPPED_MARGIN_SIGMA;
+        ErrorBound {
+            horizontal: k * f64::from(s.x.max(s.y)) + rel,
+            vertical: k * f64::from(s.z) + rel + baro,
+        }
     }
 
     /// The delta of an absolute source's reset not yet handed on (the estimate jumped by it;

@@ -542,8 +542,8 @@ pub fn run_with(
                     }
                 }
             }
-            if let Some((est, sigma)) = ctrl.navigation(t) {
-                to_estimate_frame(&mut scratch.seen, &(est - pos), &est, sigma, perception.is_some());
+            if let Some((est, bound)) = ctrl.navigation(t) {
+                to_estimate_frame(&mut scratch.seen, &(est - pos), &est, &bound, perception.is_some());
             }
             let out = ctrl.outer(t, &scratch.seen);
             if n_outer % crate::report::points::FILTER_POINTS_PERIOD == 0 {

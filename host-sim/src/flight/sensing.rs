@@ -254,24 +254,47 @@ pub fn bound_report(seen: &mut Vec<ObstaclePoint>, p: &Vec3) {
     seen.retain(|_| k.next().unwrap_or(false));
 }
 
-/// Margin on mapped obstacles, in σ of the navigation filter's horizontal position.
+/// Margin on mapped obstacles, in σ of the navigation filter's position (per axis).
 pub const MAPPED_MARGIN_SIGMA: f64 = 3.0;
 
+/// How far the estimate may be from the truth, for the margin of mapped obstacles
+/// (`docs/filter.md` § 18): a bound on the horizontal and on the vertical error, m. The
+/// navigation filter's `3σ` per axis plus the bound of the drifts it cannot observe
+/// (`crate::fc::nav`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorBound {
+    /// Bound on the horizontal error, m.
+    pub horizontal: f64,
+    /// Bound on the vertical error, m.
+    pub vertical: f64,
+}
+
+impl ErrorBound {
+    /// The largest error along the unit direction `u`: `horizontal·|u_h| + vertical·|u_z|`
+    /// (the support function of the cylinder `|e_h| ≤ horizontal, |e_z| ≤ vertical`).
+    pub fn along(&self, u: &Vec3) -> f32 {
+        let uh = (u.x * u.x + u.y * u.y).sqrt();
+        (self.horizontal as f32) * uh + (self.vertical as f32) * u.z.abs()
+    }
+}
+
 /// Put an obstacle report into the frame the controller flies in when its position comes
-/// from the navigation filter (estimate `est`, NED m, horizontal σ `sigma` m; `err` = estimate
-/// − truth), `docs/filter.md` § Position uncertainty:
+/// from the navigation filter (estimate `est`, NED m; `err` = estimate − truth; `bound` on
+/// `|err|`), `docs/filter.md` § Position uncertainty:
 ///
 /// * `sensed` (range sensors, `--perception`): the vehicle measures obstacles relative to
 ///   itself, so the points are the true ones shifted by the estimation error (`q + err`): the
 ///   relative geometry the barrier uses is exact, whatever the global error.
 /// * mapped (the ground-truth report: a map in the world frame): the points stay where the
-///   map says, moved towards the estimate by [`MAPPED_MARGIN_SIGMA`]·σ, so the barrier keeps
-///   3σ of margin (at least 1 cm of distance is left).
+///   map says, moved towards the estimate by the bound along their direction
+///   ([`ErrorBound::along`]: a point below the vehicle by the vertical bound, one beside it by
+///   the horizontal one), so the barrier sees no obstacle farther than it truly is while the
+///   error is within the bound (at least 1 cm of distance is left).
 pub fn to_estimate_frame(
     seen: &mut [ObstaclePoint],
     err: &Vector3<f64>,
     est: &Vector3<f64>,
-    sigma: f64,
+    bound: &ErrorBound,
     sensed: bool,
 ) {
     if sensed {
@@ -281,11 +304,12 @@ pub fn to_estimate_frame(
         }
         return;
     }
-    let (e, m) = (to_f32(est), (MAPPED_MARGIN_SIGMA * sigma) as f32);
+    let e = to_f32(est);
     for o in seen.iter_mut() {
         let d = o.point - e;
         let n = d.norm();
         if n > 0.0 {
+            let m = bound.along(&(d / n));
             o.point = e + d * ((n - m).max(0.01) / n);
         }
     }

@@ -104,10 +104,10 @@ pub trait FlightStack {
     /// A barometer reading at `t` (NED down, m; filtered position sources, issue 39).
     /// Default: ignored (a stack without a navigation filter).
     fn height_fix(&mut self, _t: f64, _down: f64) {}
-    /// The navigation filter's position estimate at `t` (NED, m) and its horizontal σ (m),
+    /// The navigation filter's position estimate at `t` (NED, m) and the bound on its error,
     /// for the obstacle report's frame ([`crate::flight::sensing::to_estimate_frame`]).
     /// Default: `None` (the controller flies the fix: motion capture).
-    fn navigation(&self, _t: f64) -> Option<(Vector3<f64>, f64)> {
+    fn navigation(&self, _t: f64) -> Option<(Vector3<f64>, crate::flight::sensing::ErrorBound)> {
         None
     }
     /// Outer step at `t` with the sensed obstacles; returns what the recorder needs.
