@@ -366,6 +366,13 @@ impl FlightController {
         self.outer.position_reset(delta);
     }
 
+    /// The position's vertical error is bounded by `m` (m; a navigation filter's bound,
+    /// `docs/filter.md` § 18): the ground and ceiling barriers keep `m` more (they are world
+    /// planes, as mapped obstacles). Default 0; negative or non-finite: 0.
+    pub fn set_boundary_margin(&mut self, m: f32) {
+        self.outer.set_boundary_margin(m);
+    }
+
     /// Replace the obstacle set with `obstacles` (closest surface points, NED),
     /// valid at `now_us`. At most [`OBSTACLE_CAPACITY`] are kept (the nearest to
     /// the vehicle); points (or velocities) that are non-finite or beyond

@@ -399,6 +399,14 @@ impl OuterLoop {
         }
     }
 
+    /// The vertical error bound of the position (see
+    /// [`crate::controller::FlightController::set_boundary_margin`]).
+    pub fn set_boundary_margin(&mut self, m: f32) {
+        if let Some(pa) = self.plant_aware.as_mut() {
+            pa.set_boundary_margin(m);
+        }
+    }
+
     /// Replace the obstacle set (see [`crate::controller::FlightController::update_obstacles`]).
     pub fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         let variant = self.filter.variant;

@@ -197,6 +197,10 @@ impl Controller {
         if let Some(fix) = self.nav.as_ref().and_then(|n| n.controller_fix(now)) {
             self.fc.update_position(fix);
         }
+        // The ground and ceiling are world planes: they get the vertical error bound.
+        if let Some(nav) = self.nav.as_ref() {
+            self.fc.set_boundary_margin(nav.error_bound(now).vertical as f32);
+        }
     }
 }
 

@@ -435,6 +435,8 @@ pub struct PlantAware {
     /// What the vehicle can realise ([`PlantAware::with_limits`]): the lag model is fed the
     /// command after these limits. `None`: the command as given.
     limits: Option<AccelLimits>,
+    /// Bound on the vertical position error, m ([`PlantAware::set_boundary_margin`]).
+    boundary_margin: f32,
 }
 
 /// One step's inputs to [`PlantAware::apply`].
@@ -475,7 +477,16 @@ impl PlantAware {
             dob: DisturbanceObserver::new(),
             stall: StallDetector::default(),
             limits: None,
+            boundary_margin: 0.0,
         }
+    }
+
+    /// The ground and the ceiling are world planes: with a position estimate whose vertical
+    /// error is bounded by `m` (m; a navigation filter, `docs/filter.md` § 18) the ground is
+    /// raised and the ceiling lowered by `m`, as the mapped obstacles are moved by their
+    /// margin. Default 0 (motion capture); negative or non-finite: 0.
+    pub fn set_boundary_margin(&mut self, m: f32) {
+        self.boundary_margin = if m.is_finite() { m.max(0.0) } else { 0.0 };
     }
 
     /// The same, with the vehicle's acceleration limits: the lag model (and so the disturbance
@@ -525,7 +536,9 @@ impl PlantAware {
         let d_hat = self.dob.estimate();
         let u_nom = if rp.dob_feedforward { s.u_pd - d_hat } else { s.u_pd };
         let (xi, xi_dot) = predicted_state(&s.p, &s.v, &a, &d_hat, self.tau);
-        let bounds = Boundaries { ground_height: rp.ground_height, ceiling_height: rp.ceiling_height };
+        let m = self.boundary_margin;
+        let ceiling_height = if rp.ceiling_height != 0.0 { rp.ceiling_height - m } else { 0.0 };
+        let bounds = Boundaries { ground_height: rp.ground_height + m, ceiling_height };
         let mut pts: heapless::Vec<ObstaclePoint, MAX_FILTER_POINTS> = heapless::Vec::new();
         // The planes need the multi variants: the closest-obstacle law (eq. 14) would enforce
         // the ground instead of a nearer-in-h obstacle (a 2 m/s walker was ignored that way).
