@@ -10,7 +10,7 @@
 //! | Mission | the guidance of the commands (takeoff, hold, mission) | on |
 //! | Offboard | position / velocity / acceleration setpoint ([`super::offboard`]) | on |
 //! | Hold | the position at entry | on |
-//! | Return | the breadcrumbs reversed ([`super::return_path`]), then Land | on |
+//! | Return | the breadcrumbs reversed ([`super::return_path`]; on the trajectory with `MIS_GUIDANCE` 1), then Land | on |
 //! | Land | the supervisor's landing | on |
 //!
 //! Entry conditions (commands and the mode switch; a refused change leaves the mode):
@@ -20,7 +20,7 @@
 //! May import: what [`super`] may import, and [`crate::rc`], [`crate::battery`].
 
 use super::assist::{manual_setpoint, stick_velocity, stick_yaw_rate, wrap_pi};
-use super::guidance::GuidanceMode;
+use super::guidance::{GuidanceMode, MissionGuidance};
 use super::offboard::OffboardSetpoint;
 use super::path_yaw::Steering;
 use super::tracking::Reference;
@@ -138,8 +138,12 @@ impl OuterLoop {
                 return Err(CommandError::ModeUnavailable);
             }
         }
+        if from == FlightMode::Return {
+            // The trajectory it borrowed (MIS_GUIDANCE 1) is given back: hold here.
+            self.guidance.release(p);
+        }
         if to == FlightMode::Return && armed && !self.guidance.on_ground() {
-            if !fix || self.ret.start(now_us, p).is_err() {
+            if !fix || !self.start_return(now_us, p) {
                 // Nothing to fly back along (or no fix): land instead.
                 return self.enter_mode(now_us, FlightMode::Land, reason, true);
             }
@@ -170,6 +174,18 @@ impl OuterLoop {
         }
         self.telemetry.flight_mode = self.modes.mode();
         Ok(())
+    }
+
+    /// Start flying back from `p`: on the guidance's trajectory with `MIS_GUIDANCE` 1, on the
+    /// paper's follower with 0 ([`super::return_path`]). `false` when there is nothing to fly.
+    fn start_return(&mut self, now_us: u64, p: Vec3) -> bool {
+        if self.params.guidance.mission != MissionGuidance::Trajectory {
+            return self.ret.start(now_us, p).is_ok();
+        }
+        match self.ret.trail_back(p) {
+            Ok(trail) => self.guidance.start_return(p, &trail, self.params.modes.return_speed).is_ok(),
+            Err(_) => false,
+        }
     }
 
     /// The mode machine's part of a failsafe-state transition (called by `record`).
@@ -333,9 +349,13 @@ impl OuterLoop {
             FlightMode::Return => {
                 let mut y = yaw;
                 let yaw_params = self.params.guidance.path_yaw;
-                match self.ret.reference(now_us, &yaw_params, &mut y, &steering) {
+                let mut prog = *progress;
+                let lent = self.guidance.lent_reference(&steering, &mut prog, true).map(|r| (r, prog));
+                match lent.or_else(|| self.ret.reference(now_us, &yaw_params, &mut y, &steering)) {
                     Some((r, prog)) => {
-                        self.guidance.set_yaw_ref(y);
+                        if lent.is_none() {
+                            self.guidance.set_yaw_ref(y);
+                        }
                         // Home reached: the reference is there and the vehicle has settled on it.
                         let settled = fresh.is_some_and(|(p, v)| {
                             (p - r.position).norm_squared() < RETURN_SETTLED_M * RETURN_SETTLED_M

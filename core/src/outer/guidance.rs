@@ -27,6 +27,8 @@ use crate::waypoint::{
 };
 use crate::Vec3;
 
+mod lent;
+
 /// Capacity of the controller's path, waypoints.
 pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;
 
@@ -225,6 +227,9 @@ enum Mode {
     Ramp { from: Vec3, to: Vec3, t0_us: u64, speed: f32 },
     /// Fly the stored path, started at `t0_us`.
     Mission { t0_us: u64 },
+    /// The trajectory is lent to another flight mode (Return: [`lent`]); the
+    /// reference comes from [`Guidance::lent_reference`].
+    Lent,
 }
 
 /// The guidance stage (see the module documentation).
@@ -249,6 +254,9 @@ pub struct Guidance {
     point_waypoint: heapless::Vec<u16, TRAJECTORY_CAPACITY>,
     /// The mission reference's shift after a position reset, decaying.
     reset_shift: Option<ResetShift>,
+    /// The cruise speed the trajectory was built with, m/s (a mission's `WP_SPEED`, Return's
+    /// `RTL_SPEED`).
+    traj_cruise: f32,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -270,6 +278,7 @@ impl Guidance {
             last_traj: None,
             point_waypoint: heapless::Vec::new(),
             reset_shift: None,
+            traj_cruise: waypoint.cruise_speed,
         })
     }
 
@@ -377,8 +386,13 @@ impl Guidance {
                 }
                 (GuidanceMode::Takeoff, Some(r))
             }
+            Mode::Lent => {
+                // Only in the Mission flight mode; the lending mode left without a release.
+                let at = self.last_traj.map_or(self.home, |r| r.position);
+                (GuidanceMode::Hold, Some(self.hold_ref(at)))
+            }
             Mode::Mission { .. } if self.flying_trajectory => {
-                let r = self.trajectory_ref(v, progress, &sp);
+                let r = self.trajectory_ref(v, progress, &sp, true);
                 (GuidanceMode::Mission, Some(shifted(r)))
             }
             Mode::Mission { t0_us } => {
@@ -411,7 +425,7 @@ impl Guidance {
             return;
         }
         match &mut self.mode {
-            Mode::Ground => {}
+            Mode::Ground | Mode::Lent => {}
             Mode::Hold(target) => *target += delta,
             Mode::Ramp { from, to, .. } => {
                 *from += delta;
@@ -538,29 +552,32 @@ impl Guidance {
         if self.params.mission != MissionGuidance::Trajectory {
             return Ok(());
         }
-        let mut points: heapless::Vec<Vec3, TRAJECTORY_CAPACITY> = heapless::Vec::new();
-        let _ = points.push(origin);
-        self.point_waypoint.clear();
-        let _ = self.point_waypoint.push(0);
-        for (i, w) in self.follower.waypoints().iter().enumerate() {
-            let far = points.last().is_none_or(|q| norm3(&(w - q)) >= MIN_LEG_LENGTH);
-            if far {
-                let index = u16::try_from(i).unwrap_or(u16::MAX);
-                if points.push(*w).is_err() || self.point_waypoint.push(index).is_err() {
-                    return Err(CommandError::Path(PathError::TooMany { capacity: PATH_CAPACITY }));
-                }
-            }
-        }
-        let params =
-            TrajectoryParams { cruise_speed: self.follower.params().cruise_speed, ..self.params.trajectory };
+        let points = trajectory_points(origin, self.follower.waypoints(), &mut self.point_waypoint)?;
+        self.fly_points(&points, carry, self.follower.params().cruise_speed)
+    }
+
+    /// Build the trajectory through `points` (from the current reference, `points[0]`) at
+    /// `cruise` m/s with the `TRJ_*` limits, in place, and fly it from the next step: moving
+    /// when `carry` (the last reference) moves along the first leg (within
+    /// [`CARRY_MAX_ANGLE_COS`]) and the new trajectory can take the motion over
+    /// ([`Trajectory::rebuild_moving`]); otherwise, or when that fails, at rest. An error
+    /// leaves nothing flown (`flying_trajectory` false).
+    fn fly_points(
+        &mut self,
+        points: &[Vec3],
+        carry: Option<Reference>,
+        cruise: f32,
+    ) -> Result<(), CommandError> {
+        self.flying_trajectory = false;
+        self.last_traj = None;
+        let origin = points.first().copied().unwrap_or(self.home);
+        let params = TrajectoryParams { cruise_speed: cruise, ..self.params.trajectory };
         let mut start = Reference {
             position: origin,
             velocity: Vec3::zeros(),
             acceleration: Vec3::zeros(),
             yaw: self.yaw_ref,
         };
-        // Moving when the reference moves along the new first leg and the new trajectory can
-        // take the motion over; else (or when that fails) at rest. Built in place.
         let moving = carry.zip(points.get(1)).and_then(|(r, next)| {
             let leg = next - origin;
             let (speed, len) = (norm3(&r.velocity), norm3(&leg));
@@ -570,7 +587,7 @@ impl Guidance {
         });
         let carried = moving.is_some_and(|(dir, speed, r)| {
             let accel = r.acceleration.dot(&dir);
-            let ok = self.trajectory.rebuild_moving(params, &points, speed, accel).is_ok();
+            let ok = self.trajectory.rebuild_moving(params, points, speed, accel).is_ok();
             if ok {
                 start.velocity = dir * speed;
                 start.acceleration = dir * accel;
@@ -578,10 +595,11 @@ impl Guidance {
             ok
         });
         if !carried {
-            self.trajectory.rebuild(params, &points).map_err(|e| CommandError::Path(path_error(e)))?;
+            self.trajectory.rebuild(params, points).map_err(|e| CommandError::Path(path_error(e)))?;
         }
         self.flying_trajectory = true;
         self.last_traj = Some(start);
+        self.traj_cruise = cruise;
         Ok(())
     }
 
@@ -591,8 +609,16 @@ impl Guidance {
     /// safety filter held the vehicle back in the previous step ([`Steering::held_back`]) and
     /// while the path waits for the heading (`MIS_YAW_MODE` travel). A step that fails (a
     /// time step out of range) keeps the last reference.
-    /// `shift`: the reset shift the reference gets (the clock measures the error against it).
-    fn trajectory_ref(&mut self, v: &Steering, progress: &mut Progress, shift: &Vec3) -> Reference {
+    /// `shift`: the reset shift the reference gets (the clock measures the error against it);
+    /// `steer`: the yaw follows `MIS_YAW_MODE` (Mission, Return; not Offboard, whose set-point
+    /// gives the yaw).
+    fn trajectory_ref(
+        &mut self,
+        v: &Steering,
+        progress: &mut Progress,
+        shift: &Vec3,
+        steer: bool,
+    ) -> Reference {
         let traj = &mut self.trajectory;
         if !self.flying_trajectory {
             return Reference {
@@ -612,7 +638,7 @@ impl Guidance {
         // The yaw: steer towards the direction of travel (the velocity, or at rest the
         // tangent where the motion goes next); the clock waits while the heading is off.
         let p = &self.params.path_yaw;
-        if p.mode == YawMode::Travel {
+        if steer && p.mode == YawMode::Travel {
             let moving = last.velocity.x * last.velocity.x + last.velocity.y * last.velocity.y > 1e-4;
             let dir = if moving { last.velocity } else { traj.travel_direction() };
             let mut probe = PathSample {
@@ -635,7 +661,11 @@ impl Guidance {
             _ => 0.0,
         };
         // The speed governor's limit along the motion caps the allowed speed (scale × cruise).
-        let scale = scale.min(v.speed_limit / self.follower.params().cruise_speed);
+        let cruise = match self.mode {
+            Mode::Lent => self.traj_cruise,
+            _ => self.follower.params().cruise_speed,
+        };
+        let scale = scale.min(v.speed_limit / cruise);
         let dt = v.dt.min(MAX_STEP_DT);
         let r = match traj.step(dt, scale) {
             Ok(s) => {
@@ -659,6 +689,31 @@ impl Guidance {
         self.last_traj = Some(r);
         r
     }
+}
+
+/// The trajectory's points: `origin`, then `waypoints` without those within
+/// [`MIN_LEG_LENGTH`] of the previous point (a path that starts where the vehicle is, or
+/// repeats a waypoint, is flown); `index[k]` is the index in `waypoints` of point `k` (the
+/// origin counts as 0). More than [`TRAJECTORY_CAPACITY`] points: refused.
+fn trajectory_points(
+    origin: Vec3,
+    waypoints: &[Vec3],
+    index: &mut heapless::Vec<u16, TRAJECTORY_CAPACITY>,
+) -> Result<heapless::Vec<Vec3, TRAJECTORY_CAPACITY>, CommandError> {
+    let mut points: heapless::Vec<Vec3, TRAJECTORY_CAPACITY> = heapless::Vec::new();
+    let _ = points.push(origin);
+    index.clear();
+    let _ = index.push(0);
+    for (i, w) in waypoints.iter().enumerate() {
+        let far = points.last().is_none_or(|q| norm3(&(w - q)) >= MIN_LEG_LENGTH);
+        if far {
+            let k = u16::try_from(i).unwrap_or(u16::MAX);
+            if points.push(*w).is_err() || index.push(k).is_err() {
+                return Err(CommandError::Path(PathError::TooMany { capacity: PATH_CAPACITY }));
+            }
+        }
+    }
+    Ok(points)
 }
 
 /// A trajectory error as the path error a refused command reports.

@@ -12,7 +12,7 @@
 //! set), [`waypoint`] (the path follower), [`tracking`] (PD tracking, eq. 2), [`thrust`]
 //! (acceleration → collective thrust and attitude, eq. 4-5), [`trajectory`] (issue 35, stage in
 //! progress: the jerk-limited online trajectory along a blended path; [`guidance`] flies
-//! missions on it when `MIS_GUIDANCE` = 1), and [`OuterLoop`], which runs
+//! missions and Return on it when `MIS_GUIDANCE` = 1), and [`OuterLoop`], which runs
 //! them with the [`crate::supervisor::Supervisor`] and the [`crate::safety`] filter. It
 //! reads the inner loop only through the [`StateEstimate`] message
 //! ([`OuterLoop::on_estimate`]) and hands it only the [`AttitudeCommand`] and
@@ -668,11 +668,20 @@ impl OuterLoop {
         let yaw_ref = self.guidance.yaw_ref();
         match fresh {
             Some((p, v)) => {
-                let mut u_pd = if self.guidance.flying_trajectory() {
-                    let (speed, ended) = (self.guidance.mission_speed(), self.telemetry.progress.done);
-                    self.tracker.update_trajectory(&reference, &p, &v, dt, speed, ended)
+                // The tracking cascade on a trajectory: a mission's, or the one lent to Return
+                // (its cruise speed and end).
+                let cascade = if self.guidance.flying_trajectory() {
+                    Some((self.guidance.mission_speed(), self.telemetry.progress.done))
+                } else if mode == GuidanceMode::Return {
+                    self.guidance.lent_tracking()
                 } else {
-                    self.tracker.update(&reference, &p, &v, dt)
+                    None
+                };
+                let mut u_pd = match cascade {
+                    Some((speed, ended)) => {
+                        self.tracker.update_trajectory(&reference, &p, &v, dt, speed, ended)
+                    }
+                    None => self.tracker.update(&reference, &p, &v, dt),
                 };
                 if let Some(a) = accel_sp {
                     // Offboard acceleration setpoint: it is the nominal command.

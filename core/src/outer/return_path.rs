@@ -12,9 +12,12 @@
 //! free of the obstacles that were there; the filter guards against the ones that moved.
 //!
 //! ## The return reference
-//! On entering Return: the crumbs in reverse order, from the vehicle's position, flown by a
-//! [`WaypointFollower`] at `return_speed` (`RTL_SPEED`); the last leg ends above home at the
-//! height of the last crumb before home (the landing descends from there). `done` when the
+//! On entering Return: the crumbs in reverse order, from the vehicle's position
+//! ([`ReturnPath::trail_back`]); the last leg ends above home at the height of the last crumb
+//! before home (the landing descends from there). With `MIS_GUIDANCE` 1 (the default) the
+//! guidance flies it on its jerk-limited trajectory at `RTL_SPEED` with the `TRJ_*` limits and
+//! the clock that waits (`Guidance::start_return`, issue 35); with 0 (the paper's guidance) a
+//! [`WaypointFollower`] here flies it at `return_speed` (`RTL_SPEED`), `done` when the
 //! follower reports the goal reached. The yaw along it follows `MIS_YAW_MODE`
 //! ([`super::path_yaw`]): held, or turned towards the direction of travel with the path
 //! waiting for the heading.
@@ -102,8 +105,9 @@ impl ReturnPath {
         let _ = self.crumbs.push(p);
     }
 
-    /// Start flying back from `p` at `now_us`. Fails (nothing changes) when there is no trail.
-    pub fn start(&mut self, now_us: u64, p: Vec3) -> Result<(), PathError> {
+    /// The way back from `p`: the crumbs after home in reverse order, then home at the height
+    /// of the last of them (at `p`'s height when there is none). Fails when there is no trail.
+    pub fn trail_back(&self, p: Vec3) -> Result<heapless::Vec<Vec3, CRUMB_CAPACITY>, PathError> {
         let n = self.crumbs.len();
         let home = *self.crumbs.first().ok_or(PathError::NoPath)?;
         let mut path: heapless::Vec<Vec3, CRUMB_CAPACITY> = heapless::Vec::new();
@@ -114,6 +118,14 @@ impl ReturnPath {
         }
         let z = path.last().map_or(p.z, |c| c.z);
         let _ = path.push(Vec3::new(home.x, home.y, z));
+        Ok(path)
+    }
+
+    /// Start flying back from `p` at `now_us` on the paper's follower (`MIS_GUIDANCE` 0; with
+    /// 1 the guidance flies [`Self::trail_back`] on its trajectory,
+    /// `Guidance::start_return`). Fails (nothing changes) when there is no trail.
+    pub fn start(&mut self, now_us: u64, p: Vec3) -> Result<(), PathError> {
+        let path = self.trail_back(p)?;
         self.follower.set_path(&path)?;
         self.follower.start(p)?;
         self.t0_us = Some(now_us);
