@@ -8,7 +8,7 @@
 //! | Manual | sticks → attitude/thrust setpoint ([`super::assist::manual_setpoint`]), PD and filter bypassed | **off** |
 //! | Position | sticks → velocity setpoint, leashed target ([`super::assist`]) | on |
 //! | Mission | the guidance of the commands (takeoff, hold, mission) | on |
-//! | Offboard | position / velocity / acceleration setpoint ([`super::offboard`]) | on |
+//! | Offboard | position / velocity / acceleration setpoint ([`super::offboard`]; a position-only one on the trajectory with `MIS_GUIDANCE` 1) | on |
 //! | Hold | the position at entry | on |
 //! | Return | the breadcrumbs reversed ([`super::return_path`]; on the trajectory with `MIS_GUIDANCE` 1), then Land | on |
 //! | Land | the supervisor's landing | on |
@@ -138,8 +138,8 @@ impl OuterLoop {
                 return Err(CommandError::ModeUnavailable);
             }
         }
-        if from == FlightMode::Return {
-            // The trajectory it borrowed (MIS_GUIDANCE 1) is given back: hold here.
+        if matches!(from, FlightMode::Return | FlightMode::Offboard) {
+            // The trajectory they borrowed (MIS_GUIDANCE 1) is given back: hold here.
             self.guidance.release(p);
         }
         if to == FlightMode::Return && armed && !self.guidance.on_ground() {
@@ -326,19 +326,28 @@ impl OuterLoop {
                 };
                 self.guidance.set_yaw_ref(y);
                 let a_ff = sp.acceleration.unwrap_or_else(Vec3::zeros);
-                let r = match (sp.position, sp.velocity) {
-                    (Some(pos), v) => Reference {
+                let on_trajectory = self.params.guidance.mission == MissionGuidance::Trajectory;
+                let target = sp
+                    .position
+                    .filter(|_| on_trajectory && sp.velocity.is_none() && sp.acceleration.is_none());
+                let lent = target.and_then(|pos| self.offboard_trajectory(pos, &steering));
+                if lent.is_none() {
+                    self.guidance.release(p);
+                }
+                let r = match (lent, sp.position, sp.velocity) {
+                    (Some(r), _, _) => Reference { yaw: y, ..r },
+                    (None, Some(pos), v) => Reference {
                         position: pos,
                         velocity: v.unwrap_or_else(Vec3::zeros),
                         acceleration: a_ff,
                         yaw: y,
                     },
-                    (None, Some(v)) => {
+                    (None, None, Some(v)) => {
                         let mut r = self.assist.step(&v, &p, dt, y);
                         r.acceleration = a_ff;
                         r
                     }
-                    (None, None) => {
+                    (None, None, None) => {
                         *accel = sp.acceleration;
                         self.assist.start(p);
                         Reference { position: p, velocity: Vec3::zeros(), acceleration: a_ff, yaw: y }
@@ -372,6 +381,16 @@ impl OuterLoop {
                 (GuidanceMode::Hold, Some(self.guidance.hold_ref(self.hold_point)))
             }
         }
+    }
+
+    /// An offboard position-only set-point `pos` on the guidance's trajectory (`MIS_GUIDANCE`
+    /// 1): the next reference, `None` when the trajectory refuses the target (then today's
+    /// reference, the set-point itself, is flown).
+    fn offboard_trajectory(&mut self, pos: Vec3, steering: &Steering) -> Option<Reference> {
+        let last = self.telemetry.reference;
+        self.guidance.offboard_position(pos, &last).ok()?;
+        let mut progress = super::waypoint::Progress::default();
+        self.guidance.lent_reference(steering, &mut progress, false)
     }
 
     /// The Manual setpoint (sticks; centred, mid throttle without RC).

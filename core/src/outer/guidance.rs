@@ -227,7 +227,7 @@ enum Mode {
     Ramp { from: Vec3, to: Vec3, t0_us: u64, speed: f32 },
     /// Fly the stored path, started at `t0_us`.
     Mission { t0_us: u64 },
-    /// The trajectory is lent to another flight mode (Return: [`lent`]); the
+    /// The trajectory is lent to another flight mode (Return, Offboard: [`lent`]); the
     /// reference comes from [`Guidance::lent_reference`].
     Lent,
 }
@@ -255,8 +255,10 @@ pub struct Guidance {
     /// The mission reference's shift after a position reset, decaying.
     reset_shift: Option<ResetShift>,
     /// The cruise speed the trajectory was built with, m/s (a mission's `WP_SPEED`, Return's
-    /// `RTL_SPEED`).
+    /// `RTL_SPEED`, Offboard's mission speed).
     traj_cruise: f32,
+    /// The offboard position set-point the lent trajectory flies to ([`lent`]).
+    offboard_target: Option<Vec3>,
 }
 
 fn age(now: u64, t: u64) -> u64 {
@@ -279,6 +281,7 @@ impl Guidance {
             point_waypoint: heapless::Vec::new(),
             reset_shift: None,
             traj_cruise: waypoint.cruise_speed,
+            offboard_target: None,
         })
     }
 

@@ -12,7 +12,7 @@
 //! set), [`waypoint`] (the path follower), [`tracking`] (PD tracking, eq. 2), [`thrust`]
 //! (acceleration → collective thrust and attitude, eq. 4-5), [`trajectory`] (issue 35, stage in
 //! progress: the jerk-limited online trajectory along a blended path; [`guidance`] flies
-//! missions and Return on it when `MIS_GUIDANCE` = 1), and [`OuterLoop`], which runs
+//! missions, Return and offboard position set-points on it when `MIS_GUIDANCE` = 1), and [`OuterLoop`], which runs
 //! them with the [`crate::supervisor::Supervisor`] and the [`crate::safety`] filter. It
 //! reads the inner loop only through the [`StateEstimate`] message
 //! ([`OuterLoop::on_estimate`]) and hands it only the [`AttitudeCommand`] and
@@ -668,11 +668,11 @@ impl OuterLoop {
         let yaw_ref = self.guidance.yaw_ref();
         match fresh {
             Some((p, v)) => {
-                // The tracking cascade on a trajectory: a mission's, or the one lent to Return
-                // (its cruise speed and end).
+                // The tracking cascade on a trajectory: a mission's, or the one lent to Return or
+                // Offboard (its cruise speed and end).
                 let cascade = if self.guidance.flying_trajectory() {
                     Some((self.guidance.mission_speed(), self.telemetry.progress.done))
-                } else if mode == GuidanceMode::Return {
+                } else if matches!(mode, GuidanceMode::Return | GuidanceMode::Offboard) {
                     self.guidance.lent_tracking()
                 } else {
                     None
