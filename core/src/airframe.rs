@@ -21,6 +21,8 @@
 //! model of an RPM-controlled ESC (DShot with bidirectional RPM) and what
 //! `HIL_ACTUATOR_CONTROLS.controls[0..4]` carries in processor-in-the-loop.
 
+use crate::param_decl::{field, Has, Param};
+
 /// Yaw-torque sign of each rotor (index 0..4 = rotors 1..4): +1 for CCW rotors.
 pub const ROTOR_YAW_SIGN: [f32; 4] = [1.0, 1.0, -1.0, -1.0];
 
@@ -53,6 +55,29 @@ impl Default for Airframe {
             rotor_thrust_max: 3.07,
             torque_to_thrust: 0.016,
         }
+    }
+}
+
+impl Airframe {
+    /// The vehicle's parameters (`crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 7] {
+        [
+            Param::new("VEH_MASS", "Vehicle", "kg", (0.07, 50.0), 3, field!(mass),
+                "Vehicle mass; hover thrust mass*g must stay below THR_MAX"),
+            Param::new("VEH_IXX", "Vehicle", "kg m^2", (1e-5, 10.0), 5, field!(inertia[0]),
+                "Moment of inertia about body x (roll)"),
+            Param::new("VEH_IYY", "Vehicle", "kg m^2", (1e-5, 10.0), 5, field!(inertia[1]),
+                "Moment of inertia about body y (pitch)"),
+            Param::new("VEH_IZZ", "Vehicle", "kg m^2", (1e-5, 10.0), 5, field!(inertia[2]),
+                "Moment of inertia about body z (yaw)"),
+            Param::new("VEH_ARM", "Vehicle", "m", (0.02, 2.0), 3, field!(arm_length),
+                "Distance from the centre of mass to each rotor axis"),
+            Param::new("VEH_ROTOR_TMAX", "Vehicle", "N", (0.1, 500.0), 2, field!(rotor_thrust_max),
+                "Largest thrust of one rotor; 4x it must be at least THR_MAX"),
+            Param::new("VEH_KAPPA", "Vehicle", "m", (1e-4, 0.5), 4, field!(torque_to_thrust),
+                "Rotor drag-torque to thrust ratio k_m/k_f"),
+        ]
     }
 }
 

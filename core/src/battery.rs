@@ -33,6 +33,7 @@
 //! May import: the crate root foundation only (`fmath`).
 
 use crate::fmath;
+use crate::param_decl::{field, flag, on_off, u8_field, Has, Param};
 
 /// How the supervisor must treat the battery.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, PartialOrd, Ord)]
@@ -116,6 +117,30 @@ impl Default for BatteryParams {
             v_divider: 11.0,
             amps_per_volt: 0.0,
         }
+    }
+}
+
+impl BatteryParams {
+    /// The battery's measurement and thresholds (issue 22; `crate::params`, MAVLink
+    /// `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 7] {
+        [
+            Param::new("BAT_LOW_V", "Battery", "V", (3.0, 4.2), 2, field!(low_cell_v),
+                "Low battery: resting voltage per cell below this (return)"),
+            Param::new("BAT_CRIT_V", "Battery", "V", (2.8, 4.0), 2, field!(critical_cell_v),
+                "Critical battery: resting voltage per cell below this (land)"),
+            Param::new("BAT_R_INT", "Battery", "Ohm", (0.0, 1.0), 3, field!(r_internal_ohm),
+                "Pack internal resistance for the sag compensation (with a current sensor)"),
+            Param::new("BAT_V_DIV", "Battery", "", (1.0, 100.0), 2, field!(v_divider),
+                "VBAT divider: pack volts per ADC volt (MATEKF405 11)"),
+            Param::new("BAT_A_PER_V", "Battery", "A/V", (0.0, 500.0), 1, field!(amps_per_volt),
+                "Current sensor scale, A per ADC volt (0 = no current sensor)"),
+            Param::new("BAT_CELLS", "Battery", "", (0.0, MAX_CELLS as f32), 0, u8_field!(cells),
+                "Cells in series (0 = detect at power-up, disarmed)").whole(),
+            Param::new("BAT_ENABLE", "Battery", "", (0.0, 1.0), 0, flag!(enabled),
+                "Battery measured (0: no battery failsafe)").code(on_off),
+        ]
     }
 }
 

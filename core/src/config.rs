@@ -17,6 +17,7 @@ use crate::frame::GRAVITY;
 use crate::governor::GovernorParams;
 use crate::mixer::{Mixer, MixerError};
 use crate::outer::guidance::GuidanceParams;
+use crate::param_decl::{field, Has, Param};
 use crate::perception::MemoryParams;
 use crate::plant_aware::{PlantAwareError, PlantAwareParams};
 use crate::rc::map::RcParams;
@@ -108,7 +109,7 @@ impl Default for ControllerParams {
             thrust: ThrustParams::default(),
             attitude: AttitudeParams::default(),
             estimator: EstimatorParams::default(),
-            waypoint: WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 },
+            waypoint: WaypointParams::default(),
             failsafe: FailsafeParams::default(),
             modes: ModeParams::default(),
             rc: RcParams::default(),
@@ -124,6 +125,18 @@ impl Default for ControllerParams {
             governor: GovernorParams::default(),
             replan: crate::replan::ReplanParams::default(),
         }
+    }
+}
+
+impl ControllerParams {
+    /// The parameter of a field of the set itself (`crate::params`): the hull radius (issue 17;
+    /// δ must be at least its square).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 1] {
+        [
+            Param::new("VEH_HULL_R", "Vehicle", "m", (0.01, 5.0), 4, field!(hull_radius),
+                "Radius of the sphere bounding the vehicle; CBF_DELTA must be at least its square"),
+        ]
     }
 }
 

@@ -28,7 +28,8 @@
 //! - [`schedule`]: which inner step runs the outer step ([`schedule::OuterSchedule`]).
 //! - [`airframe`], [`frame`], [`fmath`]: vehicle description, frames and units, square
 //!   root (FPU instruction on the Cortex-M4F), min, max, single-precision trigonometry.
-//! - [`params`]: named controller parameters (the firmware's MAVLink parameters).
+//! - [`params`]: named controller parameters (the firmware's MAVLink parameters), the one
+//!   table gathered from the declarations beside each stage's struct ([`param_decl`]).
 //! - [`perception`]: range scans → a bounded world-frame obstacle memory (voxel merge,
 //!   ageing, see-through clearing, cluster velocity tracks, the field-of-view frontier) →
 //!   the filter's obstacle points (issue 19).
@@ -65,6 +66,7 @@ pub mod motor_test;
 pub mod msg;
 pub mod nav;
 pub mod outer;
+pub mod param_decl;
 pub mod params;
 pub mod perception;
 pub mod rc;

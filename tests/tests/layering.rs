@@ -46,20 +46,24 @@ const CORE_RULES: &[(&str, &[&str])] = &[
             "robust",
             "rc",
             "battery",
+            "param_decl",
         ],
     ),
     // Issue 21/22: the mode machine reads the pilot input and the battery level.
-    ("supervisor", &["airframe", "frame", "fmath", "msg", "rc", "battery"]),
-    ("safety", &["airframe", "frame", "fmath"]),
+    ("supervisor", &["airframe", "frame", "fmath", "msg", "rc", "battery", "param_decl"]),
+    ("safety", &["airframe", "frame", "fmath", "param_decl"]),
     // Issue 19: the obstacle memory turns range scans into points for the filter's set.
-    ("perception", &["frame", "fmath", "safety"]),
+    ("perception", &["frame", "fmath", "safety", "param_decl"]),
     // Issue 21: pilot input (decoders, channel map) and issue 22: the battery message.
-    ("rc", &["fmath"]),
-    ("battery", &["fmath"]),
+    ("rc", &["fmath", "param_decl"]),
+    ("battery", &["fmath", "param_decl"]),
     // Issue 22: the motor-test state machine stands alone; calibration maths on the frame helpers.
     ("motor_test", &[]),
-    ("calibration", &["frame", "fmath", "msg"]),
+    ("calibration", &["frame", "fmath", "msg", "param_decl"]),
     ("msg", &[]),
+    // Issue 37: how a parameter is declared beside its struct; every stage imports it, so it
+    // imports nothing (`params` gathers the declarations into the table, never the reverse).
+    ("param_decl", &[]),
     // Issue 37: the wire contract names the filter's regions and the mode types (`wire::modes`,
     // PX4's nav_state); `config` and `schedule` read its rates, never the other way round.
     ("wire", &["safety", "fmath", "outer", "supervisor"]),

@@ -25,6 +25,7 @@ pub mod accel;
 use crate::fmath;
 use crate::frame::GRAVITY;
 use crate::msg::ImuSample;
+use crate::param_decl::{access, field, Access, Has, Param};
 use crate::Vec3;
 use nalgebra::Matrix3;
 
@@ -112,6 +113,47 @@ impl Default for SensorCal {
             trim_pitch: 0.0,
         }
     }
+}
+
+impl SensorCal {
+    /// The accelerometer calibration, level trim and board rotation (issue 22;
+    /// `crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 9] {
+        [
+            acc("CAL_ACC0_XOFF", false, field!(accel_offset.x),
+                "Accelerometer offset, sensor x"),
+            acc("CAL_ACC0_YOFF", false, field!(accel_offset.y),
+                "Accelerometer offset, sensor y"),
+            acc("CAL_ACC0_ZOFF", false, field!(accel_offset.z),
+                "Accelerometer offset, sensor z"),
+            acc("CAL_ACC0_XSCALE", true, field!(accel_scale.x),
+                "Accelerometer scale, sensor x"),
+            acc("CAL_ACC0_YSCALE", true, field!(accel_scale.y),
+                "Accelerometer scale, sensor y"),
+            acc("CAL_ACC0_ZSCALE", true, field!(accel_scale.z),
+                "Accelerometer scale, sensor z"),
+            Param::new("CAL_TRIM_ROLL", "Sensors", "rad", (-TRIM_MAX, TRIM_MAX), 4, field!(trim_roll),
+                "Level-horizon trim, roll"),
+            Param::new("CAL_TRIM_PITCH", "Sensors", "rad", (-TRIM_MAX, TRIM_MAX), 4, field!(trim_pitch),
+                "Level-horizon trim, pitch"),
+            Param::new("SENS_BOARD_ROT", "Sensors", "", (0.0, BoardRotation::MAX_CODE as f32), 0,
+                access!(|s| f32::from(s.board_rotation.code()), |s, v| {
+                    if let Some(r) = BoardRotation::from_code(v as u8) {
+                        s.board_rotation = r;
+                    }
+                }),
+                "IMU orientation on the board (PX4 SENS_BOARD_ROT codes 0-15)").code(BoardRotation::name),
+        ]
+    }
+}
+
+/// An accelerometer calibration parameter (`CAL_ACC0_*`), per sensor axis: a scale or an
+/// offset, m/s².
+const fn acc<P>(name: &'static str, scale: bool, access: Access<P>, description: &'static str) -> Param<P> {
+    let (unit, range) =
+        if scale { ("", ACCEL_SCALE_RANGE) } else { ("m/s^2", (-ACCEL_OFFSET_MAX, ACCEL_OFFSET_MAX)) };
+    Param::new(name, "Sensors", unit, range, 4, access, description)
 }
 
 /// Largest accelerometer offset the parameters allow, m/s².

@@ -21,6 +21,7 @@ use super::trajectory::{
 use super::CommandError;
 use crate::fmath::{hypotf, norm3};
 use crate::frame::is_finite3;
+use crate::param_decl::{access, field, Has, Param};
 use crate::tracking::{limit_lead, Reference, MOVING_REFERENCE_SPEED};
 use crate::waypoint::{
     PathError, PathSample, Progress, WaypointFollower, WaypointParams, DEFAULT_PATH_CAPACITY,
@@ -213,6 +214,24 @@ impl Default for GuidanceParams {
             mission: MissionGuidance::default(),
             trajectory: TrajectoryParams::default(),
         }
+    }
+}
+
+impl GuidanceParams {
+    /// The takeoff limit and the mission's guidance (issue 35; `crate::params`): the paper's
+    /// constant-speed point (the paper reproduction) or the jerk-limited trajectory
+    /// (`outer::trajectory`, cruise speed `WP_SPEED`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 2] {
+        [
+            Param::new("MIS_TKO_ALT_MAX", "Mission", "m", (1.0, 500.0), 1, field!(takeoff_height_max),
+                "Largest takeoff height above home: a higher TAKEOFF mission item is refused at upload \
+                 (MISSION_ACK INVALID_PARAM7), a higher NAV_TAKEOFF command or mission start is DENIED"),
+            Param::new("MIS_GUIDANCE", "Mission", "", (0.0, 1.0), 0,
+                access!(|s| s.mission.code() as f32, |s, v| s.mission = MissionGuidance::from_code(v as i32).unwrap_or(s.mission)),
+                "Mission guidance: 0 paper (constant-speed point, s = V t), 1 trajectory (jerk-limited, waits for the vehicle)")
+                .key("guidance").code(|c| MissionGuidance::from_code(c).map(MissionGuidance::as_str)),
+        ]
     }
 }
 

@@ -32,6 +32,7 @@
 
 use super::waypoint::PathSample;
 use crate::frame::{clampf, wrap_pi};
+use crate::param_decl::{access, field, Has, Param};
 use crate::Vec3;
 
 /// How the yaw reference is chosen while flying a path (`MIS_YAW_MODE`).
@@ -95,6 +96,23 @@ pub struct PathYawParams {
 impl Default for PathYawParams {
     fn default() -> Self {
         PathYawParams { mode: YawMode::Hold, rate: DEFAULT_RATE }
+    }
+}
+
+impl PathYawParams {
+    /// The yaw along a path's parameters (issue 19; `crate::params`): PX4's `MPC_YAW_MODE` /
+    /// `MPC_YAWRAUTO_MAX` (the heading threshold, PX4's `MIS_YAW_ERR`, is the constant
+    /// [`MAX_HEADING_ERROR`]).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 2] {
+        [
+            Param::new("MIS_YAW_MODE", "Mission", "", (0.0, 1.0), 0,
+                access!(|s| s.mode.code() as f32, |s, v| s.mode = YawMode::from_code(v as i32).unwrap_or(s.mode)),
+                "Yaw along the path (Mission, Return): 0 hold the heading at arming, 1 face the direction of travel")
+                .key("yaw_mode").code(|c| YawMode::from_code(c).map(YawMode::as_str)),
+            Param::new("MIS_YAW_RATE", "Mission", "rad/s", (0.05, 6.0), 3, field!(rate),
+                "MIS_YAW_MODE 1: largest turn rate of the yaw reference towards the travel direction"),
+        ]
     }
 }
 

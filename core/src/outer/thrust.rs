@@ -17,6 +17,7 @@
 use crate::fmath::{cosf, maxf, sincosf};
 use crate::frame::{clampf, wrap_pi, GRAVITY};
 pub use crate::msg::AttitudeSetpoint;
+use crate::param_decl::{field, Has, Param};
 use crate::plant_aware::limits::AccelLimits;
 use crate::Vec3;
 
@@ -35,6 +36,17 @@ pub struct ThrustParams {
 impl Default for ThrustParams {
     fn default() -> Self {
         ThrustParams { tilt_max: 0.61, thrust_min: 0.6, thrust_max: 11.0 }
+    }
+}
+
+impl ThrustParams {
+    /// The collective thrust limit (`crate::params`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 1] {
+        [
+            Param::new("THR_MAX", "Vehicle", "N", (0.5, 2000.0), 2, field!(thrust_max),
+                "Largest collective thrust commanded; above VEH_MASS*g, at most 4*VEH_ROTOR_TMAX"),
+        ]
     }
 }
 

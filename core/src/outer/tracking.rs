@@ -5,6 +5,7 @@
 
 use crate::fmath::hypotf;
 use crate::frame::{clampf, is_finite3};
+use crate::param_decl::{access, field, Has, Param};
 use crate::Vec3;
 
 /// Tracking gains and limits.
@@ -46,6 +47,31 @@ impl Default for TrackingParams {
             trajectory_pos_p: 1.0,
             trajectory_vel_p: 2.0,
         }
+    }
+}
+
+impl TrackingParams {
+    /// The PD tracker's parameters (`crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 2] {
+        [
+            Param::new("TRK_KP", "Tracking", "1/s^2", (0.01, 100.0), 3, access!(|s| s.kp[0], |s, v| s.kp = [v; 3]),
+                "PD position gain k_p (all axes)").key("kp"),
+            Param::new("TRK_KD", "Tracking", "1/s", (0.01, 100.0), 3, access!(|s| s.kd[0], |s, v| s.kd = [v; 3]),
+                "PD velocity gain k_d (all axes)").key("kd"),
+        ]
+    }
+
+    /// The trajectory tracking cascade's gains (`crate::params`; in the table with the
+    /// trajectory's own parameters, `outer::trajectory`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn trajectory_params<P: Has<Self>>() -> [Param<P>; 2] {
+        [
+            Param::new("TRJ_XY_P", "Mission", "1/s", (0.1, 5.0), 2, field!(trajectory_pos_p),
+                "MIS_GUIDANCE 1: horizontal position gain of the position P -> velocity P tracking cascade"),
+            Param::new("TRJ_XY_VEL_P", "Mission", "1/s", (0.1, 10.0), 2, field!(trajectory_vel_p),
+                "MIS_GUIDANCE 1: horizontal velocity gain of the tracking cascade (acceleration per m/s of velocity error)"),
+        ]
     }
 }
 

@@ -32,6 +32,7 @@
 
 use crate::fmath::{maxf, minf, norm3};
 use crate::frame::is_finite3;
+use crate::param_decl::{field, Has, Param};
 use crate::Vec3;
 
 /// Default maximum number of waypoints in a path.
@@ -87,6 +88,17 @@ pub struct WaypointParams {
 impl Default for WaypointParams {
     fn default() -> Self {
         WaypointParams { cruise_speed: 0.25, corner_radius: 0.0 }
+    }
+}
+
+impl WaypointParams {
+    /// The path speed (`crate::params`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 1] {
+        [
+            Param::new("WP_SPEED", "Mission", "m/s", (0.001, PARAM_LIMIT), 2, field!(cruise_speed),
+                "Reference speed along the path").key("speed"),
+        ]
     }
 }
 

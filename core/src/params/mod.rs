@@ -1,8 +1,10 @@
 //! The controller's parameter table: every tunable parameter **once**, with its
 //! MAVLink name, unit, range, one-line description and how it reads and writes
-//! [`ControllerParams`] (one [`Param::new`] entry each; the default is the stage's own,
-//! [`Param::default_value`], written once in its parameters struct). Everything that names parameters is driven by
-//! [`TABLE`]: the firmware's MAVLink parameter protocol (PARAM_SET /
+//! [`ControllerParams`]. Each parameter is declared in its stage's file, beside the field and
+//! its default (`CbfParams::params()` in `safety/cbf.rs`, …, see [`crate::param_decl`]); this
+//! module only says where each struct sits in [`ControllerParams`] (`Has`, one line per
+//! struct) and concatenates the structs' lists ([`PARTS`]) into [`TABLE`]: no entry and no
+//! count is written here. Everything that names parameters is driven by [`TABLE`]: the firmware's MAVLink parameter protocol (PARAM_SET /
 //! PARAM_REQUEST_READ → PARAM_VALUE, `param_index` = table index, `param_count` =
 //! [`COUNT`]), the processor-in-the-loop host (which sends a scene's settings as
 //! PARAM_SETs), the scene file's `[controller]` keys and the `parapet` command-line
@@ -34,141 +36,34 @@
 //! changes had to be sent in a planned order: a heavier vehicle needed the larger
 //! `THR_MAX` first.)
 //!
-//! Owns: [`Param`], [`TABLE`], [`COUNT`], [`ParamRejected`], lookup by name / key,
-//! [`get`], [`set`]. May import: `config` (the [`ControllerParams`] struct),
-//! `safety::cbf` (the filter variant codes), `supervisor::modes` (the flight-mode codes),
-//! `frame` (tests). No allocation, no panics.
+//! Owns: [`TABLE`], [`PARTS`], [`COUNT`], [`NAMES`], lookup by name / key, [`get`], [`set`],
+//! the in-flight tunables. May import: `config` (the [`ControllerParams`] struct), the stages'
+//! parameters structs (their lists), `param_decl`, `frame` (tests). No allocation, no panics.
 
+use crate::airframe::Airframe;
+use crate::battery::BatteryParams;
+use crate::calibration::SensorCal;
+use crate::cbf::{CbfParams, FilterVariant};
 use crate::config::{ControllerParams, ParamError};
-use crate::safety::cbf::FilterVariant;
-use crate::supervisor::modes::{FlightMode, RcLossAction};
+use crate::failsafe::FailsafeParams;
+use crate::governor::GovernorParams;
+use crate::outer::guidance::GuidanceParams;
+use crate::outer::path_yaw::PathYawParams;
+use crate::outer::trajectory::TrajectoryParams;
+use crate::param_decl::Has;
+use crate::perception::MemoryParams;
+use crate::plant_aware::PlantAwareParams;
+use crate::rc::map::RcParams;
+use crate::replan::ReplanParams;
+use crate::supervisor::modes::ModeParams;
+use crate::thrust::ThrustParams;
+use crate::tracking::TrackingParams;
+use crate::waypoint::WaypointParams;
 
-fn mode_label(code: i32) -> Option<&'static str> {
-    FlightMode::from_code(code).map(FlightMode::as_str)
-}
+pub use crate::param_decl::{host_text, HostText, NoText, ParamRejected, RangeText};
 
-fn rc_act_label(code: i32) -> Option<&'static str> {
-    match code {
-        0 => Some("continue"),
-        1 => Some("return"),
-        _ => None,
-    }
-}
-
-fn bat_act_label(code: i32) -> Option<&'static str> {
-    match code {
-        0 => Some("off"),
-        1 => Some("return/land"),
-        _ => None,
-    }
-}
-
-/// Text only host tools read ([`Param::description`], [`Param::key`]): the string on the host,
-/// [`NoText`] on the flight controller (`target_os = "none"`). Read by `cargo xtask params`, the
-/// scene parser and the QGC metadata; on the F405 the strings would take ~5 KB of the 128 KiB
-/// flash, and even empty ones 16 bytes per table entry (~1.1 KB).
-#[cfg(not(target_os = "none"))]
-pub type HostText = &'static str;
-/// Text only host tools read: nothing on the flight controller (see the host build's doc).
-#[cfg(target_os = "none")]
-pub type HostText = NoText;
-
-/// [`HostText`] on the flight controller: zero-sized, the text is not in the image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct NoText;
-
-/// `s` on the host, [`NoText`] on the flight controller (see [`HostText`]).
-pub const fn host_text(s: &'static str) -> HostText {
-    #[cfg(target_os = "none")]
-    {
-        let _ = s;
-        NoText
-    }
-    #[cfg(not(target_os = "none"))]
-    s
-}
-
-/// Reads and writes of a parameter: `(get, write)` ([`Param::get`], the private write).
-pub type Access = (fn(&ControllerParams) -> f32, fn(&mut ControllerParams, f32));
-
-/// The [`Access`] of an `f32` field of [`ControllerParams`]: `field!(cbf.mu)`.
-macro_rules! field {
-    ($($path:tt)+) => {
-        (|p: &ControllerParams| p.$($path)+, |p: &mut ControllerParams, v: f32| p.$($path)+ = v)
-    };
-}
-
-/// The [`Access`] of a `u8` field (a count or channel; written from a checked whole value).
-macro_rules! u8_field {
-    ($($path:tt)+) => {
-        (|p: &ControllerParams| f32::from(p.$($path)+), |p: &mut ControllerParams, v: f32| p.$($path)+ = v as u8)
-    };
-}
-
-/// The [`Access`] of a `bool` field (1 = on).
-macro_rules! flag {
-    ($($path:tt)+) => {
-        (
-            |p: &ControllerParams| f32::from(u8::from(p.$($path)+)),
-            |p: &mut ControllerParams, v: f32| p.$($path)+ = v != 0.0,
-        )
-    };
-}
-
-/// An `RC_MAP_*` entry: a whole channel number up to 18 (issue 21, `rc::map`).
-const fn rc_map(name: &'static str, min: f32, access: Access, description: &'static str) -> Param {
-    Param::new(name, "RC", "", (min, 18.0), 0, access, description).whole()
-}
-
-/// An RC pulse-width entry (`RC_*_US`), µs.
-const fn rc_us(name: &'static str, range: (f32, f32), access: Access, description: &'static str) -> Param {
-    Param::new(name, "RC", "us", range, 0, access, description)
-}
-
-/// An accelerometer calibration entry (`CAL_ACC0_*`), per sensor axis.
-const fn acc(name: &'static str, scale: bool, access: Access, description: &'static str) -> Param {
-    let (unit, range) = if scale {
-        ("", crate::calibration::ACCEL_SCALE_RANGE)
-    } else {
-        ("m/s^2", (-crate::calibration::ACCEL_OFFSET_MAX, crate::calibration::ACCEL_OFFSET_MAX))
-    };
-    Param::new(name, "Sensors", unit, range, 4, access, description)
-}
-
-/// One parameter: the single place its name, unit, range and meaning are written; its default
-/// is the one of the stage's own parameters struct (`CbfParams::default()`, …, gathered by
-/// [`ControllerParams::default`]), read through [`Param::get`] ([`Param::default_value`]), so it
-/// is written once, beside the code that uses it.
-#[derive(Clone, Copy)]
-pub struct Param {
-    /// MAVLink `param_id` (≤ 16 ASCII bytes), e.g. `CBF_MU`.
-    pub name: &'static str,
-    /// Key of the scene file's `[controller]` table and of the `parapet` command-line
-    /// option (`--key`), when the host exposes the parameter there; `None` otherwise
-    /// (the vehicle parameters come from the scene's `[vehicle]` table instead). Host builds
-    /// only (see [`HostText`]).
-    pub key: Option<HostText>,
-    /// Unit (SI), `""` for codes and flags.
-    pub unit: &'static str,
-    /// Smallest allowed value.
-    pub min: f32,
-    /// Largest allowed value.
-    pub max: f32,
-    /// `true` for codes and flags: only whole numbers in `[min, max]`.
-    pub integer: bool,
-    /// Decimal places a ground station should show.
-    pub decimals: u8,
-    /// Ground-station group (`CBF`, `Tracking`, …).
-    pub group: &'static str,
-    /// One-line description (host builds only, see [`HostText`]).
-    pub description: HostText,
-    /// Names of the values of a code parameter (`None` for a continuous one).
-    pub label: Option<fn(i32) -> Option<&'static str>>,
-    /// Reads the parameter from a set.
-    pub get: fn(&ControllerParams) -> f32,
-    /// Writes a value that [`Param::check`] accepted.
-    write: fn(&mut ControllerParams, f32),
-}
+/// One parameter of the controller (declared beside its struct, [`crate::param_decl::Param`]).
+pub type Param = crate::param_decl::Param<ControllerParams>;
 
 impl core::fmt::Debug for Param {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -183,101 +78,57 @@ impl core::fmt::Debug for Param {
 }
 
 impl Param {
-    /// A continuous parameter without a scene/option key: `name`, ground-station `group`, SI
-    /// `unit`, allowed `(min, max)`, `decimals` shown, how it is read and written
-    /// (`field!(cbf.mu)` for an `f32` field) and a one-line `description`. Chain [`Param::key`], [`Param::whole`],
-    /// [`Param::code`].
-    pub const fn new(
-        name: &'static str,
-        group: &'static str,
-        unit: &'static str,
-        (min, max): (f32, f32),
-        decimals: u8,
-        (get, write): Access,
-        description: &'static str,
-    ) -> Param {
-        Param {
-            name,
-            key: None,
-            unit,
-            min,
-            max,
-            integer: false,
-            decimals,
-            group,
-            description: host_text(description),
-            label: None,
-            get,
-            write,
-        }
-    }
-
-    /// The scene file's `[controller]` key and command-line option of this parameter.
-    pub const fn key(self, key: &'static str) -> Param {
-        Param { key: Some(host_text(key)), ..self }
-    }
-
-    /// Only whole numbers (counts, flags).
-    pub const fn whole(self) -> Param {
-        Param { integer: true, ..self }
-    }
-
-    /// A code: whole numbers, each named by `label`.
-    pub const fn code(self, label: fn(i32) -> Option<&'static str>) -> Param {
-        Param { integer: true, label: Some(label), ..self }
-    }
-
     /// The default value: [`ControllerParams::default`]'s.
     pub fn default_value(&self) -> f32 {
         (self.get)(&ControllerParams::default())
     }
-
-    /// `value` if this parameter accepts it: finite, in `[min, max]`, whole for codes.
-    pub fn check(&self, value: f32) -> Result<f32, ParamRejected> {
-        // `!(a ≤ x ≤ b)` also refuses NaN; ±∞ are outside every finite range.
-        if !(value >= self.min && value <= self.max) {
-            return Err(ParamRejected::Invalid);
-        }
-        // In range, so the cast cannot saturate: whole numbers survive the round trip.
-        if self.integer && (value as i32) as f32 != value {
-            return Err(ParamRejected::Invalid);
-        }
-        Ok(value)
-    }
-
-    /// The allowed values in words, e.g. `0.01 ≤ CBF_MU ≤ 100 s` (for messages).
-    pub fn range(&self) -> RangeText<'_> {
-        RangeText(self)
-    }
 }
 
-/// [`Param::range`]'s `Display`.
-pub struct RangeText<'a>(&'a Param);
-
-impl core::fmt::Display for RangeText<'_> {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let p = self.0;
-        #[cfg(not(target_os = "none"))]
-        let name = p.key.unwrap_or(p.name);
-        #[cfg(target_os = "none")]
-        let name = p.name;
-        if p.integer {
-            write!(f, "{name} one of")?;
-            let (lo, hi) = (p.min as i32, p.max as i32);
-            for c in lo..=hi {
-                match p.label.and_then(|l| l(c)) {
-                    Some(s) => write!(f, " {c} ({s})")?,
-                    None => write!(f, " {c}")?,
+/// Where each parameters struct sits in [`ControllerParams`] (`Has<CbfParams>` reads `cbf`, …):
+/// one line per struct, however many parameters it declares.
+macro_rules! parts {
+    ($($ty:ty => $($field:ident).+;)+) => {
+        $(
+            impl Has<$ty> for ControllerParams {
+                fn part(&self) -> &$ty {
+                    &self.$($field).+
+                }
+                fn part_mut(&mut self) -> &mut $ty {
+                    &mut self.$($field).+
                 }
             }
-            Ok(())
-        } else {
-            write!(f, "{} ≤ {name} ≤ {}", p.min, p.max)?;
-            if !p.unit.is_empty() {
-                write!(f, " {}", p.unit)?;
-            }
-            Ok(())
-        }
+        )+
+    };
+}
+
+parts! {
+    CbfParams => cbf;
+    FilterVariant => filter_variant;
+    TrackingParams => tracking;
+    WaypointParams => waypoint;
+    FailsafeParams => failsafe;
+    Airframe => airframe;
+    ThrustParams => thrust;
+    PlantAwareParams => plant_aware;
+    MemoryParams => perception;
+    ModeParams => modes;
+    PathYawParams => guidance.path_yaw;
+    GuidanceParams => guidance;
+    TrajectoryParams => guidance.trajectory;
+    RcParams => rc;
+    BatteryParams => battery;
+    SensorCal => sensors;
+    GovernorParams => governor;
+    ReplanParams => replan;
+}
+
+/// The set's own fields (`hull_radius`, [`ControllerParams::params`]).
+impl Has<ControllerParams> for ControllerParams {
+    fn part(&self) -> &ControllerParams {
+        self
+    }
+    fn part_mut(&mut self) -> &mut ControllerParams {
+        self
     }
 }
 
@@ -296,79 +147,94 @@ pub fn in_flight(name: &str) -> bool {
     IN_FLIGHT.contains(&name)
 }
 
-/// Why a value was not taken (the parameter keeps its value).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ParamRejected {
-    /// No such parameter.
-    Unknown,
-    /// Not finite, outside the parameter's range, or not a whole number for a code.
-    Invalid,
-    /// Not now (e.g. while armed).
-    NotNow,
+/// [`PARTS`] from the structs' lists, and (tests) each list's parameters read from its struct's
+/// own `Default`.
+macro_rules! table {
+    ($($ty:ident :: $list:ident,)+) => {
+        /// Each struct's parameter list, in MAVLink `param_index` order (the order they came
+        /// in: a struct's later parameters may be a second list further down, so no index
+        /// moved).
+        pub const PARTS: &[&[Param]] = &[$(&$ty::$list()),+];
+
+        /// Calls `f` with each parameter of [`PARTS`] and its value in a set whose struct of
+        /// that parameter is the struct's own `Default` (the rest as [`ControllerParams::default`]).
+        #[cfg(test)]
+        fn for_each_own_default(mut f: impl FnMut(&Param, f32)) {
+            $(
+                let mut own = ControllerParams::default();
+                *Has::<$ty>::part_mut(&mut own) = $ty::default();
+                for p in &$ty::$list::<ControllerParams>() {
+                    f(p, (p.get)(&own));
+                }
+            )+
+        }
+    };
 }
 
-fn variant_code(v: FilterVariant) -> f32 {
-    match v {
-        FilterVariant::Paper => 0.0,
-        FilterVariant::Relative => 1.0,
-        FilterVariant::Multi => 2.0,
-        FilterVariant::MultiRelative => 3.0,
-        FilterVariant::Braking => 4.0,
+table! {
+    // The flight parameters: CBF filter, tracking, mission speed, obstacle failsafe, vehicle,
+    // ground/ceiling barriers, perception memory (issues 1-19).
+    CbfParams::params,
+    FilterVariant::params,
+    TrackingParams::params,
+    WaypointParams::params,
+    FailsafeParams::params,
+    CbfParams::margin_params,
+    Airframe::params,
+    ThrustParams::params,
+    ControllerParams::params,
+    PlantAwareParams::params,
+    MemoryParams::params,
+    // The pilot-facing parameters: flight modes, per-mode failsafes, return (issue 21), the
+    // yaw along a path (issue 19), the mission's guidance and trajectory (issue 35), the RC
+    // channel map and pulse ranges (issue 21).
+    ModeParams::params,
+    PathYawParams::params,
+    GuidanceParams::params,
+    TrajectoryParams::params,
+    TrackingParams::trajectory_params,
+    RcParams::params,
+    // The set-up parameters: battery, calibration and board rotation (issue 22), the speed
+    // governor (issue 36), on-board replanning (issue 38).
+    BatteryParams::params,
+    SensorCal::params,
+    GovernorParams::params,
+    ReplanParams::params,
+}
+
+/// Number of parameters: the lengths of [`PARTS`] added (nothing to count by hand).
+pub const COUNT: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < PARTS.len() {
+        n += PARTS[i].len();
+        i += 1;
     }
-}
+    n
+};
 
-fn variant_of(code: i32) -> Option<FilterVariant> {
-    match code {
-        0 => Some(FilterVariant::Paper),
-        1 => Some(FilterVariant::Relative),
-        2 => Some(FilterVariant::Multi),
-        3 => Some(FilterVariant::MultiRelative),
-        4 => Some(FilterVariant::Braking),
-        _ => None,
-    }
-}
-
-mod table_flight;
-mod table_pilot;
-mod table_setup;
-
-/// Number of parameters.
-pub const COUNT: usize = table_flight::N + table_pilot::N + table_setup::N;
-
-/// The parameters, in MAVLink `param_index` order: the parts of `table_flight`,
-/// `table_pilot` and `table_setup`, one after the other.
+/// The parameters, in MAVLink `param_index` order: the lists of [`PARTS`], one after the other.
 ///
 /// A `static`, not a `const`: every use of a `const` array may materialise its own copy in
 /// the image (the F405 build held three of these ~5 KB tables, one per using function group).
 pub static TABLE: [Param; COUNT] = ENTRIES;
 
 /// [`TABLE`]'s contents at compile time (for [`NAMES`]).
-const ENTRIES: [Param; COUNT] = concat(&table_flight::TABLE, &table_pilot::TABLE, &table_setup::TABLE);
-
-/// `a`, `b` and `c` one after the other (compile time only; a length mismatch does not compile).
-const fn concat<const A: usize, const B: usize, const C: usize>(
-    a: &[Param; A],
-    b: &[Param; B],
-    c: &[Param; C],
-) -> [Param; COUNT] {
-    assert!(A + B + C == COUNT && A > 0);
-    let mut out = [a[0]; COUNT];
+const ENTRIES: [Param; COUNT] = {
+    let mut out = [PARTS[0][0]; COUNT];
+    let mut k = 0;
     let mut i = 0;
-    while i < A {
-        out[i] = a[i];
-        i += 1;
-    }
-    while i < A + B {
-        out[i] = b[i - A];
-        i += 1;
-    }
-    while i < COUNT {
-        out[i] = c[i - A - B];
+    while i < PARTS.len() {
+        let mut j = 0;
+        while j < PARTS[i].len() {
+            out[k] = PARTS[i][j];
+            k += 1;
+            j += 1;
+        }
         i += 1;
     }
     out
-}
+};
 
 /// The names of [`TABLE`], in index order (derived from it, for code that needs a list).
 pub const NAMES: [&str; COUNT] = {
@@ -426,6 +292,88 @@ mod tests {
     use super::*;
     use proptest::strategy::Strategy;
     use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+    /// Each parameter's default is its struct's own (`CbfParams::default()`, …): the set's
+    /// default (`ControllerParams::default`) writes no parameter's default a second time.
+    #[test]
+    fn defaults_are_the_structs_own() {
+        let set = ControllerParams::default();
+        let mut seen = 0;
+        for_each_own_default(|p, own| {
+            seen += 1;
+            let v = (p.get)(&set);
+            assert_eq!(
+                v.to_bits(),
+                own.to_bits(),
+                "{}: ControllerParams::default() has {v}, its struct {own}",
+                p.name
+            );
+        });
+        assert_eq!(seen, COUNT);
+    }
+
+    /// Every `("NAME",` (a parameter declaration's first argument) in the non-test code of
+    /// `core/src/**/*.rs`, with the files it is in (comments dropped).
+    fn declarations() -> std::collections::BTreeMap<std::string::String, std::vec::Vec<std::string::String>> {
+        use std::string::ToString;
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut out: std::collections::BTreeMap<_, std::vec::Vec<_>> = Default::default();
+        let mut dirs = std::vec![root.clone()];
+        while let Some(dir) = dirs.pop() {
+            for entry in std::fs::read_dir(&dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    dirs.push(path);
+                    continue;
+                }
+                if path.extension().is_none_or(|e| e != "rs") {
+                    continue;
+                }
+                let text = std::fs::read_to_string(&path).unwrap();
+                let code = text.split("#[cfg(test)]").next().unwrap_or("");
+                let file = path.strip_prefix(&root).unwrap().display().to_string();
+                for line in code.lines() {
+                    let line = line.find("//").map_or(line, |k| &line[..k]);
+                    for (k, _) in line.match_indices("(\"") {
+                        let rest = &line[k + 2..];
+                        let name: std::string::String = rest
+                            .chars()
+                            .take_while(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || *c == '_')
+                            .collect();
+                        if !name.is_empty() && rest[name.len()..].starts_with("\",") {
+                            out.entry(name).or_default().push(file.clone());
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The one-place rule, read from the source: each parameter of [`TABLE`] is declared once,
+    /// in its struct's file (never in `params/`), and every declaration is in [`TABLE`] (a
+    /// struct's list left out of [`PARTS`] fails here).
+    #[test]
+    fn each_parameter_is_declared_once_beside_its_struct() {
+        let found = declarations();
+        for d in &TABLE {
+            let files = found.get(d.name).cloned().unwrap_or_default();
+            assert_eq!(files.len(), 1, "{} declared {} times: {files:?}", d.name, files.len());
+            assert!(
+                !files[0].starts_with("params"),
+                "{} declared in {}, not beside its struct",
+                d.name,
+                files[0]
+            );
+        }
+        for (name, files) in &found {
+            assert!(
+                find(name).is_some(),
+                "{name} is declared in {files:?} but not in TABLE: add its list to PARTS"
+            );
+        }
+        assert_eq!(found.len(), COUNT);
+    }
 
     /// The in-flight tunables are parameters of the table, and only those.
     #[test]

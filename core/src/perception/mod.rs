@@ -41,6 +41,7 @@ pub mod track;
 pub use memory::{CellView, MemoryStats, ObstacleMemory, ScanReport};
 pub use scan_trig::{ScanTrig, TRIG_COLS, TRIG_ROWS};
 
+use crate::param_decl::{field, u8_field, Has, Param};
 use crate::Vec3;
 use nalgebra::Matrix3;
 
@@ -311,6 +312,33 @@ pub const FOV_WALLS_HELD: u8 = 2;
 impl Default for MemoryParams {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+impl MemoryParams {
+    /// The obstacle memory's parameters (issue 19; `crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 6] {
+        [
+            Param::new("PCP_VOXEL", "Perception", "m", (0.02, 5.0), 3, field!(voxel),
+                "Obstacle memory voxel edge: range returns in one cube merge into one point").key("mem_voxel"),
+            Param::new("PCP_FORGET", "Perception", "s", (0.05, 600.0), 2, field!(forget_s),
+                "An obstacle cell not seen again for this long is forgotten").key("mem_forget"),
+            Param::new("PCP_CLR_MARGIN", "Perception", "m", (0.0, 5.0), 3, field!(clear_margin),
+                "A beam clears a cell it passes when its return lies this far beyond the cell").key("mem_clear_margin"),
+            Param::new("PCP_TRK_SIZE", "Perception", "m", (0.0, 10.0), 2, field!(track_size),
+                "Clusters up to this size are tracked for their velocity; larger ones are static").key("mem_track_size"),
+            Param::new("PCP_FOV_MARGIN", "Perception", "m", (0.0, 5.0), 3, field!(fov_margin),
+                "Frontier point beyond the observed free range (>= hull radius); 0 = off").key("fov_margin"),
+            Param::new("PCP_FOV_WALLS", "Perception", "", (0.0, 2.0), 0, u8_field!(fov_walls),
+                "Where the observed free range is used up: 0 cap the speed (creep), 1 walls stop the vehicle, \
+                     2 walls while the heading is held (MIS_YAW_MODE 0)").key("fov_walls").code(|c| match c {
+                    0 => Some("cap"),
+                    1 => Some("walls"),
+                    2 => Some("walls when held"),
+                    _ => None,
+                }),
+        ]
     }
 }
 

@@ -34,6 +34,7 @@
 use super::crsf::{CrsfDecoder, CrsfFrame, LinkStats};
 use super::sbus::SbusDecoder;
 use super::{RawChannels, RcInput, RcLost, RcSource, SwitchPosition, MAX_CHANNELS};
+use crate::param_decl::{field, u8_field, Access, Has, Param};
 
 /// Channel map, ranges, switch thresholds and loss limits (see the module docs; the parameter
 /// table `crate::params` holds their names, units, defaults and ranges).
@@ -89,6 +90,59 @@ impl Default for RcParams {
             lq_min: 10.0,
         }
     }
+}
+
+impl RcParams {
+    /// The receiver's channel map and ranges (issue 21; `crate::params`, MAVLink `param_index`
+    /// order; the loss timeout is `FS_RC_TIMEOUT`, `crate::supervisor::modes`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 14] {
+        [
+            rc_map("RC_MAP_ROLL", 1.0, u8_field!(map_roll),
+                "RC channel of the roll stick"),
+            rc_map("RC_MAP_PITCH", 1.0, u8_field!(map_pitch),
+                "RC channel of the pitch stick"),
+            rc_map("RC_MAP_THR", 1.0, u8_field!(map_throttle),
+                "RC channel of the throttle stick"),
+            rc_map("RC_MAP_YAW", 1.0, u8_field!(map_yaw),
+                "RC channel of the yaw stick"),
+            rc_map("RC_MAP_ARM", 0.0, u8_field!(map_arm),
+                "RC channel of the arm switch (on above RC_SW_HIGH_US); 0 none"),
+            rc_map("RC_MAP_MODE", 0.0, u8_field!(map_mode),
+                "RC channel of the mode switch (MODE_SW_LOW/MID/HIGH); 0 none"),
+            rc_map("RC_MAP_KILL", 0.0, u8_field!(map_kill),
+                "RC channel of the kill switch (on unless below RC_SW_LOW_US); 0 none"),
+            rc_us("RC_MIN_US", (700.0, 1400.0), field!(min_us),
+                "RC stick low end (throttle 0, stick -1)"),
+            rc_us("RC_TRIM_US", (1410.0, 1590.0), field!(trim_us),
+                "RC stick centre (Futaba SBUS: 1520)"),
+            rc_us("RC_MAX_US", (1600.0, 2300.0), field!(max_us),
+                "RC stick high end (throttle 1, stick +1)"),
+            rc_us("RC_DEADBAND_US", (0.0, 100.0), field!(deadband_us),
+                "RC roll/pitch/yaw deadband around RC_TRIM_US"),
+            rc_us("RC_SW_LOW_US", (800.0, 1500.0), field!(switch_low_us),
+                "RC switch: below this = low position"),
+            rc_us("RC_SW_HIGH_US", (1500.0, 2200.0), field!(switch_high_us),
+                "RC switch: above this = high position"),
+            Param::new("RC_LQ_MIN", "RC", "%", (0.0, 100.0), 0, field!(lq_min),
+                "RC link quality below this = RC lost (CRSF link statistics)"),
+        ]
+    }
+}
+
+/// An `RC_MAP_*` parameter: a whole channel number from `min` up to 18.
+const fn rc_map<P>(name: &'static str, min: f32, access: Access<P>, description: &'static str) -> Param<P> {
+    Param::new(name, "RC", "", (min, 18.0), 0, access, description).whole()
+}
+
+/// An RC pulse-width parameter (`RC_*_US`), µs.
+const fn rc_us<P>(
+    name: &'static str,
+    range: (f32, f32),
+    access: Access<P>,
+    description: &'static str,
+) -> Param<P> {
+    Param::new(name, "RC", "us", range, 0, access, description)
 }
 
 impl RcParams {

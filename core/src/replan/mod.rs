@@ -71,6 +71,7 @@ pub mod onboard;
 pub mod search;
 
 use crate::obstacle::ObstaclePoint;
+use crate::param_decl::{field, flag, on_off, Has, Param};
 use crate::Vec3;
 use grid::{Grid, CELLS, GRID};
 use search::{Search, SearchResult};
@@ -123,6 +124,25 @@ pub struct ReplanParams {
 impl Default for ReplanParams {
     fn default() -> Self {
         Self::DEFAULT
+    }
+}
+
+impl ReplanParams {
+    /// On-board replanning's parameters (issue 38; `crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 5] {
+        [
+            Param::new("RPL_ENABLE", "Replan", "", (0.0, 1.0), 0, flag!(enable),
+                "Replan on board when the remaining path is blocked by what the sensors saw (docs/perception.md)").code(on_off),
+            Param::new("RPL_RATE", "Replan", "Hz", (1.0, 50.0), 1, field!(rate_hz),
+                "Checks per second of the remaining path against the replanner's grid"),
+            Param::new("RPL_COOLDOWN", "Replan", "s", (0.0, 60.0), 2, field!(cooldown_s),
+                "Wait after a replan (or a no-path result) before the next plan"),
+            Param::new("RPL_HORIZON", "Replan", "m", (0.1, 50.0), 2, field!(horizon_m),
+                "Length of the remaining path checked for a blockage"),
+            Param::new("RPL_MARGIN", "Replan", "m", (0.0, 2.0), 3, field!(margin_m),
+                "Clearance beyond the hull radius a detour keeps from sensed obstacles"),
+        ]
     }
 }
 

@@ -24,6 +24,7 @@
 use super::braking::{self, BrakingBarrier, BrakingLimits};
 use crate::fmath::{maxf, minf, norm3, sqrtf};
 use crate::obstacle::{may_move_unseen, ObstaclePoint};
+use crate::param_decl::{field, Has, Param};
 use crate::qp3::{self, HalfSpace};
 use crate::Vec3;
 
@@ -158,6 +159,41 @@ impl Default for CbfParams {
             brake_gamma: 2.0,
             brake_unknown_speed: 0.0,
         }
+    }
+}
+
+impl CbfParams {
+    /// The filter law's parameters (`crate::params`, MAVLink `param_index` order): μ, δ, δ1, A.
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 4] {
+        [
+            Param::new("CBF_MU", "CBF", "s", (0.01, 100.0), 2, field!(mu),
+                "Barrier velocity weight mu: the filter keeps h + mu*dh/dt above delta").key("mu"),
+            Param::new("CBF_DELTA", "CBF", "m^2", (1e-4, 100.0), 4, field!(delta),
+                "Safety level delta (hull radius squared); must stay below CBF_DELTA1").key("delta"),
+            Param::new("CBF_DELTA1", "CBF", "m^2", (1e-4, 100.0), 4, field!(delta1),
+                "Engagement level delta1 > CBF_DELTA: the filter acts below it").key("delta1"),
+            Param::new("CBF_ACC_BOUND", "CBF", "m/s^2", (0.0, 50.0), 2, field!(accel_bound),
+                "Bound A on the unknown obstacle acceleration (relative variants)").key("accel_bound"),
+        ]
+    }
+
+    /// The velocity margin and the braking-distance barrier's parameters (`crate::params`; a
+    /// later group of the table, after the vehicle's tracking and mission parameters).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn margin_params<P: Has<Self>>() -> [Param<P>; 5] {
+        [
+            Param::new("CBF_VEL_MARGIN", "CBF", "m/s", (0.0, 10.0), 3, field!(velocity_margin),
+                "Velocity-uncertainty margin eps_v of the filter's constraint").key("velocity_margin"),
+            Param::new("CBF_BRAKE_ACC", "CBF", "m/s^2", (0.1, 15.0), 2, field!(brake_accel),
+                "CBF_VARIANT 4: deceleration the braking-distance barrier counts on (at most the filter's u_max)"),
+            Param::new("CBF_BRAKE_DLY", "CBF", "s", (0.01, 1.0), 3, field!(brake_delay),
+                "CBF_VARIANT 4: actuation lag plus sensing latency before braking takes effect"),
+            Param::new("CBF_BRAKE_GAMMA", "CBF", "1/s", (0.0, 20.0), 2, field!(brake_gamma),
+                "CBF_VARIANT 4: class-K rate of the braking-distance barrier (how fast it may be approached)"),
+            Param::new("CBF_BRAKE_UNK_V", "CBF", "m/s", (0.0, 10.0), 2, field!(brake_unknown_speed),
+                "CBF_VARIANT 4: speed at which a sensed small cluster not proven moving may approach (0: static)"),
+        ]
     }
 }
 

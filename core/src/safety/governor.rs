@@ -50,6 +50,7 @@
 use super::obstacle::ObstaclePoint;
 use super::qp3::{project, HalfSpace};
 use crate::fmath::{atan2_approx, maxf, sqrtf};
+use crate::param_decl::{field, flag, on_off, Has, Param};
 use crate::Vec3;
 
 /// Rate `k` of the velocity barrier, 1/s.
@@ -78,6 +79,23 @@ pub struct GovernorParams {
 impl Default for GovernorParams {
     fn default() -> Self {
         GovernorParams { enable: false, margin: 0.1, delay: 0.05, range: 3.0 }
+    }
+}
+
+impl GovernorParams {
+    /// The speed governor's parameters (issue 36; `crate::params`, MAVLink `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 4] {
+        [
+            Param::new("GOV_ENABLE", "Governor", "", (0.0, 1.0), 0, flag!(enable),
+                "Speed governor: 1 limits the speed towards each direction to what can stop inside observed free space (docs/filter.md)").code(on_off),
+            Param::new("GOV_MARGIN", "Governor", "m", (0.0, 2.0), 2, field!(margin),
+                "Speed governor: distance kept beyond the hull radius when stopped"),
+            Param::new("GOV_DELAY", "Governor", "s", (0.0, 1.0), 3, field!(delay),
+                "Speed governor: latency added to CBF_BRAKE_DLY (plus the obstacle data age) before braking"),
+            Param::new("GOV_RANGE", "Governor", "m", (0.5, 100.0), 1, field!(range),
+                "Speed governor: sensing range; space beyond it counts as blocked (set from the sensors by the simulator)"),
+        ]
     }
 }
 

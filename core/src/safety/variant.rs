@@ -2,7 +2,11 @@
 //! and the properties the rest of the cascade asks of it (relative velocity, several barriers).
 //! The laws themselves are in [`super::cbf`] and [`super::braking`].
 //!
-//! May import: nothing beyond `core`. Re-exported as `crate::cbf::FilterVariant`.
+//! Owns the filter-law parameter `CBF_VARIANT` ([`FilterVariant::params`]).
+//!
+//! May import: `param_decl`. Re-exported as `crate::cbf::FilterVariant`.
+
+use crate::param_decl::{access, Has, Param};
 
 /// Which filter law to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -46,6 +50,33 @@ impl FilterVariant {
             FilterVariant::Braking => "braking",
         }
     }
+    /// The code of `CBF_VARIANT`: the index in [`FilterVariant::ALL`].
+    pub fn code(self) -> i32 {
+        match self {
+            FilterVariant::Paper => 0,
+            FilterVariant::Relative => 1,
+            FilterVariant::Multi => 2,
+            FilterVariant::MultiRelative => 3,
+            FilterVariant::Braking => 4,
+        }
+    }
+
+    /// The variant of a `CBF_VARIANT` code.
+    pub fn from_code(code: i32) -> Option<FilterVariant> {
+        usize::try_from(code).ok().and_then(|i| FilterVariant::ALL.get(i).copied())
+    }
+
+    /// The filter law's parameter (`crate::params`): `CBF_VARIANT` (an unknown code keeps the law).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 1] {
+        [
+            Param::new("CBF_VARIANT", "CBF", "", (0.0, 4.0), 0,
+                access!(|s| s.code() as f32, |s, v| *s = FilterVariant::from_code(v as i32).unwrap_or(*s)),
+                "Filter law: 0 paper, 1 relative, 2 multi, 3 multi-relative, 4 braking (braking-distance barrier)")
+                .key("filter").code(|c| FilterVariant::from_code(c).map(|v| v.as_str())),
+        ]
+    }
+
     /// `true` for the variants that use the obstacle's velocity.
     pub fn uses_relative_velocity(&self) -> bool {
         matches!(self, FilterVariant::Relative | FilterVariant::MultiRelative | FilterVariant::Braking)

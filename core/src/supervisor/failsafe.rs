@@ -31,6 +31,8 @@
 //! the last one is kept for telemetry. The machine itself only decides; the
 //! [`crate::controller::FlightController`] measures ages, tilt and landing.
 
+use crate::param_decl::{flag, Has, Param};
+
 /// Failsafe state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -179,6 +181,21 @@ impl Default for FailsafeParams {
             tilt_limit: 1.05,
             obstacles_required: true,
         }
+    }
+}
+
+impl FailsafeParams {
+    /// The obstacle-data failsafe's parameter (`crate::params`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 1] {
+        [
+            Param::new("FS_OBST_REQ", "Failsafe", "", (0.0, 1.0), 0, flag!(obstacles_required),
+                "Obstacle data must be fresh to arm and to stay armed (0 no, 1 yes)").code(|c| match c {
+                    0 => Some("not required"),
+                    1 => Some("required"),
+                    _ => None,
+                }),
+        ]
     }
 }
 

@@ -38,6 +38,7 @@
 
 use super::failsafe::TransitionReason;
 use crate::battery::{BatteryLevel, BatteryState};
+use crate::param_decl::{access, field, flag, Has, Param};
 use crate::rc::{RcInput, SwitchPosition};
 
 /// Sticks may exceed their range by this much (receiver calibration) before a frame is bad.
@@ -209,6 +210,71 @@ impl Default for ModeParams {
             battery_failsafe: true,
         }
     }
+}
+
+/// The [`crate::param_decl::Access`] of the mode switch's position `i` (a [`FlightMode`] code; an
+/// unknown code keeps the mode).
+macro_rules! switch_position {
+    ($i:literal) => {
+        access!(|s| s.switch_modes[$i] as i32 as f32, |s, v| {
+            s.switch_modes[$i] = FlightMode::from_code(v as i32).unwrap_or(s.switch_modes[$i])
+        })
+    };
+}
+
+impl ModeParams {
+    /// The flight modes' and their failsafes' parameters (issue 21; `crate::params`, MAVLink
+    /// `param_index` order).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 15] {
+        [
+            Param::new("MAN_TILT_MAX", "Modes", "rad", (0.05, 1.0), 2, field!(manual_tilt_max),
+                "Manual: tilt at full roll/pitch stick (capped by the thrust map's tilt limit)"),
+            Param::new("PA_SPEED_MAX", "Modes", "m/s", (0.1, 10.0), 2, field!(assist_speed),
+                "Position assist: horizontal speed at full stick (heading frame)"),
+            Param::new("PA_CLIMB_MAX", "Modes", "m/s", (0.1, 5.0), 2, field!(assist_climb),
+                "Position assist: climb/descent rate at full throttle deflection from mid"),
+            Param::new("PA_YAWRATE_MAX", "Modes", "rad/s", (0.1, 6.0), 2, field!(yaw_rate_max),
+                "Yaw rate at full yaw stick (Manual, Position)"),
+            Param::new("PA_DEADBAND", "Modes", "", (0.0, 0.5), 3, field!(deadband),
+                "Stick deadband around centre (throttle: around 0.5), fraction of full deflection"),
+            Param::new("MODE_SW_LOW", "Modes", "", (0.0, 6.0), 0, switch_position!(0),
+                "Flight mode of the RC mode switch's low position").code(mode_label),
+            Param::new("MODE_SW_MID", "Modes", "", (0.0, 6.0), 0, switch_position!(1),
+                "Flight mode of the RC mode switch's middle position").code(mode_label),
+            Param::new("MODE_SW_HIGH", "Modes", "", (0.0, 6.0), 0, switch_position!(2),
+                "Flight mode of the RC mode switch's high position").code(mode_label),
+            Param::new("FS_RC_TIMEOUT", "Failsafe", "s", (0.05, 10.0), 2, field!(rc_timeout_s),
+                "No valid RC frame for this long is an RC loss (once RC was seen)"),
+            Param::new("FS_RC_LAND_T", "Failsafe", "s", (0.0, 120.0), 1, field!(rc_loss_land_s),
+                "RC loss in Manual/Position: Hold, then Land after this long without RC"),
+            Param::new("FS_RC_ACT", "Failsafe", "", (0.0, 1.0), 0, access!(|s| s.rc_loss_auto as i32 as f32, |s, v| {
+                    s.rc_loss_auto = if v >= 0.5 { RcLossAction::Return } else { RcLossAction::Continue }
+                }),
+                "RC loss in Mission/Offboard: 0 continue, 1 return").code(|c| match c {
+                    0 => Some("continue"),
+                    1 => Some("return"),
+                    _ => None,
+                }),
+            Param::new("OFFB_TIMEOUT", "Failsafe", "s", (0.05, 10.0), 2, field!(offboard_timeout_s),
+                "Offboard: no valid setpoint for this long -> Hold"),
+            Param::new("RTL_CRUMB_DIST", "Modes", "m", (0.1, 10.0), 2, field!(crumb_spacing),
+                "Return: breadcrumb spacing of the flown path (doubles when the 32-crumb buffer fills)"),
+            Param::new("RTL_SPEED", "Modes", "m/s", (0.05, 5.0), 2, field!(return_speed),
+                "Return: speed back along the breadcrumbs"),
+            Param::new("FS_BAT_ACT", "Failsafe", "", (0.0, 1.0), 0, flag!(battery_failsafe),
+                "Battery failsafes: 0 off, 1 low -> Return, critical -> Land").code(|c| match c {
+                    0 => Some("off"),
+                    1 => Some("return/land"),
+                    _ => None,
+                }),
+        ]
+    }
+}
+
+/// The name of a [`FlightMode`] code (the `MODE_SW_*` labels).
+fn mode_label(code: i32) -> Option<&'static str> {
+    FlightMode::from_code(code).map(FlightMode::as_str)
 }
 
 /// `s` seconds in µs (non-negative, saturating).

@@ -1,6 +1,9 @@
 //! The trajectory's parameters (limits, corner tolerance, tracking-error bound) with their
 //! units, defaults and ranges, and their validation. Owns [`TrajectoryParams`] and
-//! [`ParamError`]; imports nothing.
+//! [`ParamError`] and the `TRJ_*` parameters ([`TrajectoryParams::params`]); imports
+//! `param_decl` only.
+
+use crate::param_decl::{field, Has, Param};
 
 /// Which parameter is out of range (or NaN/Inf).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +68,31 @@ impl Default for TrajectoryParams {
             corner_tolerance: 0.1,
             tracking_error_bound: 0.5,
         }
+    }
+}
+
+impl TrajectoryParams {
+    /// The trajectory's limits as parameters (issue 35; `crate::params`, for
+    /// `MIS_GUIDANCE` 1; PX4's `MPC_ACC_HOR`, `MPC_JERK_AUTO`, `MPC_Z_V_AUTO_*`,
+    /// `MPC_XY_ERR_MAX`). The cruise speed is `WP_SPEED`.
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 7] {
+        [
+            Param::new("TRJ_ACC", "Mission", "m/s^2", (0.1, 15.0), 2, field!(accel_horizontal),
+                "MIS_GUIDANCE 1: horizontal acceleration limit of the trajectory (tangential and lateral)"),
+            Param::new("TRJ_ACC_VERT", "Mission", "m/s^2", (0.1, 15.0), 2, field!(accel_vertical),
+                "MIS_GUIDANCE 1: vertical acceleration limit of the trajectory"),
+            Param::new("TRJ_JERK", "Mission", "m/s^3", (0.1, 80.0), 2, field!(jerk),
+                "MIS_GUIDANCE 1: jerk limit along the trajectory"),
+            Param::new("TRJ_V_UP", "Mission", "m/s", (0.1, 10.0), 2, field!(speed_up),
+                "MIS_GUIDANCE 1: upward speed limit of the trajectory"),
+            Param::new("TRJ_V_DN", "Mission", "m/s", (0.1, 10.0), 2, field!(speed_down),
+                "MIS_GUIDANCE 1: downward speed limit of the trajectory"),
+            Param::new("TRJ_CORNER_TOL", "Mission", "m", (0.0, 5.0), 3, field!(corner_tolerance),
+                "MIS_GUIDANCE 1: largest corner cut of the trajectory (the planner's margin); 0 stops at every corner"),
+            Param::new("TRJ_ERR_MAX", "Mission", "m", (0.05, 10.0), 2, field!(tracking_error_bound),
+                "MIS_GUIDANCE 1: tracking error at which the trajectory's clock stops (full speed up to half of it)"),
+        ]
     }
 }
 

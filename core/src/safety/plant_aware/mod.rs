@@ -32,6 +32,7 @@ use stall::StallDetector;
 
 use crate::fmath::{maxf, minf, norm3};
 use crate::obstacle::ObstaclePoint;
+use crate::param_decl::{field, Has, Param};
 use crate::Vec3;
 
 /// Obstacle id of the ground plane in the filter's obstacle list.
@@ -153,6 +154,19 @@ impl Default for PlantAwareParams {
             stall_time_s: 20.0,
             stall_distance_m: 0.1,
         }
+    }
+}
+
+impl PlantAwareParams {
+    /// The ground and ceiling barriers' parameters (issue 17; `crate::params`).
+    #[rustfmt::skip] // one entry per parameter, laid out by hand
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 2] {
+        [
+            Param::new("GND_HEIGHT", "CBF", "m", (-100.0, 100.0), 3, field!(ground_height),
+                "Ground height (up); the filter keeps the plane z = -GND_HEIGHT as a barrier in flight"),
+            Param::new("CEIL_HEIGHT", "CBF", "m", (0.0, 1000.0), 3, field!(ceiling_height),
+                "Ceiling height (up) kept as a barrier in flight; 0 = no ceiling"),
+        ]
     }
 }
 
