@@ -2,7 +2,7 @@
 //! children of every folder form a DAG), plus core's cascade-folder rules
 //! (`docs/cascade.md` § Module rules): the inner loop never reaches the outer loop, the
 //! safety filter or the supervisor; the outer loop never reaches the inner loop; nothing
-//! but `lib.rs` imports the facade (`controller.rs`).
+//! but `lib.rs` imports the facade (`controller.rs`). Source files stay under 800 non-test lines.
 
 use parapet_tests::layering::{cycles, find_cycle, paths_in, resolve, sibling_edges, Crate, ModPath, Use};
 use std::collections::{BTreeMap, BTreeSet};
@@ -190,4 +190,38 @@ fn finds_a_cycle_through_a_multiline_group_and_an_alias() {
     // Without the back edge there is none.
     let uses = planted(&[("a", "use crate::{c::Q, b::y::Z};")], &[]);
     assert!(cycles(&sibling_edges(&uses)).is_empty());
+}
+
+/// Files are split by concern before they grow past [`MAX_NON_TEST_LINES`] (issue 37): the lines
+/// of every `src/` file of the crates up to its first `#[cfg(test)]` (test code is not counted).
+const MAX_NON_TEST_LINES: usize = 800;
+
+#[test]
+fn source_files_stay_under_the_non_test_line_limit() {
+    let mut long = Vec::new();
+    let mut seen = 0;
+    for krate in ["core", "firmware", "host-sim", "xtask", "tests"] {
+        let mut dirs = vec![src(krate)];
+        while let Some(dir) = dirs.pop() {
+            for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+                let path = entry.expect("directory entry").path();
+                if path.is_dir() {
+                    dirs.push(path);
+                } else if path.extension().is_some_and(|e| e == "rs") {
+                    let text = std::fs::read_to_string(&path).expect("source file");
+                    let n = text.lines().take_while(|l| !l.starts_with("#[cfg(test)]")).count();
+                    seen += 1;
+                    if n > MAX_NON_TEST_LINES {
+                        long.push(format!("{} ({n} lines)", path.display()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(seen > 100, "only {seen} source files found");
+    assert!(
+        long.is_empty(),
+        "over {MAX_NON_TEST_LINES} non-test lines, split by concern:\n{}",
+        long.join("\n")
+    );
 }
