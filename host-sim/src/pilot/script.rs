@@ -271,6 +271,16 @@ impl PilotScript {
                 Err(err(table, field, "time out of range", num(t), format!("0 ≤ t ≤ {MAX_SCRIPT_S} s")))
             }
         };
+        // A keyframe's time `t` of `table`: in range and after the previous one (`last_t`, moved on).
+        let keyframe_time = |table: &str, t: f64, last_t: &mut f64| -> Result<f64, InputError> {
+            let t = time(table.to_string(), "t", t)?;
+            if t <= *last_t {
+                let allowed = format!("> {}", num(*last_t));
+                return Err(err(table.to_string(), "t", "keyframe times must increase", num(t), allowed));
+            }
+            *last_t = t;
+            Ok(t)
+        };
         let rate = |field: &str, r: Option<f64>, d: f64| -> Result<f64, InputError> {
             let r = r.unwrap_or(d);
             if r.is_finite() && (RC_RATE_HZ.0..=RC_RATE_HZ.1).contains(&r) {
@@ -304,17 +314,7 @@ impl PilotScript {
         let mut last_t = f64::NEG_INFINITY;
         for (i, s) in raw.stick.iter().enumerate() {
             let table = format!("stick[{i}]");
-            let t = time(table.clone(), "t", s.t)?;
-            if t <= last_t {
-                return Err(err(
-                    table,
-                    "t",
-                    "keyframe times must increase",
-                    num(t),
-                    format!("> {}", num(last_t)),
-                ));
-            }
-            last_t = t;
+            let t = keyframe_time(&table, s.t, &mut last_t)?;
             let axis = |field: &str, v: Option<f64>, old: f64, lo: f64| -> Result<f64, InputError> {
                 match v {
                     None => Ok(old),
@@ -351,17 +351,7 @@ impl PilotScript {
         let mut last_t = f64::NEG_INFINITY;
         for (i, s) in raw.setpoint.iter().enumerate() {
             let table = format!("setpoint[{i}]");
-            let t = time(table.clone(), "t", s.t)?;
-            if t <= last_t {
-                return Err(err(
-                    table,
-                    "t",
-                    "keyframe times must increase",
-                    num(t),
-                    format!("> {}", num(last_t)),
-                ));
-            }
-            last_t = t;
+            let t = keyframe_time(&table, s.t, &mut last_t)?;
             let vec = |field: &str, v: Option<[f64; 3]>| -> Result<Option<Vector3<f64>>, InputError> {
                 match v {
                     None => Ok(None),
@@ -713,6 +703,12 @@ mod tests {
             ),
             ("[[setpoint]]\nt = 0\nvelocity = [1, 2]\n", "p.toml", "line 3", "array of 3"),
             ("[[setpoint]]\nt = 0\n", "[setpoint[0]]", "none", "position |"),
+            (
+                "[[setpoint]]\nt = 2\nvelocity = [1, 0, 0]\n[[setpoint]]\nt = 1\nvelocity = [1, 0, 0]\n",
+                "[setpoint[1]] field `t`",
+                "1",
+                "> 2",
+            ),
             ("[goal]\ntarget = [1, 2, 3]\ngain = 0\n", "[goal] field `gain`", "0", "0 < gain"),
             ("rc_rate_hz = 0.5\n[[stick]]\nt = 0\n", "field `rc_rate_hz`", "0.5", "1 ≤ rate"),
             ("duration = 0\n[[stick]]\nt = 0\n", "field `duration`", "0", "0 < duration"),
