@@ -44,6 +44,19 @@ fn summary_json(out: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
+/// Flies a `worst.txt` command's `parapet run` arguments again (from `host-sim/`, as the
+/// campaign wrote them); that run's `summary.json`.
+fn rerun(args: &[&str]) -> serde_json::Value {
+    let st = Command::new(env!("CARGO_BIN_EXE_parapet"))
+        .args(args)
+        .current_dir(root().join("host-sim"))
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let dir = args[args.iter().position(|a| *a == "--out").unwrap() + 1];
+    serde_json::from_str(&std::fs::read_to_string(Path::new(dir).join("summary.json")).unwrap()).unwrap()
+}
+
 #[test]
 fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
     let out = tmp("ci");
@@ -93,15 +106,7 @@ fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
     assert_eq!(text.lines().filter(|l| l.starts_with("parapet run")).count(), 10);
     let args: Vec<&str> = cmd.split(' ').skip(1).collect();
     assert!(args.iter().all(|a| !a.starts_with('\'')), "simple words: {cmd}");
-    let st = Command::new(env!("CARGO_BIN_EXE_parapet"))
-        .args(&args)
-        .current_dir(root().join("host-sim"))
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-    let dir = args[args.iter().position(|a| *a == "--out").unwrap() + 1];
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(Path::new(dir).join("summary.json")).unwrap()).unwrap();
+    let s = rerun(&args);
     assert_eq!(
         s["min_clearance_m"].as_f64().unwrap().to_bits(),
         rows[flight][clearance].parse::<f64>().unwrap().to_bits()
@@ -274,15 +279,7 @@ fn the_navigation_campaign_draws_records_and_tables_the_position_source() {
     let args: Vec<&str> = cmd.split(' ').skip(1).collect();
     let k = args.iter().position(|a| *a == "--position-source").expect("--position-source in the command");
     assert_eq!(args[k + 1], rows[worst][src]);
-    let st = Command::new(env!("CARGO_BIN_EXE_parapet"))
-        .args(&args)
-        .current_dir(root().join("host-sim"))
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-    let dir = args[args.iter().position(|a| *a == "--out").unwrap() + 1];
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(Path::new(dir).join("summary.json")).unwrap()).unwrap();
+    let s = rerun(&args);
     assert_eq!(
         s["min_clearance_m"].as_f64().unwrap().to_bits(),
         rows[worst][clearance].parse::<f64>().unwrap().to_bits()
