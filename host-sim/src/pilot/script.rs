@@ -703,12 +703,6 @@ mod tests {
             ),
             ("[[setpoint]]\nt = 0\nvelocity = [1, 2]\n", "p.toml", "line 3", "array of 3"),
             ("[[setpoint]]\nt = 0\n", "[setpoint[0]]", "none", "position |"),
-            (
-                "[[setpoint]]\nt = 2\nvelocity = [1, 0, 0]\n[[setpoint]]\nt = 1\nvelocity = [1, 0, 0]\n",
-                "[setpoint[1]] field `t`",
-                "1",
-                "> 2",
-            ),
             ("[goal]\ntarget = [1, 2, 3]\ngain = 0\n", "[goal] field `gain`", "0", "0 < gain"),
             ("rc_rate_hz = 0.5\n[[stick]]\nt = 0\n", "field `rc_rate_hz`", "0.5", "1 ≤ rate"),
             ("duration = 0\n[[stick]]\nt = 0\n", "field `duration`", "0", "0 < duration"),
@@ -722,6 +716,11 @@ mod tests {
                 assert!(e.contains(part), "{text:?}: {e:?} lacks {part:?}");
             }
         }
+        // Setpoint times must increase too (the same check as the sticks').
+        let e = parse("[[setpoint]]\nt = 2\nvelocity = [1, 0, 0]\n[[setpoint]]\nt = 1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[setpoint[1]] field `t`") && e.contains("> 2"), "{e}");
     }
 
     #[test]
