@@ -281,6 +281,13 @@ impl PilotScript {
             *last_t = t;
             Ok(t)
         };
+        // The mode switch position `m` of `table`'s `mode` field.
+        let switch_at = |table: &str, m: &str| {
+            let why = "unknown switch position";
+            switch(m).ok_or_else(|| {
+                err(table.to_string(), "mode", why, format!("{m:?}"), "low | mid | high".into())
+            })
+        };
         let rate = |field: &str, r: Option<f64>, d: f64| -> Result<f64, InputError> {
             let r = r.unwrap_or(d);
             if r.is_finite() && (RC_RATE_HZ.0..=RC_RATE_HZ.1).contains(&r) {
@@ -326,15 +333,7 @@ impl PilotScript {
             };
             let mode = match &s.mode {
                 None => prev.mode,
-                Some(m) => switch(m).ok_or_else(|| {
-                    err(
-                        table.clone(),
-                        "mode",
-                        "unknown switch position",
-                        format!("{m:?}"),
-                        "low | mid | high".into(),
-                    )
-                })?,
+                Some(m) => switch_at(&table, m)?,
             };
             prev = Sticks {
                 roll: axis("roll", s.roll, prev.roll, -1.0)?,
@@ -469,15 +468,7 @@ impl PilotScript {
                 "mode" => {
                     unused("until", e.until.is_some())?;
                     let m = e.mode.as_deref().unwrap_or("");
-                    let mode = switch(m).ok_or_else(|| {
-                        err(
-                            table.clone(),
-                            "mode",
-                            "unknown switch position",
-                            format!("{m:?}"),
-                            "low | mid | high".into(),
-                        )
-                    })?;
+                    let mode = switch_at(&table, m)?;
                     Event::Mode { t, mode }
                 }
                 k => {
@@ -721,6 +712,11 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("[setpoint[1]] field `t`") && e.contains("> 2"), "{e}");
+        // An event's mode is checked like a stick keyframe's.
+        let e = parse("[[event]]\nkind = \"mode\"\nt = 1\nmode = \"up\"\n[[stick]]\nt = 0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[event[0]] field `mode`") && e.contains("low | mid | high"), "{e}");
     }
 
     #[test]
