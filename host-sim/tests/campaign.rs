@@ -35,6 +35,11 @@ fn csv_rows(p: &Path) -> Vec<Vec<String>> {
     r.records().map(|x| x.unwrap().iter().map(String::from).collect()).collect()
 }
 
+/// The index of column `name` in `head` (a `campaign.csv` header); panics naming it when absent.
+fn column(head: &[String], name: &str) -> usize {
+    head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"))
+}
+
 fn csv_head(p: &Path) -> Vec<String> {
     csv::Reader::from_path(p).unwrap().headers().unwrap().iter().map(String::from).collect()
 }
@@ -64,7 +69,7 @@ fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
     let rows = csv_rows(&out.join("campaign.csv"));
     assert_eq!(rows.len(), 200);
     let head = csv_head(&out.join("campaign.csv"));
-    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let col = |name: &str| column(&head, name);
     let (collided, reason, clearance) = (col("collided"), col("end_reason"), col("min_clearance_m"));
     for q in ["wind_speed", "mass", "k_f", "motor_tau", "fix_dropout_length", "speed"] {
         col(q);
@@ -125,7 +130,7 @@ fn ci_campaign_outputs_agree_and_the_worst_flight_reproduces() {
 /// it; the other worst flights have none.
 fn assert_worst_reports(out: &Path, summary: &serde_json::Value, rows: &[Vec<String>], head: &[String]) {
     use parapet_sim::campaign::output::WORST_REPORTS;
-    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let col = |name: &str| column(head, name);
     let worst = summary["worst"].as_array().unwrap();
     assert_eq!(worst.len(), 10);
     let text = std::fs::read_to_string(out.join("worst.txt")).unwrap();
@@ -253,7 +258,7 @@ fn the_navigation_campaign_draws_records_and_tables_the_position_source() {
     let rows = csv_rows(&out.join("campaign.csv"));
     assert_eq!(rows.len(), 24);
     let head = csv_head(&out.join("campaign.csv"));
-    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let col = |name: &str| column(&head, name);
     let (src, collided, clearance) = (col("position_source"), col("collided"), col("min_clearance_m"));
     let summary = summary_json(&out);
     let per = summary["per_source"].as_object().unwrap();
@@ -306,7 +311,7 @@ fn the_speed_campaign_draws_the_perception_and_refuses_a_set_that_cannot_see_the
     let rows = csv_rows(&out.join("campaign.csv"));
     assert_eq!(rows.len(), 20);
     let head = csv_head(&out.join("campaign.csv"));
-    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("column {name}"));
+    let col = |name: &str| column(&head, name);
     let (perc, end, error) = (col("perception"), col("end_reason"), col("error"));
     let c = parapet_sim::campaign::spec::Campaign::load(&file).unwrap();
     for (i, r) in rows.iter().enumerate() {
