@@ -20,12 +20,19 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn campaign(file: &Path, out: &Path, shard: Option<&str>) {
+    campaign_with(file, out, shard, &[]);
+}
+
+/// [`campaign`] with `--param` options.
+fn campaign_with(file: &Path, out: &Path, shard: Option<&str>, param: &[&str]) {
     let a = CampaignArgs {
         campaign: file.into(),
         out: out.into(),
         jobs: Some(2),
         shard: shard.map(String::from),
         guidance: None,
+        param: param.iter().map(|s| s.to_string()).collect(),
+        params_file: None,
     };
     cmd_campaign(a).unwrap_or_else(|e| panic!("{e}"));
 }
@@ -194,6 +201,8 @@ fn shards_merge_byte_identical_and_mixed_campaigns_are_refused() {
             out: dir.join("merged"),
             shards,
             guidance: None,
+            param: Vec::new(),
+            params_file: None,
         })
     };
     merge(shards.clone(), &c).unwrap_or_else(|e| panic!("{e}"));
@@ -302,8 +311,15 @@ fn the_navigation_campaign_draws_records_and_tables_the_position_source() {
 fn the_speed_campaign_draws_the_perception_and_refuses_a_set_that_cannot_see_the_sweep() {
     let out = tmp("speed");
     let file = root().join("scenes/campaigns/speed_ci.toml");
-    let a =
-        CampaignArgs { campaign: file.clone(), out: out.clone(), jobs: Some(2), shard: None, guidance: None };
+    let a = CampaignArgs {
+        campaign: file.clone(),
+        out: out.clone(),
+        jobs: Some(2),
+        shard: None,
+        guidance: None,
+        param: Vec::new(),
+        params_file: None,
+    };
     match cmd_campaign(a) {
         Err(e) => assert!(e.to_string().contains("could not be flown"), "{e}"),
         Ok(()) => panic!("the planar lidar's draws must be refused before flight"),
@@ -351,4 +367,90 @@ fn an_unknown_position_source_exits_2_naming_it() {
     for want in ["--position-source", "galileo", "mocap, gps, rtk, vio"] {
         assert!(err.contains(want), "`{want}` not in {err}");
     }
+}
+
+/// `parapet campaign --param` (issue 37): every flight flies the parameter (its `campaign.csv`
+/// column is the value the flight's controller flew, read back; a slower trajectory
+/// acceleration takes measurably longer to the goal), it wins over the file's `[run]` key,
+/// `summary.json` records it, a drawn parameter or a bad one is refused with exit 2, and
+/// `campaign-merge` refuses shards flown with other `--param`s, naming the parameter.
+#[test]
+fn campaign_param_flies_every_flight_and_merges_only_with_the_same_params() {
+    let dir = tmp("param");
+    let scene = root().join("host-sim/tests/data/scenes/cli_params_open.toml");
+    let file = dir.join("p.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "name = \"param\"\nseed = 3\nflights = 2\n[run]\nTRJ_ACC = 3.0\n\
+             [[scenes]]\nfile = {:?}\nstraight = true\n[draw]\nCBF_ACC_BOUND = {{ uniform = [0.5, 2.0] }}\n",
+            scene.display().to_string()
+        ),
+    )
+    .unwrap();
+    // Time to the goal and the TRJ_ACC column of each flight.
+    let flown = |out: &Path| -> Vec<(f64, String)> {
+        let head = csv_head(&out.join("campaign.csv"));
+        let (t, acc) = (column(&head, "time_to_goal_s"), column(&head, "TRJ_ACC"));
+        csv_rows(&out.join("campaign.csv"))
+            .iter()
+            .map(|r| (r[t].parse::<f64>().unwrap_or(f64::NAN), r[acc].clone()))
+            .collect()
+    };
+    let (slow, fast) = (dir.join("slow"), dir.join("fast"));
+    campaign_with(&file, &slow, None, &["TRJ_ACC=0.1"]);
+    campaign_with(&file, &fast, None, &["TRJ_ACC=2"]);
+    let (s, f) = (flown(&slow), flown(&fast));
+    println!("time to goal: TRJ_ACC=0.1 {s:?}, TRJ_ACC=2 {f:?}");
+    for ((ts, accs), (tf, accf)) in s.iter().zip(&f) {
+        assert_eq!((accs.as_str(), accf.as_str()), ("0.1", "2"), "the value each flight flew");
+        assert!(ts.is_finite() && tf.is_finite(), "both reach the goal: {ts} {tf}");
+        assert!(*ts > tf + 2.0, "0.1 m/s² takes longer than 2 m/s²: {ts} vs {tf}");
+    }
+    assert_eq!(summary_json(&slow)["params_set"]["TRJ_ACC"], 0.1);
+    let worst = std::fs::read_to_string(slow.join("worst.txt")).unwrap();
+    assert!(worst.contains("--param TRJ_ACC=0.1") && !worst.contains("TRJ_ACC=3"), "{worst}");
+    // Shards flown with --param TRJ_ACC=0.1 merge only when given the same.
+    for i in 1..=2 {
+        campaign_with(&file, &dir.join(format!("s{i}")), Some(&format!("{i}/2")), &["TRJ_ACC=0.1"]);
+    }
+    let merge = |param: &[&str]| {
+        cmd_campaign_merge(CampaignMergeArgs {
+            campaign: file.clone(),
+            out: dir.join("merged"),
+            shards: vec![dir.join("s1"), dir.join("s2")],
+            guidance: None,
+            param: param.iter().map(|s| s.to_string()).collect(),
+            params_file: None,
+        })
+    };
+    for (param, got, want) in
+        [(vec!["TRJ_ACC=2"], "TRJ_ACC=0.1", "TRJ_ACC=2"), (vec![], "TRJ_ACC=0.1", "not set")]
+    {
+        let e = merge(&param).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        let e = e.to_string();
+        assert!(e.contains("params.TRJ_ACC") && e.contains(got) && e.contains(want), "{param:?}: {e}");
+    }
+    merge(&["TRJ_ACC=0.1"]).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        std::fs::read(slow.join("campaign.csv")).unwrap()
+            == std::fs::read(dir.join("merged/campaign.csv")).unwrap()
+    );
+    // Refused before any flight, exit 2, naming the parameter and why.
+    let fs = file.display().to_string();
+    for (param, want) in [
+        ("NO_SUCH=1", "NO_SUCH"),
+        ("TRJ_ACC=100", "0.1 ≤ TRJ_ACC ≤ 15"),
+        ("CBF_ACC_BOUND=1", "draws this parameter"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_parapet"))
+            .args(["campaign", &fs, "--param", param, "--out", dir.join("bad").to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{param}: {err}");
+        assert!(err.contains(want) && err.contains("--param"), "{param}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

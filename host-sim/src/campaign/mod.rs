@@ -10,6 +10,9 @@
 //! <options> --disturbances <out>/worst/flight_NNNNNN.toml`) reproduces it bit for bit.
 //! Flight i's draws depend only on (campaign seed, i): a shard flies the flights
 //! with i mod N = I − 1, and the merged files equal a single-process run's byte for byte.
+//! `--guidance`, `--params FILE` and `--param NAME=VALUE` set every flight's options over the
+//! file's `[run]` keys ([`spec::Campaign::with_params`]) and enter the campaign's identity:
+//! `campaign-merge` takes the same and refuses shards flown with other ones, naming the parameter.
 //!
 //! Outputs ([`output`]): `campaign.csv`, `summary.json`, `worst.txt` (the commands),
 //! `worst/*.toml`, the full `parapet run` report of the [`output::WORST_REPORTS`] worst flights
@@ -62,6 +65,15 @@ pub struct CampaignArgs {
     /// `[run] guidance`; part of the campaign's identity (give it to `campaign-merge` too).
     #[arg(long, value_parser = crate::cli::values::parse_guidance)]
     pub guidance: Option<MissionGuidance>,
+    /// Set a parameter by name for every flight (repeatable), as `parapet run --param NAME=VALUE`:
+    /// over the file's `[run]` keys, under its `[draw]`s (a drawn parameter is refused); part
+    /// of the campaign's identity (give it to `campaign-merge` too).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub param: Vec<String>,
+    /// A QGroundControl `.params` file for every flight, as `parapet run --params` (before
+    /// `--param`; over `[run]`, under `[draw]`); part of the campaign's identity.
+    #[arg(long = "params", value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
 }
 
 /// Options of `parapet campaign-merge`.
@@ -79,6 +91,12 @@ pub struct CampaignMergeArgs {
     /// The `--guidance` the shards flew with (part of the campaign's identity).
     #[arg(long, value_parser = crate::cli::values::parse_guidance)]
     pub guidance: Option<MissionGuidance>,
+    /// The `--param NAME=VALUE` options the shards flew with (part of the campaign's identity).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub param: Vec<String>,
+    /// The `--params FILE` the shards flew with (part of the campaign's identity).
+    #[arg(long = "params", value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
 }
 
 /// `shard.json`: what a shard flew.
@@ -96,6 +114,9 @@ pub struct ShardManifest {
     pub shard_count: u64,
     /// Rows in this shard's campaign.csv.
     pub rows: u64,
+    /// The parameters set on the command line (`--param`, `--params`): name → value.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub params: std::collections::BTreeMap<String, f64>,
 }
 
 fn parse_shard(s: &str) -> Result<(u64, u64), InputError> {
@@ -166,7 +187,7 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
         seed: d.seed,
         position_source: d.position_source.map(|s| s.as_str().to_string()).unwrap_or_default(),
         perception: String::new(),
-        values: d.values.values().copied().collect(),
+        values: d.values.values().copied().chain(c.set_columns().iter().map(|n| c.params_set[n])).collect(),
         outcome: Outcome::default(),
     };
     let failed = |mut row: Row, e: String| {
@@ -185,6 +206,17 @@ pub fn fly(c: &Campaign, i: u64) -> Row {
     row.scene = scene.name.clone();
     row.position_source = cfg.sensors.position_source.as_str().to_string();
     row.perception = perception_of(&d.args).to_string();
+    // The set parameters' columns: the values the flight's controller flies, read back.
+    if let Ok(cbf) = cfg.cbf_params() {
+        let p = crate::flight::runner::controller_params(&scene, &cfg, cbf, cfg.variant);
+        for (k, name) in c.set_columns().iter().enumerate() {
+            let Some(i) = parapet_core::params::index_of(name) else { continue };
+            let v = (parapet_core::params::TABLE[i].get)(&p);
+            if let Some(slot) = row.values.get_mut(d.values.len() + k) {
+                *slot = format!("{v}").parse().unwrap_or(f64::from(v));
+            }
+        }
+    }
     // The pre-flight coverage check of `parapet run`: a sensor set that cannot see the sweep
     // without an assumption the flight was not given does not fly.
     match crate::flight::runner::coverage_gaps(&scene, &cfg) {
@@ -273,7 +305,7 @@ fn create_dir(dir: &Path) -> Result<(), CliError> {
 
 /// Write every output of the full campaign `rows` (sorted by flight) into `out`.
 fn finish(c: &Campaign, rows: &[Row], out: &Path) -> Result<output::Summary, CliError> {
-    let names: Vec<String> = c.draw.keys().cloned().collect();
+    let names = c.columns();
     output::write_csv(&out.join("campaign.csv"), &names, rows)?;
     let args_of = |i: u64| c.flight(i).args;
     let summary = output::summarise(c, rows, &args_of);
@@ -367,7 +399,9 @@ pub fn process_cpu_seconds() -> Option<f64> {
 
 /// `parapet campaign`.
 pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?.with_guidance(a.guidance);
+    let c = Campaign::load(&a.campaign)?
+        .with_params(a.params_file.as_deref(), &a.param)?
+        .with_guidance(a.guidance);
     let jobs = match a.jobs {
         Some(j) if !(1..=256).contains(&j) => {
             return Err(InputError::option("jobs", "out of range").value(j).allowed("1 ≤ jobs ≤ 256").into())
@@ -400,7 +434,7 @@ pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
     std::fs::write(a.out.join("timing.json"), format!("{timing:#}\n")).context("cannot write timing.json")?;
     let failed = rows.iter().filter(|r| r.outcome.end_reason == "error").count();
     if sn > 1 {
-        let names: Vec<String> = c.draw.keys().cloned().collect();
+        let names = c.columns();
         output::write_csv(&a.out.join("campaign.csv"), &names, &rows)?;
         let m = ShardManifest {
             campaign: c.name.clone(),
@@ -409,6 +443,7 @@ pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
             shard_index: si,
             shard_count: sn,
             rows: rows.len() as u64,
+            params: c.params_set.clone(),
         };
         let json = serde_json::to_string_pretty(&m).map_err(|e| anyhow!("{e}"))? + "\n";
         std::fs::write(a.out.join("shard.json"), json).context("cannot write shard.json")?;
@@ -437,10 +472,29 @@ pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The first parameter (by name) set differently in a shard's `shard` and the merge's `given`:
+/// its name, the shard's value and the given one ("not set" where absent).
+fn params_difference(
+    shard: &std::collections::BTreeMap<String, f64>,
+    given: &std::collections::BTreeMap<String, f64>,
+) -> Option<(String, String, String)> {
+    let text = |m: &std::collections::BTreeMap<String, f64>, n: &str| {
+        m.get(n).map_or("not set".to_string(), |x| format!("{n}={x}"))
+    };
+    shard
+        .keys()
+        .chain(given.keys())
+        .filter(|n| shard.get(*n) != given.get(*n))
+        .min()
+        .map(|n| (n.clone(), text(shard, n), text(given, n)))
+}
+
 /// `parapet campaign-merge`.
 pub fn cmd_campaign_merge(a: CampaignMergeArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?.with_guidance(a.guidance);
-    let names: Vec<String> = c.draw.keys().cloned().collect();
+    let c = Campaign::load(&a.campaign)?
+        .with_params(a.params_file.as_deref(), &a.param)?
+        .with_guidance(a.guidance);
+    let names = c.columns();
     let mut seen: Vec<Option<PathBuf>> = Vec::new();
     let mut rows = Vec::new();
     for dir in &a.shards {
@@ -455,6 +509,17 @@ pub fn cmd_campaign_merge(a: CampaignMergeArgs) -> Result<(), CliError> {
                 .allowed(want)
                 .into()
         };
+        if let Some((name, got, want)) = params_difference(&m.params, &c.params_set) {
+            return Err(InputError::file(
+                mp.display(),
+                "flown with other --param / --params options: refusing to merge (give campaign-merge \
+                 the shards' --param and --params)",
+            )
+            .field(format!("params.{name}"))
+            .value(got)
+            .allowed(want)
+            .into());
+        }
         if m.identity != c.identity {
             return Err(refuse("identity", m.identity, format!("{} ({})", c.identity, a.campaign.display())));
         }

@@ -73,7 +73,8 @@ pub struct Row {
     /// The perception flown (`truth` or a `--perception` value; empty when the flight's options
     /// could not be read).
     pub perception: String,
-    /// Drawn values in the campaign's quantity order.
+    /// Drawn values in the campaign's quantity order, then the values flown of the parameters
+    /// set on the command line (`Campaign::set_columns`).
     pub values: Vec<f64>,
     /// Outcome.
     pub outcome: Outcome,
@@ -373,6 +374,10 @@ pub struct Summary {
     pub seed: u64,
     /// The drawn quantities and their distributions.
     pub distributions: BTreeMap<String, String>,
+    /// The parameters set for every flight on the command line (`--param`, `--params`; their
+    /// `campaign.csv` columns hold the value each flight's controller flew).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub params_set: BTreeMap<String, f64>,
     /// Every flight.
     pub all: Rates,
     /// Per scene.
@@ -435,6 +440,7 @@ pub fn summarise(
         identity: c.identity.clone(),
         seed: c.seed,
         distributions: c.draw.iter().map(|(k, d)| (k.clone(), format!("{d:?}"))).collect(),
+        params_set: c.params_set.clone(),
         all: rates(&all),
         per_scene: scenes.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),
         per_source: sources.iter().map(|(k, v)| (k.clone(), rates(v))).collect(),

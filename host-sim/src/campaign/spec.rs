@@ -46,7 +46,12 @@
 //! seeded with a mix of (campaign seed, i, the quantity's name); the flight's noise
 //! seed is a mix of (campaign seed, i). Adding a quantity does not change the others.
 //!
-//! May import: `crate::sim::disturbance`, `crate::sim::source`, `crate::input`, the external crates.
+//! Parameters set on the command line (`parapet campaign --params FILE --param NAME=VALUE`,
+//! [`Campaign::with_params`]) apply to every flight: over the file's `[run]` keys, under the
+//! `[draw]`s (a `--param` of a parameter the file draws is refused); they enter the identity.
+//!
+//! May import: `crate::sim::disturbance`, `crate::sim::source`, `crate::input`, `crate::cli::params`
+//! (the `--param` checks), the external crates.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -168,8 +173,12 @@ pub struct Campaign {
     /// The perceptions drawn (`[draw] perception`: `truth` or a `--perception` preset), with
     /// their relative weights; `None`: the `[run]` options' (default `truth`).
     pub perception: Option<Vec<(&'static str, f64)>>,
-    /// Identity (FNV-1a of the campaign text and every scene and path file), hex.
+    /// Identity (FNV-1a of the campaign text and every scene and path file, then of the
+    /// parameters set on the command line), hex.
     pub identity: String,
+    /// Parameters set on the command line for every flight (`--params FILE`, then each
+    /// `--param NAME=VALUE`; the last given wins): name → value ([`Campaign::with_params`]).
+    pub params_set: BTreeMap<String, f64>,
 }
 
 /// What flight i flies.
@@ -532,7 +541,92 @@ impl Campaign {
             position_source,
             perception,
             identity: format!("{id:016x}"),
+            params_set: BTreeMap::new(),
         })
+    }
+
+    /// The parameter a `[draw]` quantity sets, if any: a parameter drawn by its name, or one of
+    /// the controller's `mu`, `delta`, `delta1`, `kp`, `kd`, `speed` (by its scene key).
+    fn drawn_param(q: &str) -> Option<&'static parapet_core::params::Param> {
+        let by_name = parapet_core::params::index_of(q).map(|i| &parapet_core::params::TABLE[i]);
+        let keyed = ["mu", "delta", "delta1", "kp", "kd", "speed"].contains(&q);
+        by_name.or_else(|| keyed.then(|| parapet_core::params::by_key(q)).flatten())
+    }
+
+    /// Every flight with the parameters set on the command line: `--params FILE` (a
+    /// QGroundControl `.params` file, passed to each flight as `--params FILE`) then each
+    /// `--param NAME=VALUE`, each checked as `parapet run` checks it (exit 2 naming the file or
+    /// option, the parameter, the value and its range). Precedence: the file's `[run]` keys <
+    /// `--params` < `--param` < the `[draw]`s (a drawn value differs per flight); a `--param`
+    /// naming a parameter the file draws is refused. A `[run]` key of a parameter set here
+    /// (`PA_SPEED_MAX = …`, `filter`, `yaw_mode`, `guidance`) is dropped from the flights'
+    /// options. The set enters the identity and [`Campaign::params_set`].
+    pub fn with_params(
+        mut self,
+        file: Option<&Path>,
+        given: &[String],
+    ) -> Result<Campaign, crate::cli::CliError> {
+        for g in given {
+            let (p, x) = crate::cli::params::parse_assignment(g)?;
+            if let Some(q) = self.draw.keys().find(|q| Self::drawn_param(q).is_some_and(|d| d.name == p.name))
+            {
+                return Err(InputError::option("param", "the campaign file draws this parameter")
+                    .field(p.name)
+                    .value(format!("{x} ([draw] {q} in {})", self.source.display()))
+                    .allowed("a parameter the campaign does not draw (remove it from --param or from [draw])")
+                    .into());
+            }
+        }
+        let assigned = crate::cli::params::assignments(file, given)?;
+        if assigned.is_empty() && file.is_none() {
+            return Ok(self);
+        }
+        for (p, x) in &assigned {
+            self.params_set.insert(p.name.to_string(), *x);
+        }
+        // The [run] options of what is set here give way to it.
+        let set = |n: &str| self.params_set.contains_key(n);
+        let replaced = |opt: &str, value: &str| match opt {
+            "--param" => value.split_once('=').is_some_and(|(n, _)| set(n)),
+            "--filter" => set("CBF_VARIANT"),
+            "--yaw-mode" => set("MIS_YAW_MODE"),
+            "--guidance" => set("MIS_GUIDANCE"),
+            _ => false,
+        };
+        let mut args = Vec::new();
+        let mut i = 0;
+        while i < self.run_args.len() {
+            let value = self.run_args.get(i + 1).map_or("", String::as_str);
+            if replaced(&self.run_args[i], value) {
+                i += 2;
+            } else {
+                args.push(self.run_args[i].clone());
+                i += 1;
+            }
+        }
+        if let Some(f) = file {
+            args.extend(["--params".into(), f.display().to_string()]);
+        }
+        for g in given {
+            let (p, x) = crate::cli::params::parse_assignment(g)?;
+            args.extend(["--param".into(), format!("{}={x}", p.name)]);
+        }
+        self.run_args = args;
+        let text: String = self.params_set.iter().map(|(n, x)| format!("{n}={x}\n")).collect();
+        self.identity = format!("{}-p{:016x}", self.identity, fnv(text.as_bytes(), FNV0));
+        Ok(self)
+    }
+
+    /// The parameters set on the command line that the campaign does not draw by name: each
+    /// has a `campaign.csv` column (after the drawn quantities) with the value its flight's
+    /// controller flew.
+    pub fn set_columns(&self) -> Vec<String> {
+        self.params_set.keys().filter(|n| !self.draw.contains_key(*n)).cloned().collect()
+    }
+
+    /// The value columns of `campaign.csv`: the drawn quantities, then [`Campaign::set_columns`].
+    pub fn columns(&self) -> Vec<String> {
+        self.draw.keys().cloned().chain(self.set_columns()).collect()
     }
 
     /// Every flight with the mission guidance `g` (`parapet campaign --guidance`, after the
