@@ -188,6 +188,10 @@ pub mod limits {
     /// Most values in one `parapet sweep` range (`--mu`, `--delta1`, `--speed` `A:B:N`: N ≤ this).
     pub const SWEEP_MAX_VALUES: usize = 10_000;
 
+    /// Most parameter axes of one `parapet sweep` (`--grid NAME=A:B:N`, repeatable), beside
+    /// `--mu`, `--delta1`, `--speed` and the seeds: each axis multiplies the grid.
+    pub const SWEEP_MAX_GRID_PARAMS: usize = 3;
+
     /// Most sensor-noise seeds of a sweep (`--seeds K`: K ≤ this).
     pub const SWEEP_MAX_SEEDS: u64 = 10_000;
     /// Largest number of flights of a campaign (`campaign::spec::MAX_FLIGHTS`).

@@ -580,3 +580,72 @@ fn a_parameter_set_by_name_applies_to_every_run_and_decides_the_identity() {
     assert_eq!(r.status.code(), Some(2));
     assert!(err(&r).contains("NO_SUCH"), "{}", err(&r));
 }
+
+/// `--grid NAME=A:B:N` (issue 37) grids any continuous parameter by name: `sweep.csv` gets a
+/// column per axis with the value each run's controller flew (read back from its parameter
+/// set), the flights change with it (a slower trajectory acceleration reaches the goal later; the
+/// summary's k_p is the gridded TRK_KP), shards merge to the same CSV, and a bad axis exits 2
+/// naming the option, the parameter, the value and the range.
+#[test]
+fn a_gridded_parameter_changes_the_runs_and_gets_its_column() {
+    let d = tmp("gridparam");
+    let scene = "host-sim/tests/data/scenes/cli_params_open.toml";
+    let axes = ["--mu", "1.4", "--delta1", "0.1", "--grid", "TRJ_ACC=0.1:2:2", "--grid", "TRK_KP=0.5:1:2"];
+    let fly = |out: &Path, extra: &[&str]| {
+        let mut args = axes.to_vec();
+        args.extend_from_slice(&["--duration", "20", "--jobs", "1"]);
+        args.extend_from_slice(extra);
+        let r = sweep_any(scene, out, &args);
+        assert!(r.status.success(), "{}", err(&r));
+        read_csv(&out.join("sweep.csv"))
+    };
+    let full = d.join("full");
+    let (head, rows) = fly(&full, &[]);
+    assert_eq!(&head[head.len() - 2..], ["TRJ_ACC", "TRK_KP"], "{head:?}");
+    let col = |n: &str| head.iter().position(|h| h == n).unwrap();
+    let (acc, kp_axis, kp, t) = (col("TRJ_ACC"), col("TRK_KP"), col("kp"), col("time_to_goal_s"));
+    let num = |r: &Vec<String>, c: usize| r[c].parse::<f64>().unwrap();
+    let got: Vec<(f64, f64)> = rows.iter().map(|r| (num(r, acc), num(r, kp_axis))).collect();
+    assert_eq!(got, [(0.1, 0.5), (0.1, 1.0), (2.0, 0.5), (2.0, 1.0)], "grid order, values flown");
+    for r in &rows {
+        assert_eq!(r[col("status")], "ok", "{r:?}");
+        assert_eq!(num(r, kp), num(r, kp_axis), "the run's k_p");
+    }
+    let time = |i: usize| rows[i][t].parse::<f64>().unwrap();
+    println!("time to goal: TRJ_ACC 0.1: {} {}, TRJ_ACC 2: {} {}", time(0), time(1), time(2), time(3));
+    assert!(time(0) > time(2) + 2.0 && time(1) > time(3) + 2.0, "{rows:?}");
+    let manifest = std::fs::read_to_string(full.join("sweep.json")).unwrap();
+    assert!(
+        manifest.contains("\"TRJ_ACC=0.1:2:2\"") && manifest.contains("\"TRK_KP=0.5:1:2\""),
+        "{manifest}"
+    );
+    let (s1, s2) = (d.join("s1"), d.join("s2"));
+    fly(&s1, &["--shard", "1/2"]);
+    fly(&s2, &["--shard", "2/2"]);
+    let out = d.join("merged");
+    let r = merge(&[s1.to_str().unwrap(), s2.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", err(&r));
+    assert_eq!(
+        std::fs::read_to_string(out.join("sweep.csv")).unwrap(),
+        std::fs::read_to_string(full.join("sweep.csv")).unwrap()
+    );
+    let bad = d.join("bad");
+    for (axis, extra, want) in [
+        ("NO_SUCH=1:2:2", "", "NO_SUCH"),
+        ("TRJ_ACC=0.05:1:2", "", "0.1 ≤ TRJ_ACC ≤ 15"),
+        ("CBF_MU=0.5:1:2", "", "already set by --mu"),
+        ("WP_SPEED=0.5:1:2", "", "already set by --speed"),
+        ("TRJ_ACC=1:2:2", "TRJ_ACC=1", "already set by --param"),
+        ("MIS_YAW_MODE=0:1:2", "", "a code parameter cannot be gridded"),
+        ("CBF_VARIANT=0:3:4", "", "already set by --filter"),
+    ] {
+        let mut args = vec!["--mu", "1.4", "--delta1", "0.1", "--grid", axis];
+        if !extra.is_empty() {
+            args.extend_from_slice(&["--param", extra]);
+        }
+        let r = sweep_any(scene, &bad, &args);
+        assert_eq!(r.status.code(), Some(2), "{axis}: {}", err(&r));
+        assert!(err(&r).contains("--grid") && err(&r).contains(want), "{axis}: {}", err(&r));
+    }
+    assert!(!bad.join("sweep.csv").exists(), "nothing flown");
+}

@@ -1,16 +1,19 @@
-//! The sweep grid: value ranges (`--mu`, `--delta1`, `--speed`), the seed count
-//! (`--seeds`), shards (`--shard I/N`), grid indices and the size checks.
+//! The sweep grid: value ranges (`--mu`, `--delta1`, `--speed`), the parameter axes
+//! (`--grid NAME=A:B:N`, [`parse_axes`]), the seed count (`--seeds`), shards
+//! (`--shard I/N`), grid indices and the size checks.
 //!
 //! The grid is never materialised: its size is computed with checked arithmetic
 //! and a run's parameters are decoded from its index ([`Grid::point`]), so a
 //! refused or sharded grid costs nothing proportional to its size. Index order is
-//! speed-major, then μ, δ1, seed (seed fastest).
+//! speed-major, then μ, δ1, the `--grid` axes in the order given, seed (seed fastest).
 //!
-//! May import: `crate::input` (errors and caps), serde.
+//! May import: `crate::input` (errors and caps), `parapet_core::params` (the table), serde.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::input::limits::{SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES};
+use crate::input::limits::{SWEEP_MAX_GRID_PARAMS, SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES};
+use crate::input::InputError;
+use parapet_core::params::{self, Param, TABLE};
 
 /// An inclusive range `A:B:N` of `N` evenly spaced values, or one value `A`
 /// (same as `A:A:1`).
@@ -28,6 +31,15 @@ impl GridRange {
     /// Parse `A:B:N` (A ≤ B finite and > 0, N a whole number in
     /// 1..=[`SWEEP_MAX_VALUES`]; N = 1 needs A = B) or a single value `A`.
     pub fn parse(s: &str) -> Result<GridRange, String> {
+        Self::parse_values(s, true)
+    }
+
+    /// [`GridRange::parse`] without the sign rule (a `--grid` axis: its parameter's range decides).
+    pub fn parse_any(s: &str) -> Result<GridRange, String> {
+        Self::parse_values(s, false)
+    }
+
+    fn parse_values(s: &str, positive: bool) -> Result<GridRange, String> {
         let num = |t: &str| -> Result<f64, String> {
             t.trim().parse::<f64>().map_err(|_| format!("{s:?}: {t:?} is not a number"))
         };
@@ -49,7 +61,10 @@ impl GridRange {
                 ))
             }
         };
-        if !(a.is_finite() && b.is_finite() && a > 0.0 && b > 0.0) {
+        if !(a.is_finite() && b.is_finite()) {
+            return Err(format!("{s:?}: the values must be finite"));
+        }
+        if positive && !(a > 0.0 && b > 0.0) {
             return Err(format!("{s:?}: the values must be finite and > 0"));
         }
         if n == 0 || n > SWEEP_MAX_VALUES {
@@ -101,6 +116,106 @@ impl<'de> Deserialize<'de> for GridRange {
         let s = String::deserialize(d)?;
         GridRange::parse(&s).map_err(serde::de::Error::custom)
     }
+}
+
+/// One `--grid NAME=A:B:N` axis: a parameter of the table by its name and its values
+/// (`NAME=A:B:N` in `sweep.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub struct ParamAxis {
+    /// The parameter's name (`cargo xtask params`).
+    pub name: String,
+    /// Its values.
+    pub range: GridRange,
+}
+
+impl From<ParamAxis> for String {
+    /// `NAME=A:B:N` (parses back exactly).
+    fn from(a: ParamAxis) -> String {
+        format!("{}={}", a.name, a.range)
+    }
+}
+
+impl TryFrom<String> for ParamAxis {
+    type Error = String;
+    fn try_from(s: String) -> Result<ParamAxis, String> {
+        let (name, r) = s.split_once('=').ok_or_else(|| format!("{s:?}: expected NAME=A:B:N"))?;
+        Ok(ParamAxis { name: name.to_string(), range: GridRange::parse_any(r)? })
+    }
+}
+
+/// The options of a sweep that set parameters another way: an axis may not name them.
+pub struct Taken<'a> {
+    /// `--param NAME=VALUE` options as given.
+    pub params: &'a [String],
+    /// `--filter` given (CBF_VARIANT).
+    pub filter: bool,
+    /// `--guidance` given (MIS_GUIDANCE).
+    pub guidance: bool,
+}
+
+/// Parse and check the `--grid NAME=A:B:N` options: at most [`SWEEP_MAX_GRID_PARAMS`], each a
+/// known continuous parameter (a code parameter is refused: one sweep per code with `--param`),
+/// not one the sweep sets otherwise (`CBF_MU` `--mu`, `CBF_DELTA1` `--delta1`, `WP_SPEED`
+/// `--speed`, a `--param`, another `--grid`), every value in the parameter's range. Errors
+/// name the option, the parameter, the value and what is allowed.
+pub fn parse_axes(given: &[String], taken: &Taken) -> Result<Vec<(&'static Param, ParamAxis)>, InputError> {
+    let opt = |why: &str| InputError::option("grid", why);
+    if given.len() > SWEEP_MAX_GRID_PARAMS {
+        return Err(opt("too many parameter axes (input::limits::SWEEP_MAX_GRID_PARAMS)")
+            .value(given.len())
+            .allowed(format!("at most {SWEEP_MAX_GRID_PARAMS} --grid options")));
+    }
+    let mut out: Vec<(&'static Param, ParamAxis)> = Vec::new();
+    for g in given {
+        let Some((name, r)) = g.split_once('=') else {
+            return Err(opt("expected NAME=A:B:N").value(g).allowed("e.g. --grid TRJ_ACC=0.5:2:4"));
+        };
+        let name = name.trim();
+        let Some(d) = params::index_of(name).map(|i| &TABLE[i]) else {
+            return Err(opt("unknown parameter")
+                .field(name)
+                .allowed("a name of `cargo xtask params` / `parapet params export` (e.g. TRJ_ACC)"));
+        };
+        let other = match d.name {
+            "CBF_MU" => Some("--mu"),
+            "CBF_DELTA1" => Some("--delta1"),
+            "WP_SPEED" => Some("--speed"),
+            "CBF_VARIANT" if taken.filter => Some("--filter"),
+            "MIS_GUIDANCE" if taken.guidance => Some("--guidance"),
+            n if taken.params.iter().any(|p| p.split_once('=').is_some_and(|(q, _)| q.trim() == n)) => {
+                Some("--param")
+            }
+            n if out.iter().any(|(p, _)| p.name == n) => Some("--grid"),
+            _ => None,
+        };
+        if let Some(o) = other {
+            return Err(opt(&format!("the parameter is already set by {o}")).field(d.name).value(g).allowed(
+                match o {
+                    "--mu" | "--delta1" | "--speed" => format!("grid {} with {o} A:B:N", d.name),
+                    _ => format!("{} set once: by {o} or by --grid, not both", d.name),
+                },
+            ));
+        }
+        if d.integer {
+            return Err(opt("a code parameter cannot be gridded").field(d.name).value(r).allowed(format!(
+                "a continuous parameter; fly one sweep per code with --param {}=CODE",
+                d.name
+            )));
+        }
+        let range = GridRange::parse_any(r).map_err(|e| opt("not a range").field(d.name).value(e))?;
+        if let Some(v) = range.values().into_iter().find(|v| d.check(*v as f32).is_err()) {
+            return Err(opt("value out of range").field(d.name).value(v).allowed(d.range().to_string()));
+        }
+        out.push((d, ParamAxis { name: d.name.to_string(), range }));
+    }
+    Ok(out)
+}
+
+/// `x` as the controller holds it (`f32`), written back as its shortest decimal: what a sweep
+/// row's `--grid` column holds.
+pub fn as_flown(x: f32) -> f64 {
+    format!("{x}").parse().unwrap_or(f64::from(x))
 }
 
 /// Parse `--seeds K`: a count (1..=[`SWEEP_MAX_SEEDS`]) of sensor-noise seeds
@@ -186,9 +301,11 @@ pub struct GridPoint {
     pub speed: f64,
     /// Sensor-noise seed.
     pub seed: u64,
+    /// The values of the `--grid` axes, in their order.
+    pub params: Vec<f64>,
 }
 
-/// The grid speed × μ × δ1 × seeds, with its values (at most
+/// The grid speed × μ × δ1 × `--grid` axes × seeds, with its values (at most
 /// [`SWEEP_MAX_VALUES`] per axis) but not its points.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
@@ -200,18 +317,27 @@ pub struct Grid {
     pub delta1: Vec<f64>,
     /// Seed count K (seeds 0..K).
     pub seeds: u64,
+    /// The `--grid` axes: parameter name and values.
+    pub params: Vec<(String, Vec<f64>)>,
 }
 
 impl Grid {
     /// The grid of these ranges.
     pub fn new(mu: &GridRange, delta1: &GridRange, speed: &GridRange, seeds: u64) -> Grid {
-        Grid { speeds: speed.values(), mu: mu.values(), delta1: delta1.values(), seeds }
+        Grid { speeds: speed.values(), mu: mu.values(), delta1: delta1.values(), seeds, params: Vec::new() }
+    }
+
+    /// This grid with the parameter axes `axes`.
+    pub fn with_axes(mut self, axes: &[ParamAxis]) -> Grid {
+        self.params = axes.iter().map(|a| (a.name.clone(), a.range.values())).collect();
+        self
     }
 
     /// Number of runs, `None` when it does not fit in a u64.
     pub fn size(&self) -> Option<u64> {
         [self.speeds.len(), self.mu.len(), self.delta1.len()]
             .into_iter()
+            .chain(self.params.iter().map(|(_, v)| v.len()))
             .try_fold(self.seeds, |acc, n| acc.checked_mul(u64::try_from(n).ok()?))
     }
 
@@ -220,23 +346,32 @@ impl Grid {
         let nd = self.delta1.len().max(1) as u64;
         let nm = self.mu.len().max(1) as u64;
         let seed = k % self.seeds.max(1);
-        let rest = k / self.seeds.max(1);
+        let mut rest = k / self.seeds.max(1);
+        let pick = |v: &[f64], i: usize| v.get(i).or(v.last()).copied().unwrap_or(f64::NAN);
+        // The last axis varies fastest (after the seed).
+        let mut params = vec![f64::NAN; self.params.len()];
+        for (slot, (_, v)) in params.iter_mut().zip(&self.params).rev() {
+            let n = v.len().max(1) as u64;
+            *slot = pick(v, (rest % n) as usize);
+            rest /= n;
+        }
         let (d, rest) = ((rest % nd) as usize, rest / nd);
         let (m, s) = ((rest % nm) as usize, (rest / nm) as usize);
-        let pick = |v: &[f64], i: usize| v.get(i).or(v.last()).copied().unwrap_or(f64::NAN);
         GridPoint {
             index: k,
             mu: pick(&self.mu, m),
             delta1: pick(&self.delta1, d),
             speed: pick(&self.speeds, s),
             seed,
+            params,
         }
     }
 
-    /// "3 speeds × 4 μ × 2 δ1 × 5 seeds", for messages.
+    /// "3 speeds × 4 μ × 2 δ1 × 2 TRJ_ACC × 5 seeds", for messages.
     pub fn describe(&self) -> String {
+        let axes: String = self.params.iter().map(|(n, v)| format!(" × {} {n}", v.len())).collect();
         format!(
-            "{} speeds × {} μ × {} δ1 × {} seeds",
+            "{} speeds × {} μ × {} δ1{axes} × {} seeds",
             self.speeds.len(),
             self.mu.len(),
             self.delta1.len(),
@@ -314,7 +449,8 @@ mod tests {
             for &m in &g.mu {
                 for &d in &g.delta1 {
                     for seed in 0..2 {
-                        assert_eq!(g.point(k), GridPoint { index: k, mu: m, delta1: d, speed, seed });
+                        let params = Vec::new();
+                        assert_eq!(g.point(k), GridPoint { index: k, mu: m, delta1: d, speed, seed, params });
                         k += 1;
                     }
                 }
@@ -326,5 +462,62 @@ mod tests {
         assert_eq!(huge.size(), None);
         let ok = Grid::new(&big, &big, &big, SWEEP_MAX_SEEDS);
         assert_eq!(ok.size(), Some(10_000u64.pow(3) * SWEEP_MAX_SEEDS));
+    }
+
+    #[test]
+    fn parameter_axes_decode_in_order_and_are_checked() {
+        let one = GridRange::parse("1").unwrap();
+        let acc = ParamAxis { name: "TRJ_ACC".into(), range: GridRange::parse_any("0.5:2:4").unwrap() };
+        let jerk = ParamAxis { name: "TRJ_JERK".into(), range: GridRange::parse_any("1:2:2").unwrap() };
+        let g = Grid::new(&GridRange::parse("0.5:1:2").unwrap(), &one, &one, 3).with_axes(&[acc, jerk]);
+        assert_eq!(g.size(), Some(2 * 4 * 2 * 3));
+        assert!(g.describe().contains("× 1 δ1 × 4 TRJ_ACC × 2 TRJ_JERK × 3 seeds"), "{}", g.describe());
+        let mut k = 0;
+        for &m in &g.mu {
+            for &a in &g.params[0].1 {
+                for &j in &g.params[1].1 {
+                    for seed in 0..3 {
+                        let p = g.point(k);
+                        assert_eq!((p.mu, p.params, p.seed), (m, vec![a, j], seed), "k {k}");
+                        k += 1;
+                    }
+                }
+            }
+        }
+        let strings = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        let none = Taken { params: &[], filter: false, guidance: false };
+        let ok = parse_axes(&strings(&["TRJ_ACC=0.5:2:4", "PCP_TRK_SIZE=0:1:2"]), &none).unwrap();
+        assert_eq!(
+            String::from(ok[1].1.clone()),
+            "PCP_TRK_SIZE=0:1:2",
+            "0 allowed where the range allows it"
+        );
+        let four = strings(&["TRJ_ACC=1", "TRJ_JERK=1", "TRJ_V_UP=1", "TRJ_V_DN=1"]);
+        for (given, want) in [
+            (four, "at most 3"),
+            (strings(&["NO_SUCH=1:2:2"]), "NO_SUCH"),
+            (strings(&["TRJ_ACC"]), "NAME=A:B:N"),
+            (strings(&["TRJ_ACC=0.05:1:3"]), "0.1 ≤ TRJ_ACC ≤ 15"),
+            (strings(&["TRJ_ACC=2:1:3"]), "first value exceeds"),
+            (strings(&["CBF_MU=0.5:1:2"]), "--mu"),
+            (strings(&["CBF_DELTA1=0.1:0.2:2"]), "--delta1"),
+            (strings(&["WP_SPEED=0.5:1:2"]), "--speed"),
+            (strings(&["TRJ_ACC=1:2:2", "TRJ_ACC=3"]), "already set by --grid"),
+            (strings(&["CBF_VARIANT=0:3:4"]), "code parameter"),
+        ] {
+            let e = parse_axes(&given, &none).unwrap_err().to_string();
+            assert!(e.contains("--grid") && e.contains(want), "{given:?}: {e}");
+        }
+        let p = strings(&["TRJ_ACC=1"]);
+        let taken = Taken { params: &p, filter: true, guidance: true };
+        for (axis, want) in [("TRJ_ACC=1:2:2", "--param"), ("MIS_GUIDANCE=1", "--guidance")] {
+            let e = parse_axes(&strings(&[axis]), &taken).unwrap_err().to_string();
+            assert!(e.contains(want), "{axis}: {e}");
+        }
+        // The manifest's form parses back.
+        let a = &ok[0].1;
+        let text = serde_json::to_string(a).unwrap();
+        assert_eq!(serde_json::from_str::<ParamAxis>(&text).unwrap(), *a);
+        assert_eq!(as_flown(0.3), 0.3);
     }
 }

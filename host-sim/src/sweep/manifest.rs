@@ -4,7 +4,8 @@
 //! [`Identity`] is everything that decides the rows: parapet version and CSV
 //! format, scene name and a hash of the scene file's bytes, the path flown (its
 //! source and a hash of its waypoints), filter, noise, duration rule and cap, the
-//! grid (μ, δ1, speed ranges, seed count). Two shards merge only when their identities
+//! grid (μ, δ1, speed ranges, the `--grid` parameter axes, seed count), the
+//! parameters set by name. Two shards merge only when their identities
 //! are equal and they split the grid the same way (same N); [`plan_merge`] finds
 //! the shards that are missing or given twice. The manifest is written after the
 //! last row, so a sweep that was interrupted has none and cannot be merged.
@@ -15,7 +16,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::grid::{Grid, GridRange};
+use super::grid::{Grid, GridRange, ParamAxis};
 use crate::input::limits::MAX_INPUT_FILE_BYTES;
 use crate::input::InputError;
 
@@ -72,12 +73,15 @@ pub struct Identity {
     /// (absent when none; a keyed one that the grid sets, μ, δ1 or the speed, is the grid's).
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub params: std::collections::BTreeMap<String, f64>,
+    /// The `--grid NAME=A:B:N` axes, in their order (absent when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub grid_params: Vec<ParamAxis>,
 }
 
 impl Identity {
     /// The grid.
     pub fn grid(&self) -> Grid {
-        Grid::new(&self.mu, &self.delta1, &self.speed, self.seeds)
+        Grid::new(&self.mu, &self.delta1, &self.speed, self.seeds).with_axes(&self.grid_params)
     }
 
     /// The first field where `self` and `other` differ, with both values as JSON.
@@ -252,6 +256,7 @@ mod tests {
             speed: GridRange::parse("0.25").unwrap(),
             seeds: 1,
             params: Default::default(),
+            grid_params: Vec::new(),
         }
     }
 

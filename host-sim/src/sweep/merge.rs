@@ -29,7 +29,8 @@ fn merge_help() -> String {
         "\
 Inputs: shard directories of `parapet sweep --shard I/N`, or their sweep.csv files (sweep.json must
   be next to each). Refused (exit 2): shards of different sweeps (scene name or file contents, path,
-  filter, noise, duration, μ/δ1/speed ranges, seed count, parapet version), different N, a shard
+  filter, noise, duration, μ/δ1/speed ranges, --grid axes, --param/--params values, seed count,
+  parapet version), different N, a shard
   given twice, rows that do not match their manifest, missing shards (listed) unless --allow-partial.
   The output directory must not hold an input.
 
@@ -123,6 +124,11 @@ impl CheckedRows {
             && p.delta1.to_bits() == r.delta1.to_bits()
             && p.speed.to_bits() == r.speed.to_bits()
             && p.seed == r.seed
+            && p.params.len() == r.params.len()
+            && p.params
+                .iter()
+                .zip(&r.params)
+                .all(|(x, y)| super::grid::as_flown(*x as f32).to_bits() == y.to_bits())
             && r.scene == self.identity.scene
             && r.filter == self.identity.filter
             && r.noise == self.identity.noise;
@@ -149,9 +155,10 @@ fn merge_rows(
     readers: &mut [CheckedRows],
     named: &[(String, Manifest)],
     path: &Path,
+    names: &[String],
 ) -> Result<Aggregator, CliError> {
     let mut csv =
-        record::CsvSink::create(path).with_context(|| format!("cannot write {}", path.display()))?;
+        record::CsvSink::create(path, names).with_context(|| format!("cannot write {}", path.display()))?;
     let mut heap = BinaryHeap::new();
     for (k, r) in readers.iter_mut().enumerate() {
         if let Some(rec) = r.next().map_err(bad_input)? {
@@ -217,6 +224,7 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
     refuse_overwrite(&output_files(&a.out), &files, "out")?;
     let first = named[0].1.clone();
     let grid = first.identity.grid();
+    let axis_names: Vec<String> = first.identity.grid_params.iter().map(|a| a.name.clone()).collect();
     let total = first.grid_runs;
     let mut readers = Vec::new();
     for (k, (name, m)) in named.iter().enumerate() {
@@ -233,7 +241,7 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
                 .allowed(expected.to_string()),
             ));
         }
-        let rows = record::CsvRows::open(Path::new(name)).map_err(bad_input)?;
+        let rows = record::CsvRows::open(Path::new(name), &axis_names).map_err(bad_input)?;
         readers.push(CheckedRows {
             rows,
             grid: grid.clone(),
@@ -250,7 +258,7 @@ pub fn cmd_sweep_merge(a: SweepMergeArgs) -> Result<(), CliError> {
     // Rows go to a scratch file first: a merge refused half-way (a damaged input)
     // leaves the directory's previous outputs as they were.
     let scratch = a.out.join("sweep.csv.partial");
-    let merged = merge_rows(&mut readers, &named, &scratch);
+    let merged = merge_rows(&mut readers, &named, &scratch, &axis_names);
     let agg = match merged {
         Ok(agg) => agg,
         Err(e) => {

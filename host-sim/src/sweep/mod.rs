@@ -1,7 +1,8 @@
 //! Parameter sweeps: `parapet sweep` and `parapet sweep-merge`.
 //!
-//! A sweep flies one scene over the grid speed × μ × δ1 × seed (sensor-noise
-//! seeds `0..K`) on one fixed path (a path file, the straight line, or the
+//! A sweep flies one scene over the grid speed × μ × δ1 × `--grid` axes × seed
+//! (any continuous parameter by name, at most `input::limits::SWEEP_MAX_GRID_PARAMS`
+//! axes; sensor-noise seeds `0..K`) on one fixed path (a path file, the straight line, or the
 //! planner's path for planner seed `--plan-seed`, planned once), in parallel on a
 //! local rayon pool of `--jobs` threads. Every run is deterministic for its seed,
 //! so the grid can be split: `--shard I/N` (I = 1..=N) flies only the runs whose
@@ -24,8 +25,8 @@
 //!
 //! Submodules: [`grid`] (ranges, shards, sizes), [`record`] (the CSV),
 //! [`manifest`] (`sweep.json`, merge checks), [`merge`] (`sweep-merge`),
-//! [`heatmap`] (aggregation, plots). This file: `parapet sweep` (options, checks,
-//! flying the runs).
+//! [`heatmap`] (aggregation, plots), [`setup`] (a run's configuration, checks and
+//! row). This file: `parapet sweep` (options, checks, flying the runs).
 //! May import: `crate::{cli, fc, flight, input, plan, world}`,
 //! clap, rayon, indicatif, anyhow.
 
@@ -34,9 +35,9 @@ pub mod heatmap;
 pub mod manifest;
 pub mod merge;
 pub mod record;
+pub mod setup;
 
 use std::io::IsTerminal;
-use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
@@ -50,15 +51,15 @@ pub use heatmap::{Aggregator, Cell};
 pub use manifest::{Identity, Manifest};
 pub use merge::{cmd_sweep_merge, SweepMergeArgs};
 pub use record::{SweepRecord, COLUMNS};
+pub use setup::SweepSetup;
 
 use crate::cli::{exit_codes_help, CliError};
-use crate::fc::control::run;
 use crate::flight::preflight::PreflightOptions;
 use crate::flight::runner::{default_duration, RunConfig};
 use crate::flight::validate::Given;
 use crate::input::limits::{
-    MAX_DURATION_CEILING_S, MAX_DURATION_S, SWEEP_CONFIRM_RUNS, SWEEP_MAX_JOBS, SWEEP_MAX_RUNS,
-    SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
+    MAX_DURATION_CEILING_S, MAX_DURATION_S, SWEEP_CONFIRM_RUNS, SWEEP_MAX_GRID_PARAMS, SWEEP_MAX_JOBS,
+    SWEEP_MAX_RUNS, SWEEP_MAX_SEEDS, SWEEP_MAX_VALUES,
 };
 use crate::input::InputError;
 use crate::plan::pathfile::PathFile;
@@ -77,8 +78,11 @@ const CHUNK_PER_JOB: usize = 64;
 fn sweep_help() -> String {
     format!(
         "\
-Grid: every combination speed × μ × δ1 × seed, index k speed-major (seed fastest).
+Grid: every combination speed × μ × δ1 × --grid axes × seed, index k speed-major (seed fastest).
   A range is A:B:N (N evenly spaced values from A to B) or one value A.
+  --grid NAME=A:B:N grids any continuous parameter by name (at most {SWEEP_MAX_GRID_PARAMS} axes; its range is
+  the parameter's; not a code parameter, nor one --mu, --delta1, --speed, --filter, --guidance or a --param
+  sets); sweep.csv gets a column NAME with the value each run's controller flew.
   --seeds K flies the sensor-noise seeds 0, 1, …, K-1 at every grid point (a count, not a range).
 
 Limits (input::limits):
@@ -90,12 +94,14 @@ Limits (input::limits):
 
 Outputs (--out): sweep.csv (one row per run; status ok | failed, and the error of a failed run),
   sweep.json (the sweep's identity and shards, for sweep-merge), heatmap_*.png/svg
-  (μ × δ1; failed runs left out). The scene and path files are never overwritten.
+  (μ × δ1; each cell aggregates every speed, --grid value and seed; failed runs left out).
+  The scene and path files are never overwritten.
 
 Examples:
   parapet sweep --scene scenes/office.toml --path scenes/office_path.json --filter paper \\
       --mu 0.5:1.4:4 --delta1 0.051:0.3:4 --seeds 2 --out out/fig9
   parapet sweep --scene scenes/one_sphere.toml --straight --mu 0.9 --delta1 0.06:0.3:3 --speed 0.25:1:4
+  parapet sweep --scene S --straight --mu 1.4 --delta1 0.1 --grid TRJ_ACC=0.5:2:4 --grid TRK_KP=0.5:1:2
   parapet sweep … --shard 1/2 --out out/s1   # and --shard 2/2 --out out/s2, then sweep-merge
 
 {}",
@@ -184,6 +190,9 @@ pub struct SweepArgs {
     /// Wins over `--param MIS_GUIDANCE`.
     #[arg(long, value_parser = crate::cli::values::parse_guidance)]
     pub guidance: Option<parapet_core::outer::guidance::MissionGuidance>,
+    /// Grid a parameter by name (repeatable, see Grid): NAME=A:B:N or NAME=A.
+    #[arg(long = "grid", value_name = "NAME=A:B:N")]
+    pub grid: Vec<String>,
 }
 
 fn bad(m: impl Into<String>) -> CliError {
@@ -218,136 +227,6 @@ fn sweep_path(scene: &Scene, a: &SweepArgs) -> Result<(Vec<Vector3<f64>>, &'stat
         }
     })?;
     Ok((planned.waypoints.iter().map(to_f64).collect(), "planner"))
-}
-
-/// Everything shared by the runs of one sweep.
-pub struct SweepSetup {
-    /// The scene.
-    pub scene: Scene,
-    /// Base configuration (path, filter, noise, duration rule); each run sets μ, δ1, speed, seed.
-    pub base: RunConfig,
-    /// Pre-flight options (path file, `--foreign-path`).
-    pub preflight: PreflightOptions,
-    /// The scene's `[sim] duration` is set: every run flies the base duration.
-    /// Otherwise a run's duration is `runner::default_duration` at its speed, at
-    /// most [`SweepSetup::duration_limit`].
-    pub scene_duration: bool,
-    /// `--duration`, s.
-    pub duration_limit: Option<f64>,
-    /// What `validate::check_run` is told: the grid's options and `--max-duration`.
-    pub given: Given,
-}
-
-impl SweepSetup {
-    /// The configuration of run `p`, and its scene (the run's speed set).
-    pub fn config(&self, p: &GridPoint) -> (Scene, RunConfig) {
-        let mut scene = self.scene.clone();
-        scene.speed = p.speed;
-        let mut cfg = self.base.clone();
-        cfg.params.mu = p.mu;
-        cfg.params.delta1 = p.delta1;
-        cfg.params.speed = p.speed;
-        cfg.seed = p.seed;
-        if !self.scene_duration {
-            // The rule of `parapet run` at this speed, at most `--duration`.
-            let rule = default_duration(&scene, &cfg.path, p.speed);
-            cfg.duration = self.duration_limit.unwrap_or(f64::INFINITY).min(rule);
-        }
-        (scene, cfg)
-    }
-
-    /// `validate::check_run` and `preflight::check` for run `p`.
-    pub fn check(&self, p: &GridPoint) -> Result<(), InputError> {
-        let (scene, cfg) = self.config(p);
-        crate::flight::validate::check_run(&scene, &cfg, &self.given)?;
-        crate::flight::preflight::check(&scene, &cfg, &self.preflight)
-    }
-
-    fn failed_row(&self, p: &GridPoint, error: String) -> SweepRecord {
-        let filter = if self.base.cbf { self.base.variant.as_str().to_string() } else { "none".into() };
-        SweepRecord {
-            index: p.index,
-            scene: self.scene.name.clone(),
-            filter,
-            mu: p.mu,
-            delta: self.base.params.delta,
-            delta1: p.delta1,
-            kp: self.base.params.kp,
-            kd: self.base.params.kd,
-            speed: p.speed,
-            seed: p.seed,
-            noise: self.base.sensors.noise,
-            status: record::Status::Failed,
-            collided: None,
-            first_collision_time_s: None,
-            collision_with: None,
-            min_clearance_m: None,
-            min_h_bar: None,
-            min_filter_h_bar: None,
-            reached_goal: None,
-            time_to_goal_s: None,
-            final_distance_to_goal_m: None,
-            reached_path_end: None,
-            final_distance_to_path_end_m: None,
-            tracking_rms_m: None,
-            filter_active_fraction: None,
-            end_reason: None,
-            sim_time_s: None,
-            error: Some(error.replace(['\n', '\r'], " ")),
-        }
-    }
-
-    /// Fly run `p` and make its row; a pre-flight refusal, a run error or a panic
-    /// in the run is a `failed` row carrying the message.
-    pub fn fly(&self, p: &GridPoint) -> SweepRecord {
-        if let Err(err) = self.check(p) {
-            return self.failed_row(p, format!("refused before the flight: {err}"));
-        }
-        let (scene, cfg) = self.config(p);
-        let flown = std::panic::catch_unwind(AssertUnwindSafe(|| run(&scene, &cfg, &mut |_| {})));
-        let s = match flown {
-            Ok(Ok(out)) => out.summary,
-            Ok(Err(err)) => return self.failed_row(p, format!("{err:#}")),
-            Err(panic) => {
-                let what = panic
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| panic.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "unknown".into());
-                return self.failed_row(p, format!("internal error (panic): {what}"));
-            }
-        };
-        SweepRecord {
-            index: p.index,
-            scene: s.scene,
-            filter: s.filter,
-            mu: p.mu,
-            delta: s.params.delta,
-            delta1: p.delta1,
-            kp: s.params.kp,
-            kd: s.params.kd,
-            speed: p.speed,
-            seed: p.seed,
-            noise: s.noise,
-            status: record::Status::Ok,
-            collided: Some(s.collided),
-            first_collision_time_s: s.first_collision_time_s,
-            collision_with: s.collision_with,
-            min_clearance_m: Some(s.min_clearance_m),
-            min_h_bar: Some(s.min_h_bar),
-            min_filter_h_bar: s.min_filter_h_bar,
-            reached_goal: Some(s.reached_goal),
-            time_to_goal_s: s.time_to_goal_s,
-            final_distance_to_goal_m: Some(s.final_distance_to_goal_m),
-            reached_path_end: Some(s.reached_path_end),
-            final_distance_to_path_end_m: Some(s.final_distance_to_path_end_m),
-            tracking_rms_m: Some(s.tracking_rms_m),
-            filter_active_fraction: Some(s.filter_active_fraction),
-            end_reason: Some(s.end_reason),
-            sim_time_s: Some(s.sim_time_s),
-            error: None,
-        }
-    }
 }
 
 /// Fly the runs `shard` holds of `grid` on `jobs` threads, in chunks; each chunk's
@@ -465,7 +344,7 @@ fn check_size(
     jobs: usize,
 ) -> Result<u64, CliError> {
     let shard = a.shard.unwrap_or(Shard::ALL);
-    let options = "options --mu, --delta1, --speed, --seeds";
+    let options = "options --mu, --delta1, --speed, --grid, --seeds";
     let Some(total) = grid.size() else {
         return Err(bad_input(
             InputError::file(
@@ -569,7 +448,10 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     let scene_bytes = std::fs::read(&a.scene)
         .map_err(|err| bad(format!("{}: cannot read the file: {err}", a.scene.display())))?;
     let speed = a.speed.clone().unwrap_or(GridRange { start: scene.speed, end: scene.speed, n: 1 });
-    let grid = Grid::new(&a.mu, &a.delta1, &speed, a.seeds);
+    let taken = grid::Taken { params: &a.param, filter: a.filter.is_some(), guidance: a.guidance.is_some() };
+    let axes = grid::parse_axes(&a.grid, &taken).map_err(bad_input)?;
+    let grid_params: Vec<grid::ParamAxis> = axes.iter().map(|x| x.1.clone()).collect();
+    let grid = Grid::new(&a.mu, &a.delta1, &speed, a.seeds).with_axes(&grid_params);
     let fixed_duration = a.duration.or(scene.sim.duration);
     // A first size check with the straight-line length (the path is not known yet):
     // refuses absurd grids before planning.
@@ -657,12 +539,16 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         speed,
         seeds: a.seeds,
         params: assigned.iter().map(|(p, x)| (p.name.to_string(), *x)).collect(),
+        grid_params,
     };
-    let setup = SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration, given };
+    let axes = axes.iter().map(|x| x.0).collect();
+    let setup =
+        SweepSetup { scene, base, preflight, scene_duration, duration_limit: a.duration, given, axes };
     // What the grid does not change must pass for the first run; a refusal about
     // a grid option (or the duration its speed implies) is that run's failed row.
     if let Err(e) = setup.check(&grid.point(0)) {
-        let per_run = ["option --mu", "option --delta1", "option --speed", "option --duration"];
+        let per_run =
+            ["option --mu", "option --delta1", "option --speed", "option --duration", "option --grid"];
         if !per_run.contains(&e.origin.as_str()) {
             return Err(bad_input(e));
         }
@@ -675,8 +561,9 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
         std::fs::remove_file(&json).with_context(|| format!("cannot remove the old {}", json.display()))?;
     }
     let csv_path = a.out.join("sweep.csv");
-    let mut csv =
-        record::CsvSink::create(&csv_path).with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let names: Vec<String> = grid.params.iter().map(|(n, _)| n.clone()).collect();
+    let mut csv = record::CsvSink::create(&csv_path, &names)
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
     let bar = std::io::stderr().is_terminal().then(|| {
         let pb = indicatif::ProgressBar::new(runs);
         pb.set_style(

@@ -7,7 +7,9 @@
 //! (scene, filter, μ s, δ m², δ1 m², k_p, k_d, speed m/s, seed, noise); `status`
 //! (`ok` or `failed`); the run summary's fields (see `report::Summary`; empty on
 //! a failed row); `error` (why a failed row failed; empty on `ok`). The
-//! wall-clock time is left out on purpose (it is not deterministic).
+//! wall-clock time is left out on purpose (it is not deterministic). Then one column per
+//! `--grid` axis, named by its parameter, holding the value the run's controller flew (read
+//! back from its parameter set, as the shortest decimal of the `f32`).
 //!
 //! Reading ([`CsvRows`]) checks the header and every row and names the file, the
 //! line, the column and the value of anything it cannot use.
@@ -90,6 +92,9 @@ pub struct SweepRecord {
     pub sim_time_s: Option<f64>,
     /// Why the run failed (failed rows only).
     pub error: Option<String>,
+    /// The values of the `--grid` axes as flown (the columns after [`COLUMNS`]).
+    #[serde(skip)]
+    pub params: Vec<f64>,
 }
 
 /// Column names of `sweep.csv`, in order (the field names of [`SweepRecord`]).
@@ -192,18 +197,23 @@ pub struct CsvSink {
     w: csv::Writer<File>,
 }
 
+/// The header of a `sweep.csv` with the `--grid` axes `names`.
+pub fn header(names: &[String]) -> Vec<String> {
+    COLUMNS.iter().map(|c| c.to_string()).chain(names.iter().cloned()).collect()
+}
+
 impl CsvSink {
-    /// Create (truncate) `path` and write the header.
-    pub fn create(path: &Path) -> std::io::Result<CsvSink> {
+    /// Create (truncate) `path` and write the header (`names`: the `--grid` axes).
+    pub fn create(path: &Path, names: &[String]) -> std::io::Result<CsvSink> {
         let file = File::create(path)?;
         let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(file);
-        w.write_record(COLUMNS).map_err(std::io::Error::other)?;
+        w.write_record(header(names)).map_err(std::io::Error::other)?;
         Ok(CsvSink { w })
     }
 
     /// Append one record.
     pub fn push(&mut self, r: &SweepRecord) -> std::io::Result<()> {
-        self.w.serialize(r).map_err(std::io::Error::other)
+        self.w.serialize((r, &r.params)).map_err(std::io::Error::other)
     }
 
     /// Flush and close.
@@ -223,8 +233,8 @@ pub struct CsvRows {
 }
 
 impl CsvRows {
-    /// Open `path` and check its header (`file` names it in errors).
-    pub fn open(path: &Path) -> Result<CsvRows, InputError> {
+    /// Open `path` and check its header (`file` names it in errors; `names`: the `--grid` axes).
+    pub fn open(path: &Path, names: &[String]) -> Result<CsvRows, InputError> {
         let file = path.display().to_string();
         let f =
             File::open(path).map_err(|e| InputError::file(&file, format!("cannot read the file: {e}")))?;
@@ -233,13 +243,14 @@ impl CsvRows {
             .headers()
             .map_err(|e| InputError::file(format!("{file}: line 1"), format!("not a sweep CSV: {e}")))?
             .clone();
-        if headers.iter().ne(COLUMNS.iter().copied()) {
+        let want = header(names);
+        if headers.iter().ne(want.iter().map(String::as_str)) {
             return Err(InputError::file(
                 format!("{file}: line 1"),
-                "not a sweep CSV of this parapet version: the header differs",
+                "not a sweep CSV of this parapet version and grid: the header differs",
             )
             .value(format!("{:?}", headers.iter().collect::<Vec<_>>().join(",")))
-            .allowed(format!("{:?}", COLUMNS.join(","))));
+            .allowed(format!("{:?}", want.join(","))));
         }
         Ok(CsvRows { file, r, headers, raw: csv::StringRecord::new() })
     }
@@ -260,7 +271,7 @@ impl CsvRows {
         }
         let line = self.raw.position().map(|p| p.line()).unwrap_or(0);
         let at = format!("{}: line {line}", self.file);
-        let rec: SweepRecord = self.raw.deserialize(Some(&self.headers)).map_err(|e| {
+        let mut rec: SweepRecord = self.raw.deserialize(Some(&self.headers)).map_err(|e| {
             let (col, reason) = match e.kind() {
                 csv::ErrorKind::Deserialize { err, .. } => {
                     (err.field().map(|i| i as usize), err.kind().to_string())
@@ -274,6 +285,15 @@ impl CsvRows {
                 None => InputError::file(&at, format!("cannot read the row: {reason}")),
             }
         })?;
+        for c in COLUMNS.len()..self.headers.len() {
+            let text = self.raw.get(c).unwrap_or("");
+            let x = text.parse::<f64>().map_err(|e| {
+                InputError::file(&at, format!("column {}: {e}", c + 1))
+                    .field(self.headers.get(c).unwrap_or("?"))
+                    .value(format!("{text:?}"))
+            })?;
+            rec.params.push(x);
+        }
         rec.check().map_err(|(col, reason)| {
             let c = COLUMNS.iter().position(|x| *x == col).unwrap_or(0);
             InputError::file(&at, format!("column {}: {reason}", c + 1))
@@ -331,6 +351,7 @@ pub(crate) mod tests {
             end_reason: Some(if collided { "collision" } else { "goal" }.into()),
             sim_time_s: Some(12.5),
             error: None,
+            params: Vec::new(),
         }
     }
 
@@ -346,7 +367,7 @@ pub(crate) mod tests {
     }
 
     fn read_all(path: &Path) -> Result<Vec<SweepRecord>, InputError> {
-        let mut r = CsvRows::open(path)?;
+        let mut r = CsvRows::open(path, &[])?;
         let mut v = Vec::new();
         while let Some((_, rec)) = r.next_record()? {
             v.push(rec);
@@ -378,7 +399,7 @@ pub(crate) mod tests {
         failed.error = Some("run 2: waypoint follower: speed 200 m/s, allowed ≤ 100, \"quoted\"".into());
         let rows = vec![ok_row(0, false, 0.125), ok_row(1, true, -0.01), failed.clone()];
         let p = d.join("sweep.csv");
-        let mut sink = CsvSink::create(&p).unwrap();
+        let mut sink = CsvSink::create(&p, &[]).unwrap();
         for r in &rows {
             sink.push(r).unwrap();
         }
@@ -426,5 +447,35 @@ pub(crate) mod tests {
         assert!(e.contains("line 2"), "{e}");
         let e = read_all(&d.join("missing.csv")).unwrap_err().to_string();
         assert!(e.contains("missing.csv") && e.contains("cannot read"), "{e}");
+    }
+
+    #[test]
+    fn grid_columns_follow_the_record_and_are_read_back() {
+        let d = dir("grid");
+        let p = d.join("sweep.csv");
+        let names = vec!["TRJ_ACC".to_string()];
+        let rows = vec![
+            SweepRecord { params: vec![0.5], ..ok_row(0, false, 0.1) },
+            SweepRecord { params: vec![2.0], ..ok_row(1, false, 0.2) },
+        ];
+        let mut sink = CsvSink::create(&p, &names).unwrap();
+        for r in &rows {
+            sink.push(r).unwrap();
+        }
+        sink.finish().unwrap();
+        let text = std::fs::read_to_string(&p).unwrap();
+        assert!(text.lines().next().unwrap().ends_with(",error,TRJ_ACC"), "{text}");
+        let mut r = CsvRows::open(&p, &names).unwrap();
+        let mut back = Vec::new();
+        while let Some((_, rec)) = r.next_record().unwrap() {
+            back.push(rec);
+        }
+        assert_eq!(back, rows);
+        let e = CsvRows::open(&p, &[]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("header"), "{e}");
+        write_all(&p, &text.replacen(",0.5\n", ",x\n", 1)).unwrap();
+        let mut r = CsvRows::open(&p, &names).unwrap();
+        let e = r.next_record().unwrap_err().to_string();
+        assert!(e.contains("TRJ_ACC") && e.contains("\"x\""), "{e}");
     }
 }
