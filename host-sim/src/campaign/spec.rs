@@ -768,6 +768,13 @@ mod tests {
         p
     }
 
+    /// A fresh temporary directory `parapet-spec-<name>-<pid>`.
+    fn tmp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("parapet-spec-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
     fn scene_dir() -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes")
     }
@@ -831,6 +838,42 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("guidance") && e.contains("fast") && e.contains("trajectory"), "{e}");
+    }
+
+    /// `parapet campaign --params FILE --param NAME=VALUE`: over the `[run]` keys (dropped from
+    /// the flights' options), under the draws; a `--param` of a drawn parameter refused; the
+    /// set enters the identity.
+    #[test]
+    fn command_line_parameters_replace_run_keys_and_enter_the_identity() {
+        let (dir, sc) = (tmp_dir("cli-params"), scene_dir().join("one_sphere.toml"));
+        let text = format!(
+            "flights = 3\n[run]\nPA_SPEED_MAX = 3\nfilter = \"paper\"\nTRJ_ACC = 3\n[[scenes]]\nfile = {:?}\n\
+             straight = true\n[draw]\nCBF_ACC_BOUND = {{ uniform = [0.5, 2.0] }}\nkp = 0.6\n",
+            sc.display().to_string()
+        );
+        let file = write(&dir, "c.toml", &text);
+        let params = write(&dir, "p.params", "1\t1\tPA_SPEED_MAX\t2\t9\n1\t1\tCBF_ACC_BOUND\t1.5\t9\n");
+        let plain = Campaign::load(&file).unwrap();
+        let c = Campaign::load(&file)
+            .unwrap()
+            .with_params(Some(&params), &["CBF_VARIANT=1".into()])
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_ne!(c.identity, plain.identity);
+        assert_eq!(c.params_set.get("PA_SPEED_MAX"), Some(&2.0));
+        assert_eq!(c.set_columns(), ["CBF_VARIANT", "PA_SPEED_MAX"], "CBF_ACC_BOUND is drawn: its column");
+        let f = c.flight(1);
+        let (_, cfg) = crate::cli::run_config_from_args(&f.args).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!f.args.iter().any(|a| a == "PA_SPEED_MAX=3" || a == "--filter"), "{:?}", f.args);
+        assert!(f.args.iter().any(|a| a == "TRJ_ACC=3"), "a [run] key not set here stays: {:?}", f.args);
+        assert_eq!(cfg.variant.as_str(), "relative", "--param CBF_VARIANT=1 over [run] filter = paper");
+        assert!(cfg.param_overrides.contains(&("PA_SPEED_MAX", 2.0)), "{:?}", cfg.param_overrides);
+        assert!((cfg.accel_bound - f.values["CBF_ACC_BOUND"]).abs() < 1e-6, "the draw over the file");
+        for given in ["CBF_ACC_BOUND=1", "TRK_KP=1"] {
+            let e =
+                Campaign::load(&file).unwrap().with_params(None, &[given.into()]).unwrap_err().to_string();
+            assert!(e.contains("--param") && e.contains("draws this parameter"), "{given}: {e}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
