@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use parapet_sim::campaign::{cmd_campaign, cmd_campaign_merge, CampaignArgs, CampaignMergeArgs};
+use parapet_sim::campaign::{
+    cmd_campaign, cmd_campaign_merge, CampaignArgs, CampaignMergeArgs, IdentityArgs,
+};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -30,9 +32,11 @@ fn campaign_with(file: &Path, out: &Path, shard: Option<&str>, param: &[&str]) {
         out: out.into(),
         jobs: Some(2),
         shard: shard.map(String::from),
-        guidance: None,
-        param: param.iter().map(|s| s.to_string()).collect(),
-        params_file: None,
+        identity: IdentityArgs {
+            guidance: None,
+            param: param.iter().map(|s| s.to_string()).collect(),
+            params_file: None,
+        },
     };
     cmd_campaign(a).unwrap_or_else(|e| panic!("{e}"));
 }
@@ -200,9 +204,7 @@ fn shards_merge_byte_identical_and_mixed_campaigns_are_refused() {
             campaign: file.into(),
             out: dir.join("merged"),
             shards,
-            guidance: None,
-            param: Vec::new(),
-            params_file: None,
+            identity: IdentityArgs { guidance: None, param: Vec::new(), params_file: None },
         })
     };
     merge(shards.clone(), &c).unwrap_or_else(|e| panic!("{e}"));
@@ -316,9 +318,7 @@ fn the_speed_campaign_draws_the_perception_and_refuses_a_set_that_cannot_see_the
         out: out.clone(),
         jobs: Some(2),
         shard: None,
-        guidance: None,
-        param: Vec::new(),
-        params_file: None,
+        identity: IdentityArgs { guidance: None, param: Vec::new(), params_file: None },
     };
     match cmd_campaign(a) {
         Err(e) => assert!(e.to_string().contains("could not be flown"), "{e}"),
@@ -419,9 +419,11 @@ fn campaign_param_flies_every_flight_and_merges_only_with_the_same_params() {
             campaign: file.clone(),
             out: dir.join("merged"),
             shards: vec![dir.join("s1"), dir.join("s2")],
-            guidance: None,
-            param: param.iter().map(|s| s.to_string()).collect(),
-            params_file: None,
+            identity: IdentityArgs {
+                guidance: None,
+                param: param.iter().map(|s| s.to_string()).collect(),
+                params_file: None,
+            },
         })
     };
     for (param, got, want) in

@@ -61,6 +61,15 @@ pub struct CampaignArgs {
     /// writes campaign.csv and shard.json for `parapet campaign-merge`.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    /// The options that set the flights' parameters (part of the campaign's identity).
+    #[command(flatten)]
+    pub identity: IdentityArgs,
+}
+
+/// The options of `parapet campaign` that enter the campaign's identity: `campaign-merge`
+/// takes the same ones and refuses shards flown with others.
+#[derive(Debug, Args)]
+pub struct IdentityArgs {
     /// Mission guidance of every flight (MIS_GUIDANCE): trajectory | paper, over the file's
     /// `[run] guidance`; part of the campaign's identity (give it to `campaign-merge` too).
     #[arg(long, value_parser = crate::cli::values::parse_guidance)]
@@ -76,6 +85,15 @@ pub struct CampaignArgs {
     pub params_file: Option<PathBuf>,
 }
 
+impl IdentityArgs {
+    /// The campaign file with these options applied.
+    fn load(&self, file: &Path) -> Result<Campaign, CliError> {
+        Ok(Campaign::load(file)?
+            .with_params(self.params_file.as_deref(), &self.param)?
+            .with_guidance(self.guidance))
+    }
+}
+
 /// Options of `parapet campaign-merge`.
 #[derive(Debug, Args)]
 pub struct CampaignMergeArgs {
@@ -88,15 +106,9 @@ pub struct CampaignMergeArgs {
     /// The shards' output directories (each with campaign.csv and shard.json).
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
-    /// The `--guidance` the shards flew with (part of the campaign's identity).
-    #[arg(long, value_parser = crate::cli::values::parse_guidance)]
-    pub guidance: Option<MissionGuidance>,
-    /// The `--param NAME=VALUE` options the shards flew with (part of the campaign's identity).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    pub param: Vec<String>,
-    /// The `--params FILE` the shards flew with (part of the campaign's identity).
-    #[arg(long = "params", value_name = "FILE")]
-    pub params_file: Option<PathBuf>,
+    /// The `--guidance`, `--param` and `--params` the shards flew with (the campaign's identity).
+    #[command(flatten)]
+    pub identity: IdentityArgs,
 }
 
 /// `shard.json`: what a shard flew.
@@ -399,9 +411,7 @@ pub fn process_cpu_seconds() -> Option<f64> {
 
 /// `parapet campaign`.
 pub fn cmd_campaign(a: CampaignArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?
-        .with_params(a.params_file.as_deref(), &a.param)?
-        .with_guidance(a.guidance);
+    let c = a.identity.load(&a.campaign)?;
     let jobs = match a.jobs {
         Some(j) if !(1..=256).contains(&j) => {
             return Err(InputError::option("jobs", "out of range").value(j).allowed("1 ≤ jobs ≤ 256").into())
@@ -491,9 +501,7 @@ fn params_difference(
 
 /// `parapet campaign-merge`.
 pub fn cmd_campaign_merge(a: CampaignMergeArgs) -> Result<(), CliError> {
-    let c = Campaign::load(&a.campaign)?
-        .with_params(a.params_file.as_deref(), &a.param)?
-        .with_guidance(a.guidance);
+    let c = a.identity.load(&a.campaign)?;
     let names = c.columns();
     let mut seen: Vec<Option<PathBuf>> = Vec::new();
     let mut rows = Vec::new();
