@@ -47,6 +47,27 @@ pub fn local_xy_from_wire(v: i32) -> f32 {
     v as f32 / LOCAL_XY_SCALE
 }
 
+/// Opaque id of an on-vehicle mission plan (MAVLink `MISSION_CURRENT.mission_id`,
+/// `MISSION_COUNT.opaque_id`, `MISSION_ACK.opaque_id`): the common message set asks only that
+/// it change whenever the plan changes, so a ground station that sees a new id downloads the
+/// plan again (issue 38: a replanned path). FNV-1a's step (32 bit) over 32-bit words — each
+/// item's command and its wire x, y, z, in order; never 0 (0 means "ids not supported / no
+/// plan"). Fold the items
+/// with [`plan_id_item`] from [`PLAN_ID_START`] and finish with [`plan_id_finish`].
+pub const PLAN_ID_START: u32 = 0x811c_9dc5;
+
+/// One item (`command`, wire `x`, `y`, `z`) folded into a plan id (see [`PLAN_ID_START`]).
+pub fn plan_id_item(acc: u32, command: u16, x: i32, y: i32, z: f32) -> u32 {
+    [u32::from(command), x as u32, y as u32, z.to_bits()]
+        .iter()
+        .fold(acc, |h, w| (h ^ w).wrapping_mul(0x0100_0193))
+}
+
+/// The folded id as sent: never 0 (see [`PLAN_ID_START`]).
+pub fn plan_id_finish(acc: u32) -> u32 {
+    acc.max(1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -58,5 +79,25 @@ mod tests {
         assert_eq!(local_xy_from_wire(local_xy_to_wire(-2.5)), -2.5);
         assert_eq!(local_xy_to_wire(f64::NAN), 0);
         assert_eq!(local_xy_to_wire(1e9), i32::MAX);
+    }
+
+    /// The plan id changes with any item's command or coordinate and with the order, and is
+    /// never the "not supported" 0.
+    #[test]
+    fn plan_id_changes_with_the_plan() {
+        let id = |items: &[(u16, i32, i32, f32)]| {
+            plan_id_finish(items.iter().fold(PLAN_ID_START, |a, &(c, x, y, z)| plan_id_item(a, c, x, y, z)))
+        };
+        let a = (16, 10_000, 0, -1.5);
+        let b = (16, 10_000, 1, -1.5);
+        let base = id(&[a, b]);
+        assert_ne!(base, 0);
+        assert_ne!(id(&[a]), base);
+        assert_ne!(id(&[b, a]), base);
+        assert_ne!(id(&[a, (16, 10_000, 2, -1.5)]), base);
+        assert_ne!(id(&[a, (21, 10_000, 1, -1.5)]), base);
+        assert_ne!(id(&[a, (16, 10_000, 1, -1.25)]), base);
+        assert_eq!(id(&[a, b]), base);
+        assert_eq!(plan_id_finish(0), 1);
     }
 }

@@ -178,6 +178,12 @@ impl FlightStack for Controller {
         self.replan.summary()
     }
 
+    fn mission(&self) -> Option<(Vec<Vector3<f64>>, u16)> {
+        let path = self.fc.path().iter().map(|w| Vector3::new(w.x as f64, w.y as f64, w.z as f64)).collect();
+        use parapet_core::replan::onboard::MissionControl;
+        Some((path, self.fc.outer_telemetry().progress.segment))
+    }
+
     /// A reading of the simulated pack: the estimator (as the F405's ADC task runs it) and
     /// the controller's battery failsafes (Low → Return, Critical → Land).
     fn battery(&mut self, t: f64, r: &BatteryReading) {

@@ -120,6 +120,12 @@ pub trait FlightStack {
     fn replan_summary(&self) -> crate::report::ReplanSummary {
         crate::report::ReplanSummary::default()
     }
+    /// The mission the stack flies now: its path (NED, m; after an on-board replan the new
+    /// path, issue 38) and the index of the waypoint being flown to (MISSION_CURRENT `seq`).
+    /// Default: `None` (not known here: the PIL firmware serves its own mission).
+    fn mission(&self) -> Option<(Vec<Vector3<f64>>, u16)> {
+        None
+    }
     /// A battery reading of the simulated pack (`[battery]`; issue 22). Default: ignored
     /// (a stack without a battery path).
     fn battery(&mut self, _t: f64, _reading: &crate::sim::battery::BatteryReading) {}

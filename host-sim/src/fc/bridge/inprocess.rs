@@ -13,11 +13,15 @@
 //!   holding` / `Replan: budget exceeded, holding` WARNING);
 //! * served: PARAM_REQUEST_LIST / PARAM_REQUEST_READ (the run's parameters, table order, all
 //!   REAL32); PARAM_SET is refused the protocol's way (the PARAM_VALUE in effect is echoed:
-//!   the run's parameters are fixed); MISSION_REQUEST_LIST / MISSION_REQUEST_INT (the flown
-//!   path as MISSION_ITEM_INT, x/y in the wire's 10⁻⁴ m, LOCAL_NED; the host's `mavlink` build
-//!   has no MAVLink 2 extension fields, so `mission_type` is not seen: every type gets the
-//!   mission); COMMAND_LONG / COMMAND_INT → COMMAND_ACK `MAV_RESULT_UNSUPPORTED` (the host
-//!   flies the mission, as in `parapet pil`; without extensions the ACK has no target).
+//!   the run's parameters are fixed); MISSION_REQUEST_LIST / MISSION_REQUEST_INT (the path
+//!   the wrapped stack flies now as MISSION_ITEM_INT — after an on-board replan the new path,
+//!   issue 38 — x/y in the wire's 10⁻⁴ m, LOCAL_NED; `mission_type` is not looked at: every
+//!   type gets the mission); COMMAND_LONG / COMMAND_INT → COMMAND_ACK `MAV_RESULT_UNSUPPORTED`
+//!   (the host flies the mission, as in `parapet pil`);
+//! * MISSION_CURRENT (1 Hz, as the firmware; at once when the path changed): `seq` the
+//!   waypoint being flown to, `total` the path's waypoints, `mission_id` the path's plan id
+//!   ([`plan_id`], also MISSION_COUNT's `opaque_id`), which changes with every replan, so a
+//!   ground station sees that the mission changed and downloads it again.
 //!
 //! Not sent: ATTITUDE (the stack interface carries no attitude estimate), the firmware's
 //! DEBUG_VECT diagnostics. The flight is the wrapped stack's, unchanged.
@@ -34,15 +38,17 @@
 use mavlink::dialects::ardupilotmega::{
     MavAutopilot, MavCmd, MavFrame, MavMessage, MavMissionResult, MavModeFlag, MavParamType, MavResult,
     MavSeverity, MavState, MavType, PositionTargetTypemask, COMMAND_ACK_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA,
-    POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
+    LOCAL_POSITION_NED_DATA, MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_CURRENT_DATA,
+    MISSION_ITEM_INT_DATA, PARAM_VALUE_DATA, POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
 };
 use mavlink::{MavHeader, MavlinkReader, MavlinkVersion};
 use nalgebra::Vector3;
 use parapet_core::controller::ControllerParams;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params::TABLE;
-use parapet_core::wire::ids::{local_xy_to_wire, AUTOPILOT_COMPONENT_ID, VEHICLE_SYSTEM_ID};
+use parapet_core::wire::ids::{
+    local_xy_to_wire, plan_id_finish, plan_id_item, AUTOPILOT_COMPONENT_ID, PLAN_ID_START, VEHICLE_SYSTEM_ID,
+};
 use parapet_core::wire::streams::{spec_of, Stream};
 
 use super::{Bridge, LinkTap};
@@ -72,6 +78,11 @@ pub struct GcsStack<S: FlightStack> {
     state: String,
     /// Replanner events already sent as STATUSTEXT.
     replan_sent: usize,
+    /// The plan id of `path` (MISSION_CURRENT `mission_id`, MISSION_COUNT `opaque_id`).
+    mission_id: u32,
+    /// The waypoint being flown to (MISSION_CURRENT `seq`).
+    mission_seq: u16,
+    next_mission_current_us: u64,
 }
 
 impl<S: FlightStack> GcsStack<S> {
@@ -81,7 +92,6 @@ impl<S: FlightStack> GcsStack<S> {
             inner,
             bridge,
             params,
-            path,
             seq: 0,
             next_telemetry_us: 0,
             next_heartbeat_us: 0,
@@ -89,6 +99,10 @@ impl<S: FlightStack> GcsStack<S> {
             out: None,
             state: String::new(),
             replan_sent: 0,
+            mission_id: plan_id(&path),
+            mission_seq: 0,
+            next_mission_current_us: 0,
+            path,
         }
     }
 
@@ -151,6 +165,7 @@ impl<S: FlightStack> GcsStack<S> {
                     count: self.path.len() as u16,
                     target_system: h.system_id as u8,
                     target_component: h.component_id,
+                    opaque_id: self.mission_id,
                     ..Default::default()
                 }));
             }
@@ -206,6 +221,34 @@ impl<S: FlightStack> GcsStack<S> {
         self.send(&MavMessage::STATUSTEXT(STATUSTEXT_DATA {
             severity,
             text: text.into(),
+            ..Default::default()
+        }));
+    }
+
+    /// The wrapped stack's mission now (after a replan: the new path, issue 38). A changed
+    /// path gets a new plan id, announced at once with a MISSION_CURRENT (the id a ground
+    /// station compares with the one it downloaded, then downloads again).
+    fn refresh_mission(&mut self, t_us: u64) {
+        let Some((path, seq)) = self.inner.mission() else { return };
+        self.mission_seq = seq;
+        // Compared as sent (the wire's 10⁻⁴ m): the controller's f32 copy of the uploaded path
+        // is the same mission.
+        let id = plan_id(&path);
+        if id != self.mission_id {
+            (self.path, self.mission_id) = (path, id);
+            self.next_mission_current_us = t_us;
+        }
+    }
+
+    fn mission_current(&mut self, t_us: u64) {
+        if t_us < self.next_mission_current_us {
+            return;
+        }
+        self.next_mission_current_us = t_us + HEARTBEAT_PERIOD_US;
+        self.send(&MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
+            seq: self.mission_seq,
+            total: self.path.len() as u16,
+            mission_id: self.mission_id,
             ..Default::default()
         }));
     }
@@ -286,6 +329,19 @@ impl<S: FlightStack> GcsStack<S> {
     }
 }
 
+/// The plan id of a path of waypoints as MISSION_ITEM_INT carries them
+/// ([`parapet_core::wire::ids::PLAN_ID_START`]; the firmware folds its stored items the same way).
+/// 0 for no path ("no mission").
+pub fn plan_id(path: &[Vector3<f64>]) -> u32 {
+    if path.is_empty() {
+        return 0;
+    }
+    let waypoint = MavCmd::MAV_CMD_NAV_WAYPOINT as u16;
+    plan_id_finish(path.iter().fold(PLAN_ID_START, |a, w| {
+        plan_id_item(a, waypoint, local_xy_to_wire(w.x), local_xy_to_wire(w.y), w.z as f32)
+    }))
+}
+
 /// The MAVLink v2 messages in `bytes` (datagrams from the endpoints); bytes that are no
 /// valid frame are skipped by the reader.
 pub fn decode_all(bytes: &[u8]) -> Vec<(MavHeader, MavMessage)> {
@@ -316,12 +372,15 @@ impl<S: FlightStack> FlightStack for GcsStack<S> {
         let out = self.inner.outer(t, obstacles);
         self.out = Some(out.clone());
         self.replan_texts();
+        self.refresh_mission(clock_us(t));
         out
     }
 
     fn inner(&mut self, t: f64, imu: &ImuReading) -> [f32; 4] {
         let t_us = clock_us(t);
         let incoming = self.bridge.before_step(t_us);
+        // A changed plan's id goes out before any item of it is served.
+        self.mission_current(t_us);
         for (h, m) in decode_all(&incoming) {
             self.handle(&h, &m);
         }
@@ -453,6 +512,100 @@ mod tests {
             ]
         );
         assert_eq!(s.replan_summary().replans, 1);
+    }
+
+    /// [`Hover`] whose mission is replanned at 1 s: two waypoints, then three.
+    struct Replanned(f64);
+    impl FlightStack for Replanned {
+        fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> anyhow::Result<()> {
+            Hover.start(s)
+        }
+        fn position_fix(&mut self, _: PositionReading) {}
+        fn outer(&mut self, t: f64, o: &[ObstaclePoint]) -> OuterOut {
+            self.0 = t;
+            Hover.outer(t, o)
+        }
+        fn inner(&mut self, t: f64, i: &ImuReading) -> [f32; 4] {
+            Hover.inner(t, i)
+        }
+        fn state_name(&self) -> String {
+            Hover.state_name()
+        }
+        fn mission(&self) -> Option<(Vec<Vector3<f64>>, u16)> {
+            let (a, b, c) =
+                (Vector3::new(1.0, 0.0, -1.0), Vector3::new(1.5, 0.75, -1.0), Vector3::new(3.0, 0.0, -1.0));
+            Some(if self.0 < 1.0 { (vec![a, c], 1) } else { (vec![a, b, c], 1) })
+        }
+    }
+
+    /// Issue 38: the path the stack flies is the downloaded mission; when it changes, a
+    /// MISSION_CURRENT with a new `mission_id` goes out at once, and MISSION_COUNT's
+    /// `opaque_id` is that id.
+    #[test]
+    fn a_replanned_mission_gets_a_new_id_and_is_downloaded() {
+        let (gcs, port, mut s) = behind_a_gcs(Replanned(0.0), vec![]);
+        let imu = ImuReading { gyro: Vector3::zeros(), accel: Vector3::zeros() };
+        let h = MavHeader { system_id: 250, component_id: 190, sequence: 0 };
+        let list =
+            MavMessage::MISSION_REQUEST_LIST(mavlink::dialects::ardupilotmega::MISSION_REQUEST_LIST_DATA {
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            });
+        let item = |seq| {
+            MavMessage::MISSION_REQUEST_INT(mavlink::dialects::ardupilotmega::MISSION_REQUEST_INT_DATA {
+                seq,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            })
+        };
+        // At t: send `req`, step, collect what came back.
+        let mut at = |t: f64, req: &[MavMessage]| {
+            for m in req {
+                gcs.send_to(&frame(h, m), ("127.0.0.1", port)).expect("send");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+            s.outer(t, &[]);
+            s.inner(t, &imu);
+            let mut got = Vec::new();
+            let mut buf = [0u8; 2048];
+            while let Ok((n, _)) = gcs.recv_from(&mut buf) {
+                got.extend(decode_all(&buf[..n]).into_iter().map(|(_, m)| m));
+            }
+            got
+        };
+        let ids = |got: &[MavMessage]| {
+            got.iter()
+                .filter_map(|m| match m {
+                    MavMessage::MISSION_CURRENT(c) => Some((c.mission_id, c.total, c.seq)),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        let counts = |got: &[MavMessage]| {
+            got.iter()
+                .filter_map(|m| match m {
+                    MavMessage::MISSION_COUNT(c) => Some((c.count, c.opaque_id)),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        let before = at(0.0, std::slice::from_ref(&list));
+        let id0 = plan_id(&[Vector3::new(1.0, 0.0, -1.0), Vector3::new(3.0, 0.0, -1.0)]);
+        assert_eq!(counts(&before), vec![(2, id0)]);
+        assert_eq!(ids(&before), vec![(id0, 2, 1)]);
+        assert!(ids(&at(0.5, &[])).is_empty(), "MISSION_CURRENT at 1 Hz only while nothing changes");
+        let after = at(1.0, &[list, item(1)]);
+        let id1 = ids(&after).first().map(|c| c.0).expect("MISSION_CURRENT at the change");
+        assert_ne!(id1, id0);
+        assert_eq!(ids(&after), vec![(id1, 3, 1)]);
+        assert_eq!(counts(&after), vec![(3, id1)]);
+        let wp = after.iter().find_map(|m| match m {
+            MavMessage::MISSION_ITEM_INT(i) => Some((i.seq, i.x, i.y)),
+            _ => None,
+        });
+        assert_eq!(wp, Some((1, 15_000, 7_500)), "item 1 of the new path");
     }
 
     /// A GCS gets HEARTBEAT and LOCAL_POSITION_NED, the whole parameter list and a
