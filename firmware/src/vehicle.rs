@@ -176,6 +176,9 @@ impl<A: ControlSteps> Autopilot for SetupVehicle<A> {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.inner.telemetry()
     }
+    fn flown_path(&self) -> &[parapet_core::Vec3] {
+        self.inner.flown_path()
+    }
     fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
         let v = self.set_param_inner(name, value)?;
         self.setup.param_changed(self.now_us);

@@ -256,6 +256,11 @@ pub trait Autopilot {
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
     /// Current telemetry.
     fn telemetry(&self) -> TelemetrySnapshot;
+    /// The waypoint path the cascade flies now (world NED, m; after an on-board replan the
+    /// new one, issue 38). Default: none (a stack without a path store).
+    fn flown_path(&self) -> &[Vec3] {
+        &[]
+    }
     /// Sets parameter `name` (see [`parapet_core::params`]); returns the value now in effect.
     fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected>;
     /// Current value of parameter `name`.

@@ -416,6 +416,9 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.stage.snapshot()
     }
+    fn flown_path(&self) -> &[Vec3] {
+        self.stage.outer.path()
+    }
 }
 
 /// The inner stage (see the module docs).
@@ -553,6 +556,9 @@ impl Autopilot for Cascade {
     }
     fn telemetry(&self) -> TelemetrySnapshot {
         self.outer.snapshot()
+    }
+    fn flown_path(&self) -> &[Vec3] {
+        self.outer.outer.path()
     }
     fn set_rc(&mut self, rc: &RcInput) {
         self.port().set_rc(rc);

@@ -84,6 +84,9 @@ impl Link {
         self.router.stream_ftp();
         self.router.obstacles.poll(now_us, ap);
         self.router.poll_sources(now_us);
+        if self.router.run.follow_replan(&mut self.router.mission, ap) {
+            self.router.services.on_new_mission();
+        }
         self.router.run.poll(&self.router.mission, now_us, ap);
         let free = REPLY_QUEUE_LEN - self.router.replies.len();
         let progress = self.router.mission_progress(ap);

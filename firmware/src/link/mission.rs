@@ -44,6 +44,21 @@
 //! is handed to the cascade only when the last item arrived; the MISSION_ACK then reports
 //! whether the cascade took it. The non-path items run in [`crate::link::mission_run`].
 //!
+//! **Plan id** ([`MissionUpload::plan_id`], issue 38): MISSION_COUNT's `opaque_id` and
+//! MISSION_CURRENT's `mission_id` carry an id of the
+//! accepted plan (`parapet_core::wire::ids::PLAN_ID_START`, the host's in-process bridge folds
+//! its path the same way), which changes whenever the plan does, so a ground station knows to
+//! download it again (the MAVLink definition of these fields).
+//!
+//! **Replanned path** ([`MissionUpload::replanned`], from [`crate::link::mission_run`] when the
+//! on-board replanner set a new path): a plan of waypoints only, in `MAV_FRAME_LOCAL_NED`,
+//! becomes the path the vehicle now flies (one NAV_WAYPOINT item per waypoint), so a download
+//! returns it and the plan id changes. A plan with other items (takeoff, land, return, actions,
+//! DO_*) or in a global frame is kept as uploaded (its download is then not the replanned path;
+//! the firmware's flash had no room for more). The replanned path never exceeds
+//! the store: both hold 64 points (`PATH_CAPACITY`; a replan that would need more is a
+//! `BudgetExceeded` result and is not flown).
+//!
 //! The deprecated float MISSION_ITEM / MISSION_REQUEST are converted to and from these messages
 //! by [`crate::link::mission_float`].
 //!
@@ -69,9 +84,11 @@ pub const MAX_WAYPOINTS: usize = 64;
 pub const RETRY_INTERVAL_US: u64 = 500_000;
 /// Re-requests before the upload is cancelled.
 pub const MAX_RETRIES: u8 = 4;
-use parapet_core::wire::ids::local_xy_from_wire;
 /// Scale of MISSION_ITEM_INT x/y in local frames (int32 = metres × 10⁴).
 pub use parapet_core::wire::ids::LOCAL_XY_SCALE;
+use parapet_core::wire::ids::{
+    local_xy_from_wire, local_xy_to_wire, plan_id_finish, plan_id_item, PLAN_ID_START,
+};
 
 const RETURN_TO_LAUNCH: u16 = MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16;
 
@@ -200,6 +217,8 @@ pub struct MissionUpload {
     items: HVec<Item, MAX_WAYPOINTS>,
     /// The plan the cascade accepted last (what a download returns).
     stored: HVec<Item, MAX_WAYPOINTS>,
+    /// The plan id of `stored` ([`MissionUpload::plan_id`]).
+    id: u32,
     partner: (u8, u8),
 }
 
@@ -212,7 +231,7 @@ impl Default for MissionUpload {
 impl MissionUpload {
     /// Idle, no plan.
     pub const fn new() -> Self {
-        Self { state: State::Idle, items: HVec::new(), stored: HVec::new(), partner: (0, 0) }
+        Self { state: State::Idle, items: HVec::new(), stored: HVec::new(), id: 0, partner: (0, 0) }
     }
 
     /// `true` while an upload is in progress.
@@ -317,6 +336,44 @@ impl MissionUpload {
     /// The cascade took [`MissionUpload::path`]: the upload becomes the accepted plan.
     pub fn accept(&mut self) {
         self.stored.clone_from(&self.items);
+        self.id = id_of(&self.stored);
+    }
+
+    /// The accepted plan's id (MISSION_CURRENT `mission_id`, MISSION_COUNT `opaque_id`;
+    /// `parapet_core::wire::ids::PLAN_ID_START`): changes with every change of the plan, 0
+    /// without one.
+    pub fn plan_id(&self) -> u32 {
+        self.id
+    }
+
+    /// The cascade flies a replanned path (issue 38): when the accepted plan is one flight
+    /// through waypoints in `MAV_FRAME_LOCAL_NED` (every item a NAV_WAYPOINT without an action)
+    /// it becomes `path`, one NAV_WAYPOINT item per point, so a download returns what the vehicle
+    /// flies and the plan id changes. `false`, the plan kept, for any other plan (takeoff, land,
+    /// return, actions, DO_* items, a global frame) and for a path that is empty or longer than
+    /// [`MAX_WAYPOINTS`] (the replanner's own path never is: `PATH_CAPACITY` is the same 64).
+    pub fn replanned(&mut self, path: &[Vec3]) -> bool {
+        let plain = |it: &Item| {
+            it.command == id::WAYPOINT
+                && it.frame == MavFrame::MAV_FRAME_LOCAL_NED
+                && matches!(mission_items::check(it.command, it.params), Ok(None))
+        };
+        if self.stored.is_empty()
+            || path.is_empty()
+            || path.len() > MAX_WAYPOINTS
+            || !self.stored.iter().all(plain)
+        {
+            return false;
+        }
+        self.stored.clear();
+        for p in path {
+            let (x, y) = (local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)));
+            let frame = MavFrame::MAV_FRAME_LOCAL_NED;
+            let it = Item { x, y, z: p.z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 };
+            let _ = self.stored.push(it); // path.len() ≤ MAX_WAYPOINTS
+        }
+        self.id = id_of(&self.stored);
+        true
     }
 
     /// MISSION_ACK addressed to the last upload partner.
@@ -349,7 +406,7 @@ impl MissionUpload {
             target_system: sys,
             target_component: comp,
             mission_type,
-            opaque_id: 0,
+            opaque_id: self.id,
         })
     }
 
@@ -516,7 +573,16 @@ impl MissionUpload {
         self.state = State::Idle;
         self.items.clear();
         self.stored.clear();
+        self.id = 0;
     }
+}
+
+/// The plan id of `items` (`parapet_core::wire::ids::PLAN_ID_START`; 0 for none).
+fn id_of(items: &[Item]) -> u32 {
+    if items.is_empty() {
+        return 0;
+    }
+    plan_id_finish(items.iter().fold(PLAN_ID_START, |a, it| plan_id_item(a, it.command, it.x, it.y, it.z)))
 }
 
 /// The altitude reference of a supported position frame (`None`: the local frame); `Err` for
@@ -720,6 +786,88 @@ mod tests {
         let ack = m.ack_for(MavMissionResult::MAV_MISSION_ACCEPTED);
         assert_eq!((ack.target_system, ack.target_component), (255, 190));
         assert!(!m.is_receiving());
+    }
+
+    /// Uploads `items` (seq set in order) and accepts the plan.
+    fn accepted(items: &[MISSION_ITEM_INT_DATA]) -> MissionUpload {
+        let mut m = MissionUpload::new();
+        m.on_count(&count(items.len() as u16), 255, 190, 0);
+        for (k, it) in items.iter().enumerate() {
+            m.on_item(&MISSION_ITEM_INT_DATA { seq: k as u16, ..*it }, 255, 190, 0, TKO);
+        }
+        m.accept();
+        m
+    }
+
+    /// Issue 38: a replanned path becomes the accepted plan of a plan of waypoints — a download
+    /// returns its items and the plan id (MISSION_COUNT `opaque_id`) changes; any other plan,
+    /// an empty path or one beyond the store's capacity leaves the plan and its id alone.
+    #[test]
+    fn a_replanned_path_becomes_the_downloaded_plan_of_a_waypoint_plan() {
+        let mut m = accepted(&[item(0, 1.0, 0.0, -1.0), item(0, 2.0, 0.0, -1.0), item(0, 3.0, 1.0, -1.0)]);
+        let id0 = m.plan_id();
+        assert_ne!(id0, 0);
+        let path = [
+            Vec3::new(1.2, -0.4, -1.0),
+            Vec3::new(1.6, 0.6, -1.0),
+            Vec3::new(2.0, 0.0, -1.0),
+            Vec3::new(3.0, 1.0, -1.0),
+        ];
+        assert!(!m.replanned(&[]));
+        assert!(!m.replanned(&[path[0]; MAX_WAYPOINTS + 1]));
+        assert_eq!(m.plan_id(), id0);
+        assert!(m.replanned(&path));
+        let id1 = m.plan_id();
+        assert!(id1 != id0 && id1 != 0);
+        match m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 255, 190) {
+            DownloadReply::Count(c) => assert_eq!((c.count, c.opaque_id), (4, id1)),
+            other => panic!("{other:?}"),
+        }
+        for (k, p) in path.iter().enumerate() {
+            let DownloadReply::Item(it) =
+                m.on_request_item(k as u16, MavMissionType::MAV_MISSION_TYPE_MISSION, 255, 190)
+            else {
+                panic!("item {k}")
+            };
+            let want = item(k as u16, p.x, p.y, p.z);
+            assert_eq!(
+                (it.x, it.y, it.z, it.command, it.frame),
+                (want.x, want.y, want.z, want.command, want.frame)
+            );
+        }
+        assert_eq!(m.accepted_path().len(), 4);
+        assert!((m.accepted_path()[1] - path[1]).norm() < 1e-4);
+        // The same path again is the same plan: the same id.
+        assert!(m.replanned(&path));
+        assert_eq!(m.plan_id(), id1);
+        // A plan that lands is not rewritten.
+        let land = MISSION_ITEM_INT_DATA { command: id::LAND, x: 0, y: 0, ..item(0, 0.0, 0.0, 0.0) };
+        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land]);
+        let id_l = l.plan_id();
+        assert!(!l.replanned(&path));
+        assert_eq!((l.plan_id(), l.stored_len()), (id_l, 2));
+        l.clear();
+        assert_eq!(l.plan_id(), 0);
+    }
+
+    /// A plan uploaded in a global frame (as QGroundControl sends it) is kept as uploaded (not
+    /// done: the replanned path in a global frame).
+    #[test]
+    fn a_global_frame_plan_is_kept() {
+        let global = |p: Vec3| {
+            let (lat, lon, _) = geo::ned_to_global(p).unwrap();
+            MISSION_ITEM_INT_DATA {
+                x: lat,
+                y: lon,
+                z: -p.z,
+                frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                ..item(0, 0.0, 0.0, 0.0)
+            }
+        };
+        let mut m = accepted(&[global(Vec3::new(5.0, 0.0, -2.0)), global(Vec3::new(9.0, 3.0, -2.0))]);
+        let id = m.plan_id();
+        assert!(!m.replanned(&[Vec3::new(4.0, 2.0, -2.0), Vec3::new(9.0, 3.0, -2.0)]));
+        assert_eq!((m.plan_id(), m.stored_len()), (id, 2));
     }
 
     #[test]

@@ -46,6 +46,7 @@ use crate::app::autopilot::{
 use crate::link::dialect::MissionState;
 use crate::link::mission::{EndAction, MissionUpload, Next};
 use crate::link::mission_items::{self, Action};
+use parapet_core::replan::ReplanOutcome;
 use parapet_core::Vec3;
 
 /// A new segment's follower fields are its own after this, µs (a few outer steps: the
@@ -94,12 +95,19 @@ pub struct MissionProgress {
     pub reached: Option<u16>,
     /// MISSION_CURRENT `mission_state`.
     pub state: MissionState,
+    /// MISSION_CURRENT `mission_id`: the accepted plan's id ([`MissionUpload::plan_id`]).
+    pub mission_id: u32,
 }
 
 impl MissionProgress {
     /// No plan.
-    pub const NONE: Self =
-        Self { total: 0, current: 0, reached: None, state: MissionState::MISSION_STATE_NO_MISSION };
+    pub const NONE: Self = Self {
+        total: 0,
+        current: 0,
+        reached: None,
+        state: MissionState::MISSION_STATE_NO_MISSION,
+        mission_id: 0,
+    };
 }
 
 /// The mission executor (see the module docs).
@@ -112,6 +120,9 @@ pub struct MissionRun {
     current: u16,
     /// The last item done.
     reached: Option<u16>,
+    /// The replanner's event count last seen ([`MissionRun::follow_replan`]; kept by
+    /// [`MissionRun::reset`]).
+    replan_events: u16,
 }
 
 impl Default for MissionRun {
@@ -132,12 +143,34 @@ fn dist(a: Vec3, b: Vec3) -> f32 {
 impl MissionRun {
     /// Nothing started.
     pub const fn new() -> Self {
-        Self { run: Run::Idle, started: false, current: 0, reached: None }
+        Self { run: Run::Idle, started: false, current: 0, reached: None, replan_events: 0 }
     }
 
     /// A new plan was accepted, or the plan was cleared: not started.
     pub fn reset(&mut self) {
-        *self = Self::new();
+        *self = Self { replan_events: self.replan_events, ..Self::new() };
+    }
+
+    /// The on-board replanner set a new path (issue 38: a new event in the snapshot, a
+    /// `Replanned` one): the accepted plan `m` becomes the path the cascade flies when it is one
+    /// flight through waypoints ([`MissionUpload::replanned`]), and the segment being flown is
+    /// that whole path, so MISSION_CURRENT counts in its items. `true` when the plan changed.
+    pub fn follow_replan<A: Autopilot>(&mut self, m: &mut MissionUpload, ap: &A) -> bool {
+        let r = ap.telemetry().replan;
+        if r.events == self.replan_events {
+            return false;
+        }
+        self.replan_events = r.events;
+        let replanned = r.last.is_some_and(|e| matches!(e.outcome, ReplanOutcome::Replanned { .. }));
+        if !replanned || !m.replanned(ap.flown_path()) {
+            return false;
+        }
+        let last = m.stored_len().saturating_sub(1);
+        if let Run::Flying { seen, since_us, .. } = self.run {
+            self.run = Run::Flying { seen, since_us, from: 0, to: last, last };
+        }
+        (self.current, self.reached) = (0, None);
+        true
     }
 
     /// `true` when a mission start on the ground would take off (the plan has NAV_TAKEOFF, or a
@@ -170,7 +203,13 @@ impl MissionRun {
         if let Some(height_m) = height {
             ap.command(now_us, VehicleCommand::Takeoff { height_m })?;
             let _ = ap.command(now_us, VehicleCommand::SetSpeed { m_s: None });
-            *self = Self { run: Run::TakingOff { seen: false }, started: true, current: 0, reached: None };
+            *self = Self {
+                run: Run::TakingOff { seen: false },
+                started: true,
+                current: 0,
+                reached: None,
+                ..*self
+            };
             self.current = plan.takeoff.map_or(0, |t| t.0);
             return Ok(());
         }
@@ -179,7 +218,7 @@ impl MissionRun {
             ap.command(now_us, VehicleCommand::StartMission)?;
         }
         let _ = ap.command(now_us, VehicleCommand::SetSpeed { m_s: None });
-        *self = Self { run: Run::Idle, started: true, current: 0, reached: None };
+        *self = Self { run: Run::Idle, started: true, current: 0, reached: None, ..*self };
         match self.next(m, 0, now_us, ap) {
             Err(e) => {
                 self.run = Run::Idle;
@@ -423,6 +462,7 @@ impl MissionRun {
                 current: 0,
                 reached: None,
                 state: MissionState::MISSION_STATE_NOT_STARTED,
+                mission_id: m.plan_id(),
             };
         }
         let run = match self.run {
@@ -451,6 +491,105 @@ impl MissionRun {
             }
             Run::Idle => (self.current, self.reached, MissionState::MISSION_STATE_PAUSED),
         };
-        MissionProgress { total, current: current.min(last), reached: reached.map(|r| r.min(last)), state }
+        let (current, reached, mission_id) = (current.min(last), reached.map(|r| r.min(last)), m.plan_id());
+        MissionProgress { total, current, reached, state, mission_id }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::autopilot::{FixKind, ParamRejected, PathRejected, PositionFix, SourceNoise};
+    use crate::link::dialect::{MavCmd, MavFrame, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA};
+    use parapet_core::obstacle::ObstaclePoint;
+    use parapet_core::replan::onboard::ReplanEvent;
+
+    /// A cascade that only reports its replanner's events and flies `path`.
+    struct Replanning {
+        snapshot: TelemetrySnapshot,
+        path: std::vec::Vec<Vec3>,
+    }
+
+    impl Autopilot for Replanning {
+        fn update_position(&mut self, _: &PositionFix) {}
+        fn navigation_fix(&mut self, _: &PositionFix, _: FixKind, _: SourceNoise) {}
+        fn update_obstacles(&mut self, _: u64, _: &[ObstaclePoint]) {}
+        fn set_path(&mut self, w: &[Vec3]) -> Result<(), PathRejected> {
+            self.path = w.to_vec();
+            Ok(())
+        }
+        fn clear_path(&mut self) {}
+        fn command(&mut self, _: u64, _: VehicleCommand) -> Result<(), CommandRejected> {
+            Ok(())
+        }
+        fn telemetry(&self) -> TelemetrySnapshot {
+            self.snapshot
+        }
+        fn flown_path(&self) -> &[Vec3] {
+            &self.path
+        }
+        fn set_param(&mut self, _: &str, v: f32) -> Result<f32, ParamRejected> {
+            Ok(v)
+        }
+        fn get_param(&self, _: &str) -> Option<f32> {
+            None
+        }
+    }
+
+    fn plan(points: &[Vec3]) -> MissionUpload {
+        let mut m = MissionUpload::new();
+        let count = MISSION_COUNT_DATA {
+            count: points.len() as u16,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        };
+        m.on_count(&count, 255, 190, 0);
+        for (k, p) in points.iter().enumerate() {
+            let it = MISSION_ITEM_INT_DATA {
+                x: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.x)),
+                y: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.y)),
+                z: p.z,
+                seq: k as u16,
+                command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
+                frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                ..Default::default()
+            };
+            m.on_item(&it, 255, 190, 0, 10.0);
+        }
+        m.accept();
+        m
+    }
+
+    /// Issue 38: each new `Replanned` event makes the accepted plan the flown path, once; a
+    /// no-path event or a repeated count changes nothing; a new upload keeps the count seen.
+    #[test]
+    fn a_replan_event_makes_the_flown_path_the_plan_once() {
+        let (a, b, c) = (Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.5, 0.8, -1.0), Vec3::new(3.0, 0.0, -1.0));
+        let mut m = plan(&[a, c]);
+        let id0 = m.plan_id();
+        let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: vec![a, c] };
+        let mut run = MissionRun::new();
+        assert!(!run.follow_replan(&mut m, &ap));
+        let event = |outcome, n| ReplanEvent { outcome, waypoints: n, detour: 1 };
+        // A no-path event: the plan stays.
+        ap.snapshot.replan =
+            crate::app::replanner::ReplanReport { events: 1, last: Some(event(ReplanOutcome::NoPath, 0)) };
+        assert!(!run.follow_replan(&mut m, &ap));
+        assert_eq!(m.plan_id(), id0);
+        // A new path: the plan is the flown path, once.
+        ap.path = vec![b, c, a];
+        let replanned = ReplanOutcome::Replanned { detour: 1, waypoints: 3 };
+        ap.snapshot.replan =
+            crate::app::replanner::ReplanReport { events: 2, last: Some(event(replanned, 3)) };
+        assert!(run.follow_replan(&mut m, &ap));
+        assert_eq!(m.accepted_path().as_slice(), &[b, c, a][..]);
+        assert_ne!(m.plan_id(), id0);
+        assert!(!run.follow_replan(&mut m, &ap));
+        // A new upload after it: the event already seen does not overwrite it.
+        let mut m2 = plan(&[a, c]);
+        run.reset();
+        assert!(!run.follow_replan(&mut m2, &ap));
+        assert_eq!(m2.plan_id(), id0);
     }
 }

@@ -8,7 +8,7 @@
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
 //! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`ORIGIN`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative to home mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
-//! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = the uploaded seq of the item being flown ([`crate::link::mission_run::MissionRun::progress`]; 0 before the mission was started), total = items of the accepted plan, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE |
+//! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = the uploaded seq of the item being flown ([`crate::link::mission_run::MissionRun::progress`]; 0 before the mission was started), total = items of the accepted plan, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE, mission_id = the accepted plan's id ([`crate::link::mission::MissionUpload::plan_id`]: new with every upload and every replanned path, issue 38) |
 //! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
 //! | HOME_POSITION | 242 | 0.5 Hz, and at once when home changes | [`Services::home`]: where the vehicle armed (before the first arming: its first position; MAV_CMD_DO_SET_HOME while disarmed), as latitude/longitude/altitude around [`ORIGIN`] and as the local x, y, z; quaternion identity; not sent before a position is known. MAV_CMD_GET_HOME_POSITION sends it once |
@@ -545,7 +545,13 @@ impl Services {
 
     /// MISSION_CURRENT of the mission's progress `m` ([`crate::link::mission_run`]).
     pub fn mission_current(&self, m: MissionProgress) -> MISSION_CURRENT_DATA {
-        MISSION_CURRENT_DATA { seq: m.current, total: m.total, mission_state: m.state, ..Default::default() }
+        MISSION_CURRENT_DATA {
+            seq: m.current,
+            total: m.total,
+            mission_state: m.state,
+            mission_id: m.mission_id,
+            ..Default::default()
+        }
     }
 
     /// The next MISSION_ITEM_REACHED due (each item once, in order, up to `m.reached`).
@@ -816,6 +822,7 @@ mod tests {
             current: 0,
             reached,
             state: crate::link::dialect::MissionState::MISSION_STATE_ACTIVE,
+            mission_id: 1,
         };
         let mut reached = Vec::new();
         let mut t = 1_000_000;

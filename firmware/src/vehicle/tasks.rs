@@ -428,6 +428,9 @@ impl<P: Autopilot, M: RawMutex> Autopilot for SetupPort<'_, P, M> {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.inner.telemetry()
     }
+    fn flown_path(&self) -> &[parapet_core::Vec3] {
+        self.inner.flown_path()
+    }
     fn set_param(&mut self, name: &str, value: f32) -> Result<f32, ParamRejected> {
         let v = self.set_param_inner(name, value)?;
         self.outer.setup.param_changed(self.outer.now_us);
