@@ -769,6 +769,7 @@ mod tests {
     };
     use super::*;
     use crate::obstacle::ObstaclePoint;
+    use crate::perception::track::{APPROACH_MAX, STATIC_SPEED};
     use proptest::prelude::*;
     use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
     use std::vec::Vec;
@@ -1131,8 +1132,12 @@ mod tests {
     /// A vehicle flying at 0.5 m/s along a wall 1.5 m away (the returns at grazing
     /// incidence are single points more than the segment gap apart that slide along the
     /// wall with the vehicle), past two static poles, 72-beam lidar with ±1 cm range noise,
-    /// 8 s: no point handed out ever carries a velocity. (Before the foreground rule and
-    /// the motion proof the sliding wall returns were tracked as moving at ≈ 0.5 m/s.)
+    /// 8 s: no track is ever proven moving (no point is extrapolated). (Before the foreground
+    /// rule and the motion proof the sliding wall returns were tracked as moving at ≈ 0.5 m/s.)
+    /// The unproven tracks' closing-in estimates (issue 36) may only point at the vehicle;
+    /// the poles' near faces do not move, so they get none: measured 0 of 326 cluster points
+    /// (with the α-β velocity alone, without the near-face test: 5, the fastest 0.126 m/s;
+    /// bounds here: 5 %, 0.2 m/s).
     #[test]
     fn static_structure_seen_from_a_moving_vehicle_gets_no_velocity() {
         let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
@@ -1145,7 +1150,7 @@ mod tests {
             seed ^= seed << 17;
             ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.02
         };
-        let mut with_velocity = 0;
+        let (mut proven, mut estimated, mut cluster_points, mut fastest) = (0, 0, 0, 0.0f32);
         for k in 0..80u64 {
             let t = 1_000_000 + k * 100_000;
             let p = Vec3::new(0.0, -1.0 + 0.05 * k as f32, -1.0);
@@ -1158,9 +1163,25 @@ mod tests {
                 })
                 .collect();
             assert!(!m.insert_scan(&Scan { t_us: t, pose, mount, geometry: g, ranges: &ranges }).rejected);
-            with_velocity += points(&mut m, t, &p).iter().filter(|o| o.velocity.is_some()).count();
+            proven += m.tracks().filter(|(_, tr)| tr.measured_velocity(t).is_some()).count();
+            for o in points(&mut m, t, &p) {
+                cluster_points += usize::from((CELL_ID_BASE..FRONTIER_ID).contains(&o.id));
+                let Some(w) = o.velocity else { continue };
+                // Only an unproven track's closing-in estimate: horizontal, along p − q towards
+                // the vehicle, at most APPROACH_MAX.
+                let d = p - o.point;
+                let n = Vec3::new(d.x, d.y, 0.0).normalize();
+                assert!(w.dot(&n) > STATIC_SPEED && (w - n * w.dot(&n)).norm() < 1e-4, "{w} at {}", o.point);
+                assert!(w.norm() <= APPROACH_MAX + 1e-5);
+                estimated += 1;
+                fastest = fastest.max(w.norm());
+            }
         }
-        assert_eq!(with_velocity, 0);
+        assert_eq!(proven, 0, "no track of static structure is proven moving");
+        assert!(
+            estimated * 20 <= cluster_points && fastest < 0.2,
+            "{estimated} of {cluster_points}, {fastest} m/s"
+        );
     }
 
     /// A person-sized cylinder walking at 1 m/s, lidar at 10 Hz, one beam in the middle of

@@ -21,8 +21,9 @@ pub const VIRTUAL_ID: u16 = 65_534;
 /// [`VIRTUAL_ID`], exclusive): what may be a mover — a person, a pole, a drone — as opposed to
 /// the cells of walls and other extended surfaces (below this id). The obstacle memory gives
 /// each tracked cluster's cells `CLUSTER_ID_BASE + track slot` (`crate::perception::CELL_ID_BASE`
-/// is this value); a cluster it has not proven moving carries no velocity, and the braking
-/// barrier lets it approach at `CbfParams::brake_unknown_speed`.
+/// is this value); a cluster it has not proven moving carries no velocity, or only an
+/// estimated closing-in one (`crate::perception::track::Track::approach_velocity`), and
+/// without one the braking barrier lets it approach at `CbfParams::brake_unknown_speed`.
 pub const CLUSTER_ID_BASE: u16 = 60_000;
 
 /// `true` for the point of a sensed small cluster whose velocity is unknown (id in

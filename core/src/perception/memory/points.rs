@@ -1,5 +1,7 @@
 //! The memory's obstacle points for the controller: each cell's box point nearest the
-//! vehicle (moving tracks extrapolated), the frontier's point and walls, handed to a closure
+//! vehicle (proven moving tracks extrapolated with their velocity; unproven ones with their
+//! closing-in estimate, `super::super::track::Track::approach_velocity`, not extrapolated),
+//! the frontier's point and walls, handed to a closure
 //! or offered to the obstacle-set policy (`crate::obstacle_set`), a cell's point built only
 //! when the set keeps it.
 //!
@@ -45,9 +47,8 @@ impl<const N: usize> ObstacleMemory<N> {
             if age_us > forget {
                 continue;
             }
-            let w = (c.track != NO_TRACK)
-                .then(|| self.tracker.get(usize::from(c.track)).and_then(|tr| tr.measured_velocity(t_us)))
-                .flatten();
+            let track = (c.track != NO_TRACK).then(|| self.tracker.get(usize::from(c.track))).flatten();
+            let w = track.and_then(|tr| tr.measured_velocity(t_us));
             let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
             let q = if p_no_nan && w.is_none() {
                 clamp3_no_nan(p, &(c.lo + shift), &(c.hi + shift))
@@ -56,7 +57,10 @@ impl<const N: usize> ObstacleMemory<N> {
             };
             threat |= w.is_some_and(|w| closes_in(&(p - q), &w));
             let id = if c.track == NO_TRACK { STATIC_ID } else { CELL_ID_BASE + u16::from(c.track) };
-            sink.cell(&q, w.as_ref(), id);
+            // An unproven track's closing-in part only (not extrapolated, no evasion cap).
+            let approach =
+                if w.is_none() { track.and_then(|tr| tr.approach_velocity(t_us, &(p - q))) } else { None };
+            sink.cell(&q, w.or(approach).as_ref(), id);
         }
         if self.now_us.is_some() {
             let far = ignore_beyond(mu, hypotf(v.x, v.y).max(1.0) * 2.0);
