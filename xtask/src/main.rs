@@ -85,8 +85,12 @@ const FLASH_TARGET: u64 = 128 * 1024;
 /// stage, its sample mailbox, ESTIMATOR_STATUS; +9,816 B measured before that rebase).
 /// Raised to 290 KiB (296,960 B) on 2026-12-07 (issue 35): 295,860 B (+1,608 B over 294,252 B
 /// on main at 6c486f4; static RAM 68,772 B, +24 B) with Return and offboard position
-/// set-points flown on the mission's trajectory (`core::outer::guidance::lent`).
-const FLASH_BUDGET: u64 = 290 * 1024;
+/// set-points flown on the mission's trajectory (`core::outer::guidance::lent`). Raised to
+/// 292 KiB (299,008 B) the same day (issue 38): 296,948 B on main at 5b5dba5 (+1,012 B over
+/// 295,936 B) with the replanned path served as the downloadable mission (the plan id in
+/// MISSION_CURRENT / MISSION_COUNT, the stored plan rewritten on a replan) and the unproven
+/// track's closing-in estimate (issue 36), 12 B under the old guard.
+const FLASH_BUDGET: u64 = 292 * 1024;
 /// Static RAM limit CI enforces (.data + .bss), bytes: a regression guard above today's
 /// 36,968 B (2026-12-06: the mission trajectory, `Trajectory<64>`, 3.3 KB, joined the outer
 /// stage; mission items kept field for field). The product budget (DEVELOPERS.md) is 96 KiB of the F405's 128 KiB SRAM; issue 22's
