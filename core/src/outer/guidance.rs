@@ -682,14 +682,10 @@ impl Guidance {
             }
             _ => 0.0,
         };
-        // The speed governor's limit along the motion caps the allowed speed (scale × cruise).
-        let cruise = match self.mode {
-            Mode::Lent => self.traj_cruise,
-            _ => self.follower.params().cruise_speed,
-        };
-        let scale = scale.min(v.speed_limit / cruise);
+        // The speed governor's limit along the motion caps the speed target (an absolute cap,
+        // not a scale of the path's limit: [`Trajectory::step_capped`]).
         let dt = v.dt.min(MAX_STEP_DT);
-        let r = match traj.step(dt, scale) {
+        let r = match traj.step_capped(dt, scale, v.speed_limit) {
             Ok(s) => {
                 let end = s.segment.saturating_add(1);
                 let last = self.point_waypoint.last().copied().unwrap_or(0);

@@ -116,7 +116,7 @@ pub enum TrajectoryError {
     },
     /// The step's `dt` is not in (0, [`MAX_STEP_DT`]] s.
     BadDt,
-    /// The clock scale is NaN or infinite.
+    /// The clock scale is NaN or infinite, or the speed cap is NaN.
     BadClockScale,
     /// [`Trajectory::new_moving`]: the start speed or acceleration is not finite or out of
     /// range, or the motion could not brake for the limits ahead.
@@ -545,10 +545,24 @@ impl<const N: usize> Trajectory<N> {
     /// scaled by `clock_scale` (clamped into [0, 1]; 0 = brake and wait). Returns the new
     /// reference. Bounded time: `O(BISECTION_ITERATIONS · N)`.
     pub fn step(&mut self, dt: f32, clock_scale: f32) -> Result<TrajectorySample, TrajectoryError> {
+        self.step_capped(dt, clock_scale, f32::INFINITY)
+    }
+
+    /// [`Trajectory::step`] with the speed target also at most `speed_cap` m/s (≥ 0; `+∞`: no
+    /// cap), an absolute bound rather than a scale of the path's limit: the speed governor's
+    /// limit along the motion (`crate::governor`), which must not be multiplied by a corner's
+    /// lower limit (that made a 5 m/s mission slower than a 3 m/s one through the same
+    /// corners). A NaN cap is refused like a NaN scale; a negative one brakes like 0.
+    pub fn step_capped(
+        &mut self,
+        dt: f32,
+        clock_scale: f32,
+        speed_cap: f32,
+    ) -> Result<TrajectorySample, TrajectoryError> {
         if !(dt > 0.0 && dt <= MAX_STEP_DT) {
             return Err(TrajectoryError::BadDt);
         }
-        if !clock_scale.is_finite() {
+        if !clock_scale.is_finite() || speed_cap.is_nan() {
             return Err(TrajectoryError::BadClockScale);
         }
         if self.done {
@@ -573,7 +587,7 @@ impl<const N: usize> Trajectory<N> {
             m.v = floor;
             comp.v = 0.0;
         }
-        let target = scale * self.piece_limit(self.piece);
+        let target = minf(scale * self.piece_limit(self.piece), maxf(speed_cap, 0.0));
         let next = |u: f32| {
             let plan = velocity_plan(m.v, m.a, u, self.lim);
             comp.add(&m, &follow_delta(m.v, m.a, &plan, dt), plan.end_speed)

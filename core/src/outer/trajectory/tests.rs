@@ -296,3 +296,53 @@ fn the_trajectory_fits_the_flight_controllers_ram() {
     let size = core::mem::size_of::<Trajectory<64>>();
     assert!(size <= 3_600, "Trajectory<64> is {size} bytes");
 }
+
+/// The speed cap is absolute: through a 90° corner whose limit is below the cruise speed the
+/// reference flies at the cap where the path allows it, never above it, and a corner slower
+/// than the cap still gets its own limit — not the cap scaled by the corner's ratio to the
+/// cruise (what scaling the clock by cap/cruise did: 5 m/s missions slower than 3 m/s ones).
+#[test]
+fn a_speed_cap_bounds_the_speed_without_scaling_the_corners() {
+    let d = TrajectoryParams::default();
+    let pts = [v3(0.0, 0.0, -1.0), v3(20.0, 0.0, -1.0), v3(20.0, 20.0, -1.0)];
+    let cap = 2.0f32;
+    for cruise in [3.0f32, 5.0, 8.0] {
+        let p = TrajectoryParams { cruise_speed: cruise, ..d };
+        let mut t: Trajectory<4> = Trajectory::new(p, &pts).unwrap();
+        let (mut top, mut corner_min, mut done) = (0.0f32, f32::INFINITY, false);
+        for _ in 0..100_000 {
+            let s = t.step_capped(DT, 1.0, cap).unwrap();
+            top = top.max(s.speed);
+            if (s.position - pts[1]).norm() < 1.5 {
+                corner_min = corner_min.min(s.speed);
+            }
+            if s.done {
+                done = true;
+                break;
+            }
+        }
+        assert!(done, "cruise {cruise}");
+        assert!(top <= cap + 1e-4 && top > cap - 1e-3, "cruise {cruise}: top {top}");
+        // The same corner without a cap: its own limit is below the cap, so the capped
+        // reference flies it as fast (scaling by cap/cruise would give cap/cruise of it).
+        let mut free: Trajectory<4> = Trajectory::new(p, &pts).unwrap();
+        let mut free_min = f32::INFINITY;
+        for _ in 0..100_000 {
+            let s = free.step(DT, 1.0).unwrap();
+            if (s.position - pts[1]).norm() < 1.5 {
+                free_min = free_min.min(s.speed);
+            }
+            if s.done {
+                break;
+            }
+        }
+        assert!(free_min < cap, "the corner is slower than the cap: {free_min}");
+        // (scaled: at most cap/cruise ≤ 2/3 of it; the capped one arrives slower and brakes less.)
+        assert!(corner_min >= 0.9 * free_min, "cruise {cruise}: corner {corner_min}, free {free_min}");
+    }
+    let mut t: Trajectory<4> = Trajectory::new(d, &pts).unwrap();
+    assert_eq!(t.step_capped(DT, 1.0, f32::NAN), Err(TrajectoryError::BadClockScale));
+    // A negative cap brakes like 0: from rest, nothing moves.
+    let s = t.step_capped(DT, 1.0, -1.0).unwrap();
+    assert!(s.speed <= 1e-6);
+}
