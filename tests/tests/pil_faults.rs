@@ -16,7 +16,8 @@ use parapet_tests::pil_support::{config, firmware, scene};
 fn corrupted_dropped_and_lost_frames_are_counted_and_survived() {
     let Some(elf) = firmware() else { return };
     let scene = scene();
-    let cfg = config(&scene, 16.0);
+    // pil_flight's scene (≈ 16 s to the goal with the governor) plus the faults' retries.
+    let cfg = config(&scene, 20.0);
     let mut opts = PilOptions::new(elf);
     opts.resend_after = Duration::from_millis(300);
     opts.faults =

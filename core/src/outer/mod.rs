@@ -50,7 +50,7 @@ use crate::supervisor::modes::{FlightMode, ModeParams, ModeTransition, Modes};
 use crate::supervisor::{EntryContext, Supervisor, SupervisorParams};
 use crate::Vec3;
 use assist::VelocityRef;
-use guidance::{Guidance, GuidanceMode, GuidanceParams};
+use guidance::{Guidance, GuidanceMode, GuidanceParams, MissionGuidance};
 use inputs::{InputParams, Inputs};
 use offboard::OffboardSetpoint;
 use return_path::ReturnPath;
@@ -687,10 +687,15 @@ impl OuterLoop {
                     // Offboard acceleration setpoint: it is the nominal command.
                     u_pd = a;
                 }
-                // Speed governor: what can stop inside observed space (every mode but Manual).
+                // Speed governor: what can stop inside observed space (every mode but Manual;
+                // not under the paper's guidance, `MIS_GUIDANCE` 0, which flies the paper's
+                // method unchanged: docs/filter.md § 17).
                 let age = self.telemetry.obstacle_age_us.map_or(0.0, |a| a as f32 * 1e-6);
+                let paper = self.params.guidance.mission == MissionGuidance::Paper;
+                let gov_params =
+                    GovernorParams { enable: self.params.governor.enable && !paper, ..self.params.governor };
                 let (u_pd, gov) = governor::govern(
-                    &self.params.governor,
+                    &gov_params,
                     &self.params.governor_vehicle,
                     &p,
                     &v,

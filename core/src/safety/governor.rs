@@ -66,9 +66,12 @@ const MIN_SPEED: f32 = 0.05;
 /// The governor's parameters (`GOV_*`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GovernorParams {
-    /// On (`GOV_ENABLE` 1) or off.
+    /// On (`GOV_ENABLE` 1, the default since stop 51) or off. The outer loop does not run it
+    /// under the paper's guidance (`MIS_GUIDANCE` 0), which flies the paper's method unchanged.
     pub enable: bool,
-    /// Distance kept beyond the hull when stopped, m (`GOV_MARGIN`, [0, 2]).
+    /// Distance kept beyond the hull when stopped, m (`GOV_MARGIN`, [0, 2]). Default 0.05: the
+    /// offline planner's clearance beyond the hull, so a planned path never asks the governor
+    /// to stop short of it (0.1 stalled a mission in the office, docs/filter.md § 17).
     pub margin: f32,
     /// Latency added to the braking delay, s (`GOV_DELAY`, [0, 1]).
     pub delay: f32,
@@ -78,7 +81,7 @@ pub struct GovernorParams {
 
 impl Default for GovernorParams {
     fn default() -> Self {
-        GovernorParams { enable: false, margin: 0.1, delay: 0.05, range: 3.0 }
+        GovernorParams { enable: true, margin: 0.05, delay: 0.05, range: 3.0 }
     }
 }
 
@@ -88,7 +91,7 @@ impl GovernorParams {
     pub const fn params<P: Has<Self>>() -> [Param<P>; 4] {
         [
             Param::new("GOV_ENABLE", "Governor", "", (0.0, 1.0), 0, flag!(enable),
-                "Speed governor: 1 limits the speed towards each direction to what can stop inside observed free space (docs/filter.md)").code(on_off),
+                "Speed governor: 1 limits the speed towards each direction to what can stop inside observed free space (not with MIS_GUIDANCE 0; docs/filter.md)").code(on_off),
             Param::new("GOV_MARGIN", "Governor", "m", (0.0, 2.0), 2, field!(margin),
                 "Speed governor: distance kept beyond the hull radius when stopped"),
             Param::new("GOV_DELAY", "Governor", "s", (0.0, 1.0), 3, field!(delay),
@@ -305,7 +308,7 @@ mod tests {
     fn off_returns_the_command() {
         let u = Vec3::new(3.0, 0.0, 0.0);
         let (g, t) = govern(
-            &GovernorParams::default(),
+            &GovernorParams { enable: false, ..GovernorParams::default() },
             &veh(),
             &Vec3::zeros(),
             &Vec3::new(9.0, 0.0, 0.0),
