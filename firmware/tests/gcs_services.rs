@@ -15,6 +15,7 @@
 use mavlink_core::MessageData;
 use parapet_core::battery::{BatteryLevel, BatteryState};
 use parapet_core::controller::ControllerParams;
+use parapet_core::wire::geo::ORIGIN;
 use parapet_firmware::app::autopilot::{Autopilot, FlightPhase};
 use parapet_firmware::app::cascade::Cascade;
 use parapet_firmware::link::command::command_long;
@@ -25,7 +26,6 @@ use parapet_firmware::link::dialect::{
     ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use parapet_firmware::link::framing::FrameWriter;
-use parapet_firmware::link::geo::ORIGIN;
 use parapet_firmware::link::obstacles::CLEAR_ID;
 use parapet_firmware::link::outbound::Outbound;
 use parapet_firmware::link::telemetry::{ErrorCounters, TelemetryInputs, TelemetryScheduler};

@@ -137,6 +137,25 @@ pub fn odometry_yaw(q: [f32; 4]) -> Option<f32> {
     yaw.is_finite().then_some(yaw)
 }
 
+/// Heading of GPS_INPUT's `yaw` (cdeg, 0 = none, 36000 = north), rad in [0, 2π); `None` for 0.
+pub fn gps_input_yaw(cdeg: u16) -> Option<f32> {
+    (cdeg != 0).then(|| f32::from(cdeg % 36_000) * (core::f32::consts::PI / 18_000.0))
+}
+
+/// GPS_INPUT's `yaw` (cdeg, 1..=36000, 36000 = north) of the heading `yaw` (rad); 0 (none) when
+/// not finite.
+pub fn gps_input_yaw_cdeg(yaw: f32) -> u16 {
+    if !yaw.is_finite() {
+        return 0;
+    }
+    let c = (libm::roundf(yaw.to_degrees() * 100.0) as i32).rem_euclid(36_000) as u16;
+    if c == 0 {
+        36_000
+    } else {
+        c
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,5 +217,19 @@ mod tests {
         ];
         let got = odometry_yaw(q);
         assert!(got.is_some_and(|g| (g - core::f32::consts::FRAC_PI_2).abs() < 1e-5), "{got:?}");
+    }
+
+    #[test]
+    fn gps_input_yaw_round_trips_to_the_centidegree() {
+        assert_eq!(gps_input_yaw(0), None);
+        assert_eq!(gps_input_yaw(36_000), Some(0.0));
+        assert_eq!(gps_input_yaw_cdeg(0.0), 36_000);
+        assert_eq!(gps_input_yaw_cdeg(f32::NAN), 0);
+        assert_eq!(gps_input_yaw_cdeg(-core::f32::consts::FRAC_PI_2), 27_000);
+        for yaw in [0.3f32, 1.0, 3.1, -0.2, -3.1] {
+            let back = gps_input_yaw(gps_input_yaw_cdeg(yaw)).unwrap();
+            let d = (back - yaw).rem_euclid(2.0 * core::f32::consts::PI);
+            assert!(d.min(2.0 * core::f32::consts::PI - d) < 1e-4, "{yaw} -> {back}");
+        }
     }
 }

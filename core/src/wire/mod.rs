@@ -8,7 +8,8 @@
 //! - [`names`]: telemetry and instrumentation names (`DEBUG_VECT` / `NAMED_VALUE_INT` keys).
 //! - [`codes`]: small codes carried in message fields: flight phase (HEARTBEAT `custom_mode`),
 //!   filter region and flags (`CBF`, `CBF_FLAGS`), active obstacle id, failsafe codes, the
-//!   ODOMETRY yaw quaternion.
+//!   ODOMETRY yaw quaternion, GPS_INPUT's yaw.
+//! - [`geo`]: global (lat/lon 1e-7 °, altitude) ↔ local NED around the link's origin.
 //! - [`modes`]: PX4's `vehicle_status.nav_state` numbers of the flight and guidance modes (the
 //!   ULog of both sides), and the guidance mode a lockstep host infers from the phase.
 //! - [`rates`]: the inner and outer loop rates (1 kHz, 250 Hz), defined once.
@@ -28,6 +29,7 @@
 
 pub mod battery;
 pub mod codes;
+pub mod geo;
 pub mod ids;
 pub mod lockstep;
 pub mod log_topics;

@@ -476,7 +476,7 @@ mod tests {
         use crate::link::dialect::{
             GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA,
         };
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         let mut ap = RecordingAutopilot::new();
         let mut l = Link::new(1, FixClock::Message);
         let mut w = gcs();

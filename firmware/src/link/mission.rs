@@ -12,7 +12,7 @@
 //! the MAVLink local-frame convention for MISSION_ITEM_INT, z = metres down; or in a global
 //! frame as QGroundControl and MAVSDK's `mission` plugin send them: `MAV_FRAME_GLOBAL` /
 //! `GLOBAL_INT` (z = m AMSL) and `GLOBAL_RELATIVE_ALT` / `GLOBAL_RELATIVE_ALT_INT` (z = m above
-//! home), x, y = lat, lon × 10⁷, converted to local NED around home by [`crate::link::geo`]: lat
+//! home), x, y = lat, lon × 10⁷, converted to local NED around home by [`parapet_core::wire::geo`]: lat
 //! outside ±90° or > 10 km from home → INVALID_PARAM5, lon → INVALID_PARAM6, altitude →
 //! INVALID_PARAM7):
 //! * `NAV_WAYPOINT` (16): a waypoint of the path.
@@ -73,9 +73,9 @@ use crate::link::dialect::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, MISSION_ACK_DATA, MISSION_COUNT_DATA,
     MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
 };
-use crate::link::geo::{self, AltRef, GeoError};
 use crate::link::mission_items::{self, Action};
 use heapless::Vec as HVec;
+use parapet_core::wire::geo::{self, AltRef, GeoError};
 use parapet_core::Vec3;
 
 /// Most items one upload may carry.
@@ -1026,7 +1026,7 @@ mod tests {
 
     #[test]
     fn global_frames_become_local_ned_and_download_in_their_frame() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         let mut m = MissionUpload::new();
         let mut speed = item(1, 0.0, 0.0, 0.0);
         speed.command = MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16;
@@ -1079,7 +1079,7 @@ mod tests {
 
     #[test]
     fn bad_global_items_are_refused_with_the_parameter() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
         for (it, want) in [
             (global(0, rel, 900_000_001, ORIGIN.1, 5.0), MavMissionResult::MAV_MISSION_INVALID_PARAM5_X),
@@ -1127,7 +1127,7 @@ mod tests {
     /// and only the mission start was DENIED); at the limit it is accepted.
     #[test]
     fn a_takeoff_above_the_limit_is_refused_at_upload() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         let rel = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT;
         let takeoff = |z| MISSION_ITEM_INT_DATA {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF as u16,
@@ -1176,7 +1176,7 @@ mod tests {
     /// Before: the TAKEOFF was refused MAV_MISSION_UNSUPPORTED.
     #[test]
     fn takeoff_waypoints_and_return_keep_their_seqs() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         use MavCmd::*;
         let items = [
             cmd(0, MAV_CMD_NAV_TAKEOFF, 0, 0, 2.5),
@@ -1211,8 +1211,8 @@ mod tests {
     /// with an action; pauses, speed changes and the end come one by one.
     #[test]
     fn next_from_splits_the_plan_at_the_items_with_actions() {
-        use crate::link::geo::ORIGIN;
         use crate::link::mission_items::Action;
+        use parapet_core::wire::geo::ORIGIN;
         use MavCmd::*;
         let with = |mut it: MISSION_ITEM_INT_DATA, p: [f32; 4]| {
             [it.param1, it.param2, it.param3, it.param4] = p;
@@ -1261,7 +1261,7 @@ mod tests {
     /// none; TAKEOFF with a position flies there at its altitude.
     #[test]
     fn land_and_takeoff_positions() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         use MavCmd::*;
         let mut m = m_new();
         let items = [
@@ -1293,7 +1293,7 @@ mod tests {
     /// position needs an altitude before it.
     #[test]
     fn item_order_is_checked() {
-        use crate::link::geo::ORIGIN;
+        use parapet_core::wire::geo::ORIGIN;
         use MavCmd::*;
         let wp = cmd(0, MAV_CMD_NAV_WAYPOINT, ORIGIN.0 + 180, ORIGIN.1, 2.0);
         for items in [

@@ -133,7 +133,7 @@ fn with_float_xy(i: &MISSION_ITEM_INT_DATA, x: f32, y: f32, frame: MavFrame) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::geo::ORIGIN;
+    use parapet_core::wire::geo::ORIGIN;
 
     #[test]
     fn degrees_convert_within_the_stated_bounds() {

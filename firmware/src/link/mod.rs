@@ -9,8 +9,8 @@
 //! refusal ([`v1`]), the standard modes protocol ([`standard_modes`]: AVAILABLE_MODES,
 //! CURRENT_MODE), the read-only MAVLink FTP server ([`ftp`]) over the component metadata files
 //! ([`metadata`]: COMPONENT_METADATA), the takeoff height limit's
-//! refusals ([`takeoff_limit`]) and the global ↔
-//! local NED conversion around home ([`geo`]).
+//! refusals ([`takeoff_limit`]). The global ↔ local NED conversion around home is the wire
+//! contract's `parapet_core::wire::geo` (shared with the host's PIL link).
 //!
 //! Hardware-independent and host-tested. May import: `parapet_core` (including the wire contract
 //! `parapet_core::wire`), `mavlink_core`, [`crate::app`] (the `Autopilot` boundary). Not the PIL
@@ -22,7 +22,6 @@ pub mod endpoint;
 pub mod frame_parser;
 pub mod framing;
 pub mod ftp;
-pub mod geo;
 pub mod inputs;
 pub mod manual_control;
 pub mod messages;

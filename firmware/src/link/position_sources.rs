@@ -1,12 +1,12 @@
 //! External position sources other than ODOMETRY (issue 39): GPS_INPUT (232) and
 //! VISION_POSITION_ESTIMATE (102) converted **once, here**, into the core's position fix
-//! (world frame = local NED around [`crate::link::geo::ORIGIN`], `docs/navigation.md`
+//! (world frame = local NED around [`parapet_core::wire::geo::ORIGIN`], `docs/navigation.md`
 //! § Firmware inputs), and the source monitor that tells the ground station which source
 //! feeds the vehicle ([`SourceMonitor`]: STATUSTEXT on a switch and on a loss, not for the
 //! first source).
 //!
 //! * **GPS_INPUT**: latitude/longitude (1e-7 °) and altitude (m AMSL) → NED with
-//!   [`crate::link::geo::global_to_ned`] (flat earth around the origin; positions beyond its
+//!   [`parapet_core::wire::geo::global_to_ned`] (flat earth around the origin; positions beyond its
 //!   10 km range refused); velocity `vn, ve, vd` is already NED; yaw (cdeg, 0 = none, 36000 =
 //!   north) → rad. Refused: `fix_type` below 3D, altitude or horizontal velocity flagged as
 //!   ignored (the fix path needs both), a vertical velocity flagged as ignored is taken as 0.
@@ -17,7 +17,7 @@
 //!   forwarded).
 //!
 //! Every fix is checked before it goes on: non-finite values, a position farther than
-//! [`crate::link::geo::MAX_RANGE_M`] from the origin, a speed above [`MAX_FIX_SPEED`] and,
+//! [`parapet_core::wire::geo::MAX_RANGE_M`] from the origin, a speed above [`MAX_FIX_SPEED`] and,
 //! on the lockstep link (message time = firmware time), a fix older than [`MAX_FIX_AGE_US`]
 //! are refused and counted ([`FixRefusal`], `LinkStats::position_rejected`).
 //!
@@ -29,11 +29,11 @@
 //! Owns: the conversions, the checks and [`SourceMonitor`]; the dispatcher's handling of these
 //! fixes (`impl Router`) is [`crate::link::source_dispatch`], apart so that the router may
 //! import this module without a cycle. May import: `parapet_core`, the dialect, [`crate::app`]
-//! (the boundary types), [`crate::link::geo`]. No allocation, no panics.
+//! (the boundary types), [`parapet_core::wire::geo`]. No allocation, no panics.
 
 use crate::app::autopilot::{PositionFix, SourceNoise};
 use crate::link::dialect::{GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA};
-use crate::link::geo::{global_to_ned, AltRef, MAX_RANGE_M};
+use parapet_core::wire::geo::{global_to_ned, AltRef, MAX_RANGE_M};
 use parapet_core::Vec3;
 
 /// Fastest speed a fix may report, m/s (a multirotor's fix beyond it is a bad value).
@@ -157,7 +157,7 @@ pub fn gps_input_fix(m: &GPS_INPUT_DATA, t_us: u64) -> Result<PositionFix, FixRe
     let position = global_to_ned(m.lat, m.lon, m.alt, AltRef::Amsl).map_err(|_| FixRefusal::OutOfRange)?;
     let vd =
         if m.ignore_flags.contains(GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_VEL_VERT) { 0.0 } else { m.vd };
-    let yaw = (m.yaw != 0).then(|| f32::from(m.yaw % 36_000) * (core::f32::consts::PI / 18_000.0));
+    let yaw = parapet_core::wire::codes::gps_input_yaw(m.yaw);
     Ok(PositionFix { t_us, position, velocity: Vec3::new(m.vn, m.ve, vd), yaw })
 }
 
@@ -245,7 +245,7 @@ impl SourceMonitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::geo::{LAT_E7_PER_M, LON_E7_PER_M, ORIGIN};
+    use parapet_core::wire::geo::{LAT_E7_PER_M, LON_E7_PER_M, ORIGIN};
 
     fn gps(north_m: f32, east_m: f32, up_m: f32) -> GPS_INPUT_DATA {
         GPS_INPUT_DATA {

@@ -8,19 +8,19 @@
 //! | p5/p6 (x/y) | latitude / longitude: COMMAND_INT 10⁻⁷ ° exactly, COMMAND_LONG degrees; 0/0 (INT32_MAX or NaN) = here |
 //! | p7 (z) | altitude: COMMAND_INT in its frame (GLOBAL/GLOBAL_INT m AMSL, GLOBAL_RELATIVE_ALT(_INT) m above home), COMMAND_LONG m AMSL; NaN = the current altitude |
 //!
-//! The position is converted around the origin by [`crate::link::geo`] (the one the vehicle
+//! The position is converted around the origin by [`parapet_core::wire::geo`] (the one the vehicle
 //! reports in GPS_GLOBAL_ORIGIN / GLOBAL_POSITION_INT); out of range → DENIED. It is flown as
 //! a one-point path by the cascade's path follower (the safety filter in the loop), then held
 //! — the flight mode reads Mission (PX4: AUTO.LOITER) since the follower is the Mission
 //! guidance; a mission being flown is paused (MISSION_START or DO_SET_MODE Mission runs it again
 //! from its start). Needs the vehicle airborne (TEMPORARILY_REJECTED on the ground, as PX4).
 //!
-//! May import: [`crate::app::autopilot`], [`crate::link::geo`], [`crate::link::mission`] (the
+//! May import: [`crate::app::autopilot`], [`parapet_core::wire::geo`], [`crate::link::mission`] (the
 //! frames), the dialect. O(1).
 
 use crate::app::autopilot::{Autopilot, FlightPhase, VehicleCommand};
 use crate::link::dialect::{MavResult, COMMAND_INT_DATA, COMMAND_LONG_DATA};
-use crate::link::geo::{self, AltRef};
+use parapet_core::wire::geo::{self, AltRef};
 use parapet_core::Vec3;
 
 /// A decoded DO_REPOSITION.

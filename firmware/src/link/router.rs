@@ -326,7 +326,13 @@ impl Router {
         let home = if here {
             Some(s.position_ned)
         } else {
-            crate::link::geo::global_to_ned(lat_e7, lon_e7, alt_m, crate::link::geo::AltRef::Amsl).ok()
+            parapet_core::wire::geo::global_to_ned(
+                lat_e7,
+                lon_e7,
+                alt_m,
+                parapet_core::wire::geo::AltRef::Amsl,
+            )
+            .ok()
         };
         home.map_or(MavResult::MAV_RESULT_DENIED, |h| self.services.set_home(h, s.armed))
     }

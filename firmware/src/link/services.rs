@@ -7,7 +7,7 @@
 //! | stream | id | default | content |
 //! |---|---|---|---|
 //! | SYSTEM_TIME | 2 | 1 Hz | `time_unix_usec` 0 (no wall clock on board), `time_boot_ms` firmware clock |
-//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`ORIGIN`] by [`crate::link::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative to home mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
+//! | GLOBAL_POSITION_INT | 33 | 5 Hz | the local NED position around [`ORIGIN`] by [`parapet_core::wire::geo::ned_to_global`] (flat earth, WGS-84 equatorial radius): lat/lon 1e-7°, alt AMSL / relative to home mm, velocity cm/s, heading cdeg (65535 unknown). Not sent while the position is not finite (or beyond i32 lat/lon) |
 //! | MISSION_CURRENT | 42 | 1 Hz | [`Services::mission_current`]: seq = the uploaded seq of the item being flown ([`crate::link::mission_run::MissionRun::progress`]; 0 before the mission was started), total = items of the accepted plan, mission_state NO_MISSION / NOT_STARTED / ACTIVE / PAUSED / COMPLETE, mission_id = the accepted plan's id ([`crate::link::mission::MissionUpload::plan_id`]: new with every upload and every replanned path, issue 38) |
 //! | ATTITUDE_TARGET | 83 | 10 Hz | the outer loop's attitude setpoint as a quaternion (ZYX roll, pitch, yaw; body FRD → NED), thrust = collective thrust / `THR_MAX` (0..1); body rates ignored |
 //! | BATTERY_STATUS | 147 | 1 Hz | [`battery_status`] of the cascade's last battery measurement; not sent before the first |
@@ -36,9 +36,9 @@
 //! **Origin and home**: the origin is fixed at PX4 SITL's default home (Zurich, 47.397742° N, 8.545594° E, 488 m AMSL):
 //! Parapet flies in a local NED frame and has no GNSS; GLOBAL_POSITION_INT and HOME_POSITION
 //! exist so that map-based ground stations (QGroundControl, MAVSDK) show the vehicle. The
-//! conversion is [`crate::link::geo`] (the same one global-frame mission items use).
+//! conversion is [`parapet_core::wire::geo`] (the same one global-frame mission items use).
 //!
-//! May import: `parapet_core`, the dialect, [`crate::app::autopilot`] (telemetry snapshot), [`crate::link::geo`],
+//! May import: `parapet_core`, the dialect, [`crate::app::autopilot`] (telemetry snapshot), [`parapet_core::wire::geo`],
 //! [`crate::link::outbound`]. No allocation; every call is bounded (at most one message per
 //! stream per [`Services::poll`]).
 #![allow(deprecated)] // PING: deprecated by MAVLink for TIMESYNC, still sent by tools (PX4 answers it)
@@ -56,7 +56,7 @@ use parapet_core::battery::{BatteryLevel, BatteryState};
 use parapet_core::wire::streams::{HEARTBEAT_ID, SETTABLE, SETTABLE_COUNT};
 use parapet_core::Vec3;
 
-pub use crate::link::geo::ORIGIN;
+pub use parapet_core::wire::geo::ORIGIN;
 /// Shortest settable interval, µs (100 Hz).
 pub const MIN_INTERVAL_US: u32 = 10_000;
 
@@ -198,7 +198,7 @@ pub fn global_position(
     s: &TelemetrySnapshot,
     home_alt_mm: i32,
 ) -> Option<GLOBAL_POSITION_INT_DATA> {
-    let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
+    let (lat, lon, alt) = parapet_core::wire::geo::ned_to_global(s.position_ned)?;
     let hdg = heading_deg(s.attitude_rpy.z).map_or(u16::MAX, |d| ((d * 100.0) as u16).min(35_999));
     Some(GLOBAL_POSITION_INT_DATA {
         time_boot_ms,
@@ -216,7 +216,7 @@ pub fn global_position(
 /// HOME_POSITION of `home` (local NED): global around [`ORIGIN`] and local; `None` when not
 /// finite.
 pub fn home_position(time_usec: u64, home: Vec3) -> Option<HOME_POSITION_DATA> {
-    let (latitude, longitude, altitude) = crate::link::geo::ned_to_global(home)?;
+    let (latitude, longitude, altitude) = parapet_core::wire::geo::ned_to_global(home)?;
     Some(HOME_POSITION_DATA {
         latitude,
         longitude,
@@ -254,7 +254,7 @@ fn scaled_up(x: f32, scale: f32, max: f32) -> f32 {
 /// UINT8_MAX (MAVLink's "unknown": the fix is not a satellite one); yaw 0 (not sent).
 /// `None` while the position is not finite.
 pub fn gps_raw_int(time_usec: u64, s: &TelemetrySnapshot, fix: FixAccuracy) -> Option<GPS_RAW_INT_DATA> {
-    let (lat, lon, alt) = crate::link::geo::ned_to_global(s.position_ned)?;
+    let (lat, lon, alt) = parapet_core::wire::geo::ned_to_global(s.position_ned)?;
     let v = s.velocity_ned;
     let ground = libm::sqrtf(v.x * v.x + v.y * v.y);
     let (vel, cog) = if ground.is_finite() {
@@ -291,7 +291,7 @@ pub fn gps_raw_int(time_usec: u64, s: &TelemetrySnapshot, fix: FixAccuracy) -> O
 /// throttle % = the collective thrust setpoint / `thr_max` (as ATTITUDE_TARGET's thrust), alt m
 /// AMSL around [`ORIGIN`], climb m/s (up positive). `None` while the position is not finite.
 pub fn vfr_hud(s: &TelemetrySnapshot, thr_max: f32) -> Option<VFR_HUD_DATA> {
-    let (_, _, alt_mm) = crate::link::geo::ned_to_global(s.position_ned)?;
+    let (_, _, alt_mm) = parapet_core::wire::geo::ned_to_global(s.position_ned)?;
     let v = s.velocity_ned;
     let ground = libm::sqrtf(v.x * v.x + v.y * v.y);
     let ground = if ground.is_finite() { ground } else { 0.0 };
@@ -579,7 +579,8 @@ impl Services {
         let mut left = budget;
         let ms = (now_us / 1000) as u32;
         self.track_home(s);
-        let home_alt_mm = self.home.and_then(crate::link::geo::ned_to_global).map_or(ORIGIN.2, |g| g.2);
+        let home_alt_mm =
+            self.home.and_then(parapet_core::wire::geo::ned_to_global).map_or(ORIGIN.2, |g| g.2);
         if left > 0 {
             if let Some(r) = self.next_reached(mission) {
                 emit(Outbound::MissionItemReached(r));

@@ -1,7 +1,10 @@
 //! Global ↔ local conversion at the link boundary: the one world frame is local NED around
-//! [`ORIGIN`]; GLOBAL_POSITION_INT, HOME_POSITION and global-frame mission items all go through
-//! [`ned_to_global`] / [`global_to_ned`], so what the vehicle reports and what a ground station
-//! plans agree.
+//! [`ORIGIN`]; the firmware's GLOBAL_POSITION_INT, HOME_POSITION, global-frame mission items and
+//! GPS_INPUT all go through [`ned_to_global`] / [`global_to_ned`], so what the vehicle reports
+//! and what a ground station plans agree. Part of the wire contract (moved here from the
+//! firmware's `link::geo`, issue 39): the host's processor-in-the-loop link encodes its GPS
+//! fixes with [`ned_to_global`] and its firmware twin decodes them with [`global_to_ned`], bit
+//! for bit as the firmware does.
 //!
 //! **Projection**: flat earth (equirectangular) around [`ORIGIN`] on a sphere of the WGS-84
 //! equatorial radius (6,378,137 m): north = Δlat · R, east = Δlon · R · cos(lat₀), with the two
@@ -16,13 +19,13 @@
 //! cos(lat₀) at 10 km north/south of home: ≤ 0.4 % of the distance from home (≤ 4 m at 1 km,
 //! ≤ 40 m at [`MAX_RANGE_M`]). Positions farther than [`MAX_RANGE_M`] from home are refused.
 //!
-//! May import: `parapet_core`, `libm`. No allocation, no panics; f32 only (F405 flash).
+//! May import: [`crate::Vec3`], `libm`. No allocation, no panics; f32 only (F405 flash).
 
-use parapet_core::Vec3;
+use crate::Vec3;
 
 /// The local frame's origin (GPS_GLOBAL_ORIGIN; PX4 SITL's default home, Zurich): latitude and
 /// longitude 1e-7 °, altitude mm AMSL. The vehicle's home (HOME_POSITION, where it armed) is a
-/// point of this frame ([`crate::link::services`]).
+/// point of this frame (the firmware's `link::services`).
 pub const ORIGIN: (i32, i32, i32) = (473_977_420, 85_455_940, 488_000);
 /// 1e-7 ° of latitude per metre north (WGS-84 equatorial radius 6,378,137 m).
 pub const LAT_E7_PER_M: f32 = 89.831_53;
