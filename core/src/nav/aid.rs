@@ -11,6 +11,9 @@
 //! timeout (0.2 s) then brakes (`PositionStale`) and lands, as with a lost motion capture.
 //! Shorter dropouts are bridged by the filter on the IMU.
 //!
+//! **Resets**: an absolute source's position reset is handed on once ([`NavAid::take_reset`])
+//! for the controller's reference shift, on the host and on the vehicle alike.
+//!
 //! Owns: [`NavAid`], [`SourceNoise`], the timeout and σ limit. May import: [`super`],
 //! [`crate::msg`] (the fix and attitude messages), [`crate::frame`].
 
@@ -33,17 +36,20 @@ pub struct SourceNoise {
     pub velocity: f32,
 }
 
-/// The filter and the yaw of the last fix (see the module docs).
+/// The filter, the yaw and kind of the last fix, and the resets handed on (see the module docs).
 #[derive(Clone, Debug)]
 pub struct NavAid {
     filter: NavFilter,
     yaw: Option<f32>,
+    kind: Option<FixKind>,
+    /// Resets already handed to the controller ([`NavAid::take_reset`]).
+    seen_resets: u32,
 }
 
 impl NavAid {
     /// Not initialised: waits for an IMU sample and a position fix.
     pub fn new(params: NavParams) -> Self {
-        NavAid { filter: NavFilter::new(params), yaw: None }
+        NavAid { filter: NavFilter::new(params), yaw: None, kind: None, seen_resets: 0 }
     }
 
     /// One IMU sample (specific force, body FRD) at `t_us` with the estimator's attitude;
@@ -59,7 +65,25 @@ impl NavAid {
         let f = self.filter.fuse_position(fix.t_us, &fix.position, noise.position, kind);
         let _ = self.filter.fuse_velocity(fix.t_us, &fix.velocity, noise.velocity);
         self.yaw = fix.yaw;
+        self.kind = Some(kind);
         f
+    }
+
+    /// The kind of the last fix's source; `None` before the first fix.
+    pub fn kind(&self) -> Option<FixKind> {
+        self.kind
+    }
+
+    /// The delta of an absolute source's reset not yet handed on (the estimate jumped by it),
+    /// once per reset: the controller shifts its reference by it
+    /// (`FlightController::position_reset`, `docs/navigation.md` § A position reset), before
+    /// the first fix after the reset. A relative source's reset moves only the frame offset:
+    /// the estimate does not jump, nothing to hand on.
+    pub fn take_reset(&mut self) -> Option<Vec3> {
+        let st = self.filter.status();
+        let new = st.resets != self.seen_resets;
+        self.seen_resets = st.resets;
+        (new && self.kind == Some(FixKind::Absolute)).then_some(st.last_reset_delta)
     }
 
     /// A barometer reading (NED down, m, σ `sigma` m) of `t_us`.

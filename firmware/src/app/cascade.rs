@@ -223,12 +223,15 @@ impl OuterStage {
         }
     }
 
-    /// One outer step at `now_us`: the navigation filter's estimate as the fix of now (when it
-    /// is usable), the step; publishes the attitude command and the snapshot. Then the
+    /// One outer step at `now_us`: an absolute source's reset handed to the guidance, the
+    /// navigation filter's estimate as the fix of now (when it is usable), the step; publishes the attitude command and the snapshot. Then the
     /// replanner's outer side: a new path is flown from the next step on.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
         self.take_inputs(mb);
         self.predict_nav(mb);
+        if let Some(delta) = self.nav.take_reset() {
+            self.outer.position_reset(delta);
+        }
         if let Some(fix) = self.nav.controller_fix(now_us) {
             self.outer.update_position(fix);
             mb.aid.signal(self.outer.aid());

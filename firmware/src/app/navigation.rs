@@ -19,6 +19,9 @@
 //!   `NAV_TIMEOUT_US`, σ within bounds) it is handed to the outer loop as the fix of now before
 //!   each outer step; afterwards nothing is, and the outer loop's 0.2 s position timeout brakes
 //!   and lands (the failsafe of `docs/navigation.md` § Dropouts).
+//! * **Resets**: an absolute source's position reset (the estimate jumped by δ) is handed to
+//!   the outer loop once, before the step's fix (`OuterLoop::position_reset`: the guidance
+//!   shifts its reference by δ), as the host's `fc/control.rs` does.
 //! * **Status**: [`NavReport`] for ESTIMATOR_STATUS (flags, test ratios, accuracies).
 //!
 //! Owns: [`Navigation`], [`NavSample`], [`NavReport`]. May import: `parapet_core`.
@@ -76,11 +79,10 @@ pub struct NavReport {
     pub pos_vert_accuracy: f32,
 }
 
-/// The filter, the kind of the source feeding it, and whether it feeds the controller.
+/// The filter (it knows the kind of the source feeding it, so whether it feeds the controller).
 #[derive(Clone, Debug)]
 pub struct Navigation {
     aid: NavAid,
-    kind: Option<FixKind>,
 }
 
 impl Default for Navigation {
@@ -92,7 +94,7 @@ impl Default for Navigation {
 impl Navigation {
     /// No fix yet: the controller keeps the latest-fix path until a filtered source speaks.
     pub fn new() -> Self {
-        Self { aid: NavAid::new(NavParams::default()), kind: None }
+        Self { aid: NavAid::new(NavParams::default()) }
     }
 
     /// Predict with one IMU sample.
@@ -102,14 +104,18 @@ impl Navigation {
 
     /// A fix of a filtered source of `kind` with σ `noise`.
     pub fn fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) -> Fusion {
-        self.kind = Some(kind);
         self.aid.fix(fix, noise, kind)
     }
 
     /// The outer loop's fix of `now_us`: `None` without a filtered source and in the failsafe.
     pub fn controller_fix(&self, now_us: u64) -> Option<PositionFix> {
-        self.kind?;
         self.aid.controller_fix(now_us)
+    }
+
+    /// An absolute source's position reset not yet handed to the outer loop (its delta, once:
+    /// [`NavAid::take_reset`]), as the host's controller takes it.
+    pub fn take_reset(&mut self) -> Option<Vec3> {
+        self.aid.take_reset()
     }
 
     /// The filter (read-only).
@@ -119,7 +125,7 @@ impl Navigation {
 
     /// ESTIMATOR_STATUS of `now_us`; `None` until a filtered source has initialised the filter.
     pub fn report(&self, now_us: u64) -> Option<NavReport> {
-        let kind = self.kind?;
+        let kind = self.aid.kind()?;
         if !self.aid.filter().is_initialised() {
             return None;
         }
@@ -231,5 +237,55 @@ mod tests {
         assert!(fresh_until <= last_fused + NAV_TIMEOUT_US + 204_000, "{fresh_until}");
         let r = c.telemetry().nav.map(|n| n.flags);
         assert_eq!(r, Some(flags::ATTITUDE), "{r:?}");
+    }
+
+    /// GPS fixes jump by 4 m east while the vehicle takes off and holds: the filter gates
+    /// them, resets its position to the source after `reset_after` fixes, and the outer stage
+    /// hands the reset to the guidance, which moves its reference by the same δ (the vehicle
+    /// stays where it is; `docs/navigation.md` § A position reset) — once, in the step that
+    /// took the reset. Without the hand-over the horizontal reference never moves.
+    #[test]
+    fn an_absolute_reset_shifts_the_reference_by_its_delta() {
+        use crate::app::autopilot::VehicleCommand;
+        let Ok(mut c) = Cascade::new(ControllerParams::default()) else { panic!("cascade") };
+        let fix_at = |t_us: u64, east: f32| PositionFix {
+            t_us,
+            position: Vec3::new(0.0, east, 0.0),
+            velocity: Vec3::zeros(),
+            yaw: Some(0.0),
+        };
+        let (mut before, mut moves) = (None, Vec::new());
+        for k in 1..=4_000u64 {
+            let t = k * 1_000;
+            if t.is_multiple_of(100_000) {
+                let east = if t >= 2_500_000 { 4.0 } else { 0.0 };
+                c.navigation_fix(&fix_at(t - 50_000, east), FixKind::Absolute, GPS);
+            }
+            match t {
+                500_000 => assert_eq!(c.command(t, VehicleCommand::Arm), Ok(())),
+                600_000 => assert_eq!(c.command(t, VehicleCommand::Takeoff { height_m: Some(1.0) }), Ok(())),
+                _ => {}
+            }
+            c.step_inner(t, &ImuSample { gyro: Vec3::zeros(), accel: Vec3::new(0.0, 0.0, -9.81) });
+            if t.is_multiple_of(4_000) {
+                c.update_obstacles(t, &[]);
+                c.step_outer(t);
+                let r = c.outer().outer().telemetry().reference.position;
+                let st = c.outer().navigation().aid().status();
+                if let Some((r0, n0)) = before.filter(|_| t > 700_000) {
+                    let (moved, r0): (Vec3, Vec3) = (r - r0, r0);
+                    if moved.xy().norm() > 1e-6 || st.resets != n0 {
+                        moves.push((t, moved, st.resets, st.last_reset_delta, r0));
+                    }
+                }
+                before = Some((r, st.resets));
+            }
+        }
+        // One reset; the horizontal reference moved once, by the reset's delta, in its step.
+        assert_eq!(moves.len(), 1, "{moves:?}");
+        let (_, moved, resets, delta, _) = moves[0];
+        assert_eq!(resets, 1);
+        assert!(delta.y > 3.0, "{delta:?}");
+        assert!((moved.xy() - delta.xy()).norm() < 1e-5, "reference moved {moved:?}, reset delta {delta:?}");
     }
 }

@@ -61,8 +61,6 @@ pub struct NavAid {
     baro_drift: f64,
     /// Time of the first fix, µs.
     first_fix_us: Option<u64>,
-    /// Resets already handed to the controller ([`NavAid::take_reset`]).
-    seen_resets: u32,
 }
 
 impl NavAid {
@@ -89,7 +87,6 @@ impl NavAid {
             baro_drift,
             drift: if Self::kind_of(src) == FixKind::Relative { src.preset().drift as f32 } else { 0.0 },
             first_fix_us: None,
-            seen_resets: 0,
         })
     }
 
@@ -153,10 +150,7 @@ impl NavAid {
     /// `FlightController::position_reset`), once per reset. A relative source's reset moves
     /// only the frame offset: the estimate does not jump, nothing to hand on.
     pub fn take_reset(&mut self) -> Option<Vec3> {
-        let st = self.aid.status();
-        let new = st.resets != self.seen_resets;
-        self.seen_resets = st.resets;
-        (new && self.kind == FixKind::Absolute).then_some(st.last_reset_delta)
+        self.aid.take_reset()
     }
 
     /// Counters and σ.
