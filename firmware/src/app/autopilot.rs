@@ -241,8 +241,8 @@ impl TelemetrySnapshot {
 pub trait Autopilot {
     /// New position/velocity estimate.
     fn update_position(&mut self, fix: &PositionFix);
-    /// A fix of a filtered source (GPS_INPUT: `Absolute`, VISION_POSITION_ESTIMATE:
-    /// `Relative`) with the σ it states, for the navigation filter
+    /// A fix of a filtered source (GPS_INPUT: `Absolute`, VISION_POSITION_ESTIMATE and a VIO's
+    /// ODOMETRY: `Relative`) with the σ it states, for the navigation filter
     /// ([`crate::app::navigation`]). Required, so that no wrapper falls back to the fix path.
     fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise);
     /// Replaces the obstacle points (world NED) seen at `now_us`.
@@ -328,6 +328,9 @@ pub(crate) mod test_double {
         pub inner_steps: Vec<u64>,
         pub outer_steps: Vec<u64>,
         pub fixes: Vec<PositionFix>,
+        /// The kind and σ of each fix that went to the navigation filter (the others went to
+        /// `update_position`).
+        pub nav_fixes: Vec<(FixKind, SourceNoise)>,
         pub obstacle_batches: Vec<Vec<ObstaclePoint>>,
         pub paths: Vec<Vec<Vec3>>,
         pub commands: Vec<VehicleCommand>,
@@ -364,8 +367,9 @@ pub(crate) mod test_double {
         fn update_position(&mut self, fix: &PositionFix) {
             self.fixes.push(*fix);
         }
-        fn navigation_fix(&mut self, fix: &PositionFix, _kind: FixKind, _noise: SourceNoise) {
+        fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
             self.fixes.push(*fix);
+            self.nav_fixes.push((kind, noise));
         }
         fn update_obstacles(&mut self, _now_us: u64, obstacles: &[ObstaclePoint]) {
             self.obstacle_batches.push(obstacles.to_vec());

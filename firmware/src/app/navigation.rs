@@ -11,10 +11,11 @@
 //!   between two outer steps; on an overflow the oldest go and the next predict spans the gap).
 //!   The predict (≈ 7.6k instructions on the Cortex-M4F, `docs/performance.md`) runs in the
 //!   outer task, not in the 1 ms inner step.
-//! * **Fixes**: GPS_INPUT (absolute) and VISION_POSITION_ESTIMATE (relative: its frame may jump)
-//!   go to the filter with the σ they state ([`crate::link::position_sources`]); ODOMETRY — the
-//!   motion capture of the PIL and the lab — keeps the latest-fix path, as the host flies
-//!   `mocap` without the filter (so the PIL flights and their host twin are unchanged).
+//! * **Fixes**: GPS_INPUT (absolute), VISION_POSITION_ESTIMATE and a VIO's ODOMETRY (relative:
+//!   their frame may jump) go to the filter with the σ they state
+//!   ([`crate::link::position_sources`]); other ODOMETRY — the motion capture of the PIL and the
+//!   lab — keeps the latest-fix path, as the host flies `mocap` without the filter (so the PIL
+//!   flights and their host twin are unchanged).
 //! * **The controller's fix**: while the filter is usable (a position fused within
 //!   `NAV_TIMEOUT_US`, σ within bounds) it is handed to the outer loop as the fix of now before
 //!   each outer step; afterwards nothing is, and the outer loop's 0.2 s position timeout brakes

@@ -515,6 +515,54 @@ mod tests {
         assert_eq!(texts(&mut l), vec!["Position source: VISION_POSITION_ESTIMATE".to_string()]);
     }
 
+    /// ODOMETRY from a VIO or vision estimator goes to the navigation filter as a relative
+    /// source with the σ of its covariances; a motion capture's (and an unknown estimator's,
+    /// what the PIL host sends) keeps the latest-fix path.
+    #[test]
+    fn vio_odometry_goes_to_the_filter_as_a_relative_source_mocap_to_the_fix_path() {
+        use crate::app::autopilot::{FixKind, SourceNoise};
+        use crate::link::dialect::MavEstimatorType;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = gcs();
+        let odo = |t: u64, estimator_type: MavEstimatorType, var: f32| {
+            let mut pose_covariance = [0.0f32; 21];
+            pose_covariance[0] = var;
+            ODOMETRY_DATA {
+                time_usec: t,
+                x: 1.0,
+                vx: 0.5,
+                q: [1.0, 0.0, 0.0, 0.0],
+                pose_covariance,
+                velocity_covariance: [f32::NAN; 21],
+                frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
+                estimator_type,
+                ..Default::default()
+            }
+        };
+        for (k, e) in [MavEstimatorType::MAV_ESTIMATOR_TYPE_VIO, MavEstimatorType::MAV_ESTIMATOR_TYPE_VISION]
+            .into_iter()
+            .enumerate()
+        {
+            let t = 100_000 * (k as u64 + 1);
+            l.push_bytes(&send(&mut w, &odo(t, e, 0.04)), t, &mut ap);
+        }
+        let vio = SourceNoise { position: 0.2, velocity: 0.3 };
+        assert_eq!(ap.nav_fixes, vec![(FixKind::Relative, vio); 2]);
+        assert_eq!((ap.fixes.len(), ap.fixes[0].position.x, ap.fixes[0].velocity.x), (2, 1.0, 0.5));
+        // Motion capture and unknown: the fix path, not the filter.
+        for e in [MavEstimatorType::MAV_ESTIMATOR_TYPE_MOCAP, MavEstimatorType::MAV_ESTIMATOR_TYPE_UNKNOWN] {
+            l.push_bytes(&send(&mut w, &odo(300_000, e, 0.04)), 300_000, &mut ap);
+        }
+        assert_eq!((ap.fixes.len(), ap.nav_fixes.len()), (4, 2));
+        // A VIO's non-finite ODOMETRY: refused and counted as a position source's.
+        let mut bad = odo(400_000, MavEstimatorType::MAV_ESTIMATOR_TYPE_VIO, 0.04);
+        bad.x = f32::NAN;
+        l.push_bytes(&send(&mut w, &bad), 400_000, &mut ap);
+        assert_eq!((ap.fixes.len(), l.stats().position_rejected), (4, 1));
+    }
+
     #[test]
     fn odometry_carries_the_yaw_of_q_to_the_autopilot() {
         let q = parapet_core::wire::codes::odometry_quaternion(-2.0);

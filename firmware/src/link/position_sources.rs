@@ -21,10 +21,15 @@
 //! on the lockstep link (message time = firmware time), a fix older than [`MAX_FIX_AGE_US`]
 //! are refused and counted ([`FixRefusal`], `LinkStats::position_rejected`).
 //!
+//! * **ODOMETRY of a VIO** (`estimator_type` VIO or VISION, [`odometry_is_vision`]): converted
+//!   as every ODOMETRY (`crate::link::inputs::odometry_fix`), σ from its covariances
+//!   ([`odometry_noise`]), to the filter as a relative source; other ODOMETRY (motion capture)
+//!   is not a source of this module.
+//!
 //! The fixes go to the navigation filter (`Autopilot::navigation_fix`,
 //! [`crate::app::navigation`]) with the σ they state ([`gps_input_noise`], [`vision_noise`]):
-//! GPS_INPUT as an absolute source, VISION_POSITION_ESTIMATE as a relative one (its frame may
-//! jump). ODOMETRY stays on the latest-fix path (motion capture).
+//! GPS_INPUT as an absolute source, VISION_POSITION_ESTIMATE and a VIO's ODOMETRY as relative
+//! ones (their frame may jump). Other ODOMETRY stays on the latest-fix path (motion capture).
 //!
 //! Owns: the conversions, the checks and [`SourceMonitor`]; the dispatcher's handling of these
 //! fixes (`impl Router`) is [`crate::link::source_dispatch`], apart so that the router may
@@ -32,7 +37,10 @@
 //! (the boundary types), [`parapet_core::wire::geo`]. No allocation, no panics.
 
 use crate::app::autopilot::{PositionFix, SourceNoise};
-use crate::link::dialect::{GpsFixType, GpsInputIgnoreFlags, GPS_INPUT_DATA, VISION_POSITION_ESTIMATE_DATA};
+use crate::link::dialect::{
+    GpsFixType, GpsInputIgnoreFlags, MavEstimatorType, GPS_INPUT_DATA, ODOMETRY_DATA,
+    VISION_POSITION_ESTIMATE_DATA,
+};
 use parapet_core::wire::geo::{global_to_ned, AltRef, MAX_RANGE_M};
 use parapet_core::Vec3;
 
@@ -103,6 +111,34 @@ pub fn vision_noise(m: &VISION_POSITION_ESTIMATE_DATA) -> SourceNoise {
         VISION_DEFAULT_NOISE.position
     };
     SourceNoise { position, velocity: VISION_DEFAULT_NOISE.velocity }
+}
+
+/// `true` for an ODOMETRY of a visual(-inertial) odometry (`estimator_type` VIO or VISION): it
+/// goes to the navigation filter as a relative source, like VISION_POSITION_ESTIMATE. Any other
+/// estimator (motion capture, unknown: what the PIL host and a motion-capture lab send) keeps
+/// the latest-fix path.
+pub fn odometry_is_vision(m: &ODOMETRY_DATA) -> bool {
+    matches!(
+        m.estimator_type,
+        MavEstimatorType::MAV_ESTIMATOR_TYPE_VIO | MavEstimatorType::MAV_ESTIMATOR_TYPE_VISION
+    )
+}
+
+/// The σ of a VIO's ODOMETRY: √ of the x variances (`pose_covariance[0]`,
+/// `velocity_covariance[0]`) when given (finite, > 0; floored at [`MIN_SIGMA`]), else
+/// [`VISION_DEFAULT_NOISE`]'s.
+pub fn odometry_noise(m: &ODOMETRY_DATA) -> SourceNoise {
+    let sigma = |var: f32, default: f32| {
+        if var.is_finite() && var > 0.0 {
+            libm::sqrtf(var).max(MIN_SIGMA)
+        } else {
+            default
+        }
+    };
+    SourceNoise {
+        position: sigma(m.pose_covariance[0], VISION_DEFAULT_NOISE.position),
+        velocity: sigma(m.velocity_covariance[0], VISION_DEFAULT_NOISE.velocity),
+    }
 }
 
 /// Which message fed the last accepted fix.

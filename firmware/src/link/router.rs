@@ -8,7 +8,7 @@
 //!
 //! | message | action |
 //! |---|---|
-//! | ODOMETRY (331) | `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted; other frames (LOCAL_FRD, …) → rejected, counted, STATUSTEXT WARNING [`ODOMETRY_REFUSED_TEXT`] at most every 10 s |
+//! | ODOMETRY (331) | from a VIO / vision estimator (`estimator_type`): to the navigation filter as a relative source, like VISION_POSITION_ESTIMATE ([`crate::link::position_sources::odometry_is_vision`]; refused fixes counted in `position_rejected`); otherwise (motion capture, unknown) `update_position`: frame_id LOCAL_NED; velocity in child_frame_id LOCAL_NED, or BODY_FRD (rotated to NED with the message's quaternion). Non-finite → rejected, counted; other frames (LOCAL_FRD, …) → rejected, counted, STATUSTEXT WARNING [`ODOMETRY_REFUSED_TEXT`] at most every 10 s |
 //! | GPS_INPUT (232), VISION_POSITION_ESTIMATE (102) | `update_position` after the conversion to local NED and the checks of [`crate::link::position_sources`]; refused fixes counted (`position_rejected`). Any accepted fix (ODOMETRY too): STATUSTEXT INFO [`crate::link::position_sources::POSITION_SOURCE_TEXT`] + the message name when the source changes (not for the first); none for 1 s: WARNING [`crate::link::position_sources::POSITION_LOST_TEXT`] once |
 //! | OBSTACLE_DISTANCE_3D (11037), DEBUG_VECT `OBV<id>` | obstacle points, see [`crate::link::obstacles`] |
 //! | OBSTACLE_DISTANCE (330), DISTANCE_SENSOR (132) | range returns into the obstacle memory, see [`crate::link::obstacles`] |
@@ -58,7 +58,8 @@ use crate::link::mission_run::MissionRun;
 use crate::link::obstacles::ObstacleAssembler;
 use crate::link::outbound::Outbound;
 use crate::link::position_sources::{
-    gps_input_fix, gps_input_noise, vision_noise, Source, SourceMonitor, VisionVelocity,
+    gps_input_fix, gps_input_noise, odometry_is_vision, odometry_noise, vision_noise, FixRefusal, Source,
+    SourceMonitor, VisionVelocity,
 };
 use crate::link::received::{LinkStats, Received};
 use crate::link::services::FixAccuracy;
@@ -567,6 +568,10 @@ impl Router {
                 if self.hil.replace(HilSample::from_message(&m)).is_some() {
                     self.stats.hil_overwritten = self.stats.hil_overwritten.saturating_add(1);
                 }
+            }
+            Inbound::Odometry(m) if odometry_is_vision(&m) => {
+                let fix = odometry_fix(&m, self.fix_time(m.time_usec, now_us)).ok_or(FixRefusal::NonFinite);
+                self.external_fix(fix.map(Some), Source::Odometry, odometry_noise(&m), now_us, ap);
             }
             Inbound::Odometry(m) => match odometry_fix(&m, self.fix_time(m.time_usec, now_us)) {
                 Some(fix) => {

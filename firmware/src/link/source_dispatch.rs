@@ -1,4 +1,5 @@
-//! The dispatcher's side of the external position sources (GPS_INPUT, VISION_POSITION_ESTIMATE):
+//! The dispatcher's side of the external position sources (GPS_INPUT, VISION_POSITION_ESTIMATE,
+//! a VIO's ODOMETRY):
 //! `impl Router` methods that check a source's fix, hand it to the autopilot, count refusals
 //! and announce source changes and losses (STATUSTEXT). The sources themselves (conversion,
 //! checks, the monitor) are [`crate::link::position_sources`]; this file is apart from it so
@@ -15,8 +16,9 @@ use crate::link::router::Router;
 
 /// The dispatcher's side of the sources (its state: `Router::vision`, `Router::sources`).
 impl Router {
-    /// A GPS_INPUT / VISION_POSITION_ESTIMATE fix: checked, then to the autopilot's
-    /// navigation filter with σ `noise` (GPS absolute, vision relative); refusals counted
+    /// A GPS_INPUT / VISION_POSITION_ESTIMATE / VIO ODOMETRY fix: checked, then to the
+    /// autopilot's navigation filter with σ `noise` (GPS absolute, vision and VIO relative);
+    /// refusals counted
     /// ([`crate::link::position_sources`]).
     pub(crate) fn external_fix<A: Autopilot>(
         &mut self,
@@ -33,7 +35,8 @@ impl Router {
         });
         match checked {
             Ok(Some(f)) => {
-                let kind = if source == Source::Vision { FixKind::Relative } else { FixKind::Absolute };
+                // Vision and a VIO's ODOMETRY are relative (their frame may jump); GPS absolute.
+                let kind = if source == Source::Gps { FixKind::Absolute } else { FixKind::Relative };
                 ap.navigation_fix(&f, kind, noise);
                 self.source_accepted(source, now_us);
             }
