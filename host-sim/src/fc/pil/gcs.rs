@@ -3,7 +3,8 @@
 //! settings it uploads: the parameters ([`firmware_params`]), the mission as the
 //! firmware stores it ([`quantised_path`]), the start-up timing (`preroll_start`).
 //!
-//! May import: `parapet-core` (params, wire contract), mavlink,
+//! May import: `parapet-core` (params, wire contract), mavlink, [`crate::fc::nav`] (the σ the
+//! in-process filter is told),
 //! [`crate::flight`] (run settings, validation messages), [`crate::sim::sensors`] and
 //! [`crate::sim::battery`] (readings), [`crate::world::scene`].
 //!
@@ -15,17 +16,20 @@
 
 use anyhow::{anyhow, Result};
 use mavlink::dialects::ardupilotmega::{
-    MavBatteryFunction, MavBatteryType, MavCmd, MavFrame, MavMessage, MavParamType, BATTERY_STATUS_DATA,
-    COMMAND_LONG_DATA, DEBUG_VECT_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
-    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
+    GpsFixType, GpsInputIgnoreFlags, MavBatteryFunction, MavBatteryType, MavCmd, MavFrame, MavMessage,
+    MavParamType, BATTERY_STATUS_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA, GPS_INPUT_DATA, HIL_SENSOR_DATA,
+    MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use nalgebra::Vector3;
 use parapet_core::controller::ControllerParams;
+use parapet_core::controller::PositionFix;
+use parapet_core::nav::aid::SourceNoise;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
-use parapet_core::wire::codes::odometry_quaternion;
+use parapet_core::wire::codes::{gps_input_yaw, gps_input_yaw_cdeg, odometry_quaternion};
+use parapet_core::wire::geo::{altitude_m, global_to_ned, ned_to_global, AltRef};
 use parapet_core::wire::ids::{
     local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
     VEHICLE_SYSTEM_ID,
@@ -36,7 +40,7 @@ use parapet_core::Vec3;
 use crate::flight::runner::RunConfig;
 use crate::sim::battery::BatteryReading;
 use crate::sim::sensors::{ImuReading, PositionReading};
-use crate::world::scene::Scene;
+use crate::world::scene::{to_f32, Scene};
 
 /// Warm-up of the estimator before arming, steps (1 ms).
 pub(super) const WARMUP_STEPS: u64 = 300;
@@ -126,6 +130,60 @@ pub(super) fn odometry(t_us: u64, fix: &PositionReading, std_m: f64) -> MavMessa
         child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
         ..Default::default()
     })
+}
+
+/// The σ the PIL host states in GPS_INPUT for the run's position source (`gps`, `rtk`: the
+/// scene's noise floored as the in-process filter is told it, `crate::fc::nav::NavAid::noise_of`),
+/// `None` for motion capture (ODOMETRY, the latest-fix path); `vio` is refused (the PIL link
+/// carries no vision messages yet).
+pub fn gps_source(cfg: &RunConfig) -> Result<Option<SourceNoise>> {
+    let src = cfg.sensors.position_source;
+    if src.is_mocap() {
+        return Ok(None);
+    }
+    if crate::fc::nav::NavAid::kind_of(src) != parapet_core::nav::FixKind::Absolute {
+        return Err(anyhow!(
+            "processor-in-the-loop carries mocap (ODOMETRY), gps and rtk (GPS_INPUT), not {src:?}"
+        ));
+    }
+    Ok(Some(crate::fc::nav::NavAid::noise_of(&cfg.sensors)))
+}
+
+/// GPS_INPUT with a fix measured at `t_us` (a `gps` / `rtk` source, issue 39): the position as
+/// latitude/longitude (1e-7 °, [`ned_to_global`] around the wire contract's origin) and
+/// altitude (m AMSL), the velocity NED, the heading in cdeg ([`gps_input_yaw_cdeg`]) and the σ
+/// `noise` as `horiz_accuracy` / `vert_accuracy` / `speed_accuracy` — what the firmware's
+/// `link::position_sources` decodes. `None` when the position is beyond the link's range.
+pub(super) fn gps_input(t_us: u64, fix: &PositionReading, noise: SourceNoise) -> Option<GPS_INPUT_DATA> {
+    let p = to_f32(&fix.position);
+    let (lat, lon, _) = ned_to_global(p)?;
+    Some(GPS_INPUT_DATA {
+        time_usec: t_us,
+        lat,
+        lon,
+        alt: altitude_m(p.z, AltRef::Amsl),
+        vn: fix.velocity.x as f32,
+        ve: fix.velocity.y as f32,
+        vd: fix.velocity.z as f32,
+        horiz_accuracy: noise.position,
+        vert_accuracy: noise.position,
+        speed_accuracy: noise.velocity,
+        fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+        satellites_visible: 12,
+        yaw: gps_input_yaw_cdeg(fix.yaw as f32),
+        ignore_flags: GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_HDOP
+            | GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_VDOP,
+        ..Default::default()
+    })
+}
+
+/// The fix the firmware takes from `m` (`firmware/src/link/position_sources.rs`, `gps_input_fix`,
+/// for a message [`gps_input`] made): the same [`global_to_ned`] and yaw decoding, so the
+/// firmware twin fuses bit for bit what the firmware fuses.
+pub(super) fn gps_input_decoded(m: &GPS_INPUT_DATA) -> Option<PositionFix> {
+    let position = global_to_ned(m.lat, m.lon, m.alt, AltRef::Amsl).ok()?;
+    let velocity = Vec3::new(m.vn, m.ve, m.vd);
+    Some(PositionFix { t_us: m.time_usec, position, velocity, yaw: gps_input_yaw(m.yaw) })
 }
 
 /// The obstacle batch of an outer step: per point its velocity (`DEBUG_VECT OBV<id>`, moving

@@ -32,8 +32,8 @@ use parapet_core::wire::names::{self, PANIC_TEXT, PIL_READY_TEXT};
 use super::faults::Injector;
 use super::firmware::firmware_build_command;
 use super::gcs::{
-    battery_status, command_long, firmware_params, hil_sensor, mission_count, mission_item, obstacle_batch,
-    odometry, param_set, preroll_start, quantised_path, WARMUP_STEPS,
+    battery_status, command_long, firmware_params, gps_input, gps_source, hil_sensor, mission_count,
+    mission_item, obstacle_batch, odometry, param_set, preroll_start, quantised_path, WARMUP_STEPS,
 };
 use super::proximity::{is_planar_lidar, obstacle_distance};
 use super::qemu::{reader_thread, start_qemu, Inbound, LinkPipes, QemuGuard};
@@ -107,6 +107,8 @@ pub struct PilLink {
     target_done: bool,
     /// `RPL_ENABLE` of the flight's parameters (the firmware's on-board replanner, issue 38).
     replan_enabled: bool,
+    /// The σ of a `gps` / `rtk` source's GPS_INPUTs; `None`: ODOMETRY (motion capture).
+    gps: Option<parapet_core::nav::aid::SourceNoise>,
 }
 
 /// The set-point the firmware last reported (POSITION_TARGET_LOCAL_NED), with the firmware
@@ -214,6 +216,7 @@ impl PilLink {
             target: None,
             target_done: false,
             replan_enabled: params.replan.enable,
+            gps: gps_source(cfg)?,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -459,8 +462,12 @@ impl PilLink {
         Ok(ans)
     }
 
+    /// A fix: ODOMETRY, or with a `gps` / `rtk` source GPS_INPUT (`super` § Position source).
     fn queue_odometry(&mut self, t_us: u64, fix: &PositionReading) {
-        self.queue(&odometry(t_us, fix, self.fix_std_m));
+        match self.gps.map(|noise| gps_input(t_us, fix, noise)) {
+            Some(m) => m.into_iter().for_each(|m| self.queue(&MavMessage::GPS_INPUT(m))),
+            None => self.queue(&odometry(t_us, fix, self.fix_std_m)),
+        }
     }
 
     fn queue_obstacles(&mut self, t_us: u64, obstacles: &[ObstaclePoint]) {

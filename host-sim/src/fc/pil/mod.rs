@@ -53,6 +53,16 @@
 //! Message names, ids, scalings, codes, the lockstep rule and the motor-command sanitiser
 //! are the wire contract `parapet_core::wire`, shared with the firmware.
 //!
+//! ## Position source
+//! With `[sensors] position_source` `mocap` (the default) each fix goes as ODOMETRY (the
+//! firmware's latest-fix path); with `gps` or `rtk` as GPS_INPUT ([`gcs::gps_input`]: lat/lon
+//! 1e-7 °, altitude AMSL, velocity NED, heading cdeg, the σ as accuracies), at the source's
+//! rate and latency (the time it describes is `time_usec`), into the firmware's navigation
+//! filter (issue 39). The warm-up sends the start's fix the same way at the outer rate. The
+//! firmware reports the filter in ESTIMATOR_STATUS and its estimate in LOCAL_POSITION_NED
+//! (recorded in [`PilFigures`]); [`FirmwareTwin`] runs the same filter on the same decoded
+//! fixes. Not carried: the barometer (the firmware takes none) and `vio`.
+//!
 //! ## Battery
 //! With a scene `[battery]`, the runner samples the pack exactly as for `parapet run` (same
 //! model, seed and motor commands, after each inner step) and [`PilLink`] sends each reading as
@@ -84,11 +94,11 @@ pub use firmware::{
     build_firmware, default_firmware_path, firmware_build_command, firmware_from_env_or_build, is_elf,
     workspace_root, ELF_ENV, FIRMWARE_BIN, FIRMWARE_TARGET,
 };
-pub use gcs::{firmware_params, quantised_path};
+pub use gcs::{firmware_params, gps_source, quantised_path};
 pub use link::PilLink;
 pub use qemu::QEMU_PACKAGE;
 pub use telemetry::{InstructionFigures, PilFigures};
-pub use twin::{run_twin, FirmwareTwin};
+pub use twin::{run_twin, run_twin_with_fixes, FirmwareTwin};
 
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::world::scene::Scene;

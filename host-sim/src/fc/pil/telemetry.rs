@@ -123,6 +123,15 @@ pub struct PilFigures {
     pub replan_texts: Vec<TimedText>,
     /// Instructions of each plan the firmware served (NAMED_VALUE_INT `ins_rpl`; the first 256).
     pub replan_instructions: Vec<u64>,
+    /// ESTIMATOR_STATUS messages received (the navigation filter's, issue 39: sent once a
+    /// filtered source such as GPS_INPUT initialised it) and the last one's `flags`.
+    pub estimator_status: u64,
+    /// `flags` of the last ESTIMATOR_STATUS (0 before the first).
+    pub estimator_flags: u16,
+    /// Every LOCAL_POSITION_NED (`time_boot_ms`, NED m): the outer loop's position, with a
+    /// filtered source the filter's estimate. Not in `summary.json`.
+    #[serde(skip)]
+    pub local_positions: Vec<(u32, [f32; 3])>,
 }
 
 /// How the firmware's replanner STATUSTEXTs begin (`parapet_firmware::app::replanner::event_text`).
@@ -329,6 +338,11 @@ pub(super) fn observe(m: &MavMessage, t_us: u64, t: &mut FirmwareTelemetry, fig:
         MavMessage::POSITION_TARGET_LOCAL_NED(p) => {
             t.filter.u_filtered = Vector3::new(p.afx, p.afy, p.afz).cast();
         }
+        MavMessage::ESTIMATOR_STATUS(e) => {
+            fig.estimator_status += 1;
+            fig.estimator_flags = e.flags.bits();
+        }
+        MavMessage::LOCAL_POSITION_NED(p) => fig.local_positions.push((p.time_boot_ms, [p.x, p.y, p.z])),
         MavMessage::BATTERY_STATUS(b) => battery_status(b, t_s, &mut fig.battery),
         MavMessage::SYS_STATUS(s) => {
             let f = &mut fig.battery;

@@ -1,7 +1,16 @@
 //! [`FirmwareTwin`]: the firmware's cascade and lockstep sequence on the host,
 //! to tell what the ARM build and the link change from what the sequence does.
 //!
-//! May import: `parapet-core` (controller, schedule, wire lockstep rule),
+//! With a `gps` / `rtk` source the twin also runs the firmware's navigation filter
+//! (`parapet_core::nav::aid::NavAid`, as `firmware/src/app/navigation.rs` does): each fix as
+//! the firmware decodes the GPS_INPUT the link sends ([`super::gcs::gps_input`] →
+//! [`super::gcs::gps_input_decoded`]: lat/lon 1e-7 °, the same `wire::geo` conversion), every
+//! IMU sample predicted after its inner step with the attitude estimate, and before each outer
+//! step an absolute reset handed to the guidance and the filter's estimate given as the fix of
+//! now — the firmware's order. It records that fix ([`FirmwareTwin::fixes`]) to compare with
+//! the firmware's LOCAL_POSITION_NED.
+//!
+//! May import: `parapet-core` (controller, schedule, wire lockstep rule, navigation filter),
 //! [`super::gcs`] (the firmware's parameters, path and start-up timing),
 //! [`crate::flight`], [`crate::sim::sensors`], [`crate::sim::battery`] (readings),
 //! [`crate::world::scene`].
@@ -12,13 +21,18 @@ use parapet_core::battery::BatteryEstimator;
 use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
+use parapet_core::nav::aid::{NavAid, SourceNoise};
+use parapet_core::nav::{FixKind, NavParams};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_from_wire, battery_to_wire};
 use parapet_core::wire::codes::{odometry_quaternion, odometry_yaw};
 use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
+use parapet_core::Vec3;
 
-use super::gcs::{firmware_params, preroll_start, quantised_path, WARMUP_STEPS};
+use super::gcs::{
+    firmware_params, gps_input, gps_input_decoded, gps_source, preroll_start, quantised_path, WARMUP_STEPS,
+};
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
 use crate::sim::battery::BatteryReading;
@@ -44,6 +58,10 @@ pub struct FirmwareTwin {
     mission_start_pending: bool,
     /// The firmware's PIL battery measurement (`firmware/src/pil/battery.rs`).
     battery: BatteryEstimator,
+    /// The firmware's navigation filter and the σ the GPS_INPUTs state (`gps` / `rtk`).
+    nav: Option<(NavAid, SourceNoise)>,
+    /// The filter's fix given to the outer loop at each outer step (firmware time µs, NED m).
+    fixes: Vec<(u64, Vec3)>,
 }
 
 impl FirmwareTwin {
@@ -66,10 +84,25 @@ impl FirmwareTwin {
             last_t_us: 0,
             mission_start_pending: false,
             battery: BatteryEstimator::new(p.battery),
+            nav: gps_source(cfg)?.map(|n| (NavAid::new(NavParams::default()), n)),
+            fixes: Vec::new(),
         })
     }
 
+    /// The navigation filter's fix of each outer step (firmware time µs, NED m); empty without
+    /// a `gps` / `rtk` source.
+    pub fn fixes(&self) -> &[(u64, Vec3)] {
+        &self.fixes
+    }
+
     fn fix(&mut self, t_us: u64, fix: &PositionReading) {
+        if let Some((nav, noise)) = self.nav.as_mut() {
+            // The GPS_INPUT the link sends, as the firmware decodes it.
+            if let Some(f) = gps_input(t_us, fix, *noise).as_ref().and_then(gps_input_decoded) {
+                let _ = nav.fix(&f, *noise, FixKind::Absolute);
+            }
+            return;
+        }
         self.fc.update_position(PositionFix {
             t_us,
             position: to_f32(&fix.position),
@@ -90,8 +123,21 @@ impl FirmwareTwin {
         if let Some(o) = self.pending_obstacles.take() {
             self.fc.update_obstacles(t_us, &o);
         }
-        let m = self.fc.step_inner(t_us, &ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) });
+        let sample = ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) };
+        let m = self.fc.step_inner(t_us, &sample);
+        if let Some((nav, _)) = self.nav.as_mut() {
+            let _ = nav.imu(t_us, &sample.accel, &self.fc.inner().estimate().attitude);
+        }
         if self.clock.tick(t_us).run_outer {
+            if let Some((nav, _)) = self.nav.as_mut() {
+                if let Some(delta) = nav.take_reset() {
+                    self.fc.position_reset(delta);
+                }
+                if let Some(f) = nav.controller_fix(t_us) {
+                    self.fc.update_position(f);
+                    self.fixes.push((t_us, f.position));
+                }
+            }
             self.fc.step_outer(t_us);
         }
         self.last_t_us = t_us;
@@ -166,6 +212,12 @@ impl FlightStack for FirmwareTwin {
 
 /// Fly `scene` with the [`FirmwareTwin`] (pure host, firmware parameters and sequence).
 pub fn run_twin(scene: &Scene, cfg: &RunConfig) -> Result<RunOutput> {
+    Ok(run_twin_with_fixes(scene, cfg)?.0)
+}
+
+/// [`run_twin`], with the navigation filter's fix of each outer step ([`FirmwareTwin::fixes`]).
+pub fn run_twin_with_fixes(scene: &Scene, cfg: &RunConfig) -> Result<(RunOutput, Vec<(u64, Vec3)>)> {
     let mut twin = FirmwareTwin::new(scene, cfg)?;
-    run_with(scene, cfg, &mut twin, &mut |_| {})
+    let out = run_with(scene, cfg, &mut twin, &mut |_| {})?;
+    Ok((out, twin.fixes))
 }
