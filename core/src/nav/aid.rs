@@ -156,4 +156,34 @@ mod tests {
         assert!(aid.controller_fix(5_000 + NAV_TIMEOUT_US).is_some());
         assert_eq!(aid.controller_fix(5_001 + NAV_TIMEOUT_US), None);
     }
+
+    /// A source that jumps 4 m east: an absolute one's reset is handed on once, with its
+    /// delta; a relative one's (its frame offset moves, the estimate does not) never.
+    #[test]
+    fn an_absolute_reset_is_handed_on_once_a_relative_one_never() {
+        for kind in [FixKind::Absolute, FixKind::Relative] {
+            let mut aid = NavAid::new(NavParams::default());
+            hover(&mut aid, 0, 10_000);
+            aid.fix(&fix(5_000), NOISE, kind);
+            let mut t = 10_000;
+            let mut handed = [None; 12];
+            for h in handed.iter_mut() {
+                hover(&mut aid, t + 1_000, t + 100_000);
+                t += 100_000;
+                let mut f = fix(t - 50_000);
+                f.position.y += 4.0;
+                aid.fix(&f, NOISE, kind);
+                *h = aid.take_reset();
+            }
+            assert_eq!(aid.status().resets, 1, "{kind:?}");
+            let n = handed.iter().filter(|d| d.is_some()).count();
+            if kind == FixKind::Absolute {
+                assert_eq!(n, 1, "{handed:?}");
+                let d = handed.iter().flatten().next().copied().unwrap_or_default();
+                assert!((d.y - 4.0).abs() < 0.5 && d.x.abs() < 0.1, "{d:?}");
+            } else {
+                assert_eq!(n, 0, "{handed:?}");
+            }
+        }
+    }
 }
