@@ -63,8 +63,8 @@ fn pil_flies_outdoor_static_on_gps_input_and_its_filter_agrees_with_the_twin() {
     );
     println!("status texts: {:?}", fig.status_texts);
     // The firmware's cost with the filter (QEMU -icount): the outer step predicts the queued IMU
-    // samples and reads the estimate (`ins_outer`); a GPS_INPUT's update runs in the link's
-    // frame handling (within `ins_step` of the step that carried it).
+    // samples and reads the estimate (`ins_outer`, within `ins_step`); a GPS_INPUT's update runs
+    // while the firmware reads the step's frames, before the timed step (not in these counts).
     println!("instructions: {:?}", fig.instructions_per_control_step);
     assert!(!s.collided, "collision: {:?}", s.collision_with);
     assert!(s.reached_goal, "goal not reached: {} m left", s.final_distance_to_goal_m);
