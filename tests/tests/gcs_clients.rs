@@ -343,7 +343,7 @@ fn mavsdk_flies_a_mission_on_the_pil() {
 /// global-frame plan, as QGroundControl and PX4 SITL users do: MissionItems at the telemetry home
 /// position + the path's offsets, uploaded as NAV_WAYPOINTs in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
 /// downloaded back with the same lat/lon, flown to the goal and landed. Before the global-frame
-/// conversion (firmware/src/link/geo.rs) the upload was refused MAV_MISSION_UNSUPPORTED_FRAME.
+/// conversion (now core/src/wire/geo.rs) the upload was refused MAV_MISSION_UNSUPPORTED_FRAME.
 #[test]
 fn mavsdk_mission_plugin_flies_a_global_plan_on_the_pil() {
     fly_mavsdk_mission_on_the_pil("plugin", "mavsdk-global-mission");
