@@ -91,11 +91,11 @@ fn pymavlink_fetches_the_onboard_log_through_the_pil_link_and_pyulog_parses_it()
     assert_eq!(bytes.len(), size as usize);
     assert_eq!(&bytes[..7], b"ULog\x01\x12\x35");
     // The same log as pymavlink's download: the same start, and more records since — unless the
-    // first download already held the whole of the QEMU store's 32 KiB (`RAM_LOG_BYTES` of
+    // first download already held the whole of the QEMU store's 26 KiB (`RAM_LOG_BYTES` of
     // firmware/src/log/service.rs: a longer log is cut there, ≈ 4 s of armed flight), which a
     // loaded machine reaches before the first download (CI 2026-12-06 with the governor's two
     // more `cbf_status` fields: 32,750 B both times).
-    const RAM_LOG_BYTES: usize = 32 * 1024;
+    const RAM_LOG_BYTES: usize = 26 * 1024;
     let first = std::fs::read(&fetched).expect("pymavlink's file");
     let cut = first.len() + 1024 > RAM_LOG_BYTES;
     assert!(bytes.len() >= first.len() && bytes[..first.len()] == first[..], "not the same log");

@@ -22,7 +22,7 @@
 //! | writing one record set, 6 topics ≈ 280 bytes (log task, `ins_log`) | median 19 209, p99 19 382 |
 //! | the first record set of a log (header, 6 formats, 3 infos, 71 parameters, 6 subscriptions) | 178 302 |
 //!
-//! With the 32 KiB RAM store of the QEMU board a log holds ≈ 4.6 s at 25 Hz; it is cut there.
+//! With the 26 KiB RAM store of the QEMU board a log holds ≈ 3.7 s at 25 Hz; it is cut there.
 //! On the F405 (cargo feature `onboard-log`, on by default) a log task alone in thread mode (with
 //! the parameter storage) owns the logger, the card store and the download (`src/bin/fc/`);
 //! the H743 has no card driver yet (its log store is always off).

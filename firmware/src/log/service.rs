@@ -15,16 +15,18 @@ use crate::log::logger::{FlightLogger, LogSample, LoggerStats};
 use crate::log::store::{LogStore, RamRing};
 use crate::log::transfer::{LogReply, LogTransfer, TransferStats};
 
-/// Bytes of the RAM log store of the QEMU board (and host tests): ≈ 4.6 s of armed flight at
+/// Bytes of the RAM log store of the QEMU board (and host tests): ≈ 3.7 s of armed flight at
 /// the default 25 Hz (`crate::log::logger`); a longer log is cut there (the start is kept),
-/// older logs are overwritten. 32 KiB (was 60, then 58): the QEMU image's stack needs the
+/// older logs are overwritten. 26 KiB since the 2.5-D replanner (issue 38): its planner grew
+/// by 8 KiB and shares the QEMU image's 64 KiB stand-in for the F405's CCM (`board::ccm`) with
+/// this store, the parameter flash and the request (32 KiB overflowed it by 5,068 B). Before, 32 KiB (was 60, then 58): the QEMU image's stack needs the
 /// room (`tests/tests/setup_pil.rs` guards ≥ 1 KiB never used; 7,452 B are left). The last
 /// 26 KiB went to the mission trajectory in the guidance (`parapet_core::outer::trajectory`,
 /// 3.0 KB on the Cortex-M4): the boot (`build_app`) builds the application by value, and its
 /// frame (37.4 KB without the trajectory, 49.7 KB with it) plus `FlightController::new`'s
 /// (5.4 → 9.5 KB) hold about six copies of it. Building the cascade in place would give the
 /// room back.
-pub const RAM_LOG_BYTES: usize = 32 * 1024;
+pub const RAM_LOG_BYTES: usize = 26 * 1024;
 /// Logs the RAM store lists at most.
 pub const RAM_LOG_COUNT: usize = 8;
 /// The RAM store of the QEMU board.
