@@ -2,12 +2,14 @@
 //! vehicle plans a detour by itself, from what it has sensed, and flies it through the same
 //! guidance and safety filter.
 //!
-//! **What it knows** ([`grid`]): a persistent [`grid::GRID`]² horizontal occupancy grid at
-//! the flight level (default cell 0.2 m: a 12.8 m square that follows the vehicle in whole
-//! cells), marked with the static obstacle points the filter is given (ground truth's closest
-//! points, or the obstacle memory's points with range sensing; not the virtual frontier,
-//! ceiling and ground points, [`VIRTUAL_ID`]) that lie within `band_m` of the
-//! vehicle's height. Occupied cells are grown by the hull radius + `margin_m`. **Unknown space
+//! **What it knows** ([`grid`]): a persistent 2.5-D occupancy grid, [`grid::GRID`]² cells
+//! (default 0.2 m: a 12.8 m square that follows the vehicle in whole cells), each with a
+//! column of [`grid::SLICES`] world-anchored height slices of the cell's edge (3.2 m, ±1.6 m
+//! of the vehicle, following it vertically too), marked with the static obstacle points the
+//! filter is given (ground truth's closest points, or the obstacle memory's points with range
+//! sensing; not the virtual frontier, ceiling and ground points, [`VIRTUAL_ID`]). A plan at
+//! flight level z collapses the slices within `band_m` of z into a 2-D layer of occupied
+//! cells, grown by the hull radius + `margin_m`, and searches that. **Unknown space
 //! is assumed free**: a detour through space nobody has seen is flown under the same safety
 //! filter, which stops the vehicle before anything it then senses, and the next check replans.
 //!
@@ -20,7 +22,7 @@
 //! the straight line from a vehicle the filter pushed off the path to the next waypoint is not
 //! the path, and it cut door corners of the mapped office (stalled, below, from the vehicle:
 //! the reference may have run past the wall the vehicle is held in front of). The test
-//! is 3D and against the points, not the grid: the grid is 2D and rounds to cells, so a planned
+//! is 3D and against the points, not the grid: the grid rounds to cells and slices, so a planned
 //! path that passes over a table, a plant or under a lamp within the height band, or a door
 //! edge a cell's half diagonal closer than it is, would look blocked (it did, on the mapped
 //! office: 10 replans and no goal). Samples within the hull radius of the vehicle are left to
@@ -28,19 +30,39 @@
 //! it, the mission's path was planned inside it). Or the filter reports a
 //! stall (`deadlock`, `crate::plant_aware`), or the vehicle has stayed within [`STUCK_M`] of
 //! one place for [`STUCK_S`], and the remaining path comes within the inflation
-//! radius of an occupied cell anywhere in the grid. After a replan, a no-path or a budget
+//! radius of a cell occupied at the path's own height anywhere in the grid. After a replan, a no-path or a budget
 //! result the next plan waits `cooldown_s` (no thrashing).
 //!
-//! **Flight level.** The grid is 2D: the check and the targets stop where the remaining path
-//! leaves the vehicle's height by more than `band_m` (a path planned over or under something
-//! is not replanned there; the filter guards it).
+//! **Flight levels** (issue 38: in `office_blocked` the way from room B to room C passes over
+//! printer B, as the offline planner's 3-D path does; at the vehicle's height the printer
+//! closes the door, and the 2-D replanner found no path there, or its detours rejoined the
+//! mission beyond the climb and lost it). The check walks the whole remaining path at its
+//! own heights. A plan tries up to [`MAX_LEVELS`] flight levels, in order: the vehicle's
+//! height, then the highest and the lowest waypoint height of the remaining path from the
+//! blockage to where it leaves the grid (where the mission climbs over or ducks under what it
+//! passes), each skipped within a cell of a level tried before or when its band leaves the
+//! grid's window; the first level with a path wins. A detour at a level rejoins the mission
+//! only on the path's first run of waypoints at that level beyond the blockage (at the
+//! vehicle's height: the run from the blockage on) — never beyond where the mission leaves
+//! that level, which would drop the heights it flies there. At a level other than the
+//! vehicle's the vehicle first climbs (descends) where it stands, and a target more than
+//! [`VERTICAL_M`] off the level is reached straight down (up) from above it: each such
+//! vertical leg needs its column clear of marked slices from one height to the other (band
+//! included) within the inflation radius — at the vehicle, cells it already stands beside at
+//! its own height aside (a wall it climbs along) — else that level (target) is not used: the
+//! vehicle never climbs through what it has seen. The detour's waypoints carry the level's
+//! height. Why levels from the path and no 3-D search: the mission's heights lie inside the
+//! flight envelope the offline planner kept (the envelope's ceiling and floor are virtual
+//! points the grid does not hold), and a 2-D search per level costs the 2-D planner's memory
+//! and time times the levels tried.
 //!
-//! **Plan** ([`Replanner::plan`]): A* with octile costs on the grid ([`search`]; Hart, Nilsson
-//! & Raphael 1968) from the vehicle's cell to the **target**: the farthest waypoint of the
-//! remaining path beyond the blockage that is free and inside the grid (the mission's
+//! **Plan** ([`Replanner::plan`]): per level, A* with octile costs on the grid ([`search`];
+//! Hart, Nilsson & Raphael 1968) from the vehicle's cell to the **target**: the farthest
+//! waypoint of the remaining path's run at that level beyond the blockage that is free (at its
+//! own height) and inside the grid (the mission's
 //! waypoints are route points of a planned path: rejoining it as far on as the grid reaches
 //! keeps successive detours from piling up); if that is not reachable, the nearer ones in turn,
-//! last the first free point of the path after the blockage ([`MAX_TARGETS`] tries). The cell path is simplified by
+//! last the first free point of the path after the blockage ([`MAX_TARGETS`] tries per level). The cell path is simplified by
 //! line of sight on the grid (a waypoint only where the straight line would cross a blocked
 //! cell), and the new path is: detour waypoints → the target → the rest of the mission.
 //! Cells within the inflation radius of the vehicle that are not themselves occupied are
@@ -54,10 +76,16 @@
 //! `BudgetExceeded` (the search's expansion cap or open list, or the new path would exceed
 //! the detour or path capacity: handled like `NoPath`).
 //!
-//! **Bounds.** Memory: the grid 1 KiB, the search ≈ 20 KiB (`Replanner` ≈ 21 KiB in all).
-//! Time: the trigger tests at most `horizon_m` / (cell / 2) path samples against the points
-//! given (one distance each); at most [`MAX_TARGETS`] searches of at most `max_expansions` (≤ 4096) expansions of 8
-//! neighbours, plus O(path cells · 2·GRID) line-of-sight tests.
+//! **Bounds.** Memory: the grid 9 KiB (8 KiB of columns, 2 B per cell; two 512 B bit
+//! layers), the search ≈ 20 KiB (`Replanner` 30,344 B in all, the F405 image's `PLANNER`;
+//! 8,196 B more than with the 2-D grid). Time: the trigger tests at most `horizon_m` / (cell / 2) path samples
+//! against the points given (one distance each; when stalled, also a column test of ≤ 9
+//! cells each); per level a column test, a layer collapse (O(CELLS)) and inflation; at most
+//! [`MAX_SEARCHES`] = [`MAX_LEVELS`] · [`MAX_TARGETS`] = 12 searches (4 with the 2-D grid; a
+//! target whose cell is blocked at the level, or whose column is not clear, is skipped
+//! without one) of at most
+//! `max_expansions` (≤ 4096) expansions of 8 neighbours, plus O(path cells · 2·GRID)
+//! line-of-sight tests.
 //!
 //! **Where it runs** ([`onboard`]): beside the outer loop, off the control loops — the outer
 //! side takes a snapshot at `rate_hz`, the planner serves it, the outer side applies the new
@@ -76,10 +104,19 @@ use crate::Vec3;
 use grid::{Grid, CELLS, GRID};
 use search::{Search, SearchResult};
 
-/// Targets tried per plan (the first free point beyond the blockage, then later waypoints).
+/// Targets tried per level (waypoints of the run at the level, then the first free point beyond the blockage).
 pub const MAX_TARGETS: usize = 4;
-/// Detour waypoints at most (before the target).
+/// Flight levels tried per plan (the vehicle's height, the remaining path's highest and lowest).
+pub const MAX_LEVELS: usize = 3;
+/// Searches per plan at most (levels · targets; a target skipped without a search does not
+/// count): reaching it is `BudgetExceeded`.
+pub const MAX_SEARCHES: usize = 12;
+/// Detour waypoints at most (before the target; the vertical legs included).
 pub const MAX_DETOUR: usize = 16;
+/// A level more than this (m) off the vehicle's (or the target's) height is reached by a
+/// vertical leg where the vehicle (the target) stands; within it the detour's first (last)
+/// leg slopes.
+pub const VERTICAL_M: f32 = 0.1;
 /// The vehicle within this of one place (m) ...
 pub const STUCK_M: f32 = 0.15;
 /// ... for this long (s) counts as stalled.
@@ -114,8 +151,9 @@ pub struct ReplanParams {
     pub margin_m: f32,
     /// Grid cell edge, m. Default 0.2 (the grid is 64 cells = 12.8 m across).
     pub cell_m: f32,
-    /// Points within this height of the vehicle mark the grid, m. Default 0.3 (above the hull
-    /// radius: a desk top 0.45 m below the flight level is flown over, not around).
+    /// A plan at flight level z searches the cells with a point within this height of z, m
+    /// (whole slices: up to a slice more). Default 0.3 (above the hull radius: a desk top
+    /// 0.45 m below the flight level is flown over, not around).
     pub band_m: f32,
     /// Expansions per search at most (≤ 4096). Default 4096.
     pub max_expansions: u16,
@@ -249,6 +287,13 @@ pub struct Replanner {
     anchor: (Vec3, u64),
 }
 
+/// Where the remaining path is blocked: `kb`, the index of the blocked segment's end waypoint,
+/// and the first free point after the blockage (if the path has one in the grid).
+struct Blockage {
+    kb: usize,
+    first_free: Option<Target>,
+}
+
 /// A point on the remaining path: where, and the index of the waypoint its segment ends at.
 #[derive(Clone, Copy, Debug)]
 struct Target {
@@ -263,7 +308,7 @@ impl Replanner {
     /// A replanner with every field zero (all-zero parameters, which no request carries: the
     /// first [`Replanner::serve`] takes the request's parameters with
     /// [`Replanner::reconfigure`]), as a constant: the firmware's `static` of it is built at
-    /// compile time, never on a stack (≈ 21 KiB), and is all zero bytes (it lives in a section
+    /// compile time, never on a stack (≈ 29 KiB), and is all zero bytes (it lives in a section
     /// the firmware zeroes at boot).
     pub const ZEROED: Replanner = Replanner {
         params: ReplanParams::ZEROED,
@@ -296,7 +341,7 @@ impl Replanner {
         let area = if self.params.valid() { self.grid.area() } else { None };
         self.params = params.checked();
         self.hull = sane_hull(hull);
-        self.grid = Grid::new(self.params.cell_m, &Vec3::zeros());
+        self.grid.reset(self.params.cell_m, &Vec3::zeros());
         self.grid.set_area(area);
         self.next_check_us = 0;
         self.anchor = (Vec3::new(f32::INFINITY, 0.0, 0.0), 0);
@@ -327,18 +372,20 @@ impl Replanner {
         &self.grid
     }
 
-    /// Mark the static `points` within the height band of the vehicle at `pos` (NED) in the
-    /// grid, which first follows the vehicle. O(points + GRID).
+    /// Mark the static `points` in the grid's columns (those within its height window), which
+    /// first follows the vehicle at `pos` (NED); the occupied layer is then the vehicle's level.
+    /// O(points + CELLS).
     pub fn observe(&mut self, pos: &Vec3, points: &[ObstaclePoint]) {
         if !pos.iter().all(|c| c.is_finite()) {
             return;
         }
         self.grid.follow(pos);
         for o in points {
-            if !ignored(o) && (o.point.z - pos.z).abs() <= self.params.band_m {
+            if !ignored(o) {
                 self.grid.mark(&o.point);
             }
         }
+        self.grid.select_level(pos.z, self.params.band_m);
     }
 
     /// The trigger at `now_us`: when a check is due (rate, cooldown) and replanning is on,
@@ -408,15 +455,15 @@ impl Replanner {
         }
         let radius = self.hull + self.params.margin_m;
         self.grid.follow(pos);
-        self.grid.inflate(radius);
-        let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
         // Stalled, the way on from where the vehicle stands is what is blocked (the reference
         // may have run past a thin wall the filter holds the vehicle in front of).
         let from = if stalled || !along.iter().all(|c| c.is_finite()) { pos } else { along };
-        if !self.find_targets(pos, from, remaining, points, horizon, stalled, radius, &mut targets) {
+        let Some(blockage) = self.find_blockage(pos, from, remaining, points, horizon, stalled, radius)
+        else {
             return ReplanOutcome::NotNeeded;
-        }
-        let r = self.search_targets(pos, remaining, radius, &targets, out);
+        };
+        let levels = self.levels(pos, remaining, blockage.kb);
+        let r = self.search_levels(pos, remaining, radius, &blockage, &levels, out);
         match r {
             ReplanOutcome::Replanned { .. } => self.stats.replans = self.stats.replans.saturating_add(1),
             ReplanOutcome::NoPath => self.stats.no_path = self.stats.no_path.saturating_add(1),
@@ -429,13 +476,11 @@ impl Replanner {
         r
     }
 
-    /// Walk the remaining path from `pos` every half cell: `false` when the first `horizon` m
-    /// pass no static point of `points` within the hull radius (or it leaves the grid first). Otherwise the targets, in the order
-    /// tried: the remaining waypoints beyond the blockage that are passable and in the grid,
-    /// farthest first (the detour rejoins the mission as far on as the grid reaches, so that
-    /// successive detours do not pile up), then the first passable point after the blockage.
+    /// Walk the remaining path from `from` every half cell: `None` when the first `horizon` m
+    /// pass no static point of `points` within the hull radius (or it leaves the grid first).
+    /// Otherwise the blockage: the blocked segment and the first free point after it.
     #[allow(clippy::too_many_arguments)]
-    fn find_targets(
+    fn find_blockage(
         &self,
         pos: &Vec3,
         from: &Vec3,
@@ -444,11 +489,9 @@ impl Replanner {
         horizon: f32,
         stalled: bool,
         radius: f32,
-        targets: &mut heapless::Vec<Target, MAX_TARGETS>,
-    ) -> bool {
+    ) -> Option<Blockage> {
         let step = 0.5 * self.grid.cell();
-        let free =
-            |p: &Vec3| self.grid.cell_of(p).is_some_and(|(i, j)| passable(&self.grid, i, j, pos, radius));
+        let free = |p: &Vec3| self.free_at(p, pos, radius);
         let (mut s, mut blocked_at, mut first_free) = (0.0f32, None::<usize>, None::<Target>);
         let mut a = *from;
         'walk: for (k, b) in remaining.iter().enumerate() {
@@ -456,25 +499,20 @@ impl Replanner {
             let n = ((len / step) as u32).min(16 * GRID as u32) + 1;
             for m in 1..=n {
                 let p = a + (b - a) * (m as f32 / n as f32);
-                // The grid holds the flight level only: the path leaving it (climbing over or
-                // under something) ends the check, and the search, there.
-                let level = (p.z - pos.z).abs() <= self.params.band_m;
                 match (blocked_at, self.grid.cell_of(&p)) {
-                    (None, None) => return false,
-                    (None, Some(_)) if !level => return false,
+                    (None, None) => return None,
                     // Samples within the hull radius of the vehicle are the filter's (the
                     // vehicle there is as near the points as the filter let it come).
-                    (None, Some((i, j)))
+                    (None, Some(_))
                         if (touches(points, &p, (self.hull - POINT_SLACK_M).max(0.0))
                             && (p - pos).norm_squared() > self.hull * self.hull)
-                            || (stalled && !passable(&self.grid, i, j, pos, radius)) =>
+                            || (stalled && !free(&p)) =>
                     {
                         if s + len * m as f32 / n as f32 > horizon {
-                            return false;
+                            return None;
                         }
                         blocked_at = Some(k);
                     }
-                    (Some(_), _) if !level => break 'walk,
                     (Some(_), Some(_)) if free(&p) => {
                         first_free = Some(Target { p, next: k, at_waypoint: m == n });
                         break 'walk;
@@ -484,51 +522,139 @@ impl Replanner {
             }
             s += len;
             if blocked_at.is_none() && s > horizon {
-                return false;
+                return None;
             }
             a = *b;
         }
-        let Some(kb) = blocked_at else { return false };
-        let fallback = usize::from(first_free.is_some());
-        // Waypoints beyond the blockage up to the first one off the flight level.
-        let level_end = remaining
-            .iter()
-            .enumerate()
-            .skip(kb)
-            .find(|(_, w)| (w.z - pos.z).abs() > self.params.band_m)
-            .map_or(remaining.len(), |(k, _)| k);
-        for (k, w) in remaining.iter().enumerate().take(level_end).skip(kb).rev() {
-            if targets.len() + fallback >= MAX_TARGETS || first_free.is_some_and(|f| k < f.next) {
+        Some(Blockage { kb: blocked_at?, first_free })
+    }
+
+    /// The targets of a plan at flight level `z` (`own`: the vehicle's height), in the order
+    /// tried: the waypoints of the remaining path's first run at that level beyond the
+    /// blockage (consecutive waypoints within `band_m` of `z`; at the vehicle's height the run
+    /// must start at the blocked segment's end) that are free at their own height and in the
+    /// grid, farthest first (the detour rejoins the mission as far on as the grid reaches, so
+    /// that successive detours do not pile up — but not beyond where the mission leaves the
+    /// level: rejoining there would drop the heights it climbs or descends to, the way over or
+    /// under what it passes), then the first free point after the blockage when it lies on
+    /// that run.
+    fn level_targets(
+        &self,
+        pos: &Vec3,
+        remaining: &[Vec3],
+        blockage: &Blockage,
+        (z, own): (f32, bool),
+        radius: f32,
+    ) -> heapless::Vec<Target, MAX_TARGETS> {
+        let band = self.params.band_m;
+        let on = |w: &Vec3| (w.z - z).abs() <= band;
+        let on_at = |k: usize| remaining.get(k).is_some_and(on);
+        let kb = blockage.kb;
+        let start = if own { kb } else { (kb..remaining.len()).find(|&k| on_at(k)).unwrap_or(kb) };
+        let end = (start..remaining.len()).find(|&k| !on_at(k)).unwrap_or(remaining.len());
+        let fallback = blockage.first_free.filter(|f| on(&f.p) && f.next <= end && (!own || f.next >= start));
+        let mut targets: heapless::Vec<Target, MAX_TARGETS> = heapless::Vec::new();
+        for k in (start..end).rev() {
+            if targets.len() + usize::from(fallback.is_some()) >= MAX_TARGETS
+                || fallback.is_some_and(|f| k < f.next)
+            {
                 break;
             }
-            if free(w) {
+            if let Some(w) = remaining.get(k).filter(|w| self.free_at(w, pos, radius)) {
                 let _ = targets.push(Target { p: *w, next: k, at_waypoint: true });
             }
         }
-        if let Some(f) = first_free {
+        if let Some(f) = fallback {
             let _ = targets.push(f);
         }
-        // Blocked with nothing passable in the grid beyond: no target (NoPath).
-        true
+        targets
     }
 
-    fn search_targets<const N: usize>(
+    /// `p` is in the grid and the flight area, and free at its own height: no cell within the
+    /// inflation `radius` of its cell has a marked slice within `band_m` of `p.z` — or, within
+    /// `radius` of the vehicle at `pos`, its own cell has none (as [`passable`]).
+    fn free_at(&self, p: &Vec3, pos: &Vec3, radius: f32) -> bool {
+        let Some((i, j)) = self.grid.cell_of(p) else { return false };
+        let band = self.grid.span_mask(p.z - self.params.band_m, p.z + self.params.band_m);
+        self.grid.in_area(i, j)
+            && (self.grid.column_clear(i, j, band, radius, 0)
+                || (self.grid.column(i, j) & band == 0
+                    && (self.grid.centre(i, j, pos.z) - pos).xy().norm_squared() <= radius * radius))
+    }
+
+    /// The flight levels a plan tries, in order ([`MAX_LEVELS`]): the vehicle's height, then the
+    /// highest and the lowest waypoint of the remaining path from the blockage (the blocked
+    /// segment's end waypoint, index `kb`) to where it leaves the grid (where the mission
+    /// climbs over or ducks under what it passes), each only when it is more than a cell from
+    /// the levels before it and its band lies in the grid's window.
+    fn levels(&self, pos: &Vec3, remaining: &[Vec3], kb: usize) -> heapless::Vec<f32, MAX_LEVELS> {
+        let mut levels: heapless::Vec<f32, MAX_LEVELS> = heapless::Vec::new();
+        let _ = levels.push(pos.z);
+        let span = remaining.get(kb..).unwrap_or(&[]);
+        let zs =
+            span.iter().take_while(|w| self.grid.cell_of(w).is_some()).map(|w| w.z).filter(|z| z.is_finite());
+        // NED: the highest point is the smallest z.
+        let (high, low) = zs.fold((f32::INFINITY, f32::NEG_INFINITY), |(h, l), z| (h.min(z), l.max(z)));
+        let band = self.params.band_m;
+        for z in [high, low] {
+            let far = levels.iter().all(|l| (l - z).abs() > self.grid.cell());
+            if z.is_finite() && far && self.grid.holds_span(z - band, z + band) {
+                let _ = levels.push(z);
+            }
+        }
+        levels
+    }
+
+    /// Search each level's targets ([`Replanner::level_targets`]) in turn (levels outer,
+    /// targets inner: a detour at the vehicle's height first); at most [`MAX_SEARCHES`]
+    /// searches (then `BudgetExceeded`).
+    fn search_levels<const N: usize>(
         &mut self,
         pos: &Vec3,
         remaining: &[Vec3],
         radius: f32,
-        targets: &[Target],
+        blockage: &Blockage,
+        levels: &[f32],
         out: &mut heapless::Vec<Vec3, N>,
     ) -> ReplanOutcome {
+        let mut searches = 0usize;
         let Some(start) = self.grid.cell_of(pos) else { return ReplanOutcome::NoPath };
-        for t in targets {
-            let Some(goal) = self.grid.cell_of(&t.p) else { continue };
-            let grid = &self.grid;
-            let passable = |i: usize, j: usize| passable(grid, i, j, pos, radius);
-            match self.search.run(start, goal, passable, u32::from(self.params.max_expansions)) {
-                SearchResult::Budget => return ReplanOutcome::BudgetExceeded,
-                SearchResult::NoPath(_) => continue,
-                SearchResult::Found(_) => return self.assemble(pos, remaining, radius, start, goal, t, out),
+        let band = self.params.band_m;
+        let own = self.grid.span_mask(pos.z - band, pos.z + band);
+        for (n, &z) in levels.iter().enumerate() {
+            // The climb (or descent) to the level at the vehicle: its column clear from its
+            // height to the level's, what it already stands beside at its own height aside.
+            let climb = self.grid.span_mask(pos.z.min(z) - band, pos.z.max(z) + band);
+            if (z - pos.z).abs() > VERTICAL_M && !self.grid.column_clear(start.0, start.1, climb, radius, own)
+            {
+                continue;
+            }
+            self.grid.select_level(z, band);
+            self.grid.inflate(radius);
+            let targets = self.level_targets(pos, remaining, blockage, (z, n == 0), radius);
+            for t in &targets {
+                let Some(goal) = self.grid.cell_of(&t.p) else { continue };
+                // The target's column clear from the level to its height, its cell passable at the level.
+                let down = self.grid.span_mask(t.p.z.min(z) - band, t.p.z.max(z) + band);
+                if !passable(&self.grid, goal.0, goal.1, pos, radius)
+                    || ((t.p.z - z).abs() > VERTICAL_M
+                        && !self.grid.column_clear(goal.0, goal.1, down, radius, 0))
+                {
+                    continue;
+                }
+                if searches >= MAX_SEARCHES {
+                    return ReplanOutcome::BudgetExceeded;
+                }
+                searches += 1;
+                let grid = &self.grid;
+                let passable = |i: usize, j: usize| passable(grid, i, j, pos, radius);
+                match self.search.run(start, goal, passable, u32::from(self.params.max_expansions)) {
+                    SearchResult::Budget => return ReplanOutcome::BudgetExceeded,
+                    SearchResult::NoPath(_) => continue,
+                    SearchResult::Found(_) => {
+                        return self.assemble(pos, remaining, radius, (start, goal), z, t, out)
+                    }
+                }
             }
         }
         ReplanOutcome::NoPath
@@ -542,19 +668,24 @@ impl Replanner {
         pos: &Vec3,
         remaining: &[Vec3],
         radius: f32,
-        start: (usize, usize),
-        goal: (usize, usize),
+        (start, goal): ((usize, usize), (usize, usize)),
+        z: f32,
         t: &Target,
         out: &mut heapless::Vec<Vec3, N>,
     ) -> ReplanOutcome {
         let free = |i: usize, j: usize| passable(&self.grid, i, j, pos, radius);
-        let z = t.p.z;
         let mut back: heapless::Vec<Vec3, MAX_DETOUR> = heapless::Vec::new();
-        let mut anchor = t.p;
-        let (mut cell, mut last) = (goal, t.p);
+        // Off the level, the target is reached straight down (or up) from above it.
+        let over = Vec3::new(t.p.x, t.p.y, z);
+        if (t.p.z - z).abs() > VERTICAL_M && back.push(over).is_err() {
+            return ReplanOutcome::BudgetExceeded;
+        }
+        let mut anchor = over;
+        let (mut cell, mut last) = (goal, over);
         for _ in 0..CELLS {
             let Some(prev) = self.search.parent(cell.0, cell.1) else { break };
-            let q = if prev == start { *pos } else { self.grid.centre(prev.0, prev.1, z) };
+            let q =
+                if prev == start { Vec3::new(pos.x, pos.y, z) } else { self.grid.centre(prev.0, prev.1, z) };
             if !self.grid.line_free(&anchor, &q, free) {
                 // `last` is the farthest cell seen from the anchor: a corner of the detour.
                 if back.push(Vec3::new(last.x, last.y, z)).is_err() {
@@ -564,6 +695,10 @@ impl Replanner {
             }
             last = q;
             cell = prev;
+        }
+        // Off the level, the vehicle first climbs (or descends) to it where it stands.
+        if (pos.z - z).abs() > VERTICAL_M && back.push(Vec3::new(pos.x, pos.y, z)).is_err() {
+            return ReplanOutcome::BudgetExceeded;
         }
         let rest = if t.at_waypoint {
             &remaining[(t.next + 1).min(remaining.len())..]

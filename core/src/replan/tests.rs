@@ -256,3 +256,75 @@ fn the_flight_area_closes_the_way_round() {
     r.set_area(Some(([-1.0, -2.2], [5.0, 2.2])));
     assert_eq!(r.plan(&at, &at, &[v(4.1, 0.1)], &pts, false, &mut out), ReplanOutcome::NoPath);
 }
+
+/// Static points every 0.1 m along x = `x` for y in [y0, y1] and every 0.2 m in NED z over
+/// [z0, z1] (m): a wall (or the side of a box) of that height.
+fn wall_3d(x: f32, (y0, y1): (f32, f32), (z0, z1): (f32, f32), out: &mut heapless::Vec<ObstaclePoint, 2048>) {
+    let (ny, nz) = (((y1 - y0) / 0.1 + 0.5) as i32, ((z1 - z0) / 0.2 + 0.5) as i32);
+    for k in 0..=ny {
+        for m in 0..=nz {
+            let _ = out.push(ObstaclePoint::fixed(Vec3::new(x, y0 + 0.1 * k as f32, z0 + 0.2 * m as f32), 1));
+        }
+    }
+}
+
+/// A wall across x = 2.1 (floor to 2.5 m, beyond the grid's ends) with a 1.2 m gap at y 1.4..2.6 that a box 1.3 m
+/// tall fills (a printer in a door); the vehicle at 1 m, the mission straight through the wall
+/// at its height, then climbing to 1.8 m beyond it (the heights the remaining path flies).
+fn door_with_a_printer() -> (heapless::Vec<ObstaclePoint, 2048>, [Vec3; 3]) {
+    let mut pts = heapless::Vec::new();
+    wall_3d(2.1, (-7.0, 1.3), (-2.5, -0.1), &mut pts);
+    wall_3d(2.1, (2.7, 7.0), (-2.5, -0.1), &mut pts);
+    wall_3d(2.1, (1.4, 2.6), (-1.3, -0.1), &mut pts);
+    let path = [v(3.1, 0.1), Vec3::new(3.1, 2.0, -1.8), v(4.1, 2.0)];
+    (pts, path)
+}
+
+#[test]
+fn a_door_closed_at_the_flight_level_is_passed_at_a_level_the_path_flies() {
+    let (pts, path) = door_with_a_printer();
+    let at = v(0.1, 0.1);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    // At the vehicle's height the printer closes the gap: no 2-D path there.
+    let mut flat = Replanner::new(on(), HULL);
+    flat.observe(&at, &pts);
+    let mut flat_out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let flat_path = [v(3.1, 0.1), v(4.1, 2.0)];
+    assert_eq!(flat.plan(&at, &at, &flat_path, &pts, false, &mut flat_out), ReplanOutcome::NoPath);
+    // The remaining path climbs to 1.8 m beyond the wall: the plan at that level passes over
+    // the printer through the gap and rejoins the mission where it flies at 1.8 m.
+    let res = r.plan(&at, &at, &path, &pts, false, &mut out);
+    assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
+    assert_eq!(&out[out.len() - 2..], &path[1..], "{out:?}");
+    // The vehicle climbs where it stands, then flies at 1.8 m.
+    assert_eq!(out[0], Vec3::new(at.x, at.y, -1.8), "{out:?}");
+    assert!(out[..out.len() - 1].iter().all(|w| w.z == -1.8), "{out:?}");
+    // The leg across the wall's line lies in the gap (y 1.4..2.6 less the clearance).
+    for leg in out.windows(2) {
+        let (a, b) = (leg[0], leg[1]);
+        if (a.x - 2.1) * (b.x - 2.1) < 0.0 {
+            let y = a.y + (b.y - a.y) * (2.1 - a.x) / (b.x - a.x);
+            assert!((1.4 + HULL..=2.6 - HULL).contains(&y), "crosses the wall at y {y}: {out:?}");
+        }
+    }
+}
+
+#[test]
+fn a_column_blocked_above_the_vehicle_is_not_climbed_through() {
+    let (mut pts, path) = door_with_a_printer();
+    let at = v(0.1, 0.1);
+    // A shelf 0.4 m above the vehicle, 0.6 m to its side: the climb is clear.
+    let mut side = pts.clone();
+    wall_3d(0.1, (0.7, 1.0), (-1.4, -1.4), &mut side);
+    let mut r = replanner_with(&side, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let res = r.plan(&at, &at, &path, &side, false, &mut out);
+    assert!(matches!(res, ReplanOutcome::Replanned { .. }), "{res:?}");
+    // The same shelf over the vehicle: no climb there, and at its own height the printer
+    // closes the gap: no path (the vehicle does not climb through the shelf).
+    wall_3d(0.1, (-0.3, 0.4), (-1.4, -1.4), &mut pts);
+    let mut r = replanner_with(&pts, &at);
+    let res = r.plan(&at, &at, &path, &pts, false, &mut out);
+    assert_eq!(res, ReplanOutcome::NoPath, "{out:?}");
+}

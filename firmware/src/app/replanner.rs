@@ -11,7 +11,7 @@
 //! - **Planner side** ([`serve_pending`], [`run`]): the board's replanner task (the lowest
 //!   priority, `src/bin/fc/mod.rs`) waits for the signal, locks the buffer and runs the
 //!   planner on it; the PIL application serves it between lockstep steps, as that board task
-//!   would. The planner (`Replanner`, ≈ 21 KiB: the grid and the search's buffers) is the
+//!   would. The planner (`Replanner`, ≈ 29 KiB: the 2.5-D grid and the search's buffers) is the
 //!   task's own and the request buffer (≈ 3 KiB) is installed by the board
 //!   ([`ReplanMailbox::install`]), both `static`s in the CPU-only RAM (`board::ccm`).
 //! - **Events** (every result but `NotNeeded`): counted in the telemetry snapshot

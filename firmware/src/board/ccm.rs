@@ -1,5 +1,5 @@
 //! The memory the CPU alone reaches, for large buffers no DMA touches (issue 38: the on-board
-//! replanner's planner, ≈ 21 KiB, and its request buffer, ≈ 3 KiB, `crate::app::replanner`): the linker's `.ccmram` section,
+//! replanner's planner, ≈ 29 KiB, and its request buffer, ≈ 3 KiB, `crate::app::replanner`): the linker's `.ccmram` section,
 //! placed per board by the generated `ccm.x` (`firmware/build.rs`) — the F405's 64 KiB
 //! core-coupled RAM at 0x1000_0000 (`memory-f405.x`'s `CCMRAM`); on QEMU's netduinoplus2, which
 //! models no CCM but 192 KiB of SRAM, the 64 KiB past the F405's 128 KiB at 0x2002_0000, so that
@@ -14,7 +14,7 @@ use parapet_core::replan::Replanner;
 use static_cell::ConstStaticCell;
 
 /// The replanner task's planner: [`Replanner::ZEROED`], all zero bytes, so the boot's
-/// [`zero`] gives it its value (never built on a stack: ≈ 21 KiB); it takes the `RPL_*`
+/// [`zero`] gives it its value (never built on a stack: ≈ 29 KiB); it takes the `RPL_*`
 /// parameters with its first request.
 #[link_section = ".ccmram"]
 pub static PLANNER: ConstStaticCell<Replanner> = ConstStaticCell::new(Replanner::ZEROED);

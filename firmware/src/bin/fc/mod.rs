@@ -46,7 +46,7 @@
 //!   VREFINT → `BatteryParams::convert` → `BatteryEstimator` → the stages' `battery` mailbox (the outer
 //!   stage's low/critical battery failsafes).
 //! - **replanner** (thread-mode executor, with the log and storage tasks; issue 38): the on-board
-//!   replanner (`app::replanner`), its planner (≈ 21 KiB) in the CPU-only RAM (`board::ccm`).
+//!   replanner (`app::replanner`), its planner (≈ 29 KiB) in the CPU-only RAM (`board::ccm`).
 //!   The outer task hands it a request (state, remaining mission, obstacle points) at
 //!   `RPL_RATE` by reference; the plan runs with interrupts enabled, preempted by every
 //!   other task (it shares thread mode: a card write delays it, it delays the log writer), and
@@ -284,7 +284,7 @@ fn main() -> ! {
             Ok(t) => spawner.spawn(t),
             Err(_) => halt("spawn storage"),
         }
-        // In the CPU-only RAM (≈ 21 KiB, never on a stack); requests bring the RPL_* parameters.
+        // In the CPU-only RAM (≈ 29 KiB, never on a stack); requests bring the RPL_* parameters.
         let Some(planner) = ccm::PLANNER.try_take() else { halt("replanner taken twice") };
         let Some(request) = ccm::REQUEST.try_take() else { halt("replan request taken twice") };
         b.stages.replan.install(request);
