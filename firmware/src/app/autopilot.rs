@@ -198,6 +198,12 @@ pub struct TelemetrySnapshot {
     /// The navigation filter's status (ESTIMATOR_STATUS), once a filtered source (GPS_INPUT,
     /// VISION_POSITION_ESTIMATE) initialised it.
     pub nav: Option<crate::app::navigation::NavReport>,
+    /// The speed governor's limit along the motion at the last outer step, m/s (`+∞`: none;
+    /// `parapet_core::governor::GovernorTelemetry::limit`), for the onboard log's `cbf_status`.
+    pub governor_limit: f32,
+    /// What set [`governor_limit`](Self::governor_limit) (`parapet_core::governor::GovernorCause`
+    /// as its code).
+    pub governor_cause: u8,
 }
 
 impl TelemetrySnapshot {
@@ -225,6 +231,8 @@ impl TelemetrySnapshot {
         armable: false,
         replan: crate::app::replanner::ReplanReport { events: 0, last: None },
         nav: None,
+        governor_limit: f32::INFINITY,
+        governor_cause: 0,
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,

@@ -126,6 +126,8 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         armable: false,
         replan: crate::app::replanner::ReplanReport { events: 0, last: None },
         nav: None,
+        governor_limit: t.governor.limit,
+        governor_cause: t.governor.cause as u8,
     }
 }
 

@@ -217,9 +217,9 @@ impl FlightLogger {
             filter: t.filter,
             u_nominal: [un.x, un.y, un.z],
             u: [u.x, u.y, u.z],
-            // The governor's limit is not in the firmware's telemetry snapshot (yet).
-            governor_limit: f32::NAN,
-            governor_cause: 0,
+            // NaN without a limit, as the host's log (`host-sim/src/report/ulog.rs`).
+            governor_limit: if t.governor_limit.is_finite() { t.governor_limit } else { f32::NAN },
+            governor_cause: t.governor_cause,
         };
         write_records(&mut Appender(store), &r)
     }
@@ -278,6 +278,36 @@ pub(crate) mod tests {
         let n = |ty: u8| msgs.iter().filter(|m| m.0 == ty).count();
         assert_eq!((n(b'F'), n(b'A'), n(b'D')), (6, 6, 6 * 26));
         assert_eq!(n(b'P'), parapet_core::params::COUNT);
+    }
+
+    /// The speed governor's limit and cause reach `cbf_status` (they were NaN / 0 until the
+    /// telemetry snapshot carried them): a distinctive limit's bytes and its cause's code follow
+    /// each other in the logged records, and a log without a limit has none of them.
+    #[test]
+    fn the_governor_limit_reaches_the_log() {
+        let params = ControllerParams::default();
+        let log_with = |limit: f32, cause: u8| {
+            let mut lg = FlightLogger::new(4000, &params, "test");
+            let mut store: RamRing<16384, 4> = RamRing::new();
+            for k in 0..5 {
+                let mut s = sample(1_000_000 + k * 4000, true);
+                s.snapshot.governor_limit = limit;
+                s.snapshot.governor_cause = cause;
+                lg.on_sample(&s, &mut store, |n| parapet_core::params::get(&params, n));
+            }
+            lg.on_sample(&sample(2_000_000, false), &mut store, |_| None);
+            let info = store.info(0).unwrap();
+            let mut bytes = std::vec![0u8; info.size as usize];
+            assert_eq!(store.read(info.id, 0, &mut bytes), Ok(bytes.len()));
+            bytes
+        };
+        let mut want = 2.375f32.to_le_bytes().to_vec();
+        want.push(3);
+        let has = |bytes: &[u8]| {
+            parse(bytes).iter().filter(|m| m.0 == b'D').any(|m| m.1.windows(5).any(|w| w == want.as_slice()))
+        };
+        assert!(has(&log_with(2.375, 3)));
+        assert!(!has(&log_with(f32::INFINITY, 3)));
     }
 
     #[test]
