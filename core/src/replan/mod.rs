@@ -33,6 +33,21 @@
 //! radius of a cell occupied at the path's own height anywhere in the grid. After a replan, a no-path or a budget
 //! result the next plan waits `cooldown_s` (no thrashing).
 //!
+//! **Confirmation** (`dwell_s`, `RPL_DWELL`, default 4 s): a blockage by a *sensed* point (the
+//! obstacle memory's cells and clusters, ids from [`STATIC_ID`]) is planned around only once
+//! a static point has stood within [`STILL_M`] of where the blocking point was first seen at
+//! every check for `dwell_s`; until then the check is `NotNeeded` and the filter alone keeps
+//! the vehicle off it. Why: the memory hands a walker's cells out as static until its track
+//! is proven moving, so without it a person crossing the path triggered detours that the
+//! person then walked into (`outdoor_person_crossing` with `lidar3d`: 5 replans, goal 20 s
+//! later than without replanning; docs/perception.md § Confirmation). A walker of length `L`
+//! along its motion leaves the first point's neighbourhood after (`L` + [`STILL_M`]) / `v`:
+//! the paper's 0.5 m person at 0.2 m/s after 3.75 s, within 4 s; anything slower or longer
+//! is indistinguishable from a static obstacle over the wait and is planned around. Points
+//! whose source knows their motion (ground truth, a map: ids below [`STATIC_ID`]) and a stall
+//! are planned at once; a vehicle held in front of a blockage for [`STUCK_S`] counts as stalled,
+//! so the wait is at most that when the filter stops the vehicle.
+//!
 //! **Flight levels** (issue 38: in `office_blocked` the way from room B to room C passes over
 //! printer B, as the offline planner's 3-D path does; at the vehicle's height the printer
 //! closes the door, and the 2-D replanner found no path there, or its detours rejoined the
@@ -100,6 +115,7 @@ pub mod search;
 
 use crate::obstacle::ObstaclePoint;
 use crate::param_decl::{field, flag, on_off, Has, Param};
+use crate::perception::STATIC_ID;
 use crate::Vec3;
 use grid::{Grid, CELLS, GRID};
 use search::{Search, SearchResult};
@@ -132,6 +148,12 @@ pub const STUCK_S: f32 = 3.0;
 pub const POINT_SLACK_M: f32 = 0.05;
 /// Obstacle points moving faster than this (m/s) are not marked (the grid is for the static world).
 pub const STATIC_SPEED: f32 = 0.1;
+/// A pending blockage stays the same while a static point lies within this (m) of where its
+/// point was first seen ([`ReplanParams::dwell_s`]): an obstacle memory hands out a cell's
+/// return nearest the vehicle, so the point of a static surface moves by up to a voxel's half
+/// diagonal (0.17 m at the default 0.2 m) as the vehicle closes in; a walker that the memory
+/// has not proven moving leaves it in 0.25 / v s (1.25 s at the paper's 0.2 m/s).
+pub const STILL_M: f32 = 0.25;
 
 /// Parameters of the replanner (the `RPL_*` parameters).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,6 +179,9 @@ pub struct ReplanParams {
     pub band_m: f32,
     /// Expansions per search at most (≤ 4096). Default 4096.
     pub max_expansions: u16,
+    /// A blockage must stand still this long before it is planned around, s (the
+    /// confirmation of the module docs; 0: at once). Default 4.
+    pub dwell_s: f32,
 }
 
 impl Default for ReplanParams {
@@ -168,7 +193,7 @@ impl Default for ReplanParams {
 impl ReplanParams {
     /// On-board replanning's parameters (issue 38; `crate::params`, MAVLink `param_index` order).
     #[rustfmt::skip] // one entry per parameter, laid out by hand
-    pub const fn params<P: Has<Self>>() -> [Param<P>; 5] {
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 6] {
         [
             Param::new("RPL_ENABLE", "Replan", "", (0.0, 1.0), 0, flag!(enable),
                 "Replan on board when the remaining path is blocked by what the sensors saw (docs/perception.md)").code(on_off),
@@ -180,6 +205,8 @@ impl ReplanParams {
                 "Length of the remaining path checked for a blockage"),
             Param::new("RPL_MARGIN", "Replan", "m", (0.0, 2.0), 3, field!(margin_m),
                 "Clearance beyond the hull radius a detour keeps from sensed obstacles"),
+            Param::new("RPL_DWELL", "Replan", "s", (0.0, 10.0), 1, field!(dwell_s),
+                "A blockage must stay in place this long before a detour is planned (walkers pass)"),
         ]
     }
 }
@@ -204,6 +231,7 @@ impl ReplanParams {
         cell_m: 0.2,
         band_m: 0.3,
         max_expansions: CELLS as u16,
+        dwell_s: 4.0,
     };
 
     /// Every field zero (invalid: a placeholder no request carries; [`Replanner::ZEROED`]).
@@ -216,6 +244,7 @@ impl ReplanParams {
         cell_m: 0.0,
         band_m: 0.0,
         max_expansions: 0,
+        dwell_s: 0.0,
     };
 
     /// These parameters when [`ReplanParams::valid`], else the defaults.
@@ -228,7 +257,8 @@ impl ReplanParams {
     }
 
     /// Every field finite and in its range (rate [1, 50] Hz, cooldown [0, 60] s, horizon
-    /// (0, 50] m, margin [0, 2] m, cell [0.05, 1] m, band (0, 5] m, expansions ≥ 1).
+    /// (0, 50] m, margin [0, 2] m, cell [0.05, 1] m, band (0, 5] m, expansions ≥ 1, dwell
+    /// [0, 10] s).
     pub fn valid(&self) -> bool {
         (1.0..=50.0).contains(&self.rate_hz)
             && (0.0..=60.0).contains(&self.cooldown_s)
@@ -239,6 +269,7 @@ impl ReplanParams {
             && self.band_m > 0.0
             && self.band_m <= 5.0
             && self.max_expansions >= 1
+            && (0.0..=10.0).contains(&self.dwell_s)
     }
 }
 
@@ -285,6 +316,9 @@ pub struct Replanner {
     stats: ReplanStats,
     /// Where the vehicle was, and since when (µs), for [`Replanner::no_progress`].
     anchor: (Vec3, u64),
+    /// The blockage being confirmed: the static point that blocked the path, and since when
+    /// (µs); x infinite: none ([`Replanner::confirmed`]).
+    pending: (Vec3, u64),
 }
 
 /// Where the remaining path is blocked: `kb`, the index of the blocked segment's end waypoint,
@@ -292,6 +326,10 @@ pub struct Replanner {
 struct Blockage {
     kb: usize,
     first_free: Option<Target>,
+    /// The sensed static point that blocks the path, to be confirmed ([`Replanner::confirmed`];
+    /// `None`: a point whose source knows it static — a map's, ground truth's — or blocked in
+    /// the grid, when stalled).
+    point: Option<Vec3>,
 }
 
 /// A point on the remaining path: where, and the index of the waypoint its segment ends at.
@@ -318,6 +356,7 @@ impl Replanner {
         next_check_us: 0,
         stats: ReplanStats { checks: 0, replans: 0, no_path: 0, budget: 0 },
         anchor: (Vec3::new(0.0, 0.0, 0.0), 0),
+        pending: (Vec3::new(0.0, 0.0, 0.0), 0),
     };
 
     /// A replanner for a vehicle of hull radius `hull` m (invalid parameters: the defaults).
@@ -331,6 +370,7 @@ impl Replanner {
             next_check_us: 0,
             stats: ReplanStats::default(),
             anchor: (Vec3::new(f32::INFINITY, 0.0, 0.0), 0),
+            pending: (Vec3::new(f32::INFINITY, 0.0, 0.0), 0),
         }
     }
 
@@ -345,6 +385,7 @@ impl Replanner {
         self.grid.set_area(area);
         self.next_check_us = 0;
         self.anchor = (Vec3::new(f32::INFINITY, 0.0, 0.0), 0);
+        self.pending = (Vec3::new(f32::INFINITY, 0.0, 0.0), 0);
     }
 
     /// The hull radius in use, m.
@@ -411,7 +452,7 @@ impl Replanner {
         if now_us < self.next_check_us || remaining.is_empty() {
             return None;
         }
-        let r = self.plan(pos, along, remaining, points, stalled || stuck, out);
+        let r = self.plan_at(Some(now_us), pos, along, remaining, points, stalled || stuck, out);
         let wait = match r {
             ReplanOutcome::NotNeeded => 1.0 / self.params.rate_hz,
             _ => self.params.cooldown_s.max(1.0 / self.params.rate_hz),
@@ -431,6 +472,20 @@ impl Replanner {
         now_us - self.anchor.1 >= (STUCK_S * 1e6) as u64
     }
 
+    /// The blockage by the static `point` at `now_us` has stood still for `dwell_s`: a static
+    /// point given now lies within [`STILL_M`] of where the pending blockage's point was first
+    /// seen, continuously since then. A blockage elsewhere (a walker that moved on, a new one)
+    /// starts the wait again from `point`.
+    fn confirmed(&mut self, now_us: u64, point: Vec3, points: &[ObstaclePoint]) -> bool {
+        let (at, since) = self.pending;
+        let still = at.x.is_finite() && touching(points, &at, STILL_M).is_some() && now_us >= since;
+        if !still {
+            self.pending = (point, now_us);
+        }
+        let since = self.pending.1;
+        now_us.saturating_sub(since) as f32 * 1e-6 >= self.params.dwell_s
+    }
+
     /// Plan from `pos` along `remaining`, checking `horizon_m` of it, from the point `along`
     /// (the guidance's reference: the path as planned, not the line from wherever the vehicle
     /// stands to the next waypoint; from `pos` when `stalled` or `along` is not finite), for a
@@ -440,6 +495,22 @@ impl Replanner {
     /// otherwise `out` is left empty. See the module documentation.
     pub fn plan<const N: usize>(
         &mut self,
+        pos: &Vec3,
+        along: &Vec3,
+        remaining: &[Vec3],
+        points: &[ObstaclePoint],
+        stalled: bool,
+        out: &mut heapless::Vec<Vec3, N>,
+    ) -> ReplanOutcome {
+        self.plan_at(None, pos, along, remaining, points, stalled, out)
+    }
+
+    /// [`Replanner::plan`] with a blockage confirmed over time when `now_us` is given
+    /// ([`Replanner::confirmed`]; `None`: planned at once, as a stall is).
+    #[allow(clippy::too_many_arguments)]
+    fn plan_at<const N: usize>(
+        &mut self,
+        now_us: Option<u64>,
         pos: &Vec3,
         along: &Vec3,
         remaining: &[Vec3],
@@ -460,8 +531,15 @@ impl Replanner {
         let from = if stalled || !along.iter().all(|c| c.is_finite()) { pos } else { along };
         let Some(blockage) = self.find_blockage(pos, from, remaining, points, horizon, stalled, radius)
         else {
+            self.pending.0.x = f32::INFINITY;
             return ReplanOutcome::NotNeeded;
         };
+        if let (Some(now), Some(point), false) = (now_us, blockage.point, stalled) {
+            if !self.confirmed(now, point, points) {
+                return ReplanOutcome::NotNeeded;
+            }
+        }
+        self.pending.0.x = f32::INFINITY;
         let levels = self.levels(pos, remaining, blockage.kb);
         let r = self.search_levels(pos, remaining, radius, &blockage, &levels, out);
         match r {
@@ -493,6 +571,8 @@ impl Replanner {
         let step = 0.5 * self.grid.cell();
         let free = |p: &Vec3| self.free_at(p, pos, radius);
         let (mut s, mut blocked_at, mut first_free) = (0.0f32, None::<usize>, None::<Target>);
+        let mut point = None;
+        let reach = (self.hull - POINT_SLACK_M).max(0.0);
         let mut a = *from;
         'walk: for (k, b) in remaining.iter().enumerate() {
             let len = crate::fmath::norm3(&(b - a));
@@ -504,7 +584,7 @@ impl Replanner {
                     // Samples within the hull radius of the vehicle are the filter's (the
                     // vehicle there is as near the points as the filter let it come).
                     (None, Some(_))
-                        if (touches(points, &p, (self.hull - POINT_SLACK_M).max(0.0))
+                        if (touching(points, &p, reach).is_some()
                             && (p - pos).norm_squared() > self.hull * self.hull)
                             || (stalled && !free(&p)) =>
                     {
@@ -512,6 +592,7 @@ impl Replanner {
                             return None;
                         }
                         blocked_at = Some(k);
+                        point = touching(points, &p, reach).filter(|o| o.id >= STATIC_ID).map(|o| o.point);
                     }
                     (Some(_), Some(_)) if free(&p) => {
                         first_free = Some(Target { p, next: k, at_waypoint: m == n });
@@ -526,7 +607,7 @@ impl Replanner {
             }
             a = *b;
         }
-        Some(Blockage { kb: blocked_at?, first_free })
+        Some(Blockage { kb: blocked_at?, first_free, point })
     }
 
     /// The targets of a plan at flight level `z` (`own`: the vehicle's height), in the order
@@ -716,8 +797,9 @@ impl Replanner {
 }
 
 /// A static point of `points` lies within `r` m (3D) of `p`.
-fn touches(points: &[ObstaclePoint], p: &Vec3, r: f32) -> bool {
-    points.iter().any(|o| !ignored(o) && (o.point - p).norm_squared() <= r * r)
+/// The first static point of `points` within `r` of `p`.
+fn touching<'a>(points: &'a [ObstaclePoint], p: &Vec3, r: f32) -> Option<&'a ObstaclePoint> {
+    points.iter().find(|o| !ignored(o) && (o.point - p).norm_squared() <= r * r)
 }
 
 /// The virtual points' first id ([`crate::obstacle::VIRTUAL_ID`]): they stand for unseen space

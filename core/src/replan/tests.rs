@@ -227,6 +227,81 @@ fn the_trigger_keeps_its_rate_and_cooldown() {
     assert_eq!(off.step(0, &at, &at, true, &path, &pts, &mut out), None);
 }
 
+/// The wall of [`wall`] with its points handed out by an obstacle memory (static cells).
+fn sensed(pts: &[ObstaclePoint], dy: f32) -> heapless::Vec<ObstaclePoint, 512> {
+    pts.iter().map(|o| ObstaclePoint::fixed(o.point + Vec3::new(0.0, dy, 0.0), STATIC_ID)).collect()
+}
+
+#[test]
+fn a_sensed_blockage_is_planned_around_once_it_stood_still_for_the_dwell() {
+    // The wall with a gap, its points sensed: checks every 0.5 s find the blockage, and the
+    // plan waits until it has stood for RPL_DWELL (4 s by default).
+    let mut mapped = heapless::Vec::new();
+    wall(2.1, -3.0, 1.3, &mut mapped);
+    wall(2.1, 2.7, 3.0, &mut mapped);
+    let pts = sensed(&mapped, 0.0);
+    let at = v(0.1, 0.1);
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let path = [v(4.1, 0.1)];
+    let dwell_us = (ReplanParams::default().dwell_s * 1e6) as u64;
+    // The vehicle closes in, 0.16 m per check (more than STUCK_M: not stalled).
+    let (mut t, mut x) = (0, at);
+    while t < dwell_us {
+        assert_eq!(r.step(t, &x, &x, false, &path, &pts, &mut out), Some(ReplanOutcome::NotNeeded), "{t} µs");
+        assert!(out.is_empty());
+        t += 500_000;
+        x.x += 0.16;
+    }
+    assert!(matches!(r.step(t, &x, &x, false, &path, &pts, &mut out), Some(ReplanOutcome::Replanned { .. })));
+    // The same wall from a map (ids below the memory's): at once.
+    let mut m = replanner_with(&mapped, &at);
+    assert!(matches!(
+        m.step(0, &at, &at, false, &path, &mapped, &mut out),
+        Some(ReplanOutcome::Replanned { .. })
+    ));
+    // A stall is not confirmed either: planned at once.
+    let mut s = replanner_with(&pts, &at);
+    assert!(matches!(
+        s.step(0, &at, &at, true, &path, &pts, &mut out),
+        Some(ReplanOutcome::Replanned { .. })
+    ));
+}
+
+#[test]
+fn a_blockage_that_keeps_moving_is_never_planned_around() {
+    // A sensed post (0.2 m wide) that moves 0.5 m sideways between checks (1 m/s; its points
+    // never within STILL_M of where they were a check before): the wait restarts at every
+    // check, no plan.
+    let mut mapped = heapless::Vec::new();
+    wall(2.1, -0.1, 0.1, &mut mapped);
+    let at = v(0.1, 0.1);
+    let mut r = Replanner::new(on(), HULL);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    let path = [v(4.1, 0.1)];
+    for k in 0..40u64 {
+        // Back and forth across the path.
+        let dy = if k % 2 == 0 { 0.0 } else { 0.5 };
+        let pts = sensed(&mapped, dy);
+        // The vehicle moves back and forth too (not stalled).
+        let x = v(0.1 + 0.2 * (k % 2) as f32, 0.1);
+        r.observe(&x, &pts);
+        assert_eq!(
+            r.step(k * 500_000, &x, &x, false, &path, &pts, &mut out),
+            Some(ReplanOutcome::NotNeeded),
+            "check {k}"
+        );
+    }
+    // With RPL_DWELL 0 the first check plans.
+    let mut now = Replanner::new(ReplanParams { dwell_s: 0.0, ..on() }, HULL);
+    let pts = sensed(&mapped, 0.0);
+    now.observe(&at, &pts);
+    assert!(matches!(
+        now.step(0, &at, &at, false, &path, &pts, &mut out),
+        Some(ReplanOutcome::Replanned { .. })
+    ));
+}
+
 #[test]
 fn moving_points_and_points_off_the_flight_level_are_not_marked() {
     let mut r = Replanner::new(ReplanParams::default(), HULL);
