@@ -149,6 +149,10 @@ mod tests {
         let mut aid = NavAid::new(NavParams::default());
         assert_eq!(aid.controller_fix(0), None);
         hover(&mut aid, 0, 10_000);
+        // Three agreeing fixes initialise (NavParams::init_fixes).
+        assert_eq!(aid.fix(&fix(3_000), NOISE, FixKind::Absolute), Fusion::Pending);
+        assert_eq!(aid.controller_fix(4_000), None);
+        assert_eq!(aid.fix(&fix(4_000), NOISE, FixKind::Absolute), Fusion::Pending);
         assert_eq!(aid.fix(&fix(5_000), NOISE, FixKind::Absolute), Fusion::Initialised);
         hover(&mut aid, 11_000, 100_000);
         let f = aid.controller_fix(100_000).map(|f| (f.t_us, f.yaw));
@@ -164,7 +168,9 @@ mod tests {
         for kind in [FixKind::Absolute, FixKind::Relative] {
             let mut aid = NavAid::new(NavParams::default());
             hover(&mut aid, 0, 10_000);
-            aid.fix(&fix(5_000), NOISE, kind);
+            for t in [3_000, 4_000, 5_000] {
+                aid.fix(&fix(t), NOISE, kind);
+            }
             let mut t = 10_000;
             let mut handed = [None; 12];
             for h in handed.iter_mut() {

@@ -23,6 +23,15 @@
 //!   quantile at 1 − 10⁻⁴ ([`CHI2_GATE`]); rejected fixes are counted. NaN/Inf, beyond
 //!   ±[`crate::cbf::INPUT_LIMIT`], a non-positive σ or a time outside the buffer are invalid
 //!   and counted too.
+//! * **Initialisation** from [`NavParams::init_fixes`] (default 3) consecutive position
+//!   fixes that agree — each within the χ² gate of the one before (`|z₂ − z₁| ≤
+//!   √(χ²₃·(σ₁² + σ₂²)) +` [`INIT_SPEED_M_S`]`·Δt`) — from the last of them. A single first
+//!   fix may be a multipath outlier (the `gps` preset draws 5 m ones at 1 %): initialised on
+//!   it, the filter's σ said 0.5 m for an error of 6 m, the next fixes were gated as
+//!   outliers until the reset, and the reset's delta moved the guidance's reference 6 m
+//!   down, into the ground (navigation campaign flights 4655 and 9418,
+//!   `docs/robustness.md` § Position sources). EKF2 likewise waits for its GPS checks to
+//!   pass over a period before it uses GPS (`EKF2_GPS_CHECK`, `EKF2_REQ_*`).
 //! * **Jumps** (a VIO reset, a GPS re-acquisition): after [`NavParams::reset_after`]
 //!   consecutive rejected position fixes the source is re-initialised — a relative source
 //!   (vision) by shifting its frame offset (the vehicle's estimate does not move, so the
@@ -59,6 +68,12 @@ pub type Cov9 = SMatrix<f32, 9, 9>;
 /// χ² quantiles at 1 − 10⁻⁴ for 1, 2 and 3 degrees of freedom: the innovation gate.
 pub const CHI2_GATE: [f32; 3] = [15.14, 18.42, 21.11];
 
+/// The speed the vehicle may have while the filter initialises, m/s (module docs:
+/// *Initialisation*): consecutive fixes may differ by this times their interval beyond
+/// their noise. A vehicle initialises on the ground or hovering; a source lost and regained
+/// in flight is a reset, not an initialisation.
+pub const INIT_SPEED_M_S: f32 = 2.0;
+
 /// Filter parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NavParams {
@@ -74,6 +89,9 @@ pub struct NavParams {
     pub history_period_us: u64,
     /// Consecutive gated position fixes after which the source is re-initialised.
     pub reset_after: u8,
+    /// Consecutive agreeing position fixes the filter initialises from (module docs:
+    /// *Initialisation*); 1: the first valid fix.
+    pub init_fixes: u8,
     /// Largest IMU step integrated, s (a longer gap is skipped and counted).
     pub dt_max_s: f32,
 }
@@ -87,6 +105,7 @@ impl Default for NavParams {
             init_bias_sigma: 0.2,
             history_period_us: 4_000,
             reset_after: 5,
+            init_fixes: 3,
             dt_max_s: 0.05,
         }
     }
@@ -106,8 +125,11 @@ pub enum FixKind {
 pub enum Fusion {
     /// Fused.
     Fused,
-    /// First position fix: the filter is initialised from it.
+    /// The position fix that completes the initialisation: the filter is initialised from it.
     Initialised,
+    /// A position fix before the initialisation that does not complete it (module docs:
+    /// *Initialisation*): held as the candidate, not fused.
+    Pending,
     /// Outside the innovation gate: not fused (counted).
     Gated,
     /// NaN/Inf, out of range, σ ≤ 0, older than the history or from the future: rejected.
@@ -163,6 +185,9 @@ pub struct NavFilter {
     history: History,
     /// Consecutive gated position fixes.
     consecutive_gated: u8,
+    /// Before the initialisation: the last valid position fix (time, position, σ) and how
+    /// many consecutive fixes up to it agreed.
+    candidate: Option<(u64, Vec3, f32, u8)>,
     /// Time of the last fused position fix, µs.
     last_position_us: Option<u64>,
     /// The normalised innovation squared of the last update (fused or gated).
@@ -190,6 +215,7 @@ impl NavFilter {
             offset: Vec3::zeros(),
             history: History::new(),
             consecutive_gated: 0,
+            candidate: None,
             last_position_us: None,
             nis: 0.0,
             status: NavStatus::default(),

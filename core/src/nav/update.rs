@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector};
 
 use super::history::Past;
-use super::{finite3, FixKind, Fusion, NavFilter, CHI2_GATE};
+use super::{finite3, FixKind, Fusion, NavFilter, CHI2_GATE, INIT_SPEED_M_S};
 use crate::Vec3;
 
 /// What a fix is compared with: the state at its time and the delay to now.
@@ -17,6 +17,13 @@ struct Delayed {
     past: Past,
     /// now − t_m, s (≥ 0).
     delay: f32,
+}
+
+/// Two position fixes `dt` s apart (σ `s0`, `s1` m) agree: within the χ² gate of their
+/// combined noise plus what the vehicle may move meanwhile ([`INIT_SPEED_M_S`]).
+fn agrees(z0: &Vec3, s0: f32, z1: &Vec3, s1: f32, dt: f32) -> bool {
+    let bound = crate::fmath::sqrtf(CHI2_GATE[2] * (s0 * s0 + s1 * s1)) + INIT_SPEED_M_S * dt;
+    (z1 - z0).norm_squared() <= bound * bound
 }
 
 impl NavFilter {
@@ -44,13 +51,29 @@ impl NavFilter {
     }
 
     /// Fuse a position fix `z` (NED, m, σ `sigma` m per axis) that describes the time `t_us`.
-    /// The first valid one initialises the filter. See the module docs for `kind`.
+    /// [`NavParams::init_fixes`](super::NavParams::init_fixes) consecutive agreeing valid
+    /// ones initialise the filter (module docs: *Initialisation*). See the module docs for
+    /// `kind`.
     pub fn fuse_position(&mut self, t_us: u64, z: &Vec3, sigma: f32, kind: FixKind) -> Fusion {
         if !self.initialised {
             if !(finite3(z) && sigma.is_finite() && sigma > 0.0) || self.t_us.is_none() {
                 self.status.invalid = self.status.invalid.wrapping_add(1);
                 return Fusion::Invalid;
             }
+            let agreeing = match self.candidate {
+                Some((t0, z0, s0, n))
+                    if t_us >= t0 && agrees(&z0, s0, z, sigma, (t_us - t0) as f32 * 1e-6) =>
+                {
+                    n
+                }
+                _ => 0,
+            };
+            let n = agreeing.saturating_add(1);
+            if n < self.params.init_fixes {
+                self.candidate = Some((t_us, *z, sigma, n));
+                return Fusion::Pending;
+            }
+            self.candidate = None;
             self.initialise(t_us, *z, sigma);
             return Fusion::Initialised;
         }

@@ -206,7 +206,9 @@ mod tests {
                 }
             }
         }
-        assert!(compared > 300, "{compared}");
+        // From the third agreeing fix (initialised at 0.4 s, `NavParams::init_fixes`) to 1.5 s:
+        // 275 outer steps compared.
+        assert!(compared >= 275, "{compared}");
         let r = c.telemetry().nav.map(|n| n.flags);
         assert_eq!(r, Some(flags::ATTITUDE | 0b11_1110), "{r:?}");
     }

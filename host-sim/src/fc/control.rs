@@ -99,9 +99,12 @@ impl Controller {
 impl FlightStack for Controller {
     /// Start-up at simulated time `t` (see the module docs).
     fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
-        let crate::flight::stack::StackStart { t, start, fix, obstacles, imu } = *s;
+        let crate::flight::stack::StackStart { t, start, warmup, fix, obstacles, imu } = *s;
         let now = clock_us(t);
         self.inner(t, imu);
+        for f in warmup {
+            self.position_fix(*f);
+        }
         self.position_fix(fix);
         self.outer_fix(now);
         self.report_obstacles(now, obstacles);

@@ -92,6 +92,13 @@ pub fn table_default(key: &str) -> f64 {
 /// Default proximity-sensor range, m.
 pub const DEFAULT_SENSING_RANGE: f64 = 3.0;
 
+/// How much longer than its latency a filtered position source (not motion capture) is
+/// primed before the start, s: the navigation filter initialises from several agreeing fixes
+/// (`parapet_core::nav::NavParams::init_fixes`, 3 by default), 1 s gives the slowest preset
+/// (`gps`, 10 Hz) 10 of them, room for an outlier among them. A real vehicle gets them
+/// standing on the ground before it arms.
+pub const NAV_WARMUP_S: f64 = 1.0;
+
 /// Everything a run needs besides the scene.
 #[derive(Clone, Debug)]
 pub struct RunConfig {
@@ -444,16 +451,20 @@ pub fn run_with(
         .map_err(|e| anyhow!("{e}"))?;
     let mut live = crate::sim::disturbance::Live::new(&cfg.disturbances, cfg.seed);
     // Start-up: the vehicle has been hovering at the start; prime the position
-    // measurement's latency buffer with that hover, then arm and start.
-    let mut fix = None;
-    let prime = (cfg.sensors.position_latency / (INNER_DT * divider as f64)).ceil() as i64 + 1;
+    // measurement's latency buffer with that hover, then arm and start. A filtered source
+    // (not motion capture) is primed NAV_WARMUP_S longer: its filter initialises from
+    // several agreeing fixes (parapet_core::nav, *Initialisation*), so the warm-up's fixes
+    // go to the stack before the last one.
+    let warm = if cfg.sensors.position_source.is_mocap() { 0.0 } else { NAV_WARMUP_S };
+    let mut fixes = Vec::new();
+    let prime = ((cfg.sensors.position_latency + warm) / (INNER_DT * divider as f64)).ceil() as i64 + 1;
     for j in (0..=prime).rev() {
         let tj = -(j as f64) * INNER_DT * divider as f64;
         if let Some(f) = sensors.position(tj, &plant) {
-            fix = Some(f);
+            fixes.push(f);
         }
     }
-    let fix = fix.ok_or_else(|| anyhow!("no position fix at start-up"))?;
+    let fix = fixes.pop().ok_or_else(|| anyhow!("no position fix at start-up"))?;
     let mut seen0 = sense_obstacles(scene, 0.0, &plant.state.pos, cfg.sensing_range, &mut sensors);
     // Range sensors (`--perception`): their memory's points replace the true ones.
     let mut perception = cfg.perception.as_ref().map(|list| {
@@ -480,7 +491,9 @@ pub fn run_with(
         p.step_plant(scene, 0.0, &plant.state, plant.state.euler(), clock_us, &mut seen0);
     }
     let imu0 = sensors.imu(&plant);
-    ctrl.start(&StackStart { t: 0.0, start: scene.start, fix, obstacles: &seen0, imu: &imu0 })?;
+    // Motion capture starts from the last fix alone, as before the warm-up existed.
+    let warmup = if warm > 0.0 { &fixes[..] } else { &[] };
+    ctrl.start(&StackStart { t: 0.0, start: scene.start, warmup, fix, obstacles: &seen0, imu: &imu0 })?;
 
     // Exact distance queries along the vehicle's and the reference's paths (see NearestTracker).
     let mut tracker = world_tracker;

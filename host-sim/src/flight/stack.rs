@@ -83,7 +83,10 @@ pub struct StackStart<'a> {
     pub t: f64,
     /// Where the vehicle hovers (NED, m): the position held until the mission starts.
     pub start: Vector3<f64>,
-    /// The first position fix.
+    /// The position fixes of the warm-up before `fix`, oldest first (a filtered source's:
+    /// `crate::flight::runner::NAV_WARMUP_S`; none with motion capture).
+    pub warmup: &'a [PositionReading],
+    /// The first position fix (the last of the warm-up).
     pub fix: PositionReading,
     /// The obstacles sensed at the start.
     pub obstacles: &'a [ObstaclePoint],

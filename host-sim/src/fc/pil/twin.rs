@@ -147,7 +147,7 @@ impl FirmwareTwin {
 
 impl FlightStack for FirmwareTwin {
     fn start(&mut self, s: &crate::flight::stack::StackStart<'_>) -> Result<()> {
-        let crate::flight::stack::StackStart { t, start, fix, obstacles, imu } = *s;
+        let crate::flight::stack::StackStart { t, start, fix, obstacles, imu, .. } = *s;
         let t0 = clock_us(t);
         let (period, div) = (self.schedule.period_us(), self.schedule.divider());
         let t_pre = preroll_start(t0, self.n_params, self.path.len(), &self.schedule);
