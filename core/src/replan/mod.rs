@@ -29,8 +29,13 @@
 //! the filter, and leaving the flight area is no trigger (the vehicle may stand a few cm outside
 //! it, the mission's path was planned inside it). Or the filter reports a
 //! stall (`deadlock`, `crate::plant_aware`), or the vehicle has stayed within [`STUCK_M`] of
-//! one place for [`STUCK_S`], and the remaining path comes within the inflation
-//! radius of a cell occupied at the path's own height anywhere in the grid. After a replan, a no-path or a budget
+//! one place for [`STUCK_S`], and the remaining path passes within [`STALL_REACH_CELLS`]
+//! (half a cell) of the centre of a cell occupied at the path's own height anywhere in the
+//! grid — it runs through the cell (a crate across it). Not the inflation radius (hull +
+//! `margin_m`): that is more than the offline planner's clearance (hull + 0.05 m), so a vehicle
+//! held by wind in a passage the planner threaded read as blocked and replanned out of it
+//! (`narrow_passage` in the speed campaign: 64 goals fewer and 3 grazes not flagged with
+//! replanning on; docs/perception.md § Confirmation). After a replan, a no-path or a budget
 //! result the next plan waits `cooldown_s` (no thrashing).
 //!
 //! **Confirmation** (`dwell_s`, `RPL_DWELL`, default 4 s): a blockage by a *sensed* point (the
@@ -146,6 +151,9 @@ pub const STUCK_S: f32 = 3.0;
 /// the nearest a mapped path can come to such a point; an unmapped obstacle across the path
 /// puts a point within a few cm of a sample.
 pub const POINT_SLACK_M: f32 = 0.05;
+/// A stalled vehicle's remaining path counts as blocked in the grid where a marked cell's
+/// centre lies within this many cells of a path sample (module docs: *Trigger*).
+pub const STALL_REACH_CELLS: f32 = 0.5;
 /// Obstacle points moving faster than this (m/s) are not marked (the grid is for the static world).
 pub const STATIC_SPEED: f32 = 0.1;
 /// A pending blockage stays the same while a static point lies within this (m) of where its
@@ -570,6 +578,11 @@ impl Replanner {
     ) -> Option<Blockage> {
         let step = 0.5 * self.grid.cell();
         let free = |p: &Vec3| self.free_at(p, pos, radius);
+        // Stalled, a sample is blocked only where a marked cell's centre lies within half a
+        // cell of it (the path runs through the cell: a crate across it), not where a wall
+        // stands at the offline planner's clearance (hull + 0.05 m, less than the inflation
+        // radius): a vehicle held by wind in a passage the planner threaded is no blockage.
+        let open = |p: &Vec3| self.free_at(p, pos, STALL_REACH_CELLS * self.grid.cell());
         let (mut s, mut blocked_at, mut first_free) = (0.0f32, None::<usize>, None::<Target>);
         let mut point = None;
         let reach = (self.hull - POINT_SLACK_M).max(0.0);
@@ -586,7 +599,7 @@ impl Replanner {
                     (None, Some(_))
                         if (touching(points, &p, reach).is_some()
                             && (p - pos).norm_squared() > self.hull * self.hull)
-                            || (stalled && !free(&p)) =>
+                            || (stalled && !open(&p)) =>
                     {
                         if s + len * m as f32 / n as f32 > horizon {
                             return None;

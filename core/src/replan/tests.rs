@@ -303,6 +303,24 @@ fn a_blockage_that_keeps_moving_is_never_planned_around() {
 }
 
 #[test]
+fn a_stall_in_a_passage_the_planner_threaded_is_no_blockage_a_crate_in_it_is() {
+    // A 4 m passage along x with walls 0.3 m either side of the path (the offline planner's
+    // clearance is hull + 0.05 = 0.27 m; the inflation radius hull + margin = 0.32 m).
+    let mut pts = heapless::Vec::new();
+    wall_x(0.4, 0.0, 4.0, &mut pts);
+    wall_x(-0.2, 0.0, 4.0, &mut pts);
+    let (at, goal) = (v(0.5, 0.1), v(4.1, 0.1));
+    let mut r = replanner_with(&pts, &at);
+    let mut out: heapless::Vec<Vec3, 64> = heapless::Vec::new();
+    // Stalled (wind, the filter): the path is not blocked, nothing to plan.
+    assert_eq!(r.plan(&at, &at, &[goal], &pts, true, &mut out), ReplanOutcome::NotNeeded);
+    // A crate across the passage at x = 2.1: blocked (no way round inside it).
+    let _ = pts.push(ObstaclePoint::fixed(v(2.1, 0.1), 1));
+    let mut r = replanner_with(&pts, &at);
+    assert_ne!(r.plan(&at, &at, &[goal], &pts, true, &mut out), ReplanOutcome::NotNeeded);
+}
+
+#[test]
 fn moving_points_and_points_off_the_flight_level_are_not_marked() {
     let mut r = Replanner::new(ReplanParams::default(), HULL);
     let at = v(0.1, 0.1);
