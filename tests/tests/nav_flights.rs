@@ -115,7 +115,7 @@ fn campaign_flight(name: &str, i: u64) -> parapet_sim::report::Summary {
 /// `vio` in the office: the odometry's drift reached 0.37 m (4.3 σ of its random walk at
 /// 8 s) towards the coat stand while the vehicle was pressed against the margin of 3σ
 /// (0.26 m); it collided at 8.3 s, unflagged. The margin now holds the drift's bound over the
-/// whole flight (`parapet_sim::fc::nav::drift_bound`).
+/// whole flight (`parapet_core::nav::bound::drift_bound`).
 #[test]
 fn the_vio_office_flight_6580_of_the_navigation_campaign_does_not_collide() {
     let sum = campaign_flight("navigation.toml", 6580);
@@ -150,7 +150,7 @@ fn the_gps_one_sphere_flight_150_does_not_touch_the_ground() {
 /// `drift_bound(0.03, s, 3)` (probability ≤ 10⁻⁴ per flight).
 #[test]
 fn the_drift_bound_holds_over_the_flight_where_three_sigma_at_each_time_does_not() {
-    use parapet_sim::fc::nav::drift_bound;
+    use parapet_core::nav::bound::drift_bound;
     let (rate, dt, n): (f64, f64, u32) = (0.03, 1.0 / 30.0, 1800);
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
     let mut uniform = move || {

@@ -14,9 +14,13 @@
 //! **Resets**: an absolute source's position reset is handed on once ([`NavAid::take_reset`])
 //! for the controller's reference shift, on the host and on the vehicle alike.
 //!
+//! **Error bound**: [`NavAid::error_bound`], the margin of mapped obstacles and of the ground
+//! and ceiling ([`super::bound`]), from the filter's σ and the time since the first fix.
+//!
 //! Owns: [`NavAid`], [`SourceNoise`], the timeout and σ limit. May import: [`super`],
 //! [`crate::msg`] (the fix and attitude messages), [`crate::frame`].
 
+use super::bound::{error_bound, ErrorBound, UnobservedDrift};
 use super::{FixKind, Fusion, NavFilter, NavParams, NavStatus};
 use crate::frame::rotation_from_euler;
 use crate::msg::{Euler, PositionFix};
@@ -24,8 +28,9 @@ use crate::Vec3;
 
 /// Longest time without a fused position fix the filter's estimate is flown on, µs.
 pub const NAV_TIMEOUT_US: u64 = 2_000_000;
-/// Largest horizontal position σ the estimate is flown with, m.
-pub const NAV_MAX_SIGMA_M: f32 = 3.0;
+/// Largest horizontal position σ the estimate is flown with, m (defined beside the filter:
+/// the error bound caps at it too, [`super::bound::ERROR_BOUND_MAX_M`]).
+pub use super::NAV_MAX_SIGMA_M;
 
 /// The σ a source states for its fixes (per axis).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,12 +49,14 @@ pub struct NavAid {
     kind: Option<FixKind>,
     /// Resets already handed to the controller ([`NavAid::take_reset`]).
     seen_resets: u32,
+    /// Time of the first fix, µs (the unobserved drifts run from it).
+    first_fix_us: Option<u64>,
 }
 
 impl NavAid {
     /// Not initialised: waits for an IMU sample and a position fix.
     pub fn new(params: NavParams) -> Self {
-        NavAid { filter: NavFilter::new(params), yaw: None, kind: None, seen_resets: 0 }
+        NavAid { filter: NavFilter::new(params), yaw: None, kind: None, seen_resets: 0, first_fix_us: None }
     }
 
     /// One IMU sample (specific force, body FRD) at `t_us` with the estimator's attitude;
@@ -66,7 +73,16 @@ impl NavAid {
         let _ = self.filter.fuse_velocity(fix.t_us, &fix.velocity, noise.velocity);
         self.yaw = fix.yaw;
         self.kind = Some(kind);
+        self.first_fix_us.get_or_insert(fix.t_us);
         f
+    }
+
+    /// The bound on the estimate's error against the world at `now_us`
+    /// ([`super::bound::error_bound`]): [`super::bound::MAPPED_MARGIN_SIGMA`]·σ per axis plus
+    /// the drifts `drift` since the first fix (`t = 0` before it).
+    pub fn error_bound(&self, now_us: u64, drift: &UnobservedDrift) -> ErrorBound {
+        let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f64 * 1e-6);
+        error_bound(&self.filter.status().sigma_p, t, drift)
     }
 
     /// The kind of the last fix's source; `None` before the first fix.
@@ -92,11 +108,13 @@ impl NavAid {
     }
 
     /// `true` while the controller is given the filter's estimate: initialised, a position
-    /// fused within [`NAV_TIMEOUT_US`] and the horizontal σ within [`NAV_MAX_SIGMA_M`].
+    /// fused within [`NAV_TIMEOUT_US`], the horizontal σ within [`NAV_MAX_SIGMA_M`] and every σ
+    /// a number (a NaN σ: the covariance is broken, the margins are not known).
     pub fn usable(&self, now_us: u64) -> bool {
         let Some(age) = self.filter.position_age_us(now_us) else { return false };
         let s = self.filter.status().sigma_p;
-        self.filter.is_initialised() && age <= NAV_TIMEOUT_US && s.x.max(s.y) <= NAV_MAX_SIGMA_M
+        let finite = s.x.is_finite() && s.y.is_finite() && s.z.is_finite();
+        self.filter.is_initialised() && age <= NAV_TIMEOUT_US && finite && s.x.max(s.y) <= NAV_MAX_SIGMA_M
     }
 
     /// The controller's fix at `now_us`; `None` before the first fix and in the failsafe

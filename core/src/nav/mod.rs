@@ -42,13 +42,15 @@
 //! covariance product; one update a 3×3 Cholesky and a pass over the 128-entry buffer.
 //!
 //! How a flight controller runs it (IMU-rate predict, fixes in, the controller's fix out, the
-//! dropout failsafe) is [`aid::NavAid`], shared by the host and the firmware.
+//! dropout failsafe) is [`aid::NavAid`], shared by the host and the firmware; the bound on its
+//! error that the mapped obstacles' margin takes is [`bound`].
 //!
-//! Owns: [`NavFilter`], [`NavParams`], [`NavStatus`], [`FixKind`], [`Fusion`]. May import:
-//! the crate root foundation ([`crate::Vec3`], [`crate::frame`], [`crate::fmath`]) and, in
-//! [`aid`], the stages' messages ([`crate::msg`]).
+//! Owns: [`NavFilter`], [`NavParams`], [`NavStatus`], [`FixKind`], [`Fusion`],
+//! [`NAV_MAX_SIGMA_M`]. May import: the crate root foundation ([`crate::Vec3`], [`crate::frame`],
+//! [`crate::fmath`]) and, in [`aid`], the stages' messages ([`crate::msg`]).
 
 pub mod aid;
+pub mod bound;
 pub mod history;
 mod update;
 
@@ -64,6 +66,10 @@ use history::{History, Past};
 
 /// 9×9 covariance of the error state `[δp, δv, δb_a]`.
 pub type Cov9 = SMatrix<f32, 9, 9>;
+
+/// Largest horizontal position σ the estimate is flown with, m ([`aid`]'s failsafe; the error
+/// bound's cap, [`bound`]).
+pub const NAV_MAX_SIGMA_M: f32 = 3.0;
 
 /// χ² quantiles at 1 − 10⁻⁴ for 1, 2 and 3 degrees of freedom: the innovation gate.
 pub const CHI2_GATE: [f32; 3] = [15.14, 18.42, 21.11];

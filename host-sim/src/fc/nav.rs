@@ -5,47 +5,24 @@
 //! readings and the σ the scene states for its source.
 //!
 //! **The error bound of mapped obstacles' margin** (`docs/filter.md` § 18,
-//! [`NavAid::error_bound`]): `3σ` of the filter per axis (horizontal, vertical) plus the bound
-//! of the random walks the filter cannot observe, which its σ says nothing of:
+//! [`NavAid::error_bound`]): the core's ([`parapet_core::nav::bound`], the firmware's too) for
+//! this filter's σ and the drifts of the scene's source it cannot observe — a relative source's
+//! (`vio`) frame drift and the barometer's drift (m/√s), on the vertical, weighted by the
+//! barometer's share of the height information (`w = I_b / (I_b + I_s)`, `I = rate / σ²`: the
+//! filter's height is that weighted mean of the two, so it carries `w` of the barometer's drift
+//! — 0.86 with `gps`, 0.01 with `rtk`, 0.003 with `vio`).
 //!
-//! * a relative source's (`vio`) frame drift (m/√s, 3-D) since the first fix;
-//! * the barometer's drift (m/√s), on the vertical, weighted by the barometer's share of the
-//!   height information (`w = I_b / (I_b + I_s)`, `I = rate / σ²`: the filter's height is that
-//!   weighted mean of the two, so it carries `w` of the barometer's drift — 0.86 with `gps`,
-//!   0.01 with `rtk`, 0.003 with `vio`).
-//!
-//! A random walk's σ at `t` does not bound it over the flight: pressed against an obstacle,
-//! the vehicle meets the walk's excursions, and `W(s) > 3σ(s)` for some `s ≤ t` is far likelier
-//! than at one `s` (the traced `vio` office flights collided at 4σ). The bound is the normal
-//! mixture's (Robbins 1970; Ville's inequality on the martingale
-//! `(ρ/(s+ρ))^{d/2} exp(|W_s|²/(2σ₁²(s+ρ)))`): `|W(s)| ≤ σ₁ √((s+ρ)(2 ln(1/α) + d ln(1+s/ρ)))`
-//! for **every** `s ≥ 0` with probability ≥ 1 − α (`d` the walk's dimensions, `σ₁` its rate;
-//! [`DRIFT_BOUND_ALPHA`], [`DRIFT_BOUND_RHO_S`]).
-//!
-//! Owns: [`NavAid`], [`drift_bound`]. May import: `parapet-core`, [`crate::sim`],
-//! [`crate::flight`] (the error bound's type).
+//! Owns: [`NavAid`]. May import: `parapet-core`, [`crate::sim`].
 
 use parapet_core::controller::PositionFix;
 use parapet_core::msg::Euler;
 use parapet_core::nav::aid::{NavAid as CoreAid, SourceNoise};
+use parapet_core::nav::bound::{ErrorBound, UnobservedDrift};
 use parapet_core::nav::{FixKind, NavParams, NavStatus};
 use parapet_core::Vec3;
 
-use crate::flight::sensing::{ErrorBound, MAPPED_MARGIN_SIGMA};
 use crate::sim::sensors::{PositionReading, SensorParams};
 use crate::sim::source::{PositionSource, BARO_RATE_HZ};
-
-/// Probability that an unobserved drift leaves its bound at any time of the flight.
-pub const DRIFT_BOUND_ALPHA: f64 = 1e-4;
-/// Time scale of the drift bound, s: where it is tightest against the walk's σ.
-pub const DRIFT_BOUND_RHO_S: f64 = 1.0;
-
-/// Bound on a `dims`-dimensional random walk of rate `rate` (m/√s) over the whole of
-/// `[0, t]` (module docs): `rate √((t+ρ)(2 ln(1/α) + dims·ln(1+t/ρ)))`.
-pub fn drift_bound(rate: f64, t: f64, dims: f64) -> f64 {
-    let (rho, t) = (DRIFT_BOUND_RHO_S, t.max(0.0));
-    rate * ((t + rho) * (2.0 * (1.0 / DRIFT_BOUND_ALPHA).ln() + dims * (t / rho).ln_1p())).sqrt()
-}
 
 /// The filter and what it knows of its source.
 #[derive(Clone, Debug)]
@@ -59,8 +36,6 @@ pub struct NavAid {
     /// The barometer's drift carried by the filter's height, m/√s (its rate × its share
     /// of the height information; module docs).
     baro_drift: f64,
-    /// Time of the first fix, µs.
-    first_fix_us: Option<u64>,
 }
 
 impl NavAid {
@@ -86,7 +61,6 @@ impl NavAid {
             sigma_baro,
             baro_drift,
             drift: if Self::kind_of(src) == FixKind::Relative { src.preset().drift as f32 } else { 0.0 },
-            first_fix_us: None,
         })
     }
 
@@ -113,7 +87,6 @@ impl NavAid {
     /// A delayed fix (`t_us`: the time it describes).
     pub fn fix(&mut self, t_us: u64, r: &PositionReading) {
         let _ = self.aid.fix(&reading_fix(t_us, r), self.noise, self.kind);
-        self.first_fix_us.get_or_insert(t_us);
     }
 
     /// A barometer reading (NED down, m) of `t_us`.
@@ -131,19 +104,13 @@ impl NavAid {
         self.aid.estimate(now_us)
     }
 
-    /// The bound on the estimate's error against the world at `now_us` (module docs): the
-    /// filter's [`MAPPED_MARGIN_SIGMA`]·σ per axis plus the unobserved drifts since the first
-    /// fix (a relative source's on every axis, the barometer's on the vertical).
+    /// The bound on the estimate's error against the world at `now_us` (module docs):
+    /// [`parapet_core::nav::bound::error_bound`] of the filter's σ and the source's unobserved
+    /// drifts since the first fix (a relative source's on every axis, the barometer's on the
+    /// vertical).
     pub fn error_bound(&self, now_us: u64) -> ErrorBound {
-        let s = self.aid.status().sigma_p;
-        let t = self.first_fix_us.map_or(0.0, |t0| now_us.saturating_sub(t0) as f64 * 1e-6);
-        let rel = if self.drift > 0.0 { drift_bound(f64::from(self.drift), t, 3.0) } else { 0.0 };
-        let baro = if self.baro_drift > 0.0 { drift_bound(self.baro_drift, t, 1.0) } else { 0.0 };
-        let k = MAPPED_MARGIN_SIGMA;
-        ErrorBound {
-            horizontal: k * f64::from(s.x.max(s.y)) + rel,
-            vertical: k * f64::from(s.z) + rel + baro,
-        }
+        let drift = UnobservedDrift { relative: f64::from(self.drift), baro: self.baro_drift };
+        self.aid.error_bound(now_us, &drift)
     }
 
     /// The delta of an absolute source's reset not yet handed on (the estimate jumped by it;
@@ -168,4 +135,30 @@ pub fn reading_fix(t_us: u64, r: &PositionReading) -> PositionFix {
     let p = Vec3::new(r.position.x as f32, r.position.y as f32, r.position.z as f32);
     let v = Vec3::new(r.velocity.x as f32, r.velocity.y as f32, r.velocity.z as f32);
     PositionFix { t_us, position: p, velocity: v, yaw: Some(r.yaw as f32) }
+}
+
+#[cfg(test)]
+mod tests {
+    use parapet_core::nav::bound::{drift_bound, DRIFT_BOUND_ALPHA, DRIFT_BOUND_RHO_S};
+
+    /// The core's bound (`libm`'s `log`, `log1p`, `sqrt`, so the firmware computes it too) is the
+    /// one the host computed with `std` before it moved to the core, bit for bit, at every
+    /// outer step (4 ms) of 10 minutes, for the rates the host flies (`vio`, the barometer's
+    /// shares of `gps`, `rtk`, `vio`).
+    #[test]
+    fn the_core_drift_bound_equals_the_std_formula_bit_for_bit() {
+        let old = |rate: f64, t: f64, dims: f64| {
+            let (rho, t) = (DRIFT_BOUND_RHO_S, t.max(0.0));
+            rate * ((t + rho) * (2.0 * (1.0 / DRIFT_BOUND_ALPHA).ln() + dims * (t / rho).ln_1p())).sqrt()
+        };
+        let mut n = 0;
+        for (rate, dims) in [(f64::from(0.03f32), 3.0), (0.0172, 1.0), (0.0002, 1.0), (0.03, 1.0)] {
+            for k in 0..150_000u64 {
+                let t = (k * 4_000 + k % 7) as f64 * 1e-6;
+                assert_eq!(drift_bound(rate, t, dims).to_bits(), old(rate, t, dims).to_bits(), "t = {t}");
+                n += 1;
+            }
+        }
+        assert_eq!(n, 600_000);
+    }
 }

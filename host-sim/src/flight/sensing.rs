@@ -254,29 +254,9 @@ pub fn bound_report(seen: &mut Vec<ObstaclePoint>, p: &Vec3) {
     seen.retain(|_| k.next().unwrap_or(false));
 }
 
-/// Margin on mapped obstacles, in σ of the navigation filter's position (per axis).
-pub const MAPPED_MARGIN_SIGMA: f64 = 3.0;
-
-/// How far the estimate may be from the truth, for the margin of mapped obstacles
-/// (`docs/filter.md` § 18): a bound on the horizontal and on the vertical error, m. The
-/// navigation filter's `3σ` per axis plus the bound of the drifts it cannot observe
-/// (`crate::fc::nav`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ErrorBound {
-    /// Bound on the horizontal error, m.
-    pub horizontal: f64,
-    /// Bound on the vertical error, m.
-    pub vertical: f64,
-}
-
-impl ErrorBound {
-    /// The largest error along the unit direction `u`: `horizontal·|u_h| + vertical·|u_z|`
-    /// (the support function of the cylinder `|e_h| ≤ horizontal, |e_z| ≤ vertical`).
-    pub fn along(&self, u: &Vec3) -> f32 {
-        let uh = (u.x * u.x + u.y * u.y).sqrt();
-        (self.horizontal as f32) * uh + (self.vertical as f32) * u.z.abs()
-    }
-}
+/// Margin on mapped obstacles, in σ of the filter's position, and the bound on the estimate's
+/// error they are moved by (`docs/filter.md` § 18): the core's, which the firmware applies too.
+pub use parapet_core::nav::bound::{ErrorBound, MAPPED_MARGIN_SIGMA};
 
 /// Put an obstacle report into the frame the controller flies in when its position comes
 /// from the navigation filter (estimate `est`, NED m; `err` = estimate − truth; `bound` on
@@ -306,11 +286,6 @@ pub fn to_estimate_frame(
     }
     let e = to_f32(est);
     for o in seen.iter_mut() {
-        let d = o.point - e;
-        let n = d.norm();
-        if n > 0.0 {
-            let m = bound.along(&(d / n));
-            o.point = e + d * ((n - m).max(0.01) / n);
-        }
+        o.point = bound.shift_mapped(&o.point, &e);
     }
 }
