@@ -176,6 +176,9 @@ impl<A: ControlSteps> Autopilot for SetupVehicle<A> {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.inner.telemetry()
     }
+    fn mapped_margin(&self) -> Option<parapet_core::nav::bound::ErrorBound> {
+        self.inner.mapped_margin()
+    }
     fn flown_path(&self) -> &[parapet_core::Vec3] {
         self.inner.flown_path()
     }

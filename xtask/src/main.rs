@@ -93,7 +93,10 @@ const FLASH_TARGET: u64 = 128 * 1024;
 /// on 2026-12-07 (issues 38, 39): 300,340 B on main at 0bfcfe9 (+3,392 B over 296,948 B) with the
 /// firmware's position-reset hand-over and VIO ODOMETRY into the navigation filter (+1,488 B) and
 /// the replanner's 2.5-D grid and flight levels (+1,920 B), 1,332 B over the old guard.
-const FLASH_BUDGET: u64 = 296 * 1024;
+/// Raised to 300 KiB (307,200 B) on 2026-12-07 (issue 39): 303,312 B (+2,972 B over 300,340 B) with
+/// the mapped-obstacle margin on the vehicle — the error bound's `f64` drift bound (`libm` `log1p`
+/// and `sqrt`, soft-float division; rewriting its comparisons and conversion saved nothing).
+const FLASH_BUDGET: u64 = 300 * 1024;
 /// Static RAM limit CI enforces (.data + .bss), bytes: a regression guard above today's
 /// 36,968 B (2026-12-06: the mission trajectory, `Trajectory<64>`, 3.3 KB, joined the outer
 /// stage; mission items kept field for field). The product budget (DEVELOPERS.md) is 96 KiB of the F405's 128 KiB SRAM; issue 22's
@@ -116,8 +119,9 @@ const RAM_BUDGET: u64 = 76 * 1024;
 /// guard went to 290 KiB for the same code; the H743's was left at 276 KiB and CI failed on it).
 /// Raised to 284 KiB (290,816 B) on 2026-12-07 (issues 38, 39): 288,216 B on main at 0bfcfe9
 /// (built with CI's path remapping), the same reset hand-over, VIO routing and 2.5-D replanner as
-/// the F405's 296 KiB.
-const H743_FLASH_BUDGET: u64 = 284 * 1024;
+/// the F405's 296 KiB. Raised to 288 KiB (294,912 B) on 2026-12-07 (issue 39): 291,156 B with the
+/// mapped-obstacle margin on the vehicle (+2,916 B over 288,240 B; the F405's 300 KiB).
+const H743_FLASH_BUDGET: u64 = 288 * 1024;
 /// Static RAM budget of the MATEKH743 image, bytes: 64 KiB of its 512 KiB AXI SRAM; 68 KiB since
 /// issue 39's navigation filter (65,660 B counted at 2a580b7; 60,160 B before the filter); 76 KiB
 /// since the replanner's 2.5-D grid (issue 38: 73,932 B, +8,196 B of height columns, of 512 KiB).

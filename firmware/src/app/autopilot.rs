@@ -264,6 +264,13 @@ pub trait Autopilot {
     fn command(&mut self, now_us: u64, cmd: VehicleCommand) -> Result<(), CommandRejected>;
     /// Current telemetry.
     fn telemetry(&self) -> TelemetrySnapshot;
+    /// The bound on the navigation estimate's error of the last outer step: the margin of the
+    /// mapped (world-frame) obstacle points the link receives (`crate::link::obstacles`,
+    /// `docs/filter.md` § 18). `None` without an initialised filtered source (motion capture:
+    /// the points as sent); default `None`, so every wrapper of the cascade forwards it.
+    fn mapped_margin(&self) -> Option<parapet_core::nav::bound::ErrorBound> {
+        None
+    }
     /// The waypoint path the cascade flies now (world NED, m; after an on-board replan the
     /// new one, issue 38). Default: none (a stack without a path store).
     fn flown_path(&self) -> &[Vec3] {
@@ -353,6 +360,8 @@ pub(crate) mod test_double {
         pub battery: Option<BatteryState>,
         /// What [`Autopilot::battery_params`] answers.
         pub battery_params: Option<BatteryParams>,
+        /// What [`Autopilot::mapped_margin`] answers (a filtered source); `None`: motion capture.
+        pub mapped_margin: Option<parapet_core::nav::bound::ErrorBound>,
     }
 
     impl RecordingAutopilot {
@@ -443,6 +452,9 @@ pub(crate) mod test_double {
                 armable: !self.armed,
                 ..TelemetrySnapshot::BOOT
             }
+        }
+        fn mapped_margin(&self) -> Option<parapet_core::nav::bound::ErrorBound> {
+            self.mapped_margin
         }
         fn set_battery(&mut self, b: &BatteryState) {
             self.battery = Some(*b);

@@ -51,6 +51,7 @@ use crate::app::autopilot::{
 use crate::app::mailbox::Mailboxes;
 use crate::app::navigation::{NavSample, Navigation, NAV_SAMPLE_DEPTH};
 use crate::app::replanner::ReplanOuter;
+use parapet_core::nav::bound::ErrorBound;
 
 /// Takeoff height used when NAV_TAKEOFF gives none, m (capped by the cascade's limit).
 pub const DEFAULT_TAKEOFF_HEIGHT_M: f32 = 1.0;
@@ -147,6 +148,9 @@ pub struct OuterStage {
     replan: ReplanOuter,
     /// The navigation filter (GPS_INPUT, VISION_POSITION_ESTIMATE).
     nav: Navigation,
+    /// The bound on its error of the last outer step, for the mapped obstacles
+    /// ([`Autopilot::mapped_margin`]); `None` without an initialised filtered source.
+    mapped_margin: Option<ErrorBound>,
 }
 
 impl OuterStage {
@@ -156,7 +160,19 @@ impl OuterStage {
         let estimate = inner.estimate();
         let replan = ReplanOuter::new(&params.replan, params.hull_radius);
         let nav = Navigation::new();
-        Ok((Self { outer, flown: params, stored: params, estimate, rc_report: None, replan, nav }, inner))
+        Ok((
+            Self {
+                outer,
+                flown: params,
+                stored: params,
+                estimate,
+                rc_report: None,
+                replan,
+                nav,
+                mapped_margin: None,
+            },
+            inner,
+        ))
     }
 
     /// `true` when the stored parameter set is the one the loops fly (it satisfies the
@@ -226,7 +242,9 @@ impl OuterStage {
     }
 
     /// One outer step at `now_us`: an absolute source's reset handed to the guidance, the
-    /// navigation filter's estimate as the fix of now (when it is usable), the step; publishes the attitude command and the snapshot. Then the
+    /// navigation filter's estimate as the fix of now (when it is usable), its vertical error
+    /// bound as the ground/ceiling margin (with a filtered source), the step; publishes the
+    /// attitude command and the snapshot. Then the
     /// replanner's outer side: a new path is flown from the next step on.
     pub fn step<M: RawMutex>(&mut self, now_us: u64, mb: &Mailboxes<M>) {
         self.take_inputs(mb);
@@ -238,6 +256,14 @@ impl OuterStage {
             self.outer.update_position(fix);
             mb.aid.signal(self.outer.aid());
         }
+        // The ground and ceiling are world planes: with a filtered source they get the vertical
+        // error bound, as on the host; the mapped obstacles until the next step get the bound
+        // once the filter is initialised (`crate::app::navigation` § Margins).
+        let bound = self.nav.error_bound(now_us);
+        if let Some(b) = bound {
+            self.outer.set_boundary_margin(b.vertical as f32);
+        }
+        self.mapped_margin = bound.filter(|_| self.nav.aid().filter().is_initialised());
         mb.send_command(self.outer.step(now_us));
         self.replan.step(now_us, &mut self.outer, &mb.replan);
         mb.snapshot.signal(self.snapshot());
@@ -292,6 +318,10 @@ impl<M: RawMutex> OuterPort<'_, M> {
 }
 
 impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
+    fn mapped_margin(&self) -> Option<ErrorBound> {
+        self.stage.mapped_margin
+    }
+
     fn update_position(&mut self, fix: &PositionFix) {
         let s = &mut *self.stage;
         s.outer.update_position(*fix);
@@ -535,6 +565,9 @@ impl ControlSteps for Cascade {
 }
 
 impl Autopilot for Cascade {
+    fn mapped_margin(&self) -> Option<ErrorBound> {
+        self.outer.mapped_margin
+    }
     fn update_position(&mut self, fix: &PositionFix) {
         self.port().update_position(fix);
     }

@@ -23,12 +23,24 @@
 //! * **Resets**: an absolute source's position reset (the estimate jumped by δ) is handed to
 //!   the outer loop once, before the step's fix (`OuterLoop::position_reset`: the guidance
 //!   shifts its reference by δ), as the host's `fc/control.rs` does.
+//! * **Margins** (`docs/filter.md` § 18, the host's `fc/control.rs` and `flight/sensing.rs`):
+//!   with a filtered source the bound on the estimate's error
+//!   ([`parapet_core::nav::bound`]: 3σ of the filter per axis, plus a relative source's frame
+//!   drift since the first fix at [`VISION_DRIFT_M_PER_SQRT_S`]; no barometer is fused here, so
+//!   no barometer drift) is set as the ground/ceiling margin before each outer step, and, once
+//!   the filter is initialised, is the cascade's `Autopilot::mapped_margin` of that step, with
+//!   which the link moves the **mapped** (world-frame) obstacle points towards the estimate
+//!   (`crate::link::obstacles`) until the next outer step. Without a filtered source (motion
+//!   capture) nothing is set: margin 0, the points as sent. A NaN σ: the bound is its largest,
+//!   [`parapet_core::nav::bound::ERROR_BOUND_MAX_M`], and the filter is not usable (no fix: the
+//!   position timeout brakes and lands).
 //! * **Status**: [`NavReport`] for ESTIMATOR_STATUS (flags, test ratios, accuracies).
 //!
 //! Owns: [`Navigation`], [`NavSample`], [`NavReport`]. May import: `parapet_core`.
 
 use parapet_core::msg::{Euler, PositionFix};
 use parapet_core::nav::aid::{NavAid, SourceNoise};
+use parapet_core::nav::bound::{ErrorBound, UnobservedDrift, VISION_DRIFT_M_PER_SQRT_S};
 use parapet_core::nav::{FixKind, Fusion, NavParams, CHI2_GATE};
 use parapet_core::Vec3;
 
@@ -119,6 +131,16 @@ impl Navigation {
         self.aid.take_reset()
     }
 
+    /// The bound on the estimate's error at `now_us` (module docs); `None` without a filtered
+    /// source (motion capture: no margin).
+    pub fn error_bound(&self, now_us: u64) -> Option<ErrorBound> {
+        let relative = match self.aid.kind()? {
+            FixKind::Relative => VISION_DRIFT_M_PER_SQRT_S,
+            FixKind::Absolute => 0.0,
+        };
+        Some(self.aid.error_bound(now_us, &UnobservedDrift { relative, baro: 0.0 }))
+    }
+
     /// The filter (read-only).
     pub fn aid(&self) -> &NavAid {
         &self.aid
@@ -202,6 +224,9 @@ mod tests {
                 if let Some(h) = host.controller_fix(t) {
                     let o = c.outer().outer().telemetry();
                     assert_eq!((o.position, o.velocity), (h.position, h.velocity), "t = {t}");
+                    // The mapped obstacles' bound: the core's, of the filter's σ (GPS: no drift).
+                    let b = c.mapped_margin();
+                    assert_eq!(b, Some(host.error_bound(t, &UnobservedDrift::default())), "t = {t}");
                     compared += 1;
                 }
             }
@@ -211,6 +236,40 @@ mod tests {
         assert!(compared >= 275, "{compared}");
         let r = c.telemetry().nav.map(|n| n.flags);
         assert_eq!(r, Some(flags::ATTITUDE | 0b11_1110), "{r:?}");
+    }
+
+    /// The bound the margins take: none without a filtered source (motion capture keeps its
+    /// margins at 0), 3σ of the filter with GPS, plus the vision drift since the first fix with
+    /// a relative source.
+    #[test]
+    fn the_error_bound_is_none_without_a_filter_and_grows_with_a_relative_sources_drift() {
+        use parapet_core::nav::bound::{drift_bound, MAPPED_MARGIN_SIGMA};
+        let mut gps = Navigation::new();
+        assert_eq!(gps.error_bound(1_000_000), None);
+        let mut vio = Navigation::new();
+        for k in 1..=1_500u64 {
+            let t = k * 1_000;
+            if let Some(f) = fix_due(t) {
+                gps.fix(&f, FixKind::Absolute, GPS);
+                vio.fix(&f, FixKind::Relative, GPS);
+            }
+            let s = imu(t);
+            let sample =
+                NavSample { t_us: t, accel: s.accel, attitude: Euler { roll: 0.0, pitch: 0.0, yaw: 0.0 } };
+            gps.sample(&sample);
+            vio.sample(&sample);
+        }
+        let now = 1_500_000;
+        let (Some(g), Some(v)) = (gps.error_bound(now), vio.error_bound(now)) else { panic!("no bound") };
+        let sg = gps.aid().status().sigma_p;
+        assert_eq!(g.horizontal, MAPPED_MARGIN_SIGMA * f64::from(sg.x.max(sg.y)));
+        assert_eq!(g.vertical, MAPPED_MARGIN_SIGMA * f64::from(sg.z));
+        assert!(g.horizontal > 0.05 && g.horizontal < 1.5, "{g:?}");
+        // The first fix describes 50 ms (due at 200 ms, 150 ms old).
+        let sv = vio.aid().status().sigma_p;
+        let rel = drift_bound(VISION_DRIFT_M_PER_SQRT_S, 1_450_000_f64 * 1e-6, 3.0);
+        assert_eq!(v.horizontal, MAPPED_MARGIN_SIGMA * f64::from(sv.x.max(sv.y)) + rel);
+        assert!(rel > 0.2, "{rel}");
     }
 
     /// Fixes stop: the estimate is flown for `NAV_TIMEOUT_US` (bridged), then the controller

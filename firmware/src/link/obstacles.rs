@@ -7,8 +7,16 @@
 //!   (m) in `frame`:
 //!   - `MAV_FRAME_LOCAL_NED` (1): world NED, used as is;
 //!   - `MAV_FRAME_LOCAL_ENU` (4): world ENU, converted with `parapet_core::frame::enu_to_ned`;
+//!
+//!     both world frames are **mapped** obstacles: while the vehicle flies its navigation
+//!     filter's estimate (a GPS or vision source) each such point is moved towards the estimate
+//!     by the filter's error bound along its direction
+//!     (`parapet_core::nav::bound::ErrorBound::shift_mapped`, `docs/filter.md` § 18, as the
+//!     host does), so the barrier sees it no farther than it truly is; with motion capture
+//!     (no filtered source) it is used as sent;
 //!   - `MAV_FRAME_BODY_FRD` (12): relative to the vehicle in body FRD, converted with the current
-//!     attitude estimate: `p = p_vehicle + R_zyx(roll, pitch, yaw) · (x, y, z)`;
+//!     attitude estimate: `p = p_vehicle + R_zyx(roll, pitch, yaw) · (x, y, z)` (sensed: placed
+//!     around the estimate, so no margin);
 //!   - other frames are rejected (counted).
 //!
 //!   `obstacle_id` 65535 ([`CLEAR_ID`]) is "unknown id" per the message definition: a valid
@@ -426,9 +434,15 @@ impl ObstacleAssembler {
             return;
         }
         let raw = Vec3::new(msg.x, msg.y, msg.z);
+        // A mapped point: the margin of the estimate's error bound (module docs).
+        let margin = ap.mapped_margin();
+        let mapped = |q: Vec3| match margin {
+            Some(b) => b.shift_mapped(&q, &tel.position_ned),
+            None => q,
+        };
         let point = match msg.frame {
-            MavFrame::MAV_FRAME_LOCAL_NED => raw,
-            MavFrame::MAV_FRAME_LOCAL_ENU => enu_to_ned(raw),
+            MavFrame::MAV_FRAME_LOCAL_NED => mapped(raw),
+            MavFrame::MAV_FRAME_LOCAL_ENU => mapped(enu_to_ned(raw)),
             MavFrame::MAV_FRAME_BODY_FRD => {
                 let a = tel.attitude_rpy;
                 tel.position_ned + rotation_from_euler(a.x, a.y, a.z) * raw
@@ -733,6 +747,38 @@ mod tests {
         assert!((b[1].point - (Vec3::new(1.0, 2.0, -3.0) + fwd)).norm() < 1e-5);
         assert_eq!(a.stats().rejected_frame, 1);
         assert_eq!(a.stats().rejected_non_finite, 1);
+    }
+
+    /// With a filtered source (the autopilot's mapped margin: the filter's error bound) the
+    /// world-frame points (LOCAL_NED, LOCAL_ENU: mapped) move towards the estimate (1, 2, −3) by
+    /// the bound along their direction; a BODY_FRD point (sensed, placed around the estimate)
+    /// does not; without one (motion capture) nothing moves. Fails without the margin.
+    #[test]
+    fn mapped_points_get_the_error_bound_margin_sensed_ones_do_not() {
+        use parapet_core::nav::bound::ErrorBound;
+        let bound = ErrorBound { horizontal: 0.6, vertical: 0.25 };
+        let est = Vec3::new(1.0, 2.0, -3.0);
+        let run = |margin: Option<ErrorBound>| {
+            let mut ap = RecordingAutopilot::new();
+            ap.mapped_margin = margin;
+            let mut a = ObstacleAssembler::new();
+            a.on_point(&pt(1, 1, MavFrame::MAV_FRAME_LOCAL_NED, 3.0, 2.0, -3.0), 0, &mut ap);
+            a.on_point(&pt(1, 2, MavFrame::MAV_FRAME_LOCAL_ENU, 2.0, 1.0, 2.0), 0, &mut ap);
+            a.on_point(&pt(1, 3, MavFrame::MAV_FRAME_BODY_FRD, 0.0, 0.0, 1.5), 0, &mut ap);
+            a.flush(0, &mut ap);
+            let mut b = ap.obstacle_batches[0].clone();
+            b.sort_by_key(|o| o.id);
+            b.iter().map(|o| o.point).collect::<std::vec::Vec<_>>()
+        };
+        let mocap = run(None);
+        assert_eq!(mocap[0], Vec3::new(3.0, 2.0, -3.0));
+        assert_eq!(mocap[1], Vec3::new(1.0, 2.0, -2.0));
+        let gps = run(Some(bound));
+        // Beside: 2 m north → 1.4 m; below: 1 m down → 0.75 m.
+        assert!((gps[0] - (est + Vec3::new(1.4, 0.0, 0.0))).norm() < 1e-5, "{:?}", gps[0]);
+        assert!((gps[1] - (est + Vec3::new(0.0, 0.0, 0.75))).norm() < 1e-5, "{:?}", gps[1]);
+        // The body point: the same with and without the filter.
+        assert_eq!(gps[2], mocap[2]);
     }
 
     #[test]

@@ -428,6 +428,9 @@ impl<P: Autopilot, M: RawMutex> Autopilot for SetupPort<'_, P, M> {
     fn telemetry(&self) -> TelemetrySnapshot {
         self.inner.telemetry()
     }
+    fn mapped_margin(&self) -> Option<parapet_core::nav::bound::ErrorBound> {
+        self.inner.mapped_margin()
+    }
     fn flown_path(&self) -> &[parapet_core::Vec3] {
         self.inner.flown_path()
     }

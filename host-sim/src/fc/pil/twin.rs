@@ -8,7 +8,12 @@
 //! IMU sample predicted after its inner step with the attitude estimate, and before each outer
 //! step an absolute reset handed to the guidance and the filter's estimate given as the fix of
 //! now — the firmware's order. It records that fix ([`FirmwareTwin::fixes`]) to compare with
-//! the firmware's LOCAL_POSITION_NED.
+//! the firmware's LOCAL_POSITION_NED. The filter's error bound
+//! ([`parapet_core::nav::bound`], no barometer drift: the firmware fuses none) gives the margins
+//! as the firmware applies them: the ground/ceiling margin before each outer step, and the
+//! mapped obstacle points (the scene's map, sent in LOCAL_NED) moved towards the last outer
+//! step's position by that step's bound (once the filter is initialised) when the batch
+//! reaches the firmware (`firmware/src/link/obstacles.rs`, the telemetry's `mapped_margin`).
 //!
 //! May import: `parapet-core` (controller, schedule, wire lockstep rule, navigation filter),
 //! [`super::gcs`] (the firmware's parameters, path and start-up timing),
@@ -22,6 +27,7 @@ use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
 use parapet_core::nav::aid::{NavAid, SourceNoise};
+use parapet_core::nav::bound::{ErrorBound, UnobservedDrift};
 use parapet_core::nav::{FixKind, NavParams};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
@@ -62,6 +68,8 @@ pub struct FirmwareTwin {
     nav: Option<(NavAid, SourceNoise)>,
     /// The filter's fix given to the outer loop at each outer step (firmware time µs, NED m).
     fixes: Vec<(u64, Vec3)>,
+    /// The firmware's `mapped_margin` of the last outer step (module docs).
+    mapped_margin: Option<ErrorBound>,
 }
 
 impl FirmwareTwin {
@@ -86,6 +94,7 @@ impl FirmwareTwin {
             battery: BatteryEstimator::new(p.battery),
             nav: gps_source(cfg)?.map(|n| (NavAid::new(NavParams::default()), n)),
             fixes: Vec::new(),
+            mapped_margin: None,
         })
     }
 
@@ -117,10 +126,21 @@ impl FirmwareTwin {
         self.pending_obstacles = Some(if self.cbf { obstacles.to_vec() } else { Vec::new() });
     }
 
+    /// The firmware's margin on the map's points (module docs): each point moved towards the
+    /// last outer step's position by that step's bound.
+    fn mapped_margin(&self, points: &mut [ObstaclePoint]) {
+        let Some(b) = self.mapped_margin else { return };
+        let p = self.fc.outer().telemetry().position;
+        for o in points.iter_mut() {
+            o.point = b.shift_mapped(&o.point, &p);
+        }
+    }
+
     /// The firmware's lockstep step (`parapet_core::wire::lockstep`): close the obstacle
     /// batch, inner step, outer step when the lockstep clock says so, sanitised motors.
     fn step(&mut self, t_us: u64, imu: &ImuReading) -> [f32; 4] {
-        if let Some(o) = self.pending_obstacles.take() {
+        if let Some(mut o) = self.pending_obstacles.take() {
+            self.mapped_margin(&mut o);
             self.fc.update_obstacles(t_us, &o);
         }
         let sample = ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) };
@@ -137,6 +157,11 @@ impl FirmwareTwin {
                     self.fc.update_position(f);
                     self.fixes.push((t_us, f.position));
                 }
+                let bound = nav.kind().map(|_| nav.error_bound(t_us, &UnobservedDrift::default()));
+                if let Some(b) = bound {
+                    self.fc.set_boundary_margin(b.vertical as f32);
+                }
+                self.mapped_margin = bound.filter(|_| nav.filter().is_initialised());
             }
             self.fc.step_outer(t_us);
         }
