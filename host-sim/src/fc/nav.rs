@@ -141,24 +141,35 @@ pub fn reading_fix(t_us: u64, r: &PositionReading) -> PositionFix {
 mod tests {
     use parapet_core::nav::bound::{drift_bound, DRIFT_BOUND_ALPHA, DRIFT_BOUND_RHO_S};
 
-    /// The core's bound (`libm`'s `log`, `log1p`, `sqrt`, so the firmware computes it too) is the
-    /// one the host computed with `std` before it moved to the core, bit for bit, at every
-    /// outer step (4 ms) of 10 minutes, for the rates the host flies (`vio`, the barometer's
-    /// shares of `gps`, `rtk`, `vio`).
+    /// The core's bound (`libm`'s `log1p` and `sqrt`, so the firmware computes it too) against
+    /// the one the host computed with `std` before it moved to the core, at every outer step
+    /// (4 ms) of 10 minutes for the rates the host flies (`vio`, the barometer's shares of
+    /// `gps`, `rtk`, `vio`): `libm`'s `log1p` and glibc's differ in the last bit at some times,
+    /// so the bound does by a few ulp in `f64` and, rarely, by 1 ulp in the `f32` the margins
+    /// are used in (`ErrorBound::along`, the boundary margin: ≈ 10⁻⁷ m); counted and printed.
     #[test]
-    fn the_core_drift_bound_equals_the_std_formula_bit_for_bit() {
+    fn the_core_drift_bound_is_the_std_formula_to_a_few_ulp() {
         let old = |rate: f64, t: f64, dims: f64| {
             let (rho, t) = (DRIFT_BOUND_RHO_S, t.max(0.0));
             rate * ((t + rho) * (2.0 * (1.0 / DRIFT_BOUND_ALPHA).ln() + dims * (t / rho).ln_1p())).sqrt()
         };
-        let mut n = 0;
+        let (mut n, mut ulp, mut ulp32, mut max_ulp) = (0, 0, 0, 0);
         for (rate, dims) in [(f64::from(0.03f32), 3.0), (0.0172, 1.0), (0.0002, 1.0), (0.03, 1.0)] {
             for k in 0..150_000u64 {
                 let t = (k * 4_000 + k % 7) as f64 * 1e-6;
-                assert_eq!(drift_bound(rate, t, dims).to_bits(), old(rate, t, dims).to_bits(), "t = {t}");
+                let (a, b) = (drift_bound(rate, t, dims), old(rate, t, dims));
+                let d = a.to_bits().abs_diff(b.to_bits());
+                assert!(d <= 4, "t = {t}: {a} vs {b}");
+                max_ulp = max_ulp.max(d);
+                let (a32, b32) = ((a as f32).to_bits(), (b as f32).to_bits());
+                assert!(a32.abs_diff(b32) <= 1, "t = {t}");
+                ulp += usize::from(a != b);
+                ulp32 += usize::from(a32 != b32);
                 n += 1;
             }
         }
+        println!("drift bound, core against std: {ulp} of {n} differ in f64 (at most {max_ulp} ulp), {ulp32} by 1 ulp in f32");
         assert_eq!(n, 600_000);
+        assert!(ulp32 * 1000 < n, "{ulp32} of {n} in f32");
     }
 }
