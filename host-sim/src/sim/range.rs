@@ -239,8 +239,20 @@ pub fn lidar3d() -> RangeSensor {
     }
 }
 
+/// The down-looking range sensor of the `lidar3d` set: the `tof` set's down sensor (an 8 × 8
+/// VL53L5CX-like ToF, 45° × 45°, 15 Hz, 0.02–4 m) under the centre of mass. The Mid-360's field
+/// starts 7° below the horizon, so an obstacle's top more than `d·tan 7°` below the sensor at a
+/// horizontal distance `d` is never seen from close by; a vehicle that moves **vertically**
+/// (sinking at take-off, sagging over a top) meets it unseen. Mid-360 vehicles carry such a
+/// sensor for the height above ground (a flow module's rangefinder); here it puts the top under
+/// the vehicle into the obstacle memory (`docs/perception.md` § Sensors, "The down sensor").
+pub fn lidar3d_down() -> RangeSensor {
+    RangeSensor { name: "lidar3d_down".into(), pitch: -90.0, ..kind_defaults(RangeKind::Tof) }
+}
+
 /// A `--perception` preset: `lidar` (the 72-beam lidar), `lidar360` (360 beams,
-/// 1° steps), `lidar3d` (a Livox Mid-360-like 3D lidar, [`lidar3d`]), `camera` (one forward depth camera), `tof` (ten 8 × 8 ToF sensors: eight
+/// 1° steps), `lidar3d` (a Livox Mid-360-like 3D lidar, [`lidar3d`], and a down-looking ToF,
+/// [`lidar3d_down`]), `camera` (one forward depth camera), `tof` (ten 8 × 8 ToF sensors: eight
 /// every 45°, a ring whose views meet, one looking up and one down, as a multi-ranger
 /// deck's up sensor and a flow deck's down sensor), `tof4` (four of them facing forward,
 /// right, back and left: 45° gaps between their views; `tof` until 2026-12-05), `tof8` (the
@@ -255,7 +267,7 @@ pub fn preset(name: &str) -> Option<Vec<RangeSensor>> {
         "lidar360" => {
             Some(vec![named(RangeSensor { columns: 360, ..kind_defaults(RangeKind::Lidar) }, "lidar360")])
         }
-        "lidar3d" => Some(vec![lidar3d()]),
+        "lidar3d" => Some(vec![lidar3d(), lidar3d_down()]),
         "camera" => Some(vec![named(kind_defaults(RangeKind::Camera), "camera")]),
         "tof4" => Some(
             [("tof4_front", 0.0), ("tof4_right", 90.0), ("tof4_back", 180.0), ("tof4_left", -90.0)]
@@ -539,6 +551,12 @@ mod tests {
             assert!(d.iter().any(|v| Vector3::new(v.x, v.y, 0.0).normalize().dot(&u) > 0.999), "bearing {b}");
         }
         assert!(!l.forward_only());
+        // With the down-looking ToF under it (the field below −7° is blind).
+        let set = preset("lidar3d").unwrap();
+        assert_eq!(set.len(), 2);
+        let down: Vector3<f64> = set[1].beam_directions().iter().sum();
+        assert!(down.normalize().z > 0.99, "FRD: down is +z");
+        assert_eq!((set[1].kind, set[1].max_range), (RangeKind::Tof, 4.0));
     }
 
     /// Which sensors see only the front half (the default yaw mode follows it).
