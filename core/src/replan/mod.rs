@@ -167,9 +167,9 @@ pub const STILL_M: f32 = 0.25;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ReplanParams {
-    /// Replanning on. Default off (`RPL_ENABLE` 0): the mapped office now flies without a
-    /// replan, but the mission tests of `tests/` have not been run with it on
-    /// (docs/perception.md § On-board replanning).
+    /// Replanning on. Default off (`RPL_ENABLE` 0, as PX4's `COM_OBS_AVOID`): on the speed
+    /// campaign's first 10 shards it gains goals (6,323 → 6,465) but `one_sphere` collides in
+    /// 8 more flights (flagged, not traced; docs/perception.md § Confirmation).
     pub enable: bool,
     /// Checks per second, Hz. Default 2.
     pub rate_hz: f32,
@@ -498,7 +498,7 @@ impl Replanner {
     /// (the guidance's reference: the path as planned, not the line from wherever the vehicle
     /// stands to the next waypoint; from `pos` when `stalled` or `along` is not finite), for a
     /// blockage by the
-    /// static `points` (all of it, and for grid cells within the inflation radius too, when
+    /// static `points` (all of it, and for grid cells within [`STALL_REACH_CELLS`] too, when
     /// `stalled`); the new path (when [`ReplanOutcome::Replanned`]) is written to `out`,
     /// otherwise `out` is left empty. See the module documentation.
     pub fn plan<const N: usize>(
