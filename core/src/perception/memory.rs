@@ -26,7 +26,8 @@
 //! forgotten.
 //!
 //! **Moving clusters** (see [`super::track`]): small segments of the scan row nearest to
-//! horizontal that stand in front of their background are tracked; their cells carry the
+//! horizontal that stand in front of their background are tracked (only when that row's middle
+//! beam looks within 45° of the world's horizontal: not a down- or up-looking sensor's); their cells carry the
 //! track, and cells of a track that the track's cluster did not hit again in a scan that
 //! updated the track are removed (the object moved on). A track whose motion is proven
 //! hands its cells out with its velocity and extrapolated by it: `q + w·age`.
@@ -471,7 +472,14 @@ impl<const N: usize> ObstacleMemory<N> {
         // 3. Segments of the tracking row: clusters (small, in front of their background).
         let mut seg_of_cell = [NO_SEG; N];
         let mut clusters = [Cluster::EMPTY; MAX_SEGMENTS];
-        let n_clusters = if usize::from(g.n_az) <= MAX_ROW {
+        // Only a row that looks along the world's horizontal sees movers against their
+        // background: a down- or up-looking sensor's (the `tof` set's, the `lidar3d` set's down
+        // ToF) middle beam within 45° of the vertical looks at the floor or ceiling, and its
+        // segments are not walkers (with them the walker ahead lost its track and wall cells
+        // theirs: docs/robustness.md § At speed, "A down-looking ToF").
+        let mid = r_ws * self.trig.direction(track_row, g.n_az / 2);
+        let level = mid.z * mid.z < 0.5 * mid.norm_squared();
+        let n_clusters = if level && usize::from(g.n_az) <= MAX_ROW {
             let row = Row { scan, origin: &origin, r_ws: &r_ws, row: track_row, beams: &row_beams };
             self.segment_row(&row, &mut clusters, &mut seg_of_cell)
         } else {
@@ -819,8 +827,19 @@ mod tests {
             yaw: f32,
             g: ScanGeometry,
         ) -> ScanReport {
+            self.scan_mounted(m, t_us, p, yaw, g, SensorMount::centered())
+        }
+
+        fn scan_mounted<const N: usize>(
+            &self,
+            m: &mut ObstacleMemory<N>,
+            t_us: u64,
+            p: Vec3,
+            yaw: f32,
+            g: ScanGeometry,
+            mount: SensorMount,
+        ) -> ScanReport {
             let pose = Pose::from_rpy(p, 0.0, 0.0, yaw);
-            let mount = SensorMount::centered();
             let mut ranges = Vec::new();
             for row in 0..g.n_el {
                 for col in 0..g.n_az {
@@ -1096,6 +1115,30 @@ mod tests {
         }
         // No cells left along the path (y < 0): the track removed them.
         assert!(m.cells().all(|c| c.hi.y > -0.2), "{:?}", m.cells().collect::<Vec<_>>());
+    }
+
+    /// Only a sensor whose tracking row looks along the world's horizontal tracks movers: the
+    /// cylinder of `a_moving_cluster_gets_a_measured_velocity` seen by a camera fan pitched 30°
+    /// down is clustered and tracked, pitched 60° down (a down-looking sensor's row sees the
+    /// floor, not walkers against their background) never.
+    #[test]
+    fn a_steeply_pitched_sensor_does_not_track() {
+        let g = ScanGeometry::grid(64, 1, 1.518, 0.05, 0.1, 8.0);
+        let clusters = |pitch_deg: f32| {
+            let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
+            let mount = SensorMount::new(Vec3::zeros(), 0.0, -pitch_deg.to_radians(), 0.0);
+            let mut n = 0u32;
+            for k in 0..=20u64 {
+                let y = -1.0 + k as f32 * 0.1;
+                let w = World { cyl: std::vec![(1.5, y, 0.25)], wall_x: None };
+                // 5 m up: the 60° beams meet the cylinder 2.4 m above the ground (not clipped).
+                let high = Vec3::new(0.0, 0.0, -5.0);
+                n += u32::from(w.scan_mounted(&mut m, 1_000_000 + k * 100_000, high, 0.0, g, mount).clusters);
+            }
+            n
+        };
+        assert!(clusters(30.0) > 0);
+        assert_eq!(clusters(60.0), 0);
     }
 
     /// Walls are not placed while a seen mover closes in: a forward 90° fan sees a person
