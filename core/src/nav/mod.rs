@@ -25,7 +25,8 @@
 //!   and counted too.
 //! * **Initialisation** from [`NavParams::init_fixes`] (default 3) consecutive position
 //!   fixes that agree — each within the χ² gate of the one before (`|z₂ − z₁| ≤
-//!   √(χ²₃·(σ₁² + σ₂²)) +` [`INIT_SPEED_M_S`]`·Δt`) — from the last of them. A single first
+//!   √(χ²₃·(σ₁² + σ₂²)) +` [`INIT_SPEED_M_S`]`·Δt`, `Δt ≤` [`INIT_GAP_US`]; a longer gap
+//!   starts the count again) — from the last of them. A single first
 //!   fix may be a multipath outlier (the `gps` preset draws 5 m ones at 1 %): initialised on
 //!   it, the filter's σ said 0.5 m for an error of 6 m, the next fixes were gated as
 //!   outliers until the reset, and the reset's delta moved the guidance's reference 6 m
@@ -79,6 +80,12 @@ pub const CHI2_GATE: [f32; 3] = [15.14, 18.42, 21.11];
 /// their noise. A vehicle initialises on the ground or hovering; a source lost and regained
 /// in flight is a reset, not an initialisation.
 pub const INIT_SPEED_M_S: f32 = 2.0;
+
+/// The longest interval between two initialising fixes, µs (module docs: *Initialisation*).
+/// The agreement bound grows with [`INIT_SPEED_M_S`]`·Δt`, so an old candidate would accept
+/// almost any fix after a long gap (10 s: 20 m); a fix more than this after the candidate
+/// starts the count again.
+pub const INIT_GAP_US: u64 = 1_000_000;
 
 /// Filter parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]

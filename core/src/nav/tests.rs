@@ -122,6 +122,36 @@ fn an_outlier_first_fix_is_not_initialised_from() {
 }
 
 #[test]
+fn a_candidate_older_than_the_gap_limit_starts_the_count_again() {
+    // Two fixes at the true position, 5 s without a fix, then a 5 m outlier and good fixes
+    // again. The agreement bound grows by INIT_SPEED_M_S per second (5 s: 10 m), so without
+    // INIT_GAP_US the outlier would be the third agreeing fix and the filter would start 5 m off.
+    let mut results: heapless::Vec<(u64, Fusion), 8> = heapless::Vec::new();
+    let f = fly_with(NavParams::default(), 5.6, |f, t, truth| {
+        let z = match t {
+            0 | 100_000 => truth(t),
+            5_100_000 => truth(t) + Vec3::new(3.0, 4.0, 0.0),
+            5_200_000.. => truth(t),
+            _ => return,
+        };
+        let _ = results.push((t, f.fuse_position(t, &z, 0.5, FixKind::Absolute)));
+    });
+    let got: heapless::Vec<Fusion, 8> = results.iter().map(|r| r.1).collect();
+    assert_eq!(
+        &got[..6],
+        &[
+            Fusion::Pending,
+            Fusion::Pending,
+            Fusion::Pending, // the outlier: a new count of one, not the third of three
+            Fusion::Pending, // disagrees with the outlier: a new count
+            Fusion::Pending,
+            Fusion::Initialised,
+        ][..]
+    );
+    assert!(err(&f, 5_600_000, Vec3::zeros()) < 1.0);
+}
+
+#[test]
 fn a_delayed_fix_fused_at_its_time_beats_the_same_fix_fused_late() {
     // 5 m/s, fixes every 100 ms, 200 ms old, σ 0.05 m. Initialised on the first fix (the
     // vehicle already flies faster than INIT_SPEED_M_S: the case is delayed fusion, not the

@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector};
 
 use super::history::Past;
-use super::{finite3, FixKind, Fusion, NavFilter, CHI2_GATE, INIT_SPEED_M_S};
+use super::{finite3, FixKind, Fusion, NavFilter, CHI2_GATE, INIT_GAP_US, INIT_SPEED_M_S};
 use crate::Vec3;
 
 /// What a fix is compared with: the state at its time and the delay to now.
@@ -62,7 +62,9 @@ impl NavFilter {
             }
             let agreeing = match self.candidate {
                 Some((t0, z0, s0, n))
-                    if t_us >= t0 && agrees(&z0, s0, z, sigma, (t_us - t0) as f32 * 1e-6) =>
+                    if t_us >= t0
+                        && t_us - t0 <= INIT_GAP_US
+                        && agrees(&z0, s0, z, sigma, (t_us - t0) as f32 * 1e-6) =>
                 {
                     n
                 }
