@@ -275,6 +275,10 @@ pub struct MemoryParams {
     pub voxel: f32,
     /// A cell not hit again for this long is forgotten, s. Default 5 s.
     pub forget_s: f32,
+    /// A cell whose box lies within this distance of the vehicle is not forgotten by age
+    /// (only by see-through clearing), m; 0 turns the rule off. Default 1 m
+    /// (`memory` module docs, *Forgetting*).
+    pub keep_near: f32,
     /// A beam clears a cell it passes through only when its return (or `max_range`) lies
     /// this far beyond the cell, m. Default 0.3 m.
     pub clear_margin: f32,
@@ -318,12 +322,15 @@ impl Default for MemoryParams {
 impl MemoryParams {
     /// The obstacle memory's parameters (issue 19; `crate::params`, MAVLink `param_index` order).
     #[rustfmt::skip] // one entry per parameter, laid out by hand
-    pub const fn params<P: Has<Self>>() -> [Param<P>; 6] {
+    pub const fn params<P: Has<Self>>() -> [Param<P>; 7] {
         [
             Param::new("PCP_VOXEL", "Perception", "m", (0.02, 5.0), 3, field!(voxel),
                 "Obstacle memory voxel edge: range returns in one cube merge into one point").key("mem_voxel"),
             Param::new("PCP_FORGET", "Perception", "s", (0.05, 600.0), 2, field!(forget_s),
                 "An obstacle cell not seen again for this long is forgotten").key("mem_forget"),
+            Param::new("PCP_KEEP_NEAR", "Perception", "m", (0.0, 5.0), 2, field!(keep_near),
+                "Cells this near the vehicle are not forgotten by age, only by a beam seeing through them; 0 = off")
+                .key("mem_keep_near"),
             Param::new("PCP_CLR_MARGIN", "Perception", "m", (0.0, 5.0), 3, field!(clear_margin),
                 "A beam clears a cell it passes when its return lies this far beyond the cell").key("mem_clear_margin"),
             Param::new("PCP_TRK_SIZE", "Perception", "m", (0.0, 10.0), 2, field!(track_size),
@@ -347,6 +354,7 @@ impl MemoryParams {
     pub const DEFAULT: MemoryParams = MemoryParams {
         voxel: 0.2,
         forget_s: 5.0,
+        keep_near: 1.0,
         clear_margin: 0.3,
         track_size: 0.8,
         track_alpha: 0.5,
@@ -372,6 +380,7 @@ impl MemoryParams {
     pub fn valid(&self) -> bool {
         (0.02..=5.0).contains(&self.voxel)
             && (0.05..=600.0).contains(&self.forget_s)
+            && (0.0..=5.0).contains(&self.keep_near)
             && (0.0..=5.0).contains(&self.clear_margin)
             && (0.0..=10.0).contains(&self.track_size)
             && self.track_alpha > 0.0

@@ -500,6 +500,7 @@ impl ObstacleAssembler {
         let params = MemoryParams {
             voxel: get("PCP_VOXEL", d.voxel),
             forget_s: get("PCP_FORGET", d.forget_s),
+            keep_near: get("PCP_KEEP_NEAR", d.keep_near),
             clear_margin: get("PCP_CLR_MARGIN", d.clear_margin),
             track_size: get("PCP_TRK_SIZE", d.track_size),
             fov_margin: get("PCP_FOV_MARGIN", d.fov_margin),

@@ -111,6 +111,7 @@ pub fn check_run(scene: &Scene, cfg: &RunConfig, given: &Given) -> Result<(), In
         ("velocity_margin", cfg.velocity_margin, "controller", c.velocity_margin.is_some()),
         ("mem_voxel", f64::from(cfg.memory.voxel), "controller", c.mem_voxel.is_some()),
         ("mem_forget", f64::from(cfg.memory.forget_s), "controller", c.mem_forget.is_some()),
+        ("mem_keep_near", f64::from(cfg.memory.keep_near), "controller", c.mem_keep_near.is_some()),
         ("mem_clear_margin", f64::from(cfg.memory.clear_margin), "controller", c.mem_clear_margin.is_some()),
         ("mem_track_size", f64::from(cfg.memory.track_size), "controller", c.mem_track_size.is_some()),
         ("fov_margin", f64::from(cfg.memory.fov_margin), "controller", c.fov_margin.is_some()),

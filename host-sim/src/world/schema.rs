@@ -53,6 +53,8 @@ pub struct ControllerOverrides {
     pub mem_voxel: Option<f64>,
     /// Obstacle memory forget time, s (`PCP_FORGET`).
     pub mem_forget: Option<f64>,
+    /// Cells this near the vehicle are not forgotten by age, m (`PCP_KEEP_NEAR`; 0: off).
+    pub mem_keep_near: Option<f64>,
     /// See-through clearing margin, m (`PCP_CLR_MARGIN`).
     pub mem_clear_margin: Option<f64>,
     /// Largest cluster tracked for its velocity, m (`PCP_TRK_SIZE`; 0: no tracking).
@@ -240,7 +242,7 @@ impl ControllerOverrides {
     /// The numeric fields by key: each key is a [`parapet_core::params::Param::key`] of the
     /// controller's parameter table, which gives its unit and range (`filter` and `yaw_mode`,
     /// names, are `CBF_VARIANT`'s and `MIS_YAW_MODE`'s keys; `guidance` `MIS_GUIDANCE`'s).
-    pub fn numbers(&self) -> [(&'static str, Option<f64>); 14] {
+    pub fn numbers(&self) -> [(&'static str, Option<f64>); 15] {
         [
             ("mu", self.mu),
             ("delta", self.delta),
@@ -252,6 +254,7 @@ impl ControllerOverrides {
             ("speed", self.speed),
             ("mem_voxel", self.mem_voxel),
             ("mem_forget", self.mem_forget),
+            ("mem_keep_near", self.mem_keep_near),
             ("mem_clear_margin", self.mem_clear_margin),
             ("mem_track_size", self.mem_track_size),
             ("fov_margin", self.fov_margin),
@@ -515,6 +518,7 @@ mod tests {
             guidance: Some("trajectory".into()),
             mem_voxel: Some(0.25),
             mem_forget: Some(9.0),
+            mem_keep_near: Some(0.5),
             mem_clear_margin: Some(0.5),
             mem_track_size: Some(0.0),
             fov_margin: Some(0.5),

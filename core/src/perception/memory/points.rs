@@ -18,7 +18,8 @@ use crate::Vec3;
 
 impl<const N: usize> ObstacleMemory<N> {
     /// Calls `f` with the obstacle points for a vehicle at `p` moving at `v` (NED) at
-    /// `t_us`: one per cell not older than `forget_s` (the box point nearest `p`; moving
+    /// `t_us`: one per cell remembered (not older than `forget_s`, or a static one within
+    /// `keep_near` of `p`; the box point nearest `p`; moving
     /// tracks extrapolated, with their velocity), then the frontier point (when the
     /// direction of motion has not been observed free far enough). O(N).
     pub fn for_each_point(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, f: impl FnMut(&ObstaclePoint)) {
@@ -37,16 +38,15 @@ impl<const N: usize> ObstacleMemory<N> {
 
     /// [`Self::for_each_point`] into `sink` (a cell's point as its parts).
     fn points_into<S: PointSink>(&mut self, t_us: u64, p: &Vec3, v: &Vec3, mu: f32, sink: &mut S) {
-        let forget = self.forget_us();
         // A static cell's box is finite (built from plausible returns): with `p` not NaN the
         // NaN-free clamp gives the same point (a moving cell's shifted box is not checked).
         let p_no_nan = !(p.x.is_nan() || p.y.is_nan() || p.z.is_nan());
         let mut threat = false;
         for c in self.cells.iter() {
-            let age_us = t_us.saturating_sub(c.t_us);
-            if age_us > forget {
+            if !self.remembered(c, t_us, p) {
                 continue;
             }
+            let age_us = t_us.saturating_sub(c.t_us);
             let track = (c.track != NO_TRACK).then(|| self.tracker.get(usize::from(c.track))).flatten();
             let w = track.and_then(|tr| tr.measured_velocity(t_us));
             let shift = w.map_or_else(Vec3::zeros, |w| w * (age_us as f32 * 1e-6));
