@@ -72,6 +72,9 @@ impl Autopilot for Vehicle {
     fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
         self.cascade.navigation_fix(fix, kind, noise)
     }
+    fn navigation_height(&mut self, t_us: u64, down: f32) {
+        self.cascade.navigation_height(t_us, down)
+    }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.cascade.update_obstacles(now_us, obstacles)
     }

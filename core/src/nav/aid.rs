@@ -28,6 +28,11 @@ use crate::Vec3;
 
 /// Longest time without a fused position fix the filter's estimate is flown on, µs.
 pub const NAV_TIMEOUT_US: u64 = 2_000_000;
+
+/// The σ the firmware gives a barometer height (HIL_SENSOR's `pressure_alt`), m: the
+/// host's for its barometer (`host-sim/src/fc/nav.rs`: the presets' 0.3 m noise × 1.5, a
+/// test checks they agree).
+pub const BARO_SIGMA_M: f32 = 0.45;
 /// Largest horizontal position σ the estimate is flown with, m (defined beside the filter:
 /// the error bound caps at it too, [`super::bound::ERROR_BOUND_MAX_M`]).
 pub use super::NAV_MAX_SIGMA_M;

@@ -12,7 +12,8 @@
 //!
 //! * a relative source's (vision) frame drift (m/√s, 3-D) since the first fix;
 //! * the barometer's drift (m/√s), on the vertical, weighted by the barometer's share of the
-//!   height information (the host's `gps` flights; the firmware fuses no barometer).
+//!   height information (the host's `gps` flights; the firmware, which does not know the
+//!   source's rate, carries the whole of [`BARO_DRIFT_M_PER_SQRT_S`] once it fused a height).
 //!
 //! A random walk's σ at `t` does not bound it over the flight: pressed against an obstacle,
 //! the vehicle meets the walk's excursions, and `W(s) > 3σ(s)` for some `s ≤ t` is far likelier
@@ -52,6 +53,12 @@ pub const ERROR_BOUND_MAX_M: f64 = MAPPED_MARGIN_SIGMA * NAV_MAX_SIGMA_M as f64;
 /// `vio` preset (`host-sim/src/sim/source.rs`); a vehicle whose odometry drifts faster needs
 /// a larger value here.
 pub const VISION_DRIFT_M_PER_SQRT_S: f64 = 0.03;
+/// Drift of a barometer's height the firmware assumes, m/√s: the rate of the simulator's
+/// barometer (`host-sim/src/sim/source.rs`, the `gps`, `rtk` and `vio` presets). The firmware
+/// does not know the position source's rate, so it carries the whole of it on the vertical
+/// (the host weights it by the barometer's share of the height information, `fc/nav.rs`):
+/// the larger, safe side.
+pub const BARO_DRIFT_M_PER_SQRT_S: f64 = 0.02;
 
 /// `2 ln(1/α)` of [`DRIFT_BOUND_ALPHA`] (a constant: no `log` in the firmware's image; the
 /// test checks it against the formula).

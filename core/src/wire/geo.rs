@@ -75,6 +75,14 @@ pub fn altitude_m(down: f32, alt_ref: AltRef) -> f32 {
     }
 }
 
+/// The NED `down` (m) of an altitude `alt_m` in `alt_ref` (the inverse of [`altitude_m`]).
+pub fn down_m(alt_m: f32, alt_ref: AltRef) -> f32 {
+    match alt_ref {
+        AltRef::Amsl => home_alt_m() - alt_m,
+        AltRef::Home => -alt_m,
+    }
+}
+
 /// (lat 1e-7 °, lon 1e-7 °, altitude m in `alt_ref`) → NED metres around home.
 pub fn global_to_ned(lat_e7: i32, lon_e7: i32, alt_m: f32, alt_ref: AltRef) -> Result<Vec3, GeoError> {
     if !(-900_000_000..=900_000_000).contains(&lat_e7) {
@@ -92,10 +100,7 @@ pub fn global_to_ned(lat_e7: i32, lon_e7: i32, alt_m: f32, alt_ref: AltRef) -> R
     if east.abs() > MAX_RANGE_M {
         return Err(GeoError::Longitude);
     }
-    let down = match alt_ref {
-        AltRef::Amsl => home_alt_m() - alt_m,
-        AltRef::Home => -alt_m,
-    };
+    let down = down_m(alt_m, alt_ref);
     if !down.is_finite() || down.abs() > MAX_RANGE_M {
         return Err(GeoError::Altitude);
     }

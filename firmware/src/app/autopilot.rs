@@ -253,6 +253,9 @@ pub trait Autopilot {
     /// ODOMETRY: `Relative`) with the σ it states, for the navigation filter
     /// ([`crate::app::navigation`]). Required, so that no wrapper falls back to the fix path.
     fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise);
+    /// A barometer height of `t_us` (NED down, m: HIL_SENSOR's `pressure_alt` around home)
+    /// for the navigation filter. Required, like [`Autopilot::navigation_fix`].
+    fn navigation_height(&mut self, t_us: u64, down: f32);
     /// Replaces the obstacle points (world NED) seen at `now_us`.
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
     /// Replaces the waypoint path (world NED, m).
@@ -346,6 +349,8 @@ pub(crate) mod test_double {
         /// The kind and σ of each fix that went to the navigation filter (the others went to
         /// `update_position`).
         pub nav_fixes: Vec<(FixKind, SourceNoise)>,
+        /// Barometer heights (time µs, NED down m).
+        pub heights: Vec<(u64, f32)>,
         pub obstacle_batches: Vec<Vec<ObstaclePoint>>,
         pub paths: Vec<Vec<Vec3>>,
         pub commands: Vec<VehicleCommand>,
@@ -387,6 +392,9 @@ pub(crate) mod test_double {
         fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
             self.fixes.push(*fix);
             self.nav_fixes.push((kind, noise));
+        }
+        fn navigation_height(&mut self, t_us: u64, down: f32) {
+            self.heights.push((t_us, down));
         }
         fn update_obstacles(&mut self, _now_us: u64, obstacles: &[ObstaclePoint]) {
             self.obstacle_batches.push(obstacles.to_vec());

@@ -333,6 +333,11 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
         let _ = self.stage.nav.fix(fix, kind, noise);
     }
 
+    fn navigation_height(&mut self, t_us: u64, down: f32) {
+        self.stage.predict_nav(self.mb);
+        let _ = self.stage.nav.height(t_us, down);
+    }
+
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.stage.outer.update_obstacles(now_us, obstacles);
     }
@@ -573,6 +578,9 @@ impl Autopilot for Cascade {
     }
     fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
         self.port().navigation_fix(fix, kind, noise);
+    }
+    fn navigation_height(&mut self, t_us: u64, down: f32) {
+        self.port().navigation_height(t_us, down);
     }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.port().update_obstacles(now_us, obstacles);

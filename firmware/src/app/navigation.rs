@@ -11,6 +11,10 @@
 //!   between two outer steps; on an overflow the oldest go and the next predict spans the gap).
 //!   The predict (≈ 7.6k instructions on the Cortex-M4F, `docs/performance.md`) runs in the
 //!   outer task, not in the 1 ms inner step.
+//! * **Barometer**: HIL_SENSOR's `pressure_alt` (its `fields_updated` bit
+//!   `HIL_SENSOR_UPDATED_PRESSURE_ALT`; m AMSL, home at `wire::geo::ORIGIN`'s altitude) is
+//!   fused as a height with σ [`BARO_SIGMA_M`] at the sample's time
+//!   ([`crate::link::inputs::hil_baro_down`]), as the host fuses its barometer.
 //! * **Fixes**: GPS_INPUT (absolute), VISION_POSITION_ESTIMATE and a VIO's ODOMETRY (relative:
 //!   their frame may jump) go to the filter with the σ they state
 //!   ([`crate::link::position_sources`]); other ODOMETRY — the motion capture of the PIL and the
@@ -26,8 +30,8 @@
 //! * **Margins** (`docs/filter.md` § 18, the host's `fc/control.rs` and `flight/sensing.rs`):
 //!   with a filtered source the bound on the estimate's error
 //!   ([`parapet_core::nav::bound`]: 3σ of the filter per axis, plus a relative source's frame
-//!   drift since the first fix at [`VISION_DRIFT_M_PER_SQRT_S`]; no barometer is fused here, so
-//!   no barometer drift) is set as the ground/ceiling margin before each outer step, and, once
+//!   drift since the first fix at [`VISION_DRIFT_M_PER_SQRT_S`], and once a barometer height
+//!   has been fused the barometer's drift at [`BARO_DRIFT_M_PER_SQRT_S`] on the vertical) is set as the ground/ceiling margin before each outer step, and, once
 //!   the filter is initialised, is the cascade's `Autopilot::mapped_margin` of that step, with
 //!   which the link moves the **mapped** (world-frame) obstacle points towards the estimate
 //!   (`crate::link::obstacles`) until the next outer step. Without a filtered source (motion
@@ -39,8 +43,10 @@
 //! Owns: [`Navigation`], [`NavSample`], [`NavReport`]. May import: `parapet_core`.
 
 use parapet_core::msg::{Euler, PositionFix};
-use parapet_core::nav::aid::{NavAid, SourceNoise};
-use parapet_core::nav::bound::{ErrorBound, UnobservedDrift, VISION_DRIFT_M_PER_SQRT_S};
+use parapet_core::nav::aid::{NavAid, SourceNoise, BARO_SIGMA_M};
+use parapet_core::nav::bound::{
+    ErrorBound, UnobservedDrift, BARO_DRIFT_M_PER_SQRT_S, VISION_DRIFT_M_PER_SQRT_S,
+};
 use parapet_core::nav::{FixKind, Fusion, NavParams, CHI2_GATE};
 use parapet_core::Vec3;
 
@@ -96,6 +102,8 @@ pub struct NavReport {
 #[derive(Clone, Debug)]
 pub struct Navigation {
     aid: NavAid,
+    /// A barometer height has been given: its drift enters the error bound.
+    baro: bool,
 }
 
 impl Default for Navigation {
@@ -107,7 +115,7 @@ impl Default for Navigation {
 impl Navigation {
     /// No fix yet: the controller keeps the latest-fix path until a filtered source speaks.
     pub fn new() -> Self {
-        Self { aid: NavAid::new(NavParams::default()) }
+        Self { aid: NavAid::new(NavParams::default()), baro: false }
     }
 
     /// Predict with one IMU sample.
@@ -118,6 +126,14 @@ impl Navigation {
     /// A fix of a filtered source of `kind` with σ `noise`.
     pub fn fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) -> Fusion {
         self.aid.fix(fix, noise, kind)
+    }
+
+    /// A barometer height of `t_us` (NED down, m) with σ [`BARO_SIGMA_M`]; from the first one
+    /// the error bound carries the barometer's drift ([`BARO_DRIFT_M_PER_SQRT_S`]).
+    pub fn height(&mut self, t_us: u64, down: f32) -> Fusion {
+        let fused = self.aid.height(t_us, down, BARO_SIGMA_M);
+        self.baro |= fused == Fusion::Fused;
+        fused
     }
 
     /// The outer loop's fix of `now_us`: `None` without a filtered source and in the failsafe.
@@ -138,7 +154,8 @@ impl Navigation {
             FixKind::Relative => VISION_DRIFT_M_PER_SQRT_S,
             FixKind::Absolute => 0.0,
         };
-        Some(self.aid.error_bound(now_us, &UnobservedDrift { relative, baro: 0.0 }))
+        let baro = if self.baro { BARO_DRIFT_M_PER_SQRT_S } else { 0.0 };
+        Some(self.aid.error_bound(now_us, &UnobservedDrift { relative, baro }))
     }
 
     /// The filter (read-only).
@@ -180,6 +197,7 @@ mod tests {
     use crate::app::cascade::Cascade;
     use parapet_core::controller::ControllerParams;
     use parapet_core::nav::aid::NAV_TIMEOUT_US;
+    use parapet_core::nav::bound::MAPPED_MARGIN_SIGMA;
 
     const GPS: SourceNoise = SourceNoise { position: 0.5, velocity: 0.1 };
 
@@ -209,12 +227,17 @@ mod tests {
     fn the_outer_loop_flies_the_filter_estimate_bit_for_bit_as_the_host_drives_it() {
         let Ok(mut c) = Cascade::new(ControllerParams::default()) else { panic!("cascade") };
         let mut host = NavAid::new(NavParams::default());
-        let mut compared = 0;
+        let (mut compared, mut baro_fused) = (0, false);
         for k in 1..=1_500u64 {
             let t = k * 1_000;
             if let Some(f) = fix_due(t) {
                 c.navigation_fix(&f, FixKind::Absolute, GPS);
                 host.fix(&f, GPS, FixKind::Absolute);
+            }
+            // A barometer at 50 Hz, 0.1 m above the fixes' height (HIL_SENSOR's pressure_alt).
+            if t.is_multiple_of(20_000) {
+                c.navigation_height(t, -1.1);
+                baro_fused |= host.height(t, -1.1, BARO_SIGMA_M) == Fusion::Fused;
             }
             let s = imu(t);
             c.step_inner(t, &s);
@@ -224,9 +247,19 @@ mod tests {
                 if let Some(h) = host.controller_fix(t) {
                     let o = c.outer().outer().telemetry();
                     assert_eq!((o.position, o.velocity), (h.position, h.velocity), "t = {t}");
-                    // The mapped obstacles' bound: the core's, of the filter's σ (GPS: no drift).
+                    // The mapped obstacles' bound: the core's, of the filter's σ and, once a
+                    // height is fused, the barometer's drift on the vertical.
+                    let baro = if baro_fused { BARO_DRIFT_M_PER_SQRT_S } else { 0.0 };
                     let b = c.mapped_margin();
-                    assert_eq!(b, Some(host.error_bound(t, &UnobservedDrift::default())), "t = {t}");
+                    assert_eq!(
+                        b,
+                        Some(host.error_bound(t, &UnobservedDrift { relative: 0.0, baro })),
+                        "t = {t}"
+                    );
+                    assert!(
+                        !baro_fused || b.is_some_and(|b| b.vertical > MAPPED_MARGIN_SIGMA * 0.05),
+                        "{b:?}"
+                    );
                     compared += 1;
                 }
             }
@@ -234,6 +267,7 @@ mod tests {
         // From the third agreeing fix (initialised at 0.4 s, `NavParams::init_fixes`) to 1.5 s:
         // 275 outer steps compared.
         assert!(compared >= 275, "{compared}");
+        assert!(baro_fused, "the heights were fused");
         let r = c.telemetry().nav.map(|n| n.flags);
         assert_eq!(r, Some(flags::ATTITUDE | 0b11_1110), "{r:?}");
     }
@@ -243,7 +277,7 @@ mod tests {
     /// a relative source.
     #[test]
     fn the_error_bound_is_none_without_a_filter_and_grows_with_a_relative_sources_drift() {
-        use parapet_core::nav::bound::{drift_bound, MAPPED_MARGIN_SIGMA};
+        use parapet_core::nav::bound::drift_bound;
         let mut gps = Navigation::new();
         assert_eq!(gps.error_bound(1_000_000), None);
         let mut vio = Navigation::new();

@@ -515,6 +515,42 @@ mod tests {
         assert_eq!(texts(&mut l), vec!["Position source: VISION_POSITION_ESTIMATE".to_string()]);
     }
 
+    /// HIL_SENSOR's `pressure_alt` goes to the navigation filter as a height (NED down around
+    /// home) only when `fields_updated` says so; NaN and beyond `MAX_RANGE_M` are not heights.
+    /// The IMU sample is taken either way.
+    #[test]
+    fn hil_sensor_pressure_alt_is_a_barometer_height_when_flagged() {
+        use crate::link::dialect::{HilSensorUpdatedFlags, HIL_SENSOR_DATA};
+        use parapet_core::wire::geo::ORIGIN;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = gcs();
+        let home = ORIGIN.2 as f32 / 1000.0;
+        let hil = |t: u64, alt: f32, flagged: bool| HIL_SENSOR_DATA {
+            time_usec: t,
+            zacc: -9.81,
+            pressure_alt: alt,
+            fields_updated: if flagged {
+                HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_PRESSURE_ALT
+            } else {
+                HilSensorUpdatedFlags::empty()
+            },
+            ..Default::default()
+        };
+        for (t, alt, flagged) in [
+            (1_000, home + 1.5, true),
+            (2_000, home + 9.0, false),
+            (3_000, f32::NAN, true),
+            (4_000, home + 20_000.0, true),
+            (5_000, home - 0.25, true),
+        ] {
+            l.push_bytes(&send(&mut w, &hil(t, alt, flagged)), t, &mut ap);
+            assert!(l.take_hil_sample().is_some_and(|s| s.time_usec == t));
+        }
+        assert_eq!(ap.heights, vec![(1_000, -1.5), (5_000, 0.25)]);
+        assert_eq!(l.stats().baro_heights, 2);
+    }
+
     /// ODOMETRY from a VIO or vision estimator goes to the navigation filter as a relative
     /// source with the σ of its covariances; a motion capture's (and an unknown estimator's,
     /// what the PIL host sends) keeps the latest-fix path.

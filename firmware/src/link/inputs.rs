@@ -1,12 +1,14 @@
-//! The vehicle-state inputs of the link: the lockstep IMU sample of HIL_SENSOR ([`HilSample`]),
+//! The vehicle-state inputs of the link: the lockstep IMU sample of HIL_SENSOR ([`HilSample`])
+//! and its barometer height ([`hil_baro_down`]),
 //! the ODOMETRY → position fix conversion ([`odometry_fix`]) and whose clock stamps a fix
 //! ([`FixClock`]). Split out of [`crate::link::router`] (one file per concern).
 //!
 //! May import: `parapet_core`, the dialect, [`crate::app`] (the `Autopilot` boundary types).
 
 use crate::app::autopilot::{ImuSample, PositionFix};
-use crate::link::dialect::{MavFrame, HIL_SENSOR_DATA, ODOMETRY_DATA};
+use crate::link::dialect::{HilSensorUpdatedFlags, MavFrame, HIL_SENSOR_DATA, ODOMETRY_DATA};
 use parapet_core::nalgebra::{Quaternion, UnitQuaternion};
+use parapet_core::wire::geo::{down_m, AltRef, MAX_RANGE_M};
 use parapet_core::Vec3;
 
 /// One simulated IMU sample from HIL_SENSOR.
@@ -29,6 +31,17 @@ impl HilSample {
             },
         }
     }
+}
+
+/// The barometer height of a HIL_SENSOR (NED down, m): its `pressure_alt` (m AMSL; home at
+/// `wire::geo::ORIGIN`'s altitude) when `fields_updated` has `HIL_SENSOR_UPDATED_PRESSURE_ALT`;
+/// `None` without it, for a non-finite value or one farther than `MAX_RANGE_M` from home.
+pub fn hil_baro_down(m: &HIL_SENSOR_DATA) -> Option<f32> {
+    if !m.fields_updated.contains(HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_PRESSURE_ALT) {
+        return None;
+    }
+    let down = down_m(m.pressure_alt, AltRef::Amsl);
+    (down.is_finite() && down.abs() <= MAX_RANGE_M).then_some(down)
 }
 
 /// Whose clock time-stamps a position fix.

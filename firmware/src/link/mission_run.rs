@@ -513,6 +513,7 @@ mod tests {
     impl Autopilot for Replanning {
         fn update_position(&mut self, _: &PositionFix) {}
         fn navigation_fix(&mut self, _: &PositionFix, _: FixKind, _: SourceNoise) {}
+        fn navigation_height(&mut self, _: u64, _: f32) {}
         fn update_obstacles(&mut self, _: u64, _: &[ObstaclePoint]) {}
         fn set_path(&mut self, w: &[Vec3]) -> Result<(), PathRejected> {
             self.path = w.to_vec();

@@ -30,6 +30,9 @@ pub struct LinkStats {
     pub hil_samples: u32,
     /// HIL_SENSOR samples overwritten before the control step took them.
     pub hil_overwritten: u32,
+    /// HIL_SENSOR barometer heights handed to the navigation filter
+    /// ([`crate::link::inputs::hil_baro_down`]).
+    pub baro_heights: u32,
     /// PARAM_SET / PARAM_REQUEST_READ for unknown names or indices.
     pub unknown_params: u32,
     /// Messages addressed to another system or component (ignored).

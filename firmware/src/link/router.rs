@@ -23,7 +23,7 @@
 //! | MISSION_SET_CURRENT (41) | answered with MISSION_CURRENT; jumping to another item is not supported (STATUSTEXT) |
 //! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION, COMPONENT_METADATA ([`crate::link::metadata`]) and AVAILABLE_MODES (param2 = mode index, 0 = all; streamed after the ACK, [`crate::link::standard_modes`]) |
 //! | FILE_TRANSFER_PROTOCOL (110) | the read-only FTP server of [`crate::link::ftp`]; a BurstReadFile's packets are paced like the parameter stream (one per poll or frame while more than [`REPLY_RESERVE`] queue slots are free) |
-//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`] |
+//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`]; with `fields_updated` bit `HIL_SENSOR_UPDATED_PRESSURE_ALT` its `pressure_alt` (m AMSL) to the navigation filter as a barometer height ([`crate::link::inputs::hil_baro_down`], counted in `baro_heights`) |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
 //! | HEARTBEAT | marks the peer alive |
@@ -50,7 +50,9 @@ use heapless::Deque;
 use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase, VehicleCommand};
 use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
-use crate::link::inputs::{odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US};
+use crate::link::inputs::{
+    hil_baro_down, odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US,
+};
 use crate::link::manual_control::ManualControl;
 use crate::link::messages::{DecodeError, Inbound};
 use crate::link::mission::{DownloadReply, MissionReply, MissionUpload};
@@ -140,6 +142,7 @@ impl Router {
                 position_rejected: 0,
                 hil_samples: 0,
                 hil_overwritten: 0,
+                baro_heights: 0,
                 unknown_params: 0,
                 not_for_us: 0,
                 v1_heartbeats: 0,
@@ -567,6 +570,10 @@ impl Router {
                 self.stats.hil_samples = self.stats.hil_samples.saturating_add(1);
                 if self.hil.replace(HilSample::from_message(&m)).is_some() {
                     self.stats.hil_overwritten = self.stats.hil_overwritten.saturating_add(1);
+                }
+                if let Some(down) = hil_baro_down(&m) {
+                    ap.navigation_height(self.fix_time(m.time_usec, now_us), down);
+                    self.stats.baro_heights = self.stats.baro_heights.saturating_add(1);
                 }
             }
             Inbound::Odometry(m) if odometry_is_vision(&m) => {

@@ -412,6 +412,9 @@ impl<P: Autopilot, M: RawMutex> Autopilot for SetupPort<'_, P, M> {
     fn navigation_fix(&mut self, fix: &PositionFix, kind: FixKind, noise: SourceNoise) {
         self.inner.navigation_fix(fix, kind, noise)
     }
+    fn navigation_height(&mut self, t_us: u64, down: f32) {
+        self.inner.navigation_height(t_us, down)
+    }
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]) {
         self.inner.update_obstacles(now_us, obstacles)
     }

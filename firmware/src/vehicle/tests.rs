@@ -19,6 +19,7 @@ struct Rec {
 impl Autopilot for Rec {
     fn update_position(&mut self, _fix: &PositionFix) {}
     fn navigation_fix(&mut self, _fix: &PositionFix, _kind: FixKind, _noise: SourceNoise) {}
+    fn navigation_height(&mut self, _t_us: u64, _down: f32) {}
     fn update_obstacles(&mut self, _now_us: u64, _obstacles: &[ObstaclePoint]) {}
     fn set_path(&mut self, _w: &[Vec3]) -> Result<(), PathRejected> {
         Ok(())

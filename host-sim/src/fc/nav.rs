@@ -141,6 +141,23 @@ pub fn reading_fix(t_us: u64, r: &PositionReading) -> PositionFix {
 mod tests {
     use parapet_core::nav::bound::{drift_bound, DRIFT_BOUND_ALPHA, DRIFT_BOUND_RHO_S};
 
+    /// The barometer the firmware assumes (`BARO_SIGMA_M`, `BARO_DRIFT_M_PER_SQRT_S`: it cannot
+    /// read the simulator's presets) is the one the host's filter is told for every source
+    /// with a barometer, so the PIL flights and their host twin fly the same heights.
+    #[test]
+    fn the_firmware_barometer_is_the_presets() {
+        use crate::sim::source::PositionSource;
+        use parapet_core::nav::aid::BARO_SIGMA_M;
+        use parapet_core::nav::bound::BARO_DRIFT_M_PER_SQRT_S;
+        for src in [PositionSource::Gps, PositionSource::Rtk, PositionSource::Vio] {
+            let sensors = crate::sim::sensors::SensorParams { position_source: src, ..Default::default() };
+            let aid = super::NavAid::for_sensors(&sensors).expect("a filtered source");
+            // 0.3 × 1.5 in f32 is 0.45000002: the same σ to its last bit but one.
+            assert!((aid.sigma_baro - BARO_SIGMA_M).abs() < 1e-6, "{src:?}: {}", aid.sigma_baro);
+            assert_eq!(src.preset().baro.map(|b| b.1), Some(BARO_DRIFT_M_PER_SQRT_S), "{src:?}");
+        }
+    }
+
     /// The core's bound (`libm`'s `log1p` and `sqrt`, so the firmware computes it too) against
     /// the one the host computed with `std` before it moved to the core, at every outer step
     /// (4 ms) of 10 minutes for the rates the host flies (`vio`, the barometer's shares of

@@ -16,9 +16,10 @@
 
 use anyhow::{anyhow, Result};
 use mavlink::dialects::ardupilotmega::{
-    GpsFixType, GpsInputIgnoreFlags, MavBatteryFunction, MavBatteryType, MavCmd, MavFrame, MavMessage,
-    MavParamType, BATTERY_STATUS_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA, GPS_INPUT_DATA, HIL_SENSOR_DATA,
-    MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
+    GpsFixType, GpsInputIgnoreFlags, HilSensorUpdatedFlags, MavBatteryFunction, MavBatteryType, MavCmd,
+    MavFrame, MavMessage, MavParamType, BATTERY_STATUS_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
+    GPS_INPUT_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
+    ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use nalgebra::Vector3;
 use parapet_core::controller::ControllerParams;
@@ -29,7 +30,7 @@ use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
 use parapet_core::wire::codes::{gps_input_yaw, gps_input_yaw_cdeg, odometry_quaternion};
-use parapet_core::wire::geo::{altitude_m, global_to_ned, ned_to_global, AltRef};
+use parapet_core::wire::geo::{altitude_m, down_m, global_to_ned, ned_to_global, AltRef};
 use parapet_core::wire::ids::{
     local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
     VEHICLE_SYSTEM_ID,
@@ -281,9 +282,20 @@ pub(super) fn mission_item(seq: u16, w: &Vector3<f64>) -> MavMessage {
     })
 }
 
-/// HIL_SENSOR of the step at `t_us` (the lockstep trigger).
-pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading) -> MavMessage {
+/// HIL_SENSOR of the step at `t_us` (the lockstep trigger); with a barometer height
+/// `baro_down` (NED down, m) its `pressure_alt` (m AMSL, [`altitude_m`]) and the
+/// `HIL_SENSOR_UPDATED_PRESSURE_ALT` bit of `fields_updated` (the firmware's
+/// `link::inputs::hil_baro_down`; [`baro_decoded`] is what it takes).
+pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading, baro_down: Option<f64>) -> MavMessage {
+    let (pressure_alt, fields_updated) = match baro_down {
+        Some(d) => {
+            (altitude_m(d as f32, AltRef::Amsl), HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_PRESSURE_ALT)
+        }
+        None => (0.0, HilSensorUpdatedFlags::empty()),
+    };
     MavMessage::HIL_SENSOR(HIL_SENSOR_DATA {
+        pressure_alt,
+        fields_updated,
         time_usec: t_us,
         xgyro: imu.gyro.x as f32,
         ygyro: imu.gyro.y as f32,
@@ -293,6 +305,12 @@ pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading) -> MavMessage {
         zacc: imu.accel.z as f32,
         ..Default::default()
     })
+}
+
+/// The height (NED down, m) the firmware takes from the `pressure_alt` [`hil_sensor`] sends for
+/// `down`: the same f32 conversions both ways (`wire::geo`).
+pub(super) fn baro_decoded(down: f64) -> f32 {
+    down_m(altitude_m(down as f32, AltRef::Amsl), AltRef::Amsl)
 }
 
 /// The raw reading `r` of the scene's pack as the host sends it to the firmware (host → firmware

@@ -109,6 +109,9 @@ pub struct PilLink {
     replan_enabled: bool,
     /// The σ of a `gps` / `rtk` source's GPS_INPUTs; `None`: ODOMETRY (motion capture).
     gps: Option<parapet_core::nav::aid::SourceNoise>,
+    /// A barometer height (NED down, m) for the next HIL_SENSOR (with `gps`: the firmware's
+    /// navigation filter fuses it).
+    baro: Option<f64>,
 }
 
 /// The set-point the firmware last reported (POSITION_TARGET_LOCAL_NED), with the firmware
@@ -217,6 +220,7 @@ impl PilLink {
             target_done: false,
             replan_enabled: params.replan.enable,
             gps: gps_source(cfg)?,
+            baro: None,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -380,7 +384,8 @@ impl PilLink {
         }
         let frames = std::mem::take(&mut self.queue);
         let mut out = self.injector.frames(frames, inject, &mut self.fig);
-        let trigger = self.frame(&hil_sensor(t_us, imu));
+        let baro = self.baro.take();
+        let trigger = self.frame(&hil_sensor(t_us, imu, baro));
         if self.injector.lose_trigger(inject, self.flight_sim_steps + 1) {
             self.fig.injected_dropped += 1;
         } else {
@@ -661,6 +666,12 @@ impl FlightStack for PilLink {
     fn position_fix(&mut self, fix: PositionReading) {
         if self.fault.is_none() {
             self.queue_odometry(clock_us(fix.t_measured), &fix);
+        }
+    }
+
+    fn height_fix(&mut self, _t: f64, down: f64) {
+        if self.fault.is_none() && self.gps.is_some() {
+            self.baro = Some(down);
         }
     }
 

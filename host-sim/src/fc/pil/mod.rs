@@ -61,7 +61,9 @@
 //! filter (issue 39). The warm-up sends the start's fix the same way at the outer rate. The
 //! firmware reports the filter in ESTIMATOR_STATUS and its estimate in LOCAL_POSITION_NED
 //! (recorded in [`PilFigures`]); [`FirmwareTwin`] runs the same filter on the same decoded
-//! fixes. Not carried: the barometer (the firmware takes none) and `vio`.
+//! fixes. The source's barometer (50 Hz) rides on the next step's HIL_SENSOR as `pressure_alt`
+//! (m AMSL, the `HIL_SENSOR_UPDATED_PRESSURE_ALT` bit set; [`gcs::hil_sensor`]), which the
+//! firmware fuses as a height. Not carried: `vio`.
 //!
 //! ## Battery
 //! With a scene `[battery]`, the runner samples the pack exactly as for `parapet run` (same

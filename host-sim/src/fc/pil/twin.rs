@@ -8,8 +8,11 @@
 //! IMU sample predicted after its inner step with the attitude estimate, and before each outer
 //! step an absolute reset handed to the guidance and the filter's estimate given as the fix of
 //! now — the firmware's order. It records that fix ([`FirmwareTwin::fixes`]) to compare with
-//! the firmware's LOCAL_POSITION_NED. The filter's error bound
-//! ([`parapet_core::nav::bound`], no barometer drift: the firmware fuses none) gives the margins
+//! the firmware's LOCAL_POSITION_NED. Each barometer height goes with the next step's HIL_SENSOR
+//! (`pressure_alt`, [`super::gcs::baro_decoded`]) and is fused before that step, as the
+//! firmware's router does on receipt. The filter's error bound
+//! ([`parapet_core::nav::bound`], with the barometer's drift once a height is fused, as the
+//! firmware's `Navigation::error_bound`) gives the margins
 //! as the firmware applies them: the ground/ceiling margin before each outer step, and the
 //! mapped obstacle points (the scene's map, sent in LOCAL_NED) moved towards the last outer
 //! step's position by that step's bound (once the filter is initialised) when the batch
@@ -26,9 +29,9 @@ use parapet_core::battery::BatteryEstimator;
 use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
-use parapet_core::nav::aid::{NavAid, SourceNoise};
-use parapet_core::nav::bound::{ErrorBound, UnobservedDrift};
-use parapet_core::nav::{FixKind, NavParams};
+use parapet_core::nav::aid::{NavAid, SourceNoise, BARO_SIGMA_M};
+use parapet_core::nav::bound::{ErrorBound, UnobservedDrift, BARO_DRIFT_M_PER_SQRT_S};
+use parapet_core::nav::{FixKind, Fusion, NavParams};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_from_wire, battery_to_wire};
@@ -37,7 +40,8 @@ use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
 use parapet_core::Vec3;
 
 use super::gcs::{
-    firmware_params, gps_input, gps_input_decoded, gps_source, preroll_start, quantised_path, WARMUP_STEPS,
+    baro_decoded, firmware_params, gps_input, gps_input_decoded, gps_source, preroll_start, quantised_path,
+    WARMUP_STEPS,
 };
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
@@ -70,6 +74,11 @@ pub struct FirmwareTwin {
     fixes: Vec<(u64, Vec3)>,
     /// The firmware's `mapped_margin` of the last outer step (module docs).
     mapped_margin: Option<ErrorBound>,
+    /// The barometer height (NED down, m) for the next step's HIL_SENSOR (with `gps` / `rtk`).
+    baro: Option<f64>,
+    /// A height has been fused: the error bound carries the barometer's drift (the
+    /// firmware's `Navigation::error_bound`).
+    baro_fused: bool,
 }
 
 impl FirmwareTwin {
@@ -95,6 +104,8 @@ impl FirmwareTwin {
             nav: gps_source(cfg)?.map(|n| (NavAid::new(NavParams::default()), n)),
             fixes: Vec::new(),
             mapped_margin: None,
+            baro: None,
+            baro_fused: false,
         })
     }
 
@@ -143,6 +154,12 @@ impl FirmwareTwin {
             self.mapped_margin(&mut o);
             self.fc.update_obstacles(t_us, &o);
         }
+        // The HIL_SENSOR's barometer height, fused as the firmware's router does on receipt,
+        // before the step.
+        if let (Some(down), Some((nav, _))) = (self.baro.take(), self.nav.as_mut()) {
+            let fused = nav.height(t_us, baro_decoded(down), BARO_SIGMA_M);
+            self.baro_fused |= fused == Fusion::Fused;
+        }
         let sample = ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) };
         let m = self.fc.step_inner(t_us, &sample);
         if let Some((nav, _)) = self.nav.as_mut() {
@@ -157,7 +174,9 @@ impl FirmwareTwin {
                     self.fc.update_position(f);
                     self.fixes.push((t_us, f.position));
                 }
-                let bound = nav.kind().map(|_| nav.error_bound(t_us, &UnobservedDrift::default()));
+                let baro = if self.baro_fused { BARO_DRIFT_M_PER_SQRT_S } else { 0.0 };
+                let drift = UnobservedDrift { relative: 0.0, baro };
+                let bound = nav.kind().map(|_| nav.error_bound(t_us, &drift));
                 if let Some(b) = bound {
                     self.fc.set_boundary_margin(b.vertical as f32);
                 }
@@ -205,6 +224,12 @@ impl FlightStack for FirmwareTwin {
 
     fn position_fix(&mut self, fix: PositionReading) {
         self.fix(clock_us(fix.t_measured), &fix);
+    }
+
+    fn height_fix(&mut self, _t: f64, down: f64) {
+        if self.nav.is_some() {
+            self.baro = Some(down);
+        }
     }
 
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {
