@@ -16,6 +16,8 @@
 //! seeds where the flight without that margin collided (0 and 1; `docs/navigation.md` § PIL
 //! with a GPS source; seeds 2–4 with `PARAPET_PIL_GPS_SEEDS=0,1,2,3,4`).
 //!
+//! `vio` goes as a VIO's ODOMETRY (a relative source), compared with the twin the same way.
+//!
 //! The ELF comes from `PARAPET_FIRMWARE_QEMU_ELF` (`cargo xtask test`), see `pil_support`.
 
 use std::path::PathBuf;
@@ -50,11 +52,30 @@ fn outdoor_static(source: PositionSource) -> (Scene, RunConfig) {
 #[test]
 fn pil_flies_outdoor_static_on_gps_input_and_its_filter_agrees_with_the_twin() {
     let Some(elf) = firmware() else { return };
-    let (scene, cfg) = outdoor_static(PositionSource::Rtk);
+    fly_and_compare_with_the_twin(elf, PositionSource::Rtk, 0x3f, true);
+}
+
+/// `vio` (30 Hz, drifting, with frame resets): each fix goes as a VIO's ODOMETRY (estimator
+/// type VIO, the σ as covariances), a relative source of the firmware's filter; the twin
+/// decodes the same message. Relative position only: ESTIMATOR_STATUS without the absolute
+/// flags (0x0f). The goal is not asserted: the mapped obstacles' margin grows with the
+/// odometry's unobserved drift (`VISION_DRIFT_M_PER_SQRT_S`, `docs/filter.md` § 18) until the
+/// path's 0.28 m corners no longer fit, and the flight ends held before one, 16 m short —
+/// as the same flight does in process (`parapet run --position-source vio`, `docs/navigation.md`).
+#[test]
+fn pil_flies_outdoor_static_on_vio_odometry_and_its_filter_agrees_with_the_twin() {
+    let Some(elf) = firmware() else { return };
+    fly_and_compare_with_the_twin(elf, PositionSource::Vio, 0x0f, false);
+}
+
+/// The PIL flight with `source` and its twin's: no collision, the goal when `goal`,
+/// ESTIMATOR_STATUS with `flags`, trajectories and filter estimates within 1 mm.
+fn fly_and_compare_with_the_twin(elf: PathBuf, source: PositionSource, flags: u16, goal: bool) {
+    let (scene, cfg) = outdoor_static(source);
     let (pil, fig) = run_pil(&scene, &cfg, PilOptions::new(elf), &mut |_| {}).expect("PIL flight");
     let s = &pil.summary;
     println!(
-        "PIL rtk: end {}, time to goal {:?} s, min clearance {:.3} m, ESTIMATOR_STATUS {} (last flags {:#x}), \
+        "PIL {source:?}: end {}, time to goal {:?} s, min clearance {:.3} m, ESTIMATOR_STATUS {} (last flags {:#x}), \
          inputs rejected {}, real-time factor {:.2}",
         s.end_reason,
         s.time_to_goal_s,
@@ -70,9 +91,15 @@ fn pil_flies_outdoor_static_on_gps_input_and_its_filter_agrees_with_the_twin() {
     // while the firmware reads the step's frames, before the timed step (not in these counts).
     println!("instructions: {:?}", fig.instructions_per_control_step);
     assert!(!s.collided, "collision: {:?}", s.collision_with);
-    assert!(s.reached_goal, "goal not reached: {} m left", s.final_distance_to_goal_m);
+    assert!(!goal || s.reached_goal, "goal not reached: {} m left", s.final_distance_to_goal_m);
     assert_eq!(fig.frames_dropped, 0, "{fig:?}");
-    assert_estimator_status_good(&fig, s.sim_time_s);
+    assert!(
+        fig.estimator_status as f64 >= 1.5 * s.sim_time_s,
+        "{} over {} s",
+        fig.estimator_status,
+        s.sim_time_s
+    );
+    assert_eq!(fig.estimator_flags & 0x3f, flags, "{:#x}", fig.estimator_flags);
 
     let (twin, fixes) = run_twin_with_fixes(&scene, &cfg).expect("twin flight");
     assert!(fixes.len() > 1000, "the twin's filter fed {} outer steps", fixes.len());

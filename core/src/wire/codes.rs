@@ -118,6 +118,22 @@ impl CbfFlags {
     }
 }
 
+/// Smallest σ a position source's stated variance gives the navigation filter, m or m/s (a
+/// noise-free source keeps the update well posed; the host's `fc/nav.rs` floors the scene's
+/// noise the same way).
+pub const MIN_SIGMA: f32 = 0.01;
+
+/// The σ of a stated variance `var` (ODOMETRY's `pose_covariance[0]`, VISION_POSITION_ESTIMATE's
+/// `covariance[0]`): `√var` floored at [`MIN_SIGMA`] when finite and > 0, else `default`. One
+/// definition for the firmware's decoding and the PIL twin's.
+pub fn sigma_of_variance(var: f32, default: f32) -> f32 {
+    if var.is_finite() && var > 0.0 {
+        libm::sqrtf(var).max(MIN_SIGMA)
+    } else {
+        default
+    }
+}
+
 /// ODOMETRY `q` ([w, x, y, z], body → NED) of a level vehicle with heading `yaw` (rad).
 pub fn odometry_quaternion(yaw: f32) -> [f32; 4] {
     let (s, c) = crate::fmath::sincosf(yaw / 2.0);

@@ -71,9 +71,8 @@ pub const GPS_DEFAULT_NOISE: SourceNoise = SourceNoise { position: 0.5, velocity
 /// σ of a VISION_POSITION_ESTIMATE without a covariance (position: PX4's `EKF2_EVP_NOISE`;
 /// velocity: the difference of two estimates is noisier than a measured one).
 pub const VISION_DEFAULT_NOISE: SourceNoise = SourceNoise { position: 0.1, velocity: 0.3 };
-/// Smallest σ given to the filter (a noise-free source keeps the update well posed; the
-/// host's `fc/nav.rs` floors the scene's noise the same way).
-pub const MIN_SIGMA: f32 = 0.01;
+use parapet_core::wire::codes::sigma_of_variance;
+pub use parapet_core::wire::codes::MIN_SIGMA;
 
 fn stated(x: f32, ignored: bool, default: f32) -> f32 {
     if ignored || !x.is_finite() || x <= 0.0 {
@@ -104,12 +103,7 @@ pub fn gps_input_noise(m: &GPS_INPUT_DATA) -> SourceNoise {
 /// The σ of a VISION_POSITION_ESTIMATE's fix: √ of the x variance (`covariance[0]`) when
 /// given, else [`VISION_DEFAULT_NOISE`]; the velocity σ is always the default.
 pub fn vision_noise(m: &VISION_POSITION_ESTIMATE_DATA) -> SourceNoise {
-    let var = m.covariance[0];
-    let position = if var.is_finite() && var > 0.0 {
-        libm::sqrtf(var).max(MIN_SIGMA)
-    } else {
-        VISION_DEFAULT_NOISE.position
-    };
+    let position = sigma_of_variance(m.covariance[0], VISION_DEFAULT_NOISE.position);
     SourceNoise { position, velocity: VISION_DEFAULT_NOISE.velocity }
 }
 
@@ -128,16 +122,9 @@ pub fn odometry_is_vision(m: &ODOMETRY_DATA) -> bool {
 /// `velocity_covariance[0]`) when given (finite, > 0; floored at [`MIN_SIGMA`]), else
 /// [`VISION_DEFAULT_NOISE`]'s.
 pub fn odometry_noise(m: &ODOMETRY_DATA) -> SourceNoise {
-    let sigma = |var: f32, default: f32| {
-        if var.is_finite() && var > 0.0 {
-            libm::sqrtf(var).max(MIN_SIGMA)
-        } else {
-            default
-        }
-    };
     SourceNoise {
-        position: sigma(m.pose_covariance[0], VISION_DEFAULT_NOISE.position),
-        velocity: sigma(m.velocity_covariance[0], VISION_DEFAULT_NOISE.velocity),
+        position: sigma_of_variance(m.pose_covariance[0], VISION_DEFAULT_NOISE.position),
+        velocity: sigma_of_variance(m.velocity_covariance[0], VISION_DEFAULT_NOISE.velocity),
     }
 }
 

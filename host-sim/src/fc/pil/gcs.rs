@@ -17,19 +17,22 @@
 use anyhow::{anyhow, Result};
 use mavlink::dialects::ardupilotmega::{
     GpsFixType, GpsInputIgnoreFlags, HilSensorUpdatedFlags, MavBatteryFunction, MavBatteryType, MavCmd,
-    MavFrame, MavMessage, MavParamType, BATTERY_STATUS_DATA, COMMAND_LONG_DATA, DEBUG_VECT_DATA,
-    GPS_INPUT_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, OBSTACLE_DISTANCE_3D_DATA,
-    ODOMETRY_DATA, PARAM_SET_DATA,
+    MavEstimatorType, MavFrame, MavMessage, MavParamType, BATTERY_STATUS_DATA, COMMAND_LONG_DATA,
+    DEBUG_VECT_DATA, GPS_INPUT_DATA, HIL_SENSOR_DATA, MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA,
+    OBSTACLE_DISTANCE_3D_DATA, ODOMETRY_DATA, PARAM_SET_DATA,
 };
 use nalgebra::Vector3;
 use parapet_core::controller::ControllerParams;
 use parapet_core::controller::PositionFix;
 use parapet_core::nav::aid::SourceNoise;
+use parapet_core::nav::FixKind;
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
-use parapet_core::wire::codes::{gps_input_yaw, gps_input_yaw_cdeg, odometry_quaternion};
+use parapet_core::wire::codes::{
+    gps_input_yaw, gps_input_yaw_cdeg, odometry_quaternion, odometry_yaw, sigma_of_variance,
+};
 use parapet_core::wire::geo::{altitude_m, down_m, global_to_ned, ned_to_global, AltRef};
 use parapet_core::wire::ids::{
     local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
@@ -110,13 +113,17 @@ pub(super) fn preroll_start(t0_us: u64, n_params: usize, n_wp: usize, sched: &Ou
 /// indices 0, 6, 11; the rotation variances and the velocity covariance unknown: NaN first
 /// element). The firmware reports it as GPS_RAW_INT's accuracy.
 pub(super) fn odometry(t_us: u64, fix: &PositionReading, std_m: f64) -> MavMessage {
+    MavMessage::ODOMETRY(odometry_data(t_us, fix, std_m))
+}
+
+fn odometry_data(t_us: u64, fix: &PositionReading, std_m: f64) -> ODOMETRY_DATA {
     let var = (std_m * std_m) as f32;
     let mut pose_covariance = [0.0f32; 21];
     (pose_covariance[0], pose_covariance[6], pose_covariance[11]) = (var, var, var);
     (pose_covariance[15], pose_covariance[18], pose_covariance[20]) = (f32::NAN, f32::NAN, f32::NAN);
     let mut velocity_covariance = [0.0f32; 21];
     velocity_covariance[0] = f32::NAN;
-    MavMessage::ODOMETRY(ODOMETRY_DATA {
+    ODOMETRY_DATA {
         pose_covariance,
         velocity_covariance,
         time_usec: t_us,
@@ -130,24 +137,66 @@ pub(super) fn odometry(t_us: u64, fix: &PositionReading, std_m: f64) -> MavMessa
         frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
         child_frame_id: MavFrame::MAV_FRAME_LOCAL_NED,
         ..Default::default()
-    })
+    }
 }
 
-/// The σ the PIL host states in GPS_INPUT for the run's position source (`gps`, `rtk`: the
-/// scene's noise floored as the in-process filter is told it, `crate::fc::nav::NavAid::noise_of`),
-/// `None` for motion capture (ODOMETRY, the latest-fix path); `vio` is refused (the PIL link
-/// carries no vision messages yet).
-pub fn gps_source(cfg: &RunConfig) -> Result<Option<SourceNoise>> {
+/// ODOMETRY of a `vio` fix measured at `t_us` (issue 39): [`odometry`]'s fields with
+/// `estimator_type` VIO — the firmware's navigation filter takes it as a relative source
+/// (`firmware/src/link/position_sources.rs`, `odometry_is_vision`) — and the σ `noise` as the
+/// x, y, z variances of the pose and of the velocity covariance (`odometry_noise` decodes them).
+pub(super) fn vio_odometry(t_us: u64, fix: &PositionReading, noise: SourceNoise) -> ODOMETRY_DATA {
+    let mut m = odometry_data(t_us, fix, f64::from(noise.position));
+    let var = noise.position * noise.position;
+    (m.pose_covariance[0], m.pose_covariance[6], m.pose_covariance[11]) = (var, var, var);
+    let vvar = noise.velocity * noise.velocity;
+    (m.velocity_covariance[0], m.velocity_covariance[6], m.velocity_covariance[11]) = (vvar, vvar, vvar);
+    m.estimator_type = MavEstimatorType::MAV_ESTIMATOR_TYPE_VIO;
+    m
+}
+
+/// The message carrying a fix measured at `t_us` for the run's filtered source `nav`
+/// ([`filtered_source`]): GPS_INPUT (absolute; `None` beyond the link's range), a VIO's
+/// ODOMETRY (relative), or without a filtered source ODOMETRY with the noise `std_m`.
+pub(super) fn fix_message(
+    t_us: u64,
+    fix: &PositionReading,
+    nav: Option<(FixKind, SourceNoise)>,
+    std_m: f64,
+) -> Option<MavMessage> {
+    match nav {
+        Some((FixKind::Absolute, noise)) => gps_input(t_us, fix, noise).map(MavMessage::GPS_INPUT),
+        Some((FixKind::Relative, noise)) => Some(MavMessage::ODOMETRY(vio_odometry(t_us, fix, noise))),
+        None => Some(odometry(t_us, fix, std_m)),
+    }
+}
+
+/// The fix and σ the firmware takes from a [`vio_odometry`] message (`odometry_fix` and
+/// `odometry_noise` there): the message's f32 fields, the quaternion's yaw, the variances' σ
+/// ([`sigma_of_variance`], `noise` standing in for the firmware's defaults, never used: the
+/// host always states them).
+pub(super) fn vio_decoded(m: &ODOMETRY_DATA, noise: SourceNoise) -> (PositionFix, SourceNoise) {
+    let fix = PositionFix {
+        t_us: m.time_usec,
+        position: Vec3::new(m.x, m.y, m.z),
+        velocity: Vec3::new(m.vx, m.vy, m.vz),
+        yaw: odometry_yaw(m.q),
+    };
+    let stated = SourceNoise {
+        position: sigma_of_variance(m.pose_covariance[0], noise.position),
+        velocity: sigma_of_variance(m.velocity_covariance[0], noise.velocity),
+    };
+    (fix, stated)
+}
+
+/// How the PIL host sends the run's filtered position source to the firmware's navigation
+/// filter: its kind (`gps`, `rtk`: absolute, as GPS_INPUT; `vio`: relative, as a VIO's
+/// ODOMETRY) and the σ it states (the scene's noise floored as the in-process filter is told
+/// it, `crate::fc::nav::NavAid::noise_of`); `None` for motion capture (ODOMETRY without an
+/// estimator type, the latest-fix path).
+pub fn filtered_source(cfg: &RunConfig) -> Option<(FixKind, SourceNoise)> {
     let src = cfg.sensors.position_source;
-    if src.is_mocap() {
-        return Ok(None);
-    }
-    if crate::fc::nav::NavAid::kind_of(src) != parapet_core::nav::FixKind::Absolute {
-        return Err(anyhow!(
-            "processor-in-the-loop carries mocap (ODOMETRY), gps and rtk (GPS_INPUT), not {src:?}"
-        ));
-    }
-    Ok(Some(crate::fc::nav::NavAid::noise_of(&cfg.sensors)))
+    (!src.is_mocap())
+        .then(|| (crate::fc::nav::NavAid::kind_of(src), crate::fc::nav::NavAid::noise_of(&cfg.sensors)))
 }
 
 /// GPS_INPUT with a fix measured at `t_us` (a `gps` / `rtk` source, issue 39): the position as

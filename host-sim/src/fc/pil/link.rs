@@ -32,8 +32,8 @@ use parapet_core::wire::names::{self, PANIC_TEXT, PIL_READY_TEXT};
 use super::faults::Injector;
 use super::firmware::firmware_build_command;
 use super::gcs::{
-    battery_status, command_long, firmware_params, gps_input, gps_source, hil_sensor, mission_count,
-    mission_item, obstacle_batch, odometry, param_set, preroll_start, quantised_path, WARMUP_STEPS,
+    battery_status, command_long, filtered_source, firmware_params, fix_message, hil_sensor, mission_count,
+    mission_item, obstacle_batch, param_set, preroll_start, quantised_path, WARMUP_STEPS,
 };
 use super::proximity::{is_planar_lidar, obstacle_distance};
 use super::qemu::{reader_thread, start_qemu, Inbound, LinkPipes, QemuGuard};
@@ -108,7 +108,7 @@ pub struct PilLink {
     /// `RPL_ENABLE` of the flight's parameters (the firmware's on-board replanner, issue 38).
     replan_enabled: bool,
     /// The σ of a `gps` / `rtk` source's GPS_INPUTs; `None`: ODOMETRY (motion capture).
-    gps: Option<parapet_core::nav::aid::SourceNoise>,
+    nav_source: Option<(parapet_core::nav::FixKind, parapet_core::nav::aid::SourceNoise)>,
     /// A barometer height (NED down, m) for the next HIL_SENSOR (with `gps`: the firmware's
     /// navigation filter fuses it).
     baro: Option<f64>,
@@ -219,7 +219,7 @@ impl PilLink {
             target: None,
             target_done: false,
             replan_enabled: params.replan.enable,
-            gps: gps_source(cfg)?,
+            nav_source: filtered_source(cfg),
             baro: None,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
@@ -467,11 +467,11 @@ impl PilLink {
         Ok(ans)
     }
 
-    /// A fix: ODOMETRY, or with a `gps` / `rtk` source GPS_INPUT (`super` § Position source).
+    /// A fix: ODOMETRY, with a `gps` / `rtk` source GPS_INPUT, with `vio` a VIO's ODOMETRY
+    /// (`super` § Position source).
     fn queue_odometry(&mut self, t_us: u64, fix: &PositionReading) {
-        match self.gps.map(|noise| gps_input(t_us, fix, noise)) {
-            Some(m) => m.into_iter().for_each(|m| self.queue(&MavMessage::GPS_INPUT(m))),
-            None => self.queue(&odometry(t_us, fix, self.fix_std_m)),
+        if let Some(m) = fix_message(t_us, fix, self.nav_source, self.fix_std_m) {
+            self.queue(&m);
         }
     }
 
@@ -670,7 +670,7 @@ impl FlightStack for PilLink {
     }
 
     fn height_fix(&mut self, _t: f64, down: f64) {
-        if self.fault.is_none() && self.gps.is_some() {
+        if self.fault.is_none() && self.nav_source.is_some() {
             self.baro = Some(down);
         }
     }

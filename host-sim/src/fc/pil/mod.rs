@@ -63,7 +63,8 @@
 //! (recorded in [`PilFigures`]); [`FirmwareTwin`] runs the same filter on the same decoded
 //! fixes. The source's barometer (50 Hz) rides on the next step's HIL_SENSOR as `pressure_alt`
 //! (m AMSL, the `HIL_SENSOR_UPDATED_PRESSURE_ALT` bit set; [`gcs::hil_sensor`]), which the
-//! firmware fuses as a height. Not carried: `vio`.
+//! firmware fuses as a height. `vio` goes as a VIO's ODOMETRY ([`gcs::vio_odometry`]: estimator
+//! type VIO, the σ as covariances), a relative source of the firmware's filter.
 //!
 //! ## Battery
 //! With a scene `[battery]`, the runner samples the pack exactly as for `parapet run` (same
@@ -96,7 +97,7 @@ pub use firmware::{
     build_firmware, default_firmware_path, firmware_build_command, firmware_from_env_or_build, is_elf,
     workspace_root, ELF_ENV, FIRMWARE_BIN, FIRMWARE_TARGET,
 };
-pub use gcs::{firmware_params, gps_source, quantised_path};
+pub use gcs::{filtered_source, firmware_params, quantised_path};
 pub use link::PilLink;
 pub use qemu::QEMU_PACKAGE;
 pub use telemetry::{InstructionFigures, PilFigures};

@@ -30,7 +30,9 @@ use parapet_core::controller::{FlightController, PositionFix};
 use parapet_core::estimator::ImuSample;
 use parapet_core::failsafe::FailsafeState;
 use parapet_core::nav::aid::{NavAid, SourceNoise, BARO_SIGMA_M};
-use parapet_core::nav::bound::{ErrorBound, UnobservedDrift, BARO_DRIFT_M_PER_SQRT_S};
+use parapet_core::nav::bound::{
+    ErrorBound, UnobservedDrift, BARO_DRIFT_M_PER_SQRT_S, VISION_DRIFT_M_PER_SQRT_S,
+};
 use parapet_core::nav::{FixKind, Fusion, NavParams};
 use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::schedule::OuterSchedule;
@@ -40,8 +42,8 @@ use parapet_core::wire::lockstep::{LockstepClock, MotorCommand};
 use parapet_core::Vec3;
 
 use super::gcs::{
-    baro_decoded, firmware_params, gps_input, gps_input_decoded, gps_source, preroll_start, quantised_path,
-    WARMUP_STEPS,
+    baro_decoded, filtered_source, firmware_params, gps_input, gps_input_decoded, preroll_start,
+    quantised_path, vio_decoded, vio_odometry, WARMUP_STEPS,
 };
 use crate::flight::runner::{run_with, RunConfig, RunOutput};
 use crate::flight::stack::{clock_us, FlightStack, OuterOut};
@@ -68,8 +70,9 @@ pub struct FirmwareTwin {
     mission_start_pending: bool,
     /// The firmware's PIL battery measurement (`firmware/src/pil/battery.rs`).
     battery: BatteryEstimator,
-    /// The firmware's navigation filter and the σ the GPS_INPUTs state (`gps` / `rtk`).
-    nav: Option<(NavAid, SourceNoise)>,
+    /// The firmware's navigation filter, the kind of its source and the σ the host states
+    /// (GPS_INPUT for `gps` / `rtk`, a VIO's ODOMETRY for `vio`).
+    nav: Option<(NavAid, FixKind, SourceNoise)>,
     /// The filter's fix given to the outer loop at each outer step (firmware time µs, NED m).
     fixes: Vec<(u64, Vec3)>,
     /// The firmware's `mapped_margin` of the last outer step (module docs).
@@ -101,7 +104,7 @@ impl FirmwareTwin {
             last_t_us: 0,
             mission_start_pending: false,
             battery: BatteryEstimator::new(p.battery),
-            nav: gps_source(cfg)?.map(|n| (NavAid::new(NavParams::default()), n)),
+            nav: filtered_source(cfg).map(|(k, n)| (NavAid::new(NavParams::default()), k, n)),
             fixes: Vec::new(),
             mapped_margin: None,
             baro: None,
@@ -116,9 +119,12 @@ impl FirmwareTwin {
     }
 
     fn fix(&mut self, t_us: u64, fix: &PositionReading) {
-        if let Some((nav, noise)) = self.nav.as_mut() {
-            // The GPS_INPUT the link sends, as the firmware decodes it.
-            if let Some(f) = gps_input(t_us, fix, *noise).as_ref().and_then(gps_input_decoded) {
+        if let Some((nav, kind, noise)) = self.nav.as_mut() {
+            // The message the link sends, as the firmware decodes it.
+            if *kind == FixKind::Relative {
+                let (f, stated) = vio_decoded(&vio_odometry(t_us, fix, *noise), *noise);
+                let _ = nav.fix(&f, stated, FixKind::Relative);
+            } else if let Some(f) = gps_input(t_us, fix, *noise).as_ref().and_then(gps_input_decoded) {
                 let _ = nav.fix(&f, *noise, FixKind::Absolute);
             }
             return;
@@ -156,17 +162,17 @@ impl FirmwareTwin {
         }
         // The HIL_SENSOR's barometer height, fused as the firmware's router does on receipt,
         // before the step.
-        if let (Some(down), Some((nav, _))) = (self.baro.take(), self.nav.as_mut()) {
+        if let (Some(down), Some((nav, _, _))) = (self.baro.take(), self.nav.as_mut()) {
             let fused = nav.height(t_us, baro_decoded(down), BARO_SIGMA_M);
             self.baro_fused |= fused == Fusion::Fused;
         }
         let sample = ImuSample { gyro: to_f32(&imu.gyro), accel: to_f32(&imu.accel) };
         let m = self.fc.step_inner(t_us, &sample);
-        if let Some((nav, _)) = self.nav.as_mut() {
+        if let Some((nav, _, _)) = self.nav.as_mut() {
             let _ = nav.imu(t_us, &sample.accel, &self.fc.inner().estimate().attitude);
         }
         if self.clock.tick(t_us).run_outer {
-            if let Some((nav, _)) = self.nav.as_mut() {
+            if let Some((nav, kind, _)) = self.nav.as_mut() {
                 if let Some(delta) = nav.take_reset() {
                     self.fc.position_reset(delta);
                 }
@@ -175,7 +181,9 @@ impl FirmwareTwin {
                     self.fixes.push((t_us, f.position));
                 }
                 let baro = if self.baro_fused { BARO_DRIFT_M_PER_SQRT_S } else { 0.0 };
-                let drift = UnobservedDrift { relative: 0.0, baro };
+                // The firmware's `Navigation::error_bound`: a relative source's assumed drift.
+                let relative = if *kind == FixKind::Relative { VISION_DRIFT_M_PER_SQRT_S } else { 0.0 };
+                let drift = UnobservedDrift { relative, baro };
                 let bound = nav.kind().map(|_| nav.error_bound(t_us, &drift));
                 if let Some(b) = bound {
                     self.fc.set_boundary_margin(b.vertical as f32);
