@@ -129,6 +129,21 @@ fn fly_and_compare_with_the_twin(elf: PathBuf, source: PositionSource, flags: u1
     );
     assert!(dev < 1e-3, "PIL and twin trajectories differ by {dev} m");
     assert!(est_dev < 1e-3, "the firmware's and the twin's filter differ by {est_dev} m");
+
+    // The speed governor over the link (`DEBUG_VECT GOV`, 25 Hz; each PIL sample holds the last
+    // report): every reported limit, cause and flag is the twin's at one of its outer steps of
+    // the 40 ms before.
+    let gov = |k: &parapet_sim::report::Sample| {
+        (k.safety.governor_limit.map(f32::to_bits), k.safety.governor_cause, k.safety.governor_active)
+    };
+    let reported: Vec<_> = pil.samples.iter().filter(|k| k.safety.governor_limit.is_some()).collect();
+    let matched = reported
+        .iter()
+        .filter(|k| twin.samples.iter().any(|w| w.t <= k.t + 1e-9 && k.t - w.t < 0.04 && gov(w) == gov(k)))
+        .count();
+    println!("governor over the link: {matched} of {} reported samples match the twin", reported.len());
+    assert!(reported.len() > 1000, "{} samples with a governor limit", reported.len());
+    assert_eq!(matched, reported.len());
 }
 
 /// `gps` (10 Hz, 0.5 m, 150 ms) with the 72-beam planar lidar: the scans go to the firmware as

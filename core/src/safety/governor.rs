@@ -128,6 +128,22 @@ pub enum GovernorCause {
     DataAge = 4,
 }
 
+impl GovernorCause {
+    /// Every cause, in code order.
+    pub const ALL: [GovernorCause; 5] = [
+        GovernorCause::None,
+        GovernorCause::Range,
+        GovernorCause::Obstacle,
+        GovernorCause::Unseen,
+        GovernorCause::DataAge,
+    ];
+
+    /// The cause with code `code` (its `repr(u8)` value), if any.
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| *c as u8 == code)
+    }
+}
+
 /// The governor's output for telemetry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GovernorTelemetry {

@@ -1,6 +1,7 @@
 //! Small codes carried in message fields, with their encoders and decoders.
 
 use crate::cbf::Region;
+use crate::safety::governor::GovernorCause;
 
 /// Flight phase, carried as NAMED_VALUE_INT `PHASE` (the HEARTBEAT `custom_mode` carries the PX4
 /// flight mode).
@@ -72,6 +73,21 @@ pub fn region_from_wire(y: f32) -> Region {
 /// The region with code `code`, if any.
 pub fn region_from_code(code: u8) -> Option<Region> {
     Region::ALL.into_iter().find(|r| r.code() == code)
+}
+
+/// `DEBUG_VECT GOV` of the speed governor's limit (m/s, `+∞`/NaN: none), cause and whether it
+/// acted: (limit or −1, the cause's code, 1 or 0).
+pub fn governor_to_wire(limit: f32, cause: GovernorCause, active: bool) -> (f32, f32, f32) {
+    let x = if limit.is_finite() && limit >= 0.0 { limit } else { -1.0 };
+    (x, f32::from(cause as u8), if active { 1.0 } else { 0.0 })
+}
+
+/// The governor's (limit, cause, acted) of a `DEBUG_VECT GOV`: a negative or non-finite limit is
+/// none; an unknown cause code decodes as [`GovernorCause::None`].
+pub fn governor_from_wire(x: f32, y: f32, z: f32) -> (Option<f32>, GovernorCause, bool) {
+    let limit = (x.is_finite() && x >= 0.0).then_some(x);
+    let code = if y.is_finite() { y.clamp(0.0, 255.0) as u8 } else { 0 };
+    (limit, GovernorCause::from_code(code).unwrap_or_default(), z == 1.0)
 }
 
 /// `DEBUG_VECT CBF.z`: the active obstacle id, −1 for none.
@@ -174,6 +190,23 @@ pub fn gps_input_yaw_cdeg(yaw: f32) -> u16 {
 
 #[cfg(test)]
 mod tests {
+    /// Every cause and a limit, none and NaN round-trip through `DEBUG_VECT GOV`; bad codes
+    /// decode as no cause.
+    #[test]
+    fn the_governor_round_trips_through_its_debug_vect() {
+        for c in GovernorCause::ALL {
+            for (limit, active) in [(2.5f32, true), (0.0, false)] {
+                let (x, y, z) = governor_to_wire(limit, c, active);
+                assert_eq!(governor_from_wire(x, y, z), (Some(limit), c, active));
+            }
+        }
+        for none in [f32::INFINITY, f32::NAN, -3.0] {
+            let (x, y, z) = governor_to_wire(none, GovernorCause::Range, false);
+            assert_eq!(governor_from_wire(x, y, z), (None, GovernorCause::Range, false));
+        }
+        assert_eq!(governor_from_wire(1.0, 9.0, 0.0).1, GovernorCause::None);
+        assert_eq!(governor_from_wire(1.0, f32::NAN, 0.0).1, GovernorCause::None);
+    }
     use super::*;
 
     #[test]

@@ -5,6 +5,9 @@
 pub const CBF: &str = "CBF";
 /// NAMED_VALUE_INT: filter flags ([`crate::wire::codes::CbfFlags`]).
 pub const CBF_FLAGS: &str = "CBF_FLAGS";
+/// DEBUG_VECT: the speed governor ([`crate::wire::codes::governor_to_wire`]): x = limit along the
+/// motion (m/s, −1 none), y = cause code, z = 1 when it acted.
+pub const GOV: &str = "GOV";
 /// DEBUG_VECT: nominal acceleration u* (NED, m/s²).
 pub const U_NOM: &str = "U_NOM";
 /// DEBUG_VECT: inner-loop timing (mean period, max period, max execution; µs).

@@ -204,6 +204,8 @@ pub struct TelemetrySnapshot {
     /// What set [`governor_limit`](Self::governor_limit) (`parapet_core::governor::GovernorCause`
     /// as its code).
     pub governor_cause: u8,
+    /// The governor changed the nominal command at the last outer step.
+    pub governor_active: bool,
 }
 
 impl TelemetrySnapshot {
@@ -233,6 +235,7 @@ impl TelemetrySnapshot {
         nav: None,
         governor_limit: f32::INFINITY,
         governor_cause: 0,
+        governor_active: false,
         attitude_sp: parapet_core::msg::AttitudeSetpoint {
             roll: 0.0,
             pitch: 0.0,

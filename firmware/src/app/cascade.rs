@@ -129,6 +129,7 @@ pub fn snapshot(t: &OuterTelemetry, est: &StateEstimate) -> TelemetrySnapshot {
         nav: None,
         governor_limit: t.governor.limit,
         governor_cause: t.governor.cause as u8,
+        governor_active: t.governor.active,
     }
 }
 

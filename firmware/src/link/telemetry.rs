@@ -13,6 +13,7 @@
 //! | filter flags | NAMED_VALUE_INT `CBF_FLAGS` | 25 Hz | bit0 intervened, bit1 unavoidable, bit2 infeasible, bits 8..15 active constraints |
 //! | setpoint | POSITION_TARGET_LOCAL_NED | 25 Hz (settable) | frame LOCAL_NED; x, y, z = reference position m; vx, vy, vz = reference velocity m/s; afx, afy, afz = filtered acceleration u m/s² (gravity excluded); type_mask ignores yaw and yaw rate |
 //! | nominal command | DEBUG_VECT `U_NOM` | 25 Hz | x, y, z = nominal acceleration u* NED m/s² (before the filter) |
+//! | speed governor | DEBUG_VECT `GOV` | 25 Hz | x = speed limit along the motion m/s (−1 none), y = cause code (0 none, 1 range, 2 obstacle, 3 unseen, 4 data age), z = 1 when it changed the command |
 //! | inner loop | DEBUG_VECT `LOOP_IN` | 2 Hz | x = mean period µs, y = max period µs, z = max execution µs (window since last report) |
 //! | outer loop | DEBUG_VECT `LOOP_OUT` | 2 Hz | same for the position + CBF loop |
 //! | overruns | NAMED_VALUE_INT `OVR_IN` / `OVR_OUT` | 2 Hz | overruns since boot |
@@ -50,6 +51,7 @@ use crate::link::services::StreamRates;
 use crate::link::standard_modes;
 use parapet_core::replan::onboard::ReplanEvent;
 use parapet_core::replan::ReplanOutcome;
+use parapet_core::safety::governor::GovernorCause;
 use parapet_core::wire::streams::{Stream, SLOTS, STREAMS};
 use parapet_core::wire::{codes, names};
 
@@ -453,6 +455,9 @@ impl TelemetryScheduler {
                     emit(named_int(ms, names::CBF_FLAGS, flags.encode()));
                     let u = &s.setpoint.accel_nominal_ned;
                     emit(debug_vect(now_us, names::U_NOM, u.x, u.y, u.z));
+                    let cause = GovernorCause::from_code(s.governor_cause).unwrap_or_default();
+                    let (x, y, z) = codes::governor_to_wire(s.governor_limit, cause, s.governor_active);
+                    emit(debug_vect(now_us, names::GOV, x, y, z));
                 }
                 Stream::Loops => {
                     let (i, o) = (&inp.inner, &inp.outer);

@@ -17,9 +17,12 @@ use mavlink::dialects::ardupilotmega::{
 use nalgebra::Vector3;
 use parapet_core::cbf::{FilterDiagnostics, Region};
 use parapet_core::controller::{FlightMode, GuidanceMode};
+use parapet_core::safety::governor::GovernorCause;
 use parapet_core::waypoint::PathSample;
 use parapet_core::wire::battery::{battery_from_wire, BatteryWire};
-use parapet_core::wire::codes::{active_id_from_wire, region_from_wire, CbfFlags, FlightPhase};
+use parapet_core::wire::codes::{
+    active_id_from_wire, governor_from_wire, region_from_wire, CbfFlags, FlightPhase,
+};
 use parapet_core::wire::modes::guidance_of_phase;
 use parapet_core::wire::names;
 use serde::Serialize;
@@ -223,6 +226,8 @@ pub(super) struct FilterTelemetry {
     pub(super) u_nominal: Vector3<f64>,
     /// Filtered acceleration u (POSITION_TARGET_LOCAL_NED afx..afz), NED m/s²; NaN before.
     pub(super) u_filtered: Vector3<f64>,
+    /// The speed governor (`DEBUG_VECT GOV`): limit along the motion (m/s), cause, acted.
+    pub(super) governor: (Option<f32>, GovernorCause, bool),
 }
 
 impl Default for FilterTelemetry {
@@ -234,6 +239,7 @@ impl Default for FilterTelemetry {
             flags: CbfFlags::default(),
             u_nominal: Vector3::repeat(f64::NAN),
             u_filtered: Vector3::repeat(f64::NAN),
+            governor: (None, GovernorCause::None, false),
         }
     }
 }
@@ -280,8 +286,14 @@ impl FirmwareTelemetry {
             mode: FlightPhase::from_code(self.phase)
                 .map_or(GuidanceMode::Off, |p| guidance_of_phase(p, self.mode)),
             flight_mode: self.mode.unwrap_or_default(),
-            // Not carried by the link's filter message.
-            safety: crate::report::SafetyFlags::default(),
+            // The governor's (`DEBUG_VECT GOV`); deadlock and the obstacle set's drops are not
+            // carried by the link.
+            safety: crate::report::SafetyFlags {
+                governor_limit: f.governor.0,
+                governor_cause: f.governor.1,
+                governor_active: f.governor.2,
+                ..Default::default()
+            },
         }
     }
 
@@ -303,6 +315,7 @@ pub(super) fn observe(m: &MavMessage, t_us: u64, t: &mut FirmwareTelemetry, fig:
     match m {
         MavMessage::DEBUG_VECT(d) => match d.name.to_str().unwrap_or("") {
             names::U_NOM => t.filter.u_nominal = Vector3::new(d.x, d.y, d.z).cast(),
+            names::GOV => t.filter.governor = governor_from_wire(d.x, d.y, d.z),
             names::CBF => {
                 t.filter.h_bar = d.x;
                 t.filter.region = region_from_wire(d.y);
