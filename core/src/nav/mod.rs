@@ -53,6 +53,7 @@
 pub mod aid;
 pub mod bound;
 pub mod history;
+pub mod mag;
 mod update;
 
 #[cfg(test)]

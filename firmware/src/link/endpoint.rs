@@ -551,6 +551,55 @@ mod tests {
         assert_eq!(l.stats().baro_heights, 2);
     }
 
+    /// A HIL_SENSOR magnetometer field becomes a heading (tilt-compensated with the autopilot's
+    /// attitude) that the next GPS_INPUT without a yaw carries; a GPS_INPUT's own yaw wins.
+    #[test]
+    fn the_magnetometer_heading_rides_with_a_gps_input_without_a_yaw() {
+        use crate::link::dialect::{
+            GpsFixType, GpsInputIgnoreFlags, HilSensorUpdatedFlags, GPS_INPUT_DATA, HIL_SENSOR_DATA,
+        };
+        use parapet_core::nav::mag::body_field;
+        use parapet_core::wire::geo::ORIGIN;
+        let mut ap = RecordingAutopilot::new();
+        let mut l = Link::new(1, FixClock::Message);
+        let mut w = gcs();
+        let a = ap.telemetry().attitude_rpy;
+        let b = body_field(a.x, a.y, 0.7);
+        let mag = HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_XMAG
+            | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_YMAG
+            | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_ZMAG;
+        let hil = HIL_SENSOR_DATA {
+            time_usec: 1_000,
+            xmag: b.x,
+            ymag: b.y,
+            zmag: b.z,
+            fields_updated: mag,
+            ..Default::default()
+        };
+        let gps = |t: u64, yaw: u16| GPS_INPUT_DATA {
+            time_usec: t,
+            fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+            lat: ORIGIN.0,
+            lon: ORIGIN.1,
+            alt: ORIGIN.2 as f32 / 1000.0,
+            yaw,
+            ignore_flags: GpsInputIgnoreFlags::empty(),
+            ..Default::default()
+        };
+        // Before any field: no heading.
+        l.push_bytes(&send(&mut w, &gps(500, 0)), 500, &mut ap);
+        assert_eq!(ap.fixes[0].yaw, None);
+        l.push_bytes(&send(&mut w, &hil), 1_000, &mut ap);
+        assert_eq!(l.stats().mag_headings, 1);
+        l.push_bytes(&send(&mut w, &gps(2_000, 0)), 2_000, &mut ap);
+        let yaw = ap.fixes[1].yaw.expect("the magnetometer's heading");
+        assert!((yaw - 0.7).abs() < 1e-4, "{yaw}");
+        // A GPS heading (dual antenna: 90°) is kept.
+        l.push_bytes(&send(&mut w, &gps(3_000, 9_000)), 3_000, &mut ap);
+        let yaw = ap.fixes[2].yaw.expect("the GPS heading");
+        assert!((yaw - core::f32::consts::FRAC_PI_2).abs() < 1e-4, "{yaw}");
+    }
+
     /// ODOMETRY from a VIO or vision estimator goes to the navigation filter as a relative
     /// source with the σ of its covariances; a motion capture's (and an unknown estimator's,
     /// what the PIL host sends) keeps the latest-fix path.

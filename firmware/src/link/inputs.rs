@@ -1,5 +1,5 @@
 //! The vehicle-state inputs of the link: the lockstep IMU sample of HIL_SENSOR ([`HilSample`])
-//! and its barometer height ([`hil_baro_down`]),
+//! and its barometer height ([`hil_baro_down`]) and magnetometer field ([`hil_mag`]),
 //! the ODOMETRY → position fix conversion ([`odometry_fix`]) and whose clock stamps a fix
 //! ([`FixClock`]). Split out of [`crate::link::router`] (one file per concern).
 //!
@@ -42,6 +42,16 @@ pub fn hil_baro_down(m: &HIL_SENSOR_DATA) -> Option<f32> {
     }
     let down = down_m(m.pressure_alt, AltRef::Amsl);
     (down.is_finite() && down.abs() <= MAX_RANGE_M).then_some(down)
+}
+
+/// The magnetometer field of a HIL_SENSOR (body FRD, gauss) when `fields_updated` has the
+/// XMAG, YMAG and ZMAG bits and the three values are finite; `None` otherwise.
+pub fn hil_mag(m: &HIL_SENSOR_DATA) -> Option<Vec3> {
+    let all = HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_XMAG
+        | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_YMAG
+        | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_ZMAG;
+    let b = Vec3::new(m.xmag, m.ymag, m.zmag);
+    (m.fields_updated.contains(all) && b.iter().all(|x| x.is_finite())).then_some(b)
 }
 
 /// Whose clock time-stamps a position fix.

@@ -33,12 +33,32 @@ pub struct LinkStats {
     /// HIL_SENSOR barometer heights handed to the navigation filter
     /// ([`crate::link::inputs::hil_baro_down`]).
     pub baro_heights: u32,
+    /// HIL_SENSOR magnetometer fields that gave a heading ([`crate::link::inputs::hil_mag`]).
+    pub mag_headings: u32,
     /// PARAM_SET / PARAM_REQUEST_READ for unknown names or indices.
     pub unknown_params: u32,
     /// Messages addressed to another system or component (ignored).
     pub not_for_us: u32,
     /// Valid MAVLink v1 HEARTBEATs (refused, [`crate::link::v1`]).
     pub v1_heartbeats: u32,
+}
+
+impl LinkStats {
+    /// Every counter 0 (for `const` constructors).
+    pub const ZERO: LinkStats = LinkStats {
+        decode_errors: 0,
+        ignored: 0,
+        replies_dropped: 0,
+        odometry_rejected: 0,
+        position_rejected: 0,
+        hil_samples: 0,
+        hil_overwritten: 0,
+        baro_heights: 0,
+        mag_headings: 0,
+        unknown_params: 0,
+        not_for_us: 0,
+        v1_heartbeats: 0,
+    };
 }
 
 /// A decoded inbound message and its sender.

@@ -23,7 +23,7 @@
 //! | MISSION_SET_CURRENT (41) | answered with MISSION_CURRENT; jumping to another item is not supported (STATUSTEXT) |
 //! | COMMAND: SET_MESSAGE_INTERVAL (511), GET_MESSAGE_INTERVAL (510), REQUEST_MESSAGE (512) | rates / one-shot of the streams of [`crate::link::services`]; REQUEST_MESSAGE also AUTOPILOT_VERSION, COMPONENT_METADATA ([`crate::link::metadata`]) and AVAILABLE_MODES (param2 = mode index, 0 = all; streamed after the ACK, [`crate::link::standard_modes`]) |
 //! | FILE_TRANSFER_PROTOCOL (110) | the read-only FTP server of [`crate::link::ftp`]; a BurstReadFile's packets are paced like the parameter stream (one per poll or frame while more than [`REPLY_RESERVE`] queue slots are free) |
-//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`]; with `fields_updated` bit `HIL_SENSOR_UPDATED_PRESSURE_ALT` its `pressure_alt` (m AMSL) to the navigation filter as a barometer height ([`crate::link::inputs::hil_baro_down`], counted in `baro_heights`) |
+//! | HIL_SENSOR (107) | simulated IMU for the lockstep PIL link, see [`crate::pil::lockstep`]; with the XMAG, YMAG, ZMAG bits its magnetometer field (gauss, FRD) becomes a heading (tilt-compensated with the attitude estimate, `parapet_core::nav::mag`) that a GPS_INPUT without a yaw carries to the estimator (counted in `mag_headings`); with `fields_updated` bit `HIL_SENSOR_UPDATED_PRESSURE_ALT` its `pressure_alt` (m AMSL) to the navigation filter as a barometer height ([`crate::link::inputs::hil_baro_down`], counted in `baro_heights`) |
 //! | MANUAL_CONTROL (69), RC_CHANNELS_OVERRIDE (70) | pilot input → `set_rc`, see [`crate::link::manual_control`] (the QEMU/PIL board's RC channel) |
 //! | SET_POSITION_TARGET_LOCAL_NED (84) | offboard setpoint → `set_offboard` ([`crate::link::offboard::decode`]; refused masks/frames counted as ignored) |
 //! | HEARTBEAT | marks the peer alive |
@@ -51,7 +51,7 @@ use crate::app::autopilot::{Autopilot, CommandRejected, FlightMode, FlightPhase,
 use crate::link::command::{addressed_to, command_long_of_int, execute};
 use crate::link::framing::AUTOPILOT_COMPONENT_ID;
 use crate::link::inputs::{
-    hil_baro_down, odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US,
+    hil_baro_down, hil_mag, odometry_fix, FixClock, HilSample, ODOMETRY_REFUSED_TEXT, ODOMETRY_TEXT_US,
 };
 use crate::link::manual_control::ManualControl;
 use crate::link::messages::{DecodeError, Inbound};
@@ -88,6 +88,9 @@ pub(crate) struct Router {
     pub(crate) obstacles: ObstacleAssembler,
     pub(crate) replies: Deque<Outbound, REPLY_QUEUE_LEN>,
     pub(crate) hil: Option<HilSample>,
+    /// The heading of the last HIL_SENSOR magnetometer field (tilt-compensated with the
+    /// attitude estimate, `parapet_core::nav::mag::heading`), given to a GPS_INPUT without a yaw.
+    pub(crate) mag_heading: Option<f32>,
     pub(crate) stats: LinkStats,
     pub(crate) peer_seen: bool,
     /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
@@ -134,19 +137,8 @@ impl Router {
             obstacles: ObstacleAssembler::new(),
             replies: Deque::new(),
             hil: None,
-            stats: LinkStats {
-                decode_errors: 0,
-                ignored: 0,
-                replies_dropped: 0,
-                odometry_rejected: 0,
-                position_rejected: 0,
-                hil_samples: 0,
-                hil_overwritten: 0,
-                baro_heights: 0,
-                unknown_params: 0,
-                not_for_us: 0,
-                v1_heartbeats: 0,
-            },
+            mag_heading: None,
+            stats: LinkStats::ZERO,
             peer_seen: false,
             param_stream: None,
             modes_stream: None,
@@ -575,6 +567,13 @@ impl Router {
                     ap.navigation_height(self.fix_time(m.time_usec, now_us), down);
                     self.stats.baro_heights = self.stats.baro_heights.saturating_add(1);
                 }
+                if let Some(b) = hil_mag(&m) {
+                    let a = ap.telemetry().attitude_rpy;
+                    if let Some(h) = parapet_core::nav::mag::heading(&b, a.x, a.y) {
+                        self.mag_heading = Some(h);
+                        self.stats.mag_headings = self.stats.mag_headings.saturating_add(1);
+                    }
+                }
             }
             Inbound::Odometry(m) if odometry_is_vision(&m) => {
                 let fix = odometry_fix(&m, self.fix_time(m.time_usec, now_us)).ok_or(FixRefusal::NonFinite);
@@ -593,7 +592,10 @@ impl Router {
             },
             Inbound::GpsInput(m) => {
                 let t = self.fix_time(m.time_usec, now_us);
-                let fix = gps_input_fix(&m, t).map(Some);
+                // A GPS without a heading (yaw 0): the magnetometer's, as the estimator takes it.
+                let mag = self.mag_heading;
+                let fix = gps_input_fix(&m, t)
+                    .map(|f| Some(crate::app::autopilot::PositionFix { yaw: f.yaw.or(mag), ..f }));
                 self.external_fix(fix, Source::Gps, gps_input_noise(&m), now_us, ap);
             }
             Inbound::VisionPosition(m) => {

@@ -527,6 +527,10 @@ pub fn run_with(
             // Euler angles of the true state, once for the position fix and the sample.
             let (roll, pitch, yaw) = plant.state.euler();
             if let Some(fix) = sensors.position_with_yaw(t, &plant, yaw) {
+                if cfg.sensors.position_source.has_magnetometer() {
+                    let field = parapet_core::nav::mag::body_field(roll as f32, pitch as f32, fix.yaw as f32);
+                    ctrl.mag_fix(t, field);
+                }
                 ctrl.position_fix(fix);
             }
             if let Some(down) = sensors.baro(t, &plant) {

@@ -107,6 +107,10 @@ pub trait FlightStack {
     /// A barometer reading at `t` (NED down, m; filtered position sources, issue 39).
     /// Default: ignored (a stack without a navigation filter).
     fn height_fix(&mut self, _t: f64, _down: f64) {}
+    /// A magnetometer field (body FRD, gauss; `parapet_core::nav::mag::body_field` of the true
+    /// roll and pitch and the fix's measured yaw) with each fix of a source that has a compass
+    /// (`gps`, `rtk`). Default: ignored (the in-process controller takes the fix's yaw).
+    fn mag_fix(&mut self, _t: f64, _field: parapet_core::Vec3) {}
     /// The navigation filter's position estimate at `t` (NED, m) and the bound on its error,
     /// for the obstacle report's frame ([`crate::flight::sensing::to_estimate_frame`]).
     /// Default: `None` (the controller flies the fix: motion capture).

@@ -56,6 +56,12 @@ impl PositionSource {
         self == PositionSource::Mocap
     }
 
+    /// `true` for the sources whose yaw is a compass's (`gps`, `rtk`): the PIL host sends it as
+    /// HIL_SENSOR's magnetometer field (`parapet_core::nav::mag`).
+    pub fn has_magnetometer(self) -> bool {
+        matches!(self, PositionSource::Gps | PositionSource::Rtk)
+    }
+
     /// The preset (see the module table).
     pub fn preset(self) -> SourcePreset {
         let mag = (0.03, 0.05);

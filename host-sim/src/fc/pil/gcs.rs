@@ -30,9 +30,7 @@ use parapet_core::obstacle::ObstaclePoint;
 use parapet_core::params;
 use parapet_core::schedule::OuterSchedule;
 use parapet_core::wire::battery::{battery_to_wire, UNKNOWN_MV};
-use parapet_core::wire::codes::{
-    gps_input_yaw, gps_input_yaw_cdeg, odometry_quaternion, odometry_yaw, sigma_of_variance,
-};
+use parapet_core::wire::codes::{gps_input_yaw, odometry_quaternion, odometry_yaw, sigma_of_variance};
 use parapet_core::wire::geo::{altitude_m, down_m, global_to_ned, ned_to_global, AltRef};
 use parapet_core::wire::ids::{
     local_xy_from_wire, local_xy_to_wire, AUTOPILOT_COMPONENT_ID, CLEAR_ID, EMPTY_BATCH_RANGE,
@@ -201,7 +199,7 @@ pub fn filtered_source(cfg: &RunConfig) -> Option<(FixKind, SourceNoise)> {
 
 /// GPS_INPUT with a fix measured at `t_us` (a `gps` / `rtk` source, issue 39): the position as
 /// latitude/longitude (1e-7 °, [`ned_to_global`] around the wire contract's origin) and
-/// altitude (m AMSL), the velocity NED, the heading in cdeg ([`gps_input_yaw_cdeg`]) and the σ
+/// altitude (m AMSL), the velocity NED, no heading (0: the compass's goes as HIL_SENSOR's field) and the σ
 /// `noise` as `horiz_accuracy` / `vert_accuracy` / `speed_accuracy` — what the firmware's
 /// `link::position_sources` decodes. `None` when the position is beyond the link's range.
 pub(super) fn gps_input(t_us: u64, fix: &PositionReading, noise: SourceNoise) -> Option<GPS_INPUT_DATA> {
@@ -220,7 +218,8 @@ pub(super) fn gps_input(t_us: u64, fix: &PositionReading, noise: SourceNoise) ->
         speed_accuracy: noise.velocity,
         fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
         satellites_visible: 12,
-        yaw: gps_input_yaw_cdeg(fix.yaw as f32),
+        // No heading: the compass's goes as HIL_SENSOR's magnetometer field ([`hil_sensor`]).
+        yaw: 0,
         ignore_flags: GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_HDOP
             | GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_VDOP,
         ..Default::default()
@@ -334,17 +333,31 @@ pub(super) fn mission_item(seq: u16, w: &Vector3<f64>) -> MavMessage {
 /// HIL_SENSOR of the step at `t_us` (the lockstep trigger); with a barometer height
 /// `baro_down` (NED down, m) its `pressure_alt` (m AMSL, [`altitude_m`]) and the
 /// `HIL_SENSOR_UPDATED_PRESSURE_ALT` bit of `fields_updated` (the firmware's
-/// `link::inputs::hil_baro_down`; [`baro_decoded`] is what it takes).
-pub(super) fn hil_sensor(t_us: u64, imu: &ImuReading, baro_down: Option<f64>) -> MavMessage {
-    let (pressure_alt, fields_updated) = match baro_down {
-        Some(d) => {
-            (altitude_m(d as f32, AltRef::Amsl), HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_PRESSURE_ALT)
-        }
-        None => (0.0, HilSensorUpdatedFlags::empty()),
-    };
+/// `link::inputs::hil_baro_down`; [`baro_decoded`] is what it takes); with a magnetometer
+/// field `mag` (body FRD, gauss) `xmag`..`zmag` and their bits (`link::inputs::hil_mag`).
+pub(super) fn hil_sensor(
+    t_us: u64,
+    imu: &ImuReading,
+    baro_down: Option<f64>,
+    mag: Option<Vec3>,
+) -> MavMessage {
+    let mut fields_updated = HilSensorUpdatedFlags::empty();
+    let pressure_alt = baro_down.map_or(0.0, |d| {
+        fields_updated |= HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_PRESSURE_ALT;
+        altitude_m(d as f32, AltRef::Amsl)
+    });
+    let b = mag.unwrap_or_else(Vec3::zeros);
+    if mag.is_some() {
+        fields_updated |= HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_XMAG
+            | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_YMAG
+            | HilSensorUpdatedFlags::HIL_SENSOR_UPDATED_ZMAG;
+    }
     MavMessage::HIL_SENSOR(HIL_SENSOR_DATA {
         pressure_alt,
         fields_updated,
+        xmag: b.x,
+        ymag: b.y,
+        zmag: b.z,
         time_usec: t_us,
         xgyro: imu.gyro.x as f32,
         ygyro: imu.gyro.y as f32,

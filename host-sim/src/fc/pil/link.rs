@@ -109,9 +109,9 @@ pub struct PilLink {
     replan_enabled: bool,
     /// The σ of a `gps` / `rtk` source's GPS_INPUTs; `None`: ODOMETRY (motion capture).
     nav_source: Option<(parapet_core::nav::FixKind, parapet_core::nav::aid::SourceNoise)>,
-    /// A barometer height (NED down, m) for the next HIL_SENSOR (with `gps`: the firmware's
-    /// navigation filter fuses it).
+    /// A barometer height (NED down, m) and a magnetometer field (FRD, gauss) for the next HIL_SENSOR.
     baro: Option<f64>,
+    mag: Option<parapet_core::Vec3>,
 }
 
 /// The set-point the firmware last reported (POSITION_TARGET_LOCAL_NED), with the firmware
@@ -221,6 +221,7 @@ impl PilLink {
             replan_enabled: params.replan.enable,
             nav_source: filtered_source(cfg),
             baro: None,
+            mag: None,
         };
         link.fig.firmware = link.opts.firmware.display().to_string();
         link.handshake().map_err(|e| link.with_qemu_log(e))?;
@@ -384,8 +385,8 @@ impl PilLink {
         }
         let frames = std::mem::take(&mut self.queue);
         let mut out = self.injector.frames(frames, inject, &mut self.fig);
-        let baro = self.baro.take();
-        let trigger = self.frame(&hil_sensor(t_us, imu, baro));
+        let (baro, mag) = (self.baro.take(), self.mag.take());
+        let trigger = self.frame(&hil_sensor(t_us, imu, baro, mag));
         if self.injector.lose_trigger(inject, self.flight_sim_steps + 1) {
             self.fig.injected_dropped += 1;
         } else {
@@ -669,10 +670,13 @@ impl FlightStack for PilLink {
         }
     }
 
+    // The runner gives a field only for `gps`/`rtk` and heights only for filtered sources.
+    fn mag_fix(&mut self, _t: f64, field: parapet_core::Vec3) {
+        self.mag = self.fault.is_none().then_some(field);
+    }
+
     fn height_fix(&mut self, _t: f64, down: f64) {
-        if self.fault.is_none() && self.nav_source.is_some() {
-            self.baro = Some(down);
-        }
+        self.baro = self.fault.is_none().then_some(down);
     }
 
     fn outer(&mut self, t: f64, obstacles: &[ObstaclePoint]) -> OuterOut {

@@ -82,6 +82,11 @@ pub struct FirmwareTwin {
     /// A height has been fused: the error bound carries the barometer's drift (the
     /// firmware's `Navigation::error_bound`).
     baro_fused: bool,
+    /// The magnetometer field for the next step's HIL_SENSOR (`gps`, `rtk`).
+    mag: Option<Vec3>,
+    /// Its heading, tilt-compensated with the attitude estimate before the step (the
+    /// firmware's router), given to the next GPS fix without a yaw.
+    mag_heading: Option<f32>,
 }
 
 impl FirmwareTwin {
@@ -109,6 +114,8 @@ impl FirmwareTwin {
             mapped_margin: None,
             baro: None,
             baro_fused: false,
+            mag: None,
+            mag_heading: None,
         })
     }
 
@@ -125,6 +132,7 @@ impl FirmwareTwin {
                 let (f, stated) = vio_decoded(&vio_odometry(t_us, fix, *noise), *noise);
                 let _ = nav.fix(&f, stated, FixKind::Relative);
             } else if let Some(f) = gps_input(t_us, fix, *noise).as_ref().and_then(gps_input_decoded) {
+                let f = PositionFix { yaw: f.yaw.or(self.mag_heading), ..f };
                 let _ = nav.fix(&f, *noise, FixKind::Absolute);
             }
             return;
@@ -160,8 +168,14 @@ impl FirmwareTwin {
             self.mapped_margin(&mut o);
             self.fc.update_obstacles(t_us, &o);
         }
-        // The HIL_SENSOR's barometer height, fused as the firmware's router does on receipt,
-        // before the step.
+        // The HIL_SENSOR's magnetometer heading and barometer height, as the firmware's router
+        // takes them on receipt, before the step.
+        if let Some(b) = self.mag.take() {
+            let a = self.fc.inner().estimate().attitude;
+            if let Some(h) = parapet_core::nav::mag::heading(&b, a.roll, a.pitch) {
+                self.mag_heading = Some(h);
+            }
+        }
         if let (Some(down), Some((nav, _, _))) = (self.baro.take(), self.nav.as_mut()) {
             let fused = nav.height(t_us, baro_decoded(down), BARO_SIGMA_M);
             self.baro_fused |= fused == Fusion::Fused;
@@ -232,6 +246,12 @@ impl FlightStack for FirmwareTwin {
 
     fn position_fix(&mut self, fix: PositionReading) {
         self.fix(clock_us(fix.t_measured), &fix);
+    }
+
+    fn mag_fix(&mut self, _t: f64, field: Vec3) {
+        if self.nav.as_ref().is_some_and(|n| n.1 == FixKind::Absolute) {
+            self.mag = Some(field);
+        }
     }
 
     fn height_fix(&mut self, _t: f64, down: f64) {
