@@ -14,7 +14,10 @@
 //! a horizontal part (< 0.05 G). A field made by [`body_field`] gives back its yaw to f32
 //! rounding (test).
 //!
-//! Owns: the field constants, [`body_field`], [`heading`]. May import: [`crate::frame`],
+//! A heading is given to fixes for [`HEADING_TIMEOUT_US`] (1 s) after its field
+//! ([`fresh_heading`]); a compass that stops leaves the fixes without one.
+//!
+//! Owns: the field constants, [`body_field`], [`heading`], [`fresh_heading`]. May import: [`crate::frame`],
 //! [`crate::fmath`], [`crate::Vec3`].
 
 use crate::frame::{rotation_from_euler, wrap_pi};
@@ -30,6 +33,14 @@ const DOWN_G: f32 = 0.4303;
 pub const EARTH_FIELD_NED_G: Vec3 = Vec3::new(HORIZONTAL_G * 0.998_342, HORIZONTAL_G * 0.057_568, DOWN_G);
 /// Smallest horizontal field a heading is taken from, gauss.
 pub const MIN_HORIZONTAL_G: f32 = 0.05;
+/// A heading older than this is not given to a fix (a compass that stopped), µs.
+pub const HEADING_TIMEOUT_US: u64 = 1_000_000;
+
+/// The heading (measured at `t_us`, rad) to attach to a fix arriving at `now_us`: `None` once
+/// older than [`HEADING_TIMEOUT_US`].
+pub fn fresh_heading(h: Option<(u64, f32)>, now_us: u64) -> Option<f32> {
+    h.filter(|(t, _)| now_us.saturating_sub(*t) <= HEADING_TIMEOUT_US).map(|(_, y)| y)
+}
 
 /// The field (body FRD, gauss) of a vehicle at roll, pitch and yaw (rad): `Rᵀ · B_NED`.
 pub fn body_field(roll: f32, pitch: f32, yaw: f32) -> Vec3 {
@@ -79,5 +90,8 @@ mod tests {
         assert!(off.abs() > 0.1, "{off}");
         assert_eq!(heading(&Vec3::new(f32::NAN, 0.0, 0.4), 0.0, 0.0), None);
         assert_eq!(heading(&Vec3::new(0.0, 0.0, 0.48), 0.0, 0.0), None);
+        assert_eq!(fresh_heading(Some((1_000, 0.5)), 1_001_000), Some(0.5));
+        assert_eq!(fresh_heading(Some((1_000, 0.5)), 1_001_001), None);
+        assert_eq!(fresh_heading(None, 0), None);
     }
 }

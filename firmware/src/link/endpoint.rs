@@ -598,6 +598,11 @@ mod tests {
         l.push_bytes(&send(&mut w, &gps(3_000, 9_000)), 3_000, &mut ap);
         let yaw = ap.fixes[2].yaw.expect("the GPS heading");
         assert!((yaw - core::f32::consts::FRAC_PI_2).abs() < 1e-4, "{yaw}");
+        // The compass stopped: 1 s after its last field a fix goes without a heading.
+        l.push_bytes(&send(&mut w, &gps(1_001_000, 0)), 1_001_000, &mut ap);
+        assert!(ap.fixes[3].yaw.is_some());
+        l.push_bytes(&send(&mut w, &gps(1_001_001, 0)), 1_001_001, &mut ap);
+        assert_eq!(ap.fixes[4].yaw, None);
     }
 
     /// ODOMETRY from a VIO or vision estimator goes to the navigation filter as a relative

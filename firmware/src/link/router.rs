@@ -88,9 +88,9 @@ pub(crate) struct Router {
     pub(crate) obstacles: ObstacleAssembler,
     pub(crate) replies: Deque<Outbound, REPLY_QUEUE_LEN>,
     pub(crate) hil: Option<HilSample>,
-    /// The heading of the last HIL_SENSOR magnetometer field (tilt-compensated with the
-    /// attitude estimate, `parapet_core::nav::mag::heading`), given to a GPS_INPUT without a yaw.
-    pub(crate) mag_heading: Option<f32>,
+    /// The time (µs) and heading of the last HIL_SENSOR magnetometer field (tilt-compensated with
+    /// the attitude estimate, `parapet_core::nav::mag`), given to a GPS_INPUT without a yaw for 1 s.
+    pub(crate) mag_heading: Option<(u64, f32)>,
     pub(crate) stats: LinkStats,
     pub(crate) peer_seen: bool,
     /// Next index of a PARAM_REQUEST_LIST stream (`None`: no stream).
@@ -570,7 +570,7 @@ impl Router {
                 if let Some(b) = hil_mag(&m) {
                     let a = ap.telemetry().attitude_rpy;
                     if let Some(h) = parapet_core::nav::mag::heading(&b, a.x, a.y) {
-                        self.mag_heading = Some(h);
+                        self.mag_heading = Some((self.fix_time(m.time_usec, now_us), h));
                         self.stats.mag_headings = self.stats.mag_headings.saturating_add(1);
                     }
                 }
@@ -593,7 +593,7 @@ impl Router {
             Inbound::GpsInput(m) => {
                 let t = self.fix_time(m.time_usec, now_us);
                 // A GPS without a heading (yaw 0): the magnetometer's, as the estimator takes it.
-                let mag = self.mag_heading;
+                let mag = parapet_core::nav::mag::fresh_heading(self.mag_heading, t);
                 let fix = gps_input_fix(&m, t)
                     .map(|f| Some(crate::app::autopilot::PositionFix { yaw: f.yaw.or(mag), ..f }));
                 self.external_fix(fix, Source::Gps, gps_input_noise(&m), now_us, ap);

@@ -86,7 +86,7 @@ pub struct FirmwareTwin {
     mag: Option<Vec3>,
     /// Its heading, tilt-compensated with the attitude estimate before the step (the
     /// firmware's router), given to the next GPS fix without a yaw.
-    mag_heading: Option<f32>,
+    mag_heading: Option<(u64, f32)>,
 }
 
 impl FirmwareTwin {
@@ -132,7 +132,8 @@ impl FirmwareTwin {
                 let (f, stated) = vio_decoded(&vio_odometry(t_us, fix, *noise), *noise);
                 let _ = nav.fix(&f, stated, FixKind::Relative);
             } else if let Some(f) = gps_input(t_us, fix, *noise).as_ref().and_then(gps_input_decoded) {
-                let f = PositionFix { yaw: f.yaw.or(self.mag_heading), ..f };
+                let yaw = f.yaw.or(parapet_core::nav::mag::fresh_heading(self.mag_heading, t_us));
+                let f = PositionFix { yaw, ..f };
                 let _ = nav.fix(&f, *noise, FixKind::Absolute);
             }
             return;
@@ -173,7 +174,7 @@ impl FirmwareTwin {
         if let Some(b) = self.mag.take() {
             let a = self.fc.inner().estimate().attitude;
             if let Some(h) = parapet_core::nav::mag::heading(&b, a.roll, a.pitch) {
-                self.mag_heading = Some(h);
+                self.mag_heading = Some((t_us, h));
             }
         }
         if let (Some(down), Some((nav, _, _))) = (self.baro.take(), self.nav.as_mut()) {
