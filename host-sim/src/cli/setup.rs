@@ -167,6 +167,7 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     }
     if let Some(x) = positive("duration", a.duration)? {
         cfg.duration = x;
+        cfg.extend_while_progressing = false;
     } else if scene.sim.duration.is_none() {
         // [preflight] the default covers the whole flown path, start → first waypoint included.
         cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);

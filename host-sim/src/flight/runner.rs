@@ -15,7 +15,10 @@
 //!   ending elsewhere (`--foreign-path`) ends with `reached_path_end` only
 //!   (end reason `path_end`);
 //! * the **duration** limit (default [`default_duration`]: 1.5 × the flown
-//!   length start → first waypoint → … → last at the reference speed, at most 1 m/s, + 15 s).
+//!   length start → first waypoint → … → last at the reference speed, at most 1 m/s, + 15 s;
+//!   under the default a run still making progress along the path goes on until
+//!   [`STALL_WINDOW_S`] after its last progress, at most [`EXTEND_FACTOR`] × the limit:
+//!   [`ProgressWatchdog`]).
 //!
 //! ## What the controller is told
 //! * Position fixes at the outer rate from [`crate::sim::sensors`] (noise, latency).
@@ -129,6 +132,10 @@ pub struct RunConfig {
     pub seed: u64,
     /// Duration limit, s.
     pub duration: f64,
+    /// `duration` is the default rule's ([`default_duration`]): a run still making progress
+    /// at it goes on ([`ProgressWatchdog`], at most [`EXTEND_FACTOR`] × `duration`). `false`:
+    /// a duration given (`--duration`, `[sim] duration`) ends the run.
+    pub extend_while_progressing: bool,
     /// Proximity-sensor range, m.
     pub sensing_range: f64,
     /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
@@ -177,6 +184,7 @@ impl RunConfig {
         };
         Ok(RunConfig {
             duration: scene.sim.duration.unwrap_or_else(|| default_duration(scene, &path, scene.speed)),
+            extend_while_progressing: scene.sim.duration.is_none(),
             path,
             path_source: "straight".into(),
             planning_time_ms: None,
@@ -392,7 +400,21 @@ pub fn check_bounded(cfg: &RunConfig) -> Result<()> {
 }
 
 use super::paths::{contact, with_ground};
-pub use super::paths::{default_duration, flown_length, nearest_with_ground, path_length};
+pub use super::paths::{
+    default_duration, flown_length, nearest_with_ground, path_length, remaining_length, ProgressWatchdog,
+    EXTEND_FACTOR, STALL_WINDOW_S,
+};
+
+/// The longest a run with `cfg` can last, s: `duration`, or under the default rule's watchdog
+/// [`EXTEND_FACTOR`] × it, within the caps of [`check_bounded`] (never below `duration`).
+pub fn hard_duration(cfg: &RunConfig) -> f64 {
+    if cfg.extend_while_progressing {
+        let cap = limits::MAX_DURATION_CEILING_S.min(limits::MAX_PLANT_STEPS * cfg.dt);
+        (cfg.duration * EXTEND_FACTOR).min(cap).max(cfg.duration)
+    } else {
+        cfg.duration
+    }
+}
 
 /// The outcome of a run: samples at the outer rate and the summary.
 #[derive(Clone, Debug)]
@@ -502,7 +524,10 @@ pub fn run_with(
     // Signed distance to the nearest obstacle or the ground at the current plant state.
     let mut sd_now = contact(ground, tracker.nearest(scene, &plant.state.pos, 0.0), &plant.state.pos).0;
 
-    let n_inner = (cfg.duration / INNER_DT).ceil() as u64;
+    let n_inner = ((if ground { cfg.duration } else { hard_duration(cfg) }) / INNER_DT).ceil() as u64;
+    let mut watchdog = ProgressWatchdog::default();
+    // A ground station's flight flies what the station uploads, not `cfg.path`: its limit stands.
+    let extend = cfg.extend_while_progressing && !ground;
     // Memory grows with the time flown, not with the duration limit: reserve at
     // most a minute of samples up front.
     let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
@@ -521,8 +546,13 @@ pub fn run_with(
     // The path's end (where the run stops) and the scene's goal (what `reached_goal` means).
     let path_end = *cfg.path.last().unwrap_or(&scene.goal);
 
+    let mut ended_at = None;
     for k in 0..n_inner {
         t = k as f64 / INNER_HZ;
+        if extend && t >= cfg.duration && t >= watchdog.end(cfg.duration) {
+            ended_at = Some(t);
+            break;
+        }
         if schedule.is_outer_step(k) {
             // Euler angles of the true state, once for the position fix and the sample.
             let (roll, pitch, yaw) = plant.state.euler();
@@ -610,6 +640,7 @@ pub fn run_with(
             if t >= next_progress {
                 progress(t);
                 next_progress = t + 0.1;
+                watchdog.observe(t, remaining_length(&scene.start, &cfg.path, &plant.state.pos));
             }
         }
         let imu = sensors.imu(&plant);
@@ -650,7 +681,7 @@ pub fn run_with(
         }
     }
     if collided_at.is_none() && goal_at.is_none() && landed_at.is_none() {
-        t = n_inner as f64 / INNER_HZ;
+        t = ended_at.unwrap_or(n_inner as f64 / INNER_HZ);
     }
     let reached_path_end = goal_at.is_some();
     let goal_dist = (plant.state.pos - scene.goal).norm();
@@ -789,13 +820,39 @@ mod tests {
         assert_eq!(short, all[..10]);
     }
 
-    #[test]
-    fn memory_follows_the_flight_not_the_duration_limit() {
+    /// A 1 m leg at 0.5 m/s in an empty room, without noise; its default configuration.
+    fn one_metre_leg() -> (Scene, RunConfig) {
         let src = "name = \"m\"\n[bounds]\nmin = [-1, -1, 0]\nmax = [3, 1, 2]\n\
                    [mission]\nstart = [0, 0, 1]\ngoal = [1, 0, 1]\nspeed = 0.5\n[sensors]\nnoise = false\n";
         let scene = Scene::parse(src, "m.toml").unwrap_or_else(|e| panic!("{e}"));
-        let mut cfg =
+        let cfg =
             RunConfig::for_scene(&scene, vec![scene.start, scene.goal]).unwrap_or_else(|e| panic!("{e}"));
+        (scene, cfg)
+    }
+
+    #[test]
+    fn a_run_still_making_progress_at_the_default_limit_goes_on_a_given_limit_ends_it() {
+        let (scene, mut cfg) = one_metre_leg();
+        assert!(cfg.extend_while_progressing, "no [sim] duration: the default rule");
+        // A limit the 1 m leg at 0.5 m/s cannot meet: the vehicle is still on its way at it.
+        cfg.duration = 1.0;
+        let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.summary.end_reason, "goal");
+        assert!(
+            out.summary.time_to_goal_s.is_some_and(|t| t > 1.0 && t <= 4.0),
+            "{:?}",
+            out.summary.time_to_goal_s
+        );
+        // A given limit (`--duration`) ends the run there.
+        cfg.extend_while_progressing = false;
+        let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(out.summary.end_reason, "duration");
+        assert!(out.samples.last().is_some_and(|s| s.t < 1.0), "ends at 1 s");
+    }
+
+    #[test]
+    fn memory_follows_the_flight_not_the_duration_limit() {
+        let (scene, mut cfg) = one_metre_leg();
         // A whole simulated day allowed (21.6 M samples if reserved up front).
         cfg.duration = limits::MAX_DURATION_CEILING_S;
         let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));

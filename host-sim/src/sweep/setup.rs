@@ -70,6 +70,8 @@ impl SweepSetup {
             // The rule of `parapet run` at this speed, at most `--duration`.
             let rule = default_duration(&scene, &cfg.path, p.speed);
             cfg.duration = self.duration_limit.unwrap_or(f64::INFINITY).min(rule);
+            // A sweep's runs end at their limit (its size check counts that work).
+            cfg.extend_while_progressing = false;
         }
         Ok((scene, cfg))
     }
