@@ -51,13 +51,16 @@
 //! download it again (the MAVLink definition of these fields).
 //!
 //! **Replanned path** ([`MissionUpload::replanned`], from [`crate::link::mission_run`] when the
-//! on-board replanner set a new path): a plan of waypoints only, in `MAV_FRAME_LOCAL_NED`,
-//! becomes the path the vehicle now flies (one NAV_WAYPOINT item per waypoint), so a download
-//! returns it and the plan id changes. A plan with other items (takeoff, land, return, actions,
-//! DO_*) or in a global frame is kept as uploaded (its download is then not the replanned path;
-//! the firmware's flash had no room for more). The replanned path never exceeds
-//! the store: both hold 64 points (`PATH_CAPACITY`; a replan that would need more is a
-//! `BudgetExceeded` result and is not flown).
+//! on-board replanner set a new path): in a plan that is one flight through waypoints (a
+//! takeoff where the vehicle is first and a landing where it is or a return last allowed; the
+//! waypoints in one frame, local or global, as QGroundControl sends them) the waypoints become
+//! the path the vehicle now flies (one NAV_WAYPOINT item per waypoint, in the plan's frame),
+//! so a download returns it and the plan id changes. A plan with other items (a takeoff or
+//! landing position, holds, actions, DO_*) is kept as uploaded (its download is then not the
+//! replanned path). The replanned path fits the store unless kept items need the room: both
+//! hold 64 points (`PATH_CAPACITY`; a replan that would need more is a `BudgetExceeded`
+//! result and is not flown), and a path of 63–64 points with a takeoff and a return leaves the
+//! plan as uploaded.
 //!
 //! The deprecated float MISSION_ITEM / MISSION_REQUEST are converted to and from these messages
 //! by [`crate::link::mission_float`].
@@ -347,30 +350,51 @@ impl MissionUpload {
     }
 
     /// The cascade flies a replanned path (issue 38): when the accepted plan is one flight
-    /// through waypoints in `MAV_FRAME_LOCAL_NED` (every item a NAV_WAYPOINT without an action)
-    /// it becomes `path`, one NAV_WAYPOINT item per point, so a download returns what the vehicle
-    /// flies and the plan id changes. `false`, the plan kept, for any other plan (takeoff, land,
-    /// return, actions, DO_* items, a global frame) and for a path that is empty or longer than
-    /// [`MAX_WAYPOINTS`] (the replanner's own path never is: `PATH_CAPACITY` is the same 64).
+    /// through waypoints — `[NAV_TAKEOFF here] NAV_WAYPOINT… [NAV_LAND here | NAV_RETURN_TO_LAUNCH]`,
+    /// the waypoints without actions and all in one frame, local or global (QGroundControl's
+    /// plan: a takeoff, waypoints in `GLOBAL_RELATIVE_ALT_INT`, a return) — its waypoints become
+    /// `path`, one NAV_WAYPOINT item per point in their frame (a global one through
+    /// [`geo::ned_to_global`] and the frame's altitude reference), between the takeoff and the
+    /// end item kept as uploaded; a download returns what the vehicle flies and the plan id
+    /// changes. `false`, the plan kept, for any other plan (a takeoff or landing position,
+    /// holds, actions, DO_* items, mixed frames), for a path that is empty, does not fit
+    /// [`MAX_WAYPOINTS`] with the kept items or lies beyond the global frame's reach.
     pub fn replanned(&mut self, path: &[Vec3]) -> bool {
+        let here = |it: &Item| it.x == 0 && it.y == 0;
+        let s = &self.stored;
+        let head = s.first().filter(|it| it.command == id::TAKEOFF && here(it)).copied();
+        let tail = s
+            .last()
+            .filter(|it| it.command == RETURN_TO_LAUNCH || (it.command == id::LAND && here(it)))
+            .copied();
+        let mid = s.get(usize::from(head.is_some())..s.len().saturating_sub(usize::from(tail.is_some())));
+        let Some((frame, mid)) = mid.and_then(|m| m.first().map(|it| (it.frame, m))) else { return false };
         let plain = |it: &Item| {
             it.command == id::WAYPOINT
-                && it.frame == MavFrame::MAV_FRAME_LOCAL_NED
+                && it.frame == frame
                 && matches!(mission_items::check(it.command, it.params), Ok(None))
         };
-        if self.stored.is_empty()
-            || path.is_empty()
-            || path.len() > MAX_WAYPOINTS
-            || !self.stored.iter().all(plain)
-        {
+        let kept = usize::from(head.is_some()) + usize::from(tail.is_some());
+        if path.is_empty() || path.len() + kept > MAX_WAYPOINTS || !mid.iter().all(plain) {
             return false;
         }
-        self.stored.clear();
+        let Ok(r) = alt_ref(frame) else { return false };
+        let mut items: HVec<Item, MAX_WAYPOINTS> = HVec::new();
         for p in path {
-            let (x, y) = (local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)));
-            let frame = MavFrame::MAV_FRAME_LOCAL_NED;
-            let it = Item { x, y, z: p.z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 };
-            let _ = self.stored.push(it); // path.len() ≤ MAX_WAYPOINTS
+            let (x, y, z) = match r {
+                None => (local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)), p.z),
+                Some(r) => match geo::ned_to_global(*p) {
+                    Some((lat, lon, _)) => (lat, lon, geo::altitude_m(p.z, r)),
+                    None => return false,
+                },
+            };
+            let _ =
+                items.push(Item { x, y, z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 });
+        }
+        self.stored.clear();
+        // path.len() + kept ≤ MAX_WAYPOINTS: every push fits.
+        for it in head.iter().chain(items.iter()).chain(tail.iter()) {
+            let _ = self.stored.push(*it);
         }
         self.id = id_of(&self.stored);
         true
@@ -800,8 +824,9 @@ mod tests {
     }
 
     /// Issue 38: a replanned path becomes the accepted plan of a plan of waypoints — a download
-    /// returns its items and the plan id (MISSION_COUNT `opaque_id`) changes; any other plan,
-    /// an empty path or one beyond the store's capacity leaves the plan and its id alone.
+    /// returns its items and the plan id (MISSION_COUNT `opaque_id`) changes; a plan with a
+    /// landing position, an empty path or one beyond the store's capacity leaves the plan and
+    /// its id alone.
     #[test]
     fn a_replanned_path_becomes_the_downloaded_plan_of_a_waypoint_plan() {
         let mut m = accepted(&[item(0, 1.0, 0.0, -1.0), item(0, 2.0, 0.0, -1.0), item(0, 3.0, 1.0, -1.0)]);
@@ -840,9 +865,14 @@ mod tests {
         // The same path again is the same plan: the same id.
         assert!(m.replanned(&path));
         assert_eq!(m.plan_id(), id1);
-        // A plan that lands is not rewritten.
+        // A plan that lands where the last waypoint was: the path, then its LAND item.
         let land = MISSION_ITEM_INT_DATA { command: id::LAND, x: 0, y: 0, ..item(0, 0.0, 0.0, 0.0) };
-        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land]);
+        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land.clone()]);
+        assert!(l.replanned(&path));
+        assert_eq!((l.stored_len(), l.plan().path_len, l.plan().end), (5, 4, Some((4, EndAction::Land))));
+        // One that lands at a position (its approach is a path point) is not rewritten.
+        let land_at = MISSION_ITEM_INT_DATA { x: item(0, 4.0, 0.0, 0.0).x, ..land };
+        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land_at]);
         let id_l = l.plan_id();
         assert!(!l.replanned(&path));
         assert_eq!((l.plan_id(), l.stored_len()), (id_l, 2));
@@ -850,10 +880,11 @@ mod tests {
         assert_eq!(l.plan_id(), 0);
     }
 
-    /// A plan uploaded in a global frame (as QGroundControl sends it) is kept as uploaded (not
-    /// done: the replanned path in a global frame).
+    /// A plan as QGroundControl sends it — a takeoff where the vehicle is, waypoints in
+    /// `GLOBAL_RELATIVE_ALT_INT`, a return — gets the replanned waypoints in its frame between
+    /// the takeoff and the return; a plan with a hold (or mixed frames) is kept as uploaded.
     #[test]
-    fn a_global_frame_plan_is_kept() {
+    fn a_global_frame_plan_gets_the_replanned_waypoints_in_its_frame() {
         let global = |p: Vec3| {
             let (lat, lon, _) = geo::ned_to_global(p).unwrap();
             MISSION_ITEM_INT_DATA {
@@ -864,10 +895,59 @@ mod tests {
                 ..item(0, 0.0, 0.0, 0.0)
             }
         };
-        let mut m = accepted(&[global(Vec3::new(5.0, 0.0, -2.0)), global(Vec3::new(9.0, 3.0, -2.0))]);
-        let id = m.plan_id();
-        assert!(!m.replanned(&[Vec3::new(4.0, 2.0, -2.0), Vec3::new(9.0, 3.0, -2.0)]));
-        assert_eq!((m.plan_id(), m.stored_len()), (id, 2));
+        let takeoff =
+            MISSION_ITEM_INT_DATA { command: id::TAKEOFF, x: 0, y: 0, z: 2.0, ..global(Vec3::zeros()) };
+        let rtl =
+            MISSION_ITEM_INT_DATA { command: RETURN_TO_LAUNCH, x: 0, y: 0, z: 0.0, ..global(Vec3::zeros()) };
+        let (a, b) = (Vec3::new(5.0, 0.0, -2.0), Vec3::new(9.0, 3.0, -2.0));
+        let mut m = accepted(&[takeoff.clone(), global(a), global(b), rtl.clone()]);
+        let id0 = m.plan_id();
+        assert_eq!((m.plan().takeoff.map(|t| t.0), m.plan().end.map(|e| e.0)), (Some(0), Some(3)));
+        let detour = [Vec3::new(4.0, 2.0, -2.5), Vec3::new(7.0, 4.0, -2.0), b];
+        assert!(m.replanned(&detour));
+        assert!(m.plan_id() != id0 && m.plan_id() != 0);
+        let n = m.stored_len();
+        assert_eq!(n, 5);
+        let plan = m.plan();
+        assert_eq!(
+            (plan.takeoff.map(|t| t.0), plan.path_len, plan.end),
+            (Some(0), 3, Some((4, EndAction::Return)))
+        );
+        for (k, p) in detour.iter().enumerate() {
+            let DownloadReply::Item(it) =
+                m.on_request_item(k as u16 + 1, MavMissionType::MAV_MISSION_TYPE_MISSION, 255, 190)
+            else {
+                panic!("item {k}")
+            };
+            assert_eq!((it.command, it.frame), (id::WAYPOINT, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT));
+            let (lat, lon, _) = geo::ned_to_global(*p).unwrap();
+            assert_eq!((it.x, it.y), (lat, lon));
+            assert!((it.z + p.z).abs() < 1e-5, "height above home {}", it.z);
+            assert!((m.accepted_path()[k] - p).norm() < 0.02, "{k}");
+        }
+        let DownloadReply::Item(end) =
+            m.on_request_item(4, MavMissionType::MAV_MISSION_TYPE_MISSION, 255, 190)
+        else {
+            panic!("end item")
+        };
+        assert_eq!(end.command, RETURN_TO_LAUNCH);
+        // A hold (NAV_LOITER_TIME) among the waypoints: kept as uploaded.
+        let hold = MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
+            param1: 3.0,
+            ..global(a)
+        };
+        let mut h = accepted(&[takeoff, global(a), hold, global(b), rtl]);
+        let idh = h.plan_id();
+        assert!(!h.replanned(&detour));
+        assert_eq!((h.plan_id(), h.stored_len()), (idh, 5));
+        // Mixed frames: kept.
+        let mut x = accepted(&[global(a), item(0, 9.0, 3.0, -2.0)]);
+        assert!(!x.replanned(&detour));
+        // No room for the kept items with a full path: kept.
+        assert!(!m.replanned(&[b; MAX_WAYPOINTS - 1]));
+        assert!(m.replanned(&[b; MAX_WAYPOINTS - 2]));
+        assert_eq!(m.stored_len() as usize, MAX_WAYPOINTS);
     }
 
     #[test]

@@ -165,11 +165,13 @@ impl MissionRun {
         if !replanned || !m.replanned(ap.flown_path()) {
             return false;
         }
-        let last = m.stored_len().saturating_sub(1);
+        // The new waypoints are the plan's path (after a kept takeoff, before a kept end item).
+        let to = m.plan().path_len.saturating_sub(1);
+        let last = m.path_seq(to).unwrap_or(0);
         if let Run::Flying { seen, since_us, .. } = self.run {
-            self.run = Run::Flying { seen, since_us, from: 0, to: last, last };
+            self.run = Run::Flying { seen, since_us, from: 0, to, last };
         }
-        (self.current, self.reached) = (0, None);
+        (self.current, self.reached) = (m.path_seq(0).unwrap_or(0), None);
         true
     }
 
@@ -560,6 +562,49 @@ mod tests {
         }
         m.accept();
         m
+    }
+
+    /// Issue 38: in a plan with a takeoff and a return the replanned waypoints sit between
+    /// them, and MISSION_CURRENT's seq is the first of them (not the takeoff's 0).
+    #[test]
+    fn a_replan_of_a_plan_with_a_takeoff_and_a_return_counts_from_its_first_waypoint() {
+        let (a, b, c) = (Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.5, 0.8, -1.0), Vec3::new(3.0, 0.0, -1.0));
+        let wire = |seq: u16, command: MavCmd, p: Vec3| MISSION_ITEM_INT_DATA {
+            x: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.x)),
+            y: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.y)),
+            z: p.z,
+            seq,
+            command: command as u16,
+            frame: MavFrame::MAV_FRAME_LOCAL_NED,
+            ..Default::default()
+        };
+        let items = [
+            wire(0, MavCmd::MAV_CMD_NAV_TAKEOFF, Vec3::new(0.0, 0.0, -1.0)),
+            wire(1, MavCmd::MAV_CMD_NAV_WAYPOINT, a),
+            wire(2, MavCmd::MAV_CMD_NAV_WAYPOINT, c),
+            wire(3, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, Vec3::zeros()),
+        ];
+        let mut m = MissionUpload::new();
+        let count =
+            MISSION_COUNT_DATA { count: 4, target_system: 1, target_component: 1, ..Default::default() };
+        m.on_count(&count, 255, 190, 0);
+        for it in &items {
+            m.on_item(it, 255, 190, 0, 10.0);
+        }
+        m.accept();
+        let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: vec![a, c] };
+        let mut run = MissionRun::new();
+        let replanned = ReplanOutcome::Replanned { detour: 1, waypoints: 3 };
+        ap.snapshot.replan = crate::app::replanner::ReplanReport {
+            events: 1,
+            last: Some(ReplanEvent { outcome: replanned, waypoints: 3, detour: 1 }),
+        };
+        ap.path = vec![b, c, a];
+        assert!(run.follow_replan(&mut m, &ap));
+        assert_eq!(m.accepted_path().as_slice(), &[b, c, a][..]);
+        assert_eq!((m.stored_len(), m.plan().takeoff.map(|t| t.0)), (5, Some(0)));
+        assert_eq!(m.plan().end.map(|e| e.0), Some(4));
+        assert_eq!(run.current, 1);
     }
 
     /// Issue 38: each new `Replanned` event makes the accepted plan the flown path, once; a
