@@ -166,11 +166,11 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
         }
     }
     if let Some(x) = positive("duration", a.duration)? {
-        cfg.duration = x;
-        cfg.extend_while_progressing = false;
+        (cfg.duration, cfg.default_duration_s) = (x, None);
     } else if scene.sim.duration.is_none() {
         // [preflight] the default covers the whole flown path, start → first waypoint included.
         cfg.duration = crate::flight::runner::default_duration(&scene, &cfg.path, cfg.params.speed);
+        cfg.default_duration_s = Some(cfg.duration);
     }
     cfg.perception = perception_sensors(&a.perception, &scene)?;
     for x in &a.assume {

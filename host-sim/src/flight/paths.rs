@@ -41,7 +41,7 @@ pub const PROGRESS_STEP_M: f64 = 0.25;
 pub const EXTEND_FACTOR: f64 = 4.0;
 
 /// The watchdog of the default duration limit ([`default_duration`]; `RunConfig`'s
-/// `extend_while_progressing`): a run that still makes progress at the limit goes on, and
+/// `default_duration_s`): a run that still makes progress at the limit goes on, and
 /// ends [`STALL_WINDOW_S`] after its last progress, at [`EXTEND_FACTOR`] × the limit at the
 /// latest. The limit assumes a pace ([`DURATION_PACE`]); with range sensors the safety side
 /// sets a slower one in clutter (the speed governor and the filter hold the vehicle while it

@@ -132,10 +132,11 @@ pub struct RunConfig {
     pub seed: u64,
     /// Duration limit, s.
     pub duration: f64,
-    /// `duration` is the default rule's ([`default_duration`]): a run still making progress
-    /// at it goes on ([`ProgressWatchdog`], at most [`EXTEND_FACTOR`] × `duration`). `false`:
-    /// a duration given (`--duration`, `[sim] duration`) ends the run.
-    pub extend_while_progressing: bool,
+    /// The default rule's limit ([`default_duration`]) when `duration` came from it. While
+    /// `duration` still equals it, a run still making progress at it goes on
+    /// ([`ProgressWatchdog`], at most [`EXTEND_FACTOR`] × `duration`); a duration set
+    /// otherwise (`--duration`, `[sim] duration`, a caller's own) ends the run.
+    pub default_duration_s: Option<f64>,
     /// Proximity-sensor range, m.
     pub sensing_range: f64,
     /// Plant integration step, s (≤ 1 ms; the plant takes round(1 ms / dt) steps per inner step).
@@ -182,9 +183,10 @@ impl RunConfig {
             kd: c.kd.unwrap_or_else(|| d("kd")),
             speed: scene.speed,
         };
+        let rule = default_duration(scene, &path, scene.speed);
         Ok(RunConfig {
-            duration: scene.sim.duration.unwrap_or_else(|| default_duration(scene, &path, scene.speed)),
-            extend_while_progressing: scene.sim.duration.is_none(),
+            duration: scene.sim.duration.unwrap_or(rule),
+            default_duration_s: scene.sim.duration.is_none().then_some(rule),
             path,
             path_source: "straight".into(),
             planning_time_ms: None,
@@ -405,10 +407,16 @@ pub use super::paths::{
     EXTEND_FACTOR, STALL_WINDOW_S,
 };
 
+/// `cfg`'s duration is the default rule's ([`RunConfig::default_duration_s`]): the run goes on
+/// while it makes progress.
+pub fn extends_while_progressing(cfg: &RunConfig) -> bool {
+    cfg.default_duration_s == Some(cfg.duration)
+}
+
 /// The longest a run with `cfg` can last, s: `duration`, or under the default rule's watchdog
 /// [`EXTEND_FACTOR`] × it, within the caps of [`check_bounded`] (never below `duration`).
 pub fn hard_duration(cfg: &RunConfig) -> f64 {
-    if cfg.extend_while_progressing {
+    if extends_while_progressing(cfg) {
         let cap = limits::MAX_DURATION_CEILING_S.min(limits::MAX_PLANT_STEPS * cfg.dt);
         (cfg.duration * EXTEND_FACTOR).min(cap).max(cfg.duration)
     } else {
@@ -527,7 +535,7 @@ pub fn run_with(
     let n_inner = ((if ground { cfg.duration } else { hard_duration(cfg) }) / INNER_DT).ceil() as u64;
     let mut watchdog = ProgressWatchdog::default();
     // A ground station's flight flies what the station uploads, not `cfg.path`: its limit stands.
-    let extend = cfg.extend_while_progressing && !ground;
+    let extend = extends_while_progressing(cfg) && !ground;
     // Memory grows with the time flown, not with the duration limit: reserve at
     // most a minute of samples up front.
     let mut samples = Vec::with_capacity((n_inner / divider + 1).min(SAMPLES_RESERVED) as usize);
@@ -833,9 +841,9 @@ mod tests {
     #[test]
     fn a_run_still_making_progress_at_the_default_limit_goes_on_a_given_limit_ends_it() {
         let (scene, mut cfg) = one_metre_leg();
-        assert!(cfg.extend_while_progressing, "no [sim] duration: the default rule");
+        assert!(extends_while_progressing(&cfg), "no [sim] duration: the default rule");
         // A limit the 1 m leg at 0.5 m/s cannot meet: the vehicle is still on its way at it.
-        cfg.duration = 1.0;
+        (cfg.duration, cfg.default_duration_s) = (1.0, Some(1.0));
         let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(out.summary.end_reason, "goal");
         assert!(
@@ -843,8 +851,9 @@ mod tests {
             "{:?}",
             out.summary.time_to_goal_s
         );
-        // A given limit (`--duration`) ends the run there.
-        cfg.extend_while_progressing = false;
+        // A limit set otherwise (`--duration`, a caller's own) ends the run there.
+        cfg.default_duration_s = Some(25.0);
+        assert!(!extends_while_progressing(&cfg));
         let out = run(&scene, &cfg, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(out.summary.end_reason, "duration");
         assert!(out.samples.last().is_some_and(|s| s.t < 1.0), "ends at 1 s");

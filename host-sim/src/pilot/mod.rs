@@ -52,7 +52,7 @@ pub fn piloted_config(scene: &Scene, mut cfg: RunConfig, script: &PilotScript) -
     cfg.path_source = if script.has_sticks() { "pilot" } else { "offboard" }.into();
     cfg.duration = script.duration.or(scene.sim.duration).unwrap_or(script.end_time() + AFTER_SCRIPT_S);
     // A pilot flight ends at its script's time: no mission progress to extend it by.
-    cfg.extend_while_progressing = false;
+    cfg.default_duration_s = None;
     cfg
 }
 

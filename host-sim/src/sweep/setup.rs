@@ -71,7 +71,7 @@ impl SweepSetup {
             let rule = default_duration(&scene, &cfg.path, p.speed);
             cfg.duration = self.duration_limit.unwrap_or(f64::INFINITY).min(rule);
             // A sweep's runs end at their limit (its size check counts that work).
-            cfg.extend_while_progressing = false;
+            cfg.default_duration_s = None;
         }
         Ok((scene, cfg))
     }
