@@ -9,6 +9,8 @@
 //! * diagonal full stick into a box corner: no contact, stops in the corner;
 //! * half stick at a person walking towards the vehicle at 0.3 m/s: no contact;
 //! * the goal-seeking pilot through a slalom of pillars: no contact;
+//! * full stick at 5 m/s at a sphere hanging above the flight level, with the 3D lidar and the
+//!   ToF set (issue 36): no contact;
 //! * RC loss: the vehicle stops flying at the wall (hold), then lands; kill switch: motors
 //!   off within one inner step of the frame carrying it;
 //! * position loss (scripted `fix_loss`): the failsafe takes over within the position timeout
@@ -118,6 +120,31 @@ fn full_stick_at_a_wall_stops_without_contact() {
         assert!(end.pos.x > WALL_X - 1.2, "{speed} m/s: stopped {:.2} m short", WALL_X - end.pos.x);
         assert!(end.vel.x.abs() < 0.1, "{speed} m/s: still moving at {:.2} m/s", end.vel.x);
         assert!(r.log.iter().any(|l| l.filter_active), "{speed} m/s: the filter never intervened");
+    }
+}
+
+/// Issue 36: full stick at 5 m/s (`PA_SPEED_MAX` 5) at a sphere hanging across the way, its
+/// lowest point 0.1 m above the flight level (`scenes/pilot/hanging_sphere.toml`), seen through
+/// the obstacle memory by the 3D lidar and by the ToF set (whose ring looks ±22.5° up and down
+/// and whose up sensor looks straight up): no contact while the filter takes the vehicle past it
+/// (it came within 0.5 m of the surface: the sphere was in the way). The planar lidar cannot see it (above its plane): the coverage check refuses that
+/// set here unless `no-overhangs` is assumed, and with the (false) assumption it meets the
+/// sphere (docs/filter.md § 17).
+#[test]
+fn full_stick_at_a_hanging_sphere_passes_without_contact_with_3d_sensing() {
+    let s = scene("hanging_sphere");
+    let script = script_file("wall_forward.pilot.toml");
+    for p in ["lidar3d", "tof"] {
+        let r = fly(&s, &script, PilotMode::Position, assist(5.0), |c| {
+            c.perception = Some(parapet_sim::sim::range::preset(p).expect("preset"));
+        });
+        row(&format!("hanging sphere 5 m/s {p}"), &r);
+        let sum = &r.out.summary;
+        assert!(!sum.collided, "{p}: collided at {:?}", sum.first_collision_time_s);
+        assert!(sum.min_clearance_m > 0.0 && sum.min_clearance_m < 0.5, "{p}: {}", sum.min_clearance_m);
+        let end = r.out.samples.last().expect("samples");
+        // The sphere's centre is 4 m north (NED x): the vehicle is past it.
+        assert!(end.pos.x > 4.0, "{p}: ended at N {:.2} m", end.pos.x);
     }
 }
 
