@@ -379,23 +379,23 @@ impl MissionUpload {
             return false;
         }
         let Ok(r) = alt_ref(frame) else { return false };
-        let mut items: HVec<Item, MAX_WAYPOINTS> = HVec::new();
-        for p in path {
-            let (x, y, z) = match r {
-                None => (local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)), p.z),
-                Some(r) => match geo::ned_to_global(*p) {
-                    Some((lat, lon, _)) => (lat, lon, geo::altitude_m(p.z, r)),
-                    None => return false,
-                },
-            };
-            let _ =
-                items.push(Item { x, y, z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 });
+        // The wire x, y, z of point `p` in the plan's frame; `None` beyond a global frame's reach.
+        let wire = |p: &Vec3| match r {
+            None => Some((local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)), p.z)),
+            Some(r) => geo::ned_to_global(*p).map(|(lat, lon, _)| (lat, lon, geo::altitude_m(p.z, r))),
+        };
+        // Checked before the plan is touched: no second store of 64 items on the link task's stack.
+        if !path.iter().all(|p| wire(p).is_some()) {
+            return false;
         }
         self.stored.clear();
         // path.len() + kept ≤ MAX_WAYPOINTS: every push fits.
-        for it in head.iter().chain(items.iter()).chain(tail.iter()) {
-            let _ = self.stored.push(*it);
+        let _ = self.stored.extend_from_slice(head.as_slice());
+        for (x, y, z) in path.iter().filter_map(wire) {
+            let it = Item { x, y, z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 };
+            let _ = self.stored.push(it);
         }
+        let _ = self.stored.extend_from_slice(tail.as_slice());
         self.id = id_of(&self.stored);
         true
     }
