@@ -658,3 +658,38 @@ fn a_short_fix_loss_brakes_then_resumes_the_mission_instead_of_landing() {
     assert!(sim.quad.p.x > x0 + 0.5, "the mission goes on: {} -> {}", x0, sim.quad.p.x);
     assert!((sim.quad.p.z - z_before).abs() < 0.1, "height kept: {}", sim.quad.p.z);
 }
+
+/// A new path while the filter holds the vehicle and the trajectory's reference has braked
+/// to a stop beyond the tracking-error bound ahead of it (an on-board replan at a stall):
+/// the new path starts at rest where the vehicle is — not at the stale reference, from which
+/// its first leg would lead back through what stopped the vehicle (`OuterLoop::set_path`).
+/// Near the reference (within `TRJ_ERR_MAX`) it starts at the reference, as before.
+#[test]
+fn a_new_path_at_a_stall_starts_where_the_vehicle_is() {
+    let start = Vec3::new(0.0, 0.0, -1.0);
+    let mut p = ControllerParams::default();
+    parapet_core::params::set(&mut p, "WP_SPEED", 3.0).unwrap();
+    let mut sim = hovering(p, start);
+    // A wall across the way 1.2 m ahead: two rows of 8 points, 0.1 m apart.
+    for k in 0..16u16 {
+        let (row, col) = ((k / 8) as f32, (k % 8) as f32);
+        let _ =
+            sim.obstacles.push(ObstaclePoint::fixed(Vec3::new(1.2, -0.35 + 0.1 * col, -0.95 - 0.1 * row), k));
+    }
+    sim.ctl.set_path(&[start, Vec3::new(6.0, 0.0, -1.0)]).unwrap();
+    sim.ctl.start_mission(sim.t_us).unwrap();
+    sim.run(4.0, |_, _| {});
+    let stale = sim.ctl.telemetry().reference.position;
+    let vehicle = sim.quad.p;
+    println!("reference {stale:?}, vehicle {vehicle:?}");
+    assert!(vehicle.x < 1.2 && (stale - vehicle).norm() > 0.5, "held back: {vehicle:?}, reference {stale:?}");
+    // The detour, sideways round the wall.
+    sim.ctl.set_path(&[Vec3::new(vehicle.x, 2.0, -1.0), Vec3::new(6.0, 2.0, -1.0)]).unwrap();
+    sim.run(0.004, |_, _| {});
+    let r = sim.ctl.telemetry().reference;
+    assert!((r.position - vehicle).norm() < 0.05, "starts at the vehicle: {:?} vs {vehicle:?}", r.position);
+    assert!(r.velocity.norm() < 0.05, "at rest: {:?}", r.velocity);
+    sim.run(8.0, |_, _| {});
+    assert!(sim.min_dist > libm::sqrtf(0.05), "closest approach {} m", sim.min_dist);
+    assert!(sim.quad.p.y > 1.5, "went round: {:?}", sim.quad.p);
+}

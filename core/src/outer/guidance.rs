@@ -469,12 +469,25 @@ impl Guidance {
         now_us: u64,
         origin: Vec3,
     ) -> Result<(), CommandError> {
+        self.set_path_from(waypoints_ned, now_us, origin, true)
+    }
+
+    /// [`Self::set_path`] from `origin`: the current reference (`carry`: a trajectory being
+    /// flown carries its motion over when it can), or a point away from it such as the
+    /// vehicle's position (`carry` false: the new path starts there at rest).
+    pub fn set_path_from(
+        &mut self,
+        waypoints_ned: &[Vec3],
+        now_us: u64,
+        origin: Vec3,
+        carry: bool,
+    ) -> Result<(), CommandError> {
         self.follower.set_path(waypoints_ned).map_err(CommandError::Path)?;
         if let Mode::Mission { .. } = self.mode {
-            // `origin`, the current reference, has the shift in it.
+            // `origin` (the current reference, or the vehicle) has the shift in it.
             self.reset_shift = None;
             // A trajectory being flown carries its motion over when it can.
-            let carry = self.last_traj.filter(|_| self.flying_trajectory);
+            let carry = self.last_traj.filter(|_| carry && self.flying_trajectory);
             if self.follower.start(origin).is_ok() && self.build_trajectory(origin, carry).is_ok() {
                 self.mode = Mode::Mission { t0_us: now_us };
                 self.path_yaw.reset();
@@ -531,6 +544,11 @@ impl Guidance {
         } else {
             Err(CommandError::BadTarget)
         }
+    }
+
+    /// The guidance's parameters.
+    pub fn params(&self) -> &GuidanceParams {
+        &self.params
     }
 
     /// The stored path's waypoints (NED), as flown from the origin of the last start.

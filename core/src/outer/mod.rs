@@ -39,7 +39,7 @@ pub mod waypoint;
 use crate::cbf::{CbfError, CbfParams, FilterDiagnostics, FilterVariant, SafetyFilter};
 use crate::failsafe::ArmRefusal;
 use crate::failsafe::{DataHealth, FailsafeState, Transition};
-use crate::fmath::minf;
+use crate::fmath::{minf, norm3};
 use crate::governor::{self, GovernorParams, GovernorTelemetry};
 use crate::msg::{AttitudeCommand, AttitudeSetpoint, EstimatorAid, MotorStage, PositionFix, StateEstimate};
 use crate::obstacle::ObstaclePoint;
@@ -429,10 +429,23 @@ impl OuterLoop {
         }
     }
 
-    /// Replace the path (see [`crate::controller::FlightController::set_path`]).
+    /// Replace the path (see [`crate::controller::FlightController::set_path`]). A mission
+    /// being flown restarts from the current reference (its motion carried over when it can),
+    /// or — when the fresh position estimate is further than the tracking-error bound
+    /// (`TRJ_ERR_MAX`) from that reference (a vehicle held back by the filter while the
+    /// reference braked ahead of it, possibly past the obstacle) — at rest where the vehicle
+    /// is: a replanned detour starts where the replanner planned it from, and its first leg
+    /// never runs from a stale reference back through what stopped the vehicle.
     pub fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), CommandError> {
         let now = self.last_us.unwrap_or(0);
-        self.guidance.set_path(waypoints_ned, now, self.telemetry.reference.position)
+        let reference = self.telemetry.reference.position;
+        let bound = self.guidance.params().trajectory.tracking_error_bound;
+        match self.inputs.position_estimate(now) {
+            Some((p, _)) if norm3(&(p - reference)) > bound => {
+                self.guidance.set_path_from(waypoints_ned, now, p, false)
+            }
+            _ => self.guidance.set_path_from(waypoints_ned, now, reference, true),
+        }
     }
 
     /// The stored path's waypoints (NED; the on-board replanner's input, `crate::replan`).
