@@ -18,7 +18,9 @@
 //! campaign's narrow passage: a camera vehicle held 9 s in front of a 0.6 m door forgot the
 //! jambs beside it and grazed one, `docs/robustness.md` § At speed). A cell is
 //! also removed when a later beam passes through it (*see-through clearing*): the beam's
-//! central ray crosses the cell's box (inflated by voxel/4) and its return — or
+//! central ray crosses the cell's box (inflated by voxel/4 sideways and downwards, not
+//! upwards: a ray grazing a desk top from above, the 3D lidar's lowest row once the desk's
+//! edge is below its field, does not see through the top) and its return — or
 //! `max_range` for a beam with no return — lies at least `clear_margin` beyond the box's
 //! exit. Beams without information ([`Range::Unknown`]) clear nothing. Each cell is tested
 //! against the one beam of the scan nearest its direction (O(1) per cell).
@@ -565,8 +567,11 @@ impl<const N: usize> ObstacleMemory<N> {
             _ => return false,
         };
         let u = r_ws * self.trig.direction(row, col);
+        // Not inflated upwards (NED −z): a ray passing just above a top's returns (a desk top
+        // seen from above at a grazing angle) does not see through it.
         let t = Vec3::new(tol, tol, tol);
-        match slab(origin, &u, &(c.lo - t), &(c.hi + t)) {
+        let up = Vec3::new(tol, tol, 0.0);
+        match slab(origin, &u, &(c.lo - up), &(c.hi + t)) {
             Some((_, exit)) => exit + self.params.clear_margin <= free,
             None => false,
         }
@@ -1040,6 +1045,29 @@ mod tests {
         let behind = World { cyl: std::vec![(2.25, 0.0, 0.1)], wall_x: None };
         let r = behind.scan(&mut m, 5_000, P, 0.0, lidar());
         assert_eq!(r.cleared, 0);
+    }
+
+    /// A ray passing a few centimetres above a top's returns — a desk seen from above at a
+    /// grazing angle, the 3D lidar's lowest row closer than the desk's edge — does not clear
+    /// the cell (its box is not inflated upwards); one as close below it, or through it, does.
+    #[test]
+    fn a_ray_just_above_a_top_keeps_it_one_through_or_below_clears_it() {
+        let g = lidar();
+        let one = |m: &mut ObstacleMemory<128>, t_us: u64, at: Vec3, r: f32| {
+            // Beam 0 (north) returns at `r`, every other beam sees nothing in range.
+            let mut ranges = [Range::Clear; 72];
+            ranges[0] = Range::Hit(r);
+            let pose = Pose::from_rpy(at, 0.0, 0.0, 0.0);
+            m.insert_scan(&Scan { t_us, pose, mount: SensorMount::centered(), geometry: g, ranges: &ranges })
+        };
+        let up = Vec3::new(0.0, 0.0, -0.03); // NED: 3 cm higher
+        for (dz, cleared) in [(up, 0), (-up, 1), (Vec3::new(0.0, 0.0, 0.01), 1)] {
+            let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
+            one(&mut m, 1_000, P, 3.0);
+            assert_eq!(m.len(), 1);
+            let r = one(&mut m, 2_000, P + dz, 4.5);
+            assert_eq!(r.cleared, cleared, "ray {} m below the return", dz.z);
+        }
     }
 
     /// Proptest (fixed seed): a wall at a random distance and bearing offset seen by the
