@@ -150,7 +150,8 @@ pub struct RunArgs {
     seed: u64,
     /// Duration limit, s (default: the scene's, else 1.5 × the flown length (start → first
     /// waypoint → … → last) / min(speed, 1 m/s) + 15 s, extended while the vehicle still makes
-    /// progress along the path: 15 s after the last 0.25 m of it, at most 4 × the limit).
+    /// progress along the path: 15 s after the last 0.25 m of it or the last on-board replan,
+    /// at most 4 × the limit).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
     #[arg(long, allow_negative_numbers = true, help = format!(

@@ -48,7 +48,10 @@ pub const EXTEND_FACTOR: f64 = 4.0;
 /// sees its way), and a vehicle that is still getting there is not a stuck run. A run that
 /// made no progress in the last [`STALL_WINDOW_S`] before the limit ends at the limit, as
 /// before the watchdog existed; one given a duration (`--duration`, `[sim] duration`) ends
-/// at it.
+/// at it. A new path from the stack's on-board replanner ([`ProgressWatchdog::new_path`])
+/// counts as progress and restarts the measure: a detour (along a wall to another door) may
+/// lead away from the mission's path before it leads on, and the stack is still finding its
+/// way (a stack replanning without end still ends at the cap).
 #[derive(Clone, Copy, Debug)]
 pub struct ProgressWatchdog {
     best: f64,
@@ -68,6 +71,13 @@ impl ProgressWatchdog {
             self.best = remaining;
             self.last_progress_s = t;
         }
+    }
+
+    /// The stack flies a new path from time `t` (s; an on-board replan): progress, and the
+    /// path left is measured afresh from the next observation.
+    pub fn new_path(&mut self, t: f64) {
+        self.best = f64::INFINITY;
+        self.last_progress_s = t;
     }
 
     /// When a run with the default limit `base` (s) ends, s.
@@ -159,5 +169,15 @@ mod tests {
         assert_eq!(w.end(base), EXTEND_FACTOR * base);
         w.observe(171.0, f64::NAN);
         assert_eq!(w.end(base), EXTEND_FACTOR * base);
+        // A new path (a replan): progress at once, and a path left that grew (the detour
+        // leads away first) is the new measure.
+        let mut w = ProgressWatchdog::default();
+        w.observe(0.0, 10.0);
+        w.observe(20.0, 8.0);
+        w.new_path(30.0);
+        assert_eq!(w.end(base), 30.0 + STALL_WINDOW_S);
+        w.observe(31.0, 11.0);
+        w.observe(40.0, 11.0 - 2.0 * PROGRESS_STEP_M);
+        assert_eq!(w.end(base), 40.0 + STALL_WINDOW_S);
     }
 }

@@ -534,6 +534,8 @@ pub fn run_with(
 
     let n_inner = ((if ground { cfg.duration } else { hard_duration(cfg) }) / INNER_DT).ceil() as u64;
     let mut watchdog = ProgressWatchdog::default();
+    // New paths flown so far (an on-board replan restarts the watchdog's measure).
+    let mut replans_seen = 0;
     // A ground station's flight flies what the station uploads, not `cfg.path`: its limit stands.
     let extend = extends_while_progressing(cfg) && !ground;
     // Memory grows with the time flown, not with the duration limit: reserve at
@@ -648,6 +650,13 @@ pub fn run_with(
             if t >= next_progress {
                 progress(t);
                 next_progress = t + 0.1;
+                if extend {
+                    let replans = ctrl.replan_summary().replans;
+                    if replans != replans_seen {
+                        replans_seen = replans;
+                        watchdog.new_path(t);
+                    }
+                }
                 watchdog.observe(t, remaining_length(&scene.start, &cfg.path, &plant.state.pos));
             }
         }
