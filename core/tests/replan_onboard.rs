@@ -86,6 +86,6 @@ fn a_blocked_mission_gets_a_detour_through_the_three_parts() {
     m.tel.mode = GuidanceMode::Hold;
     assert!(!clock.snapshot(2_000_000, &m, &wall(), &mut req));
     // Off: never.
-    let mut off = ReplanClock::new(&ReplanParams::default(), 0.25);
+    let mut off = ReplanClock::new(&ReplanParams { enable: false, ..p }, 0.25);
     assert!(!off.snapshot(3_000_000, &fake(), &wall(), &mut req));
 }

@@ -10,9 +10,8 @@ use crate::param_decl::{field, flag, on_off, Has, Param};
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ReplanParams {
-    /// Replanning on. Default off (`RPL_ENABLE` 0, as PX4's `COM_OBS_AVOID`): on the speed
-    /// campaign's first 10 shards it gains goals (6,323 → 6,465) but `one_sphere` collides in
-    /// 8 more flights (flagged, not traced; docs/perception.md § Confirmation).
+    /// Replanning on. Default on (`RPL_ENABLE` 1, as ArduPilot's path planners in Auto;
+    /// docs/perception.md § "On by default"); 0 leaves a blocked vehicle to the filter's stall.
     pub enable: bool,
     /// Checks per second, Hz. Default 2.
     pub rate_hz: f32,
@@ -74,7 +73,7 @@ pub fn sane_hull(hull: f32) -> f32 {
 impl ReplanParams {
     /// The defaults (see each field).
     pub const DEFAULT: ReplanParams = ReplanParams {
-        enable: false,
+        enable: true,
         rate_hz: 2.0,
         cooldown_s: 2.0,
         horizon_m: 3.0,

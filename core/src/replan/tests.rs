@@ -222,7 +222,7 @@ fn the_trigger_keeps_its_rate_and_cooldown() {
     assert_eq!(clear.step(499_999, &at, &at, false, &path, &[], &mut out), None);
     assert_eq!(clear.step(500_000, &at, &at, false, &path, &[], &mut out), Some(ReplanOutcome::NotNeeded));
     // Off: never.
-    let mut off = Replanner::new(ReplanParams::default(), HULL);
+    let mut off = Replanner::new(ReplanParams { enable: false, ..on() }, HULL);
     off.observe(&at, &pts);
     assert_eq!(off.step(0, &at, &at, true, &path, &pts, &mut out), None);
 }
