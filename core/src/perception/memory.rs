@@ -22,7 +22,12 @@
 //! upwards: a ray grazing a desk top from above, the 3D lidar's lowest row once the desk's
 //! edge is below its field, does not see through the top) and its return — or
 //! `max_range` for a beam with no return — lies at least `clear_margin` beyond the box's
-//! exit. Beams without information ([`Range::Unknown`]) clear nothing. Each cell is tested
+//! exit. A ray that passes only beside the box (within the inflation, not through the box)
+//! clears it only when the four neighbouring beams also see that far: a ray grazing a
+//! silhouette — a pillar's edge, whose surface goes on just off its returns — is no evidence
+//! that the surface has gone (the office's pillar B2 was grazed by a camera flight whose
+//! memory had lost its edge this way, 2026-12-07), while a lone noise return is still
+//! cleared by the beams around it. Beams without information ([`Range::Unknown`]) clear nothing. Each cell is tested
 //! against the one beam of the scan nearest its direction (O(1) per cell).
 //!
 //! **Full.** With `N` cells stored a return for a new cube replaces the stored cell
@@ -70,6 +75,7 @@
 //! May import: `crate::obstacle`, `crate::obstacle_set`, `crate::cbf` (the input limit),
 //! `crate::fmath`, `crate::Vec3`, the parent module.
 
+mod clearing;
 mod points;
 
 use super::cell_distances::Distances;
@@ -194,31 +200,6 @@ fn clamp3_no_nan(p: &Vec3, lo: &Vec3, hi: &Vec3) -> Vec3 {
         }
     };
     Vec3::new(c(p.x, lo.x, hi.x), c(p.y, lo.y, hi.y), c(p.z, lo.z, hi.z))
-}
-
-/// Parameters of the segment through the inflated box `[lo, hi]` on the ray `o + s·u`:
-/// `Some((enter, exit))` when the ray meets it (slab test).
-fn slab(o: &Vec3, u: &Vec3, lo: &Vec3, hi: &Vec3) -> Option<(f32, f32)> {
-    let mut t0 = f32::NEG_INFINITY;
-    let mut t1 = f32::INFINITY;
-    for k in 0..3 {
-        let (ok, uk, lk, hk) = (o[k], u[k], lo[k], hi[k]);
-        if uk.abs() < 1e-9 {
-            if ok < lk || ok > hk {
-                return None;
-            }
-            continue;
-        }
-        let (a, b) = ((lk - ok) / uk, (hk - ok) / uk);
-        let (a, b) = if a < b { (a, b) } else { (b, a) };
-        if a > t0 {
-            t0 = a;
-        }
-        if b < t1 {
-            t1 = b;
-        }
-    }
-    (t0 <= t1 && t1 >= 0.0).then_some((t0, t1))
 }
 
 /// The segment being built in the tracking row.
@@ -539,42 +520,6 @@ impl<const N: usize> ObstacleMemory<N> {
         self.stats.scans = self.stats.scans.saturating_add(1);
         self.stats.dropped_full = self.stats.dropped_full.saturating_add(u32::from(rep.dropped_full));
         rep
-    }
-
-    /// Whether the scan's beam nearest to cell `c`'s direction passes through it.
-    fn beam_clears(
-        &self,
-        origin: &Vec3,
-        r_ws: &nalgebra::Matrix3<f32>,
-        scan: &Scan,
-        c: &Cell,
-        tol: f32,
-        fov: &FovBounds,
-    ) -> bool {
-        let g = &scan.geometry;
-        let centre = (c.lo + c.hi) * 0.5;
-        let q = r_ws.transpose() * (centre - origin);
-        if q.norm_squared() < 1e-6 || fov.surely_outside(&q) {
-            return false;
-        }
-        let Some((row, col)) = g.nearest_beam(&q) else {
-            return false;
-        };
-        let k = usize::from(row) * usize::from(g.n_az) + usize::from(col);
-        let free = match scan.ranges.get(k) {
-            Some(Range::Hit(r)) if *r >= g.min_range && *r < g.max_range => *r,
-            Some(Range::Clear) => g.max_range,
-            _ => return false,
-        };
-        let u = r_ws * self.trig.direction(row, col);
-        // Not inflated upwards (NED −z): a ray passing just above a top's returns (a desk top
-        // seen from above at a grazing angle) does not see through it.
-        let t = Vec3::new(tol, tol, tol);
-        let up = Vec3::new(tol, tol, 0.0);
-        match slab(origin, &u, &(c.lo - up), &(c.hi + t)) {
-            Some((_, exit)) => exit + self.params.clear_margin <= free,
-            None => false,
-        }
     }
 
     /// Merges return `w` into its cell (creating or, when full, replacing the farthest);
@@ -1067,6 +1012,41 @@ mod tests {
             assert_eq!(m.len(), 1);
             let r = one(&mut m, 2_000, P + dz, 4.5);
             assert_eq!(r.cleared, cleared, "ray {} m below the return", dz.z);
+        }
+    }
+
+    /// A ray passing just beside a cell's returns (within the inflation, not through them)
+    /// clears the cell only when the neighbouring beams also see past it: beside a surface
+    /// that goes on (a neighbour returns at the cell) it keeps the cell — a pillar's
+    /// silhouette — while a lone return with free beams all round is cleared; a ray through
+    /// the returns clears whatever the neighbours see.
+    #[test]
+    fn a_ray_grazing_a_silhouette_keeps_it_a_lone_return_is_cleared() {
+        let g = lidar();
+        let scan = |m: &mut ObstacleMemory<128>, t_us: u64, at: Vec3, hits: &[(usize, f32)]| {
+            let mut ranges = [Range::Clear; 72];
+            for &(k, r) in hits {
+                ranges[k] = Range::Hit(r);
+            }
+            let pose = Pose::from_rpy(at, 0.0, 0.0, 0.0);
+            m.insert_scan(&Scan { t_us, pose, mount: SensorMount::centered(), geometry: g, ranges: &ranges })
+        };
+        let beside = Vec3::new(0.0, 0.03, 0.0); // 3 cm east: beam 0 (north) passes beside the return
+                                                // (offset of the second scan, beam 0's and its neighbours' returns, cells cleared)
+        type Case<'a> = (Vec3, &'a [(usize, f32)], u32);
+        let cases: [Case; 5] = [
+            (beside, &[(0, 4.5)], 1),                             // a lone return: cleared
+            (beside, &[(0, 4.5), (1, 3.0)], 0),                   // the surface goes on east: kept
+            (beside, &[(0, 4.5), (71, 3.0)], 0),                  // … or west: kept
+            (beside, &[(0, 4.5), (1, 3.1)], 0),                   // a neighbour short of the margin: kept
+            (Vec3::zeros(), &[(0, 4.5), (1, 3.0), (71, 3.0)], 1), // through the return: cleared
+        ];
+        for (k, (off, hits, cleared)) in cases.into_iter().enumerate() {
+            let mut m = ObstacleMemory::<128>::new(MemoryParams::default());
+            scan(&mut m, 1_000, P, &[(0, 3.0)]);
+            assert_eq!(m.len(), 1);
+            let r = scan(&mut m, 2_000, P + off, hits);
+            assert_eq!(u32::from(r.cleared), cleared, "case {k}");
         }
     }
 
