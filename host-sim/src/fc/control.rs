@@ -181,6 +181,10 @@ impl FlightStack for Controller {
         self.replan.summary()
     }
 
+    fn replans(&self) -> u32 {
+        self.replan.replans()
+    }
+
     fn mission(&self) -> Option<(Vec<Vector3<f64>>, u16)> {
         let path = self.fc.path().iter().map(|w| Vector3::new(w.x as f64, w.y as f64, w.z as f64)).collect();
         use parapet_core::replan::onboard::MissionControl;

@@ -64,6 +64,11 @@ impl OnboardReplan {
         self.summary.replan_events.push(ReplanEvent { t_s: t, outcome, waypoints, detour });
     }
 
+    /// New paths set so far.
+    pub fn replans(&self) -> u32 {
+        self.summary.replans
+    }
+
     /// The record so far.
     pub fn summary(&self) -> ReplanSummary {
         ReplanSummary { replan_checks: self.core.stats().checks, ..self.summary.clone() }

@@ -651,7 +651,7 @@ pub fn run_with(
                 progress(t);
                 next_progress = t + 0.1;
                 if extend {
-                    let replans = ctrl.replan_summary().replans;
+                    let replans = ctrl.replans();
                     if replans != replans_seen {
                         replans_seen = replans;
                         watchdog.new_path(t);

@@ -127,6 +127,11 @@ pub trait FlightStack {
     fn replan_summary(&self) -> crate::report::ReplanSummary {
         crate::report::ReplanSummary::default()
     }
+    /// New paths the on-board replanner set so far (`replan_summary().replans`, without
+    /// building the summary: the runner's duration watchdog asks every 0.1 s).
+    fn replans(&self) -> u32 {
+        self.replan_summary().replans
+    }
     /// The mission the stack flies now: its path (NED, m; after an on-board replan the new
     /// path, issue 38) and the index of the waypoint being flown to (MISSION_CURRENT `seq`).
     /// Default: `None` (not known here: the PIL firmware serves its own mission).

@@ -395,6 +395,10 @@ impl<S: FlightStack> FlightStack for GcsStack<S> {
     fn replan_summary(&self) -> crate::report::ReplanSummary {
         self.inner.replan_summary()
     }
+
+    fn replans(&self) -> u32 {
+        self.inner.replans()
+    }
 }
 
 #[cfg(test)]
