@@ -6,6 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[allow(dead_code)] // only the directory guard is shared here
+mod common;
+
 use parapet_sim::campaign::{
     cmd_campaign, cmd_campaign_merge, CampaignArgs, CampaignMergeArgs, IdentityArgs,
 };
@@ -14,11 +17,8 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("parapet-campaign-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(name: &str) -> common::TmpDir {
+    common::tmp("campaign", name)
 }
 
 fn campaign(file: &Path, out: &Path, shard: Option<&str>) {
@@ -315,7 +315,7 @@ fn the_speed_campaign_draws_the_perception_and_refuses_a_set_that_cannot_see_the
     let file = root().join("scenes/campaigns/speed_ci.toml");
     let a = CampaignArgs {
         campaign: file.clone(),
-        out: out.clone(),
+        out: out.to_path_buf(),
         jobs: Some(2),
         shard: None,
         identity: IdentityArgs { guidance: None, param: Vec::new(), params_file: None },

@@ -1,12 +1,12 @@
 //! Command-line tests: run the built `parapet` binary.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod common;
 use common::parapet;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("cli", name)
 }
 

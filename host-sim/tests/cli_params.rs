@@ -1,13 +1,13 @@
 //! `--param NAME=VALUE` and `--params FILE` (issue 37): any parameter of the table set on a
 //! simulated flight by its name, checked like every other input.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod common;
 use common::parapet;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("cli-params", name)
 }
 

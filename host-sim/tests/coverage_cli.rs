@@ -5,7 +5,6 @@
 //! `[sensors] assume`); bad sensor descriptions and unknown assumptions exit 2 naming the field
 //! or option, the value and the allowed values.
 
-use std::path::PathBuf;
 use std::process::Output;
 
 mod common;
@@ -14,15 +13,15 @@ use common::parapet;
 const SCENE: &str = include_str!("data/scenes/coverage_cli.toml");
 
 /// `parapet run --straight --duration 0.5` of `scene` (text) with `extra`; the output and the
-/// report directory.
-fn run(name: &str, scene: &str, extra: &[&str]) -> (Output, PathBuf) {
+/// test's directory (the report is in its `report/`).
+fn run(name: &str, scene: &str, extra: &[&str]) -> (Output, common::TmpDir) {
     let d = common::tmp("coverage_cli", name);
     let file = d.join("scene.toml");
     std::fs::write(&file, scene).unwrap();
     let out = d.join("report");
     let args = ["run", "--scene", file.to_str().unwrap(), "--straight", "--duration", "0.5"];
     let o = parapet(&[&args[..], extra, &["--out", out.to_str().unwrap()]].concat());
-    (o, out)
+    (o, d)
 }
 
 fn stderr(o: &Output) -> String {
@@ -58,7 +57,7 @@ fn a_planar_lidar_is_refused_until_both_vertical_assumptions_are_given() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("(assumed away: no-overhangs)"), "{err}");
     let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("report/summary.json")).unwrap()).unwrap();
     let gaps = s["coverage_gaps"].as_array().unwrap();
     assert_eq!(gaps.len(), 2, "{gaps:?}");
     assert!(gaps.iter().all(|g| g.as_str().unwrap().contains("assumed away")), "{gaps:?}");

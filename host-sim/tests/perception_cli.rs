@@ -7,7 +7,7 @@ use std::process::Output;
 mod common;
 use common::parapet;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("perception_cli", name)
 }
 

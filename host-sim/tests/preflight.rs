@@ -2,13 +2,13 @@
 //! `parapet` binary: a refused flight exits 2 before flying, naming the file, the
 //! field / waypoint, the coordinate and what it violates.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod common;
 use common::parapet;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("preflight", name)
 }
 

@@ -97,7 +97,7 @@ fn chromium_missing_fails_in_ci_and_with_the_variable_and_skips_otherwise() {
 }
 
 /// A fresh directory for this test.
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("replay", name)
 }
 

@@ -1,13 +1,13 @@
 //! `parapet sweep` / `parapet sweep-merge` on a tiny grid (one_sphere scene, straight path,
 //! 2 × 2 grid, one seed, 12 s runs): outputs, determinism, shard/merge = unsharded, bad input.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod common;
 use common::parapet;
 
-fn tmp(name: &str) -> PathBuf {
+fn tmp(name: &str) -> common::TmpDir {
     common::tmp("sweep", name)
 }
 
