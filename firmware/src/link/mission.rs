@@ -51,16 +51,19 @@
 //! download it again (the MAVLink definition of these fields).
 //!
 //! **Replanned path** ([`MissionUpload::replanned`], from [`crate::link::mission_run`] when the
-//! on-board replanner set a new path): in a plan that is one flight through waypoints (a
-//! takeoff where the vehicle is first and a landing where it is or a return last allowed; the
-//! waypoints in one frame, local or global, as QGroundControl sends them) the waypoints become
-//! the path the vehicle now flies (one NAV_WAYPOINT item per waypoint, in the plan's frame),
-//! so a download returns it and the plan id changes. A plan with other items (a takeoff or
-//! landing position, holds, actions, DO_*) is kept as uploaded (its download is then not the
-//! replanned path). The replanned path fits the store unless kept items need the room: both
-//! hold 64 points (`PATH_CAPACITY`; a replan that would need more is a `BudgetExceeded`
-//! result and is not flown), and a path of 63–64 points with a takeoff and a return leaves the
-//! plan as uploaded.
+//! on-board replanner set a new path): the items of the flight being flown (the waypoints from
+//! one item with an action to the next, [`Next::Fly`]) become the path the vehicle now flies,
+//! one NAV_WAYPOINT item per waypoint in the flight's frame, so a download returns it and the
+//! plan id changes. Everything else stays as uploaded, in place: the items before the flight
+//! (a takeoff, earlier flights, holds already flown) keep their seqs, the items after it (a
+//! speed change, a hold, a landing, a return, DO_*) move up or down with the new count. The
+//! flight's last item stays when it does more than pass (a hold, a loiter, a yaw, a landing
+//! approach): the replanned path ends at its position (the replanner keeps the flight's end).
+//! A flight with other items inside it (an ignored DO_* between its waypoints, waypoints in
+//! two frames) is kept as uploaded (its download is then not the replanned path). The path
+//! fits the store unless the other items need the room: both hold 64 points (`PATH_CAPACITY`;
+//! a replan that would need more is a `BudgetExceeded` result and is not flown), and a path
+//! that would make the plan longer than 64 items leaves the plan as uploaded.
 //!
 //! The deprecated float MISSION_ITEM / MISSION_REQUEST are converted to and from these messages
 //! by [`crate::link::mission_float`].
@@ -349,55 +352,59 @@ impl MissionUpload {
         self.id
     }
 
-    /// The cascade flies a replanned path (issue 38): when the accepted plan is one flight
-    /// through waypoints — `[NAV_TAKEOFF here] NAV_WAYPOINT… [NAV_LAND here | NAV_RETURN_TO_LAUNCH]`,
-    /// the waypoints without actions and all in one frame, local or global (QGroundControl's
-    /// plan: a takeoff, waypoints in `GLOBAL_RELATIVE_ALT_INT`, a return) — its waypoints become
-    /// `path`, one NAV_WAYPOINT item per point in their frame (a global one through
-    /// [`geo::ned_to_global`] and the frame's altitude reference), between the takeoff and the
-    /// end item kept as uploaded; a download returns what the vehicle flies and the plan id
-    /// changes. `false`, the plan kept, for any other plan (a takeoff or landing position,
-    /// holds, actions, DO_* items, mixed frames), for a path that is empty, does not fit
-    /// [`MAX_WAYPOINTS`] with the kept items or lies beyond the global frame's reach.
-    pub fn replanned(&mut self, path: &[Vec3]) -> bool {
-        let here = |it: &Item| it.x == 0 && it.y == 0;
+    /// The cascade flies a replanned path (issue 38) in place of the flight through points
+    /// `from..` whose last item is `last` ([`Next::Fly`]): the items of that flight become
+    /// `path`, one NAV_WAYPOINT per point in their frame (a global one through
+    /// [`geo::ned_to_global`] and the frame's altitude reference), and the items after them
+    /// move up or down. A last item that does more than pass (a hold, a loiter, a yaw, a landing
+    /// approach) stays as uploaded, and the path's last point, its position (where the
+    /// replanner's path ends: the flight's end), is not repeated. A download then returns what
+    /// the vehicle flies and the plan id changes. `Some((to, last))`, the flight's new last
+    /// point and item; `None`, the plan kept: the flight's other items are not plain waypoints
+    /// of one frame, the path is empty, does not fit [`MAX_WAYPOINTS`] with the other items or
+    /// lies beyond the global frame's reach. O([`MAX_WAYPOINTS`]), no second store.
+    pub fn replanned(&mut self, path: &[Vec3], from: u16, last: u16) -> Option<(u16, u16)> {
+        let a = usize::from(self.path_seq(from)?);
+        let last_i = usize::from(last);
         let s = &self.stored;
-        let head = s.first().filter(|it| it.command == id::TAKEOFF && here(it)).copied();
-        let tail = s
-            .last()
-            .filter(|it| it.command == RETURN_TO_LAUNCH || (it.command == id::LAND && here(it)))
-            .copied();
-        let mid = s.get(usize::from(head.is_some())..s.len().saturating_sub(usize::from(tail.is_some())));
-        let Some((frame, mid)) = mid.and_then(|m| m.first().map(|it| (it.frame, m))) else { return false };
+        let frame = s.get(a)?.frame;
         let plain = |it: &Item| {
             it.command == id::WAYPOINT
                 && it.frame == frame
                 && matches!(mission_items::check(it.command, it.params), Ok(None))
         };
-        let kept = usize::from(head.is_some()) + usize::from(tail.is_some());
-        if path.is_empty() || path.len() + kept > MAX_WAYPOINTS || !mid.iter().all(plain) {
-            return false;
+        let keep_last = !plain(s.get(last_i)?);
+        // Items a..b are replaced by `new`.
+        let b = last_i + usize::from(!keep_last);
+        let new = path.get(..path.len().saturating_sub(usize::from(keep_last)))?;
+        let len = s.len().checked_sub(b.checked_sub(a)?)? + new.len();
+        if new.is_empty() || len > MAX_WAYPOINTS || !s.get(a..b)?.iter().all(plain) {
+            return None;
         }
-        let Ok(r) = alt_ref(frame) else { return false };
+        let r = alt_ref(frame).ok()?;
         // The wire x, y, z of point `p` in the plan's frame; `None` beyond a global frame's reach.
         let wire = |p: &Vec3| match r {
             None => Some((local_xy_to_wire(f64::from(p.x)), local_xy_to_wire(f64::from(p.y)), p.z)),
             Some(r) => geo::ned_to_global(*p).map(|(lat, lon, _)| (lat, lon, geo::altitude_m(p.z, r))),
         };
-        // Checked before the plan is touched: no second store of 64 items on the link task's stack.
-        if !path.iter().all(|p| wire(p).is_some()) {
-            return false;
+        // Checked before the plan is touched.
+        if !new.iter().all(|p| wire(p).is_some()) {
+            return None;
         }
-        self.stored.clear();
-        // path.len() + kept ≤ MAX_WAYPOINTS: every push fits.
-        let _ = self.stored.extend_from_slice(head.as_slice());
-        for (x, y, z) in path.iter().filter_map(wire) {
-            let it = Item { x, y, z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 };
-            let _ = self.stored.push(it);
+        // The items after the flight move to a + new.len() (len ≤ MAX_WAYPOINTS: it fits).
+        let old = self.stored.len();
+        let filler = *self.stored.get(a)?;
+        if len > old {
+            self.stored.resize(len, filler).ok()?;
         }
-        let _ = self.stored.extend_from_slice(tail.as_slice());
+        self.stored.copy_within(b..old, a + new.len());
+        self.stored.truncate(len);
+        for (slot, (x, y, z)) in self.stored.iter_mut().skip(a).zip(new.iter().filter_map(wire)) {
+            *slot = Item { x, y, z, params: [0.0; 4], command: id::WAYPOINT, frame, autocontinue: 1 };
+        }
         self.id = id_of(&self.stored);
-        true
+        let n = new.len() as u16 - u16::from(!keep_last);
+        Some((from + n, a as u16 + n))
     }
 
     /// MISSION_ACK addressed to the last upload partner.
@@ -823,10 +830,16 @@ mod tests {
         m
     }
 
+    /// Replans the plan's first flight ([`Next::Fly`] from item 0) with `path`.
+    fn replan_first(m: &mut MissionUpload, path: &[Vec3]) -> Option<(u16, u16)> {
+        let Next::Fly { from, last, .. } = m.next_from(0) else { return None };
+        m.replanned(path, from, last)
+    }
+
     /// Issue 38: a replanned path becomes the accepted plan of a plan of waypoints — a download
-    /// returns its items and the plan id (MISSION_COUNT `opaque_id`) changes; a plan with a
-    /// landing position, an empty path or one beyond the store's capacity leaves the plan and
-    /// its id alone.
+    /// returns its items and the plan id (MISSION_COUNT `opaque_id`) changes; an empty path or
+    /// one beyond the store's capacity leaves the plan and its id alone; a landing position
+    /// stays the plan's last item.
     #[test]
     fn a_replanned_path_becomes_the_downloaded_plan_of_a_waypoint_plan() {
         let mut m = accepted(&[item(0, 1.0, 0.0, -1.0), item(0, 2.0, 0.0, -1.0), item(0, 3.0, 1.0, -1.0)]);
@@ -838,10 +851,10 @@ mod tests {
             Vec3::new(2.0, 0.0, -1.0),
             Vec3::new(3.0, 1.0, -1.0),
         ];
-        assert!(!m.replanned(&[]));
-        assert!(!m.replanned(&[path[0]; MAX_WAYPOINTS + 1]));
+        assert_eq!(replan_first(&mut m, &[]), None);
+        assert_eq!(replan_first(&mut m, &[path[0]; MAX_WAYPOINTS + 1]), None);
         assert_eq!(m.plan_id(), id0);
-        assert!(m.replanned(&path));
+        assert_eq!(replan_first(&mut m, &path), Some((3, 3)));
         let id1 = m.plan_id();
         assert!(id1 != id0 && id1 != 0);
         match m.on_request_list(MavMissionType::MAV_MISSION_TYPE_MISSION, 255, 190) {
@@ -863,26 +876,31 @@ mod tests {
         assert_eq!(m.accepted_path().len(), 4);
         assert!((m.accepted_path()[1] - path[1]).norm() < 1e-4);
         // The same path again is the same plan: the same id.
-        assert!(m.replanned(&path));
+        assert_eq!(replan_first(&mut m, &path), Some((3, 3)));
         assert_eq!(m.plan_id(), id1);
         // A plan that lands where the last waypoint was: the path, then its LAND item.
         let land = MISSION_ITEM_INT_DATA { command: id::LAND, x: 0, y: 0, ..item(0, 0.0, 0.0, 0.0) };
         let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land.clone()]);
-        assert!(l.replanned(&path));
+        assert_eq!(replan_first(&mut l, &path), Some((3, 3)));
         assert_eq!((l.stored_len(), l.plan().path_len, l.plan().end), (5, 4, Some((4, EndAction::Land))));
-        // One that lands at a position (its approach is a path point) is not rewritten.
-        let land_at = MISSION_ITEM_INT_DATA { x: item(0, 4.0, 0.0, 0.0).x, ..land };
-        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land_at]);
+        // One that lands at a position: its approach is the path's last point, the LAND item
+        // stays after the new waypoints.
+        let land_at =
+            MISSION_ITEM_INT_DATA { x: item(0, 3.0, 0.0, 0.0).x, y: item(0, 0.0, 1.0, 0.0).y, ..land };
+        let mut l = accepted(&[item(0, 1.0, 0.0, -1.0), land_at.clone()]);
         let id_l = l.plan_id();
-        assert!(!l.replanned(&path));
-        assert_eq!((l.plan_id(), l.stored_len()), (id_l, 2));
+        assert_eq!(replan_first(&mut l, &path), Some((3, 3)));
+        assert_ne!(l.plan_id(), id_l);
+        assert_eq!((l.stored_len(), l.plan().path_len, l.plan().end), (4, 4, Some((3, EndAction::Land))));
+        assert!((l.accepted_path()[3] - path[3]).norm() < 1e-4, "the approach is the path's end");
+        assert_eq!(l.stored.last().map(|it| (it.command, it.x)), Some((id::LAND, land_at.x)));
         l.clear();
         assert_eq!(l.plan_id(), 0);
     }
 
     /// A plan as QGroundControl sends it — a takeoff where the vehicle is, waypoints in
     /// `GLOBAL_RELATIVE_ALT_INT`, a return — gets the replanned waypoints in its frame between
-    /// the takeoff and the return; a plan with a hold (or mixed frames) is kept as uploaded.
+    /// the takeoff and the return; a flight in mixed frames is kept as uploaded.
     #[test]
     fn a_global_frame_plan_gets_the_replanned_waypoints_in_its_frame() {
         let global = |p: Vec3| {
@@ -904,7 +922,7 @@ mod tests {
         let id0 = m.plan_id();
         assert_eq!((m.plan().takeoff.map(|t| t.0), m.plan().end.map(|e| e.0)), (Some(0), Some(3)));
         let detour = [Vec3::new(4.0, 2.0, -2.5), Vec3::new(7.0, 4.0, -2.0), b];
-        assert!(m.replanned(&detour));
+        assert_eq!(replan_first(&mut m, &detour), Some((2, 3)));
         assert!(m.plan_id() != id0 && m.plan_id() != 0);
         let n = m.stored_len();
         assert_eq!(n, 5);
@@ -931,23 +949,78 @@ mod tests {
             panic!("end item")
         };
         assert_eq!(end.command, RETURN_TO_LAUNCH);
-        // A hold (NAV_LOITER_TIME) among the waypoints: kept as uploaded.
+        // Mixed frames within the flight: kept (a last item in another frame stays as it is).
+        let mut x = accepted(&[global(a), item(0, 7.0, 3.0, -2.0), global(b)]);
+        assert_eq!(replan_first(&mut x, &detour), None);
+        let mut y = accepted(&[global(a), item(0, 9.0, 3.0, -2.0)]);
+        assert_eq!(replan_first(&mut y, &detour), Some((2, 2)));
+        assert_eq!(y.stored.last().map(|it| it.frame), Some(MavFrame::MAV_FRAME_LOCAL_NED));
+        // No room for the kept items with a full path: kept.
+        assert_eq!(replan_first(&mut m, &[b; MAX_WAYPOINTS - 1]), None);
+        assert_eq!(replan_first(&mut m, &[b; MAX_WAYPOINTS - 2]), Some((61, 62)));
+        assert_eq!(m.stored_len() as usize, MAX_WAYPOINTS);
+    }
+
+    /// A plan with a hold and a speed change: the replanned flight's items are replaced in
+    /// place, the hold (the flight's end) and everything after it stay as uploaded and move
+    /// with the new item count; a replan of the next flight replaces its items only.
+    #[test]
+    fn a_replan_splices_the_flight_being_flown_into_a_plan_with_a_hold_and_a_speed_change() {
         let hold = MISSION_ITEM_INT_DATA {
             command: MavCmd::MAV_CMD_NAV_LOITER_TIME as u16,
             param1: 3.0,
-            ..global(a)
+            ..item(0, 4.0, 0.0, -1.0)
         };
-        let mut h = accepted(&[takeoff, global(a), hold, global(b), rtl]);
-        let idh = h.plan_id();
-        assert!(!h.replanned(&detour));
-        assert_eq!((h.plan_id(), h.stored_len()), (idh, 5));
-        // Mixed frames: kept.
-        let mut x = accepted(&[global(a), item(0, 9.0, 3.0, -2.0)]);
-        assert!(!x.replanned(&detour));
-        // No room for the kept items with a full path: kept.
-        assert!(!m.replanned(&[b; MAX_WAYPOINTS - 1]));
-        assert!(m.replanned(&[b; MAX_WAYPOINTS - 2]));
-        assert_eq!(m.stored_len() as usize, MAX_WAYPOINTS);
+        let speed = MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16,
+            param2: 2.0,
+            ..item(0, 0.0, 0.0, 0.0)
+        };
+        let rtl = MISSION_ITEM_INT_DATA { command: RETURN_TO_LAUNCH, ..item(0, 0.0, 0.0, 0.0) };
+        let mut m = accepted(&[
+            item(0, 2.0, 0.0, -1.0),
+            hold.clone(),
+            speed.clone(),
+            item(0, 6.0, 2.0, -1.0),
+            item(0, 8.0, 2.0, -1.0),
+            rtl.clone(),
+        ]);
+        let id0 = m.plan_id();
+        let h = Vec3::new(4.0, 0.0, -1.0);
+        let (d1, d2) = (Vec3::new(2.0, 1.0, -1.0), Vec3::new(3.0, 1.5, -1.0));
+        // The first flight (waypoint, hold): two detour points, then the hold as uploaded.
+        assert_eq!(m.next_from(0), Next::Fly { from: 0, to: 1, last: 1 });
+        assert_eq!(m.replanned(&[d1, d2, h], 0, 1), Some((2, 2)));
+        assert_ne!(m.plan_id(), id0);
+        let seqs = |m: &MissionUpload| m.stored.iter().map(|it| it.command).collect::<std::vec::Vec<_>>();
+        let (wp, loiter, spd) = (id::WAYPOINT, hold.command, speed.command);
+        assert_eq!(seqs(&m), [wp, wp, loiter, spd, wp, wp, RETURN_TO_LAUNCH]);
+        assert_eq!(m.stored[2].params[0], 3.0, "the hold keeps its time");
+        assert_eq!(
+            m.accepted_path().as_slice(),
+            &[d1, d2, h, Vec3::new(6.0, 2.0, -1.0), Vec3::new(8.0, 2.0, -1.0)][..]
+        );
+        assert_eq!(m.next_from(3), Next::Act(3));
+        // The next flight (after the speed change): its two waypoints become three.
+        assert_eq!(m.next_from(4), Next::Fly { from: 3, to: 4, last: 5 });
+        let e = Vec3::new(7.0, 3.0, -1.0);
+        let c = Vec3::new(8.0, 2.0, -1.0);
+        assert_eq!(m.replanned(&[d2, e, c], 3, 5), Some((5, 6)));
+        assert_eq!(seqs(&m), [wp, wp, loiter, spd, wp, wp, wp, RETURN_TO_LAUNCH]);
+        assert_eq!(m.accepted_path().get(3..).unwrap_or(&[]), &[d2, e, c][..]);
+        assert_eq!(m.plan().end.map(|e| e.0), Some(7));
+        // A flight that is only the hold: the detour goes before it.
+        let mut only = accepted(&[hold.clone(), rtl]);
+        assert_eq!(only.replanned(&[d1, h], 0, 0), Some((1, 1)));
+        assert_eq!(seqs(&only), [wp, loiter, RETURN_TO_LAUNCH]);
+        // An ignored item inside the flight: kept as uploaded.
+        let cam = MISSION_ITEM_INT_DATA {
+            command: MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST as u16,
+            ..item(0, 0.0, 0.0, 0.0)
+        };
+        let mut k = accepted(&[item(0, 2.0, 0.0, -1.0), cam, item(0, 3.0, 0.0, -1.0), hold]);
+        let Next::Fly { from, last, .. } = k.next_from(0) else { panic!("a flight") };
+        assert_eq!(k.replanned(&[d1, h], from, last), None);
     }
 
     #[test]

@@ -152,9 +152,9 @@ impl MissionRun {
     }
 
     /// The on-board replanner set a new path (issue 38: a new event in the snapshot, a
-    /// `Replanned` one): the accepted plan `m` becomes the path the cascade flies when it is one
-    /// flight through waypoints ([`MissionUpload::replanned`]), and the segment being flown is
-    /// that whole path, so MISSION_CURRENT counts in its items. `true` when the plan changed.
+    /// `Replanned` one): the items of the flight being flown (before one is flown: the plan's
+    /// first) become the path the cascade flies ([`MissionUpload::replanned`]), and the flight
+    /// counts in the new items, so MISSION_CURRENT does. `true` when the plan changed.
     pub fn follow_replan<A: Autopilot>(&mut self, m: &mut MissionUpload, ap: &A) -> bool {
         let r = ap.telemetry().replan;
         if r.events == self.replan_events {
@@ -162,16 +162,18 @@ impl MissionRun {
         }
         self.replan_events = r.events;
         let replanned = r.last.is_some_and(|e| matches!(e.outcome, ReplanOutcome::Replanned { .. }));
-        if !replanned || !m.replanned(ap.flown_path()) {
+        let (from, last) = match (self.run, m.next_from(0)) {
+            (Run::Flying { from, last, .. }, _) | (_, Next::Fly { from, last, .. }) => (from, last),
+            _ => return false,
+        };
+        let Some((to, last)) = replanned.then(|| m.replanned(ap.flown_path(), from, last)).flatten() else {
             return false;
-        }
-        // The new waypoints are the plan's path (after a kept takeoff, before a kept end item).
-        let to = m.plan().path_len.saturating_sub(1);
-        let last = m.path_seq(to).unwrap_or(0);
+        };
         if let Run::Flying { seen, since_us, .. } = self.run {
-            self.run = Run::Flying { seen, since_us, from: 0, to, last };
+            self.run = Run::Flying { seen, since_us, from, to, last };
         }
-        (self.current, self.reached) = (m.path_seq(0).unwrap_or(0), None);
+        let first = m.path_seq(from).unwrap_or(0);
+        (self.current, self.reached) = (first, self.reached.filter(|&q| q < first));
         true
     }
 
@@ -540,21 +542,29 @@ mod tests {
     }
 
     fn plan(points: &[Vec3]) -> MissionUpload {
+        let items: std::vec::Vec<_> =
+            points.iter().map(|p| (MavCmd::MAV_CMD_NAV_WAYPOINT, *p, 0.0)).collect();
+        plan_of(&items)
+    }
+
+    /// A local-frame plan of (command, position, param1) items.
+    fn plan_of(items: &[(MavCmd, Vec3, f32)]) -> MissionUpload {
         let mut m = MissionUpload::new();
         let count = MISSION_COUNT_DATA {
-            count: points.len() as u16,
+            count: items.len() as u16,
             target_system: 1,
             target_component: 1,
             ..Default::default()
         };
         m.on_count(&count, 255, 190, 0);
-        for (k, p) in points.iter().enumerate() {
+        for (k, (command, p, param1)) in items.iter().enumerate() {
             let it = MISSION_ITEM_INT_DATA {
                 x: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.x)),
                 y: parapet_core::wire::ids::local_xy_to_wire(f64::from(p.y)),
                 z: p.z,
                 seq: k as u16,
-                command: MavCmd::MAV_CMD_NAV_WAYPOINT as u16,
+                command: *command as u16,
+                param1: *param1,
                 frame: MavFrame::MAV_FRAME_LOCAL_NED,
                 ..Default::default()
             };
@@ -637,5 +647,35 @@ mod tests {
         run.reset();
         assert!(!run.follow_replan(&mut m2, &ap));
         assert_eq!(m2.plan_id(), id0);
+    }
+
+    /// Issue 38: a replan during the flight after a hold replaces that flight's items only;
+    /// the executor flies on to the new last item, MISSION_CURRENT counts from the flight's
+    /// first item and the items reached before it stay reached.
+    #[test]
+    fn a_replan_after_a_hold_rewrites_the_flight_being_flown_and_keeps_what_was_reached() {
+        use MavCmd::{MAV_CMD_NAV_LOITER_TIME as HOLD, MAV_CMD_NAV_WAYPOINT as WP};
+        let (a, h, b, c) = (
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(2.0, 0.0, -1.0),
+            Vec3::new(3.0, 0.0, -1.0),
+            Vec3::new(5.0, 0.0, -1.0),
+        );
+        let mut m = plan_of(&[(WP, a, 0.0), (HOLD, h, 2.0), (WP, b, 0.0), (WP, c, 0.0)]);
+        let mut run = MissionRun::new();
+        run.run = Run::Flying { seen: true, since_us: 7, from: 2, to: 3, last: 3 };
+        (run.current, run.reached) = (2, Some(1));
+        let (e1, e2) = (Vec3::new(3.0, 1.0, -1.0), Vec3::new(4.0, 1.0, -1.0));
+        let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: vec![e1, e2, c] };
+        let replanned = ReplanOutcome::Replanned { detour: 2, waypoints: 3 };
+        ap.snapshot.replan = crate::app::replanner::ReplanReport {
+            events: 1,
+            last: Some(ReplanEvent { outcome: replanned, waypoints: 3, detour: 2 }),
+        };
+        assert!(run.follow_replan(&mut m, &ap));
+        assert_eq!(m.accepted_path().as_slice(), &[a, h, e1, e2, c][..]);
+        assert!(m.action_at(1).is_some(), "the hold stays");
+        assert_eq!(run.run, Run::Flying { seen: true, since_us: 7, from: 2, to: 4, last: 4 });
+        assert_eq!((run.current, run.reached), (2, Some(1)));
     }
 }
