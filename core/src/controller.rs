@@ -390,6 +390,14 @@ impl FlightController {
         self.outer.set_path(waypoints_ned)
     }
 
+    /// One step of streaming a path longer than [`PATH_CAPACITY`] (issue 38): the next of the
+    /// `waiting` waypoints go onto the path when a refill is due; returns how many (see
+    /// [`OuterLoop::stream_path`](crate::outer::OuterLoop::stream_path)). Call after each
+    /// outer step.
+    pub fn stream_path(&mut self, waiting: &[Vec3]) -> Result<usize, CommandError> {
+        self.outer.stream_path(waiting)
+    }
+
     /// The stored path's waypoints (NED; see [`OuterLoop::path`](crate::outer::OuterLoop::path)).
     pub fn path(&self) -> &[Vec3] {
         self.outer.path()

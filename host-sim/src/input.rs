@@ -151,8 +151,10 @@ pub mod limits {
     /// and path waypoints, m: the core's `waypoint::COORDINATE_LIMIT` (the
     /// controller drops obstacle points beyond `cbf::INPUT_LIMIT`, the same value).
     pub const MAX_COORDINATE_M: f64 = waypoint::COORDINATE_LIMIT as f64;
-    /// Most waypoints in a path (planned or `--path`): the controller's `PATH_CAPACITY`.
-    pub const MAX_WAYPOINTS: usize = controller::PATH_CAPACITY;
+    /// Most waypoints in a path (planned or `--path`): a MAVLink mission's item count (`u16`).
+    /// The controller holds `PATH_CAPACITY` (64) at a time; a longer path is given to it in
+    /// windows as it is flown (`parapet_core::outer::path_stream`, issue 38).
+    pub const MAX_WAYPOINTS: usize = u16::MAX as usize;
     /// Most obstacle points the controller keeps at once (the most critical of those
     /// reported, `parapet_core::obstacle_set`): `controller::OBSTACLE_CAPACITY`.
     pub const MAX_OBSTACLES_SENSED: usize = controller::OBSTACLE_CAPACITY;

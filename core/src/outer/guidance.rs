@@ -29,6 +29,7 @@ use crate::waypoint::{
 use crate::Vec3;
 
 mod lent;
+mod stream;
 
 /// Capacity of the controller's path, waypoints.
 pub const PATH_CAPACITY: usize = DEFAULT_PATH_CAPACITY;

@@ -28,6 +28,7 @@ mod flight_modes;
 pub mod guidance;
 pub mod inputs;
 pub mod offboard;
+pub mod path_stream;
 pub mod path_yaw;
 pub mod reset_shift;
 pub mod return_path;

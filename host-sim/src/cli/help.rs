@@ -29,7 +29,7 @@ Limits (refused with exit 2, naming the option or file, table and field):
   controller settings (scene [controller], options): {ranges}
   coordinates (bounds, mission, obstacles, path waypoints) |x| ≤ {coord:e} m
   [sensors] position_latency ≤ {lat} s (the controller's position timeout is {timeout} s); noise ≤ {noise}
-  a path has at most {wps} waypoints; the sensor reports up to {rep} obstacles in range at once (the
+  a path has at most {wps} waypoints (the controller is given 64 at a time as it flies); the sensor reports up to {rep} obstacles in range at once (the
   nearest beyond that) and the controller keeps the most critical {obs} obstacles;
   the multi filters enforce at most {bars} barriers at once; the planner's search budget is {budget} s
   input files ≤ {bytes} bytes",

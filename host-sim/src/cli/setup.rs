@@ -132,7 +132,7 @@ pub(super) fn run_setup(a: &RunArgs) -> Result<(Scene, RunConfig), CliError> {
     if path.len() > capacity {
         let from =
             a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
-        return Err(InputError::file(from, "more waypoints than the controller's path capacity")
+        return Err(InputError::file(from, "more waypoints than a mission holds")
             .field("waypoints")
             .value(path.len())
             .allowed(format!("at most {capacity} waypoints"))

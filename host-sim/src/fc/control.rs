@@ -43,6 +43,10 @@ pub struct Controller {
     nav: Option<NavAid>,
     /// The on-board replanner (`RPL_*`; issue 38), run after each outer step.
     replan: crate::fc::replan::OnboardReplan,
+    /// The whole path (NED) and how many of its waypoints the controller was given: a path
+    /// longer than `PATH_CAPACITY` streams in windows (`parapet_core::outer::path_stream`).
+    path: Vec<Vec3>,
+    sent: usize,
 }
 
 impl Controller {
@@ -57,14 +61,26 @@ impl Controller {
         let mut fc = FlightController::new(params)
             .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &params, e)))?;
         let wps: Vec<Vec3> = cfg.path.iter().map(to_f32).collect();
-        fc.set_path(&wps).map_err(|e| {
+        let sent = wps.len().min(parapet_core::controller::PATH_CAPACITY);
+        // The rest streams in as the mission is flown (`stream_path`).
+        fc.set_path(&wps[..sent]).map_err(|e| {
             anyhow!("path rejected by the controller: {}", crate::flight::validate::describe_command_error(e))
         })?;
         let nav = NavAid::for_sensors(&cfg.sensors);
         let (lo, hi) = scene.bounds_ned();
         let area = ([lo.x as f32, lo.y as f32], [hi.x as f32, hi.y as f32]);
         let replan = crate::fc::replan::OnboardReplan::new(&fc, area);
-        Ok(Controller { fc, cbf: cfg.cbf, battery: BatteryEstimator::new(params.battery), nav, replan })
+        let battery = BatteryEstimator::new(params.battery);
+        Ok(Controller { fc, cbf: cfg.cbf, battery, nav, replan, path: wps, sent })
+    }
+
+    /// The next waypoints of a path longer than the controller holds, when a refill is due
+    /// (`FlightController::stream_path`).
+    fn stream_path(&mut self) {
+        let waiting = self.path.get(self.sent..).unwrap_or(&[]);
+        if !waiting.is_empty() {
+            self.sent += self.fc.stream_path(waiting).unwrap_or(0);
+        }
     }
 
     fn report_obstacles(&mut self, now: u64, obstacles: &[ObstaclePoint]) {
@@ -148,6 +164,7 @@ impl FlightStack for Controller {
         if self.cbf {
             self.replan.step(t, now, &mut self.fc);
         }
+        self.stream_path();
         OuterOut::from_telemetry(&self.fc.telemetry())
     }
 
@@ -185,8 +202,12 @@ impl FlightStack for Controller {
         self.replan.replans()
     }
 
+    /// The path flown now and the waypoints of a streamed path not given to the controller yet.
     fn mission(&self) -> Option<(Vec<Vector3<f64>>, u16)> {
-        let path = self.fc.path().iter().map(|w| Vector3::new(w.x as f64, w.y as f64, w.z as f64)).collect();
+        let waiting = self.path.get(self.sent..).unwrap_or(&[]);
+        let path =
+            self.fc.path().iter().chain(waiting).map(|w| Vector3::new(w.x as f64, w.y as f64, w.z as f64));
+        let path = path.collect();
         use parapet_core::replan::onboard::MissionControl;
         Some((path, self.fc.outer_telemetry().progress.segment))
     }

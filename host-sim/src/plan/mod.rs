@@ -172,9 +172,11 @@ use space::Space;
 /// Default planning margin added to the hull radius, m.
 pub const DEFAULT_MARGIN_M: f32 = 0.05;
 
-/// Default waypoint capacity (start and goal included): the flight
-/// controller's path capacity, [`parapet_core::controller::PATH_CAPACITY`] (64).
-pub const DEFAULT_MAX_WAYPOINTS: usize = parapet_core::controller::PATH_CAPACITY;
+/// Default waypoint capacity (start and goal included): what a mission holds,
+/// [`crate::input::limits::MAX_WAYPOINTS`]. The flight controller holds
+/// [`parapet_core::controller::PATH_CAPACITY`] (64) at a time and is given a longer path in
+/// windows as it flies it (`parapet_core::outer::path_stream`, issue 38).
+pub const DEFAULT_MAX_WAYPOINTS: usize = crate::input::limits::MAX_WAYPOINTS;
 
 /// Hard cap on clearance evaluations per segment check (the check rejects
 /// the rest of the segment when it is reached; only relevant for a segment
@@ -255,7 +257,7 @@ pub struct PlannerParams {
     /// Probability in [0, 1] that a sample is the other tree's root (default 0.05).
     pub goal_bias: f32,
     /// Maximum number of waypoints, start and goal included (≥ 2; default
-    /// [`DEFAULT_MAX_WAYPOINTS`] = the controller's path capacity, 64).
+    /// [`DEFAULT_MAX_WAYPOINTS`], what a mission holds).
     pub max_waypoints: usize,
     /// Maximum extension length per tree step, m; `None` = 20 % of the
     /// largest bounds extent (OMPL's default range), at least 0.1 m.

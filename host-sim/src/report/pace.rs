@@ -285,11 +285,24 @@ pub fn generator_time(waypoints: &[Vector3<f64>], params: &TrajectoryParams) -> 
             points.push(p);
         }
     }
-    let mut traj: Box<Trajectory> = Box::new(Trajectory::new(*params, &points).ok()?);
+    // A path longer than the trajectory holds streams in as the guidance's does (issue 38:
+    // `Trajectory::extend` once `REFILL_PASSED` of its waypoints are passed).
+    let first = points.len().min(parapet_core::controller::PATH_CAPACITY);
+    let mut traj: Box<Trajectory> = Box::new(Trajectory::new(*params, &points[..first]).ok()?);
+    let (mut sent, mut held) = (first, first);
     for step in 1..=MAX_GENERATOR_STEPS {
-        traj.step(GENERATOR_DT_S, 1.0).ok()?;
+        let s = traj.step(GENERATOR_DT_S, 1.0).ok()?;
         if traj.is_done() {
             return Some(step as f64 * f64::from(GENERATOR_DT_S));
+        }
+        if sent < points.len() && s.segment >= parapet_core::outer::path_stream::REFILL_PASSED {
+            // At least segment − 2 points go (the trajectory keeps the leg flown and the points
+            // just behind it): room for that many more.
+            let room = traj.capacity().saturating_sub(held - (s.segment - 2));
+            let more = &points[sent..(sent + room).min(points.len())];
+            if let Ok(dropped) = traj.extend(more) {
+                (held, sent) = (held - dropped + more.len(), sent + more.len());
+            }
         }
     }
     None

@@ -467,13 +467,13 @@ pub fn cmd_sweep(a: SweepArgs) -> Result<(), CliError> {
     crate::flight::preflight::check_start(&scene).map_err(bad_input)?;
 
     let (path, source) = sweep_path(&scene, &a)?;
-    if path.len() > parapet_core::controller::PATH_CAPACITY {
+    if path.len() > crate::input::limits::MAX_WAYPOINTS {
         let from =
             a.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the planned path".into());
         return Err(bad(format!(
-            "{from}: field `waypoints`: {} waypoints exceed the controller's path capacity of {}",
+            "{from}: field `waypoints`: {} waypoints exceed what a mission holds ({})",
             path.len(),
-            parapet_core::controller::PATH_CAPACITY
+            crate::input::limits::MAX_WAYPOINTS
         )));
     }
     let mut base =

@@ -72,6 +72,7 @@
 //! May import [`crate::fmath`], [`crate::frame`], [`crate::Vec3`] and [`super::waypoint`]
 //! (capacity and path-error conventions); nothing else of the outer loop.
 
+mod extend;
 mod geometry;
 mod params;
 mod profile;
