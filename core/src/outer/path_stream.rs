@@ -62,8 +62,12 @@ impl OuterLoop {
         let count = refill_count(self.path().len(), next, waiting.len());
         let Some(more) = waiting.get(..count).filter(|m| !m.is_empty()) else { return Ok(0) };
         let (now, reference) = (self.last_us.unwrap_or(0), self.telemetry.reference.position);
-        self.guidance.stream_path(next, more, now, reference)?;
-        Ok(count)
+        let taken = self.guidance.stream_path(next, more, now, reference)?;
+        // The waypoint flown to is the new path's first: until the next step refreshes the
+        // telemetry, a second call (the firmware's link may poll twice between outer steps)
+        // must not count the waypoints behind it as passed again.
+        self.telemetry.progress.segment = 0;
+        Ok(taken)
     }
 }
 

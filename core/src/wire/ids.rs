@@ -56,6 +56,12 @@ pub fn local_xy_from_wire(v: i32) -> f32 {
 /// with [`plan_id_item`] from [`PLAN_ID_START`] and finish with [`plan_id_finish`].
 pub const PLAN_ID_START: u32 = 0x811c_9dc5;
 
+/// Most items a mission upload to the firmware may carry (its `MAX_WAYPOINTS`; MISSION_COUNT
+/// above it → MAV_MISSION_NO_SPACE): twice the cascade's path (`PATH_CAPACITY`, 64), whose
+/// longer segments the firmware's executor streams in (issue 38). The host's PIL link checks
+/// a path against it before the upload.
+pub const MISSION_ITEM_CAPACITY: usize = 128;
+
 /// One item (`command`, wire `x`, `y`, `z`) folded into a plan id (see [`PLAN_ID_START`]).
 pub fn plan_id_item(acc: u32, command: u16, x: i32, y: i32, z: f32) -> u32 {
     [u32::from(command), x as u32, y as u32, z.to_bits()]

@@ -263,6 +263,13 @@ pub trait Autopilot {
     fn update_obstacles(&mut self, now_us: u64, obstacles: &[ObstaclePoint]);
     /// Replaces the waypoint path (world NED, m).
     fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected>;
+    /// One step of streaming a path longer than the cascade holds (issue 38,
+    /// `parapet_core::outer::path_stream`): the next of the `waiting` waypoints go onto the path
+    /// when a refill is due; returns how many (0: none due, or refused). Default 0 (a stack
+    /// without a path store); every wrapper of the cascade forwards it.
+    fn stream_path(&mut self, _waiting: &[Vec3]) -> usize {
+        0
+    }
     /// Drops the waypoint path (MISSION_CLEAR_ALL, MISSION_COUNT 0): a mission being flown
     /// becomes a hold; a later mission start is refused until a new path is set.
     fn clear_path(&mut self);

@@ -350,6 +350,10 @@ impl<M: RawMutex> Autopilot for OuterPort<'_, M> {
         })
     }
 
+    fn stream_path(&mut self, waiting: &[Vec3]) -> usize {
+        self.stage.outer.stream_path(waiting).unwrap_or(0)
+    }
+
     fn clear_path(&mut self) {
         self.stage.outer.clear_path();
     }
@@ -588,6 +592,9 @@ impl Autopilot for Cascade {
     }
     fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
         self.port().set_path(waypoints_ned)
+    }
+    fn stream_path(&mut self, waiting: &[Vec3]) -> usize {
+        self.port().stream_path(waiting)
     }
     fn clear_path(&mut self) {
         self.port().clear_path();

@@ -84,8 +84,10 @@ use heapless::Vec as HVec;
 use parapet_core::wire::geo::{self, AltRef, GeoError};
 use parapet_core::Vec3;
 
-/// Most items one upload may carry.
-pub const MAX_WAYPOINTS: usize = 64;
+/// Most items one upload may carry ([`parapet_core::wire::ids::MISSION_ITEM_CAPACITY`], 128):
+/// twice the cascade's path (`PATH_CAPACITY`, 64), whose longer segments the executor streams
+/// in (issue 38). Each item costs 72 bytes of RAM (the upload and the accepted plan).
+pub const MAX_WAYPOINTS: usize = parapet_core::wire::ids::MISSION_ITEM_CAPACITY;
 /// Re-request period of a stalled upload, µs.
 pub const RETRY_INTERVAL_US: u64 = 500_000;
 /// Re-requests before the upload is cancelled.
@@ -957,7 +959,8 @@ mod tests {
         assert_eq!(y.stored.last().map(|it| it.frame), Some(MavFrame::MAV_FRAME_LOCAL_NED));
         // No room for the kept items with a full path: kept.
         assert_eq!(replan_first(&mut m, &[b; MAX_WAYPOINTS - 1]), None);
-        assert_eq!(replan_first(&mut m, &[b; MAX_WAYPOINTS - 2]), Some((61, 62)));
+        let full = (MAX_WAYPOINTS as u16 - 3, MAX_WAYPOINTS as u16 - 2);
+        assert_eq!(replan_first(&mut m, &[b; MAX_WAYPOINTS - 2]), Some(full));
         assert_eq!(m.stored_len() as usize, MAX_WAYPOINTS);
     }
 

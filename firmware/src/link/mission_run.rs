@@ -22,7 +22,11 @@
 //! commands a pilot would, at the link's poll rate (≥ 10 Hz, so an action starts within one
 //! poll period of the follower's arrival). The path is handed to the cascade one segment at a
 //! time (`set_path` with the points up to the next item with an action; a plan without such
-//! items is one segment, the whole path, as before). Actions ([`crate::link::mission_items`]):
+//! items is one segment, the whole path, as before). A segment longer than the cascade holds
+//! (`PATH_CAPACITY`, 64) is given to it in windows: the first 64 points, then at each poll
+//! `Autopilot::stream_path` with the points not yet given (issue 38,
+//! `parapet_core::outer::path_stream`: the cascade tops its path up once 16 are passed and its
+//! trajectory runs on without stopping). Actions ([`crate::link::mission_items`]):
 //! a hold (NAV_WAYPOINT p1 after reaching p2, NAV_LOITER_TIME, NAV_DELAY) keeps the vehicle at
 //! the reference where the segment ended, NAV_LOITER_UNLIM until another mode or plan;
 //! CONDITION_YAW sets the cascade's yaw reference and waits for the heading; DO_CHANGE_SPEED
@@ -63,8 +67,9 @@ enum Run {
     TakingOff { seen: bool },
     /// The cascade flies path points `from..=to` (item `last` is point `to`'s); `seen` once
     /// the snapshot's follower fields are this segment's (from `since_us` +
-    /// [`SEGMENT_SETTLE_US`] in phase Mission).
-    Flying { seen: bool, since_us: u64, from: u16, to: u16, last: u16 },
+    /// [`SEGMENT_SETTLE_US`] in phase Mission). Streamed (a segment longer than the cascade
+    /// holds): its path is points `win..sent` (`sent` > `to` once all are given).
+    Flying { seen: bool, since_us: u64, from: u16, to: u16, last: u16, win: u16, sent: u16 },
     /// Item `seq`'s action.
     Acting { seq: u16, step: Acting },
     /// The end action (LAND / RTL item `seq`) runs until the vehicle disarms.
@@ -162,15 +167,25 @@ impl MissionRun {
         }
         self.replan_events = r.events;
         let replanned = r.last.is_some_and(|e| matches!(e.outcome, ReplanOutcome::Replanned { .. }));
-        let (from, last) = match (self.run, m.next_from(0)) {
-            (Run::Flying { from, last, .. }, _) | (_, Next::Fly { from, last, .. }) => (from, last),
+        // The points the cascade's path held before the replan: `win..sent` of the flight.
+        let (from, to, last, win, sent) = match (self.run, m.next_from(0)) {
+            (Run::Flying { from, to, last, win, sent, .. }, _) => (from, to, last, win, sent),
+            (_, Next::Fly { from, to, last }) => (from, to, last, from, to + 1),
             _ => return false,
         };
-        let Some((to, last)) = replanned.then(|| m.replanned(ap.flown_path(), from, last)).flatten() else {
+        let flown = ap.flown_path();
+        let end = if sent > to { Some(last) } else { sent.checked_sub(1).and_then(|k| m.path_seq(k)) };
+        if !replanned || end.and_then(|end| m.replanned(flown, win, end)).is_none() {
             return false;
+        }
+        // Those points are the flown path's now: what follows them moved by the difference.
+        let sent_now = win.saturating_add(flown.len() as u16);
+        let shift = |k: u16| {
+            (i32::from(k) + i32::from(sent_now) - i32::from(sent)).clamp(0, i32::from(u16::MAX)) as u16
         };
+        let (to, last) = (shift(to), shift(last));
         if let Run::Flying { seen, since_us, .. } = self.run {
-            self.run = Run::Flying { seen, since_us, from, to, last };
+            self.run = Run::Flying { seen, since_us, from, to, last, win, sent: sent_now };
         }
         let first = m.path_seq(from).unwrap_or(0);
         (self.current, self.reached) = (first, self.reached.filter(|&q| q < first));
@@ -284,6 +299,9 @@ impl MissionRun {
     ) -> Result<(), CommandRejected> {
         let path = m.accepted_path();
         let seg = path.get(usize::from(from)..=usize::from(to)).unwrap_or(&[]);
+        // A segment longer than the cascade holds: the first window, the rest streamed.
+        let seg = seg.get(..seg.len().min(parapet_core::controller::PATH_CAPACITY)).unwrap_or(&[]);
+        let sent = from.saturating_add(seg.len() as u16);
         if ap.set_path(seg).is_err() {
             self.run = Run::Idle;
             return Err(CommandRejected::Invalid);
@@ -295,7 +313,7 @@ impl MissionRun {
                 return Err(e);
             }
         }
-        self.run = Run::Flying { seen: false, since_us: now_us, from, to, last };
+        self.run = Run::Flying { seen: false, since_us: now_us, from, to, last, win: from, sent };
         Ok(())
     }
 
@@ -370,15 +388,27 @@ impl MissionRun {
                     self.run = Run::TakingOff { seen };
                 }
             }
-            Run::Flying { seen, since_us, from, to, last } => {
+            Run::Flying { seen, since_us, from, to, last, win, sent } => {
                 let seen =
                     seen || (s.phase == FlightPhase::Mission && now_us >= since_us + SEGMENT_SETTLE_US);
                 if !in_mission {
                     self.pause(m, &s);
-                } else if seen && s.mission_done {
+                } else if seen && s.mission_done && sent > to {
                     self.arrived(m, to, last, now_us, ap);
+                } else if seen && s.mission_done {
+                    // A window flown to its end before the rest could follow: fly on from there.
+                    if self.fly(m, sent, to, last, now_us, ap).is_err() {
+                        self.run = Run::Idle;
+                    }
+                } else if sent <= to && in_mission {
+                    // The segment's points not given yet, as the cascade takes them.
+                    let path = m.accepted_path();
+                    let waiting = path.get(usize::from(sent)..=usize::from(to)).unwrap_or(&[]);
+                    let sent = sent.saturating_add(ap.stream_path(waiting) as u16);
+                    let win = sent.saturating_sub(ap.flown_path().len() as u16);
+                    self.run = Run::Flying { seen, since_us, from, to, last, win, sent };
                 } else {
-                    self.run = Run::Flying { seen, since_us, from, to, last };
+                    self.run = Run::Flying { seen, since_us, from, to, last, win, sent };
                 }
             }
             Run::Acting { seq, step } => {
@@ -443,8 +473,8 @@ impl MissionRun {
 
     /// Paused while flying a segment: remember the item being flown.
     fn pause(&mut self, m: &MissionUpload, s: &TelemetrySnapshot) {
-        if let Run::Flying { seen: true, from, to, .. } = self.run {
-            let k = from.saturating_add(s.mission_seq).min(to);
+        if let Run::Flying { seen: true, to, win, .. } = self.run {
+            let k = win.saturating_add(s.mission_seq).min(to);
             self.current = m.path_seq(k).unwrap_or(self.current);
         }
         self.run = Run::Idle;
@@ -472,7 +502,8 @@ impl MissionRun {
         let run = match self.run {
             Run::Idle if !self.started => {
                 let to = plan.path_len.saturating_sub(1);
-                Run::Flying { seen: true, since_us: 0, from: 0, to, last: m.path_seq(to).unwrap_or(last) }
+                let last = m.path_seq(to).unwrap_or(last);
+                Run::Flying { seen: true, since_us: 0, from: 0, to, last, win: 0, sent: to.saturating_add(1) }
             }
             r => r,
         };
@@ -484,9 +515,9 @@ impl MissionRun {
             Run::TakingOff { .. } => (self.current, self.current.checked_sub(1), active),
             Run::Acting { seq, .. } => (seq, self.reached, active),
             Run::Flying { seen: false, .. } => (self.current, self.reached, active),
-            Run::Flying { seen: true, from, to, last: end, .. } => {
-                let k = from.saturating_add(s.mission_seq).min(to);
-                if s.mission_done {
+            Run::Flying { seen: true, from, to, last: end, win, sent, .. } => {
+                let k = win.saturating_add(s.mission_seq).min(to);
+                if s.mission_done && sent > to {
                     (end, self.reached, active)
                 } else {
                     let before = k.checked_sub(1).filter(|&j| j >= from).and_then(|j| m.path_seq(j));
@@ -520,8 +551,23 @@ mod tests {
         fn navigation_height(&mut self, _: u64, _: f32) {}
         fn update_obstacles(&mut self, _: u64, _: &[ObstaclePoint]) {}
         fn set_path(&mut self, w: &[Vec3]) -> Result<(), PathRejected> {
+            if w.len() > parapet_core::controller::PATH_CAPACITY {
+                return Err(PathRejected::TooLong);
+            }
             self.path = w.to_vec();
             Ok(())
+        }
+        /// As the cascade streams (`path_stream`) when it has passed `mission_seq` points.
+        fn stream_path(&mut self, waiting: &[Vec3]) -> usize {
+            let next = usize::from(self.snapshot.mission_seq);
+            let n = parapet_core::outer::path_stream::refill_count(self.path.len(), next, waiting.len());
+            if n == 0 {
+                return 0;
+            }
+            self.path.drain(..next.min(self.path.len()));
+            self.path.extend_from_slice(&waiting[..n]);
+            self.snapshot.mission_seq = 0;
+            n
         }
         fn clear_path(&mut self) {}
         fn command(&mut self, _: u64, _: VehicleCommand) -> Result<(), CommandRejected> {
@@ -663,7 +709,7 @@ mod tests {
         );
         let mut m = plan_of(&[(WP, a, 0.0), (HOLD, h, 2.0), (WP, b, 0.0), (WP, c, 0.0)]);
         let mut run = MissionRun::new();
-        run.run = Run::Flying { seen: true, since_us: 7, from: 2, to: 3, last: 3 };
+        run.run = Run::Flying { seen: true, since_us: 7, from: 2, to: 3, last: 3, win: 2, sent: 4 };
         (run.current, run.reached) = (2, Some(1));
         let (e1, e2) = (Vec3::new(3.0, 1.0, -1.0), Vec3::new(4.0, 1.0, -1.0));
         let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: vec![e1, e2, c] };
@@ -675,7 +721,46 @@ mod tests {
         assert!(run.follow_replan(&mut m, &ap));
         assert_eq!(m.accepted_path().as_slice(), &[a, h, e1, e2, c][..]);
         assert!(m.action_at(1).is_some(), "the hold stays");
-        assert_eq!(run.run, Run::Flying { seen: true, since_us: 7, from: 2, to: 4, last: 4 });
+        assert_eq!(
+            run.run,
+            Run::Flying { seen: true, since_us: 7, from: 2, to: 4, last: 4, win: 2, sent: 5 }
+        );
         assert_eq!((run.current, run.reached), (2, Some(1)));
+    }
+
+    /// Issue 38: a segment of 100 points (the cascade holds 64) is given as the first 64, then
+    /// streamed as the cascade passes them; MISSION_CURRENT counts from the window's start and
+    /// the segment ends only when its last point was given and flown.
+    #[test]
+    fn a_segment_longer_than_the_cascade_holds_is_streamed_to_it() {
+        let points: std::vec::Vec<Vec3> = (0..100).map(|k| Vec3::new(k as f32, 0.0, -1.0)).collect();
+        let m = plan(&points);
+        let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: vec![] };
+        (ap.snapshot.armed, ap.snapshot.mode, ap.snapshot.phase) =
+            (true, FlightMode::Mission, FlightPhase::Mission);
+        let mut run = MissionRun::new();
+        run.fly(&m, 0, 99, 99, 0, &mut ap).expect("fly");
+        assert_eq!(ap.path.as_slice(), &points[..64]);
+        let mut now = SEGMENT_SETTLE_US;
+        // Not due before 16 are passed.
+        ap.snapshot.mission_seq = 15;
+        run.poll(&m, now, &mut ap);
+        assert_eq!(ap.path.len(), 64);
+        assert_eq!(run.progress(&m, &ap.snapshot).current, 15);
+        for _ in 0..10 {
+            now += 100_000;
+            ap.snapshot.mission_seq = 20;
+            run.poll(&m, now, &mut ap);
+        }
+        let Run::Flying { win, sent, .. } = run.run else { panic!("{:?}", run.run) };
+        assert_eq!(sent, 100, "all given");
+        assert_eq!(ap.path.last(), points.last());
+        assert_eq!(&points[usize::from(win)..usize::from(sent)], ap.path.as_slice());
+        ap.snapshot.mission_seq = 3;
+        assert_eq!(run.progress(&m, &ap.snapshot).current, win + 3);
+        // Done only with every point given: then the plan's end.
+        ap.snapshot.mission_done = true;
+        run.poll(&m, now + 100_000, &mut ap);
+        assert_eq!(run.run, Run::Done);
     }
 }

@@ -463,13 +463,14 @@ impl Router {
                 self.reply(Outbound::MissionAck(ack));
             }
             MissionReply::Complete => {
-                let path = self.mission.path();
-                // A plan without path points (TAKEOFF then RTL/LAND) leaves the cascade no path.
-                let taken = if path.is_empty() {
-                    ap.clear_path();
-                    Ok(())
-                } else {
-                    ap.set_path(&path)
+                let path = self.mission.path(); // more than the cascade holds: the rest streams
+                let first = path.get(..path.len().min(parapet_core::controller::PATH_CAPACITY));
+                let taken = match first.filter(|p| !p.is_empty()) {
+                    Some(p) => ap.set_path(p),
+                    None => {
+                        ap.clear_path();
+                        Ok(())
+                    }
                 };
                 let result = match taken {
                     Ok(()) => {

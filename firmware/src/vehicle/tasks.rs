@@ -421,6 +421,9 @@ impl<P: Autopilot, M: RawMutex> Autopilot for SetupPort<'_, P, M> {
     fn set_path(&mut self, waypoints_ned: &[Vec3]) -> Result<(), PathRejected> {
         self.inner.set_path(waypoints_ned)
     }
+    fn stream_path(&mut self, waiting: &[Vec3]) -> usize {
+        self.inner.stream_path(waiting)
+    }
     fn clear_path(&mut self) {
         self.inner.clear_path()
     }

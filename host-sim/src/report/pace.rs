@@ -300,8 +300,8 @@ pub fn generator_time(waypoints: &[Vector3<f64>], params: &TrajectoryParams) -> 
             // just behind it): room for that many more.
             let room = traj.capacity().saturating_sub(held - (s.segment - 2));
             let more = &points[sent..(sent + room).min(points.len())];
-            if let Ok(dropped) = traj.extend(more) {
-                (held, sent) = (held - dropped + more.len(), sent + more.len());
+            if let Ok((dropped, appended)) = traj.extend(more) {
+                (held, sent) = (held - dropped + appended, sent + appended);
             }
         }
     }

@@ -20,22 +20,25 @@ use crate::frame::is_finite3;
 use crate::Vec3;
 
 impl<const N: usize> Trajectory<N> {
-    /// Drops the legs before the one flown but one (their count is returned: trajectory
-    /// point `k` becomes point `k − dropped`) and appends `more` after the goal. Refused, the
-    /// trajectory untouched: done, `more` empty, the piece flown on the last leg (its length
-    /// changes with the new corner), more than `N` points afterwards, a waypoint not finite,
-    /// beyond [`COORDINATE_LIMIT`], within [`MIN_LEG_LENGTH`] of the one before it, or a new
-    /// leg off the horizontal on a horizontal path whose vertical acceleration limit is lower
-    /// (the limits of the motion flown would change). Bounded: O(`N`).
-    pub fn extend(&mut self, more: &[Vec3]) -> Result<usize, TrajectoryError> {
+    /// Drops the legs before the one flown but one and appends as many of `more` after the goal
+    /// as then fit `N` points. Returns `(dropped, appended)`: trajectory point `k` becomes
+    /// point `k − dropped`, `more[..appended]` were appended. Refused, the trajectory
+    /// untouched: done, `more` empty, the piece flown on the last leg (its length changes with
+    /// the new corner), no room for one more point, a waypoint appended not finite, beyond
+    /// [`COORDINATE_LIMIT`], within [`MIN_LEG_LENGTH`] of the one before it, or a new leg off
+    /// the horizontal on a horizontal path whose vertical acceleration limit is lower (the
+    /// limits of the motion flown would change). Bounded: O(`N`).
+    pub fn extend(&mut self, more: &[Vec3]) -> Result<(usize, usize), TrajectoryError> {
         let legs = self.legs.len();
         if self.done || more.is_empty() || legs == 0 || self.piece + 1 >= 2 * legs - 1 {
             return Err(TrajectoryError::BadStartState);
         }
         let drop = (self.piece / 2).saturating_sub(1);
-        if legs - drop + more.len() + 1 > N {
+        // Points kept: legs − drop + 1.
+        let room = N.saturating_sub(legs - drop + 1);
+        let Some(more) = more.get(..more.len().min(room)).filter(|m| !m.is_empty()) else {
             return Err(PathError::TooMany { capacity: N }.into());
-        }
+        };
         if let Some(index) = more.iter().position(|w| !is_finite3(w)) {
             return Err(PathError::NonFinite { index }.into());
         }
@@ -82,7 +85,7 @@ impl<const N: usize> Trajectory<N> {
         self.goal = from;
         let ahead: f32 = (self.piece..self.piece_count()).map(|p| self.piece_len(p)).sum();
         self.total = self.piece_start + ahead;
-        Ok(drop)
+        Ok((drop, more.len()))
     }
 }
 
@@ -124,8 +127,9 @@ mod tests {
                 // At least segment − 2 points go: room for that many more.
                 let room = 16 - (count - (s.segment - 2));
                 let more = &path[sent..(sent + room).min(path.len())];
-                let dropped = t.extend(more).expect("extend");
+                let (dropped, appended) = t.extend(more).expect("extend");
                 assert!(dropped >= s.segment - 2);
+                assert_eq!(appended, more.len());
                 count = count - dropped + more.len();
                 (passed_at, sent, extensions) = (passed_at + dropped, sent + more.len(), extensions + 1);
             }
@@ -155,9 +159,13 @@ mod tests {
             t.extend(&[wp(4), Vec3::new(f32::NAN, 0.0, 0.0)]),
             Err(PathError::NonFinite { index: 1 }.into())
         );
-        let many: heapless::Vec<Vec3, 8> = (4..9).map(wp).collect();
-        assert_eq!(t.extend(&many), Err(PathError::TooMany { capacity: 8 }.into()));
+        // No room: the trajectory holds 8 points already (none flown).
+        let mut full: Trajectory<4> = Trajectory::new(params(), &path).expect("trajectory");
+        assert_eq!(full.extend(&[wp(4)]), Err(PathError::TooMany { capacity: 4 }.into()));
         assert_eq!(format!("{t:?}"), before);
+        // Room for four more of five: four appended.
+        let many: heapless::Vec<Vec3, 8> = (4..9).map(wp).collect();
+        assert_eq!(t.extend(&many), Ok((0, 4)));
         // On the last leg: refused (its straight part would change under the reference).
         for _ in 0..10_000 {
             let s = t.step(MAX_STEP_DT, 1.0).expect("step");
@@ -166,7 +174,7 @@ mod tests {
             }
         }
         let on_last = format!("{t:?}");
-        assert_eq!(t.extend(&[wp(4)]), Err(TrajectoryError::BadStartState));
+        assert_eq!(t.extend(&[wp(9)]), Err(TrajectoryError::BadStartState));
         assert_eq!(format!("{t:?}"), on_last);
     }
 }

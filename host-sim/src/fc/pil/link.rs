@@ -75,7 +75,7 @@ pub struct PilLink {
     param_updates: Vec<(&'static str, f32)>,
     path: Vec<Vector3<f64>>,
     cbf: bool,
-    follower: WaypointFollower<{ parapet_core::controller::PATH_CAPACITY }>,
+    follower: WaypointFollower<{ parapet_core::wire::ids::MISSION_ITEM_CAPACITY }>,
     mission_t0_us: Option<u64>,
     mission_start_pending: bool,
     telemetry: FirmwareTelemetry,
@@ -164,8 +164,9 @@ impl PilLink {
     /// (see [`firmware_params`]) and the path (sent in [`FlightStack::start`]).
     pub fn spawn(scene: &Scene, cfg: &RunConfig, opts: PilOptions) -> Result<PilLink> {
         let (params, param_updates) = firmware_params(scene, cfg)?;
-        if cfg.path.len() > parapet_core::controller::PATH_CAPACITY {
-            bail!("the path has {} waypoints; the firmware stores at most 64", cfg.path.len());
+        let (n, capacity) = (cfg.path.len(), parapet_core::wire::ids::MISSION_ITEM_CAPACITY);
+        if n > capacity {
+            bail!("the path has {n} waypoints; the firmware's mission stores at most {capacity} items");
         }
         if !opts.firmware.is_file() {
             bail!(

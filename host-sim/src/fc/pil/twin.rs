@@ -62,6 +62,10 @@ pub struct FirmwareTwin {
     fc: FlightController,
     cbf: bool,
     path: Vec<Vector3<f64>>,
+    /// The path as the firmware receives it (quantised) and how many of it the controller was
+    /// given (a path longer than `PATH_CAPACITY` streams in).
+    waypoints: Vec<parapet_core::Vec3>,
+    sent: usize,
     n_params: usize,
     pending_obstacles: Option<Vec<ObstaclePoint>>,
     schedule: OuterSchedule,
@@ -96,12 +100,19 @@ impl FirmwareTwin {
         let n_params = updates.len();
         let mut fc = FlightController::new(p)
             .map_err(|e| anyhow!("{}", crate::flight::validate::describe_param_error(scene, &p, e)))?;
-        fc.set_path(&quantised_path(&cfg.path))
+        // A path longer than the cascade holds streams in after each outer step, as the host's
+        // controller does (issue 38; the firmware streams at its link poll, so such a twin is
+        // not bit-identical to the firmware).
+        let waypoints = quantised_path(&cfg.path);
+        let sent = waypoints.len().min(parapet_core::controller::PATH_CAPACITY);
+        fc.set_path(&waypoints[..sent])
             .map_err(|e| anyhow!("{}", crate::flight::validate::describe_command_error(e)))?;
         Ok(FirmwareTwin {
             fc,
             cbf: cfg.cbf,
             path: cfg.path.clone(),
+            waypoints,
+            sent,
             n_params,
             pending_obstacles: None,
             schedule: OuterSchedule::new(&p),
@@ -206,6 +217,9 @@ impl FirmwareTwin {
                 self.mapped_margin = bound.filter(|_| nav.filter().is_initialised());
             }
             self.fc.step_outer(t_us);
+            if let Some(waiting) = self.waypoints.get(self.sent..).filter(|w| !w.is_empty()) {
+                self.sent += self.fc.stream_path(waiting).unwrap_or(0);
+            }
         }
         self.last_t_us = t_us;
         MotorCommand { throttle: m.throttle, armed: m.armed }.sanitized().throttle
