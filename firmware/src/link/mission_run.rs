@@ -57,6 +57,9 @@ use parapet_core::Vec3;
 /// snapshot of the step before still shows the previous segment done).
 const SEGMENT_SETTLE_US: u64 = 40_000;
 
+/// The cascade's path capacity, in the executor's point numbers.
+const CAP: u16 = parapet_core::controller::PATH_CAPACITY as u16;
+
 /// Executor state (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Run {
@@ -170,7 +173,10 @@ impl MissionRun {
         // The points the cascade's path held before the replan: `win..sent` of the flight.
         let (from, to, last, win, sent) = match (self.run, m.next_from(0)) {
             (Run::Flying { from, to, last, win, sent, .. }, _) => (from, to, last, win, sent),
-            (_, Next::Fly { from, to, last }) => (from, to, last, from, to + 1),
+            // Not flying: the cascade holds the first flight's first points (the upload's set_path).
+            (_, Next::Fly { from, to, last }) => {
+                (from, to, last, from, (to + 1).min(from.saturating_add(CAP)))
+            }
             _ => return false,
         };
         let flown = ap.flown_path();
@@ -300,7 +306,7 @@ impl MissionRun {
         let path = m.accepted_path();
         let seg = path.get(usize::from(from)..=usize::from(to)).unwrap_or(&[]);
         // A segment longer than the cascade holds: the first window, the rest streamed.
-        let seg = seg.get(..seg.len().min(parapet_core::controller::PATH_CAPACITY)).unwrap_or(&[]);
+        let seg = seg.get(..seg.len().min(usize::from(CAP))).unwrap_or(&[]);
         let sent = from.saturating_add(seg.len() as u16);
         if ap.set_path(seg).is_err() {
             self.run = Run::Idle;
@@ -762,5 +768,27 @@ mod tests {
         ap.snapshot.mission_done = true;
         run.poll(&m, now + 100_000, &mut ap);
         assert_eq!(run.run, Run::Done);
+    }
+
+    /// A replan reported before the executor flies (the cascade holds the upload's first 64
+    /// points of a 100-point plan): only those are replaced, the 36 not yet given stay.
+    #[test]
+    fn a_replan_before_the_flight_keeps_the_points_not_yet_given() {
+        let points: std::vec::Vec<Vec3> = (0..100).map(|k| Vec3::new(k as f32, 0.0, -1.0)).collect();
+        let mut m = plan(&points);
+        let detour = Vec3::new(0.5, 1.0, -1.0);
+        let mut flown = vec![detour];
+        flown.extend_from_slice(&points[1..64]);
+        let mut ap = Replanning { snapshot: TelemetrySnapshot::BOOT, path: flown };
+        let replanned = ReplanOutcome::Replanned { detour: 1, waypoints: 64 };
+        ap.snapshot.replan = crate::app::replanner::ReplanReport {
+            events: 1,
+            last: Some(ReplanEvent { outcome: replanned, waypoints: 64, detour: 1 }),
+        };
+        let mut run = MissionRun::new();
+        assert!(run.follow_replan(&mut m, &ap));
+        let path = m.accepted_path();
+        assert_eq!((m.stored_len(), path[0]), (100, detour));
+        assert_eq!(&path[1..], &points[1..]);
     }
 }
