@@ -100,7 +100,7 @@ const FLASH_TARGET: u64 = 128 * 1024;
 /// 304,472 B on main at 6230de9) with the barometer height from HIL_SENSOR into the navigation
 /// filter (the router's decoding, the height update now linked in, the drift in the bound) and
 /// `PCP_KEEP_NEAR` (its code and its entry in the served parameter metadata).
-/// Raised to 308 KiB (315,392 B) on 2026-12-08 (issue 38): 312,664 B (+3,880 B over 308,784 B
+/// Raised to 308 KiB (315,392 B) on 2026-12-08 (issue 38): 312,840 B (+4,056 B over 308,784 B
 /// on main at 4e2c138) with a replan spliced into a plan with holds and actions, and paths
 /// longer than the cascade's 64 waypoints streamed in (`Trajectory::extend`, the guidance's
 /// `stream_path`, the executor's windows).
@@ -134,7 +134,7 @@ const RAM_BUDGET: u64 = 82 * 1024;
 /// mapped-obstacle margin on the vehicle (+2,916 B over 288,240 B; the F405's 300 KiB).
 /// Raised to 292 KiB (299,008 B) on 2026-12-07 (issues 36, 39): 294,892 B (+2,568 B over
 /// 292,324 B), 20 B under the old guard, with the same barometer input and `PCP_KEEP_NEAR` as
-/// the F405's 304 KiB. Raised to 296 KiB (303,104 B) on 2026-12-08 (issue 38): 300,580 B (+4,448 B
+/// the F405's 304 KiB. Raised to 296 KiB (303,104 B) on 2026-12-08 (issue 38): 300,588 B (+4,456 B
 /// over 296,132 B) with the same replan splicing and path streaming as the F405's 308 KiB.
 const H743_FLASH_BUDGET: u64 = 296 * 1024;
 /// Static RAM budget of the MATEKH743 image, bytes: 64 KiB of its 512 KiB AXI SRAM; 68 KiB since
